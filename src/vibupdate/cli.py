@@ -7,7 +7,7 @@ import sys
 
 from vibupdate import __version__
 from vibupdate.pipeline import example_names, run_example
-from vibupdate.report import frequency_table_text
+from vibupdate.report import frequency_table_text, parameter_table_text, summary_text
 
 __all__ = ["main"]
 
@@ -35,7 +35,15 @@ def main(argv=None) -> int:
         except ValueError as exc:
             print(f"vibupdate: error: {exc}", file=sys.stderr)
             return 2
+        print()
         print(frequency_table_text(document))
+        print()
+        print(parameter_table_text(document))
+        print()
+        print(summary_text(document))
+        if document["solver"].get("status") not in ("success", "acceptable"):
+            print(f"vibupdate: updating failed: {document['solver'].get('message')}", file=sys.stderr)
+            return 1
     return 0
 
 

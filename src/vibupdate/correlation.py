@@ -111,3 +111,47 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
                 }
                 rows.append(row)
     return rows
+
+
+def sensitivity(configurations: Sequence[Configuration], xbar) -> dict:
+    """Relative sensitivity of the measured frequencies to the normalized parameters.
+
+    ``S[k, i] = d omega_k / d xbar_i / omega_k`` over every measured natural frequency
+    (analytic eigenvalue derivative, ``d(w^2) = phi^T (K_i - w^2 M_i) phi`` with
+    mass-normalized ``phi``) and antiresonance (central differences). Its singular values
+    tell how many parameter combinations the data determine.
+
+    Returns
+    -------
+    dict
+        ``matrix`` (n_data, n_x), ``singular_values``, ``condition``, ``rank`` (singular
+        values above 1e-6 of the largest) and ``column_norm`` per parameter.
+    """
+    xbar = np.asarray(xbar, dtype=float)
+    rows = []
+    for cfg in configurations:
+        model = cfg.model
+        freqs = model_frequencies(cfg, xbar)
+        for k in range(len(cfg.natural)):
+            phi, w = freqs.Phi[:, k], freqs.natural[k]
+            rows.append([phi @ ((Ki - w**2 * Mi) @ phi) / (2 * w**2) for Mi, Ki in zip(model.M_par, model.K_par)])
+        if cfg.antiresonances:
+            h = 1e-6
+            cols = []
+            for i in range(model.n_parameters):
+                step = np.zeros_like(xbar)
+                step[i] = h
+                plus = model_frequencies(cfg, xbar + step).antiresonances
+                minus = model_frequencies(cfg, xbar - step).antiresonances
+                cols.append((plus - minus) / (2 * h) / freqs.antiresonances)
+            rows.extend(np.array(cols).T.tolist())
+    S = np.array(rows, dtype=float)
+    sv = np.linalg.svd(S, compute_uv=False) if S.size else np.array([])
+    rank = int(np.sum(sv > 1e-6 * sv[0])) if sv.size and sv[0] > 0 else 0
+    return {
+        "matrix": S,
+        "singular_values": sv,
+        "condition": float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else float("inf"),
+        "rank": rank,
+        "column_norm": np.linalg.norm(S, axis=0),
+    }
