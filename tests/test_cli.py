@@ -53,4 +53,12 @@ def test_example_cantilever_writes_results_json(tmp_path, capsys):
     assert first["error_nominal_pct"] == pytest.approx(
         100 * abs(first["nominal_hz"] - 73.4) / 73.4)
     assert [p["name"] for p in doc["parameters"]] == ["E", "rho", "macc", "mlc", "klc", "Ep", "rho_p"]
-    assert "Frequencies [Hz]" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "Frequencies [Hz]" in out and "paper upd" in out and "lambda = 1.0000" in out
+    assert doc["solver"]["status"] == "success"
+    assert doc["summary"]["mean_error_updated_pct"] <= 0.6
+    assert len(doc["solver"]["steps"]) >= 11
+    assert set(doc["solver"]["steps"][0]) >= {"lambda", "objective", "iterations", "status", "seconds"}
+    assert doc["solver"]["relaxation_lower_bound"] <= doc["solver"]["objective"]
+    assert doc["problem_size"]["n_lifted"] == 552
+    assert all(p["lower"] <= p["updated"] <= p["upper"] for p in doc["parameters"])

@@ -277,9 +277,36 @@ def test_bad_input_is_caught_before_any_solve():
     zeros = (Antiresonance.from_hz(4.0, "y1", "y1"), Antiresonance.from_hz(5.0, "y1", "y1"))
     with pytest.raises(ValueError, match="exactly one antiresonance between"):
         Configuration("A", model, nat, zeros)
+    with pytest.raises(ValueError, match="equals a natural frequency"):
+        Configuration("A", model, nat, (Antiresonance.from_hz(8.0, "y1", "y3"),))
     # A measured shape whose entries force the opposite sign to the interlacing pattern.
     shape = ShapeInterval({"y1": (0.9, 1.1), "y3": (-1.0, -0.5)})
     cfg = Configuration("A", model, (NaturalFrequency.from_hz(3.0, shape=shape), nat[1]),
                         (Antiresonance.from_hz(5.0, "y1", "y3"),), first_sign={("y1", "y3"): 1})
     with pytest.raises(ValueError, match="infeasible sign pattern"):
         update([cfg])
+
+
+def test_sensitivity_reports_parameters_the_data_cannot_separate():
+    """Every mass and stiffness term a parameter: scaling all together changes no frequency,
+    so the sensitivity has rank n_x - 1 (DESIGN.md, "Identifiability")."""
+
+    params = [Parameter("E", 70e9, 55e9, 85e9), Parameter("rho", 2700.0, 2200.0, 3200.0),
+              Parameter("m_tip", 0.05, 0.03, 0.08), Parameter("k", 2000.0, 1000.0, 4000.0)]
+    model = from_builder(_scaled_beam, params)
+    _, _, omega, _ = exact(model, {"E": 76e9, "rho": 2550.0, "m_tip": 0.062, "k": 2600.0})
+    result = update([Configuration("beam", model, tuple(NaturalFrequency(w) for w in omega[:4]))])
+    assert result.sensitivity["rank"] == 3
+    assert result.sensitivity["condition"] > 1e8
+
+
+def _scaled_beam(p):
+    asm = Assembly("beam")
+    for i in range(7):
+        asm.node(i, 0.1 * i)
+    for i in range(6):
+        asm.beam(i, i + 1, EI=p["E"] * 2.0e-10, mass_per_length=p["rho"] * 1.6e-4)
+    asm.clamp(0)
+    asm.mass("y6", p["m_tip"])
+    asm.spring("y3", p["k"])
+    return asm.system()

@@ -11,13 +11,21 @@ from vibupdate.analysis import antiresonances, mac, modes, receptance
 from vibupdate.assembly import Assembly, System
 from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 from vibupdate.model import from_builder, from_files
+from vibupdate.formulation import FormulationOptions
+from vibupdate.homotopy import SolverOptions
 from vibupdate.parameters import Parameter
+from vibupdate.status import Status
+from vibupdate.update import UpdateResult, update
 
 __version__ = "0.1.0"
 
 __all__ = [
     "AffineModel",
     "Antiresonance",
+    "FormulationOptions",
+    "SolverOptions",
+    "Status",
+    "UpdateResult",
     "Assembly",
     "Configuration",
     "NaturalFrequency",
@@ -30,4 +38,5 @@ __all__ = [
     "mac",
     "modes",
     "receptance",
+    "update",
 ]

@@ -214,6 +214,12 @@ def validate_configuration(cfg: Configuration) -> None:
         for dof in rc:
             _check_dof(cfg.model, dof, f"{where}, antiresonance of h_{rc[0]},{rc[1]}")
         zs = [a.omega for a in cfg.antiresonances if a.receptance == rc]
+        clash = [z for z in zs if any(abs(z - w) <= 1e-12 * w for w in omegas)]
+        if clash:
+            raise ValueError(
+                f"{where}: antiresonance of h_{rc[0]},{rc[1]} at {clash[0] / TWO_PI:.6g} Hz equals a natural "
+                "frequency; a zero cannot sit on a pole (interlacing, Eq. 11)"
+            )
         if any(b <= a for a, b in zip(zs, zs[1:])):
             raise ValueError(f"{where}: antiresonances of h_{rc[0]},{rc[1]} must be strictly ascending")
         if rc[0] == rc[1]:
