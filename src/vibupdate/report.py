@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["frequency_table_text", "parameter_table_text", "summary_text"]
+__all__ = ["frequency_table_text", "parameter_table_text", "damping_table_text", "summary_text", "markdown_report"]
 
 
 def _fmt(value, spec: str) -> str:
@@ -63,6 +63,25 @@ def parameter_table_text(document: dict) -> str:
     return "\n".join(lines)
 
 
+def damping_table_text(document: dict) -> str:
+    """Measured / Rayleigh / Caughey damping ratios with errors, and the paper's Caughey column."""
+    if not document.get("damping"):
+        return ""
+    has_paper = bool((document.get("paper") or {}).get("damping"))
+    head = f"{'cfg':>4} {'mode':>4} {'measured':>9} {'Rayleigh':>9} {'err%':>6} {'Caughey':>9} {'err%':>6}"
+    head += f" {'paper C.':>9} {'err%':>6}" if has_paper else ""
+    lines = ["Damping ratios [-]", head]
+    for d in document["damping"]:
+        line = (f"{d['configuration']:>4} {d['mode']:>4} {d['measured']:9.4f} {_fmt(d.get('rayleigh'), '9.4f')} "
+                f"{_fmt(d.get('error_rayleigh_pct'), '6.1f')} {d['identified']:9.4f} {d['error_pct']:6.1f}")
+        if has_paper:
+            p = _paper_damping(document, d["configuration"], d["mode"], "paper_caughey")
+            err = None if p is None else 100 * abs(p - d["measured"]) / d["measured"]
+            line += f" {_fmt(p, '9.4f')} {_fmt(err, '6.1f')}"
+        lines.append(line)
+    return "\n".join(lines)
+
+
 def summary_text(document: dict) -> str:
     """Mean errors, solver status and problem size in a few lines."""
     s, solver, size = document["summary"], document.get("solver") or {}, document.get("problem_size") or {}
@@ -72,6 +91,12 @@ def summary_text(document: dict) -> str:
         f"updated {_fmt(s['mean_error_updated_pct'], '.2f')} %"
         + (f" (paper: {paper['mean_error_nominal_pct']} % -> {paper['mean_error_updated_pct']} %)" if paper else ""),
     ]
+    if s.get("mean_damping_error_pct") is not None:
+        lines.append(
+            f"mean damping error: Rayleigh {s['mean_damping_error_rayleigh_pct']:.1f} %, Caughey "
+            f"{s['mean_damping_error_pct']:.1f} %"
+            + (f" (paper: {paper['mean_damping_error_rayleigh_pct']} %, {paper['mean_damping_error_pct']} %)"
+               if paper else ""))
     if solver:
         lines.append(
             f"solver: {solver['status']}, objective {solver['objective']:.4e}, relaxation lower bound "
@@ -83,3 +108,101 @@ def summary_text(document: dict) -> str:
             f"{size['n_adjunct_unknowns']} adjunct unknowns, {size['n_lifted']} lifted scalars"
         )
     return "\n".join(lines)
+
+
+def _md_table(header: list[str], rows: list[list]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---:" if i else "---" for i in range(len(header))) + "|"]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return lines
+
+
+def _g(value, spec=".4g") -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def _paper_damping(document, cfg, mode, column):
+    for p in (document.get("paper") or {}).get("damping", []):
+        if p["configuration"] == cfg and int(p["mode"]) == mode:
+            return float(p[column])
+    return None
+
+
+def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: list[str] = ()) -> str:
+    """``report.md``: parameters, frequencies, damping and solver tables, plots, notes."""
+    paper = document.get("paper") or {}
+    s = document["summary"]
+    out = [f"# vibupdate report: {document['case']}", ""]
+    status = (document.get("solver") or {}).get("status", "-")
+    out += [f"Status: **{status}**. Mean frequency error {_g(s['mean_error_nominal_pct'], '.2f')} % (nominal) -> "
+            f"{_g(s['mean_error_updated_pct'], '.2f')} % (updated); mean damping error "
+            f"{_g(s['mean_damping_error_rayleigh_pct'], '.1f')} % (Rayleigh) and "
+            f"{_g(s['mean_damping_error_pct'], '.1f')} % (Caughey).", ""]
+    if paper.get("summary"):
+        ps = paper["summary"]
+        out += [f"The paper reports {ps['mean_error_nominal_pct']} % -> {ps['mean_error_updated_pct']} % for "
+                f"frequencies and {ps['mean_damping_error_rayleigh_pct']} % (Rayleigh) / "
+                f"{ps['mean_damping_error_pct']} % (Caughey) for damping.", ""]
+    # Parameters
+    pp = {p["name"]: float(p["paper_updated"]) for p in paper.get("parameters", [])}
+    header = ["parameter", "unit", "nominal", "lower", "upper", "updated"] + (["paper"] if pp else [])
+    rows = [[p["name"], p["unit"], _g(p["nominal"]), _g(p["lower"]), _g(p["upper"]), _g(p["updated"])]
+            + ([_g(pp.get(p["name"]))] if pp else []) for p in document["parameters"]]
+    out += ["## Parameters", ""] + _md_table(header, rows) + [""]
+    ident = document.get("identifiability")
+    if ident:
+        norms = ident["column_norm"]
+        weak = [n for n, v in norms.items() if v < 1e-2 * max(norms.values())]
+        out += [f"Frequency sensitivity: rank {ident['rank']} of {len(norms)}, condition {ident['condition']:.3g}. "
+                + (f"Weakly determined by the data (sensitivity below 1 % of the largest): {', '.join(weak)}."
+                   if weak else "Every parameter moves the measured frequencies."), ""]
+    # Frequencies
+    header = ["cfg", "kind", "#", "measured [Hz]", "nominal [Hz]", "err %", "updated [Hz]", "err %"]
+    if paper.get("frequencies"):
+        header += ["paper updated [Hz]", "err %"]
+    rows = []
+    for r in document["frequencies"]:
+        row = [r["configuration"], r["kind"], r["index"], _g(r["measured_hz"], ".2f"), _g(r["nominal_hz"], ".2f"),
+               _g(r["error_nominal_pct"], ".2f"), _g(r["updated_hz"], ".2f"), _g(r["error_updated_pct"], ".2f")]
+        if paper.get("frequencies"):
+            p = _paper_frequency(document, r, "paper_updated_hz")
+            row += [_g(p, ".2f"), _g(None if p is None else 100 * abs(p - r["measured_hz"]) / r["measured_hz"], ".2f")]
+        rows.append(row)
+    out += ["## Frequencies", ""] + _md_table(header, rows) + [""]
+    # Damping
+    if document.get("damping"):
+        has_paper = bool(paper.get("damping"))
+        header = ["cfg", "mode", "measured", "Rayleigh", "err %", "Caughey", "err %"]
+        if has_paper:
+            header += ["paper Rayleigh", "paper Caughey"]
+        rows = []
+        for d in document["damping"]:
+            row = [d["configuration"], d["mode"], _g(d["measured"]), _g(d.get("rayleigh")),
+                   _g(d.get("error_rayleigh_pct"), ".1f"), _g(d["identified"]), _g(d["error_pct"], ".1f")]
+            if has_paper:
+                row += [_g(_paper_damping(document, d["configuration"], d["mode"], "paper_rayleigh")),
+                        _g(_paper_damping(document, d["configuration"], d["mode"], "paper_caughey"))]
+            rows.append(row)
+        out += ["## Damping", ""] + _md_table(header, rows) + [""]
+        info = document.get("damping_model") or {}
+        if info:
+            out += [f"Caughey exponents Y = {info.get('exponents')}, coefficients beta = "
+                    f"{[float(f'{b:.4g}') for b in info.get('beta', [])]}; Rayleigh baseline Y = [0, 1]. "
+                    f"Weights: {info.get('weights_text', 'unweighted')}.", ""]
+    # Solver
+    solver = document.get("solver") or {}
+    if solver:
+        rows = [[f"{st['lambda']:.4f}", f"{st['objective']:.4e}", st["iterations"], st["status"],
+                 "yes" if st.get("cold") else "no", f"{st['seconds']:.3f}"] for st in solver["steps"]]
+        out += ["## Solver", "", f"{solver.get('message', '')}; objective {_g(solver['objective'], '.4e')}, "
+                f"lower bound of the global minimum from the lambda = 0 relaxation "
+                f"{_g(solver['relaxation_lower_bound'], '.4e')}; {solver['seconds']:.2f} s.", ""]
+        size = document.get("problem_size") or {}
+        if size:
+            out += [f"Problem size: {size['n_parameters']} parameters, {size['n_mode_unknowns']} mode unknowns, "
+                    f"{size['n_adjunct_unknowns']} adjunct unknowns, {size['n_lifted']} lifted scalars.", ""]
+        out += _md_table(["lambda", "objective", "iterations", "status", "cold", "seconds"], rows) + [""]
+    if notes:
+        out += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
+    if images:
+        out += ["## Plots", ""] + [f"![{title}]({name})" for title, name in images] + [""]
+    return "\n".join(out)

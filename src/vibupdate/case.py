@@ -1,0 +1,431 @@
+"""Case files (TOML): model, parameters, configurations, measured data and options.
+
+The format is documented key by key in ``docs/case-file.md``. Paths are relative to the case
+file. Every error names the key and the file. Reading a case validates everything that can
+be checked without solving: the models are built, the data are attached to them.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import math
+import re
+import sys
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from vibupdate.affine import AffineModel, affine_from_builder
+from vibupdate.assembly import Assembly
+from vibupdate.formulation import FormulationOptions
+from vibupdate.homotopy import SolverOptions
+from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.measured_io import read_frequency_csv, read_shape_csv, read_uff_modes
+from vibupdate.model import from_files
+from vibupdate.parameters import Parameter
+
+__all__ = ["Case", "DampingOptions", "load_case", "linear_expression"]
+
+
+@dataclass(frozen=True)
+class DampingOptions:
+    """Second-stage options: Caughey exponents ``Y``, weights per mode number, and whether
+    weights are relative (``W_ii = w_i / xi_i^2``, so the fit minimizes relative errors)."""
+
+    exponents: tuple[float, ...] = (0.0, 1.0)
+    mode_weights: tuple[tuple[int, float], ...] = ()
+    relative: bool = False
+    rationale: str = ""
+
+
+@dataclass(frozen=True)
+class Case:
+    """A loaded case: everything a run needs."""
+
+    name: str
+    path: Path | None
+    configurations: tuple[Configuration, ...]
+    solver: SolverOptions
+    formulation: FormulationOptions
+    damping: DampingOptions | None
+
+
+class _Where:
+    """Error messages that name the file and the key."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def error(self, key: str, message: str) -> ValueError:
+        return ValueError(f"{self.path}: {key}: {message}")
+
+
+_NUMBER = (int, float)
+_TYPE_NAMES = {str: "a string", bool: "true or false", int: "an integer", float: "a number",
+               list: "an array", dict: "a table", _NUMBER: "a number"}
+
+
+def _check_table(table, allowed: dict, key: str, where: _Where, required=()) -> dict:
+    if not isinstance(table, dict):
+        raise where.error(key, f"must be a table, got {type(table).__name__}")
+    for name in table:
+        if name not in allowed:
+            raise where.error(f"{key}.{name}" if key else name,
+                              f"unknown key; allowed here: {', '.join(sorted(allowed))}")
+    for name in required:
+        if name not in table:
+            raise where.error(f"{key}.{name}" if key else name, "is required")
+    for name, value in table.items():
+        expected = allowed[name]
+        if expected is None:
+            continue
+        ok = isinstance(value, expected) and not (isinstance(value, bool) and expected in (int, float, _NUMBER))
+        if expected is float or expected == _NUMBER:
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if not ok:
+            raise where.error(f"{key}.{name}" if key else name,
+                              f"must be {_TYPE_NAMES.get(expected, expected)}, got {value!r}")
+    return table
+
+
+# -- linear expressions of parameters ---------------------------------------------------------
+
+_NUM = r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_NAME = r"[A-Za-z_]\w*"
+_TERM = re.compile(
+    rf"\s*([+-])?\s*(?:(?P<c1>{_NUM})\s*\*\s*(?P<n1>{_NAME})|(?P<n2>{_NAME})\s*\*\s*(?P<c2>{_NUM})"
+    rf"|(?P<n3>{_NAME})|(?P<c3>{_NUM}))\s*"
+)
+
+
+def linear_expression(text, names) -> Callable[[dict], object]:
+    """Compile ``"2.13e-10*E + 3.6e-13*Ep + 0.01"`` into ``p -> value`` (affine by construction).
+
+    Terms are ``coefficient*name``, ``name*coefficient``, ``name`` or a number, joined by ``+``
+    or ``-``; names must be parameter names. A plain number is a constant.
+    """
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        value = float(text)
+        return lambda p: value
+    if not isinstance(text, str):
+        raise ValueError(f"expected a number or an expression of parameters, got {text!r}")
+    terms, pos, s = [], 0, text.strip()
+    while pos < len(s):
+        m = _TERM.match(s, pos)
+        if not m or m.end() == pos or (terms and not m.group(1)):
+            raise ValueError(f"cannot read {text!r} as a linear expression of parameters near {s[pos:]!r}")
+        sign = -1.0 if m.group(1) == "-" else 1.0
+        name = m.group("n1") or m.group("n2") or m.group("n3")
+        coef = m.group("c1") or m.group("c2") or m.group("c3")
+        coef = float(coef) if coef and name else (float(coef) if coef else 1.0)
+        if name is not None and name not in names:
+            raise ValueError(f"{text!r} names {name!r}, which is not a parameter ({', '.join(names)})")
+        terms.append((sign * coef, name))
+        pos = m.end()
+    if not terms:
+        raise ValueError("empty expression")
+    return lambda p: sum(c * (p[n] if n else 1.0) for c, n in terms)
+
+
+# -- models ---------------------------------------------------------------------------------------
+
+_ELEMENTS_KEYS = {"type": str, "kind": str, "nodes": list, "line": dict, "clamp": list, "pin": list,
+                  "fix": list, "beam": list, "frame": list, "mass": list, "spring": list}
+
+
+def _elements_builder(spec: dict, names, where: _Where):
+    _check_table(spec, _ELEMENTS_KEYS, "model", where, required=("kind",))
+    kind = spec["kind"]
+    if kind not in ("beam", "frame"):
+        raise where.error("model.kind", f"must be 'beam' or 'frame', got {kind!r}")
+    nodes = []
+    if "line" in spec:
+        line = _check_table(spec["line"], {"first": int, "last": int, "start": list, "end": list}, "model.line",
+                            where, required=("first", "last", "start", "end"))
+        labels = range(line["first"], line["last"] + 1)
+        start, end = np.array(line["start"], float), np.array(line["end"], float)
+        for k, label in enumerate(labels):
+            xy = start + (end - start) * k / max(len(labels) - 1, 1)
+            nodes.append((label, float(xy[0]), float(xy[1]) if xy.size > 1 else 0.0))
+    for item in spec.get("nodes", []):
+        if not isinstance(item, list) or len(item) not in (2, 3):
+            raise where.error("model.nodes", f"each node is [label, x] or [label, x, y], got {item!r}")
+        nodes.append((item[0], float(item[1]), float(item[2]) if len(item) == 3 else 0.0))
+    if not nodes:
+        raise where.error("model", "needs nodes (model.nodes or model.line)")
+
+    def expr(value, key):
+        try:
+            return linear_expression(value, names)
+        except ValueError as exc:
+            raise where.error(key, str(exc)) from None
+
+    elements = []
+    for family, props in (("beam", ("EI", "mass_per_length")), ("frame", ("EA", "EI", "mass_per_length"))):
+        for i, item in enumerate(spec.get(family, [])):
+            key = f"model.{family}[{i + 1}]"
+            _check_table(item, {"nodes": list, **{p: None for p in props}}, key, where, required=("nodes", *props))
+            chain = item["nodes"]
+            if len(chain) < 2:
+                raise where.error(f"{key}.nodes", "needs at least two nodes")
+            compiled = {p: expr(item[p], f"{key}.{p}") for p in props}
+            elements.append((family, chain, compiled))
+    lumped = []
+    for family in ("mass", "spring"):
+        for i, item in enumerate(spec.get(family, [])):
+            key = f"model.{family}[{i + 1}]"
+            _check_table(item, {"dof": str, "value": None, "other": str}, key, where, required=("dof", "value"))
+            lumped.append((family, item["dof"], expr(item["value"], f"{key}.value"), item.get("other")))
+    supports = {s: spec.get(s, []) for s in ("clamp", "pin", "fix")}
+
+    def build(p, extra_masses=()):
+        asm = Assembly(kind)
+        for label, x, y in nodes:
+            asm.node(label, x, y)
+        for family, chain, c in elements:
+            values = {name: f(p) for name, f in c.items()}
+            for a, b in zip(chain, chain[1:]):
+                getattr(asm, family)(a, b, **values)
+        for family, dof, f, other in lumped:
+            if family == "mass":
+                asm.mass(dof, f(p))
+            else:
+                asm.spring(dof, f(p), other)
+        for dof, f in extra_masses:
+            asm.mass(dof, f(p))
+        for label in supports["clamp"]:
+            asm.clamp(label)
+        for label in supports["pin"]:
+            asm.pin(label)
+        for dof in supports["fix"]:
+            asm.fix(dof)
+        return asm.system()
+
+    return build
+
+
+def _load_callable(ref: str, base: Path, where: _Where):
+    if not isinstance(ref, str) or ":" not in ref:
+        raise where.error("model.builder", f"must be 'module:function' or 'file.py:function', got {ref!r}")
+    target, func = ref.rsplit(":", 1)
+    try:
+        if target.endswith(".py"):
+            file = (base / target).resolve()
+            spec = importlib.util.spec_from_file_location(f"vibupdate_case_{file.stem}", file)
+            if spec is None or not file.is_file():
+                raise where.error("model.builder", f"file {str(file)!r} does not exist")
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[spec.name] = module
+            spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(target)
+    except ImportError as exc:
+        raise where.error("model.builder", f"cannot import {target!r}: {exc}") from None
+    if not hasattr(module, func):
+        raise where.error("model.builder", f"{target!r} has no function {func!r}")
+    return getattr(module, func)
+
+
+def _configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: _Where, key: str) -> AffineModel:
+    names = [p.name for p in parameters]
+    masses = []
+    for i, item in enumerate(cfg.get("mass", [])):
+        k = f"{key}.mass[{i + 1}]"
+        _check_table(item, {"dof": str, "value": None}, k, where, required=("dof", "value"))
+        try:
+            masses.append((item["dof"], linear_expression(item["value"], names)))
+        except ValueError as exc:
+            raise where.error(f"{k}.value", str(exc)) from None
+    kind = spec.get("type")
+    try:
+        if kind == "elements":
+            build = _elements_builder(spec, names, where)
+            return affine_from_builder(lambda p: build(p, masses), parameters)
+        if kind == "builder":
+            _check_table(spec, {"type": str, "builder": str}, "model", where, required=("builder",))
+            func = _load_callable(spec["builder"], base, where)
+            options = cfg.get("options", {})
+
+            def build(p):
+                system = func(p, **options)
+                if masses:
+                    M = system.M.tolil()
+                    for dof, f in masses:
+                        M[system.index(dof), system.index(dof)] += f(p)
+                    system = type(system)(sp.csr_matrix(M), system.K, system.dofs)
+                return system
+
+            return affine_from_builder(build, parameters)
+        if kind == "matrices":
+            _check_table(spec, {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict},
+                         "model", where, required=("M0", "K0"))
+            model = from_files(base / spec["M0"], base / spec["K0"], parameters,
+                               dM={n: base / f for n, f in spec.get("dM", {}).items()},
+                               dK={n: base / f for n, f in spec.get("dK", {}).items()},
+                               dofs=spec.get("dofs"))
+            if masses:
+                from dataclasses import replace
+
+                M0 = model.M0.tolil()
+                nominal = {p.name: p.nominal for p in parameters}
+                for dof, f in masses:
+                    M0[model.dof(dof), model.dof(dof)] += f(nominal)
+                model = replace(model, M0=sp.csr_matrix(M0))
+            return model
+    except ValueError as exc:
+        if str(exc).startswith(str(where.path)):
+            raise
+        raise where.error(key if masses else "model", str(exc)) from None
+    raise where.error("model.type", f"must be 'elements', 'builder' or 'matrices', got {kind!r}")
+
+
+# -- measured data ------------------------------------------------------------------------------
+
+_CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "damping_ratios": list,
+             "antiresonances": list, "frequencies_csv": str, "mode_shapes_csv": str, "mode_shapes_uff": str,
+             "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list}
+
+
+def _numbers(values, key, where) -> list[float]:
+    out = []
+    for v in values:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise where.error(key, f"must be an array of numbers, got {v!r}")
+        out.append(float(v))
+    return out
+
+
+def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, where: _Where) -> Configuration:
+    key = f"configuration[{index}]"
+    _check_table(cfg, _CFG_KEYS, key, where, required=("name",))
+    key = f"configuration '{cfg['name']}'"
+    model = _configuration_model(spec, cfg, parameters, base, where, key)
+    natural, zeros, shapes = [], [], {}
+    try:
+        if "frequencies_csv" in cfg:
+            natural, zeros = read_frequency_csv(base / cfg["frequencies_csv"])
+        if "mode_shapes_csv" in cfg:
+            shapes = read_shape_csv(base / cfg["mode_shapes_csv"])
+        if "mode_shapes_uff" in cfg:
+            tol = float(cfg.get("uff_tolerance", 0.05))
+            uff = read_uff_modes(base / cfg["mode_shapes_uff"])
+            for k, mode in enumerate(uff, start=1):
+                known = {d: v for d, v in mode["values"].items() if d in model.dofs}
+                if not known:
+                    raise ValueError(f"mode {k} of the UFF file has no DOF of the model")
+                scale = tol * max(abs(v) for v in known.values())
+                shapes[k] = {d: (v - scale, v + scale) for d, v in known.items()}
+            if "natural_hz" not in cfg and "frequencies_csv" not in cfg:
+                natural = [{"hz": m["hz"], "weight": 1.0, "damping_ratio": m["damping_ratio"]} for m in uff]
+    except ValueError as exc:
+        raise where.error(key, str(exc)) from None
+    if "natural_hz" in cfg:
+        hz = _numbers(cfg["natural_hz"], f"{key}.natural_hz", where)
+        weights = _numbers(cfg.get("natural_weights", [1.0] * len(hz)), f"{key}.natural_weights", where)
+        ratios = cfg.get("damping_ratios")
+        if len(weights) != len(hz):
+            raise where.error(f"{key}.natural_weights", f"needs {len(hz)} entries, got {len(weights)}")
+        if ratios is not None:
+            ratios = _numbers(ratios, f"{key}.damping_ratios", where)
+            if len(ratios) != len(hz):
+                raise where.error(f"{key}.damping_ratios", f"needs {len(hz)} entries, got {len(ratios)}")
+        natural = [{"hz": h, "weight": w, "damping_ratio": None if ratios is None else ratios[i]}
+                   for i, (h, w) in enumerate(zip(hz, weights))]
+    for i, item in enumerate(cfg.get("antiresonances", [])):
+        k = f"{key}.antiresonances[{i + 1}]"
+        _check_table(item, {"hz": float, "response": str, "excitation": str, "weight": float}, k, where,
+                     required=("hz", "response", "excitation"))
+        zeros.append({"weight": 1.0, **item})
+    for mode in shapes:
+        if mode > len(natural):
+            raise where.error(key, f"a mode shape is given for mode {mode}, but only {len(natural)} natural "
+                                   "frequencies are measured")
+    first_sign = {}
+    for i, item in enumerate(cfg.get("first_sign", [])):
+        k = f"{key}.first_sign[{i + 1}]"
+        _check_table(item, {"response": str, "excitation": str, "sign": int}, k, where,
+                     required=("response", "excitation", "sign"))
+        first_sign[(item["response"], item["excitation"])] = item["sign"]
+    try:
+        nat = tuple(
+            NaturalFrequency.from_hz(f["hz"], weight=f["weight"], damping_ratio=f["damping_ratio"],
+                                     shape=ShapeInterval(shapes[k + 1]) if k + 1 in shapes else None)
+            for k, f in enumerate(natural))
+        zs = tuple(Antiresonance.from_hz(z["hz"], z["response"], z["excitation"], weight=z["weight"]) for z in zeros)
+        return Configuration(cfg["name"], model, nat, zs, interlacing=cfg.get("interlacing", True),
+                             first_sign=first_sign)
+    except ValueError as exc:
+        raise where.error(key, str(exc)) from None
+
+
+# -- the whole file -----------------------------------------------------------------------------
+
+_TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list, "solver": dict,
+             "formulation": dict, "damping": dict}
+_SOLVER_KEYS = {"n_lambda": int, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
+                "tol": float}
+_FORMULATION_KEYS = {"shape_margin": float, "adjunct_margin": float, "sign_delta": float, "length_scale": float,
+                     "weighting": str, "interlacing": bool}
+_DAMPING_KEYS = {"exponents": list, "mode_weights": dict, "relative": bool, "rationale": str}
+_PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float}
+
+
+def _options(cls, table: dict, allowed: dict, key: str, where: _Where):
+    _check_table(table, allowed, key, where)
+    try:
+        return cls(**table)
+    except ValueError as exc:
+        raise where.error(key, str(exc)) from None
+
+
+def _damping(table: dict, where: _Where) -> DampingOptions:
+    _check_table(table, _DAMPING_KEYS, "damping", where, required=("exponents",))
+    exponents = tuple(_numbers(table["exponents"], "damping.exponents", where))
+    weights = []
+    for mode, w in table.get("mode_weights", {}).items():
+        if not mode.isdigit() or int(mode) < 1:
+            raise where.error(f"damping.mode_weights.{mode}", "keys are mode numbers (\"1\", \"2\", ...)")
+        if isinstance(w, bool) or not isinstance(w, (int, float)) or not w > 0:
+            raise where.error(f"damping.mode_weights.{mode}", f"must be a positive number, got {w!r}")
+        weights.append((int(mode), float(w)))
+    return DampingOptions(exponents, tuple(weights), table.get("relative", False), table.get("rationale", ""))
+
+
+def load_case(path) -> Case:
+    """Read and validate a case file; raises ValueError naming the file and the key."""
+    path = Path(path)
+    where = _Where(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ValueError(f"case file {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"case file {str(path)!r} could not be read: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    _check_table(data, _TOP_KEYS, "", where, required=("model", "parameter", "configuration"))
+    parameters = []
+    for i, item in enumerate(data["parameter"], start=1):
+        key = f"parameter[{i}]"
+        _check_table(item, _PARAMETER_KEYS, key, where, required=("name", "nominal", "lower", "upper"))
+        try:
+            parameters.append(Parameter(item["name"], item["nominal"], item["lower"], item["upper"],
+                                        unit=item.get("unit", ""), reference=item.get("reference")))
+        except ValueError as exc:
+            raise where.error(key, str(exc)) from None
+    base = path.parent
+    configurations = tuple(_configuration(cfg, i, data["model"], parameters, base, where)
+                           for i, cfg in enumerate(data["configuration"], start=1))
+    return Case(
+        name=data.get("case", path.stem),
+        path=path,
+        configurations=configurations,
+        solver=_options(SolverOptions, data.get("solver", {}), _SOLVER_KEYS, "solver", where),
+        formulation=_options(FormulationOptions, data.get("formulation", {}), _FORMULATION_KEYS, "formulation", where),
+        damping=_damping(data["damping"], where) if "damping" in data else None,
+    )

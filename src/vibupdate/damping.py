@@ -1,0 +1,272 @@
+"""Second stage: Caughey-series damping from measured modal damping ratios (Eqs. 20-24).
+
+    C = M sum_h beta_h (M^-1 K)^h,          h in Y (any finite set of real exponents)
+
+For mass-normalized modes ``Phi`` of the updated ``(K, M)``, ``Phi^T C Phi`` is diagonal with
+``2 xi_k w_k = sum_h beta_h w_k^(2h)``, so (Eq. 21)
+
+    xi_k = 1/2 sum_h beta_h w_k^(2h - 1).
+
+Stacking every measured ratio of every configuration gives ``Theta beta = xi`` (Eqs. 22-23),
+solved in the weighted least-squares sense ``beta = (Theta^T W Theta)^-1 Theta^T W xi``
+(Eq. 24). One ``beta`` is shared by all configurations. The frequencies in ``Theta`` are those
+of the updated model, so that the identified ``C`` reproduces the fitted ratios exactly.
+``C`` itself is built as ``M Phi diag(sum_h beta_h w^(2h)) Phi^T M`` (no matrix powers).
+Rayleigh damping is ``Y = [0, 1]``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from vibupdate.analysis import modes
+
+__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "modal_damping", "DampingWarning"]
+
+
+class DampingWarning(UserWarning):
+    """The damping least squares is ill-conditioned or under-determined."""
+
+
+@dataclass(frozen=True)
+class DampingFit:
+    """A fitted Caughey series.
+
+    Attributes
+    ----------
+    exponents : ndarray, shape (n_h,)
+        The set ``Y``.
+    beta : ndarray, shape (n_h,)
+        Coefficients; ``beta_h`` has units s^(1 - 2h).
+    omega : ndarray, shape (n_data,)
+        Frequencies (rad/s) of the data points.
+    measured, fitted : ndarray, shape (n_data,)
+        Damping ratios (-).
+    weights : ndarray, shape (n_data, n_data)
+        The weight matrix ``W``.
+    labels : tuple of (str, int)
+        ``(configuration, mode)`` of each data point, mode 1-based.
+    condition : float
+        Condition number of the column-scaled weighted system.
+    notes : tuple of str
+        What was done about conditioning or rank, in words.
+    """
+
+    exponents: np.ndarray
+    beta: np.ndarray
+    omega: np.ndarray
+    measured: np.ndarray
+    fitted: np.ndarray
+    weights: np.ndarray
+    labels: tuple
+    condition: float
+    notes: tuple[str, ...]
+
+    @property
+    def errors_pct(self) -> np.ndarray:
+        """Absolute relative errors in per cent, Eq. 27."""
+        return 100.0 * np.abs(self.fitted - self.measured) / np.abs(self.measured)
+
+    @property
+    def mean_error_pct(self) -> float:
+        return float(np.mean(self.errors_pct))
+
+    def ratios(self, omega) -> np.ndarray:
+        """Modal damping ratios of the series at frequencies ``omega`` (rad/s), Eq. 21."""
+        return modal_damping(self.exponents, self.beta, omega)
+
+
+def _theta(omega, exponents) -> np.ndarray:
+    omega = np.asarray(omega, dtype=float)
+    return 0.5 * omega[:, None] ** (2.0 * np.asarray(exponents)[None, :] - 1.0)
+
+
+def modal_damping(exponents, beta, omega) -> np.ndarray:
+    """``xi(w) = 1/2 sum_h beta_h w^(2h-1)`` for each ``w`` in ``omega`` (rad/s)."""
+    return _theta(np.atleast_1d(omega), exponents) @ np.asarray(beta, dtype=float)
+
+
+def _check_exponents(exponents) -> np.ndarray:
+    Y = np.asarray(exponents, dtype=float).ravel()
+    if Y.size == 0 or not np.all(np.isfinite(Y)):
+        raise ValueError(f"Caughey exponents must be a non-empty set of finite numbers, got {list(exponents)!r}")
+    if np.unique(Y).size != Y.size:
+        raise ValueError(f"Caughey exponents must be distinct, got {Y.tolist()}")
+    return Y
+
+
+def _weight_matrix(weights, n: int) -> np.ndarray:
+    if weights is None:
+        return np.eye(n)
+    W = np.asarray(weights, dtype=float)
+    if W.ndim == 1:
+        if W.shape != (n,):
+            raise ValueError(f"damping weights must have {n} entries (one per ratio), got {W.shape[0]}")
+        if np.any(W <= 0) or not np.all(np.isfinite(W)):
+            raise ValueError(f"damping weights must be positive and finite, got {W.tolist()}")
+        return np.diag(W)
+    if W.shape != (n, n):
+        raise ValueError(f"damping weight matrix must be {n} x {n}, got {W.shape}")
+    if not np.allclose(W, W.T) or np.any(np.linalg.eigvalsh(W) <= 0):
+        raise ValueError("damping weight matrix must be symmetric positive definite (Eq. 24)")
+    return W
+
+
+def fit_caughey(omega, ratios, exponents, weights=None, labels=None, *,
+                condition_limit: float = 1e10) -> DampingFit:
+    """Weighted least-squares Caughey fit, Eq. 24.
+
+    Parameters
+    ----------
+    omega : array_like, shape (n_data,)
+        Natural frequencies (rad/s) at which the ratios were measured.
+    ratios : array_like, shape (n_data,)
+        Measured modal damping ratios, > 0.
+    exponents : array_like, shape (n_h,)
+        The set ``Y`` (e.g. ``[-1.5, -0.75, 0]``, Rayleigh ``[0, 1]``).
+    weights : array_like, shape (n_data,) or (n_data, n_data), optional
+        Diagonal weights or the full positive definite ``W``; identity by default.
+    labels : sequence, optional
+        ``(configuration, mode)`` per data point, carried into the result.
+    condition_limit : float
+        Above this condition number of the column-scaled system a `DampingWarning` is issued.
+
+    Returns
+    -------
+    DampingFit
+        Under-determined systems (fewer ratios than exponents, or rank deficient) get the
+        minimum-norm solution of the column-scaled system, with a warning and a note.
+    """
+    Y = _check_exponents(exponents)
+    omega = np.asarray(omega, dtype=float).ravel()
+    xi = np.asarray(ratios, dtype=float).ravel()
+    if omega.shape != xi.shape or omega.size == 0:
+        raise ValueError(f"need one frequency per damping ratio, got {omega.size} and {xi.size}")
+    if np.any(~np.isfinite(omega)) or np.any(omega <= 0):
+        raise ValueError(f"damping fit needs positive finite frequencies, got {omega.tolist()}")
+    if np.any(~np.isfinite(xi)) or np.any(xi <= 0):
+        bad = xi[~np.isfinite(xi) | (xi <= 0)][0]
+        raise ValueError(f"measured damping ratios must be positive and finite, got {bad!r}")
+    W = _weight_matrix(weights, xi.size)
+    L = sla.cholesky(W, lower=False)              # W = L^T L
+    T = L @ _theta(omega, Y)
+    scale = np.linalg.norm(T, axis=0)
+    scale[scale == 0] = 1.0
+    Ts = T / scale
+    b = L @ xi
+    sol, _, rank, sv = sla.lstsq(Ts, b)
+    beta = sol / scale
+    condition = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else float("inf")
+    notes = []
+    if xi.size < Y.size or rank < Y.size:
+        msg = (f"damping fit under-determined: {xi.size} ratios, {Y.size} exponents, rank {rank}; "
+               "the minimum-norm solution of the column-scaled system was taken")
+        notes.append(msg)
+        warnings.warn(msg, DampingWarning, stacklevel=2)
+    elif condition > condition_limit:
+        msg = (f"damping fit ill-conditioned (condition {condition:.2e} after column scaling): "
+               "the exponents give nearly dependent columns over the measured band")
+        notes.append(msg)
+        warnings.warn(msg, DampingWarning, stacklevel=2)
+    labels = tuple(labels) if labels is not None else tuple(("", i + 1) for i in range(xi.size))
+    return DampingFit(Y, beta, omega, xi, _theta(omega, Y) @ beta, W, labels, condition, tuple(notes))
+
+
+def caughey_matrix(M, K, exponents, beta) -> np.ndarray:
+    """Damping matrix of a Caughey series (Eq. 20) without matrix powers.
+
+    Parameters
+    ----------
+    M, K : sparse or ndarray, shape (n, n)
+    exponents, beta : array_like, shape (n_h,)
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        ``C = M Phi diag(sum_h beta_h w^(2h)) Phi^T M`` (N s/m), symmetric.
+    """
+    Y = _check_exponents(exponents)
+    omega, Phi = modes(M, K)
+    if np.any(omega <= 0) and np.any(Y < 0):
+        raise ValueError("a Caughey series with negative exponents needs a model without rigid-body modes")
+    d = np.zeros_like(omega)
+    positive = omega > 0
+    d[positive] = (omega[positive, None] ** (2.0 * Y[None, :])) @ np.asarray(beta, dtype=float)
+    Md = M.toarray() if hasattr(M, "toarray") else np.asarray(M)
+    MP = Md @ Phi
+    C = (MP * d) @ MP.T
+    return 0.5 * (C + C.T)
+
+
+@dataclass(frozen=True)
+class DampingStage:
+    """The second stage over several configurations: the Caughey fit and the Rayleigh
+    baseline (``Y = [0, 1]``), both on the updated model's natural frequencies."""
+
+    caughey: DampingFit
+    rayleigh: DampingFit
+
+    def rows(self) -> list[dict]:
+        """``damping`` rows of ``results.json``, plus the Rayleigh value of each ratio."""
+        return [
+            {"configuration": cfg, "mode": mode, "measured": float(m), "identified": float(c),
+             "error_pct": float(e), "rayleigh": float(r), "error_rayleigh_pct": float(er)}
+            for (cfg, mode), m, c, e, r, er in zip(
+                self.caughey.labels, self.caughey.measured, self.caughey.fitted, self.caughey.errors_pct,
+                self.rayleigh.fitted, self.rayleigh.errors_pct)
+        ]
+
+    def summary(self) -> dict:
+        return {"mean_damping_error_pct": self.caughey.mean_error_pct,
+                "mean_damping_error_rayleigh_pct": self.rayleigh.mean_error_pct}
+
+
+def damping_data(configurations, xbar=None):
+    """Measured ratios with the paired updated-model frequencies: (omega, ratios, labels)."""
+    from vibupdate.correlation import model_frequencies
+
+    omega, ratios, labels = [], [], []
+    for cfg in configurations:
+        freqs = None
+        for k, f in enumerate(cfg.natural):
+            if f.damping_ratio is None:
+                continue
+            freqs = freqs or model_frequencies(cfg, xbar)
+            omega.append(freqs.natural[k])
+            ratios.append(f.damping_ratio)
+            labels.append((cfg.name, k + 1))
+    if not ratios:
+        raise ValueError("no measured damping ratio in any configuration: nothing to identify")
+    return np.array(omega), np.array(ratios), tuple(labels)
+
+
+def _expand_weights(weights, labels):
+    """Weights given per mode number (mapping) become one weight per data point."""
+    if isinstance(weights, dict):
+        for key, value in weights.items():
+            if not isinstance(key, (int, np.integer)) or key < 1:
+                raise ValueError(f"damping weight keys must be mode numbers >= 1, got {key!r}")
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"damping weight of mode {key} must be positive, got {value!r}")
+        return np.array([float(weights.get(mode, 1.0)) for _, mode in labels])
+    return weights
+
+
+def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), weights=None) -> DampingStage:
+    """Second stage on the updated model (``xbar``; nominal if None).
+
+    ``weights``: None, one weight per measured ratio (in configuration and mode order), a full
+    matrix ``W``, or a mapping ``{mode number: weight}`` applied in every configuration.
+    """
+    omega, ratios, labels = damping_data(configurations, xbar)
+    W = _expand_weights(weights, labels)
+    caughey = fit_caughey(omega, ratios, exponents, W, labels)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DampingWarning)
+        rayleigh = fit_caughey(omega, ratios, [0.0, 1.0], None, labels)
+    return DampingStage(caughey, rayleigh)
