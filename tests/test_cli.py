@@ -37,9 +37,21 @@ def test_readme_python_examples_run(tmp_path, monkeypatch):
         exec(compile(block, "README.md", "exec"), {})
 
 
-def test_example_cantilever_writes_results_json(tmp_path, capsys):
-    out = tmp_path / "run"
-    assert main(["example", "cantilever", "--out", str(out)]) == 0
+@pytest.fixture(scope="module")
+def cantilever_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli") / "run"
+    import contextlib
+    import io
+
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        code = main(["example", "cantilever", "--out", str(out)])
+    return code, out, buffer.getvalue()
+
+
+def test_example_cantilever_writes_results_json(cantilever_run):
+    code, out, printed = cantilever_run
+    assert code == 0
     doc = json.loads((out / "results.json").read_text())
     for key in ("case", "parameters", "frequencies", "damping", "summary", "problem_size", "solver"):
         assert key in doc
@@ -53,8 +65,9 @@ def test_example_cantilever_writes_results_json(tmp_path, capsys):
     assert first["error_nominal_pct"] == pytest.approx(
         100 * abs(first["nominal_hz"] - 73.4) / 73.4)
     assert [p["name"] for p in doc["parameters"]] == ["E", "rho", "macc", "mlc", "klc", "Ep", "rho_p"]
-    out = capsys.readouterr().out
+    out = printed
     assert "Frequencies [Hz]" in out and "paper upd" in out and "lambda = 1.0000" in out
+    assert "Damping ratios" in out
     assert doc["solver"]["status"] == "success"
     assert doc["summary"]["mean_error_updated_pct"] <= 0.6
     assert len(doc["solver"]["steps"]) >= 11
@@ -62,3 +75,68 @@ def test_example_cantilever_writes_results_json(tmp_path, capsys):
     assert doc["solver"]["relaxation_lower_bound"] <= doc["solver"]["objective"]
     assert doc["problem_size"]["n_lifted"] == 552
     assert all(p["lower"] <= p["updated"] <= p["upper"] for p in doc["parameters"])
+
+
+def test_damping_section_of_the_cantilever(cantilever_run):
+    doc = json.loads((cantilever_run[1] / "results.json").read_text())
+    assert len(doc["damping"]) == 12
+    assert doc["summary"]["mean_damping_error_pct"] <= 16.6
+    assert doc["summary"]["mean_damping_error_rayleigh_pct"] is not None
+    assert doc["damping_model"]["exponents"] == [-1.5, -0.75, 0.0]
+
+
+def test_report_renders_tables_and_plots(cantilever_run):
+    out = cantilever_run[1]
+    report = (out / "report.md").read_text()
+    for title in ("## Parameters", "## Frequencies", "## Damping", "## Solver"):
+        assert title in report
+    images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", report)
+    assert {"frf_A.png", "frf_D.png", "homotopy.png"} <= set(images)
+    for name in images:
+        data = (out / name).read_bytes()
+        assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 1000
+    assert "Relative weights 1/xi^2" in report
+
+
+def test_results_and_matrices_reload_and_reproduce_the_updated_frequencies(cantilever_run):
+    import numpy as np
+    import scipy.io
+
+    from vibupdate import antiresonances, modes
+    from vibupdate.results import load_results
+
+    out = cantilever_run[1]
+    doc = load_results(out / "results.json")
+    for name in "ABCD":
+        M = scipy.io.mmread(str(out / f"M_{name}.mtx"))
+        K = scipy.io.mmread(str(out / f"K_{name}.mtx"))
+        C = scipy.io.mmread(str(out / f"C_{name}.mtx")).toarray()
+        omega, Phi = modes(M, K, 3)
+        rows = [r for r in doc["frequencies"] if r["configuration"] == name]
+        nat = [r["updated_hz"] for r in rows if r["kind"] == "natural"]
+        np.testing.assert_allclose(omega / (2 * np.pi), nat, rtol=1e-9)
+        z = antiresonances(M, K, 0, 4)  # y1 and y3 are DOFs 0 and 4 of the cantilever
+        zhz = [r["updated_hz"] for r in rows if r["kind"] == "antiresonance"]
+        assert np.min(np.abs(z / (2 * np.pi) - zhz[0])) < 1e-9 * zhz[0]
+        ratios = np.diag(Phi.T @ C @ Phi) / (2 * omega)
+        identified = [d["identified"] for d in doc["damping"] if d["configuration"] == name]
+        np.testing.assert_allclose(ratios, identified, rtol=1e-6)
+    # Reloaded parameters rebuild the same model.
+    from vibupdate.examples import cantilever
+
+    values = [p["updated"] for p in doc["parameters"]]
+    model = cantilever.configurations()[0].model
+    M, K = model.matrices_at(values)
+    np.testing.assert_allclose(M.toarray(), scipy.io.mmread(str(out / "M_A.mtx")).toarray(), rtol=1e-12)
+
+
+def test_a_failed_update_exits_non_zero_with_the_reason(tmp_path, capsys):
+    from test_case import EXAMPLE
+
+    case = tmp_path / "case.toml"
+    case.write_text(EXAMPLE.replace("[solver]\nn_lambda = 10", "[solver]\nn_lambda = 2\nmax_iter = 1\nmin_step = 0.5"))
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out)]) == 1
+    assert "updating failed" in capsys.readouterr().err
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["solver"]["status"] != "success"

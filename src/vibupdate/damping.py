@@ -150,7 +150,7 @@ def fit_caughey(omega, ratios, exponents, weights=None, labels=None, *,
     if np.any(~np.isfinite(omega)) or np.any(omega <= 0):
         raise ValueError(f"damping fit needs positive finite frequencies, got {omega.tolist()}")
     if np.any(~np.isfinite(xi)) or np.any(xi <= 0):
-        bad = xi[~np.isfinite(xi) | (xi <= 0)][0]
+        bad = float(xi[~np.isfinite(xi) | (xi <= 0)][0])
         raise ValueError(f"measured damping ratios must be positive and finite, got {bad!r}")
     W = _weight_matrix(weights, xi.size)
     L = sla.cholesky(W, lower=False)              # W = L^T L

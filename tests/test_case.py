@@ -1,0 +1,182 @@
+"""Case files: the documented example, every input form, and malformed files."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pyuff
+import pytest
+import scipy.io
+import scipy.sparse as sp
+
+from vibupdate.case import linear_expression, load_case
+from vibupdate.cli import main
+from vibupdate.correlation import model_frequencies
+from vibupdate.examples import cantilever
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC = (ROOT / "docs" / "case-file.md").read_text()
+EXAMPLE = re.search(r"```toml\n(.*?)```", DOC, re.S).group(1)
+
+
+def write(tmp_path, text, name="case.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_documented_example_is_the_shipped_case_file():
+    shipped = (ROOT / "examples" / "cantilever" / "case.toml").read_text()
+    assert EXAMPLE in shipped
+
+
+def test_documented_example_builds_the_bundled_cantilever(tmp_path):
+    case = load_case(write(tmp_path, EXAMPLE))
+    assert [c.name for c in case.configurations] == ["A", "B", "C", "D"]
+    for mine, ref in zip(case.configurations, cantilever.configurations()):
+        a, b = model_frequencies(mine), model_frequencies(ref)
+        np.testing.assert_allclose(a.natural, b.natural, rtol=1e-8)
+        np.testing.assert_allclose(a.antiresonances, b.antiresonances, rtol=1e-8)
+        assert [f.damping_ratio for f in mine.natural] == [f.damping_ratio for f in ref.natural]
+    assert case.damping.exponents == (-1.5, -0.75, 0.0)
+    assert case.solver.n_lambda == 10
+
+
+def test_every_documented_key_is_read_by_the_loader():
+    """Keys in the tables of docs/case-file.md are the keys the loader accepts."""
+    from vibupdate import case as module
+
+    first_cells = [line.split(" | ")[0] for line in DOC.splitlines() if line.startswith("| `")]
+    names = {n for cell in first_cells for n in re.findall(r"`(\w+)`", cell)}
+    accepted = (set(module._TOP_KEYS) | set(module._ELEMENTS_KEYS) | set(module._CFG_KEYS) | set(module._SOLVER_KEYS)
+                | set(module._FORMULATION_KEYS) | set(module._DAMPING_KEYS) | set(module._PARAMETER_KEYS)
+                | {"builder", "M0", "K0", "dofs", "dM", "dK"})
+    assert names <= accepted, names - accepted
+    assert accepted - {"type"} <= names, (accepted - {"type"}) - names
+
+
+def test_linear_expressions():
+    f = linear_expression("2.5e-3*E + rho*2 - 1e-1 + k", ["E", "rho", "k"])
+    assert f({"E": 1000.0, "rho": 3.0, "k": 0.5}) == pytest.approx(2.5 + 6.0 - 0.1 + 0.5)
+    assert linear_expression(4, []) ({}) == 4.0
+    with pytest.raises(ValueError, match="'q', which is not a parameter"):
+        linear_expression("2*q", ["E"])
+    with pytest.raises(ValueError, match="cannot read"):
+        linear_expression("E*E", ["E"])
+
+
+MINIMAL = """
+case = "chain"
+[model]
+type = "matrices"
+M0 = "M0.mtx"
+K0 = "K0.mtx"
+dofs = ["a", "b", "c"]
+[model.dK]
+k = "dK.mtx"
+[[parameter]]
+name = "k"
+nominal = 1000.0
+lower = 500.0
+upper = 2000.0
+[[configuration]]
+name = "only"
+"""
+
+
+def _chain_files(tmp_path):
+    K = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
+    scipy.io.mmwrite(str(tmp_path / "M0.mtx"), sp.coo_matrix(np.eye(3)))
+    scipy.io.mmwrite(str(tmp_path / "K0.mtx"), sp.coo_matrix(K))
+    scipy.io.mmwrite(str(tmp_path / "dK.mtx"), sp.coo_matrix(K / 1000))
+    return np.sqrt(np.linalg.eigvalsh(K * 1.2)) / (2 * np.pi)
+
+
+def test_matrices_csv_and_uff_inputs(tmp_path):
+    hz = _chain_files(tmp_path)
+    (tmp_path / "f.csv").write_text("kind,hz,weight,damping_ratio,response,excitation\n"
+                                    + "".join(f"natural,{h},1,0.02,,\n" for h in hz[:2]))
+    (tmp_path / "s.csv").write_text("mode,dof,value,tolerance\n1,a,0.5,0.1\n1,c,1.0,0.1\n")
+    case = load_case(write(tmp_path, MINIMAL + 'frequencies_csv = "f.csv"\nmode_shapes_csv = "s.csv"\n'))
+    cfg = case.configurations[0]
+    assert [f.freq_hz for f in cfg.natural] == pytest.approx(hz[:2])
+    assert cfg.natural[0].shape.bounds == {"a": (0.4, 0.6), "c": (0.9, 1.1)}
+    # UFF dataset 55: frequencies, damping and shapes from the file
+    uff = pyuff.UFF(str(tmp_path / "m.uff"))
+    for k, h in enumerate(hz[:2]):
+        uff.write_sets(pyuff.prepare_55(
+            id1="test", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+            n_data_per_node=3, r1=np.array([0.3, 0.6, 1.0]) * (k + 1), r2=np.zeros(3), r3=np.zeros(3),
+            load_case=1, mode_n=k + 1, freq=float(h), modal_m=0.0, modal_damp_vis=0.01 * (k + 1),
+            modal_damp_his=0.0, node_nums=np.array([1, 2, 3])), "add")
+    text = MINIMAL.replace('["a", "b", "c"]', '["x1", "x2", "x3"]') + 'mode_shapes_uff = "m.uff"\nuff_tolerance = 0.1\n'
+    cfg = load_case(write(tmp_path, text)).configurations[0]
+    assert [f.freq_hz for f in cfg.natural] == pytest.approx(hz[:2], rel=1e-5)
+    assert [f.damping_ratio for f in cfg.natural] == pytest.approx([0.01, 0.02])
+    assert cfg.natural[1].shape.bounds["x3"] == pytest.approx((1.8, 2.2))
+
+
+def test_builder_from_a_python_file(tmp_path):
+    (tmp_path / "model.py").write_text(
+        "import vibupdate as vu\n"
+        "def build(p, tip=0.0):\n"
+        "    asm = vu.Assembly('beam')\n"
+        "    for i in range(4):\n"
+        "        asm.node(i, 0.2 * i)\n"
+        "    for i in range(3):\n"
+        "        asm.beam(i, i + 1, EI=p['EI'], mass_per_length=1.0)\n"
+        "    asm.clamp(0)\n"
+        "    asm.mass('y3', tip)\n"
+        "    return asm.system()\n")
+    text = ('[model]\ntype = "builder"\nbuilder = "model.py:build"\n'
+            '[[parameter]]\nname = "EI"\nnominal = 10.0\nlower = 5.0\nupper = 20.0\n'
+            '[[configuration]]\nname = "A"\nnatural_hz = [1.0, 5.0]\noptions = { tip = 0.2 }\n')
+    case = load_case(write(tmp_path, text))
+    assert case.configurations[0].model.M0[case.configurations[0].model.dof("y3"),
+                                            case.configurations[0].model.dof("y3")] > 0.2
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda t: t.replace("lower = 50.3e9\n", ""), r"parameter\[1\]\.lower: is required"),
+        (lambda t: t.replace('response = "y1", excitation = "y3" }]\n\n[[configuration]]\nname = "B"',
+                             'response = "y9", excitation = "y3" }]\n\n[[configuration]]\nname = "B"'),
+         r"configuration 'A': .*DOF 'y9' does not exist"),
+        (lambda t: t.replace("damping_ratios = [0.044,", "damping_ratios = [-0.044,"),
+         r"configuration 'A': damping ratio must be a finite number >= 0, got -0.044"),
+        (lambda t: t.replace("[solver]\nn_lambda = 10", "[solver]\nn_lambda = 10\nspeed = 3"),
+         r"solver\.speed: unknown key"),
+        (lambda t: t.replace("n_lambda = 10", 'n_lambda = "ten"'), r"solver\.n_lambda: must be an integer"),
+        (lambda t: t.replace('natural_hz = [73.4,', 'frequencies_csv = "missing.csv"\nnatural_hz = [73.4,'),
+         r"CSV file .*missing\.csv.* could not be read"),
+        (lambda t: t.replace('EI = "2.1333333333e-10*E"', 'EI = "2.1333333333e-10*Q"', 1),
+         r"model\.beam\[1\]\.EI: .*'Q', which is not a parameter"),
+    ],
+)
+def test_malformed_case_files_give_one_clear_message(tmp_path, capsys, edit, message):
+    path = write(tmp_path, edit(EXAMPLE))
+    with pytest.raises(ValueError, match=message):
+        load_case(path)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("vibupdate: error:") == 1 and str(path) in err
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.partial")]
+
+
+def test_uff_without_dataset_55_is_named(tmp_path, capsys):
+    _chain_files(tmp_path)
+    uff = pyuff.UFF(str(tmp_path / "no55.uff"))
+    uff.write_sets(pyuff.prepare_15(node_nums=[1, 2], def_cs=[0, 0], disp_cs=[0, 0], color=[1, 1],
+                                    x=[0.0, 1.0], y=[0.0, 0.0], z=[0.0, 0.0]), "add")
+    path = write(tmp_path, MINIMAL + 'mode_shapes_uff = "no55.uff"\n')
+    assert main(["check", str(path)]) == 2
+    assert "has no dataset 55" in capsys.readouterr().err
+
+
+def test_check_prints_the_problem_size(tmp_path, capsys):
+    assert main(["check", str(write(tmp_path, EXAMPLE))]) == 0
+    out = capsys.readouterr().out
+    assert "OK" in out and "n_lifted 552" in out
