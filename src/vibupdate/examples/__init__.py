@@ -14,6 +14,7 @@ __all__ = ["EXAMPLES", "read_table"]
 #: Example name -> module name inside this package.
 EXAMPLES = {
     "cantilever": "cantilever",
+    "frame": "frame",
 }
 
 
