@@ -53,6 +53,7 @@ class Case:
     solver: SolverOptions
     formulation: FormulationOptions
     damping: DampingOptions | None
+    frequency_tolerance: float = 0.0
 
 
 class _Where:
@@ -366,7 +367,7 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
 # -- the whole file -----------------------------------------------------------------------------
 
 _TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list, "solver": dict,
-             "formulation": dict, "damping": dict}
+             "formulation": dict, "damping": dict, "frequency_tolerance": float}
 _SOLVER_KEYS = {"n_lambda": int, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
                 "tol": float}
 _FORMULATION_KEYS = {"shape_margin": float, "adjunct_margin": float, "sign_delta": float, "length_scale": float,
@@ -428,4 +429,5 @@ def load_case(path) -> Case:
         solver=_options(SolverOptions, data.get("solver", {}), _SOLVER_KEYS, "solver", where),
         formulation=_options(FormulationOptions, data.get("formulation", {}), _FORMULATION_KEYS, "formulation", where),
         damping=_damping(data["damping"], where) if "damping" in data else None,
+        frequency_tolerance=float(data.get("frequency_tolerance", 0.0)),
     )

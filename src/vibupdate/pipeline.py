@@ -29,6 +29,8 @@ from vibupdate.update import UpdateResult, prepare, update
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case"]
 
 OUTPUT_MARKER = "results.json"
+#: Parameter ranges (finite differences of the modal data, two LPs per parameter) up to this size.
+RANGES_DOF_LIMIT = 2000
 
 
 def example_names() -> list[str]:
@@ -150,6 +152,13 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
     extra = {"identifiability": _identifiability(result)}
+    if case.configurations[0].model.n_dofs <= RANGES_DOF_LIMIT:
+        from vibupdate.identifiability import parameter_ranges
+
+        ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)
+        extra["identifiability"]["ranges"] = ranges.as_dict()
+        extra["identifiability"]["frequency_tolerance"] = case.frequency_tolerance
+        say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     if info:
         extra["damping_model"] = info
     if paper:

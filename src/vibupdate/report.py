@@ -96,7 +96,7 @@ def summary_text(document: dict) -> str:
             f"mean damping error: Rayleigh {s['mean_damping_error_rayleigh_pct']:.1f} %, Caughey "
             f"{s['mean_damping_error_pct']:.1f} %"
             + (f" (paper: {paper['mean_damping_error_rayleigh_pct']} %, {paper['mean_damping_error_pct']} %)"
-               if paper else ""))
+               if "mean_damping_error_pct" in paper else ""))
     if solver:
         lines.append(
             f"solver: {solver['status']}, objective {solver['objective']:.4e}, relaxation lower bound "
@@ -139,15 +139,37 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
             f"{_g(s['mean_damping_error_pct'], '.1f')} % (Caughey).", ""]
     if paper.get("summary"):
         ps = paper["summary"]
-        out += [f"The paper reports {ps['mean_error_nominal_pct']} % -> {ps['mean_error_updated_pct']} % for "
-                f"frequencies and {ps['mean_damping_error_rayleigh_pct']} % (Rayleigh) / "
-                f"{ps['mean_damping_error_pct']} % (Caughey) for damping.", ""]
+        text = f"The paper reports {ps['mean_error_nominal_pct']} % -> {ps['mean_error_updated_pct']} % for frequencies"
+        if "mean_damping_error_pct" in ps:
+            text += (f" and {ps['mean_damping_error_rayleigh_pct']} % (Rayleigh) / {ps['mean_damping_error_pct']} % "
+                     "(Caughey) for damping")
+        out += [text + ".", ""]
     # Parameters
     pp = {p["name"]: float(p["paper_updated"]) for p in paper.get("parameters", [])}
-    header = ["parameter", "unit", "nominal", "lower", "upper", "updated"] + (["paper"] if pp else [])
-    rows = [[p["name"], p["unit"], _g(p["nominal"]), _g(p["lower"]), _g(p["upper"]), _g(p["updated"])]
-            + ([_g(pp.get(p["name"]))] if pp else []) for p in document["parameters"]]
+    truth = paper.get("truth") or {}
+    ranges = (document.get("identifiability") or {}).get("ranges") or {}
+    header = (["parameter", "unit", "nominal", "lower", "upper", "updated"] + (["paper"] if pp else [])
+              + (["true", "error %"] if truth else []) + (["consistent range", "width %"] if ranges else []))
+    rows = []
+    for p in document["parameters"]:
+        row = [p["name"], p["unit"], _g(p["nominal"]), _g(p["lower"]), _g(p["upper"]), _g(p["updated"])]
+        row += [_g(pp.get(p["name"]))] if pp else []
+        if truth:
+            t = truth.get(p["name"])
+            err = None if t in (None, 0) or p["updated"] is None else 100 * abs(p["updated"] - t) / abs(t)
+            row += [_g(t), _g(err, ".2f")]
+        if ranges:
+            rg = ranges.get(p["name"], {})
+            row += [f"[{_g(rg.get('lower'))}, {_g(rg.get('upper'))}]", _g(rg.get("width_pct"), ".1f")]
+        rows.append(row)
     out += ["## Parameters", ""] + _md_table(header, rows) + [""]
+    if ranges:
+        determined = [n for n, rg in ranges.items() if rg["width_pct"] <= 5.0]
+        out += ["Consistent range: every parameter set within the bounds whose model reproduces the data "
+                "within their intervals (linearized at the answer; frequencies within "
+                f"{100 * (document['identifiability'].get('frequency_tolerance') or 0):.2g} % or the answer's own "
+                "misfit). The answer and, to first order, the truth lie in it; its width is what the data "
+                "determine. Within 5 %: " + (", ".join(determined) or "none") + ".", ""]
     ident = document.get("identifiability")
     if ident:
         norms = ident["column_norm"]

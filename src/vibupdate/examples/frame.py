@@ -174,7 +174,8 @@ DAMPING = DampingOptions(exponents=(0.0, 0.25, 0.5, 0.75, 1.0),
 
 
 def case() -> Case:
-    return Case("frame", None, tuple(configurations()), SolverOptions(), FormulationOptions(), DAMPING)
+    return Case("frame", None, tuple(configurations()), SolverOptions(), FormulationOptions(), DAMPING,
+                frequency_tolerance=3 * FREQUENCY_ERROR)
 
 
 def truth_table() -> list[dict]:
@@ -185,8 +186,7 @@ def truth_table() -> list[dict]:
 def paper_values() -> dict:
     """Reference figures of the paper's test case 1 (Table 3) and this example's truth."""
     return {
-        "summary": {"mean_error_nominal_pct": 5.7, "mean_error_updated_pct": 1.5,
-                    "mean_damping_error_rayleigh_pct": 7.3, "mean_damping_error_pct": 5.1},
+        "summary": {"mean_error_nominal_pct": 5.7, "mean_error_updated_pct": 1.5},
         "truth": {r["name"]: float(r["true"]) for r in truth_table()},
         "note": json.dumps({"frequency_error": FREQUENCY_ERROR, "shape_error": SHAPE_ERROR, "seed": SEED}),
     }

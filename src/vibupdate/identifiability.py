@@ -1,0 +1,167 @@
+"""Which parameters do the data determine? Interval ranges of the parameters (linearized).
+
+The first stage returns *a* parameter set whose model fits the measured frequencies and lies
+inside the mode-shape intervals. When other parameter sets fit as well, the answer is one of
+many; this module measures how many. Around the answer ``xbar_hat``, with the data map
+``d(xbar)`` (natural frequencies, antiresonances, measured mode-shape entries normalized at
+the reference entry of each mode) linearized as ``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
+the *consistent set* is
+
+    { xbar in its bounds : |d(xbar_hat) + G (xbar - xbar_hat) - d_measured| <= h }
+
+with ``h`` the half-widths of the data intervals: the mode-shape intervals as given, and for
+frequencies ``frequency_tolerance * w`` or the answer's own misfit, whichever is larger (so the
+answer itself is always consistent). The range of each parameter over that set (two linear
+programs) is what the data and the bounds together determine: the truth and the answer both
+lie in it, to first order. A parameter whose range is narrow is determined by the data; a
+wide range says that the data cannot separate it (e.g. two springs acting in parallel).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linprog
+
+from vibupdate.correlation import model_frequencies
+from vibupdate.measured import Configuration
+
+__all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian"]
+
+
+@dataclass(frozen=True)
+class ParameterRanges:
+    """Consistent ranges of the parameters.
+
+    Attributes
+    ----------
+    names : tuple of str
+    lower, upper : ndarray, shape (n_x,)
+        Range of each parameter, physical units.
+    width_pct : ndarray, shape (n_x,)
+        ``upper - lower`` in per cent of the parameter's reference value (its nominal, or the
+        normalization value of a parameter with nominal 0).
+    singular_values : ndarray
+        Of the data Jacobian scaled by the data half-widths: near-zero values mark parameter
+        combinations the data do not see.
+    """
+
+    names: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    width_pct: np.ndarray
+    singular_values: np.ndarray
+
+    def determined(self, within_pct: float = 5.0) -> list[str]:
+        """Parameters whose whole consistent range is narrower than ``within_pct``."""
+        return [n for n, w in zip(self.names, self.width_pct) if w <= within_pct]
+
+    def as_dict(self) -> dict:
+        return {n: {"lower": float(lo), "upper": float(hi), "width_pct": float(w)}
+                for n, lo, hi, w in zip(self.names, self.lower, self.upper, self.width_pct)}
+
+
+def _reference_entries(cfg: Configuration) -> list[tuple[list[str], str] | None]:
+    refs = []
+    for f in cfg.natural:
+        if f.shape is None:
+            refs.append(None)
+            continue
+        mid = f.shape.midpoint
+        dofs = list(mid)
+        refs.append((dofs, max(dofs, key=lambda d: abs(mid[d]))))
+    return refs
+
+
+def _data(configurations, xbar, refs) -> np.ndarray:
+    out = []
+    for cfg, cfg_refs in zip(configurations, refs):
+        f = model_frequencies(cfg, xbar)
+        out += [f.natural, f.antiresonances]
+        for k, ref in enumerate(cfg_refs):
+            if ref is None:
+                continue
+            dofs, r = ref
+            v = f.Phi[[cfg.model.dof(d) for d in dofs], k]
+            out.append(v / f.Phi[cfg.model.dof(r), k])
+    return np.concatenate(out)
+
+
+def _measured(configurations, refs, frequency_tolerance):
+    values, half = [], []
+    for cfg, cfg_refs in zip(configurations, refs):
+        w = np.array([f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances])
+        values.append(w)
+        half.append(frequency_tolerance * w)
+        for f, ref in zip(cfg.natural, cfg_refs):
+            if ref is None:
+                continue
+            dofs, r = ref
+            mid = f.shape.midpoint
+            scale = mid[r]
+            values.append(np.array([mid[d] for d in dofs]) / scale)
+            half.append(np.array([0.5 * (f.shape.bounds[d][1] - f.shape.bounds[d][0]) for d in dofs]) / abs(scale))
+    return np.concatenate(values), np.concatenate(half)
+
+
+def data_jacobian(configurations: Sequence[Configuration], xbar, step: float = 1e-6):
+    """Data map and its Jacobian at ``xbar`` by central differences.
+
+    Returns
+    -------
+    d : ndarray, shape (n_data,)
+        Frequencies (rad/s) then measured shape entries (normalized at each mode's largest
+        measured entry), per configuration.
+    G : ndarray, shape (n_data, n_x)
+    """
+    configurations = list(configurations)
+    refs = [_reference_entries(c) for c in configurations]
+    xbar = np.asarray(xbar, dtype=float)
+    d = _data(configurations, xbar, refs)
+    cols = []
+    for i in range(xbar.size):
+        e = np.zeros_like(xbar)
+        e[i] = step
+        cols.append((_data(configurations, xbar + e, refs) - _data(configurations, xbar - e, refs)) / (2 * step))
+    return d, np.array(cols).T
+
+
+def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
+                     frequency_tolerance: float = 0.0) -> ParameterRanges:
+    """Consistent range of every parameter around the answer ``xbar`` (module docstring).
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+    xbar : ndarray, shape (n_x,)
+        The answer (normalized parameters).
+    frequency_tolerance : float
+        Relative half-width of the frequency intervals (e.g. 3 sigma of the measurement error);
+        the answer's own misfit is the floor.
+    """
+    configurations = list(configurations)
+    model = configurations[0].model
+    refs = [_reference_entries(c) for c in configurations]
+    d_hat, G = data_jacobian(configurations, xbar)
+    d_meas, half = _measured(configurations, refs, frequency_tolerance)
+    misfit = d_hat - d_meas
+    half = np.maximum(half, np.abs(misfit) * (1 + 1e-9) + 1e-12 * np.abs(d_meas))
+    lo, hi = model.bounds()
+    xbar = np.asarray(xbar, dtype=float)
+    # |misfit + G dx| <= half with dx = x - xbar
+    A = np.vstack([G, -G])
+    b = np.concatenate([half - misfit, half + misfit]) + A @ xbar
+    bounds = list(zip(lo, hi))
+    lower, upper = np.array(xbar, copy=True), np.array(xbar, copy=True)
+    for i in range(model.n_parameters):
+        c = np.zeros(model.n_parameters)
+        c[i] = 1.0
+        for sign, target in ((1.0, lower), (-1.0, upper)):
+            sol = linprog(sign * c, A_ub=A, b_ub=b, bounds=bounds, method="highs")
+            if sol.status == 0:
+                target[i] = sol.x[i]
+    width = (upper - lower) * 100.0   # xbar is already relative to the reference value
+    sv = np.linalg.svd(G / half[:, None], compute_uv=False)
+    return ParameterRanges(model.parameter_names, model.physical(lower), model.physical(upper), width, sv)
