@@ -371,7 +371,8 @@ _TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": lis
 _SOLVER_KEYS = {"n_lambda": int, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
                 "tol": float}
 _FORMULATION_KEYS = {"shape_margin": float, "adjunct_margin": float, "sign_delta": float, "length_scale": float,
-                     "weighting": str, "interlacing": bool}
+                     "weighting": str, "interlacing": bool, "reduction": str, "reduction_modes": int,
+                     "reduction_threshold": int}
 _DAMPING_KEYS = {"exponents": list, "mode_weights": dict, "relative": bool, "rationale": str}
 _PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float}
 

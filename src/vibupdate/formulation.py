@@ -65,6 +65,14 @@ class FormulationOptions:
         ``"relative"``: DESIGN item 4; ``"unit"``: alpha = 1 (paper test case 1).
     interlacing : bool
         Apply the sign bounds derived from the pole/zero pattern (Eq. 11).
+    reduction : {"auto", "none", "craig-bampton"}
+        Solve on a Craig-Bampton reduced model (`vibupdate.reduction`) that keeps the measured
+        DOFs; ``"auto"`` does so above `reduction_threshold` DOFs when there are DOFs to keep.
+    reduction_modes : int
+        Fixed-interface modes of the reduction.
+    reduction_threshold : int
+        DOFs above which ``"auto"`` reduces (measured on the frame example: the full
+        formulation took 6.9 s at 110 DOFs and 331 s at 305, the reduced one 15 s at both).
     """
 
     shape_margin: float = 1.5
@@ -74,8 +82,15 @@ class FormulationOptions:
     rotation_prefixes: tuple[str, ...] = ROTATION_PREFIXES
     weighting: str = "relative"
     interlacing: bool = True
+    reduction: str = "auto"
+    reduction_modes: int = 20
+    reduction_threshold: int = 200
 
     def __post_init__(self):
+        if self.reduction not in ("auto", "none", "craig-bampton"):
+            raise ValueError(f"reduction must be 'auto', 'none' or 'craig-bampton', got {self.reduction!r}")
+        if not isinstance(self.reduction_modes, int) or self.reduction_modes < 0:
+            raise ValueError(f"reduction_modes must be an integer >= 0, got {self.reduction_modes!r}")
         for name in ("shape_margin", "adjunct_margin"):
             if not getattr(self, name) >= 1.0:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)!r}")

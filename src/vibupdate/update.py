@@ -19,6 +19,7 @@ from vibupdate.homotopy import SolverOptions, StepRecord, solve_homotopy
 from vibupdate.interlacing import sign_bounds
 from vibupdate.measured import Configuration
 from vibupdate.parameters import Parameter
+from vibupdate.reduction import reduce_configurations, wants_reduction
 from vibupdate.status import Status
 
 __all__ = ["UpdateResult", "update", "prepare"]
@@ -112,6 +113,18 @@ def _message(status: Status, lam: float, steps) -> str:
     return f"homotopy stopped at lambda = {lam:.4f} ({status.value}){detail}"
 
 
+def _full_vector(problem: BilinearProblem, b: int, u, configurations, bases) -> np.ndarray:
+    """Identified vector of block ``b`` in the full model's coordinates."""
+    v = problem.block_vector(b, u)
+    if bases is None:
+        return v
+    blk = problem.blocks[b]
+    k = [c.name for c in configurations].index(blk.configuration)
+    if blk.kind != "natural":
+        return v  # adjunct vectors stay in reduced coordinates (they live on the adjunct system)
+    return bases[k] @ v
+
+
 def update(configurations: Sequence[Configuration], *, formulation: FormulationOptions | None = None,
            solver: SolverOptions | None = None,
            progress: Callable[[str], None] | None = None) -> UpdateResult:
@@ -136,9 +149,17 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         not an exception. Bad input raises ValueError before any solve.
     """
     configurations = list(configurations)
-    problem = prepare(configurations, formulation)
+    formulation = formulation or FormulationOptions()
     say = progress or (lambda message: None)
+    solved, bases = configurations, None
+    if wants_reduction(configurations, formulation):
+        solved, bases = reduce_configurations(configurations, formulation.reduction_modes)
+        say(f"Craig-Bampton reduction: {configurations[0].model.n_dofs} -> {solved[0].model.n_dofs} DOFs "
+            f"(measured DOFs kept, {formulation.reduction_modes} fixed-interface modes)")
+    problem = prepare(solved, formulation)
     size = problem.sizes()
+    if bases is not None:
+        size["reduced_dofs"] = solved[0].model.n_dofs
     say(f"problem: {size['n_parameters']} parameters, {size['n_mode_unknowns']} mode unknowns, "
         f"{size['n_adjunct_unknowns']} adjunct unknowns, {size['n_lifted']} lifted scalars")
     path = solve_homotopy(problem, solver, progress=say)
@@ -155,7 +176,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         matrices={c.name: tuple(sp.csr_matrix(A) for A in c.model.matrices(xbar)) for c in configurations},
         frequencies=tuple(frequency_rows(configurations, nominal, updated)),
         mac={c.name: shape_mac(c, f.Phi) for c, f in zip(configurations, updated)},
-        vectors=tuple(problem.block_vector(b, path.u) for b in range(len(problem.blocks))),
+        vectors=tuple(_full_vector(problem, b, path.u, configurations, bases) for b in range(len(problem.blocks))),
         problem_size=size,
         steps=path.steps,
         objective=path.objective,

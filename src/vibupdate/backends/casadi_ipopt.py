@@ -8,7 +8,10 @@ u_prev)``:
          McCormick rows (Eq. 19), boxes on xbar, u, t.
 
 Each residual is its own variable with an equality constraint (DESIGN.md, "Solver settings");
-the derivatives are exact and sparse (CasADi SX, expanded). The solver is built once, ``lam``
+the derivatives are exact and sparse. Sparse problems are built in CasADi SX and expanded
+(fastest per iteration); problems whose residual rows are dense (a reduced model, see
+`vibupdate.reduction`) are built in MX without expansion, because SX differentiation of
+dense linear maps costs tens of seconds where MX takes one. The solver is built once, ``lam``
 and the proximal data are parameters, and two IPOPT instances share the expressions: a cold
 one (default start) and a warm one that re-uses the previous primal point and multipliers.
 """
@@ -75,25 +78,36 @@ class CasadiIpopt:
         Seconds per solve.
     tol : float
         IPOPT's ``tol``.
+    expand : bool, optional
+        Build in SX and expand (True) or keep MX (False); by default SX unless some residual
+        row has more than `DENSE_ROW` non-zeros.
     """
 
+    #: Residual rows with more non-zeros than this make the default build MX.
+    DENSE_ROW = 200
+
     def __init__(self, problem: BilinearProblem, envelope: McCormick, *, max_iter: int = 3000,
-                 max_cpu_time: float = 600.0, tol: float = 1e-10):
+                 max_cpu_time: float = 600.0, tol: float = 1e-10, expand: bool | None = None):
         import casadi as ca
 
         self.problem = problem
         n_x, n_u, n_b, n_r = problem.n_x, problem.n_u, problem.n_b, problem.n_r
         self.sizes = (n_x, n_u, n_b, n_r)
-        x = ca.SX.sym("x", n_x)
-        u = ca.SX.sym("u", n_u)
-        t = ca.SX.sym("t", n_b)
-        R = ca.SX.sym("R", n_r)
-        lam = ca.SX.sym("lam")
-        rho = ca.SX.sym("rho")
-        x_prev = ca.SX.sym("x_prev", n_x)
-        u_prev = ca.SX.sym("u_prev", n_u)
+        if expand is None:
+            row_nnz = np.diff(sp.csr_matrix(problem.A_b).indptr).max(initial=0)
+            expand = bool(row_nnz <= self.DENSE_ROW)
+        self.expand = expand
+        Sym = ca.SX if expand else ca.MX
+        x = Sym.sym("x", n_x)
+        u = Sym.sym("u", n_u)
+        t = Sym.sym("t", n_b)
+        R = Sym.sym("R", n_r)
+        lam = Sym.sym("lam")
+        rho = Sym.sym("rho")
+        x_prev = Sym.sym("x_prev", n_x)
+        u_prev = Sym.sym("u_prev", n_u)
         px, pu = problem.prod_x.tolist(), problem.prod_u.tolist()
-        blend = lam * (x[px] * u[pu]) + (1 - lam) * t if n_b else ca.SX(0, 1)
+        blend = lam * (x[px] * u[pu]) + (1 - lam) * t if n_b else Sym(0, 1)
         model = (ca.mtimes(_dm(problem.A_u), u) + ca.mtimes(_dm(problem.A_x), x)
                  + (ca.mtimes(_dm(problem.A_b), blend) if n_b else 0) + ca.DM(problem.r0))
         w = ca.DM(problem.row_weight)
@@ -107,7 +121,7 @@ class CasadiIpopt:
         self._ubg = np.concatenate([np.zeros(n_r), envelope.upper])
         self._fit = ca.Function("fit", [nlp["x"]], [ca.dot(w, R * R)])
         common = {
-            "expand": True,
+            "expand": expand,
             "print_time": False,
             "ipopt.print_level": 0,
             "ipopt.sb": "yes",

@@ -83,8 +83,12 @@ def truth() -> dict[str, float]:
     return {r["name"]: float(r["true"]) for r in read_table("frame_parameters.csv")}
 
 
-def build(p: dict) -> System:
-    """Mass and stiffness of the frame (complex-safe in the parameter values)."""
+def build(p: dict, subdivisions: int = 1) -> System:
+    """Mass and stiffness of the frame (complex-safe in the parameter values).
+
+    ``subdivisions`` splits every element into that many equal elements (the refined meshes
+    of the scaling benchmark); the extra nodes are labelled ``"a-c.k"``.
+    """
     asm = Assembly("frame")
     for label, (x, y) in NODES.items():
         asm.node(label, x, y)
@@ -92,7 +96,15 @@ def build(p: dict) -> System:
         b, h = SECTION[name]
         area, inertia = b * h, b * h**3 / 12
         for a, c in zip(chain, chain[1:]):
-            asm.frame(a, c, EA=p[name] * area, EI=p[name] * inertia, mass_per_length=p["rho"] * area)
+            (xa, ya), (xc, yc) = NODES[a], NODES[c]
+            labels = [a]
+            for k in range(1, subdivisions):
+                label = f"{a}-{c}.{k}"
+                asm.node(label, xa + (xc - xa) * k / subdivisions, ya + (yc - ya) * k / subdivisions)
+                labels.append(label)
+            labels.append(c)
+            for n1, n2 in zip(labels, labels[1:]):
+                asm.frame(n1, n2, EA=p[name] * area, EI=p[name] * inertia, mass_per_length=p["rho"] * area)
     asm.pin(1)
     asm.pin(2)
     asm.spring("phi1", p["kr1"])
@@ -111,12 +123,13 @@ def build(p: dict) -> System:
 
 
 @lru_cache(maxsize=None)
-def model():
+def model(subdivisions: int = 1):
     """The affine model (complex-step parameter matrices)."""
-    return from_builder(build, parameters())
+    return from_builder(lambda p: build(p, subdivisions), parameters())
 
 
-def generate(frequency_error: float = FREQUENCY_ERROR, shape_error: float = SHAPE_ERROR, seed: int = SEED):
+def generate(frequency_error: float = FREQUENCY_ERROR, shape_error: float = SHAPE_ERROR, seed: int = SEED,
+             subdivisions: int = 1):
     """Measured data from the true model: 7 frequencies with relative noise, 7 damping ratios
     of the Caughey law `DAMPING_LAW`, and mode shapes at the translational DOFs with noise,
     given as intervals value +- 3 sigma.
@@ -133,7 +146,7 @@ def generate(frequency_error: float = FREQUENCY_ERROR, shape_error: float = SHAP
     from vibupdate.damping import modal_damping
 
     rng = np.random.default_rng(seed)
-    m = model()
+    m = model(subdivisions)
     values = truth()
     M, K = m.matrices_at([values[p.name] for p in m.parameters])
     omega, Phi = modes(M, K, N_MODES)
@@ -151,8 +164,9 @@ def generate(frequency_error: float = FREQUENCY_ERROR, shape_error: float = SHAP
     return frequencies, shapes
 
 
-def configurations(frequencies=None, shapes=None) -> list[Configuration]:
-    """The measured configuration: bundled data by default, or the given tables."""
+def configurations(frequencies=None, shapes=None, subdivisions: int = 1) -> list[Configuration]:
+    """The measured configuration: bundled data by default, or the given tables (for the
+    model refined ``subdivisions`` times)."""
     if frequencies is None:
         frequencies = [{k: float(v) if k != "dof" else v for k, v in r.items()}
                        for r in read_table("frame_frequencies.csv")]
@@ -165,7 +179,7 @@ def configurations(frequencies=None, shapes=None) -> list[Configuration]:
         interval = ShapeInterval({d: (s["value"] - s["tolerance"], s["value"] + s["tolerance"])
                                   for d, s in entries.items()}) if entries else None
         natural.append(NaturalFrequency.from_hz(f["hz"], shape=interval, damping_ratio=f.get("damping_ratio")))
-    return [Configuration("frame", model(), tuple(natural))]
+    return [Configuration("frame", model(subdivisions), tuple(natural))]
 
 
 #: Damping identified as the paper did for test case 1: Y = [0, 0.25, 0.5, 0.75, 1], unweighted.
