@@ -94,6 +94,17 @@ def _rotation(dx, dy):
     return T, L
 
 
+def _to_global(axial, bending, dx, dy):
+    """Frame element matrix in global axes from its axial (2 x 2) and bending (4 x 4) parts,
+    each a function of the element length."""
+    T, L = _rotation(dx, dy)
+    a, b = axial(L), bending(L)
+    local = np.zeros((6, 6), dtype=np.result_type(a, b, float))
+    local[np.ix_(_AXIAL, _AXIAL)] = a
+    local[np.ix_(_BENDING, _BENDING)] = b
+    return T.T @ local @ T
+
+
 def frame_stiffness(EA, EI, dx, dy):
     """Stiffness of a planar frame element in global axes, DOFs ``[x1, y1, phi1, x2, y2, phi2]``.
 
@@ -110,12 +121,8 @@ def frame_stiffness(EA, EI, dx, dy):
     -------
     ndarray, shape (6, 6)
     """
-    T, L = _rotation(dx, dy)
-    dtype = np.result_type(EA, EI, float)
-    k = np.zeros((6, 6), dtype=dtype)
-    k[np.ix_(_AXIAL, _AXIAL)] = (EA / L) * np.array([[1.0, -1.0], [-1.0, 1.0]])
-    k[np.ix_(_BENDING, _BENDING)] = beam_stiffness(EI, L)
-    return T.T @ k @ T
+    return _to_global(lambda L: (EA / L) * np.array([[1.0, -1.0], [-1.0, 1.0]]),
+                      lambda L: beam_stiffness(EI, L), dx, dy)
 
 
 def frame_mass(mass_per_length, dx, dy):
@@ -132,9 +139,5 @@ def frame_mass(mass_per_length, dx, dy):
     -------
     ndarray, shape (6, 6)
     """
-    T, L = _rotation(dx, dy)
-    dtype = np.result_type(mass_per_length, float)
-    m = np.zeros((6, 6), dtype=dtype)
-    m[np.ix_(_AXIAL, _AXIAL)] = (mass_per_length * L / 6.0) * np.array([[2.0, 1.0], [1.0, 2.0]])
-    m[np.ix_(_BENDING, _BENDING)] = beam_mass(mass_per_length, L)
-    return T.T @ m @ T
+    return _to_global(lambda L: (mass_per_length * L / 6.0) * np.array([[2.0, 1.0], [1.0, 2.0]]),
+                      lambda L: beam_mass(mass_per_length, L), dx, dy)

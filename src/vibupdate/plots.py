@@ -24,6 +24,19 @@ def _pyplot():
     return plt
 
 
+def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
+    """Labels, legend and grid, then save as PNG and close."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
 def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     """|h_rc| of the nominal and updated models of one configuration, measured frequencies
     marked (natural: solid, antiresonance: dashed).
@@ -49,15 +62,8 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
         ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
     for i, a in enumerate(cfg.antiresonances):
         ax.axvline(a.omega / TWO_PI, color="tab:red", lw=0.8, ls=":", label="measured antiresonance" if i == 0 else None)
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel(f"|{label}| [m/N]")
-    ax.set_title(f"configuration {cfg.name}: receptance {label}")
-    ax.legend(fontsize=8)
-    ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return _finish(plt, fig, ax, path, "frequency [Hz]", f"|{label}| [m/N]",
+                   f"configuration {cfg.name}: receptance {label}")
 
 
 def plot_homotopy(path, steps) -> Path:
@@ -72,15 +78,7 @@ def plot_homotopy(path, steps) -> Path:
     if not all(ok):
         ax.semilogy([l for l, k in zip(lam, ok) if not k], [o for o, k in zip(obj, ok) if not k], "x",
                     color="tab:red", label="failed")
-    ax.set_xlabel("lambda")
-    ax.set_ylabel("objective")
-    ax.set_title("homotopy path")
-    ax.legend(fontsize=8)
-    ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return _finish(plt, fig, ax, path, "lambda", "objective", "homotopy path")
 
 
 def plot_mac(path, matrix: np.ndarray, title: str) -> Path:
