@@ -300,3 +300,31 @@ def test_sensitivity_reports_parameters_the_data_cannot_separate():
     assert result.sensitivity["rank"] == 3
     assert result.sensitivity["condition"] > 1e8
 
+
+
+@settings(max_examples=8, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    noise=st.floats(0.0, 0.02),
+    use_zeros=st.booleans(),
+)
+def test_bound_and_vectors_on_random_problems(seed, noise, use_zeros):
+    """Random truth inside the bounds, frequencies with random error: whatever the path does,
+    the relaxation optimum stays below the final objective and no vector collapses to 0."""
+    rng = np.random.default_rng(seed)
+    names = ["k1", "k3", "m2", "m5"]
+    model = chain_model(5, names)
+    truth = {p.name: rng.uniform(p.lower, p.upper) for p in model.parameters}
+    M, K, omega, _ = exact(model, truth)
+    omega = omega * (1 + noise * rng.standard_normal(omega.size))
+    omega.sort()
+    zeros = ()
+    if use_zeros:
+        r, c = model.dof("y1"), model.dof("y3")
+        zeros = tuple(Antiresonance(z, "y1", "y3") for z in antiresonances(M, K, r, c) if z < omega[3])
+    cfg = Configuration("R", model, tuple(NaturalFrequency(w) for w in omega[:4]), zeros)
+    result = update([cfg])
+    if result.relaxation_lower_bound is not None:
+        assert result.relaxation_lower_bound <= result.objective * (1 + 1e-9) + 1e-15
+    for v in result.vectors:
+        assert np.max(np.abs(v)) >= 1.0 - 1e-9  # the fixed normalization entry is exactly 1

@@ -14,7 +14,7 @@ import re
 import sys
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -270,8 +270,6 @@ def _configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: _
                                dK={n: base / f for n, f in spec.get("dK", {}).items()},
                                dofs=spec.get("dofs"))
             if masses:
-                from dataclasses import replace
-
                 M0 = model.M0.tolil()
                 nominal = {p.name: p.nominal for p in parameters}
                 for dof, f in masses:

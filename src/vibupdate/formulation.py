@@ -27,7 +27,7 @@ Choices the paper leaves open (DESIGN.md, "The first stage, precisely"):
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -147,8 +147,6 @@ class VectorBlock:
         return int(np.count_nonzero(~self.fixed))
 
     def with_bounds(self, lower, upper) -> "VectorBlock":
-        from dataclasses import replace
-
         lower, upper = np.asarray(lower, float), np.asarray(upper, float)
         return replace(self, lower=lower, upper=upper, start=np.clip(self.start, lower, upper))
 
@@ -410,8 +408,6 @@ def formulate(configurations: Sequence[Configuration], options: FormulationOptio
 
 
 def _with_weight(blk, model, scaling, options):
-    from dataclasses import replace
-
     return replace(blk, alpha=_block_weight(model, blk, scaling, options))
 
 

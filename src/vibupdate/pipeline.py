@@ -20,7 +20,9 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
+from vibupdate.analysis import mac as mac_matrix
 from vibupdate.case import Case, DampingOptions
+from vibupdate.correlation import model_frequencies
 from vibupdate.damping import DampingStage, DampingWarning, caughey_matrix, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
 from vibupdate.results import results_document, write_results
@@ -113,9 +115,6 @@ def _write_outputs(tmp: Path, case: Case, result: UpdateResult, stage: DampingSt
         images.append((f"FRF {label}, configuration {cfg.name}", file))
         mac = result.mac.get(cfg.name)
         if mac is not None and np.any(np.isfinite(mac)):
-            from vibupdate.correlation import model_frequencies
-            from vibupdate.analysis import mac as mac_matrix
-
             measured = [f for f in cfg.natural if f.shape is not None]
             dofs = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
             idx = [cfg.model.dof(d) for d in dofs]
