@@ -69,15 +69,16 @@ def damping_table_text(document: dict) -> str:
         return ""
     has_paper = bool((document.get("paper") or {}).get("damping"))
     head = f"{'cfg':>4} {'mode':>4} {'measured':>9} {'Rayleigh':>9} {'err%':>6} {'Caughey':>9} {'err%':>6}"
-    head += f" {'paper C.':>9} {'err%':>6}" if has_paper else ""
+    head += f" {'paper R.':>9} {'paper C.':>9} {'err%':>6}" if has_paper else ""
     lines = ["Damping ratios [-]", head]
     for d in document["damping"]:
         line = (f"{d['configuration']:>4} {d['mode']:>4} {d['measured']:9.4f} {_fmt(d.get('rayleigh'), '9.4f')} "
                 f"{_fmt(d.get('error_rayleigh_pct'), '6.1f')} {d['identified']:9.4f} {d['error_pct']:6.1f}")
         if has_paper:
+            pr = _paper_damping(document, d["configuration"], d["mode"], "paper_rayleigh")
             p = _paper_damping(document, d["configuration"], d["mode"], "paper_caughey")
             err = None if p is None else 100 * abs(p - d["measured"]) / d["measured"]
-            line += f" {_fmt(p, '9.4f')} {_fmt(err, '6.1f')}"
+            line += f" {_fmt(pr, '9.4f')} {_fmt(p, '9.4f')} {_fmt(err, '6.1f')}"
         lines.append(line)
     return "\n".join(lines)
 
@@ -103,9 +104,12 @@ def summary_text(document: dict) -> str:
             f"{_fmt(solver['relaxation_lower_bound'], '.4e')}, {len(solver['steps'])} solves, {solver['seconds']:.2f} s"
         )
     if size:
+        table1 = (document.get("paper") or {}).get("problem_size")
         lines.append(
             f"problem size: {size['n_parameters']} parameters, {size['n_mode_unknowns']} mode unknowns, "
             f"{size['n_adjunct_unknowns']} adjunct unknowns, {size['n_lifted']} lifted scalars"
+            + (f" (paper Table 1: {table1['n_mode_unknowns']} / {table1['n_adjunct_unknowns']} / "
+               f"{table1['n_lifted']}; here one entry of every vector is fixed for normalization)" if table1 else "")
         )
     return "\n".join(lines)
 
@@ -220,8 +224,12 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
                 f"{_g(solver['relaxation_lower_bound'], '.4e')}; {solver['seconds']:.2f} s.", ""]
         size = document.get("problem_size") or {}
         if size:
+            table1 = paper.get("problem_size")
             out += [f"Problem size: {size['n_parameters']} parameters, {size['n_mode_unknowns']} mode unknowns, "
-                    f"{size['n_adjunct_unknowns']} adjunct unknowns, {size['n_lifted']} lifted scalars.", ""]
+                    f"{size['n_adjunct_unknowns']} adjunct unknowns, {size['n_lifted']} lifted scalars"
+                    + (f" (paper Table 1: {table1['n_mode_unknowns']} / {table1['n_adjunct_unknowns']} / "
+                       f"{table1['n_lifted']}; one entry of every vector is fixed here for normalization, "
+                       "DESIGN item 1)" if table1 else "") + ".", ""]
         out += _md_table(["lambda", "objective", "iterations", "status", "cold", "seconds"], rows) + [""]
     if notes:
         out += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
