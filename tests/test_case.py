@@ -180,3 +180,20 @@ def test_check_prints_the_problem_size(tmp_path, capsys):
     assert main(["check", str(write(tmp_path, EXAMPLE))]) == 0
     out = capsys.readouterr().out
     assert "OK" in out and "n_lifted 552" in out
+
+
+def test_shipped_frame_case_file_matches_the_bundled_example(capsys):
+    from vibupdate.examples import frame
+
+    path = ROOT / "examples" / "frame" / "case.toml"
+    case = load_case(path)
+    bundled = frame.configurations()[0]
+    cfg = case.configurations[0]
+    assert case.configurations[0].model.parameter_names == bundled.model.parameter_names
+    np.testing.assert_allclose([f.omega for f in cfg.natural], [f.omega for f in bundled.natural], rtol=1e-9)
+    mine, ref = cfg.natural[3].shape.bounds, bundled.natural[3].shape.bounds
+    assert list(mine) == list(ref)
+    np.testing.assert_allclose([mine[d] for d in mine], [ref[d] for d in ref], rtol=1e-9)
+    assert case.frequency_tolerance == pytest.approx(3 * frame.FREQUENCY_ERROR)
+    assert main(["check", str(path)]) == 0
+    assert "n_parameters 29" in capsys.readouterr().out

@@ -328,3 +328,26 @@ def test_bound_and_vectors_on_random_problems(seed, noise, use_zeros):
         assert result.relaxation_lower_bound <= result.objective * (1 + 1e-9) + 1e-15
     for v in result.vectors:
         assert np.max(np.abs(v)) >= 1.0 - 1e-9  # the fixed normalization entry is exactly 1
+
+
+def test_a_backend_exception_becomes_a_status(monkeypatch):
+    """CasADi raising inside a solve (e.g. an evaluation error) is recorded, not raised."""
+    import vibupdate.backends.casadi_ipopt as backend
+
+    model = chain_model(4, ["k1", "m2"])
+    _, _, omega, _ = exact(model, {"k1": 1050.0, "m2": 1.1})
+    cfg = Configuration("E", model, tuple(NaturalFrequency(w) for w in omega[:2]))
+    original = backend.CasadiIpopt.__init__
+
+    def broken_init(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+
+        def boom(**_):
+            raise RuntimeError("Error in Function::call for 'vibupdate_cold' [IpoptInterface]")
+
+        self._cold = boom
+
+    monkeypatch.setattr(backend.CasadiIpopt, "__init__", broken_init)
+    result = update([cfg])
+    assert result.status == Status.NUMERICAL_ERROR
+    assert not result.success and result.relaxation_lower_bound is None

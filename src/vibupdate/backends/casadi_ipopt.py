@@ -166,7 +166,13 @@ class CasadiIpopt:
             solver = self._warm
             args.update(lam_x0=lam_x0, lam_g0=lam_g0)
         start = time.perf_counter()
-        sol = solver(**args)
+        try:
+            sol = solver(**args)
+        except RuntimeError as exc:  # CasADi raises on evaluation errors: a status, not an exception
+            return StepOutcome(z=z0, objective=float(self._fit(z0)), iterations=0, status=Status.NUMERICAL_ERROR,
+                               raw_status=f"CasADi error: {str(exc).splitlines()[0][:200]}",
+                               seconds=time.perf_counter() - start, lam_x=np.zeros(z0.size),
+                               lam_g=np.zeros(self._lbg.size))
         seconds = time.perf_counter() - start
         stats = solver.stats()
         raw = str(stats.get("return_status", "unknown"))
