@@ -99,3 +99,19 @@ def test_damping_with_the_paper_test_case_1_exponents(noisy):
     # is the frequency error of the updated model.
     assert stage.caughey.mean_error_pct < 1.0
     assert stage.rayleigh.mean_error_pct > stage.caughey.mean_error_pct
+
+
+def test_ranges_without_a_stated_tolerance_do_not_collapse_to_the_answer():
+    """Cantilever, no shape data, no frequency tolerance: the window is the answer's own misfit.
+    A parameter the frequencies barely see (the piezo patch's Young's modulus) must come out
+    wide, not as a zero-width 'determined' range."""
+    from vibupdate.examples import cantilever
+
+    configurations = cantilever.configurations()
+    r = update(configurations)
+    ranges = parameter_ranges(configurations, r.xbar)
+    width = dict(zip(ranges.names, ranges.width_pct))
+    assert np.all(np.isfinite(ranges.width_pct))
+    assert width["Ep"] > 100 and "Ep" not in ranges.determined(5.0)
+    assert width["E"] < width["rho_p"] < width["Ep"]
+    assert np.all(ranges.lower <= r.values * (1 + 1e-9)) and np.all(r.values <= ranges.upper * (1 + 1e-9))

@@ -5,16 +5,20 @@ inside the mode-shape intervals. When other parameter sets fit as well, the answ
 many; this module measures how many. Around the answer ``xbar_hat``, with the data map
 ``d(xbar)`` (natural frequencies, antiresonances, measured mode-shape entries normalized at
 the reference entry of each mode) linearized as ``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
-the *consistent set* is
+the *consistent set* is the set of ``xbar`` within the bounds such that
 
-    { xbar in its bounds : |d(xbar_hat) + G (xbar - xbar_hat) - d_measured| <= h }
+* every measured mode-shape entry stays inside its interval,
+  ``|d_s(xbar_hat) + G_s dx - d_s,measured| <= h_s`` (the interval half-width, or the answer's
+  own distance from the midpoint if larger, so that the answer is inside);
+* every frequency moves from the answer's by no more than the measurement tolerance plus the
+  answer's own misfit, ``|G_f dx| <= frequency_tolerance * w + |w(xbar_hat) - w_measured|``;
+  the true frequencies differ from the answer's by at most that much.
 
-with ``h`` the half-widths of the data intervals: the mode-shape intervals as given, and for
-frequencies ``frequency_tolerance * w`` or the answer's own misfit, whichever is larger (so the
-answer itself is always consistent). The range of each parameter over that set (two linear
-programs) is what the data and the bounds together determine: the truth and the answer both
-lie in it, to first order. A parameter whose range is narrow is determined by the data; a
-wide range says that the data cannot separate it (e.g. two springs acting in parallel).
+The range of each parameter over that set (two linear programs) is what the data and the
+bounds together determine: the truth and the answer both lie in it, to first order. A
+parameter whose range is narrow is determined by the data; a wide range says that the data
+cannot separate it (e.g. two springs acting in parallel). Without a frequency tolerance the
+window is the answer's misfit alone: a measure of the spread the model's own error allows.
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ class ParameterRanges:
     ----------
     names : tuple of str
     lower, upper : ndarray, shape (n_x,)
-        Range of each parameter, physical units.
+        Range of each parameter, physical units; NaN where the linear program failed.
     width_pct : ndarray, shape (n_x,)
         ``upper - lower`` in per cent of the parameter's reference value (its nominal, or the
         normalization value of a parameter with nominal 0).
@@ -56,7 +60,7 @@ class ParameterRanges:
 
     def determined(self, within_pct: float = 5.0) -> list[str]:
         """Parameters whose whole consistent range is narrower than ``within_pct``."""
-        return [n for n, w in zip(self.names, self.width_pct) if w <= within_pct]
+        return [n for n, w in zip(self.names, self.width_pct) if np.isfinite(w) and w <= within_pct]
 
     def as_dict(self) -> dict:
         return {n: {"lower": float(lo), "upper": float(hi), "width_pct": float(w)}
@@ -90,11 +94,13 @@ def _data(configurations, xbar, refs) -> np.ndarray:
 
 
 def _measured(configurations, refs, frequency_tolerance):
-    values, half = [], []
+    """Measured data, their half-widths, and a mask of the frequency rows."""
+    values, half, is_freq = [], [], []
     for cfg, cfg_refs in zip(configurations, refs):
         w = np.array([f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances])
         values.append(w)
         half.append(frequency_tolerance * w)
+        is_freq.append(np.ones(w.size, dtype=bool))
         for f, ref in zip(cfg.natural, cfg_refs):
             if ref is None:
                 continue
@@ -103,7 +109,8 @@ def _measured(configurations, refs, frequency_tolerance):
             scale = mid[r]
             values.append(np.array([mid[d] for d in dofs]) / scale)
             half.append(np.array([0.5 * (f.shape.bounds[d][1] - f.shape.bounds[d][0]) for d in dofs]) / abs(scale))
-    return np.concatenate(values), np.concatenate(half)
+            is_freq.append(np.zeros(len(dofs), dtype=bool))
+    return np.concatenate(values), np.concatenate(half), np.concatenate(is_freq)
 
 
 def data_jacobian(configurations: Sequence[Configuration], xbar, step: float = 1e-6):
@@ -145,16 +152,19 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     model = configurations[0].model
     refs = [_reference_entries(c) for c in configurations]
     d_hat, G = data_jacobian(configurations, xbar)
-    d_meas, half = _measured(configurations, refs, frequency_tolerance)
+    d_meas, half, is_freq = _measured(configurations, refs, frequency_tolerance)
     misfit = d_hat - d_meas
-    half = np.maximum(half, np.abs(misfit) * (1 + 1e-9) + 1e-12 * np.abs(d_meas))
+    # Frequencies: a window centred on the answer; shapes: the measured intervals (widened to
+    # hold the answer). Either way |offset + G dx| <= half.
+    offset = np.where(is_freq, 0.0, misfit)
+    half = np.where(is_freq, half + np.abs(misfit), np.maximum(half, np.abs(misfit)))
+    half = half * (1 + 1e-9) + 1e-12 * np.abs(d_meas)
     lo, hi = model.bounds()
     xbar = np.asarray(xbar, dtype=float)
-    # |misfit + G dx| <= half with dx = x - xbar
     A = np.vstack([G, -G])
-    b = np.concatenate([half - misfit, half + misfit]) + A @ xbar
+    b = np.concatenate([half - offset, half + offset]) + A @ xbar
     bounds = list(zip(lo, hi))
-    lower, upper = np.array(xbar, copy=True), np.array(xbar, copy=True)
+    lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     for i in range(model.n_parameters):
         c = np.zeros(model.n_parameters)
         c[i] = 1.0
