@@ -197,3 +197,19 @@ def test_shipped_frame_case_file_matches_the_bundled_example(capsys):
     assert case.frequency_tolerance == pytest.approx(3 * frame.FREQUENCY_ERROR)
     assert main(["check", str(path)]) == 0
     assert "n_parameters 29" in capsys.readouterr().out
+
+
+def test_matrices_case_runs_end_to_end(tmp_path):
+    """Exported matrices, one stiffness parameter, exact frequencies: the run recovers it and
+    writes a complete output directory."""
+    import json
+
+    K = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
+    _chain_files(tmp_path)  # M0 = I, K0 = K, dK/dk = K / 1000
+    hz = np.sqrt(np.linalg.eigvalsh(K * 1.3)) / (2 * np.pi)
+    text = MINIMAL + f"natural_hz = [{hz[0]!r}, {hz[1]!r}]\ndamping_ratios = [0.02, 0.015]\n"
+    out = tmp_path / "out"
+    assert main(["run", str(write(tmp_path, text)), "--out", str(out)]) == 0
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["parameters"][0]["updated"] == pytest.approx(1300.0, rel=1e-6)
+    assert {"M_only.mtx", "K_only.mtx", "C_only.mtx", "frf_only.png", "report.md"} <= {p.name for p in out.iterdir()}
