@@ -207,7 +207,7 @@ def test_matrices_case_runs_end_to_end(tmp_path):
     K = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
     _chain_files(tmp_path)  # M0 = I, K0 = K, dK/dk = K / 1000
     hz = np.sqrt(np.linalg.eigvalsh(K * 1.3)) / (2 * np.pi)
-    text = MINIMAL + f"natural_hz = [{hz[0]!r}, {hz[1]!r}]\ndamping_ratios = [0.02, 0.015]\n"
+    text = MINIMAL + f"natural_hz = [{float(hz[0])!r}, {float(hz[1])!r}]\ndamping_ratios = [0.02, 0.015]\n"
     out = tmp_path / "out"
     assert main(["run", str(write(tmp_path, text)), "--out", str(out)]) == 0
     doc = json.loads((out / "results.json").read_text())
