@@ -107,7 +107,8 @@ class CasadiIpopt:
         x_prev = Sym.sym("x_prev", n_x)
         u_prev = Sym.sym("u_prev", n_u)
         px, pu = problem.prod_x.tolist(), problem.prod_u.tolist()
-        blend = lam * (x[px] * u[pu]) + (1 - lam) * t if n_b else Sym(0, 1)
+        # vec(): indexing a 1 x 1 symbol (a single parameter) with a list gives a row vector.
+        blend = lam * (ca.vec(x[px]) * ca.vec(u[pu])) + (1 - lam) * t if n_b else Sym(0, 1)
         model = (ca.mtimes(_dm(problem.A_u), u) + ca.mtimes(_dm(problem.A_x), x)
                  + (ca.mtimes(_dm(problem.A_b), blend) if n_b else 0) + ca.DM(problem.r0))
         w = ca.DM(problem.row_weight)
