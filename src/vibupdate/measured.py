@@ -203,6 +203,9 @@ def validate_configuration(cfg: Configuration) -> None:
     if not cfg.natural and not cfg.antiresonances:
         raise ValueError(f"{where}: no measured natural frequency or antiresonance")
     omegas = [f.omega for f in cfg.natural]
+    if len(omegas) > cfg.model.n_dofs:
+        raise ValueError(f"{where}: {len(omegas)} natural frequencies measured, but the model has only "
+                         f"{cfg.model.n_dofs} DOFs (modes)")
     if any(b <= a for a, b in zip(omegas, omegas[1:])):
         shown = ", ".join(f"{w / TWO_PI:.4g}" for w in omegas)
         raise ValueError(f"{where}: natural frequencies must be strictly ascending, got {shown} Hz")
