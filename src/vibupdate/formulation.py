@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.analysis import antiresonances, modes
+from vibupdate.analysis import antiresonances
 from vibupdate.correlation import model_frequencies
 from vibupdate.measured import TWO_PI, Configuration, validate_configurations
 from vibupdate.parameters import Parameter
