@@ -7,7 +7,8 @@ import pytest
 
 from helpers import random_spd
 from vibupdate import modes
-from vibupdate.damping import DampingWarning, caughey_matrix, fit_caughey, identify_damping, modal_damping
+from vibupdate.damping import (DampingWarning, caughey_matrix, damping_data, fit_caughey, identify_damping,
+                               modal_damping)
 from vibupdate.examples import cantilever
 from vibupdate.update import update
 
@@ -68,7 +69,7 @@ def test_bad_damping_input_is_named():
 def test_cantilever_damping_meets_the_paper_figure():
     configurations = cantilever.configurations()
     result = update(configurations)
-    _, ratios, labels = __import__("vibupdate.damping", fromlist=["damping_data"]).damping_data(configurations, result.xbar)
+    _, ratios, labels = damping_data(configurations, result.xbar)
     options = cantilever.DAMPING
     factors = dict(options.mode_weights)
     weights = np.array([factors.get(m, 1.0) for _, m in labels]) / ratios**2

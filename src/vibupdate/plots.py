@@ -74,10 +74,10 @@ def plot_homotopy(path, steps) -> Path:
     obj = [max(s["objective"], 1e-300) for s in steps]
     ok = [s["status"] in ("success", "acceptable") for s in steps]
     ax.semilogy(lam, obj, "-", color="0.6")
-    ax.semilogy([l for l, k in zip(lam, ok) if k], [o for o, k in zip(obj, ok) if k], "o", label="converged")
-    if not all(ok):
-        ax.semilogy([l for l, k in zip(lam, ok) if not k], [o for o, k in zip(obj, ok) if not k], "x",
-                    color="tab:red", label="failed")
+    lam, obj, ok = np.array(lam), np.array(obj), np.array(ok, dtype=bool)
+    ax.semilogy(lam[ok], obj[ok], "o", label="converged")
+    if not ok.all():
+        ax.semilogy(lam[~ok], obj[~ok], "x", color="tab:red", label="failed")
     return _finish(plt, fig, ax, path, "lambda", "objective", "homotopy path")
 
 
