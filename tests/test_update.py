@@ -189,14 +189,16 @@ def cantilever_result():
     return update(cantilever.configurations())
 
 
+@pytest.fixture(scope="module")
+def cantilever_backend(cantilever_problem):
+    return CasadiIpopt(cantilever_problem, mccormick(cantilever_problem))
+
+
 @settings(max_examples=4, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1))
-def test_lambda_zero_problem_is_convex(cantilever_problem, seed):
+def test_lambda_zero_problem_is_convex(cantilever_problem, cantilever_backend, seed):
     """The lam = 0 optimum does not depend on the starting point."""
-    P = cantilever_problem
-    backend = CasadiIpopt(P, mccormick(P)) if not hasattr(test_lambda_zero_problem_is_convex, "b") \
-        else test_lambda_zero_problem_is_convex.b
-    test_lambda_zero_problem_is_convex.b = backend
+    P, backend = cantilever_problem, cantilever_backend
     rng = np.random.default_rng(seed)
     x = rng.uniform(P.x_lower, P.x_upper)
     u = rng.uniform(P.u_lower, P.u_upper)

@@ -109,7 +109,8 @@ def _as_system(result, dofs: Sequence[str] | None) -> System:
     return System(M, K, tuple(names))
 
 
-def _symmetric_error(A: sp.spmatrix) -> float:
+def symmetric_error(A: sp.spmatrix) -> float:
+    """``max |A - A^T| / max |A|`` (0 for an empty matrix)."""
     scale = abs(A).max() if A.nnz else 0.0
     return float(abs(A - A.T).max() / scale) if scale > 0 else 0.0
 
@@ -141,7 +142,7 @@ def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
     for name, A in (("mass", M), ("stiffness", K)):
         if not np.all(np.isfinite(A.data)):
             raise ValueError(f"{what}: {name} matrix has non-finite entries")
-        err = _symmetric_error(A)
+        err = symmetric_error(A)
         if err > 1e-9:
             raise ValueError(f"{what}: {name} matrix is not symmetric (relative asymmetry {err:.2e})")
     if not _is_positive_definite(M):

@@ -104,9 +104,7 @@ class Assembly:
         return [self._index[f"{kind}{label}"] for kind in self._dof_kinds]
 
     def _dof(self, name: str) -> int:
-        if name not in self._index:
-            return dof_index(self._dofs, name)
-        return self._index[name]
+        return self._index[name] if name in self._index else dof_index(self._dofs, name)
 
     def clamp(self, label) -> None:
         """Fix every DOF of a node."""

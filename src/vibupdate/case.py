@@ -66,9 +66,16 @@ class _Where:
         return ValueError(f"{self.path}: {key}: {message}")
 
 
-_NUMBER = (int, float)
 _TYPE_NAMES = {str: "a string", bool: "true or false", int: "an integer", float: "a number",
-               list: "an array", dict: "a table", _NUMBER: "a number"}
+               list: "an array", dict: "a table"}
+
+
+def _has_type(value, expected) -> bool:
+    """TOML types: an integer is a valid number; true/false is never a number."""
+    if expected in (int, float):
+        accepted = int if expected is int else (int, float)
+        return isinstance(value, accepted) and not isinstance(value, bool)
+    return isinstance(value, expected)
 
 
 def _check_table(table, allowed: dict, key: str, where: _Where, required=()) -> dict:
@@ -85,10 +92,7 @@ def _check_table(table, allowed: dict, key: str, where: _Where, required=()) -> 
         expected = allowed[name]
         if expected is None:
             continue
-        ok = isinstance(value, expected) and not (isinstance(value, bool) and expected in (int, float, _NUMBER))
-        if expected is float or expected == _NUMBER:
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if not ok:
+        if not _has_type(value, expected):
             raise where.error(f"{key}.{name}" if key else name,
                               f"must be {_TYPE_NAMES.get(expected, expected)}, got {value!r}")
     return table
@@ -123,7 +127,7 @@ def linear_expression(text, names) -> Callable[[dict], object]:
         sign = -1.0 if m.group(1) == "-" else 1.0
         name = m.group("n1") or m.group("n2") or m.group("n3")
         coef = m.group("c1") or m.group("c2") or m.group("c3")
-        coef = float(coef) if coef and name else (float(coef) if coef else 1.0)
+        coef = float(coef) if coef else 1.0
         if name is not None and name not in names:
             raise ValueError(f"{text!r} names {name!r}, which is not a parameter ({', '.join(names)})")
         terms.append((sign * coef, name))

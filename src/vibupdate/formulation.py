@@ -34,7 +34,7 @@ import scipy.sparse as sp
 
 from vibupdate.analysis import antiresonances
 from vibupdate.correlation import model_frequencies
-from vibupdate.measured import TWO_PI, Configuration, validate_configurations
+from vibupdate.measured import Configuration, validate_configurations
 from vibupdate.parameters import Parameter
 
 __all__ = ["FormulationOptions", "VectorBlock", "BilinearProblem", "formulate", "length_scale"]
@@ -456,7 +456,3 @@ def _stack(parameters, x_bounds, blocks, models, scalings, options) -> BilinearP
         options=options,
     )
 
-
-def describe_block(blk: VectorBlock) -> str:
-    """Short label: ``A natural 2 (127.3 Hz)``."""
-    return f"{blk.configuration} {blk.kind} {blk.index} ({blk.omega / TWO_PI:.4g} Hz)"

@@ -171,7 +171,7 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
             say(f"  step failed at lambda = {target:.4f}: {out.raw_status}; stopped at lambda = {lam:.4f}")
             break
     x, u, t, _ = backend.split(current.z)
-    if status == Status.SUCCESS and any(s.status == Status.ACCEPTABLE and s.accepted for s in steps):
-        status = Status.ACCEPTABLE if steps[-1].status == Status.ACCEPTABLE else Status.SUCCESS
+    if status == Status.SUCCESS and current.status == Status.ACCEPTABLE:
+        status = Status.ACCEPTABLE  # lambda = 1 reached at IPOPT's looser tolerance
     return HomotopyResult(x, u, t, lam, status, problem.objective(x, u), lower_bound, tuple(steps),
                           time.perf_counter() - start, build_seconds)

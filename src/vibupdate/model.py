@@ -17,7 +17,7 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from vibupdate.affine import AffineModel, _check_unique_names, affine_from_builder, check_matrices
+from vibupdate.affine import AffineModel, _check_unique_names, affine_from_builder, check_matrices, symmetric_error
 from vibupdate.parameters import Parameter
 
 __all__ = ["from_builder", "from_files", "load_matrix"]
@@ -49,14 +49,10 @@ def _load_npz(path: Path) -> sp.csr_matrix:
     with np.load(path, allow_pickle=False) as data:
         keys = set(data.files)
         if {"format", "shape", "data"} <= keys:
-            pass
-        elif len(keys) == 1:
+            return sp.load_npz(path)
+        if len(keys) == 1:
             return sp.csr_matrix(data[next(iter(keys))])
-        else:
-            raise ValueError(
-                f"matrix file {str(path)!r}: expected one array or a scipy.sparse matrix, found {sorted(keys)}"
-            )
-    return sp.load_npz(path)
+    raise ValueError(f"matrix file {str(path)!r}: expected one array or a scipy.sparse matrix, found {sorted(keys)}")
 
 
 def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = None,
@@ -104,8 +100,7 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
                     raise ValueError(
                         f"{label} of parameter '{p.name}' has shape {A.shape}, expected ({n}, {n}) like M0"
                     )
-                asym = abs(A - A.T).max()
-                if asym > 1e-9 * max(abs(A).max(), 1e-300):
+                if symmetric_error(A) > 1e-9:
                     raise ValueError(f"{label} of parameter '{p.name}' is not symmetric")
                 pair.append(sp.csr_matrix(A * p.reference))
             else:

@@ -192,16 +192,11 @@ def case() -> Case:
                 frequency_tolerance=3 * FREQUENCY_ERROR)
 
 
-def truth_table() -> list[dict]:
-    """Parameter rows with nominal, bounds and truth, for reports."""
-    return read_table("frame_parameters.csv")
-
-
 def paper_values() -> dict:
     """Reference figures of the paper's test case 1 (Table 3) and this example's truth."""
     return {
         "summary": {"mean_error_nominal_pct": 5.7, "mean_error_updated_pct": 1.5},
         "problem_size": {"n_mode_unknowns": 210, "n_adjunct_unknowns": 0, "n_lifted": 868},  # Table 1
-        "truth": {r["name"]: float(r["true"]) for r in truth_table()},
+        "truth": truth(),
         "note": json.dumps({"frequency_error": FREQUENCY_ERROR, "shape_error": SHAPE_ERROR, "seed": SEED}),
     }
