@@ -36,6 +36,28 @@ def _positive_finite(value, what: str) -> float:
     return value
 
 
+def _optional_index(value, what: str) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{what} must be an integer >= 1 (1-based), got {value!r}")
+    return int(value)
+
+
+def _interval(pair, value, what: str) -> tuple[float, float] | None:
+    if pair is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in pair)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be (lower, upper), got {pair!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+        raise ValueError(f"{what} must be finite with lower <= upper, got ({lo!r}, {hi!r})")
+    if not lo <= value <= hi:
+        raise ValueError(f"{what} ({lo:.6g}, {hi:.6g}) does not contain its value {value:.6g}")
+    return (lo, hi)
+
+
 @dataclass(frozen=True)
 class ShapeInterval:
     """A measured mode shape known within bounds on some named DOFs.
@@ -93,12 +115,24 @@ class NaturalFrequency:
         Interval of the mode shape (Problem 1).
     damping_ratio : float, optional
         Measured modal damping ratio (-), for the second stage.
+    mode : int, optional
+        Which mode of the model this is (1-based, counted from the lowest). When omitted,
+        measured frequencies are taken as consecutive modes: the first as mode 1 (or the mode
+        after the previous measured one).
+    interval : (float, float), optional
+        Interval of the frequency, rad/s, at a stated confidence (e.g. from an extraction);
+        must contain ``omega``.
+    damping_interval : (float, float), optional
+        Interval of the damping ratio (-); must contain ``damping_ratio``.
     """
 
     omega: float
     weight: float = 1.0
     shape: ShapeInterval | None = None
     damping_ratio: float | None = None
+    mode: int | None = None
+    interval: tuple[float, float] | None = None
+    damping_interval: tuple[float, float] | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "omega", _positive_finite(self.omega, "natural frequency"))
@@ -107,6 +141,12 @@ class NaturalFrequency:
             xi = self.damping_ratio
             if not isinstance(xi, (int, float, np.floating)) or not math.isfinite(xi) or xi < 0:
                 raise ValueError(f"damping ratio must be a finite number >= 0, got {xi!r}")
+        object.__setattr__(self, "mode", _optional_index(self.mode, "mode"))
+        object.__setattr__(self, "interval", _interval(self.interval, self.omega, "natural-frequency interval"))
+        if self.damping_interval is not None and self.damping_ratio is None:
+            raise ValueError("a damping-ratio interval needs a damping ratio")
+        object.__setattr__(self, "damping_interval",
+                           _interval(self.damping_interval, self.damping_ratio, "damping-ratio interval"))
 
     @classmethod
     def from_hz(cls, freq_hz: float, **kwargs) -> "NaturalFrequency":
@@ -128,16 +168,26 @@ class Antiresonance:
     response, excitation : str
         Names of the DOFs ``r`` (response) and ``c`` (force).
     weight : float
+    index : int, optional
+        Which antiresonance of ``h_rc`` this is (1-based, counted from the lowest zero of the
+        model's receptance). When omitted it is assigned from the measured poles around it
+        and the nominal model's zeros between them.
+    interval : (float, float), optional
+        Interval of the frequency, rad/s; must contain ``omega``.
     """
 
     omega: float
     response: str
     excitation: str
     weight: float = 1.0
+    index: int | None = None
+    interval: tuple[float, float] | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "omega", _positive_finite(self.omega, "antiresonance frequency"))
         object.__setattr__(self, "weight", _positive_finite(self.weight, "antiresonance weight"))
+        object.__setattr__(self, "index", _optional_index(self.index, "antiresonance index"))
+        object.__setattr__(self, "interval", _interval(self.interval, self.omega, "antiresonance interval"))
 
     @classmethod
     def from_hz(cls, freq_hz: float, response: str, excitation: str, **kwargs) -> "Antiresonance":
