@@ -1,0 +1,121 @@
+"""The distributed engine: a Dask client on a local cluster or an existing scheduler.
+
+Sweeps, batches and multistarts submit one task per sample, case or start to a
+``dask.distributed`` client. By default `open_client` starts a ``LocalCluster`` with one
+single-threaded worker process per core (the NLP solves are single-threaded; processes avoid
+the GIL); with ``scheduler="tcp://host:8786"`` it connects to an existing cluster instead,
+with no change to the case. Workers must be able to import vibupdate and read the case file
+(same path on a shared file system, or a case given as an object, which is sent to them).
+
+dask is imported inside the functions: importing vibupdate does not import it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+from collections.abc import Callable, Iterator
+
+__all__ = ["open_client", "Progress", "default_workers"]
+
+
+def default_workers() -> int:
+    """One worker per core available to this process."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@contextlib.contextmanager
+def open_client(workers: int | None = None, scheduler: str | None = None, *,
+                client=None) -> Iterator[object]:
+    """A ``distributed.Client``, closed (with its local cluster) on exit.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Worker processes of the local cluster; default one per core. Ignored with a
+        scheduler or a client.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:port``).
+    client : distributed.Client, optional
+        An open client to use as is (not closed on exit).
+    """
+    if client is not None:
+        yield client
+        return
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            c = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise ValueError(f"cannot connect to the Dask scheduler at {scheduler!r}: {exc}") from None
+        try:
+            yield c
+        finally:
+            c.close()
+        return
+    n = default_workers() if workers is None else workers
+    if not isinstance(n, int) or n < 1:
+        raise ValueError(f"the number of workers must be an integer >= 1, got {workers!r}")
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=40)
+    c = Client(cluster)
+    try:
+        yield c
+    finally:
+        c.close()
+        cluster.close()
+
+
+class Progress:
+    """One progress line: done / total, failed, estimated time left.
+
+    Parameters
+    ----------
+    total : int
+        Tasks of this run.
+    say : callable
+        Receives the line.
+    already : int
+        Tasks finished before this run (a resumed sweep); counted as done, not in the rate.
+    every : float
+        Seconds between lines (the last line is always said).
+    """
+
+    def __init__(self, total: int, say: Callable[[str], None], already: int = 0, every: float = 2.0):
+        self.total, self.say, self.already, self.every = total, say, already, every
+        self.done = self.failed = 0
+        self.start = self.last = time.perf_counter()
+
+    def line(self) -> str:
+        elapsed = time.perf_counter() - self.start
+        n = self.already + self.done
+        left = self.total - n
+        if self.done and left:
+            eta = f", ~{_duration(elapsed / self.done * left)} left"
+        else:
+            eta = "" if left else f", finished in {_duration(elapsed)}"
+        return f"{n}/{self.total} done, {self.failed} failed{eta}"
+
+    def tick(self, failed: bool = False) -> None:
+        self.done += 1
+        self.failed += bool(failed)
+        now = time.perf_counter()
+        if now - self.last >= self.every or self.already + self.done == self.total:
+            self.last = now
+            self.say(self.line())
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(round(seconds))
+    if seconds < 60:
+        return f"{seconds} s"
+    minutes, s = divmod(seconds, 60)
+    if minutes < 60:
+        return f"{minutes} min {s:02d} s"
+    hours, m = divmod(minutes, 60)
+    return f"{hours} h {m:02d} min"
