@@ -53,6 +53,12 @@ class SamplingOptions:
         Relative half-width for damping ratios without an interval (-).
     shape_width : float
         Half-width kept around a drawn shape entry, as a fraction of the entry's half-width.
+    random_start : bool
+        After the homotopy answer of a sample, also solve the ``lam = 1`` problem from a
+        random start and keep that answer when it is no worse (`vibupdate.sweep`). The
+        homotopy alone returns, for data that leave a direction undetermined, the point of
+        that direction nearest the nominal model, so the samples would not show how far the
+        direction extends.
     """
 
     distribution: str = "uniform"
@@ -60,6 +66,7 @@ class SamplingOptions:
     frequency_tolerance: float | None = None
     damping_tolerance: float = 0.10
     shape_width: float = 0.10
+    random_start: bool = True
 
     def __post_init__(self):
         if self.distribution not in DISTRIBUTIONS:
@@ -76,14 +83,15 @@ class SamplingOptions:
     def as_dict(self) -> dict:
         return {"distribution": self.distribution, "confidence": self.confidence,
                 "frequency_tolerance": self.frequency_tolerance, "damping_tolerance": self.damping_tolerance,
-                "shape_width": self.shape_width}
+                "shape_width": self.shape_width, "random_start": self.random_start}
 
 
-def sample_rng(seed: int, index: int) -> np.random.Generator:
-    """The generator of sample ``index`` of a sweep with ``seed`` (independent streams)."""
+def sample_rng(seed: int, index: int, stream: int = 0) -> np.random.Generator:
+    """The generator of sample ``index`` of a sweep with ``seed``: stream 0 draws the data,
+    stream 1 the random start (independent streams)."""
     if seed < 0 or index < 0:
         raise ValueError(f"seed and sample index must be >= 0, got seed {seed!r}, index {index!r}")
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), int(index)])))
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), int(index), int(stream)])))
 
 
 def _frequency_interval(value: float, interval, tolerance: float, what: str) -> tuple[float, float]:

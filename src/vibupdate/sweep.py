@@ -39,6 +39,9 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.case import Case, load_case
+from vibupdate.correlation import model_frequencies
+from vibupdate.measured import TWO_PI
+from vibupdate.reduction import wants_reduction
 from vibupdate.sampling import SamplingOptions, data_intervals, draw_configurations
 
 __all__ = ["CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize", "read_rows"]
@@ -48,6 +51,12 @@ SETTINGS_FILE = "sweep-settings.json"
 SUMMARY_FILE = "sweep.json"
 #: Columns whose values depend on the run (timing, worker), not on the sample.
 RUN_COLUMNS = ("seconds", "worker")
+#: A random-start answer replaces the homotopy answer of a sample when its objective is at
+#: most ``(1 + ACCEPT_REL)`` times the homotopy's plus ``ACCEPT_ABS`` times the nominal one.
+ACCEPT_REL = 1e-2
+ACCEPT_ABS = 1e-8
+#: Proximal weight of the random-start solve (`vibupdate.multistart.random_start_solve`).
+START_PROXIMAL = 1e-4
 
 #: Worker-side cache of cases loaded from files: (path, digest) -> Case.
 _CASES: dict[tuple[str, str], Case] = {}
@@ -94,7 +103,8 @@ def _resolve(case) -> Case:
 # -- one sample -------------------------------------------------------------------------------
 
 def columns(case: Case, sampling: SamplingOptions) -> list[str]:
-    """Header of ``samples.csv``: index, outcome, status, objective, parameters (their unit),
+    """Header of ``samples.csv``: index, outcome, status, start (the answer kept: "homotopy"
+    or "random"), objective, parameters (their unit),
     predicted frequencies (Hz), drawn data (Hz and -), Caughey coefficients, timing, message."""
     cfgs = case.configurations
     names = [f"p:{p.name}" for p in cfgs[0].model.parameters]
@@ -105,7 +115,7 @@ def columns(case: Case, sampling: SamplingOptions) -> list[str]:
     if any(f.damping_ratio is not None for c in cfgs for f in c.natural):
         exponents = (case.damping.exponents if case.damping else (0.0, 1.0))
         damping = [f"beta{i}" for i in range(len(exponents))]
-    return ["index", "outcome", "status", "objective", *names, *predicted, *data, *damping,
+    return ["index", "outcome", "status", "start", "objective", *names, *predicted, *data, *damping,
             "seconds", "worker", "message"]
 
 
@@ -144,19 +154,42 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
         row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
         return row
     row.update(outcome=_outcome(result), status=result.status.value, objective=result.objective,
-               message=result.message)
-    row.update({f"p:{p.name}": float(v) for p, v in zip(result.parameters, result.values)})
-    for r in result.frequencies:
-        letter = "f" if r["kind"] == "natural" else "z"
-        row[f"pred:{r['configuration']}:{letter}{r['index']}_hz"] = r["updated_hz"]
+               message=result.message, start="homotopy")
+    xbar = result.xbar
+    if sampling.random_start and result.success and not wants_reduction(cfgs, case.formulation):
+        other = _random_start(case, cfgs, seed, index, result.objective)
+        if other is not None:
+            (xbar, row["objective"]), row["start"] = other, "random"
+    model = cfgs[0].model
+    row.update({f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(xbar))})
+    for cfg in cfgs:
+        freqs = model_frequencies(cfg, xbar)
+        row.update({f"pred:{cfg.name}:f{k}_hz": float(w) / TWO_PI for k, w in enumerate(freqs.natural, start=1)})
+        row.update({f"pred:{cfg.name}:z{k}_hz": float(w) / TWO_PI
+                    for k, w in enumerate(freqs.antiresonances, start=1)})
     if row["outcome"] != "failed" and any(f.damping_ratio is not None for c in cfgs for f in c.natural):
         try:
-            stage, _, _ = _damping_stage(replace(case, configurations=cfgs), result.xbar, lambda message: None)
+            stage, _, _ = _damping_stage(replace(case, configurations=cfgs), xbar, lambda message: None)
             row.update({f"beta{i}": float(b) for i, b in enumerate(stage.caughey.beta)})
         except ValueError as exc:
             row["message"] += f"; damping stage: {exc}"
     row["seconds"] = time.perf_counter() - start
     return row
+
+
+def _random_start(case: Case, cfgs, seed: int, index: int, objective: float):
+    """``(xbar, objective)`` of a random-start ``lam = 1`` solve of the sample when it converged and is no
+    worse than the homotopy answer (objective within ``ACCEPT_REL`` relative, or
+    ``ACCEPT_ABS`` times the nominal objective); None otherwise."""
+    from vibupdate.multistart import build_solver, random_start_solve
+    from vibupdate.sampling import sample_rng
+
+    problem, backend = build_solver(cfgs, case.formulation, case.solver)
+    other = random_start_solve(problem, backend, sample_rng(seed, index, stream=1), proximal=START_PROXIMAL)
+    nominal = problem.objective(np.zeros(problem.n_x), problem.u_start)
+    if other["ok"] and other["objective"] <= objective * (1 + ACCEPT_REL) + ACCEPT_ABS * nominal:
+        return np.asarray(other["xbar"]), float(other["objective"])
+    return None
 
 
 # -- the rows file --------------------------------------------------------------------------------
