@@ -1,0 +1,296 @@
+"""Sampling sweep on Dask, batches and multistart (issue 11): small chains, a shared local cluster."""
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sweep_cases import TRUTH, write_chain_case
+from vibupdate import Assembly, Configuration, NaturalFrequency, Parameter, from_builder, modes
+from vibupdate.case import Case, load_case
+from vibupdate.cli import main
+from vibupdate.formulation import FormulationOptions
+from vibupdate.homotopy import SolverOptions
+from vibupdate.sampling import SamplingOptions, data_intervals, draw_configurations
+from vibupdate.sweep import RUN_COLUMNS, read_rows, run_sweep
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=40)
+    c = Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+@pytest.fixture(scope="module")
+def chain_file(tmp_path_factory):
+    return write_chain_case(tmp_path_factory.mktemp("case") / "chain.toml")
+
+
+def _data_rows(rows):
+    return [{k: v for k, v in r.items() if k not in RUN_COLUMNS} for r in sorted(rows, key=lambda r: r["index"])]
+
+
+# -- drawing -------------------------------------------------------------------------------------
+
+def test_draws_are_reproducible_per_sample_and_inside_the_intervals(chain_file):
+    case = load_case(chain_file)
+    intervals = {label: (lo, hi) for label, _, lo, hi in data_intervals(case.configurations, 0.005)}
+    for distribution in ("uniform", "gaussian"):
+        options = SamplingOptions(distribution)
+        draws = [draw_configurations(case.configurations, 0.005, 7, i, options)[1] for i in range(20)]
+        again = draw_configurations(case.configurations, 0.005, 7, 13, options)[1]
+        assert again == draws[13]
+        assert draws[0] != draws[1]
+        for d in draws:
+            assert d.keys() == intervals.keys()
+            assert all(intervals[k][0] <= v <= intervals[k][1] for k, v in d.items())
+    # the Gaussian concentrates near the midpoint: smaller spread than the uniform over 400 draws
+    spread = {}
+    for distribution in ("uniform", "gaussian"):
+        v = [draw_configurations(case.configurations, 0.005, 1, i, SamplingOptions(distribution))[1]["A:f1_hz"]
+             for i in range(400)]
+        spread[distribution] = np.std(v)
+    assert spread["gaussian"] < 0.8 * spread["uniform"]
+
+
+def test_zero_tolerance_without_intervals_is_a_clear_error(tmp_path, capsys):
+    path = write_chain_case(tmp_path / "c.toml", tolerance=0.0)
+    assert main(["sweep", str(path), "--samples", "3", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "natural frequency 1 of configuration 'A'" in err and "frequency tolerance is 0" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_stated_intervals_are_used_instead_of_the_tolerance(chain_file):
+    case = load_case(chain_file)
+    cfg = case.configurations[0]
+    f = cfg.natural[0]
+    wide = (f.omega * 0.9, f.omega * 1.02)
+    natural = (NaturalFrequency(f.omega, interval=wide),) + cfg.natural[1:]
+    cfgs = (Configuration("A", cfg.model, natural),)
+    rows = {label: (lo, hi) for label, _, lo, hi in data_intervals(cfgs, 0.005)}
+    assert rows["A:f1_hz"] == pytest.approx((wide[0] / (2 * np.pi), wide[1] / (2 * np.pi)))
+
+
+# -- sweeps ---------------------------------------------------------------------------------------
+
+def test_truth_inside_the_sampled_range(client, chain_file, tmp_path):
+    summary = run_sweep(str(chain_file), tmp_path / "s", 16, seed=2, client=client)
+    doc = json.loads((tmp_path / "s" / "sweep.json").read_text())
+    assert doc["samples"] == 16 and doc["verified"] + doc["unverified"] + doc["failed"] == 16
+    assert doc["verified"] >= 14
+    for name, value in TRUTH.items():
+        p = summary.parameter(name)
+        assert p["min"] <= value <= p["max"], (name, value, p)
+        assert p["min"] <= p["q05"] <= p["q50"] <= p["q95"] <= p["max"]
+    for pred in doc["predictions"]:
+        assert pred["q50"] == pytest.approx(pred["measured_hz"], rel=0.01)
+    _, rows = read_rows(tmp_path / "s" / "samples.csv")
+    assert [r["index"] for r in rows] == list(range(16))
+    for f in ("parameters_hist.png", "parameters_pairs.png", "frequency_bands.png", "frf_band_A.png"):
+        assert (tmp_path / "s" / f).stat().st_size > 1000
+    # the case file was loaded once per worker process, not once per task
+    loads = client.run(lambda: __import__("vibupdate.sweep", fromlist=["x"]).CASE_LOADS["count"])
+    assert all(n <= 1 for n in loads.values()) and sum(loads.values()) >= 1
+
+
+def _scale_build(p):
+    asm = Assembly("beam")
+    for i in range(1, 4):
+        asm.node(i, float(i))
+        asm.fix(f"phi{i}")
+        asm.mass(f"y{i}", p["sm"] * (1.0 + 0.2 * i))
+    asm.spring("y1", 1000.0 * p["sk"])
+    for i in range(2, 4):
+        asm.spring(f"y{i - 1}", 800.0 * p["sk"], f"y{i}")
+    return asm.system()
+
+
+@pytest.fixture(scope="module")
+def scale_sweep(client, tmp_path_factory):
+    """All stiffnesses scale with sk, all masses with sm: the data fix sk / sm only."""
+    model = from_builder(_scale_build, [Parameter("sk", 1.0, 0.7, 1.3), Parameter("sm", 1.0, 0.7, 1.3)])
+    M, K = model.matrices(model.normalized([1.1, 1.1]))
+    omega, _ = modes(M, K, 1)
+    case = Case("scale", None, (Configuration("A", model, (NaturalFrequency(omega[0]),)),), SolverOptions(),
+                FormulationOptions(), None, 0.005)
+    out = tmp_path_factory.mktemp("scale") / "s"
+    summary = run_sweep(case, out, 24, seed=3, client=client, plots=False)
+    _, rows = read_rows(out / "samples.csv")
+    ok = np.array([[r["p:sk"], r["p:sm"]] for r in rows if r["outcome"] == "verified"])
+    return summary, ok
+
+
+def test_scale_symmetry_shows_as_a_line(scale_sweep):
+    summary, ok = scale_sweep
+    assert len(ok) >= 20
+    ratio = ok[:, 0] / ok[:, 1]
+    # a frequency interval of +-0.5 % allows sk / sm within about +-1 %: the answers lie on that line ...
+    assert ratio.min() > 0.985 and ratio.max() < 1.015
+    # ... and spread along it much further than across it
+    assert np.ptp(ok[:, 0]) > 5 * np.ptp(ratio)
+
+
+@pytest.mark.xfail(strict=True, reason="measured: the sampled sk range covers ~54 % of the bounds "
+                   "(0.81-1.13 of 0.7-1.3); random starts do not yet reach the ends of a symmetry line")
+def test_scale_symmetry_range_fills_the_bounds(scale_sweep):
+    summary, _ = scale_sweep
+    p = summary.parameter("sk")
+    assert (p["max"] - p["min"]) >= 0.9 * (p["upper"] - p["lower"])
+
+
+def test_a_killed_worker_costs_only_its_tasks(client, chain_file, tmp_path):
+    out = tmp_path / "k"
+    pids = list(client.run(os.getpid).values())
+    killed = {}
+
+    def kill_when_started():
+        file = out / "samples.csv"
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            if file.exists() and len(file.read_text().splitlines()) >= 4:  # header + 3 rows
+                killed["rows_before"] = len(file.read_text().splitlines()) - 1
+                os.kill(pids[0], signal.SIGKILL)
+                return
+            time.sleep(0.05)
+
+    thread = threading.Thread(target=kill_when_started)
+    thread.start()
+    summary = run_sweep(str(chain_file), out, 24, seed=5, client=client, plots=False)
+    thread.join()
+    assert killed and killed["rows_before"] < 24, "the worker was not killed mid-run"
+    _, rows = read_rows(out / "samples.csv")
+    assert sorted(r["index"] for r in rows) == list(range(24))
+    assert summary.samples == 24 and summary.verified >= 22
+    assert pids[0] not in {r["worker"] for r in rows if r["index"] >= killed["rows_before"] + 2}
+
+
+def test_stopped_sweep_resumes_to_the_same_rows(client, chain_file, tmp_path):
+    stopped = tmp_path / "stopped"
+    cmd = [sys.executable, "-m", "vibupdate.cli", "sweep", str(chain_file), "--samples", "14", "--seed", "9",
+           "--workers", "1", "--out", str(stopped)]
+    env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            file = stopped / "samples.csv"
+            if file.exists() and len(file.read_text().splitlines()) >= 5:
+                break
+            time.sleep(0.05)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+    _, partial = read_rows(stopped / "samples.csv")
+    assert 4 <= len(partial) < 14, f"stop halfway: {len(partial)} rows"
+    run_sweep(str(chain_file), stopped, 14, seed=9, client=client, resume=True, plots=False)
+    whole = tmp_path / "whole"
+    run_sweep(str(chain_file), whole, 14, seed=9, client=client, plots=False)
+    _, resumed = read_rows(stopped / "samples.csv")
+    _, reference = read_rows(whole / "samples.csv")
+    assert _data_rows(resumed) == _data_rows(reference)
+    first = {r["index"]: r for r in partial}
+    assert all(_data_rows([first[i]]) == _data_rows([r]) for r in resumed if (i := r["index"]) in first)
+    assert json.loads((stopped / "sweep.json").read_text())["parameters"] == \
+        json.loads((whole / "sweep.json").read_text())["parameters"]
+
+
+def test_existing_output_needs_resume(client, chain_file, tmp_path):
+    out = tmp_path / "o"
+    run_sweep(str(chain_file), out, 2, client=client, plots=False)
+    with pytest.raises(ValueError, match="use --resume"):
+        run_sweep(str(chain_file), out, 2, client=client, plots=False)
+    with pytest.raises(ValueError, match="seed is 0, this run's is 1"):
+        run_sweep(str(chain_file), out, 2, seed=1, client=client, resume=True, plots=False)
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_sweep_through_a_real_scheduler_and_worker(chain_file, tmp_path, capsys):
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                               "--port", str(port), "--no-dashboard"], env=env, start_new_session=True,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads",
+                                       "1", "--nworkers", "1", "--no-dashboard", "--host", "127.0.0.1"],
+                                      env=env, start_new_session=True, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL))
+        from distributed import Client
+
+        with Client(address, timeout="60s") as c:
+            c.wait_for_workers(1, timeout=60)
+        out = tmp_path / "remote"
+        code = main(["sweep", str(chain_file), "--samples", "4", "--scheduler", address, "--out", str(out)])
+        assert code == 0
+        doc = json.loads((out / "sweep.json").read_text())
+        assert doc["samples"] == 4 and doc["timing"]["workers"] == 1
+        assert "4/4 done, 0 failed" in capsys.readouterr().out
+    finally:
+        for p in reversed(procs):
+            os.killpg(p.pid, signal.SIGTERM)
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait(timeout=10)
+
+
+# -- batches and multistart -----------------------------------------------------------------------
+
+def test_batch_writes_a_folder_per_case_and_a_summary(client, tmp_path):
+    from vibupdate.batch import run_batch
+
+    other = {"k1": 950.0, "k3": 1050.0, "m2": 0.9, "m5": 1.2}
+    a = write_chain_case(tmp_path / "day1.toml", name="day1")
+    b = write_chain_case(tmp_path / "day2.toml", truth=other, name="day2")
+    bad = tmp_path / "broken.toml"
+    bad.write_text("case = 'x'\n[model]\n", encoding="utf-8")
+    rows = run_batch([a, b, bad], tmp_path / "batch", client=client)
+    assert [r["status"] for r in rows] == ["success", "success", "bad_input"]
+    for row, truth in zip(rows[:2], (TRUTH, other)):
+        unit = {"k": "N/m", "m": "kg"}
+        for name, value in truth.items():
+            assert row[f"{name} [{unit[name[0]]}]"] == pytest.approx(value, rel=1e-4)
+        assert (Path(row["results"]) / "results.json").exists()
+    assert "broken.toml" in rows[2]["message"]
+    text = (tmp_path / "batch" / "summary.md").read_text()
+    assert text.count("\n") == 5 and "| day2 | success |" in text
+    assert len((tmp_path / "batch" / "summary.csv").read_text().splitlines()) == 4
+
+
+def test_multistart_counts_minima_and_finds_the_truth(client, chain_file):
+    from vibupdate.multistart import multistart
+
+    case = load_case(chain_file)
+    result = multistart(case, 6, seed=1, client=client)
+    assert result.starts == 6
+    assert sum(m.starts for m in result.minima) + result.failed == 6
+    best = result.minima[0]
+    names = [p.name for p in case.configurations[0].model.parameters]
+    assert best.values == pytest.approx([TRUTH[n] for n in names], rel=1e-4)
+    assert all(m.objective >= best.objective for m in result.minima)
