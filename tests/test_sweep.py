@@ -131,7 +131,7 @@ def scale_sweep(client, tmp_path_factory):
     case = Case("scale", None, (Configuration("A", model, (NaturalFrequency(omega[0]),)),), SolverOptions(),
                 FormulationOptions(), None, 0.005)
     out = tmp_path_factory.mktemp("scale") / "s"
-    summary = run_sweep(case, out, 24, seed=3, client=client, plots=False)
+    summary = run_sweep(case, out, 20, seed=3, client=client, plots=False)
     _, rows = read_rows(out / "samples.csv")
     ok = np.array([[r["p:sk"], r["p:sm"]] for r in rows if r["outcome"] == "verified"])
     return summary, ok
@@ -139,7 +139,7 @@ def scale_sweep(client, tmp_path_factory):
 
 def test_scale_symmetry_shows_as_a_line(scale_sweep):
     summary, ok = scale_sweep
-    assert len(ok) >= 20
+    assert len(ok) >= 18
     ratio = ok[:, 0] / ok[:, 1]
     # a frequency interval of +-0.5 % allows sk / sm within about +-1 %: the answers lie on that line ...
     assert ratio.min() > 0.985 and ratio.max() < 1.015
@@ -172,18 +172,18 @@ def test_a_killed_worker_costs_only_its_tasks(client, chain_file, tmp_path):
 
     thread = threading.Thread(target=kill_when_started)
     thread.start()
-    summary = run_sweep(str(chain_file), out, 24, seed=5, client=client, plots=False)
+    summary = run_sweep(str(chain_file), out, 16, seed=5, client=client, plots=False)
     thread.join()
-    assert killed and killed["rows_before"] < 24, "the worker was not killed mid-run"
+    assert killed and killed["rows_before"] < 16, "the worker was not killed mid-run"
     _, rows = read_rows(out / "samples.csv")
-    assert sorted(r["index"] for r in rows) == list(range(24))
-    assert summary.samples == 24 and summary.verified >= 22
-    assert pids[0] not in {r["worker"] for r in rows if r["index"] >= killed["rows_before"] + 2}
+    assert sorted(r["index"] for r in rows) == list(range(16))
+    assert summary.samples == 16 and summary.verified >= 14
+    assert pids[0] not in client.run(os.getpid).values()  # the worker process is gone (its nanny started another)
 
 
 def test_stopped_sweep_resumes_to_the_same_rows(client, chain_file, tmp_path):
     stopped = tmp_path / "stopped"
-    cmd = [sys.executable, "-m", "vibupdate.cli", "sweep", str(chain_file), "--samples", "14", "--seed", "9",
+    cmd = [sys.executable, "-m", "vibupdate.cli", "sweep", str(chain_file), "--samples", "10", "--seed", "9",
            "--workers", "1", "--out", str(stopped)]
     env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
@@ -199,10 +199,10 @@ def test_stopped_sweep_resumes_to_the_same_rows(client, chain_file, tmp_path):
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait(timeout=30)
     _, partial = read_rows(stopped / "samples.csv")
-    assert 4 <= len(partial) < 14, f"stop halfway: {len(partial)} rows"
-    run_sweep(str(chain_file), stopped, 14, seed=9, client=client, resume=True, plots=False)
+    assert 4 <= len(partial) < 10, f"stop halfway: {len(partial)} rows"
+    run_sweep(str(chain_file), stopped, 10, seed=9, client=client, resume=True, plots=False)
     whole = tmp_path / "whole"
-    run_sweep(str(chain_file), whole, 14, seed=9, client=client, plots=False)
+    run_sweep(str(chain_file), whole, 10, seed=9, client=client, plots=False)
     _, resumed = read_rows(stopped / "samples.csv")
     _, reference = read_rows(whole / "samples.csv")
     assert _data_rows(resumed) == _data_rows(reference)
@@ -294,3 +294,14 @@ def test_multistart_counts_minima_and_finds_the_truth(client, chain_file):
     names = [p.name for p in case.configurations[0].model.parameters]
     assert best.values == pytest.approx([TRUTH[n] for n in names], rel=1e-4)
     assert all(m.objective >= best.objective for m in result.minima)
+
+
+def test_readme_shows_the_local_and_the_scheduler_sweep():
+    from vibupdate.cli import _parser
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    lines = [line.split() for line in text.splitlines() if line.startswith("vibupdate sweep ")]
+    parsed = [_parser().parse_args(words[1:]) for words in lines]
+    assert any(a.scheduler is None for a in parsed)
+    assert any(a.scheduler and a.scheduler.startswith("tcp://") for a in parsed)
+    assert all(Path(__file__).resolve().parents[1].joinpath(a.case).is_file() for a in parsed)

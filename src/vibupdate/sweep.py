@@ -25,9 +25,7 @@ case object is broadcast once to every worker.
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io
 import json
 import os
 import pickle
@@ -43,6 +41,7 @@ from vibupdate.correlation import model_frequencies
 from vibupdate.measured import TWO_PI
 from vibupdate.reduction import wants_reduction
 from vibupdate.sampling import SamplingOptions, data_intervals, draw_configurations
+from vibupdate.sweep_rows import RowWriter, read_rows, write_sorted
 
 __all__ = ["CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize", "read_rows"]
 
@@ -192,73 +191,6 @@ def _random_start(case: Case, cfgs, seed: int, index: int, objective: float):
     return None
 
 
-# -- the rows file --------------------------------------------------------------------------------
-
-class _RowWriter:
-    """Appends rows to ``samples.csv`` and forces them to disk, one at a time."""
-
-    def __init__(self, path: Path, fields: list[str]):
-        self.path, self.fields = path, fields
-        new = not path.exists() or path.stat().st_size == 0
-        self.file = open(path, "a", newline="", encoding="utf-8")
-        self.writer = csv.DictWriter(self.file, fieldnames=fields, extrasaction="ignore")
-        if new:
-            self.writer.writeheader()
-            self._sync()
-
-    def _sync(self):
-        self.file.flush()
-        os.fsync(self.file.fileno())
-
-    def append(self, row: dict) -> None:
-        self.writer.writerow(row)
-        self._sync()
-
-    def close(self):
-        self.file.close()
-
-
-def _parse(value: str):
-    if value == "":
-        return None
-    try:
-        return int(value)
-    except ValueError:
-        pass
-    try:
-        return float(value)
-    except ValueError:
-        return value
-
-
-def read_rows(path) -> tuple[list[str], list[dict]]:
-    """Header and rows of a ``samples.csv`` (numbers parsed, empty cells None). A last line
-    cut short by a stopped run (no line end) is removed from the file."""
-    path = Path(path)
-    text = path.read_text(encoding="utf-8")
-    if text and not text.endswith("\n"):
-        text = text[: text.rfind("\n") + 1]
-        with open(path, "w", newline="", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-    reader = csv.DictReader(io.StringIO(text, newline=""))
-    rows = [{k: _parse(v) for k, v in r.items()} for r in reader]
-    return list(reader.fieldnames or []), rows
-
-
-def _write_sorted(path: Path, fields: list[str], rows: list[dict]) -> None:
-    tmp = path.with_suffix(".csv.tmp")
-    with open(tmp, "w", newline="", encoding="utf-8") as f:
-        w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
-        w.writeheader()
-        for r in sorted(rows, key=lambda r: r["index"]):
-            w.writerow({k: ("" if v is None else v) for k, v in r.items()})
-        f.flush()
-        os.fsync(f.fileno())
-    tmp.replace(path)
-
-
 # -- summary ----------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -394,11 +326,8 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     else:
         source = case_source(case)
         loaded, digest = load_case(source.path), source.digest
-    if sampling.frequency_tolerance is not None:
+    if sampling.frequency_tolerance is not None:  # the workers' draws take it from `sampling`
         loaded = replace(loaded, frequency_tolerance=sampling.frequency_tolerance)
-        sampling = replace(sampling, frequency_tolerance=None)
-        if source is not None:
-            source, digest = None, _digest(loaded)
     data_intervals(loaded.configurations, loaded.frequency_tolerance, sampling)  # bad data: error before any work
     out = Path(out_dir)
     settings = _settings(seed, sampling, digest, loaded)
@@ -414,7 +343,7 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     todo = [i for i in range(samples) if i not in done]
     if resume:
         say(f"resuming: {len(done)} of {samples} samples done, {len(todo)} to go")
-    writer = _RowWriter(out / SAMPLES_FILE, fields)
+    writer = RowWriter(out / SAMPLES_FILE, fields)
     n_workers, wall = 0, 0.0
     try:
         if todo:
@@ -427,7 +356,7 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
                 wall = time.perf_counter() - start
     finally:
         writer.close()
-    _write_sorted(out / SAMPLES_FILE, fields, rows)
+    write_sorted(out / SAMPLES_FILE, fields, rows)
     document = summarize(loaded, rows, settings)
     submitted = set(todo)
     new = [r for r in rows if r["index"] in submitted and isinstance(r.get("seconds"), float)]
