@@ -147,12 +147,13 @@ def test_scale_symmetry_shows_as_a_line(scale_sweep):
     assert np.ptp(ok[:, 0]) > 5 * np.ptp(ratio)
 
 
-@pytest.mark.xfail(strict=True, reason="measured: the sampled sk range covers ~54 % of the bounds "
-                   "(0.81-1.13 of 0.7-1.3); random starts do not yet reach the ends of a symmetry line")
+@pytest.mark.xfail(strict=True, reason="measured with 20 samples: the sampled sk range 0.722-1.250 covers 88 % "
+                   "of the bounds 0.7-1.3 (target 90 %); the random starts reach near, not to, the ends of the line")
 def test_scale_symmetry_range_fills_the_bounds(scale_sweep):
     summary, _ = scale_sweep
     p = summary.parameter("sk")
-    assert (p["max"] - p["min"]) >= 0.9 * (p["upper"] - p["lower"])
+    covered = (p["max"] - p["min"]) / (p["upper"] - p["lower"])
+    assert covered >= 0.9, f"sampled sk range {p['min']:.3f}-{p['max']:.3f} covers {100 * covered:.0f} % of the bounds"
 
 
 def test_a_killed_worker_costs_only_its_tasks(client, chain_file, tmp_path):

@@ -50,12 +50,11 @@ SETTINGS_FILE = "sweep-settings.json"
 SUMMARY_FILE = "sweep.json"
 #: Columns whose values depend on the run (timing, worker), not on the sample.
 RUN_COLUMNS = ("seconds", "worker")
-#: A random-start answer replaces the homotopy answer of a sample when its objective is at
-#: most ``(1 + ACCEPT_REL)`` times the homotopy's plus ``ACCEPT_ABS`` times the nominal one.
-ACCEPT_REL = 1e-2
-ACCEPT_ABS = 1e-8
+#: A random-start answer replaces the homotopy answer of a sample when each of its frequency
+#: errors is at most the homotopy's plus this fraction of the datum's interval half-width.
+ACCEPT_FRACTION = 0.05
 #: Proximal weight of the random-start solve (`vibupdate.multistart.random_start_solve`).
-START_PROXIMAL = 1e-4
+START_PROXIMAL = 1e-3
 
 #: Worker-side cache of cases loaded from files: (path, digest) -> Case.
 _CASES: dict[tuple[str, str], Case] = {}
@@ -156,7 +155,7 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
                message=result.message, start="homotopy")
     xbar = result.xbar
     if sampling.random_start and result.success and not wants_reduction(cfgs, case.formulation):
-        other = _random_start(case, cfgs, seed, index, result.objective)
+        other = _random_start(case, cfgs, seed, index, result.xbar, sampling)
         if other is not None:
             (xbar, row["objective"]), row["start"] = other, "random"
     model = cfgs[0].model
@@ -176,18 +175,33 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     return row
 
 
-def _random_start(case: Case, cfgs, seed: int, index: int, objective: float):
-    """``(xbar, objective)`` of a random-start ``lam = 1`` solve of the sample when it converged and is no
-    worse than the homotopy answer (objective within ``ACCEPT_REL`` relative, or
-    ``ACCEPT_ABS`` times the nominal objective); None otherwise."""
+def _misfit(cfgs, xbar) -> np.ndarray:
+    """Relative error of the model at ``xbar`` for every measured frequency of ``cfgs``."""
+    errors = []
+    for cfg in cfgs:
+        freqs = model_frequencies(cfg, xbar)
+        errors += [abs(w - f.omega) / f.omega for w, f in zip(freqs.natural, cfg.natural)]
+        errors += [abs(w - a.omega) / a.omega for w, a in zip(freqs.antiresonances, cfg.antiresonances)]
+    return np.nan_to_num(np.array(errors), nan=np.inf)
+
+
+def _random_start(case: Case, cfgs, seed: int, index: int, xbar_h, sampling: SamplingOptions):
+    """``(xbar, objective)`` of a random-start solve of the sample (`vibupdate.multistart.
+    random_start_solve`) when it converged and fits the drawn data no worse than the homotopy
+    answer ``xbar_h``: every frequency's relative error at most the homotopy's plus
+    ``ACCEPT_FRACTION`` times that datum's relative interval half-width; None otherwise."""
     from vibupdate.multistart import build_solver, random_start_solve
     from vibupdate.sampling import sample_rng
 
     problem, backend = build_solver(cfgs, case.formulation, case.solver)
     other = random_start_solve(problem, backend, sample_rng(seed, index, stream=1), proximal=START_PROXIMAL)
-    nominal = problem.objective(np.zeros(problem.n_x), problem.u_start)
-    if other["ok"] and other["objective"] <= objective * (1 + ACCEPT_REL) + ACCEPT_ABS * nominal:
-        return np.asarray(other["xbar"]), float(other["objective"])
+    if not other["ok"]:
+        return None
+    half = np.array([0.5 * (hi - lo) / value for label, value, lo, hi
+                     in data_intervals(case.configurations, case.frequency_tolerance, sampling) if ":xi" not in label])
+    xbar = np.asarray(other["xbar"])
+    if np.all(_misfit(cfgs, xbar) <= _misfit(cfgs, xbar_h) + ACCEPT_FRACTION * half):
+        return xbar, float(other["objective"])
     return None
 
 
