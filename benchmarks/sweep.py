@@ -23,7 +23,7 @@ import numpy as np
 CASE = Path(__file__).resolve().parents[1] / "examples" / "cantilever" / "case.toml"
 
 
-def build_overhead(tolerance: float, repeats: int = 5) -> dict:
+def build_overhead(tolerance: float, repeats: int = 3) -> dict:
     """Seconds to formulate a sample and compile its solver, against a whole sample."""
     from vibupdate.case import load_case
     from vibupdate.multistart import build_solver
@@ -66,8 +66,11 @@ def main() -> None:
     args = parser.parse_args()
     load_before = os.getloadavg()
     overhead = build_overhead(args.tolerance)
+    print("build:", json.dumps(overhead), flush=True)
     one = timed_sweep(args.samples, 1, args.tolerance)
+    print("1 worker:", json.dumps(one), "load", os.getloadavg(), flush=True)
     two = timed_sweep(args.samples, 2, args.tolerance)
+    print("2 workers:", json.dumps(two), "load", os.getloadavg(), flush=True)
     load_after = os.getloadavg()
     speedup = one["task_phase_wall_seconds"] / two["task_phase_wall_seconds"]
     report = {"samples": args.samples, "cores": os.cpu_count(), "load_before": load_before,
