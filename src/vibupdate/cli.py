@@ -40,6 +40,8 @@ def _parser() -> argparse.ArgumentParser:
                        help="relative half-width of frequencies without an interval (default: the case's)")
     sweep.add_argument("--multistart", type=int, default=0, metavar="N",
                        help="also solve the point estimate from N random starts and count distinct minima")
+    sweep.add_argument("--no-random-start", action="store_true",
+                       help="keep each sample's homotopy answer; no solve from a random start")
     sweep.add_argument("--resume", action="store_true", help="finish the sweep already in --out")
     sweep.add_argument("--out", default=None, help="output directory (default: ./CASE-sweep)")
     batch = sub.add_parser("batch", help="run many case files, one results folder each and a summary table")
@@ -64,7 +66,8 @@ def _sweep(args) -> int:
     from vibupdate.sampling import SamplingOptions
     from vibupdate.sweep import run_sweep
 
-    sampling = SamplingOptions(args.distribution, args.confidence, args.frequency_tolerance)
+    sampling = SamplingOptions(args.distribution, args.confidence, args.frequency_tolerance,
+                               random_start=not args.no_random_start)
     case = load_case(args.case)
     out = Path(args.out or f"{case.name}-sweep")
     if args.multistart < 0:
