@@ -11,7 +11,7 @@ Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DO
 
 1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999)
    of all FRFs with common poles, at several model orders; a pole in the band with
-   ``0 < zeta < max_damping`` that recurs (frequency within 0.5 %, damping within 30 %) in at
+   ``0 < zeta < max_damping`` that recurs (frequency within 0.2 %, damping within 20 %) in at
    least ``min_stable`` orders is a mode (the stabilization check). The poles are then refined
    by variable projection on the modal model (all FRFs normalized to unit RMS)::
 
@@ -59,6 +59,8 @@ FREQUENCY_FLOOR = 1e-5      # relative half-width floor of frequency and antires
 DAMPING_FLOOR = 0.001       # relative half-width floor of damping-ratio intervals
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 PSEUDO_POLE = (1.5, 0.2)
+STABLE_FREQUENCY = 2e-3    # a pole recurs when its frequency is within this (relative) ...
+STABLE_DAMPING = 0.2       # ... and its damping ratio within this (relative)
 
 
 @dataclass(frozen=True)
@@ -259,9 +261,11 @@ def _vector_fit(x, F, n_pairs: int, n_iter: int = 12) -> np.ndarray:
             Amat[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[ak.real, ak.imag], [-ak.imag, ak.real]]
             bvec[2 * k] = 2.0
         z = np.linalg.eigvals(Amat - np.outer(bvec, c))
-        z = z[z.imag > 0]
-        if z.size != n_pairs:  # a real pole pair appeared: keep the previous set
-            break
+        z = z[z.imag > 1e-9]
+        if z.size < n_pairs:  # real poles appeared: restart the missing ones where none are
+            grid = np.linspace(x[0], x[-1], 4 * n_pairs + 2)[1:-1]
+            far = grid[np.argsort([-np.min(np.abs(np.abs(z) - g), initial=np.inf) for g in grid])]
+            z = np.concatenate([z, -far[:n_pairs - z.size] / 100.0 + 1j * far[:n_pairs - z.size]])
         a = np.where(z.real > 0, -z.real + 1j * z.imag, z)
     return np.sort_complex(a)
 
@@ -277,15 +281,17 @@ def _stabilization(x, F, orders, max_damping):
 
 
 def _stable_poles(stab, min_stable):
-    """Poles of the highest order that recur in >= min_stable orders (itself included)."""
-    _, wn, zeta = stab[-1]
+    """Poles that recur in >= min_stable orders, each taken from the highest order that has it."""
     keep, counts = [], []
-    for w, z in zip(wn, zeta):
-        count = sum(np.any((np.abs(w2 - w) < 5e-3 * w) & (np.abs(z2 - z) < 0.3 * z)) for _, w2, z2 in stab)
-        if count >= min_stable:
-            keep.append((w, z))
-            counts.append(count)
-    return np.array([k[0] for k in keep]), np.array([k[1] for k in keep]), counts
+    for _, wn, zeta in reversed(stab):
+        for w, z in zip(wn, zeta):
+            count = sum(np.any((np.abs(w2 - w) < STABLE_FREQUENCY * w) & (np.abs(z2 - z) < STABLE_DAMPING * z)) for _, w2, z2 in stab)
+            if count >= min_stable and not any(abs(k[0] - w) < 5e-3 * w for k in keep):
+                keep.append((w, z))
+                counts.append(count)
+    order = np.argsort([k[0] for k in keep])
+    return (np.array([keep[i][0] for i in order]), np.array([keep[i][1] for i in order]),
+            [counts[i] for i in order])
 
 
 def _projected_residual(theta, x, F, W):
@@ -367,7 +373,7 @@ def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles):
 
 def _shapes(pairs, constants, se, n_modes):
     """Rank-one fit phi_a phi_b = m_ab per mode; returns (shapes, ses, normalization) per mode."""
-    dofs = sorted({d for pair in pairs for d in pair}, key=lambda d: [p[0] for p in pairs].count(d) == 0)
+    dofs = list(dict.fromkeys(d for pair in pairs for d in pair))
     responses = list(dict.fromkeys(r for r, _ in pairs))
     drive = [k for k, (r, c) in enumerate(pairs) if r == c]
     out = []
@@ -464,6 +470,12 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         if n_modes > wn.size:
             raise ValueError(f"n_modes = {n_modes} but only {wn.size} stable mode(s) were found in the band")
         keep = _best_subset(x, F, wn, zeta, peak, n_modes)
+        if np.any(np.diff(wn[keep]) < 0.02 * wn[keep][1:]):  # a split peak: one pole per peak
+            single = [k for k in range(wn.size)
+                      if not np.any((np.abs(wn - wn[k]) < 0.02 * wn[k]) & (peak > peak[k]))]
+            if len(single) >= n_modes:
+                sub = _best_subset(x, F, wn[single], zeta[single], peak[single], n_modes)
+                keep = np.array(single)[sub]
         wn, zeta, counts = wn[keep], zeta[keep], [counts[k] for k in keep]
 
     var = _noise_from_repeats(frfs.H)
