@@ -34,6 +34,9 @@ Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DO
 
 Noise: with repeats, ``sigma^2`` per line is the variance of the mean of the repeats,
 smoothed over 9 lines; without, the local mean square of the stage-1 residual over 21 lines.
+Residuals correlated along frequency (a smooth misfit of real data, not white noise) would
+make those covariances too small: each is multiplied by ``1 + 2 sum_k rho_k`` (the pooled
+autocorrelation of the normalized residual, summed while above 0.05), about 1 for white noise.
 The quality figure of an FRF is ``sqrt(chi^2 / n)`` of its stage-2 fit: about 1 when the fit
 is within the noise. Intervals are ``value +- z * SE`` at the stated confidence (normal
 quantile) with floors on the half-width: ``1e-5`` relative for frequencies and
@@ -317,7 +320,8 @@ def _refine_poles(x, F, wn, zeta, var, weighted: bool):
     JtJ_inv = np.linalg.pinv(J.T @ J)
     cov = JtJ_inv @ (J.T * v) @ J @ JtJ_inv
     chi2 = float(np.sum(r**2 / v)) / max(r.size - theta0.size, 1)
-    return sol.x[:n], sol.x[n:], cov * max(1.0, chi2)
+    tau = _correlation_inflation(_split_residual(r, F.shape) / np.sqrt(var * W**2))
+    return sol.x[:n], sol.x[n:], cov * max(1.0, chi2) * tau
 
 
 # ----------------------------------------------------------------------------- noise
@@ -506,6 +510,25 @@ def _significant(x, F, wn, zeta, counts, threshold: float = 1e-3):
     return wn[keep], zeta[keep], [c for c, k in zip(counts, keep) if k], peak.max(axis=0)[keep]
 
 
+def _correlation_inflation(r: np.ndarray, max_lag: int = 200, stop: float = 0.05) -> float:
+    """Variance inflation ``1 + 2 sum_k rho_k`` for residuals correlated along frequency.
+
+    ``r`` (n_pairs, n_freq) complex, normalized by the noise; ``rho_k`` the pooled
+    autocorrelation at lag ``k``, summed while above ``stop``. White noise gives about 1;
+    a residual dominated by a smooth misfit (model error of real data) gives the number of
+    lines over which it is correlated, so that such lines are not counted as independent.
+    """
+    r = np.atleast_2d(r)
+    power = float(np.sum(np.abs(r) ** 2)) or 1.0
+    total = 0.0
+    for k in range(1, min(max_lag, r.shape[1] - 1)):
+        rho = float(np.sum((r[:, k:] * np.conj(r[:, :-k])).real)) / power
+        if rho < stop:
+            break
+        total += rho
+    return 1.0 + 2.0 * total
+
+
 def _residual_variance(x, F, wn, zeta, width: int = 21):
     """Local mean square of the unweighted fit's residual, shape (n_pairs, n_freq)."""
     r = _split_residual(_projected_residual(np.concatenate([wn, zeta]), x, F, np.ones_like(F.real)), F.shape)
@@ -546,7 +569,8 @@ def _stage_two(frfs, x, F, var, scales, wn, zeta, cov_poles, counts, stab, noise
         A = _real_stack(Phi, w)
         # weighted residual components have variance 1/2 (complex noise of variance sigma^2)
         chi2 = 2.0 * float(res @ res) / max(res.size - coef.size, 1)
-        cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2)
+        tau = _correlation_inflation(_split_residual(res, (1, x.size)))
+        cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2) * tau
         coefs.append(coef)
         model = Phi @ coef
         quality.append(FRFQuality(pair[0], pair[1], math.sqrt(float(np.mean(np.abs(f - model) ** 2 / v))),
