@@ -10,15 +10,19 @@ needs many seeds and runs in the slow profile (50 seeds, ``pytest -m slow``). Me
 0.90 (frequencies / damping ratios / antiresonances), about 0.3 s CPU per extraction.
 """
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from frf_synthetic import PAIRS, measured, score, true_poles
+from vibupdate.cli import main
 from vibupdate.extraction import extract
 from vibupdate.frf import FRFSet
 from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.measured_io import read_frequency_csv, read_shape_csv
 
 
 def _accuracy(seeds):
@@ -155,3 +159,121 @@ def test_bad_arguments_are_clear_errors():
     flat = FRFSet(frfs.omega, [("y1", "y3")], [np.ones((2, frfs.omega.size)) + 0j])
     with pytest.raises(ValueError, match="no stable mode"):
         extract(flat)
+
+
+# ----------------------------------------------------------------------------- CLI
+
+REALDATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "soton3storey"
+SOTON_FILES = ("Experimental.csv", "test_2.csv", "test_3.csv")  # force at floor 1, 2, 3
+#: Reference values of an independent analysis (issue 9), Hz.
+SOTON_MODES_HZ = (6.5126, 17.4608, 26.5003)
+SOTON_DAMPING = (0.0017, 0.0025, 0.0022)
+SOTON_ZEROS_HZ = {("x1", "x1"): (8.80, 23.94), ("x2", "x2"): (14.99, 19.85), ("x3", "x3"): (14.18, 25.24),
+                  ("x2", "x1"): (14.39,), ("x1", "x2"): (14.48,), ("x3", "x2"): (19.43,), ("x2", "x3"): (19.45,)}
+
+
+def _write_uff(path, frfs):
+    import pyuff
+
+    sets = []
+    for (r, c), h in zip(frfs.pairs, frfs.H):
+        for rep in h:
+            acc = (1j * frfs.omega) ** 2 * rep
+            sets.append(pyuff.prepare_58(
+                func_type=4, rsp_node=int(r[1:]), rsp_dir=2, ref_node=int(c[1:]), ref_dir=2, data=acc,
+                x=frfs.freq_hz, id1="FRF", rsp_ent_name="beam", ref_ent_name="beam", abscissa_spacing=1,
+                abscissa_spec_data_type=18, ordinate_spec_data_type=12, orddenom_spec_data_type=13, binary=0))
+    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+
+
+def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
+    frfs, *_ = measured(8, repeats=3)
+    uff = tmp_path / "hits.uff"
+    _write_uff(uff, frfs)
+    out = tmp_path / "ex"
+    assert main(["extract", str(uff), "--band", "20", "300", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "[[configuration]]" in printed and "noise from repeats" in printed
+    doc = json.loads((out / "extraction.json").read_text())
+    natural = doc["natural"]
+    assert len(natural) == 3 and [n["mode"] for n in natural] == [1, 2, 3]
+    assert set(natural[0]) >= {"mode", "freq_hz", "freq_hz_interval", "damping_ratio", "damping_ratio_interval",
+                               "shape", "shape_interval"}
+    assert set(natural[0]["shape"]) == {"y1", "y2", "y3"}
+    lo, hi = natural[0]["freq_hz_interval"]
+    assert lo <= natural[0]["freq_hz"] <= hi and 67.0 < natural[0]["freq_hz"] < 68.5
+    zero = doc["antiresonances"][0]
+    assert set(zero) >= {"response", "excitation", "index", "freq_hz", "freq_hz_interval"}
+    assert (out / "fit.png").stat().st_size > 10000
+    # the written CSV files read back through the case-format readers
+    natural_rows, zero_rows = read_frequency_csv(out / "frequencies.csv")
+    assert [r["hz"] for r in natural_rows] == pytest.approx([n["freq_hz"] for n in natural], rel=1e-7)
+    assert natural_rows[0]["damping_ratio"] == pytest.approx(natural[0]["damping_ratio"], rel=1e-5)
+    assert len(zero_rows) == len(doc["antiresonances"])
+    shapes = read_shape_csv(out / "shapes.csv")
+    assert set(shapes) == {1, 2, 3} and set(shapes[1]) == {"y1", "y2", "y3"}
+    assert "frequencies_csv" in (out / "configuration.toml").read_text()
+
+
+def test_cli_extract_bad_input_is_a_clear_error(tmp_path, capsys):
+    path = tmp_path / "frf.csv"
+    path.write_text("1.0;1+1j\n2.0;x\n")
+    assert main(["extract", str(path), "--responses", "x1", "--excitations", "x1", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "row 2, column 1" in err and "Traceback" not in err
+    assert main(["extract", str(path), "--out", str(tmp_path)]) == 2
+    assert "give the response DOF of each column" in capsys.readouterr().err
+
+
+def _soton(out, files, excitations):
+    if not REALDATA.is_dir():
+        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
+    args = ["extract", *(str(REALDATA / f) for f in files), "--responses", "x1", "x2", "x3",
+            "--excitations", *excitations, "--kind", "accelerance", "--band", "3", "28", "--modes", "3",
+            "--out", str(out), "--no-plot"]
+    assert main(args) == 0
+    return json.loads((out / "extraction.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def soton_all(tmp_path_factory):
+    """The three tests through one `vibupdate extract` (all nine FRFs)."""
+    return _soton(tmp_path_factory.mktemp("soton"), SOTON_FILES, ["x1", "x2", "x3"])
+
+
+def test_southampton_modes_within_0p1_percent_and_tests_consistent(tmp_path):
+    docs = [_soton(tmp_path / f"t{k + 1}", [f], [f"x{k + 1}"]) for k, f in enumerate(SOTON_FILES)]
+    for doc in docs:
+        assert [n["mode"] for n in doc["natural"]] == [1, 2, 3]
+        for n, ref, xi in zip(doc["natural"], SOTON_MODES_HZ, SOTON_DAMPING):
+            assert n["freq_hz"] == pytest.approx(ref, rel=1e-3)
+            assert n["damping_ratio"] == pytest.approx(xi, rel=0.2)  # reference printed to 2 digits
+    for k in range(3):  # the three tests agree within their intervals (common overlap)
+        intervals = [d["natural"][k]["freq_hz_interval"] for d in docs]
+        assert max(lo for lo, _ in intervals) <= min(hi for _, hi in intervals), intervals
+
+
+def _soton_zero_errors(doc):
+    errors = {}
+    for z in doc["antiresonances"]:
+        refs = SOTON_ZEROS_HZ.get((z["response"], z["excitation"]), ())
+        if refs:
+            ref = min(refs, key=lambda r: abs(r - z["freq_hz"]))
+            errors[(z["response"], z["excitation"], ref)] = (abs(z["freq_hz"] / ref - 1), z["freq_hz_interval"])
+    return errors
+
+
+def test_southampton_antiresonances_found_and_references_within_intervals(soton_all):
+    errors = _soton_zero_errors(soton_all)
+    assert set(errors) == {(r, c, ref) for (r, c), refs in SOTON_ZEROS_HZ.items() for ref in refs}
+    assert len(soton_all["antiresonances"]) == len(errors)  # no zero beyond the reference list
+    for (r, c, ref), (_, (lo, hi)) in errors.items():
+        assert lo <= ref <= hi, f"h{r}{c}: reference {ref} Hz outside [{lo:.3f}, {hi:.3f}]"
+    for n, ref in zip(soton_all["natural"], SOTON_MODES_HZ):
+        assert n["freq_hz"] == pytest.approx(ref, rel=1e-3)
+
+
+@pytest.mark.xfail(strict=True, reason="measured errors 0.01-1.2 % (h11 8.80 Hz: 1.2 %), see docs/frf-extraction.md")
+def test_southampton_antiresonances_within_0p1_percent(soton_all):
+    worst = max(e for e, _ in _soton_zero_errors(soton_all).values())
+    assert worst <= 1e-3

@@ -42,6 +42,7 @@ def _parser() -> argparse.ArgumentParser:
     fx.add_argument("--modes", type=int, default=None, help="keep this many modes (default: all stable ones)")
     fx.add_argument("--first-mode", type=int, default=1, help="model mode number of the lowest extracted mode")
     fx.add_argument("--confidence", type=float, default=0.95, help="level of the intervals (default 0.95)")
+    fx.add_argument("--no-plot", action="store_true", help="do not write fit.png")
     return parser
 
 
@@ -80,7 +81,7 @@ def _extract(args) -> int:
     frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence)
-    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode)
+    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot)
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
           f"intervals at {100 * args.confidence:g} %")
     for k, m in enumerate(result.modes):

@@ -313,7 +313,7 @@ def _refine_poles(x, F, wn, zeta, var, weighted: bool):
     lower = np.concatenate([np.full(n, x[0] * 0.5), np.full(n, 1e-6)])
     upper = np.concatenate([np.full(n, x[-1] * 1.5), np.full(n, 0.5)])
     sol = scipy.optimize.least_squares(_projected_residual, theta0, args=(x, F, W), bounds=(lower, upper),
-                                       x_scale=np.concatenate([wn, zeta]), xtol=1e-12, ftol=1e-12,
+                                       x_scale=np.concatenate([wn, zeta]), xtol=1e-10, ftol=1e-10, max_nfev=60,
                                        method="trf")
     J, r = sol.jac, sol.fun
     v = np.concatenate([var * W**2, var * W**2], axis=1).ravel() / 2.0  # per weighted real component

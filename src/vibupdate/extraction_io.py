@@ -131,7 +131,7 @@ def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     axes[0, 0].plot([], [], color="C3", ls="--", label="poles")
     axes[0, 0].plot([], [], color="C2", ls=":", label="zeros")
     axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, wspace=0.35, hspace=0.5)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return Path(path)
