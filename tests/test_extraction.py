@@ -277,3 +277,16 @@ def test_southampton_antiresonances_found_and_references_within_intervals(soton_
 def test_southampton_antiresonances_within_0p1_percent(soton_all):
     worst = max(e for e, _ in _soton_zero_errors(soton_all).values())
     assert worst <= 1e-3
+
+
+def test_docs_example_runs_and_finds_the_truth(capsys):
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "frf-extraction.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "docs/frf-extraction.md", "exec"), namespace)
+    result = namespace["result"]
+    assert [round(m.omega / 2 / math.pi, 2) for m in result.modes] == [9.84, 25.75]
+    assert [(z.response, z.excitation) for z in result.zeros] == [("x1", "x1")]
+    assert result.zeros[0].omega == pytest.approx(100.0, rel=1e-3)  # sqrt(k2 / m2) rad/s

@@ -469,7 +469,12 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     if wn.size == 0:
         raise ValueError(f"no stable mode found in the band {omega[0] / 2 / math.pi:.6g}-"
                          f"{omega[-1] / 2 / math.pi:.6g} Hz (orders {orders}, min_stable {min_stable})")
-    wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts)
+    var = _noise_from_repeats(frfs.H)
+    noise = "repeats" if var is not None else "residual"
+    var = var / scales[:, None] ** 2 if var is not None else _residual_variance(x, F, wn, zeta)
+    wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var)
+    if wn.size == 0:
+        raise ValueError("no mode stands out of the noise in the band")
     if n_modes is not None:
         if n_modes > wn.size:
             raise ValueError(f"n_modes = {n_modes} but only {wn.size} stable mode(s) were found in the band")
@@ -482,10 +487,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
                 keep = np.array(single)[sub]
         wn, zeta, counts = wn[keep], zeta[keep], [counts[k] for k in keep]
 
-    var = _noise_from_repeats(frfs.H)
-    noise = "repeats" if var is not None else "residual"
-    if var is not None:
-        var = var / scales[:, None] ** 2
+    if noise == "repeats":
         wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True)
     else:  # feasible weighted least squares: noise from the residual, refit, once more
         for _ in range(2):
@@ -498,15 +500,25 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     return _stage_two(frfs, x, F, var, scales, wn, zeta, cov_poles, counts, stab, noise, confidence, scale_w)
 
 
-def _significant(x, F, wn, zeta, counts, threshold: float = 1e-3):
-    """Drop poles whose peak modal response is below ``threshold`` times the FRF there, in
-    every FRF (computational poles of a noise-free fit). Returns the kept poles and peaks."""
+def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandwidth: float = 0.1,
+                 min_lines: int = 5):
+    """Drop poles the data cannot resolve: a half-power bandwidth ``2 zeta w_n`` below
+    ``min_bandwidth`` line spacings; a response on the measured lines below ``threshold``
+    times the FRF at the pole in every FRF (computational poles of a noise-free fit); or a
+    response above twice the noise (``var``, (n_pairs, n_freq)) on fewer than ``min_lines``
+    lines in every FRF (a pole fitted to a noise spike). Returns the kept poles and their
+    largest sampled response."""
+    spacing = float(np.median(np.diff(x)))
     Phi = _basis(x, wn, zeta)
     coef = np.array([_linear_fit(Phi, f, np.ones(x.size))[0] for f in F])
     n = wn.size
-    peak = np.abs(coef[:, 0:2 * n:2] + 1j * coef[:, 1:2 * n:2]) / (zeta * wn)       # (n_pairs, n)
-    at_pole = np.abs(F[:, np.clip(np.searchsorted(x, wn), 0, x.size - 1)])           # (n_pairs, n)
-    keep = np.any(peak > threshold * at_pole, axis=0)
+    own = np.abs(Phi[:, 0:2 * n:2][None] * coef[:, None, 0:2 * n:2]
+                 + Phi[:, 1:2 * n:2][None] * coef[:, None, 1:2 * n:2])                 # (n_pairs, n_freq, n)
+    peak = own.max(axis=1)                                                              # (n_pairs, n)
+    at_pole = np.abs(F[:, np.clip(np.searchsorted(x, wn), 0, x.size - 1)])              # (n_pairs, n)
+    above_noise = np.sum(own > 2.0 * np.sqrt(var)[:, :, None], axis=1)                # (n_pairs, n)
+    keep = (np.any(peak > threshold * at_pole, axis=0) & (2 * zeta * wn >= min_bandwidth * spacing)
+            & np.any(above_noise >= min_lines, axis=0))
     return wn[keep], zeta[keep], [c for c, k in zip(counts, keep) if k], peak.max(axis=0)[keep]
 
 
