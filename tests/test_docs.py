@@ -19,8 +19,8 @@ TEXT_SUFFIXES = {".py", ".md", ".toml", ".txt", ".csv", ".json", ".rst", ".cfg",
 
 LINK = re.compile(r"(?<!\!)\[(?:[^\]\[]|\[[^\]]*\])*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 IMAGE = re.compile(r"!\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
-REFERENCE = re.compile(r"^\s{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s+.*)?$", re.MULTILINE)
-FENCE = re.compile(r"^(\s{0,3})(```|~~~).*?^\1\2[^\n]*$", re.MULTILINE | re.DOTALL)
+REFERENCE = re.compile(r"^[ \t]{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s+.*)?$", re.MULTILINE)
+FENCE = re.compile(r"^([ \t]{0,3})(```|~~~).*?^\1\2[^\n]*$", re.MULTILINE | re.DOTALL)
 CODE_SPAN = re.compile(r"(`+)(?!`).*?(?<!`)\1(?!`)", re.DOTALL)
 
 
@@ -66,7 +66,7 @@ def _anchors(path: Path) -> set[str]:
     seen: dict[str, int] = {}
     out = set()
     for line in FENCE.sub("", path.read_text(encoding="utf-8")).splitlines():
-        m = re.match(r"^\s{0,3}#{1,6}\s+(.*?)\s*#*\s*$", line)
+        m = re.match(r"^[ \t]{0,3}#{1,6}\s+(.*?)\s*#*\s*$", line)
         if not m:
             continue
         slug = _slug(m.group(1))
@@ -127,15 +127,19 @@ def test_every_relative_link_resolves(path):
 
 def test_the_link_checker_finds_broken_links(tmp_path):
     """The checker itself: a missing file, a missing anchor and a path out of the tree are
-    reported; a good file link, a good anchor, a URL and a link inside code are not."""
+    reported; a good file link, good anchors (also of a heading between two fenced blocks), a URL
+    and a link inside code are not."""
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "other.md").write_text("# A title, with `code`\n\n## Second step\n", encoding="utf-8")
     page = tmp_path / "sub" / "page.md"
     page.write_text(
         "# Page\n"
         "[ok](other.md) [ok anchor](other.md#a-title-with-code) [self](#page) [web](https://example.org)\n"
-        "`[in code](missing.md)`\n"
-        "```\n[in a fence](missing.md)\n```\n"
+        "[later heading](#after-the-fence)\n"
+        "`[in code](missing.md)`\n\n"
+        "```\n[in a fence](missing.md)\n```\n\n"
+        "## After the fence\n\n"
+        "```\nsecond = fence\n```\n"
         "[missing](nothere.md) [bad anchor](other.md#third-step) [outside](../../x.md)\n",
         encoding="utf-8")
     bad = broken_links(page, root=tmp_path)
