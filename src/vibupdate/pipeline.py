@@ -151,7 +151,11 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     final = Path(out_dir)
     if final.exists() and not final.is_dir():
         raise ValueError(f"output path {str(final)!r} exists and is not a directory")
-    result = update(case.configurations, formulation=case.formulation, solver=case.solver, progress=say)
+    from vibupdate.verify import VerifyOptions
+
+    verification = VerifyOptions(frequency_tolerance=max(VerifyOptions().frequency_tolerance, case.frequency_tolerance))
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver,
+                    verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
     extra = {"identifiability": _identifiability(result)}
