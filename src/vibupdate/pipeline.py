@@ -153,7 +153,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         raise ValueError(f"output path {str(final)!r} exists and is not a directory")
     from vibupdate.verify import VerifyOptions
 
-    verification = VerifyOptions(frequency_tolerance=max(VerifyOptions().frequency_tolerance, case.frequency_tolerance))
+    verification = (VerifyOptions(frequency_tolerance=case.frequency_tolerance) if case.frequency_tolerance > 0
+                    else VerifyOptions())
     result = update(case.configurations, formulation=case.formulation, solver=case.solver,
                     verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
