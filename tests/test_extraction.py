@@ -290,3 +290,28 @@ def test_docs_example_runs_and_finds_the_truth(capsys):
     assert [round(m.omega / 2 / math.pi, 2) for m in result.modes] == [9.84, 25.75]
     assert [(z.response, z.excitation) for z in result.zeros] == [("x1", "x1")]
     assert result.zeros[0].omega == pytest.approx(100.0, rel=1e-3)  # sqrt(k2 / m2) rad/s
+
+
+def test_case_configuration_from_frf_files(tmp_path):
+    from vibupdate.case import load_case
+    from vibupdate.examples import cantilever
+
+    frfs, *_ = measured(9, repeats=3)
+    _write_uff(tmp_path / "hits.uff", frfs)
+    params = "\n".join(f'[[parameter]]\nname = "{p.name}"\nnominal = {p.nominal!r}\nlower = {p.lower!r}\n'
+                       f'upper = {p.upper!r}\n' for p in cantilever.parameters())
+    text = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
+            '[[configuration]]\nname = "A"\n[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n')
+    (tmp_path / "case.toml").write_text(text)
+    cfg = load_case(tmp_path / "case.toml").configurations[0]
+    assert [n.mode for n in cfg.natural] == [1, 2, 3]
+    assert all(n.interval is not None and n.damping_interval is not None and n.shape is not None for n in cfg.natural)
+    assert cfg.natural[0].freq_hz == pytest.approx(67.65, rel=1e-3)
+    assert [z.index for z in cfg.antiresonances if z.response == "y3"] == [1, 2]
+    assert all(z.interval is not None for z in cfg.antiresonances)
+    (tmp_path / "case.toml").write_text(text.replace('name = "A"\n', 'name = "A"\nnatural_hz = [70.0]\n'))
+    with pytest.raises(ValueError, match="FRF files take the place of typed data; remove natural_hz"):
+        load_case(tmp_path / "case.toml")
+    (tmp_path / "case.toml").write_text(text.replace('files = ["hits.uff"]', 'files = ["none.uff"]'))
+    with pytest.raises(ValueError, match=r"configuration 'A'.frf: UFF file .*none.uff' does not exist"):
+        load_case(tmp_path / "case.toml")
