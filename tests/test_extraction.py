@@ -315,3 +315,37 @@ def test_case_configuration_from_frf_files(tmp_path):
     (tmp_path / "case.toml").write_text(text.replace('files = ["hits.uff"]', 'files = ["none.uff"]'))
     with pytest.raises(ValueError, match=r"configuration 'A'.frf: UFF file .*none.uff' does not exist"):
         load_case(tmp_path / "case.toml")
+
+
+def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
+    """docs/soton-frame.toml: extraction and updating in one ``vibupdate run``; compared with
+    the classical frequency fit (vibupdate.baseline) on the same model and data."""
+    if not REALDATA.is_dir():
+        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
+    import shutil
+
+    from vibupdate.analysis import antiresonances
+    from vibupdate.baseline import frequency_fit
+    from vibupdate.case import load_case
+
+    shutil.copy(Path(__file__).resolve().parents[1] / "docs" / "soton-frame.toml", tmp_path / "case.toml")
+    for name in SOTON_FILES:
+        (tmp_path / name).symlink_to(REALDATA / name)
+    code = main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")])
+    assert code in (0, 1)  # 1: solved but not verified (a shear model cannot fit every zero)
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    rows = doc["frequencies"]
+    assert len(rows) == 13  # 3 natural frequencies and the 10 antiresonances, all from the FRFs
+    updated = np.mean([r["error_updated_pct"] for r in rows])
+    nominal = np.mean([r["error_nominal_pct"] for r in rows])
+    # the classical frequency fit on the same model, judged on the same 13 frequencies
+    case = load_case(tmp_path / "case.toml")
+    fit = frequency_fit(case.configurations)
+    cfg = case.configurations[0]
+    M, K = cfg.model.matrices(fit.xbar)
+    classical = [fit.mean_error_pct] * len(cfg.natural)
+    for z in cfg.antiresonances:
+        model = antiresonances(M, K, cfg.model.dof(z.response), cfg.model.dof(z.excitation))
+        classical.append(100 * float(np.min(np.abs(model / z.omega - 1))))
+    # measured: nominal 11.43 %, updated 1.87 %, classical 1.63 % (docs/frf-extraction.md)
+    assert updated < nominal / 4 and np.mean(classical) < nominal / 4
