@@ -140,3 +140,147 @@ def test_a_failed_update_exits_non_zero_with_the_reason(tmp_path, capsys):
     assert "updating failed" in capsys.readouterr().err
     doc = json.loads((out / "results.json").read_text())
     assert doc["solver"]["status"] != "success"
+
+
+# --- exit codes and messages (issue 12, items 3 and 4) ---------------------------------------
+
+BUILDER_CASE = """\
+case = "built"
+
+[model]
+type = "builder"
+builder = "model.py:build"
+
+[[parameter]]
+name = "k"
+unit = "N/m"
+nominal = 1000.0
+lower = 500.0
+upper = 2000.0
+
+[[configuration]]
+name = "A"
+natural_hz = [5.0]
+"""
+
+
+@pytest.mark.parametrize("source, expected", [
+    ("def build(p):\n    return 1 / 0\n", "ZeroDivisionError"),
+    ("def build(p)\n    return None\n", "SyntaxError"),
+    ("def build():\n    return None\n", "TypeError"),
+    ("import vibupdate_no_such_module\n", "vibupdate_no_such_module"),
+])
+def test_a_broken_builder_is_bad_input_with_a_message_not_a_traceback(tmp_path, capsys, source, expected):
+    (tmp_path / "model.py").write_text(source)
+    case = tmp_path / "case.toml"
+    case.write_text(BUILDER_CASE)
+    for command in (["check", str(case)], ["run", str(case), "--out", str(tmp_path / "out")]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("vibupdate: error:") and expected in err and "Traceback" not in err, err
+        assert str(case) in err or "model.builder" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("line, key", [("tol = -1e-8", "tol"), ("max_cpu_time = 0", "max_cpu_time"),
+                                       ("max_iter = 0", "max_iter")])
+def test_solver_options_out_of_range_are_bad_input(tmp_path, capsys, line, key):
+    from outputs_helpers import TINY_CASE, write_case
+
+    case = write_case(tmp_path, TINY_CASE.replace("[solver]\n", f"[solver]\n{line}\n"))
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert key in err and "Traceback" not in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_internal_error_is_one_line_and_debug_prints_the_traceback(tmp_path, monkeypatch, capsys):
+    from outputs_helpers import write_case
+
+    import vibupdate.pipeline
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(vibupdate.pipeline, "update", broken)
+    case = write_case(tmp_path)
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "internal error" in err and "ZeroDivisionError" in err and "--debug" in err
+    assert main(["--debug", "run", str(case), "--out", str(tmp_path / "out")]) == 3
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and "broken" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_python_dash_m_vibupdate_runs_the_command_line(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from vibupdate import __version__
+
+    done = subprocess.run([sys.executable, "-m", "vibupdate", "--version"], capture_output=True, text=True,
+                          env=os.environ, cwd=tmp_path, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == f"vibupdate {__version__}"
+    done = subprocess.run([sys.executable, "-m", "vibupdate", "check", "missing.toml"], capture_output=True,
+                          text=True, env=os.environ, cwd=tmp_path, timeout=120)
+    assert done.returncode == 2 and "does not exist" in done.stderr and "Traceback" not in done.stderr
+
+
+def _slow_case(folder: Path) -> Path:
+    """The frame example refined 3 times without reduction, n_lambda = 1: its lambda = 1 solve
+    runs tens of IPOPT iterations over several seconds."""
+    import shutil
+
+    source = ROOT / "examples" / "frame"
+    for name in ("frequencies.csv", "shapes.csv"):
+        shutil.copy(source / name, folder / name)
+    text = (source / "case.toml").read_text()
+    text = text.replace('name = "frame"\n', 'name = "frame"\noptions = { subdivisions = 3 }\n', 1)
+    text += '\n[formulation]\nreduction = "none"\n\n[solver]\nn_lambda = 1\n'
+    path = folder / "case.toml"
+    path.write_text(text)
+    return path
+
+
+def test_sigint_during_ipopt_iterations_exits_130_within_2_s_and_keeps_earlier_results(tmp_path):
+    """Ctrl-C while IPOPT iterates: CasADi catches it and would report a failed solve; the run
+    must stop at once, exit 130 and leave the previous results folder as it was."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from outputs_helpers import snapshot
+
+    case = _slow_case(tmp_path)
+    out = tmp_path / "results"
+    out.mkdir()  # earlier results of this case (a results folder vibupdate owns)
+    (out / "results.json").write_text('{"earlier": true}\n')
+    (out / "vibupdate-manifest.json").write_text('{"files": ["results.json"]}\n')
+    before = snapshot(tmp_path)
+    proc = subprocess.Popen([sys.executable, "-m", "vibupdate", "run", str(case), "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=os.environ, cwd=tmp_path)
+    lines = []
+    try:
+        for line in proc.stdout:  # the lambda = 0 line: the next thing is the long lambda = 1 solve
+            lines.append(line)
+            if "lambda = 0.0000" in line:
+                break
+        assert proc.poll() is None, "".join(lines)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        rest, _ = proc.communicate(timeout=30)
+        elapsed = time.monotonic() - sent
+    finally:
+        proc.kill()
+    text = "".join(lines) + rest
+    assert proc.returncode == 130, text
+    assert elapsed < 2.0, f"exit {elapsed:.2f} s after SIGINT"
+    assert "KeyboardInterruptException" in text, "the signal did not arrive inside IPOPT:\n" + text
+    assert "lambda = 1.0000" not in text and "Traceback" not in text
+    assert "interrupted" in rest
+    assert snapshot(tmp_path) == before
