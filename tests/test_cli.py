@@ -106,25 +106,25 @@ def test_results_and_matrices_reload_and_reproduce_the_updated_frequencies(canti
     from vibupdate.results import load_results
 
     out = cantilever_run[1]
-    doc = load_results(out / "results.json")
+    run = load_results(out / "results.json")
     for name in "ABCD":
         M = scipy.io.mmread(str(out / f"M_{name}.mtx"))
         K = scipy.io.mmread(str(out / f"K_{name}.mtx"))
         C = scipy.io.mmread(str(out / f"C_{name}.mtx")).toarray()
         omega, Phi = modes(M, K, 3)
-        rows = [r for r in doc["frequencies"] if r["configuration"] == name]
-        nat = [r["updated_hz"] for r in rows if r["kind"] == "natural"]
+        rows = [r for r in run.frequencies if r.configuration == name]
+        nat = [r.updated_hz for r in rows if r.kind == "natural"]
         np.testing.assert_allclose(omega / (2 * np.pi), nat, rtol=1e-9)
         z = antiresonances(M, K, 0, 4)  # y1 and y3 are DOFs 0 and 4 of the cantilever
-        zhz = [r["updated_hz"] for r in rows if r["kind"] == "antiresonance"]
+        zhz = [r.updated_hz for r in rows if r.kind == "antiresonance"]
         assert np.min(np.abs(z / (2 * np.pi) - zhz[0])) < 1e-9 * zhz[0]
         ratios = np.diag(Phi.T @ C @ Phi) / (2 * omega)
-        identified = [d["identified"] for d in doc["damping"] if d["configuration"] == name]
+        identified = [d.identified for d in run.damping if d.configuration == name]
         np.testing.assert_allclose(ratios, identified, rtol=1e-6)
     # Reloaded parameters rebuild the same model.
     from vibupdate.examples import cantilever
 
-    values = [p["updated"] for p in doc["parameters"]]
+    values = [p.updated for p in run.parameters]
     model = cantilever.configurations()[0].model
     M, K = model.matrices_at(values)
     np.testing.assert_allclose(M.toarray(), scipy.io.mmread(str(out / "M_A.mtx")).toarray(), rtol=1e-12)

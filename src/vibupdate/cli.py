@@ -64,8 +64,8 @@ def _finish(run) -> int:
     for warning in run.warnings:
         print(f"vibupdate: warning: {warning}", file=sys.stderr)
     if not run.success:
-        print(f"vibupdate: updating not verified ({run.status}): {run.solver.get('message')}; results written",
-              file=sys.stderr)
+        what = "solved but not verified" if run.status == "not_verified" else f"updating failed ({run.status})"
+        print(f"vibupdate: {what}: {run.solver.get('message')}; results written with the status", file=sys.stderr)
         return EXIT["not_verified"]
     return EXIT["success"]
 
