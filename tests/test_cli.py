@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from vibupdate.cli import main
+from vibupdate.results import validate_document
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -53,6 +54,7 @@ def test_example_cantilever_writes_results_json(cantilever_run):
     code, out, printed = cantilever_run
     assert code == 0
     doc = json.loads((out / "results.json").read_text())
+    validate_document(doc)
     for key in ("case", "parameters", "frequencies", "damping", "summary", "problem_size", "solver"):
         assert key in doc
     rows = doc["frequencies"]
@@ -139,7 +141,8 @@ def test_a_failed_update_exits_non_zero_with_the_reason(tmp_path, capsys):
     assert main(["run", str(case), "--out", str(out)]) == 1
     assert "updating failed" in capsys.readouterr().err
     doc = json.loads((out / "results.json").read_text())
-    assert doc["solver"]["status"] != "success"
+    validate_document(doc)
+    assert doc["solver"]["status"] != "success" and doc["success"] is False
 
 
 # --- exit codes and messages (issue 12, items 3 and 4) ---------------------------------------
