@@ -117,3 +117,19 @@ def test_mac_values_and_the_mac_plot_come_from_the_result_for_measured_shapes():
     assert len(mac) == len(case.configurations[0].natural) and min(mac) > 0.9
     matrix = np.array(doc["mac_matrix"]["frame"]["values"], dtype=float)
     np.testing.assert_allclose(np.diag(matrix)[:len(mac)], mac, rtol=1e-8)
+
+
+def test_the_outputs_page_example_runs(tiny_run, tmp_path, monkeypatch, capsys):
+    import re
+    import shutil
+    from pathlib import Path
+
+    _, out, _ = tiny_run
+    shutil.copytree(out, tmp_path / "case-results")
+    monkeypatch.chdir(tmp_path)
+    text = (Path(__file__).resolve().parents[1] / "docs" / "outputs.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks
+    for block in blocks:
+        exec(compile(block, "docs/outputs.md", "exec"), {})
+    assert "tiny" in capsys.readouterr().out
