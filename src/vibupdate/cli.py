@@ -61,8 +61,6 @@ def _print_tables(document: dict) -> None:
 
 def _finish(run) -> int:
     _print_tables(run.as_document())
-    for warning in run.warnings:
-        print(f"vibupdate: warning: {warning}", file=sys.stderr)
     if not run.success:
         what = "solved but not verified" if run.status == "not_verified" else f"updating failed ({run.status})"
         print(f"vibupdate: {what}: {run.solver.get('message')}; results written with the status", file=sys.stderr)

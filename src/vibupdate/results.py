@@ -250,10 +250,10 @@ def _check_dict(check) -> dict:
     """A verification check as a plain dict, whatever form the first stage gives it."""
     if isinstance(check, Mapping):
         return _plain(dict(check))
-    if dataclasses.is_dataclass(check):
-        return _plain(dataclasses.asdict(check))
     if hasattr(check, "as_dict"):
         return _plain(check.as_dict())
+    if dataclasses.is_dataclass(check):
+        return _plain(dataclasses.asdict(check))
     return {"text": str(check)}
 
 
@@ -288,6 +288,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     """
     from vibupdate import __version__
     from vibupdate.analysis import mac as mac_of
+    from vibupdate.analysis import modes
     from vibupdate.damping import caughey_matrix
 
     configurations = case.configurations
@@ -319,8 +320,6 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         frf[cfg.name] = {"response": response, "excitation": excitation}
         measured = [f for f in cfg.natural if f.shape is not None]
         if measured:
-            from vibupdate.analysis import modes
-
             names = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
             X = np.array([[f.shape.midpoint.get(d, 0.0) for d in names] for f in measured]).T
             _, Phi = modes(M, K, len(cfg.natural))
