@@ -28,6 +28,7 @@ from vibupdate.update import UpdateResult, prepare, update
 
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
            "planned_files"]
+
 #: Parameter ranges (finite differences of the modal data, two LPs per parameter) up to this size.
 RANGES_DOF_LIMIT = 2000
 
@@ -87,7 +88,7 @@ def planned_files(case: Case) -> list[str]:
     """Names of the files a run of ``case`` writes (before knowing which plots apply: the MAC
     plots only where shapes were measured, ``C`` only with damping ratios)."""
     names = ["results.json", "report.md", "homotopy.png"]
-    for cfg, part in file_names([c.name for c in case.configurations]).items():
+    for part in file_names([c.name for c in case.configurations]).values():
         names += [f"M_{part}.mtx", f"K_{part}.mtx", f"C_{part}.mtx", f"frf_{part}.png", f"mac_{part}.png"]
     return names
 
