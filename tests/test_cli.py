@@ -98,6 +98,11 @@ def test_report_renders_tables_and_plots(cantilever_run):
         data = (out / name).read_bytes()
         assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 1000
     assert "Relative weights 1/xi^2" in report
+    # The verification checks and warnings of the result are in the report, as results.json has them.
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["checks"] and "## Verification" in report
+    assert all(c["name"] in report for c in doc["checks"])
+    assert all(w in report for w in doc["warnings"])
 
 
 def test_results_and_matrices_reload_and_reproduce_the_updated_frequencies(cantilever_run):
