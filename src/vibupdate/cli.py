@@ -63,8 +63,11 @@ def _print_tables(document: dict) -> None:
 def _finish(run) -> int:
     _print_tables(run.as_document())
     if not run.success:
-        what = "solved but not verified" if run.status == "not_verified" else f"updating failed ({run.status})"
-        print(f"vibupdate: {what}: {run.solver.get('message')}; results written with the status", file=sys.stderr)
+        if run.status == "not_verified":
+            print(f"vibupdate: {run.solver.get('message')}; see the warnings above and the report", file=sys.stderr)
+        else:
+            print(f"vibupdate: updating failed: {run.solver.get('message')}; results written with the status",
+                  file=sys.stderr)
         return EXIT["not_verified"]
     return EXIT["success"]
 

@@ -143,10 +143,11 @@ def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | Non
 
 
 def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8) -> dict:
-    """Relative sensitivity of the measured frequencies to the normalized parameters.
+    """Sensitivity of the measured data to the normalized parameters.
 
     ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
-    antiresonance, exact (`relative_sensitivity`). Its singular values tell how many parameter
+    antiresonance (`relative_sensitivity`), then ``d (phi_j / phi_p) / d xbar_i`` of every
+    measured shape entry normalized at the mode's largest measured entry ``p``; all exact. Its singular values tell how many parameter
     combinations the data determine; the right singular vectors of the (near-)zero singular
     values are the combinations the data cannot see.
 
@@ -165,7 +166,8 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
         to first order.
     """
     xbar = np.asarray(xbar, dtype=float)
-    S = np.vstack([relative_sensitivity(c, xbar) for c in configurations])
+    S = np.vstack([relative_sensitivity(c, xbar) for c in configurations]
+                  + [_shape_rows(c, xbar) for c in configurations])
     S = S[np.all(np.isfinite(S), axis=1)]
     n_x = xbar.size
     if S.size:
@@ -183,6 +185,24 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
         "column_norm": np.linalg.norm(S, axis=0),
         "null_directions": null,
     }
+
+
+def _shape_rows(cfg: Configuration, xbar) -> np.ndarray:
+    """Exact derivatives of the measured shape ratios, shape (n_ratios, n_x)."""
+    from vibupdate.sensitivities import shape_ratio_derivatives
+
+    rows = [np.zeros((0, cfg.model.n_parameters))]
+    measured = [(k, f) for k, f in enumerate(cfg.natural) if f.shape is not None and len(f.shape.bounds) > 1]
+    if not measured:
+        return rows[0]
+    freqs = model_frequencies(cfg, xbar)
+    for k, f in measured:
+        mid = f.shape.midpoint
+        p = max(mid, key=lambda d: abs(mid[d]))
+        idx = [cfg.model.dof(d) for d in mid if d != p]
+        rows.append(shape_ratio_derivatives(cfg.model, xbar, freqs.natural[k], freqs.Phi[:, k], idx,
+                                            cfg.model.dof(p)))
+    return np.vstack(rows)
 
 
 def _complement(Vt: np.ndarray, n: int) -> np.ndarray:

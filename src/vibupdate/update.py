@@ -3,9 +3,11 @@
 1. Formulation (`vibupdate.formulation`) with interlacing sign bounds
    (`vibupdate.interlacing`), McCormick relaxation (`vibupdate.relaxation`) and the homotopy
    (`vibupdate.homotopy`): the first stage.
-2. When the relaxation's lower bound proves that nothing inside the boxes fits and the boxes
-   of unmeasured vector entries are active at its optimum, those boxes are widened tenfold
-   and the first stage repeated (at most twice); every attempt is recorded.
+2. When the relaxation's lower bound proves that nothing inside the boxes fits, the boxes of
+   vector entries that come from a margin (unmeasured mode entries, adjunct entries) are
+   widened tenfold and the first stage repeated (at most twice); every attempt is recorded.
+   Whether the widening removed the misfit is measured, not assumed: a bound that stays
+   positive points at the parameter bounds or the data.
 3. The polish (`vibupdate.polish`) on the full model, default on.
 4. Verification (`vibupdate.verify`): the status is ``success`` only when every check of the
    returned model against the data passes, ``not_verified`` when the path reached
@@ -155,34 +157,33 @@ def _message(status: Status, lam: float, steps, checks=()) -> str:
     return f"homotopy stopped at lambda = {lam:.4f} ({status.value}){detail}"
 
 
-def _active_bounds(problem: BilinearProblem, path: HomotopyResult) -> tuple[list[str], bool]:
-    """Bounds active at the relaxation's optimum, named; and whether any is a margin box of
-    unmeasured vector entries (which the update may widen)."""
+def _active_bounds(problem: BilinearProblem, path: HomotopyResult) -> list[str]:
+    """Bounds of parameters and of margin-bounded vector entries at which the relaxation's
+    optimum sits, named for the user."""
     if path.relaxed_x is None:
-        return [], False
-    names, margins = [], False
-    x = path.relaxed_x
+        return []
+    names = []
     span = np.where(problem.x_upper > problem.x_lower, problem.x_upper - problem.x_lower, 1.0)
-    for p, v, lo, hi, s in zip(problem.parameters, x, problem.x_lower, problem.x_upper, span):
+    for p, v, lo, hi, s in zip(problem.parameters, path.relaxed_x, problem.x_lower, problem.x_upper, span):
         if v - lo <= 1e-6 * s:
             names.append(f"lower bound of {p.name}")
         elif hi - v <= 1e-6 * s:
             names.append(f"upper bound of {p.name}")
-    u = path.relaxed_u
     for b, blk in enumerate(problem.blocks):
         free = ~blk.fixed
-        ub = u[problem.u_offsets[b]:problem.u_offsets[b + 1]]
+        ub = path.relaxed_u[problem.u_offsets[b]:problem.u_offsets[b + 1]]
         lo, hi = blk.lower[free], blk.upper[free]
-        span = np.maximum(hi - lo, 1e-12)
-        active = (ub - lo <= 1e-6 * span) | (hi - ub <= 1e-6 * span)
-        margin = np.ones(free.sum(), dtype=bool) if blk.measured is None else ~blk.measured[free]
-        if np.any(active & margin):
-            margins = True
-            what = "unmeasured entries" if blk.kind == "natural" else "entries"
+        near = (ub - lo <= 1e-3 * (hi - lo)) | (hi - ub <= 1e-3 * (hi - lo))
+        if np.any(near & _margin_entries(blk)[free]):
             option = "shape_margin" if blk.kind == "natural" else "adjunct_margin"
-            names.append(f"{what} of {blk.kind} vector {blk.index} of configuration {blk.configuration!r} "
+            names.append(f"entries of {blk.kind} vector {blk.index} of configuration {blk.configuration!r} "
                          f"({option})")
-    return names, margins
+    return names
+
+
+def _margin_entries(blk) -> np.ndarray:
+    """Entries whose box comes from a margin, not from a measured interval."""
+    return np.ones(blk.lower.size, dtype=bool) if blk.measured is None else ~blk.measured
 
 
 def _first_stage(solved, formulation, solver, allowance_tol, say):
@@ -198,12 +199,16 @@ def _first_stage(solved, formulation, solver, allowance_tol, say):
         path = solve_homotopy(problem, solver, progress=say)
         steps.extend(path.steps)
         allowance = consistency_allowance(len(problem.blocks), allowance_tol)
-        active, margins = _active_bounds(problem, path)
+        active = _active_bounds(problem, path)
         attempts.append({"shape_margin": formulation.shape_margin, "adjunct_margin": formulation.adjunct_margin,
                          "relaxation_lower_bound": path.lower_bound, "objective": path.objective,
                          "status": path.status.value, "active_bounds": active})
         inconsistent = path.lower_bound is not None and path.lower_bound > allowance
+        margins = any(np.any(_margin_entries(b) & ~b.fixed) for b in problem.blocks)
         if not (inconsistent and margins) or attempt == 2:
+            if inconsistent and attempt > 0:
+                active = active + [f"(vector boxes of unmeasured entries already widened {10 ** attempt}x "
+                                   "without removing the misfit: look at the parameter bounds and the data)"]
             return problem, path, tuple(steps), tuple(attempts), active
         formulation = replace(formulation, shape_margin=10 * formulation.shape_margin,
                               adjunct_margin=10 * formulation.adjunct_margin)
@@ -283,8 +288,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
                 f"{polished.seconds:.2f} s)")
     updated = [model_frequencies(c, xbar) for c in configurations]
     if status.ok:
+        first = [model_frequencies(c, first_xbar) for c in configurations] if polished and polished.kept else updated
         checks = verify(configurations, xbar, nominal=nominal, updated=updated, lower_bound=path.lower_bound,
-                        n_blocks=len(problem.blocks), active_bounds=active, options=verification)
+                        n_blocks=len(problem.blocks), active_bounds=active, first_stage=first,
+                        options=verification)
         if any(c.severity == "error" and not c.passed for c in checks):
             status = Status.NOT_VERIFIED
     warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
