@@ -25,7 +25,7 @@ def run_one(path: str, out_dir: str) -> dict:
     row = {"case_file": path, "results": out_dir}
     try:
         case = load_case(path)
-        _, document = run_case(case, out_dir)
+        document = run_case(case, out_dir).as_document()
     except ValueError as exc:
         return {**row, "case": Path(path).stem, "status": "bad_input", "message": str(exc)}
     solver, summary = document["solver"], document.get("summary", {})

@@ -136,6 +136,7 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     """
     from vibupdate.pipeline import _damping_stage
     from vibupdate.update import update
+    from vibupdate.verify import VerifyOptions
 
     start = time.perf_counter()
     case = _resolve(case)
@@ -146,8 +147,10 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
         row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
         return row
     row.update({f"data:{k}": v for k, v in drawn.items()})
+    tolerance = case.frequency_tolerance if sampling.frequency_tolerance is None else sampling.frequency_tolerance
+    verification = VerifyOptions(frequency_tolerance=tolerance) if tolerance > 0 else VerifyOptions()
     try:
-        result = update(cfgs, formulation=case.formulation, solver=case.solver)
+        result = update(cfgs, formulation=case.formulation, solver=case.solver, verification=verification)
     except ValueError as exc:
         row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
         return row
