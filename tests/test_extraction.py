@@ -303,7 +303,10 @@ def test_case_configuration_from_frf_files(tmp_path):
     text = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
             '[[configuration]]\nname = "A"\n[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n')
     (tmp_path / "case.toml").write_text(text)
-    cfg = load_case(tmp_path / "case.toml").configurations[0]
+    case = load_case(tmp_path / "case.toml")
+    cfg = case.configurations[0]
+    kept = case.frfs["A"]  # the measured FRFs in the band, for the report's overlay
+    assert kept.pairs == frfs.pairs and kept.freq_hz[0] >= 20 and kept.freq_hz[-1] <= 300
     assert [n.mode for n in cfg.natural] == [1, 2, 3]
     assert all(n.interval is not None and n.damping_interval is not None and n.shape is not None for n in cfg.natural)
     assert cfg.natural[0].freq_hz == pytest.approx(67.65, rel=1e-3)
@@ -315,6 +318,19 @@ def test_case_configuration_from_frf_files(tmp_path):
     (tmp_path / "case.toml").write_text(text.replace('files = ["hits.uff"]', 'files = ["none.uff"]'))
     with pytest.raises(ValueError, match=r"configuration 'A'.frf: UFF file .*none.uff' does not exist"):
         load_case(tmp_path / "case.toml")
+
+
+def test_measured_frf_overlay_plot(tmp_path):
+    from vibupdate.plots import plot_measured_frf
+    from frf_synthetic import cantilever_system
+
+    frfs, *_ = measured(4, repeats=2)
+    M, K, C, dofs = cantilever_system()
+    path = plot_measured_frf(tmp_path / "frf_A.png", frfs.band(2 * math.pi * 20, 2 * math.pi * 300), dofs,
+                             (M, 1.05 * K, None), (M, K, C), "A", "nominal (undamped)", "updated (damped)")
+    assert path.stat().st_size > 10_000
+    with pytest.raises(ValueError, match=r"no measured FRF pair .*\('y1', 'y3'\).* has both DOFs in the model"):
+        plot_measured_frf(tmp_path / "x.png", frfs, ["x1", "x2"], (M, K, None), (M, K, C), "A", "n", "u")
 
 
 def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
@@ -349,3 +365,6 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
         classical.append(100 * float(np.min(np.abs(model / z.omega - 1))))
     # measured: nominal 11.43 %, updated 1.87 %, classical 1.63 % (docs/frf-extraction.md)
     assert updated < nominal / 4 and np.mean(classical) < nominal / 4
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "FRFs of configuration frame: measured receptance (m/N" in report  # the overlay (Fig. 11)
+    assert (tmp_path / "out" / "frf_frame.png").stat().st_size > 20_000

@@ -13,8 +13,8 @@ import math
 import re
 import sys
 import tomllib
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +54,10 @@ class Case:
     formulation: FormulationOptions
     damping: DampingOptions | None
     frequency_tolerance: float = 0.0
+    frfs: Mapping = field(default_factory=dict)
+    """Per configuration whose data came from FRF files (``[configuration.frf]``), the
+    measured receptances in the extraction band (`vibupdate.frf.FRFSet`): the report overlays
+    them on the model FRFs."""
 
 
 class _Where:
@@ -300,7 +304,8 @@ _FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str,
 def _frf_data(spec: dict, base: Path, where: _Where, key: str):
     """Measured data extracted from FRF files (``[configuration.frf]``, docs/frf-extraction.md):
     natural-frequency and antiresonance dicts as the other sources give, plus intervals (Hz),
-    mode and zero numbers, and shape intervals ``{mode: {dof: (lo, hi)}}``."""
+    mode and zero numbers, shape intervals ``{mode: {dof: (lo, hi)}}`` and the measured FRFs
+    in the extraction band (`vibupdate.frf.FRFSet`)."""
     from vibupdate.extraction import extract
     from vibupdate.frf import read_frfs
 
@@ -323,7 +328,7 @@ def _frf_data(spec: dict, base: Path, where: _Where, key: str):
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {k + 1: dict(m.shape_interval) for k, m in enumerate(result.modes)}
-    return natural, zeros, shapes
+    return natural, zeros, shapes, frfs.band(*result.band)
 
 
 def _numbers(values, key, where) -> list[float]:
@@ -335,18 +340,19 @@ def _numbers(values, key, where) -> list[float]:
     return out
 
 
-def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, where: _Where) -> Configuration:
+def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, where: _Where):
+    """The configuration of one ``[[configuration]]`` table, and its measured FRFs (or None)."""
     key = f"configuration[{index}]"
     _check_table(cfg, _CFG_KEYS, key, where, required=("name",))
     key = f"configuration '{cfg['name']}'"
     model = _configuration_model(spec, cfg, parameters, base, where, key)
-    natural, zeros, shapes = [], [], {}
+    natural, zeros, shapes, frfs = [], [], {}, None
     if "frf" in cfg:
         mixed = [k for k in ("natural_hz", "antiresonances", "frequencies_csv", "mode_shapes_csv", "mode_shapes_uff")
                  if k in cfg]
         if mixed:
             raise where.error(f"{key}.frf", f"FRF files take the place of typed data; remove {', '.join(mixed)}")
-        natural, zeros, shapes = _frf_data(cfg["frf"], base, where, key)
+        natural, zeros, shapes, frfs = _frf_data(cfg["frf"], base, where, key)
     try:
         if "frequencies_csv" in cfg:
             natural, zeros = read_frequency_csv(base / cfg["frequencies_csv"])
@@ -405,7 +411,7 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
         zs = tuple(Antiresonance.from_hz(z["hz"], z["response"], z["excitation"], weight=z["weight"],
                                          index=z.get("index"), interval=rad(z.get("interval"))) for z in zeros)
         return Configuration(cfg["name"], model, nat, zs, interlacing=cfg.get("interlacing", True),
-                             first_sign=first_sign)
+                             first_sign=first_sign), frfs
     except ValueError as exc:
         raise where.error(key, str(exc)) from None
 
@@ -467,8 +473,9 @@ def load_case(path) -> Case:
         except ValueError as exc:
             raise where.error(key, str(exc)) from None
     base = path.parent
-    configurations = tuple(_configuration(cfg, i, data["model"], parameters, base, where)
-                           for i, cfg in enumerate(data["configuration"], start=1))
+    loaded = [_configuration(cfg, i, data["model"], parameters, base, where)
+              for i, cfg in enumerate(data["configuration"], start=1)]
+    configurations = tuple(c for c, _ in loaded)
     return Case(
         name=data.get("case", path.stem),
         path=path,
@@ -477,4 +484,5 @@ def load_case(path) -> Case:
         formulation=_options(FormulationOptions, data.get("formulation", {}), _FORMULATION_KEYS, "formulation", where),
         damping=_damping(data["damping"], where) if "damping" in data else None,
         frequency_tolerance=float(data.get("frequency_tolerance", 0.0)),
+        frfs={c.name: f for c, f in loaded if f is not None},
     )

@@ -97,6 +97,23 @@ def planned_files(case: Case) -> list[str]:
     return names
 
 
+def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> tuple[str, str]:
+    """``frf_NAME.png`` of a configuration whose data came from FRF files: the measured
+    receptances over the nominal and updated model receptances; returns the report's caption
+    and the file name."""
+    from vibupdate.plots import plot_measured_frf
+
+    damped = "with the identified Caughey damping" if updated[2] is not None else "undamped"
+    nominal_damping = "identified damping applied" if nominal[2] is not None else "undamped"
+    title = f"configuration {cfg.name}: measured and model receptances (m/N)"
+    plot_measured_frf(path, frfs, cfg.model.dofs, nominal, updated, title,
+                      f"nominal model ({nominal_damping})", f"updated model ({damped})")
+    caption = (f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
+               f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model ({nominal_damping}) "
+               f"and the updated model ({damped})")
+    return caption, path.name
+
+
 def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
     """Write ``results.json``, ``report.md``, plots and matrices of ``run`` into ``folder``.
 
@@ -114,13 +131,16 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
             if name in matrices:
                 scipy.io.mmwrite(str(folder / f"{name}_{part}.mtx"), sp.coo_matrix(matrices[name]),
                                  comment=f"vibupdate: updated {name} of configuration {part} (SI units)")
-        response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
-        label = f"h_{response},{excitation}"
         file = f"frf_{part}.png"
         updated = (matrices["M"], matrices["K"], matrices.get("C"))
-        plot_frf(folder / file, cfg, matrices["nominal"], updated, cfg.model.dof(response),
-                 cfg.model.dof(excitation), label)
-        images.append((f"FRF {label}, configuration {cfg.name}", file))
+        if cfg.name in case.frfs:
+            images.append(_measured_frf_plot(folder / file, cfg, case.frfs[cfg.name], matrices["nominal"], updated))
+        else:
+            response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
+            label = f"h_{response},{excitation}"
+            plot_frf(folder / file, cfg, matrices["nominal"], updated, cfg.model.dof(response),
+                     cfg.model.dof(excitation), label)
+            images.append((f"FRF {label}, configuration {cfg.name}", file))
         mac = run.mac_matrix.get(cfg.name)
         if mac is not None:
             file = f"mac_{part}.png"
