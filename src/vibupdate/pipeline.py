@@ -67,7 +67,11 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     _, ratios, labels = damping_data(case.configurations, xbar)
     factors = dict(options.mode_weights)
     weights = np.array([factors.get(mode, 1.0) for _, mode in labels])
-    if options.relative:
+    half = _damping_half_widths(case, labels)
+    from_intervals = half is not None
+    if from_intervals:
+        weights = weights / half**2
+    elif options.relative:
         weights = weights / ratios**2
     notes = []
     with warnings.catch_warnings(record=True) as caught:
@@ -76,8 +80,13 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
     for n in notes:
         say(f"warning: {n}")
-    text = ("W_ii = " + ("w_mode / xi_i^2 (relative errors)" if options.relative else "w_mode")
-            + (f" with w_mode = {factors}" if factors else " with w_mode = 1"))
+    if from_intervals:
+        text = ("W_ii = w_mode / h_i^2, h_i the half-width of the measured ratio's interval ("
+                + ", ".join(f"mode {mode}: {h:.3g}" for (_, mode), h in zip(labels, half)) + ")"
+                + ("; the case's relative = true is superseded by the intervals" if options.relative else ""))
+    else:
+        text = "W_ii = " + ("w_mode / xi_i^2 (relative errors)" if options.relative else "w_mode")
+    text += f" with w_mode = {factors}" if factors else " with w_mode = 1"
     if options.rationale:
         text += f". {options.rationale}"
     info = {"exponents": list(options.exponents), "beta": stage.caughey.beta.tolist(),
@@ -86,6 +95,30 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     say(f"damping: Caughey Y = {list(options.exponents)} mean error {stage.caughey.mean_error_pct:.1f} %, "
         f"Rayleigh {stage.rayleigh.mean_error_pct:.1f} %")
     return stage, notes, info
+
+
+def _damping_half_widths(case: Case, labels) -> np.ndarray | None:
+    """Half-widths of the measured damping-ratio intervals, one per ratio in the order of
+    ``labels`` ((configuration, mode) pairs of `damping_data`); None unless every ratio has an
+    interval of positive width (then the damping fit weighs each ratio by ``1 / h^2``)."""
+    by_name = {c.name: c for c in case.configurations}
+    half = []
+    for name, k in labels:
+        pair = by_name[name].natural[k - 1].damping_interval
+        if pair is None or not pair[1] > pair[0]:
+            return None
+        half.append(0.5 * (pair[1] - pair[0]))
+    return np.array(half)
+
+
+def _frequency_windows(case: Case) -> str:
+    """How the consistent ranges bound each frequency: the text of the report."""
+    data = [d for c in case.configurations for d in (*c.natural, *c.antiresonances)]
+    n = sum(d.interval is not None for d in data)
+    if n == 0:
+        return f"{100 * case.frequency_tolerance:.2g} % of each frequency"
+    text = f"the half-width of its measured interval ({n} of {len(data)} frequencies)"
+    return text if n == len(data) else text + f", {100 * case.frequency_tolerance:.2g} % for the others"
 
 
 def planned_files(case: Case) -> list[str]:
@@ -188,6 +221,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
+        identifiability["frequency_windows"] = _frequency_windows(case)
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
