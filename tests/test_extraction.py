@@ -215,6 +215,35 @@ def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
     assert "frequencies_csv" in (out / "configuration.toml").read_text()
 
 
+def test_cli_extract_writes_through_the_manifest_and_keeps_foreign_files(tmp_path, capsys):
+    from vibupdate.outputs import read_manifest
+
+    frfs, *_ = measured(8, repeats=2)
+    uff = tmp_path / "hits.uff"
+    _write_uff(uff, frfs)
+    out = tmp_path / "ex"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    args = ["extract", str(uff), "--band", "20", "300", "--out", str(out), "--no-plot"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "holds files vibupdate did not write (notes.txt)" in err and "--force" in err
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]  # refused before writing anything
+    assert main(args + ["--force"]) == 0
+    assert read_manifest(out) == ["configuration.toml", "damping.csv", "extraction.json", "frequencies.csv",
+                                  "shapes.csv"]
+    assert (out / "notes.txt").read_text() == "mine"
+    (out / "frequencies.csv").unlink()
+    (out / "fit.png").write_text("not ours")  # a foreign file where the plot would go
+    assert main(args[:-1] + ["--force"]) == 2
+    assert "fit.png, which vibupdate did not write and would overwrite" in capsys.readouterr().err
+    assert main(args) == 2  # foreign files again without --force
+    (out / "fit.png").unlink()
+    (out / "notes.txt").unlink()
+    assert main(args) == 0  # only vibupdate's own files: a rerun replaces them without --force
+    assert (out / "frequencies.csv").is_file()
+
+
 def test_cli_extract_bad_input_is_a_clear_error(tmp_path, capsys):
     path = tmp_path / "frf.csv"
     path.write_text("1.0;1+1j\n2.0;x\n")

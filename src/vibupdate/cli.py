@@ -60,6 +60,7 @@ def _parser() -> argparse.ArgumentParser:
     fx.add_argument("--first-mode", type=int, default=1, help="model mode number of the lowest extracted mode")
     fx.add_argument("--confidence", type=float, default=0.95, help="level of the intervals (default 0.95)")
     fx.add_argument("--no-plot", action="store_true", help="do not write fit.png")
+    fx.add_argument("--force", action="store_true", help="as for run")
     # --debug is accepted after the subcommand too.
     for p in (run, check, ex, fx):
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
@@ -126,7 +127,7 @@ def _extract(args) -> int:
     import math
 
     from vibupdate.extraction import extract
-    from vibupdate.extraction_io import configuration_block, write_extraction
+    from vibupdate.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.frf import read_frfs
 
     mapping = {}
@@ -137,8 +138,10 @@ def _extract(args) -> int:
         mapping[key.strip()] = value.strip()
     frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
+    check_extraction_folder(args.out, args.force)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence)
-    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot)
+    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
+                             force=args.force)
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
           f"intervals at {100 * args.confidence:g} %")
     for k, m in enumerate(result.modes):
