@@ -369,7 +369,6 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
         pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     import shutil
 
-    from vibupdate.analysis import antiresonances
     from vibupdate.baseline import frequency_fit
     from vibupdate.case import load_case
 
@@ -383,17 +382,41 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
     assert len(rows) == 13  # 3 natural frequencies and the 10 antiresonances, all from the FRFs
     updated = np.mean([r["error_updated_pct"] for r in rows])
     nominal = np.mean([r["error_nominal_pct"] for r in rows])
-    # the classical frequency fit on the same model, judged on the same 13 frequencies
-    case = load_case(tmp_path / "case.toml")
-    fit = frequency_fit(case.configurations)
-    cfg = case.configurations[0]
-    M, K = cfg.model.matrices(fit.xbar)
-    classical = [fit.mean_error_pct] * len(cfg.natural)
-    for z in cfg.antiresonances:
-        model = antiresonances(M, K, cfg.model.dof(z.response), cfg.model.dof(z.excitation))
-        classical.append(100 * float(np.min(np.abs(model / z.omega - 1))))
-    # measured: nominal 11.43 %, updated 1.87 %, classical 1.63 % (docs/frf-extraction.md)
-    assert updated < nominal / 4 and np.mean(classical) < nominal / 4
+    # the classical frequency fit on the same model and the same 13 frequencies (its mean error
+    # is over all of them)
+    classical = frequency_fit(load_case(tmp_path / "case.toml").configurations).mean_error_pct
+    # measured: nominal 11.43 %, updated 1.87 %, classical 1.86 % (docs/frf-extraction.md)
+    assert updated < nominal / 4 and classical < nominal / 4
     report = (tmp_path / "out" / "report.md").read_text()
     assert "FRFs of configuration frame: measured receptance (m/N" in report  # the overlay (Fig. 11)
     assert (tmp_path / "out" / "frf_frame.png").stat().st_size > 20_000
+
+
+@pytest.mark.slow
+def test_southampton_frame_element_model_updated_from_frfs_in_one_run(tmp_path):
+    """docs/soton-frame-elements.toml: the planar frame-element model (legs as frame elements,
+    floors as stiff plates, base rotational spring) updated from the FRFs in one run; about
+    40-80 s on a loaded machine, hence slow. It does not verify: the fit check fails (docs/frf-extraction.md)."""
+    if not REALDATA.is_dir():
+        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
+    import shutil
+
+    from vibupdate.baseline import frequency_fit
+    from vibupdate.case import load_case
+
+    shutil.copy(Path(__file__).resolve().parents[1] / "docs" / "soton-frame-elements.toml", tmp_path / "case.toml")
+    for name in SOTON_FILES:
+        (tmp_path / name).symlink_to(REALDATA / name)
+    code = main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")])
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert len(doc["frequencies"]) == 13
+    updated = np.mean([r["error_updated_pct"] for r in doc["frequencies"]])
+    nominal = np.mean([r["error_nominal_pct"] for r in doc["frequencies"]])
+    classical = frequency_fit(load_case(tmp_path / "case.toml").configurations).mean_error_pct
+    # measured: nominal 9.19 %, updated 1.92 %, classical 1.85 %; not verified (fit check)
+    assert updated < nominal / 4 and classical < nominal / 4
+    assert updated < 1.2 * classical  # the homotopy answer is as good as the local fit, within 20 %
+    if code == 1:
+        failed = [c["name"] for c in doc["checks"] if not c.get("passed", True)]
+        assert "fit" in failed, failed
+    assert (tmp_path / "out" / "frf_frame.png").is_file()
