@@ -129,7 +129,8 @@ def _is_positive_definite(M: sp.spmatrix) -> bool:
 
 def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
     """Raise ValueError unless ``M``, ``K`` are square, equal in size, finite, symmetric and
-    ``M`` is positive definite; ``dofs`` must name every row."""
+    ``M`` is positive definite, or positive semidefinite with massless DOFs (zero rows) on
+    which ``K`` is positive definite; ``dofs`` must name every row."""
     for name, A in (("mass", M), ("stiffness", K)):
         if A.ndim != 2 or A.shape[0] != A.shape[1]:
             raise ValueError(f"{what}: {name} matrix must be square, got shape {A.shape}")
@@ -145,8 +146,21 @@ def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
         err = symmetric_error(A)
         if err > 1e-9:
             raise ValueError(f"{what}: {name} matrix is not symmetric (relative asymmetry {err:.2e})")
-    if not _is_positive_definite(M):
-        raise ValueError(f"{what}: mass matrix is not positive definite")
+    massless = np.flatnonzero(M.diagonal() == 0)
+    if massless.size == 0:
+        if not _is_positive_definite(M):
+            raise ValueError(f"{what}: mass matrix is not positive definite")
+        return
+    # Massless DOFs (zero diagonal mass, as exported FE models lump mass on translations only):
+    # M must be positive definite on the other DOFs and K on the massless ones.
+    massed = np.setdiff1d(np.arange(M.shape[0]), massless)
+    M, K = sp.csr_matrix(M), sp.csr_matrix(K)
+    if massed.size == 0 or abs(M[massless]).max() > 0 or not _is_positive_definite(M[massed][:, massed]):
+        raise ValueError(f"{what}: mass matrix is not positive semidefinite with {massless.size} massless DOFs "
+                         f"(e.g. {dofs[massless[0]]!r}) and positive definite on the others")
+    if not _is_positive_definite(K[massless][:, massless]):
+        raise ValueError(f"{what}: stiffness matrix is not positive definite on the {massless.size} massless DOFs "
+                         f"(e.g. {dofs[massless[0]]!r}); a DOF without mass needs stiffness")
 
 
 def complex_step_jacobians(builder: Builder, parameters: Sequence[Parameter], dofs=None):
