@@ -16,7 +16,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -116,15 +115,16 @@ def symmetric_error(A: sp.spmatrix) -> float:
 
 
 def _is_positive_definite(M: sp.spmatrix) -> bool:
-    n = M.shape[0]
-    if n <= 3000:
-        try:
-            sla.cholesky(M.toarray(), lower=True)
-            return True
-        except sla.LinAlgError:
-            return False
-    smallest = spla.eigsh(M, k=1, which="SA", return_eigenvectors=False, tol=1e-6)[0]
-    return bool(smallest > 0)
+    """Whether the symmetric ``M`` is positive definite: a sparse LU with a symmetric fill-in
+    ordering and diagonal pivots only is then ``L D L^T`` with every pivot ``D`` positive."""
+    if M.shape[0] == 0:
+        return False
+    try:
+        lu = spla.splu(sp.csc_matrix(M, dtype=float), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+    except RuntimeError:  # exactly singular
+        return False
+    return bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(lu.U.diagonal() > 0))
 
 
 def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
