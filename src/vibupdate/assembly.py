@@ -108,13 +108,12 @@ class Assembly:
                     raise ValueError(f"node {label!r} is defined twice")
                 seen.add(label)
         kinds = self._dof_kinds
-        for label, xi, yi in zip(labels, x, y):
-            self._coords[label] = (xi, yi)
-            self._base[label] = len(self._dofs)
-            for kind in kinds:
-                name = f"{kind}{label}"
-                self._index[name] = len(self._dofs)
-                self._dofs.append(name)
+        names = [f"{kind}{label}" for label in labels for kind in kinds]
+        start = len(self._dofs)
+        self._coords.update(zip(labels, zip(x, y)))
+        self._base.update(zip(labels, range(start, start + len(names), len(kinds))))
+        self._index.update(zip(names, range(start, start + len(names))))
+        self._dofs.extend(names)
 
     def _node_dofs(self, label) -> list[int]:
         if label not in self._coords:
@@ -248,13 +247,15 @@ class Assembly:
 
     def system(self) -> System:
         """Sparse ``M``, ``K`` over the free DOFs (supports removed), with their names."""
-        free = [i for i, name in enumerate(self._dofs) if name not in self._fixed]
+        fixed = np.zeros(len(self._dofs), dtype=bool)
+        fixed[[self._index[name] for name in self._fixed]] = True
+        free = np.flatnonzero(~fixed)
         k_parts, m_parts = self._element_parts()
         M = self._matrix(m_parts + self._m)[free][:, free]
         K = self._matrix(k_parts + self._k)[free][:, free]
         M.eliminate_zeros()
         K.eliminate_zeros()
-        return System(M.tocsr(), K.tocsr(), tuple(self._dofs[i] for i in free))
+        return System(M.tocsr(), K.tocsr(), tuple(np.array(self._dofs, dtype=object)[free]))
 
 
 def _values(value, n: int) -> np.ndarray:
