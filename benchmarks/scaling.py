@@ -88,7 +88,9 @@ def exact_case(subdivisions: int):
     return replace(frame.case(), configurations=tuple(configurations), frequency_tolerance=1e-4)
 
 
-def _parameter_error(result) -> float:
+def _parameter_error(result) -> dict:
+    """Largest error relative to the true value (to the bound range where the truth is 0),
+    the parameter it occurs at and the median over all parameters."""
     import numpy as np
 
     from vibupdate.examples import frame
@@ -96,7 +98,9 @@ def _parameter_error(result) -> float:
     truth = frame.truth()
     true = np.array([truth[p.name] for p in result.parameters])
     scale = np.where(true != 0, np.abs(true), np.array([p.upper - p.lower for p in result.parameters]))
-    return float(np.max(np.abs(result.values - true) / scale))
+    err = np.abs(result.values - true) / scale
+    k = int(np.argmax(err))
+    return {"max": float(err[k]), "at": result.parameters[k].name, "median": float(np.median(err))}
 
 
 def update_point(subdivisions: int) -> dict:
