@@ -88,7 +88,7 @@ def exact_case(subdivisions: int):
     return replace(frame.case(), configurations=tuple(configurations), frequency_tolerance=1e-4)
 
 
-def _parameter_error(result) -> dict:
+def _parameter_error(parameters, values) -> dict:
     """Largest error relative to the true value (to the bound range where the truth is 0),
     the parameter it occurs at and the median over all parameters."""
     import numpy as np
@@ -96,24 +96,27 @@ def _parameter_error(result) -> dict:
     from vibupdate.examples import frame
 
     truth = frame.truth()
-    true = np.array([truth[p.name] for p in result.parameters])
-    scale = np.where(true != 0, np.abs(true), np.array([p.upper - p.lower for p in result.parameters]))
-    err = np.abs(result.values - true) / scale
+    true = np.array([truth[p.name] for p in parameters])
+    scale = np.where(true != 0, np.abs(true), np.array([p.upper - p.lower for p in parameters]))
+    err = np.abs(np.asarray(values, dtype=float) - true) / scale
     k = int(np.argmax(err))
-    return {"max": float(err[k]), "at": result.parameters[k].name, "median": float(np.median(err))}
+    return {"max": float(err[k]), "at": parameters[k].name, "median": float(np.median(err))}
 
 
 def update_point(subdivisions: int) -> dict:
     from vibupdate import update
+    from vibupdate.verify import VerifyOptions
 
     t0 = time.perf_counter()
     case = exact_case(subdivisions)
     setup_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    result = update(case.configurations, formulation=case.formulation, solver=case.solver)
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver,
+                    verification=VerifyOptions(frequency_tolerance=case.frequency_tolerance))
     return {"subdivisions": subdivisions, "dofs": case.configurations[0].model.n_dofs, "setup_s": setup_s,
             "update_s": time.perf_counter() - t0, "status": result.status.value,
-            "parameter_error": _parameter_error(result), "mean_frequency_error_pct": result.mean_error(),
+            "parameter_error": _parameter_error(result.parameters, result.values),
+            "mean_frequency_error_pct": result.mean_error(),
             "peak_mb": _peak_mb()}
 
 
@@ -125,11 +128,14 @@ def run_point(subdivisions: int) -> dict:
     t0 = time.perf_counter()
     case = exact_case(subdivisions)
     with tempfile.TemporaryDirectory() as tmp:
-        result, _ = run_case(case, Path(tmp) / "out")
+        run = run_case(case, Path(tmp) / "out")
         plots = sorted(p.name for p in (Path(tmp) / "out").rglob("*.png"))
+    parameters = case.configurations[0].model.parameters
+    updated = {row.name: row.updated for row in run.parameters}
     return {"subdivisions": subdivisions, "dofs": case.configurations[0].model.n_dofs,
-            "total_s": time.perf_counter() - t0, "status": result.status.value,
-            "parameter_error": _parameter_error(result), "plots": len(plots), "peak_mb": _peak_mb()}
+            "total_s": time.perf_counter() - t0, "success": run.success,
+            "parameter_error": _parameter_error(parameters, [updated[p.name] for p in parameters]),
+            "plots": len(plots), "peak_mb": _peak_mb()}
 
 
 POINTS = {"kernels": kernels, "update": update_point, "run": run_point}
