@@ -234,3 +234,12 @@ def test_large_model_with_massless_dofs_by_shift_invert():
     r = sysm.index("xL75")
     np.testing.assert_allclose(antiresonances(sysm.M, sysm.K, r, r, n_zeros=5),
                                antiresonances(sysm.M, sysm.K, r, r, dense=True)[:5], rtol=1e-8)
+
+
+def test_all_modes_of_a_huge_model_is_a_clear_error_not_a_memory_storm(monkeypatch):
+    s = uniform_cantilever(40)
+    monkeypatch.setattr(analysis, "DENSE_MAX", 50)
+    monkeypatch.setattr(analysis, "DENSE_LIMIT", 20)
+    with pytest.raises(ValueError, match="all modes of a 80-DOF model would need .* ask for the lowest n_modes"):
+        modes(s.M, s.K)
+    assert modes(s.M, s.K, 3)[0].size == 3  # the lowest few: shift-invert, no dense matrix

@@ -34,11 +34,14 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["modes", "mode_residuals", "receptance", "adjunct", "antiresonances", "mac", "DENSE_LIMIT",
-           "ModalAccuracyError"]
+__all__ = ["modes", "mode_residuals", "receptance", "adjunct", "antiresonances", "mac", "massless_dofs",
+           "DENSE_LIMIT", "DENSE_MAX", "ModalAccuracyError"]
 
 #: Models up to this many DOFs use dense LAPACK; larger ones sparse shift-invert.
 DENSE_LIMIT = 400
+#: Largest model whose *every* mode is computed (dense): 6,000 DOFs hold ~0.3 GB per matrix and
+#: LAPACK needs several; above this, asking for all modes is an error, not a swap storm.
+DENSE_MAX = 6000
 #: Largest accepted backward error ``||K phi - lam M phi|| / ((||K|| + |lam| ||M||) ||phi||)``
 #: of a sparse eigenpair.
 RESIDUAL_TOL = 1e-8
@@ -241,6 +244,10 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
         raise ValueError(f"n_modes must be between 1 and {n_finite}, got {n_modes}")
     use_dense = (n <= DENSE_LIMIT or n_modes is None) if dense is None else dense
     if use_dense:
+        if n > max(DENSE_MAX, DENSE_LIMIT):
+            raise ValueError(f"a dense eigen-solve of all modes of a {n}-DOF model would need about "
+                             f"{5 * 8 * n * n / 2**30:.0f} GB; ask for the lowest n_modes instead (at most "
+                             f"{DENSE_MAX} DOFs are solved densely)")
         lam, Phi = _dense_modes(M, K)
         if n_modes is not None:
             lam, Phi = lam[:n_modes], Phi[:, :n_modes]
