@@ -243,3 +243,18 @@ def test_all_modes_of_a_huge_model_is_a_clear_error_not_a_memory_storm(monkeypat
     with pytest.raises(ValueError, match="all modes of a 80-DOF model would need .* ask for the lowest n_modes"):
         modes(s.M, s.K)
     assert modes(s.M, s.K, 3)[0].size == 3  # the lowest few: shift-invert, no dense matrix
+
+
+def test_damped_receptance_over_many_lines_by_the_state_space_modes(monkeypatch):
+    s = uniform_cantilever(20)
+    C = 1e-4 * s.K + 0.2 * s.M
+    w = np.linspace(0.0, 400.0, 120)  # over 50 lines: one 2n eigen-solve of the first-order form
+    used = []
+    original = analysis._state_space_receptance
+    monkeypatch.setattr(analysis, "_state_space_receptance", lambda *a: used.append(1) or original(*a))
+    h = receptance(s.M, s.K, 3, 17, w, C)
+    assert used and original(s.M, s.K, C, 3, 17, w) is not None  # the modal form was accepted
+    n = s.M.shape[0]
+    M, K, Cd = s.M.toarray(), s.K.toarray(), C.toarray()
+    direct = np.array([np.linalg.solve(K + 1j * x * Cd - x**2 * M, np.eye(n)[:, 17])[3] for x in w])
+    assert np.abs(h - direct).max() < 1e-7 * np.abs(direct).max()

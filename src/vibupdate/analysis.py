@@ -296,12 +296,45 @@ def _dense_damped_receptance(M, K, C, r: int, c: int, omega: np.ndarray) -> np.n
     return out
 
 
+def _state_space_receptance(M, K, C, r: int, c: int, omega: np.ndarray):
+    """Damped ``h_rc`` from the eigen-decomposition of the first-order form
+    ``A = [[0, I], [-M^-1 K, -M^-1 C]]`` (M positive definite): one ``2n`` eigen-solve, then
+    ``h(w) = sum_k V_rk (V^-1 b)_k / (j w - s_k)``. Checked against direct solves at three
+    lines to 1e-7 of the largest |h| (measured 1.5e-9 on the 305-DOF frame, eigenvector matrix
+    condition 7e7); returns None when they disagree (ill-conditioned eigenvectors)."""
+    Md, Kd, Cd = _dense(M), _dense(K), _dense(C)
+    n = Md.shape[0]
+    try:
+        cho = sla.cho_factor(Md)
+    except sla.LinAlgError:
+        return None
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -sla.cho_solve(cho, Kd)
+    A[n:, n:] = -sla.cho_solve(cho, Cd)
+    b = np.zeros(2 * n)
+    b[n:] = sla.cho_solve(cho, np.eye(n)[:, c])
+    s, V = sla.eig(A)
+    try:
+        weights = V[r] * sla.solve(V, b)
+    except sla.LinAlgError:
+        return None
+    h = (1.0 / (1j * omega[:, None] - s[None, :])) @ weights
+    probe = np.unique([0, omega.size // 2, omega.size - 1])
+    check = _dense_damped_receptance(Md, Kd, Cd, r, c, omega[probe])
+    if np.any(np.abs(h[probe] - check) > 1e-7 * np.abs(check).max()):
+        return None
+    return h
+
+
 def receptance(M, K, r: int, c: int, omega, C=None) -> np.ndarray:
     """Receptance ``h_rc(j omega)``, the solution of ``(K + j omega C - omega^2 M) x = e_c`` at ``r``.
 
     Small undamped models: superposition of all modes (exact, with the static term of massless
-    DOFs); small damped models: dense complex solves over chunks of frequencies; large models
-    (over `DENSE_LIMIT` DOFs): one sparse LU per frequency. Memory is O(n^2) at most, never
+    DOFs); small damped models: the modes of the first-order (state-space) form when there are
+    more than 50 lines and ``M`` is positive definite (checked against direct solves at
+    three lines), else dense complex solves over chunks of frequencies; large models (over
+    `DENSE_LIMIT` DOFs): one sparse LU per frequency. Memory is O(n^2) at most, never
     O(n_f n^2).
 
     Parameters
@@ -325,6 +358,10 @@ def receptance(M, K, r: int, c: int, omega, C=None) -> np.ndarray:
     if n <= DENSE_LIMIT:
         if C is None:
             return _modal_receptance(M, K, r, c, omega)
+        if omega.size > 50:  # enough lines to pay for one 2n eigen-solve (~8 n^3 vs ~2.7 n^3 a line)
+            h = _state_space_receptance(M, K, C, r, c, omega)
+            if h is not None:
+                return h
         return _dense_damped_receptance(M, K, C, r, c, omega)
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
     Cs = None if C is None else sp.csc_matrix(C)
