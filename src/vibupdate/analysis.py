@@ -77,32 +77,47 @@ def massless_dofs(M) -> np.ndarray:
 
 # -- dense eigen-solver -------------------------------------------------------------------
 def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
-    """All eigenpairs of ``K phi = lam M phi`` (M positive definite) from the reciprocal pencil.
+    """All eigenpairs of ``K phi = lam M phi`` (M positive definite).
+
+    The reciprocal pencil ``M phi = mu (K - sigma M) phi`` resolves the low modes to about
+    ``n eps lam_k / lam_1``; the direct pencil resolves the high ones to ``n eps lam_max / lam_k``.
+    When the spectrum spans more than six decades both are solved and spliced at the geometric
+    mean of the extreme eigenvalues, so every mode keeps the better of the two.
 
     Returns ``lam`` ascending and ``Phi`` with ``Phi.T M Phi = I``.
     """
     n = K.shape[0]
     sigma = 0.0
+    lam_direct = V_direct = None
     try:
         mu, V = sla.eigh(M, K)
     except (sla.LinAlgError, ValueError):
         # K is not positive definite (rigid-body modes or an unstable parameter point): shift
         # below the lowest eigenvalue, estimated by the direct pencil.
-        try:
-            lam_direct = sla.eigh(K, M, eigvals_only=True)
-        except (sla.LinAlgError, ValueError) as exc:
-            raise ValueError(f"eigenproblem failed (is the mass matrix positive definite?): {exc}") from None
+        lam_direct, V_direct = _direct_eigh(K, M)
         spread = max(abs(lam_direct[0]), 1e-6 * abs(lam_direct[-1]), 1e-300)
         sigma = lam_direct[0] - spread
         mu, V = sla.eigh(M, K - sigma * M)
-    floor = 10 * n * np.finfo(float).eps * max(abs(mu).max(), 1e-300)
-    if mu.min() <= floor:
-        raise ValueError("eigenproblem failed: the mass matrix is singular on DOFs that carry mass "
-                         f"({int(np.sum(mu <= floor))} zero-mass directions that are not massless DOFs)")
-    lam = sigma + 1.0 / mu[::-1]
-    V = V[:, ::-1]
+    mu, V = mu[::-1], V[:, ::-1]
+    if mu[-1] < 1e-6 * mu[0]:
+        if lam_direct is None:
+            lam_direct, V_direct = _direct_eigh(K, M)
+        split = np.sqrt((sigma + 1.0 / mu[0]) * lam_direct[-1])
+        with np.errstate(divide="ignore"):
+            n_low = int(np.sum((mu > 0) & (sigma + 1.0 / mu < split)))
+        lam = np.concatenate([sigma + 1.0 / mu[:n_low], lam_direct[n_low:]])
+        V = np.concatenate([V[:, :n_low], V_direct[:, n_low:]], axis=1)
+    else:
+        lam = sigma + 1.0 / mu
     V = V / np.sqrt(np.einsum("ij,ij->j", V, M @ V))
     return lam, V
+
+
+def _direct_eigh(K: np.ndarray, M: np.ndarray):
+    try:
+        return sla.eigh(K, M)
+    except (sla.LinAlgError, ValueError) as exc:
+        raise ValueError(f"eigenproblem failed (is the mass matrix positive definite?): {exc}") from None
 
 
 def _condensation(K: np.ndarray, s: np.ndarray, m: np.ndarray):
