@@ -13,7 +13,7 @@ exact to rounding for any small ``h`` because no difference is taken.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -23,7 +23,7 @@ import scipy.sparse.linalg as spla
 from vibupdate.assembly import System, dof_index
 from vibupdate.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
-__all__ = ["AffineModel", "complex_step_jacobians", "affine_from_builder", "check_matrices"]
+__all__ = ["AffineModel", "Lumped", "with_lumped", "complex_step_jacobians", "affine_from_builder", "check_matrices"]
 
 Builder = Callable[[dict], "System | tuple"]
 
@@ -91,6 +91,61 @@ class AffineModel:
     def matrices_at(self, values) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """``M``, ``K`` at physical parameter values, shape (n_x,)."""
         return self.matrices(self.normalized(values))
+
+
+@dataclass(frozen=True)
+class Lumped:
+    """A lumped addition to a model: a mass (``matrix = "M"``) on ``dof``, or a spring
+    (``matrix = "K"``) from ``dof`` to ground or to ``other``.
+
+    ``value`` is affine in the physical parameters: it has ``constant`` (float) and
+    ``coefficients`` (pairs of parameter name and ``d value / d p``), like
+    `vibupdate.case.LinearExpression`. Units: kg or kg m^2 for a mass, N/m or N m/rad for a
+    spring.
+    """
+
+    matrix: str
+    dof: str
+    value: object
+    other: str | None = None
+
+
+def _lumped_matrix(model: "AffineModel", item: Lumped, amount: float) -> sp.csr_matrix:
+    i = model.dof(item.dof)
+    n = model.n_dofs
+    if item.other is None:
+        return sp.csr_matrix(([amount], ([i], [i])), shape=(n, n))
+    j = model.dof(item.other)
+    return sp.csr_matrix(([amount, amount, -amount, -amount], ([i, j, i, j], [i, j, j, i])), shape=(n, n))
+
+
+def with_lumped(model: "AffineModel", additions: Sequence[Lumped]) -> "AffineModel":
+    """``model`` plus lumped masses and springs, with their parameter dependence.
+
+    The nominal matrices gain each value at the nominal parameters; the parameter matrices
+    gain ``coefficient * p_ref`` (Eq. 13), so ``M(xbar)``, ``K(xbar)`` are those of the
+    assembled model at every ``xbar``. This is the one path by which a configuration's
+    additions enter a model of any type (elements, builder or matrices).
+    """
+    if not additions:
+        return model
+    known = {p.name: k for k, p in enumerate(model.parameters)}
+    nominal = {p.name: p.nominal for p in model.parameters}
+    mats = {"M": [model.M0, list(model.M_par)], "K": [model.K0, list(model.K_par)]}
+    for item in additions:
+        if item.matrix not in mats:
+            raise ValueError(f"a lumped addition goes to 'M' or 'K', got {item.matrix!r}")
+        for name, _ in item.value.coefficients:
+            if name not in known:
+                raise ValueError(f"the value of the addition on {item.dof!r} names {name!r}, which is not a parameter")
+        target = mats[item.matrix]
+        target[0] = target[0] + _lumped_matrix(model, item, float(item.value(nominal)))
+        for name, coef in item.value.coefficients:
+            k = known[name]
+            target[1][k] = target[1][k] + _lumped_matrix(model, item, coef * model.parameters[k].reference)
+    return replace(model, M0=sp.csr_matrix(mats["M"][0]), K0=sp.csr_matrix(mats["K"][0]),
+                   M_par=tuple(sp.csr_matrix(A) for A in mats["M"][1]),
+                   K_par=tuple(sp.csr_matrix(A) for A in mats["K"][1]))
 
 
 def _as_system(result, dofs: Sequence[str] | None) -> System:

@@ -14,13 +14,12 @@ import re
 import sys
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 
-from vibupdate.affine import AffineModel, affine_from_builder
+from vibupdate.affine import AffineModel, Lumped, affine_from_builder, with_lumped
 from vibupdate.assembly import Assembly
 from vibupdate.formulation import FormulationOptions
 from vibupdate.homotopy import SolverOptions
@@ -29,7 +28,7 @@ from vibupdate.measured_io import read_frequency_csv, read_shape_csv, read_uff_m
 from vibupdate.model import from_files
 from vibupdate.parameters import Parameter
 
-__all__ = ["Case", "DampingOptions", "load_case", "linear_expression"]
+__all__ = ["Case", "DampingOptions", "LinearExpression", "load_case", "linear_expression"]
 
 
 @dataclass(frozen=True)
@@ -108,33 +107,55 @@ _TERM = re.compile(
 )
 
 
-def linear_expression(text, names) -> Callable[[dict], object]:
-    """Compile ``"2.13e-10*E + 3.6e-13*Ep + 0.01"`` into ``p -> value`` (affine by construction).
+@dataclass(frozen=True)
+class LinearExpression:
+    """``constant + sum_i coefficient_i * p[name_i]``: a value affine in the parameters.
+
+    Calling it with a mapping of parameter values (real or complex, for the complex step of
+    Eq. 15) gives the value; `coefficients` are the exact derivatives ``d value / d p_i`` in
+    physical units.
+    """
+
+    constant: float
+    coefficients: tuple[tuple[str, float], ...]
+
+    def __call__(self, p):
+        return self.constant + sum(c * p[n] for n, c in self.coefficients)
+
+
+def linear_expression(text, names) -> LinearExpression:
+    """Compile ``"2.13e-10*E + 3.6e-13*Ep + 0.01"`` into a `LinearExpression`.
 
     Terms are ``coefficient*name``, ``name*coefficient``, ``name`` or a number, joined by ``+``
     or ``-``; names must be parameter names. A plain number is a constant.
     """
     if isinstance(text, (int, float)) and not isinstance(text, bool):
-        value = float(text)
-        return lambda p: value
+        if not math.isfinite(text):
+            raise ValueError(f"expected a finite number, got {text!r}")
+        return LinearExpression(float(text), ())
     if not isinstance(text, str):
         raise ValueError(f"expected a number or an expression of parameters, got {text!r}")
-    terms, pos, s = [], 0, text.strip()
+    constant, coefficients, pos, s = 0.0, {}, 0, text.strip()
     while pos < len(s):
         m = _TERM.match(s, pos)
-        if not m or m.end() == pos or (terms and not m.group(1)):
+        if not m or m.end() == pos or (pos and not m.group(1)):
             raise ValueError(f"cannot read {text!r} as a linear expression of parameters near {s[pos:]!r}")
         sign = -1.0 if m.group(1) == "-" else 1.0
         name = m.group("n1") or m.group("n2") or m.group("n3")
         coef = m.group("c1") or m.group("c2") or m.group("c3")
-        coef = float(coef) if coef else 1.0
-        if name is not None and name not in names:
+        coef = sign * (float(coef) if coef else 1.0)
+        if not math.isfinite(coef):
+            raise ValueError(f"{text!r} has a coefficient that is not a finite number")
+        if name is None:
+            constant += coef
+        elif name not in names:
             raise ValueError(f"{text!r} names {name!r}, which is not a parameter ({', '.join(names)})")
-        terms.append((sign * coef, name))
+        else:
+            coefficients[name] = coefficients.get(name, 0.0) + coef
         pos = m.end()
-    if not terms:
+    if pos == 0:
         raise ValueError("empty expression")
-    return lambda p: sum(c * (p[n] if n else 1.0) for c, n in terms)
+    return LinearExpression(constant, tuple(coefficients.items()))
 
 
 # -- models ---------------------------------------------------------------------------------------
@@ -188,7 +209,7 @@ def _elements_builder(spec: dict, names, where: _Where):
             lumped.append((family, item["dof"], expr(item["value"], f"{key}.value"), item.get("other")))
     supports = {s: spec.get(s, []) for s in ("clamp", "pin", "fix")}
 
-    def build(p, extra_masses=()):
+    def build(p):
         asm = Assembly(kind)
         for label, x, y in nodes:
             asm.node(label, x, y)
@@ -201,8 +222,6 @@ def _elements_builder(spec: dict, names, where: _Where):
                 asm.mass(dof, f(p))
             else:
                 asm.spring(dof, f(p), other)
-        for dof, f in extra_masses:
-            asm.mass(dof, f(p))
         for label in supports["clamp"]:
             asm.clamp(label)
         for label in supports["pin"]:
@@ -236,55 +255,56 @@ def _load_callable(ref: str, base: Path, where: _Where):
     return getattr(module, func)
 
 
-def _configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: _Where, key: str) -> AffineModel:
+def _base_model(spec: dict, options: dict, parameters, base: Path, where: _Where) -> AffineModel:
+    """The model of `spec` before any configuration's additions."""
     names = [p.name for p in parameters]
-    masses = []
+    kind = spec.get("type")
+    try:
+        if kind == "elements":
+            return affine_from_builder(_elements_builder(spec, names, where), parameters)
+        if kind == "builder":
+            _check_table(spec, {"type": str, "builder": str}, "model", where, required=("builder",))
+            func = _load_callable(spec["builder"], base, where)
+            return affine_from_builder(lambda p: func(p, **options), parameters)
+        if kind == "matrices":
+            _check_table(spec, {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict},
+                         "model", where, required=("M0", "K0"))
+            return from_files(base / spec["M0"], base / spec["K0"], parameters,
+                              dM={n: base / f for n, f in spec.get("dM", {}).items()},
+                              dK={n: base / f for n, f in spec.get("dK", {}).items()},
+                              dofs=spec.get("dofs"))
+    except ValueError as exc:
+        if str(exc).startswith(str(where.path)):
+            raise
+        raise where.error("model", str(exc)) from None
+    raise where.error("model.type", f"must be 'elements', 'builder' or 'matrices', got {kind!r}")
+
+
+def _configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: _Where, key: str,
+                         models: dict) -> AffineModel:
+    """The model of one configuration: the case's model (built once per set of builder options,
+    kept in ``models``) plus the configuration's lumped masses. Every model type takes the same
+    path for the masses (`vibupdate.affine.with_lumped`), so their parameter dependence is
+    part of the affine form."""
+    names = [p.name for p in parameters]
+    options = cfg.get("options", {})
+    if options and spec.get("type") != "builder":
+        raise where.error(f"{key}.options", "builder options are only read by a model of type 'builder'")
+    tag = repr(sorted(options.items()))
+    if tag not in models:
+        models[tag] = _base_model(spec, options, parameters, base, where)
+    additions = []
     for i, item in enumerate(cfg.get("mass", [])):
         k = f"{key}.mass[{i + 1}]"
         _check_table(item, {"dof": str, "value": None}, k, where, required=("dof", "value"))
         try:
-            masses.append((item["dof"], linear_expression(item["value"], names)))
+            additions.append(Lumped("M", item["dof"], linear_expression(item["value"], names)))
         except ValueError as exc:
             raise where.error(f"{k}.value", str(exc)) from None
-    kind = spec.get("type")
     try:
-        if kind == "elements":
-            build = _elements_builder(spec, names, where)
-            return affine_from_builder(lambda p: build(p, masses), parameters)
-        if kind == "builder":
-            _check_table(spec, {"type": str, "builder": str}, "model", where, required=("builder",))
-            func = _load_callable(spec["builder"], base, where)
-            options = cfg.get("options", {})
-
-            def build(p):
-                system = func(p, **options)
-                if masses:
-                    M = system.M.tolil()
-                    for dof, f in masses:
-                        M[system.index(dof), system.index(dof)] += f(p)
-                    system = type(system)(sp.csr_matrix(M), system.K, system.dofs)
-                return system
-
-            return affine_from_builder(build, parameters)
-        if kind == "matrices":
-            _check_table(spec, {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict},
-                         "model", where, required=("M0", "K0"))
-            model = from_files(base / spec["M0"], base / spec["K0"], parameters,
-                               dM={n: base / f for n, f in spec.get("dM", {}).items()},
-                               dK={n: base / f for n, f in spec.get("dK", {}).items()},
-                               dofs=spec.get("dofs"))
-            if masses:
-                M0 = model.M0.tolil()
-                nominal = {p.name: p.nominal for p in parameters}
-                for dof, f in masses:
-                    M0[model.dof(dof), model.dof(dof)] += f(nominal)
-                model = replace(model, M0=sp.csr_matrix(M0))
-            return model
+        return with_lumped(models[tag], additions)
     except ValueError as exc:
-        if str(exc).startswith(str(where.path)):
-            raise
-        raise where.error(key if masses else "model", str(exc)) from None
-    raise where.error("model.type", f"must be 'elements', 'builder' or 'matrices', got {kind!r}")
+        raise where.error(f"{key}.mass", str(exc)) from None
 
 
 # -- measured data ------------------------------------------------------------------------------
@@ -303,11 +323,14 @@ def _numbers(values, key, where) -> list[float]:
     return out
 
 
-def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, where: _Where) -> Configuration:
+def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, where: _Where,
+                   models: dict) -> Configuration:
     key = f"configuration[{index}]"
     _check_table(cfg, _CFG_KEYS, key, where, required=("name",))
     key = f"configuration '{cfg['name']}'"
-    model = _configuration_model(spec, cfg, parameters, base, where, key)
+    if not 0 <= cfg.get("uff_tolerance", 0.05) < math.inf:
+        raise where.error(f"{key}.uff_tolerance", f"must be a finite number >= 0, got {cfg['uff_tolerance']!r}")
+    model = _configuration_model(spec, cfg, parameters, base, where, key, models)
     natural, zeros, shapes = [], [], {}
     try:
         if "frequencies_csv" in cfg:
@@ -326,6 +349,8 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
             if "natural_hz" not in cfg and "frequencies_csv" not in cfg:
                 natural = [{"hz": m["hz"], "weight": 1.0, "damping_ratio": m["damping_ratio"]} for m in uff]
     except ValueError as exc:
+        if str(exc).startswith(str(where.path)):
+            raise
         raise where.error(key, str(exc)) from None
     if "natural_hz" in cfg:
         hz = _numbers(cfg["natural_hz"], f"{key}.natural_hz", where)
@@ -423,7 +448,8 @@ def load_case(path) -> Case:
         except ValueError as exc:
             raise where.error(key, str(exc)) from None
     base = path.parent
-    configurations = tuple(_configuration(cfg, i, data["model"], parameters, base, where)
+    models: dict = {}
+    configurations = tuple(_configuration(cfg, i, data["model"], parameters, base, where, models)
                            for i, cfg in enumerate(data["configuration"], start=1))
     return Case(
         name=data.get("case", path.stem),

@@ -62,9 +62,13 @@ def main(argv=None) -> int:
             return _finish(run_example(args.name, args.out or f"{args.name}-results", progress=print))
         case = load_case(args.case)
         if args.command == "check":
-            size = check_case(case)
+            checked = check_case(case)
             print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
-            print("problem size: " + ", ".join(f"{k} {v}" for k, v in size.items()))
+            for note in checked.notes:
+                print(f"model {note}")
+            for warning in checked.warnings:
+                print(f"warning: {warning}")
+            print("problem size: " + ", ".join(f"{k} {v}" for k, v in checked.sizes.items()))
             return 0
         _, document = run_case(case, args.out or f"{case.name}-results", progress=print)
         return _finish(document)

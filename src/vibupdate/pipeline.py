@@ -26,7 +26,8 @@ from vibupdate.correlation import model_frequencies
 from vibupdate.damping import DampingStage, DampingWarning, caughey_matrix, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
 from vibupdate.results import results_document, write_results
-from vibupdate.update import UpdateResult, prepare, update
+from vibupdate.update import UpdateResult, update
+from vibupdate.validation import CaseCheck, validate_case
 
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case"]
 
@@ -47,9 +48,10 @@ def example_module(name: str):
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")
 
 
-def check_case(case: Case) -> dict:
-    """Validate a case and build its problem without solving; returns the problem size."""
-    return prepare(case.configurations, case.formulation).sizes()
+def check_case(case: Case) -> CaseCheck:
+    """Validate a case exactly as `run_case` does before solving (`vibupdate.validation`);
+    returns the problem size, notes and warnings. Raises ValueError naming file and key."""
+    return validate_case(case)
 
 
 def _identifiability(result: UpdateResult) -> dict:
@@ -147,6 +149,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     final = Path(out_dir)
     if final.exists() and not final.is_dir():
         raise ValueError(f"output path {str(final)!r} exists and is not a directory")
+    checked = validate_case(case)
+    for w in checked.warnings:
+        say(f"warning: {w}")
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
