@@ -16,7 +16,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -170,21 +169,13 @@ def symmetric_error(A: sp.spmatrix) -> float:
     return float(abs(A - A.T).max() / scale) if scale > 0 else 0.0
 
 
-def _is_positive_definite(M: sp.spmatrix) -> bool:
-    n = M.shape[0]
-    if n <= 3000:
-        try:
-            sla.cholesky(M.toarray(), lower=True)
-            return True
-        except sla.LinAlgError:
-            return False
-    smallest = spla.eigsh(M, k=1, which="SA", return_eigenvectors=False, tol=1e-6)[0]
-    return bool(smallest > 0)
-
-
 def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
     """Raise ValueError unless ``M``, ``K`` are square, equal in size, finite, symmetric and
-    ``M`` is positive definite; ``dofs`` must name every row."""
+    physically admissible (`vibupdate.physical.definiteness`: ``M`` positive definite or
+    semidefinite with massless DOFs held by ``K``, ``K`` positive semidefinite); ``dofs`` must
+    name every row."""
+    from vibupdate.physical import definiteness
+
     for name, A in (("mass", M), ("stiffness", K)):
         if A.ndim != 2 or A.shape[0] != A.shape[1]:
             raise ValueError(f"{what}: {name} matrix must be square, got shape {A.shape}")
@@ -200,8 +191,9 @@ def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
         err = symmetric_error(A)
         if err > 1e-9:
             raise ValueError(f"{what}: {name} matrix is not symmetric (relative asymmetry {err:.2e})")
-    if not _is_positive_definite(M):
-        raise ValueError(f"{what}: mass matrix is not positive definite")
+    problem = definiteness(M, K).problem
+    if problem:
+        raise ValueError(f"{what}: {problem}")
 
 
 def complex_step_jacobians(builder: Builder, parameters: Sequence[Parameter], dofs=None):

@@ -135,40 +135,40 @@ def definiteness(M, K) -> Definiteness:
     d = M.diagonal()
     scale = float(np.max(np.abs(d))) if d.size else 0.0
     if not scale > 0:
-        return Definiteness((), 0, "M has no positive diagonal entry (no DOF carries mass)")
+        return Definiteness((), 0, "the mass matrix M has no positive diagonal entry (no DOF carries mass)")
     if np.any(d < -MASSLESS_TOL * scale):
         i = int(np.argmin(d))
-        return Definiteness((), 0, f"M is not positive semidefinite: negative diagonal entry {d[i]:.6g} "
+        return Definiteness((), 0, f"the mass matrix M is not positive semidefinite: negative diagonal entry {d[i]:.6g} "
                                    f"(DOF {i + 1})")
     massless = np.flatnonzero(d <= MASSLESS_TOL * scale)
     mass = np.setdiff1d(np.arange(M.shape[0]), massless)
     if massless.size:
         coupling = abs(M[massless]).max() if M[massless].nnz else 0.0
         if coupling > MASSLESS_TOL * scale:
-            return Definiteness(tuple(massless), 0, "M is not positive semidefinite: a DOF without mass on the "
+            return Definiteness(tuple(massless), 0, "the mass matrix M is not positive semidefinite: a DOF without mass on the "
                                                     "diagonal is coupled to others by M")
     Mm = M[mass][:, mass]
     dm = Mm.diagonal()
     if count_below(Mm / dm.max(), sp.eye(mass.size), MASSLESS_TOL) > 0:
         low = _lowest(Mm, sp.eye(mass.size))
         shown = f" (lowest eigenvalue {low:.6g})" if low is not None else ""
-        return Definiteness(tuple(massless), 0, f"M is not positive definite on the DOFs that carry mass{shown}")
+        return Definiteness(tuple(massless), 0, f"the mass matrix M is not positive definite on the DOFs that carry mass{shown}")
     kd = K.diagonal()
     if massless.size:
         Ks = K[massless][:, massless]
         ks = max(float(np.max(np.abs(Ks.diagonal()))), 1e-300)
         if count_below(Ks / ks, sp.eye(massless.size), RIGID_TOL) > 0:
             return Definiteness(tuple(massless), 0,
-                                f"K is not positive definite on the {massless.size} DOF(s) without mass, so they "
+                                f"the stiffness matrix K is not positive definite on the {massless.size} DOF(s) without mass, so they "
                                 "cannot be condensed (a massless DOF must be held by stiffness)")
     lam_ref = float(np.max(np.abs(kd[mass]) / dm))
     if not lam_ref > 0:
-        return Definiteness(tuple(massless), 0, "K is zero on every DOF that carries mass")
+        return Definiteness(tuple(massless), 0, "the stiffness matrix K is zero on every DOF that carries mass")
     negative = count_below(K, M, -RIGID_TOL * lam_ref)
     if negative:
         low = _lowest(K, M) if not massless.size else None
         shown = (f"; lowest eigenvalue of (K, M) {low:.6g} (rad/s)^2" if low is not None else "")
-        return Definiteness(tuple(massless), 0, f"K is not positive semidefinite: {negative} negative "
+        return Definiteness(tuple(massless), 0, f"the stiffness matrix K is not positive semidefinite: {negative} negative "
                                                 f"eigenvalue(s){shown}")
     rigid = count_below(K, M, RIGID_TOL * lam_ref)
     return Definiteness(tuple(int(i) for i in massless), rigid, None)

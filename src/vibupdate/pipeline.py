@@ -74,6 +74,7 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
         warnings.simplefilter("always", DampingWarning)
         stage = identify_damping(case.configurations, xbar, options.exponents, weights)
     notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
+    notes += list(stage.warnings)
     for n in notes:
         say(f"warning: {n}")
     text = ("W_ii = " + ("w_mode / xi_i^2 (relative errors)" if options.relative else "w_mode")
@@ -97,10 +98,9 @@ def _write_outputs(tmp: Path, case: Case, result: UpdateResult, stage: DampingSt
     for cfg in case.configurations:
         M, K = result.matrices[cfg.name]
         M0, K0 = cfg.model.matrices()
-        C = C0 = None
+        C = None
         if stage is not None:
             C = caughey_matrix(M, K, stage.caughey.exponents, stage.caughey.beta)
-            C0 = caughey_matrix(M0, K0, stage.caughey.exponents, stage.caughey.beta)
         for name, A in (("M", M), ("K", K)) + ((("C", C),) if C is not None else ()):
             scipy.io.mmwrite(str(tmp / f"{name}_{cfg.name}.mtx"), sp.coo_matrix(A),
                              comment=f"vibupdate {case.name}: updated {name} of configuration {cfg.name} (SI units)")
@@ -113,7 +113,8 @@ def _write_outputs(tmp: Path, case: Case, result: UpdateResult, stage: DampingSt
             r, c = cfg.model.dof(rc[0]), cfg.model.dof(rc[1])
             label = f"h_{rc[0]},{rc[1]}"
         file = f"frf_{cfg.name}.png"
-        plot_frf(tmp / file, cfg, (M0, K0, C0), (M, K, C), r, c, label)
+        # the case gives no nominal damping model: the nominal curve is undamped (and says so)
+        plot_frf(tmp / file, cfg, (M0, K0, None), (M, K, C), r, c, label)
         images.append((f"FRF {label}, configuration {cfg.name}", file))
         mac = result.mac.get(cfg.name)
         if mac is not None and np.any(np.isfinite(mac)):
@@ -155,6 +156,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
+    notes = list(checked.warnings) + notes
     extra = {"identifiability": _identifiability(result)}
     if case.configurations[0].model.n_dofs <= RANGES_DOF_LIMIT:
         from vibupdate.identifiability import parameter_ranges
@@ -165,6 +167,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     if info:
         extra["damping_model"] = info
+    extra["warnings"] = notes
     if paper:
         extra["paper"] = paper
     document = results_document(
