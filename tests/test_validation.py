@@ -230,3 +230,24 @@ def test_duplicate_frequency_rows_are_errors(folder, capsys):
     path = _write(folder, BASE.replace("[solver]", 'frequencies_csv = "f.csv"\n[solver]'))
     assert main(["check", str(path)]) == 2
     assert re.search(r"f\.csv: row 4: duplicates row 3", capsys.readouterr().err)
+
+
+def test_a_run_plots_the_nominal_frf_undamped_and_carries_its_warnings(folder, monkeypatch, capsys):
+    """The nominal curve gets no damping (the case has no nominal damping model), the
+    updated one the identified C; validation warnings reach the terminal and results.json."""
+    import json
+
+    from vibupdate import plots
+
+    seen = []
+    real = plots.plot_frf
+    monkeypatch.setattr(plots, "plot_frf", lambda path, cfg, nominal, updated, *a: seen.append((nominal, updated))
+                        or real(path, cfg, nominal, updated, *a))
+    text = BASE.replace("damping_ratios = [0.02", "damping_ratios = [0.25")
+    out = folder / "out"
+    assert main(["run", str(_write(folder, text)), "--out", str(out)]) in (0, 1)
+    (nominal, updated), = seen
+    assert nominal[2] is None and updated[2] is not None
+    assert "warning: configuration 'only', mode 1: damping ratio 0.25 is above 0.2" in capsys.readouterr().out
+    doc = json.loads((out / "results.json").read_text())
+    assert any("damping ratio 0.25" in w for w in doc["warnings"])
