@@ -248,9 +248,13 @@ def _load_callable(ref: str, base: Path, where: _Where):
             spec.loader.exec_module(module)
         else:
             module = importlib.import_module(target)
-    except ImportError as exc:
+    except (ImportError, TypeError) as exc:   # TypeError: a relative name such as '..x'
         raise where.error("model.builder", f"cannot import {target!r}: {exc}") from None
-    if not hasattr(module, func):
+    except ValueError as exc:
+        if str(exc).startswith(str(where.path)):
+            raise
+        raise where.error("model.builder", f"cannot import {target!r}: {exc}") from None
+    if not callable(getattr(module, func, None)):
         raise where.error("model.builder", f"{target!r} has no function {func!r}")
     return getattr(module, func)
 

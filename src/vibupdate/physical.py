@@ -88,10 +88,10 @@ def count_below(A, B, t: float) -> int:
     int
         Negative eigenvalues of ``A - t B`` (Sylvester's law of inertia).
     """
-    S = sp.csc_matrix(A) - t * sp.csc_matrix(B)
-    n = S.shape[0]
+    n = A.shape[0]
     if n <= DENSE_LIMIT:
-        return int(np.sum(sla.eigvalsh(_dense(S)) < 0))
+        return int(np.sum(sla.eigvalsh(_dense(A) - t * _dense(B)) < 0))
+    S = sp.csc_matrix(A) - t * sp.csc_matrix(B)
     for nudge in (0.0, 1e-13, -1e-13):
         shifted = S if nudge == 0 else S + nudge * abs(S).max() * sp.eye(n, format="csc")
         try:
@@ -131,36 +131,49 @@ def definiteness(M, K) -> Definiteness:
     -------
     Definiteness
     """
-    M, K = sp.csr_matrix(M), sp.csr_matrix(K)
+    small = M.shape[0] <= DENSE_LIMIT
+    if small:   # dense arrays: small models are checked many times (box corners)
+        M, K = _dense(M), _dense(K)
+    else:
+        M, K = sp.csr_matrix(M), sp.csr_matrix(K)
+
+    def block(A, rows, cols):
+        return A[np.ix_(rows, cols)] if small else A[rows][:, cols]
+
+    def eye(n):
+        return np.eye(n) if small else sp.identity(n, format="csr")
+
     d = M.diagonal()
     scale = float(np.max(np.abs(d))) if d.size else 0.0
     if not scale > 0:
         return Definiteness((), 0, "the mass matrix M has no positive diagonal entry (no DOF carries mass)")
     if np.any(d < -MASSLESS_TOL * scale):
         i = int(np.argmin(d))
-        return Definiteness((), 0, f"the mass matrix M is not positive semidefinite: negative diagonal entry {d[i]:.6g} "
-                                   f"(DOF {i + 1})")
+        return Definiteness((), 0, f"the mass matrix M is not positive semidefinite: negative diagonal entry "
+                                   f"{d[i]:.6g} (DOF {i + 1})")
     massless = np.flatnonzero(d <= MASSLESS_TOL * scale)
     mass = np.setdiff1d(np.arange(M.shape[0]), massless)
     if massless.size:
-        coupling = abs(M[massless]).max() if M[massless].nnz else 0.0
+        rows = block(M, massless, np.arange(M.shape[0]))
+        coupling = float(abs(rows).max()) if rows.size else 0.0
         if coupling > MASSLESS_TOL * scale:
-            return Definiteness(tuple(massless), 0, "the mass matrix M is not positive semidefinite: a DOF without mass on the "
-                                                    "diagonal is coupled to others by M")
-    Mm = M[mass][:, mass]
+            return Definiteness(tuple(massless), 0, "the mass matrix M is not positive semidefinite: a DOF without "
+                                                    "mass on the diagonal is coupled to others by M")
+    Mm = block(M, mass, mass)
     dm = Mm.diagonal()
-    if count_below(Mm / dm.max(), sp.eye(mass.size), MASSLESS_TOL) > 0:
-        low = _lowest(Mm, sp.eye(mass.size))
+    if count_below(Mm / dm.max(), eye(mass.size), MASSLESS_TOL) > 0:
+        low = _lowest(Mm, eye(mass.size))
         shown = f" (lowest eigenvalue {low:.6g})" if low is not None else ""
-        return Definiteness(tuple(massless), 0, f"the mass matrix M is not positive definite on the DOFs that carry mass{shown}")
+        return Definiteness(tuple(massless), 0,
+                            f"the mass matrix M is not positive definite on the DOFs that carry mass{shown}")
     kd = K.diagonal()
     if massless.size:
-        Ks = K[massless][:, massless]
+        Ks = block(K, massless, massless)
         ks = max(float(np.max(np.abs(Ks.diagonal()))), 1e-300)
-        if count_below(Ks / ks, sp.eye(massless.size), RIGID_TOL) > 0:
+        if count_below(Ks / ks, eye(massless.size), RIGID_TOL) > 0:
             return Definiteness(tuple(massless), 0,
-                                f"the stiffness matrix K is not positive definite on the {massless.size} DOF(s) without mass, so they "
-                                "cannot be condensed (a massless DOF must be held by stiffness)")
+                                f"the stiffness matrix K is not positive definite on the {massless.size} DOF(s) "
+                                "without mass, so they cannot be condensed (a massless DOF must be held by stiffness)")
     lam_ref = float(np.max(np.abs(kd[mass]) / dm))
     if not lam_ref > 0:
         return Definiteness(tuple(massless), 0, "the stiffness matrix K is zero on every DOF that carries mass")
@@ -168,8 +181,8 @@ def definiteness(M, K) -> Definiteness:
     if negative:
         low = _lowest(K, M) if not massless.size else None
         shown = (f"; lowest eigenvalue of (K, M) {low:.6g} (rad/s)^2" if low is not None else "")
-        return Definiteness(tuple(massless), 0, f"the stiffness matrix K is not positive semidefinite: {negative} negative "
-                                                f"eigenvalue(s){shown}")
+        return Definiteness(tuple(massless), 0, f"the stiffness matrix K is not positive semidefinite: {negative} "
+                                                f"negative eigenvalue(s){shown}")
     rigid = count_below(K, M, RIGID_TOL * lam_ref)
     return Definiteness(tuple(int(i) for i in massless), rigid, None)
 
