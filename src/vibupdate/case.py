@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import json
 import math
 import re
 import sys
@@ -24,7 +25,7 @@ from vibupdate.assembly import Assembly
 from vibupdate.formulation import FormulationOptions
 from vibupdate.homotopy import SolverOptions
 from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
-from vibupdate.measured_io import read_frequency_csv, read_shape_csv, read_uff_modes
+from vibupdate.measured_io import not_utf8, read_frequency_csv, read_shape_csv, read_uff_modes
 from vibupdate.model import from_files
 from vibupdate.parameters import Parameter
 
@@ -77,23 +78,27 @@ def _has_type(value, expected) -> bool:
     return isinstance(value, expected)
 
 
+def _join(key: str, name: str) -> str:
+    """``key.name``, with ``name`` quoted as TOML quotes it when it is not a bare key."""
+    shown = name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name, ensure_ascii=False)
+    return f"{key}.{shown}" if key else shown
+
+
 def _check_table(table, allowed: dict, key: str, where: _Where, required=()) -> dict:
     if not isinstance(table, dict):
         raise where.error(key, f"must be a table, got {type(table).__name__}")
     for name in table:
         if name not in allowed:
-            raise where.error(f"{key}.{name}" if key else name,
-                              f"unknown key; allowed here: {', '.join(sorted(allowed))}")
+            raise where.error(_join(key, name), f"unknown key; allowed here: {', '.join(sorted(allowed))}")
     for name in required:
         if name not in table:
-            raise where.error(f"{key}.{name}" if key else name, "is required")
+            raise where.error(_join(key, name), "is required")
     for name, value in table.items():
         expected = allowed[name]
         if expected is None:
             continue
         if not _has_type(value, expected):
-            raise where.error(f"{key}.{name}" if key else name,
-                              f"must be {_TYPE_NAMES.get(expected, expected)}, got {value!r}")
+            raise where.error(_join(key, name), f"must be {_TYPE_NAMES.get(expected, expected)}, got {value!r}")
     return table
 
 
@@ -437,7 +442,9 @@ def load_case(path) -> Case:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ValueError(f"case file {str(path)!r} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: {not_utf8(path.read_bytes(), exc)}") from None
+    except OSError as exc:
         raise ValueError(f"case file {str(path)!r} could not be read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: not valid TOML: {exc}") from None

@@ -32,12 +32,21 @@ __all__ = ["read_frequency_csv", "read_shape_csv", "read_uff_modes", "UffMode"]
 _UFF_DIRECTIONS = {"r1": "x", "r2": "y", "r3": "z", "r4": "rx", "r5": "ry", "r6": "phi"}
 
 
+def not_utf8(data: bytes, exc: UnicodeDecodeError) -> str:
+    """Where a file stops being UTF-8 text, as ``"line L: ..."``."""
+    line = data.count(b"\n", 0, exc.start) + 1
+    column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+    return f"line {line}: not UTF-8 text (byte 0x{data[exc.start]:02x} at column {column})"
+
+
 def _rows(path: Path) -> list[tuple[int, dict]]:
     """Data rows of a CSV file with their line numbers; blank and ``#`` lines are skipped."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: {not_utf8(path.read_bytes(), exc)}") from None
+    except OSError as exc:
         raise ValueError(f"CSV file {str(path)!r} could not be read: {exc}") from None
     numbered = [(k, line) for k, line in enumerate(text.splitlines(), start=1)
                 if line.strip() and not line.lstrip().startswith("#")]
