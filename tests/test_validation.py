@@ -65,8 +65,9 @@ def _add(section, line):
 # Each of these passed `check` and then failed in `run` (or ran on meaningless numbers)
 # before `check` and `run` shared `vibupdate.validation.validate_case`.
 CHECK_WAS_LOOSER = [
-    (_add("solver", "max_iter = 0"), r"solver\.max_iter: must be an integer >= 1"),
+    (_add("solver", "max_iter = 0"), r"solver\.max_iter: must be an integer from 1 to 1000000"),
     (_add("solver", "max_iter = -5"), r"solver\.max_iter"),
+    (lambda t: t.replace("n_lambda = 2", "n_lambda = 100000000"), r"solver\.n_lambda: must be an integer from 1 to"),
     (_add("solver", "max_cpu_time = 0.0"), r"solver\.max_cpu_time: must be finite and a positive"),
     (_add("solver", "max_cpu_time = nan"), r"solver\.max_cpu_time"),
     (_add("solver", "tol = 0.0"), r"solver\.tol: must be finite and in \(0, 1\)"),

@@ -29,6 +29,8 @@ __all__ = ["CaseCheck", "validate_case", "HIGH_DAMPING"]
 
 #: Damping ratios above this get a warning.
 HIGH_DAMPING = 0.2
+#: Most homotopy steps and IPOPT iterations per solve.
+MAX_STEPS, MAX_ITERATIONS = 10_000, 1_000_000
 #: Largest magnitude of a Caughey exponent.
 MAX_EXPONENT = 10.0
 #: Largest magnitude of a normalized bound (Eq. 12): a parameter may move this many reference values.
@@ -74,10 +76,10 @@ def _finite(value) -> bool:
 
 
 def _check_solver(solver, error) -> None:
-    for name in ("n_lambda", "max_iter"):
+    for name, most in (("n_lambda", MAX_STEPS), ("max_iter", MAX_ITERATIONS)):
         value = getattr(solver, name)
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise error(f"solver.{name}", f"must be an integer >= 1, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= most:
+            raise error(f"solver.{name}", f"must be an integer from 1 to {most}, got {value!r}")
     checks = (("min_step", lambda v: 0 < v <= 1, "in (0, 1]"),
               ("proximal", lambda v: 0 <= v <= 1, "in [0, 1]"),
               ("max_cpu_time", lambda v: v > 0, "a positive number of seconds"),
