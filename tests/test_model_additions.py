@@ -50,7 +50,7 @@ def _assembled_chain(p, extra=0.0):
 BUILDER = '''
 import vibupdate as vu
 
-def build(p, as_tuple=False):
+def build(p, as_tuple=False, as_pair=False):
     asm = vu.Assembly("beam")
     for i in range(1, 4):
         asm.node(i, float(i))
@@ -60,6 +60,8 @@ def build(p, as_tuple=False):
     asm.spring("y1", p["k"], "y2")
     asm.spring("y2", p["k"], "y3")
     s = asm.system()
+    if as_pair:          # (M, K): DOFs named q1, q2, q3 in matrix order
+        return s.M, s.K
     return (s.M, s.K, s.dofs) if as_tuple else s
 '''
 
@@ -86,7 +88,7 @@ def _matrices_case(tmp_path):
             f"dofs = {names!r}\n".replace("'", '"') + 'dM = { m = "dM.mtx" }\ndK = { k = "dK.mtx" }\n')
 
 
-@pytest.mark.parametrize("model_type", ["elements", "builder-system", "builder-tuple", "matrices"])
+@pytest.mark.parametrize("model_type", ["elements", "builder-system", "builder-tuple", "builder-pair", "matrices"])
 def test_affine_form_equals_the_assembled_model_with_its_configuration_mass(tmp_path, model_type):
     if model_type == "elements":
         head = ELEMENTS
@@ -96,19 +98,24 @@ def test_affine_form_equals_the_assembled_model_with_its_configuration_mass(tmp_
     else:
         head = _matrices_case(tmp_path)
     text = head + PARAMS
-    if model_type == "builder-tuple":   # a builder returning (M, K, dofs), as the docs allow
+    if model_type == "builder-tuple":   # a builder returning (M, K, dofs)
         text = text.replace('name = "loaded"\n', 'name = "loaded"\noptions = { as_tuple = true }\n')
+    if model_type == "builder-pair":    # a builder returning (M, K), as the docs allow
+        text = text.replace('name = "loaded"\n', 'name = "loaded"\noptions = { as_pair = true }\n')
+        text = text.replace('name = "bare"\n', 'name = "bare"\noptions = { as_pair = true }\n')
+        text = text.replace('dof = "y2"', 'dof = "q2"')
     (tmp_path / "case.toml").write_text(text)
     case = load_case(tmp_path / "case.toml")
     for cfg, extra in zip(case.configurations, (0.0, 0.001 * SECOND["k"] + 0.5 * SECOND["m"] + 0.1)):
         model = cfg.model
         M, K = model.matrices_at([SECOND["k"], SECOND["m"]])
         ref = _assembled_chain(SECOND, extra)
-        order = [ref.dofs.index(d) for d in model.dofs]
+        names = [d.replace("q", "y") for d in model.dofs]   # q1..q3 of a bare (M, K) are y1..y3
+        order = [ref.dofs.index(d) for d in names]
         np.testing.assert_allclose(M.toarray(), ref.M.toarray()[np.ix_(order, order)], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(K.toarray(), ref.K.toarray()[np.ix_(order, order)], rtol=1e-12, atol=1e-9)
     loaded = case.configurations[1].model
-    i = loaded.dof("y2")
+    i = loaded.dof("q2" if model_type == "builder-pair" else "y2")
     # dM/dxbar_k = 0.001 * p_ref(k) = 1.0 from the configuration mass alone
     assert loaded.M_par[0][i, i] == pytest.approx(1.0, rel=1e-12)
 
