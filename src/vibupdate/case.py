@@ -274,7 +274,16 @@ def _base_model(spec: dict, options: dict, parameters, base: Path, where: _Where
         if kind == "builder":
             _check_table(spec, {"type": str, "builder": str}, "model", where, required=("builder",))
             func = _load_callable(spec["builder"], base, where)
-            return affine_from_builder(lambda p: func(p, **options), parameters)
+
+            def build(p):
+                try:
+                    return func(p, **options)
+                except Exception as exc:  # the user's code: whatever it raises is bad input, named
+                    hint = " (does the builder read a parameter the case does not define?)" \
+                        if isinstance(exc, KeyError) else ""
+                    raise ValueError(f"{spec['builder']} raised {type(exc).__name__}: {exc}{hint}") from None
+
+            return affine_from_builder(build, parameters)
         if kind == "matrices":
             _check_table(spec, {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict},
                          "model", where, required=("M0", "K0"))
@@ -285,7 +294,7 @@ def _base_model(spec: dict, options: dict, parameters, base: Path, where: _Where
     except ValueError as exc:
         if str(exc).startswith(str(where.path)):
             raise
-        raise where.error("model", str(exc)) from None
+        raise where.error("model.builder" if kind == "builder" else "model", str(exc)) from None
     raise where.error("model.type", f"must be 'elements', 'builder' or 'matrices', got {kind!r}")
 
 
