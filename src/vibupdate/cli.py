@@ -43,6 +43,9 @@ def _print_tables(document: dict) -> None:
 def _finish(document: dict) -> int:
     _print_tables(document)
     solver = document.get("solver") or {}
+    if solver.get("status") == "not_verified":
+        print(f"vibupdate: {solver.get('message')}; see the warnings above and the report", file=sys.stderr)
+        return 1
     if solver.get("status") not in ("success", "acceptable"):
         print(f"vibupdate: updating failed: {solver.get('message')}", file=sys.stderr)
         return 1
