@@ -275,25 +275,25 @@ SHAPES = (EXAMPLES["frame"] / "shapes.csv").read_text()
 FREQUENCIES = (EXAMPLES["frame"] / "frequencies.csv").read_text()
 
 
-@settings(max_examples=14, **CI)
+@settings(max_examples=40, **CI)
 @given(case_mutation(CANTILEVER))
 def test_mutated_cantilever_case(mutation):
     _case_body("cantilever", mutation)
 
 
-@settings(max_examples=6, **CI)
+@settings(max_examples=20, **CI)
 @given(case_mutation(FRAME))
 def test_mutated_frame_case(mutation):
     _case_body("frame", mutation)
 
 
-@settings(max_examples=10, **CI)
+@settings(max_examples=25, **CI)
 @given(byte_mutation(CANTILEVER_BYTES))
 def test_garbage_bytes_in_the_case_file(data):
     _bytes_body("cantilever", data)
 
 
-@settings(max_examples=6, **CI)
+@settings(max_examples=20, **CI)
 @given(st.one_of(csv_mutation(SHAPES).map(lambda d: ("shapes.csv", d)),
                  csv_mutation(FREQUENCIES).map(lambda d: ("frequencies.csv", d))))
 def test_mutated_data_files(mutation):
@@ -332,7 +332,7 @@ def test_mutated_cantilever_run(mutation):
 
 
 @pytest.mark.slow
-@settings(max_examples=150, **LONG)
+@settings(max_examples=400, **LONG)
 @given(st.one_of(case_mutation(CANTILEVER).map(lambda m: ("cantilever", m)),
                  case_mutation(FRAME).map(lambda m: ("frame", m))))
 def test_long_mutated_cases(named):
@@ -340,14 +340,14 @@ def test_long_mutated_cases(named):
 
 
 @pytest.mark.slow
-@settings(max_examples=100, **LONG)
+@settings(max_examples=250, **LONG)
 @given(byte_mutation(CANTILEVER_BYTES))
 def test_long_garbage_bytes(data):
     _bytes_body("cantilever", data)
 
 
 @pytest.mark.slow
-@settings(max_examples=60, **LONG)
+@settings(max_examples=200, **LONG)
 @given(st.one_of(csv_mutation(SHAPES).map(lambda d: ("shapes.csv", d)),
                  csv_mutation(FREQUENCIES).map(lambda d: ("frequencies.csv", d))))
 def test_long_mutated_data_files(mutation):

@@ -169,6 +169,25 @@ _ELEMENTS_KEYS = {"type": str, "kind": str, "nodes": list, "line": dict, "clamp"
                   "fix": list, "beam": list, "frame": list, "mass": list, "spring": list}
 
 
+#: Most nodes of an elements model.
+MAX_NODES = 100_000
+
+
+def _label(value, key: str, where: _Where):
+    """A node label: an integer or a string."""
+    if isinstance(value, bool) or not isinstance(value, (int, str)):
+        raise where.error(key, f"node labels are integers or strings, got {value!r}")
+    return value
+
+
+def _point(values, key: str, where: _Where) -> list[float]:
+    """Coordinates ``[x]`` or ``[x, y]``, m, finite."""
+    if not isinstance(values, list) or len(values) not in (1, 2) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values):
+        raise where.error(key, f"coordinates are [x] or [x, y] in finite numbers (m), got {values!r}")
+    return [float(v) for v in values]
+
+
 def _elements_builder(spec: dict, names, where: _Where):
     _check_table(spec, _ELEMENTS_KEYS, "model", where, required=("kind",))
     kind = spec["kind"]
@@ -179,16 +198,31 @@ def _elements_builder(spec: dict, names, where: _Where):
         line = _check_table(spec["line"], {"first": int, "last": int, "start": list, "end": list}, "model.line",
                             where, required=("first", "last", "start", "end"))
         labels = range(line["first"], line["last"] + 1)
-        start, end = np.array(line["start"], float), np.array(line["end"], float)
+        if not 2 <= len(labels) <= MAX_NODES:
+            raise where.error("model.line", f"first..last must give 2 to {MAX_NODES} nodes, got {len(labels)}")
+        start, end = (np.array(_point(line[k], f"model.line.{k}", where)) for k in ("start", "end"))
+        if start.size != end.size:
+            raise where.error("model.line", f"start and end must both be [x] or both [x, y], got {line['start']!r} "
+                                            f"and {line['end']!r}")
         for k, label in enumerate(labels):
-            xy = start + (end - start) * k / max(len(labels) - 1, 1)
+            xy = start + (end - start) * k / (len(labels) - 1)
             nodes.append((label, float(xy[0]), float(xy[1]) if xy.size > 1 else 0.0))
-    for item in spec.get("nodes", []):
+    for i, item in enumerate(spec.get("nodes", []), start=1):
+        key = f"model.nodes[{i}]"
         if not isinstance(item, list) or len(item) not in (2, 3):
-            raise where.error("model.nodes", f"each node is [label, x] or [label, x, y], got {item!r}")
-        nodes.append((item[0], float(item[1]), float(item[2]) if len(item) == 3 else 0.0))
+            raise where.error(key, f"each node is [label, x] or [label, x, y], got {item!r}")
+        xy = _point(item[1:], key, where)
+        nodes.append((_label(item[0], key, where), xy[0], xy[1] if len(xy) > 1 else 0.0))
     if not nodes:
         raise where.error("model", "needs nodes (model.nodes or model.line)")
+    if len(nodes) > MAX_NODES:
+        raise where.error("model.nodes", f"at most {MAX_NODES} nodes, got {len(nodes)}")
+    for support in ("clamp", "pin"):
+        for i, label in enumerate(spec.get(support, []), start=1):
+            _label(label, f"model.{support}[{i}]", where)
+    for i, dof in enumerate(spec.get("fix", []), start=1):
+        if not isinstance(dof, str):
+            raise where.error(f"model.fix[{i}]", f"must be a DOF name (a string), got {dof!r}")
 
     def expr(value, key):
         try:
@@ -201,7 +235,7 @@ def _elements_builder(spec: dict, names, where: _Where):
         for i, item in enumerate(spec.get(family, [])):
             key = f"model.{family}[{i + 1}]"
             _check_table(item, {"nodes": list, **{p: None for p in props}}, key, where, required=("nodes", *props))
-            chain = item["nodes"]
+            chain = [_label(n, f"{key}.nodes", where) for n in item["nodes"]]
             if len(chain) < 2:
                 raise where.error(f"{key}.nodes", "needs at least two nodes")
             compiled = {p: expr(item[p], f"{key}.{p}") for p in props}
