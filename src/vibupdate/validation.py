@@ -62,14 +62,6 @@ class CaseCheck:
     warnings: tuple[str, ...]
 
 
-class _Errors:
-    def __init__(self, path):
-        self.path = path if path is not None else "case"
-
-    def __call__(self, key: str, message: str) -> ValueError:
-        return ValueError(f"{self.path}: {key}: {message}")
-
-
 def _finite(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
         and math.isfinite(value)
@@ -289,7 +281,11 @@ def validate_case(case) -> CaseCheck:
     from vibupdate.reduction import reduce_configurations, wants_reduction
     from vibupdate.update import prepare
 
-    error = _Errors(case.path)
+    from pathlib import Path
+
+    from vibupdate.case import _Where
+
+    error = _Where(case.path if case.path is not None else Path("case")).error
     _check_solver(case.solver, error)
     _check_formulation(case.formulation, error)
     tol = case.frequency_tolerance
