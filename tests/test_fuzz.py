@@ -310,12 +310,12 @@ def _run_body(mutation) -> None:
         before = _snapshot(folder)
         code, stdout, err = _cli(["run", str(case), "--out", str(out)])
         _check_outcome(code, stdout, err, folder)
-        leftovers = [p.name for p in folder.iterdir() if ".partial" in p.name]
+        leftovers = [str(p) for p in folder.rglob("*partial*")]   # the staging folders of a run
         assert not leftovers, leftovers
         if code == 2:
             assert _snapshot(folder) == before, "a rejected run wrote files"
         else:
-            assert (out / "results.json").is_file() and (out / "report.md").is_file()
+            assert {"results.json", "report.md", "vibupdate-manifest.json"} <= {p.name for p in out.iterdir()}
 
 
 CHEAP = json.loads(json.dumps(CANTILEVER))
