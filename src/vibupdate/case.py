@@ -15,7 +15,7 @@ import re
 import sys
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,8 @@ from vibupdate.affine import AffineModel, Lumped, affine_from_builder, with_lump
 from vibupdate.assembly import Assembly
 from vibupdate.formulation import FormulationOptions
 from vibupdate.homotopy import SolverOptions
+from vibupdate.polish import PolishOptions
+from vibupdate.verify import VerifyOptions
 from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 from vibupdate.measured_io import not_utf8, read_frequency_csv, read_shape_csv, read_uff_modes
 from vibupdate.model import from_files
@@ -54,6 +56,8 @@ class Case:
     formulation: FormulationOptions
     damping: DampingOptions | None
     frequency_tolerance: float = 0.0
+    polish: PolishOptions = field(default_factory=PolishOptions)
+    verification: VerifyOptions = field(default_factory=VerifyOptions)
 
 
 class _Where:
@@ -361,7 +365,7 @@ def _configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: _
 
 # -- measured data ------------------------------------------------------------------------------
 
-_CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "damping_ratios": list,
+_CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_modes": list, "damping_ratios": list,
              "antiresonances": list, "frequencies_csv": str, "mode_shapes_csv": str, "mode_shapes_uff": str,
              "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list,
              "frf": dict}
@@ -394,8 +398,15 @@ def _frf_data(spec: dict, base: Path, where: _Where, key: str):
     zeros = [{"hz": z.omega * to_hz, "weight": 1.0, "response": z.response, "excitation": z.excitation,
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
-    shapes = {k + 1: dict(m.shape_interval) for k, m in enumerate(result.modes)}
+    shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
     return natural, zeros, shapes
+
+
+@dataclass(frozen=True)
+class _Declared:
+    """A stand-in with the ``mode`` attribute that `declared_modes` reads."""
+
+    mode: int | None
 
 
 def _numbers(values, key, where) -> list[float]:
@@ -452,17 +463,29 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
             ratios = _numbers(ratios, f"{key}.damping_ratios", where)
             if len(ratios) != len(hz):
                 raise where.error(f"{key}.damping_ratios", f"needs {len(hz)} entries, got {len(ratios)}")
-        natural = [{"hz": h, "weight": w, "damping_ratio": None if ratios is None else ratios[i]}
+        modes = cfg.get("natural_modes")
+        if modes is not None:
+            if len(modes) != len(hz) or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes):
+                raise where.error(f"{key}.natural_modes",
+                                  f"needs {len(hz)} integers >= 1 (the model mode of each frequency), got {modes!r}")
+        natural = [{"hz": h, "weight": w, "damping_ratio": None if ratios is None else ratios[i],
+                    "mode": None if modes is None else modes[i]}
                    for i, (h, w) in enumerate(zip(hz, weights))]
     for i, item in enumerate(cfg.get("antiresonances", [])):
         k = f"{key}.antiresonances[{i + 1}]"
-        _check_table(item, {"hz": float, "response": str, "excitation": str, "weight": float}, k, where,
-                     required=("hz", "response", "excitation"))
+        _check_table(item, {"hz": float, "response": str, "excitation": str, "weight": float, "index": int}, k,
+                     where, required=("hz", "response", "excitation"))
+        if "index" in item and item["index"] < 1:
+            raise where.error(f"{k}.index", f"must be an integer >= 1 (which zero of the receptance), got {item['index']!r}")
         zeros.append({"weight": 1.0, **item})
+    from vibupdate.measured import declared_modes
+
+    declared = declared_modes([_Declared(f.get("mode")) for f in natural])
+    position = {m: k for k, m in enumerate(declared)}
     for mode in shapes:
-        if mode > len(natural):
-            raise where.error(key, f"a mode shape is given for mode {mode}, but only {len(natural)} natural "
-                                   "frequencies are measured")
+        if mode not in position:
+            raise where.error(key, f"a mode shape is given for mode {mode}, but the measured natural frequencies "
+                                   f"are modes {declared}")
     first_sign = {}
     for i, item in enumerate(cfg.get("first_sign", [])):
         k = f"{key}.first_sign[{i + 1}]"
@@ -475,7 +498,7 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
 
         nat = tuple(
             NaturalFrequency.from_hz(f["hz"], weight=f["weight"], damping_ratio=f["damping_ratio"],
-                                     shape=ShapeInterval(shapes[k + 1]) if k + 1 in shapes else None,
+                                     shape=ShapeInterval(shapes[declared[k]]) if declared[k] in shapes else None,
                                      mode=f.get("mode"), interval=rad(f.get("interval")),
                                      damping_interval=f.get("damping_interval"))
             for k, f in enumerate(natural))
@@ -490,7 +513,10 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
 # -- the whole file -----------------------------------------------------------------------------
 
 _TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list, "solver": dict,
-             "formulation": dict, "damping": dict, "frequency_tolerance": float}
+             "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
+             "verification": dict}
+_POLISH_KEYS = {"enabled": bool, "shape_weight": float, "max_evaluations": int, "tol": float}
+_VERIFICATION_KEYS = {"mac_min": float, "shape_slack": float, "fit_tolerance": float}
 _SOLVER_KEYS = {"n_lambda": int, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
                 "tol": float}
 _FORMULATION_KEYS = {"shape_margin": float, "adjunct_margin": float, "sign_delta": float, "length_scale": float,
@@ -557,4 +583,6 @@ def load_case(path) -> Case:
         formulation=_options(FormulationOptions, data.get("formulation", {}), _FORMULATION_KEYS, "formulation", where),
         damping=_damping(data["damping"], where) if "damping" in data else None,
         frequency_tolerance=float(data.get("frequency_tolerance", 0.0)),
+        polish=_options(PolishOptions, data.get("polish", {}), _POLISH_KEYS, "polish", where),
+        verification=_options(VerifyOptions, data.get("verification", {}), _VERIFICATION_KEYS, "verification", where),
     )

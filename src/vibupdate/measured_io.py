@@ -2,11 +2,13 @@
 
 CSV frequency table, one row per measured frequency::
 
-    kind,hz,weight,damping_ratio,response,excitation
-    natural,73.4,1,0.044,,
-    antiresonance,101.3,1,,y1,y3
+    kind,hz,weight,damping_ratio,response,excitation,mode,index
+    natural,73.4,1,0.044,,,1,
+    antiresonance,101.3,1,,y1,y3,,1
 
-(``weight``, ``damping_ratio``, ``response``, ``excitation`` optional per row.)
+(``weight``, ``damping_ratio``, ``response``, ``excitation``, ``mode``, ``index`` optional per
+row; ``mode`` is the model mode a natural frequency is, ``index`` which zero of its receptance
+an antiresonance is, both 1-based; see `vibupdate.pairing` for the defaults.)
 
 CSV mode-shape table, one row per measured entry, bounds or value and tolerance::
 
@@ -82,15 +84,26 @@ def _number(text: str, what: str, path: Path, line: int) -> float:
     return value
 
 
+def _count(text: str | None, what: str, path: Path, line: int) -> int | None:
+    """An optional 1-based integer column (a declared mode or zero index)."""
+    if not text:
+        return None
+    value = _number(text, what, path, line)
+    if value != int(value) or value < 1:
+        raise ValueError(f"{path}: row {line}: {what} must be an integer >= 1, got {text!r}")
+    return int(value)
+
+
 def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
     """Natural frequencies and antiresonances from a CSV table (module docstring).
 
     Returns
     -------
     natural : list of dict
-        ``{"hz", "weight", "damping_ratio"}`` in file order.
+        ``{"hz", "weight", "damping_ratio", "mode"}`` in file order (``mode`` None where the
+        optional column is empty).
     antiresonances : list of dict
-        ``{"hz", "weight", "response", "excitation"}`` in file order.
+        ``{"hz", "weight", "response", "excitation", "index"}`` in file order.
     """
     path = Path(path)
     rows = _rows(path)
@@ -110,11 +123,13 @@ def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
         if kind == "natural":
             xi = row.get("damping_ratio")
             natural.append({"hz": hz, "weight": weight,
-                            "damping_ratio": _number(xi, "damping_ratio", path, i) if xi else None})
+                            "damping_ratio": _number(xi, "damping_ratio", path, i) if xi else None,
+                            "mode": _count(row.get("mode"), "mode", path, i)})
         elif kind == "antiresonance":
             if not row.get("response") or not row.get("excitation"):
                 raise ValueError(f"{path}: row {i}: an antiresonance needs 'response' and 'excitation' DOFs")
-            zeros.append({"hz": hz, "weight": weight, "response": row["response"], "excitation": row["excitation"]})
+            zeros.append({"hz": hz, "weight": weight, "response": row["response"], "excitation": row["excitation"],
+                          "index": _count(row.get("index"), "index", path, i)})
         else:
             raise ValueError(f"{path}: row {i}: kind must be 'natural' or 'antiresonance', got {row['kind']!r}")
     return natural, zeros

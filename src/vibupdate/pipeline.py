@@ -9,6 +9,8 @@ over these functions.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import importlib
 import shutil
 import warnings
@@ -154,11 +156,10 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     for w in checked.warnings:
         say(f"warning: {w}")
     target = prepare_output(out_dir, force=force, planned=planned_files(case))
-    from vibupdate.verify import VerifyOptions
-
-    verification = (VerifyOptions(frequency_tolerance=case.frequency_tolerance) if case.frequency_tolerance > 0
-                    else VerifyOptions())
-    result = update(case.configurations, formulation=case.formulation, solver=case.solver,
+    verification = case.verification
+    if case.frequency_tolerance > 0:
+        verification = replace(verification, frequency_tolerance=case.frequency_tolerance)
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
