@@ -13,7 +13,7 @@ exact to rounding for any small ``h`` because no difference is taken.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -23,7 +23,7 @@ import scipy.sparse.linalg as spla
 from vibupdate.assembly import System, dof_index
 from vibupdate.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
-__all__ = ["AffineModel", "complex_step_jacobians", "affine_from_builder", "check_matrices"]
+__all__ = ["AffineModel", "Lumped", "with_lumped", "complex_step_jacobians", "affine_from_builder", "check_matrices"]
 
 Builder = Callable[[dict], "System | tuple"]
 
@@ -104,6 +104,61 @@ class AffineModel:
         return self.matrices(self.normalized(values))
 
 
+@dataclass(frozen=True)
+class Lumped:
+    """A lumped addition to a model: a mass (``matrix = "M"``) on ``dof``, or a spring
+    (``matrix = "K"``) from ``dof`` to ground or to ``other``.
+
+    ``value`` is affine in the physical parameters: it has ``constant`` (float) and
+    ``coefficients`` (pairs of parameter name and ``d value / d p``), like
+    `vibupdate.case.LinearExpression`. Units: kg or kg m^2 for a mass, N/m or N m/rad for a
+    spring.
+    """
+
+    matrix: str
+    dof: str
+    value: object
+    other: str | None = None
+
+
+def _lumped_matrix(model: "AffineModel", item: Lumped, amount: float) -> sp.csr_matrix:
+    i = model.dof(item.dof)
+    n = model.n_dofs
+    if item.other is None:
+        return sp.csr_matrix(([amount], ([i], [i])), shape=(n, n))
+    j = model.dof(item.other)
+    return sp.csr_matrix(([amount, amount, -amount, -amount], ([i, j, i, j], [i, j, j, i])), shape=(n, n))
+
+
+def with_lumped(model: "AffineModel", additions: Sequence[Lumped]) -> "AffineModel":
+    """``model`` plus lumped masses and springs, with their parameter dependence.
+
+    The nominal matrices gain each value at the nominal parameters; the parameter matrices
+    gain ``coefficient * p_ref`` (Eq. 13), so ``M(xbar)``, ``K(xbar)`` are those of the
+    assembled model at every ``xbar``. This is the one path by which a configuration's
+    additions enter a model of any type (elements, builder or matrices).
+    """
+    if not additions:
+        return model
+    known = {p.name: k for k, p in enumerate(model.parameters)}
+    nominal = {p.name: p.nominal for p in model.parameters}
+    mats = {"M": [model.M0, list(model.M_par)], "K": [model.K0, list(model.K_par)]}
+    for item in additions:
+        if item.matrix not in mats:
+            raise ValueError(f"a lumped addition goes to 'M' or 'K', got {item.matrix!r}")
+        for name, _ in item.value.coefficients:
+            if name not in known:
+                raise ValueError(f"the value of the addition on {item.dof!r} names {name!r}, which is not a parameter")
+        target = mats[item.matrix]
+        target[0] = target[0] + _lumped_matrix(model, item, float(item.value(nominal)))
+        for name, coef in item.value.coefficients:
+            k = known[name]
+            target[1][k] = target[1][k] + _lumped_matrix(model, item, coef * model.parameters[k].reference)
+    return replace(model, M0=sp.csr_matrix(mats["M"][0]), K0=sp.csr_matrix(mats["K"][0]),
+                   M_par=tuple(sp.csr_matrix(A) for A in mats["M"][1]),
+                   K_par=tuple(sp.csr_matrix(A) for A in mats["K"][1]))
+
+
 def _stack_on_union(A0, parts):
     """``A0`` and ``parts`` on their union sparsity pattern: a data array of shape
     (1 + n_x, nnz) with the pattern's indices, so that ``A(xbar)`` is one vector operation."""
@@ -141,23 +196,13 @@ def symmetric_error(A: sp.spmatrix) -> float:
     return float(abs(A - A.T).max() / scale) if scale > 0 else 0.0
 
 
-def _is_positive_definite(M: sp.spmatrix) -> bool:
-    """Whether the symmetric ``M`` is positive definite: a sparse LU with a symmetric fill-in
-    ordering and diagonal pivots only is then ``L D L^T`` with every pivot ``D`` positive."""
-    if M.shape[0] == 0:
-        return False
-    try:
-        lu = spla.splu(sp.csc_matrix(M, dtype=float), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
-    except RuntimeError:  # exactly singular
-        return False
-    return bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(lu.U.diagonal() > 0))
-
-
 def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
     """Raise ValueError unless ``M``, ``K`` are square, equal in size, finite, symmetric and
-    ``M`` is positive definite, or positive semidefinite with massless DOFs (zero rows) on
-    which ``K`` is positive definite; ``dofs`` must name every row."""
+    physically admissible (`vibupdate.physical.definiteness`: ``M`` positive definite or
+    semidefinite with massless DOFs held by ``K``, ``K`` positive semidefinite); ``dofs`` must
+    name every row."""
+    from vibupdate.physical import definiteness
+
     for name, A in (("mass", M), ("stiffness", K)):
         if A.ndim != 2 or A.shape[0] != A.shape[1]:
             raise ValueError(f"{what}: {name} matrix must be square, got shape {A.shape}")
@@ -173,21 +218,9 @@ def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
         err = symmetric_error(A)
         if err > 1e-9:
             raise ValueError(f"{what}: {name} matrix is not symmetric (relative asymmetry {err:.2e})")
-    massless = np.flatnonzero(M.diagonal() == 0)
-    if massless.size == 0:
-        if not _is_positive_definite(M):
-            raise ValueError(f"{what}: mass matrix is not positive definite")
-        return
-    # Massless DOFs (zero diagonal mass, as exported FE models lump mass on translations only):
-    # M must be positive definite on the other DOFs and K on the massless ones.
-    massed = np.setdiff1d(np.arange(M.shape[0]), massless)
-    M, K = sp.csr_matrix(M), sp.csr_matrix(K)
-    if massed.size == 0 or abs(M[massless]).max() > 0 or not _is_positive_definite(M[massed][:, massed]):
-        raise ValueError(f"{what}: mass matrix is not positive semidefinite with {massless.size} massless DOFs "
-                         f"(e.g. {dofs[massless[0]]!r}) and positive definite on the others")
-    if not _is_positive_definite(K[massless][:, massless]):
-        raise ValueError(f"{what}: stiffness matrix is not positive definite on the {massless.size} massless DOFs "
-                         f"(e.g. {dofs[massless[0]]!r}); a DOF without mass needs stiffness")
+    problem = definiteness(M, K).problem
+    if problem:
+        raise ValueError(f"{what}: {problem}")
 
 
 def complex_step_jacobians(builder: Builder, parameters: Sequence[Parameter], dofs=None):
