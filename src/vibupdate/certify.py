@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -358,60 +358,100 @@ class CertifiedRanges:
 
 
 class _Tightener:
-    """Boxes of the parameters and vector entries, tightened by safe LP bounds."""
+    """Boxes of the parameters and vector entries, tightened by safe LP bounds.
+
+    The relaxation of all blocks bounds the parameters; the vector entries of block ``b``
+    are bounded by the relaxation of block ``b`` alone (the other blocks' rows dropped: a
+    weaker but valid relaxation, and a small LP), which also bounds the parameters.
+    """
 
     def __init__(self, cs: ConsistentSet, L: _Lifted):
         self.L = L
+        self.n_x = cs.n_x
+        self.local = [_lift(replace(cs, blocks=(blk,), models=(m,), omega_lower=cs.omega_lower[b:b + 1],
+                                    omega_upper=cs.omega_upper[b:b + 1]))
+                      for b, (blk, m) in enumerate(zip(cs.blocks, cs.models))]
+        self.u_off = np.concatenate([[0], np.cumsum([Lb.n_u for Lb in self.local])]).astype(int)
         self.box = [np.concatenate([cs.x_lower, L.u_lower]), np.concatenate([cs.x_upper, L.u_upper])]
         self.confirmed = np.zeros((cs.n_x, 2), dtype=bool)
-        self.lp, self.n_lps, self.infeasible = None, 0, False
+        self.lps = {}
+        self.n_lps, self.infeasible = 0, None
 
-    def relaxation(self) -> _LP:
-        if self.lp is None:
-            n_x = self.L.n_x
-            lo, hi = self.box
-            self.lp = _relaxation(self.L, lo[:n_x], hi[:n_x], lo[n_x:], hi[n_x:])
-        return self.lp
+    def relaxation(self, block: int | None = None) -> _LP:
+        """LP of all blocks (``None``) or of one block, on the current boxes (cached)."""
+        if block not in self.lps:
+            n_x, (lo, hi) = self.n_x, self.box
+            if block is None:
+                L, sl = self.L, slice(n_x, None)
+            else:
+                L, sl = self.local[block], slice(n_x + self.u_off[block], n_x + self.u_off[block + 1])
+            self.lps[block] = _relaxation(L, lo[:n_x], hi[:n_x], lo[sl], hi[sl])
+        return self.lps[block]
 
-    def tighten(self, j: int, side: int) -> None:
-        """Bound variable ``j`` (x then u) from below (side 0) or above (side 1)."""
-        lp = self.relaxation()
+    def _invalidate(self, j: int) -> None:
+        if j < self.n_x:
+            self.lps.clear()
+            return
+        self.lps.pop(None, None)
+        self.lps.pop(int(np.searchsorted(self.u_off, j - self.n_x, side="right")) - 1, None)
+
+    def tighten(self, j: int, side: int, block: int | None = None) -> None:
+        """Bound variable ``j`` of the box (x then u) from below (side 0) or above (side 1)
+        over the relaxation of all blocks or of ``block``."""
+        lp = self.relaxation(block)
+        local = j if j < self.n_x or block is None else j - self.u_off[block]
         sign = 1.0 if side == 0 else -1.0
-        c = np.zeros(self.L.n_z)
-        c[j] = sign
+        c = np.zeros(lp.A.shape[1])
+        c[local] = sign
         status, opt, bound = _solve(lp, c)
         self.n_lps += 1
         if status == "infeasible":
-            self.infeasible = True
+            self.infeasible = (block,)
         if status != "optimal" or not np.isfinite(bound):
             return
         value = sign * bound
         old = self.box[side][j]
         better = value > old if side == 0 else value < old
-        if j < self.L.n_x and (better or abs(value - old) <= GAP):
+        if j < self.n_x and (better or abs(value - old) <= GAP):
             self.confirmed[j, side] = bound >= opt - GAP
         if better:
             self.box[side][j] = value
-            self.lp = None
+            self._invalidate(j)
 
     def crossed(self) -> bool:
         return bool(np.any(self.box[0] > self.box[1]))
+
+    def sweep(self, deadline: float, full: bool) -> bool:
+        """One pass: every block's vector entries and the parameters over that block (or, with
+        ``full``, the vector entries over all blocks), then the parameters over all blocks.
+        False when stopped by the deadline or an infeasible LP."""
+        n_x, blocks = self.n_x, range(len(self.local))
+        tasks = [(n_x + self.u_off[b] + k, None if full else b) for b in blocks for k in range(self.local[b].n_u)]
+        tasks += ([] if full else [(i, b) for b in blocks for i in range(n_x)]) + [(i, None) for i in range(n_x)]
+        for j, block in tasks:
+            for side in (0, 1):
+                if time.perf_counter() > deadline:
+                    return False
+                self.tighten(j, side, block)
+                if self.infeasible is not None or self.crossed():
+                    return False
+        return True
 
 
 def enclosure(cs: ConsistentSet, *, seconds: float = 30.0,
               progress: Callable[[str], None] | None = None) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
-    The root ranges (two LPs per parameter) are always computed; bound-tightening passes over
-    every vector entry and parameter follow while the elapsed time is below ``seconds`` and a
-    pass still narrows the boxes.
+    The root ranges (two LPs per parameter over all blocks) are always computed; bound-
+    tightening passes (`_Tightener.sweep`) follow while the elapsed time is below ``seconds``:
+    per-block passes (small LPs) until one narrows the boxes by less than `STALL`, then passes
+    over all blocks until one does too.
     """
     if not seconds >= 0:
         raise ValueError(f"the time budget must be >= 0 seconds, got {seconds!r}")
     say = progress or (lambda message: None)
     t0 = time.perf_counter()
-    L = _lift(cs)
-    T = _Tightener(cs, L)
+    T = _Tightener(cs, _lift(cs))
     n_x = cs.n_x
 
     def width():
@@ -419,41 +459,37 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0,
 
     for i in range(n_x):
         for side in (0, 1):
-            T.tighten(i, side)
+            if T.infeasible is None and not T.crossed():
+                T.tighten(i, side)
     root = (T.box[0][:n_x].copy(), T.box[1][:n_x].copy())
     root_seconds = time.perf_counter() - t0
     history = [(root_seconds, width())]
     say(f"certified ranges: root {root_seconds:.1f} s, mean width {history[-1][1]:.3g} %")
-    passes, out_of_time = 0, False
+    passes, complete, full = 0, T.infeasible is None and not T.crossed(), False
     span0 = np.maximum(T.box[1] - T.box[0], 1e-300)
-    while not (T.infeasible or T.crossed() or out_of_time):
+    while complete:
         before = np.sum((T.box[1] - T.box[0]) / span0)
-        order = list(range(n_x, n_x + L.n_u)) + list(range(n_x))
-        for j in order:
-            for side in (0, 1):
-                if time.perf_counter() - t0 > seconds:
-                    out_of_time = True
-                    break
-                T.tighten(j, side)
-            if out_of_time or T.infeasible:
-                break
-        if out_of_time or T.infeasible:
+        complete = T.sweep(t0 + seconds, full)
+        if not complete:
             break
         passes += 1
         history.append((time.perf_counter() - t0, width()))
-        say(f"certified ranges: pass {passes}, {history[-1][0]:.1f} s, mean width {history[-1][1]:.3g} %")
+        say(f"certified ranges: pass {passes} ({'all blocks' if full else 'per block'}), {history[-1][0]:.1f} s, "
+            f"mean width {history[-1][1]:.3g} %")
         if np.sum((T.box[1] - T.box[0]) / span0) > (1 - STALL) * before:
-            break
+            if full:
+                break
+            full = True
     empty, message = False, "bounded"
     if T.crossed():
         empty, message = True, "S is empty: the safe bounds of a variable cross"
-    elif T.infeasible:
-        lb = _phase1(T.relaxation())
+    elif T.infeasible is not None:
+        lb = _phase1(T.relaxation(T.infeasible[0]))
         empty = bool(lb > 0)
         message = (f"S is empty: the least eigen-residual violation is at least {lb:.3g} > 0" if empty else
                    "the LP solver reported the relaxation infeasible, which the safe bound does not confirm; "
                    "the ranges are the last proven boxes")
-    elif out_of_time:
+    elif not complete:
         message = f"time budget of {seconds:g} s reached after {passes} pass(es)"
     return _result(cs, T, root, root_seconds, time.perf_counter() - t0, passes, history, empty, message)
 
@@ -467,7 +503,7 @@ def _result(cs, T, root, root_seconds, seconds, passes, history, empty, message)
     n_x = cs.n_x
     model = cs.models[0]
     lo, hi = T.box[0][:n_x], T.box[1][:n_x]
-    certified = T.confirmed.all(axis=1) & (not T.infeasible or empty)
+    certified = T.confirmed.all(axis=1) & (T.infeasible is None or empty)
     if empty:
         lo = hi = np.full(n_x, np.nan)
         certified = np.ones(n_x, dtype=bool)
