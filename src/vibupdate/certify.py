@@ -15,7 +15,8 @@ maximum of ``x_i`` over it bound ``x_i`` over S; tightening the boxes of the vec
 and parameters by the same LPs (optimality-based bound tightening, OBBT) and rebuilding the
 envelopes narrows the enclosure, for as long as the time budget allows.
 
-Safe bounds. The LP solver (HiGHS) is inexact, so its optimum is never used as a bound.
+Safe bounds. The LP solver (HiGHS, through highspy so that a relaxation is built once and solved
+warm for every objective) is inexact, so its optimum is never used as a bound.
 Every variable of the LP is boxed, so for *any* row multipliers ``y`` (signs projected so
 that each term is valid) the Lagrangian bound
 
@@ -267,23 +268,57 @@ def _safe_bound(c, lp: _LP, y) -> float:
     return float(total - 2 * n_sum * _EPS * (np.abs(tz).sum() + np.abs(ta).sum()))
 
 
-def _solve(lp: _LP, c):
-    """HiGHS on the LP; returns (status, optimum, safe bound)."""
-    from scipy.optimize import linprog
+def _highs(lp: _LP):
+    """A HiGHS instance holding the LP (objective set per solve by `_solve`)."""
+    import highspy
 
-    up, dn = np.isfinite(lp.hi), np.isfinite(lp.lo)
-    A_ub = sp.vstack([lp.A[up], -lp.A[dn]], format="csr")
-    b_ub = np.concatenate([lp.hi[up], -lp.lo[dn]])
-    res = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=np.column_stack([lp.zl, lp.zu]), method="highs")
-    if res.status == 2:
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    model = highspy.HighsLp()
+    A = sp.csc_matrix(lp.A)
+    inf = highspy.kHighsInf
+    model.num_col_, model.num_row_ = A.shape[1], A.shape[0]
+    model.col_cost_ = np.zeros(A.shape[1])
+    model.col_lower_, model.col_upper_ = lp.zl, lp.zu
+    model.row_lower_ = np.where(np.isfinite(lp.lo), lp.lo, -inf)
+    model.row_upper_ = np.where(np.isfinite(lp.hi), lp.hi, inf)
+    model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
+    h.passModel(model)
+    return h
+
+
+def _solve(lp: _LP, c, h=None):
+    """HiGHS (dual simplex, warm from the previous solve of ``h``) on the LP with objective
+    ``c``; returns (status, optimum, safe bound from the solver's row duals)."""
+    import highspy
+
+    h = h if h is not None else _highs(lp)
+    n = lp.A.shape[1]
+    h.changeColsCost(n, np.arange(n, dtype=np.int32), np.asarray(c, dtype=float))
+    h.run()
+    status = h.getModelStatus()
+    if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnboundedOrInfeasible):
         return "infeasible", np.nan, np.nan
-    if res.status != 0 or res.ineqlin is None:
+    if status != highspy.HighsModelStatus.kOptimal:
         return "failed", np.nan, np.nan
-    lam = res.ineqlin.marginals
-    y = np.zeros(lp.A.shape[0])
-    y[up] += lam[: int(up.sum())]
-    y[dn] -= lam[int(up.sum()):]
-    return "optimal", float(res.fun), _safe_bound(c, lp, y)
+    y = np.asarray(h.getSolution().row_dual, dtype=float)
+    return "optimal", float(h.getInfo().objective_function_value), _safe_bound(c, lp, y)
+
+
+def _lifted_point(L: _Lifted, cs: ConsistentSet, xbar, pairs) -> np.ndarray:
+    """The point ``z`` of the LP that a point of S with eigenpairs ``pairs`` (`witness`)
+    lifts to, shape (n_z,)."""
+    xbar = np.asarray(xbar, dtype=float)
+    u = np.concatenate([v[~blk.fixed] for blk, (_, v) in zip(cs.blocks, pairs)])
+    # An exact datum (a zero-width window) puts the eigensolver's rounding of s into the
+    # residual floor, not into delta.
+    delta = np.clip([s - blk.omega**2 for blk, (s, _) in zip(cs.blocks, pairs)], L.d_lower, L.d_upper)
+    t = xbar[L.tx] * u[L.tu]
+    z = np.concatenate([xbar, u, t, delta, np.zeros(L.n_r)])
+    e = delta[L.row_block] * (L.Mz @ z + L.m0)
+    z[L.n_z - L.n_r:] = e
+    return z
 
 
 def _phase1(lp: _LP):
@@ -385,7 +420,8 @@ class _Tightener:
                 L, sl = self.L, slice(n_x, None)
             else:
                 L, sl = self.local[block], slice(n_x + self.u_off[block], n_x + self.u_off[block + 1])
-            self.lps[block] = _relaxation(L, lo[:n_x], hi[:n_x], lo[sl], hi[sl])
+            lp = _relaxation(L, lo[:n_x], hi[:n_x], lo[sl], hi[sl])
+            self.lps[block] = (lp, _highs(lp))
         return self.lps[block]
 
     def _invalidate(self, j: int) -> None:
@@ -398,12 +434,12 @@ class _Tightener:
     def tighten(self, j: int, side: int, block: int | None = None) -> None:
         """Bound variable ``j`` of the box (x then u) from below (side 0) or above (side 1)
         over the relaxation of all blocks or of ``block``."""
-        lp = self.relaxation(block)
+        lp, h = self.relaxation(block)
         local = j if j < self.n_x or block is None else j - self.u_off[block]
         sign = 1.0 if side == 0 else -1.0
         c = np.zeros(lp.A.shape[1])
         c[local] = sign
-        status, opt, bound = _solve(lp, c)
+        status, opt, bound = _solve(lp, c, h)
         self.n_lps += 1
         if status == "infeasible":
             self.infeasible = (block,)
@@ -484,7 +520,7 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0,
     if T.crossed():
         empty, message = True, "S is empty: the safe bounds of a variable cross"
     elif T.infeasible is not None:
-        lb = _phase1(T.relaxation(T.infeasible[0]))
+        lb = _phase1(T.relaxation(T.infeasible[0])[0])
         empty = bool(lb > 0)
         message = (f"S is empty: the least eigen-residual violation is at least {lb:.3g} > 0" if empty else
                    "the LP solver reported the relaxation infeasible, which the safe bound does not confirm; "

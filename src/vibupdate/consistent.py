@@ -40,7 +40,8 @@ from vibupdate.formulation import FormulationOptions, VectorBlock, formulate
 from vibupdate.interlacing import sign_bounds
 from vibupdate.measured import Configuration
 
-__all__ = ["ConsistentSet", "InnerRanges", "consistent_set", "is_consistent", "inner_ranges", "RESIDUAL_FLOOR"]
+__all__ = ["ConsistentSet", "InnerRanges", "consistent_set", "is_consistent", "witness", "inner_ranges",
+           "RESIDUAL_FLOOR"]
 
 #: Relative eigen-residual allowed in S: ``|((K - s M) v)_k| <= RESIDUAL_FLOOR * (|K| |v| + s |M| |v|)_k``
 #: row by row, so that rounding in building the operators cannot exclude an exact eigenpair.
@@ -161,22 +162,31 @@ def _eigenpairs(K, M):
     return lam[keep].real, V[:, keep].real
 
 
-def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
-    """Whether ``xbar`` lies in S with a margin: every block has a real eigenpair whose
-    frequency is inside its window shrunk by ``margin`` (relative) and whose vector, normalized
-    at the block's fixed entry, lies inside its box shrunk by ``margin`` (absolute, scaled
-    coordinates). The margin absorbs the eigensolver's rounding, so a point accepted here is a
-    point of S.
+def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
+    """Eigenpairs that put ``xbar`` in S with a margin, one per block, or None.
+
+    Every block needs a real eigenpair whose frequency is inside its window shrunk by
+    ``margin`` (relative; an exact datum within the residual floor) and whose vector,
+    normalized at the block's fixed entry, lies inside its box shrunk by ``margin`` (absolute,
+    scaled coordinates). The margin absorbs the eigensolver's rounding, so a point with a
+    witness is a point of S.
 
     Parameters
     ----------
     cs : ConsistentSet
     xbar : ndarray, shape (n_x,)
     margin : float
+
+    Returns
+    -------
+    list of (float, ndarray) or None
+        Per block ``(w^2, v)`` with ``v`` the block's vector in scaled coordinates, shape
+        (len(cols),), fixed entries included.
     """
     xbar = np.asarray(xbar, dtype=float)
     if np.any(xbar < cs.x_lower) or np.any(xbar > cs.x_upper):
-        return False
+        return None
+    pairs = []
     for b, (blk, model) in enumerate(zip(cs.blocks, cs.models)):
         K, M = _block_pencil(model, blk, xbar)
         lam, V = _eigenpairs(K, M)
@@ -185,19 +195,26 @@ def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
         if cs.omega_lower[b] == cs.omega_upper[b]:  # exact datum: within the residual floor
             inside = np.abs(w - cs.omega_lower[b]) <= 0.01 * RESIDUAL_FLOOR * cs.omega_lower[b]
         j = int(np.flatnonzero(blk.fixed)[0])
-        ok = False
+        free = ~blk.fixed
+        found = None
         for k in np.flatnonzero(inside):
             v = V[:, k] / blk.scale
             if abs(v[j]) < 1e-12 * np.max(np.abs(v)):
                 continue
             v = v / v[j] * blk.lower[j]
-            free = ~blk.fixed
             if np.all(v[free] >= blk.lower[free] + margin) and np.all(v[free] <= blk.upper[free] - margin):
-                ok = True
+                v[blk.fixed] = blk.lower[blk.fixed]
+                found = (float(lam[k]), v)
                 break
-        if not ok:
-            return False
-    return True
+        if found is None:
+            return None
+        pairs.append(found)
+    return pairs
+
+
+def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
+    """Whether ``xbar`` lies in S with a margin (`witness`)."""
+    return witness(cs, xbar, margin) is not None
 
 
 def _paired_frequencies(cs: ConsistentSet, xbar) -> np.ndarray:

@@ -1,0 +1,139 @@
+"""Certified outer ranges (issue 11, item 0): the relaxation holds every point of the
+consistent set, the safe dual bound holds for any multipliers, and the ranges contain the
+truth, the answer and every point of S that random sampling and local NLP solves find."""
+
+import numpy as np
+import pytest
+from helpers import chain_model
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from vibupdate import Configuration, NaturalFrequency, ShapeInterval, modes
+from vibupdate.certify import _lift, _lifted_point, _relaxation, _safe_bound, _solve, enclosure
+from vibupdate.consistent import consistent_set, inner_ranges, is_consistent, witness
+from vibupdate.identifiability import parameter_ranges
+
+NAMES = ("k1", "k2", "k3", "m1", "m2", "m3")
+
+
+def chain_data(names, fractions, shape_tolerance=None):
+    """Three-mass chain, truth at ``fractions`` of each parameter's box; exact frequencies and,
+    optionally, the true mode shapes within +- shape_tolerance."""
+    model = chain_model(3, names)
+    lo, hi = model.bounds()
+    truth = lo + np.asarray(fractions) * (hi - lo)
+    w, Phi = modes(*model.matrices(truth))
+    natural = []
+    for k in range(3):
+        shape = None
+        if shape_tolerance is not None:
+            values = {d: float(Phi[model.dof(d), k]) for d in ("y1", "y2", "y3")}
+            shape = ShapeInterval.from_values(values, shape_tolerance * np.max(np.abs(Phi[:, k])))
+        natural.append(NaturalFrequency(float(w[k]), shape=shape))
+    return model, truth, Configuration("A", model, tuple(natural))
+
+
+def points_near(cs, centre, rng, n=40, scale=0.05):
+    """Random points of S around ``centre`` (kept only if `is_consistent` confirms them)."""
+    width = cs.x_upper - cs.x_lower
+    cands = centre + scale * width * rng.standard_normal((n, cs.n_x))
+    return [x for x in np.clip(cands, cs.x_lower, cs.x_upper) if is_consistent(cs, x)]
+
+
+def inside(r, model, x):
+    lo, hi = model.normalized(r.lower), model.normalized(r.upper)
+    lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+    return bool(np.all(lo <= x) and np.all(x <= hi))
+
+
+cases = st.tuples(
+    st.lists(st.sampled_from(NAMES), min_size=2, max_size=4, unique=True),
+    st.lists(st.floats(0.15, 0.85), min_size=4, max_size=4),
+    st.sampled_from([0.0, 0.005, 0.02]),
+    st.sampled_from([None, 0.1]),
+    st.integers(0, 2**31 - 1),
+)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_certified_range_contains_the_truth_and_every_point_of_s_found(case):
+    names, fractions, tol, shape_tol, seed = case
+    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
+    cs = consistent_set([cfg], frequency_tolerance=tol)
+    assume(is_consistent(cs, truth))
+    r = enclosure(cs, seconds=1.0)
+    assert not r.empty
+    assert inside(r, model, truth)
+    for x in points_near(cs, truth, np.random.default_rng(seed)):
+        assert inside(r, model, x)
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_relaxation_holds_the_lifted_points_and_the_safe_bound_holds_for_any_multipliers(case):
+    names, fractions, tol, shape_tol, seed = case
+    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
+    cs = consistent_set([cfg], frequency_tolerance=tol)
+    assume(is_consistent(cs, truth))
+    rng = np.random.default_rng(seed)
+    L = _lift(cs)
+    lp = _relaxation(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
+    members = [truth] + points_near(cs, truth, rng, n=20)
+    Z = np.array([_lifted_point(L, cs, x, witness(cs, x)) for x in members])
+    for z in Z:  # exactly feasible: no tolerance
+        assert np.all(lp.zl <= z) and np.all(z <= lp.zu)
+        a = lp.A @ z
+        assert np.all(lp.lo <= a) and np.all(a <= lp.hi)
+    # Convex combinations of lifted points are feasible too (the relaxation is convex).
+    W = rng.dirichlet(np.ones(len(Z)), size=10)
+    Z = np.vstack([Z, W @ Z])
+    for _ in range(3):
+        c = rng.standard_normal(L.n_z)
+        status, opt, bound = _solve(lp, c)
+        assert status == "optimal"
+        assert bound <= opt + 1e-9 * (1 + abs(opt))
+        assert np.all(Z @ c >= bound)
+        y = rng.standard_normal(lp.A.shape[0]) * rng.uniform(0, 10)   # any multipliers at all
+        assert np.all(Z @ c >= _safe_bound(c, lp, y))
+
+
+def test_inner_estimate_lies_inside_the_certified_range():
+    model, truth, cfg = chain_data(["k1", "k2", "m1", "m3"], [0.6, 0.3, 0.5, 0.4])
+    cs = consistent_set([cfg], frequency_tolerance=0.01)
+    r = enclosure(cs, seconds=3.0)
+    inner = inner_ranges(cs, [truth])
+    assert len(inner.points) > 1
+    for x in inner.points:
+        assert inside(r, model, x)
+    assert np.all(r.certified)
+
+
+def test_the_answer_is_inside_when_the_windows_are_widened_to_hold_it():
+    model, truth, cfg = chain_data(["k1", "m2"], [0.5, 0.5])
+    noisy = Configuration("A", model, tuple(NaturalFrequency(f.omega * (1 + e))
+                                           for f, e in zip(cfg.natural, (0.004, -0.003, 0.002))))
+    answer = truth + np.array([0.01, -0.02])
+    cs = consistent_set([noisy], include=answer)
+    assert is_consistent(cs, answer)
+    r = parameter_ranges([noisy], answer, method="certified", seconds=1.0)
+    assert inside(r, model, answer)
+
+
+def test_inconsistent_data_give_a_certified_empty_set():
+    model = chain_model(3, ["k1", "k2", "m1"])
+    w, _ = modes(*model.matrices())
+    cfg = Configuration("A", model, tuple(NaturalFrequency(x) for x in w * np.array([1.0, 1.6, 1.8])))
+    r = enclosure(consistent_set([cfg]), seconds=5.0)
+    assert r.empty and np.all(np.isnan(r.lower))
+    assert "empty" in r.message
+
+
+def test_unknown_method_and_bad_budget_are_clear_errors():
+    model, truth, cfg = chain_data(["k1", "m2"], [0.5, 0.5])
+    with pytest.raises(ValueError, match="method must be 'linearized' or 'certified', got 'exact'"):
+        parameter_ranges([cfg], truth, method="exact")
+    with pytest.raises(ValueError, match="time budget must be >= 0 seconds, got -1"):
+        enclosure(consistent_set([cfg]), seconds=-1)
+    with pytest.raises(ValueError, match="frequency_tolerance must be in"):
+        consistent_set([cfg], frequency_tolerance=-0.1)
