@@ -137,3 +137,48 @@ def test_unknown_method_and_bad_budget_are_clear_errors():
         enclosure(consistent_set([cfg]), seconds=-1)
     with pytest.raises(ValueError, match="frequency_tolerance must be in"):
         consistent_set([cfg], frequency_tolerance=-0.1)
+
+
+def test_cli_run_with_certify_reports_the_ranges_beside_the_linearized_ones(tmp_path, capsys):
+    import json
+
+    from vibupdate.cli import main
+
+    (tmp_path / "model.py").write_text(
+        "import vibupdate as vu\n"
+        "def build(p):\n"
+        "    asm = vu.Assembly('beam')\n"
+        "    for i in range(4):\n"
+        "        asm.node(i, 0.2 * i)\n"
+        "    for i in range(3):\n"
+        "        asm.beam(i, i + 1, EI=p['EI'], mass_per_length=p['m'])\n"
+        "    asm.clamp(0)\n"
+        "    return asm.system()\n")
+    head = ('[model]\ntype = "builder"\nbuilder = "model.py:build"\n'
+            '[[parameter]]\nname = "EI"\nnominal = 10.0\nlower = 5.0\nupper = 20.0\n'
+            '[[parameter]]\nname = "m"\nnominal = 1.0\nlower = 0.8\nupper = 1.2\n')
+    from vibupdate.case import load_case
+
+    (tmp_path / "probe.toml").write_text(head + '[[configuration]]\nname = "A"\nnatural_hz = [1.0, 5.0]\n')
+    model = load_case(tmp_path / "probe.toml").configurations[0].model
+    w, _ = modes(*model.matrices_at([12.0, 1.0]))
+    hz = ", ".join(f"{x / (2 * np.pi):.9g}" for x in w[:2])
+    case = tmp_path / "case.toml"
+    case.write_text("frequency_tolerance = 0.01\n" + head + f'[[configuration]]\nname = "A"\nnatural_hz = [{hz}]\n')
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out), "--certify", "1"]) == 0
+    printed = capsys.readouterr().out
+    assert "Certified outer ranges" in printed
+    assert "certifies nothing unless positive" in printed
+    doc = json.loads((out / "results.json").read_text())
+    cert = doc["identifiability"]["certified"]
+    assert "Consistent set S" in cert["definition"]
+    # EI and m scale together (only their ratio moves the frequencies): the ranges stay wide.
+    assert cert["ranges"]["EI"]["lower"] <= 12.0 <= cert["ranges"]["EI"]["upper"]
+    updated = {p["name"]: p["updated"] for p in doc["parameters"]}
+    for name, rg in cert["ranges"].items():
+        assert rg["lower"] <= updated[name] <= rg["upper"]
+    report = (out / "report.md").read_text()
+    assert "Certified outer range" in report and "certified outer range" in report
+    assert main(["run", str(case), "--out", str(out), "--certify", "-1"]) == 2
+    assert "budget must be >= 0 seconds, got -1" in capsys.readouterr().err

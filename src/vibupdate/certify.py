@@ -44,7 +44,7 @@ from vibupdate.consistent import RESIDUAL_FLOOR, ConsistentSet, consistent_set
 from vibupdate.formulation import FormulationOptions
 from vibupdate.measured import Configuration
 
-__all__ = ["CertifiedRanges", "certified_ranges", "enclosure"]
+__all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements"]
 
 #: Largest gap (normalized parameter units) between the safe bound and the LP optimum for
 #: which the solver's answer counts as confirmed.
@@ -390,6 +390,61 @@ class CertifiedRanges:
     def as_dict(self) -> dict:
         return {n: {"lower": float(lo), "upper": float(hi), "width_pct": float(w), "certified": bool(c)}
                 for n, lo, hi, w, c in zip(self.names, self.lower, self.upper, self.width_pct, self.certified)}
+
+    def record(self) -> dict:
+        """The ``identifiability.certified`` section of ``results.json`` (NaN as None)."""
+        def num(v):
+            return float(v) if np.isfinite(v) else None
+
+        return {
+            "definition": self.definition, "message": self.message, "empty": self.empty,
+            "seconds": self.seconds, "root_seconds": self.root_seconds, "passes": self.passes,
+            "n_lps": self.n_lps, "history": [[num(t), num(w)] for t, w in self.history],
+            "ranges": {n: {"lower": num(lo), "upper": num(hi), "width_pct": num(w), "certified": bool(c),
+                           "root_lower": num(rl), "root_upper": num(ru)}
+                       for n, lo, hi, w, c, rl, ru in zip(self.names, self.lower, self.upper, self.width_pct,
+                                                          self.certified, self.root_lower, self.root_upper)},
+        }
+
+
+def range_disagreements(certified: dict, others: dict, wider: float = 2.0) -> list[str]:
+    """Where other ranges disagree with the certified outer ranges.
+
+    Parameters
+    ----------
+    certified : dict
+        ``{name: {"lower", "upper", ...}}`` (`CertifiedRanges.record` ``["ranges"]``).
+    others : dict
+        ``{label: {name: {"lower", "upper"}}}``, e.g. the linearized and the sampled ranges
+        (``"min"``/``"max"`` are read too).
+    wider : float
+        A certified range wider than ``wider`` times another is reported.
+
+    Returns
+    -------
+    list of str
+        One sentence per disagreement: another range reaching outside the certified one (its
+        values are not consistent with the data as S states them), or a certified range much
+        wider than another (the other misses what the data allow).
+    """
+    notes = []
+    for label, ranges in others.items():
+        for name, c in certified.items():
+            o = ranges.get(name)
+            if not o or c.get("lower") is None or c.get("upper") is None:
+                continue
+            lo, hi = o.get("lower", o.get("min")), o.get("upper", o.get("max"))
+            if lo is None or hi is None or not (np.isfinite(lo) and np.isfinite(hi)):
+                continue
+            tol = 1e-9 * max(abs(c["lower"]), abs(c["upper"]), 1e-300)
+            if lo < c["lower"] - tol or hi > c["upper"] + tol:
+                notes.append(f"{name}: the {label} range [{lo:.4g}, {hi:.4g}] reaches outside the certified range "
+                             f"[{c['lower']:.4g}, {c['upper']:.4g}]")
+            elif (c["upper"] - c["lower"]) > wider * (hi - lo):
+                notes.append(f"{name}: the certified range [{c['lower']:.4g}, {c['upper']:.4g}] is "
+                             f"{(c['upper'] - c['lower']) / max(hi - lo, 1e-300):.3g}x the {label} range "
+                             f"[{lo:.4g}, {hi:.4g}]")
+    return notes
 
 
 class _Tightener:

@@ -141,12 +141,18 @@ def _publish(tmp: Path, final: Path) -> None:
 
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
-             paper: dict | None = None) -> tuple[UpdateResult, dict]:
-    """Both stages on a case; writes the output directory and returns (result, document)."""
+             paper: dict | None = None, certify: float | None = None) -> tuple[UpdateResult, dict]:
+    """Both stages on a case; writes the output directory and returns (result, document).
+
+    ``certify``: time budget in seconds of the certified outer parameter ranges
+    (`vibupdate.certify`); None skips them.
+    """
     say = progress or (lambda message: None)
     final = Path(out_dir)
     if final.exists() and not final.is_dir():
         raise ValueError(f"output path {str(final)!r} exists and is not a directory")
+    if certify is not None and not certify >= 0:
+        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
@@ -158,6 +164,13 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         extra["identifiability"]["ranges"] = ranges.as_dict()
         extra["identifiability"]["frequency_tolerance"] = case.frequency_tolerance
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
+    if certify is not None:
+        from vibupdate.certify import certified_ranges
+
+        cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
+                                seconds=certify, options=case.formulation, progress=say)
+        extra["identifiability"]["certified"] = cert.record()
+        say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
     if info:
         extra["damping_model"] = info
     if paper:
@@ -178,7 +191,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     return result, document
 
 
-def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None) -> dict:
+def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,
+                certify: float | None = None) -> dict:
     """Run a bundled example end to end; returns the ``results.json`` document."""
     say = progress or (lambda message: None)
     module = example_module(name)
@@ -187,5 +201,5 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
     paper = module.paper_values() if hasattr(module, "paper_values") else None
-    _, document = run_case(case, out_dir, progress=say, paper=paper)
+    _, document = run_case(case, out_dir, progress=say, paper=paper, certify=certify)
     return document
