@@ -217,13 +217,25 @@ def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
     return witness(cs, xbar, margin) is not None
 
 
-def _paired_frequencies(cs: ConsistentSet, xbar) -> np.ndarray:
-    out = []
+def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:
+    """Constraints of the inner-estimate NLP, >= 0 when met: each paired frequency inside its
+    window and each paired mode (normalized at the block's fixed entry) inside its box,
+    relative to the window's half-width and the box width."""
     freqs = {c.name: model_frequencies(c, xbar) for c in cs.configurations}
+    w, g = [], []
     for blk in cs.blocks:
         f = freqs[blk.configuration]
-        out.append((f.natural if blk.kind == "natural" else f.antiresonances)[blk.index - 1])
-    return np.array(out)
+        if blk.kind != "natural":
+            w.append(f.antiresonances[blk.index - 1])
+            continue
+        w.append(f.natural[blk.index - 1])
+        v = f.Phi[blk.cols, blk.index - 1] / blk.scale
+        j, free = int(np.flatnonzero(blk.fixed)[0]), ~blk.fixed
+        v = v / v[j] * blk.lower[j] if abs(v[j]) > 1e-12 * np.max(np.abs(v)) else np.full(v.size, 1e300)
+        width = np.maximum(blk.upper[free] - blk.lower[free], 1e-12)
+        g += [(v[free] - blk.lower[free]) / width, (blk.upper[free] - v[free]) / width]
+    w = np.where(np.isfinite(w), w, 1e300)
+    return np.concatenate([1.0 - np.abs(w - mid) / half] + g)
 
 
 @dataclass(frozen=True)
@@ -250,8 +262,9 @@ def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 100) -> InnerRang
 
     For each parameter and direction, from each start, maximize or minimize ``xbar_i`` subject
     to every paired frequency (mode k for the k-th natural frequency,
-    `vibupdate.correlation.model_frequencies`) inside its window; each solution is kept only
-    if `is_consistent` confirms it, so the hull is an inner estimate of the ranges over S.
+    `vibupdate.correlation.model_frequencies`) inside its window and every paired mode inside
+    its box; each solution is kept only if `is_consistent` confirms it, so the hull is an
+    inner estimate of the ranges over S.
 
     Parameters
     ----------
@@ -269,10 +282,8 @@ def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 100) -> InnerRang
     mid = 0.5 * (cs.omega_lower + cs.omega_upper)
     half = np.maximum(0.5 * (cs.omega_upper - cs.omega_lower), 1e-9 * mid)
 
-    def slack(x):  # >= 0 inside every window, relative to the half-width
-        w = _paired_frequencies(cs, x)
-        w = np.where(np.isfinite(w), w, 1e300)
-        return 1.0 - np.abs(w - mid) / half
+    def slack(x):
+        return _paired_slack(cs, x, mid, half)
 
     points = [s for s in starts if is_consistent(cs, s)]
     bounds = list(zip(cs.x_lower, cs.x_upper))
