@@ -1,17 +1,15 @@
 """Correlation of a model with measured data: paired frequencies, errors (Eq. 26), MAC.
 
-Pairing rules. The k-th measured natural frequency of a configuration is paired with the
-model's k-th mode. A measured antiresonance of ``h_rc`` that lies after the k-th measured
-natural frequency (and is the j-th such zero) is paired with the model's j-th antiresonance
-of ``h_rc`` after its k-th natural frequency, so that pairing follows the pole/zero pattern
-(Section 2.5) rather than mere closeness; where the model has no zero in that place, the
-nearest model antiresonance is taken.
+Pairing follows the declared correspondence (`vibupdate.pairing`): the measured natural
+frequency of mode ``m`` is compared with the model's ``m``-th eigenvalue, the measured
+antiresonance ``j`` of ``h_rc`` with the model's ``j``-th zero of ``h_rc``; never by nearness.
+Where the model has no such zero the paired value is NaN.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,16 +26,25 @@ class ModelFrequencies:
     Attributes
     ----------
     natural : ndarray, shape (n_p,)
-        rad/s, paired with ``Configuration.natural``.
+        rad/s, the declared modes of ``Configuration.natural``.
     antiresonances : ndarray, shape (n_z,)
-        rad/s, paired with ``Configuration.antiresonances``.
+        rad/s, the declared zeros of ``Configuration.antiresonances`` (NaN where missing).
     Phi : ndarray, shape (n, n_p)
         Mass-normalized model modes paired with the natural frequencies.
+    omega_all : ndarray, shape (n_m,)
+        Every computed model frequency, rad/s, ascending (at least one above the highest
+        declared mode when the model has it).
+    Phi_all : ndarray, shape (n, n_m)
+    zeros_all : dict of (str, str) to ndarray
+        Every real zero of each measured receptance, rad/s, ascending.
     """
 
     natural: np.ndarray
     antiresonances: np.ndarray
     Phi: np.ndarray
+    omega_all: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    Phi_all: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    zeros_all: dict = field(default_factory=dict)
 
 
 def percent_error(model, measured) -> np.ndarray:
@@ -47,32 +54,22 @@ def percent_error(model, measured) -> np.ndarray:
 
 
 def model_frequencies(cfg: Configuration, xbar=None) -> ModelFrequencies:
-    """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data."""
+    """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data by the
+    declared modes and zero indices."""
     M, K = cfg.model.matrices(xbar)
-    n_modes = min(cfg.model.n_dofs, max(len(cfg.natural), 1) + 1)
+    mode_index = np.array([f.mode for f in cfg.natural], dtype=int) - 1
+    top = int(mode_index.max()) + 1 if mode_index.size else 0
+    n_modes = min(cfg.model.n_dofs, max(top + 1, 2))
     omega, Phi = modes(M, K, n_modes)
-    natural = omega[: len(cfg.natural)]
-    measured_poles = np.array([f.omega for f in cfg.natural])
     zeros = np.full(len(cfg.antiresonances), np.nan)
+    zeros_all = {}
     for rc in cfg.receptances():
-        r, c = cfg.model.dof(rc[0]), cfg.model.dof(rc[1])
-        model_z = antiresonances(M, K, r, c)
-        if model_z.size == 0:
-            continue
+        model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]))
+        zeros_all[rc] = model_z
         for i, a in enumerate(cfg.antiresonances):
-            if a.receptance != rc:
-                continue
-            k = int(np.sum(measured_poles < a.omega))
-            j = sum(1 for b in cfg.antiresonances[:i]
-                    if b.receptance == rc and np.sum(measured_poles < b.omega) == k)
-            lo = omega[k - 1] if k >= 1 else 0.0
-            hi = omega[k] if k < omega.size else np.inf
-            candidates = model_z[(model_z > lo) & (model_z < hi)]
-            if j < candidates.size:
-                zeros[i] = candidates[j]
-            else:
-                zeros[i] = model_z[np.argmin(np.abs(model_z - a.omega))]
-    return ModelFrequencies(natural, zeros, Phi[:, : len(cfg.natural)])
+            if a.receptance == rc and a.index <= model_z.size:
+                zeros[i] = model_z[a.index - 1]
+    return ModelFrequencies(omega[mode_index], zeros, Phi[:, mode_index], omega, Phi, zeros_all)
 
 
 def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:
@@ -98,11 +95,16 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
         for kind, measured, attr in groups:
             nom = getattr(nominal[i], attr)
             upd = getattr(updated[i], attr) if updated is not None else None
+            declared = ([f.mode for f in cfg.natural] if kind == "natural"
+                        else [a.index for a in cfg.antiresonances])
             for k, w in enumerate(measured):
                 row = {
                     "configuration": cfg.name,
                     "kind": kind,
                     "index": k + 1,
+                    "model_index": declared[k],
+                    "receptance": (None if kind == "natural" else
+                                   "h_{},{}".format(*cfg.antiresonances[k].receptance)),
                     "measured_hz": w / TWO_PI,
                     "nominal_hz": float(nom[k]) / TWO_PI,
                     "updated_hz": None if upd is None else float(upd[k]) / TWO_PI,
@@ -113,45 +115,103 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
     return rows
 
 
-def sensitivity(configurations: Sequence[Configuration], xbar) -> dict:
-    """Relative sensitivity of the measured frequencies to the normalized parameters.
+def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | None = None) -> np.ndarray:
+    """Exact relative sensitivity of one configuration's measured frequencies.
 
-    ``S[k, i] = d omega_k / d xbar_i / omega_k`` over every measured natural frequency
-    (analytic eigenvalue derivative, ``d(w^2) = phi^T (K_i - w^2 M_i) phi`` with
-    mass-normalized ``phi``) and antiresonance (central differences). Its singular values
-    tell how many parameter combinations the data determine.
+    Rows: ``(d w / d xbar) / w`` of every measured natural frequency (declared mode), then of
+    every measured antiresonance (declared zero), analytic (`vibupdate.sensitivities`).
+
+    Returns
+    -------
+    ndarray, shape (n_p + n_z, n_x)
+        NaN rows where the model lacks the declared zero.
+    """
+    from vibupdate.sensitivities import antiresonance_derivatives, frequency_derivatives
+
+    xbar = np.asarray(xbar, dtype=float)
+    model = cfg.model
+    freqs = freqs or model_frequencies(cfg, xbar)
+    rows = [frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None]]
+    zero_rows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
+    for rc in cfg.receptances():
+        z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]))
+        for i, a in enumerate(cfg.antiresonances):
+            if a.receptance == rc and a.index <= z.size:
+                zero_rows[i] = D[a.index - 1] / z[a.index - 1]
+    rows.append(zero_rows)
+    return np.vstack(rows)
+
+
+def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8) -> dict:
+    """Sensitivity of the measured data to the normalized parameters.
+
+    ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
+    antiresonance (`relative_sensitivity`), then ``d (phi_j / phi_p) / d xbar_i`` of every
+    measured shape entry normalized at the mode's largest measured entry ``p``; all exact. Its singular values tell how many parameter
+    combinations the data determine; the right singular vectors of the (near-)zero singular
+    values are the combinations the data cannot see.
+
+    Parameters
+    ----------
+    rtol : float
+        Singular values below ``rtol`` times the largest count as zero (the derivatives are
+        exact, so an exact symmetry gives values at rounding level, ~1e-15).
 
     Returns
     -------
     dict
-        ``matrix`` (n_data, n_x), ``singular_values``, ``condition``, ``rank`` (singular
-        values above 1e-6 of the largest) and ``column_norm`` per parameter.
+        ``matrix`` (n_data, n_x), ``singular_values``, ``condition``, ``rank``,
+        ``column_norm`` per parameter and ``null_directions`` (n_x - rank, n_x), each a unit
+        combination of normalized parameters that leaves every measured frequency unchanged
+        to first order.
     """
     xbar = np.asarray(xbar, dtype=float)
-    rows = []
-    for cfg in configurations:
-        model = cfg.model
-        freqs = model_frequencies(cfg, xbar)
-        for k in range(len(cfg.natural)):
-            phi, w = freqs.Phi[:, k], freqs.natural[k]
-            rows.append([phi @ ((Ki - w**2 * Mi) @ phi) / (2 * w**2) for Mi, Ki in zip(model.M_par, model.K_par)])
-        if cfg.antiresonances:
-            h = 1e-6
-            cols = []
-            for i in range(model.n_parameters):
-                step = np.zeros_like(xbar)
-                step[i] = h
-                plus = model_frequencies(cfg, xbar + step).antiresonances
-                minus = model_frequencies(cfg, xbar - step).antiresonances
-                cols.append((plus - minus) / (2 * h) / freqs.antiresonances)
-            rows.extend(np.array(cols).T.tolist())
-    S = np.array(rows, dtype=float)
-    sv = np.linalg.svd(S, compute_uv=False) if S.size else np.array([])
-    rank = int(np.sum(sv > 1e-6 * sv[0])) if sv.size and sv[0] > 0 else 0
+    S = np.vstack([relative_sensitivity(c, xbar) for c in configurations]
+                  + [_shape_rows(c, xbar) for c in configurations])
+    S = S[np.all(np.isfinite(S), axis=1)]
+    n_x = xbar.size
+    if S.size:
+        _, sv, Vt = np.linalg.svd(S)
+    else:
+        sv, Vt = np.array([]), np.eye(n_x)
+    rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    null = Vt[rank:] if Vt.shape[0] == n_x else np.vstack([Vt[rank:], _complement(Vt, n_x)])
+    null = np.array([v * np.sign(v[np.argmax(np.abs(v))]) for v in null]).reshape(-1, n_x)
     return {
         "matrix": S,
         "singular_values": sv,
-        "condition": float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else float("inf"),
+        "condition": float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and sv.size >= n_x else float("inf"),
         "rank": rank,
         "column_norm": np.linalg.norm(S, axis=0),
+        "null_directions": null,
     }
+
+
+def _shape_rows(cfg: Configuration, xbar) -> np.ndarray:
+    """Exact derivatives of the measured shape ratios, shape (n_ratios, n_x)."""
+    from vibupdate.sensitivities import shape_ratio_derivatives
+
+    rows = [np.zeros((0, cfg.model.n_parameters))]
+    measured = [(k, f) for k, f in enumerate(cfg.natural) if f.shape is not None and len(f.shape.bounds) > 1]
+    if not measured:
+        return rows[0]
+    freqs = model_frequencies(cfg, xbar)
+    for k, f in measured:
+        mid = f.shape.midpoint
+        p = max(mid, key=lambda d: abs(mid[d]))
+        idx = [cfg.model.dof(d) for d in mid if d != p]
+        rows.append(shape_ratio_derivatives(cfg.model, xbar, freqs.natural[k], freqs.Phi[:, k], idx,
+                                            cfg.model.dof(p)))
+    return np.vstack(rows)
+
+
+def _complement(Vt: np.ndarray, n: int) -> np.ndarray:
+    """Orthonormal basis of the directions that ``Vt`` (fewer rows than ``n``) does not span."""
+    q, _ = np.linalg.qr(np.hstack([Vt.T, np.eye(n)]))
+    return q[:, Vt.shape[0]:n].T
+
+
+def describe_direction(names, v, *, threshold: float = 0.05) -> str:
+    """A null direction as text, e.g. ``+0.58 rho +0.58 E -0.58 m1`` (normalized units)."""
+    terms = [(abs(c), f"{c:+.2f} {n}") for n, c in zip(names, v) if abs(c) >= threshold]
+    return " ".join(t for _, t in sorted(terms, reverse=True)) or "(none)"

@@ -126,6 +126,8 @@ class VectorBlock:
     fixed : ndarray of bool, shape (len(cols),)
     receptance : tuple of str, optional
         ``(r, c)`` of an antiresonance block.
+    measured : ndarray of bool, shape (len(cols),), optional
+        Entries whose bounds come from a measured interval (the others from a margin).
     """
 
     configuration: str
@@ -141,6 +143,7 @@ class VectorBlock:
     start: np.ndarray
     fixed: np.ndarray
     receptance: tuple[str, str] | None = None
+    measured: np.ndarray | None = None
 
     @property
     def n_free(self) -> int:
@@ -281,6 +284,7 @@ def _natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: _Sc
     v0 = v0_phys / scaling.s
     lower = np.full(n, -np.inf)
     upper = np.full(n, np.inf)
+    measured = np.zeros(n, dtype=bool)
     if f.shape is not None:
         idx = np.array([model.dof(d) for d in f.shape.bounds])
         lo = np.array([b[0] for b in f.shape.bounds.values()]) / scaling.s[idx]
@@ -292,6 +296,7 @@ def _natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: _Sc
             raise ValueError(f"configuration {cfg.name!r}, mode {k + 1}: the measured mode shape is zero")
         lo, hi = np.minimum(lo / ref, hi / ref), np.maximum(lo / ref, hi / ref)
         lower[idx], upper[idx] = lo, hi
+        measured[idx] = True
         j = int(idx[j_local])
     else:
         j = _default_normalization_entry(cfg, v0)
@@ -304,7 +309,7 @@ def _natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: _Sc
     lower[j] = upper[j] = 1.0
     fixed = lower == upper
     return VectorBlock(cfg.name, "natural", k + 1, f.omega, f.weight, cols, cols, scaling.s.copy(),
-                       lower, upper, np.clip(v0n, lower, upper), fixed)
+                       lower, upper, np.clip(v0n, lower, upper), fixed, measured=measured)
 
 
 def _default_normalization_entry(cfg: Configuration, v0: np.ndarray) -> int:
@@ -320,7 +325,7 @@ def _default_normalization_entry(cfg: Configuration, v0: np.ndarray) -> int:
 
 
 def _adjunct_block(cfg: Configuration, k: int, index: int, scaling: _Scaling,
-                   omega_nominal: float, options: FormulationOptions) -> VectorBlock:
+                   options: FormulationOptions) -> VectorBlock:
     """Block of the k-th (0-based) antiresonance of a configuration."""
     model, a = cfg.model, cfg.antiresonances[k]
     r, c = model.dof(a.response), model.dof(a.excitation)
@@ -332,7 +337,11 @@ def _adjunct_block(cfg: Configuration, k: int, index: int, scaling: _Scaling,
             f"configuration {cfg.name!r}: the nominal model has no antiresonance of "
             f"h_{a.response},{a.excitation}, so no start vector for the measured {a.freq_hz:.4g} Hz"
         )
-    m = int(np.argmin(np.abs(zs - omega_nominal)))
+    if a.index > zs.size:
+        raise ValueError(
+            f"configuration {cfg.name!r}: the measured {a.freq_hz:.4g} Hz is declared antiresonance {a.index} of "
+            f"h_{a.response},{a.excitation}, but the nominal model has only {zs.size} such zeros")
+    m = a.index - 1
     v0 = V[:, m] / scaling.s[cols]
     j = int(np.argmax(np.abs(v0)))
     v0n = v0 / v0[j]
@@ -374,10 +383,8 @@ def _blocks(configurations, options: FormulationOptions):
             blocks.append(_natural_block(cfg, k, nominal.Phi[:, k], scaling, options))
             models.append(cfg.model)
             scalings.append(scaling)
-        for k, a in enumerate(cfg.antiresonances):
-            z0 = nominal.antiresonances[k]
-            z0 = z0 if np.isfinite(z0) else a.omega
-            blocks.append(_adjunct_block(cfg, k, k + 1, scaling, z0, options))
+        for k in range(len(cfg.antiresonances)):
+            blocks.append(_adjunct_block(cfg, k, k + 1, scaling, options))
             models.append(cfg.model)
             scalings.append(scaling)
     return blocks, models, scalings

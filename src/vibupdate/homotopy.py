@@ -105,6 +105,8 @@ class HomotopyResult:
     seconds : float
         Wall time of the path, building included.
     build_seconds : float
+    relaxed_x, relaxed_u : ndarray or None
+        Optimum of the ``lam = 0`` relaxation (shapes (n_x,) and (n_u,)), where solved.
     """
 
     x: np.ndarray
@@ -117,6 +119,8 @@ class HomotopyResult:
     steps: tuple[StepRecord, ...]
     seconds: float
     build_seconds: float
+    relaxed_x: np.ndarray | None = None
+    relaxed_u: np.ndarray | None = None
 
 
 def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = None,
@@ -148,6 +152,7 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
         return HomotopyResult(x, u, t, 0.0, first.status, problem.objective(x, u), None,
                               tuple(steps), time.perf_counter() - start, build_seconds)
     lower_bound = first.objective
+    relaxed_x, relaxed_u, _, _ = backend.split(first.z)
     current, lam, base = first, 0.0, 1.0 / options.n_lambda
     step, status = base, Status.SUCCESS
     while lam < 1.0:
@@ -174,4 +179,4 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     if status == Status.SUCCESS and current.status == Status.ACCEPTABLE:
         status = Status.ACCEPTABLE  # lambda = 1 reached at IPOPT's looser tolerance
     return HomotopyResult(x, u, t, lam, status, problem.objective(x, u), lower_bound, tuple(steps),
-                          time.perf_counter() - start, build_seconds)
+                          time.perf_counter() - start, build_seconds, relaxed_x, relaxed_u)

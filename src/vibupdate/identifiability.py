@@ -79,18 +79,34 @@ def _reference_entries(cfg: Configuration) -> list[tuple[list[str], str] | None]
     return refs
 
 
-def _data(configurations, xbar, refs) -> np.ndarray:
-    out = []
+def _data(configurations, xbar, refs, jacobian: bool = False):
+    from vibupdate.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
+
+    out, jac = [], []
     for cfg, cfg_refs in zip(configurations, refs):
+        model = cfg.model
         f = model_frequencies(cfg, xbar)
         out += [f.natural, f.antiresonances]
+        if jacobian:
+            jac.append(frequency_derivatives(model, f.natural, f.Phi))
+            zrows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
+            for rc in cfg.receptances():
+                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]))
+                for i, a in enumerate(cfg.antiresonances):
+                    if a.receptance == rc and a.index <= z.size:
+                        zrows[i] = D[a.index - 1]
+            jac.append(zrows)
         for k, ref in enumerate(cfg_refs):
             if ref is None:
                 continue
             dofs, r = ref
-            v = f.Phi[[cfg.model.dof(d) for d in dofs], k]
-            out.append(v / f.Phi[cfg.model.dof(r), k])
-    return np.concatenate(out)
+            idx = [model.dof(d) for d in dofs]
+            p = model.dof(r)
+            out.append(f.Phi[idx, k] / f.Phi[p, k])
+            if jacobian:
+                jac.append(shape_ratio_derivatives(model, xbar, f.natural[k], f.Phi[:, k], idx, p))
+    d = np.concatenate(out)
+    return (d, np.vstack(jac)) if jacobian else d
 
 
 def _measured(configurations, refs, frequency_tolerance):
@@ -113,8 +129,8 @@ def _measured(configurations, refs, frequency_tolerance):
     return np.concatenate(values), np.concatenate(half), np.concatenate(is_freq)
 
 
-def data_jacobian(configurations: Sequence[Configuration], xbar, step: float = 1e-6):
-    """Data map and its Jacobian at ``xbar`` by central differences.
+def data_jacobian(configurations: Sequence[Configuration], xbar):
+    """Data map and its exact Jacobian at ``xbar``.
 
     Returns
     -------
@@ -122,17 +138,11 @@ def data_jacobian(configurations: Sequence[Configuration], xbar, step: float = 1
         Frequencies (rad/s) then measured shape entries (normalized at each mode's largest
         measured entry), per configuration.
     G : ndarray, shape (n_data, n_x)
+        ``d d / d xbar`` (analytic).
     """
     configurations = list(configurations)
     refs = [_reference_entries(c) for c in configurations]
-    xbar = np.asarray(xbar, dtype=float)
-    d = _data(configurations, xbar, refs)
-    cols = []
-    for i in range(xbar.size):
-        e = np.zeros_like(xbar)
-        e[i] = step
-        cols.append((_data(configurations, xbar + e, refs) - _data(configurations, xbar - e, refs)) / (2 * step))
-    return d, np.array(cols).T
+    return _data(configurations, np.asarray(xbar, dtype=float), refs, jacobian=True)
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,

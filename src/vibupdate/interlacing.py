@@ -21,8 +21,9 @@ from vibupdate.measured import TWO_PI, Configuration
 __all__ = ["modal_constant_signs", "sign_bounds"]
 
 
-def modal_constant_signs(poles: Sequence[float], zeros: Sequence[float], first: int) -> list[int]:
-    """Signs of the modal constants ``u_k(r) u_k(c)`` of consecutive modes.
+def modal_constant_signs(poles: Sequence[float], zeros: Sequence[float], first: int,
+                         modes: Sequence[int] | None = None) -> list[int | None]:
+    """Signs of the modal constants ``u_k(r) u_k(c)`` of the measured modes.
 
     Parameters
     ----------
@@ -32,14 +33,23 @@ def modal_constant_signs(poles: Sequence[float], zeros: Sequence[float], first: 
         All measured antiresonances of ``h_rc`` in the band of the poles, ascending.
     first : {+1, -1}
         Sign of the first modal constant.
+    modes : sequence of int, length n_p, optional
+        Declared model modes of the poles; consecutive when omitted. Only poles of
+        consecutive modes are linked by the pattern.
 
     Returns
     -------
-    list of int, length n_p
+    list, length n_p
+        +1 / -1 where the pattern determines the sign relative to ``first``; None from the
+        first pole after a gap in the modes on (not determined by the data).
     """
     poles, zeros = np.asarray(poles, float), np.asarray(zeros, float)
-    signs = [int(first)]
+    modes = list(range(1, poles.size + 1)) if modes is None else list(modes)
+    signs: list[int | None] = [int(first)]
     for k in range(poles.size - 1):
+        if signs[-1] is None or modes[k + 1] != modes[k] + 1:
+            signs.append(None)
+            continue
         between = int(np.count_nonzero((zeros > poles[k]) & (zeros < poles[k + 1])))
         signs.append(signs[-1] if between % 2 == 1 else -signs[-1])
     return signs
@@ -82,8 +92,10 @@ def sign_bounds(blocks, configurations: Sequence[Configuration], options):
             poles = [f.omega for f in cfg.natural]
             first_blk = blocks[mine[0]]
             first = cfg.first_sign.get(rc) or _nominal_first_sign(first_blk.start[r], first_blk.start[c])
-            signs = modal_constant_signs(poles, zeros, first)
+            signs = modal_constant_signs(poles, zeros, first, [f.mode for f in cfg.natural])
             for k, i in enumerate(mine):
+                if signs[k] is None:
+                    continue
                 blk = blocks[i]
                 lower, upper = blk.lower.copy(), blk.upper.copy()
                 where = (f"configuration {cfg.name!r}, mode {k + 1} ({poles[k] / TWO_PI:.4g} Hz), "

@@ -213,13 +213,19 @@ class Configuration:
     name : str
     model : AffineModel
     natural : tuple of NaturalFrequency
-        Measured natural frequencies, ascending; they are taken as consecutive modes.
+        Measured natural frequencies, ascending. Each says which model mode it is (``mode``);
+        omitted modes are consecutive (`declared_modes`). After construction every entry
+        carries its mode explicitly.
     antiresonances : tuple of Antiresonance
-        Measured antiresonances, of one or more receptances.
+        Measured antiresonances, of one or more receptances, any subset of each receptance's
+        zeros. Each says which zero of its receptance it is (``index``); omitted indices are
+        assigned from the measured poles around it and the nominal model's zeros between them
+        (`vibupdate.pairing`). After construction every entry carries its index explicitly.
     interlacing : bool
         Derive sign bounds on modal constants from the pole/zero pattern of each receptance
-        (Eq. 11, Section 3.6). Needs the antiresonances listed to be all those of that
-        receptance between the first and the last measured natural frequency.
+        (Eq. 11, Section 3.6), for pairs of measured poles that are consecutive model modes.
+        Asserts that the antiresonances listed are all those of that receptance between
+        such poles.
     first_sign : mapping of (response, excitation) to +1 or -1, optional
         Sign of the first modal constant ``u(r) u(c)``; from the nominal model when omitted.
     """
@@ -235,6 +241,11 @@ class Configuration:
         object.__setattr__(self, "natural", tuple(self.natural))
         object.__setattr__(self, "antiresonances", tuple(self.antiresonances))
         validate_configuration(self)
+        from vibupdate.pairing import declare
+
+        natural, zeros = declare(self)
+        object.__setattr__(self, "natural", natural)
+        object.__setattr__(self, "antiresonances", zeros)
 
     def receptances(self) -> list[tuple[str, str]]:
         """The receptances ``(r, c)`` with measured antiresonances, in order of appearance."""
@@ -280,6 +291,29 @@ def validate_configuration(cfg: Configuration) -> None:
     for rc, s in dict(cfg.first_sign).items():
         if s not in (1, -1):
             raise ValueError(f"{where}: first_sign of {rc} must be +1 or -1, got {s!r}")
+    _check_modes(cfg, where)
+
+
+def declared_modes(natural: Sequence[NaturalFrequency]) -> list[int]:
+    """Model mode of each measured natural frequency (1-based): its ``mode``, or the mode
+    after the previous one (1 for the first)."""
+    out, prev = [], 0
+    for f in natural:
+        prev = f.mode if f.mode is not None else prev + 1
+        out.append(prev)
+    return out
+
+
+def _check_modes(cfg: Configuration, where: str) -> None:
+    modes = declared_modes(cfg.natural)
+    for k in range(1, len(modes)):
+        if modes[k] <= modes[k - 1]:
+            raise ValueError(
+                f"{where}: measured natural frequency {k + 1} ({cfg.natural[k].freq_hz:.6g} Hz) is declared "
+                f"mode {modes[k]}, not above mode {modes[k - 1]} of the lower frequency; modes must rise "
+                "with frequency")
+    if modes and modes[-1] > cfg.model.n_dofs:
+        raise ValueError(f"{where}: mode {modes[-1]} is declared, but the model has only {cfg.model.n_dofs} DOFs")
 
 
 def _check_dof(model: AffineModel, dof: str, where: str) -> None:
@@ -290,16 +324,19 @@ def _check_dof(model: AffineModel, dof: str, where: str) -> None:
 
 
 def _check_driving_point(cfg: Configuration, rc, zs: Sequence[float], where: str) -> None:
-    """A driving-point receptance alternates strictly: pole, zero, pole, zero, ..."""
+    """A driving-point receptance alternates pole, zero, pole: at most one zero between the
+    measured poles of two consecutive modes (any subset of the zeros may be measured)."""
     poles = [f.omega for f in cfg.natural]
+    modes = declared_modes(cfg.natural)
     for k in range(len(poles) - 1):
+        if modes[k + 1] != modes[k] + 1:
+            continue
         inside = [z for z in zs if poles[k] < z < poles[k + 1]]
-        if len(inside) != 1:
+        if len(inside) > 1:
             raise ValueError(
-                f"{where}: the driving-point receptance h_{rc[0]},{rc[1]} must have exactly one "
-                f"antiresonance between natural frequencies {poles[k] / TWO_PI:.4g} and "
-                f"{poles[k + 1] / TWO_PI:.4g} Hz, found {len(inside)}"
-            )
+                f"{where}: the driving-point receptance h_{rc[0]},{rc[1]} has one antiresonance between "
+                f"consecutive modes ({poles[k] / TWO_PI:.4g} and {poles[k + 1] / TWO_PI:.4g} Hz), found "
+                f"{len(inside)}")
 
 
 def validate_configurations(configurations: Sequence[Configuration]) -> None:

@@ -31,7 +31,7 @@ from vibupdate.update import UpdateResult, prepare, update
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case"]
 
 OUTPUT_MARKER = "results.json"
-#: Parameter ranges (finite differences of the modal data, two LPs per parameter) up to this size.
+#: Parameter ranges (exact Jacobian of the modal data, two LPs per parameter) up to this size.
 RANGES_DOF_LIMIT = 2000
 
 
@@ -53,9 +53,13 @@ def check_case(case: Case) -> dict:
 
 
 def _identifiability(result: UpdateResult) -> dict:
+    from vibupdate.correlation import describe_direction
+
     s = result.sensitivity
+    names = [p.name for p in result.parameters]
     return {"rank": s["rank"], "condition": s["condition"], "singular_values": s["singular_values"],
-            "column_norm": {p.name: float(v) for p, v in zip(result.parameters, s["column_norm"])}}
+            "column_norm": {p.name: float(v) for p, v in zip(result.parameters, s["column_norm"])},
+            "undetermined_combinations": [describe_direction(names, v) for v in s["null_directions"]]}
 
 
 def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str], dict]:
@@ -157,7 +161,12 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
     extra = {"identifiability": _identifiability(result)}
-    if case.configurations[0].model.n_dofs <= RANGES_DOF_LIMIT:
+    for combo in extra["identifiability"]["undetermined_combinations"]:
+        say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
+    if not result.success:
+        extra["identifiability"]["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
+                                                   "answer and mean something only at a verified answer")
+    elif case.configurations[0].model.n_dofs <= RANGES_DOF_LIMIT:
         from vibupdate.identifiability import parameter_ranges
 
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)

@@ -10,8 +10,9 @@ __all__ = ["Status", "IPOPT_STATUS", "from_ipopt"]
 class Status(str, Enum):
     """Outcome of a solve or of the whole homotopy."""
 
-    SUCCESS = "success"
-    ACCEPTABLE = "acceptable"            # converged to IPOPT's looser acceptable tolerances
+    SUCCESS = "success"                  # lambda = 1 reached and the returned model verified
+    ACCEPTABLE = "acceptable"            # as success, at IPOPT's looser acceptable tolerance
+    NOT_VERIFIED = "not_verified"        # lambda = 1 reached, but a check of the model faileds
     STEP_FAILED = "step_failed"          # a homotopy step failed down to the minimum step
     INFEASIBLE = "infeasible"
     MAX_ITERATIONS = "max_iterations"
