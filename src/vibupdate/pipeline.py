@@ -174,10 +174,15 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         extra["identifiability"]["frequency_tolerance"] = case.frequency_tolerance
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     if certify is not None:
+        from dataclasses import replace
+
         from vibupdate.certify import certified_ranges
 
+        # The vector boxes the first stage ended with (it may have widened the margins).
+        last = result.attempts[-1] if result.attempts else {}
+        boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
         cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
-                                seconds=certify, options=case.formulation, progress=say)
+                                seconds=certify, options=boxes, progress=say)
         extra["identifiability"]["certified"] = cert.record()
         say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
     if info:
