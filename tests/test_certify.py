@@ -62,7 +62,7 @@ def test_certified_range_contains_the_truth_and_every_point_of_s_found(case):
     model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
     cs = consistent_set([cfg], frequency_tolerance=tol)
     assume(is_consistent(cs, truth))
-    r = enclosure(cs, seconds=1.0)
+    r = enclosure(cs, seconds=np.inf, max_passes=3)
     assert not r.empty
     assert inside(r, model, truth)
     for x in points_near(cs, truth, np.random.default_rng(seed)):
@@ -101,7 +101,7 @@ def test_relaxation_holds_the_lifted_points_and_the_safe_bound_holds_for_any_mul
 def test_inner_estimate_lies_inside_the_certified_range():
     model, truth, cfg = chain_data(["k1", "k2", "m1", "m3"], [0.6, 0.3, 0.5, 0.4])
     cs = consistent_set([cfg], frequency_tolerance=0.01)
-    r = enclosure(cs, seconds=3.0)
+    r = enclosure(cs, seconds=np.inf, max_passes=10)
     inner = inner_ranges(cs, [truth])
     assert len(inner.points) > 1
     for x in inner.points:
@@ -116,7 +116,7 @@ def test_the_answer_is_inside_when_the_windows_are_widened_to_hold_it():
     answer = truth + np.array([0.01, -0.02])
     cs = consistent_set([noisy], include=answer)
     assert is_consistent(cs, answer)
-    r = parameter_ranges([noisy], answer, method="certified", seconds=1.0)
+    r = parameter_ranges([noisy], answer, method="certified", seconds=30.0)
     assert inside(r, model, answer)
 
 
@@ -124,7 +124,7 @@ def test_inconsistent_data_give_a_certified_empty_set():
     model = chain_model(3, ["k1", "k2", "m1"])
     w, _ = modes(*model.matrices())
     cfg = Configuration("A", model, tuple(NaturalFrequency(x) for x in w * np.array([1.0, 1.6, 1.8])))
-    r = enclosure(consistent_set([cfg]), seconds=5.0)
+    r = enclosure(consistent_set([cfg]), seconds=np.inf, max_passes=5)
     assert r.empty and np.all(np.isnan(r.lower))
     assert "empty" in r.message
 
@@ -182,3 +182,56 @@ def test_cli_run_with_certify_reports_the_ranges_beside_the_linearized_ones(tmp_
     assert "Certified outer range" in report and "certified outer range" in report
     assert main(["run", str(case), "--out", str(out), "--certify", "-1"]) == 2
     assert "budget must be >= 0 seconds, got -1" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def cantilever_answer():
+    from vibupdate.examples import cantilever
+    from vibupdate.update import update
+
+    case = cantilever.case()
+    return case, update(case.configurations, formulation=case.formulation, solver=case.solver)
+
+
+def _example_check(case, result, passes, inner, tolerance):
+    """The answer and points of S near it (random, and the inner estimate's) lie inside;
+    ``tolerance`` (at least the case's) leaves room in the windows for such points."""
+    model = case.configurations[0].model
+    last = result.attempts[-1] if result.attempts else {}
+    from dataclasses import replace
+
+    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    cs = consistent_set(case.configurations, frequency_tolerance=max(tolerance, case.frequency_tolerance),
+                        include=result.xbar, options=boxes)
+    assert is_consistent(cs, result.xbar)
+    r = enclosure(cs, seconds=np.inf, max_passes=passes)
+    assert r.passes == passes and not r.empty
+    assert inside(r, model, result.xbar)
+    points = points_near(cs, result.xbar, np.random.default_rng(1), n=30, scale=0.002)
+    points += list(inner_ranges(cs, [result.xbar]).points) if inner else []
+    assert len(points) > 1
+    for x in points:
+        assert inside(r, model, x)
+    return r
+
+
+def test_cantilever_certified_range_contains_the_answer_and_nearby_points_of_s(cantilever_answer):
+    case, result = cantilever_answer
+    r = _example_check(case, result, passes=1, inner=False, tolerance=0.02)
+    assert np.all(r.upper - r.lower <= r.root_upper - r.root_lower)
+
+
+@pytest.mark.slow
+def test_cantilever_refined_range_contains_the_inner_estimate(cantilever_answer):
+    case, result = cantilever_answer
+    _example_check(case, result, passes=6, inner=True, tolerance=0.02)
+
+
+@pytest.mark.slow
+def test_frame_certified_range_contains_the_answer_and_the_inner_estimate():
+    from vibupdate.examples import frame
+    from vibupdate.update import update
+
+    case = frame.case()
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver)
+    _example_check(case, result, passes=2, inner=True, tolerance=0.0)

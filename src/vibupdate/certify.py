@@ -529,14 +529,14 @@ class _Tightener:
         return True
 
 
-def enclosure(cs: ConsistentSet, *, seconds: float = 30.0,
+def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | None = None,
               progress: Callable[[str], None] | None = None) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
     The root ranges (two LPs per parameter over all blocks) are always computed; bound-
     tightening passes (`_Tightener.sweep`) follow while the elapsed time is below ``seconds``:
     per-block passes (small LPs) until one narrows the boxes by less than `STALL`, then passes
-    over all blocks until one does too.
+    over all blocks until one does too, and at most ``max_passes`` passes when given.
     """
     if not seconds >= 0:
         raise ValueError(f"the time budget must be >= 0 seconds, got {seconds!r}")
@@ -558,7 +558,7 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0,
     say(f"certified ranges: root {root_seconds:.1f} s, mean width {history[-1][1]:.3g} %")
     passes, complete, full = 0, T.infeasible is None and not T.crossed(), False
     span0 = np.maximum(T.box[1] - T.box[0], 1e-300)
-    while complete:
+    while complete and (max_passes is None or passes < max_passes):
         before = np.sum((T.box[1] - T.box[0]) / span0)
         complete = T.sweep(t0 + seconds, full)
         if not complete:
@@ -582,6 +582,8 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0,
                    "the ranges are the last proven boxes")
     elif not complete:
         message = f"time budget of {seconds:g} s reached after {passes} pass(es)"
+    elif max_passes is not None and passes == max_passes:
+        message = f"stopped after {passes} pass(es) as asked"
     return _result(cs, T, root, root_seconds, time.perf_counter() - t0, passes, history, empty, message)
 
 
