@@ -230,7 +230,8 @@ def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:
             continue
         w.append(f.natural[blk.index - 1])
         v = f.Phi[blk.cols, blk.index - 1] / blk.scale
-        j, free = int(np.flatnonzero(blk.fixed)[0]), ~blk.fixed
+        j = int(np.flatnonzero(blk.fixed)[0])
+        free = ~blk.fixed & (blk.measured if blk.measured is not None else True)
         v = v / v[j] * blk.lower[j] if abs(v[j]) > 1e-12 * np.max(np.abs(v)) else np.full(v.size, 1e300)
         width = np.maximum(blk.upper[free] - blk.lower[free], 1e-12)
         g += [(v[free] - blk.lower[free]) / width, (blk.upper[free] - v[free]) / width]
@@ -257,13 +258,13 @@ class InnerRanges:
     seconds: float
 
 
-def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 100) -> InnerRanges:
+def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 50) -> InnerRanges:
     """Points of S at each parameter's extremes by local NLP solves (SLSQP).
 
     For each parameter and direction, from each start, maximize or minimize ``xbar_i`` subject
     to every paired frequency (mode k for the k-th natural frequency,
-    `vibupdate.correlation.model_frequencies`) inside its window and every paired mode inside
-    its box; each solution is kept only if `is_consistent` confirms it, so the hull is an
+    `vibupdate.correlation.model_frequencies`) inside its window and every measured entry of
+    the paired mode inside its interval; each solution is kept only if `is_consistent` confirms it, so the hull is an
     inner estimate of the ranges over S.
 
     Parameters
