@@ -26,7 +26,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
-from vibupdate.certify import _highs, _lift, _relaxation, _safe_bound, _solve, enclosure  # noqa: E402
+from vibupdate.certify import enclosure  # noqa: E402
+from vibupdate.lp_relaxation import highs_model, lift, relax, safe_bound, solve  # noqa: E402
 from vibupdate.consistent import consistent_set, inner_ranges  # noqa: E402
 from vibupdate.update import update  # noqa: E402
 
@@ -41,7 +42,7 @@ def _linprog(lp, c):
     y = np.zeros(lp.A.shape[0])
     y[up] += res.ineqlin.marginals[: int(up.sum())]
     y[dn] -= res.ineqlin.marginals[int(up.sum()):]
-    return res.fun, _safe_bound(c, lp, y)
+    return res.fun, safe_bound(c, lp, y)
 
 
 def _clarabel(lp, c):
@@ -62,17 +63,17 @@ def _clarabel(lp, c):
     k = int(up.sum())
     y[up] -= z[:k]
     y[dn] += z[k:k + int(dn.sum())]
-    return sol.obj_val, _safe_bound(c, lp, y)
+    return sol.obj_val, safe_bound(c, lp, y)
 
 
 def compare_solvers(cs) -> list[str]:
     """The 2 n_x root LPs with each solver: seconds and the mean gap safe bound - optimum."""
-    L = _lift(cs)
-    lp = _relaxation(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
-    h = _highs(lp)
+    L = lift(cs)
+    lp = relax(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
+    h = highs_model(lp)
     rows = []
     for name, solve in (("scipy linprog (HiGHS, cold)", _linprog),
-                        ("highspy (HiGHS, warm)", lambda lp_, c: _solve(lp_, c, h)[1:]),
+                        ("highspy (HiGHS, warm)", lambda lp_, c: solve(lp_, c, h)[1:]),
                         ("Clarabel (interior point)", _clarabel)):
         t0, gaps = time.perf_counter(), []
         for i in range(cs.n_x):

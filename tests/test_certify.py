@@ -9,7 +9,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from vibupdate import Configuration, NaturalFrequency, ShapeInterval, modes
-from vibupdate.certify import _lift, _lifted_point, _relaxation, _safe_bound, _solve, enclosure
+from vibupdate.certify import enclosure
+from vibupdate.lp_relaxation import lift, lifted_point, relax, safe_bound, solve
 from vibupdate.consistent import consistent_set, inner_ranges, is_consistent, witness
 from vibupdate.identifiability import parameter_ranges
 
@@ -77,10 +78,10 @@ def test_relaxation_holds_the_lifted_points_and_the_safe_bound_holds_for_any_mul
     cs = consistent_set([cfg], frequency_tolerance=tol)
     assume(is_consistent(cs, truth))
     rng = np.random.default_rng(seed)
-    L = _lift(cs)
-    lp = _relaxation(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
+    L = lift(cs)
+    lp = relax(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
     members = [truth] + points_near(cs, truth, rng, n=20)
-    Z = np.array([_lifted_point(L, cs, x, witness(cs, x)) for x in members])
+    Z = np.array([lifted_point(L, cs, x, witness(cs, x)) for x in members])
     for z in Z:  # exactly feasible: no tolerance
         assert np.all(lp.zl <= z) and np.all(z <= lp.zu)
         a = lp.A @ z
@@ -90,12 +91,12 @@ def test_relaxation_holds_the_lifted_points_and_the_safe_bound_holds_for_any_mul
     Z = np.vstack([Z, W @ Z])
     for _ in range(3):
         c = rng.standard_normal(L.n_z)
-        status, opt, bound = _solve(lp, c)
+        status, opt, bound = solve(lp, c)
         assert status == "optimal"
         assert bound <= opt + 1e-9 * (1 + abs(opt))
         assert np.all(Z @ c >= bound)
         y = rng.standard_normal(lp.A.shape[0]) * rng.uniform(0, 10)   # any multipliers at all
-        assert np.all(Z @ c >= _safe_bound(c, lp, y))
+        assert np.all(Z @ c >= safe_bound(c, lp, y))
 
 
 def test_inner_estimate_lies_inside_the_certified_range():

@@ -1,34 +1,18 @@
 """Certified outer bounds of the parameters over the consistent set S (issue 11, item 0).
 
-S is stated in `vibupdate.consistent`: parameters in their box, and for every measured
-frequency an eigenpair ``(s, v)`` of the block's pencil with ``s`` in the frequency window
-and ``v`` in the block's box. Writing the block's equation with the measured ``w^2``,
+S is stated in `vibupdate.consistent`; `vibupdate.lp_relaxation` relaxes it to a linear
+program (McCormick envelopes of the lifted products, Eq. 19) on boxes of the parameters and
+vector entries, and bounds any linear objective over it safely (a Lagrangian bound from the
+solver's multipliers, valid although the solver is inexact). Here the minimum and maximum of
+each parameter over the relaxation bound it over S; tightening the boxes of the vector
+entries and parameters by the same LPs (optimality-based bound tightening, OBBT) and
+rebuilding the envelopes narrows the enclosure, for as long as the time budget allows.
+Vector entries are first bounded over the relaxation of their own block alone (a weaker but
+valid relaxation, and a small LP), then over all blocks.
 
-    k(x, v) - w^2 m(x, v) - delta m(x, v) = 0,   k = D K(x) S v,  m = D M(x) S v,
-    delta = s - w^2 in [wL^2 - w^2, wU^2 - w^2],
-
-both ``k`` and ``m`` are linear in ``(x, u, t)`` once every product ``x_i u_j`` is lifted to
-``t`` (Section 3.3), and the frequency uncertainty enters as one more product ``e = delta m``
-per residual row. Replacing each product by its McCormick envelope (Eq. 19) on the current
-boxes gives a linear program whose feasible set holds every point of S. The minimum and
-maximum of ``x_i`` over it bound ``x_i`` over S; tightening the boxes of the vector entries
-and parameters by the same LPs (optimality-based bound tightening, OBBT) and rebuilding the
-envelopes narrows the enclosure, for as long as the time budget allows.
-
-Safe bounds. The LP solver (HiGHS, through highspy so that a relaxation is built once and solved
-warm for every objective) is inexact, so its optimum is never used as a bound.
-Every variable of the LP is boxed, so for *any* row multipliers ``y`` (signs projected so
-that each term is valid) the Lagrangian bound
-
-    c^T z >= sum_j min_{z_j in [l_j, u_j]} (c - A^T y)_j z_j + sum_r min_{a_r in [lo_r, hi_r]} y_r a_r
-
-holds for every feasible ``z`` (Neumaier and Shcherbina, Math. Program. 99 (2004) 283-296).
-It is evaluated from the solver's multipliers with the rounding of the products and sums
-bounded and subtracted, and the constants of the envelopes are rounded outward. A bound is
-*confirmed* (the parameter's range flagged ``certified``) when this safe value is within
-`GAP` of the solver's optimum; otherwise the weaker safe value is still what is reported.
-A positive safe bound of the phase-1 problem (least total eigen-residual violation)
-certifies that S is empty.
+A bound is *confirmed* (the parameter's range flagged ``certified``) when the safe value is
+within `GAP` of the solver's optimum; otherwise the weaker safe value is still what is
+reported. A positive safe phase-1 bound certifies that S is empty.
 """
 
 from __future__ import annotations
@@ -38,10 +22,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.sparse as sp
 
-from vibupdate.consistent import RESIDUAL_FLOOR, ConsistentSet, consistent_set
+from vibupdate.consistent import ConsistentSet, consistent_set
 from vibupdate.formulation import FormulationOptions
+from vibupdate.lp_relaxation import highs_model, lift, phase1_bound, relax, solve
 from vibupdate.measured import Configuration
 
 __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements"]
@@ -51,287 +35,6 @@ __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreeme
 GAP = 1e-6
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
 STALL = 1e-3
-_EPS = np.finfo(float).eps
-
-
-@dataclass(frozen=True)
-class _Lifted:
-    """``k(z) = Kz z + k0`` and ``m(z) = Mz z + m0`` over ``z = [x, u, t, delta, e]``."""
-
-    n_x: int
-    n_u: int
-    n_t: int
-    n_blk: int
-    n_r: int
-    Kz: sp.csr_matrix
-    k0: np.ndarray
-    Mz: sp.csr_matrix
-    m0: np.ndarray
-    w2: np.ndarray          # measured w^2 of each row's block, (n_r,)
-    row_block: np.ndarray   # (n_r,)
-    tx: np.ndarray          # parameter of each product, (n_t,)
-    tu: np.ndarray          # vector entry of each product, (n_t,)
-    u_lower: np.ndarray
-    u_upper: np.ndarray
-    d_lower: np.ndarray     # box of delta, (n_blk,)
-    d_upper: np.ndarray
-
-    @property
-    def n_z(self) -> int:
-        return self.n_x + self.n_u + self.n_t + self.n_blk + self.n_r
-
-
-def _block_triplets(mats, free, fixed, vfix, supports, u_col, t_col):
-    """COO triplets (row, column of z, value) and constant of one block's ``k`` or ``m``."""
-    R, C, V = [], [], []
-
-    def add(A, cols):
-        A = sp.coo_matrix(A)
-        R.append(A.row)
-        C.append(cols[A.col])
-        V.append(A.data)
-
-    add(mats[0][:, free], u_col + np.arange(free.size))
-    for i, support in enumerate(supports):
-        add(sp.csc_matrix((mats[i + 1][:, fixed] @ vfix)[:, None]), np.array([i]))
-        add(mats[i + 1][:, free][:, support], t_col[i] + np.arange(support.size))
-    return np.concatenate(R), np.concatenate(C), np.concatenate(V), mats[0][:, fixed] @ vfix
-
-
-def _lift(cs: ConsistentSet) -> _Lifted:
-    n_x, n_blk = cs.n_x, len(cs.blocks)
-    n_u = sum(b.n_free for b in cs.blocks)
-    trip = {"K": [], "M": []}
-    const = {"K": [], "M": []}
-    w2, rb, tx, tu = [], [], [], []
-    u_off = r_off = n_t = 0
-    for b, (blk, model) in enumerate(zip(cs.blocks, cs.models)):
-        kd = np.abs(model.K0.diagonal())
-        d = 1.0 / np.sqrt(np.where(kd > 0, kd, kd.max()))
-        D, S = sp.diags(d[blk.rows]), sp.diags(blk.scale)
-
-        def op(A):
-            return sp.csc_matrix(D @ sp.csr_matrix(A)[blk.rows][:, blk.cols] @ S)
-
-        mats = {"K": [op(model.K0)] + [op(A) for A in model.K_par],
-                "M": [op(model.M0)] + [op(A) for A in model.M_par]}
-        free, fixed = np.flatnonzero(~blk.fixed), np.flatnonzero(blk.fixed)
-        supports = [np.flatnonzero((np.diff(mats["K"][i + 1][:, free].indptr) > 0)
-                                   | (np.diff(mats["M"][i + 1][:, free].indptr) > 0)) for i in range(n_x)]
-        t_col = n_x + n_u + n_t + np.concatenate([[0], np.cumsum([s.size for s in supports])[:-1]]).astype(int)
-        for key in ("K", "M"):
-            r, c, v, k = _block_triplets(mats[key], free, fixed, blk.lower[fixed], supports, n_x + u_off, t_col)
-            trip[key].append((r + r_off, c, v))
-            const[key].append(k)
-        for i, support in enumerate(supports):
-            tx.append(np.full(support.size, i))
-            tu.append(u_off + support)
-            n_t += support.size
-        n_rows = len(blk.rows)
-        w2.append(np.full(n_rows, blk.omega**2))
-        rb.append(np.full(n_rows, b))
-        u_off += free.size
-        r_off += n_rows
-    n_z = n_x + n_u + n_t + n_blk + r_off
-
-    def matrix(key):
-        r, c, v = (np.concatenate(a) for a in zip(*trip[key]))
-        return sp.csr_matrix((v, (r, c)), shape=(r_off, n_z))
-
-    omega = np.array([b.omega for b in cs.blocks])
-    return _Lifted(
-        n_x, n_u, n_t, n_blk, r_off, matrix("K"), np.concatenate(const["K"]), matrix("M"),
-        np.concatenate(const["M"]), np.concatenate(w2), np.concatenate(rb).astype(int),
-        np.concatenate(tx).astype(int), np.concatenate(tu).astype(int),
-        np.concatenate([b.lower[~b.fixed] for b in cs.blocks]),
-        np.concatenate([b.upper[~b.fixed] for b in cs.blocks]),
-        np.minimum(cs.omega_lower**2 - omega**2, 0.0), np.maximum(cs.omega_upper**2 - omega**2, 0.0),
-    )
-
-
-@dataclass(frozen=True)
-class _LP:
-    """``lo <= A z <= hi``, ``zl <= z <= zu``; the first ``n_eig`` rows are the eigen rows."""
-
-    A: sp.csr_matrix
-    lo: np.ndarray
-    hi: np.ndarray
-    zl: np.ndarray
-    zu: np.ndarray
-    n_eig: int
-
-
-def _hull(*corners):
-    c = np.stack(corners)
-    lo, hi = c.min(axis=0), c.max(axis=0)
-    return lo - 4 * _EPS * np.abs(lo), hi + 4 * _EPS * np.abs(hi)   # outward past the rounding
-
-
-def _rows(coo_parts, n_rows, n_z):
-    r, c, v = (np.concatenate(a) for a in zip(*coo_parts))
-    return sp.csr_matrix((v, (r, c)), shape=(n_rows, n_z))
-
-
-def _mccormick_t(L: _Lifted, xl, xu, ul, uu):
-    """Eq. 19 for every ``t = x[tx] u[tu]``: 4 n_t rows."""
-    n_t, p = L.n_t, np.arange(L.n_t)
-    al, au, bl, bu = xl[L.tx], xu[L.tx], ul[L.tu], uu[L.tu]
-    t_col, u_col, x_col = L.n_x + L.n_u + p, L.n_x + L.tu, L.tx
-    parts, lo, hi = [], [], []
-    for q, (a, b, lower) in enumerate(((al, bl, True), (au, bu, True), (au, bl, False), (al, bu, False))):
-        rows = q * n_t + p
-        parts.append((np.concatenate([rows, rows, rows]), np.concatenate([t_col, u_col, x_col]),
-                      np.concatenate([np.ones(n_t), -a, -b])))
-        rhs = -a * b
-        pad = 4 * _EPS * np.abs(rhs)
-        lo.append(rhs - pad if lower else np.full(n_t, -np.inf))
-        hi.append(np.full(n_t, np.inf) if lower else rhs + pad)
-    return parts, np.concatenate(lo), np.concatenate(hi)
-
-
-def _mccormick_e(L: _Lifted, mL, mU, mmag):
-    """McCormick rows of ``e = delta m(z)`` for the rows whose block has a frequency window."""
-    windowed = np.flatnonzero((L.d_lower < 0) | (L.d_upper > 0))
-    k = np.flatnonzero(np.isin(L.row_block, windowed))
-    dL, dU = L.d_lower[L.row_block[k]], L.d_upper[L.row_block[k]]
-    Mk = sp.coo_matrix(L.Mz[k])
-    e_col = L.n_x + L.n_u + L.n_t + L.n_blk + k
-    d_col = L.n_x + L.n_u + L.n_t + L.row_block[k]
-    n, parts, lo, hi = k.size, [], [], []
-    pad = 1e-12 * np.maximum(np.abs(dL), np.abs(dU)) * (mmag[k] + np.maximum(np.abs(mL[k]), np.abs(mU[k])))
-    for q, (d, mb, lower) in enumerate(((dL, mL[k], True), (dU, mU[k], True), (dU, mL[k], False),
-                                        (dL, mU[k], False))):
-        base = q * n
-        # e - d m(z) - mb delta  (>= or <=)  -d mb, with m(z) = Mz z + m0
-        parts.append((np.concatenate([base + np.arange(n), base + Mk.row, base + np.arange(n)]),
-                      np.concatenate([e_col, Mk.col, d_col]),
-                      np.concatenate([np.ones(n), -d[Mk.row] * Mk.data, -mb])))
-        rhs = -d * mb + d * L.m0[k]
-        lo.append(rhs - pad if lower else np.full(n, -np.inf))
-        hi.append(np.full(n, np.inf) if lower else rhs + pad)
-    return parts, np.concatenate(lo) if lo else np.empty(0), np.concatenate(hi) if hi else np.empty(0), 4 * n
-
-
-def _relaxation(L: _Lifted, xl, xu, ul, uu) -> _LP:
-    """The LP relaxation of S on the boxes ``[xl, xu]`` and ``[ul, uu]`` (module docstring)."""
-    n_z = L.n_z
-    tl, tu = _hull(xl[L.tx] * ul[L.tu], xl[L.tx] * uu[L.tu], xu[L.tx] * ul[L.tu], xu[L.tx] * uu[L.tu])
-    pad = np.zeros(L.n_blk + L.n_r)
-    zl0, zu0 = np.concatenate([xl, ul, tl, pad]), np.concatenate([xu, uu, tu, pad])
-    absM = abs(L.Mz)
-    zmag0 = np.maximum(np.abs(zl0), np.abs(zu0))
-    mmag = absM @ zmag0 + np.abs(L.m0)
-    Mp, Mn = L.Mz.maximum(0), L.Mz.minimum(0)
-    mL = L.m0 + Mp @ zl0 + Mn @ zu0 - 1e-13 * mmag
-    mU = L.m0 + Mp @ zu0 + Mn @ zl0 + 1e-13 * mmag
-    dL, dU = L.d_lower[L.row_block], L.d_upper[L.row_block]
-    el, eu = _hull(dL * mL, dL * mU, dU * mL, dU * mU)
-    zl = np.concatenate([xl, ul, tl, L.d_lower, el])
-    zu = np.concatenate([xu, uu, tu, L.d_upper, eu])
-    zmag = np.maximum(np.abs(zl), np.abs(zu))
-    # Eigen rows: (Kz - w^2 Mz) z - e = -(k0 - w^2 m0), up to the residual floor.
-    G = sp.csr_matrix(L.Kz - sp.diags(L.w2) @ L.Mz) + sp.csr_matrix((-np.ones(L.n_r), (np.arange(L.n_r), n_z - L.n_r + np.arange(L.n_r))),
-                                         shape=(L.n_r, n_z))
-    c0 = L.k0 - L.w2 * L.m0
-    floor = RESIDUAL_FLOOR * (abs(L.Kz) @ zmag + np.abs(L.k0) + (L.w2 + dU) * mmag)
-    t_parts, t_lo, t_hi = _mccormick_t(L, xl, xu, ul, uu)
-    e_parts, e_lo, e_hi, n_e = _mccormick_e(L, mL, mU, mmag)
-    A = sp.vstack([G, _rows(t_parts, 4 * L.n_t, n_z)] + ([_rows(e_parts, n_e, n_z)] if n_e else []), format="csr")
-    return _LP(A, np.concatenate([-c0 - floor, t_lo, e_lo]), np.concatenate([-c0 + floor, t_hi, e_hi]),
-               zl, zu, L.n_r)
-
-
-def _safe_bound(c, lp: _LP, y) -> float:
-    """A lower bound of ``c^T z`` over the LP valid for any multipliers ``y`` (module
-    docstring), with the rounding of its own evaluation subtracted.
-
-    Parameters
-    ----------
-    c : ndarray, shape (n_z,)
-    lp : _LP
-    y : ndarray, shape (n_rows,)
-        Row multipliers; signs that would use an infinite row bound are set to zero.
-    """
-    y = np.where(((y > 0) & ~np.isfinite(lp.lo)) | ((y < 0) & ~np.isfinite(lp.hi)), 0.0, y)
-    absA = abs(lp.A)
-    r = c - lp.A.T @ y
-    n_col = int(np.max(np.diff(sp.csc_matrix(lp.A).indptr), initial=0)) + 2
-    err = 2 * n_col * _EPS * (np.abs(c) + absA.T @ np.abs(y))
-    rl, ru = r - err, r + err
-    tz = np.minimum.reduce([rl * lp.zl, rl * lp.zu, ru * lp.zl, ru * lp.zu])
-    ta = np.zeros_like(y)
-    pos, neg = y > 0, y < 0
-    ta[pos] = y[pos] * lp.lo[pos]
-    ta[neg] = y[neg] * lp.hi[neg]
-    total = tz.sum() + ta.sum()
-    n_sum = tz.size + ta.size + 2
-    return float(total - 2 * n_sum * _EPS * (np.abs(tz).sum() + np.abs(ta).sum()))
-
-
-def _highs(lp: _LP):
-    """A HiGHS instance holding the LP (objective set per solve by `_solve`)."""
-    import highspy
-
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
-    model = highspy.HighsLp()
-    A = sp.csc_matrix(lp.A)
-    inf = highspy.kHighsInf
-    model.num_col_, model.num_row_ = A.shape[1], A.shape[0]
-    model.col_cost_ = np.zeros(A.shape[1])
-    model.col_lower_, model.col_upper_ = lp.zl, lp.zu
-    model.row_lower_ = np.where(np.isfinite(lp.lo), lp.lo, -inf)
-    model.row_upper_ = np.where(np.isfinite(lp.hi), lp.hi, inf)
-    model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
-    h.passModel(model)
-    return h
-
-
-def _solve(lp: _LP, c, h=None):
-    """HiGHS (dual simplex, warm from the previous solve of ``h``) on the LP with objective
-    ``c``; returns (status, optimum, safe bound from the solver's row duals)."""
-    import highspy
-
-    h = h if h is not None else _highs(lp)
-    n = lp.A.shape[1]
-    h.changeColsCost(n, np.arange(n, dtype=np.int32), np.asarray(c, dtype=float))
-    h.run()
-    status = h.getModelStatus()
-    if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnboundedOrInfeasible):
-        return "infeasible", np.nan, np.nan
-    if status != highspy.HighsModelStatus.kOptimal:
-        return "failed", np.nan, np.nan
-    y = np.asarray(h.getSolution().row_dual, dtype=float)
-    return "optimal", float(h.getInfo().objective_function_value), _safe_bound(c, lp, y)
-
-
-def _lifted_point(L: _Lifted, cs: ConsistentSet, xbar, pairs) -> np.ndarray:
-    """The point ``z`` of the LP that a point of S with eigenpairs ``pairs`` (`witness`)
-    lifts to, shape (n_z,)."""
-    xbar = np.asarray(xbar, dtype=float)
-    u = np.concatenate([v[~blk.fixed] for blk, (_, v) in zip(cs.blocks, pairs)])
-    # An exact datum (a zero-width window) puts the eigensolver's rounding of s into the
-    # residual floor, not into delta.
-    delta = np.clip([s - blk.omega**2 for blk, (s, _) in zip(cs.blocks, pairs)], L.d_lower, L.d_upper)
-    t = xbar[L.tx] * u[L.tu]
-    z = np.concatenate([xbar, u, t, delta, np.zeros(L.n_r)])
-    e = delta[L.row_block] * (L.Mz @ z + L.m0)
-    z[L.n_z - L.n_r:] = e
-    return z
-
-
-def _phase1(lp: _LP):
-    """Safe lower bound of the least total violation of the eigen rows; > 0 proves S empty."""
-    n, n_z = lp.n_eig, lp.A.shape[1]
-    zmag = np.maximum(np.abs(lp.zl), np.abs(lp.zu))
-    P = 2 * (abs(lp.A[:n]) @ zmag + np.maximum(np.abs(lp.lo[:n]), np.abs(lp.hi[:n]))) + 1.0
-    I = sp.eye(lp.A.shape[0], n, format="csr")
-    A = sp.hstack([lp.A, I, -I], format="csr")
-    ext = _LP(A, lp.lo, lp.hi, np.concatenate([lp.zl, np.zeros(2 * n)]), np.concatenate([lp.zu, P, P]), n)
-    c = np.concatenate([np.zeros(n_z), np.ones(2 * n)])
-    status, _, bound = _solve(ext, c)
-    return bound if status == "optimal" else np.nan
 
 
 @dataclass(frozen=True)
@@ -455,10 +158,10 @@ class _Tightener:
     weaker but valid relaxation, and a small LP), which also bounds the parameters.
     """
 
-    def __init__(self, cs: ConsistentSet, L: _Lifted):
+    def __init__(self, cs: ConsistentSet, L: Lifted):
         self.L = L
         self.n_x = cs.n_x
-        self.local = [_lift(replace(cs, blocks=(blk,), models=(m,), omega_lower=cs.omega_lower[b:b + 1],
+        self.local = [lift(replace(cs, blocks=(blk,), models=(m,), omega_lower=cs.omega_lower[b:b + 1],
                                     omega_upper=cs.omega_upper[b:b + 1]))
                       for b, (blk, m) in enumerate(zip(cs.blocks, cs.models))]
         self.u_off = np.concatenate([[0], np.cumsum([Lb.n_u for Lb in self.local])]).astype(int)
@@ -467,7 +170,7 @@ class _Tightener:
         self.lps = {}
         self.n_lps, self.infeasible = 0, None
 
-    def relaxation(self, block: int | None = None) -> _LP:
+    def relaxation(self, block: int | None = None) -> RelaxedLP:
         """LP of all blocks (``None``) or of one block, on the current boxes (cached)."""
         if block not in self.lps:
             n_x, (lo, hi) = self.n_x, self.box
@@ -475,8 +178,8 @@ class _Tightener:
                 L, sl = self.L, slice(n_x, None)
             else:
                 L, sl = self.local[block], slice(n_x + self.u_off[block], n_x + self.u_off[block + 1])
-            lp = _relaxation(L, lo[:n_x], hi[:n_x], lo[sl], hi[sl])
-            self.lps[block] = (lp, _highs(lp))
+            lp = relax(L, lo[:n_x], hi[:n_x], lo[sl], hi[sl])
+            self.lps[block] = (lp, highs_model(lp))
         return self.lps[block]
 
     def _invalidate(self, j: int) -> None:
@@ -494,7 +197,7 @@ class _Tightener:
         sign = 1.0 if side == 0 else -1.0
         c = np.zeros(lp.A.shape[1])
         c[local] = sign
-        status, opt, bound = _solve(lp, c, h)
+        status, opt, bound = solve(lp, c, h)
         self.n_lps += 1
         if status == "infeasible":
             self.infeasible = (block,)
@@ -542,7 +245,7 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
         raise ValueError(f"the time budget must be >= 0 seconds, got {seconds!r}")
     say = progress or (lambda message: None)
     t0 = time.perf_counter()
-    T = _Tightener(cs, _lift(cs))
+    T = _Tightener(cs, lift(cs))
     n_x = cs.n_x
 
     def width():
@@ -575,7 +278,7 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
     if T.crossed():
         empty, message = True, "S is empty: the safe bounds of a variable cross"
     elif T.infeasible is not None:
-        lb = _phase1(T.relaxation(T.infeasible[0])[0])
+        lb = phase1_bound(T.relaxation(T.infeasible[0])[0])
         empty = bool(lb > 0)
         message = (f"S is empty: the least eigen-residual violation is at least {lb:.3g} > 0" if empty else
                    "the LP solver reported the relaxation infeasible, which the safe bound does not confirm; "

@@ -291,7 +291,9 @@ def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 50) -> InnerRange
     for i in range(cs.n_x):
         for sign in (1.0, -1.0):
             for s in starts:
-                sol = minimize(lambda x: sign * x[i], s, method="SLSQP", bounds=bounds,
+                grad = np.zeros(cs.n_x)
+                grad[i] = sign
+                sol = minimize(lambda x: sign * x[i], s, jac=lambda x, g=grad: g, method="SLSQP", bounds=bounds,
                                constraints=[{"type": "ineq", "fun": slack}],
                                options={"maxiter": max_iter, "ftol": 1e-12})
                 x = np.clip(sol.x, cs.x_lower, cs.x_upper)
