@@ -25,7 +25,7 @@ import numpy as np
 
 from vibupdate.consistent import ConsistentSet, consistent_set
 from vibupdate.formulation import FormulationOptions
-from vibupdate.lp_relaxation import highs_model, lift, phase1_bound, relax, solve
+from vibupdate.lp_relaxation import highs_model, lift, phase1_bound, relax, solve, solve_clarabel
 from vibupdate.measured import Configuration
 
 __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements"]
@@ -170,8 +170,9 @@ class _Tightener:
         self.lps = {}
         self.n_lps, self.infeasible = 0, None
 
-    def relaxation(self, block: int | None = None) -> RelaxedLP:
-        """LP of all blocks (``None``) or of one block, on the current boxes (cached)."""
+    def relaxation(self, block: int | None = None):
+        """LP of all blocks (``None``, solved by Clarabel) or of one block (with its HiGHS
+        instance), on the current boxes: ``(lp, highs or None)``, cached."""
         if block not in self.lps:
             n_x, (lo, hi) = self.n_x, self.box
             if block is None:
@@ -179,7 +180,7 @@ class _Tightener:
             else:
                 L, sl = self.local[block], slice(n_x + self.u_off[block], n_x + self.u_off[block + 1])
             lp = relax(L, lo[:n_x], hi[:n_x], lo[sl], hi[sl])
-            self.lps[block] = (lp, highs_model(lp))
+            self.lps[block] = (lp, None if block is None else highs_model(lp))
         return self.lps[block]
 
     def _invalidate(self, j: int) -> None:
@@ -197,7 +198,7 @@ class _Tightener:
         sign = 1.0 if side == 0 else -1.0
         c = np.zeros(lp.A.shape[1])
         c[local] = sign
-        status, opt, bound = solve(lp, c, h)
+        status, opt, bound = solve_clarabel(lp, c) if h is None else solve(lp, c, h)
         self.n_lps += 1
         if status == "infeasible":
             self.infeasible = (block,)
