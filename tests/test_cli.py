@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from vibupdate.cli import main
+from vibupdate.results import validate_document
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -53,6 +54,7 @@ def test_example_cantilever_writes_results_json(cantilever_run):
     code, out, printed = cantilever_run
     assert code == 0
     doc = json.loads((out / "results.json").read_text())
+    validate_document(doc)
     for key in ("case", "parameters", "frequencies", "damping", "summary", "problem_size", "solver"):
         assert key in doc
     rows = doc["frequencies"]
@@ -96,6 +98,11 @@ def test_report_renders_tables_and_plots(cantilever_run):
         data = (out / name).read_bytes()
         assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 1000
     assert "Relative weights 1/xi^2" in report
+    # The verification checks and warnings of the result are in the report, as results.json has them.
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["checks"] and "## Verification" in report
+    assert all(c["name"] in report for c in doc["checks"])
+    assert all(w in report for w in doc["warnings"])
 
 
 def test_results_and_matrices_reload_and_reproduce_the_updated_frequencies(cantilever_run):
@@ -106,25 +113,25 @@ def test_results_and_matrices_reload_and_reproduce_the_updated_frequencies(canti
     from vibupdate.results import load_results
 
     out = cantilever_run[1]
-    doc = load_results(out / "results.json")
+    run = load_results(out / "results.json")
     for name in "ABCD":
         M = scipy.io.mmread(str(out / f"M_{name}.mtx"))
         K = scipy.io.mmread(str(out / f"K_{name}.mtx"))
         C = scipy.io.mmread(str(out / f"C_{name}.mtx")).toarray()
         omega, Phi = modes(M, K, 3)
-        rows = [r for r in doc["frequencies"] if r["configuration"] == name]
-        nat = [r["updated_hz"] for r in rows if r["kind"] == "natural"]
+        rows = [r for r in run.frequencies if r.configuration == name]
+        nat = [r.updated_hz for r in rows if r.kind == "natural"]
         np.testing.assert_allclose(omega / (2 * np.pi), nat, rtol=1e-9)
         z = antiresonances(M, K, 0, 4)  # y1 and y3 are DOFs 0 and 4 of the cantilever
-        zhz = [r["updated_hz"] for r in rows if r["kind"] == "antiresonance"]
+        zhz = [r.updated_hz for r in rows if r.kind == "antiresonance"]
         assert np.min(np.abs(z / (2 * np.pi) - zhz[0])) < 1e-9 * zhz[0]
         ratios = np.diag(Phi.T @ C @ Phi) / (2 * omega)
-        identified = [d["identified"] for d in doc["damping"] if d["configuration"] == name]
+        identified = [d.identified for d in run.damping if d.configuration == name]
         np.testing.assert_allclose(ratios, identified, rtol=1e-6)
     # Reloaded parameters rebuild the same model.
     from vibupdate.examples import cantilever
 
-    values = [p["updated"] for p in doc["parameters"]]
+    values = [p.updated for p in run.parameters]
     model = cantilever.configurations()[0].model
     M, K = model.matrices_at(values)
     np.testing.assert_allclose(M.toarray(), scipy.io.mmread(str(out / "M_A.mtx")).toarray(), rtol=1e-12)
@@ -139,4 +146,149 @@ def test_a_failed_update_exits_non_zero_with_the_reason(tmp_path, capsys):
     assert main(["run", str(case), "--out", str(out)]) == 1
     assert "updating failed" in capsys.readouterr().err
     doc = json.loads((out / "results.json").read_text())
-    assert doc["solver"]["status"] != "success"
+    validate_document(doc)
+    assert doc["solver"]["status"] != "success" and doc["success"] is False
+
+
+# --- exit codes and messages (issue 12, items 3 and 4) ---------------------------------------
+
+BUILDER_CASE = """\
+case = "built"
+
+[model]
+type = "builder"
+builder = "model.py:build"
+
+[[parameter]]
+name = "k"
+unit = "N/m"
+nominal = 1000.0
+lower = 500.0
+upper = 2000.0
+
+[[configuration]]
+name = "A"
+natural_hz = [5.0]
+"""
+
+
+@pytest.mark.parametrize("source, expected", [
+    ("def build(p):\n    return 1 / 0\n", "ZeroDivisionError"),
+    ("def build(p)\n    return None\n", "SyntaxError"),
+    ("def build():\n    return None\n", "TypeError"),
+    ("import vibupdate_no_such_module\n", "vibupdate_no_such_module"),
+])
+def test_a_broken_builder_is_bad_input_with_a_message_not_a_traceback(tmp_path, capsys, source, expected):
+    (tmp_path / "model.py").write_text(source)
+    case = tmp_path / "case.toml"
+    case.write_text(BUILDER_CASE)
+    for command in (["check", str(case)], ["run", str(case), "--out", str(tmp_path / "out")]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("vibupdate: error:") and expected in err and "Traceback" not in err, err
+        assert str(case) in err or "model.builder" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("line, key", [("tol = -1e-8", "tol"), ("max_cpu_time = 0", "max_cpu_time"),
+                                       ("max_iter = 0", "max_iter")])
+def test_solver_options_out_of_range_are_bad_input(tmp_path, capsys, line, key):
+    from outputs_helpers import TINY_CASE, write_case
+
+    case = write_case(tmp_path, TINY_CASE.replace("[solver]\n", f"[solver]\n{line}\n"))
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert key in err and "Traceback" not in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_internal_error_is_one_line_and_debug_prints_the_traceback(tmp_path, monkeypatch, capsys):
+    from outputs_helpers import write_case
+
+    import vibupdate.pipeline
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(vibupdate.pipeline, "update", broken)
+    case = write_case(tmp_path)
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "internal error" in err and "ZeroDivisionError" in err and "--debug" in err
+    assert main(["--debug", "run", str(case), "--out", str(tmp_path / "out")]) == 3
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and "broken" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_python_dash_m_vibupdate_runs_the_command_line(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from vibupdate import __version__
+
+    done = subprocess.run([sys.executable, "-m", "vibupdate", "--version"], capture_output=True, text=True,
+                          env=os.environ, cwd=tmp_path, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == f"vibupdate {__version__}"
+    done = subprocess.run([sys.executable, "-m", "vibupdate", "check", "missing.toml"], capture_output=True,
+                          text=True, env=os.environ, cwd=tmp_path, timeout=120)
+    assert done.returncode == 2 and "does not exist" in done.stderr and "Traceback" not in done.stderr
+
+
+def _slow_case(folder: Path) -> Path:
+    """The frame example refined 3 times without reduction, n_lambda = 1: its lambda = 1 solve
+    runs tens of IPOPT iterations over several seconds."""
+    import shutil
+
+    source = ROOT / "examples" / "frame"
+    for name in ("frequencies.csv", "shapes.csv"):
+        shutil.copy(source / name, folder / name)
+    text = (source / "case.toml").read_text()
+    text = text.replace('name = "frame"\n', 'name = "frame"\noptions = { subdivisions = 3 }\n', 1)
+    text += '\n[formulation]\nreduction = "none"\n\n[solver]\nn_lambda = 1\n'
+    path = folder / "case.toml"
+    path.write_text(text)
+    return path
+
+
+def test_sigint_during_ipopt_iterations_exits_130_within_2_s_and_keeps_earlier_results(tmp_path):
+    """Ctrl-C while IPOPT iterates: CasADi catches it and would report a failed solve; the run
+    must stop at once, exit 130 and leave the previous results folder as it was."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from outputs_helpers import snapshot
+
+    case = _slow_case(tmp_path)
+    out = tmp_path / "results"
+    out.mkdir()  # earlier results of this case (a results folder vibupdate owns)
+    (out / "results.json").write_text('{"earlier": true}\n')
+    (out / "vibupdate-manifest.json").write_text('{"files": ["results.json"]}\n')
+    before = snapshot(tmp_path)
+    proc = subprocess.Popen([sys.executable, "-m", "vibupdate", "run", str(case), "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=os.environ, cwd=tmp_path)
+    lines = []
+    try:
+        for line in proc.stdout:  # the lambda = 0 line: the next thing is the long lambda = 1 solve
+            lines.append(line)
+            if "lambda = 0.0000" in line:
+                break
+        assert proc.poll() is None, "".join(lines)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        rest, _ = proc.communicate(timeout=30)
+        elapsed = time.monotonic() - sent
+    finally:
+        proc.kill()
+    text = "".join(lines) + rest
+    assert proc.returncode == 130, text
+    assert elapsed < 2.0, f"exit {elapsed:.2f} s after SIGINT"
+    assert "KeyboardInterruptException" in text, "the signal did not arrive inside IPOPT:\n" + text
+    assert "lambda = 1.0000" not in text and "Traceback" not in text
+    assert "interrupted" in rest
+    assert snapshot(tmp_path) == before

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as sla
@@ -84,13 +85,39 @@ class AffineModel:
         xbar = np.asarray(xbar, dtype=float)
         if xbar.shape != (self.n_parameters,):
             raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
-        M = self.M0 + sum((x * Mi for x, Mi in zip(xbar, self.M_par)), sp.csr_matrix(self.M0.shape))
-        K = self.K0 + sum((x * Ki for x, Ki in zip(xbar, self.K_par)), sp.csr_matrix(self.K0.shape))
-        return sp.csr_matrix(M), sp.csr_matrix(K)
+        return self._combine(self._stacked_M, xbar), self._combine(self._stacked_K, xbar)
+
+    @staticmethod
+    def _combine(stacked, xbar) -> sp.csr_matrix:
+        data, indices, indptr, shape = stacked
+        return sp.csr_matrix((data[0] + xbar @ data[1:], indices, indptr), shape=shape)
+
+    @cached_property
+    def _stacked_M(self):
+        return _stack_on_union(self.M0, self.M_par)
+
+    @cached_property
+    def _stacked_K(self):
+        return _stack_on_union(self.K0, self.K_par)
 
     def matrices_at(self, values) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """``M``, ``K`` at physical parameter values, shape (n_x,)."""
         return self.matrices(self.normalized(values))
+
+
+def _stack_on_union(A0, parts):
+    """``A0`` and ``parts`` on their union sparsity pattern: a data array of shape
+    (1 + n_x, nnz) with the pattern's indices, so that ``A(xbar)`` is one vector operation."""
+    mats = [sp.coo_matrix(A) for A in (A0, *parts)]
+    n_cols = mats[0].shape[1]
+    lin = [A.row.astype(np.int64) * n_cols + A.col for A in mats]
+    pattern = np.unique(np.concatenate(lin))
+    data = np.zeros((len(mats), pattern.size))
+    for k, (A, li) in enumerate(zip(mats, lin)):
+        np.add.at(data[k], np.searchsorted(pattern, li), A.data)
+    rows, cols = np.divmod(pattern, n_cols)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=mats[0].shape[0]))])
+    return data, cols.astype(np.int32), indptr.astype(np.int32), mats[0].shape
 
 
 def _as_system(result, dofs: Sequence[str] | None) -> System:

@@ -291,7 +291,39 @@ def _configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: _
 
 _CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "damping_ratios": list,
              "antiresonances": list, "frequencies_csv": str, "mode_shapes_csv": str, "mode_shapes_uff": str,
-             "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list}
+             "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list,
+             "frf": dict}
+_FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
+             "map": dict, "band_hz": list, "modes": int, "first_mode": int, "confidence": float}
+
+
+def _frf_data(spec: dict, base: Path, where: _Where, key: str):
+    """Measured data extracted from FRF files (``[configuration.frf]``, docs/frf-extraction.md):
+    natural-frequency and antiresonance dicts as the other sources give, plus intervals (Hz),
+    mode and zero numbers, and shape intervals ``{mode: {dof: (lo, hi)}}``."""
+    from vibupdate.extraction import extract
+    from vibupdate.frf import read_frfs
+
+    _check_table(spec, _FRF_KEYS, f"{key}.frf", where, required=("files",))
+    band = spec.get("band_hz")
+    if band is not None:
+        band = tuple(2 * math.pi * b for b in _numbers(band, f"{key}.frf.band_hz", where))
+    try:
+        frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
+                         spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
+        result = extract(frfs, band=band, n_modes=spec.get("modes"), confidence=spec.get("confidence", 0.95))
+    except ValueError as exc:
+        raise where.error(f"{key}.frf", str(exc)) from None
+    first = spec.get("first_mode", 1)
+    to_hz = 1.0 / (2 * math.pi)
+    natural = [{"hz": m.omega * to_hz, "weight": 1.0, "damping_ratio": m.damping_ratio, "mode": first + k,
+                "interval": tuple(v * to_hz for v in m.omega_interval), "damping_interval": m.damping_interval}
+               for k, m in enumerate(result.modes)]
+    zeros = [{"hz": z.omega * to_hz, "weight": 1.0, "response": z.response, "excitation": z.excitation,
+              "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
+             for z in result.zeros]
+    shapes = {k + 1: dict(m.shape_interval) for k, m in enumerate(result.modes)}
+    return natural, zeros, shapes
 
 
 def _numbers(values, key, where) -> list[float]:
@@ -309,6 +341,12 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
     key = f"configuration '{cfg['name']}'"
     model = _configuration_model(spec, cfg, parameters, base, where, key)
     natural, zeros, shapes = [], [], {}
+    if "frf" in cfg:
+        mixed = [k for k in ("natural_hz", "antiresonances", "frequencies_csv", "mode_shapes_csv", "mode_shapes_uff")
+                 if k in cfg]
+        if mixed:
+            raise where.error(f"{key}.frf", f"FRF files take the place of typed data; remove {', '.join(mixed)}")
+        natural, zeros, shapes = _frf_data(cfg["frf"], base, where, key)
     try:
         if "frequencies_csv" in cfg:
             natural, zeros = read_frequency_csv(base / cfg["frequencies_csv"])
@@ -355,11 +393,17 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
                      required=("response", "excitation", "sign"))
         first_sign[(item["response"], item["excitation"])] = item["sign"]
     try:
+        def rad(pair):  # optional intervals (extracted from FRFs), Hz -> rad/s
+            return None if pair is None else tuple(2 * math.pi * v for v in pair)
+
         nat = tuple(
             NaturalFrequency.from_hz(f["hz"], weight=f["weight"], damping_ratio=f["damping_ratio"],
-                                     shape=ShapeInterval(shapes[k + 1]) if k + 1 in shapes else None)
+                                     shape=ShapeInterval(shapes[k + 1]) if k + 1 in shapes else None,
+                                     mode=f.get("mode"), interval=rad(f.get("interval")),
+                                     damping_interval=f.get("damping_interval"))
             for k, f in enumerate(natural))
-        zs = tuple(Antiresonance.from_hz(z["hz"], z["response"], z["excitation"], weight=z["weight"]) for z in zeros)
+        zs = tuple(Antiresonance.from_hz(z["hz"], z["response"], z["excitation"], weight=z["weight"],
+                                         index=z.get("index"), interval=rad(z.get("interval"))) for z in zeros)
         return Configuration(cfg["name"], model, nat, zs, interlacing=cfg.get("interlacing", True),
                              first_sign=first_sign)
     except ValueError as exc:

@@ -1,36 +1,71 @@
 """Command-line interface: parse, call the library, write files.
 
-Exit codes: 0 success, 1 the updating did not reach lambda = 1 (results are still written,
-with the status), 2 bad input (nothing written).
+Exit codes (`EXIT`): 0 the updating succeeded (verified); 1 it was solved but not verified,
+or the homotopy path failed (results are written, their status says which); 2 bad input
+(one message naming the file, key or folder; nothing written); 3 internal error (one line
+naming what failed, ``--debug`` prints the traceback; nothing written); 130 interrupted
+(nothing written, earlier results intact).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
 
 from vibupdate import __version__
 
-__all__ = ["main"]
+__all__ = ["main", "EXIT"]
+
+#: Exit codes of the command line.
+EXIT = {"success": 0, "not_verified": 1, "bad_input": 2, "internal": 3, "interrupted": 130}
+
+
+class _BadInput(Exception):
+    """Bad input found outside the library's own ValueErrors (user code of a builder)."""
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vibupdate", description="Model updating of vibrating systems.")
     parser.add_argument("--version", action="version", version=f"vibupdate {__version__}")
+    parser.add_argument("--debug", action="store_true", help="print the traceback of an internal error")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a case file (both stages) and write DIR")
     run.add_argument("case", help="case file (TOML), see docs/case-file.md")
-    run.add_argument("--out", default=None, help="output directory (default: ./CASE-results)")
+    run.add_argument("--out", default=None, help="output folder (default: ./CASE-results)")
     run.add_argument("--certify", type=float, default=None, metavar="SECONDS",
                      help="also compute certified outer parameter ranges within this time budget")
+    run.add_argument("--force", action="store_true",
+                     help="write into a folder that holds other files (they are kept; only vibupdate's own "
+                          "files are replaced)")
     check = sub.add_parser("check", help="validate a case file and print the problem size")
     check.add_argument("case")
     ex = sub.add_parser("example", help="run a bundled example")
     ex.add_argument("name", nargs="?", help="example name (see --list)")
     ex.add_argument("--list", action="store_true", help="list the bundled examples")
-    ex.add_argument("--out", default=None, help="output directory (default: ./NAME-results)")
-    ex.add_argument("--certify", type=float, default=None, metavar="SECONDS",
-                    help="also compute certified outer parameter ranges within this time budget")
+    ex.add_argument("--out", default=None, help="output folder (default: ./NAME-results)")
+    ex.add_argument("--force", action="store_true", help="as for run")
+    ex.add_argument("--certify", type=float, default=None, metavar="SECONDS", help="as for run")
+    fx = sub.add_parser("extract", help="extract modes and antiresonances from measured FRFs (docs/frf-extraction.md)")
+    fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58) or CSV/npz FRF files")
+    fx.add_argument("--band", nargs=2, type=float, metavar=("F1", "F2"), help="frequency band, Hz")
+    fx.add_argument("--out", default="extraction", help="output folder (default: ./extraction)")
+    fx.add_argument("--responses", nargs="+", help="table files: response DOF of each data column")
+    fx.add_argument("--excitations", nargs="+", help="table files: excitation DOF of each file, in order")
+    fx.add_argument("--kind", choices=("receptance", "mobility", "accelerance"),
+                    help="what the files hold (UFF: from the record; tables: receptance)")
+    fx.add_argument("--g", action="store_true", help="the data are in g per newton")
+    fx.add_argument("--re-im", action="store_true", help="tables hold real/imaginary column pairs")
+    fx.add_argument("--map", nargs="+", default=(), metavar="FROM=TO",
+                    help="rename DOFs, e.g. y3=x2 y4=-x3 (a '-' flips the sign)")
+    fx.add_argument("--modes", type=int, default=None, help="keep this many modes (default: all stable ones)")
+    fx.add_argument("--first-mode", type=int, default=1, help="model mode number of the lowest extracted mode")
+    fx.add_argument("--confidence", type=float, default=0.95, help="level of the intervals (default 0.95)")
+    fx.add_argument("--no-plot", action="store_true", help="do not write fit.png")
+    # --debug is accepted after the subcommand too.
+    for p in (run, check, ex, fx):
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     return parser
 
 
@@ -45,38 +80,110 @@ def _print_tables(document: dict) -> None:
             print(text)
 
 
-def _finish(document: dict) -> int:
-    _print_tables(document)
-    solver = document.get("solver") or {}
-    if solver.get("status") not in ("success", "acceptable"):
-        print(f"vibupdate: updating failed: {solver.get('message')}", file=sys.stderr)
-        return 1
-    return 0
+def _finish(run) -> int:
+    _print_tables(run.as_document())
+    if not run.success:
+        if run.status == "not_verified":
+            print(f"vibupdate: {run.solver.get('message')}; see the warnings above and the report", file=sys.stderr)
+        else:
+            print(f"vibupdate: updating failed: {run.solver.get('message')}; results written with the status",
+                  file=sys.stderr)
+        return EXIT["not_verified"]
+    return EXIT["success"]
+
+
+def _load(path):
+    """Read the case file; failures of user code (a builder) are bad input, not internal errors."""
+    from vibupdate.case import load_case
+
+    try:
+        return load_case(path)
+    except (ValueError, KeyboardInterrupt):
+        raise
+    except Exception as exc:  # user code: a builder that raises, has a syntax error or a wrong signature
+        raise _BadInput(f"{path}: the model could not be built: {type(exc).__name__}: {exc}") from exc
+
+
+def _command(args) -> int:
+    from vibupdate.outputs import safe_name
+    from vibupdate.pipeline import check_case, example_names, run_case, run_example
+
+    if args.command == "extract":
+        return _extract(args)
+    if args.command == "example":
+        if args.list or not args.name:
+            print("\n".join(example_names()))
+            return EXIT["success"]
+        return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
+                                   force=args.force, certify=args.certify))
+    case = _load(args.case)
+    if args.command == "check":
+        size = check_case(case)
+        print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
+        print("problem size: " + ", ".join(f"{k} {v}" for k, v in size.items()))
+        return EXIT["success"]
+    out = args.out or f"{safe_name(case.name)}-results"
+    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify))
+
+
+def _extract(args) -> int:
+    import math
+
+    from vibupdate.extraction import extract
+    from vibupdate.extraction_io import configuration_block, write_extraction
+    from vibupdate.frf import read_frfs
+
+    mapping = {}
+    for item in args.map:
+        if "=" not in item:
+            raise ValueError(f"--map entries are FROM=TO, got {item!r}")
+        key, value = item.split("=", 1)
+        mapping[key.strip()] = value.strip()
+    frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
+    band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
+    result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence)
+    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot)
+    print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
+          f"intervals at {100 * args.confidence:g} %")
+    for k, m in enumerate(result.modes):
+        lo, hi = (v / 2 / math.pi for v in m.omega_interval)
+        print(f"  mode {args.first_mode + k}: {m.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}], "
+              f"damping {100 * m.damping_ratio:.3f} %")
+    for z in result.zeros:
+        lo, hi = (v / 2 / math.pi for v in z.interval)
+        print(f"  zero {z.index} of h({z.response},{z.excitation}): {z.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}]")
+    for q in result.quality:
+        print(f"  fit of h({q.response},{q.excitation}): quality {q.quality:.2f}, residual {100 * q.relative_residual:.2f} %")
+    print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    print("paste into a case file (paths relative to it):")
+    print(configuration_block())
+    return EXIT["success"]
 
 
 def main(argv=None) -> int:
+    """Run the command line; returns the exit code (module docstring)."""
     args = _parser().parse_args(argv)
-    from vibupdate.case import load_case
-    from vibupdate.pipeline import check_case, example_names, run_case, run_example
-
     try:
-        if args.command == "example":
-            if args.list or not args.name:
-                print("\n".join(example_names()))
-                return 0
-            return _finish(run_example(args.name, args.out or f"{args.name}-results", progress=print,
-                                       certify=args.certify))
-        case = load_case(args.case)
-        if args.command == "check":
-            size = check_case(case)
-            print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
-            print("problem size: " + ", ".join(f"{k} {v}" for k, v in size.items()))
-            return 0
-        _, document = run_case(case, args.out or f"{case.name}-results", progress=print, certify=args.certify)
-        return _finish(document)
-    except ValueError as exc:
+        return _command(args)
+    except KeyboardInterrupt:
+        print("\nvibupdate: interrupted; nothing written (earlier results are untouched)", file=sys.stderr)
+        if argv is None:  # the program itself: end now, without the ~0.5 s teardown of the solver objects
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(EXIT["interrupted"])
+        return EXIT["interrupted"]
+    except (ValueError, _BadInput) as exc:
         print(f"vibupdate: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT["bad_input"]
+    except Exception as exc:  # internal error: one line, the traceback on request
+        if getattr(args, "debug", False):
+            traceback.print_exc()
+        where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+        place = f" in {where.name} ({where.filename.rsplit('/', 1)[-1]}:{where.lineno})" if where else ""
+        print(f"vibupdate: internal error{place}: {type(exc).__name__}: {exc}; nothing written"
+              + ("" if getattr(args, "debug", False) else " (run with --debug for the traceback)"),
+              file=sys.stderr)
+        return EXIT["internal"]
 
 
 if __name__ == "__main__":

@@ -62,6 +62,12 @@ class SolverOptions:
             raise ValueError(f"min_step must be in (0, 1], got {self.min_step!r}")
         if not self.proximal >= 0:
             raise ValueError(f"proximal must be >= 0, got {self.proximal!r}")
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
+            raise ValueError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
+        if not 0 < self.max_cpu_time < float("inf"):
+            raise ValueError(f"max_cpu_time must be a positive number of seconds, got {self.max_cpu_time!r}")
+        if not 0 < self.tol < float("inf"):
+            raise ValueError(f"tol must be a positive number, got {self.tol!r}")
 
 
 @dataclass(frozen=True)

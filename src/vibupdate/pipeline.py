@@ -1,17 +1,16 @@
-"""The whole job in one call: data in, results out (DESIGN.md data flow).
+"""The whole job in one call: data in, results out.
 
-``run_case`` runs both stages and writes the output directory: ``results.json``,
+``run_case`` checks the results folder, runs both stages, builds one results object
+(`vibupdate.results.RunResult`) and writes the folder from it: ``results.json``,
 ``report.md``, PNG plots and the updated ``M``, ``C``, ``K`` of each configuration as Matrix
-Market files. Everything is written to a temporary directory beside the target and moved
-into place only when complete, so a failed run never leaves an output that looks finished.
-The CLI is a thin layer over these functions.
+Market files, listed in the folder's manifest (`vibupdate.outputs`). The CLI is a thin layer
+over these functions.
 """
 
 from __future__ import annotations
 
 import importlib
 import shutil
-import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -20,17 +19,16 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from vibupdate.analysis import mac as mac_matrix
 from vibupdate.case import Case, DampingOptions
-from vibupdate.correlation import model_frequencies
-from vibupdate.damping import DampingStage, DampingWarning, caughey_matrix, damping_data, identify_damping
+from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.results import results_document, write_results
+from vibupdate.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
+from vibupdate.results import RunResult, run_result, write_results
 from vibupdate.update import UpdateResult, prepare, update
 
-__all__ = ["run_case", "run_example", "example_names", "example_module", "check_case"]
+__all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
+           "planned_files"]
 
-OUTPUT_MARKER = "results.json"
 #: Parameter ranges (exact Jacobian of the modal data, two LPs per parameter) up to this size.
 RANGES_DOF_LIMIT = 2000
 
@@ -90,124 +88,124 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     return stage, notes, info
 
 
-def _write_outputs(tmp: Path, case: Case, result: UpdateResult, stage: DampingStage | None,
-                   document: dict, notes: list[str]) -> None:
+def planned_files(case: Case) -> list[str]:
+    """Names of the files a run of ``case`` writes (before knowing which plots apply: the MAC
+    plots only where shapes were measured, ``C`` only with damping ratios)."""
+    names = ["results.json", "report.md", "homotopy.png"]
+    for part in file_names([c.name for c in case.configurations]).values():
+        names += [f"M_{part}.mtx", f"K_{part}.mtx", f"C_{part}.mtx", f"frf_{part}.png", f"mac_{part}.png"]
+    return names
+
+
+def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
+    """Write ``results.json``, ``report.md``, plots and matrices of ``run`` into ``folder``.
+
+    Every file is written from ``run`` (the nominal models for the FRF plot from ``case``);
+    returns the file names written.
+    """
     from vibupdate.plots import plot_frf, plot_homotopy, plot_mac
     from vibupdate.report import markdown_report
 
+    parts = file_names([c.name for c in case.configurations])
     images = []
     for cfg in case.configurations:
-        M, K = result.matrices[cfg.name]
-        M0, K0 = cfg.model.matrices()
-        C = C0 = None
-        if stage is not None:
-            C = caughey_matrix(M, K, stage.caughey.exponents, stage.caughey.beta)
-            C0 = caughey_matrix(M0, K0, stage.caughey.exponents, stage.caughey.beta)
-        for name, A in (("M", M), ("K", K)) + ((("C", C),) if C is not None else ()):
-            scipy.io.mmwrite(str(tmp / f"{name}_{cfg.name}.mtx"), sp.coo_matrix(A),
-                             comment=f"vibupdate {case.name}: updated {name} of configuration {cfg.name} (SI units)")
-        rc = cfg.receptances()[0] if cfg.receptances() else None
-        if rc is None:
-            dof = int(np.argmax(np.abs(np.diag(M.toarray()))))
-            r = c = dof
-            label = f"h_{cfg.model.dofs[dof]},{cfg.model.dofs[dof]}"
-        else:
-            r, c = cfg.model.dof(rc[0]), cfg.model.dof(rc[1])
-            label = f"h_{rc[0]},{rc[1]}"
-        file = f"frf_{cfg.name}.png"
-        plot_frf(tmp / file, cfg, (M0, K0, C0), (M, K, C), r, c, label)
+        part, matrices = parts[cfg.name], run.matrices[cfg.name]
+        for name in ("M", "K", "C"):
+            if name in matrices:
+                scipy.io.mmwrite(str(folder / f"{name}_{part}.mtx"), sp.coo_matrix(matrices[name]),
+                                 comment=f"vibupdate: updated {name} of configuration {part} (SI units)")
+        response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
+        label = f"h_{response},{excitation}"
+        file = f"frf_{part}.png"
+        updated = (matrices["M"], matrices["K"], matrices.get("C"))
+        plot_frf(folder / file, cfg, matrices["nominal"], updated, cfg.model.dof(response),
+                 cfg.model.dof(excitation), label)
         images.append((f"FRF {label}, configuration {cfg.name}", file))
-        mac = result.mac.get(cfg.name)
-        if mac is not None and np.any(np.isfinite(mac)):
-            measured = [f for f in cfg.natural if f.shape is not None]
-            dofs = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
-            idx = [cfg.model.dof(d) for d in dofs]
-            X = np.array([[f.shape.midpoint.get(d, 0.0) for d in dofs] for f in measured]).T
-            Phi = model_frequencies(cfg, result.xbar).Phi[idx]
-            file = f"mac_{cfg.name}.png"
-            plot_mac(tmp / file, mac_matrix(X, Phi), f"MAC, configuration {cfg.name}")
+        mac = run.mac_matrix.get(cfg.name)
+        if mac is not None:
+            file = f"mac_{part}.png"
+            values = np.array([[np.nan if v is None else v for v in row] for row in mac["values"]], dtype=float)
+            plot_mac(folder / file, values, f"MAC, configuration {cfg.name}")
             images.append((f"MAC configuration {cfg.name}", file))
-    plot_homotopy(tmp / "homotopy.png", document["solver"]["steps"])
+    plot_homotopy(folder / "homotopy.png", run.solver["steps"])
     images.append(("homotopy objective per step", "homotopy.png"))
-    (tmp / "report.md").write_text(markdown_report(document, images, notes), encoding="utf-8")
-    write_results(tmp / "results.json", document)
-
-
-def _publish(tmp: Path, final: Path) -> None:
-    if final.exists():
-        if not final.is_dir():
-            raise ValueError(f"output path {str(final)!r} exists and is not a directory")
-        if any(final.iterdir()) and not (final / OUTPUT_MARKER).exists():
-            raise ValueError(f"output directory {str(final)!r} is not empty and holds no vibupdate results; "
-                             "choose another --out")
-        shutil.rmtree(final)
-    tmp.rename(final)
+    document = run.as_document()
+    (folder / "report.md").write_text(markdown_report(document, images, list(run.warnings)), encoding="utf-8")
+    write_results(folder / "results.json", run)
+    return sorted(p.name for p in folder.iterdir())
 
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
-             paper: dict | None = None, certify: float | None = None) -> tuple[UpdateResult, dict]:
-    """Both stages on a case; writes the output directory and returns (result, document).
+             paper: dict | None = None, force: bool = False, certify: float | None = None) -> RunResult:
+    """Both stages on a case; writes the results folder and returns the results object.
 
     ``certify``: time budget in seconds of the certified outer parameter ranges
-    (`vibupdate.certify`); None skips them.
+    (`vibupdate.certify`, in ``identifiability.certified``); None skips them.
+
+    The folder is checked before solving (`vibupdate.outputs.prepare_output`: writable, no
+    file vibupdate did not write unless ``force``); the files are written beside it and moved
+    into place at the end, so a run that fails or is interrupted leaves earlier results as
+    they were, and files in the folder that vibupdate did not write are never touched.
     """
+    from vibupdate import __version__
+
     say = progress or (lambda message: None)
-    final = Path(out_dir)
-    if final.exists() and not final.is_dir():
-        raise ValueError(f"output path {str(final)!r} exists and is not a directory")
     if certify is not None and not certify >= 0:
         raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
-    result = update(case.configurations, formulation=case.formulation, solver=case.solver, progress=say)
+    target = prepare_output(out_dir, force=force, planned=planned_files(case))
+    from vibupdate.verify import VerifyOptions
+
+    verification = (VerifyOptions(frequency_tolerance=case.frequency_tolerance) if case.frequency_tolerance > 0
+                    else VerifyOptions())
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver,
+                    verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
-    extra = {"identifiability": _identifiability(result)}
-    for combo in extra["identifiability"]["undetermined_combinations"]:
+    identifiability = _identifiability(result)
+    for combo in identifiability["undetermined_combinations"]:
         say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
     if not result.success:
-        extra["identifiability"]["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
-                                                   "answer and mean something only at a verified answer")
+        identifiability["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
+                                          "answer and mean something only at a verified answer")
     elif case.configurations[0].model.n_dofs <= RANGES_DOF_LIMIT:
         from vibupdate.identifiability import parameter_ranges
 
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)
-        extra["identifiability"]["ranges"] = ranges.as_dict()
-        extra["identifiability"]["frequency_tolerance"] = case.frequency_tolerance
+        identifiability["ranges"] = ranges.as_dict()
+        identifiability["frequency_tolerance"] = case.frequency_tolerance
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     if certify is not None:
-        from dataclasses import replace
-
-        from vibupdate.certify import certified_ranges
-
-        # The vector boxes the first stage ended with (it may have widened the margins).
-        last = result.attempts[-1] if result.attempts else {}
-        boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
-        cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
-                                seconds=certify, options=boxes, progress=say)
-        extra["identifiability"]["certified"] = cert.record()
-        say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
-    if info:
-        extra["damping_model"] = info
-    if paper:
-        extra["paper"] = paper
-    document = results_document(
-        case.name, case.configurations, updated_xbar=result.xbar, problem_size=result.problem_size,
-        solver=result.solver_record(), damping=stage.rows() if stage else None,
-        damping_summary=stage.summary() if stage else None, extra=extra)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.partial-", dir=final.parent))
+        identifiability["certified"] = _certified(case, result, certify, say)
+    run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
+                     warnings=notes, paper=paper)
+    staged = staging_folder(target)
     try:
-        _write_outputs(tmp, case, result, stage, document, notes)
-        _publish(tmp, final)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    say(f"wrote {final}/ (results.json, report.md, plots, matrices)")
-    return result, document
+        write_outputs(staged, case, run)
+        publish(staged, target, case=case.name, version=__version__)
+    finally:
+        shutil.rmtree(staged, ignore_errors=True)
+    say(f"wrote {target.path}/ (results.json, report.md, plots, matrices; {MANIFEST} lists them)")
+    return run
+
+
+def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
+    """Certified outer ranges over the consistent set, with the vector boxes the first stage
+    ended with (it may have widened the margins)."""
+    from dataclasses import replace
+
+    from vibupdate.certify import certified_ranges
+
+    last = result.attempts[-1] if result.attempts else {}
+    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
+                            seconds=seconds, options=boxes, progress=say)
+    say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
+    return cert.record()
 
 
 def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,
-                certify: float | None = None) -> dict:
-    """Run a bundled example end to end; returns the ``results.json`` document."""
+                force: bool = False, certify: float | None = None) -> RunResult:
+    """Run a bundled example end to end (`run_case`); returns the results object."""
     say = progress or (lambda message: None)
     module = example_module(name)
     case = module.case()
@@ -215,5 +213,4 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
     paper = module.paper_values() if hasattr(module, "paper_values") else None
-    _, document = run_case(case, out_dir, progress=say, paper=paper, certify=certify)
-    return document
+    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify)

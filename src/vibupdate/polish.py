@@ -55,7 +55,7 @@ class PolishOptions:
 
     enabled: bool = True
     shape_weight: float = 100.0
-    max_evaluations: int = 200
+    max_evaluations: int = 50
     tol: float = 1e-12
 
     def __post_init__(self):

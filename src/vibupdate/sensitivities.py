@@ -175,11 +175,16 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None):
     """
     M, K = model.matrices(xbar)
     lam, V, Y = pairs if pairs is not None else adjunct_eigenpairs(M, K, r, c)
-    Mr = adjunct(M, r, c)
-    denom = np.einsum("ij,ij->j", Y, Mr @ V)
+    # Embed the vectors in the full space (zero at the removed column r / row c), so that the
+    # adjunct products become products with the full sparse matrices.
+    n = M.shape[0]
+    Vf = np.zeros((n, lam.size))
+    Vf[np.delete(np.arange(n), r)] = V
+    Yf = np.zeros((n, lam.size))
+    Yf[np.delete(np.arange(n), c)] = Y
+    denom = np.einsum("ij,ij->j", Yf, M @ Vf)
     D = np.empty((lam.size, model.n_parameters))
     for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        Ai = adjunct(Ki, r, c) @ V - (adjunct(Mi, r, c) @ V) * lam
-        D[:, i] = np.einsum("ij,ij->j", Y, Ai) / denom
+        D[:, i] = (np.einsum("ij,ij->j", Yf, Ki @ Vf) - lam * np.einsum("ij,ij->j", Yf, Mi @ Vf)) / denom
     omega_z = np.sqrt(lam)
     return omega_z, D / (2.0 * omega_z[:, None])

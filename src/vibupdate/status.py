@@ -12,7 +12,7 @@ class Status(str, Enum):
 
     SUCCESS = "success"                  # lambda = 1 reached and the returned model verified
     ACCEPTABLE = "acceptable"            # as success, at IPOPT's looser acceptable tolerance
-    NOT_VERIFIED = "not_verified"        # lambda = 1 reached, but a check of the model faileds
+    NOT_VERIFIED = "not_verified"        # lambda = 1 reached, but a check of the model failed
     STEP_FAILED = "step_failed"          # a homotopy step failed down to the minimum step
     INFEASIBLE = "infeasible"
     MAX_ITERATIONS = "max_iterations"

@@ -64,8 +64,8 @@ class VerifyOptions:
     shape_slack : float
         Allowed distance outside a shape interval, in half-widths of that interval.
     frequency_tolerance : float
-        Relative frequency uncertainty used for the consistency allowance; the case's
-        ``frequency_tolerance`` when larger.
+        Relative frequency uncertainty used for the consistency allowance (a case file's
+        ``frequency_tolerance`` when it states one; 1 % otherwise).
     fit_tolerance : float
         Largest relative miss of a measured frequency without an interval.
     """

@@ -25,6 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.formulation import BilinearProblem
+from vibupdate.interrupt import watch_sigint
 from vibupdate.relaxation import McCormick
 from vibupdate.status import Status, from_ipopt
 
@@ -143,8 +144,9 @@ class CasadiIpopt:
             "ipopt.mu_init": 1e-6,
             "ipopt.mu_strategy": "adaptive",
         }
-        self._cold = ca.nlpsol("vibupdate_cold", "ipopt", nlp, common)
-        self._warm = ca.nlpsol("vibupdate_warm", "ipopt", nlp, warm)
+        with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
+            self._cold = ca.nlpsol("vibupdate_cold", "ipopt", nlp, common)
+            self._warm = ca.nlpsol("vibupdate_warm", "ipopt", nlp, warm)
 
     def split(self, z):
         """``z`` -> (xbar, u, t, R)."""
@@ -156,7 +158,12 @@ class CasadiIpopt:
 
     def solve(self, z0, lam: float, *, rho: float = 0.0, z_prev=None, warm: bool = False,
               lam_x0=None, lam_g0=None) -> StepOutcome:
-        """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with multipliers)."""
+        """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with multipliers).
+
+        Raises ``KeyboardInterrupt`` when SIGINT arrives during the solve (CasADi stops IPOPT
+        at the next iteration and would otherwise report an ordinary failure,
+        `vibupdate.interrupt`).
+        """
         n_x, n_u, _, _ = self.sizes
         z_prev = z0 if z_prev is None else z_prev
         p = np.concatenate([[lam, rho], z_prev[:n_x], z_prev[n_x:n_x + n_u]])
@@ -168,7 +175,8 @@ class CasadiIpopt:
             args.update(lam_x0=lam_x0, lam_g0=lam_g0)
         start = time.perf_counter()
         try:
-            sol = solver(**args)
+            with watch_sigint():
+                sol = solver(**args)
         except RuntimeError as exc:  # CasADi raises on evaluation errors: a status, not an exception
             return StepOutcome(z=z0, objective=float(self._fit(z0)), iterations=0, status=Status.NUMERICAL_ERROR,
                                raw_status=f"CasADi error: {str(exc).splitlines()[0][:200]}",

@@ -1,0 +1,155 @@
+"""The documentation stands on its own: it cites nothing outside the repository, and every
+relative link in ``docs/*.md`` and ``README.md`` resolves (file and, for markdown targets,
+heading anchor)."""
+
+from __future__ import annotations
+
+import re
+import unicodedata
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Documents that are not in the repository and must not be cited by it.
+OUTSIDE = ("DESIGN.md", "../shared")
+
+TEXT_SUFFIXES = {".py", ".md", ".toml", ".txt", ".csv", ".json", ".rst", ".cfg", ".ini", ".yaml", ".yml"}
+
+LINK = re.compile(r"(?<!\!)\[(?:[^\]\[]|\[[^\]]*\])*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
+IMAGE = re.compile(r"!\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
+REFERENCE = re.compile(r"^[ \t]{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s+.*)?$", re.MULTILINE)
+FENCE = re.compile(r"^([ \t]{0,3})(```|~~~).*?^\1\2[^\n]*$", re.MULTILINE | re.DOTALL)
+CODE_SPAN = re.compile(r"(`+)(?!`).*?(?<!`)\1(?!`)", re.DOTALL)
+
+
+def _text_files(*parts: str) -> list[Path]:
+    files = []
+    for part in parts:
+        path = ROOT / part
+        if path.is_file():
+            files.append(path)
+        elif path.is_dir():
+            files += [p for p in sorted(path.rglob("*"))
+                      if p.is_file() and p.suffix in TEXT_SUFFIXES and "__pycache__" not in p.parts]
+    return files
+
+
+def _citations(files: list[Path], root: Path = ROOT) -> list[str]:
+    """``file:line: cites NAME`` for every line that names a document outside the repository."""
+    found = []
+    for path in files:
+        text = path.read_text(encoding="utf-8", errors="replace")
+        for lineno, line in enumerate(text.splitlines(), 1):
+            for name in OUTSIDE:
+                if name in line:
+                    found.append(f"{path.relative_to(root)}:{lineno}: cites {name!r}")
+    return found
+
+
+def _strip_code(text: str) -> str:
+    """Markdown without fenced blocks and code spans (links there are examples, not links)."""
+    return CODE_SPAN.sub("", FENCE.sub("", text))
+
+
+def _slug(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to hyphens."""
+    text = re.sub(r"`|\*\*|__", "", heading.strip()).lower()
+    text = re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", text)
+    kept = "".join(ch for ch in text
+                   if ch in " -_" or unicodedata.category(ch)[0] in ("L", "N"))
+    return kept.replace(" ", "-")
+
+
+def _anchors(path: Path) -> set[str]:
+    seen: dict[str, int] = {}
+    out = set()
+    for line in FENCE.sub("", path.read_text(encoding="utf-8")).splitlines():
+        m = re.match(r"^[ \t]{0,3}#{1,6}\s+(.*?)\s*#*\s*$", line)
+        if not m:
+            continue
+        slug = _slug(m.group(1))
+        n = seen.get(slug, 0)
+        out.add(slug if n == 0 else f"{slug}-{n}")
+        seen[slug] = n + 1
+    return out
+
+
+def broken_links(path: Path, root: Path = ROOT) -> list[str]:
+    """Relative links of a markdown file that do not resolve inside ``root``."""
+    text = _strip_code(path.read_text(encoding="utf-8"))
+    targets = LINK.findall(text) + IMAGE.findall(text) + REFERENCE.findall(text)
+    bad = []
+    for target in targets:
+        if re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*:", target):   # http:, https:, mailto:, ...
+            continue
+        file_part, _, anchor = target.partition("#")
+        dest = (path.parent / file_part).resolve() if file_part else path
+        if file_part and root.resolve() not in dest.parents and dest != root.resolve():
+            bad.append(f"{path.name}: {target!r} points outside the repository")
+            continue
+        if not dest.exists():
+            bad.append(f"{path.name}: {target!r} does not exist")
+            continue
+        if anchor and dest.suffix == ".md" and anchor not in _anchors(dest):
+            bad.append(f"{path.name}: {target!r} has no heading with anchor #{anchor}")
+    return bad
+
+
+def _markdown_documents() -> list[Path]:
+    return [ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md"))
+
+
+def test_docs_readme_and_examples_cite_nothing_outside_the_repository():
+    found = _citations(_text_files("README.md", "docs", "examples"))
+    assert not found, "\n".join(found)
+
+
+@pytest.mark.xfail(strict=False, reason="code docstrings still cite DESIGN.md; removed in the lead's final pass")
+def test_code_cites_nothing_outside_the_repository():
+    found = _citations(_text_files("src"))
+    assert not found, "\n".join(found)
+
+
+def test_the_method_and_vocabulary_pages_exist_and_are_linked_from_the_readme():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    for page in ("docs/method.md", "docs/vocabulary.md", "docs/case-file.md"):
+        assert (ROOT / page).is_file(), page
+        assert f"]({page})" in readme, f"README does not link {page}"
+
+
+@pytest.mark.parametrize("path", _markdown_documents(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_relative_link_resolves(path):
+    bad = broken_links(path)
+    assert not bad, "\n".join(bad)
+
+
+def test_the_link_checker_finds_broken_links(tmp_path):
+    """The checker itself: a missing file, a missing anchor and a path out of the tree are
+    reported; a good file link, good anchors (also of a heading between two fenced blocks), a URL
+    and a link inside code are not."""
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "other.md").write_text("# A title, with `code`\n\n## Second step\n", encoding="utf-8")
+    page = tmp_path / "sub" / "page.md"
+    page.write_text(
+        "# Page\n"
+        "[ok](other.md) [ok anchor](other.md#a-title-with-code) [self](#page) [web](https://example.org)\n"
+        "[later heading](#after-the-fence)\n"
+        "`[in code](missing.md)`\n\n"
+        "```\n[in a fence](missing.md)\n```\n\n"
+        "## After the fence\n\n"
+        "```\nsecond = fence\n```\n"
+        "[missing](nothere.md) [bad anchor](other.md#third-step) [outside](../../x.md)\n",
+        encoding="utf-8")
+    bad = broken_links(page, root=tmp_path)
+    assert len(bad) == 3, bad
+    assert any("nothere.md" in b for b in bad)
+    assert any("#third-step" in b for b in bad)
+    assert any("outside the repository" in b for b in bad)
+
+
+def test_the_citation_scan_finds_a_citation(tmp_path):
+    cited = tmp_path / "note.md"
+    cited.write_text("See DESIGN.md, item 4.\nNothing here.\nAnd ../shared/paper.\n", encoding="utf-8")
+    assert _citations([cited], root=tmp_path) == ["note.md:1: cites 'DESIGN.md'", "note.md:3: cites '../shared'"]

@@ -1,0 +1,351 @@
+"""Modal extraction from FRFs on known-truth data (tests/frf_synthetic.py).
+
+The figures of issue 9's "Must hold" list, on the cantilever with non-proportional damping,
+5 repeats, 3 % complex noise plus a -60 dB floor, 0.25 Hz lines from 20 to 300 Hz (three
+modes in the band, a fourth at 403 Hz above it): frequencies <= 0.05 %, damping <= 2 %,
+antiresonances <= 0.2 % with the exact zero count on every FRF, coverage of the 95 %
+intervals between 0.85 and 1. The CI profile checks the accuracy on 6 seeds; the coverage
+needs many seeds and runs in the slow profile (50 seeds, ``pytest -m slow``). Measured on
+50 seeds (loaded machine): worst errors 0.0087 % / 0.74 % / 0.086 %, coverage 0.89 / 0.91 /
+0.90 (frequencies / damping ratios / antiresonances), about 0.3 s CPU per extraction.
+"""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from frf_synthetic import PAIRS, measured, score, true_poles
+from vibupdate.cli import main
+from vibupdate.extraction import extract
+from vibupdate.frf import FRFSet
+from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.measured_io import read_frequency_csv, read_shape_csv
+
+
+def _accuracy(seeds):
+    pooled = {"freq_err": [], "damping_err": [], "zero_err": [], "freq_hit": [], "damping_hit": [], "zero_hit": []}
+    for seed in seeds:
+        frfs, M, K, C, dofs = measured(seed)
+        s = score(extract(frfs), M, K, C, dofs)
+        assert s["n_modes_ok"], f"seed {seed}: wrong number of modes"
+        assert all(s["zero_count_ok"]), f"seed {seed}: wrong zero count on some FRF ({s['zero_count_ok']})"
+        for key in pooled:
+            pooled[key] += s[key]
+    return pooled
+
+
+def test_accuracy_on_known_truth():
+    s = _accuracy(range(6))
+    assert max(s["freq_err"]) <= 5e-4
+    assert max(s["damping_err"]) <= 0.02
+    assert max(s["zero_err"]) <= 2e-3
+
+
+@pytest.mark.slow
+def test_interval_coverage_over_50_seeds():
+    s = _accuracy(range(50))
+    assert max(s["freq_err"]) <= 5e-4 and max(s["damping_err"]) <= 0.02 and max(s["zero_err"]) <= 2e-3
+    for key in ("freq_hit", "damping_hit", "zero_hit"):
+        coverage = float(np.mean(s[key]))
+        assert 0.85 <= coverage <= 1.0, f"{key}: coverage {coverage:.3f} of the 95 % intervals"
+
+
+def test_noise_free_fit_is_exact_and_finds_no_extra_mode():
+    frfs, M, K, C, dofs = measured(0, repeats=1, noise=0.0, floor=0.0)
+    result = extract(frfs)
+    assert result.noise == "residual"
+    s = score(result, M, K, C, dofs)
+    assert s["n_modes_ok"] and all(s["zero_count_ok"])
+    assert max(s["freq_err"]) < 1e-5 and max(s["damping_err"]) < 1e-3 and max(s["zero_err"]) < 5e-4
+
+
+def test_single_measurement_uses_the_residual_as_noise():
+    frfs, M, K, C, dofs = measured(3, repeats=1)
+    result = extract(frfs)
+    assert result.noise == "residual"
+    s = score(result, M, K, C, dofs)
+    assert s["n_modes_ok"] and all(s["zero_count_ok"])
+    assert max(s["freq_err"]) <= 5e-4 and max(s["zero_err"]) <= 2e-3
+    assert all(0.5 < q.quality < 2.0 for q in result.quality)
+
+
+def test_quality_is_near_one_when_the_fit_is_within_the_noise():
+    frfs, *_ = measured(1)
+    result = extract(frfs)
+    assert [(q.response, q.excitation) for q in result.quality] == list(PAIRS)
+    assert all(0.8 < q.quality < 1.25 for q in result.quality), [q.quality for q in result.quality]
+    assert all(q.n_repeats == 5 for q in result.quality)
+
+
+def test_shapes_are_mass_normalized_real_modes_at_the_measured_dofs():
+    frfs, M, K, C, dofs = measured(2)
+    result = extract(frfs)
+    import scipy.linalg
+
+    lam, Phi = scipy.linalg.eigh(K, M)
+    idx = [dofs.index(d) for d in ("y1", "y2", "y3")]
+    for k, mode in enumerate(result.modes):
+        assert mode.normalization == "mass"
+        phi = np.array([mode.shape[d] for d in ("y1", "y2", "y3")])
+        truth = Phi[idx, k] * np.sign(Phi[idx, k] @ phi)
+        assert np.allclose(phi, truth, rtol=0.03, atol=0.02 * np.abs(truth).max())
+        mac = (phi @ truth) ** 2 / (phi @ phi) / (truth @ truth)
+        assert mac > 0.999
+        for d, (lo, hi) in mode.shape_interval.items():
+            assert lo <= mode.shape[d] <= hi
+
+
+def test_stabilization_reports_every_order_and_modes_recur():
+    frfs, *_ = measured(4)
+    result = extract(frfs, orders=range(2, 9))
+    assert [o for o, _, _ in result.stabilization] == list(range(2, 9))
+    assert all(m.stable_orders >= 3 for m in result.modes)
+
+
+def test_band_and_n_modes_select_modes():
+    frfs, *_ = measured(5)
+    result = extract(frfs, band=(2 * math.pi * 20, 2 * math.pi * 180))
+    assert len(result.modes) == 2
+    two = extract(frfs, n_modes=2)
+    assert len(two.modes) == 2  # the two strongest of the three modes in the band: modes 1 and 2
+    truth = true_poles(*measured(5)[1:4])[0]
+    # leaving an in-band mode out of the model biases the others (measured 0.03 % and 0.11 %)
+    assert np.allclose([m.omega for m in two.modes], truth[:2], rtol=5e-3)
+    with pytest.raises(ValueError, match="n_modes = 7 but only 3"):
+        extract(frfs, n_modes=7)
+
+
+def test_to_measured_builds_typed_data_for_a_configuration():
+    frfs, *_ = measured(6)
+    result = extract(frfs)
+    naturals, zeros = result.to_measured(first_mode=1)
+    assert all(isinstance(n, NaturalFrequency) for n in naturals)
+    assert [n.mode for n in naturals] == [1, 2, 3]
+    for n, m in zip(naturals, result.modes):
+        assert n.interval == m.omega_interval and n.damping_ratio == m.damping_ratio
+        assert isinstance(n.shape, ShapeInterval) and set(n.shape.bounds) == {"y1", "y2", "y3"}
+    assert all(isinstance(z, Antiresonance) and z.interval is not None and z.index >= 1 for z in zeros)
+    assert [z.index for z in zeros if (z.response, z.excitation) == ("y3", "y3")] == [1, 2]
+    unnumbered = result.to_measured()[1]
+    assert all(z.index is None for z in unnumbered)
+    from vibupdate.examples import cantilever
+
+    model = cantilever.configurations()[0].model
+    Configuration("A", model, tuple(naturals), tuple(zeros))
+
+
+def test_synthesize_reproduces_the_measured_mean():
+    frfs, *_ = measured(7)
+    result = extract(frfs)
+    fitted = result.synthesize(frfs.omega)
+    error = np.abs(fitted - frfs.mean()) / np.abs(frfs.mean()).max(axis=1, keepdims=True)
+    assert error.max() < 0.02
+    undamped = result.synthesize(np.array([z.omega for z in result.zeros[:1]]), damped=False)
+    k = frfs.pairs.index((result.zeros[0].response, result.zeros[0].excitation))
+    assert abs(undamped[k, 0]) < 1e-6 * np.abs(frfs.mean()[k]).max()
+
+
+def test_bad_arguments_are_clear_errors():
+    frfs, *_ = measured(0, repeats=2)
+    with pytest.raises(ValueError, match="confidence must be in"):
+        extract(frfs, confidence=1.5)
+    with pytest.raises(ValueError, match="band must be 0 < low < high"):
+        extract(frfs, band=(100.0, 50.0))
+    with pytest.raises(ValueError, match="holds 0 frequency lines"):
+        extract(frfs, band=(1.0, 1.1))
+    flat = FRFSet(frfs.omega, [("y1", "y3")], [np.ones((2, frfs.omega.size)) + 0j])
+    with pytest.raises(ValueError, match="no stable mode"):
+        extract(flat)
+
+
+# ----------------------------------------------------------------------------- CLI
+
+REALDATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "soton3storey"
+SOTON_FILES = ("Experimental.csv", "test_2.csv", "test_3.csv")  # force at floor 1, 2, 3
+#: Reference values of an independent analysis (issue 9), Hz.
+SOTON_MODES_HZ = (6.5126, 17.4608, 26.5003)
+SOTON_DAMPING = (0.0017, 0.0025, 0.0022)
+SOTON_ZEROS_HZ = {("x1", "x1"): (8.80, 23.94), ("x2", "x2"): (14.99, 19.85), ("x3", "x3"): (14.18, 25.24),
+                  ("x2", "x1"): (14.39,), ("x1", "x2"): (14.48,), ("x3", "x2"): (19.43,), ("x2", "x3"): (19.45,)}
+
+
+def _write_uff(path, frfs):
+    import pyuff
+
+    sets = []
+    for (r, c), h in zip(frfs.pairs, frfs.H):
+        for rep in h:
+            acc = (1j * frfs.omega) ** 2 * rep
+            sets.append(pyuff.prepare_58(
+                func_type=4, rsp_node=int(r[1:]), rsp_dir=2, ref_node=int(c[1:]), ref_dir=2, data=acc,
+                x=frfs.freq_hz, id1="FRF", rsp_ent_name="beam", ref_ent_name="beam", abscissa_spacing=1,
+                abscissa_spec_data_type=18, ordinate_spec_data_type=12, orddenom_spec_data_type=13, binary=0))
+    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+
+
+def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
+    frfs, *_ = measured(8, repeats=3)
+    uff = tmp_path / "hits.uff"
+    _write_uff(uff, frfs)
+    out = tmp_path / "ex"
+    assert main(["extract", str(uff), "--band", "20", "300", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "[[configuration]]" in printed and "noise from repeats" in printed
+    doc = json.loads((out / "extraction.json").read_text())
+    natural = doc["natural"]
+    assert len(natural) == 3 and [n["mode"] for n in natural] == [1, 2, 3]
+    assert set(natural[0]) >= {"mode", "freq_hz", "freq_hz_interval", "damping_ratio", "damping_ratio_interval",
+                               "shape", "shape_interval"}
+    assert set(natural[0]["shape"]) == {"y1", "y2", "y3"}
+    lo, hi = natural[0]["freq_hz_interval"]
+    assert lo <= natural[0]["freq_hz"] <= hi and 67.0 < natural[0]["freq_hz"] < 68.5
+    zero = doc["antiresonances"][0]
+    assert set(zero) >= {"response", "excitation", "index", "freq_hz", "freq_hz_interval"}
+    assert (out / "fit.png").stat().st_size > 10000
+    # the written CSV files read back through the case-format readers
+    natural_rows, zero_rows = read_frequency_csv(out / "frequencies.csv")
+    assert [r["hz"] for r in natural_rows] == pytest.approx([n["freq_hz"] for n in natural], rel=1e-7)
+    assert natural_rows[0]["damping_ratio"] == pytest.approx(natural[0]["damping_ratio"], rel=1e-5)
+    assert len(zero_rows) == len(doc["antiresonances"])
+    shapes = read_shape_csv(out / "shapes.csv")
+    assert set(shapes) == {1, 2, 3} and set(shapes[1]) == {"y1", "y2", "y3"}
+    assert "frequencies_csv" in (out / "configuration.toml").read_text()
+
+
+def test_cli_extract_bad_input_is_a_clear_error(tmp_path, capsys):
+    path = tmp_path / "frf.csv"
+    path.write_text("1.0;1+1j\n2.0;x\n")
+    assert main(["extract", str(path), "--responses", "x1", "--excitations", "x1", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "row 2, column 1" in err and "Traceback" not in err
+    assert main(["extract", str(path), "--out", str(tmp_path)]) == 2
+    assert "give the response DOF of each column" in capsys.readouterr().err
+
+
+def _soton(out, files, excitations):
+    if not REALDATA.is_dir():
+        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
+    args = ["extract", *(str(REALDATA / f) for f in files), "--responses", "x1", "x2", "x3",
+            "--excitations", *excitations, "--kind", "accelerance", "--band", "3", "28", "--modes", "3",
+            "--out", str(out), "--no-plot"]
+    assert main(args) == 0
+    return json.loads((out / "extraction.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def soton_all(tmp_path_factory):
+    """The three tests through one `vibupdate extract` (all nine FRFs)."""
+    return _soton(tmp_path_factory.mktemp("soton"), SOTON_FILES, ["x1", "x2", "x3"])
+
+
+def test_southampton_modes_within_0p1_percent_and_tests_consistent(tmp_path):
+    docs = [_soton(tmp_path / f"t{k + 1}", [f], [f"x{k + 1}"]) for k, f in enumerate(SOTON_FILES)]
+    for doc in docs:
+        assert [n["mode"] for n in doc["natural"]] == [1, 2, 3]
+        for n, ref, xi in zip(doc["natural"], SOTON_MODES_HZ, SOTON_DAMPING):
+            assert n["freq_hz"] == pytest.approx(ref, rel=1e-3)
+            assert n["damping_ratio"] == pytest.approx(xi, rel=0.2)  # reference printed to 2 digits
+    for k in range(3):  # the three tests agree within their intervals (common overlap)
+        intervals = [d["natural"][k]["freq_hz_interval"] for d in docs]
+        assert max(lo for lo, _ in intervals) <= min(hi for _, hi in intervals), intervals
+
+
+def _soton_zero_errors(doc):
+    errors = {}
+    for z in doc["antiresonances"]:
+        refs = SOTON_ZEROS_HZ.get((z["response"], z["excitation"]), ())
+        if refs:
+            ref = min(refs, key=lambda r: abs(r - z["freq_hz"]))
+            errors[(z["response"], z["excitation"], ref)] = (abs(z["freq_hz"] / ref - 1), z["freq_hz_interval"])
+    return errors
+
+
+def test_southampton_antiresonances_found_and_references_within_intervals(soton_all):
+    errors = _soton_zero_errors(soton_all)
+    assert set(errors) == {(r, c, ref) for (r, c), refs in SOTON_ZEROS_HZ.items() for ref in refs}
+    assert len(soton_all["antiresonances"]) == len(errors)  # no zero beyond the reference list
+    for (r, c, ref), (_, (lo, hi)) in errors.items():
+        assert lo <= ref <= hi, f"h{r}{c}: reference {ref} Hz outside [{lo:.3f}, {hi:.3f}]"
+    for n, ref in zip(soton_all["natural"], SOTON_MODES_HZ):
+        assert n["freq_hz"] == pytest.approx(ref, rel=1e-3)
+
+
+@pytest.mark.xfail(strict=True, reason="measured errors 0.01-1.2 % (h11 8.80 Hz: 1.2 %), see docs/frf-extraction.md")
+def test_southampton_antiresonances_within_0p1_percent(soton_all):
+    worst = max(e for e, _ in _soton_zero_errors(soton_all).values())
+    assert worst <= 1e-3
+
+
+def test_docs_example_runs_and_finds_the_truth(capsys):
+    import re
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "frf-extraction.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "docs/frf-extraction.md", "exec"), namespace)
+    result = namespace["result"]
+    assert [round(m.omega / 2 / math.pi, 2) for m in result.modes] == [9.84, 25.75]
+    assert [(z.response, z.excitation) for z in result.zeros] == [("x1", "x1")]
+    assert result.zeros[0].omega == pytest.approx(100.0, rel=1e-3)  # sqrt(k2 / m2) rad/s
+
+
+def test_case_configuration_from_frf_files(tmp_path):
+    from vibupdate.case import load_case
+    from vibupdate.examples import cantilever
+
+    frfs, *_ = measured(9, repeats=3)
+    _write_uff(tmp_path / "hits.uff", frfs)
+    params = "\n".join(f'[[parameter]]\nname = "{p.name}"\nnominal = {p.nominal!r}\nlower = {p.lower!r}\n'
+                       f'upper = {p.upper!r}\n' for p in cantilever.parameters())
+    text = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
+            '[[configuration]]\nname = "A"\n[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n')
+    (tmp_path / "case.toml").write_text(text)
+    cfg = load_case(tmp_path / "case.toml").configurations[0]
+    assert [n.mode for n in cfg.natural] == [1, 2, 3]
+    assert all(n.interval is not None and n.damping_interval is not None and n.shape is not None for n in cfg.natural)
+    assert cfg.natural[0].freq_hz == pytest.approx(67.65, rel=1e-3)
+    assert [z.index for z in cfg.antiresonances if z.response == "y3"] == [1, 2]
+    assert all(z.interval is not None for z in cfg.antiresonances)
+    (tmp_path / "case.toml").write_text(text.replace('name = "A"\n', 'name = "A"\nnatural_hz = [70.0]\n'))
+    with pytest.raises(ValueError, match="FRF files take the place of typed data; remove natural_hz"):
+        load_case(tmp_path / "case.toml")
+    (tmp_path / "case.toml").write_text(text.replace('files = ["hits.uff"]', 'files = ["none.uff"]'))
+    with pytest.raises(ValueError, match=r"configuration 'A'.frf: UFF file .*none.uff' does not exist"):
+        load_case(tmp_path / "case.toml")
+
+
+def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
+    """docs/soton-frame.toml: extraction and updating in one ``vibupdate run``; compared with
+    the classical frequency fit (vibupdate.baseline) on the same model and data."""
+    if not REALDATA.is_dir():
+        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
+    import shutil
+
+    from vibupdate.analysis import antiresonances
+    from vibupdate.baseline import frequency_fit
+    from vibupdate.case import load_case
+
+    shutil.copy(Path(__file__).resolve().parents[1] / "docs" / "soton-frame.toml", tmp_path / "case.toml")
+    for name in SOTON_FILES:
+        (tmp_path / name).symlink_to(REALDATA / name)
+    code = main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")])
+    assert code in (0, 1)  # 1: solved but not verified (a shear model cannot fit every zero)
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    rows = doc["frequencies"]
+    assert len(rows) == 13  # 3 natural frequencies and the 10 antiresonances, all from the FRFs
+    updated = np.mean([r["error_updated_pct"] for r in rows])
+    nominal = np.mean([r["error_nominal_pct"] for r in rows])
+    # the classical frequency fit on the same model, judged on the same 13 frequencies
+    case = load_case(tmp_path / "case.toml")
+    fit = frequency_fit(case.configurations)
+    cfg = case.configurations[0]
+    M, K = cfg.model.matrices(fit.xbar)
+    classical = [fit.mean_error_pct] * len(cfg.natural)
+    for z in cfg.antiresonances:
+        model = antiresonances(M, K, cfg.model.dof(z.response), cfg.model.dof(z.excitation))
+        classical.append(100 * float(np.min(np.abs(model / z.omega - 1))))
+    # measured: nominal 11.43 %, updated 1.87 %, classical 1.63 % (docs/frf-extraction.md)
+    assert updated < nominal / 4 and np.mean(classical) < nominal / 4

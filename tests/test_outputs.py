@@ -1,0 +1,197 @@
+"""The results folder never loses a user's file (issue 12, items 1, 2 and 4)."""
+
+import json
+import os
+import stat
+
+import pytest
+from outputs_helpers import TINY_CASE, snapshot, write_case
+
+from vibupdate.cli import main
+from vibupdate.outputs import MANIFEST, MAX_NAME, file_names, prepare_output, read_manifest, safe_name
+
+
+@pytest.mark.parametrize("text", ["../x", "/abs/x", "a/../../b", "..", ".hidden", "a\\b", "x" * 300, "名前/é", ""])
+def test_safe_name_has_no_separator_no_dot_dot_and_a_bounded_length(text):
+    name = safe_name(text)
+    assert name and len(name) <= MAX_NAME
+    assert "/" not in name and "\\" not in name and ".." not in name and not name.startswith(".")
+
+
+def test_long_and_colliding_configuration_names_get_distinct_file_names():
+    names = ["a/b", "a_b", "x" * 300, "x" * 299 + "y", "A"]
+    parts = file_names(names)
+    assert len(set(parts.values())) == len(names)
+    assert parts["A"] == "A"
+    assert all(len(p) <= MAX_NAME and "/" not in p for p in parts.values())
+
+
+def test_out_dot_in_a_folder_with_the_case_its_data_and_a_results_json_keeps_every_file(tmp_path, monkeypatch, capsys):
+    # The reported data loss: `cd case-results && vibupdate run ../case.toml --out .` with the
+    # case and its data in the folder, and a results.json vibupdate does not know as its own.
+    folder = tmp_path / "case-results"
+    case = write_case(folder)
+    (folder / "frequencies.csv").write_text("mode,hz\n1,37.3397\n")
+    (folder / "results.json").write_text('{"mine": true}\n')
+    before = snapshot(folder)
+    monkeypatch.chdir(folder)
+    for extra in ([], ["--force"]):
+        assert main(["run", str(case), "--out", ".", *extra]) == 2
+        err = capsys.readouterr().err
+        assert "did not write" in err and "Traceback" not in err
+        assert snapshot(folder) == before
+
+
+def test_rerun_replaces_only_vibupdates_files_and_needs_force_beside_foreign_ones(tmp_path, monkeypatch, capsys):
+    case = write_case(tmp_path / "case")
+    out = tmp_path / "case" / "tiny-results"
+    assert main(["run", str(case), "--out", str(out)]) == 0
+    owned = read_manifest(out)
+    assert {"results.json", "report.md", "M_A.mtx", "K_A.mtx", "C_A.mtx", "frf_A.png", "homotopy.png"} <= set(owned)
+    assert sorted(p.name for p in out.iterdir()) == sorted(owned + [MANIFEST])
+    # The user adds notes; a file of an older run that this run no longer writes is listed too.
+    (out / "notes.txt").write_text("my notes")
+    (out / "mac_A.png").write_bytes(b"old plot")
+    manifest = json.loads((out / MANIFEST).read_text())
+    manifest["files"].append("mac_A.png")
+    (out / MANIFEST).write_text(json.dumps(manifest))
+    (out / "results.json").write_text("{}")
+    capsys.readouterr()
+    assert main(["run", str(case), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "notes.txt" in err and "--force" in err
+    assert (out / "results.json").read_text() == "{}"  # refused before anything was replaced
+    assert main(["run", str(case), "--out", str(out), "--force"]) == 0
+    assert (out / "notes.txt").read_text() == "my notes"
+    assert not (out / "mac_A.png").exists()  # vibupdate's stale file is removed
+    assert json.loads((out / "results.json").read_text())["case"] == "tiny"
+    assert "notes.txt" not in read_manifest(out)
+    # Running inside the results folder (`cd tiny-results && vibupdate run ../case.toml --out .`).
+    monkeypatch.chdir(out)
+    assert main(["run", "../case.toml", "--out", ".", "--force"]) == 0
+    assert (out / "notes.txt").read_text() == "my notes" and (tmp_path / "case" / "case.toml").exists()
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no staging folder left
+
+
+def test_a_foreign_file_with_an_output_name_is_never_overwritten(tmp_path, capsys):
+    case = write_case(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.md").write_text("my report")
+    assert main(["run", str(case), "--out", str(out), "--force"]) == 2
+    assert "report.md" in capsys.readouterr().err
+    assert snapshot(out) == {"report.md": snapshot(out)["report.md"]} and (out / "report.md").read_text() == "my report"
+
+
+def test_default_output_folder_from_a_hostile_case_name_stays_in_the_working_directory(tmp_path, monkeypatch):
+    work = tmp_path / "a" / "work"
+    case = write_case(work, TINY_CASE.replace('case = "tiny"', 'case = "../../escaped/x"'))
+    monkeypatch.chdir(work)
+    assert main(["run", str(case)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["work"]
+    (folder,) = [p for p in work.iterdir() if p.is_dir()]
+    assert folder.name == f"{safe_name('../../escaped/x')}-results" and (folder / "results.json").exists()
+
+
+def test_configuration_names_with_a_separator_or_300_characters_stay_inside_the_folder(tmp_path, capsys):
+    for name in ("a/../../b", "c" * 300):
+        case = write_case(tmp_path, TINY_CASE.replace('name = "A"', f'name = "{name}"'))
+        out = tmp_path / "out"
+        code = main(["run", str(case), "--out", str(out), "--force"])
+        err = capsys.readouterr().err
+        assert code in (0, 2) and "Traceback" not in err, err
+        if code == 0:
+            assert all(p.parent == out and len(p.name) < 100 for p in out.rglob("*"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "out"]
+
+
+def test_results_folder_has_ordinary_permissions(tmp_path):
+    case = write_case(tmp_path)
+    out = tmp_path / "out"
+    old = os.umask(0o022)
+    try:
+        assert main(["run", str(case), "--out", str(out)]) == 0
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o755
+    assert {stat.S_IMODE(p.stat().st_mode) for p in out.iterdir()} == {0o644}
+
+
+def _no_solve(*args, **kwargs):
+    raise AssertionError("the output folder must be checked before solving")
+
+
+def test_unwritable_output_folder_is_refused_before_solving(tmp_path, monkeypatch, capsys):
+    import tempfile
+
+    import vibupdate.pipeline
+
+    case = write_case(tmp_path)
+    monkeypatch.setattr(vibupdate.pipeline, "update", _no_solve)
+
+    def read_only(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(tempfile, "mkstemp", read_only)
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "is not writable" in err and "Permission denied" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root writes into read-only folders")
+def test_read_only_output_folder_is_refused_before_solving(tmp_path, monkeypatch, capsys):
+    import vibupdate.pipeline
+
+    case = write_case(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    out.chmod(0o555)
+    monkeypatch.setattr(vibupdate.pipeline, "update", _no_solve)
+    try:
+        assert main(["run", str(case), "--out", str(out)]) == 2
+    finally:
+        out.chmod(0o755)
+    assert "is not writable" in capsys.readouterr().err
+
+
+def test_output_path_that_is_a_file_is_refused(tmp_path, capsys):
+    case = write_case(tmp_path)
+    (tmp_path / "out").write_text("a file")
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 2
+    assert "is not a folder" in capsys.readouterr().err
+    assert prepare_output(tmp_path / "new" / "deeper").exists is False
+
+
+@pytest.fixture(scope="module")
+def earlier_results(tmp_path_factory):
+    """A case and the results folder of a completed run of it."""
+    folder = tmp_path_factory.mktemp("earlier")
+    case = write_case(folder)
+    assert main(["run", str(case), "--out", str(folder / "out")]) == 0
+    return folder
+
+
+@pytest.mark.parametrize("failure, code", [(KeyboardInterrupt, 130), (RuntimeError("boom"), 3), (ValueError("bad"), 2)])
+def test_a_failed_or_interrupted_run_leaves_earlier_results_untouched(earlier_results, tmp_path, monkeypatch, capsys,
+                                                                      failure, code):
+    import shutil
+
+    import vibupdate.pipeline
+
+    shutil.copytree(earlier_results, tmp_path, dirs_exist_ok=True)
+    case, out = tmp_path / "case.toml", tmp_path / "out"
+    before = snapshot(tmp_path)
+    capsys.readouterr()
+
+    def fail(*args, **kwargs):
+        raise failure
+
+    # Fails while the new files are being written, after the solve: the worst moment.
+    monkeypatch.setattr(vibupdate.pipeline, "write_results", fail)
+    assert main(["run", str(case), "--out", str(out)]) == code
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.strip().count("\n") == 0
+    assert snapshot(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "out"]

@@ -1,0 +1,135 @@
+"""One results object: results.json is written from it, matches the shipped schema and reads
+back into the same typed object (issue 12 item 8, issue 10 item 1)."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from outputs_helpers import write_case
+
+from vibupdate.results import (
+    FORMAT_VERSION,
+    DampingRow,
+    FrequencyRow,
+    ParameterRow,
+    RunResult,
+    Summary,
+    load_results,
+    schema,
+    validate_document,
+)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    from vibupdate.case import load_case
+    from vibupdate.pipeline import run_case
+
+    folder = tmp_path_factory.mktemp("tiny")
+    case = load_case(write_case(folder))
+    run = run_case(case, folder / "out")
+    return run, folder / "out", case
+
+
+def _fields(cls) -> set[str]:
+    return {f.name for f in dataclasses.fields(cls)} - {"extra", "matrices"}
+
+
+def test_the_written_file_matches_the_shipped_schema(tiny_run):
+    _, out, _ = tiny_run
+    doc = json.loads((out / "results.json").read_text())
+    validate_document(doc)
+    assert schema()["title"] == "vibupdate results.json"
+
+
+def test_load_results_returns_the_same_typed_frozen_object(tiny_run):
+    run, out, _ = tiny_run
+    loaded = load_results(out / "results.json")
+    assert isinstance(loaded, RunResult)
+    assert loaded == run  # every field but the matrices, which live in the .mtx files
+    assert loaded.matrices == {} and set(run.matrices["A"]) == {"M", "K", "C", "nominal"}
+    assert isinstance(loaded.parameters[0], ParameterRow) and isinstance(loaded.frequencies[0], FrequencyRow)
+    assert isinstance(loaded.damping[0], DampingRow) and isinstance(loaded.summary, Summary)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        loaded.case = "other"
+
+
+def test_every_key_of_the_written_file_comes_from_the_typed_result(tiny_run):
+    run, out, _ = tiny_run
+    doc = json.loads((out / "results.json").read_text())
+    assert set(doc) == _fields(RunResult)
+    assert doc == run.as_document()
+    assert RunResult.from_document(doc).as_document() == doc
+    for key, cls in (("parameters", ParameterRow), ("frequencies", FrequencyRow), ("damping", DampingRow)):
+        for row, typed in zip(doc[key], getattr(run, key)):
+            assert set(row) == _fields(cls) | {k for k, _ in typed.extra}
+    assert set(doc["summary"]) == _fields(Summary)
+
+
+def test_the_file_carries_version_xbar_references_dofs_mac_warnings_and_checks(tiny_run):
+    from vibupdate import __version__
+
+    run, out, case = tiny_run
+    doc = json.loads((out / "results.json").read_text())
+    model = case.configurations[0].model
+    assert doc["version"] == __version__ and doc["format_version"] == FORMAT_VERSION
+    np.testing.assert_allclose(doc["xbar"], [p["xbar"] for p in doc["parameters"]])
+    # xbar = (p - p0) / p_ref (Eq. 12) with the reference values written beside them
+    for p in doc["parameters"]:
+        assert p["reference"] == next(q.reference for q in model.parameters if q.name == p["name"])
+        assert p["xbar"] == pytest.approx((p["updated"] - p["nominal"]) / p["reference"], rel=1e-12, abs=1e-15)
+    assert doc["dofs"] == {"A": list(model.dofs)}
+    assert set(doc["mac"]) == {"A"} and len(doc["mac"]["A"]) == 2
+    assert isinstance(doc["warnings"], list) and isinstance(doc["checks"], list)
+    assert doc["frf"]["A"]["response"] in model.dofs
+
+
+def test_a_file_that_breaks_the_schema_is_a_clear_error(tiny_run, tmp_path):
+    _, out, _ = tiny_run
+    doc = json.loads((out / "results.json").read_text())
+    renamed = dict(doc)
+    renamed["params"] = renamed.pop("parameters")
+    for bad, where in ((renamed, "parameters"), ({**doc, "xbar": "one"}, "xbar"),
+                       ({k: v for k, v in doc.items() if k != "version"}, "version")):
+        path = tmp_path / "results.json"
+        path.write_text(json.dumps(bad))
+        with pytest.raises(ValueError, match=where) as info:
+            load_results(path)
+        assert str(path) in str(info.value)
+    path.write_text("{not json")
+    with pytest.raises(ValueError, match="could not be read"):
+        load_results(path)
+
+
+def test_mac_values_and_the_mac_plot_come_from_the_result_for_measured_shapes():
+    """The frame example measures shapes: MAC per mode and the MAC matrix are in the object."""
+    from vibupdate.examples import frame
+    from vibupdate.results import run_result
+    from vibupdate.update import update
+
+    case = frame.case()
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver)
+    run = run_result(case, result)
+    doc = run.as_document()
+    validate_document(doc)
+    mac = doc["mac"]["frame"]
+    assert len(mac) == len(case.configurations[0].natural) and min(mac) > 0.9
+    matrix = np.array(doc["mac_matrix"]["frame"]["values"], dtype=float)
+    np.testing.assert_allclose(np.diag(matrix)[:len(mac)], mac, rtol=1e-8)
+
+
+def test_the_outputs_page_example_runs(tiny_run, tmp_path, monkeypatch, capsys):
+    import re
+    import shutil
+    from pathlib import Path
+
+    _, out, _ = tiny_run
+    shutil.copytree(out, tmp_path / "case-results")
+    monkeypatch.chdir(tmp_path)
+    text = (Path(__file__).resolve().parents[1] / "docs" / "outputs.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks
+    for block in blocks:
+        exec(compile(block, "docs/outputs.md", "exec"), {})
+    assert "tiny" in capsys.readouterr().out
