@@ -72,7 +72,7 @@ def compare_solvers(cs) -> list[str]:
     lp = relax(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
     h = highs_model(lp)
     rows = []
-    for name, solve in (("scipy linprog (HiGHS, cold)", _linprog),
+    for name, method in (("scipy linprog (HiGHS, cold)", _linprog),
                         ("highspy (HiGHS, warm)", lambda lp_, c: solve(lp_, c, h)[1:]),
                         ("Clarabel (interior point)", _clarabel)):
         t0, gaps = time.perf_counter(), []
@@ -80,7 +80,7 @@ def compare_solvers(cs) -> list[str]:
             for sign in (1.0, -1.0):
                 c = np.zeros(L.n_z)
                 c[i] = sign
-                opt, bound = solve(lp, c)
+                opt, bound = method(lp, c)
                 gaps.append(opt - bound)
         rows.append(f"| {name} | {time.perf_counter() - t0:.2f} | {np.max(gaps):.2e} |")
     return rows

@@ -199,6 +199,10 @@ class _Tightener:
         c = np.zeros(lp.A.shape[1])
         c[local] = sign
         status, opt, bound = solve_clarabel(lp, c) if h is None else solve(lp, c, h)
+        if h is None and status == "optimal" and not bound >= opt - GAP:
+            # Interior-point multipliers too loose to confirm the optimum: simplex duals.
+            status, opt, bound = solve(lp, c)
+            self.n_lps += 1
         self.n_lps += 1
         if status == "infeasible":
             self.infeasible = (block,)
