@@ -118,9 +118,13 @@ def _command(args) -> int:
                                    force=args.force, certify=args.certify))
     case = _load(args.case)
     if args.command == "check":
-        size = check_case(case)
+        checked = check_case(case)
         print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
-        print("problem size: " + ", ".join(f"{k} {v}" for k, v in size.items()))
+        for note in checked.notes:
+            print(f"model {note}")
+        for warning in checked.warnings:
+            print(f"warning: {warning}")
+        print("problem size: " + ", ".join(f"{k} {v}" for k, v in checked.sizes.items()))
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
     return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify))

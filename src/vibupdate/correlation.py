@@ -87,7 +87,7 @@ def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:
 
 def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[ModelFrequencies],
                    updated: Sequence[ModelFrequencies] | None = None) -> list[dict]:
-    """Rows of the ``frequencies`` table of ``results.json`` (DESIGN.md), Hz at the edge."""
+    """Rows of the ``frequencies`` table of ``results.json`` (docs/outputs.md), Hz at the edge."""
     rows = []
     for i, cfg in enumerate(configurations):
         groups = (("natural", [f.omega for f in cfg.natural], "natural"),

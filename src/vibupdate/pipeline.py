@@ -24,7 +24,8 @@ from vibupdate.damping import DampingStage, DampingWarning, damping_data, identi
 from vibupdate.examples import EXAMPLES
 from vibupdate.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
 from vibupdate.results import RunResult, run_result, write_results
-from vibupdate.update import UpdateResult, prepare, update
+from vibupdate.update import UpdateResult, update
+from vibupdate.validation import CaseCheck, validate_case
 
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
            "planned_files"]
@@ -45,9 +46,10 @@ def example_module(name: str):
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")
 
 
-def check_case(case: Case) -> dict:
-    """Validate a case and build its problem without solving; returns the problem size."""
-    return prepare(case.configurations, case.formulation).sizes()
+def check_case(case: Case) -> CaseCheck:
+    """Validate a case exactly as `run_case` does before solving (`vibupdate.validation`);
+    returns the problem size, notes and warnings. Raises ValueError naming file and key."""
+    return validate_case(case)
 
 
 def _identifiability(result: UpdateResult) -> dict:
@@ -74,6 +76,7 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
         warnings.simplefilter("always", DampingWarning)
         stage = identify_damping(case.configurations, xbar, options.exponents, weights)
     notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
+    notes += list(stage.warnings)
     for n in notes:
         say(f"warning: {n}")
     text = ("W_ii = " + ("w_mode / xi_i^2 (relative errors)" if options.relative else "w_mode")
@@ -152,6 +155,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     say = progress or (lambda message: None)
     if certify is not None and not certify >= 0:
         raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
+    checked = validate_case(case)       # what check validates, before anything is touched
+    for w in checked.warnings:
+        say(f"warning: {w}")
     target = prepare_output(out_dir, force=force, planned=planned_files(case))
     from vibupdate.verify import VerifyOptions
 
@@ -161,6 +167,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
                     verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
+    notes = list(checked.warnings) + notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
         say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
