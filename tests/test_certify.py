@@ -204,7 +204,9 @@ def _example_check(case, result, passes, inner, tolerance):
     boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
     cs = consistent_set(case.configurations, frequency_tolerance=max(tolerance, case.frequency_tolerance),
                         include=result.xbar, options=boxes)
-    assert is_consistent(cs, result.xbar)
+    # The answer sits on active bounds of S (vector boxes, parameter bounds) up to the solver's
+    # tolerance: on the frame its mode 7 leaves its box by 8e-9. It is in S to within 1e-6.
+    assert is_consistent(cs, result.xbar, margin=-1e-6)
     r = enclosure(cs, seconds=np.inf, max_passes=passes)
     assert r.passes == passes and not r.empty
     assert inside(r, model, result.xbar)
