@@ -146,8 +146,12 @@ def data_jacobian(configurations: Sequence[Configuration], xbar):
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
-                     frequency_tolerance: float = 0.0) -> ParameterRanges:
+                     frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0):
     """Consistent range of every parameter around the answer ``xbar`` (module docstring).
+
+    ``method="certified"`` returns instead the certified outer ranges over the consistent
+    set of `vibupdate.consistent` (`vibupdate.certify.certified_ranges`, a `CertifiedRanges`),
+    refined for at most ``seconds``.
 
     Parameters
     ----------
@@ -157,7 +161,16 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     frequency_tolerance : float
         Relative half-width of the frequency intervals (e.g. 3 sigma of the measurement error);
         the answer's own misfit is the floor.
+    method : {"linearized", "certified"}
+    seconds : float
+        Time budget of the certified method's bound tightening.
     """
+    if method == "certified":
+        from vibupdate.certify import certified_ranges
+
+        return certified_ranges(configurations, xbar, frequency_tolerance=frequency_tolerance, seconds=seconds)
+    if method != "linearized":
+        raise ValueError(f"method must be 'linearized' or 'certified', got {method!r}")
     configurations = list(configurations)
     model = configurations[0].model
     refs = [_reference_entries(c) for c in configurations]

@@ -141,8 +141,11 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
 
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
-             paper: dict | None = None, force: bool = False) -> RunResult:
+             paper: dict | None = None, force: bool = False, certify: float | None = None) -> RunResult:
     """Both stages on a case; writes the results folder and returns the results object.
+
+    ``certify``: time budget in seconds of the certified outer parameter ranges
+    (`vibupdate.certify`, in ``identifiability.certified``); None skips them.
 
     The folder is checked before solving (`vibupdate.outputs.prepare_output`: writable, no
     file vibupdate did not write unless ``force``); the files are written beside it and moved
@@ -152,6 +155,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     from vibupdate import __version__
 
     say = progress or (lambda message: None)
+    if certify is not None and not certify >= 0:
+        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
     checked = validate_case(case)       # what check validates, before anything is touched
     for w in checked.warnings:
         say(f"warning: {w}")
@@ -177,6 +182,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
+    if certify is not None:
+        identifiability["certified"] = _certified(case, result, certify, say)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
     staged = staging_folder(target)
@@ -189,8 +196,23 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     return run
 
 
+def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
+    """Certified outer ranges over the consistent set, with the vector boxes the first stage
+    ended with (it may have widened the margins)."""
+    from dataclasses import replace
+
+    from vibupdate.certify import certified_ranges
+
+    last = result.attempts[-1] if result.attempts else {}
+    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
+                            seconds=seconds, options=boxes, progress=say)
+    say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
+    return cert.record()
+
+
 def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,
-                force: bool = False) -> RunResult:
+                force: bool = False, certify: float | None = None) -> RunResult:
     """Run a bundled example end to end (`run_case`); returns the results object."""
     say = progress or (lambda message: None)
     module = example_module(name)
@@ -199,4 +221,4 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
     paper = module.paper_values() if hasattr(module, "paper_values") else None
-    return run_case(case, out_dir, progress=say, paper=paper, force=force)
+    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify)
