@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from vibupdate.correlation import model_frequencies
+from vibupdate.correlation import zeros_wanted, model_frequencies
 from vibupdate.measured import Configuration
 
 __all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian"]
@@ -91,7 +91,8 @@ def _data(configurations, xbar, refs, jacobian: bool = False):
             jac.append(frequency_derivatives(model, f.natural, f.Phi))
             zrows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
             for rc in cfg.receptances():
-                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]))
+                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
+                                         n_zeros=zeros_wanted(cfg, rc))
                 for i, a in enumerate(cfg.antiresonances):
                     if a.receptance == rc and a.index <= z.size:
                         zrows[i] = D[a.index - 1]
