@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from vibupdate.correlation import model_frequencies
+from vibupdate.correlation import zeros_wanted, model_frequencies
 from vibupdate.measured import Configuration
 
 __all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian"]
@@ -93,7 +93,8 @@ def _data(configurations, xbar, refs, jacobian: bool = False):
             jac.append(frequency_derivatives(model, f.natural, f.Phi))
             zrows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
             for rc in cfg.receptances():
-                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]))
+                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
+                                         n_zeros=zeros_wanted(cfg, rc))
                 for i, a in enumerate(cfg.antiresonances):
                     if a.receptance == rc and a.index <= z.size:
                         zrows[i] = D[a.index - 1]
@@ -150,8 +151,12 @@ def data_jacobian(configurations: Sequence[Configuration], xbar):
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
-                     frequency_tolerance: float = 0.0) -> ParameterRanges:
+                     frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0):
     """Consistent range of every parameter around the answer ``xbar`` (module docstring).
+
+    ``method="certified"`` returns instead the certified outer ranges over the consistent
+    set of `vibupdate.consistent` (`vibupdate.certify.certified_ranges`, a `CertifiedRanges`),
+    refined for at most ``seconds``.
 
     Parameters
     ----------
@@ -162,7 +167,16 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         Relative half-width of the frequency window of every measured frequency without an
         ``interval`` (e.g. 3 sigma of the measurement error); a frequency with an interval uses
         the interval's half-width instead. The answer's own misfit is added to either.
+    method : {"linearized", "certified"}
+    seconds : float
+        Time budget of the certified method's bound tightening.
     """
+    if method == "certified":
+        from vibupdate.certify import certified_ranges
+
+        return certified_ranges(configurations, xbar, frequency_tolerance=frequency_tolerance, seconds=seconds)
+    if method != "linearized":
+        raise ValueError(f"method must be 'linearized' or 'certified', got {method!r}")
     configurations = list(configurations)
     model = configurations[0].model
     refs = [_reference_entries(c) for c in configurations]

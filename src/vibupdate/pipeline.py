@@ -9,6 +9,8 @@ over these functions.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import importlib
 import shutil
 import warnings
@@ -24,7 +26,8 @@ from vibupdate.damping import DampingStage, DampingWarning, damping_data, identi
 from vibupdate.examples import EXAMPLES
 from vibupdate.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
 from vibupdate.results import RunResult, run_result, write_results
-from vibupdate.update import UpdateResult, prepare, update
+from vibupdate.update import UpdateResult, update
+from vibupdate.validation import CaseCheck, validate_case
 
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
            "planned_files"]
@@ -45,9 +48,10 @@ def example_module(name: str):
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")
 
 
-def check_case(case: Case) -> dict:
-    """Validate a case and build its problem without solving; returns the problem size."""
-    return prepare(case.configurations, case.formulation).sizes()
+def check_case(case: Case) -> CaseCheck:
+    """Validate a case exactly as `run_case` does before solving (`vibupdate.validation`);
+    returns the problem size, notes and warnings. Raises ValueError naming file and key."""
+    return validate_case(case)
 
 
 def _identifiability(result: UpdateResult) -> dict:
@@ -78,6 +82,7 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
         warnings.simplefilter("always", DampingWarning)
         stage = identify_damping(case.configurations, xbar, options.exponents, weights)
     notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
+    notes += list(stage.warnings)
     for n in notes:
         say(f"warning: {n}")
     if from_intervals:
@@ -189,8 +194,11 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
 
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
-             paper: dict | None = None, force: bool = False) -> RunResult:
+             paper: dict | None = None, force: bool = False, certify: float | None = None) -> RunResult:
     """Both stages on a case; writes the results folder and returns the results object.
+
+    ``certify``: time budget in seconds of the certified outer parameter ranges
+    (`vibupdate.certify`, in ``identifiability.certified``); None skips them.
 
     The folder is checked before solving (`vibupdate.outputs.prepare_output`: writable, no
     file vibupdate did not write unless ``force``); the files are written beside it and moved
@@ -200,15 +208,20 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     from vibupdate import __version__
 
     say = progress or (lambda message: None)
+    if certify is not None and not certify >= 0:
+        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
+    checked = validate_case(case)       # what check validates, before anything is touched
+    for w in checked.warnings:
+        say(f"warning: {w}")
     target = prepare_output(out_dir, force=force, planned=planned_files(case))
-    from vibupdate.verify import VerifyOptions
-
-    verification = (VerifyOptions(frequency_tolerance=case.frequency_tolerance) if case.frequency_tolerance > 0
-                    else VerifyOptions())
-    result = update(case.configurations, formulation=case.formulation, solver=case.solver,
+    verification = case.verification
+    if case.frequency_tolerance > 0:
+        verification = replace(verification, frequency_tolerance=case.frequency_tolerance)
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
+    notes = list(checked.warnings) + notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
         say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
@@ -223,6 +236,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         identifiability["frequency_tolerance"] = case.frequency_tolerance
         identifiability["frequency_windows"] = _frequency_windows(case)
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
+    if certify is not None:
+        identifiability["certified"] = _certified(case, result, certify, say)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
     staged = staging_folder(target)
@@ -235,8 +250,23 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     return run
 
 
+def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
+    """Certified outer ranges over the consistent set, with the vector boxes the first stage
+    ended with (it may have widened the margins)."""
+    from dataclasses import replace
+
+    from vibupdate.certify import certified_ranges
+
+    last = result.attempts[-1] if result.attempts else {}
+    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
+                            seconds=seconds, options=boxes, progress=say)
+    say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
+    return cert.record()
+
+
 def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,
-                force: bool = False) -> RunResult:
+                force: bool = False, certify: float | None = None) -> RunResult:
     """Run a bundled example end to end (`run_case`); returns the results object."""
     say = progress or (lambda message: None)
     module = example_module(name)
@@ -245,4 +275,4 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
     paper = module.paper_values() if hasattr(module, "paper_values") else None
-    return run_case(case, out_dir, progress=say, paper=paper, force=force)
+    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify)

@@ -44,7 +44,8 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     Parameters
     ----------
     nominal, updated : tuple (M, K, C)
-        Matrices of the two models, ``C`` possibly None.
+        Matrices of the two models, ``C`` possibly None (undamped, and labelled so). Each
+        curve uses its own model's damping: never the updated ``C`` on the nominal curve.
     r, c : int
         Response and excitation DOF indices.
     label : str
@@ -57,7 +58,7 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     for (M, K, C), name, style in ((nominal, "nominal", "--"), (updated, "updated", "-")):
         h = receptance(M, K, r, c, omega, C)
-        ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model")
+        ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model" + (" (undamped)" if C is None else ""))
     for i, f in enumerate(cfg.natural):
         ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
     for i, a in enumerate(cfg.antiresonances):
