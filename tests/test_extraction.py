@@ -392,11 +392,10 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
     assert (tmp_path / "out" / "frf_frame.png").stat().st_size > 20_000
 
 
-@pytest.mark.slow
 def test_southampton_frame_element_model_updated_from_frfs_in_one_run(tmp_path):
     """docs/soton-frame-elements.toml: the planar frame-element model (legs as frame elements,
-    floors as stiff plates, base rotational spring) updated from the FRFs in one run; about
-    40-80 s on a loaded machine, hence slow. It does not verify: the fit check fails (docs/frf-extraction.md)."""
+    floors as stiff plates, base rotational spring) updated from the FRFs in one run. It does
+    not verify: the fit check fails (docs/frf-extraction.md)."""
     if not REALDATA.is_dir():
         pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     import shutil
