@@ -123,7 +123,7 @@ def test_bad_matrices_are_named(tmp_path):
         from_files(I2, sp.csr_matrix([[2.0, 1.0], [0.0, 2.0]]), p, dK={"k": I2})
     with pytest.raises(ValueError, match="must be square"):
         from_files(sp.csr_matrix(np.ones((2, 3))), I2, p, dK={"k": I2})
-    with pytest.raises(ValueError, match="mass matrix is not positive definite"):
+    with pytest.raises(ValueError, match="mass matrix M is not positive semidefinite: negative diagonal entry -1"):
         from_files(sp.csr_matrix([[1.0, 0.0], [0.0, -1.0]]), I2, p, dK={"k": I2})
     with pytest.raises(ValueError, match=r"dK of parameter 'k' has shape \(3, 3\), expected \(2, 2\)"):
         from_files(I2, I2, p, dK={"k": sp.identity(3)})

@@ -24,7 +24,7 @@ def test_nominal_frequencies_within_two_percent_of_the_paper_nominal_column():
 
 
 def test_proof_mass_at_y1_or_y3_leaves_the_antiresonance_unchanged():
-    """DESIGN.md evidence for the proof-mass placement: B and C keep the 94.8 Hz zero."""
+    """Evidence for the proof-mass placement (docs/method.md, appendix): B and C keep the 94.8 Hz zero."""
     z = {c.name: model_frequencies(c).antiresonances[0] for c in cantilever.configurations()}
     assert z["B"] == pytest.approx(z["A"], rel=1e-9)
     assert z["C"] == pytest.approx(z["A"], rel=1e-9)

@@ -50,6 +50,7 @@ def test_every_documented_key_is_read_by_the_loader():
     names = {n for cell in first_cells for n in re.findall(r"`(\w+)`", cell)}
     accepted = (set(module._TOP_KEYS) | set(module._ELEMENTS_KEYS) | set(module._CFG_KEYS) | set(module._SOLVER_KEYS)
                 | set(module._FORMULATION_KEYS) | set(module._DAMPING_KEYS) | set(module._PARAMETER_KEYS)
+                | set(module._POLISH_KEYS) | set(module._VERIFICATION_KEYS)
                 | {"builder", "M0", "K0", "dofs", "dM", "dK"})
     assert names <= accepted, names - accepted
     assert accepted - {"type"} <= names, (accepted - {"type"}) - names
@@ -213,3 +214,31 @@ def test_matrices_case_runs_end_to_end(tmp_path):
     doc = json.loads((out / "results.json").read_text())
     assert doc["parameters"][0]["updated"] == pytest.approx(1300.0, rel=1e-6)
     assert {"M_only.mtx", "K_only.mtx", "C_only.mtx", "frf_only.png", "report.md"} <= {p.name for p in out.iterdir()}
+
+
+def test_declared_modes_and_zero_indices_in_case_files(tmp_path):
+    """natural_modes, antiresonance index, CSV mode/index columns, shapes keyed by the declared mode;
+    [polish] and [verification] tables."""
+    hz = _chain_files(tmp_path)
+    text = MINIMAL + f"natural_modes = [2, 3]\nnatural_hz = [{hz[1]}, {hz[2]}]\n"
+    text += '[[configuration.antiresonances]]\nhz = 20.0\nresponse = "a"\nexcitation = "a"\nindex = 2\n'
+    (tmp_path / "s.csv").write_text("mode,dof,value,tolerance\n3,a,0.5,0.1\n3,c,1.0,0.1\n")
+    text = text.replace('name = "only"\n', 'name = "only"\nmode_shapes_csv = "s.csv"\n')
+    text += "[polish]\nenabled = false\n[verification]\nfit_tolerance = 0.05\nmac_min = 0.9\n"
+    case = load_case(write(tmp_path, text))
+    cfg = case.configurations[0]
+    assert [f.mode for f in cfg.natural] == [2, 3]
+    assert cfg.natural[0].shape is None and cfg.natural[1].shape is not None
+    assert [a.index for a in cfg.antiresonances] == [2]
+    assert case.polish.enabled is False
+    assert case.verification.fit_tolerance == 0.05 and case.verification.mac_min == 0.9
+    (tmp_path / "f.csv").write_text("kind,hz,mode,index,response,excitation\n"
+                                    f"natural,{hz[1]},2,,,\nnatural,{hz[2]},3,,,\nantiresonance,20.0,,2,a,a\n")
+    case = load_case(write(tmp_path, MINIMAL + 'frequencies_csv = "f.csv"\n'))
+    cfg = case.configurations[0]
+    assert [f.mode for f in cfg.natural] == [2, 3] and [a.index for a in cfg.antiresonances] == [2]
+    (tmp_path / "f.csv").write_text("kind,hz,mode\nnatural,10.0,1.5\n")
+    with pytest.raises(ValueError, match="row 2: mode must be an integer"):
+        load_case(write(tmp_path, MINIMAL + 'frequencies_csv = "f.csv"\n'))
+    with pytest.raises(ValueError, match="natural_modes"):
+        load_case(write(tmp_path, MINIMAL + f"natural_modes = [2]\nnatural_hz = [{hz[1]}, {hz[2]}]\n"))

@@ -81,3 +81,53 @@ def test_cantilever_damping_meets_the_paper_figure():
     assert stage.rayleigh.mean_error_pct > stage.caughey.mean_error_pct
     rows = stage.rows()
     assert {"configuration", "mode", "measured", "identified", "error_pct"} <= set(rows[0])
+
+
+# -- damping sanity ---------------------------------------------------------------------------
+
+
+def test_negative_bands_find_the_roots_of_a_known_series():
+    from vibupdate.damping import negative_bands
+
+    # xi(w) = (b0 + b1 w^2) / (2 w) with b0 = 4, b1 = -1e-4: negative above w = 200 rad/s
+    assert negative_bands([0.0, 1.0], [4.0, -1e-4], 1000.0) == [(pytest.approx(200.0), 1000.0)]
+    # xi(w) = (-b + c w) / (2 w^2)... with Y = [-0.5, 0]: g(w) = -2 w^-1 + 0.1, negative below w = 20
+    bands = negative_bands([-0.5, 0.0], [-2.0, 0.1], 100.0)
+    assert bands == [(0.0, pytest.approx(20.0))]
+    assert negative_bands([0.0, 1.0], [1.0, 1e-4], 1000.0) == []
+
+
+def test_cantilever_caughey_and_rayleigh_fits_are_flagged_where_damping_turns_negative():
+    """Issue 12 item 6: with the paper's updated parameters (Table 6) the Caughey fit with
+    Y = [-1.5, -0.75, 0] is negative at low frequency and the Rayleigh baseline at high
+    frequency, so its C has negative eigenvalues; both are warnings of the stage."""
+    cfgs = cantilever.configurations()
+    model = cfgs[0].model
+    xbar = model.normalized([68.1e9, 2383.2, 0.0015, 0.0946, 1.871e5, 15.3e9, 7786.3])
+    stage = identify_damping(cfgs, xbar, (-1.5, -0.75, 0.0))
+    caughey = [w for w in stage.warnings if w.startswith("Caughey")]
+    rayleigh = [w for w in stage.warnings if w.startswith("Rayleigh")]
+    assert len(caughey) == 1 and "negative modal damping at 0-48.06 Hz" in caughey[0]
+    assert len(rayleigh) == 1 and "C has negative eigenvalues" in rayleigh[0]
+    assert "the modal damping is negative at 663.8-" in rayleigh[0]
+    # the count of negative eigenvalues is that of the exported matrix (Sylvester's law)
+    M, K = cfgs[0].model.matrices(xbar)
+    C = caughey_matrix(M, K, [0.0, 1.0], stage.rayleigh.beta)
+    negative = int(np.sum(np.linalg.eigvalsh(C) < -1e-12 * np.abs(C).max()))
+    assert f"configuration A ({negative}: modes 5-14" in rayleigh[0] and negative == 10
+    assert np.all(np.linalg.eigvalsh(caughey_matrix(M, K, stage.caughey.exponents, stage.caughey.beta))
+                  > -1e-12 * np.abs(C).max())
+
+
+def test_frf_plot_draws_the_nominal_model_without_the_updated_damping(tmp_path, monkeypatch):
+    """Issue 12 item 6: the nominal curve is undamped (labelled so), never the updated C."""
+    from vibupdate import plots
+
+    calls = []
+    real = plots.receptance
+    monkeypatch.setattr(plots, "receptance", lambda M, K, r, c, w, C=None: calls.append(C) or real(M, K, r, c, w, C))
+    cfg = cantilever.configurations()[0]
+    M, K = cfg.model.matrices()
+    C = caughey_matrix(M, K, [0.0, 1.0], [1.0, 1e-5])
+    plots.plot_frf(tmp_path / "f.png", cfg, (M, K, None), (M, K, C), 0, 0, "h")
+    assert calls[0] is None and calls[1] is C

@@ -106,7 +106,6 @@ def test_docs_readme_and_examples_cite_nothing_outside_the_repository():
     assert not found, "\n".join(found)
 
 
-@pytest.mark.xfail(strict=False, reason="code docstrings still cite DESIGN.md; removed in the lead's final pass")
 def test_code_cites_nothing_outside_the_repository():
     found = _citations(_text_files("src"))
     assert not found, "\n".join(found)

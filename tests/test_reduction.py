@@ -1,4 +1,4 @@
-"""Craig-Bampton reduction of affine models (large models, DESIGN.md "Bending models")."""
+"""Craig-Bampton reduction of affine models (large models, docs/method.md)."""
 
 import numpy as np
 

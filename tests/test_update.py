@@ -105,7 +105,7 @@ def _beam_builder(p):
 
 
 def test_problem_1_on_a_beam_with_unmeasured_rotations():
-    """Rotations get default bounds and are scaled by the element length (DESIGN item 3)."""
+    """Rotations get default bounds and are scaled by the element length (docs/method.md, "Scaling of rotations and of residual rows")."""
     # Density is known: with every mass and stiffness term a parameter, scaling all of them
     # together leaves frequencies and modes unchanged and the data could not decide.
     params = [Parameter("E", 70e9, 55e9, 85e9), Parameter("m_tip", 0.05, 0.03, 0.08),
@@ -228,7 +228,7 @@ def test_cantilever_meets_the_paper_figure(cantilever_result):
 
 def test_cantilever_problem_size_against_table_1(cantilever_result):
     """Table 1: 168 mode unknowns, 48 adjunct unknowns, 596 lifted scalars. Each of the 12
-    modes here fixes its y1 entry (normalization, DESIGN item 1): 12 fewer unknowns and 3
+    modes here fixes its y1 entry (normalization, docs/method.md): 12 fewer unknowns and 3
     fewer products each (E, rho, macc act on y1); each adjunct vector fixes its largest
     nominal entry, y5 under the patch, so 4 products (E, rho, Ep, rho_p) vanish instead of 2."""
     size = cantilever_result.problem_size
@@ -296,7 +296,7 @@ def test_bad_input_is_caught_before_any_solve():
 
 def test_sensitivity_reports_parameters_the_data_cannot_separate():
     """Every mass and stiffness term a parameter: scaling all together changes no frequency,
-    so the sensitivity has rank n_x - 1 (DESIGN.md, "Identifiability")."""
+    so the sensitivity has rank n_x - 1 (docs/method.md, "What the data determine")."""
 
     params = [Parameter("E", 70e9, 55e9, 85e9), Parameter("rho", 2700.0, 2200.0, 3200.0),
               Parameter("m_tip", 0.05, 0.03, 0.08), Parameter("k", 2000.0, 1000.0, 4000.0)]

@@ -13,9 +13,11 @@ from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, S
 from vibupdate.model import from_builder, from_files
 from vibupdate.formulation import FormulationOptions
 from vibupdate.homotopy import SolverOptions
+from vibupdate.polish import PolishOptions
 from vibupdate.parameters import Parameter
 from vibupdate.status import Status
 from vibupdate.update import UpdateResult, update
+from vibupdate.verify import VerifyOptions
 
 __version__ = "0.1.0"
 
@@ -23,6 +25,8 @@ __all__ = [
     "AffineModel",
     "Antiresonance",
     "FormulationOptions",
+    "PolishOptions",
+    "VerifyOptions",
     "SolverOptions",
     "Status",
     "UpdateResult",

@@ -13,18 +13,17 @@ exact to rounding for any small ``h`` because no difference is taken.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from vibupdate.assembly import System, dof_index
 from vibupdate.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
-__all__ = ["AffineModel", "complex_step_jacobians", "affine_from_builder", "check_matrices"]
+__all__ = ["AffineModel", "Lumped", "with_lumped", "complex_step_jacobians", "affine_from_builder", "check_matrices"]
 
 Builder = Callable[[dict], "System | tuple"]
 
@@ -105,6 +104,61 @@ class AffineModel:
         return self.matrices(self.normalized(values))
 
 
+@dataclass(frozen=True)
+class Lumped:
+    """A lumped addition to a model: a mass (``matrix = "M"``) on ``dof``, or a spring
+    (``matrix = "K"``) from ``dof`` to ground or to ``other``.
+
+    ``value`` is affine in the physical parameters: it has ``constant`` (float) and
+    ``coefficients`` (pairs of parameter name and ``d value / d p``), like
+    `vibupdate.case.LinearExpression`. Units: kg or kg m^2 for a mass, N/m or N m/rad for a
+    spring.
+    """
+
+    matrix: str
+    dof: str
+    value: object
+    other: str | None = None
+
+
+def _lumped_matrix(model: "AffineModel", item: Lumped, amount: float) -> sp.csr_matrix:
+    i = model.dof(item.dof)
+    n = model.n_dofs
+    if item.other is None:
+        return sp.csr_matrix(([amount], ([i], [i])), shape=(n, n))
+    j = model.dof(item.other)
+    return sp.csr_matrix(([amount, amount, -amount, -amount], ([i, j, i, j], [i, j, j, i])), shape=(n, n))
+
+
+def with_lumped(model: "AffineModel", additions: Sequence[Lumped]) -> "AffineModel":
+    """``model`` plus lumped masses and springs, with their parameter dependence.
+
+    The nominal matrices gain each value at the nominal parameters; the parameter matrices
+    gain ``coefficient * p_ref`` (Eq. 13), so ``M(xbar)``, ``K(xbar)`` are those of the
+    assembled model at every ``xbar``. This is the one path by which a configuration's
+    additions enter a model of any type (elements, builder or matrices).
+    """
+    if not additions:
+        return model
+    known = {p.name: k for k, p in enumerate(model.parameters)}
+    nominal = {p.name: p.nominal for p in model.parameters}
+    mats = {"M": [model.M0, list(model.M_par)], "K": [model.K0, list(model.K_par)]}
+    for item in additions:
+        if item.matrix not in mats:
+            raise ValueError(f"a lumped addition goes to 'M' or 'K', got {item.matrix!r}")
+        for name, _ in item.value.coefficients:
+            if name not in known:
+                raise ValueError(f"the value of the addition on {item.dof!r} names {name!r}, which is not a parameter")
+        target = mats[item.matrix]
+        target[0] = target[0] + _lumped_matrix(model, item, float(item.value(nominal)))
+        for name, coef in item.value.coefficients:
+            k = known[name]
+            target[1][k] = target[1][k] + _lumped_matrix(model, item, coef * model.parameters[k].reference)
+    return replace(model, M0=sp.csr_matrix(mats["M"][0]), K0=sp.csr_matrix(mats["K"][0]),
+                   M_par=tuple(sp.csr_matrix(A) for A in mats["M"][1]),
+                   K_par=tuple(sp.csr_matrix(A) for A in mats["K"][1]))
+
+
 def _stack_on_union(A0, parts):
     """``A0`` and ``parts`` on their union sparsity pattern: a data array of shape
     (1 + n_x, nnz) with the pattern's indices, so that ``A(xbar)`` is one vector operation."""
@@ -142,21 +196,13 @@ def symmetric_error(A: sp.spmatrix) -> float:
     return float(abs(A - A.T).max() / scale) if scale > 0 else 0.0
 
 
-def _is_positive_definite(M: sp.spmatrix) -> bool:
-    n = M.shape[0]
-    if n <= 3000:
-        try:
-            sla.cholesky(M.toarray(), lower=True)
-            return True
-        except sla.LinAlgError:
-            return False
-    smallest = spla.eigsh(M, k=1, which="SA", return_eigenvectors=False, tol=1e-6)[0]
-    return bool(smallest > 0)
-
-
 def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
     """Raise ValueError unless ``M``, ``K`` are square, equal in size, finite, symmetric and
-    ``M`` is positive definite; ``dofs`` must name every row."""
+    physically admissible (`vibupdate.physical.definiteness`: ``M`` positive definite or
+    semidefinite with massless DOFs held by ``K``, ``K`` positive semidefinite); ``dofs`` must
+    name every row."""
+    from vibupdate.physical import definiteness
+
     for name, A in (("mass", M), ("stiffness", K)):
         if A.ndim != 2 or A.shape[0] != A.shape[1]:
             raise ValueError(f"{what}: {name} matrix must be square, got shape {A.shape}")
@@ -172,8 +218,9 @@ def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
         err = symmetric_error(A)
         if err > 1e-9:
             raise ValueError(f"{what}: {name} matrix is not symmetric (relative asymmetry {err:.2e})")
-    if not _is_positive_definite(M):
-        raise ValueError(f"{what}: mass matrix is not positive definite")
+    problem = definiteness(M, K).problem
+    if problem:
+        raise ValueError(f"{what}: {problem}")
 
 
 def complex_step_jacobians(builder: Builder, parameters: Sequence[Parameter], dofs=None):

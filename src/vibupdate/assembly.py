@@ -83,20 +83,37 @@ class Assembly:
         self._coords: dict[object, tuple[float, float]] = {}
         self._dofs: list[str] = []
         self._index: dict[str, int] = {}
+        self._base: dict[object, int] = {}  # node label -> index of its first DOF
         self._fixed: set[str] = set()
         self._m: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._k: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        # Element batches: (DOF indices (n_e, n_d), properties..., geometry...), evaluated
+        # together in `system` by the batched element functions.
+        self._elements: list[tuple] = []
 
     # -- nodes and supports -------------------------------------------------------------
     def node(self, label, x: float, y: float = 0.0) -> None:
         """Add a node at (x, y), m. For a beam assembly only x is used."""
-        if label in self._coords:
-            raise ValueError(f"node {label!r} is defined twice")
-        self._coords[label] = (float(x), float(y))
-        for kind in self._dof_kinds:
-            name = f"{kind}{label}"
-            self._index[name] = len(self._dofs)
-            self._dofs.append(name)
+        self.nodes([label], [x], [y])
+
+    def nodes(self, labels: Sequence, x, y=None) -> None:
+        """Add many nodes at once: ``labels`` (length n_n) at coordinates ``x``, ``y`` (m)."""
+        labels = list(labels)
+        x = np.broadcast_to(np.asarray(x, dtype=float), (len(labels),)).tolist()
+        y = [0.0] * len(labels) if y is None else np.broadcast_to(np.asarray(y, dtype=float), (len(labels),)).tolist()
+        if len(set(labels)) != len(labels) or any(label in self._coords for label in labels):
+            seen = set(self._coords)
+            for label in labels:
+                if label in seen:
+                    raise ValueError(f"node {label!r} is defined twice")
+                seen.add(label)
+        kinds = self._dof_kinds
+        names = [f"{kind}{label}" for label in labels for kind in kinds]
+        start = len(self._dofs)
+        self._coords.update(zip(labels, zip(x, y)))
+        self._base.update(zip(labels, range(start, start + len(names), len(kinds))))
+        self._index.update(zip(names, range(start, start + len(names))))
+        self._dofs.extend(names)
 
     def _node_dofs(self, label) -> list[int]:
         if label not in self._coords:
@@ -128,32 +145,62 @@ class Assembly:
         cols = np.tile(idx, idx.size)
         target.append((rows, cols, np.asarray(block).ravel()))
 
+    def _element_dofs(self, first: Sequence, second: Sequence) -> np.ndarray:
+        """DOF indices (n_e, 2 * n_kinds) of the elements between ``first[i]`` and ``second[i]``."""
+        try:
+            b1 = np.array([self._base[a] for a in first], dtype=np.int64)
+            b2 = np.array([self._base[b] for b in second], dtype=np.int64)
+        except KeyError:
+            for label in list(first) + list(second):
+                self._node_dofs(label)
+            raise
+        offsets = np.arange(len(self._dof_kinds))
+        return np.concatenate([b1[:, None] + offsets, b2[:, None] + offsets], axis=1)
+
+    def _deltas(self, first: Sequence, second: Sequence) -> tuple[np.ndarray, np.ndarray]:
+        xy1 = np.array([self._coords[a] for a in first], dtype=float).reshape(-1, 2)
+        xy2 = np.array([self._coords[b] for b in second], dtype=float).reshape(-1, 2)
+        return xy2[:, 0] - xy1[:, 0], xy2[:, 1] - xy1[:, 1]
+
     def beam(self, n1, n2, *, EI, mass_per_length) -> None:
         """Euler-Bernoulli beam element between two nodes of a beam assembly.
 
         ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m; the length is the distance of
         the nodes along x.
         """
+        self.beams([n1], [n2], EI=EI, mass_per_length=mass_per_length)
+
+    def beams(self, first: Sequence, second: Sequence, *, EI, mass_per_length) -> None:
+        """Many beam elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
+
+        ``EI`` (N m^2) and ``mass_per_length`` (kg/m): scalars or arrays of shape (n_e,).
+        """
         if self.kind != "beam":
             raise ValueError("beam() needs a beam assembly; use frame() in a frame assembly")
-        i1, i2 = self._node_dofs(n1), self._node_dofs(n2)
-        length = abs(self._coords[n2][0] - self._coords[n1][0])
-        idx = i1 + i2
-        self._add(self._k, idx, elements.beam_stiffness(EI, length))
-        self._add(self._m, idx, elements.beam_mass(mass_per_length, length))
+        idx = self._element_dofs(first, second)
+        dx, _ = self._deltas(first, second)
+        n = idx.shape[0]
+        self._elements.append(("beam", idx, _values(EI, n), _values(mass_per_length, n), np.abs(dx)))
 
     def frame(self, n1, n2, *, EA, EI, mass_per_length) -> None:
         """Planar frame element (axial + bending) between two nodes of a frame assembly.
 
         ``EA`` in N, ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m.
         """
+        self.frames([n1], [n2], EA=EA, EI=EI, mass_per_length=mass_per_length)
+
+    def frames(self, first: Sequence, second: Sequence, *, EA, EI, mass_per_length) -> None:
+        """Many frame elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
+
+        ``EA`` (N), ``EI`` (N m^2) and ``mass_per_length`` (kg/m): scalars or arrays of shape
+        (n_e,), real or complex.
+        """
         if self.kind != "frame":
             raise ValueError("frame() needs a frame assembly; use beam() in a beam assembly")
-        i1, i2 = self._node_dofs(n1), self._node_dofs(n2)
-        (x1, y1), (x2, y2) = self._coords[n1], self._coords[n2]
-        idx = i1 + i2
-        self._add(self._k, idx, elements.frame_stiffness(EA, EI, x2 - x1, y2 - y1))
-        self._add(self._m, idx, elements.frame_mass(mass_per_length, x2 - x1, y2 - y1))
+        idx = self._element_dofs(first, second)
+        dx, dy = self._deltas(first, second)
+        n = idx.shape[0]
+        self._elements.append(("frame", idx, _values(EA, n), _values(EI, n), _values(mass_per_length, n), dx, dy))
 
     def mass(self, dof: str, value) -> None:
         """Lumped mass (kg) on a translational DOF or rotary inertia (kg m^2) on a rotation."""
@@ -168,6 +215,27 @@ class Assembly:
             self._add(self._k, idx, stiffness * np.array([[1.0, -1.0], [-1.0, 1.0]]))
 
     # -- result -------------------------------------------------------------------------
+    def _element_parts(self):
+        """Stiffness and mass COO triplets of all element batches, evaluated kind by kind."""
+        k_parts, m_parts = [], []
+        for kind in ("beam", "frame"):
+            batches = [b[1:] for b in self._elements if b[0] == kind]
+            if not batches:
+                continue
+            idx, *columns = (np.concatenate(col) for col in zip(*batches))
+            if kind == "beam":
+                EI, mpl, length = columns
+                k, m = elements.beam_matrices(EI, mpl, length)
+            else:
+                EA, EI, mpl, dx, dy = columns
+                k, m = elements.frame_matrices(EA, EI, mpl, dx, dy)
+            d = idx.shape[1]
+            rows = np.repeat(idx, d, axis=1).ravel()
+            cols = np.tile(idx, (1, d)).ravel()
+            k_parts.append((rows, cols, k.ravel()))
+            m_parts.append((rows, cols, m.ravel()))
+        return k_parts, m_parts
+
     def _matrix(self, parts) -> sp.csr_matrix:
         n = len(self._dofs)
         if not parts:
@@ -179,9 +247,18 @@ class Assembly:
 
     def system(self) -> System:
         """Sparse ``M``, ``K`` over the free DOFs (supports removed), with their names."""
-        free = [i for i, name in enumerate(self._dofs) if name not in self._fixed]
-        M = self._matrix(self._m)[free][:, free]
-        K = self._matrix(self._k)[free][:, free]
+        fixed = np.zeros(len(self._dofs), dtype=bool)
+        fixed[[self._index[name] for name in self._fixed]] = True
+        free = np.flatnonzero(~fixed)
+        k_parts, m_parts = self._element_parts()
+        M = self._matrix(m_parts + self._m)[free][:, free]
+        K = self._matrix(k_parts + self._k)[free][:, free]
         M.eliminate_zeros()
         K.eliminate_zeros()
-        return System(M.tocsr(), K.tocsr(), tuple(self._dofs[i] for i in free))
+        return System(M.tocsr(), K.tocsr(), tuple(np.array(self._dofs, dtype=object)[free]))
+
+
+def _values(value, n: int) -> np.ndarray:
+    """A property as an array of shape (n,), complex values kept (complex step)."""
+    a = np.asarray(value)
+    return np.broadcast_to(a.astype(np.result_type(a, float)), (n,)).copy()

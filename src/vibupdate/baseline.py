@@ -53,7 +53,9 @@ def frequency_fit(configurations: Sequence[Configuration]) -> FrequencyFit:
         return cache[key]
 
     start = time.perf_counter()
-    sol = least_squares(lambda x: evaluate(x)[0], np.clip(np.zeros(model.n_parameters), lo, hi),
+    span = hi - lo  # a start strictly inside the box (parameters with nominal 0 sit on a bound)
+    x0 = np.clip(np.zeros(model.n_parameters), lo + 1e-10 * span, hi - 1e-10 * span)
+    sol = least_squares(lambda x: evaluate(x)[0], x0,
                         jac=lambda x: evaluate(x)[1], bounds=(lo, hi), x_scale="jac", method="trf")
     seconds = time.perf_counter() - start
     r = polish_residuals(configurations, sol.x, shape_weight=0.0, jacobian=False)[0]

@@ -35,6 +35,8 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a case file (both stages) and write DIR")
     run.add_argument("case", help="case file (TOML), see docs/case-file.md")
     run.add_argument("--out", default=None, help="output folder (default: ./CASE-results)")
+    run.add_argument("--certify", type=float, default=None, metavar="SECONDS",
+                     help="also compute certified outer parameter ranges within this time budget")
     run.add_argument("--force", action="store_true",
                      help="write into a folder that holds other files (they are kept; only vibupdate's own "
                           "files are replaced)")
@@ -45,6 +47,7 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("--list", action="store_true", help="list the bundled examples")
     ex.add_argument("--out", default=None, help="output folder (default: ./NAME-results)")
     ex.add_argument("--force", action="store_true", help="as for run")
+    ex.add_argument("--certify", type=float, default=None, metavar="SECONDS", help="as for run")
     fx = sub.add_parser("extract", help="extract modes and antiresonances from measured FRFs (docs/frf-extraction.md)")
     fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58) or CSV/npz FRF files")
     fx.add_argument("--band", nargs=2, type=float, metavar=("F1", "F2"), help="frequency band, Hz")
@@ -61,6 +64,7 @@ def _parser() -> argparse.ArgumentParser:
     fx.add_argument("--first-mode", type=int, default=1, help="model mode number of the lowest extracted mode")
     fx.add_argument("--confidence", type=float, default=0.95, help="level of the intervals (default 0.95)")
     fx.add_argument("--no-plot", action="store_true", help="do not write fit.png")
+    fx.add_argument("--force", action="store_true", help="as for run")
     sweep = sub.add_parser("sweep", help="update many data sets drawn inside the measured intervals (Dask)")
     sweep.add_argument("case", help="case file (TOML)")
     sweep.add_argument("--samples", type=int, required=True, help="number of data sets to draw")
@@ -134,10 +138,11 @@ def _batch(args) -> int:
 
 
 def _print_tables(document: dict) -> None:
-    from vibupdate.report import damping_table_text, frequency_table_text, parameter_table_text, summary_text
+    from vibupdate.report import (certified_table_text, damping_table_text, frequency_table_text,
+                                  parameter_table_text, summary_text)
 
-    for text in (frequency_table_text(document), parameter_table_text(document), damping_table_text(document),
-                 summary_text(document)):
+    for text in (frequency_table_text(document), parameter_table_text(document), certified_table_text(document),
+                 damping_table_text(document), summary_text(document)):
         if text:
             print()
             print(text)
@@ -182,22 +187,26 @@ def _command(args) -> int:
             print("\n".join(example_names()))
             return EXIT["success"]
         return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
-                                   force=args.force))
+                                   force=args.force, certify=args.certify))
     case = _load(args.case)
     if args.command == "check":
-        size = check_case(case)
+        checked = check_case(case)
         print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
-        print("problem size: " + ", ".join(f"{k} {v}" for k, v in size.items()))
+        for note in checked.notes:
+            print(f"model {note}")
+        for warning in checked.warnings:
+            print(f"warning: {warning}")
+        print("problem size: " + ", ".join(f"{k} {v}" for k, v in checked.sizes.items()))
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
-    return _finish(run_case(case, out, progress=print, force=args.force))
+    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify))
 
 
 def _extract(args) -> int:
     import math
 
     from vibupdate.extraction import extract
-    from vibupdate.extraction_io import configuration_block, write_extraction
+    from vibupdate.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.frf import read_frfs
 
     mapping = {}
@@ -208,8 +217,10 @@ def _extract(args) -> int:
         mapping[key.strip()] = value.strip()
     frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
+    check_extraction_folder(args.out, args.force)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence)
-    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot)
+    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
+                             force=args.force)
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
           f"intervals at {100 * args.confidence:g} %")
     for k, m in enumerate(result.modes):

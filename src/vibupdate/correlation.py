@@ -53,6 +53,17 @@ def percent_error(model, measured) -> np.ndarray:
     return 100.0 * np.abs(model - measured) / np.abs(measured)
 
 
+def zeros_wanted(cfg: Configuration, rc) -> int | None:
+    """How many of the lowest zeros of ``h_rc`` a large model must give (one above the highest
+    declared); None (all) for models on the dense path."""
+    from vibupdate.analysis import DENSE_LIMIT
+
+    if cfg.model.n_dofs <= DENSE_LIMIT:
+        return None
+    top = max(a.index for a in cfg.antiresonances if a.receptance == rc)
+    return min(top + 1, cfg.model.n_dofs - 1)
+
+
 def model_frequencies(cfg: Configuration, xbar=None) -> ModelFrequencies:
     """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data by the
     declared modes and zero indices."""
@@ -64,7 +75,8 @@ def model_frequencies(cfg: Configuration, xbar=None) -> ModelFrequencies:
     zeros = np.full(len(cfg.antiresonances), np.nan)
     zeros_all = {}
     for rc in cfg.receptances():
-        model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]))
+        model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
+                                 n_zeros=zeros_wanted(cfg, rc))
         zeros_all[rc] = model_z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= model_z.size:
@@ -87,7 +99,7 @@ def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:
 
 def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[ModelFrequencies],
                    updated: Sequence[ModelFrequencies] | None = None) -> list[dict]:
-    """Rows of the ``frequencies`` table of ``results.json`` (DESIGN.md), Hz at the edge."""
+    """Rows of the ``frequencies`` table of ``results.json`` (docs/outputs.md), Hz at the edge."""
     rows = []
     for i, cfg in enumerate(configurations):
         groups = (("natural", [f.omega for f in cfg.natural], "natural"),
@@ -134,7 +146,8 @@ def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | Non
     rows = [frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None]]
     zero_rows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
     for rc in cfg.receptances():
-        z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]))
+        z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
+                                         n_zeros=zeros_wanted(cfg, rc))
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= z.size:
                 zero_rows[i] = D[a.index - 1] / z[a.index - 1]

@@ -26,7 +26,8 @@ import scipy.linalg as sla
 
 from vibupdate.analysis import modes
 
-__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "modal_damping", "DampingWarning"]
+__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "modal_damping", "DampingWarning", "negative_bands",
+           "damping_sanity"]
 
 
 class DampingWarning(UserWarning):
@@ -203,13 +204,116 @@ def caughey_matrix(M, K, exponents, beta) -> np.ndarray:
     return 0.5 * (C + C.T)
 
 
+def negative_bands(exponents, beta, top: float, *, n_grid: int = 4000) -> list[tuple[float, float]]:
+    """Bands of ``(0, top]`` where the modal damping of a Caughey series is negative.
+
+    ``xi(w)`` has the sign of ``g(w) = sum_h beta_h w^(2h)`` for ``w > 0``. Its sign changes
+    are bracketed on a grid (uniform and geometric, down to ``1e-6 top``) and refined by
+    Brent's method; near 0 the sign is that of the term with the lowest exponent.
+
+    Parameters
+    ----------
+    exponents, beta : array_like, shape (n_h,)
+    top : float
+        Upper end of the band, rad/s.
+
+    Returns
+    -------
+    list of (float, float)
+        ``(low, high)`` in rad/s; ``low = 0`` when the damping is negative down to 0.
+    """
+    from scipy.optimize import brentq
+
+    Y = np.asarray(exponents, dtype=float)
+    b = np.asarray(beta, dtype=float)
+    scale = top
+
+    def g(w):
+        return float(np.sum(b * (np.asarray(w) / scale) ** (2.0 * Y) * scale ** (2.0 * Y)))
+
+    grid = np.unique(np.concatenate([np.linspace(top / n_grid, top, n_grid), np.geomspace(1e-6 * top, top, n_grid)]))
+    values = np.array([g(w) for w in grid])
+    nonzero = b != 0
+    low_sign = np.sign(b[nonzero][np.argmin(Y[nonzero])]) if nonzero.any() else 0.0
+    bands, start = [], (0.0 if low_sign < 0 else None)
+    if start is None and values[0] < 0:
+        start = float(grid[0])
+    for k in range(1, grid.size):
+        if (values[k - 1] < 0) != (values[k] < 0):
+            root = brentq(g, grid[k - 1], grid[k], xtol=1e-12 * top) if values[k - 1] * values[k] < 0 else grid[k]
+            if values[k] < 0:
+                start = float(root)
+            else:
+                bands.append((start, float(root)))
+                start = None
+    if start is not None:
+        bands.append((start, float(top)))
+    return bands
+
+
+def _hz_band(low: float, high: float) -> str:
+    return f"{low / (2 * np.pi):.4g}-{high / (2 * np.pi):.4g} Hz"
+
+
+def damping_sanity(fit: DampingFit, configurations, xbar, name: str) -> tuple[str, ...]:
+    """Warnings when a fitted series gives negative damping.
+
+    Checks the modal damping over ``[0, 1.5 x the highest measured natural frequency]``, and
+    the damping matrix of each configuration: ``C = (M Phi) diag(d) (M Phi)^T`` with
+    ``d_k = sum_h beta_h w_k^(2h)`` over every mode of the updated model, so by Sylvester's law
+    of inertia ``C`` has as many negative eigenvalues as there are negative ``d_k``.
+
+    Parameters
+    ----------
+    fit : DampingFit
+    configurations : sequence of Configuration
+    xbar : ndarray, shape (n_x,) or None
+        Updated normalized parameters (nominal if None).
+    name : str
+        What the fit is, for the messages (``"Caughey fit"``).
+
+    Returns
+    -------
+    tuple of str
+    """
+    measured = [f.omega for c in configurations for f in c.natural]
+    top = 1.5 * max(measured)
+    out = []
+    bands = negative_bands(fit.exponents, fit.beta, top)
+    if bands:
+        shown = ", ".join(_hz_band(lo, hi) for lo, hi in bands)
+        out.append(f"{name}: negative modal damping at {shown} (checked over 0-{top / (2 * np.pi):.4g} Hz, "
+                   "1.5 x the highest measured frequency); the damping model is not physical there")
+    per_config, highest = [], top
+    for cfg in configurations:
+        M, K = cfg.model.matrices(xbar)
+        omega, _ = modes(M, K)
+        highest = max(highest, float(omega[-1]))
+        positive = omega > 0
+        d = np.zeros_like(omega)
+        d[positive] = (omega[positive, None] ** (2.0 * fit.exponents[None, :])) @ fit.beta
+        bad = np.flatnonzero(d < 0)
+        if bad.size:
+            per_config.append(f"{cfg.name} ({bad.size}: modes {bad[0] + 1}-{bad[-1] + 1}, "
+                              f"{_hz_band(omega[bad[0]], omega[bad[-1]])})")
+    if per_config:
+        beyond = [b for b in negative_bands(fit.exponents, fit.beta, highest) if b[1] > top]
+        where = ", ".join(_hz_band(max(lo, 0.0), hi) for lo, hi in beyond)
+        out.append(f"{name}: C has negative eigenvalues (modes of the updated model with negative damping) in "
+                   f"configuration {'; '.join(per_config)}"
+                   + (f"; the modal damping is negative at {where}" if where else ""))
+    return tuple(out)
+
+
 @dataclass(frozen=True)
 class DampingStage:
     """The second stage over several configurations: the Caughey fit and the Rayleigh
-    baseline (``Y = [0, 1]``), both on the updated model's natural frequencies."""
+    baseline (``Y = [0, 1]``), both on the updated model's natural frequencies, and the
+    warnings of `damping_sanity` for both."""
 
     caughey: DampingFit
     rayleigh: DampingFit
+    warnings: tuple[str, ...] = ()
 
     def rows(self) -> list[dict]:
         """``damping`` rows of ``results.json``, plus the Rayleigh value of each ratio."""
@@ -269,4 +373,6 @@ def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DampingWarning)
         rayleigh = fit_caughey(omega, ratios, [0.0, 1.0], None, labels)
-    return DampingStage(caughey, rayleigh)
+    checks = (damping_sanity(caughey, configurations, xbar, f"Caughey fit (Y = {caughey.exponents.tolist()})")
+              + damping_sanity(rayleigh, configurations, xbar, "Rayleigh baseline"))
+    return DampingStage(caughey, rayleigh, checks)

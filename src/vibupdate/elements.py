@@ -13,12 +13,57 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["beam_stiffness", "beam_mass", "frame_stiffness", "frame_mass"]
+__all__ = ["beam_stiffness", "beam_mass", "frame_stiffness", "frame_mass", "beam_matrices", "frame_matrices"]
+
+# Beam element matrices as polynomials in the length L: k = EI / L^3 (K0 + L K1 + L^2 K2) and
+# m = rho A L / 420 (M0 + L M1 + L^2 M2), DOFs [v1, theta1, v2, theta2].
+_K0 = np.array([[12.0, 0, -12, 0], [0, 0, 0, 0], [-12, 0, 12, 0], [0, 0, 0, 0]])
+_K1 = 6.0 * np.array([[0.0, 1, 0, 1], [1, 0, -1, 0], [0, -1, 0, -1], [1, 0, -1, 0]])
+_K2 = np.array([[0.0, 0, 0, 0], [0, 4, 0, 2], [0, 0, 0, 0], [0, 2, 0, 4]])
+_M0 = np.array([[156.0, 0, 54, 0], [0, 0, 0, 0], [54, 0, 156, 0], [0, 0, 0, 0]])
+_M1 = np.array([[0.0, 22, 0, -13], [22, 0, 13, 0], [0, 13, 0, -22], [-13, 0, -22, 0]])
+_M2 = np.array([[0.0, 0, 0, 0], [0, 4, 0, -3], [0, 0, 0, 0], [0, -3, 0, 4]])
+_AXIAL_K = np.array([[1.0, -1.0], [-1.0, 1.0]])
+_AXIAL_M = np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0
 
 
 def _check_length(length):
-    if not np.isfinite(length) or length <= 0:
-        raise ValueError(f"element length must be positive and finite, got {length!r}")
+    bad = ~(np.isfinite(length) & (np.asarray(length) > 0))
+    if np.any(bad):
+        first = np.asarray(length).ravel()[np.flatnonzero(np.ravel(bad))[0]]
+        raise ValueError(f"element length must be positive and finite, got {first!r}")
+
+
+def _column(values, n: int) -> np.ndarray:
+    """Values as an array of shape (n, 1, 1), complex kept, for broadcasting over elements."""
+    a = np.asarray(values)
+    return np.broadcast_to(a.astype(np.result_type(a, float)), (n,))[:, None, None]
+
+
+def beam_matrices(EI, mass_per_length, length):
+    """Stiffness and consistent mass of many beam elements at once, DOFs ``[v1, theta1, v2, theta2]``.
+
+    Parameters
+    ----------
+    EI : array_like of float or complex, shape (n_e,) or scalar
+        Bending stiffness, N m^2.
+    mass_per_length : array_like of float or complex, shape (n_e,) or scalar
+        rho * A, kg/m.
+    length : array_like of float, shape (n_e,)
+        Element lengths, m.
+
+    Returns
+    -------
+    k, m : ndarray, shape (n_e, 4, 4)
+        Stiffness (N/m, N, N m) and mass (kg, kg m, kg m^2) matrices.
+    """
+    L = np.atleast_1d(np.asarray(length, dtype=float))
+    _check_length(L)
+    n = L.size
+    Lc = L[:, None, None]
+    k = _column(EI, n) / Lc**3 * (_K0 + Lc * _K1 + Lc**2 * _K2)
+    m = _column(mass_per_length, n) * Lc / 420.0 * (_M0 + Lc * _M1 + Lc**2 * _M2)
+    return k, m
 
 
 def beam_stiffness(EI, length):
@@ -36,17 +81,7 @@ def beam_stiffness(EI, length):
     ndarray, shape (4, 4)
         Stiffness matrix in N/m, N, N m (translations in m, rotations in rad).
     """
-    _check_length(length)
-    L = length
-    k = np.array(
-        [
-            [12.0, 6 * L, -12.0, 6 * L],
-            [6 * L, 4 * L**2, -6 * L, 2 * L**2],
-            [-12.0, -6 * L, 12.0, -6 * L],
-            [6 * L, 2 * L**2, -6 * L, 4 * L**2],
-        ]
-    )
-    return (EI / L**3) * k
+    return beam_matrices(EI, 0.0, length)[0][0]
 
 
 def beam_mass(mass_per_length, length):
@@ -64,17 +99,7 @@ def beam_mass(mass_per_length, length):
     ndarray, shape (4, 4)
         Mass matrix in kg, kg m, kg m^2.
     """
-    _check_length(length)
-    L = length
-    m = np.array(
-        [
-            [156.0, 22 * L, 54.0, -13 * L],
-            [22 * L, 4 * L**2, 13 * L, -3 * L**2],
-            [54.0, 13 * L, 156.0, -22 * L],
-            [-13 * L, -3 * L**2, -22 * L, 4 * L**2],
-        ]
-    )
-    return (mass_per_length * L / 420.0) * m
+    return beam_matrices(0.0, mass_per_length, length)[1][0]
 
 
 # Positions of the bending and axial DOFs inside the frame DOF order [u1, v1, th1, u2, v2, th2].
@@ -82,27 +107,51 @@ _BENDING = np.array([1, 2, 4, 5])
 _AXIAL = np.array([0, 3])
 
 
-def _rotation(dx, dy):
-    """Local-to-global transformation T (6 x 6) for an element along (dx, dy)."""
-    L = float(np.hypot(dx, dy))
+def frame_matrices(EA, EI, mass_per_length, dx, dy):
+    """Stiffness and consistent mass of many planar frame elements in global axes.
+
+    DOFs ``[x1, y1, phi1, x2, y2, phi2]``: linear axial and Hermite cubic bending shape
+    functions in local axes, rotated by ``T = diag(R, R)``, ``R = [[c, s, 0], [-s, c, 0],
+    [0, 0, 1]]``.
+
+    Parameters
+    ----------
+    EA : array_like of float or complex, shape (n_e,) or scalar
+        Axial stiffness, N.
+    EI : array_like of float or complex, shape (n_e,) or scalar
+        Bending stiffness, N m^2.
+    mass_per_length : array_like of float or complex, shape (n_e,) or scalar
+        rho * A, kg/m.
+    dx, dy : array_like of float, shape (n_e,)
+        Components of the vectors from node 1 to node 2, m.
+
+    Returns
+    -------
+    k, m : ndarray, shape (n_e, 6, 6)
+    """
+    dx = np.atleast_1d(np.asarray(dx, dtype=float))
+    dy = np.atleast_1d(np.asarray(dy, dtype=float))
+    L = np.hypot(dx, dy)
     _check_length(L)
+    n = L.size
+    kb, mb = beam_matrices(EI, mass_per_length, L)
+    Lc = L[:, None, None]
+    ka = _column(EA, n) / Lc * _AXIAL_K
+    ma = _column(mass_per_length, n) * Lc * _AXIAL_M
     c, s = dx / L, dy / L
-    r = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    T = np.zeros((6, 6))
-    T[:3, :3] = r
-    T[3:, 3:] = r
-    return T, L
-
-
-def _to_global(axial, bending, dx, dy):
-    """Frame element matrix in global axes from its axial (2 x 2) and bending (4 x 4) parts,
-    each a function of the element length."""
-    T, L = _rotation(dx, dy)
-    a, b = axial(L), bending(L)
-    local = np.zeros((6, 6), dtype=np.result_type(a, b, float))
-    local[np.ix_(_AXIAL, _AXIAL)] = a
-    local[np.ix_(_BENDING, _BENDING)] = b
-    return T.T @ local @ T
+    T = np.zeros((n, 6, 6))
+    for off in (0, 3):
+        T[:, off, off] = T[:, off + 1, off + 1] = c
+        T[:, off, off + 1] = s
+        T[:, off + 1, off] = -s
+        T[:, off + 2, off + 2] = 1.0
+    out = []
+    for axial, bending in ((ka, kb), (ma, mb)):
+        local = np.zeros((n, 6, 6), dtype=np.result_type(axial, bending))
+        local[:, _AXIAL[:, None], _AXIAL] = axial
+        local[:, _BENDING[:, None], _BENDING] = bending
+        out.append(np.swapaxes(T, 1, 2) @ local @ T)
+    return out[0], out[1]
 
 
 def frame_stiffness(EA, EI, dx, dy):
@@ -121,8 +170,7 @@ def frame_stiffness(EA, EI, dx, dy):
     -------
     ndarray, shape (6, 6)
     """
-    return _to_global(lambda L: (EA / L) * np.array([[1.0, -1.0], [-1.0, 1.0]]),
-                      lambda L: beam_stiffness(EI, L), dx, dy)
+    return frame_matrices(EA, EI, 0.0, dx, dy)[0][0]
 
 
 def frame_mass(mass_per_length, dx, dy):
@@ -139,5 +187,4 @@ def frame_mass(mass_per_length, dx, dy):
     -------
     ndarray, shape (6, 6)
     """
-    return _to_global(lambda L: (mass_per_length * L / 6.0) * np.array([[2.0, 1.0], [1.0, 2.0]]),
-                      lambda L: beam_mass(mass_per_length, L), dx, dy)
+    return frame_matrices(0.0, 0.0, mass_per_length, dx, dy)[1][0]

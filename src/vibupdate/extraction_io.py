@@ -10,6 +10,11 @@ file read (``docs/case-file.md``):
 * ``damping.csv``: ``mode,hz,damping_ratio,lower,upper``;
 * ``configuration.toml``: a ``[[configuration]]`` block naming the two CSV files, to paste
   into a case file.
+
+The folder is written as a run's results folder is (`vibupdate.outputs`): checked first, the
+files written beside it and moved into place, listed in the folder's manifest; files that
+vibupdate did not write are never replaced, and a folder holding any is refused unless
+``force``.
 """
 
 from __future__ import annotations
@@ -24,9 +29,25 @@ import numpy as np
 from vibupdate.extraction import Extraction
 from vibupdate.frf import FRFSet
 
-__all__ = ["extraction_document", "write_extraction", "plot_extraction", "configuration_block"]
+__all__ = ["extraction_document", "write_extraction", "plot_extraction", "configuration_block",
+           "EXTRACTION_FILES", "check_extraction_folder"]
 
 TWO_PI = 2.0 * math.pi
+
+#: The files `write_extraction` writes (``fit.png`` only with the plot).
+EXTRACTION_FILES = ("extraction.json", "frequencies.csv", "shapes.csv", "damping.csv", "configuration.toml",
+                    "fit.png")
+
+
+def check_extraction_folder(out_dir, force: bool = False):
+    """Check the output folder before extracting (`vibupdate.outputs.prepare_output`).
+
+    Raises ValueError naming the folder when it is not a writable folder, or holds files
+    vibupdate did not write and ``force`` is false, or a file it would overwrite is not its own.
+    """
+    from vibupdate.outputs import prepare_output
+
+    return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES)
 
 
 def _hz(pair) -> list[float]:
@@ -71,10 +92,29 @@ def _write_csv(path: Path, header, rows) -> None:
 
 
 def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int = 1, name: str = "measured",
-                     plot: bool = True) -> dict:
-    """Write every output file into ``out_dir``; returns ``{kind: path}``."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+                     plot: bool = True, force: bool = False) -> dict:
+    """Write every output file into the folder ``out_dir``; returns ``{kind: path}``.
+
+    Through the manifest-protected path of `vibupdate.outputs` (module docstring): raises
+    ValueError, writing nothing, when the folder holds files vibupdate did not write and
+    ``force`` is false, or when one of them would be overwritten.
+    """
+    import shutil
+
+    from vibupdate import __version__
+    from vibupdate.outputs import publish, staging_folder
+
+    target = check_extraction_folder(out_dir, force)
+    staged = staging_folder(target)
+    try:
+        paths = _write_files(result, frfs, staged, first_mode, name, plot)
+        publish(staged, target, case="extraction", version=__version__)
+    finally:
+        shutil.rmtree(staged, ignore_errors=True)
+    return {kind: target.path / path.name for kind, path in paths.items()}
+
+
+def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, name: str, plot: bool) -> dict:
     paths = {"json": out / "extraction.json", "frequencies": out / "frequencies.csv",
              "shapes": out / "shapes.csv", "damping": out / "damping.csv", "configuration": out / "configuration.toml"}
     paths["json"].write_text(json.dumps(extraction_document(result, first_mode), indent=2), encoding="utf-8")

@@ -15,7 +15,7 @@ where the products ``xbar_i u_j`` are listed only for the columns ``j`` on which
 of parameter ``i`` is non-zero and only for free entries (a product with a fixed entry is
 linear and sits in ``A_x``). Those products are what the relaxation lifts (Section 3.3).
 
-Choices the paper leaves open (DESIGN.md, "The first stage, precisely"):
+Choices the paper leaves open (docs/method.md, section 4):
 
 * normalization against ``u = 0``: one entry of each vector is fixed (item 1, 2);
 * rotational entries are scaled by a characteristic length ``S`` (item 3) and residual rows
@@ -62,7 +62,7 @@ class FormulationOptions:
     rotation_prefixes : tuple of str
         DOF-name prefixes that mark rotations.
     weighting : {"relative", "unit"}
-        ``"relative"``: DESIGN item 4; ``"unit"``: alpha = 1 (paper test case 1).
+        ``"relative"``: relative eigenvalue error (docs/method.md, "Default weights"); ``"unit"``: alpha = 1 (paper test case 1).
     interlacing : bool
         Apply the sign bounds derived from the pole/zero pattern (Eq. 11).
     reduction : {"auto", "none", "craig-bampton"}

@@ -2,10 +2,10 @@
 
 1. ``lam = 0``: the convex McCormick relaxation, solved cold from the nominal point. Its
    optimum is a lower bound of the global minimum of the original problem over the same
-   boxes (DESIGN item 7), reported as ``relaxation_lower_bound``.
+   boxes (docs/method.md, section 5), reported as ``relaxation_lower_bound``.
 2. ``lam`` grows on a schedule of ``n_lambda`` steps. Each step starts warm from the previous
    point and multipliers; a small proximal term ``rho ||z - z_prev||^2`` on the parameters
-   and vectors regularizes the degenerate intermediate problems (DESIGN item 6). A failed
+   and vectors regularizes the degenerate intermediate problems (docs/method.md, section 6). A failed
    step is retried cold, then halved, down to ``min_step``.
 3. The last step is ``lam = 1`` without the proximal term: the original problem.
 

@@ -11,8 +11,10 @@ the *consistent set* is the set of ``xbar`` within the bounds such that
   ``|d_s(xbar_hat) + G_s dx - d_s,measured| <= h_s`` (the interval half-width, or the answer's
   own distance from the midpoint if larger, so that the answer is inside);
 * every frequency moves from the answer's by no more than the measurement tolerance plus the
-  answer's own misfit, ``|G_f dx| <= frequency_tolerance * w + |w(xbar_hat) - w_measured|``;
-  the true frequencies differ from the answer's by at most that much.
+  answer's own misfit, ``|G_f dx| <= h_f + |w(xbar_hat) - w_measured|``, with ``h_f`` the
+  half-width of the frequency's measured ``interval`` where it has one (e.g. extracted from
+  FRFs) and ``frequency_tolerance * w`` otherwise; the true frequencies differ from the
+  answer's by at most that much.
 
 The range of each parameter over that set (two linear programs) is what the data and the
 bounds together determine: the truth and the answer both lie in it, to first order. A
@@ -29,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from vibupdate.correlation import model_frequencies
+from vibupdate.correlation import zeros_wanted, model_frequencies
 from vibupdate.measured import Configuration
 
 __all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian"]
@@ -91,7 +93,8 @@ def _data(configurations, xbar, refs, jacobian: bool = False):
             jac.append(frequency_derivatives(model, f.natural, f.Phi))
             zrows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
             for rc in cfg.receptances():
-                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]))
+                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
+                                         n_zeros=zeros_wanted(cfg, rc))
                 for i, a in enumerate(cfg.antiresonances):
                     if a.receptance == rc and a.index <= z.size:
                         zrows[i] = D[a.index - 1]
@@ -113,9 +116,11 @@ def _measured(configurations, refs, frequency_tolerance):
     """Measured data, their half-widths, and a mask of the frequency rows."""
     values, half, is_freq = [], [], []
     for cfg, cfg_refs in zip(configurations, refs):
-        w = np.array([f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances])
+        data = list(cfg.natural) + list(cfg.antiresonances)
+        w = np.array([d.omega for d in data])
         values.append(w)
-        half.append(frequency_tolerance * w)
+        half.append(np.array([frequency_tolerance * d.omega if d.interval is None
+                              else 0.5 * (d.interval[1] - d.interval[0]) for d in data]))
         is_freq.append(np.ones(w.size, dtype=bool))
         for f, ref in zip(cfg.natural, cfg_refs):
             if ref is None:
@@ -146,8 +151,12 @@ def data_jacobian(configurations: Sequence[Configuration], xbar):
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
-                     frequency_tolerance: float = 0.0) -> ParameterRanges:
+                     frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0):
     """Consistent range of every parameter around the answer ``xbar`` (module docstring).
+
+    ``method="certified"`` returns instead the certified outer ranges over the consistent
+    set of `vibupdate.consistent` (`vibupdate.certify.certified_ranges`, a `CertifiedRanges`),
+    refined for at most ``seconds``.
 
     Parameters
     ----------
@@ -155,9 +164,19 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     xbar : ndarray, shape (n_x,)
         The answer (normalized parameters).
     frequency_tolerance : float
-        Relative half-width of the frequency intervals (e.g. 3 sigma of the measurement error);
-        the answer's own misfit is the floor.
+        Relative half-width of the frequency window of every measured frequency without an
+        ``interval`` (e.g. 3 sigma of the measurement error); a frequency with an interval uses
+        the interval's half-width instead. The answer's own misfit is added to either.
+    method : {"linearized", "certified"}
+    seconds : float
+        Time budget of the certified method's bound tightening.
     """
+    if method == "certified":
+        from vibupdate.certify import certified_ranges
+
+        return certified_ranges(configurations, xbar, frequency_tolerance=frequency_tolerance, seconds=seconds)
+    if method != "linearized":
+        raise ValueError(f"method must be 'linearized' or 'certified', got {method!r}")
     configurations = list(configurations)
     model = configurations[0].model
     refs = [_reference_entries(c) for c in configurations]

@@ -110,7 +110,7 @@ class NaturalFrequency:
     omega : float
         rad/s.
     weight : float
-        User weight multiplying the default weight of its residual (DESIGN item 4).
+        User weight multiplying the default weight of its residual (docs/method.md, "Default weights").
     shape : ShapeInterval, optional
         Interval of the mode shape (Problem 1).
     damping_ratio : float, optional
@@ -206,7 +206,7 @@ class Antiresonance:
 class Configuration:
     """One configuration of the structure: its model and the data measured on it.
 
-    All configurations of an updating problem share the parameter vector (DESIGN item 8).
+    All configurations of an updating problem share the parameter vector.
 
     Attributes
     ----------

@@ -9,6 +9,8 @@ over these functions.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import importlib
 import shutil
 import warnings
@@ -24,7 +26,8 @@ from vibupdate.damping import DampingStage, DampingWarning, damping_data, identi
 from vibupdate.examples import EXAMPLES
 from vibupdate.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
 from vibupdate.results import RunResult, run_result, write_results
-from vibupdate.update import UpdateResult, prepare, update
+from vibupdate.update import UpdateResult, update
+from vibupdate.validation import CaseCheck, validate_case
 
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
            "planned_files"]
@@ -45,9 +48,10 @@ def example_module(name: str):
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")
 
 
-def check_case(case: Case) -> dict:
-    """Validate a case and build its problem without solving; returns the problem size."""
-    return prepare(case.configurations, case.formulation).sizes()
+def check_case(case: Case) -> CaseCheck:
+    """Validate a case exactly as `run_case` does before solving (`vibupdate.validation`);
+    returns the problem size, notes and warnings. Raises ValueError naming file and key."""
+    return validate_case(case)
 
 
 def _identifiability(result: UpdateResult) -> dict:
@@ -67,17 +71,27 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     _, ratios, labels = damping_data(case.configurations, xbar)
     factors = dict(options.mode_weights)
     weights = np.array([factors.get(mode, 1.0) for _, mode in labels])
-    if options.relative:
+    half = _damping_half_widths(case, labels)
+    from_intervals = half is not None
+    if from_intervals:
+        weights = weights / half**2
+    elif options.relative:
         weights = weights / ratios**2
     notes = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DampingWarning)
         stage = identify_damping(case.configurations, xbar, options.exponents, weights)
     notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
+    notes += list(stage.warnings)
     for n in notes:
         say(f"warning: {n}")
-    text = ("W_ii = " + ("w_mode / xi_i^2 (relative errors)" if options.relative else "w_mode")
-            + (f" with w_mode = {factors}" if factors else " with w_mode = 1"))
+    if from_intervals:
+        text = ("W_ii = w_mode / h_i^2, h_i the half-width of the measured ratio's interval ("
+                + ", ".join(f"mode {mode}: {h:.3g}" for (_, mode), h in zip(labels, half)) + ")"
+                + ("; the case's relative = true is superseded by the intervals" if options.relative else ""))
+    else:
+        text = "W_ii = " + ("w_mode / xi_i^2 (relative errors)" if options.relative else "w_mode")
+    text += f" with w_mode = {factors}" if factors else " with w_mode = 1"
     if options.rationale:
         text += f". {options.rationale}"
     info = {"exponents": list(options.exponents), "beta": stage.caughey.beta.tolist(),
@@ -88,6 +102,30 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     return stage, notes, info
 
 
+def _damping_half_widths(case: Case, labels) -> np.ndarray | None:
+    """Half-widths of the measured damping-ratio intervals, one per ratio in the order of
+    ``labels`` ((configuration, mode) pairs of `damping_data`); None unless every ratio has an
+    interval of positive width (then the damping fit weighs each ratio by ``1 / h^2``)."""
+    by_name = {c.name: c for c in case.configurations}
+    half = []
+    for name, k in labels:
+        pair = by_name[name].natural[k - 1].damping_interval
+        if pair is None or not pair[1] > pair[0]:
+            return None
+        half.append(0.5 * (pair[1] - pair[0]))
+    return np.array(half)
+
+
+def _frequency_windows(case: Case) -> str:
+    """How the consistent ranges bound each frequency: the text of the report."""
+    data = [d for c in case.configurations for d in (*c.natural, *c.antiresonances)]
+    n = sum(d.interval is not None for d in data)
+    if n == 0:
+        return f"{100 * case.frequency_tolerance:.2g} % of each frequency"
+    text = f"the half-width of its measured interval ({n} of {len(data)} frequencies)"
+    return text if n == len(data) else text + f", {100 * case.frequency_tolerance:.2g} % for the others"
+
+
 def planned_files(case: Case) -> list[str]:
     """Names of the files a run of ``case`` writes (before knowing which plots apply: the MAC
     plots only where shapes were measured, ``C`` only with damping ratios)."""
@@ -95,6 +133,23 @@ def planned_files(case: Case) -> list[str]:
     for part in file_names([c.name for c in case.configurations]).values():
         names += [f"M_{part}.mtx", f"K_{part}.mtx", f"C_{part}.mtx", f"frf_{part}.png", f"mac_{part}.png"]
     return names
+
+
+def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> tuple[str, str]:
+    """``frf_NAME.png`` of a configuration whose data came from FRF files: the measured
+    receptances over the nominal and updated model receptances; returns the report's caption
+    and the file name."""
+    from vibupdate.plots import plot_measured_frf
+
+    damped = "with the identified Caughey damping" if updated[2] is not None else "undamped"
+    nominal_damping = "identified damping applied" if nominal[2] is not None else "undamped"
+    title = f"configuration {cfg.name}: measured and model receptances (m/N)"
+    plot_measured_frf(path, frfs, cfg.model.dofs, nominal, updated, title,
+                      f"nominal model ({nominal_damping})", f"updated model ({damped})")
+    caption = (f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
+               f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model ({nominal_damping}) "
+               f"and the updated model ({damped})")
+    return caption, path.name
 
 
 def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
@@ -114,13 +169,16 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
             if name in matrices:
                 scipy.io.mmwrite(str(folder / f"{name}_{part}.mtx"), sp.coo_matrix(matrices[name]),
                                  comment=f"vibupdate: updated {name} of configuration {part} (SI units)")
-        response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
-        label = f"h_{response},{excitation}"
         file = f"frf_{part}.png"
         updated = (matrices["M"], matrices["K"], matrices.get("C"))
-        plot_frf(folder / file, cfg, matrices["nominal"], updated, cfg.model.dof(response),
-                 cfg.model.dof(excitation), label)
-        images.append((f"FRF {label}, configuration {cfg.name}", file))
+        if cfg.name in case.frfs:
+            images.append(_measured_frf_plot(folder / file, cfg, case.frfs[cfg.name], matrices["nominal"], updated))
+        else:
+            response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
+            label = f"h_{response},{excitation}"
+            plot_frf(folder / file, cfg, matrices["nominal"], updated, cfg.model.dof(response),
+                     cfg.model.dof(excitation), label)
+            images.append((f"FRF {label}, configuration {cfg.name}", file))
         mac = run.mac_matrix.get(cfg.name)
         if mac is not None:
             file = f"mac_{part}.png"
@@ -136,8 +194,11 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
 
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
-             paper: dict | None = None, force: bool = False) -> RunResult:
+             paper: dict | None = None, force: bool = False, certify: float | None = None) -> RunResult:
     """Both stages on a case; writes the results folder and returns the results object.
+
+    ``certify``: time budget in seconds of the certified outer parameter ranges
+    (`vibupdate.certify`, in ``identifiability.certified``); None skips them.
 
     The folder is checked before solving (`vibupdate.outputs.prepare_output`: writable, no
     file vibupdate did not write unless ``force``); the files are written beside it and moved
@@ -147,15 +208,20 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     from vibupdate import __version__
 
     say = progress or (lambda message: None)
+    if certify is not None and not certify >= 0:
+        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
+    checked = validate_case(case)       # what check validates, before anything is touched
+    for w in checked.warnings:
+        say(f"warning: {w}")
     target = prepare_output(out_dir, force=force, planned=planned_files(case))
-    from vibupdate.verify import VerifyOptions
-
-    verification = (VerifyOptions(frequency_tolerance=case.frequency_tolerance) if case.frequency_tolerance > 0
-                    else VerifyOptions())
-    result = update(case.configurations, formulation=case.formulation, solver=case.solver,
+    verification = case.verification
+    if case.frequency_tolerance > 0:
+        verification = replace(verification, frequency_tolerance=case.frequency_tolerance)
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
+    notes = list(checked.warnings) + notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
         say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
@@ -168,7 +234,10 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
+        identifiability["frequency_windows"] = _frequency_windows(case)
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
+    if certify is not None:
+        identifiability["certified"] = _certified(case, result, certify, say)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
     staged = staging_folder(target)
@@ -181,8 +250,23 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     return run
 
 
+def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
+    """Certified outer ranges over the consistent set, with the vector boxes the first stage
+    ended with (it may have widened the margins)."""
+    from dataclasses import replace
+
+    from vibupdate.certify import certified_ranges
+
+    last = result.attempts[-1] if result.attempts else {}
+    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
+                            seconds=seconds, options=boxes, progress=say)
+    say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
+    return cert.record()
+
+
 def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,
-                force: bool = False) -> RunResult:
+                force: bool = False, certify: float | None = None) -> RunResult:
     """Run a bundled example end to end (`run_case`); returns the results object."""
     say = progress or (lambda message: None)
     module = example_module(name)
@@ -191,4 +275,4 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
     paper = module.paper_values() if hasattr(module, "paper_values") else None
-    return run_case(case, out_dir, progress=say, paper=paper, force=force)
+    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify)

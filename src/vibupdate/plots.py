@@ -12,7 +12,7 @@ import numpy as np
 from vibupdate.analysis import receptance
 from vibupdate.measured import TWO_PI
 
-__all__ = ["plot_frf", "plot_homotopy", "plot_mac"]
+__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac"]
 
 
 def _pyplot():
@@ -44,7 +44,8 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     Parameters
     ----------
     nominal, updated : tuple (M, K, C)
-        Matrices of the two models, ``C`` possibly None.
+        Matrices of the two models, ``C`` possibly None (undamped, and labelled so). Each
+        curve uses its own model's damping: never the updated ``C`` on the nominal curve.
     r, c : int
         Response and excitation DOF indices.
     label : str
@@ -57,13 +58,71 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     for (M, K, C), name, style in ((nominal, "nominal", "--"), (updated, "updated", "-")):
         h = receptance(M, K, r, c, omega, C)
-        ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model")
+        ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model" + (" (undamped)" if C is None else ""))
     for i, f in enumerate(cfg.natural):
         ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
     for i, a in enumerate(cfg.antiresonances):
         ax.axvline(a.omega / TWO_PI, color="tab:red", lw=0.8, ls=":", label="measured antiresonance" if i == 0 else None)
     return _finish(plt, fig, ax, path, "frequency [Hz]", f"|{label}| [m/N]",
                    f"configuration {cfg.name}: receptance {label}")
+
+
+def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nominal_label: str,
+                      updated_label: str) -> Path:
+    """Measured FRFs overlaid on the nominal and updated model FRFs (the paper's Fig. 11).
+
+    One panel per measured pair ``(response, excitation)`` whose DOFs are in the model (a
+    grid of responses by excitations when the pairs form one).
+
+    Parameters
+    ----------
+    frfs : vibupdate.frf.FRFSet
+        Measured receptances, m/N, on ``frfs.omega`` (rad/s); the mean of the repeats is drawn.
+    model_dofs : sequence of str
+        DOF names of the model, in matrix order.
+    nominal, updated : tuple (M, K, C)
+        Matrices of the two models, ``C`` possibly None (undamped: say so in the labels).
+    title : str
+    nominal_label, updated_label : str
+        Legend entries of the two models (their damping stated).
+    """
+    plt = _pyplot()
+    index = {d: i for i, d in enumerate(model_dofs)}
+    pairs = [(k, p) for k, p in enumerate(frfs.pairs) if p[0] in index and p[1] in index]
+    if not pairs:
+        raise ValueError(f"no measured FRF pair {list(frfs.pairs)} has both DOFs in the model")
+    rows = sorted({p[0] for _, p in pairs}, key=index.get)
+    cols = sorted({p[1] for _, p in pairs}, key=index.get)
+    grid = len(rows) * len(cols) <= 16 and len(rows) * len(cols) < 2 * len(pairs)
+    if not grid:
+        rows, cols = [None] * len(pairs), [None]
+    fig, axes = plt.subplots(len(rows), len(cols), figsize=(3.6 * len(cols) + 1.2, 2.4 * len(rows) + 0.8),
+                             squeeze=False, sharex=True)
+    measured = frfs.mean()
+    omega, f_hz = frfs.omega, frfs.freq_hz
+    for n, (k, (r, c)) in enumerate(pairs):
+        ax = axes[rows.index(r), cols.index(c)] if grid else axes[n, 0]
+        ax.semilogy(f_hz, np.abs(measured[k]), color="0.2", lw=0.9, label="measured (mean of repeats)")
+        for (M, K, C), name, style in ((nominal, nominal_label, "--"), (updated, updated_label, "-")):
+            h = receptance(M, K, index[r], index[c], omega, C)
+            ax.semilogy(f_hz, np.abs(h), style, lw=1.0, label=name)
+        ax.set_title(f"h_{r},{c}", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in axes.ravel():
+        if not ax.lines:
+            ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("frequency [Hz]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("|h| [m/N]")
+    handles, labels = next(a for a in axes.ravel() if a.lines).get_legend_handles_labels()
+    height = fig.get_figheight()
+    fig.suptitle(title, fontsize=10, y=1 - 0.05 / height, va="top")
+    fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, bbox_to_anchor=(0.5, 1 - 0.3 / height))
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.65 / height))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
 
 
 def plot_homotopy(path, steps) -> Path:

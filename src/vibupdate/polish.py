@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from vibupdate.correlation import model_frequencies
+from vibupdate.correlation import zeros_wanted, model_frequencies
 from vibupdate.measured import Configuration
 from vibupdate.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
 
@@ -140,7 +140,8 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
         for rc in cfg.receptances():
             mine = [i for i, a in enumerate(cfg.antiresonances) if a.receptance == rc]
             if jacobian:
-                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]))
+                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
+                                         n_zeros=zeros_wanted(cfg, rc))
             else:
                 z, D = freqs.zeros_all[rc], None
             for i in mine:

@@ -178,8 +178,9 @@ class RunResult:
         Published values to compare with (bundled examples).
     matrices : dict
         Not written to JSON: per configuration ``{"M", "K", "C"}`` updated matrices (scipy
-        sparse; ``C`` absent without damping data) and ``"nominal"`` ``(M0, K0, C0)``. Empty
-        after `load_results`; the ``.mtx`` files hold them.
+        sparse; ``C`` absent without damping data) and ``"nominal"`` ``(M0, K0, None)``: the
+        case has no nominal damping model, so the nominal FRF is drawn undamped, never with
+        the updated ``C``. Empty after `load_results`; the ``.mtx`` files hold them.
     """
 
     version: str
@@ -313,7 +314,6 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         entry = {"M": M, "K": K, "nominal": (M0, K0, None)}
         if stage is not None:
             entry["C"] = caughey_matrix(M, K, stage.caughey.exponents, stage.caughey.beta)
-            entry["nominal"] = (M0, K0, caughey_matrix(M0, K0, stage.caughey.exponents, stage.caughey.beta))
         matrices[cfg.name] = entry
         dofs[cfg.name] = list(cfg.model.dofs)
         response, excitation = _receptance_dofs(cfg, M)

@@ -29,7 +29,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.analysis import adjunct
+from vibupdate.analysis import DENSE_LIMIT, adjunct, antiresonances
 
 __all__ = [
     "eigenvalue_derivatives",
@@ -123,9 +123,11 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     return out
 
 
-def adjunct_eigenpairs(M, K, r: int, c: int):
+def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     """Finite, real, positive eigenvalues of the adjunct pencil of ``h_rc`` with right and left
-    vectors (dense).
+    vectors: dense up to `vibupdate.analysis.DENSE_LIMIT` DOFs, shift-invert above (the
+    lowest ``n_zeros``; the left vectors are the right vectors of the transposed pencil, the
+    adjunct of ``h_cr``).
 
     Returns
     -------
@@ -134,6 +136,16 @@ def adjunct_eigenpairs(M, K, r: int, c: int):
     V, Y : ndarray, shape (n - 1, n_z)
         Right and left eigenvectors: ``(K_rc - lam M_rc) V = 0``, ``Y^T (K_rc - lam M_rc) = 0``.
     """
+    if M.shape[0] > DENSE_LIMIT:
+        k = n_zeros or 20
+        wz, V = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k)
+        if r == c:
+            return wz**2, V, V
+        wy, Y = antiresonances(M, K, c, r, with_vectors=True, n_zeros=k)
+        if wy.size != wz.size or np.any(np.abs(wy - wz) > 1e-6 * np.maximum(wz, 1e-300)):
+            raise ValueError(f"the zeros of h_{r},{c} and h_{c},{r} of a symmetric model differ: the sparse "
+                             "eigen-solve did not converge to the same set")
+        return wz**2, V, Y
     Mr = adjunct(M, r, c)
     Kr = adjunct(K, r, c)
     Mr = Mr.toarray() if sp.issparse(Mr) else np.asarray(Mr)
@@ -141,7 +153,8 @@ def adjunct_eigenpairs(M, K, r: int, c: int):
     if r == c:
         lam, V = sla.eigh(Kr, Mr, driver="gvd")
         keep = lam > 0
-        return lam[keep], V[:, keep], V[:, keep]
+        lam, V = lam[keep][:n_zeros], V[:, keep][:, :n_zeros]
+        return lam, V, V
     w, Y, V = sla.eig(Kr, Mr, left=True, right=True, homogeneous_eigvals=True)
     alpha, beta = w
     scale = np.abs(alpha) + np.abs(beta)
@@ -150,11 +163,11 @@ def adjunct_eigenpairs(M, K, r: int, c: int):
     lam[finite] = alpha[finite] / beta[finite]
     real = finite & (np.abs(lam.imag) <= 1e-8 * np.abs(lam.real)) & (lam.real > 0)
     lam, V, Y = lam[real].real, V[:, real].real, Y[:, real].real
-    order = np.argsort(lam)
+    order = np.argsort(lam)[:n_zeros]
     return lam[order], V[:, order], Y[:, order]
 
 
-def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None):
+def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zeros: int | None = None):
     """Antiresonances of ``h_rc`` at ``xbar`` and their exact derivatives.
 
     Parameters
@@ -165,6 +178,8 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None):
         Response and excitation DOF indices.
     pairs : tuple, optional
         ``adjunct_eigenpairs`` of the model at ``xbar`` when already computed.
+    n_zeros : int, optional
+        Only the lowest zeros (all of them on the dense path by default, 20 on the sparse).
 
     Returns
     -------
@@ -174,7 +189,7 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None):
         ``d omega_z / d xbar``, rad/s per unit of normalized parameter.
     """
     M, K = model.matrices(xbar)
-    lam, V, Y = pairs if pairs is not None else adjunct_eigenpairs(M, K, r, c)
+    lam, V, Y = pairs if pairs is not None else adjunct_eigenpairs(M, K, r, c, n_zeros)
     # Embed the vectors in the full space (zero at the removed column r / row c), so that the
     # adjunct products become products with the full sparse matrices.
     n = M.shape[0]

@@ -7,7 +7,7 @@ u_prev)``:
     s.t. R = A_u u + A_x xbar + A_b (lam xbar[px] u[pu] + (1 - lam) t) + r0
          McCormick rows (Eq. 19), boxes on xbar, u, t.
 
-Each residual is its own variable with an equality constraint (DESIGN.md, "Solver settings");
+Each residual is its own variable with an equality constraint (docs/method.md, section 6);
 the derivatives are exact and sparse. Sparse problems are built in CasADi SX and expanded
 (fastest per iteration); problems whose residual rows are dense (a reduced model, see
 `vibupdate.reduction`) are built in MX without expansion, because SX differentiation of

@@ -1,6 +1,6 @@
 """Paper test case 2: a cantilever beam with a load cell and a proof mass (Section 5.3).
 
-Model (DESIGN.md, "Test case 2"): aluminium-like beam 0.493 m x 40 mm x 4 mm, seven equal
+Model (docs/method.md, "Appendix: test case 2 as rebuilt"): aluminium-like beam 0.493 m x 40 mm x 4 mm, seven equal
 Euler-Bernoulli elements, 14 DOFs ``[y1, phi1, ..., y7, phi7]`` with node 1 the free tip
 carrying the accelerometer ``macc`` and the clamp beyond node 7. The load cell is a mass
 ``mlc`` on ``y3`` with a spring ``klc`` to the shaker table (Eq. 28). A piezo patch

@@ -83,28 +83,43 @@ def truth() -> dict[str, float]:
     return {r["name"]: float(r["true"]) for r in read_table("frame_parameters.csv")}
 
 
+@lru_cache(maxsize=None)
+def _mesh(subdivisions: int):
+    """Geometry of the frame refined ``subdivisions`` times: extra node labels and
+    coordinates, and per member the chain of node labels its elements join."""
+    extra_labels, extra_xy, chains = [], [], {}
+    for name, chain in MEMBERS.items():
+        labels = []
+        for a, c in zip(chain, chain[1:]):
+            (xa, ya), (xc, yc) = NODES[a], NODES[c]
+            labels.append(a)
+            for k in range(1, subdivisions):
+                label = f"{a}-{c}.{k}"
+                extra_labels.append(label)
+                extra_xy.append((xa + (xc - xa) * k / subdivisions, ya + (yc - ya) * k / subdivisions))
+                labels.append(label)
+        labels.append(chain[-1])
+        chains[name] = (tuple(labels[:-1]), tuple(labels[1:]))
+    xy = np.array(extra_xy, dtype=float).reshape(-1, 2)
+    return tuple(extra_labels), xy, chains
+
+
 def build(p: dict, subdivisions: int = 1) -> System:
     """Mass and stiffness of the frame (complex-safe in the parameter values).
 
     ``subdivisions`` splits every element into that many equal elements (the refined meshes
-    of the scaling benchmark); the extra nodes are labelled ``"a-c.k"``.
+    of the scaling benchmark); the extra nodes are labelled ``"a-c.k"``. The elements of a
+    member are added as one batch.
     """
     asm = Assembly("frame")
     for label, (x, y) in NODES.items():
         asm.node(label, x, y)
-    for name, chain in MEMBERS.items():
+    extra_labels, extra_xy, chains = _mesh(int(subdivisions))
+    asm.nodes(extra_labels, extra_xy[:, 0], extra_xy[:, 1])
+    for name, (first, second) in chains.items():
         b, h = SECTION[name]
         area, inertia = b * h, b * h**3 / 12
-        for a, c in zip(chain, chain[1:]):
-            (xa, ya), (xc, yc) = NODES[a], NODES[c]
-            labels = [a]
-            for k in range(1, subdivisions):
-                label = f"{a}-{c}.{k}"
-                asm.node(label, xa + (xc - xa) * k / subdivisions, ya + (yc - ya) * k / subdivisions)
-                labels.append(label)
-            labels.append(c)
-            for n1, n2 in zip(labels, labels[1:]):
-                asm.frame(n1, n2, EA=p[name] * area, EI=p[name] * inertia, mass_per_length=p["rho"] * area)
+        asm.frames(first, second, EA=p[name] * area, EI=p[name] * inertia, mass_per_length=p["rho"] * area)
     asm.pin(1)
     asm.pin(2)
     asm.spring("phi1", p["kr1"])

@@ -1,0 +1,240 @@
+"""Certified outer ranges (issue 11, item 0): the relaxation holds every point of the
+consistent set, the safe dual bound holds for any multipliers, and the ranges contain the
+truth, the answer and every point of S that random sampling and local NLP solves find."""
+
+import numpy as np
+import pytest
+from helpers import chain_model
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from vibupdate import Configuration, NaturalFrequency, ShapeInterval, modes
+from vibupdate.certify import enclosure
+from vibupdate.lp_relaxation import lift, lifted_point, relax, safe_bound, solve
+from vibupdate.consistent import consistent_set, inner_ranges, is_consistent, witness
+from vibupdate.identifiability import parameter_ranges
+
+NAMES = ("k1", "k2", "k3", "m1", "m2", "m3")
+
+
+def chain_data(names, fractions, shape_tolerance=None):
+    """Three-mass chain, truth at ``fractions`` of each parameter's box; exact frequencies and,
+    optionally, the true mode shapes within +- shape_tolerance."""
+    model = chain_model(3, names)
+    lo, hi = model.bounds()
+    truth = lo + np.asarray(fractions) * (hi - lo)
+    w, Phi = modes(*model.matrices(truth))
+    natural = []
+    for k in range(3):
+        shape = None
+        if shape_tolerance is not None:
+            values = {d: float(Phi[model.dof(d), k]) for d in ("y1", "y2", "y3")}
+            shape = ShapeInterval.from_values(values, shape_tolerance * np.max(np.abs(Phi[:, k])))
+        natural.append(NaturalFrequency(float(w[k]), shape=shape))
+    return model, truth, Configuration("A", model, tuple(natural))
+
+
+def points_near(cs, centre, rng, n=40, scale=0.05):
+    """Random points of S around ``centre`` (kept only if `is_consistent` confirms them)."""
+    width = cs.x_upper - cs.x_lower
+    cands = centre + scale * width * rng.standard_normal((n, cs.n_x))
+    return [x for x in np.clip(cands, cs.x_lower, cs.x_upper) if is_consistent(cs, x)]
+
+
+def inside(r, model, x):
+    lo, hi = model.normalized(r.lower), model.normalized(r.upper)
+    lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+    return bool(np.all(lo <= x) and np.all(x <= hi))
+
+
+cases = st.tuples(
+    st.lists(st.sampled_from(NAMES), min_size=2, max_size=4, unique=True),
+    st.lists(st.floats(0.15, 0.85), min_size=4, max_size=4),
+    st.sampled_from([0.0, 0.005, 0.02]),
+    st.sampled_from([None, 0.1]),
+    st.integers(0, 2**31 - 1),
+)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_certified_range_contains_the_truth_and_every_point_of_s_found(case):
+    names, fractions, tol, shape_tol, seed = case
+    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
+    cs = consistent_set([cfg], frequency_tolerance=tol)
+    assume(is_consistent(cs, truth))
+    r = enclosure(cs, seconds=np.inf, max_passes=3)
+    assert not r.empty
+    assert inside(r, model, truth)
+    for x in points_near(cs, truth, np.random.default_rng(seed)):
+        assert inside(r, model, x)
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_relaxation_holds_the_lifted_points_and_the_safe_bound_holds_for_any_multipliers(case):
+    names, fractions, tol, shape_tol, seed = case
+    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
+    cs = consistent_set([cfg], frequency_tolerance=tol)
+    assume(is_consistent(cs, truth))
+    rng = np.random.default_rng(seed)
+    L = lift(cs)
+    lp = relax(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
+    members = [truth] + points_near(cs, truth, rng, n=20)
+    Z = np.array([lifted_point(L, cs, x, witness(cs, x)) for x in members])
+    for z in Z:  # exactly feasible: no tolerance
+        assert np.all(lp.zl <= z) and np.all(z <= lp.zu)
+        a = lp.A @ z
+        assert np.all(lp.lo <= a) and np.all(a <= lp.hi)
+    # Convex combinations of lifted points are feasible too (the relaxation is convex).
+    W = rng.dirichlet(np.ones(len(Z)), size=10)
+    Z = np.vstack([Z, W @ Z])
+    for _ in range(3):
+        c = rng.standard_normal(L.n_z)
+        status, opt, bound = solve(lp, c)
+        assert status == "optimal"
+        assert bound <= opt + 1e-9 * (1 + abs(opt))
+        assert np.all(Z @ c >= bound)
+        y = rng.standard_normal(lp.A.shape[0]) * rng.uniform(0, 10)   # any multipliers at all
+        assert np.all(Z @ c >= safe_bound(c, lp, y))
+
+
+def test_inner_estimate_lies_inside_the_certified_range():
+    model, truth, cfg = chain_data(["k1", "k2", "m1", "m3"], [0.6, 0.3, 0.5, 0.4])
+    cs = consistent_set([cfg], frequency_tolerance=0.01)
+    r = enclosure(cs, seconds=np.inf, max_passes=10)
+    inner = inner_ranges(cs, [truth])
+    assert len(inner.points) > 1
+    for x in inner.points:
+        assert inside(r, model, x)
+    assert np.all(r.certified)
+
+
+def test_the_answer_is_inside_when_the_windows_are_widened_to_hold_it():
+    model, truth, cfg = chain_data(["k1", "m2"], [0.5, 0.5])
+    noisy = Configuration("A", model, tuple(NaturalFrequency(f.omega * (1 + e))
+                                           for f, e in zip(cfg.natural, (0.004, -0.003, 0.002))))
+    answer = truth + np.array([0.01, -0.02])
+    cs = consistent_set([noisy], include=answer)
+    assert is_consistent(cs, answer)
+    r = parameter_ranges([noisy], answer, method="certified", seconds=30.0)
+    assert inside(r, model, answer)
+
+
+def test_inconsistent_data_give_a_certified_empty_set():
+    model = chain_model(3, ["k1", "k2", "m1"])
+    w, _ = modes(*model.matrices())
+    cfg = Configuration("A", model, tuple(NaturalFrequency(x) for x in w * np.array([1.0, 1.6, 1.8])))
+    r = enclosure(consistent_set([cfg]), seconds=np.inf, max_passes=5)
+    assert r.empty and np.all(np.isnan(r.lower))
+    assert "empty" in r.message
+
+
+def test_unknown_method_and_bad_budget_are_clear_errors():
+    model, truth, cfg = chain_data(["k1", "m2"], [0.5, 0.5])
+    with pytest.raises(ValueError, match="method must be 'linearized' or 'certified', got 'exact'"):
+        parameter_ranges([cfg], truth, method="exact")
+    with pytest.raises(ValueError, match="time budget must be >= 0 seconds, got -1"):
+        enclosure(consistent_set([cfg]), seconds=-1)
+    with pytest.raises(ValueError, match="frequency_tolerance must be in"):
+        consistent_set([cfg], frequency_tolerance=-0.1)
+
+
+def test_cli_run_with_certify_reports_the_ranges_beside_the_linearized_ones(tmp_path, capsys):
+    import json
+
+    from vibupdate.cli import main
+
+    (tmp_path / "model.py").write_text(
+        "import vibupdate as vu\n"
+        "def build(p):\n"
+        "    asm = vu.Assembly('beam')\n"
+        "    for i in range(4):\n"
+        "        asm.node(i, 0.2 * i)\n"
+        "    for i in range(3):\n"
+        "        asm.beam(i, i + 1, EI=p['EI'], mass_per_length=p['m'])\n"
+        "    asm.clamp(0)\n"
+        "    return asm.system()\n")
+    head = ('[model]\ntype = "builder"\nbuilder = "model.py:build"\n'
+            '[[parameter]]\nname = "EI"\nnominal = 10.0\nlower = 5.0\nupper = 20.0\n'
+            '[[parameter]]\nname = "m"\nnominal = 1.0\nlower = 0.8\nupper = 1.2\n')
+    from vibupdate.case import load_case
+
+    (tmp_path / "probe.toml").write_text(head + '[[configuration]]\nname = "A"\nnatural_hz = [1.0, 5.0]\n')
+    model = load_case(tmp_path / "probe.toml").configurations[0].model
+    w, _ = modes(*model.matrices_at([12.0, 1.0]))
+    hz = ", ".join(f"{x / (2 * np.pi):.9g}" for x in w[:2])
+    case = tmp_path / "case.toml"
+    case.write_text("frequency_tolerance = 0.01\n" + head + f'[[configuration]]\nname = "A"\nnatural_hz = [{hz}]\n')
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out), "--certify", "1"]) == 0
+    printed = capsys.readouterr().out
+    assert "Certified outer ranges" in printed
+    assert "certifies nothing unless positive" in printed
+    doc = json.loads((out / "results.json").read_text())
+    cert = doc["identifiability"]["certified"]
+    assert "Consistent set S" in cert["definition"]
+    # EI and m scale together (only their ratio moves the frequencies): the ranges stay wide.
+    assert cert["ranges"]["EI"]["lower"] <= 12.0 <= cert["ranges"]["EI"]["upper"]
+    updated = {p["name"]: p["updated"] for p in doc["parameters"]}
+    for name, rg in cert["ranges"].items():
+        assert rg["lower"] <= updated[name] <= rg["upper"]
+    report = (out / "report.md").read_text()
+    assert "Certified outer range" in report and "certified outer range" in report
+    assert main(["run", str(case), "--out", str(out), "--certify", "-1"]) == 2
+    assert "budget must be >= 0 seconds, got -1" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def cantilever_answer():
+    from vibupdate.examples import cantilever
+    from vibupdate.update import update
+
+    case = cantilever.case()
+    return case, update(case.configurations, formulation=case.formulation, solver=case.solver)
+
+
+def _example_check(case, result, passes, inner, tolerance):
+    """The answer and points of S near it (random, and the inner estimate's) lie inside;
+    ``tolerance`` (at least the case's) leaves room in the windows for such points."""
+    model = case.configurations[0].model
+    last = result.attempts[-1] if result.attempts else {}
+    from dataclasses import replace
+
+    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    cs = consistent_set(case.configurations, frequency_tolerance=max(tolerance, case.frequency_tolerance),
+                        include=result.xbar, options=boxes)
+    # The answer sits on active bounds of S (vector boxes, parameter bounds) up to the solver's
+    # tolerance: on the frame its mode 7 leaves its box by 8e-9. It is in S to within 1e-6.
+    assert is_consistent(cs, result.xbar, margin=-1e-6)
+    r = enclosure(cs, seconds=np.inf, max_passes=passes)
+    assert r.passes == passes and not r.empty
+    assert inside(r, model, result.xbar)
+    points = points_near(cs, result.xbar, np.random.default_rng(1), n=30, scale=0.002)
+    points += list(inner_ranges(cs, [result.xbar]).points) if inner else []
+    assert len(points) > 1
+    for x in points:
+        assert inside(r, model, x)
+    return r
+
+
+def test_cantilever_certified_range_contains_the_answer_and_nearby_points_of_s(cantilever_answer):
+    case, result = cantilever_answer
+    r = _example_check(case, result, passes=1, inner=False, tolerance=0.02)
+    assert np.all(r.upper - r.lower <= r.root_upper - r.root_lower)
+
+
+@pytest.mark.slow
+def test_cantilever_refined_range_contains_the_inner_estimate(cantilever_answer):
+    case, result = cantilever_answer
+    _example_check(case, result, passes=6, inner=True, tolerance=0.02)
+
+
+@pytest.mark.slow
+def test_frame_certified_range_contains_the_answer_and_the_inner_estimate():
+    from vibupdate.examples import frame
+    from vibupdate.update import update
+
+    case = frame.case()
+    result = update(case.configurations, formulation=case.formulation, solver=case.solver)
+    _example_check(case, result, passes=2, inner=True, tolerance=0.0)

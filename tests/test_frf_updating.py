@@ -1,0 +1,83 @@
+"""Issue 9, from FRFs to the updated model: measured intervals feed the updating.
+
+Frequency intervals (e.g. extracted from FRFs) are the per-datum tolerances of the
+consistent parameter ranges; damping-ratio intervals give the damping fit's weights
+``1 / half-width^2``. Known truths written here.
+"""
+
+import numpy as np
+import pytest
+
+from helpers import chain_model
+from vibupdate import Antiresonance, Configuration, NaturalFrequency, antiresonances, modes
+from vibupdate.case import Case, DampingOptions
+from vibupdate.damping import identify_damping
+from vibupdate.formulation import FormulationOptions
+from vibupdate.homotopy import SolverOptions
+from vibupdate.identifiability import parameter_ranges
+from vibupdate.pipeline import _damping_stage, _frequency_windows
+
+
+def _chain(truth, tol=None, damping=None, damping_half=None):
+    """Three-storey chain, its frequencies and the zeros of h11 as data; intervals of
+    relative half-width ``tol`` when given."""
+    model = chain_model(3, ["k1", "k2", "k3"])
+    M, K = model.matrices(truth)
+    omega, _ = modes(M, K)
+    zeros = antiresonances(M, K, 0, 0)
+
+    def iv(w):
+        return None if tol is None else (w * (1 - tol), w * (1 + tol))
+
+    nat = []
+    for k, w in enumerate(omega):
+        xi = None if damping is None else damping[k]
+        di = None if damping_half is None else (xi - damping_half[k], xi + damping_half[k])
+        nat.append(NaturalFrequency(w, interval=iv(w), damping_ratio=xi, damping_interval=di))
+    zs = tuple(Antiresonance(z, "y1", "y1", interval=iv(z)) for z in zeros)
+    return model, Configuration("C", model, tuple(nat), zs)
+
+
+def test_frequency_intervals_are_the_per_datum_tolerances_of_the_ranges():
+    truth = np.array([0.1, -0.05, 0.08])
+    _, plain = _chain(truth)
+    _, with_intervals = _chain(truth, tol=2e-3)
+    by_tolerance = parameter_ranges([plain], truth, frequency_tolerance=2e-3)
+    by_intervals = parameter_ranges([with_intervals], truth, frequency_tolerance=0.5)  # unused: all have intervals
+    np.testing.assert_allclose(by_intervals.lower, by_tolerance.lower, rtol=1e-6)
+    np.testing.assert_allclose(by_intervals.upper, by_tolerance.upper, rtol=1e-6)
+    assert np.all(by_tolerance.width_pct > 0)
+    _, wider = _chain(truth, tol=4e-3)
+    widths = parameter_ranges([wider], truth).width_pct
+    np.testing.assert_allclose(widths, 2 * by_tolerance.width_pct, rtol=1e-3)  # linear in the half-widths
+
+
+def test_damping_intervals_weigh_the_damping_fit_and_are_stated():
+    truth = np.zeros(3)
+    xi, half = [0.010, 0.012, 0.030], [1e-4, 1e-4, 5e-3]
+    _, cfg = _chain(truth, damping=xi, damping_half=half)
+    case = Case("c", None, (cfg,), SolverOptions(), FormulationOptions(), DampingOptions(relative=True))
+    stage, _, info = _damping_stage(case, truth, lambda message: None)
+    expected = identify_damping([cfg], truth, (0.0, 1.0), 1 / np.array(half) ** 2)
+    np.testing.assert_allclose(stage.caughey.beta, expected.caughey.beta, rtol=1e-9)
+    unweighted = identify_damping([cfg], truth, (0.0, 1.0), None)
+    assert not np.allclose(stage.caughey.beta, unweighted.caughey.beta, rtol=1e-3)
+    # the precise ratios are fitted closely, the loose third one gives way
+    errors = stage.caughey.errors_pct
+    assert errors[0] < errors[2] and errors[1] < errors[2]
+    assert "half-width of the measured ratio's interval (mode 1: 0.0001" in info["weights_text"]
+    assert "relative = true is superseded" in info["weights_text"]
+    # one ratio without an interval: the case's weighting applies to all
+    _, partial = _chain(truth, damping=xi)
+    case = Case("c", None, (partial,), SolverOptions(), FormulationOptions(), None)
+    _, _, info = _damping_stage(case, truth, lambda message: None)
+    assert info["weights_text"].startswith("W_ii = w_mode with")
+
+
+def test_frequency_windows_text_names_the_source():
+    _, cfg = _chain(np.zeros(3), tol=1e-3)
+    case = Case("c", None, (cfg,), SolverOptions(), FormulationOptions(), None, frequency_tolerance=0.01)
+    assert _frequency_windows(case) == "the half-width of its measured interval (5 of 5 frequencies)"
+    _, plain = _chain(np.zeros(3))
+    case = Case("c", None, (plain,), SolverOptions(), FormulationOptions(), None, frequency_tolerance=0.01)
+    assert _frequency_windows(case) == "1 % of each frequency"
