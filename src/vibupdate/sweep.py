@@ -158,7 +158,7 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
                message=result.message, start="homotopy")
     xbar = result.xbar
     if sampling.random_start and result.success and not wants_reduction(cfgs, case.formulation):
-        other = _random_start(case, cfgs, seed, index, result.xbar, sampling)
+        other = _random_start(case, cfgs, seed, index, result, sampling, verification)
         if other is not None:
             (xbar, row["objective"]), row["start"] = other, "random"
     model = cfgs[0].model
@@ -188,14 +188,18 @@ def _misfit(cfgs, xbar) -> np.ndarray:
     return np.nan_to_num(np.array(errors), nan=np.inf)
 
 
-def _random_start(case: Case, cfgs, seed: int, index: int, xbar_h, sampling: SamplingOptions):
+def _random_start(case: Case, cfgs, seed: int, index: int, result, sampling: SamplingOptions, verification):
     """``(xbar, objective)`` of a random-start solve of the sample (`vibupdate.multistart.
-    random_start_solve`) when it converged and fits the drawn data no worse than the homotopy
-    answer ``xbar_h``: every frequency's relative error at most the homotopy's plus
-    ``ACCEPT_FRACTION`` times that datum's relative interval half-width; None otherwise."""
+    random_start_solve`) when it converged, fits the drawn data no worse than the verified
+    homotopy answer ``result.xbar`` (every frequency's relative error at most the homotopy's
+    plus ``ACCEPT_FRACTION`` times that datum's relative interval half-width) and passes the
+    same verification (`vibupdate.verify.verify`); None otherwise, and the homotopy's answer
+    stands."""
     from vibupdate.multistart import build_solver, random_start_solve
     from vibupdate.sampling import sample_rng
+    from vibupdate.verify import verify
 
+    xbar_h = result.xbar
     problem, backend = build_solver(cfgs, case.formulation, case.solver)
     other = random_start_solve(problem, backend, sample_rng(seed, index, stream=1), proximal=START_PROXIMAL)
     if not other["ok"]:
@@ -203,9 +207,14 @@ def _random_start(case: Case, cfgs, seed: int, index: int, xbar_h, sampling: Sam
     half = np.array([0.5 * (hi - lo) / value for label, value, lo, hi
                      in data_intervals(case.configurations, case.frequency_tolerance, sampling) if ":xi" not in label])
     xbar = np.asarray(other["xbar"])
-    if np.all(_misfit(cfgs, xbar) <= _misfit(cfgs, xbar_h) + ACCEPT_FRACTION * half):
-        return xbar, float(other["objective"])
-    return None
+    if not np.all(_misfit(cfgs, xbar) <= _misfit(cfgs, xbar_h) + ACCEPT_FRACTION * half):
+        return None
+    checks = verify(cfgs, xbar, nominal=[model_frequencies(c) for c in cfgs],
+                    updated=[model_frequencies(c, xbar) for c in cfgs], lower_bound=result.relaxation_lower_bound,
+                    n_blocks=len(result.vectors), options=verification)
+    if any(c.severity == "error" and not c.passed for c in checks):
+        return None
+    return xbar, float(other["objective"])
 
 
 # -- summary ----------------------------------------------------------------------------------------
