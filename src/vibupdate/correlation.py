@@ -138,21 +138,30 @@ def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | Non
     ndarray, shape (n_p + n_z, n_x)
         NaN rows where the model lacks the declared zero.
     """
-    from vibupdate.sensitivities import antiresonance_derivatives, frequency_derivatives
+    from vibupdate.sensitivities import frequency_derivatives
 
     xbar = np.asarray(xbar, dtype=float)
     model = cfg.model
     freqs = freqs or model_frequencies(cfg, xbar)
     rows = [frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None]]
-    zero_rows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
+    rows.append(zero_derivatives(cfg, xbar) / freqs.antiresonances[:, None])
+    return np.vstack(rows)
+
+
+def zero_derivatives(cfg: Configuration, xbar) -> np.ndarray:
+    """Exact ``d omega_z / d xbar`` of the declared zeros of ``cfg``, rad/s per unit of
+    normalized parameter, shape (n_z, n_x); NaN rows where the model lacks the zero."""
+    from vibupdate.sensitivities import antiresonance_derivatives
+
+    model = cfg.model
+    out = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
     for rc in cfg.receptances():
         z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
                                          n_zeros=zeros_wanted(cfg, rc))
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= z.size:
-                zero_rows[i] = D[a.index - 1] / z[a.index - 1]
-    rows.append(zero_rows)
-    return np.vstack(rows)
+                out[i] = D[a.index - 1]
+    return out
 
 
 def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8) -> dict:

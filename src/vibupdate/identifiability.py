@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from vibupdate.correlation import zeros_wanted, model_frequencies
+from vibupdate.correlation import model_frequencies, zero_derivatives
 from vibupdate.measured import Configuration
 
 __all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian"]
@@ -82,7 +82,7 @@ def _reference_entries(cfg: Configuration) -> list[tuple[list[str], str] | None]
 
 
 def _data(configurations, xbar, refs, jacobian: bool = False):
-    from vibupdate.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
+    from vibupdate.sensitivities import frequency_derivatives, shape_ratio_derivatives
 
     out, jac = [], []
     for cfg, cfg_refs in zip(configurations, refs):
@@ -91,14 +91,7 @@ def _data(configurations, xbar, refs, jacobian: bool = False):
         out += [f.natural, f.antiresonances]
         if jacobian:
             jac.append(frequency_derivatives(model, f.natural, f.Phi))
-            zrows = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
-            for rc in cfg.receptances():
-                z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
-                                         n_zeros=zeros_wanted(cfg, rc))
-                for i, a in enumerate(cfg.antiresonances):
-                    if a.receptance == rc and a.index <= z.size:
-                        zrows[i] = D[a.index - 1]
-            jac.append(zrows)
+            jac.append(zero_derivatives(cfg, xbar))
         for k, ref in enumerate(cfg_refs):
             if ref is None:
                 continue
