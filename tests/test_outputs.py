@@ -195,3 +195,34 @@ def test_a_failed_or_interrupted_run_leaves_earlier_results_untouched(earlier_re
     assert "Traceback" not in err and err.strip().count("\n") == 0
     assert snapshot(tmp_path) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "out"]
+
+
+def test_large_model_keeps_the_caughey_law_instead_of_a_dense_C(tmp_path):
+    """Above 400 DOFs no dense C is built or written; the FRF plot uses the modal law."""
+    import numpy as np
+    from helpers import chain_model
+    from vibupdate import Configuration, NaturalFrequency, modes
+    from vibupdate.case import Case, DampingOptions
+    from vibupdate.damping import CaugheyLaw, caughey_matrix
+    from vibupdate.formulation import FormulationOptions
+    from vibupdate.homotopy import SolverOptions
+    from vibupdate.pipeline import run_case
+
+    model = chain_model(450, ["k1", "k2", "m3"])
+    x = np.array([0.05, -0.05, 0.1])
+    w, _ = modes(*model.matrices(x), 4)
+    nat = tuple(NaturalFrequency(v, damping_ratio=0.01 * (k + 1)) for k, v in enumerate(w[:3]))
+    case = Case("big", None, (Configuration("A", model, nat),), SolverOptions(), FormulationOptions(),
+                DampingOptions((0.0, 1.0)))
+    run_case(case, tmp_path / "out", progress=lambda m: None)
+    files = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert "C_A.mtx" not in files and "frf_A.png" in files and "M_A.mtx" in files
+    # the law's modal receptance equals the direct solve with the dense C on a small model
+    small = chain_model(6, ["k1"])
+    M, K = small.matrices()
+    law = CaugheyLaw((0.0, 1.0), (0.3, 2e-4), n_modes=6)
+    omega = np.linspace(1.0, 60.0, 25)
+    from vibupdate.analysis import receptance
+
+    direct = receptance(M, K, 1, 4, omega, caughey_matrix(M, K, law.exponents, law.beta))
+    np.testing.assert_allclose(law.receptance(M, K, 1, 4, omega), direct, rtol=1e-8)

@@ -26,7 +26,7 @@ import scipy.linalg as sla
 
 from vibupdate.analysis import modes
 
-__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "modal_damping", "DampingWarning", "negative_bands",
+__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "CaugheyLaw", "modal_damping", "DampingWarning", "negative_bands",
            "damping_sanity"]
 
 
@@ -85,6 +85,35 @@ class DampingFit:
 def _theta(omega, exponents) -> np.ndarray:
     omega = np.asarray(omega, dtype=float)
     return 0.5 * omega[:, None] ** (2.0 * np.asarray(exponents)[None, :] - 1.0)
+
+
+@dataclass(frozen=True)
+class CaugheyLaw:
+    """A Caughey series kept as its modal law instead of a matrix, for models where the
+    (dense, n x n) ``C`` of `caughey_matrix` is too large to build.
+
+    Attributes
+    ----------
+    exponents, beta : tuple of float
+        The series (Eq. 20).
+    n_modes : int
+        Modes of the modal superposition used for receptances.
+    """
+
+    exponents: tuple[float, ...]
+    beta: tuple[float, ...]
+    n_modes: int
+
+    def receptance(self, M, K, r: int, c: int, omega) -> np.ndarray:
+        """``h_rc(j omega)`` (m/N) by modal superposition of the lowest ``n_modes`` modes, each
+        with its modal damping ratio from the law; exact for these modes (the law is classical
+        damping), truncated above them. ``omega``: shape (n_f,), rad/s."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        w, Phi = modes(M, K, None if self.n_modes >= M.shape[0] else self.n_modes)
+        xi = np.zeros_like(w)
+        xi[w > 0] = modal_damping(self.exponents, self.beta, w[w > 0])
+        den = w[None, :] ** 2 - omega[:, None] ** 2 + 2j * xi[None, :] * w[None, :] * omega[:, None]
+        return (Phi[r] * Phi[c] / den).sum(axis=1)
 
 
 def modal_damping(exponents, beta, omega) -> np.ndarray:

@@ -170,7 +170,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
                 scipy.io.mmwrite(str(folder / f"{name}_{part}.mtx"), sp.coo_matrix(matrices[name]),
                                  comment=f"vibupdate: updated {name} of configuration {part} (SI units)")
         file = f"frf_{part}.png"
-        updated = (matrices["M"], matrices["K"], matrices.get("C"))
+        updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
         if cfg.name in case.frfs:
             images.append(_measured_frf_plot(folder / file, cfg, case.frfs[cfg.name], matrices["nominal"], updated))
         else:

@@ -37,6 +37,15 @@ def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
     return Path(path)
 
 
+def _model_receptance(model, r: int, c: int, omega) -> np.ndarray:
+    """Receptance of ``model = (M, K, C)``; ``C`` a matrix, None (undamped) or a damping law
+    with its own ``receptance`` (large models: modal superposition). Shape (n_f,), m/N."""
+    M, K, C = model
+    if hasattr(C, "receptance"):
+        return C.receptance(M, K, r, c, omega)
+    return receptance(M, K, r, c, omega, C)
+
+
 def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     """|h_rc| of the nominal and updated models of one configuration, measured frequencies
     marked (natural: solid, antiresonance: dashed).
@@ -44,8 +53,9 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     Parameters
     ----------
     nominal, updated : tuple (M, K, C)
-        Matrices of the two models, ``C`` possibly None (undamped, and labelled so). Each
-        curve uses its own model's damping: never the updated ``C`` on the nominal curve.
+        Matrices of the two models, ``C`` possibly None (undamped, and labelled so) or a
+        `vibupdate.damping.CaugheyLaw` (large models: modal superposition). Each curve uses its
+        own model's damping: never the updated ``C`` on the nominal curve.
     r, c : int
         Response and excitation DOF indices.
     label : str
@@ -57,8 +67,10 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     omega = np.linspace(top / 2000, top, 2000)
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     for (M, K, C), name, style in ((nominal, "nominal", "--"), (updated, "updated", "-")):
-        h = receptance(M, K, r, c, omega, C)
-        ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model" + (" (undamped)" if C is None else ""))
+        h = _model_receptance((M, K, C), r, c, omega)
+        note = (f" (damping law, {C.n_modes} modes)" if hasattr(C, "receptance")
+                else " (undamped)" if C is None else "")
+        ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model{note}")
     for i, f in enumerate(cfg.natural):
         ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
     for i, a in enumerate(cfg.antiresonances):
@@ -103,9 +115,9 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     for n, (k, (r, c)) in enumerate(pairs):
         ax = axes[rows.index(r), cols.index(c)] if grid else axes[n, 0]
         ax.semilogy(f_hz, np.abs(measured[k]), color="0.2", lw=0.9, label="measured (mean of repeats)")
-        for (M, K, C), name, style in ((nominal, nominal_label, "--"), (updated, updated_label, "-")):
-            h = receptance(M, K, index[r], index[c], omega, C)
-            ax.semilogy(f_hz, np.abs(h), style, lw=1.0, label=name)
+        for model, name, style in ((nominal, nominal_label, "--"), (updated, updated_label, "-")):
+            ax.semilogy(f_hz, np.abs(_model_receptance(model, index[r], index[c], omega)), style, lw=1.0,
+                        label=name)
         ax.set_title(f"h_{r},{c}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
     for ax in axes.ravel():

@@ -290,7 +290,8 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     from vibupdate import __version__
     from vibupdate.analysis import mac as mac_of
     from vibupdate.analysis import modes
-    from vibupdate.damping import caughey_matrix
+    from vibupdate.analysis import DENSE_LIMIT
+    from vibupdate.damping import CaugheyLaw, caughey_matrix
 
     configurations = case.configurations
     model = configurations[0].model
@@ -312,8 +313,12 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         M, K = result.matrices[cfg.name]
         M0, K0 = cfg.model.matrices()
         entry = {"M": M, "K": K, "nominal": (M0, K0, None)}
-        if stage is not None:
+        if stage is not None and M.shape[0] <= DENSE_LIMIT:
             entry["C"] = caughey_matrix(M, K, stage.caughey.exponents, stage.caughey.beta)
+        elif stage is not None:  # a Caughey C is dense: kept as its modal law on large models
+            top = max((f.mode for f in cfg.natural), default=1)
+            entry["damping_law"] = CaugheyLaw(tuple(stage.caughey.exponents), tuple(stage.caughey.beta),
+                                              max(40, 2 * top + 10))
         matrices[cfg.name] = entry
         dofs[cfg.name] = list(cfg.model.dofs)
         response, excitation = _receptance_dofs(cfg, M)
@@ -322,7 +327,9 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         if measured:
             names = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
             X = np.array([[f.shape.midpoint.get(d, 0.0) for d in names] for f in measured]).T
-            _, Phi = modes(M, K, len(cfg.natural))
+            declared = [f.mode - 1 for f in cfg.natural]
+            _, Phi = modes(M, K, min(max(declared) + 1, M.shape[0]))
+            Phi = Phi[:, declared]   # the declared modes, not the lowest ones
             mac_matrix[cfg.name] = {"dofs": names, "values": mac_of(X, Phi[[cfg.model.dof(d) for d in names]])}
     run_warnings = tuple(str(w) for w in getattr(result, "warnings", ())) + tuple(str(w) for w in warnings)
     return RunResult(
