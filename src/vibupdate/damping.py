@@ -24,7 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from vibupdate.analysis import modes
+from vibupdate.analysis import DENSE_LIMIT, modes
+
+#: Modes whose Caughey damping is checked on models above DENSE_LIMIT DOFs.
+LARGE_MODEL_CHECKED_MODES = 50
 
 __all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "CaugheyLaw", "modal_damping", "DampingWarning", "negative_bands",
            "damping_sanity"]
@@ -316,7 +319,10 @@ def damping_sanity(fit: DampingFit, configurations, xbar, name: str) -> tuple[st
     per_config, highest = [], top
     for cfg in configurations:
         M, K = cfg.model.matrices(xbar)
-        omega, _ = modes(M, K)
+        # Every mode where C is exported (up to DENSE_LIMIT DOFs); above, C is kept as its law
+        # and the modes checked are the lowest LARGE_MODEL_CHECKED_MODES.
+        n = M.shape[0]
+        omega, _ = modes(M, K) if n <= DENSE_LIMIT else modes(M, K, min(n - 1, LARGE_MODEL_CHECKED_MODES))
         highest = max(highest, float(omega[-1]))
         positive = omega > 0
         d = np.zeros_like(omega)
