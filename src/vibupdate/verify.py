@@ -22,8 +22,9 @@ against the data it was given:
     (when the data give one) or within ``fit_tolerance`` (relative; default 2 %: on the paper's
     cantilever the verified update misses no frequency by more than 1.63 %);
 ``correspondence``
-    when the first-stage answer fitted the data under another pairing (a mode skipped), it
-    must not fit them clearly better than the final answer does under the declared one;
+    when the first-stage answer fitted the data under another pairing (a mode skipped), the
+    final answer's mean natural-frequency error under the declared pairing must stay within
+    twice that other fit's error plus a tenth of ``fit_tolerance`` (0.2 % by default);
     otherwise the declared modes are likely wrong and the user is told which pairing fits;
 ``improvement``
     the updated mean frequency error is not above the nominal one;
