@@ -15,7 +15,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from vibupdate.measured import Configuration
 
@@ -38,25 +37,12 @@ class FrequencyFit:
 
 def frequency_fit(configurations: Sequence[Configuration]) -> FrequencyFit:
     """Fit the shared parameters of ``configurations`` to their measured frequencies."""
-    from vibupdate.polish import polish_residuals
+    from vibupdate.polish import fit_least_squares, polish_residuals
 
     configurations = list(configurations)
     model = configurations[0].model
-    lo, hi = model.bounds()
-    cache: dict = {}
-
-    def evaluate(x):
-        key = x.tobytes()
-        if key not in cache:
-            cache.clear()
-            cache[key] = polish_residuals(configurations, x, shape_weight=0.0)
-        return cache[key]
-
     start = time.perf_counter()
-    span = hi - lo  # a start strictly inside the box (parameters with nominal 0 sit on a bound)
-    x0 = np.clip(np.zeros(model.n_parameters), lo + 1e-10 * span, hi - 1e-10 * span)
-    sol = least_squares(lambda x: evaluate(x)[0], x0,
-                        jac=lambda x: evaluate(x)[1], bounds=(lo, hi), x_scale="jac", method="trf")
+    sol = fit_least_squares(configurations, np.zeros(model.n_parameters), shape_weight=0.0)
     seconds = time.perf_counter() - start
     r = polish_residuals(configurations, sol.x, shape_weight=0.0, jacobian=False)[0]
     weights = np.concatenate([[f.weight for f in c.natural] + [a.weight for a in c.antiresonances]

@@ -64,24 +64,26 @@ def zeros_wanted(cfg: Configuration, rc) -> int | None:
     return min(top + 1, cfg.model.n_dofs - 1)
 
 
-def model_frequencies(cfg: Configuration, xbar=None) -> ModelFrequencies:
+def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True) -> ModelFrequencies:
     """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data by the
-    declared modes and zero indices."""
+    declared modes and zero indices. ``zeros=False`` skips the antiresonances (NaN, and
+    ``zeros_all`` empty): for callers that take them with their derivatives from
+    `zero_derivatives`, which solves the same adjunct eigenproblem."""
     M, K = cfg.model.matrices(xbar)
     mode_index = np.array([f.mode for f in cfg.natural], dtype=int) - 1
     top = int(mode_index.max()) + 1 if mode_index.size else 0
     n_modes = min(cfg.model.n_dofs, max(top + 1, 2))
     omega, Phi = modes(M, K, n_modes)
-    zeros = np.full(len(cfg.antiresonances), np.nan)
+    paired = np.full(len(cfg.antiresonances), np.nan)
     zeros_all = {}
-    for rc in cfg.receptances():
+    for rc in (cfg.receptances() if zeros else ()):
         model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
                                  n_zeros=zeros_wanted(cfg, rc))
         zeros_all[rc] = model_z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= model_z.size:
-                zeros[i] = model_z[a.index - 1]
-    return ModelFrequencies(omega[mode_index], zeros, Phi[:, mode_index], omega, Phi, zeros_all)
+                paired[i] = model_z[a.index - 1]
+    return ModelFrequencies(omega[mode_index], paired, Phi[:, mode_index], omega, Phi, zeros_all)
 
 
 def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:
@@ -142,29 +144,39 @@ def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | Non
 
     xbar = np.asarray(xbar, dtype=float)
     model = cfg.model
-    freqs = freqs or model_frequencies(cfg, xbar)
-    rows = [frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None]]
-    rows.append(zero_derivatives(cfg, xbar) / freqs.antiresonances[:, None])
-    return np.vstack(rows)
+    freqs = freqs or model_frequencies(cfg, xbar, zeros=False)
+    z, D = zero_derivatives(cfg, xbar)
+    return np.vstack([frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None],
+                      D / z[:, None]])
 
 
-def zero_derivatives(cfg: Configuration, xbar) -> np.ndarray:
-    """Exact ``d omega_z / d xbar`` of the declared zeros of ``cfg``, rad/s per unit of
-    normalized parameter, shape (n_z, n_x); NaN rows where the model lacks the zero."""
+def zero_derivatives(cfg: Configuration, xbar) -> tuple[np.ndarray, np.ndarray]:
+    """The declared zeros of ``cfg`` at ``xbar`` and their exact derivatives (one adjunct
+    eigen-solve per receptance).
+
+    Returns
+    -------
+    z : ndarray, shape (n_z,)
+        rad/s, paired with ``cfg.antiresonances``; NaN where the model lacks the zero.
+    D : ndarray, shape (n_z, n_x)
+        ``d z / d xbar``, rad/s per unit of normalized parameter; NaN rows likewise.
+    """
     from vibupdate.sensitivities import antiresonance_derivatives
 
     model = cfg.model
+    values = np.full(len(cfg.antiresonances), np.nan)
     out = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
     for rc in cfg.receptances():
         z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
                                          n_zeros=zeros_wanted(cfg, rc))
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= z.size:
-                out[i] = D[a.index - 1]
-    return out
+                values[i], out[i] = z[a.index - 1], D[a.index - 1]
+    return values, out
 
 
-def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8) -> dict:
+def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8,
+                freqs: Sequence[ModelFrequencies] | None = None) -> dict:
     """Sensitivity of the measured data to the normalized parameters.
 
     ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
@@ -178,6 +190,8 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
     rtol : float
         Singular values below ``rtol`` times the largest count as zero (the derivatives are
         exact, so an exact symmetry gives values at rounding level, ~1e-15).
+    freqs : sequence of ModelFrequencies, optional
+        `model_frequencies` of each configuration at ``xbar``, when already computed.
 
     Returns
     -------
@@ -188,17 +202,18 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
         to first order.
     """
     xbar = np.asarray(xbar, dtype=float)
-    S = np.vstack([relative_sensitivity(c, xbar) for c in configurations]
-                  + [_shape_rows(c, xbar) for c in configurations])
+    freqs = list(freqs) if freqs is not None else [model_frequencies(c, xbar, zeros=False) for c in configurations]
+    S = np.vstack([relative_sensitivity(c, xbar, f) for c, f in zip(configurations, freqs)]
+                  + [_shape_rows(c, xbar, f) for c, f in zip(configurations, freqs)])
     S = S[np.all(np.isfinite(S), axis=1)]
     n_x = xbar.size
     if S.size:
-        _, sv, Vt = np.linalg.svd(S)
+        _, sv, Vt = np.linalg.svd(S)   # full_matrices: Vt is n_x x n_x, its last rows span the null space
     else:
         sv, Vt = np.array([]), np.eye(n_x)
     rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
-    null = Vt[rank:] if Vt.shape[0] == n_x else np.vstack([Vt[rank:], _complement(Vt, n_x)])
-    null = np.array([v * np.sign(v[np.argmax(np.abs(v))]) for v in null]).reshape(-1, n_x)
+    null = Vt[rank:]
+    null = null * np.sign(null[np.arange(null.shape[0]), np.argmax(np.abs(null), axis=1)])[:, None]
     return {
         "matrix": S,
         "singular_values": sv,
@@ -209,7 +224,7 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
     }
 
 
-def _shape_rows(cfg: Configuration, xbar) -> np.ndarray:
+def _shape_rows(cfg: Configuration, xbar, freqs: ModelFrequencies | None = None) -> np.ndarray:
     """Exact derivatives of the measured shape ratios, shape (n_ratios, n_x)."""
     from vibupdate.sensitivities import shape_ratio_derivatives
 
@@ -217,20 +232,12 @@ def _shape_rows(cfg: Configuration, xbar) -> np.ndarray:
     measured = [(k, f) for k, f in enumerate(cfg.natural) if f.shape is not None and len(f.shape.bounds) > 1]
     if not measured:
         return rows[0]
-    freqs = model_frequencies(cfg, xbar)
+    freqs = freqs or model_frequencies(cfg, xbar)
     for k, f in measured:
-        mid = f.shape.midpoint
-        p = max(mid, key=lambda d: abs(mid[d]))
-        idx = [cfg.model.dof(d) for d in mid if d != p]
+        idx = [cfg.model.dof(d) for d in f.shape.ratio_bounds()]
         rows.append(shape_ratio_derivatives(cfg.model, xbar, freqs.natural[k], freqs.Phi[:, k], idx,
-                                            cfg.model.dof(p)))
+                                            cfg.model.dof(f.shape.reference)))
     return np.vstack(rows)
-
-
-def _complement(Vt: np.ndarray, n: int) -> np.ndarray:
-    """Orthonormal basis of the directions that ``Vt`` (fewer rows than ``n``) does not span."""
-    q, _ = np.linalg.qr(np.hstack([Vt.T, np.eye(n)]))
-    return q[:, Vt.shape[0]:n].T
 
 
 def describe_direction(names, v, *, threshold: float = 0.05) -> str:

@@ -75,9 +75,7 @@ def _reference_entries(cfg: Configuration) -> list[tuple[list[str], str] | None]
         if f.shape is None:
             refs.append(None)
             continue
-        mid = f.shape.midpoint
-        dofs = list(mid)
-        refs.append((dofs, max(dofs, key=lambda d: abs(mid[d]))))
+        refs.append((list(f.shape.bounds), f.shape.reference))
     return refs
 
 
@@ -87,11 +85,13 @@ def _data(configurations, xbar, refs, jacobian: bool = False):
     out, jac = [], []
     for cfg, cfg_refs in zip(configurations, refs):
         model = cfg.model
-        f = model_frequencies(cfg, xbar)
-        out += [f.natural, f.antiresonances]
+        f = model_frequencies(cfg, xbar, zeros=not jacobian)
         if jacobian:
-            jac.append(frequency_derivatives(model, f.natural, f.Phi))
-            jac.append(zero_derivatives(cfg, xbar))
+            z, Dz = zero_derivatives(cfg, xbar)
+            out += [f.natural, z]
+            jac += [frequency_derivatives(model, f.natural, f.Phi), Dz]
+        else:
+            out += [f.natural, f.antiresonances]
         for k, ref in enumerate(cfg_refs):
             if ref is None:
                 continue

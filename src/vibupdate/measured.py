@@ -100,6 +100,20 @@ class ShapeInterval:
     def midpoint(self) -> dict[str, float]:
         return {d: 0.5 * (lo + hi) for d, (lo, hi) in self.bounds.items()}
 
+    @property
+    def reference(self) -> str:
+        """The DOF whose interval midpoint has the largest magnitude: the entry a measured
+        shape is normalized at (shape ratios ``phi_j / phi_reference``)."""
+        mid = self.midpoint
+        return max(mid, key=lambda d: abs(mid[d]))
+
+    def ratio_bounds(self) -> dict[str, tuple[float, float]]:
+        """Interval of each ratio ``phi_j / phi_reference`` (the other DOFs), from the bounds
+        divided by the reference midpoint."""
+        ref = self.midpoint[self.reference]
+        return {d: (min(lo / ref, hi / ref), max(lo / ref, hi / ref))
+                for d, (lo, hi) in self.bounds.items() if d != self.reference}
+
 
 @dataclass(frozen=True)
 class NaturalFrequency:

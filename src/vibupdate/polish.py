@@ -33,7 +33,7 @@ from vibupdate.correlation import zeros_wanted, model_frequencies
 from vibupdate.measured import Configuration
 from vibupdate.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
 
-__all__ = ["PolishOptions", "PolishResult", "polish", "polish_residuals"]
+__all__ = ["PolishOptions", "PolishResult", "polish", "polish_residuals", "fit_least_squares"]
 
 
 @dataclass(frozen=True)
@@ -106,14 +106,10 @@ def _shape_terms(cfg: Configuration):
     for k, f in enumerate(cfg.natural):
         if f.shape is None or len(f.shape.bounds) < 2:
             continue
-        mid = f.shape.midpoint
-        p_name = max(mid, key=lambda d: abs(mid[d]))
-        ref = mid[p_name]
-        names = [d for d in f.shape.bounds if d != p_name]
-        lo = np.array([f.shape.bounds[d][0] for d in names]) / ref
-        hi = np.array([f.shape.bounds[d][1] for d in names]) / ref
-        idx = np.array([cfg.model.dof(d) for d in names])
-        out.append((k, cfg.model.dof(p_name), idx, np.minimum(lo, hi), np.maximum(lo, hi)))
+        ratios = f.shape.ratio_bounds()
+        idx = np.array([cfg.model.dof(d) for d in ratios])
+        lo, hi = np.array(list(ratios.values())).T
+        out.append((k, cfg.model.dof(f.shape.reference), idx, lo, hi))
     return out
 
 
@@ -130,7 +126,7 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
     res, jac = [], []
     for cfg in configurations:
         model = cfg.model
-        freqs = model_frequencies(cfg, xbar)
+        freqs = model_frequencies(cfg, xbar, zeros=not jacobian)   # with a Jacobian, zeros come with it
         w_meas = np.array([f.omega for f in cfg.natural])
         sw = np.sqrt([f.weight for f in cfg.natural])
         if w_meas.size:
@@ -169,32 +165,40 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
     return r, (np.vstack(jac) if jacobian and jac else None)
 
 
-def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None) -> PolishResult:
-    """Refine ``xbar0`` by bounded least squares (module docstring)."""
-    options = options or PolishOptions()
-    configurations = list(configurations)
-    model = configurations[0].model
-    lo, hi = model.bounds()
-    start = time.perf_counter()
-    x0 = np.clip(np.asarray(xbar0, dtype=float), lo, hi)
+def fit_least_squares(configurations: Sequence[Configuration], x0, shape_weight: float, **options):
+    """`scipy.optimize.least_squares` (trf, ``x_scale="jac"``) of `polish_residuals` from
+    ``x0``, shape (n_x,), in the box of the normalized parameters. One evaluation gives the
+    residual and the exact Jacobian from one eigen-solve; ``x0`` is nudged strictly inside the
+    box (trf needs it; parameters with nominal 0 often sit on a bound). ``options`` go to
+    ``least_squares``."""
+    lo, hi = configurations[0].model.bounds()
     cache: dict = {}
 
     def evaluate(x):
         key = x.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = polish_residuals(configurations, x, options.shape_weight)
+            cache[key] = polish_residuals(configurations, x, shape_weight)
         return cache[key]
 
-    r0, _ = evaluate(x0)
-    cost0 = 0.5 * float(r0 @ r0)
-    # least_squares needs a strictly feasible start: nudge parameters sitting on a bound inward.
     span = hi - lo
-    x_in = np.clip(x0, lo + 1e-10 * span, hi - 1e-10 * span)
+    x_in = np.clip(np.asarray(x0, dtype=float), lo + 1e-10 * span, hi - 1e-10 * span)
+    return least_squares(lambda x: evaluate(x)[0], x_in, jac=lambda x: evaluate(x)[1], bounds=(lo, hi),
+                         method="trf", x_scale="jac", **options)
+
+
+def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None) -> PolishResult:
+    """Refine ``xbar0`` by bounded least squares (module docstring)."""
+    options = options or PolishOptions()
+    configurations = list(configurations)
+    lo, hi = configurations[0].model.bounds()
+    start = time.perf_counter()
+    x0 = np.clip(np.asarray(xbar0, dtype=float), lo, hi)
+    r0, _ = polish_residuals(configurations, x0, options.shape_weight, jacobian=False)
+    cost0 = 0.5 * float(r0 @ r0)
     try:
-        sol = least_squares(lambda x: evaluate(x)[0], x_in, jac=lambda x: evaluate(x)[1], bounds=(lo, hi),
-                            method="trf", x_scale="jac", ftol=options.tol, xtol=options.tol, gtol=options.tol,
-                            max_nfev=options.max_evaluations)
+        sol = fit_least_squares(configurations, x0, options.shape_weight, ftol=options.tol, xtol=options.tol,
+                                gtol=options.tol, max_nfev=options.max_evaluations)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start)
     kept = bool(sol.cost < cost0)

@@ -37,6 +37,9 @@ from vibupdate.verify import Check, VerifyOptions, consistency_allowance, verify
 
 __all__ = ["UpdateResult", "update", "prepare"]
 
+#: Tenfold widenings of the vector boxes at most, when the relaxation proves they exclude every fit.
+MAX_WIDENINGS = 2
+
 
 @dataclass(frozen=True)
 class UpdateResult:
@@ -189,8 +192,8 @@ def _margin_entries(blk) -> np.ndarray:
 def _first_stage(solved, formulation, solver, allowance_tol, say):
     """The homotopy, repeated with wider vector boxes while the relaxation proves that the
     current boxes exclude every fit (module docstring, item 2)."""
-    attempts, steps = [], []
-    for attempt in range(3):
+    attempts, steps, attempt = [], [], 0
+    while True:
         problem = prepare(solved, formulation)
         if attempt == 0:
             size = problem.sizes()
@@ -205,7 +208,7 @@ def _first_stage(solved, formulation, solver, allowance_tol, say):
                          "status": path.status.value, "active_bounds": active})
         inconsistent = path.lower_bound is not None and path.lower_bound > allowance
         margins = any(np.any(_margin_entries(b) & ~b.fixed) for b in problem.blocks)
-        if not (inconsistent and margins) or attempt == 2:
+        if not (inconsistent and margins) or attempt == MAX_WIDENINGS:
             if inconsistent and attempt > 0:
                 active = active + [f"(vector boxes of unmeasured entries already widened {10 ** attempt}x "
                                    "without removing the misfit: look at the parameter bounds and the data)"]
@@ -214,7 +217,7 @@ def _first_stage(solved, formulation, solver, allowance_tol, say):
                               adjunct_margin=10 * formulation.adjunct_margin)
         say(f"relaxation lower bound {path.lower_bound:.3g} > {allowance:.3g}: the vector boxes exclude every fit; "
             f"widening them tenfold (shape_margin {formulation.shape_margin:g}) and solving again")
-    raise AssertionError("unreachable")
+        attempt += 1
 
 
 def _full_vector(problem: BilinearProblem, b: int, u, configurations, bases) -> np.ndarray:
@@ -312,7 +315,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         objective=path.objective,
         relaxation_lower_bound=path.lower_bound,
         seconds=sum(st.seconds for st in steps) + (polished.seconds if polished else 0.0),
-        sensitivity=sensitivity(configurations, xbar),
+        sensitivity=sensitivity(configurations, xbar, freqs=updated),
         checks=checks,
         warnings=warnings,
         first_stage_xbar=first_xbar,

@@ -171,18 +171,17 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions):
                            f"(MAC {macs[other]:.3f} vs {macs[m]:.3f})")
         if len(dofs) < 2:
             continue
-        p = int(np.argmax(np.abs(mid)))
-        phi = f.Phi_all[idx, m]
-        if phi[p] == 0:
-            bad_box.append(f"{label}: the model mode is zero at the reference DOF {dofs[p]!r}")
+        ref = nat.shape.reference
+        phi_ref = f.Phi_all[cfg.model.dof(ref), m]
+        if phi_ref == 0:
+            bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}")
             continue
-        ratio = phi / phi[p]
-        for j, d in enumerate(dofs):
-            lo, hi = sorted((nat.shape.bounds[d][0] / mid[p], nat.shape.bounds[d][1] / mid[p]))
+        for d, (lo, hi) in nat.shape.ratio_bounds().items():
+            ratio = f.Phi_all[cfg.model.dof(d), m] / phi_ref
             slack = options.shape_slack * 0.5 * (hi - lo) + 1e-9
-            if ratio[j] < lo - slack or ratio[j] > hi + slack:
-                bad_box.append(f"{label}, DOF {d!r}: model shape ratio {ratio[j]:.4g} outside the measured "
-                               f"interval [{lo:.4g}, {hi:.4g}] (normalized at {dofs[p]!r})")
+            if ratio < lo - slack or ratio > hi + slack:
+                bad_box.append(f"{label}, DOF {d!r}: model shape ratio {ratio:.4g} outside the measured "
+                               f"interval [{lo:.4g}, {hi:.4g}] (normalized at {ref!r})")
     return bad_mac, bad_box, worst_mac
 
 
