@@ -46,7 +46,9 @@ class PolishOptions:
         Run the polish after the homotopy (default on).
     shape_weight : float
         ``gamma``: weight of a shape ratio's distance outside its interval, against relative
-        frequency errors.
+        frequency errors. The default 100 prices a ratio 1e-3 outside its interval like a 10 %
+        frequency miss, so the intervals act almost as constraints (on the frame example the
+        polish takes the interval penalty from 0.107 to 1e-6 and keeps 0.035 % frequency error).
     max_evaluations : int
         Residual evaluations (each one eigen-solve per configuration).
     tol : float

@@ -61,9 +61,13 @@ class VerifyOptions:
     Attributes
     ----------
     mac_min : float
-        Smallest MAC of a measured shape with its declared mode.
+        Smallest MAC of a measured shape with its declared mode (0.8: the usual threshold
+        below which two shapes are not taken as the same mode; the frame example's verified
+        answer has 0.9917 at worst).
     shape_slack : float
-        Allowed distance outside a shape interval, in half-widths of that interval.
+        Allowed distance outside a shape interval, in half-widths of that interval: the model's
+        own eigenvector differs slightly from the first stage's vector in its box when the
+        residual is not zero; a wrong sign or mode is many half-widths out.
     frequency_tolerance : float
         Relative frequency uncertainty used for the consistency allowance (a case file's
         ``frequency_tolerance`` when it states one; 1 % otherwise).
