@@ -459,8 +459,7 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
     order = np.argsort(lam)[:n_zeros]
     lam, V = lam[order], V[:, order]
     V = lu.solve(np.asarray(Mr @ V)) * (lam - sigma)
-    R = Kr @ V - (Mr @ V) * lam
-    eta = np.linalg.norm(R, axis=0) / ((_norm1(Kr) + lam * _norm1(Mr)) * np.linalg.norm(V, axis=0))
+    eta = mode_residuals(Mr, Kr, np.sqrt(lam), V)
     bad = np.flatnonzero(eta > RESIDUAL_TOL)
     if bad.size:
         j = bad[0]

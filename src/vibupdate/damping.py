@@ -264,7 +264,7 @@ def negative_bands(exponents, beta, top: float, *, n_grid: int = 4000) -> list[t
         return float(np.sum(b * (np.asarray(w) / scale) ** (2.0 * Y) * scale ** (2.0 * Y)))
 
     grid = np.unique(np.concatenate([np.linspace(top / n_grid, top, n_grid), np.geomspace(1e-6 * top, top, n_grid)]))
-    values = np.array([g(w) for w in grid])
+    values = np.sum(b * (grid[:, None] / scale) ** (2.0 * Y) * scale ** (2.0 * Y), axis=1)  # g on the grid
     nonzero = b != 0
     low_sign = np.sign(b[nonzero][np.argmin(Y[nonzero])]) if nonzero.any() else 0.0
     bands, start = [], (0.0 if low_sign < 0 else None)
@@ -287,7 +287,19 @@ def _hz_band(low: float, high: float) -> str:
     return f"{low / (2 * np.pi):.4g}-{high / (2 * np.pi):.4g} Hz"
 
 
-def damping_sanity(fit: DampingFit, configurations, xbar, name: str) -> tuple[str, ...]:
+def _checked_frequencies(configurations, xbar) -> list[np.ndarray]:
+    """Natural frequencies (rad/s) of each configuration's updated model checked by
+    `damping_sanity`: every mode where C is exported (up to DENSE_LIMIT DOFs); above, C is
+    kept as its law and the modes checked are the lowest LARGE_MODEL_CHECKED_MODES."""
+    out = []
+    for cfg in configurations:
+        M, K = cfg.model.matrices(xbar)
+        n = M.shape[0]
+        out.append(modes(M, K)[0] if n <= DENSE_LIMIT else modes(M, K, min(n - 1, LARGE_MODEL_CHECKED_MODES))[0])
+    return out
+
+
+def damping_sanity(fit: DampingFit, configurations, xbar, name: str, *, frequencies=None) -> tuple[str, ...]:
     """Warnings when a fitted series gives negative damping.
 
     Checks the modal damping over ``[0, 1.5 x the highest measured natural frequency]``, and
@@ -303,6 +315,9 @@ def damping_sanity(fit: DampingFit, configurations, xbar, name: str) -> tuple[st
         Updated normalized parameters (nominal if None).
     name : str
         What the fit is, for the messages (``"Caughey fit"``).
+    frequencies : list of ndarray, optional
+        The configurations' natural frequencies from `_checked_frequencies` (computed when
+        None); passed in to check several fits on one set of eigen-solves.
 
     Returns
     -------
@@ -317,12 +332,9 @@ def damping_sanity(fit: DampingFit, configurations, xbar, name: str) -> tuple[st
         out.append(f"{name}: negative modal damping at {shown} (checked over 0-{top / (2 * np.pi):.4g} Hz, "
                    "1.5 x the highest measured frequency); the damping model is not physical there")
     per_config, highest = [], top
-    for cfg in configurations:
-        M, K = cfg.model.matrices(xbar)
-        # Every mode where C is exported (up to DENSE_LIMIT DOFs); above, C is kept as its law
-        # and the modes checked are the lowest LARGE_MODEL_CHECKED_MODES.
-        n = M.shape[0]
-        omega, _ = modes(M, K) if n <= DENSE_LIMIT else modes(M, K, min(n - 1, LARGE_MODEL_CHECKED_MODES))
+    if frequencies is None:
+        frequencies = _checked_frequencies(configurations, xbar)
+    for cfg, omega in zip(configurations, frequencies):
         highest = max(highest, float(omega[-1]))
         positive = omega > 0
         d = np.zeros_like(omega)
@@ -408,6 +420,8 @@ def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DampingWarning)
         rayleigh = fit_caughey(omega, ratios, [0.0, 1.0], None, labels)
-    checks = (damping_sanity(caughey, configurations, xbar, f"Caughey fit (Y = {caughey.exponents.tolist()})")
-              + damping_sanity(rayleigh, configurations, xbar, "Rayleigh baseline"))
+    frequencies = _checked_frequencies(configurations, xbar)  # one eigen-solve per configuration for both checks
+    checks = (damping_sanity(caughey, configurations, xbar, f"Caughey fit (Y = {caughey.exponents.tolist()})",
+                             frequencies=frequencies)
+              + damping_sanity(rayleigh, configurations, xbar, "Rayleigh baseline", frequencies=frequencies))
     return DampingStage(caughey, rayleigh, checks)

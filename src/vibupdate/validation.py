@@ -217,7 +217,7 @@ def _physical(case, error) -> tuple[list[str], int]:
         corners = box_corners(lower, upper)
         changed = []
         for up, xbar in corners:
-            at = definiteness(*_matrices(model, xbar))
+            at = definiteness(*model.matrices(xbar))
             if at.problem:
                 raise error(key, f"the parameter bounds allow a model that is not physical: at the corner with "
                                  f"{_describe(model, up)}: {at.problem}. Narrow the bounds")
@@ -234,17 +234,6 @@ def _physical(case, error) -> tuple[list[str], int]:
             notes.append(f"{cfg.name}: {n} rigid-body mode(s) at the corner with {where} (nominal: "
                          f"{found.rigid_body_modes})")
     return notes, rigid_all
-
-
-def _matrices(model, xbar):
-    """``M(xbar)``, ``K(xbar)``; dense for small models (cheap at many corners)."""
-    from vibupdate.physical import DENSE_LIMIT
-
-    if model.n_dofs > DENSE_LIMIT:
-        return model.matrices(xbar)
-    M = model.M0.toarray() + sum(x * A.toarray() for x, A in zip(xbar, model.M_par) if x)
-    K = model.K0.toarray() + sum(x * A.toarray() for x, A in zip(xbar, model.K_par) if x)
-    return M, K
 
 
 def _describe(model, up) -> str:
