@@ -35,10 +35,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from vibupdate.analysis import DENSE_LIMIT
+
 __all__ = ["DENSE_LIMIT", "RIGID_TOL", "Definiteness", "definiteness", "box_corners", "count_below"]
 
-#: Models up to this many DOFs are checked with dense eigenvalues.
-DENSE_LIMIT = 400
 #: Relative threshold (to ``lam_ref``) of a zero eigenvalue of the pencil ``(K, M)``.
 RIGID_TOL = 1e-10
 #: Relative threshold (to the largest diagonal entry) of a zero mass.
