@@ -17,6 +17,7 @@ import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -407,13 +408,6 @@ def _frf_data(spec: dict, base: Path, where: _Where, key: str):
     return natural, zeros, shapes, frfs.band(*result.band)
 
 
-@dataclass(frozen=True)
-class _Declared:
-    """A stand-in with the ``mode`` attribute that `declared_modes` reads."""
-
-    mode: int | None
-
-
 def _numbers(values, key, where) -> list[float]:
     out = []
     for v in values:
@@ -486,10 +480,9 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
         zeros.append({"weight": 1.0, **item})
     from vibupdate.measured import declared_modes
 
-    declared = declared_modes([_Declared(f.get("mode")) for f in natural])
-    position = {m: k for k, m in enumerate(declared)}
+    declared = declared_modes([SimpleNamespace(mode=f.get("mode")) for f in natural])  # reads only .mode
     for mode in shapes:
-        if mode not in position:
+        if mode not in declared:
             raise where.error(key, f"a mode shape is given for mode {mode}, but the measured natural frequencies "
                                    f"are modes {declared}")
     first_sign = {}

@@ -55,9 +55,13 @@ def safe_name(text: str, *, default: str = "case") -> str:
     name = re.sub(r"[^A-Za-z0-9._-]", "_", str(text)).lstrip(".")
     name = re.sub(r"\.{2,}", ".", name)
     if len(name) > MAX_NAME:
-        digest = hashlib.sha1(str(text).encode("utf-8")).hexdigest()[:8]
-        name = f"{name[:MAX_NAME - 9]}-{digest}"
+        name = _hashed(name, text)
     return name or default
+
+
+def _hashed(name: str, text: str) -> str:
+    """``name`` cut to fit `MAX_NAME` with a short hash of the full ``text`` appended."""
+    return f"{name[:MAX_NAME - 9]}-{hashlib.sha1(str(text).encode('utf-8')).hexdigest()[:8]}"
 
 
 def file_names(names: Sequence[str]) -> dict[str, str]:
@@ -73,7 +77,7 @@ def file_names(names: Sequence[str]) -> dict[str, str]:
     out = {}
     for n, part in first.items():
         if counts[part] > 1:
-            part = f"{part[:MAX_NAME - 9]}-{hashlib.sha1(n.encode('utf-8')).hexdigest()[:8]}"
+            part = _hashed(part, n)
         out[n] = part
     return out
 

@@ -182,7 +182,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
         mac = run.mac_matrix.get(cfg.name)
         if mac is not None:
             file = f"mac_{part}.png"
-            values = np.array([[np.nan if v is None else v for v in row] for row in mac["values"]], dtype=float)
+            values = np.array(mac["values"], dtype=float)  # None (not computed) becomes NaN
             plot_mac(folder / file, values, f"MAC, configuration {cfg.name}")
             images.append((f"MAC configuration {cfg.name}", file))
     plot_homotopy(folder / "homotopy.png", run.solver["steps"])
@@ -253,8 +253,6 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
 def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
     """Certified outer ranges over the consistent set, with the vector boxes the first stage
     ended with (it may have widened the margins)."""
-    from dataclasses import replace
-
     from vibupdate.certify import certified_ranges
 
     last = result.attempts[-1] if result.attempts else {}

@@ -32,6 +32,11 @@ def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
+    return _save(plt, fig, path)
+
+
+def _save(plt, fig, path) -> Path:
+    """Save ``fig`` as PNG at ``path`` and close it."""
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return Path(path)
@@ -132,9 +137,7 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     fig.suptitle(title, fontsize=10, y=1 - 0.05 / height, va="top")
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, bbox_to_anchor=(0.5, 1 - 0.3 / height))
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.65 / height))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return _save(plt, fig, path)
 
 
 def plot_homotopy(path, steps) -> Path:
@@ -169,6 +172,4 @@ def plot_mac(path, matrix: np.ndarray, title: str) -> Path:
     ax.set_title(title)
     fig.colorbar(im, ax=ax, fraction=0.046)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return _save(plt, fig, path)
