@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
 from vibupdate.certify import enclosure  # noqa: E402
-from vibupdate.lp_relaxation import highs_model, lift, relax, safe_bound, solve  # noqa: E402
+from vibupdate.lp_relaxation import highs_model, lift, relax, safe_bound, solve, solve_clarabel  # noqa: E402
 from vibupdate.consistent import consistent_set, inner_ranges  # noqa: E402
 from vibupdate.update import update  # noqa: E402
 
@@ -46,24 +46,7 @@ def _linprog(lp, c):
 
 
 def _clarabel(lp, c):
-    import clarabel
-
-    A = sp.csc_matrix(lp.A)
-    up, dn = np.isfinite(lp.hi), np.isfinite(lp.lo)
-    n = A.shape[1]
-    I = sp.eye(n, format="csc")
-    G = sp.vstack([A[up], -A[dn], I, -I], format="csc")
-    h = np.concatenate([lp.hi[up], -lp.lo[dn], lp.zu, -lp.zl])
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), c, G, h, [clarabel.NonnegativeConeT(G.shape[0])],
-                                 settings).solve()
-    z = np.asarray(sol.z)   # G x + s = h, s >= 0; multipliers z >= 0 of G x <= h
-    y = np.zeros(lp.A.shape[0])
-    k = int(up.sum())
-    y[up] -= z[:k]
-    y[dn] += z[k:k + int(dn.sum())]
-    return sol.obj_val, safe_bound(c, lp, y)
+    return solve_clarabel(lp, c)[1:]
 
 
 def compare_solvers(cs) -> list[str]:

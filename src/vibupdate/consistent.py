@@ -147,10 +147,10 @@ def consistent_set(configurations: Sequence[Configuration], *, frequency_toleran
                          problem.x_lower.copy(), problem.x_upper.copy(), float(frequency_tolerance))
 
 
-def _block_pencil(model, blk: VectorBlock, xbar):
-    M, K = model.matrices(xbar)
+def _block_pencil(dense, blk: VectorBlock):
+    """The block's rows and columns of ``dense = (K, M)`` (full dense matrices)."""
     ix = np.ix_(blk.rows, blk.cols)
-    return K.toarray()[ix], M.toarray()[ix]
+    return dense[0][ix], dense[1][ix]
 
 
 def _eigenpairs(K, M):
@@ -186,9 +186,12 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
     xbar = np.asarray(xbar, dtype=float)
     if np.any(xbar < cs.x_lower) or np.any(xbar > cs.x_upper):
         return None
-    pairs = []
+    pairs, dense = [], {}
     for b, (blk, model) in enumerate(zip(cs.blocks, cs.models)):
-        K, M = _block_pencil(model, blk, xbar)
+        if id(model) not in dense:  # assembled once per model, not once per block
+            M, K = model.matrices(xbar)
+            dense[id(model)] = (K.toarray(), M.toarray())
+        K, M = _block_pencil(dense[id(model)], blk)
         lam, V = _eigenpairs(K, M)
         w = np.sqrt(lam)
         inside = (w >= cs.omega_lower[b] * (1 + margin)) & (w <= cs.omega_upper[b] * (1 - margin))

@@ -104,6 +104,11 @@ def _frequency_interval(value: float, interval, tolerance: float, what: str) -> 
     return (value * (1.0 - tolerance), value * (1.0 + tolerance))
 
 
+def _damping_interval(f: NaturalFrequency, options: SamplingOptions) -> tuple[float, float]:
+    return f.damping_interval or (f.damping_ratio * (1 - options.damping_tolerance),
+                                  f.damping_ratio * (1 + options.damping_tolerance))
+
+
 def data_intervals(configurations: Sequence[Configuration], frequency_tolerance: float,
                    options: SamplingOptions | None = None) -> list[tuple[str, float, float, float]]:
     """Every sampled scalar datum with its interval: ``(label, value, lower, upper)``.
@@ -124,8 +129,7 @@ def data_intervals(configurations: Sequence[Configuration], frequency_tolerance:
             rows.append((f"{cfg.name}:z{k}_hz", a.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI))
         for k, f in enumerate(cfg.natural, start=1):
             if f.damping_ratio is not None:
-                lo, hi = f.damping_interval or (f.damping_ratio * (1 - options.damping_tolerance),
-                                                f.damping_ratio * (1 + options.damping_tolerance))
+                lo, hi = _damping_interval(f, options)
                 rows.append((f"{cfg.name}:xi{k}", f.damping_ratio, lo, hi))
     return rows
 
@@ -202,9 +206,7 @@ def draw_configurations(configurations: Sequence[Configuration], frequency_toler
             omega = draw(lo, hi)
             xi = None
             if f.damping_ratio is not None:
-                dlo, dhi = f.damping_interval or (f.damping_ratio * (1 - options.damping_tolerance),
-                                                  f.damping_ratio * (1 + options.damping_tolerance))
-                xi = draw(dlo, dhi)
+                xi = draw(*_damping_interval(f, options))
                 drawn[f"{cfg.name}:xi{k}"] = xi
             shape = None if f.shape is None else _draw_shape(draw, f.shape, options.shape_width)
             natural.append(NaturalFrequency(omega, weight=f.weight, shape=shape, damping_ratio=xi, mode=f.mode))

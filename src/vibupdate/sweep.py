@@ -156,15 +156,14 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
         return row
     row.update(outcome=_outcome(result), status=result.status.value, objective=result.objective,
                message=result.message, start="homotopy")
-    xbar = result.xbar
+    xbar, frequencies = result.xbar, None
     if sampling.random_start and result.success and not wants_reduction(cfgs, case.formulation):
         other = _random_start(case, cfgs, seed, index, result, sampling, verification)
         if other is not None:
-            (xbar, row["objective"]), row["start"] = other, "random"
+            (xbar, row["objective"], frequencies), row["start"] = other, "random"
     model = cfgs[0].model
     row.update({f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(xbar))})
-    for cfg in cfgs:
-        freqs = model_frequencies(cfg, xbar)
+    for cfg, freqs in zip(cfgs, frequencies or [model_frequencies(c, xbar) for c in cfgs]):
         row.update({f"pred:{cfg.name}:f{k}_hz": float(w) / TWO_PI for k, w in enumerate(freqs.natural, start=1)})
         row.update({f"pred:{cfg.name}:z{k}_hz": float(w) / TWO_PI
                     for k, w in enumerate(freqs.antiresonances, start=1)})
@@ -178,18 +177,18 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     return row
 
 
-def _misfit(cfgs, xbar) -> np.ndarray:
-    """Relative error of the model at ``xbar`` for every measured frequency of ``cfgs``."""
+def _misfit(cfgs, frequencies) -> np.ndarray:
+    """Relative error of the model frequencies (`model_frequencies`, one per configuration)
+    for every measured frequency of ``cfgs``."""
     errors = []
-    for cfg in cfgs:
-        freqs = model_frequencies(cfg, xbar)
+    for cfg, freqs in zip(cfgs, frequencies):
         errors += [abs(w - f.omega) / f.omega for w, f in zip(freqs.natural, cfg.natural)]
         errors += [abs(w - a.omega) / a.omega for w, a in zip(freqs.antiresonances, cfg.antiresonances)]
     return np.nan_to_num(np.array(errors), nan=np.inf)
 
 
 def _random_start(case: Case, cfgs, seed: int, index: int, result, sampling: SamplingOptions, verification):
-    """``(xbar, objective)`` of a random-start solve of the sample (`vibupdate.multistart.
+    """``(xbar, objective, frequencies)`` of a random-start solve of the sample (`vibupdate.multistart.
     random_start_solve`) when it converged, fits the drawn data no worse than the verified
     homotopy answer ``result.xbar`` (every frequency's relative error at most the homotopy's
     plus ``ACCEPT_FRACTION`` times that datum's relative interval half-width) and passes the
@@ -207,14 +206,16 @@ def _random_start(case: Case, cfgs, seed: int, index: int, result, sampling: Sam
     half = np.array([0.5 * (hi - lo) / value for label, value, lo, hi
                      in data_intervals(case.configurations, case.frequency_tolerance, sampling) if ":xi" not in label])
     xbar = np.asarray(other["xbar"])
-    if not np.all(_misfit(cfgs, xbar) <= _misfit(cfgs, xbar_h) + ACCEPT_FRACTION * half):
+    updated = [model_frequencies(c, xbar) for c in cfgs]
+    if not np.all(_misfit(cfgs, updated) <= _misfit(cfgs, [model_frequencies(c, xbar_h) for c in cfgs])
+                  + ACCEPT_FRACTION * half):
         return None
     checks = verify(cfgs, xbar, nominal=[model_frequencies(c) for c in cfgs],
-                    updated=[model_frequencies(c, xbar) for c in cfgs], lower_bound=result.relaxation_lower_bound,
+                    updated=updated, lower_bound=result.relaxation_lower_bound,
                     n_blocks=len(result.vectors), options=verification)
     if any(c.severity == "error" and not c.passed for c in checks):
         return None
-    return xbar, float(other["objective"])
+    return xbar, float(other["objective"]), updated
 
 
 # -- summary ----------------------------------------------------------------------------------------

@@ -16,6 +16,7 @@ import numpy as np
 
 from vibupdate.analysis import receptance
 from vibupdate.measured import TWO_PI
+from vibupdate.plots import _pyplot
 
 __all__ = ["write_sweep_plots", "plot_histograms", "plot_pairs", "plot_frequency_bands", "plot_frf_band",
            "least_determined"]
@@ -25,13 +26,12 @@ FRF_SAMPLES = 100
 FRF_POINTS = 600
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+def _save(plt, fig, path) -> Path:
+    """Lay out, save as PNG and close."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)
 
 
 def _verified(rows):
@@ -69,10 +69,7 @@ def plot_histograms(path, document: dict, rows) -> Path:
     for ax in list(axes.flat)[len(params):]:
         ax.set_visible(False)
     fig.suptitle(f"sampled parameters: {_counts(document)}; dashed: bounds, orange: nominal", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return _save(plt, fig, path)
 
 
 def plot_pairs(path, document: dict, rows, names) -> Path:
@@ -93,10 +90,7 @@ def plot_pairs(path, document: dict, rows, names) -> Path:
     for ax in list(axes.flat)[len(pairs):]:
         ax.set_visible(False)
     fig.suptitle(f"least-determined parameters (axes: bounds); {_counts(document)}", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return _save(plt, fig, path)
 
 
 def plot_frequency_bands(path, document: dict) -> Path:
@@ -119,10 +113,7 @@ def plot_frequency_bands(path, document: dict) -> Path:
     ax.grid(True, alpha=0.3)
     if preds:
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return _save(plt, fig, path)
 
 
 def _frf_dofs(cfg):
@@ -171,10 +162,7 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
     ax.set_title(f"configuration {cfg.name}: {label}, {len(curves)} verified samples", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return _save(plt, fig, path)
 
 
 def write_sweep_plots(out: Path, case, rows, document: dict) -> list[Path]:
