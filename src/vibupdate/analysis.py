@@ -86,7 +86,6 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
 
     Returns ``lam`` ascending and ``Phi`` with ``Phi.T M Phi = I``.
     """
-    n = K.shape[0]
     sigma = 0.0
     lam_direct = V_direct = None
     try:

@@ -25,7 +25,7 @@ import numpy as np
 
 from vibupdate.consistent import ConsistentSet, consistent_set
 from vibupdate.formulation import FormulationOptions
-from vibupdate.lp_relaxation import highs_model, lift, phase1_bound, relax, solve, solve_clarabel
+from vibupdate.lp_relaxation import Lifted, highs_model, lift, phase1_bound, relax, solve, solve_clarabel
 from vibupdate.measured import Configuration
 
 __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements"]

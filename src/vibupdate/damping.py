@@ -29,7 +29,7 @@ from vibupdate.analysis import DENSE_LIMIT, modes
 #: Modes whose Caughey damping is checked on models above DENSE_LIMIT DOFs.
 LARGE_MODEL_CHECKED_MODES = 50
 
-__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "CaugheyLaw", "modal_damping", "DampingWarning", "negative_bands",
+__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "caughey_damping", "CaugheyLaw", "modal_damping", "DampingWarning", "negative_bands",
            "damping_sanity"]
 
 
@@ -117,6 +117,17 @@ class CaugheyLaw:
         xi[w > 0] = modal_damping(self.exponents, self.beta, w[w > 0])
         den = w[None, :] ** 2 - omega[:, None] ** 2 + 2j * xi[None, :] * w[None, :] * omega[:, None]
         return (Phi[r] * Phi[c] / den).sum(axis=1)
+
+
+def caughey_damping(M, K, exponents, beta, top_mode: int):
+    """The damping model of a Caughey series for receptances and export: the matrix
+    `caughey_matrix` (N s/m, dense n x n) up to `DENSE_LIMIT` DOFs, above that its modal law
+    (`CaugheyLaw`) over ``max(40, 2 top_mode + 10)`` modes, where ``top_mode`` is the highest
+    measured mode: plots reach 1.25 times the highest measured frequency, which about twice as
+    many modes cover with a margin on the sparse models this path is for."""
+    if M.shape[0] <= DENSE_LIMIT:
+        return caughey_matrix(M, K, exponents, beta)
+    return CaugheyLaw(tuple(float(y) for y in exponents), tuple(float(b) for b in beta), max(40, 2 * top_mode + 10))
 
 
 def modal_damping(exponents, beta, omega) -> np.ndarray:

@@ -57,7 +57,7 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from vibupdate._modal_fit import (_basis, _best_subset, _linear_fit, _modal_basis, _noise_from_repeats,
+from vibupdate._modal_fit import (_best_subset, _linear_fit, _modal_basis, _noise_from_repeats,
                                   _correlation_inflation, _real_stack, _refine_poles, _residual_variance,
                                   _significant, _split_residual, _stabilization, _stable_poles)
 from vibupdate.frf import FRFSet

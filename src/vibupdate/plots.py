@@ -12,7 +12,7 @@ import numpy as np
 from vibupdate.analysis import receptance
 from vibupdate.measured import TWO_PI
 
-__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac"]
+__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance"]
 
 
 def _pyplot():
@@ -42,7 +42,7 @@ def _save(plt, fig, path) -> Path:
     return Path(path)
 
 
-def _model_receptance(model, r: int, c: int, omega) -> np.ndarray:
+def model_receptance(model, r: int, c: int, omega) -> np.ndarray:
     """Receptance of ``model = (M, K, C)``; ``C`` a matrix, None (undamped) or a damping law
     with its own ``receptance`` (large models: modal superposition). Shape (n_f,), m/N."""
     M, K, C = model
@@ -72,7 +72,7 @@ def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
     omega = np.linspace(top / 2000, top, 2000)
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     for (M, K, C), name, style in ((nominal, "nominal", "--"), (updated, "updated", "-")):
-        h = _model_receptance((M, K, C), r, c, omega)
+        h = model_receptance((M, K, C), r, c, omega)
         note = (f" (damping law, {C.n_modes} modes)" if hasattr(C, "receptance")
                 else " (undamped)" if C is None else "")
         ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model{note}")
@@ -121,7 +121,7 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
         ax = axes[rows.index(r), cols.index(c)] if grid else axes[n, 0]
         ax.semilogy(f_hz, np.abs(measured[k]), color="0.2", lw=0.9, label="measured (mean of repeats)")
         for model, name, style in ((nominal, nominal_label, "--"), (updated, updated_label, "-")):
-            ax.semilogy(f_hz, np.abs(_model_receptance(model, index[r], index[c], omega)), style, lw=1.0,
+            ax.semilogy(f_hz, np.abs(model_receptance(model, index[r], index[c], omega)), style, lw=1.0,
                         label=name)
         ax.set_title(f"h_{r},{c}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)

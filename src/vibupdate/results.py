@@ -290,8 +290,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     from vibupdate import __version__
     from vibupdate.analysis import mac as mac_of
     from vibupdate.analysis import modes
-    from vibupdate.analysis import DENSE_LIMIT
-    from vibupdate.damping import CaugheyLaw, caughey_matrix
+    from vibupdate.damping import caughey_damping
 
     configurations = case.configurations
     model = configurations[0].model
@@ -313,12 +312,10 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         M, K = result.matrices[cfg.name]
         M0, K0 = cfg.model.matrices()
         entry = {"M": M, "K": K, "nominal": (M0, K0, None)}
-        if stage is not None and M.shape[0] <= DENSE_LIMIT:
-            entry["C"] = caughey_matrix(M, K, stage.caughey.exponents, stage.caughey.beta)
-        elif stage is not None:  # a Caughey C is dense: kept as its modal law on large models
-            top = max((f.mode for f in cfg.natural), default=1)
-            entry["damping_law"] = CaugheyLaw(tuple(stage.caughey.exponents), tuple(stage.caughey.beta),
-                                              max(40, 2 * top + 10))
+        if stage is not None:   # a dense C on small models, its modal law on large ones
+            model_c = caughey_damping(M, K, stage.caughey.exponents, stage.caughey.beta,
+                                      max((f.mode for f in cfg.natural), default=1))
+            entry["C" if isinstance(model_c, np.ndarray) else "damping_law"] = model_c
         matrices[cfg.name] = entry
         dofs[cfg.name] = list(cfg.model.dofs)
         response, excitation = _receptance_dofs(cfg, M)

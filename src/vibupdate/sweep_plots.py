@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.analysis import receptance
 from vibupdate.measured import TWO_PI
 from vibupdate.plots import _pyplot
 
@@ -128,7 +127,8 @@ def _frf_dofs(cfg):
 def plot_frf_band(path, case, cfg, rows) -> Path:
     """5-50-95 % band of |h_rc| of one configuration over the verified samples (damped with
     each sample's Caughey coefficients when the case has damping data), measured marked."""
-    from vibupdate.damping import caughey_matrix
+    from vibupdate.damping import caughey_damping
+    from vibupdate.plots import model_receptance
 
     plt = _pyplot()
     ok = _verified(rows)[:FRF_SAMPLES]
@@ -144,8 +144,9 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
         M, K = model.matrices(xbar)
         C = None
         if row.get("beta0") is not None:
-            C = caughey_matrix(M, K, exponents, [row[f"beta{i}"] for i in range(len(exponents))])
-        curves.append(np.abs(receptance(M, K, r, c, omega, C)))
+            C = caughey_damping(M, K, exponents, [row[f"beta{i}"] for i in range(len(exponents))],
+                                max((f.mode for f in cfg.natural), default=1))
+        curves.append(np.abs(model_receptance((M, K, C), r, c, omega)))
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     if curves:
         q = np.quantile(np.log10(np.maximum(curves, 1e-300)), [0.05, 0.5, 0.95], axis=0)
