@@ -18,9 +18,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from vibupdate.baseline import frequency_fit  # noqa: E402
+from vibupdate.inverse.baseline import frequency_fit  # noqa: E402
 from vibupdate.examples import cantilever  # noqa: E402
-from vibupdate.update import update  # noqa: E402
+from vibupdate.inverse.update import update  # noqa: E402
 
 
 def main() -> None:

@@ -26,10 +26,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
-from vibupdate.certify import enclosure  # noqa: E402
-from vibupdate.lp_relaxation import highs_model, lift, relax, safe_bound, solve, solve_clarabel  # noqa: E402
-from vibupdate.consistent import consistent_set, inner_ranges  # noqa: E402
-from vibupdate.update import update  # noqa: E402
+from vibupdate.ranges.certify import enclosure  # noqa: E402
+from vibupdate.ranges.lp_relaxation import highs_model, lift, relax, safe_bound, solve, solve_clarabel  # noqa: E402
+from vibupdate.ranges.consistent import consistent_set, inner_ranges  # noqa: E402
+from vibupdate.inverse.update import update  # noqa: E402
 
 
 def _linprog(lp, c):

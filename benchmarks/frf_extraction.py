@@ -1,4 +1,4 @@
-"""Benchmark: `vibupdate.extraction.extract` vs peak picking on known-truth FRFs, one process.
+"""Benchmark: `vibupdate.data.extraction.extract` vs peak picking on known-truth FRFs, one process.
 
 Run:  python benchmarks/frf_extraction.py [--seeds N]
 
@@ -27,7 +27,7 @@ import scipy.signal  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from frf_synthetic import PAIRS, measured, true_poles, true_zeros  # noqa: E402
 
-from vibupdate.extraction import extract  # noqa: E402
+from vibupdate.data.extraction import extract  # noqa: E402
 
 
 def peak_picking(frfs):

@@ -47,7 +47,7 @@ def kernels(subdivisions: int) -> dict:
     """Build, modes, receptance and antiresonances of the true refined frame."""
     import numpy as np
 
-    from vibupdate.analysis import antiresonances, mode_residuals, modes, receptance
+    from vibupdate.modal.analysis import antiresonances, mode_residuals, modes, receptance
     from vibupdate.examples import frame
 
     t0 = time.perf_counter()
@@ -105,7 +105,7 @@ def _parameter_error(parameters, values) -> dict:
 
 def update_point(subdivisions: int) -> dict:
     from vibupdate import update
-    from vibupdate.verify import VerifyOptions
+    from vibupdate.inverse.verify import VerifyOptions
 
     t0 = time.perf_counter()
     case = exact_case(subdivisions)

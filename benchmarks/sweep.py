@@ -25,10 +25,10 @@ CASE = Path(__file__).resolve().parents[1] / "examples" / "cantilever" / "case.t
 
 def build_overhead(tolerance: float, repeats: int = 3) -> dict:
     """Seconds to formulate a sample and compile its solver, against a whole sample."""
-    from vibupdate.case import load_case
-    from vibupdate.multistart import build_solver
-    from vibupdate.sampling import SamplingOptions
-    from vibupdate.sweep import run_sample
+    from vibupdate.io.case import load_case
+    from vibupdate.study.multistart import build_solver
+    from vibupdate.study.sampling import SamplingOptions
+    from vibupdate.study.sweep import run_sample
 
     case = load_case(CASE)
     from dataclasses import replace
@@ -47,8 +47,8 @@ def build_overhead(tolerance: float, repeats: int = 3) -> dict:
 
 
 def timed_sweep(samples: int, workers: int, tolerance: float) -> dict:
-    from vibupdate.sampling import SamplingOptions
-    from vibupdate.sweep import run_sweep
+    from vibupdate.study.sampling import SamplingOptions
+    from vibupdate.study.sweep import run_sweep
 
     out = Path(tempfile.mkdtemp(prefix="vibupdate-bench-")) / "s"
     try:

@@ -9,7 +9,7 @@ For the cantilever (paper test case 2) and the frame example it times, best of N
 * the full `update()` (homotopy, polish, verification, sensitivities),
 * the verification alone at the answer,
 * the classical frequency least-squares fit from the nominal model with the exact Jacobian
-  and one dense eigen-solve per evaluation (`vibupdate.baseline.frequency_fit`), the peer a
+  and one dense eigen-solve per evaluation (`vibupdate.inverse.baseline.frequency_fit`), the peer a
   competent user would write.
 
 and prints the ratios and the mean frequency errors.
@@ -24,12 +24,12 @@ import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from vibupdate.baseline import frequency_fit  # noqa: E402
-from vibupdate.correlation import model_frequencies  # noqa: E402
+from vibupdate.inverse.baseline import frequency_fit  # noqa: E402
+from vibupdate.inverse.correlation import model_frequencies  # noqa: E402
 from vibupdate.examples import cantilever, frame  # noqa: E402
-from vibupdate.polish import PolishOptions  # noqa: E402
-from vibupdate.update import update  # noqa: E402
-from vibupdate.verify import verify  # noqa: E402
+from vibupdate.inverse.polish import PolishOptions  # noqa: E402
+from vibupdate.inverse.update import update  # noqa: E402
+from vibupdate.inverse.verify import verify  # noqa: E402
 
 
 def best(fn, repeat):

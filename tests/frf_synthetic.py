@@ -8,7 +8,7 @@ import numpy as np
 import scipy.linalg
 
 from vibupdate.examples import cantilever
-from vibupdate.frf import FRFSet
+from vibupdate.data.frf import FRFSet
 
 PAIRS = (("y1", "y3"), ("y2", "y3"), ("y3", "y3"))
 DASHPOT = 3.0  # N s/m at the load cell (y3): makes the damping non-proportional

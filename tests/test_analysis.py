@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from helpers import random_spd, uniform_cantilever
 from vibupdate import antiresonances, mac, modes, receptance
-from vibupdate.analysis import adjunct
+from vibupdate.modal.analysis import adjunct
 
 
 def test_modes_are_mass_normalized_and_dense_equals_sparse():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
-from vibupdate.correlation import model_frequencies, percent_error
+from vibupdate.inverse.correlation import model_frequencies, percent_error
 from vibupdate.examples import cantilever, read_table
 
 

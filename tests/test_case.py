@@ -9,9 +9,9 @@ import pytest
 import scipy.io
 import scipy.sparse as sp
 
-from vibupdate.case import linear_expression, load_case
+from vibupdate.io.case import linear_expression, load_case
 from vibupdate.cli import main
-from vibupdate.correlation import model_frequencies
+from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.examples import cantilever
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -44,7 +44,7 @@ def test_documented_example_builds_the_bundled_cantilever(tmp_path):
 
 def test_every_documented_key_is_read_by_the_loader():
     """Keys in the tables of docs/case-file.md are the keys the loader accepts."""
-    from vibupdate import case as module
+    from vibupdate.io import case as module
 
     first_cells = [line.split(" | ")[0] for line in DOC.splitlines() if line.startswith("| `")]
     names = {n for cell in first_cells for n in re.findall(r"`(\w+)`", cell)}

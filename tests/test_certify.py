@@ -9,10 +9,10 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from vibupdate import Configuration, NaturalFrequency, ShapeInterval, modes
-from vibupdate.certify import enclosure
-from vibupdate.lp_relaxation import lift, lifted_point, relax, safe_bound, solve
-from vibupdate.consistent import consistent_set, inner_ranges, is_consistent, witness
-from vibupdate.identifiability import parameter_ranges
+from vibupdate.ranges.certify import enclosure
+from vibupdate.ranges.lp_relaxation import lift, lifted_point, relax, safe_bound, solve
+from vibupdate.ranges.consistent import consistent_set, inner_ranges, is_consistent, witness
+from vibupdate.ranges.identifiability import parameter_ranges
 
 NAMES = ("k1", "k2", "k3", "m1", "m2", "m3")
 
@@ -158,7 +158,7 @@ def test_cli_run_with_certify_reports_the_ranges_beside_the_linearized_ones(tmp_
     head = ('[model]\ntype = "builder"\nbuilder = "model.py:build"\n'
             '[[parameter]]\nname = "EI"\nnominal = 10.0\nlower = 5.0\nupper = 20.0\n'
             '[[parameter]]\nname = "m"\nnominal = 1.0\nlower = 0.8\nupper = 1.2\n')
-    from vibupdate.case import load_case
+    from vibupdate.io.case import load_case
 
     (tmp_path / "probe.toml").write_text(head + '[[configuration]]\nname = "A"\nnatural_hz = [1.0, 5.0]\n')
     model = load_case(tmp_path / "probe.toml").configurations[0].model
@@ -188,7 +188,7 @@ def test_cli_run_with_certify_reports_the_ranges_beside_the_linearized_ones(tmp_
 @pytest.fixture(scope="module")
 def cantilever_answer():
     from vibupdate.examples import cantilever
-    from vibupdate.update import update
+    from vibupdate.inverse.update import update
 
     case = cantilever.case()
     return case, update(case.configurations, formulation=case.formulation, solver=case.solver)
@@ -233,7 +233,7 @@ def test_cantilever_refined_range_contains_the_inner_estimate(cantilever_answer)
 @pytest.mark.slow
 def test_frame_certified_range_contains_the_answer_and_the_inner_estimate():
     from vibupdate.examples import frame
-    from vibupdate.update import update
+    from vibupdate.inverse.update import update
 
     case = frame.case()
     result = update(case.configurations, formulation=case.formulation, solver=case.solver)

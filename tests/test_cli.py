@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from vibupdate.cli import main
-from vibupdate.results import validate_document
+from vibupdate.io.results import validate_document
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -110,7 +110,7 @@ def test_results_and_matrices_reload_and_reproduce_the_updated_frequencies(canti
     import scipy.io
 
     from vibupdate import antiresonances, modes
-    from vibupdate.results import load_results
+    from vibupdate.io.results import load_results
 
     out = cantilever_run[1]
     run = load_results(out / "results.json")

@@ -10,7 +10,7 @@ from vibupdate import modes
 from vibupdate.damping import (DampingWarning, caughey_matrix, damping_data, fit_caughey, identify_damping,
                                modal_damping)
 from vibupdate.examples import cantilever
-from vibupdate.update import update
+from vibupdate.inverse.update import update
 
 
 @pytest.mark.parametrize("exponents", [[0.0, 1.0], [-1.5, -0.75, 0.0], [0.0, 0.25, 0.5, 0.75, 1.0], [-0.5, 0.3]])
@@ -121,7 +121,7 @@ def test_cantilever_caughey_and_rayleigh_fits_are_flagged_where_damping_turns_ne
 
 def test_frf_plot_draws_the_nominal_model_without_the_updated_damping(tmp_path, monkeypatch):
     """Issue 12 item 6: the nominal curve is undamped (labelled so), never the updated C."""
-    from vibupdate import plots
+    from vibupdate.report import plots
 
     calls = []
     real = plots.receptance

@@ -6,7 +6,7 @@ from scipy.optimize import brentq
 
 from helpers import uniform_cantilever
 from vibupdate import Assembly, modes
-from vibupdate.elements import beam_mass, beam_stiffness, frame_mass, frame_stiffness
+from vibupdate.model.elements import beam_mass, beam_stiffness, frame_mass, frame_stiffness
 
 # Clamped-free Euler-Bernoulli beam: roots of cos(bL) cosh(bL) = -1 (e.g. Blevins, Formulas for
 # Natural Frequency and Mode Shape, Table 8-1), printed to 5 decimals.

@@ -19,10 +19,10 @@ import pytest
 
 from frf_synthetic import PAIRS, measured, score, true_poles
 from vibupdate.cli import main
-from vibupdate.extraction import extract
-from vibupdate.frf import FRFSet
-from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
-from vibupdate.measured_io import read_frequency_csv, read_shape_csv
+from vibupdate.data.extraction import extract
+from vibupdate.data.frf import FRFSet
+from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.io.measured_io import read_frequency_csv, read_shape_csv
 
 
 def _accuracy(seeds):
@@ -216,7 +216,7 @@ def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
 
 
 def test_cli_extract_writes_through_the_manifest_and_keeps_foreign_files(tmp_path, capsys):
-    from vibupdate.outputs import read_manifest
+    from vibupdate.io.outputs import read_manifest
 
     frfs, *_ = measured(8, repeats=2)
     uff = tmp_path / "hits.uff"
@@ -322,7 +322,7 @@ def test_docs_example_runs_and_finds_the_truth(capsys):
 
 
 def test_case_configuration_from_frf_files(tmp_path):
-    from vibupdate.case import load_case
+    from vibupdate.io.case import load_case
     from vibupdate.examples import cantilever
 
     frfs, *_ = measured(9, repeats=3)
@@ -350,7 +350,7 @@ def test_case_configuration_from_frf_files(tmp_path):
 
 
 def test_measured_frf_overlay_plot(tmp_path):
-    from vibupdate.plots import plot_measured_frf
+    from vibupdate.report.plots import plot_measured_frf
     from frf_synthetic import cantilever_system
 
     frfs, *_ = measured(4, repeats=2)
@@ -364,13 +364,13 @@ def test_measured_frf_overlay_plot(tmp_path):
 
 def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path):
     """docs/soton-frame.toml: extraction and updating in one ``vibupdate run``; compared with
-    the classical frequency fit (vibupdate.baseline) on the same model and data."""
+    the classical frequency fit (vibupdate.inverse.baseline) on the same model and data."""
     if not REALDATA.is_dir():
         pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     import shutil
 
-    from vibupdate.baseline import frequency_fit
-    from vibupdate.case import load_case
+    from vibupdate.inverse.baseline import frequency_fit
+    from vibupdate.io.case import load_case
 
     shutil.copy(Path(__file__).resolve().parents[1] / "docs" / "soton-frame.toml", tmp_path / "case.toml")
     for name in SOTON_FILES:
@@ -400,8 +400,8 @@ def test_southampton_frame_element_model_updated_from_frfs_in_one_run(tmp_path):
         pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     import shutil
 
-    from vibupdate.baseline import frequency_fit
-    from vibupdate.case import load_case
+    from vibupdate.inverse.baseline import frequency_fit
+    from vibupdate.io.case import load_case
 
     shutil.copy(Path(__file__).resolve().parents[1] / "docs" / "soton-frame-elements.toml", tmp_path / "case.toml")
     for name in SOTON_FILES:

@@ -6,8 +6,8 @@ import pytest
 from vibupdate import SolverOptions, update
 from vibupdate.damping import identify_damping
 from vibupdate.examples import frame, read_table
-from vibupdate.identifiability import data_jacobian, parameter_ranges
-from vibupdate.status import Status
+from vibupdate.ranges.identifiability import data_jacobian, parameter_ranges
+from vibupdate.inverse.status import Status
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from vibupdate.frf import G, FRFSet, combine, read_frf_table, read_frfs, read_uff58, to_receptance
+from vibupdate.data.frf import G, FRFSet, combine, read_frf_table, read_frfs, read_uff58, to_receptance
 
 
 def _receptance(omega):

@@ -10,11 +10,11 @@ import pytest
 
 from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, antiresonances, modes
-from vibupdate.case import Case, DampingOptions
+from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import identify_damping
-from vibupdate.formulation import FormulationOptions
-from vibupdate.homotopy import SolverOptions
-from vibupdate.identifiability import parameter_ranges
+from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.ranges.identifiability import parameter_ranges
 from vibupdate.pipeline import _damping_stage, _frequency_windows
 
 

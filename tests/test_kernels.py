@@ -8,8 +8,8 @@ import scipy.sparse as sp
 
 from helpers import uniform_cantilever
 from vibupdate import Assembly, antiresonances, modes, receptance
-from vibupdate import analysis
-from vibupdate.analysis import DENSE_LIMIT, ModalAccuracyError, adjunct, mode_residuals
+from vibupdate.modal import analysis
+from vibupdate.modal.analysis import DENSE_LIMIT, ModalAccuracyError, adjunct, mode_residuals
 
 
 def lumped_portal(storeys=3, per_column=3):
@@ -188,7 +188,7 @@ def test_batched_frames_equal_element_by_element_assembly_with_complex_values():
         asm.clamp(0)
         return asm.system()
 
-    from vibupdate.elements import frame_mass, frame_stiffness
+    from vibupdate.model.elements import frame_mass, frame_stiffness
 
     one, many = assemble(False), assemble(True)
     np.testing.assert_array_equal(one.K.toarray(), many.K.toarray())

@@ -1,38 +1,73 @@
-"""The data flow runs one way: the inverse problem never imports the results side."""
+"""The data flow runs one way, and the folders show it.
+
+modal kernels (eigen-solves, receptances, zeros and their derivatives on M, K) -> model ->
+data -> inverse -> ranges -> damping -> io -> report -> pipeline -> study -> cli.
+A stage may import the stages before it, never the ones after it: the inverse problem never
+imports the results side (the results object, its writers, the report, the CLI).
+"""
 
 import ast
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "vibupdate"
 
-INVERSE = ["formulation", "interlacing", "relaxation", "homotopy", "backends/casadi_ipopt", "update", "polish",
-           "verify", "pairing", "sensitivities", "correlation", "analysis", "affine", "measured", "status"]
-RESULTS_SIDE = {"results", "report", "plots", "pipeline", "cli", "outputs", "case", "extraction_io"}
+#: Stages in the order the data flow through them; ``damping``, ``pipeline`` and ``cli`` are modules.
+STAGES = ["modal", "model", "data", "inverse", "ranges", "damping", "io", "report", "pipeline", "study", "cli"]
+#: The stages that make up the inverse problem, and what they must never import.
+INVERSE = {"model", "modal", "data", "inverse", "ranges", "damping"}
+RESULTS_SIDE = {"io", "report", "pipeline", "cli", "study"}
 
 
-def imported_modules(path: Path) -> set[str]:
+def imported_stages(path: Path) -> set[str]:
+    """Top-level ``vibupdate`` subpackages or modules imported anywhere in ``path``."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     names = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("vibupdate"):
-            names.add(node.module.split(".")[1] if "." in node.module else "")
-            if node.module == "vibupdate":
+            parts = node.module.split(".")
+            if len(parts) > 1:
+                names.add(parts[1])
+            else:
                 names.update(alias.name for alias in node.names)
         elif isinstance(node, ast.Import):
             names.update(a.name.split(".")[1] for a in node.names if a.name.startswith("vibupdate."))
     return names
 
 
+def stage_of(path: Path) -> str:
+    rel = path.relative_to(PACKAGE)
+    return rel.parts[0] if len(rel.parts) > 1 else rel.stem
+
+
+def test_every_module_sits_in_a_stage():
+    stray = [str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
+             if stage_of(p) not in STAGES + ["__init__", "__main__", "examples"]]
+    assert not stray, stray
+
+
 def test_inverse_problem_does_not_import_the_results_side():
     offenders = {}
-    for name in INVERSE:
-        path = PACKAGE / f"{name}.py"
-        assert path.exists(), path
-        bad = imported_modules(path) & RESULTS_SIDE
-        if bad:
-            offenders[name] = sorted(bad)
+    for path in PACKAGE.rglob("*.py"):
+        if stage_of(path) in INVERSE:
+            bad = imported_stages(path) & RESULTS_SIDE
+            if bad:
+                offenders[str(path.relative_to(PACKAGE))] = sorted(bad)
+    assert not offenders, offenders
+
+
+def test_no_stage_imports_a_later_stage():
+    order = {name: i for i, name in enumerate(STAGES)}
+    offenders = {}
+    for path in PACKAGE.rglob("*.py"):
+        own = stage_of(path)
+        if own not in order:
+            continue
+        later = {s for s in imported_stages(path) if s in order and order[s] > order[own]}
+        if later:
+            offenders[str(path.relative_to(PACKAGE))] = sorted(later)
     assert not offenders, offenders
 
 
 def test_the_checker_sees_imports():
-    assert "results" in imported_modules(PACKAGE / "pipeline.py")
+    assert {"io", "inverse"} <= imported_stages(PACKAGE / "pipeline.py")
+    assert stage_of(PACKAGE / "inverse" / "backends" / "casadi_ipopt.py") == "inverse"

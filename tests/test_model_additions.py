@@ -8,8 +8,8 @@ import scipy.io
 import scipy.sparse as sp
 
 import vibupdate as vu
-from vibupdate.affine import Lumped, with_lumped
-from vibupdate.case import linear_expression, load_case
+from vibupdate.model.affine import Lumped, with_lumped
+from vibupdate.io.case import linear_expression, load_case
 
 PARAMS = """
 [[parameter]]

@@ -8,7 +8,7 @@ import pytest
 from outputs_helpers import TINY_CASE, snapshot, write_case
 
 from vibupdate.cli import main
-from vibupdate.outputs import MANIFEST, MAX_NAME, file_names, prepare_output, read_manifest, safe_name
+from vibupdate.io.outputs import MANIFEST, MAX_NAME, file_names, prepare_output, read_manifest, safe_name
 
 
 @pytest.mark.parametrize("text", ["../x", "/abs/x", "a/../../b", "..", ".hidden", "a\\b", "x" * 300, "名前/é", ""])
@@ -202,10 +202,10 @@ def test_large_model_keeps_the_caughey_law_instead_of_a_dense_C(tmp_path):
     import numpy as np
     from helpers import chain_model
     from vibupdate import Configuration, NaturalFrequency, modes
-    from vibupdate.case import Case, DampingOptions
+    from vibupdate.io.case import Case, DampingOptions
     from vibupdate.damping import CaugheyLaw, caughey_matrix
-    from vibupdate.formulation import FormulationOptions
-    from vibupdate.homotopy import SolverOptions
+    from vibupdate.inverse.formulation import FormulationOptions
+    from vibupdate.inverse.homotopy import SolverOptions
     from vibupdate.pipeline import run_case
 
     model = chain_model(450, ["k1", "k2", "m3"])
@@ -222,7 +222,7 @@ def test_large_model_keeps_the_caughey_law_instead_of_a_dense_C(tmp_path):
     M, K = small.matrices()
     law = CaugheyLaw((0.0, 1.0), (0.3, 2e-4), n_modes=6)
     omega = np.linspace(1.0, 60.0, 25)
-    from vibupdate.analysis import receptance
+    from vibupdate.modal.analysis import receptance
 
     direct = receptance(M, K, 1, 4, omega, caughey_matrix(M, K, law.exponents, law.beta))
     np.testing.assert_allclose(law.receptance(M, K, 1, 4, omega), direct, rtol=1e-8)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from vibupdate.parameters import Parameter, normalized_bounds, to_normalized, to_physical
+from vibupdate.model.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
 
 def test_normalization_round_trip_eq12():

@@ -5,8 +5,8 @@ import numpy as np
 from helpers import uniform_cantilever
 from vibupdate import FormulationOptions, Parameter, from_builder, modes, update
 from vibupdate.examples import frame
-from vibupdate.reduction import craig_bampton, reduce_configurations, wants_reduction
-from vibupdate.status import Status
+from vibupdate.inverse.reduction import craig_bampton, reduce_configurations, wants_reduction
+from vibupdate.inverse.status import Status
 
 
 def _beam_model(n=30):

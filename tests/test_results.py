@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from outputs_helpers import write_case
 
-from vibupdate.results import (
+from vibupdate.io.results import (
     FORMAT_VERSION,
     DampingRow,
     FrequencyRow,
@@ -23,7 +23,7 @@ from vibupdate.results import (
 
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
-    from vibupdate.case import load_case
+    from vibupdate.io.case import load_case
     from vibupdate.pipeline import run_case
 
     folder = tmp_path_factory.mktemp("tiny")
@@ -105,8 +105,8 @@ def test_a_file_that_breaks_the_schema_is_a_clear_error(tiny_run, tmp_path):
 def test_mac_values_and_the_mac_plot_come_from_the_result_for_measured_shapes():
     """The frame example measures shapes: MAC per mode and the MAC matrix are in the object."""
     from vibupdate.examples import frame
-    from vibupdate.results import run_result
-    from vibupdate.update import update
+    from vibupdate.io.results import run_result
+    from vibupdate.inverse.update import update
 
     case = frame.case()
     result = update(case.configurations, formulation=case.formulation, solver=case.solver)

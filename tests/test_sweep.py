@@ -15,12 +15,12 @@ import pytest
 
 from sweep_cases import TRUTH, write_chain_case
 from vibupdate import Assembly, Configuration, NaturalFrequency, Parameter, from_builder, modes
-from vibupdate.case import Case, load_case
+from vibupdate.io.case import Case, load_case
 from vibupdate.cli import main
-from vibupdate.formulation import FormulationOptions
-from vibupdate.homotopy import SolverOptions
-from vibupdate.sampling import SamplingOptions, data_intervals, draw_configurations
-from vibupdate.sweep import RUN_COLUMNS, read_rows, run_sweep
+from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
+from vibupdate.study.sweep import RUN_COLUMNS, read_rows, run_sweep
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 
@@ -106,7 +106,7 @@ def test_truth_inside_the_sampled_range(client, chain_file, tmp_path):
     for f in ("parameters_hist.png", "parameters_pairs.png", "frequency_bands.png", "frf_band_A.png"):
         assert (tmp_path / "s" / f).stat().st_size > 1000
     # the case file was loaded once per worker process, not once per task
-    loads = client.run(lambda: __import__("vibupdate.sweep", fromlist=["x"]).CASE_LOADS["count"])
+    loads = client.run(lambda: __import__("vibupdate.study.sweep", fromlist=["x"]).CASE_LOADS["count"])
     assert all(n <= 1 for n in loads.values()) and sum(loads.values()) >= 1
 
 
@@ -264,7 +264,7 @@ def test_sweep_through_a_real_scheduler_and_worker(chain_file, tmp_path, capsys)
 # -- batches and multistart -----------------------------------------------------------------------
 
 def test_batch_writes_a_folder_per_case_and_a_summary(client, tmp_path):
-    from vibupdate.batch import run_batch
+    from vibupdate.study.batch import run_batch
 
     other = {"k1": 950.0, "k3": 1050.0, "m2": 0.9, "m5": 1.2}
     a = write_chain_case(tmp_path / "day1.toml", name="day1")
@@ -285,7 +285,7 @@ def test_batch_writes_a_folder_per_case_and_a_summary(client, tmp_path):
 
 
 def test_multistart_counts_minima_and_finds_the_truth(client, chain_file):
-    from vibupdate.multistart import multistart
+    from vibupdate.study.multistart import multistart
 
     case = load_case(chain_file)
     result = multistart(case, 6, seed=1, client=client)

@@ -10,12 +10,12 @@ from hypothesis import strategies as st
 from helpers import chain_model
 from vibupdate import (Antiresonance, Assembly, Configuration, NaturalFrequency, Parameter,
                        ShapeInterval, antiresonances, from_builder, modes)
-from vibupdate.backends.casadi_ipopt import CasadiIpopt
+from vibupdate.inverse.backends.casadi_ipopt import CasadiIpopt
 from vibupdate.examples import cantilever
-from vibupdate.homotopy import SolverOptions
-from vibupdate.relaxation import lifted_values, mccormick
-from vibupdate.status import Status
-from vibupdate.update import prepare, update
+from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.inverse.relaxation import lifted_values, mccormick
+from vibupdate.inverse.status import Status
+from vibupdate.inverse.update import prepare, update
 
 TRUE_CHAIN = {"k1": 1100.0, "k3": 900.0, "m2": 1.15, "m5": 0.85}
 
@@ -338,7 +338,7 @@ def test_bound_and_vectors_on_random_problems(seed, noise, use_zeros):
 
 def test_a_backend_exception_becomes_a_status(monkeypatch):
     """CasADi raising inside a solve (e.g. an evaluation error) is recorded, not raised."""
-    import vibupdate.backends.casadi_ipopt as backend
+    import vibupdate.inverse.backends.casadi_ipopt as backend
 
     model = chain_model(4, ["k1", "m2"])
     _, _, omega, _ = exact(model, {"k1": 1050.0, "m2": 1.1})

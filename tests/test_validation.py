@@ -10,7 +10,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from vibupdate.cli import main
-from vibupdate.physical import box_corners, count_below, definiteness
+from vibupdate.model.physical import box_corners, count_below, definiteness
 
 K3 = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
 HZ = np.sqrt(np.linalg.eigvalsh(K3 * 1.2)) / (2 * np.pi)
@@ -64,7 +64,7 @@ def _add(section, line):
 
 # Each of these passed `check` and then failed in `run` (or ran on meaningless numbers) when
 # issue 12 was written. Some are now rejected while loading (the option classes), the others
-# by `vibupdate.validation.validate_case`, which `check` and `run` share.
+# by `vibupdate.io.validation.validate_case`, which `check` and `run` share.
 CHECK_WAS_LOOSER = [
     (_add("solver", "max_iter = 0"), r"solver(\.max_iter:|: max_iter) must be an integer"),
     (_add("solver", "max_iter = -5"), r"solver\.?:? ?max_iter"),
@@ -241,7 +241,7 @@ def test_a_run_plots_the_nominal_frf_undamped_and_carries_its_warnings(folder, m
     updated one the identified C; validation warnings reach the terminal and results.json."""
     import json
 
-    from vibupdate import plots
+    from vibupdate.report import plots
 
     seen = []
     real = plots.plot_frf

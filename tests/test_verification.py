@@ -8,12 +8,12 @@ import pytest
 
 from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval, antiresonances, modes
-from vibupdate.correlation import describe_direction, model_frequencies, sensitivity
-from vibupdate.identifiability import parameter_ranges
-from vibupdate.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
-from vibupdate.status import Status
-from vibupdate.update import update
-from vibupdate.verify import verify
+from vibupdate.inverse.correlation import describe_direction, model_frequencies, sensitivity
+from vibupdate.ranges.identifiability import parameter_ranges
+from vibupdate.modal.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
+from vibupdate.inverse.status import Status
+from vibupdate.inverse.update import update
+from vibupdate.inverse.verify import verify
 
 
 def spectrum(model, xbar):
@@ -230,7 +230,7 @@ def test_a_skipped_mode_is_never_success(picked):
     """Frequencies only; the homotopy's nearest-eigenvalue fit skips a mode (reproduced: the
     first-stage answer fails the mode-order check). The final answer is either verified with
     the declared modes or not a success."""
-    from vibupdate.verify import _mode_order
+    from vibupdate.inverse.verify import _mode_order
 
     model = local_oscillator_model()
     omega, _ = spectrum(model, local_truth(model, 700.0))
@@ -250,9 +250,9 @@ def test_vector_boxes_that_exclude_the_truth_are_widened():
     unit margins the box of the unmeasured oscillator entry excludes the true vector of
     modes 2 and 4 and the relaxation's lower bound proves it (data stated precise to 0.1 %).
     The update widens the boxes and finds the truth."""
-    from vibupdate.formulation import FormulationOptions
-    from vibupdate.update import prepare
-    from vibupdate.verify import VerifyOptions
+    from vibupdate.inverse.formulation import FormulationOptions
+    from vibupdate.inverse.update import prepare
+    from vibupdate.inverse.verify import VerifyOptions
 
     model = local_oscillator_model()
     x_true = local_truth(model, 700.0)
@@ -282,8 +282,8 @@ def test_antiresonance_derivatives_on_the_sparse_path(monkeypatch):
     """Above the dense limit the zeros and their left/right vectors come from shift-invert;
     the derivatives equal those of the dense path (validated against central differences on
     a small model above)."""
-    from vibupdate import sensitivities
-    from vibupdate.analysis import DENSE_LIMIT
+    from vibupdate.modal import sensitivities
+    from vibupdate.modal.analysis import DENSE_LIMIT
 
     n = DENSE_LIMIT + 10
     model = chain_model(n, ["k4", "m6", "k8"])

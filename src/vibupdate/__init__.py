@@ -6,18 +6,18 @@ antiresonances and uncertain mode shapes by homotopy optimization with McCormick
 Caughey-series damping identification.
 """
 
-from vibupdate.affine import AffineModel
-from vibupdate.analysis import antiresonances, mac, modes, receptance
-from vibupdate.assembly import Assembly, System
-from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
-from vibupdate.model import from_builder, from_files
-from vibupdate.formulation import FormulationOptions
-from vibupdate.homotopy import SolverOptions
-from vibupdate.polish import PolishOptions
-from vibupdate.parameters import Parameter
-from vibupdate.status import Status
-from vibupdate.update import UpdateResult, update
-from vibupdate.verify import VerifyOptions
+from vibupdate.model.affine import AffineModel
+from vibupdate.modal.analysis import antiresonances, mac, modes, receptance
+from vibupdate.model.assembly import Assembly, System
+from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.model.build import from_builder, from_files
+from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.inverse.polish import PolishOptions
+from vibupdate.model.parameters import Parameter
+from vibupdate.inverse.status import Status
+from vibupdate.inverse.update import UpdateResult, update
+from vibupdate.inverse.verify import VerifyOptions
 
 __version__ = "0.1.0"
 

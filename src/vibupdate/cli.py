@@ -102,9 +102,9 @@ def _sweep(args) -> int:
     import json
     from pathlib import Path
 
-    from vibupdate.case import load_case
-    from vibupdate.sampling import SamplingOptions
-    from vibupdate.sweep import run_sweep
+    from vibupdate.io.case import load_case
+    from vibupdate.study.sampling import SamplingOptions
+    from vibupdate.study.sweep import run_sweep
 
     sampling = SamplingOptions(args.distribution, args.confidence, args.frequency_tolerance,
                                random_start=not args.no_random_start)
@@ -115,7 +115,7 @@ def _sweep(args) -> int:
     summary = run_sweep(args.case, out, args.samples, seed=args.seed, sampling=sampling, workers=args.workers,
                         scheduler=args.scheduler, resume=args.resume, progress=_say)
     if args.multistart:
-        from vibupdate.multistart import multistart
+        from vibupdate.study.multistart import multistart
 
         result = multistart(case, args.multistart, seed=args.seed, workers=args.workers, scheduler=args.scheduler,
                             progress=_say)
@@ -131,14 +131,14 @@ def _sweep(args) -> int:
 
 
 def _batch(args) -> int:
-    from vibupdate.batch import run_batch
+    from vibupdate.study.batch import run_batch
 
     rows = run_batch(args.cases, args.out, workers=args.workers, scheduler=args.scheduler, progress=_say)
     return EXIT["success"] if all(r["status"] in ("success", "acceptable") for r in rows) else EXIT["not_verified"]
 
 
 def _print_tables(document: dict) -> None:
-    from vibupdate.report import (certified_table_text, damping_table_text, frequency_table_text,
+    from vibupdate.report.document import (certified_table_text, damping_table_text, frequency_table_text,
                                   parameter_table_text, summary_text)
 
     for text in (frequency_table_text(document), parameter_table_text(document), certified_table_text(document),
@@ -162,7 +162,7 @@ def _finish(run) -> int:
 
 def _load(path):
     """Read the case file; failures of user code (a builder) are bad input, not internal errors."""
-    from vibupdate.case import load_case
+    from vibupdate.io.case import load_case
 
     try:
         return load_case(path)
@@ -173,7 +173,7 @@ def _load(path):
 
 
 def _command(args) -> int:
-    from vibupdate.outputs import safe_name
+    from vibupdate.io.outputs import safe_name
     from vibupdate.pipeline import check_case, example_names, run_case, run_example
 
     if args.command == "extract":
@@ -205,9 +205,9 @@ def _command(args) -> int:
 def _extract(args) -> int:
     import math
 
-    from vibupdate.extraction import extract
-    from vibupdate.extraction_io import check_extraction_folder, configuration_block, write_extraction
-    from vibupdate.frf import read_frfs
+    from vibupdate.data.extraction import extract
+    from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
+    from vibupdate.data.frf import read_frfs
 
     mapping = {}
     for item in args.map:

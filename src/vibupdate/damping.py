@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from vibupdate.analysis import DENSE_LIMIT, modes
+from vibupdate.modal.analysis import DENSE_LIMIT, modes
 
 #: Modes whose Caughey damping is checked on models above DENSE_LIMIT DOFs.
 LARGE_MODEL_CHECKED_MODES = 50
@@ -390,7 +390,7 @@ class DampingStage:
 
 def damping_data(configurations, xbar=None):
     """Measured ratios with the paired updated-model frequencies: (omega, ratios, labels)."""
-    from vibupdate.correlation import model_frequencies
+    from vibupdate.inverse.correlation import model_frequencies
 
     omega, ratios, labels = [], [], []
     for cfg in configurations:

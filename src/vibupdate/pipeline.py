@@ -1,9 +1,9 @@
 """The whole job in one call: data in, results out.
 
 ``run_case`` checks the results folder, runs both stages, builds one results object
-(`vibupdate.results.RunResult`) and writes the folder from it: ``results.json``,
+(`vibupdate.io.results.RunResult`) and writes the folder from it: ``results.json``,
 ``report.md``, PNG plots and the updated ``M``, ``C``, ``K`` of each configuration as Matrix
-Market files, listed in the folder's manifest (`vibupdate.outputs`). The CLI is a thin layer
+Market files, listed in the folder's manifest (`vibupdate.io.outputs`). The CLI is a thin layer
 over these functions.
 """
 
@@ -21,13 +21,13 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from vibupdate.case import Case, DampingOptions
+from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
-from vibupdate.results import RunResult, run_result, write_results
-from vibupdate.update import UpdateResult, update
-from vibupdate.validation import CaseCheck, validate_case
+from vibupdate.io.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
+from vibupdate.io.results import RunResult, run_result, write_results
+from vibupdate.inverse.update import UpdateResult, update
+from vibupdate.io.validation import CaseCheck, validate_case
 
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
            "planned_files"]
@@ -49,13 +49,13 @@ def example_module(name: str):
 
 
 def check_case(case: Case) -> CaseCheck:
-    """Validate a case exactly as `run_case` does before solving (`vibupdate.validation`);
+    """Validate a case exactly as `run_case` does before solving (`vibupdate.io.validation`);
     returns the problem size, notes and warnings. Raises ValueError naming file and key."""
     return validate_case(case)
 
 
 def _identifiability(result: UpdateResult) -> dict:
-    from vibupdate.correlation import describe_direction
+    from vibupdate.inverse.correlation import describe_direction
 
     s = result.sensitivity
     names = [p.name for p in result.parameters]
@@ -139,7 +139,7 @@ def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> tuple[str, st
     """``frf_NAME.png`` of a configuration whose data came from FRF files: the measured
     receptances over the nominal and updated model receptances; returns the report's caption
     and the file name."""
-    from vibupdate.plots import plot_measured_frf
+    from vibupdate.report.plots import plot_measured_frf
 
     damped = "with the identified Caughey damping" if updated[2] is not None else "undamped"
     nominal_damping = "identified damping applied" if nominal[2] is not None else "undamped"
@@ -158,8 +158,8 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
     Every file is written from ``run`` (the nominal models for the FRF plot from ``case``);
     returns the file names written.
     """
-    from vibupdate.plots import plot_frf, plot_homotopy, plot_mac
-    from vibupdate.report import markdown_report
+    from vibupdate.report.plots import plot_frf, plot_homotopy, plot_mac
+    from vibupdate.report.document import markdown_report
 
     parts = file_names([c.name for c in case.configurations])
     images = []
@@ -198,9 +198,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     """Both stages on a case; writes the results folder and returns the results object.
 
     ``certify``: time budget in seconds of the certified outer parameter ranges
-    (`vibupdate.certify`, in ``identifiability.certified``); None skips them.
+    (`vibupdate.ranges.certify`, in ``identifiability.certified``); None skips them.
 
-    The folder is checked before solving (`vibupdate.outputs.prepare_output`: writable, no
+    The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
     file vibupdate did not write unless ``force``); the files are written beside it and moved
     into place at the end, so a run that fails or is interrupted leaves earlier results as
     they were, and files in the folder that vibupdate did not write are never touched.
@@ -229,7 +229,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         identifiability["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
                                           "answer and mean something only at a verified answer")
     elif case.configurations[0].model.n_dofs <= RANGES_DOF_LIMIT:
-        from vibupdate.identifiability import parameter_ranges
+        from vibupdate.ranges.identifiability import parameter_ranges
 
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)
         identifiability["ranges"] = ranges.as_dict()
@@ -253,7 +253,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
 def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
     """Certified outer ranges over the consistent set, with the vector boxes the first stage
     ended with (it may have widened the margins)."""
-    from vibupdate.certify import certified_ranges
+    from vibupdate.ranges.certify import certified_ranges
 
     last = result.attempts[-1] if result.attempts else {}
     boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-from vibupdate.assembly import Assembly, System
-from vibupdate.case import Case, DampingOptions
-from vibupdate.formulation import FormulationOptions
-from vibupdate.homotopy import SolverOptions
+from vibupdate.model.assembly import Assembly, System
+from vibupdate.io.case import Case, DampingOptions
+from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.examples import read_table
-from vibupdate.measured import Antiresonance, Configuration, NaturalFrequency
-from vibupdate.model import from_builder
-from vibupdate.parameters import Parameter
+from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency
+from vibupdate.model.build import from_builder
+from vibupdate.model.parameters import Parameter
 
 __all__ = ["parameters", "build", "configurations", "case", "paper_values", "CONFIGURATIONS", "DAMPING"]
 

@@ -30,14 +30,14 @@ from functools import lru_cache
 
 import numpy as np
 
-from vibupdate.assembly import Assembly, System
-from vibupdate.case import Case, DampingOptions
+from vibupdate.model.assembly import Assembly, System
+from vibupdate.io.case import Case, DampingOptions
 from vibupdate.examples import read_table
-from vibupdate.formulation import FormulationOptions
-from vibupdate.homotopy import SolverOptions
-from vibupdate.measured import Configuration, NaturalFrequency, ShapeInterval
-from vibupdate.model import from_builder
-from vibupdate.parameters import Parameter
+from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.data.measured import Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.model.build import from_builder
+from vibupdate.model.parameters import Parameter
 
 __all__ = ["parameters", "build", "truth", "generate", "configurations", "case", "N_MODES", "MEASURED_DOFS"]
 
@@ -157,7 +157,7 @@ def generate(frequency_error: float = FREQUENCY_ERROR, shape_error: float = SHAP
         ``{"mode", "dof", "value", "tolerance"}`` with the shape scaled to unit largest
         measured entry.
     """
-    from vibupdate.analysis import modes
+    from vibupdate.modal.analysis import modes
     from vibupdate.damping import modal_damping
 
     rng = np.random.default_rng(seed)

@@ -1,0 +1,246 @@
+"""Numerical kernels of `vibupdate.data.extraction` (private): the modal-model basis, vector
+fitting, the stabilization check, variable projection of the poles, noise estimates and
+pole selection. Frequencies are normalized by the band's top (``x = omega / omega_max``);
+FRFs by their RMS. The method is described in `vibupdate.data.extraction`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+PSEUDO_POLE = (1.5, 0.2)    # pseudo-mode: natural frequency (x band top) and damping ratio
+STABLE_FREQUENCY = 2e-3     # a pole recurs when its frequency is within this (relative) ...
+STABLE_DAMPING = 0.2        # ... and its damping ratio within this (relative)
+
+# ----------------------------------------------------------------------------- model basis
+
+def _poles(xn, zeta):
+    return -zeta * xn + 1j * xn * np.sqrt(1.0 - zeta**2)
+
+
+def _all_poles(xn, zeta):
+    return np.append(_poles(np.asarray(xn), np.asarray(zeta)), _poles(np.array([PSEUDO_POLE[0]]),
+                                                                      np.array([PSEUDO_POLE[1]])))
+
+
+def _basis(x, xn, zeta) -> np.ndarray:
+    """Columns of the modal model at normalized frequencies ``x``, shape (n_freq, 2 n + 4).
+
+    Per pole (modes, then the pseudo-mode): ``1/(s-a) + 1/(s-conj a)``, ``j/(s-a) - j/(s-conj a)``
+    (coefficients Re A, Im A); then ``1/s^2`` and ``1``.
+    """
+    s = 1j * np.asarray(x)[:, None]
+    a = _all_poles(xn, zeta)[None, :]
+    p, q = 1.0 / (s - a), 1.0 / (s - np.conj(a))
+    cols = np.empty((s.shape[0], 2 * a.shape[1] + 2), dtype=complex)
+    cols[:, 0:-2:2], cols[:, 1:-2:2] = p + q, 1j * (p - q)
+    cols[:, -2], cols[:, -1] = 1.0 / s[:, 0] ** 2, 1.0
+    return cols
+
+
+def _undamped_basis(x, xn, zeta) -> np.ndarray:
+    """Real columns of the undamped receptance, same coefficients as `_basis`: each mode's
+    ``-2 w_d / (w_n^2 - x^2)`` on Im A (its real modal constant ``Re(2 j w_d A)``); the
+    pseudo-mode and the residual terms (which stand for modes outside the band, real in it)
+    keep the real part of their damped columns."""
+    cols = _basis(x, xn, zeta).real
+    a = _poles(np.asarray(xn), np.asarray(zeta))
+    x = np.asarray(x)[:, None]
+    n = a.size
+    cols[:, 0:2 * n:2] = 0.0
+    cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x**2)
+    return cols
+
+
+def _modal_basis(x, xn, zeta, damped: bool = True) -> np.ndarray:
+    """Stage-2 columns: `_basis` (damped) or `_undamped_basis`."""
+    return _basis(x, xn, zeta) if damped else _undamped_basis(x, xn, zeta)
+
+
+def _real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:
+    return np.vstack([Phi.real * w[:, None], Phi.imag * w[:, None]])
+
+
+def _linear_fit(Phi, h, w):
+    """Weighted linear LS of h (n_freq,) on Phi; returns coefficients and weighted residual."""
+    A = _real_stack(Phi, w)
+    b = np.concatenate([h.real * w, h.imag * w])
+    coef = scipy.linalg.lstsq(A, b, lapack_driver="gelsy")[0]
+    return coef, b - A @ coef
+
+
+# ----------------------------------------------------------------------------- stage 1: poles
+
+def _vector_fit(x, F, n_pairs: int, n_iter: int = 12) -> np.ndarray:
+    """Common poles (upper half plane, normalized) of the rows of F (n_fun, n_freq)."""
+    step = max(1, x.size // 400)  # the start poles need no more than ~400 lines
+    x, F = x[::step], F[:, ::step]
+    s = 1j * x
+    beta = np.linspace(x[0], x[-1], n_pairs + 2)[1:-1]
+    a = -beta / 100.0 + 1j * beta
+    for _ in range(n_iter):
+        p, q = 1.0 / (s[:, None] - a[None, :]), 1.0 / (s[:, None] - np.conj(a)[None, :])
+        Phi = np.empty((s.size, 2 * n_pairs), dtype=complex)
+        Phi[:, 0::2], Phi[:, 1::2] = p + q, 1j * (p - q)
+        n_lin = 2 * n_pairs + 1
+        rows, rhs = [], []
+        for f in F:
+            A = np.hstack([Phi, np.ones((s.size, 1)), -f[:, None] * Phi, f[:, None]])
+            R = scipy.linalg.qr(np.vstack([A.real, A.imag]), mode="r", check_finite=False)[0]
+            rows.append(R[n_lin:-1, n_lin:-1])
+            rhs.append(R[n_lin:-1, -1])
+        c = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+        Amat = np.zeros((2 * n_pairs, 2 * n_pairs))
+        bvec = np.zeros(2 * n_pairs)
+        for k, ak in enumerate(a):
+            Amat[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[ak.real, ak.imag], [-ak.imag, ak.real]]
+            bvec[2 * k] = 2.0
+        z = np.linalg.eigvals(Amat - np.outer(bvec, c))
+        z = z[z.imag > 1e-9]
+        if z.size < n_pairs:  # real poles appeared: restart the missing ones where none are
+            grid = np.linspace(x[0], x[-1], 4 * n_pairs + 2)[1:-1]
+            far = grid[np.argsort([-np.min(np.abs(np.abs(z) - g), initial=np.inf) for g in grid])]
+            z = np.concatenate([z, -far[:n_pairs - z.size] / 100.0 + 1j * far[:n_pairs - z.size]])
+        a = np.where(z.real > 0, -z.real + 1j * z.imag, z)
+    return np.sort_complex(a)
+
+
+def _stabilization(x, F, orders, max_damping):
+    out = []
+    for n in orders:
+        a = _vector_fit(x, F, n)
+        wn, zeta = np.abs(a), -a.real / np.abs(a)
+        keep = (wn >= x[0]) & (wn <= x[-1]) & (zeta > 0) & (zeta < max_damping)
+        out.append((n, wn[keep], zeta[keep]))
+    return out
+
+
+def _stable_poles(stab, min_stable):
+    """Poles that recur in >= min_stable orders, each taken from the highest order that has it."""
+    keep, counts = [], []
+    for _, wn, zeta in reversed(stab):
+        for w, z in zip(wn, zeta):
+            count = sum(np.any((np.abs(w2 - w) < STABLE_FREQUENCY * w) & (np.abs(z2 - z) < STABLE_DAMPING * z)) for _, w2, z2 in stab)
+            if count >= min_stable and not any(abs(k[0] - w) < 5e-3 * w for k in keep):
+                keep.append((w, z))
+                counts.append(count)
+    order = np.argsort([k[0] for k in keep])
+    return (np.array([keep[i][0] for i in order]), np.array([keep[i][1] for i in order]),
+            [counts[i] for i in order])
+
+
+def _projected_residual(theta, x, F, W):
+    n = theta.size // 2
+    Phi = _basis(x, theta[:n], theta[n:])
+    return np.concatenate([_linear_fit(Phi, f, w)[1] for f, w in zip(F, W)])
+
+
+def _refine_poles(x, F, wn, zeta, var, weighted: bool):
+    """Variable projection on (w_n, zeta); returns them and their covariance (sandwich).
+
+    Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform."""
+    n = wn.size
+    W = 1.0 / np.sqrt(var) if weighted else np.ones_like(F.real)
+    theta0 = np.concatenate([wn, zeta])
+    lower = np.concatenate([np.full(n, x[0] * 0.5), np.full(n, 1e-6)])
+    upper = np.concatenate([np.full(n, x[-1] * 1.5), np.full(n, 0.5)])
+    sol = scipy.optimize.least_squares(_projected_residual, theta0, args=(x, F, W), bounds=(lower, upper),
+                                       x_scale=np.concatenate([wn, zeta]), xtol=1e-10, ftol=1e-10, max_nfev=60,
+                                       method="trf")
+    J, r = sol.jac, sol.fun
+    v = np.concatenate([var * W**2, var * W**2], axis=1).ravel() / 2.0  # per weighted real component
+    JtJ_inv = np.linalg.pinv(J.T @ J)
+    cov = JtJ_inv @ (J.T * v) @ J @ JtJ_inv
+    chi2 = float(np.sum(r**2 / v)) / max(r.size - theta0.size, 1)
+    tau = _correlation_inflation(_split_residual(r, F.shape) / np.sqrt(var * W**2))
+    return sol.x[:n], sol.x[n:], cov * max(1.0, chi2) * tau
+
+
+# ----------------------------------------------------------------------------- noise
+
+def _smooth(values: np.ndarray, width: int) -> np.ndarray:
+    kernel = np.ones(width) / width
+    pad = width // 2
+    padded = np.pad(values, [(0, 0), (pad, pad)], mode="edge")
+    return np.array([np.convolve(v, kernel, mode="valid") for v in padded])
+
+
+def _noise_from_repeats(blocks) -> np.ndarray | None:
+    """Variance of the mean per line, shape (n_pairs, n_freq); None unless every pair has >= 2 repeats."""
+    if min(h.shape[0] for h in blocks) < 2:
+        return None
+    var = np.array([np.sum(np.abs(h - h.mean(axis=0)) ** 2, axis=0) / (h.shape[0] - 1) / h.shape[0] for h in blocks])
+    return _smooth(var, 9)
+
+
+def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandwidth: float = 0.1,
+                 min_lines: int = 5):
+    """Drop poles the data cannot resolve: a half-power bandwidth ``2 zeta w_n`` below
+    ``min_bandwidth`` line spacings; a response on the measured lines below ``threshold``
+    times the FRF at the pole in every FRF (computational poles of a noise-free fit); or a
+    response above twice the noise (``var``, (n_pairs, n_freq)) on fewer than ``min_lines``
+    lines in every FRF (a pole fitted to a noise spike). Returns the kept poles and their
+    largest sampled response."""
+    spacing = float(np.median(np.diff(x)))
+    Phi = _basis(x, wn, zeta)
+    coef = np.array([_linear_fit(Phi, f, np.ones(x.size))[0] for f in F])
+    n = wn.size
+    own = np.abs(Phi[:, 0:2 * n:2][None] * coef[:, None, 0:2 * n:2]
+                 + Phi[:, 1:2 * n:2][None] * coef[:, None, 1:2 * n:2])                 # (n_pairs, n_freq, n)
+    peak = own.max(axis=1)                                                              # (n_pairs, n)
+    at_pole = np.abs(F[:, np.clip(np.searchsorted(x, wn), 0, x.size - 1)])              # (n_pairs, n)
+    above_noise = np.sum(own > 2.0 * np.sqrt(var)[:, :, None], axis=1)                # (n_pairs, n)
+    keep = (np.any(peak > threshold * at_pole, axis=0) & (2 * zeta * wn >= min_bandwidth * spacing)
+            & np.any(above_noise >= min_lines, axis=0))
+    return wn[keep], zeta[keep], [c for c, k in zip(counts, keep) if k], peak.max(axis=0)[keep]
+
+
+def _correlation_inflation(r: np.ndarray, max_lag: int = 200, stop: float = 0.05) -> float:
+    """Variance inflation ``1 + 2 sum_k rho_k`` for residuals correlated along frequency.
+
+    ``r`` (n_pairs, n_freq) complex, normalized by the noise; ``rho_k`` the pooled
+    autocorrelation at lag ``k``, summed while above ``stop``. White noise gives about 1;
+    a residual dominated by a smooth misfit (model error of real data) gives the number of
+    lines over which it is correlated, so that such lines are not counted as independent.
+    """
+    r = np.atleast_2d(r)
+    power = float(np.sum(np.abs(r) ** 2)) or 1.0
+    total = 0.0
+    for k in range(1, min(max_lag, r.shape[1] - 1)):
+        rho = float(np.sum((r[:, k:] * np.conj(r[:, :-k])).real)) / power
+        if rho < stop:
+            break
+        total += rho
+    return 1.0 + 2.0 * total
+
+
+def _residual_variance(x, F, wn, zeta, width: int = 21):
+    """Local mean square of the unweighted fit's residual, shape (n_pairs, n_freq)."""
+    r = _split_residual(_projected_residual(np.concatenate([wn, zeta]), x, F, np.ones_like(F.real)), F.shape)
+    var = _smooth(np.abs(r) ** 2, width)
+    return np.maximum(var, 1e-12 * np.max(var, axis=1, keepdims=True) + 1e-300)
+
+
+def _best_subset(x, F, wn, zeta, peak, n_modes, max_subsets: int = 400):
+    """Indices of the ``n_modes`` poles whose modal model fits the FRFs best (unweighted);
+    by peak response when there are too many subsets to try."""
+    from itertools import combinations
+
+    if math.comb(wn.size, n_modes) > max_subsets:
+        return np.sort(np.argsort(peak)[::-1][:n_modes])
+    best, best_cost = None, np.inf
+    for subset in combinations(range(wn.size), n_modes):
+        keep = np.array(subset)
+        cost = float(np.sum(_projected_residual(np.concatenate([wn[keep], zeta[keep]]), x, F, np.ones_like(F.real)) ** 2))
+        if cost < best_cost:
+            best, best_cost = keep, cost
+    return best
+
+
+def _split_residual(r, shape):
+    """The stacked projected residual [Re f1, Im f1, Re f2, ...] back to complex (n_pairs, n_freq)."""
+    flat = r.ravel().reshape(shape[0], 2, shape[1])
+    return flat[:, 0, :] + 1j * flat[:, 1, :]

@@ -1,0 +1,318 @@
+"""Measured frequency response functions (FRFs): reading, units and DOF names.
+
+An FRF ``H_rc(omega)`` is the response at DOF ``r`` to a unit force at DOF ``c``. Inside
+vibupdate every FRF is a **receptance** (m/N or rad/(N m)) on a frequency axis in rad/s;
+the readers convert at the edge:
+
+* accelerance ``A = (j omega)^2 H`` and mobility ``Y = j omega H`` are divided back,
+  after multiplying by ``g = 9.80665 m/s^2`` when the file is in g per newton;
+* DOF names follow the dataset-55 reader of `vibupdate.io.measured_io`: direction then node,
+  ``x3`` (node 3, +X), ``y3``, ``z3``, ``rx3``, ``ry3``, ``phi3``; a negative direction in
+  a UFF record flips the sign of the data so that the name always means the + direction;
+* records of the same (response, excitation) pair are **repeats** (repeated hits, several
+  files), kept apart so that their scatter can be used as a noise estimate.
+
+Sources: Universal File Format dataset 58 (ASCII, and 58b binary) through pyuff; CSV/text
+columns with column 0 the frequency in Hz and then complex values, either as ``1+2j`` text
+(the Southampton format: ``;``-separated, no header) or as real/imaginary column pairs;
+``.npz`` files with arrays ``freq_hz`` (n_freq,) and ``H`` (n_freq, n_columns).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["FRFSet", "read_frfs", "read_uff58", "read_frf_table", "to_receptance", "combine", "G"]
+
+G = 9.80665  # m/s^2, standard gravity
+TWO_PI = 2.0 * math.pi
+KINDS = ("receptance", "mobility", "accelerance")
+_UFF_DIRECTIONS = {1: "x", 2: "y", 3: "z", 4: "rx", 5: "ry", 6: "phi"}
+_UFF_ORDINATE_KIND = {8: "receptance", 11: "mobility", 12: "accelerance"}
+
+
+@dataclass(frozen=True)
+class FRFSet:
+    """Measured receptances on one frequency axis, grouped by DOF pair.
+
+    Attributes
+    ----------
+    omega : ndarray, shape (n_freq,)
+        Frequency lines, rad/s, strictly increasing and positive.
+    pairs : tuple of (str, str)
+        ``(response, excitation)`` DOF names of each distinct FRF, in first-seen order.
+    H : tuple of ndarray, one per pair, shape (n_repeats, n_freq), complex
+        Receptance of every repeat of the pair, m/N (or rad/(N m) for rotations).
+    sources : tuple of str
+        Where the data came from (file names), for reports.
+    """
+
+    omega: np.ndarray
+    pairs: tuple
+    H: tuple
+    sources: tuple = ()
+
+    def __post_init__(self):
+        omega = np.asarray(self.omega, dtype=float).ravel()
+        if omega.size < 2 or not np.all(np.isfinite(omega)) or omega[0] <= 0 or np.any(np.diff(omega) <= 0):
+            raise ValueError("FRF frequencies must be positive, finite and strictly increasing "
+                             f"(got {omega.size} lines starting at {omega[:1]} rad/s)")
+        pairs = tuple((str(r), str(c)) for r, c in self.pairs)
+        if len(set(pairs)) != len(pairs):
+            raise ValueError(f"FRF pairs must be distinct, got {pairs}")
+        if len(self.H) != len(pairs):
+            raise ValueError(f"{len(pairs)} FRF pairs but {len(self.H)} data arrays")
+        blocks = []
+        for pair, h in zip(pairs, self.H):
+            h = np.atleast_2d(np.asarray(h, dtype=complex))
+            if h.shape[1] != omega.size:
+                raise ValueError(f"FRF {pair}: {h.shape[1]} values per repeat, expected {omega.size} (one per line)")
+            if not np.all(np.isfinite(h)):
+                raise ValueError(f"FRF {pair}: values must be finite")
+            h.setflags(write=False)
+            blocks.append(h)
+        omega.setflags(write=False)
+        object.__setattr__(self, "omega", omega)
+        object.__setattr__(self, "pairs", pairs)
+        object.__setattr__(self, "H", tuple(blocks))
+        object.__setattr__(self, "sources", tuple(str(s) for s in self.sources))
+
+    @property
+    def freq_hz(self) -> np.ndarray:
+        """Frequency lines in Hz, shape (n_freq,)."""
+        return self.omega / TWO_PI
+
+    @property
+    def n_repeats(self) -> tuple[int, ...]:
+        return tuple(h.shape[0] for h in self.H)
+
+    def mean(self) -> np.ndarray:
+        """Average over repeats, shape (n_pairs, n_freq), complex receptance."""
+        return np.array([h.mean(axis=0) for h in self.H])
+
+    def band(self, lo: float, hi: float) -> "FRFSet":
+        """The lines with ``lo <= omega <= hi`` (rad/s)."""
+        keep = (self.omega >= lo) & (self.omega <= hi)
+        if keep.sum() < 2:
+            raise ValueError(f"band {lo / TWO_PI:.6g}-{hi / TWO_PI:.6g} Hz holds {int(keep.sum())} frequency lines; "
+                             f"the data span {self.freq_hz[0]:.6g}-{self.freq_hz[-1]:.6g} Hz")
+        return FRFSet(self.omega[keep], self.pairs, tuple(h[:, keep] for h in self.H), self.sources)
+
+    def renamed(self, mapping: Mapping[str, str]) -> "FRFSet":
+        """DOF names mapped to model DOF names: ``{"y3": "x2", "y4": "-x3"}``.
+
+        A leading ``-`` flips the sign (the measured direction opposes the model's). DOFs not
+        in the mapping keep their names.
+        """
+        def target(name):
+            new = str(mapping.get(name, name)).strip()
+            return (new[1:], -1.0) if new.startswith("-") else (new.lstrip("+"), 1.0)
+
+        groups: dict = {}
+        for (r, c), h in zip(self.pairs, self.H):
+            (r2, sr), (c2, sc) = target(r), target(c)
+            groups.setdefault((r2, c2), []).append(sr * sc * h)
+        return FRFSet(self.omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), self.sources)
+
+
+def to_receptance(values, omega, kind: str, g_units: bool = False) -> np.ndarray:
+    """Convert accelerance or mobility to receptance.
+
+    Parameters
+    ----------
+    values : array_like, shape (..., n_freq), complex
+        The FRF in ``kind`` units per newton (m/s^2/N, m/s/N or m/N; g/N when ``g_units``).
+    omega : array_like, shape (n_freq,)
+        rad/s.
+    kind : {"receptance", "mobility", "accelerance"}
+    """
+    if kind not in KINDS:
+        raise ValueError(f"FRF kind must be one of {KINDS}, got {kind!r}")
+    h = np.asarray(values, dtype=complex) * (G if g_units else 1.0)
+    jw = 1j * np.asarray(omega, dtype=float)
+    return h if kind == "receptance" else h / jw if kind == "mobility" else h / jw**2
+
+
+def combine(sets: Sequence[FRFSet]) -> FRFSet:
+    """One set from several (files): records of the same pair become repeats.
+
+    All sets must share the frequency axis (to 1e-9 relative).
+    """
+    if not sets:
+        raise ValueError("no FRF data to combine")
+    omega = sets[0].omega
+    groups: dict = {}
+    for s in sets:
+        if s.omega.size != omega.size or not np.allclose(s.omega, omega, rtol=1e-9, atol=0):
+            raise ValueError(f"FRF files {sets[0].sources} and {s.sources} have different frequency lines "
+                             f"({omega.size} vs {s.omega.size} lines, {sets[0].freq_hz[0]:.6g}-{sets[0].freq_hz[-1]:.6g} "
+                             f"vs {s.freq_hz[0]:.6g}-{s.freq_hz[-1]:.6g} Hz)")
+        for pair, h in zip(s.pairs, s.H):
+            groups.setdefault(pair, []).append(h)
+    return FRFSet(omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()),
+                  tuple(src for s in sets for src in s.sources))
+
+
+def _group(omega, records, source) -> FRFSet:
+    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line."""
+    keep = omega > 0
+    groups: dict = {}
+    for pair, h in records:
+        groups.setdefault(pair, []).append(np.asarray(h)[keep])
+    return FRFSet(omega[keep], tuple(groups), tuple(np.array(v) for v in groups.values()), (str(source),))
+
+
+def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
+    """FRFs from the dataset-58 (or 58b) records of a Universal File Format file.
+
+    Parameters
+    ----------
+    path : path-like
+    kind : {"receptance", "mobility", "accelerance"}, optional
+        Overrides the record's ordinate type (8 displacement, 11 velocity, 12 acceleration).
+    g_units : bool
+        The ordinate is in g per newton.
+    """
+    import pyuff
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"UFF file {str(path)!r} does not exist")
+    try:
+        uff = pyuff.UFF(str(path))
+        types = [int(t) for t in uff.get_set_types()]
+    except Exception as exc:  # pyuff raises bare Exceptions on malformed files
+        raise ValueError(f"UFF file {str(path)!r} could not be read: {exc}") from None
+    indices = [i for i, t in enumerate(types) if t == 58]
+    if not indices:
+        raise ValueError(f"UFF file {str(path)!r} has no dataset 58 (FRFs); datasets found: "
+                         f"{', '.join(map(str, types)) or 'none'}")
+    omega, records = None, []
+    for number, i in enumerate(indices, start=1):
+        try:
+            rec = uff.read_sets(i)
+        except Exception as exc:  # pyuff raises bare Exceptions on malformed records
+            raise ValueError(f"UFF file {str(path)!r}: dataset 58 number {number} could not be read: {exc}") from None
+        where = f"UFF file {str(path)!r}, dataset 58 number {number}"
+        if int(rec.get("func_type", 4)) != 4:
+            raise ValueError(f"{where}: function type {rec.get('func_type')}, expected 4 (frequency response function)")
+        x = np.asarray(rec["x"], dtype=float) * TWO_PI
+        if omega is None:
+            omega = x
+        elif x.size != omega.size or not np.allclose(x, omega, rtol=1e-9):
+            raise ValueError(f"{where}: its frequency lines differ from the first record's")
+        rec_kind = kind or _UFF_ORDINATE_KIND.get(int(rec.get("ordinate_spec_data_type", 0)))
+        if rec_kind is None:
+            raise ValueError(f"{where}: ordinate type {rec.get('ordinate_spec_data_type')} is not displacement (8), "
+                             "velocity (11) or acceleration (12); pass kind= to say what it is")
+        names, sign = [], 1.0
+        for node_key, dir_key in (("rsp_node", "rsp_dir"), ("ref_node", "ref_dir")):
+            direction = int(rec[dir_key])
+            if abs(direction) not in _UFF_DIRECTIONS:
+                raise ValueError(f"{where}: {dir_key} = {direction}, expected +-1..6")
+            names.append(f"{_UFF_DIRECTIONS[abs(direction)]}{int(rec[node_key])}")
+            sign *= -1.0 if direction < 0 else 1.0
+        h = to_receptance(np.asarray(rec["data"], dtype=complex), np.where(x > 0, x, 1.0), rec_kind, g_units)
+        records.append(((names[0], names[1]), sign * h))
+    return _group(omega, records, path)
+
+
+def _parse_complex(text: str, where: str) -> complex:
+    try:
+        return complex(text.strip().replace(" ", "").replace("i", "j"))
+    except ValueError:
+        raise ValueError(f"{where}: expected a complex number like 1.5-2e-3j, got {text!r}") from None
+
+
+def _read_columns(path: Path, pairs: bool) -> tuple[np.ndarray, np.ndarray]:
+    if path.suffix.lower() == ".npz":
+        try:
+            with np.load(path) as data:
+                f, h = np.asarray(data["freq_hz"], dtype=float), np.asarray(data["H"], dtype=complex)
+        except (OSError, KeyError, ValueError) as exc:
+            raise ValueError(f"FRF file {str(path)!r}: expected arrays 'freq_hz' (n_freq,) and 'H' "
+                             f"(n_freq, n_columns): {exc}") from None
+        return f, h.reshape(f.size, -1)
+    try:
+        lines = [ln for ln in path.read_text(encoding="utf-8").splitlines()
+                 if ln.strip() and not ln.lstrip().startswith("#")]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"FRF file {str(path)!r} could not be read: {exc}") from None
+    if not lines:
+        raise ValueError(f"FRF file {str(path)!r} is empty")
+    sep = ";" if ";" in lines[0] else "," if "," in lines[0] else None
+    rows = []
+    for n, line in enumerate(lines, start=1):
+        cells = line.split(sep)
+        where = f"FRF file {str(path)!r}, row {n}"
+        if n == 1 and not any(ch.isdigit() for ch in cells[0]):
+            continue  # a header line
+        values = [_parse_complex(c, f"{where}, column {k}") for k, c in enumerate(cells)]
+        if pairs:
+            if len(values) % 2 != 1:
+                raise ValueError(f"{where}: expected the frequency and real/imaginary pairs, got {len(values)} columns")
+            values = [values[0]] + [values[k].real + 1j * values[k + 1].real for k in range(1, len(values), 2)]
+        if rows and len(values) != len(rows[0]):
+            raise ValueError(f"{where}: {len(values)} columns, expected {len(rows[0])} as in the first data row")
+        rows.append(values)
+    table = np.array(rows, dtype=complex)
+    return table[:, 0].real, table[:, 1:]
+
+
+def read_frf_table(path, responses: Sequence[str], excitation: str, kind: str = "receptance",
+                   g_units: bool = False, pairs: bool = False) -> FRFSet:
+    """FRFs from columns of a CSV/text or ``.npz`` file (module docstring).
+
+    Parameters
+    ----------
+    path : path-like
+    responses : sequence of str
+        Response DOF name of each data column (after the frequency column); a name may repeat
+        (repeats of the same FRF).
+    excitation : str
+        Excitation DOF name shared by the file's columns.
+    kind, g_units
+        As in `to_receptance`.
+    pairs : bool
+        The data are real/imaginary column pairs instead of complex text.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"FRF file {str(path)!r} does not exist")
+    freq_hz, table = _read_columns(path, pairs)
+    if table.shape[1] != len(responses):
+        raise ValueError(f"FRF file {str(path)!r} has {table.shape[1]} data columns but {len(responses)} response "
+                         f"DOF names were given ({list(responses)})")
+    omega = TWO_PI * freq_hz
+    h = to_receptance(table.T, np.where(omega > 0, omega, 1.0), kind, g_units)
+    return _group(omega, [((str(r), str(excitation)), h[k]) for k, r in enumerate(responses)], path)
+
+
+def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequence[str] | None = None,
+              kind: str | None = None, g_units: bool = False, pairs: bool = False,
+              mapping: Mapping[str, str] | None = None) -> FRFSet:
+    """FRFs from several files (UFF by suffix ``.uff``/``.unv``, else table), combined.
+
+    ``excitations`` gives one excitation DOF per table file; ``responses`` the column names
+    shared by table files; ``mapping`` renames DOFs (`FRFSet.renamed`).
+    """
+    paths = [Path(p) for p in paths]
+    sets, k = [], 0
+    for path in paths:
+        if path.suffix.lower() in (".uff", ".unv"):
+            sets.append(read_uff58(path, kind, g_units))
+            continue
+        if responses is None or excitations is None or k >= len(excitations):
+            raise ValueError(f"FRF file {str(path)!r} is a table: give the response DOF of each column and one "
+                             f"excitation DOF per table file ({len(excitations or [])} given)")
+        sets.append(read_frf_table(path, responses, excitations[k], kind or "receptance", g_units, pairs))
+        k += 1
+    if excitations is not None and k != len(excitations):
+        raise ValueError(f"{len(excitations)} excitation DOFs given for {k} table file(s)")
+    out = combine(sets)
+    return out.renamed(mapping) if mapping else out

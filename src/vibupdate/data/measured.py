@@ -1,0 +1,369 @@
+"""Measured modal data of one or several configurations of the structure.
+
+Frequencies are stored in rad/s; the ``*_hz`` constructors convert at the edge. Mode shapes
+are known only within intervals (paper Section 2.3, Fig. 1): each measured entry has a lower
+and an upper bound, an exactly known entry has ``lower == upper``, unmeasured entries get
+default bounds in the formulation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vibupdate.model.affine import AffineModel
+
+__all__ = [
+    "ShapeInterval",
+    "NaturalFrequency",
+    "Antiresonance",
+    "Configuration",
+    "validate_configurations",
+]
+
+TWO_PI = 2.0 * math.pi
+
+
+def _positive_finite(value, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise ValueError(f"{what} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{what} must be positive and finite, got {value!r}")
+    return value
+
+
+def _optional_index(value, what: str) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{what} must be an integer >= 1 (1-based), got {value!r}")
+    return int(value)
+
+
+def _interval(pair, value, what: str) -> tuple[float, float] | None:
+    if pair is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in pair)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be (lower, upper), got {pair!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+        raise ValueError(f"{what} must be finite with lower <= upper, got ({lo!r}, {hi!r})")
+    if not lo <= value <= hi:
+        raise ValueError(f"{what} ({lo:.6g}, {hi:.6g}) does not contain its value {value:.6g}")
+    return (lo, hi)
+
+
+@dataclass(frozen=True)
+class ShapeInterval:
+    """A measured mode shape known within bounds on some named DOFs.
+
+    Attributes
+    ----------
+    bounds : mapping of DOF name to (lower, upper)
+        Interval of each measured entry, in the units of the DOF (m or rad), any common
+        scaling (the shape's normalization is free).
+    """
+
+    bounds: Mapping[str, tuple[float, float]]
+
+    def __post_init__(self):
+        clean = {}
+        for dof, pair in dict(self.bounds).items():
+            try:
+                lo, hi = (float(v) for v in pair)
+            except (TypeError, ValueError):
+                raise ValueError(f"mode-shape interval for {dof!r} must be (lower, upper), got {pair!r}") from None
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                raise ValueError(f"mode-shape interval for {dof!r} is not finite: ({lo}, {hi})")
+            if lo > hi:
+                raise ValueError(f"mode-shape interval for {dof!r} has lower {lo:g} > upper {hi:g}")
+            clean[str(dof)] = (lo, hi)
+        if not clean:
+            raise ValueError("a mode-shape interval needs at least one measured DOF")
+        object.__setattr__(self, "bounds", clean)
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, float], tolerance) -> "ShapeInterval":
+        """Intervals ``value +- tolerance``; ``tolerance`` a number or a mapping per DOF."""
+        tol = tolerance if isinstance(tolerance, Mapping) else {d: tolerance for d in values}
+        for d, t in tol.items():
+            if not math.isfinite(float(t)) or float(t) < 0:
+                raise ValueError(f"mode-shape tolerance for {d!r} must be >= 0, got {t!r}")
+        return cls({d: (v - tol[d], v + tol[d]) for d, v in values.items()})
+
+    @property
+    def midpoint(self) -> dict[str, float]:
+        return {d: 0.5 * (lo + hi) for d, (lo, hi) in self.bounds.items()}
+
+    @property
+    def reference(self) -> str:
+        """The DOF whose interval midpoint has the largest magnitude: the entry a measured
+        shape is normalized at (shape ratios ``phi_j / phi_reference``)."""
+        mid = self.midpoint
+        return max(mid, key=lambda d: abs(mid[d]))
+
+    def ratio_bounds(self) -> dict[str, tuple[float, float]]:
+        """Interval of each ratio ``phi_j / phi_reference`` (the other DOFs), from the bounds
+        divided by the reference midpoint."""
+        ref = self.midpoint[self.reference]
+        return {d: (min(lo / ref, hi / ref), max(lo / ref, hi / ref))
+                for d, (lo, hi) in self.bounds.items() if d != self.reference}
+
+
+@dataclass(frozen=True)
+class NaturalFrequency:
+    """One measured natural frequency (a pole, Eq. 3).
+
+    Attributes
+    ----------
+    omega : float
+        rad/s.
+    weight : float
+        User weight multiplying the default weight of its residual (docs/method.md, "Default weights").
+    shape : ShapeInterval, optional
+        Interval of the mode shape (Problem 1).
+    damping_ratio : float, optional
+        Measured modal damping ratio (-), for the second stage.
+    mode : int, optional
+        Which mode of the model this is (1-based, counted from the lowest). When omitted,
+        measured frequencies are taken as consecutive modes: the first as mode 1 (or the mode
+        after the previous measured one).
+    interval : (float, float), optional
+        Interval of the frequency, rad/s, at a stated confidence (e.g. from an extraction);
+        must contain ``omega``.
+    damping_interval : (float, float), optional
+        Interval of the damping ratio (-); must contain ``damping_ratio``.
+    """
+
+    omega: float
+    weight: float = 1.0
+    shape: ShapeInterval | None = None
+    damping_ratio: float | None = None
+    mode: int | None = None
+    interval: tuple[float, float] | None = None
+    damping_interval: tuple[float, float] | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "omega", _positive_finite(self.omega, "natural frequency"))
+        object.__setattr__(self, "weight", _positive_finite(self.weight, "natural-frequency weight"))
+        if self.damping_ratio is not None:
+            xi = self.damping_ratio
+            if not isinstance(xi, (int, float, np.floating)) or not math.isfinite(xi) or xi < 0:
+                raise ValueError(f"damping ratio must be a finite number >= 0, got {xi!r}")
+        object.__setattr__(self, "mode", _optional_index(self.mode, "mode"))
+        object.__setattr__(self, "interval", _interval(self.interval, self.omega, "natural-frequency interval"))
+        if self.damping_interval is not None and self.damping_ratio is None:
+            raise ValueError("a damping-ratio interval needs a damping ratio")
+        object.__setattr__(self, "damping_interval",
+                           _interval(self.damping_interval, self.damping_ratio, "damping-ratio interval"))
+
+    @classmethod
+    def from_hz(cls, freq_hz: float, **kwargs) -> "NaturalFrequency":
+        return cls(TWO_PI * _positive_finite(freq_hz, "natural frequency (Hz)"), **kwargs)
+
+    @property
+    def freq_hz(self) -> float:
+        return self.omega / TWO_PI
+
+
+@dataclass(frozen=True)
+class Antiresonance:
+    """One measured antiresonance of the receptance ``h_rc`` (Eq. 8).
+
+    Attributes
+    ----------
+    omega : float
+        rad/s.
+    response, excitation : str
+        Names of the DOFs ``r`` (response) and ``c`` (force).
+    weight : float
+    index : int, optional
+        Which antiresonance of ``h_rc`` this is (1-based, counted from the lowest zero of the
+        model's receptance). When omitted it is assigned from the measured poles around it
+        and the nominal model's zeros between them.
+    interval : (float, float), optional
+        Interval of the frequency, rad/s; must contain ``omega``.
+    """
+
+    omega: float
+    response: str
+    excitation: str
+    weight: float = 1.0
+    index: int | None = None
+    interval: tuple[float, float] | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "omega", _positive_finite(self.omega, "antiresonance frequency"))
+        object.__setattr__(self, "weight", _positive_finite(self.weight, "antiresonance weight"))
+        object.__setattr__(self, "index", _optional_index(self.index, "antiresonance index"))
+        object.__setattr__(self, "interval", _interval(self.interval, self.omega, "antiresonance interval"))
+
+    @classmethod
+    def from_hz(cls, freq_hz: float, response: str, excitation: str, **kwargs) -> "Antiresonance":
+        return cls(TWO_PI * _positive_finite(freq_hz, "antiresonance frequency (Hz)"), response, excitation, **kwargs)
+
+    @property
+    def freq_hz(self) -> float:
+        return self.omega / TWO_PI
+
+    @property
+    def receptance(self) -> tuple[str, str]:
+        return (self.response, self.excitation)
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """One configuration of the structure: its model and the data measured on it.
+
+    All configurations of an updating problem share the parameter vector.
+
+    Attributes
+    ----------
+    name : str
+    model : AffineModel
+    natural : tuple of NaturalFrequency
+        Measured natural frequencies, ascending. Each says which model mode it is (``mode``);
+        omitted modes are consecutive (`declared_modes`). After construction every entry
+        carries its mode explicitly.
+    antiresonances : tuple of Antiresonance
+        Measured antiresonances, of one or more receptances, any subset of each receptance's
+        zeros. Each says which zero of its receptance it is (``index``); omitted indices are
+        assigned from the measured poles around it and the nominal model's zeros between them
+        (`vibupdate.data.pairing`). After construction every entry carries its index explicitly.
+    interlacing : bool
+        Derive sign bounds on modal constants from the pole/zero pattern of each receptance
+        (Eq. 11, Section 3.6), for pairs of measured poles that are consecutive model modes.
+        Asserts that the antiresonances listed are all those of that receptance between
+        such poles.
+    first_sign : mapping of (response, excitation) to +1 or -1, optional
+        Sign of the first modal constant ``u(r) u(c)``; from the nominal model when omitted.
+    """
+
+    name: str
+    model: AffineModel
+    natural: tuple[NaturalFrequency, ...] = ()
+    antiresonances: tuple[Antiresonance, ...] = ()
+    interlacing: bool = True
+    first_sign: Mapping[tuple[str, str], int] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "natural", tuple(self.natural))
+        object.__setattr__(self, "antiresonances", tuple(self.antiresonances))
+        validate_configuration(self)
+        from vibupdate.data.pairing import declare
+
+        natural, zeros = declare(self)
+        object.__setattr__(self, "natural", natural)
+        object.__setattr__(self, "antiresonances", zeros)
+
+    def receptances(self) -> list[tuple[str, str]]:
+        """The receptances ``(r, c)`` with measured antiresonances, in order of appearance."""
+        seen: list[tuple[str, str]] = []
+        for a in self.antiresonances:
+            if a.receptance not in seen:
+                seen.append(a.receptance)
+        return seen
+
+
+def validate_configuration(cfg: Configuration) -> None:
+    """Raise ValueError on data that do not fit the model or contradict each other."""
+    where = f"configuration {cfg.name!r}"
+    if not isinstance(cfg.model, AffineModel):
+        raise ValueError(f"{where}: model must be an AffineModel, got {type(cfg.model).__name__}")
+    if not cfg.natural and not cfg.antiresonances:
+        raise ValueError(f"{where}: no measured natural frequency or antiresonance")
+    omegas = [f.omega for f in cfg.natural]
+    if len(omegas) > cfg.model.n_dofs:
+        raise ValueError(f"{where}: {len(omegas)} natural frequencies measured, but the model has only "
+                         f"{cfg.model.n_dofs} DOFs (modes)")
+    if any(b <= a for a, b in zip(omegas, omegas[1:])):
+        shown = ", ".join(f"{w / TWO_PI:.4g}" for w in omegas)
+        raise ValueError(f"{where}: natural frequencies must be strictly ascending, got {shown} Hz")
+    for i, f in enumerate(cfg.natural, start=1):
+        if f.shape is not None:
+            for dof in f.shape.bounds:
+                _check_dof(cfg.model, dof, f"{where}, mode {i}")
+    for rc in cfg.receptances():
+        for dof in rc:
+            _check_dof(cfg.model, dof, f"{where}, antiresonance of h_{rc[0]},{rc[1]}")
+        zs = [a.omega for a in cfg.antiresonances if a.receptance == rc]
+        clash = [z for z in zs if any(abs(z - w) <= 1e-12 * w for w in omegas)]
+        if clash:
+            raise ValueError(
+                f"{where}: antiresonance of h_{rc[0]},{rc[1]} at {clash[0] / TWO_PI:.6g} Hz equals a natural "
+                "frequency; a zero cannot sit on a pole (interlacing, Eq. 11)"
+            )
+        if any(b <= a for a, b in zip(zs, zs[1:])):
+            raise ValueError(f"{where}: antiresonances of h_{rc[0]},{rc[1]} must be strictly ascending")
+        if rc[0] == rc[1]:
+            _check_driving_point(cfg, rc, zs, where)
+    for rc, s in dict(cfg.first_sign).items():
+        if s not in (1, -1):
+            raise ValueError(f"{where}: first_sign of {rc} must be +1 or -1, got {s!r}")
+    _check_modes(cfg, where)
+
+
+def declared_modes(natural: Sequence[NaturalFrequency]) -> list[int]:
+    """Model mode of each measured natural frequency (1-based): its ``mode``, or the mode
+    after the previous one (1 for the first)."""
+    out, prev = [], 0
+    for f in natural:
+        prev = f.mode if f.mode is not None else prev + 1
+        out.append(prev)
+    return out
+
+
+def _check_modes(cfg: Configuration, where: str) -> None:
+    modes = declared_modes(cfg.natural)
+    for k in range(1, len(modes)):
+        if modes[k] <= modes[k - 1]:
+            raise ValueError(
+                f"{where}: measured natural frequency {k + 1} ({cfg.natural[k].freq_hz:.6g} Hz) is declared "
+                f"mode {modes[k]}, not above mode {modes[k - 1]} of the lower frequency; modes must rise "
+                "with frequency")
+    if modes and modes[-1] > cfg.model.n_dofs:
+        raise ValueError(f"{where}: mode {modes[-1]} is declared, but the model has only {cfg.model.n_dofs} DOFs")
+
+
+def _check_dof(model: AffineModel, dof: str, where: str) -> None:
+    try:
+        model.dof(dof)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+def _check_driving_point(cfg: Configuration, rc, zs: Sequence[float], where: str) -> None:
+    """A driving-point receptance alternates pole, zero, pole: at most one zero between the
+    measured poles of two consecutive modes (any subset of the zeros may be measured)."""
+    poles = [f.omega for f in cfg.natural]
+    modes = declared_modes(cfg.natural)
+    for k in range(len(poles) - 1):
+        if modes[k + 1] != modes[k] + 1:
+            continue
+        inside = [z for z in zs if poles[k] < z < poles[k + 1]]
+        if len(inside) > 1:
+            raise ValueError(
+                f"{where}: the driving-point receptance h_{rc[0]},{rc[1]} has one antiresonance between "
+                f"consecutive modes ({poles[k] / TWO_PI:.4g} and {poles[k + 1] / TWO_PI:.4g} Hz), found "
+                f"{len(inside)}")
+
+
+def validate_configurations(configurations: Sequence[Configuration]) -> None:
+    """Check that configurations have unique names and share the same parameters."""
+    if not configurations:
+        raise ValueError("at least one configuration is needed")
+    names = [c.name for c in configurations]
+    if len(set(names)) != len(names):
+        raise ValueError(f"configuration names must be unique, got {names}")
+    ref = configurations[0].model.parameters
+    for c in configurations[1:]:
+        if c.model.parameters != ref:
+            raise ValueError(
+                f"configuration {c.name!r} has other parameters than {configurations[0].name!r}: "
+                "all configurations share one parameter vector"
+            )

@@ -1,0 +1,113 @@
+"""Which model mode, and which zero of a receptance, each measured value is.
+
+Correspondence is data, never inferred from nearness at the updated point:
+
+* a measured natural frequency is the model's mode ``mode`` (1-based, counted from the lowest
+  eigenvalue); when omitted, measured frequencies are consecutive modes from mode 1, or from
+  the mode after the previous measured one;
+* a measured antiresonance of ``h_rc`` is the model's zero ``index`` of that receptance
+  (1-based, counted from the lowest real zero); when omitted it is assigned once, from the
+  nominal model: if it lies above the measured pole of mode ``m`` and is the ``j``-th
+  measured zero of ``h_rc`` there, it is zero ``n_0 + j`` where ``n_0`` counts the nominal
+  model's zeros of ``h_rc`` below its mode ``m``; below the lowest measured pole, counting
+  goes down from the first zero below that pole; without measured poles, zeros are
+  consecutive from 1. For a driving point this gives zero ``m`` between modes ``m`` and
+  ``m + 1``, as interlacing requires.
+
+Every pairing downstream (formulation start vectors, polish residuals, verification, reports,
+``results.json``) reads these declared indices.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+__all__ = ["declare", "zero_indices"]
+
+
+def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]:
+    """Default zero indices of one receptance's measured antiresonances (module docstring).
+
+    Parameters
+    ----------
+    poles : sequence of float, length n_p
+        Measured natural frequencies of the configuration, rad/s, ascending.
+    modes : sequence of int, length n_p
+        Their declared model modes (1-based).
+    zeros : sequence of float, length n_z
+        Measured antiresonances of the receptance, rad/s, ascending.
+    nominal_omega : ndarray
+        Nominal model natural frequencies, rad/s, ascending (at least up to the highest mode).
+    nominal_zeros : ndarray
+        Nominal model zeros of the receptance, rad/s, ascending.
+
+    Returns
+    -------
+    list of int, length n_z
+    """
+    poles = np.asarray(poles, dtype=float)
+    zeros = np.asarray(zeros, dtype=float)
+    out = []
+    for i, z in enumerate(zeros):
+        below = np.flatnonzero(poles < z)
+        if poles.size == 0:
+            out.append(i + 1)
+            continue
+        if below.size:
+            k = int(below[-1])
+            m = modes[k]
+            n0 = int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
+            j = int(np.count_nonzero((zeros > poles[k]) & (zeros <= z)))
+            out.append(n0 + j)
+        else:
+            m = modes[0]
+            n0 = int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
+            j = int(np.count_nonzero((zeros >= z) & (zeros < poles[0])))
+            out.append(max(n0 - j + 1, i + 1))
+    # keep them strictly rising (a sparse nominal spectrum can repeat a count)
+    for i in range(1, len(out)):
+        out[i] = max(out[i], out[i - 1] + 1)
+    return out
+
+
+def declare(cfg):
+    """Natural frequencies and antiresonances of ``cfg`` with every mode and index explicit.
+
+    Returns
+    -------
+    natural : tuple of NaturalFrequency
+    antiresonances : tuple of Antiresonance
+    """
+    from vibupdate.modal.analysis import antiresonances, modes
+    from vibupdate.data.measured import declared_modes
+
+    where = f"configuration {cfg.name!r}"
+    mode_list = declared_modes(cfg.natural)
+    natural = tuple(f if f.mode == m else replace(f, mode=m) for f, m in zip(cfg.natural, mode_list))
+    zeros = list(cfg.antiresonances)
+    poles = [f.omega for f in natural]
+    todo = [rc for rc in cfg.receptances() if any(a.index is None for a in zeros if a.receptance == rc)]
+    if todo:
+        M0, K0 = cfg.model.matrices()
+        n_modes = min(cfg.model.n_dofs, max(mode_list, default=0) + 1)
+        nominal_omega = modes(M0, K0, n_modes)[0] if mode_list else np.array([])
+        for rc in todo:
+            mine = [i for i, a in enumerate(zeros) if a.receptance == rc]
+            nominal_z = antiresonances(M0, K0, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]))
+            found = zero_indices(poles, mode_list, [zeros[i].omega for i in mine], nominal_omega, nominal_z)
+            for i, idx in zip(mine, found):
+                if zeros[i].index is None:
+                    zeros[i] = replace(zeros[i], index=idx)
+    for rc in cfg.receptances():
+        idx = [a.index for a in zeros if a.receptance == rc]
+        for k in range(1, len(idx)):
+            if idx[k] <= idx[k - 1]:
+                shown = ", ".join(f"{a.freq_hz:.6g} Hz -> {a.index}" for a in zeros if a.receptance == rc)
+                raise ValueError(f"{where}: antiresonance indices of h_{rc[0]},{rc[1]} must rise with frequency, "
+                                 f"got {shown}")
+        if idx and idx[-1] > cfg.model.n_dofs - 1:
+            raise ValueError(f"{where}: antiresonance {idx[-1]} of h_{rc[0]},{rc[1]} is declared, but the "
+                             f"adjunct system has only {cfg.model.n_dofs - 1} DOFs")
+    return natural, tuple(zeros)

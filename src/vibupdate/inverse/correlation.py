@@ -1,0 +1,246 @@
+"""Correlation of a model with measured data: paired frequencies, errors (Eq. 26), MAC.
+
+Pairing follows the declared correspondence (`vibupdate.data.pairing`): the measured natural
+frequency of mode ``m`` is compared with the model's ``m``-th eigenvalue, the measured
+antiresonance ``j`` of ``h_rc`` with the model's ``j``-th zero of ``h_rc``; never by nearness.
+Where the model has no such zero the paired value is NaN.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vibupdate.modal.analysis import antiresonances, mac, modes
+from vibupdate.data.measured import TWO_PI, Configuration
+
+__all__ = ["ModelFrequencies", "model_frequencies", "frequency_rows", "percent_error", "shape_mac"]
+
+
+@dataclass(frozen=True)
+class ModelFrequencies:
+    """Model frequencies paired with one configuration's measured data.
+
+    Attributes
+    ----------
+    natural : ndarray, shape (n_p,)
+        rad/s, the declared modes of ``Configuration.natural``.
+    antiresonances : ndarray, shape (n_z,)
+        rad/s, the declared zeros of ``Configuration.antiresonances`` (NaN where missing).
+    Phi : ndarray, shape (n, n_p)
+        Mass-normalized model modes paired with the natural frequencies.
+    omega_all : ndarray, shape (n_m,)
+        Every computed model frequency, rad/s, ascending (at least one above the highest
+        declared mode when the model has it).
+    Phi_all : ndarray, shape (n, n_m)
+    zeros_all : dict of (str, str) to ndarray
+        Every real zero of each measured receptance, rad/s, ascending.
+    """
+
+    natural: np.ndarray
+    antiresonances: np.ndarray
+    Phi: np.ndarray
+    omega_all: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    Phi_all: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    zeros_all: dict = field(default_factory=dict)
+
+
+def percent_error(model, measured) -> np.ndarray:
+    """Absolute relative error in per cent, Eqs. 26-27."""
+    model, measured = np.asarray(model, dtype=float), np.asarray(measured, dtype=float)
+    return 100.0 * np.abs(model - measured) / np.abs(measured)
+
+
+def zeros_wanted(cfg: Configuration, rc) -> int | None:
+    """How many of the lowest zeros of ``h_rc`` a large model must give (one above the highest
+    declared); None (all) for models on the dense path."""
+    from vibupdate.modal.analysis import DENSE_LIMIT
+
+    if cfg.model.n_dofs <= DENSE_LIMIT:
+        return None
+    top = max(a.index for a in cfg.antiresonances if a.receptance == rc)
+    return min(top + 1, cfg.model.n_dofs - 1)
+
+
+def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True) -> ModelFrequencies:
+    """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data by the
+    declared modes and zero indices. ``zeros=False`` skips the antiresonances (NaN, and
+    ``zeros_all`` empty): for callers that take them with their derivatives from
+    `zero_derivatives`, which solves the same adjunct eigenproblem."""
+    M, K = cfg.model.matrices(xbar)
+    mode_index = np.array([f.mode for f in cfg.natural], dtype=int) - 1
+    top = int(mode_index.max()) + 1 if mode_index.size else 0
+    n_modes = min(cfg.model.n_dofs, max(top + 1, 2))
+    omega, Phi = modes(M, K, n_modes)
+    paired = np.full(len(cfg.antiresonances), np.nan)
+    zeros_all = {}
+    for rc in (cfg.receptances() if zeros else ()):
+        model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
+                                 n_zeros=zeros_wanted(cfg, rc))
+        zeros_all[rc] = model_z
+        for i, a in enumerate(cfg.antiresonances):
+            if a.receptance == rc and a.index <= model_z.size:
+                paired[i] = model_z[a.index - 1]
+    return ModelFrequencies(omega[mode_index], paired, Phi[:, mode_index], omega, Phi, zeros_all)
+
+
+def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:
+    """MAC of each measured mode shape (interval midpoints on measured DOFs) with its paired
+    model mode; NaN where no shape was measured. Shape (n_p,)."""
+    out = np.full(len(cfg.natural), np.nan)
+    for k, f in enumerate(cfg.natural):
+        if f.shape is None or k >= Phi.shape[1]:
+            continue
+        mid = f.shape.midpoint
+        idx = [cfg.model.dof(d) for d in mid]
+        out[k] = mac(np.array(list(mid.values())), Phi[idx, k])[0, 0]
+    return out
+
+
+def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[ModelFrequencies],
+                   updated: Sequence[ModelFrequencies] | None = None) -> list[dict]:
+    """Rows of the ``frequencies`` table of ``results.json`` (docs/outputs.md), Hz at the edge."""
+    rows = []
+    for i, cfg in enumerate(configurations):
+        groups = (("natural", [f.omega for f in cfg.natural], "natural"),
+                  ("antiresonance", [a.omega for a in cfg.antiresonances], "antiresonances"))
+        for kind, measured, attr in groups:
+            nom = getattr(nominal[i], attr)
+            upd = getattr(updated[i], attr) if updated is not None else None
+            declared = ([f.mode for f in cfg.natural] if kind == "natural"
+                        else [a.index for a in cfg.antiresonances])
+            for k, w in enumerate(measured):
+                row = {
+                    "configuration": cfg.name,
+                    "kind": kind,
+                    "index": k + 1,
+                    "model_index": declared[k],
+                    "receptance": (None if kind == "natural" else
+                                   "h_{},{}".format(*cfg.antiresonances[k].receptance)),
+                    "measured_hz": w / TWO_PI,
+                    "nominal_hz": float(nom[k]) / TWO_PI,
+                    "updated_hz": None if upd is None else float(upd[k]) / TWO_PI,
+                    "error_nominal_pct": float(percent_error(nom[k], w)),
+                    "error_updated_pct": None if upd is None else float(percent_error(upd[k], w)),
+                }
+                rows.append(row)
+    return rows
+
+
+def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | None = None) -> np.ndarray:
+    """Exact relative sensitivity of one configuration's measured frequencies.
+
+    Rows: ``(d w / d xbar) / w`` of every measured natural frequency (declared mode), then of
+    every measured antiresonance (declared zero), analytic (`vibupdate.modal.sensitivities`).
+
+    Returns
+    -------
+    ndarray, shape (n_p + n_z, n_x)
+        NaN rows where the model lacks the declared zero.
+    """
+    from vibupdate.modal.sensitivities import frequency_derivatives
+
+    xbar = np.asarray(xbar, dtype=float)
+    model = cfg.model
+    freqs = freqs or model_frequencies(cfg, xbar, zeros=False)
+    z, D = zero_derivatives(cfg, xbar)
+    return np.vstack([frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None],
+                      D / z[:, None]])
+
+
+def zero_derivatives(cfg: Configuration, xbar) -> tuple[np.ndarray, np.ndarray]:
+    """The declared zeros of ``cfg`` at ``xbar`` and their exact derivatives (one adjunct
+    eigen-solve per receptance).
+
+    Returns
+    -------
+    z : ndarray, shape (n_z,)
+        rad/s, paired with ``cfg.antiresonances``; NaN where the model lacks the zero.
+    D : ndarray, shape (n_z, n_x)
+        ``d z / d xbar``, rad/s per unit of normalized parameter; NaN rows likewise.
+    """
+    from vibupdate.modal.sensitivities import antiresonance_derivatives
+
+    model = cfg.model
+    values = np.full(len(cfg.antiresonances), np.nan)
+    out = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
+    for rc in cfg.receptances():
+        z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
+                                         n_zeros=zeros_wanted(cfg, rc))
+        for i, a in enumerate(cfg.antiresonances):
+            if a.receptance == rc and a.index <= z.size:
+                values[i], out[i] = z[a.index - 1], D[a.index - 1]
+    return values, out
+
+
+def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8,
+                freqs: Sequence[ModelFrequencies] | None = None) -> dict:
+    """Sensitivity of the measured data to the normalized parameters.
+
+    ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
+    antiresonance (`relative_sensitivity`), then ``d (phi_j / phi_p) / d xbar_i`` of every
+    measured shape entry normalized at the mode's largest measured entry ``p``; all exact. Its singular values tell how many parameter
+    combinations the data determine; the right singular vectors of the (near-)zero singular
+    values are the combinations the data cannot see.
+
+    Parameters
+    ----------
+    rtol : float
+        Singular values below ``rtol`` times the largest count as zero (the derivatives are
+        exact, so an exact symmetry gives values at rounding level, ~1e-15).
+    freqs : sequence of ModelFrequencies, optional
+        `model_frequencies` of each configuration at ``xbar``, when already computed.
+
+    Returns
+    -------
+    dict
+        ``matrix`` (n_data, n_x), ``singular_values``, ``condition``, ``rank``,
+        ``column_norm`` per parameter and ``null_directions`` (n_x - rank, n_x), each a unit
+        combination of normalized parameters that leaves every measured frequency unchanged
+        to first order.
+    """
+    xbar = np.asarray(xbar, dtype=float)
+    freqs = list(freqs) if freqs is not None else [model_frequencies(c, xbar, zeros=False) for c in configurations]
+    S = np.vstack([relative_sensitivity(c, xbar, f) for c, f in zip(configurations, freqs)]
+                  + [_shape_rows(c, xbar, f) for c, f in zip(configurations, freqs)])
+    S = S[np.all(np.isfinite(S), axis=1)]
+    n_x = xbar.size
+    if S.size:
+        _, sv, Vt = np.linalg.svd(S)   # full_matrices: Vt is n_x x n_x, its last rows span the null space
+    else:
+        sv, Vt = np.array([]), np.eye(n_x)
+    rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    null = Vt[rank:]
+    null = null * np.sign(null[np.arange(null.shape[0]), np.argmax(np.abs(null), axis=1)])[:, None]
+    return {
+        "matrix": S,
+        "singular_values": sv,
+        "condition": float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and sv.size >= n_x else float("inf"),
+        "rank": rank,
+        "column_norm": np.linalg.norm(S, axis=0),
+        "null_directions": null,
+    }
+
+
+def _shape_rows(cfg: Configuration, xbar, freqs: ModelFrequencies | None = None) -> np.ndarray:
+    """Exact derivatives of the measured shape ratios, shape (n_ratios, n_x)."""
+    from vibupdate.modal.sensitivities import shape_ratio_derivatives
+
+    rows = [np.zeros((0, cfg.model.n_parameters))]
+    measured = [(k, f) for k, f in enumerate(cfg.natural) if f.shape is not None and len(f.shape.bounds) > 1]
+    if not measured:
+        return rows[0]
+    freqs = freqs or model_frequencies(cfg, xbar)
+    for k, f in measured:
+        idx = [cfg.model.dof(d) for d in f.shape.ratio_bounds()]
+        rows.append(shape_ratio_derivatives(cfg.model, xbar, freqs.natural[k], freqs.Phi[:, k], idx,
+                                            cfg.model.dof(f.shape.reference)))
+    return np.vstack(rows)
+
+
+def describe_direction(names, v, *, threshold: float = 0.05) -> str:
+    """A null direction as text, e.g. ``+0.58 rho +0.58 E -0.58 m1`` (normalized units)."""
+    terms = [(abs(c), f"{c:+.2f} {n}") for n, c in zip(names, v) if abs(c) >= threshold]
+    return " ".join(t for _, t in sorted(terms, reverse=True)) or "(none)"

@@ -1,0 +1,188 @@
+"""How the problem is solved: the homotopy path from lam = 0 to lam = 1 (Section 3.4).
+
+1. ``lam = 0``: the convex McCormick relaxation, solved cold from the nominal point. Its
+   optimum is a lower bound of the global minimum of the original problem over the same
+   boxes (docs/method.md, section 5), reported as ``relaxation_lower_bound``.
+2. ``lam`` grows on a schedule of ``n_lambda`` steps. Each step starts warm from the previous
+   point and multipliers; a small proximal term ``rho ||z - z_prev||^2`` on the parameters
+   and vectors regularizes the degenerate intermediate problems (docs/method.md, section 6). A failed
+   step is retried cold, then halved, down to ``min_step``.
+3. The last step is ``lam = 1`` without the proximal term: the original problem.
+
+Every solve is recorded; a failed path is a status, never an exception.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.inverse.backends.casadi_ipopt import CasadiIpopt, StepOutcome
+from vibupdate.inverse.formulation import BilinearProblem
+from vibupdate.inverse.relaxation import lifted_values, mccormick
+from vibupdate.inverse.status import Status
+
+__all__ = ["SolverOptions", "StepRecord", "HomotopyResult", "solve_homotopy"]
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the homotopy solver.
+
+    Attributes
+    ----------
+    n_lambda : int
+        Number of steps from 0 to 1 (the paper's ``n_lambda``); 1 is the direct jump.
+    min_step : float
+        Smallest step of ``lam`` after halving.
+    proximal : float
+        Proximal weight on intermediate steps, relative to the nominal objective.
+    max_iter : int
+        IPOPT iterations per solve.
+    max_cpu_time : float
+        Seconds per solve.
+    tol : float
+        IPOPT tolerance.
+    """
+
+    n_lambda: int = 10
+    min_step: float = 1e-3
+    proximal: float = 1e-6
+    max_iter: int = 3000
+    max_cpu_time: float = 600.0
+    tol: float = 1e-10
+
+    def __post_init__(self):
+        if not isinstance(self.n_lambda, int) or self.n_lambda < 1:
+            raise ValueError(f"n_lambda must be an integer >= 1, got {self.n_lambda!r}")
+        if not 0 < self.min_step <= 1:
+            raise ValueError(f"min_step must be in (0, 1], got {self.min_step!r}")
+        if not self.proximal >= 0:
+            raise ValueError(f"proximal must be >= 0, got {self.proximal!r}")
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
+            raise ValueError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
+        if not 0 < self.max_cpu_time < float("inf"):
+            raise ValueError(f"max_cpu_time must be a positive number of seconds, got {self.max_cpu_time!r}")
+        if not 0 < self.tol < float("inf"):
+            raise ValueError(f"tol must be a positive number, got {self.tol!r}")
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """One solve on the path: ``lam``, objective (weighted residual, no proximal term),
+    IPOPT iterations, status, wall seconds, and whether it was a cold retry."""
+
+    lam: float
+    objective: float
+    iterations: int
+    status: Status
+    seconds: float
+    cold: bool
+    accepted: bool
+
+    def as_dict(self) -> dict:
+        return {"lambda": self.lam, "objective": self.objective, "iterations": self.iterations,
+                "status": self.status.value, "seconds": self.seconds, "cold": self.cold,
+                "accepted": self.accepted}
+
+
+@dataclass(frozen=True)
+class HomotopyResult:
+    """Outcome of the path.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n_x,)
+        Normalized parameters at the last accepted point.
+    u : ndarray, shape (n_u,)
+        Free vector entries at the last accepted point.
+    t : ndarray, shape (n_b,)
+    lam : float
+        ``lam`` of the last accepted point (1 on success).
+    status : Status
+    objective : float
+        Exact objective (``lam = 1``) at ``(x, u)``.
+    lower_bound : float or None
+        Optimum of the ``lam = 0`` relaxation.
+    steps : tuple of StepRecord
+    seconds : float
+        Wall time of the path, building included.
+    build_seconds : float
+    relaxed_x, relaxed_u : ndarray or None
+        Optimum of the ``lam = 0`` relaxation (shapes (n_x,) and (n_u,)), where solved.
+    """
+
+    x: np.ndarray
+    u: np.ndarray
+    t: np.ndarray
+    lam: float
+    status: Status
+    objective: float
+    lower_bound: float | None
+    steps: tuple[StepRecord, ...]
+    seconds: float
+    build_seconds: float
+    relaxed_x: np.ndarray | None = None
+    relaxed_u: np.ndarray | None = None
+
+
+def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = None,
+                   progress: Callable[[str], None] | None = None) -> HomotopyResult:
+    """Walk the homotopy path of ``problem`` (module docstring)."""
+    options = options or SolverOptions()
+    say = progress or (lambda message: None)
+    start = time.perf_counter()
+    envelope = mccormick(problem)
+    backend = CasadiIpopt(problem, envelope, max_iter=options.max_iter,
+                          max_cpu_time=options.max_cpu_time, tol=options.tol)
+    build_seconds = time.perf_counter() - start
+    x0 = np.clip(np.zeros(problem.n_x), problem.x_lower, problem.x_upper)
+    u0 = problem.u_start
+    z = backend.join(x0, u0, lifted_values(problem, x0, u0), problem.residual(x0, u0))
+    f_nominal = problem.objective(x0, u0)
+    rho = options.proximal * max(f_nominal, 1e-12)
+    steps: list[StepRecord] = []
+
+    def record(lam, out: StepOutcome, cold: bool, accepted: bool):
+        steps.append(StepRecord(lam, out.objective, out.iterations, out.status, out.seconds, cold, accepted))
+        say(f"  lambda = {lam:6.4f}  objective = {out.objective:.4e}  iterations = {out.iterations:4d}  "
+            f"{out.status.value}{' (cold retry)' if cold and lam > 0 else ''}  {out.seconds:.2f} s")
+
+    first = backend.solve(z, 0.0)
+    record(0.0, first, True, first.status.ok)
+    if not first.status.ok:
+        x, u, t, _ = backend.split(z)
+        return HomotopyResult(x, u, t, 0.0, first.status, problem.objective(x, u), None,
+                              tuple(steps), time.perf_counter() - start, build_seconds)
+    lower_bound = first.objective
+    relaxed_x, relaxed_u, _, _ = backend.split(first.z)
+    current, lam, base = first, 0.0, 1.0 / options.n_lambda
+    step, status = base, Status.SUCCESS
+    while lam < 1.0:
+        target = min(1.0, lam + step)
+        if 1.0 - target < 1e-12:
+            target = 1.0
+        r = 0.0 if target == 1.0 else rho
+        out = backend.solve(current.z, target, rho=r, z_prev=current.z, warm=True,
+                            lam_x0=current.lam_x, lam_g0=current.lam_g)
+        record(target, out, False, out.status.ok)
+        if not out.status.ok:
+            out = backend.solve(current.z, target, rho=r, z_prev=current.z)
+            record(target, out, True, out.status.ok)
+        if out.status.ok:
+            current, lam = out, target
+            step = base
+            continue
+        step /= 2.0
+        if step < options.min_step:
+            status = Status.STEP_FAILED
+            say(f"  step failed at lambda = {target:.4f}: {out.raw_status}; stopped at lambda = {lam:.4f}")
+            break
+    x, u, t, _ = backend.split(current.z)
+    if status == Status.SUCCESS and current.status == Status.ACCEPTABLE:
+        status = Status.ACCEPTABLE  # lambda = 1 reached at IPOPT's looser tolerance
+    return HomotopyResult(x, u, t, lam, status, problem.objective(x, u), lower_bound, tuple(steps),
+                          time.perf_counter() - start, build_seconds, relaxed_x, relaxed_u)

@@ -1,0 +1,307 @@
+"""Verification: is the returned model the one the data describe?
+
+A solver that reaches ``lam = 1`` has found a point where its objective is small; that does
+not make the model right. Before an answer is called a success the returned model is checked
+against the data it was given:
+
+``mode_order``
+    every measured natural frequency is nearest to its declared model mode (no mode of the
+    model skipped or inserted below the highest measured one);
+``zero_order``
+    every measured antiresonance is nearest to its declared zero of its receptance, and the
+    model has that zero;
+``mac``
+    where a shape was measured, its MAC with the declared mode is at least ``mac_min`` and
+    no other model mode matches it better;
+``shape_intervals``
+    the model's shape ratios ``phi_j / phi_p`` lie in the measured intervals, widened by
+    ``shape_slack`` half-widths (a model that fits the frequencies with a shape outside its
+    interval has not used the data);
+``fit``
+    every measured frequency is matched by its declared mode or zero within its interval
+    (when the data give one) or within ``fit_tolerance`` (relative; default 2 %: on the paper's
+    cantilever the verified update misses no frequency by more than 1.63 %);
+``correspondence``
+    when the first-stage answer fitted the data under another pairing (a mode skipped), the
+    final answer's mean natural-frequency error under the declared pairing must stay within
+    twice that other fit's error plus a tenth of ``fit_tolerance`` (0.2 % by default);
+    otherwise the declared modes are likely wrong and the user is told which pairing fits;
+``improvement``
+    the updated mean frequency error is not above the nominal one;
+``consistency``
+    the optimum of the convex relaxation (a lower bound of the best objective inside the
+    boxes) is within what the frequency tolerance explains, ``n_blocks (2 tol)^2`` (each
+    block's weighted residual approximates a relative eigenvalue error, twice the relative
+    frequency error). Above that, no parameter set inside the boxes fits the data: the data
+    contradict the bounds, and the active bounds of the relaxed solution are named;
+``bounds`` (warning only)
+    parameters on a bound of their box.
+
+A failed error check makes the status ``not_verified``; warnings are reported either way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.modal.analysis import mac
+from vibupdate.inverse.correlation import ModelFrequencies, percent_error
+from vibupdate.data.measured import TWO_PI, Configuration
+
+__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance"]
+
+
+@dataclass(frozen=True)
+class VerifyOptions:
+    """Thresholds of the verification.
+
+    Attributes
+    ----------
+    mac_min : float
+        Smallest MAC of a measured shape with its declared mode (0.8: the usual threshold
+        below which two shapes are not taken as the same mode; the frame example's verified
+        answer has 0.9917 at worst).
+    shape_slack : float
+        Allowed distance outside a shape interval, in half-widths of that interval: the model's
+        own eigenvector differs slightly from the first stage's vector in its box when the
+        residual is not zero; a wrong sign or mode is many half-widths out.
+    frequency_tolerance : float
+        Relative frequency uncertainty used for the consistency allowance (a case file's
+        ``frequency_tolerance`` when it states one; 1 % otherwise).
+    fit_tolerance : float
+        Largest relative miss of a measured frequency without an interval.
+    """
+
+    mac_min: float = 0.8
+    shape_slack: float = 0.5
+    frequency_tolerance: float = 0.01
+    fit_tolerance: float = 0.02
+
+    def __post_init__(self):
+        if not 0 <= self.mac_min <= 1:
+            raise ValueError(f"mac_min must be in [0, 1], got {self.mac_min!r}")
+        if not (self.shape_slack >= 0 and np.isfinite(self.shape_slack)):
+            raise ValueError(f"shape_slack must be finite and >= 0, got {self.shape_slack!r}")
+        if not (0 <= self.frequency_tolerance < 1):
+            raise ValueError(f"frequency_tolerance must be in [0, 1), got {self.frequency_tolerance!r}")
+        if not (0 < self.fit_tolerance < 1):
+            raise ValueError(f"fit_tolerance must be in (0, 1), got {self.fit_tolerance!r}")
+
+
+@dataclass(frozen=True)
+class Check:
+    """One verification check.
+
+    Attributes
+    ----------
+    name : str
+    passed : bool
+    severity : {"error", "warning"}
+        A failed error check makes the answer not verified; a warning does not.
+    message : str
+        What was found, with the measured figures.
+    value, limit : float or None
+        The measured figure and the limit it was held against.
+    """
+
+    name: str
+    passed: bool
+    severity: str
+    message: str
+    value: float | None = None
+    limit: float | None = None
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "passed": self.passed, "severity": self.severity, "message": self.message,
+                "value": self.value, "limit": self.limit}
+
+
+def consistency_allowance(n_blocks: int, tolerance: float) -> float:
+    """Largest relaxation lower bound that frequency errors of ``tolerance`` explain."""
+    return n_blocks * (2.0 * tolerance) ** 2
+
+
+def _nearest(values: np.ndarray, target: float) -> int:
+    return int(np.argmin(np.abs(values - target) / target))
+
+
+def _mode_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
+    bad = []
+    for k, nat in enumerate(cfg.natural):
+        j = _nearest(f.omega_all, nat.omega)
+        if j != nat.mode - 1:
+            bad.append(f"configuration {cfg.name!r}: measured {nat.freq_hz:.5g} Hz (declared mode {nat.mode}) is "
+                       f"nearest to model mode {j + 1} at {f.omega_all[j] / TWO_PI:.5g} Hz; its mode {nat.mode} "
+                       f"is at {f.natural[k] / TWO_PI:.5g} Hz (a mode skipped or inserted)")
+    return bad
+
+
+def _zero_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
+    bad = []
+    for a in cfg.antiresonances:
+        z = f.zeros_all.get(a.receptance, np.zeros(0))
+        label = f"configuration {cfg.name!r}: antiresonance of h_{a.response},{a.excitation} at {a.freq_hz:.5g} Hz"
+        if a.index > z.size:
+            bad.append(f"{label} is declared zero {a.index}, but the model has {z.size} zeros")
+            continue
+        j = _nearest(z, a.omega)
+        if j != a.index - 1:
+            bad.append(f"{label} (declared zero {a.index}) is nearest to model zero {j + 1} at "
+                       f"{z[j] / TWO_PI:.5g} Hz; zero {a.index} is at {z[a.index - 1] / TWO_PI:.5g} Hz")
+    return bad
+
+
+def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions):
+    """Messages of the MAC check and of the interval check."""
+    bad_mac, bad_box, worst_mac = [], [], 1.0
+    for k, nat in enumerate(cfg.natural):
+        if nat.shape is None:
+            continue
+        dofs = list(nat.shape.bounds)
+        idx = [cfg.model.dof(d) for d in dofs]
+        mid = np.array([nat.shape.midpoint[d] for d in dofs])
+        macs = mac(mid, f.Phi_all[idx])[0]
+        m = nat.mode - 1
+        worst_mac = min(worst_mac, float(macs[m]))
+        label = f"configuration {cfg.name!r}, mode {nat.mode} ({nat.freq_hz:.5g} Hz)"
+        if macs[m] < options.mac_min:
+            bad_mac.append(f"{label}: MAC {macs[m]:.3f} with the measured shape, below {options.mac_min}")
+        other = int(np.argmax(macs))
+        if other != m and macs[other] > macs[m] + 1e-9:
+            bad_mac.append(f"{label}: the measured shape matches model mode {other + 1} better "
+                           f"(MAC {macs[other]:.3f} vs {macs[m]:.3f})")
+        if len(dofs) < 2:
+            continue
+        ref = nat.shape.reference
+        phi_ref = f.Phi_all[cfg.model.dof(ref), m]
+        if phi_ref == 0:
+            bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}")
+            continue
+        for d, (lo, hi) in nat.shape.ratio_bounds().items():
+            ratio = f.Phi_all[cfg.model.dof(d), m] / phi_ref
+            slack = options.shape_slack * 0.5 * (hi - lo) + 1e-9
+            if ratio < lo - slack or ratio > hi + slack:
+                bad_box.append(f"{label}, DOF {d!r}: model shape ratio {ratio:.4g} outside the measured "
+                               f"interval [{lo:.4g}, {hi:.4g}] (normalized at {ref!r})")
+    return bad_mac, bad_box, worst_mac
+
+
+def _fit(cfg: Configuration, f: ModelFrequencies, tolerance: float) -> tuple[list[str], float]:
+    bad, worst = [], 0.0
+    items = [(n, f.natural[k], f"mode {n.mode}") for k, n in enumerate(cfg.natural)]
+    items += [(a, f.antiresonances[k], f"zero {a.index} of h_{a.response},{a.excitation}")
+              for k, a in enumerate(cfg.antiresonances)]
+    for datum, model, label in items:
+        lo, hi = datum.interval or (datum.omega * (1 - tolerance), datum.omega * (1 + tolerance))
+        miss = abs(model - datum.omega) / datum.omega if np.isfinite(model) else np.inf
+        worst = max(worst, miss)
+        if not (lo <= model <= hi):
+            where = "its interval" if datum.interval else f"{100 * tolerance:g} %"
+            bad.append(f"configuration {cfg.name!r}, {label}: model {model / TWO_PI:.5g} Hz vs measured "
+                       f"{datum.omega / TWO_PI:.5g} Hz ({100 * miss:.3g} %, outside {where})")
+    return bad, worst
+
+
+def _join(messages: list[str], limit: int = 4) -> str:
+    more = len(messages) - limit
+    return "; ".join(messages[:limit]) + (f"; and {more} more" if more > 0 else "")
+
+
+def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[ModelFrequencies],
+           updated: Sequence[ModelFrequencies], lower_bound: float | None, n_blocks: int,
+           active_bounds: Sequence[str] = (), first_stage: Sequence[ModelFrequencies] | None = None,
+           options: VerifyOptions | None = None) -> tuple[Check, ...]:
+    """Check the updated model against the data (module docstring).
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+    xbar : ndarray, shape (n_x,)
+        The answer.
+    nominal, updated : sequence of ModelFrequencies
+        Paired model data at the nominal point and at ``xbar``, per configuration.
+    lower_bound : float or None
+        Optimum of the convex relaxation (None when it was not solved).
+    n_blocks : int
+        Number of residual blocks of the first stage.
+    active_bounds : sequence of str
+        Bounds active at the relaxation's optimum, named for the user.
+    first_stage : sequence of ModelFrequencies, optional
+        Paired model data at the first-stage answer (before the polish).
+    options : VerifyOptions, optional
+    """
+    options = options or VerifyOptions()
+    checks = []
+    order = [m for c, f in zip(configurations, updated) for m in _mode_order(c, f)]
+    checks.append(Check("mode_order", not order, "error",
+                        _join(order) if order else "every measured natural frequency is nearest to its declared mode",
+                        float(len(order)), 0.0))
+    if any(c.antiresonances for c in configurations):
+        zeros = [m for c, f in zip(configurations, updated) for m in _zero_order(c, f)]
+        checks.append(Check("zero_order", not zeros, "error",
+                            _join(zeros) if zeros else "every measured antiresonance is nearest to its declared zero",
+                            float(len(zeros)), 0.0))
+    if any(n.shape is not None for c in configurations for n in c.natural):
+        found = [_shapes(c, f, options) for c, f in zip(configurations, updated)]
+        bad_mac = [m for b, _, _ in found for m in b]
+        bad_box = [m for _, b, _ in found for m in b]
+        worst = min(w for _, _, w in found)
+        checks.append(Check("mac", not bad_mac, "error",
+                            _join(bad_mac) if bad_mac else f"lowest MAC with a measured shape {worst:.4f}",
+                            worst, options.mac_min))
+        checks.append(Check("shape_intervals", not bad_box, "error",
+                            _join(bad_box) if bad_box else "every model shape ratio lies in its measured interval",
+                            float(len(bad_box)), 0.0))
+    fits = [_fit(c, f, options.fit_tolerance) for c, f in zip(configurations, updated)]
+    bad_fit = [m for b, _ in fits for m in b]
+    worst = max(w for _, w in fits)
+    checks.append(Check("fit", not bad_fit, "error",
+                        _join(bad_fit) if bad_fit else f"largest frequency miss {100 * worst:.3g} %",
+                        100 * worst, 100 * options.fit_tolerance))
+    measured = np.concatenate([[n.omega for n in c.natural] + [a.omega for a in c.antiresonances]
+                               for c in configurations])
+    nom = np.concatenate([np.r_[f.natural, f.antiresonances] for f in nominal])
+    upd = np.concatenate([np.r_[f.natural, f.antiresonances] for f in updated])
+    e_nom = float(np.nanmean(percent_error(nom, measured)))
+    e_upd = float(np.mean(percent_error(upd, measured)))  # NaN if a declared zero is missing
+    better = bool(np.isfinite(e_upd) and e_upd <= e_nom * (1 + 1e-9) + 1e-9)
+    checks.append(Check("improvement", better, "error",
+                        f"mean frequency error {e_upd:.4g} % updated vs {e_nom:.4g} % nominal"
+                        + ("" if better else ": the update is worse than the nominal model"), e_upd, e_nom))
+    if first_stage is not None:
+        skipped = [m for c, f in zip(configurations, first_stage) for m in _mode_order(c, f)]
+        if skipped:
+            near = np.concatenate([[np.min(np.abs(f.omega_all - n.omega)) / n.omega for n in c.natural]
+                                   for c, f in zip(configurations, first_stage)])
+            declared = np.concatenate([np.abs(f.natural - [n.omega for n in c.natural]) / [n.omega for n in c.natural]
+                                       for c, f in zip(configurations, updated)])
+            e_near, e_decl = 100 * float(np.mean(near)), 100 * float(np.mean(declared))
+            ok = bool(e_decl <= 2 * e_near + 0.1 * 100 * options.fit_tolerance)
+            text = (f"the first stage fitted the natural frequencies to {e_near:.3g} % mean under another pairing "
+                    f"({_join(skipped, 2)}); the declared modes are fitted to {e_decl:.3g} %")
+            if not ok:
+                text += ": the declared modes are likely wrong (set `mode` of each measured frequency)"
+            checks.append(Check("correspondence", ok, "error", text, e_decl, e_near))
+    if lower_bound is not None:
+        tol = options.frequency_tolerance
+        allowance = consistency_allowance(n_blocks, tol)
+        ok = bool(lower_bound <= allowance)
+        text = (f"relaxation lower bound {lower_bound:.3g} <= {allowance:.3g} (what {100 * tol:g} % frequency "
+                "errors explain); a bound near zero certifies nothing, a positive one proves a misfit")
+        if not ok:
+            text = (f"relaxation lower bound {lower_bound:.3g} > {allowance:.3g} (what {100 * tol:g} % frequency "
+                    "errors explain): no parameter set inside the boxes fits the data; the data contradict the "
+                    "bounds" + (f"; widen: {', '.join(active_bounds)}" if active_bounds else ""))
+        checks.append(Check("consistency", ok, "error", text, float(lower_bound), allowance))
+    model = configurations[0].model
+    lo, hi = model.bounds()
+    span = np.where(hi > lo, hi - lo, 1.0)
+    at = [p.name for p, x, a, b, s in zip(model.parameters, xbar, lo, hi, span)
+          if min(x - a, b - x) <= 1e-6 * s]
+    checks.append(Check("bounds", not at, "warning",
+                        ("parameters on a bound: " + ", ".join(at)) if at else "no parameter on a bound",
+                        float(len(at)), 0.0))
+    return tuple(checks)

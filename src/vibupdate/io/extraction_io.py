@@ -1,0 +1,177 @@
+"""Writing an `Extraction`: ``extraction.json``, case-format data files and ``fit.png``.
+
+Hz only here, at the edge. The files are those that `vibupdate.io.measured_io` and the case
+file read (``docs/case-file.md``):
+
+* ``frequencies.csv``: ``kind,hz,weight,damping_ratio,response,excitation,lower_hz,upper_hz``
+  (natural frequencies with their damping ratios, then antiresonances; the interval columns
+  are extra information the reader ignores);
+* ``shapes.csv``: ``mode,dof,lower,upper`` (shape intervals);
+* ``damping.csv``: ``mode,hz,damping_ratio,lower,upper``;
+* ``configuration.toml``: a ``[[configuration]]`` block naming the two CSV files, to paste
+  into a case file.
+
+The folder is written as a run's results folder is (`vibupdate.io.outputs`): checked first, the
+files written beside it and moved into place, listed in the folder's manifest; files that
+vibupdate did not write are never replaced, and a folder holding any is refused unless
+``force``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from vibupdate.data.extraction import Extraction
+from vibupdate.data.frf import FRFSet
+
+__all__ = ["extraction_document", "write_extraction", "plot_extraction", "configuration_block",
+           "EXTRACTION_FILES", "check_extraction_folder"]
+
+TWO_PI = 2.0 * math.pi
+
+#: The files `write_extraction` writes (``fit.png`` only with the plot).
+EXTRACTION_FILES = ("extraction.json", "frequencies.csv", "shapes.csv", "damping.csv", "configuration.toml",
+                    "fit.png")
+
+
+def check_extraction_folder(out_dir, force: bool = False):
+    """Check the output folder before extracting (`vibupdate.io.outputs.prepare_output`).
+
+    Raises ValueError naming the folder when it is not a writable folder, or holds files
+    vibupdate did not write and ``force`` is false, or a file it would overwrite is not its own.
+    """
+    from vibupdate.io.outputs import prepare_output
+
+    return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES)
+
+
+def _hz(pair) -> list[float]:
+    return [float(pair[0]) / TWO_PI, float(pair[1]) / TWO_PI]
+
+
+def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
+    """The ``extraction.json`` content (Hz; keys as in ``docs/frf-extraction.md``)."""
+    natural = [{
+        "mode": first_mode + k,
+        "freq_hz": m.omega / TWO_PI,
+        "freq_hz_interval": _hz(m.omega_interval),
+        "damping_ratio": m.damping_ratio,
+        "damping_ratio_interval": list(m.damping_interval),
+        "shape": dict(m.shape),
+        "shape_interval": {d: list(b) for d, b in m.shape_interval.items()},
+        "shape_normalization": m.normalization,
+        "stable_orders": m.stable_orders,
+    } for k, m in enumerate(result.modes)]
+    zeros = [{"response": z.response, "excitation": z.excitation, "index": z.index,
+              "freq_hz": z.omega / TWO_PI, "freq_hz_interval": _hz(z.interval)} for z in result.zeros]
+    quality = [{"response": q.response, "excitation": q.excitation, "quality": q.quality,
+                "relative_residual": q.relative_residual, "repeats": q.n_repeats} for q in result.quality]
+    stabilization = [{"pole_pairs": int(n), "freq_hz": (w / TWO_PI).tolist(), "damping_ratio": z.tolist()}
+                     for n, w, z in result.stabilization]
+    return {"band_hz": _hz(result.band), "confidence": result.confidence, "noise": result.noise,
+            "natural": natural, "antiresonances": zeros, "quality": quality, "stabilization": stabilization}
+
+
+def configuration_block(name: str = "measured", frequencies: str = "frequencies.csv",
+                        shapes: str = "shapes.csv") -> str:
+    """A ``[[configuration]]`` block of a case file that reads the written CSV files."""
+    return (f'[[configuration]]\nname = "{name}"\nfrequencies_csv = "{frequencies}"\n'
+            f'mode_shapes_csv = "{shapes}"\n')
+
+
+def _write_csv(path: Path, header, rows) -> None:
+    with open(path, "w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(header)
+        writer.writerows(rows)
+
+
+def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int = 1, name: str = "measured",
+                     plot: bool = True, force: bool = False) -> dict:
+    """Write every output file into the folder ``out_dir``; returns ``{kind: path}``.
+
+    Through the manifest-protected path of `vibupdate.io.outputs` (module docstring): raises
+    ValueError, writing nothing, when the folder holds files vibupdate did not write and
+    ``force`` is false, or when one of them would be overwritten.
+    """
+    import shutil
+
+    from vibupdate import __version__
+    from vibupdate.io.outputs import publish, staging_folder
+
+    target = check_extraction_folder(out_dir, force)
+    staged = staging_folder(target)
+    try:
+        paths = _write_files(result, frfs, staged, first_mode, name, plot)
+        publish(staged, target, case="extraction", version=__version__)
+    finally:
+        shutil.rmtree(staged, ignore_errors=True)
+    return {kind: target.path / path.name for kind, path in paths.items()}
+
+
+def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, name: str, plot: bool) -> dict:
+    paths = {"json": out / "extraction.json", "frequencies": out / "frequencies.csv",
+             "shapes": out / "shapes.csv", "damping": out / "damping.csv", "configuration": out / "configuration.toml"}
+    paths["json"].write_text(json.dumps(extraction_document(result, first_mode), indent=2), encoding="utf-8")
+    rows = [["natural", f"{m.omega / TWO_PI:.8g}", 1, f"{m.damping_ratio:.6g}", "", "",
+             *(f"{v:.8g}" for v in _hz(m.omega_interval))] for m in result.modes]
+    rows += [["antiresonance", f"{z.omega / TWO_PI:.8g}", 1, "", z.response, z.excitation,
+              *(f"{v:.8g}" for v in _hz(z.interval))] for z in result.zeros]
+    _write_csv(paths["frequencies"], ["kind", "hz", "weight", "damping_ratio", "response", "excitation",
+                                      "lower_hz", "upper_hz"], rows)
+    _write_csv(paths["shapes"], ["mode", "dof", "lower", "upper"],
+               [[first_mode + k, d, f"{lo:.8g}", f"{hi:.8g}"]
+                for k, m in enumerate(result.modes) for d, (lo, hi) in m.shape_interval.items()])
+    _write_csv(paths["damping"], ["mode", "hz", "damping_ratio", "lower", "upper"],
+               [[first_mode + k, f"{m.omega / TWO_PI:.8g}", f"{m.damping_ratio:.6g}",
+                 f"{m.damping_interval[0]:.6g}", f"{m.damping_interval[1]:.6g}"] for k, m in enumerate(result.modes)])
+    block = configuration_block(name)
+    if first_mode != 1:
+        block += "# the lowest extracted mode is model mode %d: list the modes below it or narrow the model\n" % first_mode
+    paths["configuration"].write_text(block, encoding="utf-8")
+    if plot:
+        paths["plot"] = plot_extraction(result, frfs, out / "fit.png")
+    return paths
+
+
+def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
+    """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    data = frfs.band(*result.band)
+    fitted = result.synthesize(data.omega)
+    mean = data.mean()
+    n = len(data.pairs)
+    cols = min(n, 3)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
+    f = data.freq_hz
+    for k, (pair, ax) in enumerate(zip(data.pairs, axes.ravel())):
+        ax.semilogy(f, np.abs(mean[k]), color="0.6", lw=1.0, label="measured")
+        ax.semilogy(f, np.abs(fitted[k]), color="C0", lw=1.0, label="fit")
+        for m in result.modes:
+            ax.axvline(m.omega / TWO_PI, color="C3", lw=0.6, ls="--")
+        for z in result.zeros:
+            if (z.response, z.excitation) == pair:
+                ax.axvline(z.omega / TWO_PI, color="C2", lw=0.6, ls=":")
+        ax.set_title(f"h {pair[0]},{pair[1]}", fontsize=9)
+        ax.set_xlabel("frequency [Hz]", fontsize=8)
+        ax.set_ylabel("|receptance| [m/N]", fontsize=8)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    axes[0, 0].plot([], [], color="C3", ls="--", label="poles")
+    axes[0, 0].plot([], [], color="C2", ls=":", label="zeros")
+    axes[0, 0].legend(fontsize=7)
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, wspace=0.35, hspace=0.5)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)

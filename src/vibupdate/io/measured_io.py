@@ -1,0 +1,216 @@
+"""Reading measured modal data from files: CSV tables and Universal File Format dataset 55.
+
+CSV frequency table, one row per measured frequency::
+
+    kind,hz,weight,damping_ratio,response,excitation,mode,index
+    natural,73.4,1,0.044,,,1,
+    antiresonance,101.3,1,,y1,y3,,1
+
+(``weight``, ``damping_ratio``, ``response``, ``excitation``, ``mode``, ``index`` optional per
+row; ``mode`` is the model mode a natural frequency is, ``index`` which zero of its receptance
+an antiresonance is, both 1-based; see `vibupdate.data.pairing` for the defaults.)
+
+CSV mode-shape table, one row per measured entry, bounds or value and tolerance::
+
+    mode,dof,lower,upper            or        mode,dof,value,tolerance
+    1,y1,0.95,1.05                            1,y1,1.0,0.05
+
+UFF dataset 55 (normal modes, analysis type 2) through pyuff: each record is one mode; its
+header gives the frequency (Hz) and the modal viscous damping ratio, its data the shape.
+Directions map to DOF names as ``r1 -> x``, ``r2 -> y``, ``r3 -> z``, ``r4 -> rx``,
+``r5 -> ry``, ``r6 -> phi`` followed by the node number.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["read_frequency_csv", "read_shape_csv", "read_uff_modes", "UffMode"]
+
+_UFF_DIRECTIONS = {"r1": "x", "r2": "y", "r3": "z", "r4": "rx", "r5": "ry", "r6": "phi"}
+
+
+def not_utf8(data: bytes, exc: UnicodeDecodeError) -> str:
+    """Where a file stops being UTF-8 text, as ``"line L: ..."``."""
+    line = data.count(b"\n", 0, exc.start) + 1
+    column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+    return f"line {line}: not UTF-8 text (byte 0x{data[exc.start]:02x} at column {column})"
+
+
+def _rows(path: Path) -> list[tuple[int, dict]]:
+    """Data rows of a CSV file with their line numbers; blank and ``#`` lines are skipped."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: {not_utf8(path.read_bytes(), exc)}") from None
+    except OSError as exc:
+        raise ValueError(f"CSV file {str(path)!r} could not be read: {exc}") from None
+    numbered = [(k, line) for k, line in enumerate(text.splitlines(), start=1)
+                if line.strip() and not line.lstrip().startswith("#")]
+    if not numbered:
+        raise ValueError(f"CSV file {str(path)!r} is empty")
+    if "\0" in text:
+        raise ValueError(f"CSV file {str(path)!r} holds NUL bytes: not a text table")
+    try:
+        table = list(csv.reader(line for _, line in numbered))
+    except csv.Error as exc:
+        raise ValueError(f"CSV file {str(path)!r} could not be read: {exc}") from None
+    if len(table) != len(numbered):
+        raise ValueError(f"{path}: a quoted field spans several lines; one row per line is expected")
+    header = [h.strip() for h in table[0]]
+    if len(set(header)) != len(header):
+        raise ValueError(f"{path}: line {numbered[0][0]}: repeated column names in {header}")
+    rows = []
+    for (line, _), fields in zip(numbered[1:], table[1:]):
+        if len(fields) > len(header):
+            raise ValueError(f"{path}: row {line}: {len(fields)} fields for {len(header)} columns")
+        fields = [f.strip() for f in fields] + [""] * (len(header) - len(fields))
+        rows.append((line, dict(zip(header, fields))))
+    return rows
+
+
+def _number(text: str, what: str, path: Path, line: int) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{path}: row {line}: {what} must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{path}: row {line}: {what} must be finite, got {text!r}")
+    return value
+
+
+def _count(text: str | None, what: str, path: Path, line: int) -> int | None:
+    """An optional 1-based integer column (a declared mode or zero index)."""
+    if not text:
+        return None
+    value = _number(text, what, path, line)
+    if value != int(value) or value < 1:
+        raise ValueError(f"{path}: row {line}: {what} must be an integer >= 1, got {text!r}")
+    return int(value)
+
+
+def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
+    """Natural frequencies and antiresonances from a CSV table (module docstring).
+
+    Returns
+    -------
+    natural : list of dict
+        ``{"hz", "weight", "damping_ratio", "mode"}`` in file order (``mode`` None where the
+        optional column is empty).
+    antiresonances : list of dict
+        ``{"hz", "weight", "response", "excitation", "index"}`` in file order.
+    """
+    path = Path(path)
+    rows = _rows(path)
+    for column in ("kind", "hz"):
+        if rows and column not in rows[0][1]:
+            raise ValueError(f"CSV file {str(path)!r} needs a column {column!r}; it has {list(rows[0][1])}")
+    natural, zeros = [], []
+    seen: dict[tuple, int] = {}
+    for i, row in rows:
+        same = tuple(sorted(row.items()))
+        if same in seen:
+            raise ValueError(f"{path}: row {i}: duplicates row {seen[same]}")
+        seen[same] = i
+        kind = row["kind"].lower()
+        hz = _number(row["hz"], "hz", path, i)
+        weight = _number(row["weight"], "weight", path, i) if row.get("weight") else 1.0
+        if kind == "natural":
+            xi = row.get("damping_ratio")
+            natural.append({"hz": hz, "weight": weight,
+                            "damping_ratio": _number(xi, "damping_ratio", path, i) if xi else None,
+                            "mode": _count(row.get("mode"), "mode", path, i)})
+        elif kind == "antiresonance":
+            if not row.get("response") or not row.get("excitation"):
+                raise ValueError(f"{path}: row {i}: an antiresonance needs 'response' and 'excitation' DOFs")
+            zeros.append({"hz": hz, "weight": weight, "response": row["response"], "excitation": row["excitation"],
+                          "index": _count(row.get("index"), "index", path, i)})
+        else:
+            raise ValueError(f"{path}: row {i}: kind must be 'natural' or 'antiresonance', got {row['kind']!r}")
+    return natural, zeros
+
+
+def read_shape_csv(path) -> dict[int, dict[str, tuple[float, float]]]:
+    """Mode-shape intervals from a CSV table: ``{mode (1-based): {dof: (lower, upper)}}``."""
+    path = Path(path)
+    rows = _rows(path)
+    columns = set(rows[0][1]) if rows else set()
+    bounds_form = {"lower", "upper"} <= columns
+    value_form = {"value", "tolerance"} <= columns
+    if not {"mode", "dof"} <= columns or not (bounds_form or value_form):
+        raise ValueError(
+            f"CSV file {str(path)!r} needs columns mode, dof and lower, upper (or value, tolerance); "
+            f"it has {sorted(columns)}"
+        )
+    shapes: dict[int, dict[str, tuple[float, float]]] = {}
+    seen: dict[tuple[int, str], int] = {}
+    for i, row in rows:
+        mode = _number(row["mode"], "mode", path, i)
+        if mode != int(mode) or mode < 1:
+            raise ValueError(f"{path}: row {i}: mode must be an integer >= 1, got {row['mode']!r}")
+        mode = int(mode)
+        if not row["dof"]:
+            raise ValueError(f"{path}: row {i}: dof is empty")
+        if (mode, row["dof"]) in seen:
+            raise ValueError(f"{path}: row {i}: mode {mode}, dof {row['dof']!r} is also given in row "
+                             f"{seen[(mode, row['dof'])]}")
+        seen[(mode, row["dof"])] = i
+        if bounds_form:
+            lo, hi = _number(row["lower"], "lower", path, i), _number(row["upper"], "upper", path, i)
+        else:
+            v, t = _number(row["value"], "value", path, i), _number(row["tolerance"], "tolerance", path, i)
+            if t < 0:
+                raise ValueError(f"{path}: row {i}: tolerance must be >= 0, got {t}")
+            lo, hi = v - t, v + t
+        if lo > hi:
+            raise ValueError(f"{path}: row {i}: mode-shape interval for {row['dof']!r} has lower {lo:g} > upper {hi:g}")
+        shapes.setdefault(mode, {})[row["dof"]] = (lo, hi)
+    return shapes
+
+
+class UffMode(dict):
+    """One mode of a UFF dataset 55: keys ``hz``, ``damping_ratio`` (or None), ``values``
+    (``{dof name: value}``)."""
+
+
+def read_uff_modes(path) -> list[UffMode]:
+    """Normal modes from the dataset-55 records of a UFF file, in file order."""
+    import pyuff
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"UFF file {str(path)!r} does not exist")
+    try:
+        uff = pyuff.UFF(str(path))
+        types = list(uff.get_set_types())
+    except Exception as exc:  # pyuff raises bare Exceptions on malformed files
+        raise ValueError(f"UFF file {str(path)!r} could not be read: {exc}") from None
+    indices = [i for i, t in enumerate(types) if int(t) == 55]
+    if not indices:
+        found = ", ".join(str(int(t)) for t in types) or "none"
+        raise ValueError(f"UFF file {str(path)!r} has no dataset 55 (mode shapes); datasets found: {found}")
+    modes = []
+    for i in indices:
+        try:
+            record = uff.read_sets(i)
+        except Exception as exc:  # pyuff raises bare Exceptions on malformed records
+            raise ValueError(f"UFF file {str(path)!r}: dataset 55 number {i + 1} could not be read: {exc}") from None
+        if int(record.get("analysis_type", 0)) != 2:
+            continue
+        nodes = np.asarray(record["node_nums"]).astype(int)
+        values = {}
+        for key, prefix in _UFF_DIRECTIONS.items():
+            if key in record and record[key] is not None:
+                data = np.real(np.asarray(record[key], dtype=complex))
+                values.update({f"{prefix}{n}": float(v) for n, v in zip(nodes, data)})
+        damping = record.get("modal_damp_vis")
+        modes.append(UffMode(hz=float(record["freq"]), values=values,
+                             damping_ratio=float(damping) if damping else None))
+    if not modes:
+        raise ValueError(f"UFF file {str(path)!r} has dataset 55 records but none of normal modes (analysis type 2)")
+    return modes

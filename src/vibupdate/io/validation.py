@@ -1,0 +1,301 @@
+"""One validation path for ``vibupdate check`` and ``vibupdate run``.
+
+`validate_case` does everything a run would reject before and after solving that can be known
+beforehand, so that ``check`` accepts exactly the cases ``run`` accepts:
+
+* options: every number finite and in its range (the option classes accept some values that
+  the solver or the damping stage reject later);
+* physics: ``M`` and ``K`` of every configuration admissible (`vibupdate.model.physical`) at the
+  nominal point and at corners of the parameter box, rigid-body modes and massless DOFs
+  counted and reported;
+* measured data: damping ratios in (0, 1) (a warning above `HIGH_DAMPING`), frequencies
+  ascending in mode order, a warning when the frequencies look like rad/s written as Hz;
+* the problem itself, built as the run builds it (with the model reduction when the
+  formulation asks for one).
+
+Errors are ValueErrors of the form ``"FILE: KEY: what is wrong"``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.data.measured import TWO_PI
+
+__all__ = ["CaseCheck", "validate_case", "HIGH_DAMPING"]
+
+#: Damping ratios above this get a warning.
+HIGH_DAMPING = 0.2
+#: Most homotopy steps and IPOPT iterations per solve.
+MAX_STEPS, MAX_ITERATIONS = 10_000, 1_000_000
+#: Largest magnitude of a Caughey exponent.
+MAX_EXPONENT = 10.0
+#: Largest magnitude of a normalized bound (Eq. 12): a parameter may move this many reference values.
+MAX_NORMALIZED_BOUND = 1e6
+#: Largest shape or adjunct margin.
+MAX_MARGIN = 100.0
+#: Largest user weight of a measured frequency.
+MAX_WEIGHT = 1e6
+#: Measured / nominal frequency ratios within this factor of 2 pi look like rad/s given as Hz.
+RAD_S_FACTOR = 1.3
+
+
+@dataclass(frozen=True)
+class CaseCheck:
+    """What `validate_case` found in a valid case.
+
+    Attributes
+    ----------
+    sizes : dict
+        Problem size (`vibupdate.inverse.formulation.BilinearProblem.sizes`).
+    notes : tuple of str
+        Facts worth printing: rigid-body modes, massless DOFs, what was checked.
+    warnings : tuple of str
+        Suspicious but admissible input.
+    """
+
+    sizes: dict
+    notes: tuple[str, ...]
+    warnings: tuple[str, ...]
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and math.isfinite(value)
+
+
+def _check_solver(solver, error) -> None:
+    for name, most in (("n_lambda", MAX_STEPS), ("max_iter", MAX_ITERATIONS)):
+        value = getattr(solver, name)
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= most:
+            raise error(f"solver.{name}", f"must be an integer from 1 to {most}, got {value!r}")
+    checks = (("min_step", lambda v: 0 < v <= 1, "in (0, 1]"),
+              ("proximal", lambda v: 0 <= v <= 1, "in [0, 1]"),
+              ("max_cpu_time", lambda v: v > 0, "a positive number of seconds"),
+              ("tol", lambda v: 0 < v < 1, "in (0, 1)"))
+    for name, ok, expected in checks:
+        value = getattr(solver, name)
+        if not _finite(value) or not ok(value):
+            raise error(f"solver.{name}", f"must be finite and {expected}, got {value!r}")
+
+
+def _check_formulation(options, error) -> None:
+    for name in ("shape_margin", "adjunct_margin", "sign_delta", "length_scale"):
+        value = getattr(options, name)
+        if value is not None and not _finite(value):
+            raise error(f"formulation.{name}", f"must be a finite number, got {value!r}")
+    for name in ("shape_margin", "adjunct_margin"):
+        value = getattr(options, name)
+        if value > MAX_MARGIN:
+            raise error(f"formulation.{name}", f"must be <= {MAX_MARGIN:g} (wider boxes bound nothing and make the "
+                                               f"relaxation ill-conditioned), got {value!r}")
+    value = options.reduction_threshold
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise error("formulation.reduction_threshold", f"must be an integer >= 0, got {value!r}")
+
+
+def _check_damping(case, rigid: int, error) -> list[str]:
+    """Damping options and ratios; returns warnings."""
+    warnings = []
+    ratios = [(c.name, k, f.damping_ratio) for c in case.configurations for k, f in enumerate(c.natural, start=1)
+              if f.damping_ratio is not None]
+    for cfg, mode, xi in ratios:
+        key = f"configuration '{cfg}'.damping_ratios"
+        if not 0 < xi < 1:
+            raise error(key, f"mode {mode}: a damping ratio must be in (0, 1) (0 is undamped, 1 critically "
+                             f"damped), got {xi!r}")
+        if xi > HIGH_DAMPING:
+            warnings.append(f"configuration '{cfg}', mode {mode}: damping ratio {xi:g} is above {HIGH_DAMPING:g}; "
+                            "is it a ratio (not per cent) of a lightly damped mode?")
+    options = case.damping
+    if options is None:
+        return warnings
+    exponents = list(options.exponents)
+    if not exponents:
+        raise error("damping.exponents", "needs at least one exponent")
+    bad = [y for y in exponents if not _finite(y)]
+    if bad:
+        raise error("damping.exponents", f"must be finite numbers, got {bad[0]!r}")
+    if max(abs(y) for y in exponents) > MAX_EXPONENT:
+        raise error("damping.exponents", f"must lie within +-{MAX_EXPONENT:g} (w^(2h) overflows beyond), got {exponents}")
+    if len(set(exponents)) != len(exponents):
+        raise error("damping.exponents", f"must be distinct, got {exponents}")
+    if rigid and min(exponents) < 0:
+        raise error("damping.exponents", f"negative exponents ({min(exponents):g}) make C infinite on the "
+                                         f"model's {rigid} rigid-body mode(s); use exponents >= 0")
+    measured = {m for _, m, _ in ratios}
+    for mode, weight in options.mode_weights:
+        if not _finite(weight) or weight <= 0:
+            raise error(f"damping.mode_weights.{mode}", f"must be a positive finite number, got {weight!r}")
+        if mode not in measured:
+            warnings.append(f"damping.mode_weights names mode {mode}, which has no measured damping ratio")
+    if not ratios:
+        warnings.append("a [damping] table is given but no damping ratio is measured: the second stage is skipped")
+    return warnings
+
+
+def _check_order(cfg, error) -> None:
+    """Natural frequencies ascend with their mode numbers (where modes are given)."""
+    modes = [(f.mode, f.omega) for f in cfg.natural if getattr(f, "mode", None) is not None]
+    modes.sort()
+    for (m1, w1), (m2, w2) in zip(modes, modes[1:]):
+        if m1 == m2:
+            raise error(f"configuration '{cfg.name}'", f"mode {m1} is measured twice")
+        if w2 <= w1:
+            raise error(f"configuration '{cfg.name}'",
+                        f"mode {m2} at {w2 / TWO_PI:.6g} Hz is not above mode {m1} at {w1 / TWO_PI:.6g} Hz")
+
+
+def _check_data(cfg, error) -> None:
+    """User weights in range, first_sign on DOFs of the model."""
+    key = f"configuration '{cfg.name}'"
+    for k, f in enumerate(cfg.natural, start=1):
+        if f.weight > MAX_WEIGHT:
+            raise error(f"{key}.natural_weights", f"mode {k}: weight {f.weight:g} is above {MAX_WEIGHT:g}; weights are "
+                                                  "relative, scale them down")
+    for k, a in enumerate(cfg.antiresonances, start=1):
+        if a.weight > MAX_WEIGHT:
+            raise error(f"{key}.antiresonances[{k}].weight", f"weight {a.weight:g} is above {MAX_WEIGHT:g}")
+    for rc in dict(cfg.first_sign):
+        for dof in rc:
+            try:
+                cfg.model.dof(dof)
+            except ValueError as exc:
+                raise error(f"{key}.first_sign", str(exc)) from None
+        if rc not in cfg.receptances():
+            raise error(f"{key}.first_sign", f"h_{rc[0]},{rc[1]} has no measured antiresonance, so its sign is "
+                                              "not used")
+
+
+def _check_bounds(model, error) -> None:
+    lower, upper = model.bounds()
+    for p, lo, hi in zip(model.parameters, lower, upper):
+        if max(abs(lo), abs(hi)) > MAX_NORMALIZED_BOUND:
+            raise error(f"parameter '{p.name}'", f"the bounds [{p.lower:g}, {p.upper:g}] span more than "
+                                                 f"{MAX_NORMALIZED_BOUND:g} reference values ({p.reference:g}); "
+                                                 "give a reference value near the expected size (Eq. 12)")
+
+
+def _rad_s_warning(cfg) -> str | None:
+    """A warning when the measured frequencies are ~2 pi times the nominal model's."""
+    from vibupdate.inverse.correlation import model_frequencies
+
+    if not cfg.natural:
+        return None
+    try:
+        nominal = model_frequencies(cfg).natural
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    measured = np.array([f.omega for f in cfg.natural])
+    n = min(len(measured), len(nominal))
+    ratio = measured[:n] / np.where(nominal[:n] > 0, nominal[:n], np.nan)
+    ratio = ratio[np.isfinite(ratio)]
+    if not ratio.size:
+        return None
+    typical = float(np.median(ratio))
+    if abs(math.log(typical / TWO_PI)) < math.log(RAD_S_FACTOR):
+        return (f"configuration '{cfg.name}': the measured natural frequencies are {typical:.2f} times the "
+                "nominal model's, close to 2 pi: are they in rad/s? The case file takes Hz")
+    return None
+
+
+def _physical(case, error) -> tuple[list[str], int]:
+    """M and K at the nominal point and at corners of the box; returns notes and rigid modes."""
+    from vibupdate.model.physical import box_corners, definiteness
+
+    notes, rigid_all = [], 0
+    for cfg in case.configurations:
+        model = cfg.model
+        key = f"configuration '{cfg.name}'" if len(case.configurations) > 1 else "model"
+        found = definiteness(*model.matrices())
+        if found.problem:
+            raise error(key, f"the nominal model is not physical: {found.problem}")
+        lower, upper = model.bounds()
+        corners = box_corners(lower, upper)
+        changed = []
+        for up, xbar in corners:
+            at = definiteness(*model.matrices(xbar))
+            if at.problem:
+                raise error(key, f"the parameter bounds allow a model that is not physical: at the corner with "
+                                 f"{_describe(model, up)}: {at.problem}. Narrow the bounds")
+            if at.rigid_body_modes != found.rigid_body_modes:
+                changed.append((at.rigid_body_modes, _describe(model, up)))
+        rigid_all = max(rigid_all, found.rigid_body_modes)
+        text = (f"{cfg.name}: {model.n_dofs} DOFs, {found.rigid_body_modes} rigid-body mode(s)"
+                + (f", {len(found.massless)} DOF(s) without mass (condensed statically by the eigen-solvers)"
+                   if found.massless else ", M positive definite")
+                + f"; M, K checked at the nominal point and {len(corners)} corners of the parameter box")
+        notes.append(text)
+        if changed:
+            n, where = changed[0]
+            notes.append(f"{cfg.name}: {n} rigid-body mode(s) at the corner with {where} (nominal: "
+                         f"{found.rigid_body_modes})")
+    return notes, rigid_all
+
+
+def _describe(model, up) -> str:
+    names = model.parameter_names
+    if up.all():
+        return "every parameter at its upper bound"
+    if not up.any():
+        return "every parameter at its lower bound"
+    high = [n for n, u in zip(names, up) if u]
+    low = [n for n, u in zip(names, up) if not u]
+    few, side = (high, "upper") if len(high) <= len(low) else (low, "lower")
+    other = "lower" if side == "upper" else "upper"
+    shown = ", ".join(few[:8]) + (", ..." if len(few) > 8 else "")
+    return f"{shown} at the {side} bound and the others at the {other}"
+
+
+def validate_case(case) -> CaseCheck:
+    """Validate a loaded case as a run would, without solving.
+
+    Parameters
+    ----------
+    case : vibupdate.io.case.Case
+
+    Returns
+    -------
+    CaseCheck
+
+    Raises
+    ------
+    ValueError
+        ``"FILE: KEY: message"`` for the first problem found.
+    """
+    from vibupdate.data.measured import validate_configurations
+    from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
+    from vibupdate.inverse.update import prepare
+
+    from pathlib import Path
+
+    from vibupdate.io.case import _Where
+
+    error = _Where(case.path if case.path is not None else Path("case")).error
+    _check_solver(case.solver, error)
+    _check_formulation(case.formulation, error)
+    tol = case.frequency_tolerance
+    if not _finite(tol) or not 0 <= tol < 1:
+        raise error("frequency_tolerance", f"must be a finite relative half-width in [0, 1), got {tol!r}")
+    try:
+        validate_configurations(case.configurations)
+    except ValueError as exc:
+        raise error("configuration", str(exc)) from None
+    _check_bounds(case.configurations[0].model, error)
+    for cfg in case.configurations:
+        _check_order(cfg, error)
+        _check_data(cfg, error)
+    notes, rigid = _physical(case, error)
+    warnings = _check_damping(case, rigid, error)
+    warnings += [w for w in (_rad_s_warning(c) for c in case.configurations) if w]
+    try:
+        solved = list(case.configurations)
+        if wants_reduction(solved, case.formulation):
+            solved, _ = reduce_configurations(solved, case.formulation.reduction_modes)
+        sizes = prepare(solved, case.formulation).sizes()
+    except ValueError as exc:
+        raise error("configuration", str(exc)) from None
+    return CaseCheck(sizes, tuple(notes), tuple(warnings))

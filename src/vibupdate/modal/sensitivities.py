@@ -1,0 +1,205 @@
+"""Exact first derivatives of modal data with respect to the normalized parameters.
+
+With ``M(xbar) = M0 + sum_i xbar_i M_i`` and ``K(xbar) = K0 + sum_i xbar_i K_i`` (Eqs. 12-14)
+every derivative below is analytic; no finite difference of an eigensolver is taken, so the
+derivatives are as accurate as the eigenpairs themselves.
+
+* **Natural frequencies.** For a simple eigenvalue ``lam = w^2`` with mass-normalized mode
+  ``phi`` (``phi^T M phi = 1``), ``d lam / d xbar_i = phi^T (K_i - lam M_i) phi``, and
+  ``d w / d xbar_i = (d lam / d xbar_i) / (2 w)``.
+* **Mode-shape ratios.** A measured shape is known up to scale, so what is compared is the
+  ratio ``phi_j / phi_p`` to a reference entry ``p``. Differentiating ``(K - lam M) phi = 0``
+  gives ``(K - lam M) dphi = -(K_i - lam M_i) phi + dlam M phi``: a singular but consistent
+  system whose solutions differ by multiples of ``phi``. Any solution ``v`` gives the exact
+  derivative of the ratio, ``(v_j phi_p - phi_j v_p) / phi_p^2``, because the multiple of
+  ``phi`` cancels. ``v`` is found as in Nelson's method: fix the entry of largest ``|phi|``
+  to zero and solve the remaining non-singular system (one factorization per mode).
+* **Antiresonances.** The zeros of ``h_rc`` are eigenvalues of the adjunct pencil
+  ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed, Eq. 8), which is not symmetric when
+  ``r != c``. With right vector ``v`` and left vector ``y``,
+  ``d lam_z / d xbar_i = y^T (K_i,rc - lam_z M_i,rc) v / (y^T M_rc v)``. For a symmetric model
+  the transposed pencil is the adjunct of ``h_cr``, so ``y`` is an adjunct vector of
+  ``h_cr``; for ``r == c``, ``y = v``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from vibupdate.modal.analysis import DENSE_LIMIT, adjunct, antiresonances
+
+__all__ = [
+    "eigenvalue_derivatives",
+    "frequency_derivatives",
+    "shape_ratio_derivatives",
+    "antiresonance_derivatives",
+    "adjunct_eigenpairs",
+]
+
+
+def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
+    """``d(w^2)/d xbar`` of the given modes.
+
+    Parameters
+    ----------
+    model : AffineModel
+    omega : ndarray, shape (n_m,)
+        Natural frequencies, rad/s, at the point where ``Phi`` was computed.
+    Phi : ndarray, shape (n, n_m)
+        Mass-normalized modes at that point.
+
+    Returns
+    -------
+    ndarray, shape (n_m, n_x)
+        In (rad/s)^2 per unit of normalized parameter.
+    """
+    omega = np.asarray(omega, dtype=float)
+    lam = np.sign(omega) * omega**2
+    out = np.empty((omega.size, model.n_parameters))
+    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
+        out[:, i] = np.einsum("ij,ij->j", Phi, Ki @ Phi) - lam * np.einsum("ij,ij->j", Phi, Mi @ Phi)
+    return out
+
+
+def frequency_derivatives(model, omega, Phi) -> np.ndarray:
+    """``d w / d xbar`` of the given modes, rad/s per unit of normalized parameter.
+
+    Shapes as in `eigenvalue_derivatives`; returns shape (n_m, n_x).
+    """
+    omega = np.asarray(omega, dtype=float)
+    return eigenvalue_derivatives(model, omega, Phi) / (2.0 * omega[:, None])
+
+
+def _factor(A):
+    if sp.issparse(A):
+        return spla.splu(sp.csc_matrix(A)).solve
+    lu = sla.lu_factor(np.asarray(A))
+    return lambda b: sla.lu_solve(lu, b)
+
+
+def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: int) -> np.ndarray:
+    """Exact derivative of the shape ratios ``phi[entries] / phi[reference]`` of one mode.
+
+    Parameters
+    ----------
+    model : AffineModel
+    xbar : ndarray, shape (n_x,)
+        Point of the eigenpair.
+    omega : float
+        Natural frequency, rad/s (a simple eigenvalue).
+    phi : ndarray, shape (n,)
+        Mass-normalized mode at ``xbar``.
+    entries : sequence of int, length n_e
+        DOF indices of the ratios.
+    reference : int
+        DOF index of the denominator; ``phi[reference]`` must not vanish.
+
+    Returns
+    -------
+    ndarray, shape (n_e, n_x)
+        Derivatives of the dimensionless ratios per unit of normalized parameter.
+    """
+    M, K = model.matrices(xbar)
+    lam = omega**2
+    n = phi.size
+    p = int(np.argmax(np.abs(phi)))
+    keep = np.delete(np.arange(n), p)
+    A = (K - lam * M).tocsr()[keep][:, keep]
+    solve = _factor(A if n > 400 else A.toarray())
+    Mphi = M @ phi
+    entries = np.asarray(entries, dtype=int)
+    out = np.empty((entries.size, model.n_parameters))
+    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
+        f = Ki @ phi - lam * (Mi @ phi)
+        dlam = phi @ f
+        rhs = -f + dlam * Mphi
+        v = np.zeros(n)
+        v[keep] = solve(rhs[keep])
+        ref = phi[reference]
+        out[:, i] = (v[entries] * ref - phi[entries] * v[reference]) / ref**2
+    return out
+
+
+def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
+    """Finite, real, positive eigenvalues of the adjunct pencil of ``h_rc`` with right and left
+    vectors: dense up to `vibupdate.modal.analysis.DENSE_LIMIT` DOFs, shift-invert above (the
+    lowest ``n_zeros``; the left vectors are the right vectors of the transposed pencil, the
+    adjunct of ``h_cr``).
+
+    Returns
+    -------
+    lam : ndarray, shape (n_z,)
+        Squared antiresonance frequencies, (rad/s)^2, ascending.
+    V, Y : ndarray, shape (n - 1, n_z)
+        Right and left eigenvectors: ``(K_rc - lam M_rc) V = 0``, ``Y^T (K_rc - lam M_rc) = 0``.
+    """
+    if M.shape[0] > DENSE_LIMIT:
+        k = n_zeros or 20
+        wz, V = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k)
+        if r == c:
+            return wz**2, V, V
+        wy, Y = antiresonances(M, K, c, r, with_vectors=True, n_zeros=k)
+        if wy.size != wz.size or np.any(np.abs(wy - wz) > 1e-6 * np.maximum(wz, 1e-300)):
+            raise ValueError(f"the zeros of h_{r},{c} and h_{c},{r} of a symmetric model differ: the sparse "
+                             "eigen-solve did not converge to the same set")
+        return wz**2, V, Y
+    Mr = adjunct(M, r, c)
+    Kr = adjunct(K, r, c)
+    Mr = Mr.toarray() if sp.issparse(Mr) else np.asarray(Mr)
+    Kr = Kr.toarray() if sp.issparse(Kr) else np.asarray(Kr)
+    if r == c:
+        lam, V = sla.eigh(Kr, Mr, driver="gvd")
+        keep = lam > 0
+        lam, V = lam[keep][:n_zeros], V[:, keep][:, :n_zeros]
+        return lam, V, V
+    w, Y, V = sla.eig(Kr, Mr, left=True, right=True, homogeneous_eigvals=True)
+    alpha, beta = w
+    scale = np.abs(alpha) + np.abs(beta)
+    finite = np.abs(beta) > 1e-10 * scale
+    lam = np.full(alpha.shape, np.nan, dtype=complex)
+    lam[finite] = alpha[finite] / beta[finite]
+    real = finite & (np.abs(lam.imag) <= 1e-8 * np.abs(lam.real)) & (lam.real > 0)
+    lam, V, Y = lam[real].real, V[:, real].real, Y[:, real].real
+    order = np.argsort(lam)[:n_zeros]
+    return lam[order], V[:, order], Y[:, order]
+
+
+def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zeros: int | None = None):
+    """Antiresonances of ``h_rc`` at ``xbar`` and their exact derivatives.
+
+    Parameters
+    ----------
+    model : AffineModel
+    xbar : ndarray, shape (n_x,)
+    r, c : int
+        Response and excitation DOF indices.
+    pairs : tuple, optional
+        ``adjunct_eigenpairs`` of the model at ``xbar`` when already computed.
+    n_zeros : int, optional
+        Only the lowest zeros (all of them on the dense path by default, 20 on the sparse).
+
+    Returns
+    -------
+    omega_z : ndarray, shape (n_z,)
+        Antiresonance frequencies, rad/s, ascending.
+    D : ndarray, shape (n_z, n_x)
+        ``d omega_z / d xbar``, rad/s per unit of normalized parameter.
+    """
+    M, K = model.matrices(xbar)
+    lam, V, Y = pairs if pairs is not None else adjunct_eigenpairs(M, K, r, c, n_zeros)
+    # Embed the vectors in the full space (zero at the removed column r / row c), so that the
+    # adjunct products become products with the full sparse matrices.
+    n = M.shape[0]
+    Vf = np.zeros((n, lam.size))
+    Vf[np.delete(np.arange(n), r)] = V
+    Yf = np.zeros((n, lam.size))
+    Yf[np.delete(np.arange(n), c)] = Y
+    denom = np.einsum("ij,ij->j", Yf, M @ Vf)
+    D = np.empty((lam.size, model.n_parameters))
+    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
+        D[:, i] = (np.einsum("ij,ij->j", Yf, Ki @ Vf) - lam * np.einsum("ij,ij->j", Yf, Mi @ Vf)) / denom
+    omega_z = np.sqrt(lam)
+    return omega_z, D / (2.0 * omega_z[:, None])

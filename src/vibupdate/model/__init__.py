@@ -1,0 +1,1 @@
+"""The model: parameters, elements, assembly, the affine form M(p), K(p) and physical checks."""

@@ -1,0 +1,333 @@
+"""The affine form of a parametric model in normalized parameters (paper Eqs. 12-15).
+
+    M(xbar) = M0 + sum_i xbar_i M_i,      K(xbar) = K0 + sum_i xbar_i K_i
+
+with ``M_i = (dM/dp_i) p_ref,i`` (Eq. 13-14). For a model given as a builder function the
+parameter matrices come from the complex-step derivative (Eq. 15),
+
+    dM/dp_i = Im(M(p0 + j h e_i)) / h,
+
+exact to rounding for any small ``h`` because no difference is taken.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from vibupdate.model.assembly import System, dof_index
+from vibupdate.model.parameters import Parameter, normalized_bounds, to_normalized, to_physical
+
+__all__ = ["AffineModel", "Lumped", "with_lumped", "complex_step_jacobians", "affine_from_builder", "check_matrices"]
+
+Builder = Callable[[dict], "System | tuple"]
+
+
+@dataclass(frozen=True)
+class AffineModel:
+    """Affine parametric model, Eqs. 12-14.
+
+    Attributes
+    ----------
+    parameters : tuple of Parameter, length n_x
+    dofs : tuple of str, length n
+    M0, K0 : csr_matrix, shape (n, n)
+        Nominal mass and stiffness matrices (SI units).
+    M_par, K_par : tuple of csr_matrix, each shape (n, n), length n_x
+        Derivatives of ``M`` and ``K`` with respect to the normalized parameters.
+    """
+
+    parameters: tuple[Parameter, ...]
+    dofs: tuple[str, ...]
+    M0: sp.csr_matrix
+    K0: sp.csr_matrix
+    M_par: tuple[sp.csr_matrix, ...]
+    K_par: tuple[sp.csr_matrix, ...]
+
+    @property
+    def n_dofs(self) -> int:
+        return self.M0.shape[0]
+
+    @property
+    def n_parameters(self) -> int:
+        return len(self.parameters)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    def dof(self, name: str) -> int:
+        """Index of a named DOF."""
+        return dof_index(self.dofs, name)
+
+    def normalized(self, values) -> np.ndarray:
+        """Physical parameter values, shape (n_x,), to ``xbar``."""
+        return to_normalized(self.parameters, values)
+
+    def physical(self, xbar) -> np.ndarray:
+        """``xbar``, shape (n_x,), to physical parameter values."""
+        return to_physical(self.parameters, xbar)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Box of ``xbar`` from the parameter bounds."""
+        return normalized_bounds(self.parameters)
+
+    def matrices(self, xbar=None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """``M(xbar)``, ``K(xbar)``; ``xbar=None`` is the nominal model."""
+        if xbar is None:
+            return self.M0, self.K0
+        xbar = np.asarray(xbar, dtype=float)
+        if xbar.shape != (self.n_parameters,):
+            raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
+        return self._combine(self._stacked_M, xbar), self._combine(self._stacked_K, xbar)
+
+    @staticmethod
+    def _combine(stacked, xbar) -> sp.csr_matrix:
+        data, indices, indptr, shape = stacked
+        return sp.csr_matrix((data[0] + xbar @ data[1:], indices, indptr), shape=shape)
+
+    @cached_property
+    def _stacked_M(self):
+        return _stack_on_union(self.M0, self.M_par)
+
+    @cached_property
+    def _stacked_K(self):
+        return _stack_on_union(self.K0, self.K_par)
+
+    def matrices_at(self, values) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """``M``, ``K`` at physical parameter values, shape (n_x,)."""
+        return self.matrices(self.normalized(values))
+
+
+@dataclass(frozen=True)
+class Lumped:
+    """A lumped addition to a model: a mass (``matrix = "M"``) on ``dof``, or a spring
+    (``matrix = "K"``) from ``dof`` to ground or to ``other``.
+
+    ``value`` is affine in the physical parameters: it has ``constant`` (float) and
+    ``coefficients`` (pairs of parameter name and ``d value / d p``), like
+    `vibupdate.io.case.LinearExpression`. Units: kg or kg m^2 for a mass, N/m or N m/rad for a
+    spring.
+    """
+
+    matrix: str
+    dof: str
+    value: object
+    other: str | None = None
+
+
+def _lumped_matrix(model: "AffineModel", item: Lumped, amount: float) -> sp.csr_matrix:
+    i = model.dof(item.dof)
+    n = model.n_dofs
+    if item.other is None:
+        return sp.csr_matrix(([amount], ([i], [i])), shape=(n, n))
+    j = model.dof(item.other)
+    return sp.csr_matrix(([amount, amount, -amount, -amount], ([i, j, i, j], [i, j, j, i])), shape=(n, n))
+
+
+def with_lumped(model: "AffineModel", additions: Sequence[Lumped]) -> "AffineModel":
+    """``model`` plus lumped masses and springs, with their parameter dependence.
+
+    The nominal matrices gain each value at the nominal parameters; the parameter matrices
+    gain ``coefficient * p_ref`` (Eq. 13), so ``M(xbar)``, ``K(xbar)`` are those of the
+    assembled model at every ``xbar``. This is the one path by which a configuration's
+    additions enter a model of any type (elements, builder or matrices).
+    """
+    if not additions:
+        return model
+    known = {p.name: k for k, p in enumerate(model.parameters)}
+    nominal = {p.name: p.nominal for p in model.parameters}
+    mats = {"M": [model.M0, list(model.M_par)], "K": [model.K0, list(model.K_par)]}
+    for item in additions:
+        if item.matrix not in mats:
+            raise ValueError(f"a lumped addition goes to 'M' or 'K', got {item.matrix!r}")
+        for name, _ in item.value.coefficients:
+            if name not in known:
+                raise ValueError(f"the value of the addition on {item.dof!r} names {name!r}, which is not a parameter")
+        target = mats[item.matrix]
+        target[0] = target[0] + _lumped_matrix(model, item, float(item.value(nominal)))
+        for name, coef in item.value.coefficients:
+            k = known[name]
+            target[1][k] = target[1][k] + _lumped_matrix(model, item, coef * model.parameters[k].reference)
+    return replace(model, M0=sp.csr_matrix(mats["M"][0]), K0=sp.csr_matrix(mats["K"][0]),
+                   M_par=tuple(sp.csr_matrix(A) for A in mats["M"][1]),
+                   K_par=tuple(sp.csr_matrix(A) for A in mats["K"][1]))
+
+
+def _stack_on_union(A0, parts):
+    """``A0`` and ``parts`` on their union sparsity pattern: a data array of shape
+    (1 + n_x, nnz) with the pattern's indices, so that ``A(xbar)`` is one vector operation."""
+    mats = [sp.coo_matrix(A) for A in (A0, *parts)]
+    n_cols = mats[0].shape[1]
+    lin = [A.row.astype(np.int64) * n_cols + A.col for A in mats]
+    pattern = np.unique(np.concatenate(lin))
+    data = np.zeros((len(mats), pattern.size))
+    for k, (A, li) in enumerate(zip(mats, lin)):
+        np.add.at(data[k], np.searchsorted(pattern, li), A.data)
+    rows, cols = np.divmod(pattern, n_cols)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=mats[0].shape[0]))])
+    return data, cols.astype(np.int32), indptr.astype(np.int32), mats[0].shape
+
+
+def _as_system(result, dofs: Sequence[str] | None) -> System:
+    """Normalize a builder's return value to a `System` with sparse matrices."""
+    if isinstance(result, System):
+        return result
+    if not isinstance(result, tuple) or len(result) not in (2, 3):
+        raise ValueError(
+            "a model builder must return a System or a tuple (M, K) or (M, K, dofs), "
+            f"got {type(result).__name__}"
+        )
+    M, K = (sp.csr_matrix(m) for m in result[:2])
+    names = tuple(result[2]) if len(result) == 3 else dofs
+    if names is None:
+        names = tuple(f"q{i + 1}" for i in range(M.shape[0]))
+    return System(M, K, tuple(names))
+
+
+def symmetric_error(A: sp.spmatrix) -> float:
+    """``max |A - A^T| / max |A|`` (0 for an empty matrix)."""
+    scale = abs(A).max() if A.nnz else 0.0
+    return float(abs(A - A.T).max() / scale) if scale > 0 else 0.0
+
+
+def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
+    """Raise ValueError unless ``M``, ``K`` are square, equal in size, finite, symmetric and
+    physically admissible (`vibupdate.model.physical.definiteness`: ``M`` positive definite or
+    semidefinite with massless DOFs held by ``K``, ``K`` positive semidefinite); ``dofs`` must
+    name every row."""
+    from vibupdate.model.physical import definiteness
+
+    for name, A in (("mass", M), ("stiffness", K)):
+        if A.ndim != 2 or A.shape[0] != A.shape[1]:
+            raise ValueError(f"{what}: {name} matrix must be square, got shape {A.shape}")
+    if M.shape != K.shape:
+        raise ValueError(f"{what}: mass matrix {M.shape} and stiffness matrix {K.shape} differ in size")
+    if len(dofs) != M.shape[0]:
+        raise ValueError(f"{what}: {len(dofs)} DOF names for matrices of size {M.shape[0]}")
+    if len(set(dofs)) != len(dofs):
+        raise ValueError(f"{what}: DOF names are not unique")
+    for name, A in (("mass", M), ("stiffness", K)):
+        if not np.all(np.isfinite(A.data)):
+            raise ValueError(f"{what}: {name} matrix has non-finite entries")
+        err = symmetric_error(A)
+        if err > 1e-9:
+            raise ValueError(f"{what}: {name} matrix is not symmetric (relative asymmetry {err:.2e})")
+    problem = definiteness(M, K).problem
+    if problem:
+        raise ValueError(f"{what}: {problem}")
+
+
+def complex_step_jacobians(builder: Builder, parameters: Sequence[Parameter], dofs=None):
+    """Nominal matrices and normalized parameter matrices of a builder by complex step (Eq. 15).
+
+    Returns
+    -------
+    nominal : System
+        The builder's output at the nominal values (real).
+    M_par, K_par : list of csr_matrix
+        ``dM/dxbar_i = Im(M(p0 + j h e_i)) / h * p_ref,i`` and likewise for ``K``.
+    """
+    names = [p.name for p in parameters]
+    nominal_values = {p.name: p.nominal for p in parameters}
+    nominal = _as_system(builder(dict(nominal_values)), dofs)
+    if np.iscomplexobj(nominal.M.data) or np.iscomplexobj(nominal.K.data):
+        nominal = System(sp.csr_matrix(nominal.M.real), sp.csr_matrix(nominal.K.real), nominal.dofs)
+    M_par, K_par = [], []
+    for p in parameters:
+        h = 1e-20 * abs(p.reference)
+        values = {n: complex(nominal_values[n]) for n in names}
+        values[p.name] += 1j * h
+        out = _as_system(builder(values), dofs)
+        if out.M.shape != nominal.M.shape or out.K.shape != nominal.K.shape:
+            raise ValueError(f"the builder changed the matrix size when parameter '{p.name}' moved")
+        M_par.append(sp.csr_matrix(out.M.imag / h * p.reference))
+        K_par.append(sp.csr_matrix(out.K.imag / h * p.reference))
+    for A in M_par + K_par:
+        A.eliminate_zeros()
+    return nominal, M_par, K_par
+
+
+def _second_point(p: Parameter) -> float | None:
+    """A point inside the bounds away from the nominal, or None for a fixed parameter."""
+    if p.upper > p.nominal:
+        return p.nominal + 0.5 * (p.upper - p.nominal)
+    if p.lower < p.nominal:
+        return p.nominal - 0.5 * (p.nominal - p.lower)
+    return None
+
+
+def _affine_mismatch(builder, model: AffineModel, values: dict) -> tuple[float, str]:
+    out = _as_system(builder(dict(values)), model.dofs)
+    xbar = model.normalized([values[p.name] for p in model.parameters])
+    M_pred, K_pred = model.matrices(xbar)
+    worst, which = 0.0, "M"
+    for label, A, A_pred, A0 in (("M", out.M, M_pred, model.M0), ("K", out.K, K_pred, model.K0)):
+        A = sp.csr_matrix(A.real)
+        change = spla.norm(A - A0)
+        err = spla.norm(A - A_pred) / (1e-9 * spla.norm(A0) + 1e-6 * change + 1e-300)
+        if err > worst:
+            worst, which = err, label
+    return worst, which
+
+
+def check_affine(builder: Builder, model: AffineModel) -> None:
+    """Raise ValueError when a parameter enters ``M`` or ``K`` non-affinely.
+
+    Each parameter is moved alone to a second point inside its bounds and the builder is
+    compared with the affine prediction; then all parameters move together, which catches
+    products of parameters.
+    """
+    nominal = {p.name: p.nominal for p in model.parameters}
+    for p in model.parameters:
+        value = _second_point(p)
+        if value is None:
+            continue
+        ratio, which = _affine_mismatch(builder, model, {**nominal, p.name: value})
+        if ratio > 1.0:
+            raise ValueError(
+                f"parameter '{p.name}' enters {which} non-affinely: at {p.name} = {value:g} the "
+                f"affine form (Eqs. 12-14) misses the builder's {which} by {ratio * 1e-6:.2e} of the "
+                "change. Reparametrize so that M and K are affine in each parameter "
+                "(e.g. update E*I rather than a thickness)."
+            )
+    moved = {p.name: v for p in model.parameters if (v := _second_point(p)) is not None}
+    if len(moved) > 1:
+        ratio, which = _affine_mismatch(builder, model, {**nominal, **moved})
+        if ratio > 1.0:
+            raise ValueError(
+                f"parameters enter {which} jointly non-affinely (a product of parameters?): moving "
+                f"{', '.join(moved)} together misses the affine form by {ratio * 1e-6:.2e} of the change"
+            )
+
+
+def affine_from_builder(builder: Builder, parameters: Sequence[Parameter], *, dofs=None,
+                        check: bool = True) -> AffineModel:
+    """Affine form of a builder ``params -> System | (M, K) | (M, K, dofs)``.
+
+    The builder receives a dict ``{name: value}`` and must be complex-safe (no ``abs``,
+    ``float()`` or comparisons on parameter values). With ``check`` the result is verified
+    against the builder at points inside the bounds.
+    """
+    parameters = tuple(parameters)
+    _check_unique_names(parameters)
+    nominal, M_par, K_par = complex_step_jacobians(builder, parameters, dofs)
+    check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
+    model = AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
+    if check:
+        check_affine(builder, model)
+    return model
+
+
+def _check_unique_names(parameters: Sequence[Parameter]) -> None:
+    names = [p.name for p in parameters]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"parameter names must be unique; repeated: {', '.join(dup)}")
+    if not parameters:
+        raise ValueError("a model needs at least one updating parameter")

@@ -1,0 +1,1 @@
+"""What the data allow: linearized, certified (outer) and consistent-set parameter ranges."""

@@ -1,0 +1,313 @@
+"""What the data allow: the consistent set S of the certified ranges, and points of it.
+
+For every measured natural frequency and antiresonance the first stage has a block with
+operators ``K(xbar)``, ``M(xbar)`` restricted to the block's rows and columns (the full
+pencil for a natural frequency, the adjunct pencil of ``h_rc`` for an antiresonance,
+Eqs. 7 and 9) and a vector ``v`` whose entries live in a box (measured mode-shape intervals,
+``shape_margin`` / ``adjunct_margin`` bounds elsewhere, interlacing signs, one entry fixed to
+1 for normalization; `vibupdate.inverse.formulation`). The consistent set is
+
+    S = { xbar in its box : for every block b there are s_b in [wL_b^2, wU_b^2] and a vector
+          v_b in the block's box with (K(xbar) - s_b M(xbar))[rows_b, cols_b] v_b = 0 }
+
+(up to a relative eigen-residual of `RESIDUAL_FLOOR`, row by row, against rounding)
+
+where ``[wL_b, wU_b]`` is the frequency window of the block: the measured interval when the
+data carry one (``NaturalFrequency.interval``, ``Antiresonance.interval``), else
+``w (1 -+ frequency_tolerance)``; with ``include`` (the answer) each window is widened
+symmetrically about the measured ``w`` to ``w -+ (|w_answer - w| + ANSWER_MARGIN w)``, so that
+the answer's own misfit is the floor of the tolerance, as for the linearized ranges. With exact data and ``frequency_tolerance = 0`` the window is the single
+measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
+
+S asks for *an* eigenpair in each window, not the k-th mode: it contains every parameter
+set that a mode-correspondence check would admit, and possibly more.
+
+This module states S (`consistent_set`), decides membership exactly by eigen-analysis
+(`is_consistent`) and finds points of S by local NLP solves at each parameter's bounds
+(`inner_ranges`): an *inner* estimate of the parameter ranges over S, to compare with the
+certified outer enclosure of `vibupdate.ranges.certify`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.formulation import FormulationOptions, VectorBlock, formulate
+from vibupdate.inverse.interlacing import sign_bounds
+from vibupdate.data.measured import Configuration
+
+__all__ = ["ConsistentSet", "InnerRanges", "consistent_set", "is_consistent", "witness", "inner_ranges",
+           "RESIDUAL_FLOOR"]
+
+#: Relative eigen-residual allowed in S: ``|((K - s M) v)_k| <= RESIDUAL_FLOOR * (|K| |v| + s |M| |v|)_k``
+#: row by row, so that rounding in building the operators cannot exclude an exact eigenpair.
+RESIDUAL_FLOOR = 1e-9
+#: Relative margin by which a window widened for the answer reaches past the answer's frequency.
+ANSWER_MARGIN = 1e-6
+
+
+@dataclass(frozen=True)
+class ConsistentSet:
+    """The consistent set S (module docstring).
+
+    Attributes
+    ----------
+    configurations : tuple of Configuration
+    blocks : tuple of VectorBlock
+        One per measured frequency, with the vector boxes (scaled coordinates).
+    models : tuple of AffineModel
+        The model of each block's configuration.
+    omega_lower, omega_upper : ndarray, shape (n_blocks,)
+        Frequency window of each block, rad/s.
+    x_lower, x_upper : ndarray, shape (n_x,)
+        Box of the normalized parameters.
+    frequency_tolerance : float
+        Relative half-width used where the data carry no interval.
+    """
+
+    configurations: tuple[Configuration, ...]
+    blocks: tuple[VectorBlock, ...]
+    models: tuple
+    omega_lower: np.ndarray
+    omega_upper: np.ndarray
+    x_lower: np.ndarray
+    x_upper: np.ndarray
+    frequency_tolerance: float
+
+    @property
+    def n_x(self) -> int:
+        return self.x_lower.size
+
+    def definition(self) -> str:
+        """One paragraph stating S, for reports."""
+        rel = np.max((self.omega_upper - self.omega_lower) / (self.omega_upper + self.omega_lower))
+        return (
+            "Consistent set S: parameters within their bounds such that, for every measured natural "
+            "frequency (and antiresonance), the model (its adjunct pencil) has an eigenvalue w^2 with w in "
+            "the frequency window and an eigenvector inside the vector box of the first stage (measured "
+            "mode-shape intervals, default margins on unmeasured entries, interlacing signs, one entry "
+            f"fixed to 1). Windows: the measured interval, else +-{100 * self.frequency_tolerance:.3g} % "
+            "of the measured frequency, widened to hold the answer's frequency; widest half-window "
+            f"{100 * rel:.3g} %. Any eigenpair counts, not only the paired mode."
+        )
+
+
+def _windows(configurations, blocks, tol, include):
+    answer = {}
+    if include is not None:
+        answer = {c.name: model_frequencies(c, include) for c in configurations}
+    by_name = {c.name: c for c in configurations}
+    lo, hi = [], []
+    for blk in blocks:
+        cfg = by_name[blk.configuration]
+        data = (cfg.natural if blk.kind == "natural" else cfg.antiresonances)[blk.index - 1]
+        if data.interval is not None:
+            a, b = data.interval
+        else:
+            a, b = data.omega * (1 - tol), data.omega * (1 + tol)
+        if blk.configuration in answer:
+            f = answer[blk.configuration]
+            w = (f.natural if blk.kind == "natural" else f.antiresonances)[blk.index - 1]
+            if np.isfinite(w):
+                reach = abs(w - data.omega) + ANSWER_MARGIN * data.omega
+                a, b = min(a, data.omega - reach), max(b, data.omega + reach)
+        lo.append(a)
+        hi.append(b)
+    return np.array(lo), np.array(hi)
+
+
+def consistent_set(configurations: Sequence[Configuration], *, frequency_tolerance: float = 0.0,
+                   include=None, options: FormulationOptions | None = None) -> ConsistentSet:
+    """State the consistent set S of ``configurations`` (module docstring).
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+    frequency_tolerance : float
+        Relative half-width of the frequency windows where the data carry no interval.
+    include : ndarray, shape (n_x,), optional
+        Normalized parameters (the answer) whose paired frequencies the windows must hold.
+    options : FormulationOptions, optional
+        Vector boxes as in the first stage (interlacing signs when ``options.interlacing``).
+    """
+    if not (np.isfinite(frequency_tolerance) and 0 <= frequency_tolerance < 1):
+        raise ValueError(f"frequency_tolerance must be in [0, 1), got {frequency_tolerance!r}")
+    configurations = tuple(configurations)
+    options = options or FormulationOptions()
+    transforms = [sign_bounds] if options.interlacing else []
+    problem = formulate(configurations, options, transforms=transforms)
+    by_name = {c.name: c.model for c in configurations}
+    models = tuple(by_name[b.configuration] for b in problem.blocks)
+    lo, hi = _windows(configurations, problem.blocks, frequency_tolerance, include)
+    return ConsistentSet(configurations, problem.blocks, models, lo, hi,
+                         problem.x_lower.copy(), problem.x_upper.copy(), float(frequency_tolerance))
+
+
+def _block_pencil(dense, blk: VectorBlock):
+    """The block's rows and columns of ``dense = (K, M)`` (full dense matrices)."""
+    ix = np.ix_(blk.rows, blk.cols)
+    return dense[0][ix], dense[1][ix]
+
+
+def _eigenpairs(K, M):
+    """Real eigenpairs (w^2, v) of the pencil (K, M), square."""
+    import scipy.linalg as sla
+
+    lam, V = sla.eig(K, M)
+    keep = np.isfinite(lam) & (np.abs(lam.imag) <= 1e-10 * np.abs(lam)) & (lam.real > 0)
+    return lam[keep].real, V[:, keep].real
+
+
+def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
+    """Eigenpairs that put ``xbar`` in S with a margin, one per block, or None.
+
+    Every block needs a real eigenpair whose frequency is inside its window shrunk by
+    ``margin`` (relative; an exact datum within the residual floor) and whose vector,
+    normalized at the block's fixed entry, lies inside its box shrunk by ``margin`` (absolute,
+    scaled coordinates). The margin absorbs the eigensolver's rounding, so a point with a
+    witness is a point of S.
+
+    Parameters
+    ----------
+    cs : ConsistentSet
+    xbar : ndarray, shape (n_x,)
+    margin : float
+
+    Returns
+    -------
+    list of (float, ndarray) or None
+        Per block ``(w^2, v)`` with ``v`` the block's vector in scaled coordinates, shape
+        (len(cols),), fixed entries included.
+    """
+    xbar = np.asarray(xbar, dtype=float)
+    if np.any(xbar < cs.x_lower) or np.any(xbar > cs.x_upper):
+        return None
+    pairs, dense = [], {}
+    for b, (blk, model) in enumerate(zip(cs.blocks, cs.models)):
+        if id(model) not in dense:  # assembled once per model, not once per block
+            M, K = model.matrices(xbar)
+            dense[id(model)] = (K.toarray(), M.toarray())
+        K, M = _block_pencil(dense[id(model)], blk)
+        lam, V = _eigenpairs(K, M)
+        w = np.sqrt(lam)
+        inside = (w >= cs.omega_lower[b] * (1 + margin)) & (w <= cs.omega_upper[b] * (1 - margin))
+        if cs.omega_lower[b] == cs.omega_upper[b]:  # exact datum: within the residual floor
+            inside = np.abs(w - cs.omega_lower[b]) <= 0.01 * RESIDUAL_FLOOR * cs.omega_lower[b]
+        j = int(np.flatnonzero(blk.fixed)[0])
+        free = ~blk.fixed
+        found = None
+        for k in np.flatnonzero(inside):
+            v = V[:, k] / blk.scale
+            if abs(v[j]) < 1e-12 * np.max(np.abs(v)):
+                continue
+            v = v / v[j] * blk.lower[j]
+            if np.all(v[free] >= blk.lower[free] + margin) and np.all(v[free] <= blk.upper[free] - margin):
+                v[blk.fixed] = blk.lower[blk.fixed]
+                found = (float(lam[k]), v)
+                break
+        if found is None:
+            return None
+        pairs.append(found)
+    return pairs
+
+
+def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
+    """Whether ``xbar`` lies in S with a margin (`witness`)."""
+    return witness(cs, xbar, margin) is not None
+
+
+def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:
+    """Constraints of the inner-estimate NLP, >= 0 when met: each paired frequency inside its
+    window and each paired mode (normalized at the block's fixed entry) inside its box,
+    relative to the window's half-width and the box width."""
+    freqs = {c.name: model_frequencies(c, xbar) for c in cs.configurations}
+    w, g = [], []
+    for blk in cs.blocks:
+        f = freqs[blk.configuration]
+        if blk.kind != "natural":
+            w.append(f.antiresonances[blk.index - 1])
+            continue
+        w.append(f.natural[blk.index - 1])
+        v = f.Phi[blk.cols, blk.index - 1] / blk.scale
+        j = int(np.flatnonzero(blk.fixed)[0])
+        free = ~blk.fixed & (blk.measured if blk.measured is not None else True)
+        v = v / v[j] * blk.lower[j] if abs(v[j]) > 1e-12 * np.max(np.abs(v)) else np.full(v.size, 1e300)
+        width = np.maximum(blk.upper[free] - blk.lower[free], 1e-12)
+        g += [(v[free] - blk.lower[free]) / width, (blk.upper[free] - v[free]) / width]
+    w = np.where(np.isfinite(w), w, 1e300)
+    return np.concatenate([1.0 - np.abs(w - mid) / half] + g)
+
+
+@dataclass(frozen=True)
+class InnerRanges:
+    """Inner estimate of the parameter ranges over S: the hull of the points found in S.
+
+    Attributes
+    ----------
+    lower, upper : ndarray, shape (n_x,)
+        Normalized; NaN when no point of S was found.
+    points : ndarray, shape (n_points, n_x)
+        Every point found and confirmed by `is_consistent`.
+    seconds : float
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    points: np.ndarray
+    seconds: float
+
+
+def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 50) -> InnerRanges:
+    """Points of S at each parameter's extremes by local NLP solves (SLSQP).
+
+    For each parameter and direction, from each start, maximize or minimize ``xbar_i`` subject
+    to every paired frequency (mode k for the k-th natural frequency,
+    `vibupdate.inverse.correlation.model_frequencies`) inside its window and every measured entry of
+    the paired mode inside its interval; each solution is kept only if `is_consistent` confirms it, so the hull is an
+    inner estimate of the ranges over S.
+
+    Parameters
+    ----------
+    cs : ConsistentSet
+    starts : ndarray, shape (n_starts, n_x)
+        Starting points (e.g. the answer, the truth), normalized.
+    max_iter : int
+    """
+    import time
+
+    from scipy.optimize import minimize
+
+    t0 = time.perf_counter()
+    starts = np.atleast_2d(np.asarray(starts, dtype=float))
+    mid = 0.5 * (cs.omega_lower + cs.omega_upper)
+    half = np.maximum(0.5 * (cs.omega_upper - cs.omega_lower), 1e-9 * mid)
+
+    def slack(x):
+        return _paired_slack(cs, x, mid, half)
+
+    points = [s for s in starts if is_consistent(cs, s)]
+    bounds = list(zip(cs.x_lower, cs.x_upper))
+    for i in range(cs.n_x):
+        for sign in (1.0, -1.0):
+            for s in starts:
+                grad = np.zeros(cs.n_x)
+                grad[i] = sign
+                sol = minimize(lambda x: sign * x[i], s, jac=lambda x, g=grad: g, method="SLSQP", bounds=bounds,
+                               constraints=[{"type": "ineq", "fun": slack}],
+                               options={"maxiter": max_iter, "ftol": 1e-12})
+                x = np.clip(sol.x, cs.x_lower, cs.x_upper)
+                # Step back towards the start until the point is confirmed (SLSQP ends on the
+                # constraint boundary, where the margin of is_consistent rejects it).
+                for theta in (1.0, 0.999, 0.99, 0.9):
+                    y = s + theta * (x - s)
+                    if is_consistent(cs, y):
+                        points.append(y)
+                        break
+    P = np.array(points) if points else np.empty((0, cs.n_x))
+    lo = P.min(axis=0) if len(P) else np.full(cs.n_x, np.nan)
+    hi = P.max(axis=0) if len(P) else np.full(cs.n_x, np.nan)
+    return InnerRanges(lo, hi, P, time.perf_counter() - t0)

@@ -1,0 +1,199 @@
+"""Which parameters do the data determine? Interval ranges of the parameters (linearized).
+
+The first stage returns *a* parameter set whose model fits the measured frequencies and lies
+inside the mode-shape intervals. When other parameter sets fit as well, the answer is one of
+many; this module measures how many. Around the answer ``xbar_hat``, with the data map
+``d(xbar)`` (natural frequencies, antiresonances, measured mode-shape entries normalized at
+the reference entry of each mode) linearized as ``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
+the *consistent set* is the set of ``xbar`` within the bounds such that
+
+* every measured mode-shape entry stays inside its interval,
+  ``|d_s(xbar_hat) + G_s dx - d_s,measured| <= h_s`` (the interval half-width, or the answer's
+  own distance from the midpoint if larger, so that the answer is inside);
+* every frequency moves from the answer's by no more than the measurement tolerance plus the
+  answer's own misfit, ``|G_f dx| <= h_f + |w(xbar_hat) - w_measured|``, with ``h_f`` the
+  half-width of the frequency's measured ``interval`` where it has one (e.g. extracted from
+  FRFs) and ``frequency_tolerance * w`` otherwise; the true frequencies differ from the
+  answer's by at most that much.
+
+The range of each parameter over that set (two linear programs) is what the data and the
+bounds together determine: the truth and the answer both lie in it, to first order. A
+parameter whose range is narrow is determined by the data; a wide range says that the data
+cannot separate it (e.g. two springs acting in parallel). Without a frequency tolerance the
+window is the answer's misfit alone: a measure of the spread the model's own error allows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linprog
+
+from vibupdate.inverse.correlation import model_frequencies, zero_derivatives
+from vibupdate.data.measured import Configuration
+
+__all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian"]
+
+
+@dataclass(frozen=True)
+class ParameterRanges:
+    """Consistent ranges of the parameters.
+
+    Attributes
+    ----------
+    names : tuple of str
+    lower, upper : ndarray, shape (n_x,)
+        Range of each parameter, physical units; NaN where the linear program failed.
+    width_pct : ndarray, shape (n_x,)
+        ``upper - lower`` in per cent of the parameter's reference value (its nominal, or the
+        normalization value of a parameter with nominal 0).
+    singular_values : ndarray
+        Of the data Jacobian scaled by the data half-widths: near-zero values mark parameter
+        combinations the data do not see.
+    """
+
+    names: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    width_pct: np.ndarray
+    singular_values: np.ndarray
+
+    def determined(self, within_pct: float = 5.0) -> list[str]:
+        """Parameters whose whole consistent range is narrower than ``within_pct``."""
+        return [n for n, w in zip(self.names, self.width_pct) if np.isfinite(w) and w <= within_pct]
+
+    def as_dict(self) -> dict:
+        return {n: {"lower": float(lo), "upper": float(hi), "width_pct": float(w)}
+                for n, lo, hi, w in zip(self.names, self.lower, self.upper, self.width_pct)}
+
+
+def _reference_entries(cfg: Configuration) -> list[tuple[list[str], str] | None]:
+    refs = []
+    for f in cfg.natural:
+        if f.shape is None:
+            refs.append(None)
+            continue
+        refs.append((list(f.shape.bounds), f.shape.reference))
+    return refs
+
+
+def _data(configurations, xbar, refs, jacobian: bool = False):
+    from vibupdate.modal.sensitivities import frequency_derivatives, shape_ratio_derivatives
+
+    out, jac = [], []
+    for cfg, cfg_refs in zip(configurations, refs):
+        model = cfg.model
+        f = model_frequencies(cfg, xbar, zeros=not jacobian)
+        if jacobian:
+            z, Dz = zero_derivatives(cfg, xbar)
+            out += [f.natural, z]
+            jac += [frequency_derivatives(model, f.natural, f.Phi), Dz]
+        else:
+            out += [f.natural, f.antiresonances]
+        for k, ref in enumerate(cfg_refs):
+            if ref is None:
+                continue
+            dofs, r = ref
+            idx = [model.dof(d) for d in dofs]
+            p = model.dof(r)
+            out.append(f.Phi[idx, k] / f.Phi[p, k])
+            if jacobian:
+                jac.append(shape_ratio_derivatives(model, xbar, f.natural[k], f.Phi[:, k], idx, p))
+    d = np.concatenate(out)
+    return (d, np.vstack(jac)) if jacobian else d
+
+
+def _measured(configurations, refs, frequency_tolerance):
+    """Measured data, their half-widths, and a mask of the frequency rows."""
+    values, half, is_freq = [], [], []
+    for cfg, cfg_refs in zip(configurations, refs):
+        data = list(cfg.natural) + list(cfg.antiresonances)
+        w = np.array([d.omega for d in data])
+        values.append(w)
+        half.append(np.array([frequency_tolerance * d.omega if d.interval is None
+                              else 0.5 * (d.interval[1] - d.interval[0]) for d in data]))
+        is_freq.append(np.ones(w.size, dtype=bool))
+        for f, ref in zip(cfg.natural, cfg_refs):
+            if ref is None:
+                continue
+            dofs, r = ref
+            mid = f.shape.midpoint
+            scale = mid[r]
+            values.append(np.array([mid[d] for d in dofs]) / scale)
+            half.append(np.array([0.5 * (f.shape.bounds[d][1] - f.shape.bounds[d][0]) for d in dofs]) / abs(scale))
+            is_freq.append(np.zeros(len(dofs), dtype=bool))
+    return np.concatenate(values), np.concatenate(half), np.concatenate(is_freq)
+
+
+def data_jacobian(configurations: Sequence[Configuration], xbar):
+    """Data map and its exact Jacobian at ``xbar``.
+
+    Returns
+    -------
+    d : ndarray, shape (n_data,)
+        Frequencies (rad/s) then measured shape entries (normalized at each mode's largest
+        measured entry), per configuration.
+    G : ndarray, shape (n_data, n_x)
+        ``d d / d xbar`` (analytic).
+    """
+    configurations = list(configurations)
+    refs = [_reference_entries(c) for c in configurations]
+    return _data(configurations, np.asarray(xbar, dtype=float), refs, jacobian=True)
+
+
+def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
+                     frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0):
+    """Consistent range of every parameter around the answer ``xbar`` (module docstring).
+
+    ``method="certified"`` returns instead the certified outer ranges over the consistent
+    set of `vibupdate.ranges.consistent` (`vibupdate.ranges.certify.certified_ranges`, a `CertifiedRanges`),
+    refined for at most ``seconds``.
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+    xbar : ndarray, shape (n_x,)
+        The answer (normalized parameters).
+    frequency_tolerance : float
+        Relative half-width of the frequency window of every measured frequency without an
+        ``interval`` (e.g. 3 sigma of the measurement error); a frequency with an interval uses
+        the interval's half-width instead. The answer's own misfit is added to either.
+    method : {"linearized", "certified"}
+    seconds : float
+        Time budget of the certified method's bound tightening.
+    """
+    if method == "certified":
+        from vibupdate.ranges.certify import certified_ranges
+
+        return certified_ranges(configurations, xbar, frequency_tolerance=frequency_tolerance, seconds=seconds)
+    if method != "linearized":
+        raise ValueError(f"method must be 'linearized' or 'certified', got {method!r}")
+    configurations = list(configurations)
+    model = configurations[0].model
+    refs = [_reference_entries(c) for c in configurations]
+    d_hat, G = data_jacobian(configurations, xbar)
+    d_meas, half, is_freq = _measured(configurations, refs, frequency_tolerance)
+    misfit = d_hat - d_meas
+    # Frequencies: a window centred on the answer; shapes: the measured intervals (widened to
+    # hold the answer). Either way |offset + G dx| <= half.
+    offset = np.where(is_freq, 0.0, misfit)
+    half = np.where(is_freq, half + np.abs(misfit), np.maximum(half, np.abs(misfit)))
+    half = half * (1 + 1e-9) + 1e-12 * np.abs(d_meas)
+    lo, hi = model.bounds()
+    xbar = np.asarray(xbar, dtype=float)
+    A = np.vstack([G, -G])
+    b = np.concatenate([half - offset, half + offset]) + A @ xbar
+    bounds = list(zip(lo, hi))
+    lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
+    for i in range(model.n_parameters):
+        c = np.zeros(model.n_parameters)
+        c[i] = 1.0
+        for sign, target in ((1.0, lower), (-1.0, upper)):
+            sol = linprog(sign * c, A_ub=A, b_ub=b, bounds=bounds, method="highs")
+            if sol.status == 0:
+                target[i] = sol.x[i]
+    width = (upper - lower) * 100.0   # xbar is already relative to the reference value
+    sv = np.linalg.svd(G / half[:, None], compute_uv=False)
+    return ParameterRanges(model.parameter_names, model.physical(lower), model.physical(upper), width, sv)

@@ -1,0 +1,1 @@
+"""The report and plots: writers that read the results object."""

@@ -1,0 +1,179 @@
+"""PNG plots of a sweep: parameter histograms, pairwise scatter of the least-determined
+parameters, prediction bands of the frequencies and of each configuration's FRF.
+
+Only verified samples enter the plots (the counts of the others are in the titles). The
+least-determined parameters are those whose 5-95 % sampled spread is the largest fraction of
+their bounds; a symmetry or a trade-off between two of them shows as a line in their scatter.
+matplotlib is imported inside the functions (Agg backend).
+"""
+
+from __future__ import annotations
+
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+
+from vibupdate.data.measured import TWO_PI
+from vibupdate.report.plots import _pyplot
+
+__all__ = ["write_sweep_plots", "plot_histograms", "plot_pairs", "plot_frequency_bands", "plot_frf_band",
+           "least_determined"]
+
+#: Samples used for an FRF band (the first verified ones by index).
+FRF_SAMPLES = 100
+FRF_POINTS = 600
+
+
+def _save(plt, fig, path) -> Path:
+    """Lay out, save as PNG and close."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)
+
+
+def _verified(rows):
+    return sorted((r for r in rows if r["outcome"] == "verified"), key=lambda r: r["index"])
+
+
+def least_determined(document: dict, n: int = 4) -> list[str]:
+    """Names of the ``n`` parameters with the largest sampled spread relative to their bounds."""
+    known = [p for p in document["parameters"] if p["spread_of_bounds"] is not None]
+    known.sort(key=lambda p: -p["spread_of_bounds"])
+    return [p["name"] for p in known[:n]]
+
+
+def _counts(document) -> str:
+    return (f"{document['verified']} verified of {document['samples']} "
+            f"({document['unverified']} unverified, {document['failed']} failed)")
+
+
+def plot_histograms(path, document: dict, rows) -> Path:
+    """One histogram per parameter over the verified samples, bounds and nominal marked."""
+    plt = _pyplot()
+    params = document["parameters"]
+    ok = _verified(rows)
+    cols = min(3, len(params))
+    nrows = int(np.ceil(len(params) / cols))
+    fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 2.8 * nrows), squeeze=False)
+    for ax, p in zip(axes.flat, params):
+        values = [r[f"p:{p['name']}"] for r in ok]
+        if values:
+            ax.hist(values, bins=min(30, max(5, len(values) // 4)), color="tab:blue", alpha=0.8)
+        ax.axvline(p["lower"], color="0.3", ls="--", lw=0.8)
+        ax.axvline(p["upper"], color="0.3", ls="--", lw=0.8)
+        ax.axvline(p["nominal"], color="tab:orange", lw=0.8)
+        ax.set_xlabel(f"{p['name']} [{p['unit']}]" if p["unit"] else p["name"])
+    for ax in list(axes.flat)[len(params):]:
+        ax.set_visible(False)
+    fig.suptitle(f"sampled parameters: {_counts(document)}; dashed: bounds, orange: nominal", fontsize=9)
+    return _save(plt, fig, path)
+
+
+def plot_pairs(path, document: dict, rows, names) -> Path:
+    """Pairwise scatter of the named parameters over the verified samples."""
+    plt = _pyplot()
+    ok = _verified(rows)
+    pairs = list(combinations(names, 2))
+    cols = min(3, max(1, len(pairs)))
+    nrows = max(1, int(np.ceil(len(pairs) / cols)))
+    fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 3.2 * nrows), squeeze=False)
+    bounds = {p["name"]: (p["lower"], p["upper"]) for p in document["parameters"]}
+    for ax, (a, b) in zip(axes.flat, pairs):
+        ax.plot([r[f"p:{a}"] for r in ok], [r[f"p:{b}"] for r in ok], ".", ms=3)
+        ax.set_xlim(*bounds[a])
+        ax.set_ylim(*bounds[b])
+        ax.set_xlabel(a)
+        ax.set_ylabel(b)
+    for ax in list(axes.flat)[len(pairs):]:
+        ax.set_visible(False)
+    fig.suptitle(f"least-determined parameters (axes: bounds); {_counts(document)}", fontsize=9)
+    return _save(plt, fig, path)
+
+
+def plot_frequency_bands(path, document: dict) -> Path:
+    """Per measured frequency: the measured interval and the 5-95 % band of the prediction,
+    both relative to the measured value (per cent)."""
+    plt = _pyplot()
+    preds = [p for p in document["predictions"] if p["q05"] is not None]
+    fig, ax = plt.subplots(figsize=(max(5.0, 0.45 * len(preds) + 2), 3.8))
+    x = np.arange(len(preds))
+    for i, p in enumerate(preds):
+        m = p["measured_hz"]
+        lo, hi = (100 * (v - m) / m for v in p["interval_hz"])
+        ax.plot([i - 0.15, i - 0.15], [lo, hi], color="0.5", lw=4, label="measured interval" if i == 0 else None)
+        ax.plot([i + 0.15, i + 0.15], [100 * (p["q05"] - m) / m, 100 * (p["q95"] - m) / m], color="tab:blue",
+                lw=4, label="prediction 5-95 %" if i == 0 else None)
+        ax.plot(i + 0.15, 100 * (p["q50"] - m) / m, "k_", ms=10)
+    ax.set_xticks(x, [p["label"].replace("_hz", "") for p in preds], rotation=60, fontsize=7)
+    ax.set_ylabel("relative to measured [%]")
+    ax.set_title(f"frequency prediction bands; {_counts(document)}", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    if preds:
+        ax.legend(fontsize=8)
+    return _save(plt, fig, path)
+
+
+def _frf_dofs(cfg):
+    if cfg.receptances():
+        rc = cfg.receptances()[0]
+        return cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), f"h_{rc[0]},{rc[1]}"
+    M0, _ = cfg.model.matrices()
+    d = int(np.argmax(np.abs(M0.diagonal())))
+    return d, d, f"h_{cfg.model.dofs[d]},{cfg.model.dofs[d]}"
+
+
+def plot_frf_band(path, case, cfg, rows) -> Path:
+    """5-50-95 % band of |h_rc| of one configuration over the verified samples (damped with
+    each sample's Caughey coefficients when the case has damping data), measured marked."""
+    from vibupdate.damping import caughey_damping
+    from vibupdate.report.plots import model_receptance
+
+    plt = _pyplot()
+    ok = _verified(rows)[:FRF_SAMPLES]
+    r, c, label = _frf_dofs(cfg)
+    measured = [f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances]
+    top = 1.25 * max(measured)
+    omega = np.linspace(top / FRF_POINTS, top, FRF_POINTS)
+    exponents = case.damping.exponents if case.damping else (0.0, 1.0)
+    model = cfg.model
+    curves = []
+    for row in ok:
+        xbar = model.normalized([row[f"p:{p.name}"] for p in model.parameters])
+        M, K = model.matrices(xbar)
+        C = None
+        if row.get("beta0") is not None:
+            C = caughey_damping(M, K, exponents, [row[f"beta{i}"] for i in range(len(exponents))],
+                                max((f.mode for f in cfg.natural), default=1))
+        curves.append(np.abs(model_receptance((M, K, C), r, c, omega)))
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    if curves:
+        q = np.quantile(np.log10(np.maximum(curves, 1e-300)), [0.05, 0.5, 0.95], axis=0)
+        ax.fill_between(omega / TWO_PI, 10 ** q[0], 10 ** q[2], alpha=0.35, label="5-95 % of samples")
+        ax.semilogy(omega / TWO_PI, 10 ** q[1], lw=1.0, label="median")
+    for i, f in enumerate(cfg.natural):
+        ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
+    for i, a in enumerate(cfg.antiresonances):
+        ax.axvline(a.omega / TWO_PI, color="tab:red", lw=0.8, ls=":",
+                   label="measured antiresonance" if i == 0 else None)
+    ax.set_yscale("log")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel(f"|{label}| [m/N]")
+    ax.set_title(f"configuration {cfg.name}: {label}, {len(curves)} verified samples", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    return _save(plt, fig, path)
+
+
+def write_sweep_plots(out: Path, case, rows, document: dict) -> list[Path]:
+    """All plots of a sweep into ``out``; returns their paths."""
+    out = Path(out)
+    files = [plot_histograms(out / "parameters_hist.png", document, rows)]
+    names = least_determined(document)
+    if len(names) >= 2:
+        files.append(plot_pairs(out / "parameters_pairs.png", document, rows, names))
+    files.append(plot_frequency_bands(out / "frequency_bands.png", document))
+    for cfg in case.configurations:
+        files.append(plot_frf_band(out / f"frf_band_{cfg.name}.png", case, cfg, rows))
+    return files

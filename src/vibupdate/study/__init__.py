@@ -1,0 +1,1 @@
+"""Studies over many solves: sampling of the data intervals, sweeps, batches and multistarts on Dask."""

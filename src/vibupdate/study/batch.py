@@ -1,0 +1,113 @@
+"""Batches of cases on one engine: a fleet of nominally identical structures, or one structure
+tested every day.
+
+Each case file is one Dask task running `vibupdate.pipeline.run_case` into its own results
+folder under the batch's output directory (named after the case file; a repeated name gets
+a ``-2``, ``-3`` suffix). A summary table across the cases is written as ``summary.csv`` and
+``summary.md``: status, objective, mean frequency error, and each parameter's updated value in
+its unit. A case that cannot be read or updated is a row with its error, never dropped.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+__all__ = ["run_batch", "run_one", "summary_markdown"]
+
+
+def run_one(path: str, out_dir: str) -> dict:
+    """Run one case file into ``out_dir``; its row of the summary table."""
+    from vibupdate.io.case import load_case
+    from vibupdate.pipeline import run_case
+
+    row = {"case_file": path, "results": out_dir}
+    try:
+        case = load_case(path)
+        document = run_case(case, out_dir).as_document()
+    except ValueError as exc:
+        return {**row, "case": Path(path).stem, "status": "bad_input", "message": str(exc)}
+    solver, summary = document["solver"], document.get("summary", {})
+    row.update(case=case.name, status=solver["status"], message=solver["message"],
+               objective=solver["objective"], mean_error_updated_pct=summary.get("mean_error_updated_pct"),
+               seconds=solver["seconds"])
+    row.update({f"{p['name']} [{p['unit']}]" if p.get("unit") else p["name"]: p["updated"]
+                for p in document["parameters"]})
+    return row
+
+
+def _folders(paths: Sequence[str], out: Path) -> list[Path]:
+    used: dict[str, int] = {}
+    folders = []
+    for p in paths:
+        stem = Path(p).stem if Path(p).stem != "case" else Path(p).resolve().parent.name
+        used[stem] = used.get(stem, 0) + 1
+        folders.append(out / (stem if used[stem] == 1 else f"{stem}-{used[stem]}"))
+    return folders
+
+
+def summary_markdown(rows: Sequence[dict], fields: Sequence[str]) -> str:
+    """The summary table as markdown (numbers to 6 significant digits)."""
+    def cell(v):
+        if v is None:
+            return ""
+        if isinstance(v, float):
+            return f"{v:.6g}"
+        return str(v).replace("|", "/")
+
+    lines = ["| " + " | ".join(fields) + " |", "|" + "---|" * len(fields)]
+    lines += ["| " + " | ".join(cell(r.get(f)) for f in fields) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler: str | None = None,
+              client=None, progress: Callable[[str], None] | None = None) -> list[dict]:
+    """Run every case file as a Dask task; write the folders and the summary; return its rows.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        Case files (readable at the same path on the workers).
+    out_dir : str or Path
+        One folder per case, ``summary.csv`` and ``summary.md``.
+    workers, scheduler, client
+        The engine (`vibupdate.study.engine.open_client`).
+    """
+    from distributed import as_completed
+
+    from vibupdate.study.engine import Progress, open_client
+
+    say = progress or (lambda message: None)
+    if not paths:
+        raise ValueError("a batch needs at least one case file")
+    files = [str(Path(p).resolve()) for p in paths]
+    missing = [p for p in files if not Path(p).is_file()]
+    if missing:
+        raise ValueError(f"case file {missing[0]!r} does not exist")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    folders = _folders(files, out)
+    rows: list[dict | None] = [None] * len(files)
+    with open_client(workers, scheduler, client=client) as c:
+        futures = {c.submit(run_one, f, str(d), pure=False, retries=2): k for k, (f, d) in enumerate(zip(files, folders))}
+        tick = Progress(len(files), say, every=0.0)
+        for fut in as_completed(list(futures)):
+            k = futures[fut]
+            try:
+                rows[k] = fut.result()
+            except Exception as exc:  # a task lost for good, or an unexpected error in a case: its row says so
+                rows[k] = {"case_file": files[k], "case": Path(files[k]).stem, "results": str(folders[k]),
+                           "status": "task_error", "message": f"{type(exc).__name__}: {exc}"}
+            tick.tick(failed=rows[k]["status"] not in ("success", "acceptable"))
+    fields = ["case", "status", "objective", "mean_error_updated_pct", "seconds"]
+    for r in rows:
+        fields += [k for k in r if k not in fields and k not in ("message", "case_file", "results")]
+    fields += ["message", "results"]
+    with open(out / "summary.csv", "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    (out / "summary.md").write_text(summary_markdown(rows, [f for f in fields if f != "results"]), encoding="utf-8")
+    say(f"wrote {out}/ ({len(rows)} case folders, summary.csv, summary.md)")
+    return rows

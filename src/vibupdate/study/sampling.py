@@ -1,0 +1,224 @@
+"""Data sets drawn inside the measured intervals, one per sample of a sweep.
+
+The measured data are intervals (paper Section 2.3). A sweep asks which parameter values the
+data allow by updating many point data sets drawn inside those intervals. This module draws
+them; `vibupdate.study.sweep` runs the updates.
+
+What is drawn, per configuration:
+
+* natural frequencies and antiresonances inside their ``interval`` (rad/s) when given, else
+  inside ``omega * (1 +- frequency_tolerance)`` (relative); with no interval and a zero
+  tolerance the datum has no stated uncertainty and drawing refuses with an error;
+* damping ratios inside their ``damping_interval`` when given, else inside
+  ``xi * (1 +- damping_tolerance)`` (relative, default 10 %);
+* mode-shape entries: a centre ``v`` inside each entry's bounds; the sample keeps the
+  interval ``v +- shape_width * h`` (``h`` the entry's half-width, clipped to the bounds),
+  because the formulation fixes one entry of each shape to 1 and needs some freedom in the
+  others to scale them.
+
+Distributions: ``"uniform"`` over each interval, or ``"gaussian"``: a normal centred on the
+interval's midpoint with ``sigma = h / z`` where ``z`` is the two-sided normal quantile of
+``confidence`` (1.96 for 95 %), truncated to the interval (redrawn until inside).
+
+Each sample's random generator is derived from ``(seed, index)`` alone, so a sample is the
+same whichever worker draws it, in whatever order, in a resumed run or a re-run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+
+__all__ = ["SamplingOptions", "sample_rng", "data_intervals", "draw_configurations"]
+
+DISTRIBUTIONS = ("uniform", "gaussian")
+
+
+@dataclass(frozen=True)
+class SamplingOptions:
+    """How data sets are drawn (module docstring).
+
+    Attributes
+    ----------
+    distribution : {"uniform", "gaussian"}
+    confidence : float
+        Confidence level the intervals are stated at, in (0, 1); used by ``"gaussian"``.
+    frequency_tolerance : float, optional
+        Relative half-width for frequencies without an interval; None takes the case's.
+    damping_tolerance : float
+        Relative half-width for damping ratios without an interval (-).
+    shape_width : float
+        Half-width kept around a drawn shape entry, as a fraction of the entry's half-width.
+    random_start : bool
+        After the homotopy answer of a sample, also solve the ``lam = 1`` problem from a
+        random start and keep that answer when it is no worse (`vibupdate.study.sweep`). The
+        homotopy alone returns, for data that leave a direction undetermined, the point of
+        that direction nearest the nominal model, so the samples would not show how far the
+        direction extends.
+    """
+
+    distribution: str = "uniform"
+    confidence: float = 0.95
+    frequency_tolerance: float | None = None
+    damping_tolerance: float = 0.10
+    shape_width: float = 0.10
+    random_start: bool = True
+
+    def __post_init__(self):
+        if self.distribution not in DISTRIBUTIONS:
+            raise ValueError(f"distribution must be one of {', '.join(DISTRIBUTIONS)}, got {self.distribution!r}")
+        if not 0.0 < self.confidence < 1.0:
+            raise ValueError(f"confidence must be in (0, 1), got {self.confidence!r}")
+        if self.frequency_tolerance is not None and not 0.0 <= self.frequency_tolerance < 1.0:
+            raise ValueError(f"frequency tolerance must be in [0, 1) (relative), got {self.frequency_tolerance!r}")
+        if not 0.0 <= self.damping_tolerance < 1.0:
+            raise ValueError(f"damping tolerance must be in [0, 1) (relative), got {self.damping_tolerance!r}")
+        if not 0.0 <= self.shape_width <= 1.0:
+            raise ValueError(f"shape_width must be in [0, 1], got {self.shape_width!r}")
+
+    def as_dict(self) -> dict:
+        return {"distribution": self.distribution, "confidence": self.confidence,
+                "frequency_tolerance": self.frequency_tolerance, "damping_tolerance": self.damping_tolerance,
+                "shape_width": self.shape_width, "random_start": self.random_start}
+
+
+def sample_rng(seed: int, index: int, stream: int = 0) -> np.random.Generator:
+    """The generator of sample ``index`` of a sweep with ``seed``: stream 0 draws the data,
+    stream 1 the random start (independent streams)."""
+    if seed < 0 or index < 0:
+        raise ValueError(f"seed and sample index must be >= 0, got seed {seed!r}, index {index!r}")
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), int(index), int(stream)])))
+
+
+def _frequency_interval(value: float, interval, tolerance: float, what: str) -> tuple[float, float]:
+    if interval is not None:
+        return interval
+    if tolerance <= 0.0:
+        raise ValueError(f"{what} ({value / TWO_PI:.6g} Hz) has no interval and the frequency tolerance is 0: "
+                         "give intervals in the data or a relative frequency_tolerance "
+                         "(case file key or --frequency-tolerance)")
+    return (value * (1.0 - tolerance), value * (1.0 + tolerance))
+
+
+def _damping_interval(f: NaturalFrequency, options: SamplingOptions) -> tuple[float, float]:
+    return f.damping_interval or (f.damping_ratio * (1 - options.damping_tolerance),
+                                  f.damping_ratio * (1 + options.damping_tolerance))
+
+
+def data_intervals(configurations: Sequence[Configuration], frequency_tolerance: float,
+                   options: SamplingOptions | None = None) -> list[tuple[str, float, float, float]]:
+    """Every sampled scalar datum with its interval: ``(label, value, lower, upper)``.
+
+    Frequencies in Hz (labels ``CFG:fK_hz``, ``CFG:zK_hz``), damping ratios (``CFG:xiK``).
+    Raises ValueError naming a frequency that has neither an interval nor a tolerance.
+    """
+    options = options or SamplingOptions()
+    tol = frequency_tolerance if options.frequency_tolerance is None else options.frequency_tolerance
+    rows = []
+    for cfg in configurations:
+        for k, f in enumerate(cfg.natural, start=1):
+            lo, hi = _frequency_interval(f.omega, f.interval, tol,
+                                         f"natural frequency {k} of configuration {cfg.name!r}")
+            rows.append((f"{cfg.name}:f{k}_hz", f.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI))
+        for k, a in enumerate(cfg.antiresonances, start=1):
+            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"antiresonance {k} of configuration {cfg.name!r}")
+            rows.append((f"{cfg.name}:z{k}_hz", a.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI))
+        for k, f in enumerate(cfg.natural, start=1):
+            if f.damping_ratio is not None:
+                lo, hi = _damping_interval(f, options)
+                rows.append((f"{cfg.name}:xi{k}", f.damping_ratio, lo, hi))
+    return rows
+
+
+class _Drawer:
+    """Draws scalars inside intervals with one generator, in a fixed order."""
+
+    def __init__(self, rng: np.random.Generator, options: SamplingOptions):
+        self.rng, self.options = rng, options
+        self.z = None
+        if options.distribution == "gaussian":
+            from scipy.stats import norm
+
+            self.z = float(norm.ppf(0.5 + 0.5 * options.confidence))
+
+    def __call__(self, lo: float, hi: float) -> float:
+        if hi <= lo:
+            return lo
+        if self.z is None:
+            return float(self.rng.uniform(lo, hi))
+        mid, sigma = 0.5 * (lo + hi), 0.5 * (hi - lo) / self.z
+        while True:
+            v = float(self.rng.normal(mid, sigma))
+            if lo <= v <= hi:
+                return v
+
+
+def _draw_shape(draw: _Drawer, shape: ShapeInterval, width: float) -> ShapeInterval:
+    bounds = {}
+    for dof, (lo, hi) in shape.bounds.items():
+        v, h = draw(lo, hi), width * 0.5 * (hi - lo)
+        bounds[dof] = (max(lo, v - h), min(hi, v + h))
+    return ShapeInterval(bounds)
+
+
+def draw_configurations(configurations: Sequence[Configuration], frequency_tolerance: float, seed: int,
+                        index: int, options: SamplingOptions | None = None
+                        ) -> tuple[tuple[Configuration, ...], dict[str, float]]:
+    """Sample ``index`` of a sweep: the configurations with drawn data, and the drawn scalars.
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+        The measured data with their intervals.
+    frequency_tolerance : float
+        Relative half-width of frequencies without an interval (the case's; overridden by
+        ``options.frequency_tolerance`` when that is set).
+    seed, index : int
+        Seed of the sweep and index of the sample (0-based).
+    options : SamplingOptions, optional
+
+    Returns
+    -------
+    configurations : tuple of Configuration
+        Same models, drawn data (point values; intervals of the drawn data dropped, shape
+        intervals narrowed as the module docstring says).
+    drawn : dict of str to float
+        The drawn scalars under the labels of `data_intervals` (Hz and -).
+
+    Raises
+    ------
+    ValueError
+        A datum without an interval or tolerance, or drawn data that contradict each other
+        (frequencies no longer ascending, a zero on a pole); the message names them.
+    """
+    options = options or SamplingOptions()
+    tol = frequency_tolerance if options.frequency_tolerance is None else options.frequency_tolerance
+    draw = _Drawer(sample_rng(seed, index), options)
+    out, drawn = [], {}
+    for cfg in configurations:
+        natural, zeros = [], []
+        for k, f in enumerate(cfg.natural, start=1):
+            lo, hi = _frequency_interval(f.omega, f.interval, tol, f"natural frequency {k} of configuration {cfg.name!r}")
+            omega = draw(lo, hi)
+            xi = None
+            if f.damping_ratio is not None:
+                xi = draw(*_damping_interval(f, options))
+                drawn[f"{cfg.name}:xi{k}"] = xi
+            shape = None if f.shape is None else _draw_shape(draw, f.shape, options.shape_width)
+            natural.append(NaturalFrequency(omega, weight=f.weight, shape=shape, damping_ratio=xi, mode=f.mode))
+            drawn[f"{cfg.name}:f{k}_hz"] = omega / TWO_PI
+        for k, a in enumerate(cfg.antiresonances, start=1):
+            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"antiresonance {k} of configuration {cfg.name!r}")
+            omega = draw(lo, hi)
+            zeros.append(Antiresonance(omega, a.response, a.excitation, weight=a.weight, index=a.index))
+            drawn[f"{cfg.name}:z{k}_hz"] = omega / TWO_PI
+        try:
+            out.append(replace(cfg, natural=tuple(natural), antiresonances=tuple(zeros)))
+        except ValueError as exc:
+            raise ValueError(f"sample {index}: drawn data are inconsistent: {exc}") from None
+    return tuple(out), drawn
+

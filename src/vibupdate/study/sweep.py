@@ -1,0 +1,429 @@
+"""Sampling sweep: which parameter values do the data intervals allow?
+
+Many data sets are drawn inside the measured intervals (`vibupdate.study.sampling`), each is
+updated as `vibupdate.pipeline.run_case` would (first stage, then the damping stage), and
+the answers are collected. Every sample is one task on a Dask cluster (`vibupdate.study.engine`).
+
+Outcome of a sample (column ``outcome``):
+
+* ``verified``: ``update(...).success``;
+* ``unverified``: an answer whose status is ``not_verified`` (a solve that ended but did not
+  pass verification);
+* ``failed``: no usable answer: drawn data that contradict each other, a solver status other
+  than the two above, or a task lost for good (the error is in ``message``).
+
+Nothing is dropped: every sample is a row of ``samples.csv``; the ranges and quantiles of
+``sweep.json`` are taken over the verified rows only, and the counts of the others stated.
+
+Robustness. Rows are appended to ``samples.csv`` (and flushed to disk) as tasks complete, so
+a stopped run keeps its work; ``resume=True`` reads the finished indices and submits only
+the others. A sample's data depend on ``(seed, index)`` alone, so a resumed run gives the
+same rows as an uninterrupted one. Tasks of a lost worker are retried by Dask. The case is
+loaded once per worker: a file source is cached on the worker by path and content hash, a
+case object is broadcast once to every worker.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pickle
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from vibupdate.io.case import Case, load_case
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.data.measured import TWO_PI
+from vibupdate.inverse.reduction import wants_reduction
+from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
+from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
+
+__all__ = ["CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize", "read_rows"]
+
+SAMPLES_FILE = "samples.csv"
+SETTINGS_FILE = "sweep-settings.json"
+SUMMARY_FILE = "sweep.json"
+#: Columns whose values depend on the run (timing, worker), not on the sample.
+RUN_COLUMNS = ("seconds", "worker")
+#: A random-start answer replaces the homotopy answer of a sample when each of its frequency
+#: errors is at most the homotopy's plus this fraction of the datum's interval half-width.
+ACCEPT_FRACTION = 0.05
+#: Proximal weight of the random-start solve (`vibupdate.study.multistart.random_start_solve`).
+START_PROXIMAL = 1e-3
+
+#: Worker-side cache of cases loaded from files: (path, digest) -> Case.
+_CASES: dict[tuple[str, str], Case] = {}
+#: How many times this process loaded a case file (read by the tests through ``Client.run``).
+CASE_LOADS = {"count": 0}
+
+
+@dataclass(frozen=True)
+class CaseSource:
+    """A case file as workers see it: its absolute path and the SHA-256 of its text."""
+
+    path: str
+    digest: str
+
+
+def case_source(path) -> CaseSource:
+    """Describe a case file for the workers (it must be readable at the same path there)."""
+    path = Path(path).resolve()
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"case file {str(path)!r} could not be read: {exc}") from None
+    return CaseSource(str(path), hashlib.sha256(data).hexdigest())
+
+
+def _digest(case: Case) -> str:
+    """Content hash of an in-memory case (its data, model matrices and options)."""
+    blob = pickle.dumps((case.configurations, case.formulation, case.solver, case.damping, case.frequency_tolerance))
+    return hashlib.sha256(blob).hexdigest()
+
+
+def _resolve(case) -> Case:
+    if isinstance(case, Case):
+        return case
+    key = (case.path, case.digest)
+    if key not in _CASES:
+        if case_source(case.path).digest != case.digest:
+            raise ValueError(f"case file {case.path!r} changed since the sweep started")
+        _CASES[key] = load_case(case.path)
+        CASE_LOADS["count"] += 1
+    return _CASES[key]
+
+
+# -- one sample -------------------------------------------------------------------------------
+
+def columns(case: Case, sampling: SamplingOptions) -> list[str]:
+    """Header of ``samples.csv``: index, outcome, status, start (the answer kept: "homotopy"
+    or "random"), objective, parameters (their unit),
+    predicted frequencies (Hz), drawn data (Hz and -), Caughey coefficients, timing, message."""
+    cfgs = case.configurations
+    names = [f"p:{p.name}" for p in cfgs[0].model.parameters]
+    predicted = [f"pred:{label}" for label, *_ in data_intervals(cfgs, case.frequency_tolerance, sampling)
+                 if not label.split(":")[1].startswith("xi")]
+    data = [f"data:{label}" for label, *_ in data_intervals(cfgs, case.frequency_tolerance, sampling)]
+    damping = []
+    if any(f.damping_ratio is not None for c in cfgs for f in c.natural):
+        exponents = (case.damping.exponents if case.damping else (0.0, 1.0))
+        damping = [f"beta{i}" for i in range(len(exponents))]
+    return ["index", "outcome", "status", "start", "objective", *names, *predicted, *data, *damping,
+            "seconds", "worker", "message"]
+
+
+def _outcome(result) -> str:
+    if result.success:
+        return "verified"
+    return "unverified" if result.status.value == "not_verified" else "failed"
+
+
+def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
+    """Draw sample ``index`` and update it; one row of ``samples.csv`` (never raises on a
+    failed solve or inconsistent drawn data: those are rows with ``outcome = "failed"``).
+
+    Parameters
+    ----------
+    case : Case or CaseSource
+        The case (a source is loaded once per process and cached).
+    index, seed : int
+    sampling : SamplingOptions
+    """
+    from vibupdate.pipeline import _damping_stage
+    from vibupdate.inverse.update import update
+    from vibupdate.inverse.verify import VerifyOptions
+
+    start = time.perf_counter()
+    case = _resolve(case)
+    row: dict = {"index": index, "worker": os.getpid()}
+    try:
+        cfgs, drawn = draw_configurations(case.configurations, case.frequency_tolerance, seed, index, sampling)
+    except ValueError as exc:
+        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
+        return row
+    row.update({f"data:{k}": v for k, v in drawn.items()})
+    tolerance = case.frequency_tolerance if sampling.frequency_tolerance is None else sampling.frequency_tolerance
+    verification = VerifyOptions(frequency_tolerance=tolerance) if tolerance > 0 else VerifyOptions()
+    try:
+        result = update(cfgs, formulation=case.formulation, solver=case.solver, verification=verification)
+    except ValueError as exc:
+        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
+        return row
+    row.update(outcome=_outcome(result), status=result.status.value, objective=result.objective,
+               message=result.message, start="homotopy")
+    xbar, frequencies = result.xbar, None
+    if sampling.random_start and result.success and not wants_reduction(cfgs, case.formulation):
+        other = _random_start(case, cfgs, seed, index, result, sampling, verification)
+        if other is not None:
+            (xbar, row["objective"], frequencies), row["start"] = other, "random"
+    model = cfgs[0].model
+    row.update({f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(xbar))})
+    for cfg, freqs in zip(cfgs, frequencies or [model_frequencies(c, xbar) for c in cfgs]):
+        row.update({f"pred:{cfg.name}:f{k}_hz": float(w) / TWO_PI for k, w in enumerate(freqs.natural, start=1)})
+        row.update({f"pred:{cfg.name}:z{k}_hz": float(w) / TWO_PI
+                    for k, w in enumerate(freqs.antiresonances, start=1)})
+    if row["outcome"] != "failed" and any(f.damping_ratio is not None for c in cfgs for f in c.natural):
+        try:
+            stage, _, _ = _damping_stage(replace(case, configurations=cfgs), xbar, lambda message: None)
+            row.update({f"beta{i}": float(b) for i, b in enumerate(stage.caughey.beta)})
+        except ValueError as exc:
+            row["message"] += f"; damping stage: {exc}"
+    row["seconds"] = time.perf_counter() - start
+    return row
+
+
+def _misfit(cfgs, frequencies) -> np.ndarray:
+    """Relative error of the model frequencies (`model_frequencies`, one per configuration)
+    for every measured frequency of ``cfgs``."""
+    errors = []
+    for cfg, freqs in zip(cfgs, frequencies):
+        errors += [abs(w - f.omega) / f.omega for w, f in zip(freqs.natural, cfg.natural)]
+        errors += [abs(w - a.omega) / a.omega for w, a in zip(freqs.antiresonances, cfg.antiresonances)]
+    return np.nan_to_num(np.array(errors), nan=np.inf)
+
+
+def _random_start(case: Case, cfgs, seed: int, index: int, result, sampling: SamplingOptions, verification):
+    """``(xbar, objective, frequencies)`` of a random-start solve of the sample (`vibupdate.study.multistart.
+    random_start_solve`) when it converged, fits the drawn data no worse than the verified
+    homotopy answer ``result.xbar`` (every frequency's relative error at most the homotopy's
+    plus ``ACCEPT_FRACTION`` times that datum's relative interval half-width) and passes the
+    same verification (`vibupdate.inverse.verify.verify`); None otherwise, and the homotopy's answer
+    stands."""
+    from vibupdate.study.multistart import build_solver, random_start_solve
+    from vibupdate.study.sampling import sample_rng
+    from vibupdate.inverse.verify import verify
+
+    xbar_h = result.xbar
+    problem, backend = build_solver(cfgs, case.formulation, case.solver)
+    other = random_start_solve(problem, backend, sample_rng(seed, index, stream=1), proximal=START_PROXIMAL)
+    if not other["ok"]:
+        return None
+    half = np.array([0.5 * (hi - lo) / value for label, value, lo, hi
+                     in data_intervals(case.configurations, case.frequency_tolerance, sampling) if ":xi" not in label])
+    xbar = np.asarray(other["xbar"])
+    updated = [model_frequencies(c, xbar) for c in cfgs]
+    if not np.all(_misfit(cfgs, updated) <= _misfit(cfgs, [model_frequencies(c, xbar_h) for c in cfgs])
+                  + ACCEPT_FRACTION * half):
+        return None
+    checks = verify(cfgs, xbar, nominal=[model_frequencies(c) for c in cfgs],
+                    updated=updated, lower_bound=result.relaxation_lower_bound,
+                    n_blocks=len(result.vectors), options=verification)
+    if any(c.severity == "error" and not c.passed for c in checks):
+        return None
+    return xbar, float(other["objective"]), updated
+
+
+# -- summary ----------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """What ``sweep.json`` holds (see `summarize`) and where the run wrote it."""
+
+    document: dict
+    out_dir: Path
+
+    @property
+    def samples(self) -> int:
+        return self.document["samples"]
+
+    @property
+    def verified(self) -> int:
+        return self.document["verified"]
+
+    @property
+    def failed(self) -> int:
+        return self.document["failed"]
+
+    def parameter(self, name: str) -> dict:
+        for p in self.document["parameters"]:
+            if p["name"] == name:
+                return p
+        raise ValueError(f"no parameter {name!r} in the sweep; parameters: "
+                         f"{', '.join(p['name'] for p in self.document['parameters'])}")
+
+
+def _stats(values) -> dict:
+    v = np.asarray([x for x in values if x is not None], dtype=float)
+    if v.size == 0:
+        return {"min": None, "max": None, "q05": None, "q50": None, "q95": None}
+    q = np.quantile(v, [0.05, 0.5, 0.95])
+    return {"min": float(v.min()), "max": float(v.max()), "q05": float(q[0]), "q50": float(q[1]),
+            "q95": float(q[2])}
+
+
+def summarize(case: Case, rows: list[dict], settings: dict) -> dict:
+    """The ``sweep.json`` document: counts, and per parameter (in its unit) and per predicted
+    frequency (Hz) the range and the 5/50/95 % quantiles over the verified samples."""
+    outcomes = [r["outcome"] for r in rows]
+    ok = [r for r in rows if r["outcome"] == "verified"]
+    params = []
+    for p in case.configurations[0].model.parameters:
+        s = _stats(r.get(f"p:{p.name}") for r in ok)
+        width = p.upper - p.lower
+        spread = None if s["min"] is None or width <= 0 else (s["q95"] - s["q05"]) / width
+        params.append({"name": p.name, "unit": p.unit, **s, "nominal": p.nominal, "lower": p.lower,
+                       "upper": p.upper, "spread_of_bounds": spread})
+    predictions = []
+    for label, value, lo, hi in data_intervals(case.configurations, case.frequency_tolerance,
+                                               SamplingOptions(**settings["sampling"])):
+        if ":xi" in label:
+            continue
+        predictions.append({"label": label, "measured_hz": value, "interval_hz": [lo, hi],
+                            **_stats(r.get(f"pred:{label}") for r in ok)})
+    failures: dict[str, int] = {}
+    for r in rows:
+        if r["outcome"] == "failed":
+            failures[str(r["status"])] = failures.get(str(r["status"]), 0) + 1
+    return {"case": case.name, "samples": len(rows), "verified": outcomes.count("verified"),
+            "unverified": outcomes.count("unverified"), "failed": outcomes.count("failed"),
+            "failed_by_status": failures, "seed": settings["seed"], "sampling": settings["sampling"],
+            "parameters": params, "predictions": predictions}
+
+
+# -- the run ----------------------------------------------------------------------------------------
+
+def _settings(seed: int, sampling: SamplingOptions, digest: str, case: Case) -> dict:
+    return {"case": case.name, "case_digest": digest, "seed": seed, "sampling": sampling.as_dict(),
+            "frequency_tolerance": case.frequency_tolerance}
+
+
+def _prepare_out(out: Path, settings: dict, resume: bool) -> None:
+    file = out / SETTINGS_FILE
+    if resume:
+        if not file.exists():
+            raise ValueError(f"nothing to resume in {str(out)!r}: no {SETTINGS_FILE}")
+        old = json.loads(file.read_text(encoding="utf-8"))
+        for key in ("case_digest", "seed", "sampling", "frequency_tolerance"):
+            if old.get(key) != settings.get(key):
+                raise ValueError(f"cannot resume {str(out)!r}: its {key} is {old.get(key)!r}, this run's is "
+                                 f"{settings.get(key)!r}")
+        return
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ValueError(f"output directory {str(out)!r} exists and is not empty; use --resume to finish "
+                         "a sweep there, or another --out")
+    out.mkdir(parents=True, exist_ok=True)
+    file.write_text(json.dumps(settings, indent=2), encoding="utf-8")
+
+
+def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingOptions | None = None,
+              workers: int | None = None, scheduler: str | None = None, client=None, resume: bool = False,
+              retries: int = 3, plots: bool = True,
+              progress: Callable[[str], None] | None = None) -> SweepSummary:
+    """Sweep ``samples`` data sets of ``case`` on Dask; write ``out_dir``; return the summary.
+
+    Parameters
+    ----------
+    case : Case, str or Path
+        A loaded case, or the path of a case file (workers load it once each; it must be at
+        the same path on every worker).
+    out_dir : str or Path
+        ``samples.csv`` (one row per sample, sorted by index at the end), ``sweep.json``,
+        ``sweep-settings.json`` and the plots.
+    samples : int
+        Number of samples (indices ``0 .. samples - 1``).
+    seed : int
+        Seed of the sweep; sample ``i`` depends on ``(seed, i)`` only.
+    sampling : SamplingOptions, optional
+    workers, scheduler, client
+        The engine (`vibupdate.study.engine.open_client`).
+    resume : bool
+        Finish the sweep in ``out_dir`` (same case, seed and sampling; ``samples`` may grow).
+    retries : int
+        Retries of a task whose worker was lost.
+    plots : bool
+        Write the PNG plots (`vibupdate.report.sweep_plots`).
+    progress : callable, optional
+        Receives progress lines.
+    """
+    from vibupdate.study.engine import Progress, open_client
+
+    say = progress or (lambda message: None)
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise ValueError(f"the number of samples must be an integer >= 1, got {samples!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"the seed must be an integer >= 0, got {seed!r}")
+    sampling = sampling or SamplingOptions()
+    if isinstance(case, Case):
+        loaded, source, digest = case, None, _digest(case)
+    else:
+        source = case_source(case)
+        loaded, digest = load_case(source.path), source.digest
+    if sampling.frequency_tolerance is not None:  # the workers' draws take it from `sampling`
+        loaded = replace(loaded, frequency_tolerance=sampling.frequency_tolerance)
+    data_intervals(loaded.configurations, loaded.frequency_tolerance, sampling)  # bad data: error before any work
+    out = Path(out_dir)
+    settings = _settings(seed, sampling, digest, loaded)
+    _prepare_out(out, settings, resume)
+    fields = columns(loaded, sampling)
+    rows: list[dict] = []
+    if resume and (out / SAMPLES_FILE).exists():
+        header, rows = read_rows(out / SAMPLES_FILE)
+        if header and header != fields:
+            raise ValueError(f"cannot resume {str(out)!r}: {SAMPLES_FILE} has other columns than this case gives")
+        rows = [r for r in rows if isinstance(r["index"], int) and r["index"] < samples]
+    done = {r["index"] for r in rows}
+    todo = [i for i in range(samples) if i not in done]
+    if resume:
+        say(f"resuming: {len(done)} of {samples} samples done, {len(todo)} to go")
+    writer = RowWriter(out / SAMPLES_FILE, fields)
+    n_workers, wall = 0, 0.0
+    try:
+        if todo:
+            with open_client(workers, scheduler, client=client) as c:
+                n_workers = len(c.scheduler_info(n_workers=-1)["workers"])
+                say(f"sweep of {loaded.name!r}: {samples} samples on {n_workers} Dask worker(s)")
+                start = time.perf_counter()
+                rows += _run_tasks(c, loaded if source is None else source, todo, seed, sampling, digest, retries,
+                                   writer, Progress(samples, say, already=len(done)))
+                wall = time.perf_counter() - start
+    finally:
+        writer.close()
+    write_sorted(out / SAMPLES_FILE, fields, rows)
+    document = summarize(loaded, rows, settings)
+    submitted = set(todo)
+    new = [r for r in rows if r["index"] in submitted and isinstance(r.get("seconds"), float)]
+    document["timing"] = {
+        "note": ("this run only, from the first submission to the last result (cluster start-up excluded); "
+                 "overhead = (wall x workers - time inside the tasks) / tasks; timings vary with the load"),
+        "tasks": len(new), "workers": n_workers, "task_phase_wall_seconds": wall,
+        "task_seconds_mean": float(np.mean([r["seconds"] for r in new])) if new else None,
+        "overhead_per_task_seconds": (wall * n_workers - sum(r["seconds"] for r in new)) / len(new) if new else None,
+    }
+    (out / SUMMARY_FILE).write_text(json.dumps(document, indent=2), encoding="utf-8")
+    if plots:
+        from vibupdate.report.sweep_plots import write_sweep_plots
+
+        write_sweep_plots(out, loaded, rows, document)
+    say(f"{document['verified']} verified, {document['unverified']} unverified, {document['failed']} failed "
+        f"of {document['samples']} samples; wrote {out}/")
+    return SweepSummary(document, out)
+
+
+def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writer, progress) -> list[dict]:
+    from distributed import as_completed
+
+    if isinstance(payload, Case):
+        [payload] = c.scatter([payload], broadcast=True, hash=False)
+    futures = {}
+    for i in todo:
+        f = c.submit(run_sample, payload, i, seed, sampling, key=f"vibupdate-sample-{digest[:16]}-{seed}-{i}",
+                     retries=retries, pure=False)
+        futures[f.key] = (f, i)
+    rows = []
+    for f in as_completed([f for f, _ in futures.values()]):
+        index = futures[f.key][1]
+        try:
+            row = f.result()
+        except Exception as exc:  # a task lost for good (e.g. its workers kept dying): a failed row
+            row = {"index": index, "outcome": "failed", "status": "task_error",
+                   "message": f"{type(exc).__name__}: {exc}"}
+        f.release()
+        writer.append(row)
+        rows.append(row)
+        progress.tick(failed=row["outcome"] == "failed")
+    return rows
