@@ -34,6 +34,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from vibupdate.modal.refinement import block_size, refine_modes
+
 __all__ = ["modes", "mode_residuals", "receptance", "adjunct", "antiresonances", "mac", "massless_dofs",
            "DENSE_LIMIT", "DENSE_MAX", "ModalAccuracyError"]
 
@@ -201,13 +203,13 @@ def _sparse_modes(M, K, k: int, rtol: float):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
     sigma, lu = _shifted_lu(Ks, Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
-    lam, V = spla.eigsh(Ks, k=k, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0)
-    order = np.argsort(lam)
-    lam, V = lam[order], V[:, order]
-    # One step of inverse iteration: removes any component along the infinite modes of a
-    # singular M and sharpens the vectors.
-    V = lu.solve(np.asarray(Ms @ V)) * (lam - sigma)
-    V = V / np.sqrt(np.einsum("ij,ij->j", V, Ms @ V))
+    q = block_size(k, Ks.shape[0] - massless_dofs(Ms).size - 1)
+    _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0)
+    # One refined step of inverse iteration on the block and a Rayleigh-Ritz projection
+    # (`vibupdate.modal.refinement`): removes any component along the infinite modes of a
+    # singular M and recovers the digits the solves lose on fine meshes.
+    lam, V = refine_modes(Ms, Ks, lu.solve, sigma, V)
+    lam, V = lam[:k], V[:, :k]
     omega = np.sign(lam) * np.sqrt(np.abs(lam))
     eta = mode_residuals(Ms, Ks, omega, V)
     bad = np.flatnonzero(eta > rtol)
