@@ -33,7 +33,8 @@ from vibupdate.inverse.correlation import zeros_wanted, model_frequencies
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
 
-__all__ = ["PolishOptions", "PolishResult", "polish", "polish_residuals", "fit_least_squares"]
+__all__ = ["PolishOptions", "PolishResult", "polish", "polish_residuals", "fit_least_squares",
+           "bounded_least_squares"]
 
 
 @dataclass(frozen=True)
@@ -116,14 +117,20 @@ def _shape_terms(cfg: Configuration):
 
 
 def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight: float = 100.0,
-                     jacobian: bool = True):
+                     jacobian: bool = True, shape_target: str = "interval"):
     """Residuals of the polish objective (module docstring) and their exact Jacobian.
+
+    ``shape_target="midpoint"`` replaces the distance outside each ratio interval by the
+    signed difference from the interval's midpoint: the residual of the classical
+    eigenvector-difference fit (`vibupdate.inverse.baseline.eigenvector_fit`).
 
     Returns
     -------
     r : ndarray, shape (n_r,)
     J : ndarray, shape (n_r, n_x), or None without ``jacobian``
     """
+    if shape_target not in ("interval", "midpoint"):
+        raise ValueError(f"shape_target must be 'interval' or 'midpoint', got {shape_target!r}")
     xbar = np.asarray(xbar, dtype=float)
     res, jac = [], []
     for cfg in configurations:
@@ -157,36 +164,47 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
             for k, p, idx, lo, hi in _shape_terms(cfg):
                 phi = freqs.Phi[:, k]
                 ratio = phi[idx] / phi[p]
-                below, above = np.maximum(lo - ratio, 0), np.maximum(ratio - hi, 0)
-                res.append(shape_weight * (below + above))
+                if shape_target == "midpoint":
+                    res.append(shape_weight * (ratio - 0.5 * (lo + hi)))
+                    sign = np.ones(ratio.size)
+                else:
+                    below, above = np.maximum(lo - ratio, 0), np.maximum(ratio - hi, 0)
+                    res.append(shape_weight * (below + above))
+                    sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
                 if jacobian:
                     dr = shape_ratio_derivatives(model, xbar, freqs.natural[k], phi, idx, p)
-                    sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
                     jac.append(shape_weight * sign[:, None] * dr)
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
 
 
-def fit_least_squares(configurations: Sequence[Configuration], x0, shape_weight: float, **options):
-    """`scipy.optimize.least_squares` (trf, ``x_scale="jac"``) of `polish_residuals` from
-    ``x0``, shape (n_x,), in the box of the normalized parameters. One evaluation gives the
-    residual and the exact Jacobian from one eigen-solve; ``x0`` is nudged strictly inside the
-    box (trf needs it; parameters with nominal 0 often sit on a bound). ``options`` go to
-    ``least_squares``."""
-    lo, hi = configurations[0].model.bounds()
+def bounded_least_squares(evaluate, x0, lower, upper, **options):
+    """`scipy.optimize.least_squares` (trf, ``x_scale="jac"``) of ``evaluate`` from ``x0`` in
+    the box ``[lower, upper]`` (all shape (n_x,)). ``evaluate(x)`` returns the residual and its
+    exact Jacobian from one eigen-solve; it is called once per point. ``x0`` is nudged strictly
+    inside the box (trf needs it; parameters with nominal 0 often sit on a bound). ``options``
+    go to ``least_squares``."""
     cache: dict = {}
 
-    def evaluate(x):
+    def at(x):
         key = x.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = polish_residuals(configurations, x, shape_weight)
+            cache[key] = evaluate(x)
         return cache[key]
 
-    span = hi - lo
-    x_in = np.clip(np.asarray(x0, dtype=float), lo + 1e-10 * span, hi - 1e-10 * span)
-    return least_squares(lambda x: evaluate(x)[0], x_in, jac=lambda x: evaluate(x)[1], bounds=(lo, hi),
+    span = upper - lower
+    x_in = np.clip(np.asarray(x0, dtype=float), lower + 1e-10 * span, upper - 1e-10 * span)
+    return least_squares(lambda x: at(x)[0], x_in, jac=lambda x: at(x)[1], bounds=(lower, upper),
                          method="trf", x_scale="jac", **options)
+
+
+def fit_least_squares(configurations: Sequence[Configuration], x0, shape_weight: float, **options):
+    """`bounded_least_squares` of `polish_residuals` from ``x0``, shape (n_x,), in the box of
+    the normalized parameters."""
+    lo, hi = configurations[0].model.bounds()
+    return bounded_least_squares(lambda x: polish_residuals(configurations, x, shape_weight), x0, lo, hi,
+                                 **options)
 
 
 def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None) -> PolishResult:

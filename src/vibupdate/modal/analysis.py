@@ -204,7 +204,9 @@ def _sparse_modes(M, K, k: int, rtol: float):
     sigma, lu = _shifted_lu(Ks, Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
     q = block_size(k, Ks.shape[0] - massless_dofs(Ms).size - 1)
-    _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0)
+    # A fixed start vector: the same matrices give the same modes in every run.
+    v0 = np.random.default_rng(0).standard_normal(Ks.shape[0])
+    _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0, v0=v0)
     # One refined step of inverse iteration on the block and a Rayleigh-Ritz projection
     # (`vibupdate.modal.refinement`): removes any component along the infinite modes of a
     # singular M and recovers the digits the solves lose on fine meshes.
