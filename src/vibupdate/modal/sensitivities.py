@@ -111,16 +111,12 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     solve = _factor(A if n > 400 else A.toarray())
     Mphi = M @ phi
     entries = np.asarray(entries, dtype=int)
-    out = np.empty((entries.size, model.n_parameters))
-    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        f = Ki @ phi - lam * (Mi @ phi)
-        dlam = phi @ f
-        rhs = -f + dlam * Mphi
-        v = np.zeros(n)
-        v[keep] = solve(rhs[keep])
-        ref = phi[reference]
-        out[:, i] = (v[entries] * ref - phi[entries] * v[reference]) / ref**2
-    return out
+    F = np.column_stack([Ki @ phi - lam * (Mi @ phi) for Mi, Ki in zip(model.M_par, model.K_par)])
+    dlam = phi @ F
+    V = np.zeros((n, model.n_parameters))
+    V[keep] = solve((-F + np.outer(Mphi, dlam))[keep])   # every parameter in one solve
+    ref = phi[reference]
+    return (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
