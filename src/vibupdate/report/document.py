@@ -245,7 +245,8 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
         rows.append(row)
     out += ["## Parameters", ""] + _md_table(header, rows) + [""]
     if ranges:
-        determined = [n for n, rg in ranges.items() if rg["width_pct"] <= 5.0]
+        # a width is None where its linear programs found no finite range (NaN in the results)
+        determined = [n for n, rg in ranges.items() if rg["width_pct"] is not None and rg["width_pct"] <= 5.0]
         tol = 100 * (document["identifiability"].get("frequency_tolerance") or 0)
         window = document["identifiability"].get("frequency_windows") or f"{tol:.2g} %"
         out += ["Consistent range (linearized at the verified answer, two linear programs per parameter): the "
