@@ -140,10 +140,11 @@ class UpdateResult:
         }
 
 
-def prepare(configurations: Sequence[Configuration],
-            options: FormulationOptions | None = None) -> BilinearProblem:
-    """Validate the data and build the problem (with interlacing signs); no solve."""
-    return formulate(configurations, options, transforms=[sign_bounds])
+def prepare(configurations: Sequence[Configuration], options: FormulationOptions | None = None,
+            nominal: Sequence | None = None) -> BilinearProblem:
+    """Validate the data and build the problem (with interlacing signs); no solve. ``nominal``:
+    the nominal `model_frequencies` of ``configurations`` when the caller has them."""
+    return formulate(configurations, options, transforms=[sign_bounds], nominal=nominal)
 
 
 def _message(status: Status, lam: float, steps, checks=()) -> str:
@@ -189,12 +190,12 @@ def _margin_entries(blk) -> np.ndarray:
     return np.ones(blk.lower.size, dtype=bool) if blk.measured is None else ~blk.measured
 
 
-def _first_stage(solved, formulation, solver, allowance_tol, say):
+def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None):
     """The homotopy, repeated with wider vector boxes while the relaxation proves that the
     current boxes exclude every fit (module docstring, item 2)."""
     attempts, steps, attempt = [], [], 0
     while True:
-        problem = prepare(solved, formulation)
+        problem = prepare(solved, formulation, nominal)
         if attempt == 0:
             size = problem.sizes()
             say(f"problem: {size['n_parameters']} parameters, {size['n_mode_unknowns']} mode unknowns, "
@@ -272,8 +273,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         solved, bases = reduce_configurations(configurations, formulation.reduction_modes)
         say(f"Craig-Bampton reduction: {configurations[0].model.n_dofs} -> {solved[0].model.n_dofs} DOFs "
             f"(measured DOFs kept, {formulation.reduction_modes} fixed-interface modes)")
+    nominal = [model_frequencies(c) for c in configurations]
     problem, path, steps, attempts, active = _first_stage(solved, formulation, solver,
-                                                          verification.frequency_tolerance, say)
+                                                          verification.frequency_tolerance, say,
+                                                          nominal if bases is None else None)
     size = problem.sizes()
     if bases is not None:
         size["reduced_dofs"] = solved[0].model.n_dofs
@@ -281,7 +284,6 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     first_xbar = np.clip(path.x, problem.x_lower, problem.x_upper)
     xbar, polished, checks = first_xbar, None, ()
     status = path.status
-    nominal = [model_frequencies(c) for c in configurations]
     if status.ok:
         if polish.enabled:
             polished = run_polish(configurations, first_xbar, polish)
