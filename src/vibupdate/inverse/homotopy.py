@@ -155,6 +155,7 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     envelope = mccormick(problem)
     backend = build(problem, envelope, options)
     build_seconds = time.perf_counter() - start
+    say(f"  step solver ready ({options.backend}, {build_seconds:.2f} s)")
     x0 = np.clip(np.zeros(problem.n_x), problem.x_lower, problem.x_upper)
     u0 = problem.u_start
     z = backend.join(x0, u0, lifted_values(problem, x0, u0), problem.residual(x0, u0))

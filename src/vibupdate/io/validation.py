@@ -76,6 +76,7 @@ def _check_solver(solver, error) -> None:
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= most:
             raise error(f"solver.{name}", f"must be an integer from 1 to {most}, got {value!r}")
     checks = (("min_step", lambda v: 0 < v <= 1, "in (0, 1]"),
+              ("step_growth", lambda v: 1 <= v <= 100, "in [1, 100]"),
               ("proximal", lambda v: 0 <= v <= 1, "in [0, 1]"),
               ("max_cpu_time", lambda v: v > 0, "a positive number of seconds"),
               ("tol", lambda v: 0 < v < 1, "in (0, 1)"))

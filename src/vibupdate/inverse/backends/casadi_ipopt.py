@@ -80,22 +80,24 @@ def _pattern(A) -> sp.csc_matrix:
 
 @dataclass
 class _Compiled:
-    """The compiled step NLP of one structure: the cold solver, the warm one once used."""
+    """The compiled step NLPs of one structure: the lifted one (any ``lam``) and the exact one
+    (``lam = 1`` without ``t`` and the McCormick rows), each with a cold and a warm IPOPT
+    instance built on first use."""
 
-    nlp: dict
+    nlps: dict
     options: dict
-    warm_options: dict
-    cold: object
-    warm: object | None = None
+    solvers: dict = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
-    def warm_solver(self):
-        if self.warm is None:
+    def solver(self, nlp: str, start: str):
+        """The IPOPT instance of NLP ``"lifted"`` or ``"exact"`` with ``"cold"`` or ``"warm"`` options."""
+        key = (nlp, start)
+        if key not in self.solvers:
             import casadi as ca
 
-            with watch_sigint():
-                self.warm = ca.nlpsol("vibupdate_warm", "ipopt", self.nlp, self.warm_options)
-        return self.warm
+            with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
+                self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp], self.options[start])
+        return self.solvers[key]
 
 
 class SolverCache:
@@ -156,7 +158,12 @@ def _structure_key(mats, problem: BilinearProblem, expand: bool, settings: dict)
 
 
 def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _Compiled:
-    """Build the parametric step NLP (module docstring) and its cold IPOPT instance."""
+    """Build the parametric step NLPs (module docstring) and the cold IPOPT instance of the
+    lifted one. The exact NLP (``lam = 1``) has no ``t`` and no McCormick rows, over
+    ``[xbar, u, R]``, with the same parameters ``p`` (``lam`` and the rows' coefficients unused):
+    at ``lam = 1`` the residual does not involve ``t``, and every ``(xbar, u)`` in its box
+    leaves ``t = xbar[px] u[pu]`` feasible, so both NLPs have the same minimizers in
+    ``(xbar, u, R)``; the exact one is about half the size."""
     import casadi as ca
 
     n_x, n_u, n_b, n_r = problem.n_x, problem.n_u, problem.n_b, problem.n_r
@@ -173,13 +180,18 @@ def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _C
     A_u, A_x, A_b, G = symbolic
     px, pu = problem.prod_x.tolist(), problem.prod_u.tolist()
     # vec(): indexing a 1 x 1 symbol (a single parameter) with a list gives a row vector.
-    blend = lam * (ca.vec(x[px]) * ca.vec(u[pu])) + (1 - lam) * t if n_b else Sym(0, 1)
-    model = ca.mtimes(A_u, u) + ca.mtimes(A_x, x) + (ca.mtimes(A_b, blend) if n_b else 0) + r0
+    products = ca.vec(x[px]) * ca.vec(u[pu]) if n_b else Sym(0, 1)
+    linear = ca.mtimes(A_u, u) + ca.mtimes(A_x, x) + r0
+    lifted = linear + (ca.mtimes(A_b, lam * products + (1 - lam) * t) if n_b else 0)
+    exact = linear + (ca.mtimes(A_b, products) if n_b else 0)
     f = ca.dot(row_weight, R * R) + prox_weight * (ca.sumsqr(x - x_prev) + ca.sumsqr(u - u_prev))
-    g = ca.vertcat(R - model, ca.mtimes(G, ca.vertcat(x, u, t)))
     p = ca.vertcat(lam, prox_weight, x_prev, u_prev, row_weight, r0, *nonzeros)
-    nlp = {"x": ca.vertcat(x, u, t, R), "p": p, "f": f, "g": g}
-    common = {
+    nlps = {
+        "lifted": {"x": ca.vertcat(x, u, t, R), "p": p, "f": f,
+                   "g": ca.vertcat(R - lifted, ca.mtimes(G, ca.vertcat(x, u, t)))},
+        "exact": {"x": ca.vertcat(x, u, R), "p": p, "f": f, "g": R - exact},
+    }
+    cold = {
         "expand": expand,
         "print_time": False,
         "ipopt.print_level": 0,
@@ -191,7 +203,7 @@ def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _C
         "ipopt.linear_solver": "mumps",
     }
     warm = {
-        **common,
+        **cold,
         "ipopt.warm_start_init_point": "yes",
         "ipopt.warm_start_bound_push": 1e-9,
         "ipopt.warm_start_bound_frac": 1e-9,
@@ -201,9 +213,9 @@ def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _C
         "ipopt.mu_init": 1e-6,
         "ipopt.mu_strategy": "adaptive",
     }
-    with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
-        cold = ca.nlpsol("vibupdate_cold", "ipopt", nlp, common)
-    return _Compiled(nlp=nlp, options=common, warm_options=warm, cold=cold)
+    compiled = _Compiled(nlps=nlps, options={"cold": cold, "warm": warm})
+    compiled.solver("lifted", "cold")
+    return compiled
 
 
 class CasadiIpopt:
@@ -238,13 +250,14 @@ class CasadiIpopt:
             self._compiled = _compile(mats, problem, self.expand, settings)
         else:
             self._compiled = cache.get(key, lambda: _compile(mats, problem, self.expand, settings))
-        self._cold = self._compiled.cold
+        self._cold = self._compiled.solver("lifted", "cold")
         self._data = np.concatenate([problem.row_weight, problem.r0, *(A.data for A in mats)])
         self._row_weight = np.asarray(problem.row_weight, float)
         self._lbx = np.concatenate([problem.x_lower, problem.u_lower, envelope.t_lower, np.full(n_r, -np.inf)])
         self._ubx = np.concatenate([problem.x_upper, problem.u_upper, envelope.t_upper, np.full(n_r, np.inf)])
         self._lbg = np.concatenate([np.zeros(n_r), envelope.lower])
         self._ubg = np.concatenate([np.zeros(n_r), envelope.upper])
+        self._exact_entries = np.r_[0:n_x + n_u, n_x + n_u + n_b:n_x + n_u + n_b + n_r]
 
     def split(self, z):
         """``z`` -> (xbar, u, t, R)."""
@@ -264,22 +277,30 @@ class CasadiIpopt:
               mult_x=None, mult_g=None) -> StepOutcome:
         """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with the multipliers).
 
+        At ``lam = 1`` the exact NLP is solved (no ``t``, no McCormick rows: `_compile`); the
+        returned ``z`` then has ``t = xbar[px] u[pu]`` and zero multipliers for ``t`` and the
+        rows, so the outcome looks the same to the caller.
+
         Raises ``KeyboardInterrupt`` when SIGINT arrives during the solve (CasADi stops IPOPT
         at the next iteration and would otherwise report an ordinary failure,
         `vibupdate.inverse.interrupt`).
         """
-        n_x, n_u, _, _ = self.sizes
-        z0 = np.asarray(z0, float)
+        n_x, n_u, n_b, n_r = self.sizes
+        z0 = np.clip(np.asarray(z0, float), self._lbx, self._ubx)
         z_prev = z0 if z_prev is None else np.asarray(z_prev, float)
         p = np.concatenate([[lam, prox_weight], z_prev[:n_x], z_prev[n_x:n_x + n_u], self._data])
-        z0 = np.clip(z0, self._lbx, self._ubx)
-        args = dict(x0=z0, p=p, lbx=self._lbx, ubx=self._ubx, lbg=self._lbg, ubg=self._ubg)
+        exact = lam == 1.0
+        keep = self._exact_entries if exact else slice(None)
+        args = dict(x0=z0[keep], p=p, lbx=self._lbx[keep], ubx=self._ubx[keep],
+                    lbg=self._lbg[:n_r] if exact else self._lbg, ubg=self._ubg[:n_r] if exact else self._ubg)
         start = time.perf_counter()
         try:
-            solver = self._cold
+            solver = self._cold if not exact else self._compiled.solver("exact", "cold")
             if warm and mult_x is not None and mult_g is not None:
-                solver = self._compiled.warm_solver()
-                args.update(lam_x0=mult_x, lam_g0=mult_g)  # CasADi's names for the multipliers
+                solver = self._compiled.solver("exact" if exact else "lifted", "warm")
+                mult_x, mult_g = np.asarray(mult_x, float), np.asarray(mult_g, float)
+                # CasADi's names for the multipliers
+                args.update(lam_x0=mult_x[keep], lam_g0=mult_g[:n_r] if exact else mult_g)
             with self._compiled.lock, watch_sigint():
                 sol = solver(**args)
                 stats = solver.stats()
@@ -291,16 +312,23 @@ class CasadiIpopt:
         seconds = time.perf_counter() - start
         raw = str(stats.get("return_status", "unknown"))
         z = np.asarray(sol["x"]).ravel()
-        return StepOutcome(
-            z=z,
-            objective=self.fit(z),
-            iterations=int(stats.get("iter_count", -1)),
-            status=from_ipopt(raw),
-            raw_status=raw,
-            seconds=seconds,
-            mult_x=np.asarray(sol["lam_x"]).ravel(),
-            mult_g=np.asarray(sol["lam_g"]).ravel(),
-        )
+        m_x, m_g = np.asarray(sol["lam_x"]).ravel(), np.asarray(sol["lam_g"]).ravel()
+        if exact:
+            z, m_x, m_g = self._expand(z, m_x, m_g)
+        return StepOutcome(z=z, objective=self.fit(z), iterations=int(stats.get("iter_count", -1)),
+                           status=from_ipopt(raw), raw_status=raw, seconds=seconds, mult_x=m_x, mult_g=m_g)
+
+    def _expand(self, z, m_x, m_g):
+        """An exact NLP's point and multipliers in the lifted NLP's layout (``t = xbar u``)."""
+        n_x, n_u, n_b, n_r = self.sizes
+        x, u = z[:n_x], z[n_x:n_x + n_u]
+        t = np.clip(x[self.problem.prod_x] * u[self.problem.prod_u], self._lbx[n_x + n_u:n_x + n_u + n_b],
+                    self._ubx[n_x + n_u:n_x + n_u + n_b])
+        full = np.concatenate([x, u, t, z[n_x + n_u:]])
+        mult_x = np.zeros(full.size)
+        mult_x[self._exact_entries] = m_x
+        mult_g = np.concatenate([m_g, np.zeros(self._lbg.size - n_r)])
+        return full, mult_x, mult_g
 
 
 def build(problem: BilinearProblem, envelope: McCormick, options) -> CasadiIpopt:
