@@ -47,15 +47,19 @@ def best(fn, repeat):
 
 def interleaved(fns, repeat):
     """Best of ``repeat`` of each function, the runs interleaved (A B A B ...) so that a change
-    of the machine's load between them hits every function alike."""
+    of the machine's load between them hits every function alike. Returns the best wall
+    times, the best CPU times of this process (single-threaded work: on a shared machine they
+    leave out the time spent waiting for a core) and the last outputs."""
     times = [[] for _ in fns]
+    cpu = [[] for _ in fns]
     outs = [None] * len(fns)
     for _ in range(repeat):
         for i, fn in enumerate(fns):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             outs[i] = fn()
             times[i].append(time.perf_counter() - t0)
-    return [min(t) for t in times], outs
+            cpu[i].append(time.process_time() - c0)
+    return [min(t) for t in times], [min(c) for c in cpu], outs
 
 
 def measure(name, configurations, repeat):
@@ -70,7 +74,7 @@ def measure(name, configurations, repeat):
     full = update(configurations)
     t_cold = time.perf_counter() - t0
     compiled = CACHE.builds - builds
-    (t_full, t_first, t_fit), (full, first, fit) = interleaved(
+    (t_full, t_first, t_fit), (c_full, c_first, c_fit), (full, first, fit) = interleaved(
         [lambda: update(configurations), lambda: update(configurations, polish=PolishOptions(enabled=False)),
          lambda: frequency_fit(configurations)], repeat)
     nominal = [model_frequencies(c) for c in configurations]
@@ -100,6 +104,8 @@ def measure(name, configurations, repeat):
     print(f"  ratios to the classical fit: update() first call {t_cold / t_fit:.2f} (fit's own first call "
           f"{t_fit_first:.3f} s), update() best of {repeat} {t_full / t_fit:.2f}, first stage {t_first / t_fit:.2f}, "
           f"IPOPT solves {solves / t_fit:.2f}, polish {polish_s / t_fit:.2f}")
+    print(f"  CPU seconds, best of {repeat}: update() {c_full:.3f}, first stage {c_first:.3f}, classical fit "
+          f"{c_fit:.3f}; update() / classical fit {c_full / c_fit:.2f}")
 
 
 def main() -> None:
