@@ -111,6 +111,40 @@ def test_a_second_problem_of_the_same_structure_reuses_the_compiled_solver():
     assert result.success
 
 
+def test_sx_and_mx_builds_solve_alike():
+    """The default MX build and the SX build with expansion are the same NLP."""
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    mx = CasadiIpopt(problem, mccormick(problem), cache=None)
+    sx = CasadiIpopt(problem, mccormick(problem), expand=True, cache=None)
+    x0 = np.zeros(problem.n_x)
+    z0 = mx.join(x0, problem.u_start, lifted_values(problem, x0, problem.u_start),
+                 problem.residual(x0, problem.u_start))
+    for lam in (0.0, 1.0):
+        a, b = mx.solve(z0, lam), sx.solve(z0, lam)
+        assert a.status.ok and b.status.ok
+        assert a.objective == pytest.approx(b.objective, rel=1e-8, abs=1e-14)
+        np.testing.assert_allclose(a.z, b.z, atol=1e-8)
+
+
+def test_a_lambda_one_outcome_has_the_lifted_layout():
+    """At lambda = 1 the backend solves the NLP without t; the outcome still has t = xbar u and
+    zero multipliers for t and the McCormick rows, and a warm restart from it works."""
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    backend = CasadiIpopt(problem, mccormick(problem))
+    x0 = np.zeros(problem.n_x)
+    z0 = backend.join(x0, problem.u_start, lifted_values(problem, x0, problem.u_start),
+                      problem.residual(x0, problem.u_start))
+    out = backend.solve(z0, 1.0)
+    x, u, t, R = backend.split(out.z)
+    assert out.status.ok and out.z.size == z0.size
+    np.testing.assert_allclose(t, lifted_values(problem, x, u), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(R, problem.residual(x, u), atol=1e-9)
+    n_x, n_u, n_b, n_r = backend.sizes
+    assert not np.any(out.mult_x[n_x + n_u:n_x + n_u + n_b]) and not np.any(out.mult_g[n_r:])
+    again = backend.solve(out.z, 1.0, warm=True, mult_x=out.mult_x, mult_g=out.mult_g)
+    assert again.status.ok and again.objective <= out.objective * (1 + 1e-8) + 1e-15
+
+
 def test_another_structure_gets_its_own_solver():
     model = chain_model(5, list(TRUTH))
     M, K = model.matrices_at([TRUTH[p.name] for p in model.parameters])
