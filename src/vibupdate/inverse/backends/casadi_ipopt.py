@@ -15,9 +15,14 @@ random start) skip the build. The NLP is built in CasADi MX without expansion by
 IPOPT's own work dominates each iteration here, and the MX build is about ten times faster
 than the SX one (docs/method.md, section 6, and `benchmarks/RESULTS.md`).
 
-Two IPOPT instances share the NLP: a cold one (IPOPT's default start) and a warm one that
-re-uses the previous primal point and multipliers with small bound pushes; the warm one is
-built on its first use.
+**At ``lam = 1`` the NLP without the lifted variables.** There the residual no longer
+involves ``t`` and every ``(xbar, u)`` in its box leaves ``t = xbar[px] u[pu]`` feasible, so
+the NLP over ``[xbar, u, R]`` without ``t`` and the McCormick rows has the same minimizers and
+is about half the size (`_compile`); `CasadiIpopt.solve` uses it for every ``lam = 1`` step
+and returns the outcome in the lifted layout.
+
+Each NLP has a cold IPOPT instance (IPOPT's default start) and a warm one that re-uses the
+previous primal point and multipliers with small bound pushes, each built on first use.
 
 IPOPT's return codes map to `Status` by `IPOPT_STATUS`.
 """
