@@ -215,7 +215,7 @@ def run_point(subdivisions: int) -> dict:
     return {"subdivisions": subdivisions, "dofs": case.configurations[0].model.n_dofs,
             "total_s": time.perf_counter() - t0, "success": run.success,
             "parameter_error": _parameter_error(parameters, [updated[p.name] for p in parameters]),
-            "plots": len(plots), "peak_mb": _peak_mb()}
+            "warnings": [w[:300] for w in run.warnings], "plots": len(plots), "peak_mb": _peak_mb()}
 
 
 def examples_point(_: int = 0) -> dict:
