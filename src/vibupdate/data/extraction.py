@@ -234,7 +234,7 @@ def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, offset=(0.0, 0.0, 0.0)):
     return math.sqrt(max(var, 0.0)), du_dz
 
 
-def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
+def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles, threshold):
     """A zero of the fitted receptance refined on the lines around it; ``None`` when the
     refined zero leaves the window.
 
@@ -245,7 +245,11 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     ``c0 + c1 (x - z)`` (weights ``1/sigma``) and added to the undamped fitted receptance,
     whose zero in the window is returned with its standard error: ``(c0, c1)``'s covariance
     (inflated by the reduced chi-square and the residual's correlation) and the poles'.
-    Returns ``(zero, se)`` normalized.
+    Returns ``(zero, se, significant)`` (normalized; ``significant``: ``c^T cov_c^-1 c``
+    exceeds ``threshold``, the chi-square quantile of 2 degrees of freedom at the confidence).
+    The caller takes the local zero when its correction is significant or its standard error
+    is the smaller; an exact modal model (known-truth data) keeps the global zero, which uses
+    every line.
     """
     d = LOCAL_FRACTION * float(np.min(np.abs(xn - z)))
     near = np.nonzero(np.abs(x - z) <= d)[0]
@@ -258,6 +262,7 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     res = r - X @ c
     chi2 = 2.0 * float(res @ res) / max(res.size - 2, 1)  # weighted real components have variance 1/2
     cov_c = np.linalg.inv(X.T @ X) * 0.5 * max(1.0, chi2) * _correlation_inflation(res + 0j)
+    significant = float(c @ np.linalg.solve(cov_c, c)) > threshold
 
     def u(t):
         return float(_modal_basis(np.array([t]), xn, zeta, False)[0] @ coef) + c[0] + c[1] * (t - z)
@@ -269,7 +274,7 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     se_poles, du_dz = _zero_se(z_local, coef, np.zeros((coef.size, coef.size)), xn, zeta, cov_poles,
                                (c[0], c[1], z))
     g = np.array([1.0, z_local - z]) / du_dz
-    return z_local, math.sqrt(se_poles**2 + max(float(g @ cov_c @ g), 0.0))
+    return z_local, math.sqrt(se_poles**2 + max(float(g @ cov_c @ g), 0.0)), significant
 
 
 def _shapes(pairs, constants, se, n_modes):
@@ -450,6 +455,7 @@ class _Fitted:
 
 def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
+    gate = float(scipy.stats.chi2.ppf(confidence, 2))  # local correction significant at this level
     x, F, var, scales, wn, zeta, scale_w = fit.x, fit.F, fit.var, fit.scales, fit.wn, fit.zeta, fit.scale_w
     n = wn.size
     Phi = _modal_basis(x, wn, zeta)
@@ -472,8 +478,10 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
         index = 0
         for z in _zeros_of(x[fit.inside], coef, wn, zeta):
-            local = _local_zero(z, x, f, v, Phi, coef, wn, zeta, fit.cov_poles) if local_refit else None
-            z, se = local if local is not None else (z, _zero_se(z, coef, cov, wn, zeta, fit.cov_poles)[0])
+            se = _zero_se(z, coef, cov, wn, zeta, fit.cov_poles)[0]
+            local = _local_zero(z, x, f, v, Phi, coef, wn, zeta, fit.cov_poles, gate) if local_refit else None
+            if local is not None and (local[2] or local[1] < se):  # a significant correction, or more precise
+                z, se = local[:2]
             half = max(zq * se, FREQUENCY_FLOOR * z)
             if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
                 continue  # not located within the band (a residual-term artefact near an edge)
