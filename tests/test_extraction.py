@@ -260,6 +260,8 @@ def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
     zero = doc["antiresonances"][0]
     assert set(zero) >= {"response", "excitation", "index", "freq_hz", "freq_hz_interval"}
     assert (out / "fit.png").stat().st_size > 10000
+    assert doc["fit_band_hz"] == pytest.approx(doc["band_hz"], rel=1e-6)  # the data end at the band's top
+    assert [m["reported"] for m in doc["fitted_modes"]] == [True, True, True]
     # the written CSV files read back through the case-format readers
     natural_rows, zero_rows = read_frequency_csv(out / "frequencies.csv")
     assert [r["hz"] for r in natural_rows] == pytest.approx([n["freq_hz"] for n in natural], rel=1e-7)

@@ -9,12 +9,21 @@ bandwidths gave 0.16 % / 3 % errors and about 20 spurious zeros per trial; local
 
 Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DOF pairs):
 
+0. **Fit band.** Antiresonances depend on every mode's residue, and a mode just above the
+   band changes quickly across its top, which the residual terms below cannot follow. The
+   lines fitted therefore reach past the band (by default to twice its top, within the
+   data; ``fit_band``): every stable mode there is fitted as a mode with its own residues,
+   and only the modes and zeros in the band are reported.
 1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999)
-   of all FRFs with common poles, at several model orders; a pole in the band with
+   of all FRFs with common poles, at several model orders, each line weighted by ``1/sigma``
+   (the repeats' scatter, or without repeats the running median of the squared second
+   difference of the FRF over 21 lines: a noise estimate before any model, blind to the few
+   lines of a sharp peak; without it the noisy low-frequency lines of a receptance take the
+   poles); a pole in the fit band with
    ``0 < zeta < max_damping`` that recurs (frequency within 0.2 %, damping within 20 %) in at
    least ``min_stable`` orders is a mode (the stabilization check), unless the data cannot
    resolve it: a half-power bandwidth under 0.1 line spacings, or a response above twice the
-   noise on fewer than 5 lines of every FRF. ``n_modes`` keeps the modes whose model fits best
+   noise on fewer than 5 lines of every FRF. ``n_modes`` keeps the modes in the band whose model fits best
    (one pole per split peak). The poles are then refined by variable projection on the modal
    model (FRFs normalized to unit RMS, weights 1/sigma per line)::
 
@@ -31,8 +40,14 @@ Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DO
    fitted **undamped** receptance ``sum_r m_ir / (w_r^2 - omega^2) + ...`` (never minima of
    ``|H|``), found by sign changes of that function times ``prod (w_r^2 - omega^2)`` and
    refined by Brent's method; their covariance follows by the implicit-function rule from
-   the residues' covariance and the poles'. Real normal modes at the measured DOFs come from
-   a rank-one fit ``phi_a phi_b = m_ab`` of the modal constants (mass-normalized when a
+   the residues' covariance and the poles'. **Local refit**: the misfit of a real
+   structure's FRF is smooth along frequency, and near a shallow zero a small offset of the
+   real part moves the zero far; on the lines within a third of the distance to the nearest
+   pole the real part of the misfit is fitted by ``c0 + c1 (omega - z)`` and added to the
+   undamped receptance (`_local_zero`). That zero is taken when its standard error is the
+   smaller: the global zero's is inflated by a misfit (chi-square and correlation, below),
+   while on an exact model the global zero, which uses every line, stays. Real normal modes
+   at the measured DOFs come from a rank-one fit ``phi_a phi_b = m_ab`` of the modal constants (mass-normalized when a
    driving point is measured, else scaled to unit largest entry).
 
 Noise: with repeats, ``sigma^2`` per line is the variance of the mean of the repeats,
@@ -234,7 +249,7 @@ def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, offset=(0.0, 0.0, 0.0)):
     return math.sqrt(max(var, 0.0)), du_dz
 
 
-def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles, threshold):
+def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     """A zero of the fitted receptance refined on the lines around it; ``None`` when the
     refined zero leaves the window.
 
@@ -245,11 +260,10 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles, threshold):
     ``c0 + c1 (x - z)`` (weights ``1/sigma``) and added to the undamped fitted receptance,
     whose zero in the window is returned with its standard error: ``(c0, c1)``'s covariance
     (inflated by the reduced chi-square and the residual's correlation) and the poles'.
-    Returns ``(zero, se, significant)`` (normalized; ``significant``: ``c^T cov_c^-1 c``
-    exceeds ``threshold``, the chi-square quantile of 2 degrees of freedom at the confidence).
-    The caller takes the local zero when its correction is significant or its standard error
-    is the smaller; an exact modal model (known-truth data) keeps the global zero, which uses
-    every line.
+    Returns ``(zero, se)``, normalized. The caller takes the local zero when its standard
+    error is the smaller: the global one's is inflated by the misfit's chi-square and
+    correlation, so a misfitting model gives way, while an exact one (known-truth data) keeps
+    the global zero, which uses every line.
     """
     d = LOCAL_FRACTION * float(np.min(np.abs(xn - z)))
     near = np.nonzero(np.abs(x - z) <= d)[0]
@@ -262,7 +276,6 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles, threshold):
     res = r - X @ c
     chi2 = 2.0 * float(res @ res) / max(res.size - 2, 1)  # weighted real components have variance 1/2
     cov_c = np.linalg.inv(X.T @ X) * 0.5 * max(1.0, chi2) * _correlation_inflation(res + 0j)
-    significant = float(c @ np.linalg.solve(cov_c, c)) > threshold
 
     def u(t):
         return float(_modal_basis(np.array([t]), xn, zeta, False)[0] @ coef) + c[0] + c[1] * (t - z)
@@ -274,7 +287,7 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles, threshold):
     se_poles, du_dz = _zero_se(z_local, coef, np.zeros((coef.size, coef.size)), xn, zeta, cov_poles,
                                (c[0], c[1], z))
     g = np.array([1.0, z_local - z]) / du_dz
-    return z_local, math.sqrt(se_poles**2 + max(float(g @ cov_c @ g), 0.0)), significant
+    return z_local, math.sqrt(se_poles**2 + max(float(g @ cov_c @ g), 0.0))
 
 
 def _shapes(pairs, constants, se, n_modes):
@@ -453,13 +466,33 @@ class _Fitted:
     scale_w: float
 
 
+def _located_zeros(found, fit, Phi, confidence, local_refit):
+    """`ExtractedZero` of every FRF from its fitted zeros: the global zero, or the local refit's
+    (`_local_zero`) when its standard error is the smaller."""
+    zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
+    zeros = []
+    for pair, f, v, coef, cov, fitted in found:
+        index = 0
+        for z in fitted:
+            se = _zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)[0]
+            local = _local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
+            if local is not None and local[1] < se:
+                z, se = local
+            half = max(zq * se, FREQUENCY_FLOOR * z)
+            if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
+                continue  # not located within the band (a residual-term artefact near an edge)
+            index += 1
+            zeros.append(ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
+                                       (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w))))
+    return zeros
+
+
 def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
-    gate = float(scipy.stats.chi2.ppf(confidence, 2))  # local correction significant at this level
     x, F, var, scales, wn, zeta, scale_w = fit.x, fit.F, fit.var, fit.scales, fit.wn, fit.zeta, fit.scale_w
     n = wn.size
     Phi = _modal_basis(x, wn, zeta)
-    coefs, zeros, quality, constants, const_se = [], [], [], [], []
+    coefs, found, quality, constants, const_se = [], [], [], [], []
     for k, (pair, f, v) in enumerate(zip(frfs.pairs, F, var)):
         w = 1.0 / np.sqrt(v)
         coef, res = _linear_fit(Phi, f, w)
@@ -476,18 +509,8 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
         wd = wn * np.sqrt(1 - zeta**2)
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
-        index = 0
-        for z in _zeros_of(x[fit.inside], coef, wn, zeta):
-            se = _zero_se(z, coef, cov, wn, zeta, fit.cov_poles)[0]
-            local = _local_zero(z, x, f, v, Phi, coef, wn, zeta, fit.cov_poles, gate) if local_refit else None
-            if local is not None and (local[2] or local[1] < se):  # a significant correction, or more precise
-                z, se = local[:2]
-            half = max(zq * se, FREQUENCY_FLOOR * z)
-            if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
-                continue  # not located within the band (a residual-term artefact near an edge)
-            index += 1
-            zeros.append(ExtractedZero(pair[0], pair[1], index, float(z * scale_w),
-                                       (float((z - half) * scale_w), float((z + half) * scale_w))))
+        found.append((pair, f, v, coef, cov, _zeros_of(x[fit.inside], coef, wn, zeta)))
+    zeros = _located_zeros(found, fit, Phi, confidence, local_refit)
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
     modes = []
