@@ -55,6 +55,27 @@ def _undamped_basis(x, xn, zeta) -> np.ndarray:
     return cols
 
 
+def _undamped_derivatives(x, xn, zeta):
+    """Exact derivatives of `_undamped_basis` at ``x`` (n_x,): ``d/dx`` of every column,
+    shape (n_x, 2 n + 4), and of each mode's column ``-2 w_n s / (w_n^2 - x^2)``
+    (``s = sqrt(1 - zeta^2)``) with respect to its ``w_n`` and ``zeta``, each (n_x, n)."""
+    x = np.asarray(x, dtype=float)[:, None]
+    xn, zeta = np.asarray(xn, dtype=float)[None, :], np.asarray(zeta, dtype=float)[None, :]
+    n = xn.shape[1]
+    s = np.sqrt(1.0 - zeta**2)
+    gap = xn**2 - x**2
+    d_x = np.zeros((x.shape[0], 2 * n + 4))
+    d_x[:, 1:2 * n:2] = -4.0 * xn * s * x / gap**2
+    a = _poles(np.array([PSEUDO_POLE[0]]), np.array([PSEUDO_POLE[1]]))[0]
+    p, q = 1.0 / (1j * x[:, 0] - a), 1.0 / (1j * x[:, 0] - np.conj(a))
+    d_x[:, 2 * n] = (-1j * (p**2 + q**2)).real
+    d_x[:, 2 * n + 1] = (p**2 - q**2).real
+    d_x[:, 2 * n + 2] = 2.0 / x[:, 0] ** 3        # d/dx of Re 1/(j x)^2 = -1/x^2
+    d_wn = 2.0 * s * (xn**2 + x**2) / gap**2
+    d_zeta = 2.0 * xn * zeta / (s * gap)
+    return d_x, d_wn, d_zeta
+
+
 def _modal_basis(x, xn, zeta, damped: bool = True) -> np.ndarray:
     """Stage-2 columns: `_basis` (damped) or `_undamped_basis`."""
     return _basis(x, xn, zeta) if damped else _undamped_basis(x, xn, zeta)

@@ -69,22 +69,20 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 import scipy.optimize
 import scipy.stats
 
-from vibupdate.data._modal_fit import (_best_subset, _linear_fit, _modal_basis, _noise_from_differences,
-                                  _noise_from_repeats,
-                                  _correlation_inflation, _real_stack, _refine_poles, _residual_variance,
-                                  _significant, _split_residual, _stabilization, _stable_poles)
+from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
+                                       _noise_from_differences, _noise_from_repeats, _real_stack, _refine_poles,
+                                       _residual_variance, _significant, _split_residual, _stabilization,
+                                       _stable_poles)
+from vibupdate.data._zeros import _local_zero, _zero_se, _zeros_of
 from vibupdate.data.frf import FRFSet
 
 __all__ = ["ExtractedMode", "ExtractedZero", "FRFQuality", "Extraction", "extract"]
 
 FREQUENCY_FLOOR = 1e-5      # relative half-width floor of frequency and antiresonance intervals
 FIT_BAND_FACTOR = 2.0       # default fit band: up to this times the band's top
-LOCAL_FRACTION = 1 / 3      # local zero refit: window of this times the distance to the nearest pole
-LOCAL_LINES = 21            # ... holding at least this many lines
 DAMPING_FLOOR = 0.001       # relative half-width floor of damping-ratio intervals
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 
@@ -210,85 +208,7 @@ class Extraction:
         return naturals, zeros
 
 
-# ----------------------------------------------------------------------------- stage 2: zeros, shapes
-
-def _zeros_of(x, coef, xn, zeta):
-    """Real zeros of the undamped fitted receptance in (x[0], x[-1])."""
-    grid = np.linspace(x[0], x[-1], max(20 * x.size, 4000))
-
-    def g(t):
-        t = np.atleast_1d(t)
-        return (_modal_basis(t, xn, zeta, False) @ coef) * np.prod(xn[None, :] ** 2 - t[:, None] ** 2, axis=1)
-
-    values = g(grid)
-    idx = np.nonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0)[0]
-    return np.array([scipy.optimize.brentq(lambda t: g(t)[0], grid[i], grid[i + 1], xtol=1e-14) for i in idx])
-
-
-def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, offset=(0.0, 0.0, 0.0)):
-    """Standard error of a zero (normalized) by the implicit-function rule.
-
-    ``offset = (c0, c1, z0)`` adds ``c0 + c1 (t - z0)`` to the undamped fitted receptance
-    (the local correction of `_local_zero`)."""
-    c0, c1, z0 = offset
-
-    def u(t, c=coef, w=xn):
-        return float(_modal_basis(np.array([t]), w, zeta, False)[0] @ c) + c0 + c1 * (t - z0)
-
-    h = 1e-7 * z
-    du_dz = (u(z + h) - u(z - h)) / (2 * h)
-    b = _modal_basis(np.array([z]), xn, zeta, False)[0]
-    g_coef = -b / du_dz
-    n = xn.size
-    g_poles = np.zeros(2 * n)
-    for k in range(n):
-        step = np.zeros(n)
-        step[k] = 1e-7 * xn[k]
-        g_poles[k] = -(u(z, w=xn + step) - u(z, w=xn - step)) / (2 * step[k]) / du_dz
-    var = g_coef @ cov_coef @ g_coef + g_poles @ cov_poles @ g_poles
-    return math.sqrt(max(var, 0.0)), du_dz
-
-
-def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
-    """A zero of the fitted receptance refined on the lines around it; ``None`` when the
-    refined zero leaves the window.
-
-    The misfit ``f - Phi coef`` of a real structure's FRF is smooth along frequency (the modal
-    model is not exact), and near a shallow zero a small offset of the real part moves the
-    zero far. Within ``LOCAL_FRACTION`` of the distance from ``z`` to the nearest fitted pole
-    (at least ``LOCAL_LINES`` lines) the real part of the misfit is fitted by
-    ``c0 + c1 (x - z)`` (weights ``1/sigma``) and added to the undamped fitted receptance,
-    whose zero in the window is returned with its standard error: ``(c0, c1)``'s covariance
-    (inflated by the reduced chi-square and the residual's correlation) and the poles'.
-    Returns ``(zero, se)``, normalized. The caller takes the local zero when its standard
-    error is the smaller: the global one's is inflated by the misfit's chi-square and
-    correlation, so a misfitting model gives way, while an exact one (known-truth data) keeps
-    the global zero, which uses every line.
-    """
-    d = LOCAL_FRACTION * float(np.min(np.abs(xn - z)))
-    near = np.nonzero(np.abs(x - z) <= d)[0]
-    if near.size < LOCAL_LINES:
-        near = np.sort(np.argsort(np.abs(x - z))[:LOCAL_LINES])
-    w = 1.0 / np.sqrt(v[near])
-    X = np.column_stack([np.ones(near.size), x[near] - z]) * w[:, None]
-    r = (f[near] - Phi[near] @ coef).real * w
-    c = scipy.linalg.lstsq(X, r)[0]
-    res = r - X @ c
-    chi2 = 2.0 * float(res @ res) / max(res.size - 2, 1)  # weighted real components have variance 1/2
-    cov_c = np.linalg.inv(X.T @ X) * 0.5 * max(1.0, chi2) * _correlation_inflation(res + 0j)
-
-    def u(t):
-        return float(_modal_basis(np.array([t]), xn, zeta, False)[0] @ coef) + c[0] + c[1] * (t - z)
-
-    lo, hi = float(x[near[0]]), float(x[near[-1]])
-    if u(lo) * u(hi) >= 0:
-        return None
-    z_local = scipy.optimize.brentq(u, lo, hi, xtol=1e-14)
-    se_poles, du_dz = _zero_se(z_local, coef, np.zeros((coef.size, coef.size)), xn, zeta, cov_poles,
-                               (c[0], c[1], z))
-    g = np.array([1.0, z_local - z]) / du_dz
-    return z_local, math.sqrt(se_poles**2 + max(float(g @ cov_c @ g), 0.0))
-
+# ----------------------------------------------------------------------------- stage 2: shapes
 
 def _shapes(pairs, constants, se, n_modes):
     """Rank-one fit phi_a phi_b = m_ab per mode; returns (shapes, ses, normalization) per mode."""
