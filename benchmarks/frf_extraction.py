@@ -134,7 +134,8 @@ def out_of_band(seeds: int) -> None:
             hits += s["zero_hit"]
             rows[name] = (f, z, hits, t + time.process_time() - t0)
     print(f"\nmode 5 % above the band (chain, {seeds} seeds, {len(CHAIN_PAIRS)} FRFs)")
-    print(f"{'fit band':10} {'freq worst/mean %':>20} {'zeros worst/mean %':>20} {'zero coverage':>14} {'s/extraction':>13}")
+    print(f"{'fit band':10} {'freq worst/mean %':>20} {'zeros worst/mean %':>20} {'zero coverage':>14} "
+          f"{'s/extraction':>13}")
     for name, (f, z, hits, t) in rows.items():
         print(f"{name:10} {100 * max(f):.4f}/{100 * np.mean(f):.4f} {100 * max(z):>11.4f}/{100 * np.mean(z):.4f} "
               f"{np.mean(hits):>14.2f} {t / seeds:>13.3f}")

@@ -23,8 +23,8 @@ Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DO
    ``0 < zeta < max_damping`` that recurs (frequency within 0.2 %, damping within 20 %) in at
    least ``min_stable`` orders is a mode (the stabilization check), unless the data cannot
    resolve it: a half-power bandwidth under 0.1 line spacings, or a response above twice the
-   noise on fewer than 5 lines of every FRF. ``n_modes`` keeps the modes in the band whose model fits best
-   (one pole per split peak). The poles are then refined by variable projection on the modal
+   noise on fewer than 5 lines of every FRF. ``n_modes`` keeps the modes in the band whose
+   model fits best (one pole per split peak). The poles are then refined by variable projection on the modal
    model (FRFs normalized to unit RMS, weights 1/sigma per line)::
 
        H_i(s) = sum_r [A_ir / (s - lam_r) + conj(A_ir) / (s - conj(lam_r))]
@@ -47,8 +47,9 @@ Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DO
    undamped receptance (`_local_zero`). That zero is taken when its standard error is the
    smaller: the global zero's is inflated by a misfit (chi-square and correlation, below),
    while on an exact model the global zero, which uses every line, stays. Real normal modes
-   at the measured DOFs come from a rank-one fit ``phi_a phi_b = m_ab`` of the modal constants (mass-normalized when a
-   driving point is measured, else scaled to unit largest entry).
+   at the measured DOFs come from a rank-one fit ``phi_a phi_b = m_ab`` of the modal
+   constants (mass-normalized when a driving point is measured, else scaled to unit largest
+   entry).
 
 Noise: with repeats, ``sigma^2`` per line is the variance of the mean of the repeats,
 smoothed over 9 lines; without, the local mean square of the unweighted fit's residual over
