@@ -274,7 +274,8 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         Report this many of the stable modes in ``band`` (those whose model fits best);
         default all.
     orders : sequence of int, optional
-        Numbers of pole pairs of the stabilization check (default 2..10).
+        Numbers of pole pairs of the stabilization check (default 2..10; raise it when the
+        fit band holds more than about eight modes).
     min_stable : int
         Orders in which a pole must recur to count as a mode.
     max_damping : float
