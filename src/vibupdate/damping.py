@@ -283,7 +283,10 @@ def negative_bands(exponents, beta, top: float, *, n_grid: int = 4000) -> list[t
         start = float(grid[0])
     for k in range(1, grid.size):
         if (values[k - 1] < 0) != (values[k] < 0):
-            root = brentq(g, grid[k - 1], grid[k], xtol=1e-12 * top) if values[k - 1] * values[k] < 0 else grid[k]
+            if values[k - 1] * values[k] < 0:
+                root = brentq(g, grid[k - 1], grid[k], xtol=1e-12 * top)
+            else:   # g is exactly 0 at one end of the bracket: that grid point is the root
+                root = grid[k - 1] if values[k - 1] == 0 else grid[k]
             if values[k] < 0:
                 start = float(root)
             else:
