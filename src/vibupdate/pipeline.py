@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import importlib
-import shutil
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -24,7 +23,7 @@ import scipy.sparse as sp
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.io.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
+from vibupdate.io.outputs import MANIFEST, file_names, prepare_output, write_published
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
@@ -240,12 +239,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         identifiability["certified"] = _certified(case, result, certify, say)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
-    staged = staging_folder(target)
-    try:
-        write_outputs(staged, case, run)
-        publish(staged, target, case=case.name, version=__version__)
-    finally:
-        shutil.rmtree(staged, ignore_errors=True)
+    write_published(target, lambda staged: write_outputs(staged, case, run), case=case.name, version=__version__)
     say(f"wrote {target.path}/ (results.json, report.md, plots, matrices; {MANIFEST} lists them)")
     return run
 
