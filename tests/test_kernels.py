@@ -66,6 +66,27 @@ def test_massless_dofs_give_the_condensed_model_frequencies():
         modes(sysm.M, sysm.K, m.size + 1)
 
 
+def test_one_definition_of_massless_for_the_eigen_solver_and_the_admissibility_check():
+    """A rotation carrying a rounding-level mass (1e-16 of the largest, as exported files
+    print it) is massless for both `modes` and `definiteness`: the same DOFs, the same
+    finite modes as with exact zeros, no spurious mode far above the physical ones."""
+    from vibupdate.model.physical import definiteness
+
+    sysm = lumped_portal()
+    s = np.array([i for i, d in enumerate(sysm.dofs) if d.startswith("phi")])
+    M = sysm.M.tolil()
+    top = sysm.M.diagonal().max()
+    for i in s:
+        M[i, i] = 1e-16 * top
+    M = sp.csr_matrix(M)
+    np.testing.assert_array_equal(analysis.massless_dofs(M), s)
+    assert definiteness(M, sysm.K).massless == tuple(s)
+    omega_exact, _ = modes(sysm.M, sysm.K)
+    omega, _ = modes(M, sysm.K)
+    assert omega.size == omega_exact.size == sysm.M.shape[0] - s.size
+    np.testing.assert_allclose(omega, omega_exact, rtol=1e-9)
+
+
 def test_massless_dof_without_stiffness_is_named():
     sysm = lumped_portal()
     K = sysm.K.tolil()

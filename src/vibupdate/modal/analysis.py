@@ -20,8 +20,10 @@ Two paths, chosen by size (`DENSE_LIMIT`):
 
 Positive semidefinite mass matrices (massless DOFs, as exported by FE packages that lump
 masses on translations only) are supported when ``K`` is positive definite on the massless
-DOFs. A DOF is massless when its diagonal mass entry is exactly zero (for a positive
-semidefinite ``M`` its whole row is then zero). The dense path condenses those DOFs out
+DOFs. A DOF is massless when its diagonal mass entry is at most `MASSLESS_TOL` times the
+largest one in magnitude (`massless_dofs`, the one definition used by the eigen-solvers and by
+the admissibility check of `vibupdate.model.physical`; for a positive semidefinite ``M`` the
+whole row is then zero to that tolerance). The dense path condenses those DOFs out
 exactly (static condensation, ``u_s = -K_ss^-1 K_sm u_m``); the sparse path needs nothing
 special, since shift-invert only factorizes ``K - sigma M``. Mode vectors are always returned
 full length; a model with ``n_s`` massless DOFs has ``n - n_s`` finite natural frequencies.
@@ -35,7 +37,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 __all__ = ["modes", "mode_residuals", "receptance", "adjunct", "antiresonances", "mac", "massless_dofs",
-           "DENSE_LIMIT", "DENSE_MAX", "ModalAccuracyError"]
+           "MASSLESS_TOL", "DENSE_LIMIT", "DENSE_MAX", "ModalAccuracyError"]
 
 #: Models up to this many DOFs use dense LAPACK; larger ones sparse shift-invert.
 DENSE_LIMIT = 400
@@ -45,6 +47,9 @@ DENSE_MAX = 6000
 #: Largest accepted backward error ``||K phi - lam M phi|| / ((||K|| + |lam| ||M||) ||phi||)``
 #: of a sparse eigenpair.
 RESIDUAL_TOL = 1e-8
+#: A DOF whose diagonal mass entry is at most this fraction of the largest one (in magnitude)
+#: carries no mass (`massless_dofs`).
+MASSLESS_TOL = 1e-13
 #: Bytes a dense damped receptance may hold in its stack of dynamic stiffness matrices.
 _CHUNK_BYTES = 32 * 2**20
 
@@ -62,7 +67,13 @@ def _diagonal(A) -> np.ndarray:
 
 
 def massless_dofs(M) -> np.ndarray:
-    """Indices of the DOFs whose diagonal mass entry is exactly zero.
+    """Indices of the massless DOFs: ``|M_ii| <= MASSLESS_TOL * max_j |M_jj|``.
+
+    The one definition of a massless DOF in vibupdate (eigen-solvers, receptances and the
+    admissibility check of `vibupdate.model.physical`). A relative tolerance, so that an
+    exported model whose rotations carry a rounding-level mass is treated as the massless
+    model it stands for, and not as one with spurious modes at ~1e7 times the highest
+    physical frequency.
 
     Parameters
     ----------
@@ -71,8 +82,11 @@ def massless_dofs(M) -> np.ndarray:
     Returns
     -------
     ndarray of int, shape (n_s,)
+        Every DOF when no diagonal entry is nonzero.
     """
-    return np.flatnonzero(_diagonal(M) == 0)
+    d = np.abs(_diagonal(M))
+    scale = float(d.max()) if d.size else 0.0
+    return np.flatnonzero(d <= MASSLESS_TOL * scale)
 
 
 # -- dense eigen-solver -------------------------------------------------------------------
@@ -229,7 +243,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
-        Symmetric mass (positive semidefinite: DOFs with zero diagonal mass are massless) and
+        Symmetric mass (positive semidefinite: DOFs without diagonal mass, `massless_dofs`, are massless) and
         stiffness matrices (positive definite on the massless DOFs).
     n_modes : int, optional
         How many of the lowest modes; by default all finite ones (dense) or 20 (sparse).
