@@ -271,10 +271,10 @@ def test_damped_receptance_over_many_lines_by_the_state_space_modes(monkeypatch)
     C = 1e-4 * s.K + 0.2 * s.M
     w = np.linspace(0.0, 400.0, 120)  # over 50 lines: one 2n eigen-solve of the first-order form
     used = []
-    original = analysis._state_space_receptance
-    monkeypatch.setattr(analysis, "_state_space_receptance", lambda *a: used.append(1) or original(*a))
+    original = analysis._state_space_receptances
+    monkeypatch.setattr(analysis, "_state_space_receptances", lambda *a: used.append(1) or original(*a))
     h = receptance(s.M, s.K, 3, 17, w, C)
-    assert used and original(s.M, s.K, C, 3, 17, w) is not None  # the modal form was accepted
+    assert used and original(s.M, s.K, C, np.array([3]), np.array([17]), w) is not None  # the modal form was accepted
     n = s.M.shape[0]
     M, K, Cd = s.M.toarray(), s.K.toarray(), C.toarray()
     direct = np.array([np.linalg.solve(K + 1j * x * Cd - x**2 * M, np.eye(n)[:, 17])[3] for x in w])

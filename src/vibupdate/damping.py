@@ -107,16 +107,36 @@ class CaugheyLaw:
     beta: tuple[float, ...]
     n_modes: int
 
-    def receptance(self, M, K, r: int, c: int, omega) -> np.ndarray:
-        """``h_rc(j omega)`` (m/N) by modal superposition of the lowest ``n_modes`` modes, each
-        with its modal damping ratio from the law; exact for these modes (the law is classical
-        damping), truncated above them. ``omega``: shape (n_f,), rad/s."""
+    def receptances(self, M, K, pairs, omega) -> np.ndarray:
+        """``h_rc(j omega)`` (m/N) of every ``(r, c)`` in ``pairs`` by modal superposition of the
+        lowest ``n_modes`` modes (one eigen-solve for all pairs), each with its modal damping
+        ratio from the law; exact for these modes (the law is classical damping), truncated
+        above them.
+
+        Parameters
+        ----------
+        M, K : sparse or ndarray, shape (n, n)
+        pairs : sequence of (int, int), length n_pairs
+            Response and excitation DOF indices (0-based).
+        omega : array_like, shape (n_f,)
+            Angular frequencies, rad/s.
+
+        Returns
+        -------
+        ndarray of complex, shape (n_pairs, n_f)
+        """
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         w, Phi = modes(M, K, None if self.n_modes >= M.shape[0] else self.n_modes)
+        rows = np.array([p[0] for p in pairs], dtype=int)
+        cols = np.array([p[1] for p in pairs], dtype=int)
         xi = np.zeros_like(w)
         xi[w > 0] = modal_damping(self.exponents, self.beta, w[w > 0])
-        den = w[None, :] ** 2 - omega[:, None] ** 2 + 2j * xi[None, :] * w[None, :] * omega[:, None]
-        return (Phi[r] * Phi[c] / den).sum(axis=1)
+        den = w[:, None] ** 2 - omega[None, :] ** 2 + 2j * xi[:, None] * w[:, None] * omega[None, :]
+        return (Phi[rows] * Phi[cols]) @ (1.0 / den)
+
+    def receptance(self, M, K, r: int, c: int, omega) -> np.ndarray:
+        """``h_rc(j omega)`` of one pair (`receptances`), shape (n_f,), m/N."""
+        return self.receptances(M, K, [(r, c)], omega)[0]
 
 
 def caughey_damping(M, K, exponents, beta, top_mode: int):
