@@ -135,8 +135,8 @@ def test_frf_plot_draws_the_nominal_model_without_the_updated_damping(tmp_path, 
     from vibupdate.report import plots
 
     calls = []
-    real = plots.receptance
-    monkeypatch.setattr(plots, "receptance", lambda M, K, r, c, w, C=None: calls.append(C) or real(M, K, r, c, w, C))
+    real = plots.receptances
+    monkeypatch.setattr(plots, "receptances", lambda M, K, pairs, w, C=None: calls.append(C) or real(M, K, pairs, w, C))
     cfg = cantilever.configurations()[0]
     M, K = cfg.model.matrices()
     C = caughey_matrix(M, K, [0.0, 1.0], [1.0, 1e-5])
