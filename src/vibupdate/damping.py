@@ -139,14 +139,15 @@ class CaugheyLaw:
         return self.receptances(M, K, [(r, c)], omega)[0]
 
 
-def caughey_damping(M, K, exponents, beta, top_mode: int):
+def caughey_damping(M, K, exponents, beta, top_mode: int, *, spectrum=None):
     """The damping model of a Caughey series for receptances and export: the matrix
     `caughey_matrix` (N s/m, dense n x n) up to `DENSE_LIMIT` DOFs, above that its modal law
     (`CaugheyLaw`) over ``max(40, 2 top_mode + 10)`` modes, where ``top_mode`` is the highest
     measured mode: plots reach 1.25 times the highest measured frequency, which about twice as
-    many modes cover with a margin on the sparse models this path is for."""
+    many modes cover with a margin on the sparse models this path is for. ``spectrum``: every
+    finite mode of ``(M, K)`` when already computed (`caughey_matrix`)."""
     if M.shape[0] <= DENSE_LIMIT:
-        return caughey_matrix(M, K, exponents, beta)
+        return caughey_matrix(M, K, exponents, beta, spectrum=spectrum)
     return CaugheyLaw(tuple(float(y) for y in exponents), tuple(float(b) for b in beta), max(40, 2 * top_mode + 10))
 
 
@@ -241,13 +242,17 @@ def fit_caughey(omega, ratios, exponents, weights=None, labels=None, *,
     return DampingFit(Y, beta, omega, xi, _theta(omega, Y) @ beta, W, labels, condition, tuple(notes))
 
 
-def caughey_matrix(M, K, exponents, beta) -> np.ndarray:
+def caughey_matrix(M, K, exponents, beta, *, spectrum=None) -> np.ndarray:
     """Damping matrix of a Caughey series (Eq. 20) without matrix powers.
 
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
     exponents, beta : array_like, shape (n_h,)
+    spectrum : (ndarray, ndarray), optional
+        Every finite mode of ``(M, K)``, ``(omega, Phi)`` of shapes (n_f,) rad/s and (n, n_f)
+        mass-normalized, when already computed (`vibupdate.inverse.correlation.ModelFrequencies`
+        ``.spectrum``); solved here otherwise.
 
     Returns
     -------
@@ -255,7 +260,7 @@ def caughey_matrix(M, K, exponents, beta) -> np.ndarray:
         ``C = M Phi diag(sum_h beta_h w^(2h)) Phi^T M`` (N s/m), symmetric.
     """
     Y = _check_exponents(exponents)
-    omega, Phi = modes(M, K)
+    omega, Phi = modes(M, K) if spectrum is None else spectrum
     if np.any(omega <= 0) and np.any(Y < 0):
         raise ValueError("a Caughey series with negative exponents needs a model without rigid-body modes")
     d = np.zeros_like(omega)
@@ -321,12 +326,17 @@ def _hz_band(low: float, high: float) -> str:
     return f"{low / (2 * np.pi):.4g}-{high / (2 * np.pi):.4g} Hz"
 
 
-def _checked_frequencies(configurations, xbar) -> list[np.ndarray]:
+def _checked_frequencies(configurations, xbar, freqs=None) -> list[np.ndarray]:
     """Natural frequencies (rad/s) of each configuration's updated model checked by
-    `damping_sanity`: every mode where C is exported (up to DENSE_LIMIT DOFs); above, C is
-    kept as its law and the modes checked are the lowest LARGE_MODEL_CHECKED_MODES."""
+    `damping_sanity`: every mode where C is exported (up to DENSE_LIMIT DOFs; the
+    ``spectrum`` of ``freqs`` when given); above, C is kept as its law and the modes checked
+    are the lowest LARGE_MODEL_CHECKED_MODES."""
     out = []
-    for cfg in configurations:
+    for k, cfg in enumerate(configurations):
+        spectrum = freqs[k].spectrum if freqs is not None else None
+        if spectrum is not None:
+            out.append(spectrum[0])
+            continue
         M, K = cfg.model.matrices(xbar)
         n = M.shape[0]
         out.append(modes(M, K)[0] if n <= DENSE_LIMIT else modes(M, K, min(n - 1, LARGE_MODEL_CHECKED_MODES))[0])
@@ -411,18 +421,32 @@ class DampingStage:
                 "mean_damping_error_rayleigh_pct": self.rayleigh.mean_error_pct}
 
 
-def damping_data(configurations, xbar=None):
-    """Measured ratios with the paired updated-model frequencies: (omega, ratios, labels)."""
+def _modal_data(configurations, freqs):
+    """``freqs`` as a list in the order of ``configurations`` (a mapping is keyed by name)."""
+    if freqs is None:
+        return None
+    if isinstance(freqs, dict):
+        return [freqs[c.name] for c in configurations]
+    return list(freqs)
+
+
+def damping_data(configurations, xbar=None, freqs=None):
+    """Measured ratios with the paired updated-model frequencies: (omega, ratios, labels).
+
+    ``freqs``: the `vibupdate.inverse.correlation.ModelFrequencies` of each configuration at
+    ``xbar`` (a sequence, or a mapping by configuration name such as ``UpdateResult.modal``)
+    when already computed; solved here otherwise."""
     from vibupdate.inverse.correlation import model_frequencies
 
+    freqs = _modal_data(configurations, freqs)
     omega, ratios, labels = [], [], []
-    for cfg in configurations:
-        freqs = None
+    for i, cfg in enumerate(configurations):
+        paired = freqs[i] if freqs is not None else None
         for k, f in enumerate(cfg.natural):
             if f.damping_ratio is None:
                 continue
-            freqs = freqs or model_frequencies(cfg, xbar)
-            omega.append(freqs.natural[k])
+            paired = paired or model_frequencies(cfg, xbar, zeros=False)
+            omega.append(paired.natural[k])
             ratios.append(f.damping_ratio)
             labels.append((cfg.name, k + 1))
     if not ratios:
@@ -442,19 +466,23 @@ def _expand_weights(weights, labels):
     return weights
 
 
-def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), weights=None) -> DampingStage:
+def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), weights=None, *,
+                     freqs=None) -> DampingStage:
     """Second stage on the updated model (``xbar``; nominal if None).
 
     ``weights``: None, one weight per measured ratio (in configuration and mode order), a full
     matrix ``W``, or a mapping ``{mode number: weight}`` applied in every configuration.
+    ``freqs``: the modal data of the configurations at ``xbar`` when already computed
+    (``UpdateResult.modal``; `damping_data`): then no eigen-solve is repeated on the dense path.
     """
-    omega, ratios, labels = damping_data(configurations, xbar)
+    freqs = _modal_data(configurations, freqs)
+    omega, ratios, labels = damping_data(configurations, xbar, freqs)
     W = _expand_weights(weights, labels)
     caughey = fit_caughey(omega, ratios, exponents, W, labels)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DampingWarning)
         rayleigh = fit_caughey(omega, ratios, [0.0, 1.0], None, labels)
-    frequencies = _checked_frequencies(configurations, xbar)  # one eigen-solve per configuration for both checks
+    frequencies = _checked_frequencies(configurations, xbar, freqs)  # one spectrum per configuration for both checks
     checks = (damping_sanity(caughey, configurations, xbar, f"Caughey fit (Y = {caughey.exponents.tolist()})",
                              frequencies=frequencies)
               + damping_sanity(rayleigh, configurations, xbar, "Rayleigh baseline", frequencies=frequencies))

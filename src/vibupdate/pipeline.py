@@ -63,11 +63,13 @@ def _identifiability(result: UpdateResult) -> dict:
             "undetermined_combinations": [describe_direction(names, v) for v in s["null_directions"]]}
 
 
-def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str], dict]:
+def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
+    """The second stage at ``xbar``; ``freqs``: the configurations' modal data there when
+    already computed (``UpdateResult.modal``)."""
     options = case.damping or DampingOptions()
     if not any(f.damping_ratio is not None for c in case.configurations for f in c.natural):
         return None, [], {}
-    _, ratios, labels = damping_data(case.configurations, xbar)
+    _, ratios, labels = damping_data(case.configurations, xbar, freqs)
     factors = dict(options.mode_weights)
     weights = np.array([factors.get(mode, 1.0) for _, mode in labels])
     half = _damping_half_widths(case, labels)
@@ -79,7 +81,7 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     notes = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DampingWarning)
-        stage = identify_damping(case.configurations, xbar, options.exponents, weights)
+        stage = identify_damping(case.configurations, xbar, options.exponents, weights, freqs=freqs)
     notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
     notes += list(stage.warnings)
     for n in notes:
@@ -219,7 +221,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
-    stage, notes, info = _damping_stage(case, result.xbar, say)
+    stage, notes, info = _damping_stage(case, result.xbar, say, result.modal)
     notes = list(checked.warnings) + notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:

@@ -276,8 +276,9 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     case : Case
         The case (its configurations give the nominal models and measured data).
     result : UpdateResult
-        First stage. Its ``frequencies`` rows and ``mac`` are used as they are (no modal
-        analysis is repeated for them); ``checks`` and ``warnings`` when it has them.
+        First stage. Its ``frequencies`` rows, ``mac`` and updated modal data (``modal``: the
+        modes of the MAC matrix, the spectrum of the Caughey ``C``) are used as they are: no
+        modal analysis is repeated here; ``checks`` and ``warnings`` when it has them.
     stage : DampingStage, optional
         Second stage; without it no ``C`` and no damping rows.
     identifiability, damping_model : dict, optional
@@ -289,7 +290,6 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     """
     from vibupdate import __version__
     from vibupdate.modal.analysis import mac as mac_of
-    from vibupdate.modal.analysis import modes
     from vibupdate.damping import caughey_damping
 
     configurations = case.configurations
@@ -312,9 +312,11 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         M, K = result.matrices[cfg.name]
         M0, K0 = cfg.model.matrices()
         entry = {"M": M, "K": K, "nominal": (M0, K0, None)}
+        modal = result.modal.get(cfg.name)   # the updated modes: never solved again here
         if stage is not None:   # a dense C on small models, its modal law on large ones
             model_c = caughey_damping(M, K, stage.caughey.exponents, stage.caughey.beta,
-                                      max((f.mode for f in cfg.natural), default=1))
+                                      max((f.mode for f in cfg.natural), default=1),
+                                      spectrum=modal.spectrum if modal is not None else None)
             entry["C" if isinstance(model_c, np.ndarray) else "damping_law"] = model_c
         matrices[cfg.name] = entry
         dofs[cfg.name] = list(cfg.model.dofs)
@@ -324,9 +326,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         if measured:
             names = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
             X = np.array([[f.shape.midpoint.get(d, 0.0) for d in names] for f in measured]).T
-            declared = [f.mode - 1 for f in cfg.natural]
-            _, Phi = modes(M, K, min(max(declared) + 1, M.shape[0]))
-            Phi = Phi[:, declared]   # the declared modes, not the lowest ones
+            Phi = modal.Phi   # the declared modes, not the lowest ones
             mac_matrix[cfg.name] = {"dofs": names, "values": mac_of(X, Phi[[cfg.model.dof(d) for d in names]])}
     run_warnings = tuple(str(w) for w in getattr(result, "warnings", ())) + tuple(str(w) for w in warnings)
     return RunResult(

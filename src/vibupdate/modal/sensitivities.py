@@ -29,7 +29,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.modal.analysis import DENSE_LIMIT, adjunct, antiresonances
+from vibupdate.modal.analysis import DENSE_LIMIT, _dense_modes, adjunct, antiresonances
 
 __all__ = [
     "eigenvalue_derivatives",
@@ -150,8 +150,8 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     Kr = adjunct(K, r, c)
     Mr = Mr.toarray() if sp.issparse(Mr) else np.asarray(Mr)
     Kr = Kr.toarray() if sp.issparse(Kr) else np.asarray(Kr)
-    if r == c:
-        lam, V = sla.eigh(Kr, Mr, driver="gvd")
+    if r == c:   # symmetric: the solver of `antiresonances` (reciprocal pencil, massless DOFs condensed)
+        lam, V = _dense_modes(Mr, Kr)
         keep = lam > 0
         lam, V = lam[keep][:n_zeros], V[:, keep][:, :n_zeros]
         return lam, V, V
