@@ -135,7 +135,7 @@ def test_large_model_receptance_equals_the_modal_sum_of_all_modes():
     sysm = refined_frame()
     omega, Phi = modes(sysm.M, sysm.K)
     w = np.concatenate([0.5 * (omega[:5] + omega[1:6]), [0.0]])
-    r, c = sysm.index("x6"), sysm.index("y10")
+    r, c = sysm.dof("x6"), sysm.dof("y10")
     h = receptance(sysm.M, sysm.K, r, c, w)  # one sparse LU per frequency
     modal = (Phi[r] * Phi[c]) @ (1.0 / (omega[:, None] ** 2 - w[None] ** 2))
     np.testing.assert_allclose(h.real, modal, rtol=1e-9)  # measured 7e-11
@@ -149,7 +149,7 @@ def test_sparse_adjunct_antiresonances_equal_the_dense_ones(pair, rtol):
     5e-10 and 1.3e-9 apart)."""
     sysm = refined_frame()
     M, K = sysm.M, sysm.K
-    r, c = sysm.index(pair[0]), sysm.index(pair[1])
+    r, c = sysm.dof(pair[0]), sysm.dof(pair[1])
     z_dense = antiresonances(M, K, r, c, dense=True)
     z, V = antiresonances(M, K, r, c, with_vectors=True, n_zeros=6)
     assert z.size == 6
@@ -252,7 +252,7 @@ def test_large_model_with_massless_dofs_by_shift_invert():
     w_dense, _ = modes(sysm.M, sysm.K, 6, dense=True)
     np.testing.assert_allclose(omega, w_dense, rtol=1e-8)
     assert mode_residuals(sysm.M, sysm.K, omega, Phi).max() < 1e-13
-    r = sysm.index("xL75")
+    r = sysm.dof("xL75")
     np.testing.assert_allclose(antiresonances(sysm.M, sysm.K, r, r, n_zeros=5),
                                antiresonances(sysm.M, sysm.K, r, r, dense=True)[:5], rtol=1e-8)
 

@@ -6,13 +6,13 @@ force at DOF ``c`` (m/N).
 Two paths, chosen by size (`DENSE_LIMIT`):
 
 * **dense** (small models): LAPACK on the whole pencil. The eigenvalues come from the
-  *reciprocal* pencil ``M phi = mu (K - sigma M) phi``, ``lam = sigma + 1/mu``, solved by the
+  *reciprocal* pencil ``M phi = mu (K - sigma M) phi``, ``eigval = sigma + 1/mu``, solved by the
   full ``scipy.linalg.eigh`` (no subset driver). Its absolute error in ``mu`` is about
-  ``n eps mu_max``, so the relative error of mode ``k`` is about ``n eps lam_k / lam_1``:
+  ``n eps mu_max``, so the relative error of mode ``k`` is about ``n eps eigval_k / eigval_1``:
   machine precision for the lowest modes, which are the measured ones. The direct pencil
-  ``K phi = lam M phi`` has absolute error about ``n eps lam_max`` instead, i.e. a relative
-  error ``n eps lam_max / lam_k`` that reaches 1e-9..1e-8 on the refined frames of the
-  benchmarks (``lam_max / lam_1`` ~ 1e8); the subset driver measured 1.1e-8 at 305 DOFs.
+  ``K phi = eigval M phi`` has absolute error about ``n eps eigval_max`` instead, i.e. a relative
+  error ``n eps eigval_max / eigval_k`` that reaches 1e-9..1e-8 on the refined frames of the
+  benchmarks (``eigval_max / eigval_1`` ~ 1e8); the subset driver measured 1.1e-8 at 305 DOFs.
 * **sparse** (large models): shift-invert Lanczos / Arnoldi (ARPACK) with a sparse LU of
   ``K - sigma M``, one step of inverse iteration on every returned vector and a residual
   check per mode (`mode_residuals`); a mode whose backward error exceeds the tolerance raises
@@ -44,8 +44,8 @@ DENSE_LIMIT = 400
 #: Largest model whose *every* mode is computed (dense): 6,000 DOFs hold ~0.3 GB per matrix and
 #: LAPACK needs several; above this, asking for all modes is an error, not a swap storm.
 DENSE_MAX = 6000
-#: Largest accepted backward error ``||K phi - lam M phi|| / ((||K|| + |lam| ||M||) ||phi||)``
-#: of a sparse eigenpair.
+#: Largest accepted backward error of a sparse eigenpair,
+#: ``||K phi - eigval M phi|| / ((||K|| + |eigval| ||M||) ||phi||)``.
 RESIDUAL_TOL = 1e-8
 #: A DOF whose diagonal mass entry is at most this fraction of the largest one (in magnitude)
 #: carries no mass (`massless_dofs`).
@@ -91,39 +91,40 @@ def massless_dofs(M) -> np.ndarray:
 
 # -- dense eigen-solver -------------------------------------------------------------------
 def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
-    """All eigenpairs of ``K phi = lam M phi`` (M positive definite).
+    """All eigenpairs of ``K phi = eigval M phi`` (M positive definite).
 
     The reciprocal pencil ``M phi = mu (K - sigma M) phi`` resolves the low modes to about
-    ``n eps lam_k / lam_1``; the direct pencil resolves the high ones to ``n eps lam_max / lam_k``.
+    ``n eps eigval_k / eigval_1``; the direct pencil resolves the high ones to
+    ``n eps eigval_max / eigval_k``.
     When the spectrum spans more than six decades both are solved and spliced at the geometric
     mean of the extreme eigenvalues, so every mode keeps the better of the two.
 
-    Returns ``lam`` ascending and ``Phi`` with ``Phi.T M Phi = I``.
+    Returns ``eigval`` ascending and ``Phi`` with ``Phi.T M Phi = I``.
     """
     sigma = 0.0
-    lam_direct = V_direct = None
+    eigval_direct = V_direct = None
     try:
         mu, V = sla.eigh(M, K)
     except (sla.LinAlgError, ValueError):
         # K is not positive definite (rigid-body modes or an unstable parameter point): shift
         # below the lowest eigenvalue, estimated by the direct pencil.
-        lam_direct, V_direct = _direct_eigh(K, M)
-        spread = max(abs(lam_direct[0]), 1e-6 * abs(lam_direct[-1]), 1e-300)
-        sigma = lam_direct[0] - spread
+        eigval_direct, V_direct = _direct_eigh(K, M)
+        spread = max(abs(eigval_direct[0]), 1e-6 * abs(eigval_direct[-1]), 1e-300)
+        sigma = eigval_direct[0] - spread
         mu, V = sla.eigh(M, K - sigma * M)
     mu, V = mu[::-1], V[:, ::-1]
     if mu[-1] < 1e-6 * mu[0]:
-        if lam_direct is None:
-            lam_direct, V_direct = _direct_eigh(K, M)
-        split = np.sqrt((sigma + 1.0 / mu[0]) * lam_direct[-1])
+        if eigval_direct is None:
+            eigval_direct, V_direct = _direct_eigh(K, M)
+        split = np.sqrt((sigma + 1.0 / mu[0]) * eigval_direct[-1])
         with np.errstate(divide="ignore"):
             n_low = int(np.sum((mu > 0) & (sigma + 1.0 / mu < split)))
-        lam = np.concatenate([sigma + 1.0 / mu[:n_low], lam_direct[n_low:]])
+        eigval = np.concatenate([sigma + 1.0 / mu[:n_low], eigval_direct[n_low:]])
         V = np.concatenate([V[:, :n_low], V_direct[:, n_low:]], axis=1)
     else:
-        lam = sigma + 1.0 / mu
+        eigval = sigma + 1.0 / mu
     V = V / np.sqrt(np.einsum("ij,ij->j", V, M @ V))
-    return lam, V
+    return eigval, V
 
 
 def _direct_eigh(K: np.ndarray, M: np.ndarray):
@@ -147,7 +148,7 @@ def _condensation(K: np.ndarray, s: np.ndarray, m: np.ndarray):
 def _dense_modes(M, K):
     """All finite eigenpairs of a dense pencil, massless DOFs condensed exactly.
 
-    Returns ``lam`` (n_f,) ascending and ``Phi`` (n, n_f), mass-normalized, full length.
+    Returns ``eigval`` (n_f,) ascending and ``Phi`` (n, n_f), mass-normalized, full length.
     """
     Md, Kd = _dense(M).astype(float), _dense(K).astype(float)
     n = Md.shape[0]
@@ -159,11 +160,11 @@ def _dense_modes(M, K):
     m = np.setdiff1d(np.arange(n), s)
     _, G = _condensation(Kd, s, m)
     Kc = Kd[np.ix_(m, m)] - Kd[np.ix_(m, s)] @ G
-    lam, V = _reciprocal_eigh(0.5 * (Kc + Kc.T), Md[np.ix_(m, m)])
+    eigval, V = _reciprocal_eigh(0.5 * (Kc + Kc.T), Md[np.ix_(m, m)])
     Phi = np.empty((n, V.shape[1]))
     Phi[m] = V
     Phi[s] = -G @ V
-    return lam, Phi
+    return eigval, Phi
 
 
 # -- sparse eigen-solver ------------------------------------------------------------------
@@ -204,10 +205,10 @@ def mode_residuals(M, K, omega, Phi) -> np.ndarray:
     """
     Ms, Ks = sp.csr_matrix(M), sp.csr_matrix(K)
     omega = np.atleast_1d(np.asarray(omega, dtype=float))
-    lam = np.sign(omega) * omega**2
+    eigval = np.sign(omega) * omega**2
     Phi = np.asarray(Phi).reshape(Ms.shape[0], -1)
-    R = Ks @ Phi - (Ms @ Phi) * lam
-    scale = (_norm1(Ks) + np.abs(lam) * _norm1(Ms)) * np.linalg.norm(Phi, axis=0)
+    R = Ks @ Phi - (Ms @ Phi) * eigval
+    scale = (_norm1(Ks) + np.abs(eigval) * _norm1(Ms)) * np.linalg.norm(Phi, axis=0)
     return np.linalg.norm(R, axis=0) / np.maximum(scale, 1e-300)
 
 
@@ -215,28 +216,28 @@ def _sparse_modes(M, K, k: int, rtol: float):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
     sigma, lu = _shifted_lu(Ks, Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
-    lam, V = spla.eigsh(Ks, k=k, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0)
-    order = np.argsort(lam)
-    lam, V = lam[order], V[:, order]
+    eigval, V = spla.eigsh(Ks, k=k, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0)
+    order = np.argsort(eigval)
+    eigval, V = eigval[order], V[:, order]
     # One step of inverse iteration: removes any component along the infinite modes of a
     # singular M and sharpens the vectors.
-    V = lu.solve(np.asarray(Ms @ V)) * (lam - sigma)
+    V = lu.solve(np.asarray(Ms @ V)) * (eigval - sigma)
     V = V / np.sqrt(np.einsum("ij,ij->j", V, Ms @ V))
-    omega = np.sign(lam) * np.sqrt(np.abs(lam))
+    omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
     eta = mode_residuals(Ms, Ks, omega, V)
     bad = np.flatnonzero(eta > rtol)
     if bad.size:
         j = bad[0]
         raise ModalAccuracyError(f"shift-invert eigen-solve: mode {j + 1} ({omega[j]:.6g} rad/s) has a residual "
                                  f"(backward error) of {eta[j]:.2e} > {rtol:.0e}; its frequency cannot be trusted")
-    return lam, V
+    return eigval, V
 
 
 def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL):
     """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0).
 
     Accuracy (see the module docstring): the dense path solves the reciprocal pencil with the
-    full ``scipy.linalg.eigh``, relative error about ``n eps lam_k / lam_1`` for mode ``k``;
+    full ``scipy.linalg.eigh``, relative error about ``n eps eigval_k / eigval_1`` for mode ``k``;
     the sparse path is shift-invert ARPACK whose every pair passes a residual check, backward
     error at most ``rtol`` (typically 1e-15).
 
@@ -276,13 +277,13 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
             raise ValueError(f"a dense eigen-solve of all modes of a {n}-DOF model would need about "
                              f"{5 * 8 * n * n / 2**30:.0f} GB; ask for the lowest n_modes instead (at most "
                              f"{DENSE_MAX} DOFs are solved densely)")
-        lam, Phi = _dense_modes(M, K)
+        eigval, Phi = _dense_modes(M, K)
         if n_modes is not None:
-            lam, Phi = lam[:n_modes], Phi[:, :n_modes]
+            eigval, Phi = eigval[:n_modes], Phi[:, :n_modes]
     else:
         k = n_modes if n_modes is not None else min(n_finite - 1, 20)
-        lam, Phi = _sparse_modes(M, K, k, rtol)
-    omega = np.sign(lam) * np.sqrt(np.abs(lam))
+        eigval, Phi = _sparse_modes(M, K, k, rtol)
+    omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
     idx = np.argmax(np.abs(Phi), axis=0)
     Phi = Phi * np.sign(Phi[idx, np.arange(Phi.shape[1])])
     return omega, Phi
@@ -475,18 +476,17 @@ def adjunct(A, r: int, c: int):
 def _dense_zeros(M, K, r: int, c: int, rtol: float):
     Mr, Kr = _dense(adjunct(M, r, c)), _dense(adjunct(K, r, c))
     if r == c:
-        lam, V = _dense_modes(Mr, Kr)
-        keep = lam > 0
-        return lam[keep], V[:, keep]
-    ab, V = sla.eig(Kr, Mr, homogeneous_eigvals=True)
-    alpha, beta = ab
-    scale = np.abs(alpha) + np.abs(beta)
-    finite = np.abs(beta) > 1e-10 * scale
-    lam = np.full(alpha.shape, np.nan, dtype=complex)
-    lam[finite] = alpha[finite] / beta[finite]
-    real = finite & (np.abs(lam.imag) <= rtol * np.abs(lam.real))
-    keep = real & (lam.real > 0)
-    return lam[keep].real, _real_vectors(V[:, keep])
+        eigval_z, V = _dense_modes(Mr, Kr)
+        keep = eigval_z > 0
+        return eigval_z[keep], V[:, keep]
+    (num, den), V = sla.eig(Kr, Mr, homogeneous_eigvals=True)
+    scale = np.abs(num) + np.abs(den)
+    finite = np.abs(den) > 1e-10 * scale
+    eigval_z = np.full(num.shape, np.nan, dtype=complex)
+    eigval_z[finite] = num[finite] / den[finite]
+    real = finite & (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real))
+    keep = real & (eigval_z.real > 0)
+    return eigval_z[keep].real, _real_vectors(V[:, keep])
 
 
 def _real_vectors(V: np.ndarray) -> np.ndarray:
@@ -507,27 +507,28 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
     while True:
         if r == c:
             op = spla.LinearOperator(Kr.shape, matvec=lu.solve, dtype=float)
-            lam, V = spla.eigsh(Kr, k=k, M=Mr, sigma=sigma, which="LM", OPinv=op, tol=0)
+            eigval_z, V = spla.eigsh(Kr, k=k, M=Mr, sigma=sigma, which="LM", OPinv=op, tol=0)
         else:
             op = spla.LinearOperator(Kr.shape, matvec=lambda x: lu.solve(np.asarray(Mr @ x)), dtype=float)
             nu, V = spla.eigs(op, k=k, which="LM", tol=0)
-            lam = sigma + 1.0 / nu
-        real = np.abs(lam.imag) <= rtol * np.abs(lam.real) if np.iscomplexobj(lam) else np.ones(lam.size, bool)
-        keep = real & (lam.real > 0)
+            eigval_z = sigma + 1.0 / nu
+        real = (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real) if np.iscomplexobj(eigval_z)
+                else np.ones(eigval_z.size, bool))
+        keep = real & (eigval_z.real > 0)
         if keep.sum() >= n_zeros or k >= m - 2:
             break
         k = min(m - 2, 2 * k)
-    lam, V = lam[keep].real, _real_vectors(V[:, keep])
-    order = np.argsort(lam)[:n_zeros]
-    lam, V = lam[order], V[:, order]
-    V = lu.solve(np.asarray(Mr @ V)) * (lam - sigma)
-    eta = mode_residuals(Mr, Kr, np.sqrt(lam), V)
+    eigval_z, V = eigval_z[keep].real, _real_vectors(V[:, keep])
+    order = np.argsort(eigval_z)[:n_zeros]
+    eigval_z, V = eigval_z[order], V[:, order]
+    V = lu.solve(np.asarray(Mr @ V)) * (eigval_z - sigma)
+    eta = mode_residuals(Mr, Kr, np.sqrt(eigval_z), V)
     bad = np.flatnonzero(eta > RESIDUAL_TOL)
     if bad.size:
         j = bad[0]
         raise ModalAccuracyError(f"shift-invert antiresonances of h({r}, {c}): zero {j + 1} "
-                                 f"({np.sqrt(lam[j]):.6g} rad/s) has a backward error {eta[j]:.2e}")
-    return lam, V
+                                 f"({np.sqrt(eigval_z[j]):.6g} rad/s) has a backward error {eta[j]:.2e}")
+    return eigval_z, V
 
 
 def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: float = 1e-8,
@@ -573,12 +574,12 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
         raise ValueError(f"n_zeros must be between 1 and {n - 1}, got {n_zeros!r}")
     use_dense = n <= DENSE_LIMIT if dense is None else dense
     if use_dense:
-        lam, V = _dense_zeros(M, K, r, c, rtol)
-        order = np.argsort(lam)[:n_zeros]
+        eigval_z, V = _dense_zeros(M, K, r, c, rtol)
+        order = np.argsort(eigval_z)[:n_zeros]
     else:
-        lam, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol)
-        order = np.arange(lam.size)
-    omega_z = np.sqrt(lam[order])
+        eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol)
+        order = np.arange(eigval_z.size)
+    omega_z = np.sqrt(eigval_z[order])
     if not with_vectors:
         return omega_z
     V = V[:, order]

@@ -125,12 +125,12 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
         Legend entries of the two models (their damping stated).
     """
     plt = _pyplot()
-    index = {d: i for i, d in enumerate(model_dofs)}
-    pairs = [(k, p) for k, p in enumerate(frfs.pairs) if p[0] in index and p[1] in index]
+    position = {d: i for i, d in enumerate(model_dofs)}
+    pairs = [(k, p) for k, p in enumerate(frfs.pairs) if p[0] in position and p[1] in position]
     if not pairs:
         raise ValueError(f"no measured FRF pair {list(frfs.pairs)} has both DOFs in the model")
-    rows = sorted({p[0] for _, p in pairs}, key=index.get)
-    cols = sorted({p[1] for _, p in pairs}, key=index.get)
+    rows = sorted({p[0] for _, p in pairs}, key=position.get)
+    cols = sorted({p[1] for _, p in pairs}, key=position.get)
     grid = len(rows) * len(cols) <= 16 and len(rows) * len(cols) < 2 * len(pairs)
     if not grid:
         rows, cols = [None] * len(pairs), [None]
@@ -138,7 +138,7 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
                              squeeze=False, sharex=True)
     measured = frfs.mean()
     omega, f_hz = frfs.omega, frfs.freq_hz
-    at = [(index[r], index[c]) for _, (r, c) in pairs]
+    at = [(position[r], position[c]) for _, (r, c) in pairs]
     curves = [(np.abs(model_receptances(model, at, omega)), name, style)   # one solve per model
               for model, name, style in ((nominal, nominal_label, "--"), (updated, updated_label, "-"))]
     for n, (k, (r, c)) in enumerate(pairs):
