@@ -8,7 +8,8 @@ import scipy.sparse as sp
 
 from helpers import uniform_cantilever
 from vibupdate import Assembly, antiresonances, modes, receptance
-from vibupdate.modal import analysis
+from vibupdate.modal import eigen
+from vibupdate.modal import receptance as receptance_module
 from vibupdate.modal.analysis import DENSE_LIMIT, ModalAccuracyError, adjunct, mode_residuals
 
 
@@ -79,7 +80,7 @@ def test_one_definition_of_massless_for_the_eigen_solver_and_the_admissibility_c
     for i in s:
         M[i, i] = 1e-16 * top
     M = sp.csr_matrix(M)
-    np.testing.assert_array_equal(analysis.massless_dofs(M), s)
+    np.testing.assert_array_equal(eigen.massless_dofs(M), s)
     assert definiteness(M, sysm.K).massless == tuple(s)
     omega_exact, _ = modes(sysm.M, sysm.K)
     omega, _ = modes(M, sysm.K)
@@ -115,7 +116,7 @@ def test_damped_receptance_in_chunks_equals_one_solve_per_frequency(monkeypatch)
     w = np.linspace(0.5, 300.0, 11)
     n = s.M.shape[0]
     # Chunks of 3 frequencies: the stack never holds more than 3 x n x n numbers.
-    monkeypatch.setattr(analysis, "_CHUNK_BYTES", 3 * 16 * n * n)
+    monkeypatch.setattr(receptance_module, "_CHUNK_BYTES", 3 * 16 * n * n)
     h = receptance(s.M, s.K, 3, 17, w, C)
     M, K, Cd = s.M.toarray(), s.K.toarray(), C.toarray()
     direct = np.array([np.linalg.solve(K + 1j * x * Cd - x**2 * M, np.eye(n)[:, 17])[3] for x in w])
@@ -259,8 +260,8 @@ def test_large_model_with_massless_dofs_by_shift_invert():
 
 def test_all_modes_of_a_huge_model_is_a_clear_error_not_a_memory_storm(monkeypatch):
     s = uniform_cantilever(40)
-    monkeypatch.setattr(analysis, "DENSE_MAX", 50)
-    monkeypatch.setattr(analysis, "DENSE_LIMIT", 20)
+    monkeypatch.setattr(eigen, "DENSE_MAX", 50)
+    monkeypatch.setattr(eigen, "DENSE_LIMIT", 20)
     with pytest.raises(ValueError, match="all modes of a 80-DOF model would need .* ask for the lowest n_modes"):
         modes(s.M, s.K)
     assert modes(s.M, s.K, 3)[0].size == 3  # the lowest few: shift-invert, no dense matrix
@@ -271,8 +272,8 @@ def test_damped_receptance_over_many_lines_by_the_state_space_modes(monkeypatch)
     C = 1e-4 * s.K + 0.2 * s.M
     w = np.linspace(0.0, 400.0, 120)  # over 50 lines: one 2n eigen-solve of the first-order form
     used = []
-    original = analysis._state_space_receptances
-    monkeypatch.setattr(analysis, "_state_space_receptances", lambda *a: used.append(1) or original(*a))
+    original = receptance_module._state_space_receptances
+    monkeypatch.setattr(receptance_module, "_state_space_receptances", lambda *a: used.append(1) or original(*a))
     h = receptance(s.M, s.K, 3, 17, w, C)
     assert used and original(s.M, s.K, C, np.array([3]), np.array([17]), w) is not None  # the modal form was accepted
     n = s.M.shape[0]

@@ -80,13 +80,14 @@ def test_receptances_of_a_large_model_share_one_factorization_per_line(monkeypat
     """Over DENSE_LIMIT DOFs: one sparse LU per frequency for every pair."""
     import scipy.sparse as sp
 
-    from vibupdate.modal import analysis
+    from vibupdate.modal import eigen
+    from vibupdate.modal import receptance as module
 
     M, K, C, dofs = cantilever_system()
-    monkeypatch.setattr(analysis, "DENSE_LIMIT", 5)
+    monkeypatch.setattr(eigen, "DENSE_LIMIT", 5)
     factorizations = []
-    original = analysis.spla.splu
-    monkeypatch.setattr(analysis.spla, "splu", lambda A, *a, **k: factorizations.append(1) or original(A, *a, **k))
+    original = module.spla.splu
+    monkeypatch.setattr(module.spla, "splu", lambda A, *a, **k: factorizations.append(1) or original(A, *a, **k))
     omega = np.linspace(10.0, 2500.0, 6)
     pairs = [(0, 4), (2, 2), (13, 4)]
     h = receptances(sp.csr_matrix(M), sp.csr_matrix(K), pairs, omega, sp.csr_matrix(C))

@@ -29,7 +29,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.modal.analysis import DENSE_LIMIT, _dense_modes, adjunct, antiresonances
+from vibupdate.modal import eigen
+from vibupdate.modal.eigen import _dense_modes
+from vibupdate.modal.zeros import adjunct, antiresonances
 
 __all__ = [
     "eigenvalue_derivatives",
@@ -108,7 +110,7 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     p = int(np.argmax(np.abs(phi)))
     keep = np.delete(np.arange(n), p)
     A = (K - eigval * M).tocsr()[keep][:, keep]
-    solve = _factor(A if n > 400 else A.toarray())
+    solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
     Mphi = M @ phi
     entries = np.asarray(entries, dtype=int)
     out = np.empty((entries.size, model.n_parameters))
@@ -125,7 +127,7 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     """Finite, real, positive eigenvalues of the adjunct pencil of ``h_rc`` with right and left
-    vectors: dense up to `vibupdate.modal.analysis.DENSE_LIMIT` DOFs, shift-invert above (the
+    vectors: dense up to `vibupdate.modal.eigen.DENSE_LIMIT` DOFs, shift-invert above (the
     lowest ``n_zeros``; the left vectors are the right vectors of the transposed pencil, the
     adjunct of ``h_cr``).
 
@@ -137,7 +139,7 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
         Right and left eigenvectors: ``(K_rc - eigval_z M_rc) V_right = 0`` and
         ``V_left^T (K_rc - eigval_z M_rc) = 0``.
     """
-    if M.shape[0] > DENSE_LIMIT:
+    if M.shape[0] > eigen.DENSE_LIMIT:
         k = n_zeros or 20
         wz, V_right = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k)
         if r == c:
