@@ -241,6 +241,23 @@ def test_exported_matrices_with_massless_dofs_pass_from_files():
         from_files(sysm.M, sp.csr_matrix(K), p, dK={"s": sysm.K}, dofs=sysm.dofs)
 
 
+def test_a_declared_mode_beyond_the_finite_modes_is_named():
+    """18 of the portal's 54 DOFs carry no mass: 36 finite modes. Declaring mode 36 works,
+    mode 40 is a clear error naming the configuration, not an index error."""
+    from vibupdate import Parameter, from_files
+    from vibupdate.data.measured import Configuration, NaturalFrequency
+    from vibupdate.inverse.correlation import model_frequencies
+
+    sysm = lumped_portal()
+    model = from_files(sysm.M, sysm.K, [Parameter("s", 1.0, 0.5, 1.5)], dK={"s": sysm.K}, dofs=sysm.dofs)
+    n_finite = model.n_dofs - eigen.massless_dofs(sysm.M).size
+    last = model_frequencies(Configuration("A", model, (NaturalFrequency(10.0, mode=n_finite),), ()))
+    assert last.natural.size == 1 and last.spectrum[0].size == n_finite
+    with pytest.raises(ValueError, match=f"configuration 'A': mode 40 is declared, but the model has {n_finite} "
+                                         "finite modes"):
+        model_frequencies(Configuration("A", model, (NaturalFrequency(10.0, mode=40),), ()))
+
+
 def test_large_model_with_massless_dofs_by_shift_invert():
     """Over `DENSE_LIMIT` DOFs, a third of them massless: shift-invert modes and driving-point
     antiresonances (singular M and M_rr) equal the dense condensed results. The tolerance is

@@ -91,6 +91,9 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     spectrum = None
     if cfg.model.n_dofs <= DENSE_LIMIT:    # the dense solve gives every mode: keep them
         spectrum = modes(M, K)
+        if top > spectrum[0].size:
+            raise ValueError(f"configuration {cfg.name!r}: mode {top} is declared, but the model has "
+                             f"{spectrum[0].size} finite modes ({cfg.model.n_dofs} DOFs, some without mass)")
         omega, Phi = spectrum[0][:n_modes], spectrum[1][:, :n_modes]
     else:
         omega, Phi = modes(M, K, n_modes)
