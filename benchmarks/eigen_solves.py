@@ -31,7 +31,7 @@ from vibupdate.pipeline import run_example  # noqa: E402
 STAGES = (("polish", "inverse/polish.py"), ("ranges", "ranges/identifiability.py"),
           ("formulation", "inverse/formulation.py"), ("validation", "io/validation.py"),
           ("data", "data/"), ("model build", "model/"), ("results", "io/results.py"), ("report", "report/"),
-          ("damping", "vibupdate/damping.py"), ("update", "inverse/update.py"))
+          ("damping", "vibupdate/damping/"), ("update", "inverse/update.py"))
 
 
 def _key(M, K) -> str:
