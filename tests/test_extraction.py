@@ -406,6 +406,25 @@ def test_case_configuration_from_frf_files(tmp_path):
     (tmp_path / "case.toml").write_text(text.replace('files = ["hits.uff"]', 'files = ["none.uff"]'))
     with pytest.raises(ValueError, match=r"configuration 'A'.frf: UFF file .*none.uff' does not exist"):
         load_case(tmp_path / "case.toml")
+    (tmp_path / "case.toml").write_text(text.replace("band_hz = [20, 300]", "band_hz = [20, 300]\nfit_band_hz = [30, 300]"))
+    with pytest.raises(ValueError, match=r"configuration 'A'.frf: fit_band 30-300 Hz must contain"):
+        load_case(tmp_path / "case.toml")
+
+
+def test_fit_band_from_the_command_line_and_a_bad_one_is_a_clear_error(tmp_path, capsys):
+    frfs, *_ = measured(8, repeats=2)
+    uff = tmp_path / "hits.uff"
+    _write_uff(uff, frfs)
+    top = float(frfs.freq_hz[-1])
+    out = tmp_path / "ex"
+    assert main(["extract", str(uff), "--band", "40", "250", "--fit-band", "30", f"{top}", "--out", str(out),
+                 "--no-plot"]) == 0
+    assert json.loads((out / "extraction.json").read_text())["fit_band_hz"] == pytest.approx([30, top], rel=1e-3)
+    assert main(["extract", str(uff), "--band", "20", "300", "--fit-band", "30", "300", "--out",
+                 str(tmp_path / "bad"), "--no-plot"]) == 2
+    err = capsys.readouterr().err
+    assert "fit_band 30-300 Hz must contain" in err and "Traceback" not in err
+    assert not (tmp_path / "bad").exists()
 
 
 def test_measured_frf_overlay_plot(tmp_path):
