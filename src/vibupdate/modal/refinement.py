@@ -76,7 +76,7 @@ def refine_modes(M, K, solve, sigma: float, X: np.ndarray):
 
     Returns
     -------
-    lam : ndarray, shape (q,)
+    eigval : ndarray, shape (q,)
         Eigenvalues ``w^2``, (rad/s)^2, ascending.
     Phi : ndarray, shape (n, q)
         Mass-normalized eigenvectors (double precision).
@@ -94,9 +94,9 @@ def refine_modes(M, K, solve, sigma: float, X: np.ndarray):
     d = 1.0 / np.sqrt(np.asarray(np.diagonal(Mr), dtype=float))
     Kr_d = np.asarray(Kr, dtype=float) * np.outer(d, d)
     Mr_d = np.asarray(Mr, dtype=float) * np.outer(d, d)
-    lam, Q = sla.eigh(0.5 * (Kr_d + Kr_d.T), 0.5 * (Mr_d + Mr_d.T))
+    eigval, Q = sla.eigh(0.5 * (Kr_d + Kr_d.T), 0.5 * (Mr_d + Mr_d.T))
     Phi = Y @ (d[:, None] * Q).astype(ext)
     Phi = Phi / np.sqrt(np.einsum("ij,ij->j", Phi, ML @ Phi))
-    lam = np.einsum("ij,ij->j", Phi, KL @ Phi)   # Rayleigh quotients, in extended precision
-    order = np.argsort(np.asarray(lam, dtype=float))
-    return np.asarray(lam, dtype=float)[order], np.asarray(Phi, dtype=float)[:, order]
+    eigval = np.einsum("ij,ij->j", Phi, KL @ Phi)   # Rayleigh quotients, in extended precision
+    order = np.argsort(np.asarray(eigval, dtype=float))
+    return np.asarray(eigval, dtype=float)[order], np.asarray(Phi, dtype=float)[:, order]
