@@ -57,6 +57,10 @@ class SolverOptions:
         The backend's convergence tolerance (IPOPT's ``tol``).
     backend : str
         Name of the step solver (`vibupdate.inverse.backends.BACKENDS`).
+    relaxation_solver : {"piqp", "nlp"}
+        What solves the ``lam = 0`` relaxation, a convex QP: the QP solver PIQP (the default;
+        the backend's NLP solver when PIQP fails) or the backend's NLP solver
+        (docs/method.md, section 6).
     """
 
     n_lambda: int = 10
@@ -67,6 +71,7 @@ class SolverOptions:
     max_cpu_time: float = 600.0
     tol: float = 1e-10
     backend: str = "casadi-ipopt"
+    relaxation_solver: str = "piqp"
 
     def __post_init__(self):
         if not isinstance(self.n_lambda, int) or self.n_lambda < 1:
@@ -85,6 +90,8 @@ class SolverOptions:
             raise ValueError(f"tol must be a positive number, got {self.tol!r}")
         if self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
+        if self.relaxation_solver not in ("piqp", "nlp"):
+            raise ValueError(f"relaxation_solver must be 'piqp' or 'nlp', got {self.relaxation_solver!r}")
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,12 @@ the NLP over ``[xbar, u, R]`` without ``t`` and the McCormick rows has the same 
 is about half the size (`_compile`); `CasadiIpopt.solve` uses it for every ``lam = 1`` step
 and returns the outcome in the lifted layout.
 
+**At ``lam = 0`` the QP.** The cold ``lam = 0`` step without a proximal term is the convex
+McCormick relaxation; by default it is solved by a QP interior-point method
+(`vibupdate.inverse.backends.piqp_relaxation`, about ten times faster than IPOPT on it), with
+IPOPT on the lifted NLP as the fallback when the QP solver does not report success
+(``relaxation_solver = "nlp"`` uses IPOPT directly).
+
 Each NLP has a cold IPOPT instance (IPOPT's default start) and a warm one that re-uses the
 previous primal point and multipliers with small bound pushes, each built on first use.
 
@@ -33,7 +39,7 @@ import hashlib
 import threading
 import time
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -44,7 +50,10 @@ from vibupdate.inverse.interrupt import watch_sigint
 from vibupdate.inverse.relaxation import McCormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "from_ipopt", "build"]
+__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "RELAXATION_SOLVERS", "from_ipopt", "build"]
+
+#: What may solve the cold ``lam = 0`` step (module docstring).
+RELAXATION_SOLVERS = ("piqp", "nlp")
 
 #: IPOPT's ``return_status`` strings (as CasADi reports them) -> Status.
 IPOPT_STATUS = {
@@ -239,11 +248,17 @@ class CasadiIpopt:
         Build in SX and expand (True) or keep MX (False, the default: module docstring).
     cache : SolverCache, optional
         Where compiled NLPs are kept (default `CACHE`); ``None`` compiles a private one.
+    relaxation_solver : {"piqp", "nlp"}, optional
+        What solves the cold ``lam = 0`` step without a proximal term: the QP solver PIQP
+        (default; IPOPT when it fails) or IPOPT on the lifted NLP (module docstring).
     """
 
     def __init__(self, problem: BilinearProblem, envelope: McCormick, *, max_iter: int = 3000,
                  max_cpu_time: float = 600.0, tol: float = 1e-10, expand: bool = False,
-                 cache: SolverCache | None = CACHE):
+                 cache: SolverCache | None = CACHE, relaxation_solver: str = "piqp"):
+        if relaxation_solver not in RELAXATION_SOLVERS:
+            raise ValueError(f"relaxation_solver must be one of {sorted(RELAXATION_SOLVERS)}, "
+                             f"got {relaxation_solver!r}")
         self.problem = problem
         n_x, n_u, n_b, n_r = problem.n_x, problem.n_u, problem.n_b, problem.n_r
         self.sizes = (n_x, n_u, n_b, n_r)
@@ -263,6 +278,11 @@ class CasadiIpopt:
         self._lbg = np.concatenate([np.zeros(n_r), envelope.lower])
         self._ubg = np.concatenate([np.zeros(n_r), envelope.upper])
         self._exact_entries = np.r_[0:n_x + n_u, n_x + n_u + n_b:n_x + n_u + n_b + n_r]
+        self._qp = None
+        if relaxation_solver == "piqp":
+            from vibupdate.inverse.backends.piqp_relaxation import RelaxationQP
+
+            self._qp = RelaxationQP(problem, envelope, self._lbx, self._ubx, max_iter=max_iter, tol=tol)
 
     def split(self, z):
         """``z`` -> (xbar, u, t, R)."""
@@ -282,7 +302,8 @@ class CasadiIpopt:
               mult_x=None, mult_g=None) -> StepOutcome:
         """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with the multipliers).
 
-        At ``lam = 1`` the exact NLP is solved (no ``t``, no McCormick rows: `_compile`); the
+        The cold ``lam = 0`` step without a proximal term goes to the QP solver when one was
+        chosen (module docstring). At ``lam = 1`` the exact NLP is solved (no ``t``, no McCormick rows: `_compile`); the
         returned ``z`` then has ``t = xbar[px] u[pu]`` and zero multipliers for ``t`` and the
         rows, so the outcome looks the same to the caller.
 
@@ -290,6 +311,19 @@ class CasadiIpopt:
         at the next iteration and would otherwise report an ordinary failure,
         `vibupdate.inverse.interrupt`).
         """
+        if lam == 0.0 and prox_weight == 0.0 and not warm and self._qp is not None:
+            relaxed = self._qp.solve()
+            if relaxed.status.ok:
+                return relaxed
+            out = self._solve_nlp(z0, lam)
+            return replace(out, raw_status=f"{out.raw_status} (after PIQP: {relaxed.raw_status})",
+                           seconds=out.seconds + relaxed.seconds)
+        return self._solve_nlp(z0, lam, prox_weight=prox_weight, z_prev=z_prev, warm=warm, mult_x=mult_x,
+                               mult_g=mult_g)
+
+    def _solve_nlp(self, z0, lam: float, *, prox_weight: float = 0.0, z_prev=None, warm: bool = False,
+                   mult_x=None, mult_g=None) -> StepOutcome:
+        """`solve` by IPOPT on the lifted NLP (the exact one at ``lam = 1``)."""
         n_x, n_u, n_b, n_r = self.sizes
         z0 = np.clip(np.asarray(z0, float), self._lbx, self._ubx)
         z_prev = z0 if z_prev is None else np.asarray(z_prev, float)
@@ -339,4 +373,4 @@ class CasadiIpopt:
 def build(problem: BilinearProblem, envelope: McCormick, options) -> CasadiIpopt:
     """The backend protocol's entry (`vibupdate.inverse.backends.build`)."""
     return CasadiIpopt(problem, envelope, max_iter=options.max_iter, max_cpu_time=options.max_cpu_time,
-                       tol=options.tol)
+                       tol=options.tol, relaxation_solver=options.relaxation_solver)
