@@ -269,3 +269,43 @@ def test_a_failed_relaxation_qp_falls_back_to_ipopt(monkeypatch):
 def test_an_unknown_relaxation_solver_is_named_in_the_error():
     with pytest.raises(ValueError, match="relaxation_solver must be 'piqp' or 'nlp', got 'osqp'"):
         SolverOptions(relaxation_solver="osqp")
+
+
+def test_a_failed_direct_jump_falls_back_to_halved_steps(monkeypatch):
+    """The default path jumps from the relaxation to lam = 1; when that solve fails (warm, and
+    again cold) the step is halved and the path goes on through the lifted problem, reaching
+    the stepped path's answer."""
+    from dataclasses import replace
+
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    failures = []
+
+    class FirstJumpFails:
+        def __init__(self, inner):
+            self.inner = inner
+
+        def join(self, *parts):
+            return self.inner.join(*parts)
+
+        def split(self, z):
+            return self.inner.split(z)
+
+        def solve(self, z0, lam, **kwargs):
+            out = self.inner.solve(z0, lam, **kwargs)
+            if lam == 1.0 and len(failures) < 2:
+                failures.append(kwargs.get("warm", False))
+                return replace(out, status=Status.NUMERICAL_ERROR, raw_status="Restoration_Failed")
+            return out
+
+    module = types.ModuleType("first_jump_fails")
+    module.build = lambda problem, envelope, options: FirstJumpFails(casadi_ipopt.build(problem, envelope, options))
+    monkeypatch.setitem(sys.modules, "first_jump_fails", module)
+    monkeypatch.setitem(backends.BACKENDS, "first-jump-fails", "first_jump_fails")
+    path = solve_homotopy(problem, SolverOptions(backend="first-jump-fails"))
+    assert failures == [True, False]  # warm, then the cold retry
+    assert [(s.lam, s.accepted) for s in path.steps] == [(0.0, True), (1.0, False), (1.0, False), (0.5, True),
+                                                         (1.0, True)]
+    assert path.status == Status.SUCCESS
+    stepped = solve_homotopy(problem, SolverOptions(n_lambda=10))
+    assert [s.lam for s in stepped.steps] == pytest.approx([0.0, 0.1, 0.3, 0.7, 1.0])
+    assert path.objective == pytest.approx(stepped.objective, rel=1e-6, abs=1e-14)
