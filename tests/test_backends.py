@@ -309,3 +309,25 @@ def test_a_failed_direct_jump_falls_back_to_halved_steps(monkeypatch):
     stepped = solve_homotopy(problem, SolverOptions(n_lambda=10))
     assert [s.lam for s in stepped.steps] == pytest.approx([0.0, 0.1, 0.3, 0.7, 1.0])
     assert path.objective == pytest.approx(stepped.objective, rel=1e-6, abs=1e-14)
+
+
+def test_a_piqp_exception_is_a_status_and_ipopt_takes_over(monkeypatch):
+    import piqp
+
+    class Broken:
+        def __init__(self):
+            self.settings = types.SimpleNamespace()
+
+        def setup(self, *args):
+            raise ValueError("P must be square")
+
+    monkeypatch.setattr(piqp, "SparseSolver", Broken)
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    backend = CasadiIpopt(problem, mccormick(problem), cache=None)
+    x0 = np.zeros(problem.n_x)
+    z0 = backend.join(x0, problem.u_start, lifted_values(problem, x0, problem.u_start),
+                      problem.residual(x0, problem.u_start))
+    relaxed = backend._qp.solve()
+    assert relaxed.status == Status.NUMERICAL_ERROR and relaxed.raw_status == "PIQP error: P must be square"
+    out = backend.solve(z0, 0.0)
+    assert out.status.ok and out.raw_status.endswith("(after PIQP: PIQP error: P must be square)")

@@ -88,9 +88,17 @@ class RelaxationQP:
         solver.settings.max_iter = self.max_iter
         solver.settings.eps_abs = self.tol
         solver.settings.eps_rel = self.tol / 10.0
-        solver.setup(self.P, np.zeros(self.P.shape[0]), self.A, self.b, self.G, self.h_l, self.h_u,
-                     self.lower, self.upper)
-        raw = solver.solve().name
+        try:
+            solver.setup(self.P, np.zeros(self.P.shape[0]), self.A, self.b, self.G, self.h_l, self.h_u,
+                         self.lower, self.upper)
+            raw = solver.solve().name
+        except (ValueError, RuntimeError) as exc:  # e.g. crossed bounds: a status, not an exception
+            n_z = self.P.shape[0]
+            return StepOutcome(z=np.clip(np.zeros(n_z), self.lower, self.upper), objective=float("nan"),
+                               iterations=0, status=Status.NUMERICAL_ERROR,
+                               raw_status=f"PIQP error: {str(exc).splitlines()[0][:200]}",
+                               seconds=time.perf_counter() - start, mult_x=np.zeros(n_z),
+                               mult_g=np.zeros(self.A.shape[0] + self.G.shape[0]))
         result = solver.result
         z = np.array(result.x, dtype=float)
         z = np.clip(z, self.lower, self.upper)
