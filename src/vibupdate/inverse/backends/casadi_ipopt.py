@@ -102,16 +102,19 @@ class _Compiled:
     options: dict
     solvers: dict = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
+    build_lock: threading.Lock = field(default_factory=threading.Lock)
 
     def solver(self, nlp: str, start: str):
         """The IPOPT instance of NLP ``"lifted"`` or ``"exact"`` with ``"cold"`` or ``"warm"`` options."""
         key = (nlp, start)
-        if key not in self.solvers:
-            import casadi as ca
+        with self.build_lock:
+            if key not in self.solvers:
+                import casadi as ca
 
-            with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
-                self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp], self.options[start])
-        return self.solvers[key]
+                with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
+                    self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp],
+                                                  self.options[start])
+            return self.solvers[key]
 
 
 class SolverCache:
@@ -172,8 +175,8 @@ def _structure_key(mats, problem: BilinearProblem, expand: bool, settings: dict)
 
 
 def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _Compiled:
-    """Build the parametric step NLPs (module docstring) and the cold IPOPT instance of the
-    lifted one. The exact NLP (``lam = 1``) has no ``t`` and no McCormick rows, over
+    """Build the parametric step NLPs (module docstring); their IPOPT instances are built on
+    first use (`_Compiled.solver`). The exact NLP (``lam = 1``) has no ``t`` and no McCormick rows, over
     ``[xbar, u, R]``, with the same parameters ``p`` (``lam`` and the rows' coefficients unused):
     at ``lam = 1`` the residual does not involve ``t``, and every ``(xbar, u)`` in its box
     leaves ``t = xbar[px] u[pu]`` feasible, so both NLPs have the same minimizers in
@@ -227,9 +230,7 @@ def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _C
         "ipopt.mu_init": 1e-6,
         "ipopt.mu_strategy": "adaptive",
     }
-    compiled = _Compiled(nlps=nlps, options={"cold": cold, "warm": warm})
-    compiled.solver("lifted", "cold")
-    return compiled
+    return _Compiled(nlps=nlps, options={"cold": cold, "warm": warm})
 
 
 class CasadiIpopt:
@@ -270,7 +271,7 @@ class CasadiIpopt:
             self._compiled = _compile(mats, problem, self.expand, settings)
         else:
             self._compiled = cache.get(key, lambda: _compile(mats, problem, self.expand, settings))
-        self._cold = self._compiled.solver("lifted", "cold")
+        self._cold = None  # the lifted NLP's cold IPOPT instance: the first step's solver without the QP
         self._data = np.concatenate([problem.row_weight, problem.r0, *(A.data for A in mats)])
         self._row_weight = np.asarray(problem.row_weight, float)
         self._lbx = np.concatenate([problem.x_lower, problem.u_lower, envelope.t_lower, np.full(n_r, -np.inf)])
@@ -283,6 +284,8 @@ class CasadiIpopt:
             from vibupdate.inverse.backends.piqp_relaxation import RelaxationQP
 
             self._qp = RelaxationQP(problem, envelope, self._lbx, self._ubx, max_iter=max_iter, tol=tol)
+        else:
+            self._cold = self._compiled.solver("lifted", "cold")
 
     def split(self, z):
         """``z`` -> (xbar, u, t, R)."""
@@ -334,7 +337,11 @@ class CasadiIpopt:
                     lbg=self._lbg[:n_r] if exact else self._lbg, ubg=self._ubg[:n_r] if exact else self._ubg)
         start = time.perf_counter()
         try:
-            solver = self._cold if not exact else self._compiled.solver("exact", "cold")
+            if exact:
+                solver = self._compiled.solver("exact", "cold")
+            else:
+                self._cold = self._cold or self._compiled.solver("lifted", "cold")
+                solver = self._cold
             if warm and mult_x is not None and mult_g is not None:
                 solver = self._compiled.solver("exact" if exact else "lifted", "warm")
                 mult_x, mult_g = np.asarray(mult_x, float), np.asarray(mult_g, float)
