@@ -42,6 +42,9 @@ __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreeme
 
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
 STALL = 1e-3
+#: The same when branching follows: passes that gain less are worth less than splits
+#: (measured on the cantilever, benchmarks/RESULTS.md).
+ROOT_STALL = 0.02
 
 
 @dataclass(frozen=True)
@@ -173,8 +176,10 @@ def _hull(leaves, n_x):
 class _Branching:
     """Spatial branching of the parameter box: the leaves' boxes cover every point of S, so
     the hull of their parameter ranges is an outer range; splitting the leaf that sets an end
-    of the hull, along its parameter with the widest range relative to the root's, and
-    tightening both halves narrows the McCormick envelopes where it matters.
+    of the hull and tightening both halves narrows the McCormick envelopes where it matters.
+    The split is along the parameter whose products the relaxation's solution at that end
+    violates most (`_direction`): branching on the parameter with the widest range was
+    measured to split parameters that S fills anyway (benchmarks/RESULTS.md).
 
     Which end to work on: the one reaching farthest past the hull of the points known to lie
     in S (``known``; the hull's centre when there are none), relative to the root width,
@@ -209,22 +214,37 @@ class _Branching:
             leaf = max(at, key=lambda lf: float(np.sum(lf.width(n_x) / self.width0)))
             rel = leaf.width(n_x) / self.width0
             if rel.max() > 1e-6:
-                return (i, side), end, leaf, int(np.argmax(rel))
+                return (i, side), end, leaf, self._direction(leaf, (i, side), rel)
             score[i, side] = 0.0   # nothing left to split there
+
+    def _direction(self, leaf: Box, end, rel):
+        """The parameter to split and where: the one whose lifted products the relaxation's
+        solution at this end violates most (weighted), at that solution's value kept within
+        the middle half of its range; the widest relative range, at its midpoint, when there
+        is no solution to read."""
+        splittable = rel > 1e-6
+        z = leaf.points.get(end)
+        if z is not None:
+            err = np.where(splittable, self.R.product_error(z), 0.0)
+            if err.max() > 0:
+                d = int(np.argmax(err))
+                a, b = leaf.lo[d], leaf.hi[d]
+                return d, float(np.clip(z[d], a + 0.25 * (b - a), b - 0.25 * (b - a)))
+        d = int(np.argmax(np.where(splittable, rel, -1.0)))
+        return d, 0.5 * (leaf.lo[d] + leaf.hi[d])
 
     def split(self, deadline: float, passes: int) -> bool:
         """One split and the tightening of both halves; False when there is nothing to split."""
         picked = self._pick()
         if picked is None:
             return False
-        (i, side), end, leaf, d = picked
-        mid = 0.5 * (leaf.lo[d] + leaf.hi[d])
+        (i, side), end, leaf, (d, mid) = picked
         low, high = leaf.copy(), leaf.copy()
         low.hi[d], high.lo[d] = mid, mid
         low.confirmed[d, 1] = high.confirmed[d, 0] = True   # a branching point is exact
         self.leaves.remove(leaf)
         for child in (low, high):
-            tighten(self.R, child, deadline, max_passes=passes)
+            tighten(self.R, child, deadline, max_passes=passes, focus=d)
             self.n_lps += child.n_lps
             if not child.empty:
                 self.leaves.append(child)
@@ -240,7 +260,7 @@ class _Branching:
 
 
 def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | None = None,
-              max_splits: int | None = None, known=None, node_passes: int = 2,
+              max_splits: int | None = None, known=None, node_passes: int = 1,
               progress: Callable[[str], None] | None = None) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
@@ -284,8 +304,10 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
 
     passes = 0
     if not box.empty:
-        share = t0 + (seconds if max_splits == 0 else 0.5 * seconds)
-        passes = tighten(R, box, min(share, end), max_passes=max_passes, stall=STALL, on_pass=on_pass)
+        branching = max_splits != 0
+        share = t0 + (0.5 * seconds if branching else seconds)
+        passes = tighten(R, box, min(share, end), max_passes=max_passes, stall=ROOT_STALL if branching else STALL,
+                         on_pass=on_pass)
     B = _Branching(cs, R, box, known)
     if not box.empty:
         while (max_splits is None or B.splits < max_splits) and time.perf_counter() < end:

@@ -27,6 +27,7 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from vibupdate.ranges.consistent import ConsistentSet
 from vibupdate.ranges.lp_relaxation import Lifted, highs_model, lift, phase1_bound, relax, solve, solve_clarabel
@@ -51,6 +52,16 @@ class Lifts:
     local: tuple[Lifted, ...]
     u_off: np.ndarray
     n_x: int
+    t_weight: np.ndarray
+
+    def product_error(self, z) -> np.ndarray:
+        """How much the relaxation's point ``z`` of all blocks, shape (n_z,), departs from the
+        products it lifts, per parameter, shape (n_x,): ``sum_k w_k |t_k - x_i u_j|`` over the
+        products of parameter ``i``, ``w_k`` the weight of ``t_k`` in the eigen rows."""
+        L = self.full
+        x, u, t = z[:L.n_x], z[L.n_x:L.n_x + L.n_u], z[L.n_x + L.n_u:L.n_x + L.n_u + L.n_t]
+        err = self.t_weight * np.abs(t - x[L.tx] * u[L.tu])
+        return np.bincount(L.tx, weights=err, minlength=L.n_x)
 
     def block_slice(self, b: int) -> slice:
         """Block ``b``'s entries in a box ``[x, u]``."""
@@ -62,7 +73,10 @@ def lifts(cs: ConsistentSet) -> Lifts:
                                omega_upper=cs.omega_upper[b:b + 1]))
                   for b, (blk, m) in enumerate(zip(cs.blocks, cs.models)))
     u_off = np.concatenate([[0], np.cumsum([Lb.n_u for Lb in local])]).astype(int)
-    return Lifts(lift(cs), local, u_off, cs.n_x)
+    full = lift(cs)
+    cols = full.n_x + full.n_u + np.arange(full.n_t)
+    G = (full.Kz - sp.diags(full.w2) @ full.Mz).tocsc()[:, cols]
+    return Lifts(full, local, u_off, cs.n_x, np.asarray(abs(G).sum(axis=0)).ravel())
 
 
 class Box:
@@ -77,6 +91,9 @@ class Box:
         by its safe bound within `GAP` (or exact: a bound of the parameter, a branching point).
     empty : bool
         Proved empty.
+    points : dict
+        ``(i, side) -> z``: the all-block relaxation's solution at the lower (0) or upper (1)
+        end of parameter ``i``, from the last bound of it (for the choice of branching).
     n_lps : int
         LPs solved on this box since it was made.
     """
@@ -86,6 +103,7 @@ class Box:
         self.confirmed = np.array(confirmed, dtype=bool)
         self.empty = False
         self.n_lps = n_lps
+        self.points = {}   # (i, side) -> the all-block relaxation's point at that end of x_i
 
     def copy(self) -> "Box":
         """The same box, its LP count at zero."""
@@ -118,15 +136,21 @@ def _infeasible(box: Box, lp) -> None:
         box.empty = True
 
 
-def tighten_block(R: Lifts, box: Box, b: int, deadline: float) -> bool:
-    """Bound block ``b``'s entries and then ``x`` over the relaxation of block ``b`` alone.
-    False when the deadline stopped it."""
+def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None = None) -> bool:
+    """Bound block ``b``'s entries and then ``x`` over the relaxation of block ``b`` alone;
+    with ``focus``, only the entries that parameter ``focus`` multiplies (whose envelopes a
+    split of that parameter changed). False when the deadline stopped it."""
     n_x, sl = R.n_x, R.block_slice(b)
     L = R.local[b]
+    if focus is None:
+        targets = np.concatenate([np.arange(n_x, n_x + L.n_u), np.arange(n_x)])
+    else:
+        targets = n_x + np.unique(L.tu[L.tx == focus])
+        if targets.size == 0:
+            return True
     lp = relax(L, box.lo[:n_x], box.hi[:n_x], box.lo[sl], box.hi[sl])
     h = highs_model(lp)
     zl, zu = lp.zl.copy(), lp.zu.copy()
-    targets = np.concatenate([np.arange(n_x, n_x + L.n_u), np.arange(n_x)])
     done = np.zeros((lp.A.shape[1], 2), dtype=bool)
     c = np.zeros(lp.A.shape[1])
     for j in targets:
@@ -192,6 +216,7 @@ def tighten_parameters(R: Lifts, box: Box, deadline: float) -> bool:
             _narrow(box, i, side, sign * bound, opt, bound, n_x)
             if box.empty:
                 return True
+            box.points[(i, side)] = z
             x = z[:n_x]
             tol = _ON_BOUND * (1 + np.abs(x))
             done[:, 0] |= x <= box.lo[:n_x] + tol
@@ -200,17 +225,19 @@ def tighten_parameters(R: Lifts, box: Box, deadline: float) -> bool:
 
 
 def tighten(R: Lifts, box: Box, deadline: float, *, max_passes: int | None = None, stall: float = 1e-3,
-            on_pass=None) -> int:
+            focus: int | None = None, on_pass=None) -> int:
     """Passes of OBBT on ``box`` (every block alone, then ``x`` over all blocks) until one
     narrows the box (summed widths relative to the box's at the start) by less than
-    ``stall``, ``max_passes`` passes, the deadline or a proof that the box is empty. Returns
-    the number of passes completed; ``on_pass(passes)`` is called after each."""
+    ``stall``, ``max_passes`` passes, the deadline or a proof that the box is empty. With
+    ``focus`` the per-block step bounds only the entries parameter ``focus`` multiplies
+    (`tighten_block`). Returns the number of passes completed; ``on_pass(passes)`` is called
+    after each."""
     span0 = np.maximum(box.hi - box.lo, 1e-300)
     passes = 0
     while max_passes is None or passes < max_passes:
         before = np.sum((box.hi - box.lo) / span0)
         for b in range(len(R.local)):
-            if not tighten_block(R, box, b, deadline) or box.empty:
+            if not tighten_block(R, box, b, deadline, focus) or box.empty:
                 return passes
         if not tighten_parameters(R, box, deadline) or box.empty:
             return passes
