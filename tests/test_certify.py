@@ -299,7 +299,7 @@ def _example_check(case, result, passes, inner, tolerance, splits=0):
     # tolerance: on the frame its mode 7 leaves its box by 8e-9. It is in S to within 1e-6.
     assert is_consistent(cs, result.xbar, margin=-1e-6)
     r = enclosure(cs, seconds=np.inf, max_passes=passes, max_splits=splits, known=[result.xbar])
-    assert r.passes == passes and r.splits == splits and not r.empty
+    assert (r.passes == passes if not splits else r.passes <= passes) and r.splits <= splits and not r.empty
     assert inside(r, model, result.xbar)
     points = points_near(cs, result.xbar, np.random.default_rng(1), n=30, scale=0.002)
     points += list(inner_ranges(cs, [result.xbar]).points) if inner else []
