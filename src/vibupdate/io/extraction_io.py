@@ -99,18 +99,12 @@ def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int 
     ValueError, writing nothing, when the folder holds files vibupdate did not write and
     ``force`` is false, or when one of them would be overwritten.
     """
-    import shutil
-
     from vibupdate import __version__
-    from vibupdate.io.outputs import publish, staging_folder
+    from vibupdate.io.outputs import write_published
 
     target = check_extraction_folder(out_dir, force)
-    staged = staging_folder(target)
-    try:
-        paths = _write_files(result, frfs, staged, first_mode, name, plot)
-        publish(staged, target, case="extraction", version=__version__)
-    finally:
-        shutil.rmtree(staged, ignore_errors=True)
+    paths = write_published(target, lambda staged: _write_files(result, frfs, staged, first_mode, name, plot),
+                            case="extraction", version=__version__)
     return {kind: target.path / path.name for kind, path in paths.items()}
 
 
