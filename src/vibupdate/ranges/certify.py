@@ -35,6 +35,7 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent
 from vibupdate.ranges.tightening import GAP, Box, Lifts, lifts, root_box, tighten, tighten_parameters
 
@@ -194,6 +195,9 @@ class _Branching:
         self.stale = np.zeros((cs.n_x, 2))
         self.splits = 0
         self.n_lps = 0
+        # Centres of new parts are checked for membership (a dense eigen-analysis per block)
+        # only on models small enough for dense work.
+        self.check = max(m.n_dofs for m in cs.models) <= DENSE_LIMIT
 
     def _pick(self):
         n_x = self.n_x
@@ -249,7 +253,7 @@ class _Branching:
             if not child.empty:
                 self.leaves.append(child)
                 centre = 0.5 * (child.lo[:self.n_x] + child.hi[:self.n_x])
-                if time.perf_counter() < deadline and is_consistent(self.cs, centre):
+                if self.check and time.perf_counter() < deadline and is_consistent(self.cs, centre):
                     self.known.append(centre)
         self.splits += 1
         if self.leaves:
