@@ -270,8 +270,9 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
 
     The root ranges (two LPs per parameter over all blocks) are always computed. Then, while
     the elapsed time is below ``seconds``: bound-tightening passes on the whole box
-    (`vibupdate.ranges.tightening.tighten`) until one narrows it by less than `STALL` (or
-    ``max_passes``), using at most half the budget when branching follows; then branching
+    (`vibupdate.ranges.tightening.tighten`) until one narrows it by less than `STALL`
+    (`ROOT_STALL` when branching follows, then using at most half the budget) or
+    ``max_passes`` passes; then branching
     (`_Branching`), each half tightened by at most ``node_passes`` passes, until the budget or
     ``max_splits`` splits. Without a finite budget there is no branching unless ``max_splits``
     is given.
