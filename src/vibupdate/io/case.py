@@ -89,10 +89,14 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
     band = spec.get("band_hz")
     if band is not None:
         band = tuple(2 * math.pi * b for b in numbers(band, f"{key}.frf.band_hz", where))
+    fit_band = spec.get("fit_band_hz")
+    if fit_band is not None:
+        fit_band = tuple(2 * math.pi * b for b in numbers(fit_band, f"{key}.frf.fit_band_hz", where))
     try:
         frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
                          spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
-        result = extract(frfs, band=band, n_modes=spec.get("modes"), confidence=spec.get("confidence", 0.95))
+        result = extract(frfs, band=band, n_modes=spec.get("modes"), confidence=spec.get("confidence", 0.95),
+                         fit_band=fit_band)
     except ValueError as exc:
         raise where.error(f"{key}.frf", str(exc)) from None
     first = spec.get("first_mode", 1)
