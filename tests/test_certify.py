@@ -8,11 +8,12 @@ from helpers import chain_model
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from vibupdate import Configuration, NaturalFrequency, ShapeInterval, modes
+from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval, antiresonances, modes
 from vibupdate.ranges.certify import enclosure
-from vibupdate.ranges.lp_relaxation import lift, lifted_point, relax, safe_bound, solve
 from vibupdate.ranges.consistent import consistent_set, inner_ranges, is_consistent, witness
 from vibupdate.ranges.identifiability import parameter_ranges
+from vibupdate.ranges.lp_relaxation import lift, lifted_point, relax, safe_bound, solve
+from vibupdate.ranges.tightening import lifts, root_box, tighten
 
 NAMES = ("k1", "k2", "k3", "m1", "m2", "m3")
 
@@ -63,11 +64,34 @@ def test_certified_range_contains_the_truth_and_every_point_of_s_found(case):
     model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
     cs = consistent_set([cfg], frequency_tolerance=tol)
     assume(is_consistent(cs, truth))
-    r = enclosure(cs, seconds=np.inf, max_passes=3)
-    assert not r.empty
-    assert inside(r, model, truth)
-    for x in points_near(cs, truth, np.random.default_rng(seed)):
-        assert inside(r, model, x)
+    points = [truth] + points_near(cs, truth, np.random.default_rng(seed))
+    for splits in (0, 6):   # bound tightening alone, then with branching
+        r = enclosure(cs, seconds=np.inf, max_passes=3, max_splits=splits, known=[truth])
+        assert not r.empty and r.splits <= splits
+        for x in points:
+            assert inside(r, model, x)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_bound_tightening_never_cuts_off_a_point_of_s_found_by_sampling(case):
+    """Every point of S found by sampling, its eigenvectors included, stays inside the box
+    after each pass of OBBT (parameters and vector entries), with and without a focus."""
+    names, fractions, tol, shape_tol, seed = case
+    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
+    cs = consistent_set([cfg], frequency_tolerance=tol)
+    assume(is_consistent(cs, truth))
+    rng = np.random.default_rng(seed)
+    members = [truth] + points_near(cs, truth, rng, scale=0.1)
+    R = lifts(cs)
+    L = R.full
+    Z = [lifted_point(L, cs, x, witness(cs, x))[:L.n_x + L.n_u] for x in members]
+    box = root_box(cs, R)
+    for focus in (None, int(rng.integers(cs.n_x)), None):
+        tighten(R, box, np.inf, max_passes=1, focus=focus)
+        assert not box.empty
+        for z in Z:
+            assert np.all(box.lo <= z) and np.all(z <= box.hi)
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -117,8 +141,75 @@ def test_the_answer_is_inside_when_the_windows_are_widened_to_hold_it():
     answer = truth + np.array([0.01, -0.02])
     cs = consistent_set([noisy], include=answer)
     assert is_consistent(cs, answer)
-    r = parameter_ranges([noisy], answer, method="certified", seconds=30.0)
+    r = parameter_ranges([noisy], answer, method="certified", seconds=10.0)
     assert inside(r, model, answer)
+
+
+def _chain_with_intervals(tol):
+    """Three-mass chain, every frequency and antiresonance with its own interval of relative
+    half-width ``tol`` (a tuple: one per datum) or none (``tol`` None)."""
+    model = chain_model(3, ["k1", "k2", "m1", "m3"])
+    truth = np.array([0.1, -0.05, 0.08, -0.1])
+    M, K = model.matrices(truth)
+    w, _ = modes(M, K)
+    z = antiresonances(M, K, 0, 0)
+    tols = [None] * 5 if tol is None else list(tol)
+    iv = [None if t is None else (x * (1 - t), x * (1 + t)) for x, t in zip([*w, *z], tols)]
+    nat = tuple(NaturalFrequency(x, interval=i) for x, i in zip(w, iv[:3]))
+    zs = tuple(Antiresonance(x, "y1", "y1", interval=i) for x, i in zip(z, iv[3:]))
+    return model, truth, Configuration("A", model, nat, zs)
+
+
+def test_each_datum_s_interval_is_its_window_of_the_consistent_set():
+    model, truth, plain = _chain_with_intervals(None)
+    _, _, own = _chain_with_intervals([0.01] * 5)
+    by_tolerance = consistent_set([plain], frequency_tolerance=0.01)
+    by_intervals = consistent_set([own], frequency_tolerance=0.3)   # unused: every datum has an interval
+    np.testing.assert_allclose(by_intervals.omega_lower, by_tolerance.omega_lower, rtol=1e-12)
+    np.testing.assert_allclose(by_intervals.omega_upper, by_tolerance.omega_upper, rtol=1e-12)
+    assert "own measured interval (5 of 5 frequencies)" in by_intervals.definition()
+    a = enclosure(by_tolerance, seconds=np.inf, max_passes=2)
+    b = enclosure(by_intervals, seconds=np.inf, max_passes=2)
+    np.testing.assert_allclose(a.lower, b.lower, rtol=1e-9)
+    np.testing.assert_allclose(a.upper, b.upper, rtol=1e-9)
+    # Mixed: a narrow interval on the first frequency, the tolerance for the others.
+    _, _, mixed = _chain_with_intervals([0.001, None, None, None, None])
+    cs = consistent_set([mixed], frequency_tolerance=0.01)
+    w1 = mixed.natural[0].omega
+    assert cs.omega_lower[0] == pytest.approx(0.999 * w1) and cs.omega_upper[0] == pytest.approx(1.001 * w1)
+    assert "(1 of 5 frequencies), +-1 % of the measured frequency for the others" in cs.definition()
+    narrow = enclosure(cs, seconds=np.inf, max_passes=2)
+    assert inside(narrow, model, truth)
+    assert np.all(narrow.upper - narrow.lower <= a.upper - a.lower + 1e-12)
+
+
+def test_a_measured_shape_counts_up_to_scale_with_its_reference_entry_s_own_interval():
+    """The truth's shape lies in the intervals as measured (reference entry at the low end of
+    its interval), but its ratios do not lie in the intervals divided by the reference midpoint:
+    S, which frees the reference entry to its interval, holds it; certified ranges too."""
+    model = chain_model(3, ["k1", "k2", "m2"])
+    truth = np.array([0.1, -0.1, 0.05])
+    w, Phi = modes(*model.matrices(truth))
+    natural = []
+    for k in range(3):
+        phi = Phi[:, k] / Phi[np.argmax(np.abs(Phi[:, k])), k]
+        r = int(np.argmax(np.abs(phi)))
+        bounds = {f"y{j + 1}": (phi[j] - 0.01, phi[j] + 0.01) for j in range(3)}
+        bounds[f"y{r + 1}"] = (1.0, 1.2)   # the truth at the low end of the reference interval
+        natural.append(NaturalFrequency(float(w[k]), shape=ShapeInterval(bounds)))
+    cfg = Configuration("A", model, tuple(natural))
+    cs = consistent_set([cfg], frequency_tolerance=0.001)
+    assert all(not b.fixed.any() for b in cs.blocks)
+    ratios = ShapeInterval(natural[0].shape.bounds).ratio_bounds()
+    j = next(d for d in ratios if abs(Phi[model.dof(d), 0]) > 0.05 * np.max(np.abs(Phi[:, 0])))
+    phi0 = Phi[:, 0] / Phi[np.argmax(np.abs(Phi[:, 0])), 0]
+    assert not ratios[j][0] <= phi0[model.dof(j)] <= ratios[j][1]   # outside the midpoint ratios
+    assert is_consistent(cs, truth)
+    assert "3 of 3 vectors carry a measured shape" in cs.definition()
+    r = enclosure(cs, seconds=np.inf, max_passes=3, max_splits=4, known=[truth])
+    assert inside(r, model, truth)
+    for x in points_near(cs, truth, np.random.default_rng(3), scale=0.02):
+        assert inside(r, model, x)
 
 
 def test_inconsistent_data_give_a_certified_empty_set():
@@ -194,7 +285,7 @@ def cantilever_answer():
     return case, update(case.configurations, formulation=case.formulation, solver=case.solver)
 
 
-def _example_check(case, result, passes, inner, tolerance):
+def _example_check(case, result, passes, inner, tolerance, splits=0):
     """The answer and points of S near it (random, and the inner estimate's) lie inside;
     ``tolerance`` (at least the case's) leaves room in the windows for such points."""
     model = case.configurations[0].model
@@ -207,8 +298,8 @@ def _example_check(case, result, passes, inner, tolerance):
     # The answer sits on active bounds of S (vector boxes, parameter bounds) up to the solver's
     # tolerance: on the frame its mode 7 leaves its box by 8e-9. It is in S to within 1e-6.
     assert is_consistent(cs, result.xbar, margin=-1e-6)
-    r = enclosure(cs, seconds=np.inf, max_passes=passes)
-    assert r.passes == passes and not r.empty
+    r = enclosure(cs, seconds=np.inf, max_passes=passes, max_splits=splits, known=[result.xbar])
+    assert (r.passes == passes if not splits else r.passes <= passes) and r.splits <= splits and not r.empty
     assert inside(r, model, result.xbar)
     points = points_near(cs, result.xbar, np.random.default_rng(1), n=30, scale=0.002)
     points += list(inner_ranges(cs, [result.xbar]).points) if inner else []
@@ -227,7 +318,7 @@ def test_cantilever_certified_range_contains_the_answer_and_nearby_points_of_s(c
 @pytest.mark.slow
 def test_cantilever_refined_range_contains_the_inner_estimate(cantilever_answer):
     case, result = cantilever_answer
-    _example_check(case, result, passes=6, inner=True, tolerance=0.02)
+    _example_check(case, result, passes=6, inner=True, tolerance=0.02, splits=6)
 
 
 @pytest.mark.slow

@@ -4,37 +4,48 @@ S is stated in `vibupdate.ranges.consistent`; `vibupdate.ranges.lp_relaxation` r
 program (McCormick envelopes of the lifted products, Eq. 19) on boxes of the parameters and
 vector entries, and bounds any linear objective over it safely (a Lagrangian bound from the
 solver's multipliers, valid although the solver is inexact). Here the minimum and maximum of
-each parameter over the relaxation bound it over S; tightening the boxes of the vector
-entries and parameters by the same LPs (optimality-based bound tightening, OBBT) and
-rebuilding the envelopes narrows the enclosure, for as long as the time budget allows.
-Vector entries are first bounded over the relaxation of their own block alone (a weaker but
-valid relaxation, and a small LP), then over all blocks.
+each parameter over the relaxation bound it over S. Three steps narrow that enclosure, for as
+long as the time budget allows:
 
-A bound is *confirmed* (the parameter's range flagged ``certified``) when the safe value is
-within `GAP` of the solver's optimum; otherwise the weaker safe value is still what is
-reported. A positive safe phase-1 bound certifies that S is empty.
+1. the root ranges: two LPs per parameter over all blocks, on the first stage's boxes;
+2. optimality-based bound tightening (OBBT) of the vector entries and the parameters by the
+   same LPs, envelopes rebuilt on the narrower boxes, repeated towards its fixed point
+   (`vibupdate.ranges.tightening`);
+3. branching: the parameter box is split in two along the parameter with the widest range
+   (relative to the root's) and each half tightened alone; halves proved empty drop out, and
+   the ranges are the hull of the remaining parts (`_Branching`). McCormick envelopes are
+   exact at the corners of their boxes and their error shrinks with the product of the two
+   widths, so narrower parameter boxes bound the vector entries, and these the parameters,
+   much more tightly than OBBT on the whole box can.
+
+Every step only removes parts of the box that hold no point of S, so the result stays an
+outer range whenever it stops. A bound is *confirmed* (the parameter's range flagged
+``certified``) when the safe value is within `GAP` of the solver's optimum; otherwise the
+weaker safe value is still what is reported. S is certified empty when every part of the box
+is (crossing safe bounds, or a positive safe phase-1 bound).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from vibupdate.ranges.consistent import ConsistentSet, consistent_set
-from vibupdate.inverse.formulation import FormulationOptions
-from vibupdate.ranges.lp_relaxation import Lifted, highs_model, lift, phase1_bound, relax, solve, solve_clarabel
 from vibupdate.data.measured import Configuration
+from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.modal.eigen import DENSE_LIMIT
+from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent
+from vibupdate.ranges.tightening import GAP, Box, Lifts, lifts, root_box, tighten, tighten_parameters
 
-__all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements"]
+__all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements", "GAP"]
 
-#: Largest gap (normalized parameter units) between the safe bound and the LP optimum for
-#: which the solver's answer counts as confirmed.
-GAP = 1e-6
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
 STALL = 1e-3
+#: The same when branching follows: passes that gain less are worth less than splits
+#: (measured on the cantilever, benchmarks/RESULTS.md).
+ROOT_STALL = 0.02
 
 
 @dataclass(frozen=True)
@@ -61,7 +72,11 @@ class CertifiedRanges:
     root_seconds, seconds : float
         Wall time to the root ranges and in all.
     passes : int
-        Completed bound-tightening passes over every vector entry and parameter.
+        Completed bound-tightening passes over the whole box (before branching).
+    splits : int
+        Splits of the parameter box (branching).
+    leaves : int
+        Parts of the parameter box not proved empty; the ranges are their hull.
     n_lps : int
     history : tuple of (float, float)
         (seconds, mean width in per cent) after the root and after each pass.
@@ -81,6 +96,8 @@ class CertifiedRanges:
     root_seconds: float
     seconds: float
     passes: int
+    splits: int
+    leaves: int
     n_lps: int
     history: tuple
     definition: str
@@ -102,7 +119,8 @@ class CertifiedRanges:
         return {
             "definition": self.definition, "message": self.message, "empty": self.empty,
             "seconds": self.seconds, "root_seconds": self.root_seconds, "passes": self.passes,
-            "n_lps": self.n_lps, "history": [[num(t), num(w)] for t, w in self.history],
+            "splits": self.splits, "leaves": self.leaves, "n_lps": self.n_lps,
+            "history": [[num(t), num(w)] for t, w in self.history],
             "ranges": {n: {"lower": num(lo), "upper": num(hi), "width_pct": num(w), "certified": bool(c),
                            "root_lower": num(rl), "root_upper": num(ru)}
                        for n, lo, hi, w, c, rl, ru in zip(self.names, self.lower, self.upper, self.width_pct,
@@ -150,149 +168,172 @@ def range_disagreements(certified: dict, others: dict, wider: float = 2.0) -> li
     return notes
 
 
-class _Tightener:
-    """Boxes of the parameters and vector entries, tightened by safe LP bounds.
+def _hull(leaves, n_x):
+    lo = np.min([leaf.lo[:n_x] for leaf in leaves], axis=0)
+    hi = np.max([leaf.hi[:n_x] for leaf in leaves], axis=0)
+    return lo, hi
 
-    The relaxation of all blocks bounds the parameters; the vector entries of block ``b``
-    are bounded by the relaxation of block ``b`` alone (the other blocks' rows dropped: a
-    weaker but valid relaxation, and a small LP), which also bounds the parameters.
+
+class _Branching:
+    """Spatial branching of the parameter box: the leaves' boxes cover every point of S, so
+    the hull of their parameter ranges is an outer range; splitting the leaf that sets an end
+    of the hull and tightening both halves narrows the McCormick envelopes where it matters.
+    The split is along the parameter whose products the relaxation's solution at that end
+    violates most (`_direction`): branching on the parameter with the widest range was
+    measured to split parameters that S fills anyway (benchmarks/RESULTS.md).
+
+    Which end to work on: the one reaching farthest past the hull of the points known to lie
+    in S (``known``; the hull's centre when there are none), relative to the root width,
+    halved after each split that did not move it (an end that S itself reaches cannot move).
     """
 
-    def __init__(self, cs: ConsistentSet, L: Lifted):
-        self.L = L
-        self.n_x = cs.n_x
-        self.local = [lift(replace(cs, blocks=(blk,), models=(m,), omega_lower=cs.omega_lower[b:b + 1],
-                                    omega_upper=cs.omega_upper[b:b + 1]))
-                      for b, (blk, m) in enumerate(zip(cs.blocks, cs.models))]
-        self.u_off = np.concatenate([[0], np.cumsum([Lb.n_u for Lb in self.local])]).astype(int)
-        self.box = [np.concatenate([cs.x_lower, L.u_lower]), np.concatenate([cs.x_upper, L.u_upper])]
-        self.confirmed = np.zeros((cs.n_x, 2), dtype=bool)
-        self.lps = {}
-        self.n_lps, self.infeasible = 0, None
+    def __init__(self, cs: ConsistentSet, R: Lifts, root: Box, known):
+        self.cs, self.R, self.n_x = cs, R, cs.n_x
+        self.leaves = [root]
+        self.width0 = np.maximum(root.width(cs.n_x), 1e-12)
+        self.known = [np.asarray(k, dtype=float) for k in (known or [])]
+        self.stale = np.zeros((cs.n_x, 2))
+        self.splits = 0
+        self.n_lps = 0
+        # Centres of new parts are checked for membership (a dense eigen-analysis per block)
+        # only on models small enough for dense work.
+        self.check = max(m.n_dofs for m in cs.models) <= DENSE_LIMIT
 
-    def relaxation(self, block: int | None = None):
-        """LP of all blocks (``None``, solved by Clarabel) or of one block (with its HiGHS
-        instance), on the current boxes: ``(lp, highs or None)``, cached."""
-        if block not in self.lps:
-            n_x, (lo, hi) = self.n_x, self.box
-            if block is None:
-                L, sl = self.L, slice(n_x, None)
-            else:
-                L, sl = self.local[block], slice(n_x + self.u_off[block], n_x + self.u_off[block + 1])
-            lp = relax(L, lo[:n_x], hi[:n_x], lo[sl], hi[sl])
-            self.lps[block] = (lp, None if block is None else highs_model(lp))
-        return self.lps[block]
+    def _pick(self):
+        n_x = self.n_x
+        lo, hi = _hull(self.leaves, n_x)
+        if self.known:
+            K = np.array(self.known)
+            klo, khi = K.min(axis=0), K.max(axis=0)
+        else:
+            klo = khi = 0.5 * (lo + hi)
+        gap = np.column_stack([np.maximum(klo - lo, 0), np.maximum(hi - khi, 0)]) / self.width0[:, None]
+        score = gap * 0.5**self.stale
+        while True:
+            i, side = np.unravel_index(int(np.argmax(score)), score.shape)
+            if not score[i, side] > 1e-9:
+                return None
+            end = lo[i] if side == 0 else hi[i]
+            at = [leaf for leaf in self.leaves if (leaf.lo[i] if side == 0 else leaf.hi[i]) == end]
+            leaf = max(at, key=lambda lf: float(np.sum(lf.width(n_x) / self.width0)))
+            rel = leaf.width(n_x) / self.width0
+            if rel.max() > 1e-6:
+                return (i, side), end, leaf, self._direction(leaf, (i, side), rel)
+            score[i, side] = 0.0   # nothing left to split there
 
-    def _invalidate(self, j: int) -> None:
-        if j < self.n_x:
-            self.lps.clear()
-            return
-        self.lps.pop(None, None)
-        self.lps.pop(int(np.searchsorted(self.u_off, j - self.n_x, side="right")) - 1, None)
+    def _direction(self, leaf: Box, end, rel):
+        """The parameter to split and where: the one whose lifted products the relaxation's
+        solution at this end violates most (weighted), at that solution's value kept within
+        the middle half of its range; the widest relative range, at its midpoint, when there
+        is no solution to read."""
+        splittable = rel > 1e-6
+        z = leaf.points.get(end)
+        if z is not None:
+            err = np.where(splittable, self.R.product_error(z), 0.0)
+            if err.max() > 0:
+                d = int(np.argmax(err))
+                a, b = leaf.lo[d], leaf.hi[d]
+                return d, float(np.clip(z[d], a + 0.25 * (b - a), b - 0.25 * (b - a)))
+        d = int(np.argmax(np.where(splittable, rel, -1.0)))
+        return d, 0.5 * (leaf.lo[d] + leaf.hi[d])
 
-    def tighten(self, j: int, side: int, block: int | None = None) -> None:
-        """Bound variable ``j`` of the box (x then u) from below (side 0) or above (side 1)
-        over the relaxation of all blocks or of ``block``."""
-        lp, h = self.relaxation(block)
-        local = j if j < self.n_x or block is None else j - self.u_off[block]
-        sign = 1.0 if side == 0 else -1.0
-        c = np.zeros(lp.A.shape[1])
-        c[local] = sign
-        status, opt, bound = solve_clarabel(lp, c) if h is None else solve(lp, c, h)
-        if h is None and status == "optimal" and not bound >= opt - GAP:
-            # Interior-point multipliers too loose to confirm the optimum: simplex duals.
-            status, opt, bound = solve(lp, c)
-            self.n_lps += 1
-        self.n_lps += 1
-        if status == "infeasible":
-            self.infeasible = (block,)
-        if status != "optimal" or not np.isfinite(bound):
-            return
-        value = sign * bound
-        old = self.box[side][j]
-        better = value > old if side == 0 else value < old
-        if j < self.n_x and (better or abs(value - old) <= GAP):
-            self.confirmed[j, side] = bound >= opt - GAP
-        if better:
-            self.box[side][j] = value
-            self._invalidate(j)
-
-    def crossed(self) -> bool:
-        return bool(np.any(self.box[0] > self.box[1]))
-
-    def sweep(self, deadline: float, full: bool) -> bool:
-        """One pass: every block's vector entries and the parameters over that block (or, with
-        ``full``, the vector entries over all blocks), then the parameters over all blocks.
-        False when stopped by the deadline or an infeasible LP."""
-        n_x, blocks = self.n_x, range(len(self.local))
-        tasks = [(n_x + self.u_off[b] + k, None if full else b) for b in blocks for k in range(self.local[b].n_u)]
-        tasks += ([] if full else [(i, b) for b in blocks for i in range(n_x)]) + [(i, None) for i in range(n_x)]
-        for j, block in tasks:
-            for side in (0, 1):
-                if time.perf_counter() > deadline:
-                    return False
-                self.tighten(j, side, block)
-                if self.infeasible is not None or self.crossed():
-                    return False
-        return True
+    def split(self, deadline: float, passes: int) -> bool:
+        """One split and the tightening of both halves; False when there is nothing to split."""
+        picked = self._pick()
+        if picked is None:
+            return False
+        (i, side), end, leaf, (d, mid) = picked
+        low, high = leaf.copy(), leaf.copy()
+        low.hi[d], high.lo[d] = mid, mid
+        low.confirmed[d, 1] = high.confirmed[d, 0] = True   # a branching point is exact
+        self.leaves.remove(leaf)
+        for child in (low, high):
+            tighten(self.R, child, deadline, max_passes=passes, focus=d)
+            self.n_lps += child.n_lps
+            if not child.empty:
+                self.leaves.append(child)
+                centre = 0.5 * (child.lo[:self.n_x] + child.hi[:self.n_x])
+                if self.check and time.perf_counter() < deadline and is_consistent(self.cs, centre):
+                    self.known.append(centre)
+        self.splits += 1
+        if self.leaves:
+            lo, hi = _hull(self.leaves, self.n_x)
+            moved = (lo[i] > end) if side == 0 else (hi[i] < end)
+            self.stale[i, side] = 0.0 if moved else self.stale[i, side] + 1.0
+        return bool(self.leaves)
 
 
 def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | None = None,
+              max_splits: int | None = None, known=None, node_passes: int = 1,
               progress: Callable[[str], None] | None = None) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
-    The root ranges (two LPs per parameter over all blocks) are always computed; bound-
-    tightening passes (`_Tightener.sweep`) follow while the elapsed time is below ``seconds``:
-    per-block passes (small LPs) until one narrows the boxes by less than `STALL`, then passes
-    over all blocks until one does too, and at most ``max_passes`` passes when given.
+    The root ranges (two LPs per parameter over all blocks) are always computed. Then, while
+    the elapsed time is below ``seconds``: bound-tightening passes on the whole box
+    (`vibupdate.ranges.tightening.tighten`) until one narrows it by less than `STALL`
+    (`ROOT_STALL` when branching follows, then using at most half the budget) or
+    ``max_passes`` passes; then branching
+    (`_Branching`), each half tightened by at most ``node_passes`` passes, until the budget or
+    ``max_splits`` splits. Without a finite budget there is no branching unless ``max_splits``
+    is given.
+
+    Parameters
+    ----------
+    cs : ConsistentSet
+    seconds : float
+    max_passes, max_splits : int, optional
+    known : sequence of ndarray, shape (n_x,), optional
+        Points believed to lie in S (e.g. the answer): they steer the branching only.
+    node_passes : int
+    progress : callable, optional
     """
     if not seconds >= 0:
         raise ValueError(f"the time budget must be >= 0 seconds, got {seconds!r}")
+    if max_splits is None and not np.isfinite(seconds):
+        max_splits = 0
     say = progress or (lambda message: None)
     t0 = time.perf_counter()
-    T = _Tightener(cs, lift(cs))
+    end = t0 + seconds
+    R = lifts(cs)
     n_x = cs.n_x
-
-    def width():
-        return float(np.mean(T.box[1][:n_x] - T.box[0][:n_x]) * 100.0)
-
-    for i in range(n_x):
-        for side in (0, 1):
-            if T.infeasible is None and not T.crossed():
-                T.tighten(i, side)
-    root = (T.box[0][:n_x].copy(), T.box[1][:n_x].copy())
+    box = root_box(cs, R)
+    tighten_parameters(R, box, np.inf)
+    root = (box.lo[:n_x].copy(), box.hi[:n_x].copy())
     root_seconds = time.perf_counter() - t0
-    history = [(root_seconds, width())]
+    history = [(root_seconds, float(np.mean(box.width(n_x)) * 100))]
     say(f"certified ranges: root {root_seconds:.1f} s, mean width {history[-1][1]:.3g} %")
-    passes, complete, full = 0, T.infeasible is None and not T.crossed(), False
-    span0 = np.maximum(T.box[1] - T.box[0], 1e-300)
-    while complete and (max_passes is None or passes < max_passes):
-        before = np.sum((T.box[1] - T.box[0]) / span0)
-        complete = T.sweep(t0 + seconds, full)
-        if not complete:
-            break
-        passes += 1
-        history.append((time.perf_counter() - t0, width()))
-        say(f"certified ranges: pass {passes} ({'all blocks' if full else 'per block'}), {history[-1][0]:.1f} s, "
-            f"mean width {history[-1][1]:.3g} %")
-        if np.sum((T.box[1] - T.box[0]) / span0) > (1 - STALL) * before:
-            if full:
+
+    def on_pass(k):
+        history.append((time.perf_counter() - t0, float(np.mean(box.width(n_x)) * 100)))
+        say(f"certified ranges: pass {k}, {history[-1][0]:.1f} s, mean width {history[-1][1]:.3g} %")
+
+    passes = 0
+    if not box.empty:
+        branching = max_splits != 0
+        share = t0 + (0.5 * seconds if branching else seconds)
+        passes = tighten(R, box, min(share, end), max_passes=max_passes, stall=ROOT_STALL if branching else STALL,
+                         on_pass=on_pass)
+    B = _Branching(cs, R, box, known)
+    if not box.empty:
+        while (max_splits is None or B.splits < max_splits) and time.perf_counter() < end:
+            if not B.split(end, node_passes):
                 break
-            full = True
-    empty, message = False, "bounded"
-    if T.crossed():
-        empty, message = True, "S is empty: the safe bounds of a variable cross"
-    elif T.infeasible is not None:
-        lb = phase1_bound(T.relaxation(T.infeasible[0])[0])
-        empty = bool(lb > 0)
-        message = (f"S is empty: the least eigen-residual violation is at least {lb:.3g} > 0" if empty else
-                   "the LP solver reported the relaxation infeasible, which the safe bound does not confirm; "
-                   "the ranges are the last proven boxes")
-    elif not complete:
-        message = f"time budget of {seconds:g} s reached after {passes} pass(es)"
-    elif max_passes is not None and passes == max_passes:
-        message = f"stopped after {passes} pass(es) as asked"
-    return _result(cs, T, root, root_seconds, time.perf_counter() - t0, passes, history, empty, message)
+            lo, hi = _hull(B.leaves, n_x) if B.leaves else (box.lo[:n_x], box.lo[:n_x])
+            history.append((time.perf_counter() - t0, float(np.mean(hi - lo) * 100)))
+            if B.splits % 10 == 0 or not B.leaves:
+                say(f"certified ranges: {B.splits} splits, {len(B.leaves)} leaves, {history[-1][0]:.1f} s, "
+                    f"mean width {history[-1][1]:.3g} %")
+            if not B.leaves:
+                break
+    empty = box.empty or not B.leaves
+    n_lps = box.n_lps + B.n_lps
+    if empty:
+        message = "S is empty: every part of the parameter box was proved to hold no point of S"
+    elif time.perf_counter() >= end:
+        message = f"time budget of {seconds:g} s reached after {passes} pass(es) and {B.splits} split(s)"
+    else:
+        message = f"stopped after {passes} pass(es) and {B.splits} split(s)"
+    return _result(cs, B, root, root_seconds, time.perf_counter() - t0, passes, history, empty, message, n_lps)
 
 
 def _physical(model, lo, hi):
@@ -300,18 +341,24 @@ def _physical(model, lo, hi):
     return np.minimum(a, b), np.maximum(a, b)
 
 
-def _result(cs, T, root, root_seconds, seconds, passes, history, empty, message) -> CertifiedRanges:
+def _result(cs, B, root, root_seconds, seconds, passes, history, empty, message, n_lps) -> CertifiedRanges:
     n_x = cs.n_x
     model = cs.models[0]
-    lo, hi = T.box[0][:n_x], T.box[1][:n_x]
-    certified = T.confirmed.all(axis=1) & (T.infeasible is None or empty)
     if empty:
         lo = hi = np.full(n_x, np.nan)
         certified = np.ones(n_x, dtype=bool)
+    else:
+        lo, hi = _hull(B.leaves, n_x)
+        ends = np.zeros((n_x, 2), dtype=bool)
+        for leaf in B.leaves:
+            ends[:, 0] |= (leaf.lo[:n_x] == lo) & leaf.confirmed[:, 0]
+            ends[:, 1] |= (leaf.hi[:n_x] == hi) & leaf.confirmed[:, 1]
+        certified = ends.all(axis=1)
     plo, phi = _physical(model, lo, hi)
     rlo, rhi = _physical(model, *root)
     return CertifiedRanges(model.parameter_names, plo, phi, (hi - lo) * 100.0, certified, rlo, rhi, empty,
-                           root_seconds, seconds, passes, T.n_lps, tuple(history), cs.definition(), message)
+                           root_seconds, seconds, passes, B.splits, len(B.leaves), n_lps, tuple(history),
+                           cs.definition(), message)
 
 
 def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, frequency_tolerance: float = 0.0,
@@ -333,4 +380,4 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, freq
     progress : callable, optional
     """
     cs = consistent_set(configurations, frequency_tolerance=frequency_tolerance, include=xbar, options=options)
-    return enclosure(cs, seconds=seconds, progress=progress)
+    return enclosure(cs, seconds=seconds, known=None if xbar is None else [xbar], progress=progress)

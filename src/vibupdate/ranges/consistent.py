@@ -14,7 +14,12 @@ Eqs. 7 and 9) and a vector ``v`` whose entries live in a box (measured mode-shap
 
 where ``[wL_b, wU_b]`` is the frequency window of the block: the measured interval when the
 data carry one (``NaturalFrequency.interval``, ``Antiresonance.interval``), else
-``w (1 -+ frequency_tolerance)``; with ``include`` (the answer) each window is widened
+``w (1 -+ frequency_tolerance)``: each datum's own interval where it has one, the global
+tolerance only for the others. A mode whose shape was measured has no fixed entry: its measured
+entries, the reference entry (`ShapeInterval.reference`) included, must lie in their intervals
+(divided by the reference midpoint) for *some* scaling of the eigenvector, so the reference
+entry's own interval counts too, as the data state it (a shape is known up to scale); the
+other blocks keep one entry fixed to 1 for normalization. With ``include`` (the answer) each window is widened
 symmetrically about the measured ``w`` to ``w -+ (|w_answer - w| + ANSWER_MARGIN w)``, so that
 the answer's own misfit is the floor of the tolerance, as for the linearized ranges. With exact data and ``frequency_tolerance = 0`` the window is the single
 measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
@@ -31,7 +36,7 @@ certified outer enclosure of `vibupdate.ranges.certify`.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -67,6 +72,8 @@ class ConsistentSet:
         Box of the normalized parameters.
     frequency_tolerance : float
         Relative half-width used where the data carry no interval.
+    own_interval : ndarray of bool, shape (n_blocks,)
+        The block's window is its datum's measured interval (else the global tolerance).
     """
 
     configurations: tuple[Configuration, ...]
@@ -77,6 +84,7 @@ class ConsistentSet:
     x_lower: np.ndarray
     x_upper: np.ndarray
     frequency_tolerance: float
+    own_interval: np.ndarray | None = None
 
     @property
     def n_x(self) -> int:
@@ -85,14 +93,26 @@ class ConsistentSet:
     def definition(self) -> str:
         """One paragraph stating S, for reports."""
         rel = np.max((self.omega_upper - self.omega_lower) / (self.omega_upper + self.omega_lower))
+        own = int(np.count_nonzero(self.own_interval)) if self.own_interval is not None else 0
+        n = len(self.blocks)
+        if own == n:
+            windows = f"each datum's own measured interval ({n} of {n} frequencies)"
+        elif own:
+            windows = (f"each datum's own measured interval ({own} of {n} frequencies), +-"
+                       f"{100 * self.frequency_tolerance:.3g} % of the measured frequency for the others")
+        else:
+            windows = f"+-{100 * self.frequency_tolerance:.3g} % of the measured frequency (no datum has an interval)"
+        shapes = sum(1 for b in self.blocks if not b.fixed.any())
         return (
             "Consistent set S: parameters within their bounds such that, for every measured natural "
             "frequency (and antiresonance), the model (its adjunct pencil) has an eigenvalue w^2 with w in "
-            "the frequency window and an eigenvector inside the vector box of the first stage (measured "
-            "mode-shape intervals, default margins on unmeasured entries, interlacing signs, one entry "
-            f"fixed to 1). Windows: the measured interval, else +-{100 * self.frequency_tolerance:.3g} % "
-            "of the measured frequency, widened to hold the answer's frequency; widest half-window "
-            f"{100 * rel:.3g} %. Any eigenpair counts, not only the paired mode."
+            "the frequency window and an eigenvector inside the vector box of the first stage, up to the "
+            "eigenvector's scale: each measured mode-shape entry (the reference entry included) in its own "
+            "interval divided by the reference entry's midpoint, default margins on unmeasured entries, "
+            "interlacing signs, and one entry fixed to 1 where no shape was measured "
+            f"({shapes} of {n} vectors carry a measured shape). Windows: {windows}, widened to hold the "
+            f"answer's frequency; widest half-window {100 * rel:.3g} %. Any eigenpair counts, not only the "
+            "paired mode."
         )
 
 
@@ -101,10 +121,11 @@ def _windows(configurations, blocks, tol, include):
     if include is not None:
         answer = {c.name: model_frequencies(c, include) for c in configurations}
     by_name = {c.name: c for c in configurations}
-    lo, hi = [], []
+    lo, hi, own = [], [], []
     for blk in blocks:
         cfg = by_name[blk.configuration]
         data = (cfg.natural if blk.kind == "natural" else cfg.antiresonances)[blk.index - 1]
+        own.append(data.interval is not None)
         if data.interval is not None:
             a, b = data.interval
         else:
@@ -117,7 +138,28 @@ def _windows(configurations, blocks, tol, include):
                 a, b = min(a, data.omega - reach), max(b, data.omega + reach)
         lo.append(a)
         hi.append(b)
-    return np.array(lo), np.array(hi)
+    return np.array(lo), np.array(hi), np.array(own, dtype=bool)
+
+
+def _scale_free(blk: VectorBlock, cfg: Configuration) -> VectorBlock:
+    """A natural block with a measured shape, its reference entry freed to its own interval
+    (module docstring); other blocks unchanged. A reference interval reaching zero cannot
+    exclude the trivial vector, and the entry stays fixed."""
+    if blk.kind != "natural" or blk.measured is None or not blk.measured.any():
+        return blk
+    shape = cfg.natural[blk.index - 1].shape
+    ref = shape.reference
+    j = int(np.flatnonzero(blk.cols == cfg.model.dof(ref))[0])
+    if not blk.fixed[j]:
+        return blk
+    lo, hi = shape.bounds[ref]
+    mid = shape.midpoint[ref]
+    a, b = sorted((lo / mid, hi / mid))
+    if not a > 0:
+        return blk
+    lower, upper, fixed = blk.lower.copy(), blk.upper.copy(), blk.fixed.copy()
+    lower[j], upper[j], fixed[j] = a, b, False
+    return replace(blk, lower=lower, upper=upper, fixed=fixed)
 
 
 def consistent_set(configurations: Sequence[Configuration], *, frequency_tolerance: float = 0.0,
@@ -140,11 +182,12 @@ def consistent_set(configurations: Sequence[Configuration], *, frequency_toleran
     options = options or FormulationOptions()
     transforms = [sign_bounds] if options.interlacing else []
     problem = formulate(configurations, options, transforms=transforms)
-    by_name = {c.name: c.model for c in configurations}
-    models = tuple(by_name[b.configuration] for b in problem.blocks)
-    lo, hi = _windows(configurations, problem.blocks, frequency_tolerance, include)
-    return ConsistentSet(configurations, problem.blocks, models, lo, hi,
-                         problem.x_lower.copy(), problem.x_upper.copy(), float(frequency_tolerance))
+    by_name = {c.name: c for c in configurations}
+    blocks = tuple(_scale_free(b, by_name[b.configuration]) for b in problem.blocks)
+    models = tuple(by_name[b.configuration].model for b in blocks)
+    lo, hi, own = _windows(configurations, blocks, frequency_tolerance, include)
+    return ConsistentSet(configurations, blocks, models, lo, hi, problem.x_lower.copy(), problem.x_upper.copy(),
+                         float(frequency_tolerance), own)
 
 
 def _block_pencil(dense, blk: VectorBlock):
@@ -167,8 +210,8 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
 
     Every block needs a real eigenpair whose frequency is inside its window shrunk by
     ``margin`` (relative; an exact datum within the residual floor) and whose vector,
-    normalized at the block's fixed entry, lies inside its box shrunk by ``margin`` (absolute,
-    scaled coordinates). The margin absorbs the eigensolver's rounding, so a point with a
+    scaled to the block's fixed entry (or by any scale, for a block without one), lies inside
+    its box shrunk by ``margin`` (absolute, scaled coordinates). The margin absorbs the eigensolver's rounding, so a point with a
     witness is a point of S.
 
     Parameters
@@ -197,16 +240,10 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
         inside = (w >= cs.omega_lower[b] * (1 + margin)) & (w <= cs.omega_upper[b] * (1 - margin))
         if cs.omega_lower[b] == cs.omega_upper[b]:  # exact datum: within the residual floor
             inside = np.abs(w - cs.omega_lower[b]) <= 0.01 * RESIDUAL_FLOOR * cs.omega_lower[b]
-        j = int(np.flatnonzero(blk.fixed)[0])
-        free = ~blk.fixed
         found = None
         for k in np.flatnonzero(inside):
-            v = V[:, k] / blk.scale
-            if abs(v[j]) < 1e-12 * np.max(np.abs(v)):
-                continue
-            v = v / v[j] * blk.lower[j]
-            if np.all(v[free] >= blk.lower[free] + margin) and np.all(v[free] <= blk.upper[free] - margin):
-                v[blk.fixed] = blk.lower[blk.fixed]
+            v = _into_box(blk, V[:, k] / blk.scale, margin)
+            if v is not None:
                 found = (float(lam[k]), v)
                 break
         if found is None:
@@ -215,14 +252,48 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
     return pairs
 
 
+def _into_box(blk: VectorBlock, v, margin: float):
+    """``c v`` for a scale ``c`` that puts the free entries inside the block's box shrunk by
+    ``margin`` and the fixed entries on their values, or None when no scale does."""
+    free = ~blk.fixed
+    if blk.fixed.any():
+        j = int(np.flatnonzero(blk.fixed)[0])
+        if abs(v[j]) < 1e-12 * np.max(np.abs(v)):
+            return None
+        v = v / v[j] * blk.lower[j]
+        if np.all(v[free] >= blk.lower[free] + margin) and np.all(v[free] <= blk.upper[free] - margin):
+            v[blk.fixed] = blk.lower[blk.fixed]
+            return v
+        return None
+    lo, hi, x = blk.lower + margin, blk.upper - margin, v
+    nz = x != 0
+    if np.any(~nz & ((lo > 0) | (hi < 0))):
+        return None
+    a, b = lo[nz] / x[nz], hi[nz] / x[nz]
+    c_lo, c_hi = np.max(np.minimum(a, b)), np.min(np.maximum(a, b))
+    if not c_lo <= c_hi:
+        return None
+    return 0.5 * (c_lo + c_hi) * v
+
+
 def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
     """Whether ``xbar`` lies in S with a margin (`witness`)."""
     return witness(cs, xbar, margin) is not None
 
 
+def _anchor(blk: VectorBlock) -> int:
+    """The entry a block's vector is normalized at: its fixed entry, else the entry whose box
+    keeps farthest from zero (a freed shape reference)."""
+    if blk.fixed.any():
+        return int(np.flatnonzero(blk.fixed)[0])
+    away = np.where(blk.lower * blk.upper > 0, np.minimum(np.abs(blk.lower), np.abs(blk.upper)), 0.0)
+    return int(np.argmax(away))
+
+
 def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:
     """Constraints of the inner-estimate NLP, >= 0 when met: each paired frequency inside its
-    window and each paired mode (normalized at the block's fixed entry) inside its box,
+    window and each paired mode (normalized at the block's fixed entry, or at the midpoint of
+    its freed reference entry, which then holds a subset of S) inside its box,
     relative to the window's half-width and the box width."""
     freqs = {c.name: model_frequencies(c, xbar) for c in cs.configurations}
     w, g = [], []
@@ -233,9 +304,11 @@ def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:
             continue
         w.append(f.natural[blk.index - 1])
         v = f.Phi[blk.cols, blk.index - 1] / blk.scale
-        j = int(np.flatnonzero(blk.fixed)[0])
+        j = _anchor(blk)
         free = ~blk.fixed & (blk.measured if blk.measured is not None else True)
-        v = v / v[j] * blk.lower[j] if abs(v[j]) > 1e-12 * np.max(np.abs(v)) else np.full(v.size, 1e300)
+        free[j] = False
+        ref = 0.5 * (blk.lower[j] + blk.upper[j])
+        v = v / v[j] * ref if abs(v[j]) > 1e-12 * np.max(np.abs(v)) else np.full(v.size, 1e300)
         width = np.maximum(blk.upper[free] - blk.lower[free], 1e-12)
         g += [(v[free] - blk.lower[free]) / width, (blk.upper[free] - v[free]) / width]
     w = np.where(np.isfinite(w), w, 1e300)

@@ -295,9 +295,15 @@ def highs_model(lp: RelaxedLP):
     return h
 
 
-def solve(lp: RelaxedLP, c, h=None):
+def solve(lp: RelaxedLP, c, h=None, *, point: bool = False):
     """HiGHS (dual simplex, warm from the previous solve of ``h``) on the LP with objective
-    ``c``; returns (status, optimum, safe bound from the solver's row duals)."""
+    ``c``; returns (status, optimum, safe bound from the solver's row duals), and with
+    ``point`` the solver's primal solution, shape (n_z,), as a fourth item (None unless
+    optimal).
+
+    ``h`` may hold tighter column bounds than ``lp`` (`vibupdate.ranges.certify` narrows them in
+    place between solves); ``lp.zl``, ``lp.zu`` must then be those bounds or wider, which keeps
+    the safe bound valid (it holds over the wider box too)."""
     import highspy
 
     h = h if h is not None else highs_model(lp)
@@ -306,17 +312,23 @@ def solve(lp: RelaxedLP, c, h=None):
     h.run()
     status = h.getModelStatus()
     if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnboundedOrInfeasible):
-        return "infeasible", np.nan, np.nan
-    if status != highspy.HighsModelStatus.kOptimal:
-        return "failed", np.nan, np.nan
-    y = np.asarray(h.getSolution().row_dual, dtype=float)
-    return "optimal", float(h.getInfo().objective_function_value), safe_bound(c, lp, y)
+        out = ("infeasible", np.nan, np.nan)
+    elif status != highspy.HighsModelStatus.kOptimal:
+        out = ("failed", np.nan, np.nan)
+    else:
+        sol = h.getSolution()
+        y = np.asarray(sol.row_dual, dtype=float)
+        out = ("optimal", float(h.getInfo().objective_function_value), safe_bound(c, lp, y))
+        if point:
+            return out + (np.asarray(sol.col_value, dtype=float),)
+    return out + (None,) if point else out
 
 
-def solve_clarabel(lp: RelaxedLP, c):
+def solve_clarabel(lp: RelaxedLP, c, *, point: bool = False):
     """Clarabel (interior point) on the LP with objective ``c``; returns (status, optimum,
-    safe bound from its multipliers). On the large LPs of all blocks it was many times
-    faster than HiGHS (benchmarks/RESULTS.md)."""
+    safe bound from its multipliers), and with ``point`` its primal solution as a fourth
+    item (None unless optimal). On the large LPs of all blocks it was many times faster than
+    HiGHS (benchmarks/RESULTS.md)."""
     import clarabel
 
     A = sp.csc_matrix(lp.A)
@@ -330,16 +342,16 @@ def solve_clarabel(lp: RelaxedLP, c):
     sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), np.asarray(c, dtype=float), G, h,
                                  [clarabel.NonnegativeConeT(G.shape[0])], settings).solve()
     status = str(sol.status)
-    if "Infeasible" in status:
-        return "infeasible", np.nan, np.nan
-    if status not in ("Solved", "AlmostSolved"):
-        return "failed", np.nan, np.nan
+    if "Infeasible" in status or status not in ("Solved", "AlmostSolved"):
+        out = ("infeasible" if "Infeasible" in status else "failed", np.nan, np.nan)
+        return out + (None,) if point else out
     z = np.asarray(sol.z)   # G x + s = h, s >= 0; z >= 0 multiplies G x <= h
     k, m = int(up.sum()), int(dn.sum())
     y = np.zeros(lp.A.shape[0])
     y[up] -= z[:k]
     y[dn] += z[k:k + m]
-    return "optimal", float(sol.obj_val), safe_bound(c, lp, y)
+    out = ("optimal", float(sol.obj_val), safe_bound(c, lp, y))
+    return out + (np.asarray(sol.x, dtype=float),) if point else out
 
 
 def lifted_point(L: Lifted, cs: ConsistentSet, xbar, pairs) -> np.ndarray:

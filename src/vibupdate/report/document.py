@@ -262,7 +262,7 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
         info = _certified(document)
         notes_ = range_disagreements(cert, _other_ranges(document))
         out += ["Certified outer range: min and max of each parameter over a convex (McCormick, linear "
-                "programming) relaxation of the consistent set S below, with bound tightening; every point of S "
+                "programming) relaxation of the consistent set S below, with bound tightening and branching; every point of S "
                 "lies inside. Each end is a safe Lagrangian bound evaluated from the LP solver's multipliers with "
                 "its rounding accounted for; \"certified\" means the safe bound confirms the solver's optimum, "
                 "\"no\" that the reported (still valid) range may be looser. " + info["definition"]

@@ -1,0 +1,249 @@
+"""Optimality-based bound tightening (OBBT) of one box of the consistent set's relaxation.
+
+A box holds the normalized parameters ``x`` and the free vector entries ``u`` of every block
+(`vibupdate.ranges.lp_relaxation`). The safe lower bound of ``min z_j`` over the LP relaxation on
+the box is a valid lower bound of ``z_j`` over every point of S inside the box, and likewise
+for the upper bound: replacing the box's ends by these bounds never removes a point of S, and
+the McCormick envelopes rebuilt on the narrower box are tighter, so the process can be
+repeated. Two relaxations are used:
+
+* block ``b`` alone (the other blocks' rows dropped: weaker, but a small LP): bounds of that
+  block's entries ``u_b`` and of ``x``. The LP is built once per block and pass and solved
+  warm by HiGHS for every objective; each new bound narrows the variable's column in place
+  (its own envelopes are rebuilt at the next pass), and a variable that already sits on one
+  of its bounds in the solution of an earlier objective cannot move that bound, so its LP is
+  skipped (the filtering of Gleixner et al., J. Global Optim. 67 (2017) 731-757);
+* all blocks together (they share ``x``): bounds of ``x``, by Clarabel (faster than HiGHS on
+  these larger LPs, `benchmarks/RESULTS.md`), re-solved by HiGHS when its multipliers do not
+  confirm its optimum.
+
+A box is proved empty when two safe bounds of a variable cross, or when an LP solver reports
+its relaxation infeasible and the safe phase-1 bound confirms it (`phase1_bound` > 0).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from vibupdate.ranges.consistent import ConsistentSet
+from vibupdate.ranges.lp_relaxation import Lifted, highs_model, lift, phase1_bound, relax, solve, solve_clarabel
+
+__all__ = ["Lifts", "Box", "lifts", "root_box", "tighten_block", "tighten_parameters", "tighten", "GAP"]
+
+#: Largest gap (normalized units) between the safe bound and the LP optimum for which the
+#: solver's answer counts as confirmed.
+GAP = 1e-6
+#: A solution value this close to a bound (absolute plus relative) counts as on the bound.
+_ON_BOUND = 1e-9
+
+
+@dataclass(frozen=True)
+class Lifts:
+    """The lifted operators of all blocks (``full``) and of each block alone (``local``).
+
+    ``u_off[b]:u_off[b + 1]`` are block ``b``'s entries among the free entries of all blocks.
+    """
+
+    full: Lifted
+    local: tuple[Lifted, ...]
+    u_off: np.ndarray
+    n_x: int
+    t_weight: np.ndarray
+
+    def product_error(self, z) -> np.ndarray:
+        """How much the relaxation's point ``z`` of all blocks, shape (n_z,), departs from the
+        products it lifts, per parameter, shape (n_x,): ``sum_k w_k |t_k - x_i u_j|`` over the
+        products of parameter ``i``, ``w_k`` the weight of ``t_k`` in the eigen rows."""
+        L = self.full
+        x, u, t = z[:L.n_x], z[L.n_x:L.n_x + L.n_u], z[L.n_x + L.n_u:L.n_x + L.n_u + L.n_t]
+        err = self.t_weight * np.abs(t - x[L.tx] * u[L.tu])
+        return np.bincount(L.tx, weights=err, minlength=L.n_x)
+
+    def block_slice(self, b: int) -> slice:
+        """Block ``b``'s entries in a box ``[x, u]``."""
+        return slice(self.n_x + int(self.u_off[b]), self.n_x + int(self.u_off[b + 1]))
+
+
+def lifts(cs: ConsistentSet) -> Lifts:
+    local = tuple(lift(replace(cs, blocks=(blk,), models=(m,), omega_lower=cs.omega_lower[b:b + 1],
+                               omega_upper=cs.omega_upper[b:b + 1]))
+                  for b, (blk, m) in enumerate(zip(cs.blocks, cs.models)))
+    u_off = np.concatenate([[0], np.cumsum([Lb.n_u for Lb in local])]).astype(int)
+    full = lift(cs)
+    cols = full.n_x + full.n_u + np.arange(full.n_t)
+    G = (full.Kz - sp.diags(full.w2) @ full.Mz).tocsc()[:, cols]
+    return Lifts(full, local, u_off, cs.n_x, np.asarray(abs(G).sum(axis=0)).ravel())
+
+
+class Box:
+    """A box of ``[x, u]`` under tightening (a working state, changed in place).
+
+    Attributes
+    ----------
+    lo, hi : ndarray, shape (n_x + n_u,)
+        Safe bounds: every point of S in the box this one was cut from lies inside.
+    confirmed : ndarray of bool, shape (n_x, 2)
+        The lower (0) and upper (1) end of each parameter is the relaxation's optimum, confirmed
+        by its safe bound within `GAP` (or exact: a bound of the parameter, a branching point).
+    empty : bool
+        Proved empty.
+    points : dict
+        ``(i, side) -> z``: the all-block relaxation's solution at the lower (0) or upper (1)
+        end of parameter ``i``, from the last bound of it (for the choice of branching).
+    n_lps : int
+        LPs solved on this box since it was made.
+    """
+
+    def __init__(self, lo, hi, confirmed, n_lps: int = 0):
+        self.lo, self.hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
+        self.confirmed = np.array(confirmed, dtype=bool)
+        self.empty = False
+        self.n_lps = n_lps
+        self.points = {}   # (i, side) -> the all-block relaxation's point at that end of x_i
+
+    def copy(self) -> "Box":
+        """The same box, its LP count at zero."""
+        return Box(self.lo, self.hi, self.confirmed)
+
+    def width(self, n: int) -> np.ndarray:
+        return self.hi[:n] - self.lo[:n]
+
+
+def root_box(cs: ConsistentSet, R: Lifts) -> Box:
+    return Box(np.concatenate([cs.x_lower, R.full.u_lower]), np.concatenate([cs.x_upper, R.full.u_upper]),
+               np.zeros((cs.n_x, 2), dtype=bool))
+
+
+def _narrow(box: Box, g: int, side: int, value: float, opt: float, bound: float, n_x: int) -> bool:
+    """Apply a safe bound ``value`` to entry ``g`` of the box; True when it narrowed it."""
+    old = box.lo[g] if side == 0 else box.hi[g]
+    better = value > old if side == 0 else value < old
+    if g < n_x and (better or abs(value - old) <= GAP):
+        box.confirmed[g, side] = bound >= opt - GAP
+    if better:
+        (box.lo if side == 0 else box.hi)[g] = value
+        if box.lo[g] > box.hi[g]:
+            box.empty = True
+    return better
+
+
+def _infeasible(box: Box, lp) -> None:
+    if phase1_bound(lp) > 0:
+        box.empty = True
+
+
+def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None = None) -> bool:
+    """Bound block ``b``'s entries and then ``x`` over the relaxation of block ``b`` alone;
+    with ``focus``, only the entries that parameter ``focus`` multiplies (whose envelopes a
+    split of that parameter changed). False when the deadline stopped it."""
+    n_x, sl = R.n_x, R.block_slice(b)
+    L = R.local[b]
+    if focus is None:
+        targets = np.concatenate([np.arange(n_x, n_x + L.n_u), np.arange(n_x)])
+    else:
+        targets = n_x + np.unique(L.tu[L.tx == focus])
+        if targets.size == 0:
+            return True
+    lp = relax(L, box.lo[:n_x], box.hi[:n_x], box.lo[sl], box.hi[sl])
+    h = highs_model(lp)
+    zl, zu = lp.zl.copy(), lp.zu.copy()
+    done = np.zeros((lp.A.shape[1], 2), dtype=bool)
+    c = np.zeros(lp.A.shape[1])
+    for j in targets:
+        g = j if j < n_x else sl.start + (j - n_x)
+        for side in (0, 1):
+            if done[j, side]:
+                if j < n_x:   # the relaxation's optimum is the box's own end: exact
+                    box.confirmed[j, side] = True
+                continue
+            if time.perf_counter() > deadline:
+                return False
+            sign = 1.0 if side == 0 else -1.0
+            c[j] = sign
+            status, opt, bound, z = solve(replace(lp, zl=zl, zu=zu), c, h, point=True)
+            c[j] = 0.0
+            box.n_lps += 1
+            if status == "infeasible":
+                _infeasible(box, replace(lp, zl=zl, zu=zu))
+                if box.empty:
+                    return True
+            if status != "optimal" or not np.isfinite(bound):
+                continue
+            if _narrow(box, g, side, sign * bound, opt, bound, n_x):
+                if box.empty:
+                    return True
+                zl[j], zu[j] = box.lo[g], box.hi[g]
+                h.changeColBounds(int(j), float(zl[j]), float(zu[j]))
+            tol = _ON_BOUND * (1 + np.abs(z))
+            done[:, 0] |= z <= zl + tol
+            done[:, 1] |= z >= zu - tol
+    return True
+
+
+def tighten_parameters(R: Lifts, box: Box, deadline: float) -> bool:
+    """Bound ``x`` over the relaxation of all blocks. False when the deadline stopped it."""
+    n_x = R.n_x
+    lp = relax(R.full, box.lo[:n_x], box.hi[:n_x], box.lo[n_x:], box.hi[n_x:])
+    done = np.zeros((n_x, 2), dtype=bool)
+    for i in range(n_x):
+        for side in (0, 1):
+            if done[i, side]:
+                box.confirmed[i, side] = True
+                continue
+            if time.perf_counter() > deadline:
+                return False
+            sign = 1.0 if side == 0 else -1.0
+            c = np.zeros(lp.A.shape[1])
+            c[i] = sign
+            current = replace(lp, zl=np.concatenate([box.lo[:n_x], lp.zl[n_x:]]),
+                              zu=np.concatenate([box.hi[:n_x], lp.zu[n_x:]]))
+            status, opt, bound, z = solve_clarabel(current, c, point=True)
+            box.n_lps += 1
+            if status == "optimal" and not bound >= opt - GAP:
+                # Interior-point multipliers too loose to confirm the optimum: simplex duals.
+                status, opt, bound, z = solve(current, c, point=True)
+                box.n_lps += 1
+            if status == "infeasible":
+                _infeasible(box, current)
+                if box.empty:
+                    return True
+            if status != "optimal" or not np.isfinite(bound):
+                continue
+            _narrow(box, i, side, sign * bound, opt, bound, n_x)
+            if box.empty:
+                return True
+            box.points[(i, side)] = z
+            x = z[:n_x]
+            tol = _ON_BOUND * (1 + np.abs(x))
+            done[:, 0] |= x <= box.lo[:n_x] + tol
+            done[:, 1] |= x >= box.hi[:n_x] - tol
+    return True
+
+
+def tighten(R: Lifts, box: Box, deadline: float, *, max_passes: int | None = None, stall: float = 1e-3,
+            focus: int | None = None, on_pass=None) -> int:
+    """Passes of OBBT on ``box`` (every block alone, then ``x`` over all blocks) until one
+    narrows the box (summed widths relative to the box's at the start) by less than
+    ``stall``, ``max_passes`` passes, the deadline or a proof that the box is empty. With
+    ``focus`` the per-block step bounds only the entries parameter ``focus`` multiplies
+    (`tighten_block`). Returns the number of passes completed; ``on_pass(passes)`` is called
+    after each."""
+    span0 = np.maximum(box.hi - box.lo, 1e-300)
+    passes = 0
+    while max_passes is None or passes < max_passes:
+        before = np.sum((box.hi - box.lo) / span0)
+        for b in range(len(R.local)):
+            if not tighten_block(R, box, b, deadline, focus) or box.empty:
+                return passes
+        if not tighten_parameters(R, box, deadline) or box.empty:
+            return passes
+        passes += 1
+        if on_pass is not None:
+            on_pass(passes)
+        if np.sum((box.hi - box.lo) / span0) > (1 - stall) * before:
+            break
+    return passes
