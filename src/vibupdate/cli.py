@@ -79,6 +79,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="also solve the point estimate from N random starts and count distinct minima")
     sweep.add_argument("--no-random-start", action="store_true",
                        help="keep each sample's homotopy answer; no solve from a random start")
+    sweep.add_argument("--no-walk", action="store_true",
+                       help="do not walk a verified answer along exact null directions of the sensitivity to the "
+                            "ends of its line of equally good answers")
     sweep.add_argument("--resume", action="store_true", help="finish the sweep already in --out")
     sweep.add_argument("--out", default=None, help="output directory (default: ./CASE-sweep)")
     batch = sub.add_parser("batch", help="run many case files, one results folder each and a summary table")
@@ -107,7 +110,7 @@ def _sweep(args) -> int:
     from vibupdate.study.sweep import run_sweep
 
     sampling = SamplingOptions(args.distribution, args.confidence, args.frequency_tolerance,
-                               random_start=not args.no_random_start)
+                               random_start=not args.no_random_start, walk=not args.no_walk)
     case = load_case(args.case)
     out = Path(args.out or f"{case.name}-sweep")
     if args.multistart < 0:
