@@ -328,3 +328,87 @@ def test_readme_shows_the_local_and_the_scheduler_sweep():
     assert any(a.scheduler is None for a in parsed)
     assert any(a.scheduler and a.scheduler.startswith("tcp://") for a in parsed)
     assert all(Path(__file__).resolve().parents[1].joinpath(a.case).is_file() for a in parsed)
+
+
+# -- sampled ranges inside `vibupdate run` ----------------------------------------------------------
+
+def test_run_with_samples_shows_the_ranges_side_by_side(chain_file, tmp_path, capsys):
+    from vibupdate.io.outputs import MANIFEST
+    from vibupdate.io.results import load_results
+
+    out = tmp_path / "run"
+    assert main(["run", str(chain_file), "--out", str(out), "--samples", "6", "--multistart", "3",
+                 "--workers", "1", "--seed", "4"]) == 0
+    printed = capsys.readouterr().out
+    assert "Parameter ranges: sampled, linearized at the answer" in printed
+    assert "sampled lower" in printed and "linearized lower" in printed
+    assert "6 verified, 0 unverified, 0 failed of 6 samples" in printed
+    assert "multistart of the point estimate: 1 distinct local minima from 3 converged of 3 random starts" in printed
+    run = load_results(out / "results.json")      # validated against the schema, typed
+    sampled, ms = run.sampled, run.multistart
+    assert (sampled.samples, sampled.verified, sampled.seed) == (6, 6, 4)
+    assert ms.starts == 3 and ms.distinct_minima == len(ms.minima) == 1
+    for name, value in TRUTH.items():
+        r = sampled.ranges[name]
+        assert r.unit == {"k": "N/m", "m": "kg"}[name[0]]
+        assert r.min <= r.q05 <= r.q50 <= r.q95 <= r.max
+        assert r.min <= value <= r.max, (name, r)
+        assert ms.minima[0]["values"][name] == pytest.approx(value, rel=1e-4)
+    report = (out / "report.md").read_text()
+    assert "| sampled range |" in report and "Sampled range: 6 data sets" in report
+    assert "![sampled parameters" in report and (out / "sampled_hist.png").stat().st_size > 1000
+    _, rows = read_rows(out / "samples.csv")
+    assert [r["index"] for r in rows] == list(range(6))
+    listed = json.loads((out / MANIFEST).read_text())["files"]
+    assert {"samples.csv", "line_ends.csv", "sampled_hist.png"} <= set(listed)
+    # the same with a bad sample count: a clear message, nothing written
+    assert main(["run", str(chain_file), "--out", str(tmp_path / "bad"), "--samples", "0"]) == 2
+    assert "number of samples must be an integer >= 1, got 0" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
+
+
+@pytest.fixture(scope="module")
+def certified_run(client, chain_file, tmp_path_factory):
+    from vibupdate.pipeline import run_case
+    from vibupdate.study.sampled_ranges import SampledRanges
+
+    out = tmp_path_factory.mktemp("cert") / "r"
+    case = load_case(chain_file)
+    run = run_case(case, out, certify=20.0, study=SampledRanges(10, starts=0, seed=6, client=client))
+    return case, run, read_rows(out / "samples.csv")[1], (out / "report.md").read_text()
+
+
+def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(certified_run):
+    """Exact data (the answer is the truth): the sampled range holds the run's answer, and every
+    sampled answer that lies in the consistent set S (certify's own membership test) lies in
+    the certified outer range."""
+    from vibupdate.ranges.consistent import consistent_set, is_consistent
+
+    case, run, rows, report = certified_run
+    cert = run.identifiability["certified"]["ranges"]
+    model = case.configurations[0].model
+    cs = consistent_set(case.configurations, frequency_tolerance=case.frequency_tolerance,
+                        include=np.asarray(run.xbar), options=case.formulation)
+    ok = [r for r in rows if r["outcome"] == "verified"]
+    assert run.multistart is None and len(ok) == run.sampled.verified >= 9
+    in_s = [r for r in ok if is_consistent(cs, model.normalized([r[f"p:{p.name}"] for p in model.parameters]))]
+    assert len(in_s) >= 3  # not vacuous; measured: 4 of the 10 verified answers lie in S (see the xfail below)
+    for p in run.parameters:
+        s, c = run.sampled.ranges[p.name], cert[p.name]
+        assert s.min <= p.updated <= s.max, (p.name, s, p.updated)
+        assert c["lower"] <= p.updated <= c["upper"]
+        assert all(c["lower"] <= r[f"p:{p.name}"] <= c["upper"] for r in in_s), (p.name, c)
+    assert "Certified outer range:" in report and "Sampled range: 10 data sets" in report
+
+
+@pytest.mark.xfail(strict=True, reason="measured (chain, 10 samples, seed 6): 2 verified sampled answers have k3 "
+                   "761.8 and 779.6 below the certified lower bound 807.1; the first misses a measured frequency by "
+                   "0.514 % (outside the 0.5 % window: the drawn datum near the window's edge, m5 on its bound), the "
+                   "second fits every window but its exact eigenvectors leave S's vector boxes, which the "
+                   "verification of an answer does not check")
+def test_certified_range_contains_every_sampled_answer(certified_run):
+    _, run, rows, _ = certified_run
+    cert = run.identifiability["certified"]["ranges"]
+    for p in run.parameters:
+        values = [r[f"p:{p.name}"] for r in rows if r["outcome"] == "verified"]
+        assert cert[p.name]["lower"] <= min(values) and max(values) <= cert[p.name]["upper"], (p.name, values)
