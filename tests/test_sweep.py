@@ -328,6 +328,10 @@ def test_readme_shows_the_local_and_the_scheduler_sweep():
     assert any(a.scheduler is None for a in parsed)
     assert any(a.scheduler and a.scheduler.startswith("tcp://") for a in parsed)
     assert all(Path(__file__).resolve().parents[1].joinpath(a.case).is_file() for a in parsed)
+    runs = [_parser().parse_args(line.split()[1:]) for line in text.splitlines()
+            if line.startswith("vibupdate run ") and "--samples" in line]
+    assert runs and all(a.samples >= 1 and Path(__file__).resolve().parents[1].joinpath(a.case).is_file()
+                        for a in runs)
 
 
 # -- sampled ranges inside `vibupdate run` ----------------------------------------------------------

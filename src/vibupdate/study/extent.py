@@ -74,8 +74,8 @@ class Acceptance:
 
         self.configurations, self.result, self.verification = configurations, result, verification
         self.nominal = [model_frequencies(c) for c in configurations]
-        answer = [model_frequencies(c, result.xbar) for c in configurations]
-        self.limit = misfit(configurations, answer) + ACCEPT_FRACTION * np.asarray(half, dtype=float)
+        self.answer = [model_frequencies(c, result.xbar) for c in configurations]
+        self.limit = misfit(configurations, self.answer) + ACCEPT_FRACTION * np.asarray(half, dtype=float)
 
     def frequencies(self, xbar):
         """The paired model data at ``xbar`` (one `ModelFrequencies` per configuration) when
@@ -130,7 +130,7 @@ def _step_to_box(x: np.ndarray, d: np.ndarray, lower: np.ndarray, upper: np.ndar
 
 
 def walk_null_directions(configurations, xbar, acceptable: Callable[[np.ndarray], bool], *,
-                         rtol: float = 1e-8) -> list[LineEnd]:
+                         rtol: float = 1e-8, freqs=None) -> list[LineEnd]:
     """Walk from the verified answer ``xbar`` along each exact null direction to the farthest
     acceptable point in both senses (module docstring).
 
@@ -145,6 +145,8 @@ def walk_null_directions(configurations, xbar, acceptable: Callable[[np.ndarray]
     rtol : float
         Singular values below ``rtol`` times the largest count as zero
         (`vibupdate.inverse.correlation.sensitivity`).
+    freqs : sequence of ModelFrequencies, optional
+        `model_frequencies` of each configuration at ``xbar``, when already computed.
 
     Returns
     -------
@@ -156,7 +158,7 @@ def walk_null_directions(configurations, xbar, acceptable: Callable[[np.ndarray]
 
     x = np.asarray(xbar, dtype=float)
     lower, upper = configurations[0].model.bounds()
-    null = sensitivity(configurations, x, rtol=rtol)["null_directions"]
+    null = sensitivity(configurations, x, rtol=rtol, freqs=freqs)["null_directions"]
     ends = []
     for j, v in enumerate(null, start=1):
         for side in (1, -1):

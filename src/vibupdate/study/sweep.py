@@ -182,12 +182,14 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
             other = _random_start(case, cfgs, seed, index, accept)
             if other is not None:
                 (xbar, row["objective"], frequencies), row["start"] = other, "random"
+        frequencies = frequencies or accept.answer
         if sampling.walk:
             from vibupdate.study.extent import walk_null_directions
 
-            ends = [{"index": index, "direction": e.direction, "side": e.side, "distance": e.distance,
-                     "stop": e.stop, **{f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(e.xbar))}}
-                    for e in walk_null_directions(cfgs, xbar, accept)]
+            for e in walk_null_directions(cfgs, xbar, accept, freqs=frequencies):
+                values = model.physical(e.xbar)
+                ends.append({"index": index, "direction": e.direction, "side": e.side, "distance": e.distance,
+                             "stop": e.stop, **{f"p:{p.name}": float(v) for p, v in zip(model.parameters, values)}})
     row["line_ends"] = len(ends)
     row[ENDS_KEY] = ends
     row.update({f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(xbar))})
