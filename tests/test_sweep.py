@@ -175,6 +175,29 @@ def test_line_ends_are_answers_of_their_sample(scale_sweep):
         assert e["stop"] == "bound" and min(abs(e[f"p:{n}"] - b) for n in ("sk", "sm") for b in (0.7, 1.3)) < 1e-9
 
 
+def test_resume_drops_line_ends_of_unfinished_samples(client, tmp_path):
+    """A run stopped between writing a sample's line ends and its row: the resumed sweep redoes
+    that sample and keeps its ends once, as an uninterrupted run has them."""
+    model = from_builder(_scale_build, [Parameter("sk", 1.0, 0.7, 1.3), Parameter("sm", 1.0, 0.7, 1.3)])
+    M, K = model.matrices(model.normalized([1.1, 1.1]))
+    omega, _ = modes(M, K, 1)
+    case = Case("scale", None, (Configuration("A", model, (NaturalFrequency(omega[0]),)),), SolverOptions(),
+                FormulationOptions(), None, 0.005)
+    whole, stopped = tmp_path / "whole", tmp_path / "stopped"
+    run_sweep(case, whole, 5, seed=8, client=client, plots=False)
+    run_sweep(case, stopped, 5, seed=8, client=client, plots=False)
+    lines = (stopped / "samples.csv").read_text().splitlines(keepends=True)
+    (stopped / "samples.csv").write_text("".join(lines[:3]))        # header + 2 rows: 3 samples lost
+    _, ends_before = read_rows(stopped / "line_ends.csv")
+    assert len(ends_before) == 10                                    # their ends were written
+    run_sweep(case, stopped, 5, seed=8, client=client, resume=True, plots=False)
+    for name in ("samples.csv", "line_ends.csv"):
+        _, a = read_rows(stopped / name)
+        _, b = read_rows(whole / name)
+        assert _data_rows(a) == _data_rows(b), name
+    assert len(read_rows(stopped / "line_ends.csv")[1]) == 10
+
+
 def test_a_killed_worker_costs_only_its_tasks(client, chain_file, tmp_path):
     out = tmp_path / "k"
     pids = list(client.run(os.getpid).values())
