@@ -47,11 +47,13 @@ from vibupdate.io.case import Case, load_case
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
 from vibupdate.inverse.reduction import wants_reduction
-from vibupdate.study.extent import ACCEPT_FRACTION  # noqa: F401  (part of this module's contract)
+from vibupdate.study.extent import ACCEPT_FRACTION
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
 from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
+from vibupdate.study.sweep_summary import SweepSummary, summarize
 
-__all__ = ["CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize", "read_rows"]
+__all__ = ["ACCEPT_FRACTION", "CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize",
+           "read_rows"]
 
 SAMPLES_FILE = "samples.csv"
 SETTINGS_FILE = "sweep-settings.json"
@@ -174,22 +176,12 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
         return row
     row.update(outcome=_outcome(result), status=result.status.value, objective=result.objective,
                message=result.message, start="homotopy")
-    xbar, frequencies, ends = result.xbar, None, []
     model = cfgs[0].model
+    xbar, frequencies, ends = result.xbar, None, []
     if result.success and (sampling.random_start or sampling.walk):
-        accept = _acceptance(case, cfgs, result, sampling, verification)
-        if sampling.random_start and not wants_reduction(cfgs, case.formulation):
-            other = _random_start(case, cfgs, seed, index, accept)
-            if other is not None:
-                (xbar, row["objective"], frequencies), row["start"] = other, "random"
-        frequencies = frequencies or accept.answer
-        if sampling.walk:
-            from vibupdate.study.extent import walk_null_directions
-
-            for e in walk_null_directions(cfgs, xbar, accept, freqs=frequencies):
-                values = model.physical(e.xbar)
-                ends.append({"index": index, "direction": e.direction, "side": e.side, "distance": e.distance,
-                             "stop": e.stop, **{f"p:{p.name}": float(v) for p, v in zip(model.parameters, values)}})
+        xbar, frequencies, ends, kept = _beyond_homotopy(case, cfgs, seed, index, result, sampling, verification)
+        if kept is not None:
+            row["objective"], row["start"] = kept, "random"
     row["line_ends"] = len(ends)
     row[ENDS_KEY] = ends
     row.update({f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(xbar))})
@@ -205,6 +197,30 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
             row["message"] += f"; damping stage: {exc}"
     row["seconds"] = time.perf_counter() - start
     return row
+
+
+def _beyond_homotopy(case: Case, cfgs, seed: int, index: int, result, sampling: SamplingOptions, verification):
+    """After a verified homotopy answer: the random start's answer when it is accepted, then
+    the walk along the null directions at the kept answer.
+
+    Returns ``(xbar, frequencies, ends, objective)``: the kept answer, its paired model data,
+    the rows of its line ends, and the random start's objective (None when the homotopy's
+    answer stands)."""
+    model = cfgs[0].model
+    accept = _acceptance(case, cfgs, result, sampling, verification)
+    xbar, frequencies, objective, ends = result.xbar, accept.answer, None, []
+    if sampling.random_start and not wants_reduction(cfgs, case.formulation):
+        other = _random_start(case, cfgs, seed, index, accept)
+        if other is not None:
+            xbar, objective, frequencies = other
+    if sampling.walk:
+        from vibupdate.study.extent import walk_null_directions
+
+        for e in walk_null_directions(cfgs, xbar, accept, freqs=frequencies):
+            values = model.physical(e.xbar)
+            ends.append({"index": index, "direction": e.direction, "side": e.side, "distance": e.distance,
+                         "stop": e.stop, **{f"p:{p.name}": float(v) for p, v in zip(model.parameters, values)}})
+    return xbar, frequencies, ends, objective
 
 
 def _acceptance(case: Case, cfgs, result, sampling: SamplingOptions, verification):
@@ -236,82 +252,6 @@ def _random_start(case: Case, cfgs, seed: int, index: int, accept) -> tuple | No
     if updated is None:
         return None
     return xbar, float(other["objective"]), updated
-
-
-# -- summary ----------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class SweepSummary:
-    """What ``sweep.json`` holds (see `summarize`) and where the run wrote it."""
-
-    document: dict
-    out_dir: Path
-
-    @property
-    def samples(self) -> int:
-        return self.document["samples"]
-
-    @property
-    def verified(self) -> int:
-        return self.document["verified"]
-
-    @property
-    def failed(self) -> int:
-        return self.document["failed"]
-
-    def parameter(self, name: str) -> dict:
-        for p in self.document["parameters"]:
-            if p["name"] == name:
-                return p
-        raise ValueError(f"no parameter {name!r} in the sweep; parameters: "
-                         f"{', '.join(p['name'] for p in self.document['parameters'])}")
-
-
-def _stats(values) -> dict:
-    v = np.asarray([x for x in values if x is not None], dtype=float)
-    if v.size == 0:
-        return {"min": None, "max": None, "q05": None, "q50": None, "q95": None}
-    q = np.quantile(v, [0.05, 0.5, 0.95])
-    return {"min": float(v.min()), "max": float(v.max()), "q05": float(q[0]), "q50": float(q[1]),
-            "q95": float(q[2])}
-
-
-def summarize(case: Case, rows: list[dict], settings: dict, ends: list[dict] = ()) -> dict:
-    """The ``sweep.json`` document: counts, and per parameter (in its unit) and per predicted
-    frequency (Hz) the range and the 5/50/95 % quantiles over the verified samples.
-
-    A parameter's ``min`` and ``max`` are over the verified answers and the line ``ends`` of
-    verified samples (rows of ``line_ends.csv``); ``answers_min``, ``answers_max`` and the
-    quantiles over the answers alone."""
-    outcomes = [r["outcome"] for r in rows]
-    ok = [r for r in rows if r["outcome"] == "verified"]
-    verified = {r["index"] for r in ok}
-    ends = [e for e in ends if e["index"] in verified]
-    params = []
-    for p in case.configurations[0].model.parameters:
-        s = _stats(r.get(f"p:{p.name}") for r in ok)
-        reached = [v for v in [s["min"], s["max"], *(e.get(f"p:{p.name}") for e in ends)] if v is not None]
-        whole = {"min": min(reached), "max": max(reached)} if reached else {}
-        width = p.upper - p.lower
-        spread = None if s["min"] is None or width <= 0 else (s["q95"] - s["q05"]) / width
-        params.append({"name": p.name, "unit": p.unit, **s, **whole, "answers_min": s["min"],
-                       "answers_max": s["max"], "nominal": p.nominal, "lower": p.lower,
-                       "upper": p.upper, "spread_of_bounds": spread})
-    predictions = []
-    for label, value, lo, hi in data_intervals(case.configurations, case.frequency_tolerance,
-                                               SamplingOptions(**settings["sampling"])):
-        if ":xi" in label:
-            continue
-        predictions.append({"label": label, "measured_hz": value, "interval_hz": [lo, hi],
-                            **_stats(r.get(f"pred:{label}") for r in ok)})
-    failures: dict[str, int] = {}
-    for r in rows:
-        if r["outcome"] == "failed":
-            failures[str(r["status"])] = failures.get(str(r["status"]), 0) + 1
-    return {"case": case.name, "samples": len(rows), "verified": outcomes.count("verified"),
-            "unverified": outcomes.count("unverified"), "failed": outcomes.count("failed"), "line_ends": len(ends),
-            "failed_by_status": failures, "seed": settings["seed"], "sampling": settings["sampling"],
-            "parameters": params, "predictions": predictions}
 
 
 # -- the run ----------------------------------------------------------------------------------------
