@@ -389,6 +389,10 @@ def test_run_with_samples_shows_the_ranges_side_by_side(chain_file, tmp_path, ca
     assert [r["index"] for r in rows] == list(range(6))
     listed = json.loads((out / MANIFEST).read_text())["files"]
     assert {"samples.csv", "line_ends.csv", "sampled_hist.png"} <= set(listed)
+    # data that cannot be sampled: refused before any work
+    zero = write_chain_case(tmp_path / "zero.toml", tolerance=0.0)
+    assert main(["run", str(zero), "--out", str(tmp_path / "z"), "--samples", "3"]) == 2
+    assert "frequency tolerance is 0" in capsys.readouterr().err and not (tmp_path / "z").exists()
     # the same with a bad sample count: a clear message, nothing written
     assert main(["run", str(chain_file), "--out", str(tmp_path / "bad"), "--samples", "0"]) == 2
     assert "number of samples must be an integer >= 1, got 0" in capsys.readouterr().err

@@ -301,7 +301,8 @@ def _ranges_markdown(document: dict) -> list[str]:
     if sampled:
         out += [f"Sampled range: {sampled['samples']} data sets drawn inside the measured intervals "
                 f"({sampled.get('distribution', 'uniform')}, seed {sampled.get('seed')}), each updated and verified "
-                f"as this run was ({sampled['verified']} verified, {sampled['unverified']} not verified, "
+                "as this run was, its frequencies also held to the measured intervals "
+                f"({sampled['verified']} verified, {sampled['unverified']} not verified, "
                 f"{sampled['failed']} failed; the last two are counted, not used). Where the data leave a "
                 "combination undetermined (an exact null direction at a verified answer) the answer was walked "
                 "along it to the farthest point still verified against the same data "
