@@ -291,7 +291,8 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
         A loaded case, or the path of a case file (workers load it once each; it must be at
         the same path on every worker).
     out_dir : str or Path
-        ``samples.csv`` (one row per sample, sorted by index at the end), ``sweep.json``,
+        ``samples.csv`` (one row per sample, sorted by index at the end), ``line_ends.csv``
+        (the ends of the walks along null directions), ``sweep.json``,
         ``sweep-settings.json`` and the plots.
     samples : int
         Number of samples (indices ``0 .. samples - 1``).
