@@ -369,12 +369,11 @@ def test_run_with_samples_shows_the_ranges_side_by_side(chain_file, tmp_path, ca
     printed = capsys.readouterr().out
     assert "Parameter ranges: sampled, linearized at the answer" in printed
     assert "sampled lower" in printed and "linearized lower" in printed
+    assert "6 verified, 0 unverified, 0 failed of 6 samples" in printed
     assert "multistart of the point estimate: 1 distinct local minima from 3 converged of 3 random starts" in printed
     run = load_results(out / "results.json")      # validated against the schema, typed
     sampled, ms = run.sampled, run.multistart
-    assert (sampled.samples, sampled.seed) == (6, 4) and sampled.verified >= 4  # measured: 5 verified, 1 not
-    assert (f"{sampled.verified} verified, {sampled.unverified} unverified, {sampled.failed} failed of 6 samples"
-            in printed)
+    assert (sampled.samples, sampled.verified, sampled.seed) == (6, 6, 4)
     assert ms.starts == 3 and ms.distinct_minima == len(ms.minima) == 1
     for name, value in TRUTH.items():
         r = sampled.ranges[name]
@@ -422,9 +421,9 @@ def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(
     cs = consistent_set(case.configurations, frequency_tolerance=case.frequency_tolerance,
                         include=np.asarray(run.xbar), options=case.formulation)
     ok = [r for r in rows if r["outcome"] == "verified"]
-    assert run.multistart is None and len(ok) == run.sampled.verified >= 5   # measured: 7 of 10
+    assert run.multistart is None and len(ok) == run.sampled.verified >= 9
     in_s = [r for r in ok if is_consistent(cs, model.normalized([r[f"p:{p.name}"] for p in model.parameters]))]
-    assert len(in_s) >= 3  # not vacuous; measured: 4 of the 7 verified answers lie in S (see the xfail below)
+    assert len(in_s) >= 3  # not vacuous; measured: 4 of the 10 verified answers lie in S (see the xfail below)
     for p in run.parameters:
         s, c = run.sampled.ranges[p.name], cert[p.name]
         assert s.min <= p.updated <= s.max, (p.name, s, p.updated)
@@ -433,11 +432,11 @@ def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(
     assert "Certified outer range:" in report and "Sampled range: 10 data sets" in report
 
 
-@pytest.mark.xfail(strict=True, reason="measured (chain, 10 samples, seed 6): 3 of the 7 verified sampled answers "
-                   "lie outside the certified range (k3 779.6 and 804.8 below its lower bound 807.1, m5 0.7 below "
-                   "0.7077). Their frequencies all lie in the 0.5 % windows (largest miss 0.42 %), but one block's "
-                   "exact eigenvector leaves S's default vector box [-1.5, 1.5] (entries 1.95 and -1.54 at k3 779.6): "
-                   "S is narrower than the set of verified answers, whose verification does not check vector boxes")
+@pytest.mark.xfail(strict=True, reason="measured (chain, 10 samples, seed 6): 2 verified sampled answers have k3 "
+                   "761.8 and 779.6 below the certified lower bound 807.1; the first misses a measured frequency by "
+                   "0.514 % (outside the 0.5 % window: the drawn datum near the window's edge, m5 on its bound), the "
+                   "second fits every window but its exact eigenvectors leave S's vector boxes, which the "
+                   "verification of an answer does not check")
 def test_certified_range_contains_every_sampled_answer(certified_run):
     _, run, rows, _ = certified_run
     cert = run.identifiability["certified"]["ranges"]

@@ -11,9 +11,6 @@ What is drawn, per configuration:
   tolerance the datum has no stated uncertainty and drawing refuses with an error;
 * damping ratios inside their ``damping_interval`` when given, else inside
   ``xi * (1 +- damping_tolerance)`` (relative, default 10 %);
-* each drawn frequency keeps the interval it was drawn from: a sample's answer is verified
-  only when its frequencies lie in the measured intervals (`vibupdate.inverse.verify`, fit
-  check), so every verified answer fits the measured data as the consistent set states them;
 * mode-shape entries: a centre ``v`` inside each entry's bounds; the sample keeps the
   interval ``v +- shape_width * h`` (``h`` the entry's half-width, clipped to the bounds),
   because the formulation fixes one entry of each shape to 1 and needs some freedom in the
@@ -192,10 +189,8 @@ def draw_configurations(configurations: Sequence[Configuration], frequency_toler
     Returns
     -------
     configurations : tuple of Configuration
-        Same models, drawn data: point values, each frequency keeping the measured interval
-        it was drawn from (the verification's fit check then holds a sample's answer to the
-        measured intervals, not to ``fit_tolerance`` around the drawn point); shape intervals
-        narrowed as the module docstring says.
+        Same models, drawn data (point values; intervals of the drawn data dropped, shape
+        intervals narrowed as the module docstring says).
     drawn : dict of str to float
         The drawn scalars under the labels of `data_intervals` (Hz and -).
 
@@ -219,14 +214,12 @@ def draw_configurations(configurations: Sequence[Configuration], frequency_toler
                 xi = draw(*_damping_interval(f, options))
                 drawn[f"{cfg.name}:xi{k}"] = xi
             shape = None if f.shape is None else _draw_shape(draw, f.shape, options.shape_width)
-            natural.append(NaturalFrequency(omega, weight=f.weight, shape=shape, damping_ratio=xi, mode=f.mode,
-                                            interval=(lo, hi)))
+            natural.append(NaturalFrequency(omega, weight=f.weight, shape=shape, damping_ratio=xi, mode=f.mode))
             drawn[f"{cfg.name}:f{k}_hz"] = omega / TWO_PI
         for k, a in enumerate(cfg.antiresonances, start=1):
             lo, hi = _frequency_interval(a.omega, a.interval, tol, f"antiresonance {k} of configuration {cfg.name!r}")
             omega = draw(lo, hi)
-            zeros.append(Antiresonance(omega, a.response, a.excitation, weight=a.weight, index=a.index,
-                                       interval=(lo, hi)))
+            zeros.append(Antiresonance(omega, a.response, a.excitation, weight=a.weight, index=a.index))
             drawn[f"{cfg.name}:z{k}_hz"] = omega / TWO_PI
         try:
             out.append(replace(cfg, natural=tuple(natural), antiresonances=tuple(zeros)))
