@@ -301,7 +301,7 @@ def _ranges_markdown(document: dict) -> list[str]:
     if sampled:
         out += [f"Sampled range: {sampled['samples']} data sets drawn inside the measured intervals "
                 f"({sampled.get('distribution', 'uniform')}, seed {sampled.get('seed')}), each updated and verified "
-                "as this run was, its frequencies also held to the measured intervals "
+                "as this run was "
                 f"({sampled['verified']} verified, {sampled['unverified']} not verified, "
                 f"{sampled['failed']} failed; the last two are counted, not used). Where the data leave a "
                 "combination undetermined (an exact null direction at a verified answer) the answer was walked "
