@@ -77,6 +77,8 @@ CHECK_WAS_LOOSER = [
     (_add("solver", "tol = 2.0"), r"solver\.tol: must be finite and in \(0, 1\)"),
     (_add("solver", "max_iter = 2000000"), r"solver\.max_iter: must be an integer from 1 to 1000000"),
     (_add("solver", "proximal = inf"), r"solver\.proximal"),
+    (_add("solver", "step_growth = 0.5"), r"solver(\.step_growth|: step_growth must be a number >= 1)"),
+    (_add("solver", "step_growth = 1e9"), r"solver\.step_growth: must be finite and in \[1, 100\]"),
     (_add("formulation", "shape_margin = inf"), r"formulation\.shape_margin: must be a finite number"),
     (_add("formulation", "adjunct_margin = 1e300"), r"formulation\.adjunct_margin: must be <= 100"),
     (_add("formulation", "length_scale = inf"), r"formulation\.length_scale"),

@@ -231,7 +231,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     if case.frequency_tolerance > 0:
         verification = replace(verification, frequency_tolerance=case.frequency_tolerance)
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
-                    verification=verification, progress=say)
+                    verification=verification, progress=say, prepared=checked.prepared)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     stage, notes, info = _damping_stage(case, result.xbar, say)
     notes = list(checked.warnings) + notes

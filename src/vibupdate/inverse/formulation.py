@@ -353,45 +353,49 @@ def _adjunct_block(cfg: Configuration, k: int, index: int, scaling: _Scaling,
                        lower == upper, (a.response, a.excitation))
 
 
-def _block_operators(model, blk: VectorBlock, scaling: _Scaling):
-    """Scaled operators ``A_0`` and ``A_i`` of a block, each shape (len(rows), len(cols))."""
-    w2 = blk.omega**2
-    D = sp.diags(scaling.dr[blk.rows])
-    S = sp.diags(blk.scale)
+@dataclass(frozen=True)
+class _ScaledTerms:
+    """Every term of a configuration's affine form on its scaled coordinates, as one list of
+    entries: term ``term`` (0 nominal, ``i + 1`` parameter ``i``) has ``D K S`` = ``k`` and
+    ``D M S`` = ``m`` at ``(row, col)`` (``D`` the row scaling, ``S`` the entry scaling). The
+    pattern of a term is the union of its ``K`` and ``M`` patterns."""
 
-    def op(M, K):
-        return (D @ (K - w2 * M)[blk.rows][:, blk.cols] @ S).tocsc()
-
-    return op(model.M0, model.K0), [op(Mi, Ki) for Mi, Ki in zip(model.M_par, model.K_par)]
-
-
-def _block_weight(model, blk: VectorBlock, scaling: _Scaling, options: FormulationOptions) -> float:
-    if options.weighting == "unit":
-        return blk.alpha
-    D = sp.diags(scaling.dr[blk.rows])
-    v = blk.scale * blk.start
-    norm = np.linalg.norm(D @ (model.M0[blk.rows][:, blk.cols] @ v))
-    return blk.alpha / (blk.omega**2 * norm) ** 2
+    n: int
+    term: np.ndarray
+    row: np.ndarray
+    col: np.ndarray
+    k: np.ndarray
+    m: np.ndarray
 
 
-def _blocks(configurations, options: FormulationOptions):
-    blocks, models, scalings = [], [], []
-    for cfg in configurations:
+def _scaled_terms(model, scaling: _Scaling) -> _ScaledTerms:
+    parts = []
+    for term, (M, K) in enumerate(zip([model.M0, *model.M_par], [model.K0, *model.K_par])):
+        # K + iM keeps the union pattern: its real and imaginary parts cannot cancel.
+        C = sp.coo_matrix(sp.csr_matrix(K, dtype=complex) + 1j * sp.csr_matrix(M, dtype=complex))
+        parts.append((np.full(C.nnz, term), C.row, C.col, C.data))
+    term, row, col, val = (np.concatenate(a) for a in zip(*parts))
+    factor = scaling.dr[row] * scaling.s[col]
+    return _ScaledTerms(model.n_dofs, term, row.astype(np.int64), col.astype(np.int64), factor * val.real, factor * val.imag)
+
+def _blocks(configurations, options: FormulationOptions, nominal=None):
+    """The blocks of every configuration, the index of the configuration of each block, and
+    the scaling of each block."""
+    blocks, owners, scalings = [], [], []
+    for i, cfg in enumerate(configurations):
         scaling = _scaling(cfg.model, options)
-        nominal = model_frequencies(cfg)
+        modes = nominal[i] if nominal is not None else model_frequencies(cfg, zeros=False)
         for k in range(len(cfg.natural)):
-            blocks.append(_natural_block(cfg, k, nominal.Phi[:, k], scaling, options))
-            models.append(cfg.model)
-            scalings.append(scaling)
+            blocks.append(_natural_block(cfg, k, modes.Phi[:, k], scaling, options))
         for k in range(len(cfg.antiresonances)):
             blocks.append(_adjunct_block(cfg, k, k + 1, scaling, options))
-            models.append(cfg.model)
-            scalings.append(scaling)
-    return blocks, models, scalings
+        owners.extend([i] * (len(cfg.natural) + len(cfg.antiresonances)))
+        scalings.extend([scaling] * (len(cfg.natural) + len(cfg.antiresonances)))
+    return blocks, owners, scalings
 
 
 def formulate(configurations: Sequence[Configuration], options: FormulationOptions | None = None,
-              transforms: Sequence = ()) -> BilinearProblem:
+              transforms: Sequence = (), nominal: Sequence | None = None) -> BilinearProblem:
     """Build the bilinear problem of all configurations.
 
     Parameters
@@ -402,50 +406,89 @@ def formulate(configurations: Sequence[Configuration], options: FormulationOptio
     transforms : sequence of callables ``(blocks, configurations, options) -> blocks``
         Bound transformations applied to the blocks before stacking, e.g.
         `vibupdate.inverse.interlacing.sign_bounds`.
+    nominal : sequence of ModelFrequencies, optional
+        The nominal models' modes (`vibupdate.inverse.correlation.model_frequencies` at
+        ``xbar = None``), one per configuration, when the caller has them already.
     """
     options = options or FormulationOptions()
     configurations = list(configurations)
     validate_configurations(configurations)
-    blocks, models, scalings = _blocks(configurations, options)
+    blocks, owners, scalings = _blocks(configurations, options, nominal)
     for transform in transforms:
         blocks = transform(blocks, configurations, options)
-    blocks = [_with_weight(b, m, s, options) for b, m, s in zip(blocks, models, scalings)]
+    terms = {}
+    for k, scaling in zip(owners, scalings):
+        if k not in terms:
+            terms[k] = _scaled_terms(configurations[k].model, scaling)
     return _stack(configurations[0].model.parameters, configurations[0].model.bounds(),
-                  blocks, models, scalings, options)
+                  blocks, [terms[k] for k in owners], options)
 
 
-def _with_weight(blk, model, scaling, options):
-    return replace(blk, alpha=_block_weight(model, blk, scaling, options))
+def _block_rows(blk: VectorBlock, terms: _ScaledTerms) -> dict:
+    """The block's entries of every term, in block-local indices: rows, columns, value of
+    ``D (K - w^2 M) S`` and term, for the entries on the block's rows and columns."""
+    row_of = np.full(terms.n, -1)
+    row_of[blk.rows] = np.arange(len(blk.rows))
+    col_of = np.full(terms.n, -1)
+    col_of[blk.cols] = np.arange(len(blk.cols))
+    lr, lc = row_of[terms.row], col_of[terms.col]
+    keep = (lr >= 0) & (lc >= 0)
+    value = terms.k[keep] - blk.omega**2 * terms.m[keep]
+    return {"row": lr[keep], "col": lc[keep], "value": value, "term": terms.term[keep],
+            "m": terms.m[keep]}
 
 
-def _stack(parameters, x_bounds, blocks, models, scalings, options) -> BilinearProblem:
+def _weight(blk: VectorBlock, e: dict, options: FormulationOptions) -> float:
+    """Eqs. 7, 9 weight of a block: ``alpha / (w^2 ||D M0 S v0||)^2`` (docs/method.md,
+    "Default weights"), or the user's ``alpha`` alone with ``weighting = "unit"``."""
+    if options.weighting == "unit":
+        return blk.alpha
+    nominal = e["term"] == 0
+    Mv = np.bincount(e["row"][nominal], weights=e["m"][nominal] * blk.start[e["col"][nominal]],
+                     minlength=len(blk.rows))
+    return blk.alpha / (blk.omega**2 * np.linalg.norm(Mv)) ** 2
+
+
+def _stack(parameters, x_bounds, blocks, terms, options) -> BilinearProblem:
+    """Stack the blocks (module docstring): one pass of array operations per block."""
     n_x = len(parameters)
-    Au, Ax, Ab, r0, px, pu, wrow = [], [], [], [], [], [], []
-    u_off, r_off = [0], [0]
-    for blk, model, scaling in zip(blocks, models, scalings):
-        A0, Ai = _block_operators(model, blk, scaling)
-        free = np.flatnonzero(~blk.fixed)
-        fixed = np.flatnonzero(blk.fixed)
-        vfix = blk.lower[fixed]
-        Au.append(A0[:, free])
-        r0.append(A0[:, fixed] @ vfix)
-        Ax.append(sp.csc_matrix(np.column_stack([A[:, fixed] @ vfix for A in Ai])) if n_x else None)
-        for i, A in enumerate(Ai):
-            Af = A[:, free]
-            support = np.flatnonzero(np.diff(Af.indptr) > 0)
-            Ab.append((len(r_off) - 1, Af[:, support]))
-            px.append(np.full(support.size, i))
-            pu.append(u_off[-1] + support)
-        wrow.append(np.full(len(blk.rows), blk.alpha))
-        u_off.append(u_off[-1] + free.size)
-        r_off.append(r_off[-1] + len(blk.rows))
-    n_blocks = len(blocks)
-    # A_b is block-diagonal by residual block: place each block's parameter columns.
-    rows_of = [[] for _ in range(n_blocks)]
-    for b, mat in Ab:
-        rows_of[b].append(mat)
-    Ab_blocks = [sp.hstack(mats, format="csc") if mats else sp.csc_matrix((r_off[b + 1] - r_off[b], 0))
-                 for b, mats in enumerate(rows_of)]
+    Au, Ax, Ab, r0, px, pu, wrow, weighted = [], [], [], [], [], [], [], []
+    u_off, r_off, n_prod = [0], [0], 0
+    for blk, term in zip(blocks, terms):
+        e = _block_rows(blk, term)
+        blk = replace(blk, alpha=_weight(blk, e, options))
+        weighted.append(blk)
+        n_rows, fixed = len(blk.rows), blk.fixed[e["col"]]
+        free_of = np.cumsum(~blk.fixed) - 1              # local column -> free position
+        n_free = int(np.count_nonzero(~blk.fixed))
+        row_glob = r_off[-1] + e["row"]
+        nominal = e["term"] == 0
+        # Nominal term: free columns into A_u, fixed columns (their fixed value) into r0.
+        sel = nominal & ~fixed
+        Au.append((row_glob[sel], u_off[-1] + free_of[e["col"][sel]], e["value"][sel]))
+        sel = nominal & fixed
+        r0.append(np.bincount(e["row"][sel], weights=e["value"][sel] * blk.lower[e["col"][sel]],
+                              minlength=n_rows))
+        # Parameter terms: fixed columns into A_x; free columns are the bilinear products.
+        sel = ~nominal & fixed
+        Ax.append((row_glob[sel], e["term"][sel] - 1, e["value"][sel] * blk.lower[e["col"][sel]]))
+        sel = ~nominal & ~fixed
+        key = (e["term"][sel] - 1) * max(n_free, 1) + free_of[e["col"][sel]]
+        products, local = np.unique(key, return_inverse=True)
+        Ab.append((row_glob[sel], n_prod + local, e["value"][sel]))
+        px.append(products // max(n_free, 1))
+        pu.append(u_off[-1] + products % max(n_free, 1))
+        n_prod += products.size
+        wrow.append(np.full(n_rows, blk.alpha))
+        u_off.append(u_off[-1] + n_free)
+        r_off.append(r_off[-1] + n_rows)
+    blocks = weighted
+    n_r, n_u = r_off[-1], u_off[-1]
+
+    def assemble(parts, n_cols):
+        rows, cols, vals = (np.concatenate(a) if a else np.zeros(0) for a in zip(*parts))
+        return sp.csr_matrix((vals, (rows.astype(np.int64), cols.astype(np.int64))), shape=(n_r, n_cols))
+
     u_lower = np.concatenate([b.lower[~b.fixed] for b in blocks])
     u_upper = np.concatenate([b.upper[~b.fixed] for b in blocks])
     u_start = np.concatenate([b.start[~b.fixed] for b in blocks])
@@ -454,12 +497,11 @@ def _stack(parameters, x_bounds, blocks, models, scalings, options) -> BilinearP
         x_lower=x_bounds[0], x_upper=x_bounds[1],
         blocks=tuple(blocks),
         u_offsets=np.array(u_off), u_lower=u_lower, u_upper=u_upper, u_start=u_start,
-        A_u=sp.block_diag(Au, format="csr"),
-        A_x=sp.vstack(Ax, format="csr"),
-        A_b=sp.block_diag(Ab_blocks, format="csr"),
+        A_u=assemble(Au, n_u),
+        A_x=assemble(Ax, n_x),
+        A_b=assemble(Ab, n_prod),
         r0=np.concatenate(r0),
         prod_x=np.concatenate(px).astype(int), prod_u=np.concatenate(pu).astype(int),
         row_weight=np.concatenate(wrow), row_offsets=np.array(r_off),
         options=options,
     )
-

@@ -35,7 +35,7 @@ from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
 
-__all__ = ["UpdateResult", "update", "prepare"]
+__all__ = ["UpdateResult", "update", "prepare", "Prepared", "prepare_first_stage"]
 
 #: Tenfold widenings of the vector boxes at most, when the relaxation proves they exclude every fit.
 MAX_WIDENINGS = 2
@@ -140,10 +140,52 @@ class UpdateResult:
         }
 
 
-def prepare(configurations: Sequence[Configuration],
-            options: FormulationOptions | None = None) -> BilinearProblem:
-    """Validate the data and build the problem (with interlacing signs); no solve."""
-    return formulate(configurations, options, transforms=[sign_bounds])
+def prepare(configurations: Sequence[Configuration], options: FormulationOptions | None = None,
+            nominal: Sequence | None = None) -> BilinearProblem:
+    """Validate the data and build the problem (with interlacing signs); no solve. ``nominal``:
+    the nominal `model_frequencies` of ``configurations`` when the caller has them."""
+    return formulate(configurations, options, transforms=[sign_bounds], nominal=nominal)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """The first stage's input, built once (`prepare_first_stage`) and handed to `update` so
+    that a caller which validated a case by building its problem does not build it again.
+
+    Attributes
+    ----------
+    configurations : tuple of Configuration
+        What it was prepared from (`update` uses it only for these very objects).
+    formulation : FormulationOptions
+    solved : tuple of Configuration
+        The configurations the first stage solves (Craig-Bampton reduced where wanted).
+    bases : tuple of ndarray or None
+        Reduction bases, one per configuration (None without reduction).
+    problem : BilinearProblem
+        The problem of ``solved`` with the formulation's margins.
+    """
+
+    configurations: tuple
+    formulation: FormulationOptions
+    solved: tuple
+    bases: tuple | None
+    problem: BilinearProblem
+
+    def matches(self, configurations, formulation) -> bool:
+        return (self.formulation == formulation and len(configurations) == len(self.configurations)
+                and all(a is b for a, b in zip(configurations, self.configurations)))
+
+
+def prepare_first_stage(configurations: Sequence[Configuration],
+                        formulation: FormulationOptions | None = None) -> Prepared:
+    """Reduce where wanted and build the problem; no solve (raises ValueError on bad data)."""
+    configurations = tuple(configurations)
+    formulation = formulation or FormulationOptions()
+    solved, bases = configurations, None
+    if wants_reduction(list(configurations), formulation):
+        solved, bases = reduce_configurations(list(configurations), formulation.reduction_modes)
+        solved, bases = tuple(solved), tuple(bases)
+    return Prepared(configurations, formulation, tuple(solved), bases, prepare(list(solved), formulation))
 
 
 def _message(status: Status, lam: float, steps, checks=()) -> str:
@@ -189,12 +231,14 @@ def _margin_entries(blk) -> np.ndarray:
     return np.ones(blk.lower.size, dtype=bool) if blk.measured is None else ~blk.measured
 
 
-def _first_stage(solved, formulation, solver, allowance_tol, say):
+def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None, problem=None):
     """The homotopy, repeated with wider vector boxes while the relaxation proves that the
-    current boxes exclude every fit (module docstring, item 2)."""
+    current boxes exclude every fit (module docstring, item 2). ``problem``: the first
+    attempt's problem, when already built."""
     attempts, steps, attempt = [], [], 0
     while True:
-        problem = prepare(solved, formulation)
+        if problem is None or attempt > 0:
+            problem = prepare(solved, formulation, nominal)
         if attempt == 0:
             size = problem.sizes()
             say(f"problem: {size['n_parameters']} parameters, {size['n_mode_unknowns']} mode unknowns, "
@@ -235,7 +279,7 @@ def _full_vector(problem: BilinearProblem, b: int, u, configurations, bases) -> 
 def update(configurations: Sequence[Configuration], *, formulation: FormulationOptions | None = None,
            solver: SolverOptions | None = None, polish: PolishOptions | None = None,
            verification: VerifyOptions | None = None,
-           progress: Callable[[str], None] | None = None) -> UpdateResult:
+           progress: Callable[[str], None] | None = None, prepared: Prepared | None = None) -> UpdateResult:
     """Update the shared parameters of ``configurations`` (Problems 1-4 and their mixes).
 
     Which Problem is solved follows from the data: natural frequencies with mode-shape
@@ -253,6 +297,9 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         Thresholds of the checks of the returned model.
     progress : callable, optional
         Receives one line per step.
+    prepared : Prepared, optional
+        The problem of these configurations and this formulation, already built
+        (`prepare_first_stage`); ignored when it was built from other ones.
 
     Returns
     -------
@@ -267,13 +314,20 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     polish = polish or PolishOptions()
     verification = verification or VerifyOptions()
     say = progress or (lambda message: None)
-    solved, bases = configurations, None
-    if wants_reduction(configurations, formulation):
-        solved, bases = reduce_configurations(configurations, formulation.reduction_modes)
+    first_problem = None
+    if prepared is not None and prepared.matches(configurations, formulation):
+        solved, bases, first_problem = list(prepared.solved), prepared.bases, prepared.problem
+    else:
+        solved, bases = configurations, None
+        if wants_reduction(configurations, formulation):
+            solved, bases = reduce_configurations(configurations, formulation.reduction_modes)
+    if bases is not None:
         say(f"Craig-Bampton reduction: {configurations[0].model.n_dofs} -> {solved[0].model.n_dofs} DOFs "
             f"(measured DOFs kept, {formulation.reduction_modes} fixed-interface modes)")
+    nominal = [model_frequencies(c) for c in configurations]
     problem, path, steps, attempts, active = _first_stage(solved, formulation, solver,
-                                                          verification.frequency_tolerance, say)
+                                                          verification.frequency_tolerance, say,
+                                                          nominal if bases is None else None, first_problem)
     size = problem.sizes()
     if bases is not None:
         size["reduced_dofs"] = solved[0].model.n_dofs
@@ -281,7 +335,6 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     first_xbar = np.clip(path.x, problem.x_lower, problem.x_upper)
     xbar, polished, checks = first_xbar, None, ()
     status = path.status
-    nominal = [model_frequencies(c) for c in configurations]
     if status.ok:
         if polish.enabled:
             polished = run_polish(configurations, first_xbar, polish)

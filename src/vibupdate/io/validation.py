@@ -19,7 +19,7 @@ Errors are ValueErrors of the form ``"FILE: KEY: what is wrong"``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -55,11 +55,14 @@ class CaseCheck:
         Facts worth printing: rigid-body modes, massless DOFs, what was checked.
     warnings : tuple of str
         Suspicious but admissible input.
+    prepared : vibupdate.inverse.update.Prepared or None
+        The problem built to check the case, for `update` to use instead of building it again.
     """
 
     sizes: dict
     notes: tuple[str, ...]
     warnings: tuple[str, ...]
+    prepared: object = field(default=None, repr=False, compare=False)
 
 
 def _finite(value) -> bool:
@@ -73,6 +76,7 @@ def _check_solver(solver, error) -> None:
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= most:
             raise error(f"solver.{name}", f"must be an integer from 1 to {most}, got {value!r}")
     checks = (("min_step", lambda v: 0 < v <= 1, "in (0, 1]"),
+              ("step_growth", lambda v: 1 <= v <= 100, "in [1, 100]"),
               ("proximal", lambda v: 0 <= v <= 1, "in [0, 1]"),
               ("max_cpu_time", lambda v: v > 0, "a positive number of seconds"),
               ("tol", lambda v: 0 < v < 1, "in (0, 1)"))
@@ -267,8 +271,7 @@ def validate_case(case) -> CaseCheck:
         ``"FILE: KEY: message"`` for the first problem found.
     """
     from vibupdate.data.measured import validate_configurations
-    from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
-    from vibupdate.inverse.update import prepare
+    from vibupdate.inverse.update import prepare_first_stage
 
     from pathlib import Path
 
@@ -292,10 +295,7 @@ def validate_case(case) -> CaseCheck:
     warnings = _check_damping(case, rigid, error)
     warnings += [w for w in (_rad_s_warning(c) for c in case.configurations) if w]
     try:
-        solved = list(case.configurations)
-        if wants_reduction(solved, case.formulation):
-            solved, _ = reduce_configurations(solved, case.formulation.reduction_modes)
-        sizes = prepare(solved, case.formulation).sizes()
+        prepared = prepare_first_stage(case.configurations, case.formulation)
     except ValueError as exc:
         raise error("configuration", str(exc)) from None
-    return CaseCheck(sizes, tuple(notes), tuple(warnings))
+    return CaseCheck(prepared.problem.sizes(), tuple(notes), tuple(warnings), prepared)

@@ -84,8 +84,8 @@ def random_start_solve(problem, backend, rng: np.random.Generator, proximal: flo
     their boxes, lifted products and residuals consistent with them.
 
     With ``proximal > 0`` the answer is then pulled towards the random parameter point: a
-    second solve, warm from the first answer ``(x1, u1)``, adds ``rho ||z - z_t||^2`` with
-    ``z_t`` the random parameters and the vectors ``u1``, and ``rho`` chosen so that the term
+    second solve, warm from the first answer ``(x1, u1)``, adds ``prox_weight ||z - z_t||^2`` with
+    ``z_t`` the random parameters and the vectors ``u1``, and ``prox_weight`` chosen so that the term
     is ``proximal`` times the objective at ``z_t`` when ``||x - x_t|| = ||x1 - x_t||``. Where the
     minimizers form a set (an exact symmetry), the answer is then near the minimizer closest to
     the random point, instead of the one the interior-point barrier leads to (near the centre
@@ -108,9 +108,9 @@ def random_start_solve(problem, backend, rng: np.random.Generator, proximal: flo
         distance = float(np.sum((x1 - x0) ** 2))
         if distance > 1e-12:
             target = point(x0, u1)
-            rho = proximal * problem.objective(x0, u1) / distance
-            pulled = backend.solve(out.z, 1.0, rho=rho, z_prev=target, warm=True, lam_x0=out.lam_x,
-                                   lam_g0=out.lam_g)
+            weight = proximal * problem.objective(x0, u1) / distance
+            pulled = backend.solve(out.z, 1.0, prox_weight=weight, z_prev=target, warm=True, mult_x=out.mult_x,
+                                   mult_g=out.mult_g)
             if pulled.status.ok:
                 out = pulled
     x, u, _, _ = backend.split(out.z)
@@ -120,14 +120,14 @@ def random_start_solve(problem, backend, rng: np.random.Generator, proximal: flo
 
 
 def build_solver(configurations, formulation, solver):
-    """The problem and the compiled CasADi solver of a set of configurations."""
-    from vibupdate.inverse.backends.casadi_ipopt import CasadiIpopt
+    """The problem and the step solver of a set of configurations (compiled once per structure
+    and process, `vibupdate.inverse.backends.casadi_ipopt.CACHE`)."""
+    from vibupdate.inverse.backends import build
     from vibupdate.inverse.relaxation import mccormick
     from vibupdate.inverse.update import prepare
 
     problem = prepare(configurations, formulation)
-    backend = CasadiIpopt(problem, mccormick(problem), max_iter=solver.max_iter,
-                          max_cpu_time=solver.max_cpu_time, tol=solver.tol)
+    backend = build(problem, mccormick(problem), solver)
     return problem, backend
 
 

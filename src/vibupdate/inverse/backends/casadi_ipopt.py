@@ -1,74 +1,230 @@
 """CasADi + IPOPT backend for the homotopy steps (IPOPT and MUMPS ship in the casadi wheel).
 
-The NLP of one step, over ``z = [xbar, u, t, R]`` with parameters ``(lam, rho, xbar_prev,
-u_prev)``:
-
-    min  sum_k w_k R_k^2 + rho (||xbar - xbar_prev||^2 + ||u - u_prev||^2)
-    s.t. R = A_u u + A_x xbar + A_b (lam xbar[px] u[pu] + (1 - lam) t) + r0
-         McCormick rows (Eq. 19), boxes on xbar, u, t.
-
+The NLP of one step is that of `vibupdate.inverse.backends` over ``z = [xbar, u, t, R]``.
 Each residual is its own variable with an equality constraint (docs/method.md, section 6);
-the derivatives are exact and sparse. Sparse problems are built in CasADi SX and expanded
-(fastest per iteration); problems whose residual rows are dense (a reduced model, see
-`vibupdate.inverse.reduction`) are built in MX without expansion, because SX differentiation of
-dense linear maps costs tens of seconds where MX takes one. The solver is built once, ``lam``
-and the proximal data are parameters, and two IPOPT instances share the expressions: a cold
-one (default start) and a warm one that re-uses the previous primal point and multipliers.
+the derivatives are exact and sparse.
+
+**One compiled solver per structure.** Everything that changes with the data is an NLP
+parameter ``p``: the homotopy ``lam``, the proximal weight and centre, the row weights, the
+non-zeros of ``A_u``, ``A_x``, ``A_b``, ``r0`` (they hold the measured frequencies, Eqs. 7, 9)
+and of the McCormick rows (they hold the boxes); the boxes themselves are call arguments. The
+compiled solver therefore depends only on the *structure* of a problem (sizes, sparsity
+patterns, the lifted products, the IPOPT limits), and a process-level cache (`CACHE`) keyed
+by that structure lets a second problem of the same structure (a re-run, a sweep sample, a
+random start) skip the build. The NLP is built in CasADi MX without expansion by default:
+IPOPT's own work dominates each iteration here, and the MX build is about ten times faster
+than the SX one (docs/method.md, section 6, and `benchmarks/RESULTS.md`).
+
+**At ``lam = 1`` the NLP without the lifted variables.** There the residual no longer
+involves ``t`` and every ``(xbar, u)`` in its box leaves ``t = xbar[px] u[pu]`` feasible, so
+the NLP over ``[xbar, u, R]`` without ``t`` and the McCormick rows has the same minimizers and
+is about half the size (`_compile`); `CasadiIpopt.solve` uses it for every ``lam = 1`` step
+and returns the outcome in the lifted layout.
+
+Each NLP has a cold IPOPT instance (IPOPT's default start) and a warm one that re-uses the
+previous primal point and multipliers with small bound pushes, each built on first use.
+
+IPOPT's return codes map to `Status` by `IPOPT_STATUS`.
 """
 
 from __future__ import annotations
 
+import hashlib
+import threading
 import time
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
+from vibupdate.inverse.backends import StepOutcome
 from vibupdate.inverse.formulation import BilinearProblem
 from vibupdate.inverse.interrupt import watch_sigint
 from vibupdate.inverse.relaxation import McCormick
-from vibupdate.inverse.status import Status, from_ipopt
+from vibupdate.inverse.status import Status
 
-__all__ = ["CasadiIpopt", "StepOutcome"]
+__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "from_ipopt", "build"]
+
+#: IPOPT's ``return_status`` strings (as CasADi reports them) -> Status.
+IPOPT_STATUS = {
+    "Solve_Succeeded": Status.SUCCESS,
+    "Solved_To_Acceptable_Level": Status.ACCEPTABLE,
+    "Feasible_Point_Found": Status.ACCEPTABLE,
+    "Infeasible_Problem_Detected": Status.INFEASIBLE,
+    "Maximum_Iterations_Exceeded": Status.MAX_ITERATIONS,
+    "Maximum_CpuTime_Exceeded": Status.TIME_LIMIT,
+    "Maximum_WallTime_Exceeded": Status.TIME_LIMIT,
+    "Restoration_Failed": Status.NUMERICAL_ERROR,
+    "Error_In_Step_Computation": Status.NUMERICAL_ERROR,
+    "Search_Direction_Becomes_Too_Small": Status.NUMERICAL_ERROR,
+    "Diverging_Iterates": Status.NUMERICAL_ERROR,
+    "Invalid_Number_Detected": Status.NUMERICAL_ERROR,
+    "Not_Enough_Degrees_Of_Freedom": Status.INFEASIBLE,
+    "Invalid_Problem_Definition": Status.NUMERICAL_ERROR,
+    "Invalid_Option": Status.NUMERICAL_ERROR,
+    "Internal_Error": Status.NUMERICAL_ERROR,
+    "Unrecoverable_Exception": Status.NUMERICAL_ERROR,
+    "Insufficient_Memory": Status.NUMERICAL_ERROR,
+    "User_Requested_Stop": Status.NOT_SOLVED,
+}
 
 
-@dataclass(frozen=True)
-class StepOutcome:
-    """Result of one NLP solve.
+def from_ipopt(return_status: str) -> Status:
+    """Map an IPOPT return status; unknown strings count as a numerical error."""
+    return IPOPT_STATUS.get(return_status, Status.NUMERICAL_ERROR)
 
-    Attributes
-    ----------
-    z : ndarray, shape (n_x + n_u + n_b + n_R,)
-    objective : float
-        Weighted residual sum of squares (without the proximal term).
-    iterations : int
-    status : Status
-    raw_status : str
-    seconds : float
-    lam_x, lam_g : ndarray
-        Multipliers, for a warm start of the next step.
+
+def _pattern(A) -> sp.csc_matrix:
+    """``A`` as CSC with sorted, summed indices; explicit zeros are kept (part of the pattern)."""
+    A = sp.csc_matrix(A, dtype=float, copy=True)
+    A.sum_duplicates()
+    A.sort_indices()
+    return A
+
+
+@dataclass
+class _Compiled:
+    """The compiled step NLPs of one structure: the lifted one (any ``lam``) and the exact one
+    (``lam = 1`` without ``t`` and the McCormick rows), each with a cold and a warm IPOPT
+    instance built on first use."""
+
+    nlps: dict
+    options: dict
+    solvers: dict = field(default_factory=dict)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def solver(self, nlp: str, start: str):
+        """The IPOPT instance of NLP ``"lifted"`` or ``"exact"`` with ``"cold"`` or ``"warm"`` options."""
+        key = (nlp, start)
+        if key not in self.solvers:
+            import casadi as ca
+
+            with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
+                self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp], self.options[start])
+        return self.solvers[key]
+
+
+class SolverCache:
+    """Process-level cache of compiled step NLPs, keyed by a problem's structure.
+
+    At most ``maxsize`` structures are kept (least recently used dropped). ``builds`` counts
+    the compilations and ``hits`` the re-uses since the process started (or `clear`).
     """
 
-    z: np.ndarray
-    objective: float
-    iterations: int
-    status: Status
-    raw_status: str
-    seconds: float
-    lam_x: np.ndarray
-    lam_g: np.ndarray
+    def __init__(self, maxsize: int = 8):
+        self.maxsize = maxsize
+        self.builds = 0
+        self.hits = 0
+        self._entries: OrderedDict[str, _Compiled] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def get(self, key: str, make) -> _Compiled:
+        """The entry of ``key``, compiled by ``make()`` when absent."""
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is not None:
+                self._entries.move_to_end(key)
+                self.hits += 1
+                return entry
+            entry = make()
+            self.builds += 1
+            self._entries[key] = entry
+            while len(self._entries) > self.maxsize:
+                self._entries.popitem(last=False)
+            return entry
+
+    def clear(self) -> None:
+        """Drop every entry and reset the counters."""
+        with self._lock:
+            self._entries.clear()
+            self.builds = 0
+            self.hits = 0
 
 
-def _dm(A):
+#: The cache every `CasadiIpopt` uses unless given another.
+CACHE = SolverCache()
+
+
+def _structure_key(mats, problem: BilinearProblem, expand: bool, settings: dict) -> str:
+    digest = hashlib.blake2b(digest_size=20)
+    digest.update(repr((problem.n_x, problem.n_u, problem.n_b, problem.n_r, expand,
+                        sorted(settings.items()))).encode())
+    for A in mats:
+        digest.update(repr(A.shape).encode())
+        digest.update(np.ascontiguousarray(A.indptr, dtype=np.int64).tobytes())
+        digest.update(np.ascontiguousarray(A.indices, dtype=np.int64).tobytes())
+    digest.update(np.ascontiguousarray(problem.prod_x, dtype=np.int64).tobytes())
+    digest.update(np.ascontiguousarray(problem.prod_u, dtype=np.int64).tobytes())
+    return digest.hexdigest()
+
+
+def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _Compiled:
+    """Build the parametric step NLPs (module docstring) and the cold IPOPT instance of the
+    lifted one. The exact NLP (``lam = 1``) has no ``t`` and no McCormick rows, over
+    ``[xbar, u, R]``, with the same parameters ``p`` (``lam`` and the rows' coefficients unused):
+    at ``lam = 1`` the residual does not involve ``t``, and every ``(xbar, u)`` in its box
+    leaves ``t = xbar[px] u[pu]`` feasible, so both NLPs have the same minimizers in
+    ``(xbar, u, R)``; the exact one is about half the size."""
     import casadi as ca
 
-    A = sp.csc_matrix(A)
-    A.sort_indices()
-    return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data)
+    n_x, n_u, n_b, n_r = problem.n_x, problem.n_u, problem.n_b, problem.n_r
+    Sym = ca.SX if expand else ca.MX
+    x, u, t, R = Sym.sym("x", n_x), Sym.sym("u", n_u), Sym.sym("t", n_b), Sym.sym("R", n_r)
+    lam, prox_weight = Sym.sym("lam"), Sym.sym("prox_weight")
+    x_prev, u_prev = Sym.sym("x_prev", n_x), Sym.sym("u_prev", n_u)
+    row_weight, r0 = Sym.sym("row_weight", n_r), Sym.sym("r0", n_r)
+    nonzeros, symbolic = [], []
+    for name, A in zip(("A_u", "A_x", "A_b", "G"), mats):
+        nz = Sym.sym(name, A.nnz)
+        nonzeros.append(nz)
+        symbolic.append(Sym(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), nz))
+    A_u, A_x, A_b, G = symbolic
+    px, pu = problem.prod_x.tolist(), problem.prod_u.tolist()
+    # vec(): indexing a 1 x 1 symbol (a single parameter) with a list gives a row vector.
+    products = ca.vec(x[px]) * ca.vec(u[pu]) if n_b else Sym(0, 1)
+    linear = ca.mtimes(A_u, u) + ca.mtimes(A_x, x) + r0
+    lifted = linear + (ca.mtimes(A_b, lam * products + (1 - lam) * t) if n_b else 0)
+    exact = linear + (ca.mtimes(A_b, products) if n_b else 0)
+    f = ca.dot(row_weight, R * R) + prox_weight * (ca.sumsqr(x - x_prev) + ca.sumsqr(u - u_prev))
+    p = ca.vertcat(lam, prox_weight, x_prev, u_prev, row_weight, r0, *nonzeros)
+    nlps = {
+        "lifted": {"x": ca.vertcat(x, u, t, R), "p": p, "f": f,
+                   "g": ca.vertcat(R - lifted, ca.mtimes(G, ca.vertcat(x, u, t)))},
+        "exact": {"x": ca.vertcat(x, u, R), "p": p, "f": f, "g": R - exact},
+    }
+    cold = {
+        "expand": expand,
+        "print_time": False,
+        "ipopt.print_level": 0,
+        "ipopt.sb": "yes",
+        "ipopt.max_iter": int(settings["max_iter"]),
+        "ipopt.max_cpu_time": float(settings["max_cpu_time"]),
+        "ipopt.tol": float(settings["tol"]),
+        "ipopt.acceptable_tol": 1e-8,
+        "ipopt.linear_solver": "mumps",
+    }
+    warm = {
+        **cold,
+        "ipopt.warm_start_init_point": "yes",
+        "ipopt.warm_start_bound_push": 1e-9,
+        "ipopt.warm_start_bound_frac": 1e-9,
+        "ipopt.warm_start_slack_bound_push": 1e-9,
+        "ipopt.warm_start_slack_bound_frac": 1e-9,
+        "ipopt.warm_start_mult_bound_push": 1e-9,
+        "ipopt.mu_init": 1e-6,
+        "ipopt.mu_strategy": "adaptive",
+    }
+    compiled = _Compiled(nlps=nlps, options={"cold": cold, "warm": warm})
+    compiled.solver("lifted", "cold")
+    return compiled
 
 
 class CasadiIpopt:
-    """Builds the step NLP of a problem once and solves it for any ``lam``.
+    """The step solver of one problem, on the compiled NLP of its structure.
 
     Parameters
     ----------
@@ -80,73 +236,33 @@ class CasadiIpopt:
     tol : float
         IPOPT's ``tol``.
     expand : bool, optional
-        Build in SX and expand (True) or keep MX (False); by default SX unless some residual
-        row has more than `DENSE_ROW` non-zeros.
+        Build in SX and expand (True) or keep MX (False, the default: module docstring).
+    cache : SolverCache, optional
+        Where compiled NLPs are kept (default `CACHE`); ``None`` compiles a private one.
     """
 
-    #: Residual rows with more non-zeros than this make the default build MX.
-    DENSE_ROW = 200
-
     def __init__(self, problem: BilinearProblem, envelope: McCormick, *, max_iter: int = 3000,
-                 max_cpu_time: float = 600.0, tol: float = 1e-10, expand: bool | None = None):
-        import casadi as ca
-
+                 max_cpu_time: float = 600.0, tol: float = 1e-10, expand: bool = False,
+                 cache: SolverCache | None = CACHE):
         self.problem = problem
         n_x, n_u, n_b, n_r = problem.n_x, problem.n_u, problem.n_b, problem.n_r
         self.sizes = (n_x, n_u, n_b, n_r)
-        if expand is None:
-            row_nnz = np.diff(sp.csr_matrix(problem.A_b).indptr).max(initial=0)
-            expand = bool(row_nnz <= self.DENSE_ROW)
-        self.expand = expand
-        Sym = ca.SX if expand else ca.MX
-        x = Sym.sym("x", n_x)
-        u = Sym.sym("u", n_u)
-        t = Sym.sym("t", n_b)
-        R = Sym.sym("R", n_r)
-        lam = Sym.sym("lam")
-        rho = Sym.sym("rho")
-        x_prev = Sym.sym("x_prev", n_x)
-        u_prev = Sym.sym("u_prev", n_u)
-        px, pu = problem.prod_x.tolist(), problem.prod_u.tolist()
-        # vec(): indexing a 1 x 1 symbol (a single parameter) with a list gives a row vector.
-        blend = lam * (ca.vec(x[px]) * ca.vec(u[pu])) + (1 - lam) * t if n_b else Sym(0, 1)
-        model = (ca.mtimes(_dm(problem.A_u), u) + ca.mtimes(_dm(problem.A_x), x)
-                 + (ca.mtimes(_dm(problem.A_b), blend) if n_b else 0) + ca.DM(problem.r0))
-        w = ca.DM(problem.row_weight)
-        f = ca.dot(w, R * R) + rho * (ca.sumsqr(x - x_prev) + ca.sumsqr(u - u_prev))
-        zlin = ca.vertcat(x, u, t)
-        g = ca.vertcat(R - model, ca.mtimes(_dm(envelope.G), zlin))
-        nlp = {"x": ca.vertcat(x, u, t, R), "p": ca.vertcat(lam, rho, x_prev, u_prev), "f": f, "g": g}
+        self.expand = bool(expand)
+        mats = [_pattern(A) for A in (problem.A_u, problem.A_x, problem.A_b, envelope.G)]
+        settings = {"max_iter": int(max_iter), "max_cpu_time": float(max_cpu_time), "tol": float(tol)}
+        key = _structure_key(mats, problem, self.expand, settings)
+        if cache is None:
+            self._compiled = _compile(mats, problem, self.expand, settings)
+        else:
+            self._compiled = cache.get(key, lambda: _compile(mats, problem, self.expand, settings))
+        self._cold = self._compiled.solver("lifted", "cold")
+        self._data = np.concatenate([problem.row_weight, problem.r0, *(A.data for A in mats)])
+        self._row_weight = np.asarray(problem.row_weight, float)
         self._lbx = np.concatenate([problem.x_lower, problem.u_lower, envelope.t_lower, np.full(n_r, -np.inf)])
         self._ubx = np.concatenate([problem.x_upper, problem.u_upper, envelope.t_upper, np.full(n_r, np.inf)])
         self._lbg = np.concatenate([np.zeros(n_r), envelope.lower])
         self._ubg = np.concatenate([np.zeros(n_r), envelope.upper])
-        self._fit = ca.Function("fit", [nlp["x"]], [ca.dot(w, R * R)])
-        common = {
-            "expand": expand,
-            "print_time": False,
-            "ipopt.print_level": 0,
-            "ipopt.sb": "yes",
-            "ipopt.max_iter": int(max_iter),
-            "ipopt.max_cpu_time": float(max_cpu_time),
-            "ipopt.tol": float(tol),
-            "ipopt.acceptable_tol": 1e-8,
-            "ipopt.linear_solver": "mumps",
-        }
-        warm = {
-            **common,
-            "ipopt.warm_start_init_point": "yes",
-            "ipopt.warm_start_bound_push": 1e-9,
-            "ipopt.warm_start_bound_frac": 1e-9,
-            "ipopt.warm_start_slack_bound_push": 1e-9,
-            "ipopt.warm_start_slack_bound_frac": 1e-9,
-            "ipopt.warm_start_mult_bound_push": 1e-9,
-            "ipopt.mu_init": 1e-6,
-            "ipopt.mu_strategy": "adaptive",
-        }
-        with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
-            self._cold = ca.nlpsol("vibupdate_cold", "ipopt", nlp, common)
-            self._warm = ca.nlpsol("vibupdate_warm", "ipopt", nlp, warm)
+        self._exact_entries = np.r_[0:n_x + n_u, n_x + n_u + n_b:n_x + n_u + n_b + n_r]
 
     def split(self, z):
         """``z`` -> (xbar, u, t, R)."""
@@ -154,45 +270,73 @@ class CasadiIpopt:
         return z[:n_x], z[n_x:n_x + n_u], z[n_x + n_u:n_x + n_u + n_b], z[n_x + n_u + n_b:]
 
     def join(self, x, u, t, R):
+        """(xbar, u, t, R) -> ``z``."""
         return np.concatenate([x, u, t, R])
 
-    def solve(self, z0, lam: float, *, rho: float = 0.0, z_prev=None, warm: bool = False,
-              lam_x0=None, lam_g0=None) -> StepOutcome:
-        """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with multipliers).
+    def fit(self, z) -> float:
+        """``sum_k w_k R_k^2`` at ``z`` (no proximal term)."""
+        R = self.split(np.asarray(z, float))[3]
+        return float(self._row_weight @ (R * R))
+
+    def solve(self, z0, lam: float, *, prox_weight: float = 0.0, z_prev=None, warm: bool = False,
+              mult_x=None, mult_g=None) -> StepOutcome:
+        """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with the multipliers).
+
+        At ``lam = 1`` the exact NLP is solved (no ``t``, no McCormick rows: `_compile`); the
+        returned ``z`` then has ``t = xbar[px] u[pu]`` and zero multipliers for ``t`` and the
+        rows, so the outcome looks the same to the caller.
 
         Raises ``KeyboardInterrupt`` when SIGINT arrives during the solve (CasADi stops IPOPT
         at the next iteration and would otherwise report an ordinary failure,
         `vibupdate.inverse.interrupt`).
         """
-        n_x, n_u, _, _ = self.sizes
-        z_prev = z0 if z_prev is None else z_prev
-        p = np.concatenate([[lam, rho], z_prev[:n_x], z_prev[n_x:n_x + n_u]])
-        z0 = np.clip(z0, self._lbx, self._ubx)
-        args = dict(x0=z0, p=p, lbx=self._lbx, ubx=self._ubx, lbg=self._lbg, ubg=self._ubg)
-        solver = self._cold
-        if warm and lam_x0 is not None and lam_g0 is not None:
-            solver = self._warm
-            args.update(lam_x0=lam_x0, lam_g0=lam_g0)
+        n_x, n_u, n_b, n_r = self.sizes
+        z0 = np.clip(np.asarray(z0, float), self._lbx, self._ubx)
+        z_prev = z0 if z_prev is None else np.asarray(z_prev, float)
+        p = np.concatenate([[lam, prox_weight], z_prev[:n_x], z_prev[n_x:n_x + n_u], self._data])
+        exact = lam == 1.0
+        keep = self._exact_entries if exact else slice(None)
+        args = dict(x0=z0[keep], p=p, lbx=self._lbx[keep], ubx=self._ubx[keep],
+                    lbg=self._lbg[:n_r] if exact else self._lbg, ubg=self._ubg[:n_r] if exact else self._ubg)
         start = time.perf_counter()
         try:
-            with watch_sigint():
+            solver = self._cold if not exact else self._compiled.solver("exact", "cold")
+            if warm and mult_x is not None and mult_g is not None:
+                solver = self._compiled.solver("exact" if exact else "lifted", "warm")
+                mult_x, mult_g = np.asarray(mult_x, float), np.asarray(mult_g, float)
+                # CasADi's names for the multipliers
+                args.update(lam_x0=mult_x[keep], lam_g0=mult_g[:n_r] if exact else mult_g)
+            with self._compiled.lock, watch_sigint():
                 sol = solver(**args)
+                stats = solver.stats()
         except RuntimeError as exc:  # CasADi raises on evaluation errors: a status, not an exception
-            return StepOutcome(z=z0, objective=float(self._fit(z0)), iterations=0, status=Status.NUMERICAL_ERROR,
+            return StepOutcome(z=z0, objective=self.fit(z0), iterations=0, status=Status.NUMERICAL_ERROR,
                                raw_status=f"CasADi error: {str(exc).splitlines()[0][:200]}",
-                               seconds=time.perf_counter() - start, lam_x=np.zeros(z0.size),
-                               lam_g=np.zeros(self._lbg.size))
+                               seconds=time.perf_counter() - start, mult_x=np.zeros(z0.size),
+                               mult_g=np.zeros(self._lbg.size))
         seconds = time.perf_counter() - start
-        stats = solver.stats()
         raw = str(stats.get("return_status", "unknown"))
         z = np.asarray(sol["x"]).ravel()
-        return StepOutcome(
-            z=z,
-            objective=float(self._fit(z)),
-            iterations=int(stats.get("iter_count", -1)),
-            status=from_ipopt(raw),
-            raw_status=raw,
-            seconds=seconds,
-            lam_x=np.asarray(sol["lam_x"]).ravel(),
-            lam_g=np.asarray(sol["lam_g"]).ravel(),
-        )
+        m_x, m_g = np.asarray(sol["lam_x"]).ravel(), np.asarray(sol["lam_g"]).ravel()
+        if exact:
+            z, m_x, m_g = self._expand(z, m_x, m_g)
+        return StepOutcome(z=z, objective=self.fit(z), iterations=int(stats.get("iter_count", -1)),
+                           status=from_ipopt(raw), raw_status=raw, seconds=seconds, mult_x=m_x, mult_g=m_g)
+
+    def _expand(self, z, m_x, m_g):
+        """An exact NLP's point and multipliers in the lifted NLP's layout (``t = xbar u``)."""
+        n_x, n_u, n_b, n_r = self.sizes
+        x, u = z[:n_x], z[n_x:n_x + n_u]
+        t = np.clip(x[self.problem.prod_x] * u[self.problem.prod_u], self._lbx[n_x + n_u:n_x + n_u + n_b],
+                    self._ubx[n_x + n_u:n_x + n_u + n_b])
+        full = np.concatenate([x, u, t, z[n_x + n_u:]])
+        mult_x = np.zeros(full.size)
+        mult_x[self._exact_entries] = m_x
+        mult_g = np.concatenate([m_g, np.zeros(self._lbg.size - n_r)])
+        return full, mult_x, mult_g
+
+
+def build(problem: BilinearProblem, envelope: McCormick, options) -> CasadiIpopt:
+    """The backend protocol's entry (`vibupdate.inverse.backends.build`)."""
+    return CasadiIpopt(problem, envelope, max_iter=options.max_iter, max_cpu_time=options.max_cpu_time,
+                       tol=options.tol)
