@@ -59,7 +59,7 @@ SAMPLES_FILE = "samples.csv"
 SETTINGS_FILE = "sweep-settings.json"
 SUMMARY_FILE = "sweep.json"
 #: Columns whose values depend on the run (timing, worker), not on the sample.
-RUN_COLUMNS = ("seconds", "worker")
+RUN_COLUMNS = ("seconds", "cpu_seconds", "worker")
 #: The ends of the walks along null directions (`vibupdate.study.extent`), one row per end.
 ENDS_FILE = "line_ends.csv"
 #: Key of a task's row under which it returns its line ends (not a column of ``samples.csv``).
@@ -125,7 +125,7 @@ def columns(case: Case, sampling: SamplingOptions) -> list[str]:
         exponents = (case.damping.exponents if case.damping else (0.0, 1.0))
         damping = [f"beta{i}" for i in range(len(exponents))]
     return ["index", "outcome", "status", "start", "objective", *names, "line_ends", *predicted, *data, *damping,
-            "seconds", "worker", "message"]
+            "seconds", "cpu_seconds", "worker", "message"]
 
 
 def end_columns(case: Case) -> list[str]:
@@ -158,13 +158,14 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     from vibupdate.inverse.update import update
     from vibupdate.inverse.verify import VerifyOptions
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     case = _resolve(case)
     row: dict = {"index": index, "worker": os.getpid()}
     try:
         cfgs, drawn = draw_configurations(case.configurations, case.frequency_tolerance, seed, index, sampling)
     except ValueError as exc:
-        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
+        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
+                   cpu_seconds=time.process_time() - cpu)
         return row
     row.update({f"data:{k}": v for k, v in drawn.items()})
     tolerance = case.frequency_tolerance if sampling.frequency_tolerance is None else sampling.frequency_tolerance
@@ -172,7 +173,8 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     try:
         result = update(cfgs, formulation=case.formulation, solver=case.solver, verification=verification)
     except ValueError as exc:
-        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
+        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
+                   cpu_seconds=time.process_time() - cpu)
         return row
     row.update(outcome=_outcome(result), status=result.status.value, objective=result.objective,
                message=result.message, start="homotopy")
@@ -196,6 +198,7 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
         except ValueError as exc:
             row["message"] += f"; damping stage: {exc}"
     row["seconds"] = time.perf_counter() - start
+    row["cpu_seconds"] = time.process_time() - cpu
     return row
 
 
@@ -367,9 +370,13 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     new = [r for r in rows if r["index"] in submitted and isinstance(r.get("seconds"), float)]
     document["timing"] = {
         "note": ("this run only, from the first submission to the last result (cluster start-up excluded); "
-                 "overhead = (wall x workers - time inside the tasks) / tasks; timings vary with the load"),
+                 "overhead = (wall x workers - time inside the tasks) / tasks; task_cpu_seconds_mean is the CPU "
+                 "time of a task's process, below its wall time when other processes took the cores; timings "
+                 "vary with the load"),
         "tasks": len(new), "workers": n_workers, "task_phase_wall_seconds": wall,
         "task_seconds_mean": float(np.mean([r["seconds"] for r in new])) if new else None,
+        "task_cpu_seconds_mean": (float(np.mean([r["cpu_seconds"] for r in new]))
+                                  if new and all(isinstance(r.get("cpu_seconds"), float) for r in new) else None),
         "overhead_per_task_seconds": (wall * n_workers - sum(r["seconds"] for r in new)) / len(new) if new else None,
     }
     (out / SUMMARY_FILE).write_text(json.dumps(document, indent=2), encoding="utf-8")
