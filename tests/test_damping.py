@@ -97,6 +97,17 @@ def test_negative_bands_find_the_roots_of_a_known_series():
     assert negative_bands([0.0, 1.0], [1.0, 1e-4], 1000.0) == []
 
 
+def test_negative_band_starts_at_a_root_that_falls_exactly_on_a_grid_point():
+    from vibupdate.damping import negative_bands
+
+    # g(w) = 1 - 2^-20 w^2 is exactly 0 at w = 1024, a point of the uniform grid
+    # (1, 2, ..., 4096 rad/s); every operation is exact in binary, so g(1024) == 0.0 and the
+    # band must start there, not at the next grid point.
+    assert negative_bands([0.0, 1.0], [1.0, -2.0**-20], 4096.0, n_grid=4096) == [(1024.0, 4096.0)]
+    # and the mirror image: negative below the root, ending exactly there
+    assert negative_bands([0.0, 1.0], [-1.0, 2.0**-20], 4096.0, n_grid=4096) == [(0.0, 1024.0)]
+
+
 def test_cantilever_caughey_and_rayleigh_fits_are_flagged_where_damping_turns_negative():
     """Issue 12 item 6: with the paper's updated parameters (Table 6) the Caughey fit with
     Y = [-1.5, -0.75, 0] is negative at low frequency and the Rayleigh baseline at high
@@ -124,8 +135,8 @@ def test_frf_plot_draws_the_nominal_model_without_the_updated_damping(tmp_path, 
     from vibupdate.report import plots
 
     calls = []
-    real = plots.receptance
-    monkeypatch.setattr(plots, "receptance", lambda M, K, r, c, w, C=None: calls.append(C) or real(M, K, r, c, w, C))
+    real = plots.receptances
+    monkeypatch.setattr(plots, "receptances", lambda M, K, pairs, w, C=None: calls.append(C) or real(M, K, pairs, w, C))
     cfg = cantilever.configurations()[0]
     M, K = cfg.model.matrices()
     C = caughey_matrix(M, K, [0.0, 1.0], [1.0, 1e-5])

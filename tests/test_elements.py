@@ -101,15 +101,15 @@ def test_assembly_named_dofs_supports_and_lumped():
     asm.spring("y2", 3.0, "y3")
     s = asm.system()
     assert s.dofs == ("phi1", "y2", "phi2", "y3", "phi3")
-    i, j = s.index("y2"), s.index("y3")
+    i, j = s.dof("y2"), s.dof("y3")
     M_bare = beam_mass(1.0, 1.0)
-    assert s.M[s.index("y3"), s.index("y3")] == pytest.approx(M_bare[2, 2] + 0.5)
-    assert s.M[s.index("phi3"), s.index("phi3")] == pytest.approx(M_bare[3, 3] + 0.1)
+    assert s.M[s.dof("y3"), s.dof("y3")] == pytest.approx(M_bare[2, 2] + 0.5)
+    assert s.M[s.dof("phi3"), s.dof("phi3")] == pytest.approx(M_bare[3, 3] + 0.1)
     K_bare = beam_stiffness(1.0, 1.0)
     assert s.K[j, j] == pytest.approx(K_bare[2, 2] + 7.0 + 3.0)
     assert s.K[i, j] == pytest.approx(K_bare[0, 2] - 3.0)
     with pytest.raises(ValueError, match="DOF 'y9' does not exist"):
-        s.index("y9")
+        s.dof("y9")
     with pytest.raises(ValueError, match="DOF 'x1' does not exist"):
         asm.mass("x1", 1.0)
     with pytest.raises(ValueError, match="node 7 does not exist"):

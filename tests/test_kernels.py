@@ -8,7 +8,8 @@ import scipy.sparse as sp
 
 from helpers import uniform_cantilever
 from vibupdate import Assembly, antiresonances, modes, receptance
-from vibupdate.modal import analysis
+from vibupdate.modal import eigen
+from vibupdate.modal import receptance as receptance_module
 from vibupdate.modal.analysis import DENSE_LIMIT, ModalAccuracyError, adjunct, mode_residuals
 
 
@@ -66,6 +67,27 @@ def test_massless_dofs_give_the_condensed_model_frequencies():
         modes(sysm.M, sysm.K, m.size + 1)
 
 
+def test_one_definition_of_massless_for_the_eigen_solver_and_the_admissibility_check():
+    """A rotation carrying a rounding-level mass (1e-16 of the largest, as exported files
+    print it) is massless for both `modes` and `definiteness`: the same DOFs, the same
+    finite modes as with exact zeros, no spurious mode far above the physical ones."""
+    from vibupdate.model.physical import definiteness
+
+    sysm = lumped_portal()
+    s = np.array([i for i, d in enumerate(sysm.dofs) if d.startswith("phi")])
+    M = sysm.M.tolil()
+    top = sysm.M.diagonal().max()
+    for i in s:
+        M[i, i] = 1e-16 * top
+    M = sp.csr_matrix(M)
+    np.testing.assert_array_equal(eigen.massless_dofs(M), s)
+    assert definiteness(M, sysm.K).massless == tuple(s)
+    omega_exact, _ = modes(sysm.M, sysm.K)
+    omega, _ = modes(M, sysm.K)
+    assert omega.size == omega_exact.size == sysm.M.shape[0] - s.size
+    np.testing.assert_allclose(omega, omega_exact, rtol=1e-9)
+
+
 def test_massless_dof_without_stiffness_is_named():
     sysm = lumped_portal()
     K = sysm.K.tolil()
@@ -94,7 +116,7 @@ def test_damped_receptance_in_chunks_equals_one_solve_per_frequency(monkeypatch)
     w = np.linspace(0.5, 300.0, 11)
     n = s.M.shape[0]
     # Chunks of 3 frequencies: the stack never holds more than 3 x n x n numbers.
-    monkeypatch.setattr(analysis, "_CHUNK_BYTES", 3 * 16 * n * n)
+    monkeypatch.setattr(receptance_module, "_CHUNK_BYTES", 3 * 16 * n * n)
     h = receptance(s.M, s.K, 3, 17, w, C)
     M, K, Cd = s.M.toarray(), s.K.toarray(), C.toarray()
     direct = np.array([np.linalg.solve(K + 1j * x * Cd - x**2 * M, np.eye(n)[:, 17])[3] for x in w])
@@ -114,7 +136,7 @@ def test_large_model_receptance_equals_the_modal_sum_of_all_modes():
     sysm = refined_frame()
     omega, Phi = modes(sysm.M, sysm.K)
     w = np.concatenate([0.5 * (omega[:5] + omega[1:6]), [0.0]])
-    r, c = sysm.index("x6"), sysm.index("y10")
+    r, c = sysm.dof("x6"), sysm.dof("y10")
     h = receptance(sysm.M, sysm.K, r, c, w)  # one sparse LU per frequency
     modal = (Phi[r] * Phi[c]) @ (1.0 / (omega[:, None] ** 2 - w[None] ** 2))
     np.testing.assert_allclose(h.real, modal, rtol=1e-9)  # measured 7e-11
@@ -128,7 +150,7 @@ def test_sparse_adjunct_antiresonances_equal_the_dense_ones(pair, rtol):
     5e-10 and 1.3e-9 apart)."""
     sysm = refined_frame()
     M, K = sysm.M, sysm.K
-    r, c = sysm.index(pair[0]), sysm.index(pair[1])
+    r, c = sysm.dof(pair[0]), sysm.dof(pair[1])
     z_dense = antiresonances(M, K, r, c, dense=True)
     z, V = antiresonances(M, K, r, c, with_vectors=True, n_zeros=6)
     assert z.size == 6
@@ -219,6 +241,23 @@ def test_exported_matrices_with_massless_dofs_pass_from_files():
         from_files(sysm.M, sp.csr_matrix(K), p, dK={"s": sysm.K}, dofs=sysm.dofs)
 
 
+def test_a_declared_mode_beyond_the_finite_modes_is_named():
+    """18 of the portal's 54 DOFs carry no mass: 36 finite modes. Declaring mode 36 works,
+    mode 40 is a clear error naming the configuration, not an index error."""
+    from vibupdate import Parameter, from_files
+    from vibupdate.data.measured import Configuration, NaturalFrequency
+    from vibupdate.inverse.correlation import model_frequencies
+
+    sysm = lumped_portal()
+    model = from_files(sysm.M, sysm.K, [Parameter("s", 1.0, 0.5, 1.5)], dK={"s": sysm.K}, dofs=sysm.dofs)
+    n_finite = model.n_dofs - eigen.massless_dofs(sysm.M).size
+    last = model_frequencies(Configuration("A", model, (NaturalFrequency(10.0, mode=n_finite),), ()))
+    assert last.natural.size == 1 and last.spectrum[0].size == n_finite
+    with pytest.raises(ValueError, match=f"configuration 'A': mode 40 is declared, but the model has {n_finite} "
+                                         "finite modes"):
+        model_frequencies(Configuration("A", model, (NaturalFrequency(10.0, mode=40),), ()))
+
+
 def test_large_model_with_massless_dofs_by_shift_invert():
     """Over `DENSE_LIMIT` DOFs, a third of them massless: shift-invert modes and driving-point
     antiresonances (singular M and M_rr) equal the dense condensed results. The tolerance is
@@ -231,15 +270,15 @@ def test_large_model_with_massless_dofs_by_shift_invert():
     w_dense, _ = modes(sysm.M, sysm.K, 6, dense=True)
     np.testing.assert_allclose(omega, w_dense, rtol=1e-8)
     assert mode_residuals(sysm.M, sysm.K, omega, Phi).max() < 1e-13
-    r = sysm.index("xL75")
+    r = sysm.dof("xL75")
     np.testing.assert_allclose(antiresonances(sysm.M, sysm.K, r, r, n_zeros=5),
                                antiresonances(sysm.M, sysm.K, r, r, dense=True)[:5], rtol=1e-8)
 
 
 def test_all_modes_of_a_huge_model_is_a_clear_error_not_a_memory_storm(monkeypatch):
     s = uniform_cantilever(40)
-    monkeypatch.setattr(analysis, "DENSE_MAX", 50)
-    monkeypatch.setattr(analysis, "DENSE_LIMIT", 20)
+    monkeypatch.setattr(eigen, "DENSE_MAX", 50)
+    monkeypatch.setattr(eigen, "DENSE_LIMIT", 20)
     with pytest.raises(ValueError, match="all modes of a 80-DOF model would need .* ask for the lowest n_modes"):
         modes(s.M, s.K)
     assert modes(s.M, s.K, 3)[0].size == 3  # the lowest few: shift-invert, no dense matrix
@@ -250,10 +289,10 @@ def test_damped_receptance_over_many_lines_by_the_state_space_modes(monkeypatch)
     C = 1e-4 * s.K + 0.2 * s.M
     w = np.linspace(0.0, 400.0, 120)  # over 50 lines: one 2n eigen-solve of the first-order form
     used = []
-    original = analysis._state_space_receptance
-    monkeypatch.setattr(analysis, "_state_space_receptance", lambda *a: used.append(1) or original(*a))
+    original = receptance_module._state_space_receptances
+    monkeypatch.setattr(receptance_module, "_state_space_receptances", lambda *a: used.append(1) or original(*a))
     h = receptance(s.M, s.K, 3, 17, w, C)
-    assert used and original(s.M, s.K, C, 3, 17, w) is not None  # the modal form was accepted
+    assert used and original(s.M, s.K, C, np.array([3]), np.array([17]), w) is not None  # the modal form was accepted
     n = s.M.shape[0]
     M, K, Cd = s.M.toarray(), s.K.toarray(), C.toarray()
     direct = np.array([np.linalg.solve(K + 1j * x * Cd - x**2 * M, np.eye(n)[:, 17])[3] for x in w])

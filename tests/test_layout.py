@@ -11,7 +11,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "vibupdate"
 
-#: Stages in the order the data flow through them; ``damping``, ``pipeline`` and ``cli`` are modules.
+#: Stages in the order the data flow through them; ``pipeline`` and ``cli`` are modules.
 STAGES = ["modal", "model", "data", "inverse", "ranges", "damping", "io", "report", "pipeline", "study", "cli"]
 #: The stages that make up the inverse problem, and what they must never import.
 INVERSE = {"model", "modal", "data", "inverse", "ranges", "damping"}

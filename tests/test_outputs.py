@@ -8,7 +8,15 @@ import pytest
 from outputs_helpers import TINY_CASE, snapshot, write_case
 
 from vibupdate.cli import main
-from vibupdate.io.outputs import MANIFEST, MAX_NAME, file_names, prepare_output, read_manifest, safe_name
+from vibupdate.io.outputs import (
+    MANIFEST,
+    MAX_NAME,
+    file_names,
+    prepare_output,
+    read_manifest,
+    safe_name,
+    write_published,
+)
 
 
 @pytest.mark.parametrize("text", ["../x", "/abs/x", "a/../../b", "..", ".hidden", "a\\b", "x" * 300, "名前/é", ""])
@@ -226,3 +234,39 @@ def test_large_model_keeps_the_caughey_law_instead_of_a_dense_C(tmp_path):
 
     direct = receptance(M, K, 1, 4, omega, caughey_matrix(M, K, law.exponents, law.beta))
     np.testing.assert_allclose(law.receptance(M, K, 1, 4, omega), direct, rtol=1e-8)
+
+
+@pytest.mark.parametrize("exists", [False, True])
+def test_write_published_stages_publishes_and_cleans_up_for_both_writers(tmp_path, exists):
+    """The one stage-and-publish block of run_case and write_extraction: a writer that fails
+    leaves the folder as it was and no staging folder behind; one that succeeds has its files
+    moved in and listed in the manifest, replacing the previous run's."""
+    import vibupdate.io.extraction_io as extraction_io
+    import vibupdate.pipeline as pipeline
+
+    out = tmp_path / "out"
+    if exists:
+        out.mkdir()
+        (out / "old.txt").write_text("earlier run")
+        (out / MANIFEST).write_text(json.dumps({"files": ["old.txt"]}))
+    before = snapshot(tmp_path)
+
+    def broken(folder):
+        (folder / "half.txt").write_text("partial")
+        raise RuntimeError("writer failed")
+
+    with pytest.raises(RuntimeError, match="writer failed"):
+        write_published(prepare_output(out), broken, case="c", version="v")
+    assert snapshot(tmp_path) == before
+
+    def writer(folder):
+        (folder / "new.txt").write_text("this run")
+        return "written"
+
+    assert write_published(prepare_output(out), writer, case="c", version="v") == "written"
+    assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST, "new.txt"])
+    assert read_manifest(out) == ["new.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    # both writers of a results folder go through it
+    assert pipeline.write_published is write_published
+    assert "write_published" in extraction_io.write_extraction.__code__.co_names

@@ -136,7 +136,7 @@ def test_several_configurations_share_the_parameters():
         def build(p):
             s = base(p)
             M = s.M.tolil()
-            M[s.index(dof), s.index(dof)] += 0.3
+            M[s.dof(dof), s.dof(dof)] += 0.3
             return s.M.__class__(M), s.K, s.dofs
 
         params = [Parameter(n, 1000.0 if n[0] == "k" else 1.0, 700.0 if n[0] == "k" else 0.7,

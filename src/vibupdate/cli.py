@@ -59,6 +59,8 @@ def _parser() -> argparse.ArgumentParser:
     fx = sub.add_parser("extract", help="extract modes and antiresonances from measured FRFs (docs/frf-extraction.md)")
     fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58) or CSV/npz FRF files")
     fx.add_argument("--band", nargs=2, type=float, metavar=("F1", "F2"), help="frequency band, Hz")
+    fx.add_argument("--fit-band", nargs=2, type=float, metavar=("F1", "F2"),
+                    help="lines fitted, Hz, containing --band (default: the band's bottom to twice its top)")
     fx.add_argument("--out", default="extraction", help="output folder (default: ./extraction)")
     fx.add_argument("--responses", nargs="+", help="table files: response DOF of each data column")
     fx.add_argument("--excitations", nargs="+", help="table files: excitation DOF of each file, in order")
@@ -242,8 +244,9 @@ def _extract(args) -> int:
         mapping[key.strip()] = value.strip()
     frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
+    fit_band = None if args.fit_band is None else (2 * math.pi * args.fit_band[0], 2 * math.pi * args.fit_band[1])
     check_extraction_folder(args.out, args.force)  # before the fit, as run checks before solving
-    result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence)
+    result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band)
     paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
                              force=args.force)
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "

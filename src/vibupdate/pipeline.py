@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import importlib
-import shutil
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -24,7 +23,7 @@ import scipy.sparse as sp
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.io.outputs import MANIFEST, file_names, prepare_output, publish, staging_folder
+from vibupdate.io.outputs import MANIFEST, file_names, prepare_output, write_published
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
@@ -64,11 +63,13 @@ def _identifiability(result: UpdateResult) -> dict:
             "undetermined_combinations": [describe_direction(names, v) for v in s["null_directions"]]}
 
 
-def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str], dict]:
+def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
+    """The second stage at ``xbar``; ``freqs``: the configurations' modal data there when
+    already computed (``UpdateResult.modal``)."""
     options = case.damping or DampingOptions()
     if not any(f.damping_ratio is not None for c in case.configurations for f in c.natural):
         return None, [], {}
-    _, ratios, labels = damping_data(case.configurations, xbar)
+    _, ratios, labels = damping_data(case.configurations, xbar, freqs)
     factors = dict(options.mode_weights)
     weights = np.array([factors.get(mode, 1.0) for _, mode in labels])
     half = _damping_half_widths(case, labels)
@@ -80,7 +81,7 @@ def _damping_stage(case: Case, xbar, say) -> tuple[DampingStage | None, list[str
     notes = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DampingWarning)
-        stage = identify_damping(case.configurations, xbar, options.exponents, weights)
+        stage = identify_damping(case.configurations, xbar, options.exponents, weights, freqs=freqs)
     notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
     notes += list(stage.warnings)
     for n in notes:
@@ -233,7 +234,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say, prepared=checked.prepared)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
-    stage, notes, info = _damping_stage(case, result.xbar, say)
+    stage, notes, info = _damping_stage(case, result.xbar, say, result.modal)
     notes = list(checked.warnings) + notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
@@ -257,12 +258,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         identifiability.update(sections)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
-    staged = staging_folder(target)
-    try:
-        write_outputs(staged, case, run, extra)
-        publish(staged, target, case=case.name, version=__version__)
-    finally:
-        shutil.rmtree(staged, ignore_errors=True)
+    write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
+                    version=__version__)
     say(f"wrote {target.path}/ (results.json, report.md, plots, matrices; {MANIFEST} lists them)")
     return run
 

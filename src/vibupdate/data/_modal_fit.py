@@ -55,6 +55,27 @@ def _undamped_basis(x, xn, zeta) -> np.ndarray:
     return cols
 
 
+def _undamped_derivatives(x, xn, zeta):
+    """Exact derivatives of `_undamped_basis` at ``x`` (n_x,): ``d/dx`` of every column,
+    shape (n_x, 2 n + 4), and of each mode's column ``-2 w_n s / (w_n^2 - x^2)``
+    (``s = sqrt(1 - zeta^2)``) with respect to its ``w_n`` and ``zeta``, each (n_x, n)."""
+    x = np.asarray(x, dtype=float)[:, None]
+    xn, zeta = np.asarray(xn, dtype=float)[None, :], np.asarray(zeta, dtype=float)[None, :]
+    n = xn.shape[1]
+    s = np.sqrt(1.0 - zeta**2)
+    gap = xn**2 - x**2
+    d_x = np.zeros((x.shape[0], 2 * n + 4))
+    d_x[:, 1:2 * n:2] = -4.0 * xn * s * x / gap**2
+    a = _poles(np.array([PSEUDO_POLE[0]]), np.array([PSEUDO_POLE[1]]))[0]
+    p, q = 1.0 / (1j * x[:, 0] - a), 1.0 / (1j * x[:, 0] - np.conj(a))
+    d_x[:, 2 * n] = (-1j * (p**2 + q**2)).real
+    d_x[:, 2 * n + 1] = (p**2 - q**2).real
+    d_x[:, 2 * n + 2] = 2.0 / x[:, 0] ** 3        # d/dx of Re 1/(j x)^2 = -1/x^2
+    d_wn = 2.0 * s * (xn**2 + x**2) / gap**2
+    d_zeta = 2.0 * xn * zeta / (s * gap)
+    return d_x, d_wn, d_zeta
+
+
 def _modal_basis(x, xn, zeta, damped: bool = True) -> np.ndarray:
     """Stage-2 columns: `_basis` (damped) or `_undamped_basis`."""
     return _basis(x, xn, zeta) if damped else _undamped_basis(x, xn, zeta)
@@ -74,10 +95,12 @@ def _linear_fit(Phi, h, w):
 
 # ----------------------------------------------------------------------------- stage 1: poles
 
-def _vector_fit(x, F, n_pairs: int, n_iter: int = 12) -> np.ndarray:
-    """Common poles (upper half plane, normalized) of the rows of F (n_fun, n_freq)."""
+def _vector_fit(x, F, n_pairs: int, n_iter: int = 12, W=None) -> np.ndarray:
+    """Common poles (upper half plane, normalized) of the rows of F (n_fun, n_freq), the
+    lines weighted by W (n_fun, n_freq) when given."""
     step = max(1, x.size // 400)  # the start poles need no more than ~400 lines
-    x, F = x[::step], F[:, ::step]
+    W = np.ones(F.shape) if W is None else W
+    x, F, W = x[::step], F[:, ::step], W[:, ::step]
     s = 1j * x
     beta = np.linspace(x[0], x[-1], n_pairs + 2)[1:-1]
     a = -beta / 100.0 + 1j * beta
@@ -87,8 +110,8 @@ def _vector_fit(x, F, n_pairs: int, n_iter: int = 12) -> np.ndarray:
         Phi[:, 0::2], Phi[:, 1::2] = p + q, 1j * (p - q)
         n_lin = 2 * n_pairs + 1
         rows, rhs = [], []
-        for f in F:
-            A = np.hstack([Phi, np.ones((s.size, 1)), -f[:, None] * Phi, f[:, None]])
+        for f, w in zip(F, W):
+            A = np.hstack([Phi, np.ones((s.size, 1)), -f[:, None] * Phi, f[:, None]]) * w[:, None]
             R = scipy.linalg.qr(np.vstack([A.real, A.imag]), mode="r", check_finite=False)[0]
             rows.append(R[n_lin:-1, n_lin:-1])
             rhs.append(R[n_lin:-1, -1])
@@ -108,10 +131,10 @@ def _vector_fit(x, F, n_pairs: int, n_iter: int = 12) -> np.ndarray:
     return np.sort_complex(a)
 
 
-def _stabilization(x, F, orders, max_damping):
+def _stabilization(x, F, orders, max_damping, W=None):
     out = []
     for n in orders:
-        a = _vector_fit(x, F, n)
+        a = _vector_fit(x, F, n, W=W)
         wn, zeta = np.abs(a), -a.real / np.abs(a)
         keep = (wn >= x[0]) & (wn <= x[-1]) & (zeta > 0) & (zeta < max_damping)
         out.append((n, wn[keep], zeta[keep]))
@@ -176,6 +199,21 @@ def _noise_from_repeats(blocks) -> np.ndarray | None:
     return _smooth(var, 9)
 
 
+def _noise_from_differences(F, width: int = 21) -> np.ndarray:
+    """Noise variance per line from the data alone (no repeats, no model), shape (n_pairs, n_freq).
+
+    The second difference ``F[k-1] - 2 F[k] + F[k+1]`` of a smooth FRF is small, of white
+    noise of variance ``sigma^2`` it has variance ``6 sigma^2``; the running median of its
+    squared modulus over ``width`` lines, divided by ``ln 2`` (median over mean of an
+    exponential variable), ignores the few lines of a sharp peak."""
+    import scipy.ndimage
+
+    d2 = np.abs(F[:, :-2] - 2.0 * F[:, 1:-1] + F[:, 2:]) ** 2 / 6.0
+    d2 = np.pad(d2, [(0, 0), (1, 1)], mode="edge")
+    var = scipy.ndimage.median_filter(d2, size=(1, width), mode="nearest") / math.log(2.0)
+    return np.maximum(var, 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True) + 1e-300)  # noise-free data
+
+
 def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandwidth: float = 0.1,
                  min_lines: int = 5):
     """Drop poles the data cannot resolve: a half-power bandwidth ``2 zeta w_n`` below
@@ -224,19 +262,22 @@ def _residual_variance(x, F, wn, zeta, width: int = 21):
     return np.maximum(var, 1e-12 * np.max(var, axis=1, keepdims=True) + 1e-300)
 
 
-def _best_subset(x, F, wn, zeta, peak, n_modes, max_subsets: int = 400):
-    """Indices of the ``n_modes`` poles whose modal model fits the FRFs best (unweighted);
-    by peak response when there are too many subsets to try."""
+def _best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: int = 400):
+    """Positions in ``candidates`` (indices into ``wn``) of the ``n_modes`` poles whose modal
+    model, with the ``fixed`` poles always in it, fits the FRFs best (unweighted); by peak
+    response when there are too many subsets to try."""
     from itertools import combinations
 
-    if math.comb(wn.size, n_modes) > max_subsets:
-        return np.sort(np.argsort(peak)[::-1][:n_modes])
+    candidates, fixed = np.asarray(candidates, dtype=int), np.asarray(fixed, dtype=int)
+    if math.comb(candidates.size, n_modes) > max_subsets:
+        return np.sort(np.argsort(peak[candidates])[::-1][:n_modes])
     best, best_cost = None, np.inf
-    for subset in combinations(range(wn.size), n_modes):
-        keep = np.array(subset)
-        cost = float(np.sum(_projected_residual(np.concatenate([wn[keep], zeta[keep]]), x, F, np.ones_like(F.real)) ** 2))
+    for subset in combinations(range(candidates.size), n_modes):
+        keep = np.r_[candidates[list(subset)], fixed]
+        theta = np.concatenate([wn[keep], zeta[keep]])
+        cost = float(np.sum(_projected_residual(theta, x, F, np.ones_like(F.real)) ** 2))
         if cost < best_cost:
-            best, best_cost = keep, cost
+            best, best_cost = np.array(subset), cost
     return best
 
 

@@ -9,13 +9,22 @@ bandwidths gave 0.16 % / 3 % errors and about 20 spurious zeros per trial; local
 
 Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DOF pairs):
 
+0. **Fit band.** Antiresonances depend on every mode's residue, and a mode just above the
+   band changes quickly across its top, which the residual terms below cannot follow. The
+   lines fitted therefore reach past the band (by default to twice its top, within the
+   data; ``fit_band``): every stable mode there is fitted as a mode with its own residues,
+   and only the modes and zeros in the band are reported.
 1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999)
-   of all FRFs with common poles, at several model orders; a pole in the band with
+   of all FRFs with common poles, at several model orders, each line weighted by ``1/sigma``
+   (the repeats' scatter, or without repeats the running median of the squared second
+   difference of the FRF over 21 lines: a noise estimate before any model, blind to the few
+   lines of a sharp peak; without it the noisy low-frequency lines of a receptance take the
+   poles); a pole in the fit band with
    ``0 < zeta < max_damping`` that recurs (frequency within 0.2 %, damping within 20 %) in at
    least ``min_stable`` orders is a mode (the stabilization check), unless the data cannot
    resolve it: a half-power bandwidth under 0.1 line spacings, or a response above twice the
-   noise on fewer than 5 lines of every FRF. ``n_modes`` keeps the modes whose model fits best
-   (one pole per split peak). The poles are then refined by variable projection on the modal
+   noise on fewer than 5 lines of every FRF. ``n_modes`` keeps the modes in the band whose
+   model fits best (one pole per split peak). The poles are then refined by variable projection on the modal
    model (FRFs normalized to unit RMS, weights 1/sigma per line)::
 
        H_i(s) = sum_r [A_ir / (s - lam_r) + conj(A_ir) / (s - conj(lam_r))]
@@ -31,9 +40,16 @@ Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DO
    fitted **undamped** receptance ``sum_r m_ir / (w_r^2 - omega^2) + ...`` (never minima of
    ``|H|``), found by sign changes of that function times ``prod (w_r^2 - omega^2)`` and
    refined by Brent's method; their covariance follows by the implicit-function rule from
-   the residues' covariance and the poles'. Real normal modes at the measured DOFs come from
-   a rank-one fit ``phi_a phi_b = m_ab`` of the modal constants (mass-normalized when a
-   driving point is measured, else scaled to unit largest entry).
+   the residues' covariance and the poles'. **Local refit**: the misfit of a real
+   structure's FRF is smooth along frequency, and near a shallow zero a small offset of the
+   real part moves the zero far; on the lines within a third of the distance to the nearest
+   pole the real part of the misfit is fitted by ``c0 + c1 (omega - z)`` and added to the
+   undamped receptance (`_local_zero`). That zero is taken when its standard error is the
+   smaller: the global zero's is inflated by a misfit (chi-square and correlation, below),
+   while on an exact model the global zero, which uses every line, stays. Real normal modes
+   at the measured DOFs come from a rank-one fit ``phi_a phi_b = m_ab`` of the modal
+   constants (mass-normalized when a driving point is measured, else scaled to unit largest
+   entry).
 
 Noise: with repeats, ``sigma^2`` per line is the variance of the mean of the repeats,
 smoothed over 9 lines; without, the local mean square of the unweighted fit's residual over
@@ -57,14 +73,17 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from vibupdate.data._modal_fit import (_best_subset, _linear_fit, _modal_basis, _noise_from_repeats,
-                                  _correlation_inflation, _real_stack, _refine_poles, _residual_variance,
-                                  _significant, _split_residual, _stabilization, _stable_poles)
+from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
+                                       _noise_from_differences, _noise_from_repeats, _real_stack, _refine_poles,
+                                       _residual_variance, _significant, _split_residual, _stabilization,
+                                       _stable_poles)
+from vibupdate.data._zeros import _local_zero, _zero_se, _zeros_of
 from vibupdate.data.frf import FRFSet
 
 __all__ = ["ExtractedMode", "ExtractedZero", "FRFQuality", "Extraction", "extract"]
 
 FREQUENCY_FLOOR = 1e-5      # relative half-width floor of frequency and antiresonance intervals
+FIT_BAND_FACTOR = 2.0       # default fit band: up to this times the band's top
 DAMPING_FLOOR = 0.001       # relative half-width floor of damping-ratio intervals
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 
@@ -142,6 +161,11 @@ class Extraction:
         Stage-2 linear coefficients (normalized units), for `synthesize`.
     scales : ndarray, shape (n_pairs,)
         Normalization of each FRF.
+    fit_band : (float, float)
+        The fitted lines, rad/s (contains ``band``).
+    fitted_poles : ndarray, shape (n_fitted, 2)
+        Natural frequency (rad/s) and damping ratio of every mode fitted, ascending: the
+        reported modes and those fitted outside ``band``.
     """
 
     modes: tuple
@@ -154,12 +178,14 @@ class Extraction:
     pairs: tuple
     coefficients: np.ndarray
     scales: np.ndarray
+    fit_band: tuple
+    fitted_poles: np.ndarray
 
     def synthesize(self, omega, damped: bool = True) -> np.ndarray:
         """Fitted receptances, shape (n_pairs, n_freq), at ``omega`` (rad/s, shape (n_freq,))."""
-        x = np.asarray(omega, dtype=float) / self.band[1]
-        xn = np.array([m.omega for m in self.modes]) / self.band[1]
-        zeta = np.array([m.damping_ratio for m in self.modes])
+        x = np.asarray(omega, dtype=float) / self.fit_band[1]
+        xn = self.fitted_poles[:, 0] / self.fit_band[1]
+        zeta = self.fitted_poles[:, 1]
         return (_modal_basis(x, xn, zeta, damped) @ self.coefficients.T).T * self.scales[:, None]
 
     def to_measured(self, first_mode: int | None = None, weight: float = 1.0):
@@ -183,39 +209,7 @@ class Extraction:
         return naturals, zeros
 
 
-# ----------------------------------------------------------------------------- stage 2: zeros, shapes
-
-def _zeros_of(x, coef, xn, zeta):
-    """Real zeros of the undamped fitted receptance in (x[0], x[-1])."""
-    grid = np.linspace(x[0], x[-1], max(20 * x.size, 4000))
-
-    def g(t):
-        t = np.atleast_1d(t)
-        return (_modal_basis(t, xn, zeta, False) @ coef) * np.prod(xn[None, :] ** 2 - t[:, None] ** 2, axis=1)
-
-    values = g(grid)
-    idx = np.nonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0)[0]
-    return np.array([scipy.optimize.brentq(lambda t: g(t)[0], grid[i], grid[i + 1], xtol=1e-14) for i in idx])
-
-
-def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles):
-    """Standard error of a zero (normalized) by the implicit-function rule."""
-    def u(t, c=coef, w=xn):
-        return float(_modal_basis(np.array([t]), w, zeta, False)[0] @ c)
-
-    h = 1e-7 * z
-    du_dz = (u(z + h) - u(z - h)) / (2 * h)
-    b = _modal_basis(np.array([z]), xn, zeta, False)[0]
-    g_coef = -b / du_dz
-    n = xn.size
-    g_poles = np.zeros(2 * n)
-    for k in range(n):
-        step = np.zeros(n)
-        step[k] = 1e-7 * xn[k]
-        g_poles[k] = -(u(z, w=xn + step) - u(z, w=xn - step)) / (2 * step[k]) / du_dz
-    var = g_coef @ cov_coef @ g_coef + g_poles @ cov_poles @ g_poles
-    return math.sqrt(max(var, 0.0))
-
+# ----------------------------------------------------------------------------- stage 2: shapes
 
 def _shapes(pairs, constants, se, n_modes):
     """Rank-one fit phi_a phi_b = m_ab per mode; returns (shapes, ses, normalization) per mode."""
@@ -266,7 +260,7 @@ def _shapes(pairs, constants, se, n_modes):
 
 def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
             orders: Sequence[int] | None = None, min_stable: int = 3, max_damping: float = 0.1,
-            confidence: float = 0.95) -> Extraction:
+            confidence: float = 0.95, fit_band: tuple | None = None, local_zeros: bool = True) -> Extraction:
     """Natural frequencies, damping ratios, shapes and antiresonances from measured FRFs.
 
     Parameters
@@ -274,17 +268,27 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     frfs : FRFSet
         Receptances (repeats are averaged; their scatter is the noise estimate).
     band : (float, float), optional
-        rad/s; default the whole frequency axis.
+        rad/s; the modes and antiresonances reported are those in this band. Default the
+        whole frequency axis.
     n_modes : int, optional
-        Keep this many stable modes (those with the largest peak response); default all.
+        Report this many of the stable modes in ``band`` (those whose model fits best);
+        default all.
     orders : sequence of int, optional
-        Numbers of pole pairs of the stabilization check (default 2..10).
+        Numbers of pole pairs of the stabilization check (default 2..10; raise it when the
+        fit band holds more than about eight modes).
     min_stable : int
         Orders in which a pole must recur to count as a mode.
     max_damping : float
         Poles with a larger damping ratio are not modes (they are computational).
     confidence : float
         Level of the intervals, in (0, 1).
+    fit_band : (float, float), optional
+        rad/s, containing ``band``: the lines that are fitted. Every stable mode in it is
+        fitted as a mode (with its own residues), but only those in ``band`` are reported.
+        Default: from ``band``'s bottom to ``FIT_BAND_FACTOR`` (2) times its top, within the
+        data (module docstring: modes just above the band shape its antiresonances).
+    local_zeros : bool
+        Refine each antiresonance on the lines around it (`_local_zero`); default true.
 
     Returns
     -------
@@ -292,42 +296,46 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     """
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
-    if band is not None:
-        lo, hi = (float(b) for b in band)
-        if not 0 < lo < hi:
-            raise ValueError(f"band must be 0 < low < high (rad/s), got ({lo!r}, {hi!r})")
-        frfs = frfs.band(lo, hi)
+    report = _check_band(band, "band") if band is not None else (float(frfs.omega[0]), float(frfs.omega[-1]))
+    if fit_band is None:
+        fit = (report[0], max(min(FIT_BAND_FACTOR * report[1], float(frfs.omega[-1])), report[1]))
+    else:
+        fit = _check_band(fit_band, "fit_band")
+        if fit[0] > report[0] or fit[1] < report[1]:
+            raise ValueError(f"fit_band {fit[0] / 2 / math.pi:.6g}-{fit[1] / 2 / math.pi:.6g} Hz must contain the "
+                             f"band {report[0] / 2 / math.pi:.6g}-{report[1] / 2 / math.pi:.6g} Hz")
+    frfs.band(*report)  # the report band must hold data (a clear error otherwise)
+    frfs = frfs.band(*fit)
     omega = frfs.omega
     scale_w = omega[-1]
     x = omega / scale_w
+    inside = (omega >= report[0]) & (omega <= report[1])
+    x_report = (float(x[inside][0]), float(x[inside][-1]))
     Hbar = frfs.mean()
-    scales = np.sqrt(np.mean(np.abs(Hbar) ** 2, axis=1))
+    scales = np.sqrt(np.mean(np.abs(Hbar[:, inside]) ** 2, axis=1))
     F = Hbar / scales[:, None]
     orders = list(orders) if orders is not None else list(range(2, 11))
     if len(orders) < min_stable:
         raise ValueError(f"{len(orders)} model orders given, fewer than min_stable = {min_stable}")
-    stab = _stabilization(x, F, orders, max_damping)
-    wn, zeta, counts = _stable_poles(stab, min_stable)
-    if wn.size == 0:
-        raise ValueError(f"no stable mode found in the band {omega[0] / 2 / math.pi:.6g}-"
-                         f"{omega[-1] / 2 / math.pi:.6g} Hz (orders {orders}, min_stable {min_stable})")
     var = _noise_from_repeats(frfs.H)
     noise = "repeats" if var is not None else "residual"
-    var = var / scales[:, None] ** 2 if var is not None else _residual_variance(x, F, wn, zeta)
-    wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var)
-    if wn.size == 0:
-        raise ValueError("no mode stands out of the noise in the band")
+    if var is not None:  # floored: identical repeats (noise-free data) would give infinite weights
+        var = np.maximum(var / scales[:, None] ** 2, 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True))
+    stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
+    wn, zeta, counts = _stable_poles(stab, min_stable)
+    if wn.size:
+        var = var if var is not None else _residual_variance(x, F, wn, zeta)
+        wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var)
+    in_band = (wn >= x_report[0]) & (wn <= x_report[1])
+    if not np.any(in_band):
+        raise ValueError(f"no stable mode found in the band {report[0] / 2 / math.pi:.6g}-"
+                         f"{report[1] / 2 / math.pi:.6g} Hz (orders {orders}, min_stable {min_stable}; fitted "
+                         f"{omega[0] / 2 / math.pi:.6g}-{omega[-1] / 2 / math.pi:.6g} Hz)")
     if n_modes is not None:
-        if n_modes > wn.size:
-            raise ValueError(f"n_modes = {n_modes} but only {wn.size} stable mode(s) were found in the band")
-        keep = _best_subset(x, F, wn, zeta, peak, n_modes)
-        if np.any(np.diff(wn[keep]) < 0.02 * wn[keep][1:]):  # a split peak: one pole per peak
-            single = [k for k in range(wn.size)
-                      if not np.any((np.abs(wn - wn[k]) < 0.02 * wn[k]) & (peak > peak[k]))]
-            if len(single) >= n_modes:
-                sub = _best_subset(x, F, wn[single], zeta[single], peak[single], n_modes)
-                keep = np.array(single)[sub]
-        wn, zeta, counts = wn[keep], zeta[keep], [counts[k] for k in keep]
+        if n_modes > int(in_band.sum()):
+            raise ValueError(f"n_modes = {n_modes} but only {int(in_band.sum())} stable mode(s) were found in the band")
+        keep = np.sort(np.r_[_choose_modes(x, F, wn, zeta, peak, in_band, n_modes), np.nonzero(~in_band)[0]])
+        wn, zeta, counts, in_band = wn[keep], zeta[keep], [counts[k] for k in keep], in_band[keep]
 
     if noise == "repeats":
         wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True)
@@ -337,16 +345,76 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
             wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True)
         var = _residual_variance(x, F, wn, zeta)
     order = np.argsort(wn)
-    wn, zeta, counts = wn[order], zeta[order], [counts[k] for k in order]
+    wn, zeta, counts, in_band = wn[order], zeta[order], [counts[k] for k in order], in_band[order]
     cov_poles = cov_poles[np.ix_(np.r_[order, order + wn.size], np.r_[order, order + wn.size])]
-    return _stage_two(frfs, x, F, var, scales, wn, zeta, cov_poles, counts, stab, noise, confidence, scale_w)
+    fitted = _Fitted(x, F, var, scales, wn, zeta, cov_poles, in_band, inside, x_report, scale_w)
+    return _stage_two(frfs, fitted, counts, stab, noise, confidence, local_zeros)
 
 
-def _stage_two(frfs, x, F, var, scales, wn, zeta, cov_poles, counts, stab, noise, confidence, scale_w):
+def _check_band(band, name):
+    lo, hi = (float(b) for b in band)
+    if not 0 < lo < hi:
+        raise ValueError(f"{name} must be 0 < low < high (rad/s), got ({lo!r}, {hi!r})")
+    return lo, hi
+
+
+def _choose_modes(x, F, wn, zeta, peak, in_band, n_modes):
+    """Indices of the ``n_modes`` poles in the band whose model fits best, the poles outside it
+    always fitted; one pole per split peak (two within 2 %) when enough single peaks remain."""
+    cand, fixed = np.nonzero(in_band)[0], np.nonzero(~in_band)[0]
+    keep = cand[_best_subset(x, F, wn, zeta, peak, n_modes, cand, fixed)]
+    if np.any(np.diff(wn[keep]) < 0.02 * wn[keep][1:]):  # a split peak: one pole per peak
+        single = np.array([k for k in cand if not np.any((np.abs(wn[cand] - wn[k]) < 0.02 * wn[k])
+                                                         & (peak[cand] > peak[k]))], dtype=int)
+        if single.size >= n_modes:
+            keep = single[_best_subset(x, F, wn, zeta, peak, n_modes, single, fixed)]
+    return keep
+
+
+@dataclass(frozen=True)
+class _Fitted:
+    """The stage-1 model handed to stage 2 (normalized units: ``x = omega / scale_w``)."""
+
+    x: np.ndarray           # (n_freq,) fitted lines
+    F: np.ndarray           # (n_pairs, n_freq) FRFs over their RMS in the band
+    var: np.ndarray         # (n_pairs, n_freq) noise variance per line
+    scales: np.ndarray      # (n_pairs,)
+    wn: np.ndarray          # (n,) every fitted mode
+    zeta: np.ndarray        # (n,)
+    cov_poles: np.ndarray   # (2n, 2n) of (wn, zeta)
+    in_band: np.ndarray     # (n,) bool: reported
+    inside: np.ndarray      # (n_freq,) bool: line in the band
+    x_band: tuple           # the band, normalized
+    scale_w: float
+
+
+def _located_zeros(found, fit, Phi, confidence, local_refit):
+    """`ExtractedZero` of every FRF from its fitted zeros: the global zero, or the local refit's
+    (`_local_zero`) when its standard error is the smaller."""
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
+    zeros = []
+    for pair, f, v, coef, cov, fitted in found:
+        index = 0
+        for z in fitted:
+            se = _zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)[0]
+            local = _local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
+            if local is not None and local[1] < se:
+                z, se = local
+            half = max(zq * se, FREQUENCY_FLOOR * z)
+            if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
+                continue  # not located within the band (a residual-term artefact near an edge)
+            index += 1
+            zeros.append(ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
+                                       (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w))))
+    return zeros
+
+
+def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
+    zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
+    x, F, var, scales, wn, zeta, scale_w = fit.x, fit.F, fit.var, fit.scales, fit.wn, fit.zeta, fit.scale_w
     n = wn.size
     Phi = _modal_basis(x, wn, zeta)
-    coefs, zeros, quality, constants, const_se = [], [], [], [], []
+    coefs, found, quality, constants, const_se = [], [], [], [], []
     for k, (pair, f, v) in enumerate(zip(frfs.pairs, F, var)):
         w = 1.0 / np.sqrt(v)
         coef, res = _linear_fit(Phi, f, w)
@@ -356,28 +424,23 @@ def _stage_two(frfs, x, F, var, scales, wn, zeta, cov_poles, counts, stab, noise
         tau = _correlation_inflation(_split_residual(res, (1, x.size)))
         cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2) * tau
         coefs.append(coef)
-        model = Phi @ coef
-        quality.append(FRFQuality(pair[0], pair[1], math.sqrt(float(np.mean(np.abs(f - model) ** 2 / v))),
-                                  float(np.sqrt(np.mean(np.abs(f - model) ** 2) / np.mean(np.abs(f) ** 2))),
+        miss = np.abs(f - Phi @ coef)[fit.inside] ** 2
+        quality.append(FRFQuality(pair[0], pair[1], math.sqrt(float(np.mean(miss / v[fit.inside]))),
+                                  float(np.sqrt(np.mean(miss) / np.mean(np.abs(f[fit.inside]) ** 2))),
                                   int(frfs.H[k].shape[0])))
         wd = wn * np.sqrt(1 - zeta**2)
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
-        index = 0
-        for z in _zeros_of(x, coef, wn, zeta):
-            half = max(zq * _zero_se(z, coef, cov, wn, zeta, cov_poles), FREQUENCY_FLOOR * z)
-            if z - half < x[0] or z + half > x[-1]:
-                continue  # not located within the band (a residual-term artefact near an edge)
-            index += 1
-            zeros.append(ExtractedZero(pair[0], pair[1], index, float(z * scale_w),
-                                       (float((z - half) * scale_w), float((z + half) * scale_w))))
-    shapes = _shapes(frfs.pairs, np.array(constants), np.array(const_se), n)
+        found.append((pair, f, v, coef, cov, _zeros_of(x[fit.inside], coef, wn, zeta)))
+    zeros = _located_zeros(found, fit, Phi, confidence, local_refit)
+    reported = np.nonzero(fit.in_band)[0]
+    shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
     modes = []
-    se_pole = np.sqrt(np.abs(np.diag(cov_poles)))
-    for r in range(n):
+    se_pole = np.sqrt(np.abs(np.diag(fit.cov_poles)))
+    for r, shape_fit in zip(reported, shapes):
         hw = max(zq * se_pole[r], FREQUENCY_FLOOR * wn[r]) * scale_w
         hz = max(zq * se_pole[n + r], DAMPING_FLOOR * zeta[r])
-        shape, sd, norm = shapes[r]
+        shape, sd, norm = shape_fit
         top = max(abs(v) for v in shape.values()) or 1.0
         bounds = {d: (v - max(zq * sd[d], SHAPE_FLOOR * top), v + max(zq * sd[d], SHAPE_FLOOR * top))
                   for d, v in shape.items()}
@@ -385,5 +448,7 @@ def _stage_two(frfs, x, F, var, scales, wn, zeta, cov_poles, counts, stab, noise
                                    float(zeta[r]), (float(max(zeta[r] - hz, 0.0)), float(zeta[r] + hz)),
                                    shape, bounds, norm, int(counts[r])))
     stabilization = tuple((o, w * scale_w, z) for o, w, z in stab)
-    return Extraction(tuple(modes), tuple(zeros), tuple(quality), (float(frfs.omega[0]), float(frfs.omega[-1])),
-                      float(confidence), noise, stabilization, frfs.pairs, np.array(coefs), np.asarray(scales))
+    band = (float(frfs.omega[fit.inside][0]), float(frfs.omega[fit.inside][-1]))
+    return Extraction(tuple(modes), tuple(zeros), tuple(quality), band, float(confidence), noise, stabilization,
+                      frfs.pairs, np.array(coefs), np.asarray(scales), (float(frfs.omega[0]), float(frfs.omega[-1])),
+                      np.column_stack([wn * scale_w, zeta]))

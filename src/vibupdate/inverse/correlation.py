@@ -37,6 +37,14 @@ class ModelFrequencies:
     Phi_all : ndarray, shape (n, n_m)
     zeros_all : dict of (str, str) to ndarray
         Every real zero of each measured receptance, rad/s, ascending.
+    spectrum : (ndarray, ndarray) or None
+        Every finite mode, ``(omega, Phi)`` of shapes (n_f,) rad/s and (n, n_f), on the dense
+        path, where the eigen-solve computes them all anyway (later stages that need the whole
+        spectrum, such as the Caughey ``C``, read it instead of solving again); None on the
+        sparse path.
+    zero_derivatives : ndarray, shape (n_z, n_x), or None
+        ``d antiresonances / d xbar`` (rad/s per unit of normalized parameter, NaN rows where
+        the model lacks the zero), when asked for (``derivatives=True``).
     """
 
     natural: np.ndarray
@@ -45,6 +53,8 @@ class ModelFrequencies:
     omega_all: np.ndarray = field(default_factory=lambda: np.zeros(0))
     Phi_all: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     zeros_all: dict = field(default_factory=dict)
+    spectrum: tuple | None = None
+    zero_derivatives: np.ndarray | None = None
 
 
 def percent_error(model, measured) -> np.ndarray:
@@ -64,26 +74,42 @@ def zeros_wanted(cfg: Configuration, rc) -> int | None:
     return min(top + 1, cfg.model.n_dofs - 1)
 
 
-def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True) -> ModelFrequencies:
+def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
+                      derivatives: bool = False) -> ModelFrequencies:
     """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data by the
     declared modes and zero indices. ``zeros=False`` skips the antiresonances (NaN, and
     ``zeros_all`` empty): for callers that take them with their derivatives from
-    `zero_derivatives`, which solves the same adjunct eigenproblem."""
+    `zero_derivatives`, which solves the same adjunct eigenproblem. ``derivatives=True`` takes
+    the zeros from that solve and keeps their derivatives (``zero_derivatives``): one adjunct
+    eigen-solve per receptance for both."""
+    from vibupdate.modal.analysis import DENSE_LIMIT
+
     M, K = cfg.model.matrices(xbar)
     mode_index = np.array([f.mode for f in cfg.natural], dtype=int) - 1
     top = int(mode_index.max()) + 1 if mode_index.size else 0
     n_modes = min(cfg.model.n_dofs, max(top + 1, 2))
-    omega, Phi = modes(M, K, n_modes)
+    spectrum = None
+    if cfg.model.n_dofs <= DENSE_LIMIT:    # the dense solve gives every mode: keep them
+        spectrum = modes(M, K)
+        if top > spectrum[0].size:
+            raise ValueError(f"configuration {cfg.name!r}: mode {top} is declared, but the model has "
+                             f"{spectrum[0].size} finite modes ({cfg.model.n_dofs} DOFs, some without mass)")
+        omega, Phi = spectrum[0][:n_modes], spectrum[1][:, :n_modes]
+    else:
+        omega, Phi = modes(M, K, n_modes)
     paired = np.full(len(cfg.antiresonances), np.nan)
+    slopes = None
     zeros_all = {}
-    for rc in (cfg.receptances() if zeros else ()):
+    if derivatives:
+        paired, slopes, zeros_all = _zeros_with_derivatives(cfg, xbar, M, K)
+    for rc in (cfg.receptances() if zeros and not derivatives else ()):
         model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
                                  n_zeros=zeros_wanted(cfg, rc))
         zeros_all[rc] = model_z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= model_z.size:
                 paired[i] = model_z[a.index - 1]
-    return ModelFrequencies(omega[mode_index], paired, Phi[:, mode_index], omega, Phi, zeros_all)
+    return ModelFrequencies(omega[mode_index], paired, Phi[:, mode_index], omega, Phi, zeros_all, spectrum, slopes)
 
 
 def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:
@@ -145,7 +171,10 @@ def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | Non
     xbar = np.asarray(xbar, dtype=float)
     model = cfg.model
     freqs = freqs or model_frequencies(cfg, xbar, zeros=False)
-    z, D = zero_derivatives(cfg, xbar)
+    if freqs.zero_derivatives is not None:
+        z, D = freqs.antiresonances, freqs.zero_derivatives
+    else:
+        z, D = zero_derivatives(cfg, xbar)
     return np.vstack([frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None],
                       D / z[:, None]])
 
@@ -161,18 +190,28 @@ def zero_derivatives(cfg: Configuration, xbar) -> tuple[np.ndarray, np.ndarray]:
     D : ndarray, shape (n_z, n_x)
         ``d z / d xbar``, rad/s per unit of normalized parameter; NaN rows likewise.
     """
-    from vibupdate.modal.sensitivities import antiresonance_derivatives
+    values, out, _ = _zeros_with_derivatives(cfg, xbar, *cfg.model.matrices(xbar))
+    return values, out
+
+
+def _zeros_with_derivatives(cfg: Configuration, xbar, M, K):
+    """`zero_derivatives` at the matrices ``M, K`` of ``cfg.model`` at ``xbar``, and every
+    computed zero of each receptance (``zeros_all`` of `ModelFrequencies`)."""
+    from vibupdate.modal.sensitivities import adjunct_eigenpairs, antiresonance_derivatives
 
     model = cfg.model
     values = np.full(len(cfg.antiresonances), np.nan)
     out = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
+    zeros_all = {}
     for rc in cfg.receptances():
-        z, D = antiresonance_derivatives(model, xbar, model.dof(rc[0]), model.dof(rc[1]),
-                                         n_zeros=zeros_wanted(cfg, rc))
+        r, c = model.dof(rc[0]), model.dof(rc[1])
+        pairs = adjunct_eigenpairs(M, K, r, c, zeros_wanted(cfg, rc))
+        z, D = antiresonance_derivatives(model, xbar, r, c, pairs=pairs)
+        zeros_all[rc] = z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= z.size:
                 values[i], out[i] = z[a.index - 1], D[a.index - 1]
-    return values, out
+    return values, out, zeros_all
 
 
 def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8,

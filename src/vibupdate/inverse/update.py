@@ -19,7 +19,7 @@ The result is a frozen record of the updated model and of how it was found.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -85,6 +85,11 @@ class UpdateResult:
     attempts : tuple of dict
         One entry per first-stage attempt: margins of the vector boxes, lower bound,
         objective and status (more than one when the boxes were widened).
+    modal : dict of str to ModelFrequencies
+        Modal data of each configuration's updated model, as correlation, verification and
+        sensitivity used them (modes, every mode on the dense path in ``spectrum``, zeros and
+        their derivatives): later stages (damping, results) read them instead of solving the
+        same matrices again.
     """
 
     status: Status
@@ -107,6 +112,7 @@ class UpdateResult:
     first_stage_xbar: np.ndarray | None = None
     polish: PolishResult | None = None
     attempts: tuple[dict, ...] = ()
+    modal: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def success(self) -> bool:
@@ -342,7 +348,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
             say(f"polish: objective {polished.cost_start:.4e} -> {polished.cost:.4e} "
                 f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations, "
                 f"{polished.seconds:.2f} s)")
-    updated = [model_frequencies(c, xbar) for c in configurations]
+    updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
     if status.ok:
         first = [model_frequencies(c, first_xbar) for c in configurations] if polished and polished.kept else updated
         checks = verify(configurations, xbar, nominal=nominal, updated=updated, lower_bound=path.lower_bound,
@@ -374,4 +380,5 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         first_stage_xbar=first_xbar,
         polish=polished,
         attempts=attempts,
+        modal={c.name: f for c, f in zip(configurations, updated)},
     )

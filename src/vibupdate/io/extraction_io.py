@@ -73,8 +73,11 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
                 "relative_residual": q.relative_residual, "repeats": q.n_repeats} for q in result.quality]
     stabilization = [{"pole_pairs": int(n), "freq_hz": (w / TWO_PI).tolist(), "damping_ratio": z.tolist()}
                      for n, w, z in result.stabilization]
-    return {"band_hz": _hz(result.band), "confidence": result.confidence, "noise": result.noise,
-            "natural": natural, "antiresonances": zeros, "quality": quality, "stabilization": stabilization}
+    fitted = [{"freq_hz": float(w) / TWO_PI, "damping_ratio": float(z),
+               "reported": any(m.omega == w for m in result.modes)} for w, z in result.fitted_poles]
+    return {"band_hz": _hz(result.band), "fit_band_hz": _hz(result.fit_band), "confidence": result.confidence,
+            "noise": result.noise, "natural": natural, "antiresonances": zeros, "fitted_modes": fitted,
+            "quality": quality, "stabilization": stabilization}
 
 
 def configuration_block(name: str = "measured", frequencies: str = "frequencies.csv",
@@ -99,18 +102,12 @@ def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int 
     ValueError, writing nothing, when the folder holds files vibupdate did not write and
     ``force`` is false, or when one of them would be overwritten.
     """
-    import shutil
-
     from vibupdate import __version__
-    from vibupdate.io.outputs import publish, staging_folder
+    from vibupdate.io.outputs import write_published
 
     target = check_extraction_folder(out_dir, force)
-    staged = staging_folder(target)
-    try:
-        paths = _write_files(result, frfs, staged, first_mode, name, plot)
-        publish(staged, target, case="extraction", version=__version__)
-    finally:
-        shutil.rmtree(staged, ignore_errors=True)
+    paths = write_published(target, lambda staged: _write_files(result, frfs, staged, first_mode, name, plot),
+                            case="extraction", version=__version__)
     return {kind: target.path / path.name for kind, path in paths.items()}
 
 

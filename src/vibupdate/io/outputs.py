@@ -29,13 +29,16 @@ import shutil
 import signal
 import tempfile
 import threading
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
+
+_T = TypeVar("_T")
 
 __all__ = ["MANIFEST", "OutputTarget", "safe_name", "file_names", "prepare_output", "staging_folder", "publish",
-           "read_manifest"]
+           "write_published", "read_manifest"]
 
 #: Name of the manifest file in every results folder.
 MANIFEST = "vibupdate-manifest.json"
@@ -241,3 +244,30 @@ def publish(staged: Path, target: OutputTarget, *, case: str, version: str) -> l
         _write_manifest(final, files, case, version)
         shutil.rmtree(staged, ignore_errors=True)
     return files
+
+
+def write_published(target: OutputTarget, write: Callable[[Path], _T], *, case: str, version: str) -> _T:
+    """Steps 2 and 3 of the protocol in one call: ``write`` fills a staging folder, `publish`
+    moves its files into ``target``; the staging folder is removed whatever happens.
+
+    Parameters
+    ----------
+    target : OutputTarget
+        The checked results folder (`prepare_output`).
+    write : callable
+        Receives the staging folder (a `Path`) and writes every file into it.
+    case, version : str
+        Recorded in the manifest.
+
+    Returns
+    -------
+    What ``write`` returned. An exception of ``write`` or `publish` propagates with the results
+    folder as it was before.
+    """
+    staged = staging_folder(target)
+    try:
+        out = write(staged)
+        publish(staged, target, case=case, version=version)
+    finally:
+        shutil.rmtree(staged, ignore_errors=True)
+    return out

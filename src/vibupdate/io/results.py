@@ -331,6 +331,34 @@ def _receptance_dofs(cfg, M) -> tuple[str, str]:
     return cfg.model.dofs[dof], cfg.model.dofs[dof]
 
 
+def _matrices(cfg, updated, stage, modal) -> dict:
+    """The ``matrices`` entry of one configuration: updated ``M``, ``K``, the nominal model
+    undamped, and the identified damping (a dense ``C`` on small models, its modal law on
+    large ones) built from the updated spectrum ``modal.spectrum`` when there is one."""
+    from vibupdate.damping import caughey_damping
+
+    M, K = updated
+    M0, K0 = cfg.model.matrices()
+    entry = {"M": M, "K": K, "nominal": (M0, K0, None)}
+    if stage is not None:
+        model_c = caughey_damping(M, K, stage.caughey.exponents, stage.caughey.beta,
+                                  max((f.mode for f in cfg.natural), default=1),
+                                  spectrum=modal.spectrum if modal is not None else None)
+        entry["C" if isinstance(model_c, np.ndarray) else "damping_law"] = model_c
+    return entry
+
+
+def _mac_matrix(cfg, Phi: np.ndarray) -> dict:
+    """MAC of the measured shapes (interval midpoints, rows) with the updated model's declared
+    modes ``Phi`` (shape (n, n_p), columns); ``{"dofs", "values"}``."""
+    from vibupdate.modal.analysis import mac
+
+    measured = [f for f in cfg.natural if f.shape is not None]
+    names = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
+    X = np.array([[f.shape.midpoint.get(d, 0.0) for d in names] for f in measured]).T
+    return {"dofs": names, "values": mac(X, Phi[[cfg.model.dof(d) for d in names]])}
+
+
 def run_result(case, result, stage=None, *, identifiability: dict | None = None,
                damping_model: dict | None = None, warnings: Sequence[str] = (),
                paper: dict | None = None) -> RunResult:
@@ -341,8 +369,9 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     case : Case
         The case (its configurations give the nominal models and measured data).
     result : UpdateResult
-        First stage. Its ``frequencies`` rows and ``mac`` are used as they are (no modal
-        analysis is repeated for them); ``checks`` and ``warnings`` when it has them.
+        First stage. Its ``frequencies`` rows, ``mac`` and updated modal data (``modal``: the
+        modes of the MAC matrix, the spectrum of the Caughey ``C``) are used as they are: no
+        modal analysis is repeated here; ``checks`` and ``warnings`` when it has them.
     stage : DampingStage, optional
         Second stage; without it no ``C`` and no damping rows.
     identifiability, damping_model : dict, optional
@@ -353,9 +382,6 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         Published values (bundled examples).
     """
     from vibupdate import __version__
-    from vibupdate.modal.analysis import mac as mac_of
-    from vibupdate.modal.analysis import modes
-    from vibupdate.damping import caughey_damping
 
     configurations = case.configurations
     model = configurations[0].model
@@ -374,25 +400,13 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         mean_damping_error_rayleigh_pct=_num(stage.rayleigh.mean_error_pct) if stage else None)
     matrices, mac_matrix, frf, dofs = {}, {}, {}, {}
     for cfg in configurations:
-        M, K = result.matrices[cfg.name]
-        M0, K0 = cfg.model.matrices()
-        entry = {"M": M, "K": K, "nominal": (M0, K0, None)}
-        if stage is not None:   # a dense C on small models, its modal law on large ones
-            model_c = caughey_damping(M, K, stage.caughey.exponents, stage.caughey.beta,
-                                      max((f.mode for f in cfg.natural), default=1))
-            entry["C" if isinstance(model_c, np.ndarray) else "damping_law"] = model_c
-        matrices[cfg.name] = entry
+        modal = result.modal.get(cfg.name)   # the updated modes: never solved again here
+        matrices[cfg.name] = _matrices(cfg, result.matrices[cfg.name], stage, modal)
         dofs[cfg.name] = list(cfg.model.dofs)
-        response, excitation = _receptance_dofs(cfg, M)
+        response, excitation = _receptance_dofs(cfg, matrices[cfg.name]["M"])
         frf[cfg.name] = {"response": response, "excitation": excitation}
-        measured = [f for f in cfg.natural if f.shape is not None]
-        if measured:
-            names = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
-            X = np.array([[f.shape.midpoint.get(d, 0.0) for d in names] for f in measured]).T
-            declared = [f.mode - 1 for f in cfg.natural]
-            _, Phi = modes(M, K, min(max(declared) + 1, M.shape[0]))
-            Phi = Phi[:, declared]   # the declared modes, not the lowest ones
-            mac_matrix[cfg.name] = {"dofs": names, "values": mac_of(X, Phi[[cfg.model.dof(d) for d in names]])}
+        if any(f.shape is not None for f in cfg.natural):
+            mac_matrix[cfg.name] = _mac_matrix(cfg, modal.Phi)
     run_warnings = tuple(str(w) for w in getattr(result, "warnings", ())) + tuple(str(w) for w in warnings)
     return RunResult(
         version=__version__, format_version=FORMAT_VERSION, case=case.name, success=bool(result.success),

@@ -275,9 +275,9 @@ def validate_case(case) -> CaseCheck:
 
     from pathlib import Path
 
-    from vibupdate.io.case import _Where
+    from vibupdate.io.case_keys import Where
 
-    error = _Where(case.path if case.path is not None else Path("case")).error
+    error = Where(case.path if case.path is not None else Path("case")).error
     _check_solver(case.solver, error)
     _check_formulation(case.formulation, error)
     tol = case.frequency_tolerance

@@ -4,12 +4,12 @@ With ``M(xbar) = M0 + sum_i xbar_i M_i`` and ``K(xbar) = K0 + sum_i xbar_i K_i``
 every derivative below is analytic; no finite difference of an eigensolver is taken, so the
 derivatives are as accurate as the eigenpairs themselves.
 
-* **Natural frequencies.** For a simple eigenvalue ``lam = w^2`` with mass-normalized mode
-  ``phi`` (``phi^T M phi = 1``), ``d lam / d xbar_i = phi^T (K_i - lam M_i) phi``, and
-  ``d w / d xbar_i = (d lam / d xbar_i) / (2 w)``.
+* **Natural frequencies.** For a simple eigenvalue ``eigval = w^2`` with mass-normalized mode
+  ``phi`` (``phi^T M phi = 1``), ``d eigval / d xbar_i = phi^T (K_i - eigval M_i) phi``, and
+  ``d w / d xbar_i = (d eigval / d xbar_i) / (2 w)``.
 * **Mode-shape ratios.** A measured shape is known up to scale, so what is compared is the
-  ratio ``phi_j / phi_p`` to a reference entry ``p``. Differentiating ``(K - lam M) phi = 0``
-  gives ``(K - lam M) dphi = -(K_i - lam M_i) phi + dlam M phi``: a singular but consistent
+  ratio ``phi_j / phi_p`` to a reference entry ``p``. Differentiating ``(K - eigval M) phi = 0``
+  gives ``(K - eigval M) dphi = -(K_i - eigval M_i) phi + d_eigval M phi``: a singular but consistent
   system whose solutions differ by multiples of ``phi``. Any solution ``v`` gives the exact
   derivative of the ratio, ``(v_j phi_p - phi_j v_p) / phi_p^2``, because the multiple of
   ``phi`` cancels. ``v`` is found as in Nelson's method: fix the entry of largest ``|phi|``
@@ -17,7 +17,7 @@ derivatives are as accurate as the eigenpairs themselves.
 * **Antiresonances.** The zeros of ``h_rc`` are eigenvalues of the adjunct pencil
   ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed, Eq. 8), which is not symmetric when
   ``r != c``. With right vector ``v`` and left vector ``y``,
-  ``d lam_z / d xbar_i = y^T (K_i,rc - lam_z M_i,rc) v / (y^T M_rc v)``. For a symmetric model
+  ``d eigval_z / d xbar_i = y^T (K_i,rc - eigval_z M_i,rc) v / (y^T M_rc v)``. For a symmetric model
   the transposed pencil is the adjunct of ``h_cr``, so ``y`` is an adjunct vector of
   ``h_cr``; for ``r == c``, ``y = v``.
 """
@@ -29,7 +29,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.modal.analysis import DENSE_LIMIT, adjunct, antiresonances
+from vibupdate.modal import eigen
+from vibupdate.modal.eigen import _dense_modes
+from vibupdate.modal.zeros import adjunct, antiresonances
 
 __all__ = [
     "eigenvalue_derivatives",
@@ -57,10 +59,10 @@ def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
         In (rad/s)^2 per unit of normalized parameter.
     """
     omega = np.asarray(omega, dtype=float)
-    lam = np.sign(omega) * omega**2
+    eigval = np.sign(omega) * omega**2
     out = np.empty((omega.size, model.n_parameters))
     for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        out[:, i] = np.einsum("ij,ij->j", Phi, Ki @ Phi) - lam * np.einsum("ij,ij->j", Phi, Mi @ Phi)
+        out[:, i] = np.einsum("ij,ij->j", Phi, Ki @ Phi) - eigval * np.einsum("ij,ij->j", Phi, Mi @ Phi)
     return out
 
 
@@ -103,19 +105,19 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
         Derivatives of the dimensionless ratios per unit of normalized parameter.
     """
     M, K = model.matrices(xbar)
-    lam = omega**2
+    eigval = omega**2
     n = phi.size
     p = int(np.argmax(np.abs(phi)))
     keep = np.delete(np.arange(n), p)
-    A = (K - lam * M).tocsr()[keep][:, keep]
-    solve = _factor(A if n > 400 else A.toarray())
+    A = (K - eigval * M).tocsr()[keep][:, keep]
+    solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
     Mphi = M @ phi
     entries = np.asarray(entries, dtype=int)
     out = np.empty((entries.size, model.n_parameters))
     for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        f = Ki @ phi - lam * (Mi @ phi)
-        dlam = phi @ f
-        rhs = -f + dlam * Mphi
+        f = Ki @ phi - eigval * (Mi @ phi)
+        d_eigval = phi @ f
+        rhs = -f + d_eigval * Mphi
         v = np.zeros(n)
         v[keep] = solve(rhs[keep])
         ref = phi[reference]
@@ -125,46 +127,46 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     """Finite, real, positive eigenvalues of the adjunct pencil of ``h_rc`` with right and left
-    vectors: dense up to `vibupdate.modal.analysis.DENSE_LIMIT` DOFs, shift-invert above (the
+    vectors: dense up to `vibupdate.modal.eigen.DENSE_LIMIT` DOFs, shift-invert above (the
     lowest ``n_zeros``; the left vectors are the right vectors of the transposed pencil, the
     adjunct of ``h_cr``).
 
     Returns
     -------
-    lam : ndarray, shape (n_z,)
+    eigval_z : ndarray, shape (n_z,)
         Squared antiresonance frequencies, (rad/s)^2, ascending.
-    V, Y : ndarray, shape (n - 1, n_z)
-        Right and left eigenvectors: ``(K_rc - lam M_rc) V = 0``, ``Y^T (K_rc - lam M_rc) = 0``.
+    V_right, V_left : ndarray, shape (n - 1, n_z)
+        Right and left eigenvectors: ``(K_rc - eigval_z M_rc) V_right = 0`` and
+        ``V_left^T (K_rc - eigval_z M_rc) = 0``.
     """
-    if M.shape[0] > DENSE_LIMIT:
+    if M.shape[0] > eigen.DENSE_LIMIT:
         k = n_zeros or 20
-        wz, V = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k)
+        wz, V_right = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k)
         if r == c:
-            return wz**2, V, V
-        wy, Y = antiresonances(M, K, c, r, with_vectors=True, n_zeros=k)
+            return wz**2, V_right, V_right
+        wy, V_left = antiresonances(M, K, c, r, with_vectors=True, n_zeros=k)
         if wy.size != wz.size or np.any(np.abs(wy - wz) > 1e-6 * np.maximum(wz, 1e-300)):
             raise ValueError(f"the zeros of h_{r},{c} and h_{c},{r} of a symmetric model differ: the sparse "
                              "eigen-solve did not converge to the same set")
-        return wz**2, V, Y
+        return wz**2, V_right, V_left
     Mr = adjunct(M, r, c)
     Kr = adjunct(K, r, c)
     Mr = Mr.toarray() if sp.issparse(Mr) else np.asarray(Mr)
     Kr = Kr.toarray() if sp.issparse(Kr) else np.asarray(Kr)
-    if r == c:
-        lam, V = sla.eigh(Kr, Mr, driver="gvd")
-        keep = lam > 0
-        lam, V = lam[keep][:n_zeros], V[:, keep][:, :n_zeros]
-        return lam, V, V
-    w, Y, V = sla.eig(Kr, Mr, left=True, right=True, homogeneous_eigvals=True)
-    alpha, beta = w
-    scale = np.abs(alpha) + np.abs(beta)
-    finite = np.abs(beta) > 1e-10 * scale
-    lam = np.full(alpha.shape, np.nan, dtype=complex)
-    lam[finite] = alpha[finite] / beta[finite]
-    real = finite & (np.abs(lam.imag) <= 1e-8 * np.abs(lam.real)) & (lam.real > 0)
-    lam, V, Y = lam[real].real, V[:, real].real, Y[:, real].real
-    order = np.argsort(lam)[:n_zeros]
-    return lam[order], V[:, order], Y[:, order]
+    if r == c:   # symmetric: the solver of `antiresonances` (reciprocal pencil, massless DOFs condensed)
+        eigval_z, V_right = _dense_modes(Mr, Kr)
+        keep = eigval_z > 0
+        eigval_z, V_right = eigval_z[keep][:n_zeros], V_right[:, keep][:, :n_zeros]
+        return eigval_z, V_right, V_right
+    (num, den), V_left, V_right = sla.eig(Kr, Mr, left=True, right=True, homogeneous_eigvals=True)
+    scale = np.abs(num) + np.abs(den)
+    finite = np.abs(den) > 1e-10 * scale
+    eigval_z = np.full(num.shape, np.nan, dtype=complex)
+    eigval_z[finite] = num[finite] / den[finite]
+    real = finite & (np.abs(eigval_z.imag) <= 1e-8 * np.abs(eigval_z.real)) & (eigval_z.real > 0)
+    eigval_z, V_right, V_left = eigval_z[real].real, V_right[:, real].real, V_left[:, real].real
+    order = np.argsort(eigval_z)[:n_zeros]
+    return eigval_z[order], V_right[:, order], V_left[:, order]
 
 
 def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zeros: int | None = None):
@@ -189,17 +191,18 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zero
         ``d omega_z / d xbar``, rad/s per unit of normalized parameter.
     """
     M, K = model.matrices(xbar)
-    lam, V, Y = pairs if pairs is not None else adjunct_eigenpairs(M, K, r, c, n_zeros)
+    eigval_z, V_right, V_left = pairs if pairs is not None else adjunct_eigenpairs(M, K, r, c, n_zeros)
     # Embed the vectors in the full space (zero at the removed column r / row c), so that the
     # adjunct products become products with the full sparse matrices.
     n = M.shape[0]
-    Vf = np.zeros((n, lam.size))
-    Vf[np.delete(np.arange(n), r)] = V
-    Yf = np.zeros((n, lam.size))
-    Yf[np.delete(np.arange(n), c)] = Y
-    denom = np.einsum("ij,ij->j", Yf, M @ Vf)
-    D = np.empty((lam.size, model.n_parameters))
+    right_full = np.zeros((n, eigval_z.size))
+    right_full[np.delete(np.arange(n), r)] = V_right
+    left_full = np.zeros((n, eigval_z.size))
+    left_full[np.delete(np.arange(n), c)] = V_left
+    denom = np.einsum("ij,ij->j", left_full, M @ right_full)
+    D = np.empty((eigval_z.size, model.n_parameters))
     for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        D[:, i] = (np.einsum("ij,ij->j", Yf, Ki @ Vf) - lam * np.einsum("ij,ij->j", Yf, Mi @ Vf)) / denom
-    omega_z = np.sqrt(lam)
+        D[:, i] = (np.einsum("ij,ij->j", left_full, Ki @ right_full)
+                   - eigval_z * np.einsum("ij,ij->j", left_full, Mi @ right_full)) / denom
+    omega_z = np.sqrt(eigval_z)
     return omega_z, D / (2.0 * omega_z[:, None])

@@ -40,8 +40,8 @@ class System:
     K: sp.csr_matrix
     dofs: tuple[str, ...]
 
-    def index(self, name: str) -> int:
-        """Position of the DOF called ``name``."""
+    def dof(self, name: str) -> int:
+        """Position (0-based) of the DOF called ``name``, as `AffineModel.dof`."""
         return dof_index(self.dofs, name)
 
 

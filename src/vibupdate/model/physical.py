@@ -35,14 +35,12 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.modal.analysis import DENSE_LIMIT
+from vibupdate.modal.analysis import DENSE_LIMIT, MASSLESS_TOL, massless_dofs
 
 __all__ = ["DENSE_LIMIT", "RIGID_TOL", "Definiteness", "definiteness", "box_corners", "count_below"]
 
 #: Relative threshold (to ``lam_ref``) of a zero eigenvalue of the pencil ``(K, M)``.
 RIGID_TOL = 1e-10
-#: Relative threshold (to the largest diagonal entry) of a zero mass.
-MASSLESS_TOL = 1e-13
 #: All corners are checked up to this many parameters (2^n corners), else a sample.
 EXHAUSTIVE_PARAMETERS = 6
 #: Seeded random corners checked besides all-lower and all-upper for larger boxes.
@@ -151,7 +149,7 @@ def definiteness(M, K) -> Definiteness:
         i = int(np.argmin(d))
         return Definiteness((), 0, f"the mass matrix M is not positive semidefinite: negative diagonal entry "
                                    f"{d[i]:.6g} (DOF {i + 1})")
-    massless = np.flatnonzero(d <= MASSLESS_TOL * scale)
+    massless = massless_dofs(M)
     mass = np.setdiff1d(np.arange(M.shape[0]), massless)
     if massless.size:
         rows = block(M, massless, np.arange(M.shape[0]))

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.modal.analysis import receptance
+from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
-__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance"]
+__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance", "model_receptances"]
 
 
 def _pyplot():
@@ -42,13 +42,34 @@ def _save(plt, fig, path) -> Path:
     return Path(path)
 
 
-def model_receptance(model, r: int, c: int, omega) -> np.ndarray:
-    """Receptance of ``model = (M, K, C)``; ``C`` a matrix, None (undamped) or a damping law
-    with its own ``receptance`` (large models: modal superposition). Shape (n_f,), m/N."""
+def model_receptances(model, pairs, omega) -> np.ndarray:
+    """Receptances of several ``(r, c)`` pairs of ``model = (M, K, C)``, from one eigen-solve
+    (or one factorization per frequency) shared by the pairs.
+
+    Parameters
+    ----------
+    model : tuple (M, K, C)
+        ``C`` a matrix, None (undamped) or a damping law with its own ``receptances`` (large
+        models: modal superposition).
+    pairs : sequence of (int, int), length n_pairs
+        Response and excitation DOF indices (0-based).
+    omega : ndarray, shape (n_f,)
+        rad/s.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_pairs, n_f)
+        m/N.
+    """
     M, K, C = model
-    if hasattr(C, "receptance"):
-        return C.receptance(M, K, r, c, omega)
-    return receptance(M, K, r, c, omega, C)
+    if hasattr(C, "receptances"):
+        return C.receptances(M, K, pairs, omega)
+    return receptances(M, K, pairs, omega, C)
+
+
+def model_receptance(model, r: int, c: int, omega) -> np.ndarray:
+    """Receptance of one pair of ``model = (M, K, C)`` (`model_receptances`); shape (n_f,), m/N."""
+    return model_receptances(model, [(r, c)], omega)[0]
 
 
 def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
@@ -104,12 +125,12 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
         Legend entries of the two models (their damping stated).
     """
     plt = _pyplot()
-    index = {d: i for i, d in enumerate(model_dofs)}
-    pairs = [(k, p) for k, p in enumerate(frfs.pairs) if p[0] in index and p[1] in index]
+    position = {d: i for i, d in enumerate(model_dofs)}
+    pairs = [(k, p) for k, p in enumerate(frfs.pairs) if p[0] in position and p[1] in position]
     if not pairs:
         raise ValueError(f"no measured FRF pair {list(frfs.pairs)} has both DOFs in the model")
-    rows = sorted({p[0] for _, p in pairs}, key=index.get)
-    cols = sorted({p[1] for _, p in pairs}, key=index.get)
+    rows = sorted({p[0] for _, p in pairs}, key=position.get)
+    cols = sorted({p[1] for _, p in pairs}, key=position.get)
     grid = len(rows) * len(cols) <= 16 and len(rows) * len(cols) < 2 * len(pairs)
     if not grid:
         rows, cols = [None] * len(pairs), [None]
@@ -117,12 +138,14 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
                              squeeze=False, sharex=True)
     measured = frfs.mean()
     omega, f_hz = frfs.omega, frfs.freq_hz
+    at = [(position[r], position[c]) for _, (r, c) in pairs]
+    curves = [(np.abs(model_receptances(model, at, omega)), name, style)   # one solve per model
+              for model, name, style in ((nominal, nominal_label, "--"), (updated, updated_label, "-"))]
     for n, (k, (r, c)) in enumerate(pairs):
         ax = axes[rows.index(r), cols.index(c)] if grid else axes[n, 0]
         ax.semilogy(f_hz, np.abs(measured[k]), color="0.2", lw=0.9, label="measured (mean of repeats)")
-        for model, name, style in ((nominal, nominal_label, "--"), (updated, updated_label, "-")):
-            ax.semilogy(f_hz, np.abs(model_receptance(model, index[r], index[c], omega)), style, lw=1.0,
-                        label=name)
+        for h, name, style in curves:
+            ax.semilogy(f_hz, h[n], style, lw=1.0, label=name)
         ax.set_title(f"h_{r},{c}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
     for ax in axes.ravel():

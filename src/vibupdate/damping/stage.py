@@ -1,0 +1,110 @@
+"""The second stage over several configurations: measured damping ratios paired with the
+updated model's natural frequencies, the Caughey fit, the Rayleigh baseline and their sanity
+checks.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.damping.sanity import _checked_frequencies, damping_sanity
+from vibupdate.damping.series import DampingFit, DampingWarning, fit_caughey
+
+__all__ = ["DampingStage", "damping_data", "identify_damping"]
+
+
+@dataclass(frozen=True)
+class DampingStage:
+    """The second stage over several configurations: the Caughey fit and the Rayleigh
+    baseline (``Y = [0, 1]``), both on the updated model's natural frequencies, and the
+    warnings of `damping_sanity` for both."""
+
+    caughey: DampingFit
+    rayleigh: DampingFit
+    warnings: tuple[str, ...] = ()
+
+    def rows(self) -> list[dict]:
+        """``damping`` rows of ``results.json``, plus the Rayleigh value of each ratio."""
+        return [
+            {"configuration": cfg, "mode": mode, "measured": float(m), "identified": float(c),
+             "error_pct": float(e), "rayleigh": float(r), "error_rayleigh_pct": float(er)}
+            for (cfg, mode), m, c, e, r, er in zip(
+                self.caughey.labels, self.caughey.measured, self.caughey.fitted, self.caughey.errors_pct,
+                self.rayleigh.fitted, self.rayleigh.errors_pct)
+        ]
+
+    def summary(self) -> dict:
+        return {"mean_damping_error_pct": self.caughey.mean_error_pct,
+                "mean_damping_error_rayleigh_pct": self.rayleigh.mean_error_pct}
+
+
+def _modal_data(configurations, freqs):
+    """``freqs`` as a list in the order of ``configurations`` (a mapping is keyed by name)."""
+    if freqs is None:
+        return None
+    if isinstance(freqs, dict):
+        return [freqs[c.name] for c in configurations]
+    return list(freqs)
+
+
+def damping_data(configurations, xbar=None, freqs=None):
+    """Measured ratios with the paired updated-model frequencies: (omega, ratios, labels).
+
+    ``freqs``: the `vibupdate.inverse.correlation.ModelFrequencies` of each configuration at
+    ``xbar`` (a sequence, or a mapping by configuration name such as ``UpdateResult.modal``)
+    when already computed; solved here otherwise."""
+    from vibupdate.inverse.correlation import model_frequencies
+
+    freqs = _modal_data(configurations, freqs)
+    omega, ratios, labels = [], [], []
+    for i, cfg in enumerate(configurations):
+        paired = freqs[i] if freqs is not None else None
+        for k, f in enumerate(cfg.natural):
+            if f.damping_ratio is None:
+                continue
+            paired = paired or model_frequencies(cfg, xbar, zeros=False)
+            omega.append(paired.natural[k])
+            ratios.append(f.damping_ratio)
+            labels.append((cfg.name, k + 1))
+    if not ratios:
+        raise ValueError("no measured damping ratio in any configuration: nothing to identify")
+    return np.array(omega), np.array(ratios), tuple(labels)
+
+
+def _expand_weights(weights, labels):
+    """Weights given per mode number (mapping) become one weight per data point."""
+    if isinstance(weights, dict):
+        for key, value in weights.items():
+            if not isinstance(key, (int, np.integer)) or key < 1:
+                raise ValueError(f"damping weight keys must be mode numbers >= 1, got {key!r}")
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"damping weight of mode {key} must be positive, got {value!r}")
+        return np.array([float(weights.get(mode, 1.0)) for _, mode in labels])
+    return weights
+
+
+def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), weights=None, *,
+                     freqs=None) -> DampingStage:
+    """Second stage on the updated model (``xbar``; nominal if None).
+
+    ``weights``: None, one weight per measured ratio (in configuration and mode order), a full
+    matrix ``W``, or a mapping ``{mode number: weight}`` applied in every configuration.
+    ``freqs``: the modal data of the configurations at ``xbar`` when already computed
+    (``UpdateResult.modal``; `damping_data`): then no eigen-solve is repeated on the dense path.
+    """
+    freqs = _modal_data(configurations, freqs)
+    omega, ratios, labels = damping_data(configurations, xbar, freqs)
+    W = _expand_weights(weights, labels)
+    caughey = fit_caughey(omega, ratios, exponents, W, labels)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DampingWarning)
+        rayleigh = fit_caughey(omega, ratios, [0.0, 1.0], None, labels)
+    frequencies = _checked_frequencies(configurations, xbar, freqs)  # one spectrum per configuration for both checks
+    checks = (damping_sanity(caughey, configurations, xbar, f"Caughey fit (Y = {caughey.exponents.tolist()})",
+                             frequencies=frequencies)
+              + damping_sanity(rayleigh, configurations, xbar, "Rayleigh baseline", frequencies=frequencies))
+    return DampingStage(caughey, rayleigh, checks)

@@ -1,0 +1,97 @@
+"""Antiresonances of a fitted modal model (private kernels of `vibupdate.data.extraction`):
+the real zeros of the undamped fitted receptance, their standard errors by the
+implicit-function rule with exact derivatives, and the local refit of a zero on the lines
+around it. Frequencies normalized as in `vibupdate.data._modal_fit`; the method is described
+in `vibupdate.data.extraction`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from vibupdate.data._modal_fit import _correlation_inflation, _modal_basis, _undamped_derivatives
+
+LOCAL_FRACTION = 1 / 3      # local refit: window of this times the distance to the nearest pole ...
+LOCAL_LINES = 21            # ... holding at least this many lines
+
+
+def _zeros_of(x, coef, xn, zeta):
+    """Real zeros of the undamped fitted receptance in (x[0], x[-1]), shape (n_zeros,).
+
+    Sign changes of the receptance times ``prod (w_r^2 - x^2)`` (which removes the sign
+    changes at the poles) on a grid of 20 points per line, refined by Brent's method."""
+    grid = np.linspace(x[0], x[-1], max(20 * x.size, 4000))
+
+    def g(t):
+        t = np.atleast_1d(t)
+        return (_modal_basis(t, xn, zeta, False) @ coef) * np.prod(xn[None, :] ** 2 - t[:, None] ** 2, axis=1)
+
+    values = g(grid)
+    idx = np.nonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0)[0]
+    return np.array([scipy.optimize.brentq(lambda t: g(t)[0], grid[i], grid[i + 1], xtol=1e-14) for i in idx])
+
+
+def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, slope_offset: float = 0.0):
+    """Standard error of a zero ``z`` (normalized) of ``u(t) = b(t) coef (+ a local line)``.
+
+    Implicit-function rule: ``dz = -(b dcoef + du/dw_n dw_n + du/dzeta dzeta) / u'(z)``, with
+    ``cov_coef`` (n_cols, n_cols) and ``cov_poles`` (2 n, 2 n) of ``(w_n, zeta)``; every
+    derivative exact (`_undamped_derivatives`). ``slope_offset`` is the slope of a line added
+    to ``u`` (the local correction of `_local_zero`). Returns ``(se, u'(z))``."""
+    t = np.array([z])
+    b = _modal_basis(t, xn, zeta, False)[0]
+    d_x, d_wn, d_zeta = _undamped_derivatives(t, xn, zeta)
+    du_dz = float(d_x[0] @ coef) + slope_offset
+    mode_coef = coef[1:2 * xn.size:2]  # each mode's column carries its Im A coefficient
+    g_poles = -np.concatenate([d_wn[0] * mode_coef, d_zeta[0] * mode_coef]) / du_dz
+    g_coef = -b / du_dz
+    var = g_coef @ cov_coef @ g_coef + g_poles @ cov_poles @ g_poles
+    return math.sqrt(max(float(var), 0.0)), du_dz
+
+
+def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
+    """A zero of the fitted receptance refined on the lines around it; ``None`` when the
+    refined zero leaves the window.
+
+    Parameters: ``z`` the global zero; ``x`` (n_freq,) the lines; ``f`` (n_freq,) the FRF and
+    ``v`` (n_freq,) its noise variance per line; ``Phi`` (n_freq, n_cols) the damped basis
+    and ``coef`` (n_cols,) the FRF's fitted coefficients; ``xn``, ``zeta`` (n,) the poles,
+    ``cov_poles`` (2 n, 2 n) their covariance (all normalized).
+
+    The misfit ``f - Phi coef`` of a real structure's FRF is smooth along frequency (the modal
+    model is not exact), and near a shallow zero a small offset of the real part moves the
+    zero far. Within ``LOCAL_FRACTION`` of the distance from ``z`` to the nearest fitted pole
+    (at least ``LOCAL_LINES`` lines) the real part of the misfit is fitted by
+    ``c0 + c1 (x - z)`` (weights ``1/sigma``) and added to the undamped fitted receptance,
+    whose zero in the window is returned with its standard error: ``(c0, c1)``'s covariance
+    (inflated by the reduced chi-square and the residual's correlation) and the poles'.
+    Returns ``(zero, se)``. The caller takes the local zero when its standard error is the
+    smaller: the global one's is inflated by the misfit's chi-square and correlation, so a
+    misfitting model gives way, while an exact one (known-truth data) keeps the global zero,
+    which uses every line.
+    """
+    d = LOCAL_FRACTION * float(np.min(np.abs(xn - z)))
+    near = np.nonzero(np.abs(x - z) <= d)[0]
+    if near.size < LOCAL_LINES:
+        near = np.sort(np.argsort(np.abs(x - z))[:LOCAL_LINES])
+    w = 1.0 / np.sqrt(v[near])
+    X = np.column_stack([np.ones(near.size), x[near] - z]) * w[:, None]
+    r = (f[near] - Phi[near] @ coef).real * w
+    c = scipy.linalg.lstsq(X, r)[0]
+    res = r - X @ c
+    chi2 = 2.0 * float(res @ res) / max(res.size - 2, 1)  # weighted real components have variance 1/2
+    cov_c = np.linalg.inv(X.T @ X) * 0.5 * max(1.0, chi2) * _correlation_inflation(res + 0j)
+
+    def u(t):
+        return float(_modal_basis(np.array([t]), xn, zeta, False)[0] @ coef) + c[0] + c[1] * (t - z)
+
+    lo, hi = float(x[near[0]]), float(x[near[-1]])
+    if u(lo) * u(hi) >= 0:
+        return None
+    z_local = scipy.optimize.brentq(u, lo, hi, xtol=1e-14)
+    se_poles, du_dz = _zero_se(z_local, coef, np.zeros((coef.size, coef.size)), xn, zeta, cov_poles, c[1])
+    g = np.array([1.0, z_local - z]) / du_dz
+    return z_local, math.sqrt(se_poles**2 + max(float(g @ cov_c @ g), 0.0))

@@ -1,0 +1,94 @@
+"""The case-file schema: the keys allowed in each table of a case file with their TOML types,
+and the checks that name the file and the key of every error (``docs/case-file.md``).
+
+Reading a case (`vibupdate.io.case`) and building its models (`vibupdate.io.case_model`) both
+check their tables here.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+__all__ = ["Where", "check_table", "numbers", "TOP_KEYS", "CFG_KEYS", "FRF_KEYS", "ELEMENTS_KEYS", "POLISH_KEYS",
+           "VERIFICATION_KEYS", "SOLVER_KEYS", "FORMULATION_KEYS", "DAMPING_KEYS", "PARAMETER_KEYS"]
+
+class Where:
+    """Error messages that name the file and the key."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def error(self, key: str, message: str) -> ValueError:
+        return ValueError(f"{self.path}: {key}: {message}")
+
+
+_TYPE_NAMES = {str: "a string", bool: "true or false", int: "an integer", float: "a number",
+               list: "an array", dict: "a table"}
+
+
+def _has_type(value, expected) -> bool:
+    """TOML types: an integer is a valid number; true/false is never a number."""
+    if expected in (int, float):
+        accepted = int if expected is int else (int, float)
+        return isinstance(value, accepted) and not isinstance(value, bool)
+    return isinstance(value, expected)
+
+
+def _join(key: str, name: str) -> str:
+    """``key.name``, with ``name`` quoted as TOML quotes it when it is not a bare key."""
+    shown = name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name, ensure_ascii=False)
+    return f"{key}.{shown}" if key else shown
+
+
+def check_table(table, allowed: dict, key: str, where: Where, required=()) -> dict:
+    if not isinstance(table, dict):
+        raise where.error(key, f"must be a table, got {type(table).__name__}")
+    for name in table:
+        if name not in allowed:
+            raise where.error(_join(key, name), f"unknown key; allowed here: {', '.join(sorted(allowed))}")
+    for name in required:
+        if name not in table:
+            raise where.error(_join(key, name), "is required")
+    for name, value in table.items():
+        expected = allowed[name]
+        if expected is None:
+            continue
+        if not _has_type(value, expected):
+            raise where.error(_join(key, name), f"must be {_TYPE_NAMES.get(expected, expected)}, got {value!r}")
+    return table
+
+
+def numbers(values, key, where) -> list[float]:
+    out = []
+    for v in values:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise where.error(key, f"must be an array of numbers, got {v!r}")
+        out.append(float(v))
+    return out
+
+
+# -- the keys of each table (None: any type, checked where it is read) ---------------------------
+
+TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list, "solver": dict,
+             "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
+             "verification": dict}
+POLISH_KEYS = {"enabled": bool, "shape_weight": float, "max_evaluations": int, "tol": float}
+VERIFICATION_KEYS = {"mac_min": float, "shape_slack": float, "fit_tolerance": float}
+SOLVER_KEYS = {"n_lambda": int, "step_growth": float, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
+                "tol": float}
+FORMULATION_KEYS = {"shape_margin": float, "adjunct_margin": float, "sign_delta": float, "length_scale": float,
+                     "weighting": str, "interlacing": bool, "reduction": str, "reduction_modes": int,
+                     "reduction_threshold": int}
+DAMPING_KEYS = {"exponents": list, "mode_weights": dict, "relative": bool, "rationale": str}
+PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float}
+CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_modes": list, "damping_ratios": list,
+             "antiresonances": list, "frequencies_csv": str, "mode_shapes_csv": str, "mode_shapes_uff": str,
+             "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list,
+             "frf": dict}
+FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
+             "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float}
+ELEMENTS_KEYS = {"type": str, "kind": str, "nodes": list, "line": dict, "clamp": list, "pin": list,
+                  "fix": list, "beam": list, "frame": list, "mass": list, "spring": list}

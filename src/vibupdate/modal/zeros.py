@@ -1,0 +1,161 @@
+"""Antiresonances (the zeros of a receptance ``h_rc``, paper Eq. 8): the finite, real, positive
+eigenvalues of the adjunct pencil ``(K_rc, M_rc)``, ``K`` and ``M`` without row ``c`` and column
+``r``. Dense up to `vibupdate.modal.eigen.DENSE_LIMIT` DOFs (the symmetric reciprocal pencil for
+``r == c``, QZ otherwise), shift-invert on the sparse adjunct pencil above, with a residual
+check per zero. rad/s throughout.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from vibupdate.modal import eigen
+from vibupdate.modal.eigen import (
+    RESIDUAL_TOL,
+    ModalAccuracyError,
+    _dense,
+    _dense_modes,
+    _shifted_lu,
+    check_dof_pair,
+    mode_residuals,
+)
+
+__all__ = ["adjunct", "antiresonances"]
+
+
+def adjunct(A, r: int, c: int):
+    """Adjunct matrix of Eq. 2 and 8: ``A`` with row ``c`` and column ``r`` removed.
+
+    Parameters
+    ----------
+    A : sparse or ndarray, shape (n, n)
+
+    Returns
+    -------
+    same type as ``A``, shape (n - 1, n - 1)
+    """
+    n = A.shape[0]
+    check_dof_pair(n, r, c)
+    rows = np.delete(np.arange(n), c)
+    cols = np.delete(np.arange(n), r)
+    if sp.issparse(A):
+        return sp.csr_matrix(A)[rows][:, cols]
+    return np.asarray(A)[np.ix_(rows, cols)]
+
+
+def _dense_zeros(M, K, r: int, c: int, rtol: float):
+    Mr, Kr = _dense(adjunct(M, r, c)), _dense(adjunct(K, r, c))
+    if r == c:
+        eigval_z, V = _dense_modes(Mr, Kr)
+        keep = eigval_z > 0
+        return eigval_z[keep], V[:, keep]
+    (num, den), V = sla.eig(Kr, Mr, homogeneous_eigvals=True)
+    scale = np.abs(num) + np.abs(den)
+    finite = np.abs(den) > 1e-10 * scale
+    eigval_z = np.full(num.shape, np.nan, dtype=complex)
+    eigval_z[finite] = num[finite] / den[finite]
+    real = finite & (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real))
+    keep = real & (eigval_z.real > 0)
+    return eigval_z[keep].real, _real_vectors(V[:, keep])
+
+
+def _real_vectors(V: np.ndarray) -> np.ndarray:
+    """Real vectors from eigenvectors of real eigenvalues, whatever their complex phase."""
+    if not np.iscomplexobj(V):
+        return V
+    idx = np.argmax(np.abs(V), axis=0)
+    phase = V[idx, np.arange(V.shape[1])]
+    return (V * (np.abs(phase) / phase)).real
+
+
+def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
+    """The lowest ``n_zeros`` real positive eigenvalues of the adjunct pencil by shift-invert."""
+    Mr, Kr = sp.csc_matrix(adjunct(M, r, c)), sp.csc_matrix(adjunct(K, r, c))
+    m = Mr.shape[0]
+    sigma, lu = _shifted_lu(Kr, Mr)
+    k = min(m - 2, 2 * n_zeros + 8)
+    while True:
+        if r == c:
+            op = spla.LinearOperator(Kr.shape, matvec=lu.solve, dtype=float)
+            eigval_z, V = spla.eigsh(Kr, k=k, M=Mr, sigma=sigma, which="LM", OPinv=op, tol=0)
+        else:
+            op = spla.LinearOperator(Kr.shape, matvec=lambda x: lu.solve(np.asarray(Mr @ x)), dtype=float)
+            nu, V = spla.eigs(op, k=k, which="LM", tol=0)
+            eigval_z = sigma + 1.0 / nu
+        real = (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real) if np.iscomplexobj(eigval_z)
+                else np.ones(eigval_z.size, bool))
+        keep = real & (eigval_z.real > 0)
+        if keep.sum() >= n_zeros or k >= m - 2:
+            break
+        k = min(m - 2, 2 * k)
+    eigval_z, V = eigval_z[keep].real, _real_vectors(V[:, keep])
+    order = np.argsort(eigval_z)[:n_zeros]
+    eigval_z, V = eigval_z[order], V[:, order]
+    V = lu.solve(np.asarray(Mr @ V)) * (eigval_z - sigma)
+    eta = mode_residuals(Mr, Kr, np.sqrt(eigval_z), V)
+    bad = np.flatnonzero(eta > RESIDUAL_TOL)
+    if bad.size:
+        j = bad[0]
+        raise ModalAccuracyError(f"shift-invert antiresonances of h({r}, {c}): zero {j + 1} "
+                                 f"({np.sqrt(eigval_z[j]):.6g} rad/s) has a backward error {eta[j]:.2e}")
+    return eigval_z, V
+
+
+def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: float = 1e-8,
+                   n_zeros: int | None = None, dense: bool | None = None):
+    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8).
+
+    They are the finite, real, positive eigenvalues ``omega^2`` of the adjunct pencil
+    ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed). Small models: dense (symmetric
+    reciprocal pencil for ``r == c``, QZ otherwise); large models: shift-invert on the sparse
+    adjunct pencil (Lanczos for ``r == c``, Arnoldi otherwise) with a residual check per zero.
+
+    Parameters
+    ----------
+    M, K : sparse or ndarray, shape (n, n)
+    r, c : int
+        Response and excitation DOF indices (0-based).
+    with_vectors : bool
+        Also return the right eigenvectors of the adjunct pencil. The left vectors are the
+        right vectors of the ``(c, r)`` pencil.
+    rtol : float
+        Relative size of the imaginary part below which an eigenvalue counts as real.
+    n_zeros : int, optional
+        How many of the lowest zeros; all of them (dense) or 20 (sparse) by default.
+    dense : bool, optional
+        Force a path; by default dense up to `DENSE_LIMIT` DOFs.
+
+    Returns
+    -------
+    omega_z : ndarray, shape (n_z,)
+        Antiresonance frequencies, rad/s, ascending.
+    V : ndarray, shape (n - 1, n_z)
+        Only with ``with_vectors``: ``(K_rc - omega_z^2 M_rc) v = 0``, each scaled to unit
+        largest entry (positive).
+
+    Raises
+    ------
+    ModalAccuracyError
+        A sparse zero failed its residual check.
+    """
+    n = M.shape[0]
+    check_dof_pair(n, r, c)
+    if n_zeros is not None and not (isinstance(n_zeros, (int, np.integer)) and 1 <= n_zeros <= n - 1):
+        raise ValueError(f"n_zeros must be between 1 and {n - 1}, got {n_zeros!r}")
+    use_dense = n <= eigen.DENSE_LIMIT if dense is None else dense
+    if use_dense:
+        eigval_z, V = _dense_zeros(M, K, r, c, rtol)
+        order = np.argsort(eigval_z)[:n_zeros]
+    else:
+        eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol)
+        order = np.arange(eigval_z.size)
+    omega_z = np.sqrt(eigval_z[order])
+    if not with_vectors:
+        return omega_z
+    V = V[:, order]
+    idx = np.argmax(np.abs(V), axis=0)
+    V = V / V[idx, np.arange(V.shape[1])]
+    return omega_z, V

@@ -1,0 +1,101 @@
+"""Plots solve each model once: the receptances of every plotted pair come from one
+eigen-solve (or one factorization per frequency) per model, never one per pair."""
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.sparse.linalg
+from frf_synthetic import cantilever_system, measured
+
+from vibupdate.damping import CaugheyLaw
+from vibupdate.modal.analysis import receptance, receptances
+from vibupdate.report.plots import model_receptance, model_receptances, plot_measured_frf
+
+
+@pytest.fixture
+def eigen_solves(monkeypatch):
+    """Counts every call of the dense and sparse eigen-solvers vibupdate uses."""
+    calls = []
+    for module, names in ((scipy.linalg, ("eig", "eigh")), (scipy.sparse.linalg, ("eigs", "eigsh"))):
+        for name in names:
+            original = getattr(module, name)
+
+            def counted(*args, _original=original, **kwargs):
+                calls.append(1)
+                return _original(*args, **kwargs)
+
+            monkeypatch.setattr(module, name, counted)
+    return calls
+
+
+def _damping(kind, M, K, C):
+    if kind == "matrix":
+        return C
+    if kind == "law":
+        return CaugheyLaw((0.0, 1.0), (1.0, 2e-5), M.shape[0])
+    return None
+
+
+@pytest.mark.parametrize("kind", ["undamped", "matrix", "law"])
+def test_measured_frf_plot_solves_each_model_once_whatever_the_number_of_pairs(tmp_path, eigen_solves, kind):
+    frfs, *_ = measured(4, repeats=1)
+    frfs = frfs.band(2 * math.pi * 20, 2 * math.pi * 300)
+    M, K, C, dofs = cantilever_system()
+    nominal, updated = (M, 1.05 * K, None), (M, K, _damping(kind, M, K, C))
+    assert len(frfs.pairs) == 3
+    # what one pair of each model costs
+    r, c = dofs.index(frfs.pairs[0][0]), dofs.index(frfs.pairs[0][1])
+    for model in (nominal, updated):
+        model_receptance(model, r, c, frfs.omega)
+    one_pair_each = len(eigen_solves)
+    assert one_pair_each > 0
+    eigen_solves.clear()
+    plot_measured_frf(tmp_path / "frf.png", frfs, dofs, nominal, updated, "A", "nominal", "updated")
+    assert len(eigen_solves) == one_pair_each   # three panels, one solve per model
+
+
+@pytest.mark.parametrize("kind", ["undamped", "matrix", "law"])
+@pytest.mark.parametrize("n_lines", [7, 80])   # direct solves, and the state-space modes over 50 lines
+def test_receptances_of_several_pairs_equal_the_single_pair_receptances(kind, n_lines):
+    M, K, C, dofs = cantilever_system()
+    omega = np.linspace(10.0, 2500.0, n_lines)
+    pairs = [(0, 4), (4, 0), (2, 2), (0, 13), (13, 4)]   # repeated excitations, a driving point
+    model = (M, K, _damping(kind, M, K, C))
+    together = model_receptances(model, pairs, omega)
+    assert together.shape == (len(pairs), n_lines)
+    for h, (r, c) in zip(together, pairs):
+        alone = model_receptance(model, r, c, omega)
+        np.testing.assert_allclose(h, alone, rtol=1e-10, atol=1e-12 * np.abs(alone).max())
+    if kind != "law":   # the kernels against a direct solve per line
+        Cd = np.zeros_like(M) if model[2] is None else model[2]
+        for h, (r, c) in zip(together, pairs):
+            direct = np.array([np.linalg.solve(K + 1j * w * Cd - w**2 * M, np.eye(M.shape[0])[:, c])[r]
+                               for w in omega])
+            assert np.abs(h - direct).max() < 1e-7 * np.abs(direct).max()
+
+
+def test_receptances_of_a_large_model_share_one_factorization_per_line(monkeypatch):
+    """Over DENSE_LIMIT DOFs: one sparse LU per frequency for every pair."""
+    import scipy.sparse as sp
+
+    from vibupdate.modal import eigen
+    from vibupdate.modal import receptance as module
+
+    M, K, C, dofs = cantilever_system()
+    monkeypatch.setattr(eigen, "DENSE_LIMIT", 5)
+    factorizations = []
+    original = module.spla.splu
+    monkeypatch.setattr(module.spla, "splu", lambda A, *a, **k: factorizations.append(1) or original(A, *a, **k))
+    omega = np.linspace(10.0, 2500.0, 6)
+    pairs = [(0, 4), (2, 2), (13, 4)]
+    h = receptances(sp.csr_matrix(M), sp.csr_matrix(K), pairs, omega, sp.csr_matrix(C))
+    assert len(factorizations) == omega.size
+    for row, (r, c) in zip(h, pairs):
+        direct = np.array([np.linalg.solve(K + 1j * w * C - w**2 * M, np.eye(M.shape[0])[:, c])[r] for w in omega])
+        np.testing.assert_allclose(row, direct, rtol=1e-9)
+    with pytest.raises(ValueError, match="at least one .* pair, got none"):
+        receptances(M, K, [], omega)
+    with pytest.raises(ValueError, match=r"receptance index c=14 is out of range for a model of 14 DOFs"):
+        receptance(M, K, 0, 14, omega)
