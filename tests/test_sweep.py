@@ -443,3 +443,17 @@ def test_certified_range_contains_every_sampled_answer(certified_run):
     for p in run.parameters:
         values = [r[f"p:{p.name}"] for r in rows if r["outcome"] == "verified"]
         assert cert[p.name]["lower"] <= min(values) and max(values) <= cert[p.name]["upper"], (p.name, values)
+
+
+def test_disagreements_between_sampled_and_linearized_ranges():
+    from vibupdate.report.document import sampled_disagreements
+
+    sampled = {"a": {"min": 1.0, "max": 1.0}, "b": {"min": 0.5, "max": 2.5}, "c": {"min": 1.0, "max": 1.1},
+               "d": {"min": 1.0, "max": 2.0}, "e": {"min": None, "max": None}}
+    linearized = {n: {"lower": lo, "upper": hi} for n, lo, hi in
+                  [("a", 0.9, 1.2), ("b", 1.0, 2.0), ("c", 0.0, 3.0), ("d", 0.8, 2.5), ("e", 0.0, 1.0)]}
+    notes = sampled_disagreements(sampled, linearized)
+    assert len(notes) == 3     # d agrees (inside, 1.7x), e has no verified sample
+    assert notes[0].startswith("a: every verified sample gave 1,")
+    assert notes[1].startswith("b: the sampled range [0.5, 2.5] reaches outside the linearized range [1, 2]")
+    assert notes[2].startswith("c: the linearized range [0, 3] is 30x the sampled range [1, 1.1]")

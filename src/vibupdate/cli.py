@@ -56,6 +56,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="random starts of the point estimate whose distinct local minima are counted "
                             "(default 20 with --samples, else none)")
         p.add_argument("--seed", type=int, default=0, help="seed of the samples and starts (default 0)")
+        p.add_argument("--frequency-tolerance", type=float, default=None,
+                       help="for --samples: relative half-width of frequencies without an interval (default: the "
+                            "case's)")
     fx = sub.add_parser("extract", help="extract modes and antiresonances from measured FRFs (docs/frf-extraction.md)")
     fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58) or CSV/npz FRF files")
     fx.add_argument("--band", nargs=2, type=float, metavar=("F1", "F2"), help="frequency band, Hz")
@@ -152,8 +155,10 @@ def _study(args):
                              "ranges); use `vibupdate sweep --multistart N` for a multistart alone")
         return None
     from vibupdate.study.sampled_ranges import SampledRanges
+    from vibupdate.study.sampling import SamplingOptions
 
-    return SampledRanges(args.samples, 20 if starts is None else starts, args.seed, workers=args.workers,
+    return SampledRanges(args.samples, 20 if starts is None else starts, args.seed,
+                         SamplingOptions(frequency_tolerance=args.frequency_tolerance), workers=args.workers,
                          scheduler=args.scheduler)
 
 

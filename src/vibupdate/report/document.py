@@ -122,8 +122,11 @@ def sampled_disagreements(sampled: dict, linearized: dict, wider: float = 2.0) -
             notes.append(f"{name}: the sampled range [{lo:.4g}, {hi:.4g}] reaches outside the linearized range "
                          f"[{a:.4g}, {b:.4g}]: the linearization at the answer misses verified answers of sampled "
                          "data sets")
+        elif hi - lo <= 1e-12 * max(abs(lo), abs(hi), 1e-300) and b > a:
+            notes.append(f"{name}: every verified sample gave {lo:.4g}, the linearized range is [{a:.4g}, {b:.4g}]: "
+                         "the samples did not move it (a bound active in every sample?)")
         elif (b - a) > wider * (hi - lo):
-            notes.append(f"{name}: the linearized range [{a:.4g}, {b:.4g}] is {(b - a) / max(hi - lo, 1e-300):.3g}x "
+            notes.append(f"{name}: the linearized range [{a:.4g}, {b:.4g}] is {(b - a) / (hi - lo):.3g}x "
                          f"the sampled range [{lo:.4g}, {hi:.4g}]: the samples did not reach all the linearization "
                          "allows")
     return notes
