@@ -355,6 +355,12 @@ def test_readme_shows_the_local_and_the_scheduler_sweep():
             if line.startswith("vibupdate run ") and "--samples" in line]
     assert runs and all(a.samples >= 1 and Path(__file__).resolve().parents[1].joinpath(a.case).is_file()
                         for a in runs)
+    for a in runs:   # the data can be sampled as written (no frequency without an interval or a tolerance)
+        from vibupdate.study.sampled_ranges import SampledRanges
+        from vibupdate.study.sampling import SamplingOptions
+
+        case = load_case(Path(__file__).resolve().parents[1] / a.case)
+        SampledRanges(a.samples, sampling=SamplingOptions(frequency_tolerance=a.frequency_tolerance)).check(case)
 
 
 # -- sampled ranges inside `vibupdate run` ----------------------------------------------------------
