@@ -112,10 +112,11 @@ def test_a_second_problem_of_the_same_structure_reuses_the_compiled_solver():
 
 
 def test_sx_and_mx_builds_solve_alike():
-    """The default MX build and the SX build with expansion are the same NLP."""
+    """The default MX build and the SX build with expansion are the same NLP (the lam = 0
+    step by IPOPT too, not by the QP solver)."""
     problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
-    mx = CasadiIpopt(problem, mccormick(problem), cache=None)
-    sx = CasadiIpopt(problem, mccormick(problem), expand=True, cache=None)
+    mx = CasadiIpopt(problem, mccormick(problem), cache=None, relaxation_solver="nlp")
+    sx = CasadiIpopt(problem, mccormick(problem), expand=True, cache=None, relaxation_solver="nlp")
     x0 = np.zeros(problem.n_x)
     z0 = mx.join(x0, problem.u_start, lifted_values(problem, x0, problem.u_start),
                  problem.residual(x0, problem.u_start))
@@ -192,3 +193,141 @@ def test_run_builds_the_problem_once(tmp_path, monkeypatch):
     case = load_case(write_chain_case(tmp_path / "case.toml"))
     run_case(case, tmp_path / "out")
     assert len(calls) == 1
+
+
+def _kkt_violation(problem, envelope, backend, out):
+    """Largest violation of the lam = 0 QP's optimality conditions at ``out``, with the
+    multipliers in the NLP backends' convention: grad f + J_g' mult_g + mult_x = 0 for
+    ``g = [R - A_x xbar - A_u u - A_b t - r0; G [xbar; u; t]]``, feasibility, and each
+    multiplier's sign and complementarity with its bound."""
+    import scipy.sparse as sp
+
+    n_x, n_u, n_b, n_r = backend.sizes
+    x, u, t, R = backend.split(out.z)
+    J = sp.vstack([sp.hstack([-problem.A_x, -problem.A_u, -problem.A_b, sp.eye(n_r)]),
+                   sp.hstack([envelope.G, sp.csr_matrix((4 * n_b, n_r))])]).tocsr()
+    grad = np.concatenate([np.zeros(n_x + n_u + n_b), 2 * problem.row_weight * R])
+    stationarity = np.abs(grad + J.T @ out.mult_g + out.mult_x).max()
+    rows = envelope.G @ np.concatenate([x, u, t])
+    residual = np.abs(R - (problem.A_x @ x + problem.A_u @ u + problem.A_b @ t + problem.r0)).max()
+    rows_out = max(np.max(envelope.lower - rows, initial=0), np.max(rows - envelope.upper, initial=0))
+    m_rows = out.mult_g[n_r:]
+    # a positive multiplier pushes against an upper limit, a negative one against a lower one
+    slack_rows = np.where(m_rows > 0, envelope.upper - rows, rows - envelope.lower)
+    slack_box = np.where(out.mult_x > 0, backend._ubx - out.z, out.z - backend._lbx)
+    complementarity = max(np.max(np.abs(m_rows) * np.minimum(slack_rows, 1.0), initial=0),
+                          np.max(np.abs(out.mult_x) * np.minimum(slack_box, 1.0), initial=0))
+    return max(stationarity, residual, rows_out, complementarity)
+
+
+@pytest.mark.parametrize("boxes", ["formulation", "tight"])
+def test_the_relaxation_qp_meets_the_optimality_conditions_and_matches_ipopt(boxes):
+    """The lam = 0 step by the QP solver: its point and multipliers satisfy the QP's KKT
+    conditions in the NLP convention (so IPOPT can start warm from them), and its optimum is
+    IPOPT's on the same QP. "tight": parameter boxes that exclude the truth, so that the
+    relaxation's optimum is positive and the comparison is not one of two zeros."""
+    from dataclasses import replace
+
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    if boxes == "tight":
+        problem = replace(problem, x_lower=np.full(problem.n_x, 0.3), x_upper=np.full(problem.n_x, 0.4))
+    envelope = mccormick(problem)
+    qp = CasadiIpopt(problem, envelope, cache=None)
+    nlp = CasadiIpopt(problem, envelope, cache=None, relaxation_solver="nlp")
+    x0 = np.clip(np.zeros(problem.n_x), problem.x_lower, problem.x_upper)
+    z0 = qp.join(x0, problem.u_start, lifted_values(problem, x0, problem.u_start), problem.residual(x0, problem.u_start))
+    a, b = qp.solve(z0, 0.0), nlp.solve(z0, 0.0)
+    assert a.status == Status.SUCCESS and a.raw_status == "PIQP_SOLVED"
+    assert b.status.ok and not b.raw_status.startswith("PIQP")
+    scale = max(1.0, np.abs(a.mult_g).max(), np.abs(a.mult_x).max())
+    assert _kkt_violation(problem, envelope, qp, a) <= 1e-7 * scale
+    if boxes == "tight":
+        assert b.objective > 1e-6
+    assert a.objective == pytest.approx(b.objective, rel=1e-6, abs=1e-14)
+    warm = qp.solve(a.z, 1.0, warm=True, mult_x=a.mult_x, mult_g=a.mult_g)
+    cold = qp.solve(a.z, 1.0)
+    assert warm.status.ok and warm.objective == pytest.approx(cold.objective, rel=1e-6, abs=1e-14)
+
+
+def test_a_failed_relaxation_qp_falls_back_to_ipopt(monkeypatch):
+    """When PIQP does not report success the lam = 0 step is solved by IPOPT; the record names both."""
+    from vibupdate.inverse.backends import piqp_relaxation
+
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    backend = CasadiIpopt(problem, mccormick(problem), cache=None, max_iter=50)
+    backend._qp.max_iter = 1
+    x0 = np.zeros(problem.n_x)
+    z0 = backend.join(x0, problem.u_start, lifted_values(problem, x0, problem.u_start),
+                      problem.residual(x0, problem.u_start))
+    out = backend.solve(z0, 0.0)
+    assert out.status.ok
+    assert out.raw_status == "Solve_Succeeded (after PIQP: PIQP_MAX_ITER_REACHED)"
+    assert piqp_relaxation.PIQP_STATUS["PIQP_MAX_ITER_REACHED"] == Status.MAX_ITERATIONS
+    assert all(isinstance(s, Status) for s in piqp_relaxation.PIQP_STATUS.values())
+
+
+def test_an_unknown_relaxation_solver_is_named_in_the_error():
+    with pytest.raises(ValueError, match="relaxation_solver must be 'piqp' or 'nlp', got 'osqp'"):
+        SolverOptions(relaxation_solver="osqp")
+
+
+def test_a_failed_direct_jump_falls_back_to_halved_steps(monkeypatch):
+    """The default path jumps from the relaxation to lam = 1; when that solve fails (warm, and
+    again cold) the step is halved and the path goes on through the lifted problem, reaching
+    the stepped path's answer."""
+    from dataclasses import replace
+
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    failures = []
+
+    class FirstJumpFails:
+        def __init__(self, inner):
+            self.inner = inner
+
+        def join(self, *parts):
+            return self.inner.join(*parts)
+
+        def split(self, z):
+            return self.inner.split(z)
+
+        def solve(self, z0, lam, **kwargs):
+            out = self.inner.solve(z0, lam, **kwargs)
+            if lam == 1.0 and len(failures) < 2:
+                failures.append(kwargs.get("warm", False))
+                return replace(out, status=Status.NUMERICAL_ERROR, raw_status="Restoration_Failed")
+            return out
+
+    module = types.ModuleType("first_jump_fails")
+    module.build = lambda problem, envelope, options: FirstJumpFails(casadi_ipopt.build(problem, envelope, options))
+    monkeypatch.setitem(sys.modules, "first_jump_fails", module)
+    monkeypatch.setitem(backends.BACKENDS, "first-jump-fails", "first_jump_fails")
+    path = solve_homotopy(problem, SolverOptions(backend="first-jump-fails"))
+    assert failures == [True, False]  # warm, then the cold retry
+    assert [(s.lam, s.accepted) for s in path.steps] == [(0.0, True), (1.0, False), (1.0, False), (0.5, True),
+                                                         (1.0, True)]
+    assert path.status == Status.SUCCESS
+    stepped = solve_homotopy(problem, SolverOptions(n_lambda=10))
+    assert [s.lam for s in stepped.steps] == pytest.approx([0.0, 0.1, 0.3, 0.7, 1.0])
+    assert path.objective == pytest.approx(stepped.objective, rel=1e-6, abs=1e-14)
+
+
+def test_a_piqp_exception_is_a_status_and_ipopt_takes_over(monkeypatch):
+    import piqp
+
+    class Broken:
+        def __init__(self):
+            self.settings = types.SimpleNamespace()
+
+        def setup(self, *args):
+            raise ValueError("P must be square")
+
+    monkeypatch.setattr(piqp, "SparseSolver", Broken)
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
+    backend = CasadiIpopt(problem, mccormick(problem), cache=None)
+    x0 = np.zeros(problem.n_x)
+    z0 = backend.join(x0, problem.u_start, lifted_values(problem, x0, problem.u_start),
+                      problem.residual(x0, problem.u_start))
+    relaxed = backend._qp.solve()
+    assert relaxed.status == Status.NUMERICAL_ERROR and relaxed.raw_status == "PIQP error: P must be square"
+    out = backend.solve(z0, 0.0)
+    assert out.status.ok and out.raw_status.endswith("(after PIQP: PIQP error: P must be square)")

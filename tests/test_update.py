@@ -354,6 +354,7 @@ def test_a_backend_exception_becomes_a_status(monkeypatch):
         self._cold = boom
 
     monkeypatch.setattr(backend.CasadiIpopt, "__init__", broken_init)
-    result = update([cfg])
+    # the lam = 0 step by IPOPT, not by the QP solver, so that the broken call is reached
+    result = update([cfg], solver=SolverOptions(relaxation_solver="nlp"))
     assert result.status == Status.NUMERICAL_ERROR
     assert not result.success and result.relaxation_lower_bound is None

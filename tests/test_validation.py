@@ -79,6 +79,7 @@ CHECK_WAS_LOOSER = [
     (_add("solver", "proximal = inf"), r"solver\.proximal"),
     (_add("solver", "step_growth = 0.5"), r"solver(\.step_growth|: step_growth must be a number >= 1)"),
     (_add("solver", "step_growth = 1e9"), r"solver\.step_growth: must be finite and in \[1, 100\]"),
+    (_add("solver", 'relaxation_solver = "osqp"'), r"solver: relaxation_solver must be .piqp. or .nlp., got .osqp."),
     (_add("formulation", "shape_margin = inf"), r"formulation\.shape_margin: must be a finite number"),
     (_add("formulation", "adjunct_margin = 1e300"), r"formulation\.adjunct_margin: must be <= 100"),
     (_add("formulation", "length_scale = inf"), r"formulation\.length_scale"),

@@ -78,7 +78,7 @@ TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list
 POLISH_KEYS = {"enabled": bool, "shape_weight": float, "max_evaluations": int, "tol": float}
 VERIFICATION_KEYS = {"mac_min": float, "shape_slack": float, "fit_tolerance": float}
 SOLVER_KEYS = {"n_lambda": int, "step_growth": float, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
-                "tol": float}
+                "tol": float, "relaxation_solver": str}
 FORMULATION_KEYS = {"shape_margin": float, "adjunct_margin": float, "sign_delta": float, "length_scale": float,
                      "weighting": str, "interlacing": bool, "reduction": str, "reduction_modes": int,
                      "reduction_threshold": int}

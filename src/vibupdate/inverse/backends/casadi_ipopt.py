@@ -21,6 +21,12 @@ the NLP over ``[xbar, u, R]`` without ``t`` and the McCormick rows has the same 
 is about half the size (`_compile`); `CasadiIpopt.solve` uses it for every ``lam = 1`` step
 and returns the outcome in the lifted layout.
 
+**At ``lam = 0`` the QP.** The cold ``lam = 0`` step without a proximal term is the convex
+McCormick relaxation; by default it is solved by a QP interior-point method
+(`vibupdate.inverse.backends.piqp_relaxation`, about ten times faster than IPOPT on it), with
+IPOPT on the lifted NLP as the fallback when the QP solver does not report success
+(``relaxation_solver = "nlp"`` uses IPOPT directly).
+
 Each NLP has a cold IPOPT instance (IPOPT's default start) and a warm one that re-uses the
 previous primal point and multipliers with small bound pushes, each built on first use.
 
@@ -33,7 +39,7 @@ import hashlib
 import threading
 import time
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -44,7 +50,10 @@ from vibupdate.inverse.interrupt import watch_sigint
 from vibupdate.inverse.relaxation import McCormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "from_ipopt", "build"]
+__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "RELAXATION_SOLVERS", "from_ipopt", "build"]
+
+#: What may solve the cold ``lam = 0`` step (module docstring).
+RELAXATION_SOLVERS = ("piqp", "nlp")
 
 #: IPOPT's ``return_status`` strings (as CasADi reports them) -> Status.
 IPOPT_STATUS = {
@@ -93,16 +102,19 @@ class _Compiled:
     options: dict
     solvers: dict = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
+    build_lock: threading.Lock = field(default_factory=threading.Lock)
 
     def solver(self, nlp: str, start: str):
         """The IPOPT instance of NLP ``"lifted"`` or ``"exact"`` with ``"cold"`` or ``"warm"`` options."""
         key = (nlp, start)
-        if key not in self.solvers:
-            import casadi as ca
+        with self.build_lock:
+            if key not in self.solvers:
+                import casadi as ca
 
-            with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
-                self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp], self.options[start])
-        return self.solvers[key]
+                with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
+                    self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp],
+                                                  self.options[start])
+            return self.solvers[key]
 
 
 class SolverCache:
@@ -163,8 +175,8 @@ def _structure_key(mats, problem: BilinearProblem, expand: bool, settings: dict)
 
 
 def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _Compiled:
-    """Build the parametric step NLPs (module docstring) and the cold IPOPT instance of the
-    lifted one. The exact NLP (``lam = 1``) has no ``t`` and no McCormick rows, over
+    """Build the parametric step NLPs (module docstring); their IPOPT instances are built on
+    first use (`_Compiled.solver`). The exact NLP (``lam = 1``) has no ``t`` and no McCormick rows, over
     ``[xbar, u, R]``, with the same parameters ``p`` (``lam`` and the rows' coefficients unused):
     at ``lam = 1`` the residual does not involve ``t``, and every ``(xbar, u)`` in its box
     leaves ``t = xbar[px] u[pu]`` feasible, so both NLPs have the same minimizers in
@@ -218,9 +230,7 @@ def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _C
         "ipopt.mu_init": 1e-6,
         "ipopt.mu_strategy": "adaptive",
     }
-    compiled = _Compiled(nlps=nlps, options={"cold": cold, "warm": warm})
-    compiled.solver("lifted", "cold")
-    return compiled
+    return _Compiled(nlps=nlps, options={"cold": cold, "warm": warm})
 
 
 class CasadiIpopt:
@@ -239,11 +249,17 @@ class CasadiIpopt:
         Build in SX and expand (True) or keep MX (False, the default: module docstring).
     cache : SolverCache, optional
         Where compiled NLPs are kept (default `CACHE`); ``None`` compiles a private one.
+    relaxation_solver : {"piqp", "nlp"}, optional
+        What solves the cold ``lam = 0`` step without a proximal term: the QP solver PIQP
+        (default; IPOPT when it fails) or IPOPT on the lifted NLP (module docstring).
     """
 
     def __init__(self, problem: BilinearProblem, envelope: McCormick, *, max_iter: int = 3000,
                  max_cpu_time: float = 600.0, tol: float = 1e-10, expand: bool = False,
-                 cache: SolverCache | None = CACHE):
+                 cache: SolverCache | None = CACHE, relaxation_solver: str = "piqp"):
+        if relaxation_solver not in RELAXATION_SOLVERS:
+            raise ValueError(f"relaxation_solver must be one of {sorted(RELAXATION_SOLVERS)}, "
+                             f"got {relaxation_solver!r}")
         self.problem = problem
         n_x, n_u, n_b, n_r = problem.n_x, problem.n_u, problem.n_b, problem.n_r
         self.sizes = (n_x, n_u, n_b, n_r)
@@ -255,7 +271,7 @@ class CasadiIpopt:
             self._compiled = _compile(mats, problem, self.expand, settings)
         else:
             self._compiled = cache.get(key, lambda: _compile(mats, problem, self.expand, settings))
-        self._cold = self._compiled.solver("lifted", "cold")
+        self._cold = None  # the lifted NLP's cold IPOPT instance: the first step's solver without the QP
         self._data = np.concatenate([problem.row_weight, problem.r0, *(A.data for A in mats)])
         self._row_weight = np.asarray(problem.row_weight, float)
         self._lbx = np.concatenate([problem.x_lower, problem.u_lower, envelope.t_lower, np.full(n_r, -np.inf)])
@@ -263,6 +279,13 @@ class CasadiIpopt:
         self._lbg = np.concatenate([np.zeros(n_r), envelope.lower])
         self._ubg = np.concatenate([np.zeros(n_r), envelope.upper])
         self._exact_entries = np.r_[0:n_x + n_u, n_x + n_u + n_b:n_x + n_u + n_b + n_r]
+        self._qp = None
+        if relaxation_solver == "piqp":
+            from vibupdate.inverse.backends.piqp_relaxation import RelaxationQP
+
+            self._qp = RelaxationQP(problem, envelope, self._lbx, self._ubx, max_iter=max_iter, tol=tol)
+        else:
+            self._cold = self._compiled.solver("lifted", "cold")
 
     def split(self, z):
         """``z`` -> (xbar, u, t, R)."""
@@ -282,7 +305,8 @@ class CasadiIpopt:
               mult_x=None, mult_g=None) -> StepOutcome:
         """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with the multipliers).
 
-        At ``lam = 1`` the exact NLP is solved (no ``t``, no McCormick rows: `_compile`); the
+        The cold ``lam = 0`` step without a proximal term goes to the QP solver when one was
+        chosen (module docstring). At ``lam = 1`` the exact NLP is solved (no ``t``, no McCormick rows: `_compile`); the
         returned ``z`` then has ``t = xbar[px] u[pu]`` and zero multipliers for ``t`` and the
         rows, so the outcome looks the same to the caller.
 
@@ -290,6 +314,19 @@ class CasadiIpopt:
         at the next iteration and would otherwise report an ordinary failure,
         `vibupdate.inverse.interrupt`).
         """
+        if lam == 0.0 and prox_weight == 0.0 and not warm and self._qp is not None:
+            relaxed = self._qp.solve()
+            if relaxed.status.ok:
+                return relaxed
+            out = self._solve_nlp(z0, lam)
+            return replace(out, raw_status=f"{out.raw_status} (after PIQP: {relaxed.raw_status})",
+                           seconds=out.seconds + relaxed.seconds)
+        return self._solve_nlp(z0, lam, prox_weight=prox_weight, z_prev=z_prev, warm=warm, mult_x=mult_x,
+                               mult_g=mult_g)
+
+    def _solve_nlp(self, z0, lam: float, *, prox_weight: float = 0.0, z_prev=None, warm: bool = False,
+                   mult_x=None, mult_g=None) -> StepOutcome:
+        """`solve` by IPOPT on the lifted NLP (the exact one at ``lam = 1``)."""
         n_x, n_u, n_b, n_r = self.sizes
         z0 = np.clip(np.asarray(z0, float), self._lbx, self._ubx)
         z_prev = z0 if z_prev is None else np.asarray(z_prev, float)
@@ -300,7 +337,11 @@ class CasadiIpopt:
                     lbg=self._lbg[:n_r] if exact else self._lbg, ubg=self._ubg[:n_r] if exact else self._ubg)
         start = time.perf_counter()
         try:
-            solver = self._cold if not exact else self._compiled.solver("exact", "cold")
+            if exact:
+                solver = self._compiled.solver("exact", "cold")
+            else:
+                self._cold = self._cold or self._compiled.solver("lifted", "cold")
+                solver = self._cold
             if warm and mult_x is not None and mult_g is not None:
                 solver = self._compiled.solver("exact" if exact else "lifted", "warm")
                 mult_x, mult_g = np.asarray(mult_x, float), np.asarray(mult_g, float)
@@ -339,4 +380,4 @@ class CasadiIpopt:
 def build(problem: BilinearProblem, envelope: McCormick, options) -> CasadiIpopt:
     """The backend protocol's entry (`vibupdate.inverse.backends.build`)."""
     return CasadiIpopt(problem, envelope, max_iter=options.max_iter, max_cpu_time=options.max_cpu_time,
-                       tol=options.tol)
+                       tol=options.tol, relaxation_solver=options.relaxation_solver)
