@@ -101,6 +101,13 @@ def size_for(target_dofs: int) -> tuple[int, int]:
     return best[1], best[2]
 
 
+def _check_size(storeys, bays) -> None:
+    if not isinstance(storeys, (int, np.integer)) or storeys < GROUPS:
+        raise ValueError(f"a building needs at least {GROUPS} storeys (one per parameter group), got {storeys!r}")
+    if not isinstance(bays, (int, np.integer)) or bays < 1:
+        raise ValueError(f"a building needs at least 1 bay, got {bays!r}")
+
+
 def _groups(storeys: int) -> np.ndarray:
     """Group (0-based) of each storey 1..storeys, shape (storeys,)."""
     return np.minimum((np.arange(storeys) * GROUPS) // storeys, GROUPS - 1)
@@ -109,6 +116,7 @@ def _groups(storeys: int) -> np.ndarray:
 @lru_cache(maxsize=None)
 def _mesh(storeys: int, bays: int):
     """Node labels and coordinates, and per element kind the (first, second, storey) arrays."""
+    _check_size(storeys, bays)
     labels, xs, ys = [], [], []
     for j in range(bays + 1):
         for i in range(storeys + 1):
@@ -145,7 +153,7 @@ def _mesh(storeys: int, bays: int):
 
 def build(p: dict, storeys: int, bays: int) -> System:
     """Mass and stiffness of the frame (complex-safe in the parameter values ``p``)."""
-    labels, xs, ys, columns, beams = _mesh(int(storeys), int(bays))
+    labels, xs, ys, columns, beams = _mesh(storeys, bays)
     group = _groups(storeys)
     asm = Assembly("frame")
     asm.nodes(labels, xs, ys)
