@@ -503,3 +503,25 @@ def test_southampton_frame_element_model_updated_from_frfs_in_one_run(tmp_path):
         failed = [c["name"] for c in doc["checks"] if not c.get("passed", True)]
         assert "fit" in failed, failed
     assert (tmp_path / "out" / "frf_frame.png").is_file()
+
+
+def test_extraction_runs_on_one_blas_thread(monkeypatch):
+    """Many small least-squares problems: a multithreaded BLAS only spins (111 s against 1.9 s
+    on the Southampton data with OpenBLAS's default threads, see `extract`)."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from vibupdate.data import extraction
+
+    seen = []
+    inner = extraction._extract
+
+    def spy(*args):
+        seen.extend(pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas")
+        return inner(*args)
+
+    monkeypatch.setattr(extraction, "_extract", spy)
+    frfs, *_ = measured(3, repeats=2)
+    with threadpool_limits(limits=2, user_api="blas"):  # as on a machine without OMP_NUM_THREADS=1
+        assert {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"} == {2}
+        extraction.extract(frfs)
+    assert seen and set(seen) == {1}
