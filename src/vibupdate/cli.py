@@ -48,6 +48,17 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("--out", default=None, help="output folder (default: ./NAME-results)")
     ex.add_argument("--force", action="store_true", help="as for run")
     ex.add_argument("--certify", type=float, default=None, metavar="SECONDS", help="as for run")
+    for p in (run, ex):
+        p.add_argument("--samples", type=int, default=None, metavar="N",
+                       help="also update N data sets drawn inside the measured intervals on Dask and report the "
+                            "sampled ranges beside the linearized (and certified) ones")
+        p.add_argument("--multistart", type=int, default=None, metavar="N",
+                       help="random starts of the point estimate whose distinct local minima are counted "
+                            "(default 20 with --samples, else none)")
+        p.add_argument("--seed", type=int, default=0, help="seed of the samples and starts (default 0)")
+        p.add_argument("--frequency-tolerance", type=float, default=None,
+                       help="for --samples: relative half-width of frequencies without an interval (default: the "
+                            "case's)")
     fx = sub.add_parser("extract", help="extract modes and antiresonances from measured FRFs (docs/frf-extraction.md)")
     fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58) or CSV/npz FRF files")
     fx.add_argument("--band", nargs=2, type=float, metavar=("F1", "F2"), help="frequency band, Hz")
@@ -81,12 +92,15 @@ def _parser() -> argparse.ArgumentParser:
                        help="also solve the point estimate from N random starts and count distinct minima")
     sweep.add_argument("--no-random-start", action="store_true",
                        help="keep each sample's homotopy answer; no solve from a random start")
+    sweep.add_argument("--no-walk", action="store_true",
+                       help="do not walk a verified answer along exact null directions of the sensitivity to the "
+                            "ends of its line of equally good answers")
     sweep.add_argument("--resume", action="store_true", help="finish the sweep already in --out")
     sweep.add_argument("--out", default=None, help="output directory (default: ./CASE-sweep)")
     batch = sub.add_parser("batch", help="run many case files, one results folder each and a summary table")
     batch.add_argument("cases", nargs="+", help="case files (TOML)")
     batch.add_argument("--out", required=True, help="output directory")
-    for p in (sweep, batch):
+    for p in (run, ex, sweep, batch):
         p.add_argument("--workers", type=int, default=None, help="local Dask worker processes (default: one per core)")
         p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                        help="address of an existing Dask scheduler, e.g. tcp://10.0.0.5:8786")
@@ -109,7 +123,7 @@ def _sweep(args) -> int:
     from vibupdate.study.sweep import run_sweep
 
     sampling = SamplingOptions(args.distribution, args.confidence, args.frequency_tolerance,
-                               random_start=not args.no_random_start)
+                               random_start=not args.no_random_start, walk=not args.no_walk)
     case = load_case(args.case)
     out = Path(args.out or f"{case.name}-sweep")
     if args.multistart < 0:
@@ -132,6 +146,22 @@ def _sweep(args) -> int:
     return EXIT["success"] if summary.verified > 0 else EXIT["not_verified"]
 
 
+def _study(args):
+    """The sampled ranges and multistart of ``run``/``example`` (None without them)."""
+    starts = args.multistart
+    if args.samples is None:
+        if starts:
+            raise ValueError("--multistart in a run needs --samples (the multistart is reported beside the sampled "
+                             "ranges); use `vibupdate sweep --multistart N` for a multistart alone")
+        return None
+    from vibupdate.study.sampled_ranges import SampledRanges
+    from vibupdate.study.sampling import SamplingOptions
+
+    return SampledRanges(args.samples, 20 if starts is None else starts, args.seed,
+                         SamplingOptions(frequency_tolerance=args.frequency_tolerance), workers=args.workers,
+                         scheduler=args.scheduler)
+
+
 def _batch(args) -> int:
     from vibupdate.study.batch import run_batch
 
@@ -140,10 +170,10 @@ def _batch(args) -> int:
 
 
 def _print_tables(document: dict) -> None:
-    from vibupdate.report.document import (certified_table_text, damping_table_text, frequency_table_text,
+    from vibupdate.report.document import (damping_table_text, ranges_table_text, frequency_table_text,
                                   parameter_table_text, summary_text)
 
-    for text in (frequency_table_text(document), parameter_table_text(document), certified_table_text(document),
+    for text in (frequency_table_text(document), parameter_table_text(document), ranges_table_text(document),
                  damping_table_text(document), summary_text(document)):
         if text:
             print()
@@ -189,7 +219,7 @@ def _command(args) -> int:
             print("\n".join(example_names()))
             return EXIT["success"]
         return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
-                                   force=args.force, certify=args.certify))
+                                   force=args.force, certify=args.certify, study=_study(args)))
     case = _load(args.case)
     if args.command == "check":
         checked = check_case(case)
@@ -201,7 +231,7 @@ def _command(args) -> int:
         print("problem size: " + ", ".join(f"{k} {v}" for k, v in checked.sizes.items()))
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
-    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify))
+    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args)))
 
 
 def _extract(args) -> int:

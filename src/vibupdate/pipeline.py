@@ -153,11 +153,13 @@ def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> tuple[str, st
     return caption, path.name
 
 
-def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
+def write_outputs(folder: Path, case: Case, run: RunResult,
+                  extra: Callable[[Path], list[tuple[str, str]]] | None = None) -> list[str]:
     """Write ``results.json``, ``report.md``, plots and matrices of ``run`` into ``folder``.
 
     Every file is written from ``run`` (the nominal models for the FRF plot from ``case``);
-    returns the file names written.
+    ``extra(folder)``, when given, writes a study's files and returns its plots as
+    ``(caption, file name)`` for the report. Returns the file names written.
     """
     from vibupdate.report.plots import plot_frf, plot_homotopy, plot_mac
     from vibupdate.report.document import markdown_report
@@ -188,6 +190,8 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
             images.append((f"MAC configuration {cfg.name}", file))
     plot_homotopy(folder / "homotopy.png", run.solver["steps"])
     images.append(("homotopy objective per step", "homotopy.png"))
+    if extra is not None:
+        images += extra(folder)
     document = run.as_document()
     (folder / "report.md").write_text(markdown_report(document, images, list(run.warnings)), encoding="utf-8")
     write_results(folder / "results.json", run)
@@ -195,11 +199,18 @@ def write_outputs(folder: Path, case: Case, run: RunResult) -> list[str]:
 
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
-             paper: dict | None = None, force: bool = False, certify: float | None = None) -> RunResult:
+             paper: dict | None = None, force: bool = False, certify: float | None = None,
+             study=None) -> RunResult:
     """Both stages on a case; writes the results folder and returns the results object.
 
     ``certify``: time budget in seconds of the certified outer parameter ranges
     (`vibupdate.ranges.certify`, in ``identifiability.certified``); None skips them.
+
+    ``study``: a further study of the case run after the update, such as the sampled ranges
+    and multistart of `vibupdate.study.sampled_ranges.SampledRanges`. It has ``files`` (names
+    it writes), ``check(case)`` (raises ValueError before any work) and is called as
+    ``study(case, result, say) -> (sections, write)``: ``sections`` join
+    ``identifiability``, ``write(folder)`` writes its files and returns its plots.
 
     The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
     file vibupdate did not write unless ``force``); the files are written beside it and moved
@@ -214,7 +225,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     checked = validate_case(case)       # what check validates, before anything is touched
     for w in checked.warnings:
         say(f"warning: {w}")
-    target = prepare_output(out_dir, force=force, planned=planned_files(case))
+    if study is not None:
+        study.check(case)
+    target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()))
     verification = case.verification
     if case.frequency_tolerance > 0:
         verification = replace(verification, frequency_tolerance=case.frequency_tolerance)
@@ -239,9 +252,14 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     if certify is not None:
         identifiability["certified"] = _certified(case, result, certify, say)
+    extra = None
+    if study is not None:
+        sections, extra = study(case, result, say)
+        identifiability.update(sections)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
-    write_published(target, lambda staged: write_outputs(staged, case, run), case=case.name, version=__version__)
+    write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
+                    version=__version__)
     say(f"wrote {target.path}/ (results.json, report.md, plots, matrices; {MANIFEST} lists them)")
     return run
 
@@ -260,7 +278,7 @@ def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
 
 
 def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,
-                force: bool = False, certify: float | None = None) -> RunResult:
+                force: bool = False, certify: float | None = None, study=None) -> RunResult:
     """Run a bundled example end to end (`run_case`); returns the results object."""
     say = progress or (lambda message: None)
     module = example_module(name)
@@ -269,4 +287,4 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
     paper = module.paper_values() if hasattr(module, "paper_values") else None
-    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify)
+    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify, study=study)

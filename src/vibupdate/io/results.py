@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT_VERSION", "ParameterRow", "FrequencyRow", "DampingRow", "Summary", "RunResult", "run_result",
-           "write_results", "load_results", "schema", "validate_document"]
+__all__ = ["FORMAT_VERSION", "ParameterRow", "FrequencyRow", "DampingRow", "Summary", "SampledRange", "Sampled",
+           "Multistart", "RunResult", "run_result", "write_results", "load_results", "schema", "validate_document"]
 
 #: Version of the layout of ``results.json`` (raised when a key is added).
 FORMAT_VERSION = 2
@@ -131,6 +131,59 @@ class Summary(_Row):
     extra: tuple = ()
 
 
+@dataclass(frozen=True)
+class SampledRange(_Row):
+    """One parameter over the verified samples of ``run --samples``, in its unit: ``min`` and
+    ``max`` over the answers and the line ends along null directions; the quantiles over the
+    answers (None without a verified sample)."""
+
+    unit: str
+    min: float | None
+    max: float | None
+    q05: float | None
+    q50: float | None
+    q95: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class Sampled:
+    """``identifiability.sampled``: the counts of the samples and each parameter's range."""
+
+    samples: int
+    verified: int
+    unverified: int
+    failed: int
+    line_ends: int
+    seed: int
+    distribution: str
+    ranges: dict[str, SampledRange]
+
+    @classmethod
+    def from_dict(cls, data: Mapping) -> Sampled:
+        return cls(int(data["samples"]), int(data["verified"]), int(data["unverified"]), int(data["failed"]),
+                   int(data["line_ends"]), int(data["seed"]), str(data["distribution"]),
+                   {n: SampledRange.from_dict(r) for n, r in data["ranges"].items()})
+
+
+@dataclass(frozen=True)
+class Multistart:
+    """``identifiability.multistart``: random starts of the point estimate grouped into
+    distinct local minima (``minima``: dicts with ``objective``, ``starts``, ``values`` per
+    parameter in its unit), best first."""
+
+    starts: int
+    failed: int
+    distinct_minima: int
+    x_tol: float
+    minima: tuple[dict, ...]
+
+    @classmethod
+    def from_dict(cls, data: Mapping) -> Multistart:
+        return cls(int(data["starts"]), int(data["failed"]), int(data["distinct_minima"]), float(data["x_tol"]),
+                   tuple(dict(m) for m in data["minima"]))
+
+
 #: Top-level fields of `RunResult` that are not written to ``results.json``.
 _NOT_WRITTEN = ("matrices",)
 
@@ -209,6 +262,18 @@ class RunResult:
     def status(self) -> str:
         """The first stage's status string (``solver["status"]``)."""
         return str(self.solver.get("status", ""))
+
+    @property
+    def sampled(self) -> Sampled | None:
+        """The sampled ranges (``run --samples``), typed; None when not computed."""
+        data = (self.identifiability or {}).get("sampled")
+        return Sampled.from_dict(data) if data else None
+
+    @property
+    def multistart(self) -> Multistart | None:
+        """The multistart of the point estimate, typed; None when not run."""
+        data = (self.identifiability or {}).get("multistart")
+        return Multistart.from_dict(data) if data else None
 
     def as_document(self) -> dict:
         """The ``results.json`` document (JSON-safe)."""

@@ -229,7 +229,7 @@ def _physical(case, error) -> tuple[list[str], int]:
                 changed.append((at.rigid_body_modes, _describe(model, up)))
         rigid_all = max(rigid_all, found.rigid_body_modes)
         text = (f"{cfg.name}: {model.n_dofs} DOFs, {found.rigid_body_modes} rigid-body mode(s)"
-                + (f", {len(found.massless)} DOF(s) without mass (condensed statically by the eigen-solvers)"
+                + (f", {len(found.massless)} DOF(s) without mass ({_massless_path(model.n_dofs)})"
                    if found.massless else ", M positive definite")
                 + f"; M, K checked at the nominal point and {len(corners)} corners of the parameter box")
         notes.append(text)
@@ -238,6 +238,15 @@ def _physical(case, error) -> tuple[list[str], int]:
             notes.append(f"{cfg.name}: {n} rigid-body mode(s) at the corner with {where} (nominal: "
                          f"{found.rigid_body_modes})")
     return notes, rigid_all
+
+
+def _massless_path(n_dofs: int) -> str:
+    """How the eigen-solvers treat massless DOFs at this model size."""
+    from vibupdate.modal.analysis import DENSE_LIMIT
+
+    if n_dofs <= DENSE_LIMIT:
+        return f"condensed statically by the dense eigen-solver, up to {DENSE_LIMIT} DOFs"
+    return "shift-invert eigen-solves: only K - sigma M is factorized, M is never inverted"
 
 
 def _describe(model, up) -> str:

@@ -34,6 +34,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from vibupdate.modal.refinement import block_size, refine_modes
+
 __all__ = ["modes", "mode_residuals", "massless_dofs", "check_dof_pair", "MASSLESS_TOL", "DENSE_LIMIT", "DENSE_MAX",
            "RESIDUAL_TOL", "ModalAccuracyError"]
 
@@ -210,13 +212,15 @@ def _sparse_modes(M, K, k: int, rtol: float):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
     sigma, lu = _shifted_lu(Ks, Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
-    eigval, V = spla.eigsh(Ks, k=k, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0)
-    order = np.argsort(eigval)
-    eigval, V = eigval[order], V[:, order]
-    # One step of inverse iteration: removes any component along the infinite modes of a
-    # singular M and sharpens the vectors.
-    V = lu.solve(np.asarray(Ms @ V)) * (eigval - sigma)
-    V = V / np.sqrt(np.einsum("ij,ij->j", V, Ms @ V))
+    q = block_size(k, Ks.shape[0] - massless_dofs(Ms).size - 1)
+    # A fixed start vector: the same matrices give the same modes in every run.
+    v0 = np.random.default_rng(0).standard_normal(Ks.shape[0])
+    _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0, v0=v0)
+    # One refined step of inverse iteration on the block and a Rayleigh-Ritz projection
+    # (`vibupdate.modal.refinement`): removes any component along the infinite modes of a
+    # singular M and recovers the digits the solves lose on fine meshes.
+    eigval, V = refine_modes(Ms, Ks, lu.solve, sigma, V)
+    eigval, V = eigval[:k], V[:, :k]
     omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
     eta = mode_residuals(Ms, Ks, omega, V)
     bad = np.flatnonzero(eta > rtol)

@@ -113,16 +113,12 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
     Mphi = M @ phi
     entries = np.asarray(entries, dtype=int)
-    out = np.empty((entries.size, model.n_parameters))
-    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        f = Ki @ phi - eigval * (Mi @ phi)
-        d_eigval = phi @ f
-        rhs = -f + d_eigval * Mphi
-        v = np.zeros(n)
-        v[keep] = solve(rhs[keep])
-        ref = phi[reference]
-        out[:, i] = (v[entries] * ref - phi[entries] * v[reference]) / ref**2
-    return out
+    F = np.column_stack([Ki @ phi - eigval * (Mi @ phi) for Mi, Ki in zip(model.M_par, model.K_par)])
+    d_eigval = phi @ F
+    V = np.zeros((n, model.n_parameters))
+    V[keep] = solve((-F + np.outer(Mphi, d_eigval))[keep])   # every parameter in one solve
+    ref = phi[reference]
+    return (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):

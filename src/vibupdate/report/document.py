@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 __all__ = ["frequency_table_text", "parameter_table_text", "damping_table_text", "summary_text", "markdown_report",
-           "certified_table_text"]
+           "ranges_table_text", "sampled_disagreements", "range_notes", "multistart_text"]
 
 #: What the lambda = 0 optimum says (issue 11): the lifted variables absorb every mismatch, so
 #: it is ~0 on every example.
@@ -72,34 +72,128 @@ def _certified(document: dict) -> dict:
     return (document.get("identifiability") or {}).get("certified") or {}
 
 
+def _sampled(document: dict) -> dict:
+    return (document.get("identifiability") or {}).get("sampled") or {}
+
+
 def _other_ranges(document: dict) -> dict:
+    """The ranges beside the certified ones: ``{label: {name: {...}}}``, sampled first."""
     ident = document.get("identifiability") or {}
     others = {}
+    if _sampled(document).get("ranges"):
+        others["sampled"] = _sampled(document)["ranges"]
     if ident.get("ranges"):
         others["linearized"] = ident["ranges"]
-    if ident.get("sampled"):
-        others["sampled"] = ident["sampled"]
     return others
 
 
-def certified_table_text(document: dict) -> str:
-    """Certified outer / linearized (/ sampled) range per parameter, and the disagreements."""
+def _ends(r: dict) -> tuple:
+    return r.get("lower", r.get("min")), r.get("upper", r.get("max"))
+
+
+def sampled_disagreements(sampled: dict, linearized: dict, wider: float = 2.0) -> list[str]:
+    """Where the linearized ranges disagree with the sampled ones.
+
+    Parameters
+    ----------
+    sampled : dict
+        ``{name: {"min", "max", ...}}`` (``identifiability.sampled.ranges``).
+    linearized : dict
+        ``{name: {"lower", "upper", ...}}`` (``identifiability.ranges``).
+    wider : float
+        A linearized range wider than ``wider`` times the sampled one is reported.
+
+    Returns
+    -------
+    list of str
+        One sentence per parameter: sampled verified answers outside the linearized range
+        (the linearization misses values the data allow), or a linearized range much wider
+        than the sampled one (the samples did not reach what the linearization allows).
+    """
+    notes = []
+    for name, s in sampled.items():
+        lo, hi = _ends(s)
+        lin = linearized.get(name)
+        if lo is None or hi is None or not lin or lin.get("lower") is None or lin.get("upper") is None:
+            continue
+        a, b = lin["lower"], lin["upper"]
+        tol = 1e-9 * max(abs(a), abs(b), 1e-300)
+        if lo < a - tol or hi > b + tol:
+            notes.append(f"{name}: the sampled range [{lo:.4g}, {hi:.4g}] reaches outside the linearized range "
+                         f"[{a:.4g}, {b:.4g}]: the linearization at the answer misses verified answers of sampled "
+                         "data sets")
+        elif hi - lo <= 1e-12 * max(abs(lo), abs(hi), 1e-300) and b > a:
+            notes.append(f"{name}: every verified sample gave {lo:.4g}, the linearized range is [{a:.4g}, {b:.4g}]: "
+                         "the samples did not move it (a bound active in every sample?)")
+        elif (b - a) > wider * (hi - lo):
+            notes.append(f"{name}: the linearized range [{a:.4g}, {b:.4g}] is {(b - a) / (hi - lo):.3g}x "
+                         f"the sampled range [{lo:.4g}, {hi:.4g}]: the samples did not reach all the linearization "
+                         "allows")
+    return notes
+
+
+def range_notes(document: dict) -> list[str]:
+    """Every disagreement between the certified, sampled and linearized ranges present."""
     from vibupdate.ranges.certify import range_disagreements
 
-    cert = _certified(document)
-    if not cert:
-        return ""
     others = _other_ranges(document)
-    head = f"{'name':>8} {'certified lower':>15} {'upper':>11} {'cert.':>5}"
+    notes = range_disagreements(_certified(document)["ranges"], others) if _certified(document) else []
+    if "sampled" in others and "linearized" in others:
+        notes += sampled_disagreements(others["sampled"], others["linearized"])
+    return notes
+
+
+def multistart_text(document: dict) -> str:
+    """One sentence on the multistart of the point estimate, or "" without one."""
+    ms = (document.get("identifiability") or {}).get("multistart")
+    if not ms:
+        return ""
+    converged = ms["starts"] - ms["failed"]
+    objectives = [m["objective"] for m in ms["minima"] if m.get("objective") is not None]
+    spread = (f", objectives {min(objectives):.4g} to {max(objectives):.4g}" if len(objectives) > 1
+              else (f", objective {objectives[0]:.4g}" if objectives else ""))
+    return (f"multistart of the point estimate: {ms['distinct_minima']} distinct local minima from {converged} "
+            f"converged of {ms['starts']} random starts{spread} (answers more than {ms['x_tol']:g} apart in a "
+            "normalized parameter count as distinct; many minima with equal objectives are a continuum, not "
+            "competing answers)")
+
+
+def ranges_table_text(document: dict) -> str:
+    """Certified outer, sampled and linearized ranges per parameter side by side (those present),
+    the disagreements between them and the multistart count; "" when no range was computed."""
+    cert = _certified(document)
+    others = _other_ranges(document)
+    if not cert and not others:
+        return multistart_text(document)
+    names = [p["name"] for p in document["parameters"]]
+    head = f"{'name':>8}"
+    if cert:
+        head += f" {'certified lower':>15} {'upper':>11} {'cert.':>5}"
     head += "".join(f" {label + ' lower':>17} {'upper':>11}" for label in others)
-    lines = [f"Certified outer ranges ({cert['message']}, {cert['seconds']:.1f} s)", head]
-    for name, c in cert["ranges"].items():
-        line = f"{name:>8} {_fmt(c['lower'], '15.5g')} {_fmt(c['upper'], '11.5g')} {'yes' if c['certified'] else 'no':>5}"
+    kinds = (["certified outer"] if cert else []) + [
+        {"sampled": "sampled", "linearized": "linearized at the answer"}[label] for label in others]
+    lines = ["Parameter ranges: " + ", ".join(kinds)]
+    if cert:
+        lines.append(f"Certified outer ranges ({cert['message']}, {cert['seconds']:.1f} s)")
+    sampled = _sampled(document)
+    if sampled:
+        lines.append(f"Sampled ranges: {sampled['verified']} verified, {sampled['unverified']} unverified, "
+                     f"{sampled['failed']} failed of {sampled['samples']} samples; {sampled.get('line_ends', 0)} "
+                     "line ends along null directions")
+    lines.append(head)
+    for name in names:
+        line = f"{name:>8}"
+        if cert:
+            c = cert["ranges"].get(name, {})
+            line += (f" {_fmt(c.get('lower'), '15.5g')} {_fmt(c.get('upper'), '11.5g')} "
+                     f"{'yes' if c.get('certified') else 'no':>5}")
         for ranges in others.values():
-            o = ranges.get(name, {})
-            line += f" {_fmt(o.get('lower', o.get('min')), '17.5g')} {_fmt(o.get('upper', o.get('max')), '11.5g')}"
+            lo, hi = _ends(ranges.get(name, {}))
+            line += f" {_fmt(lo, '17.5g')} {_fmt(hi, '11.5g')}"
         lines.append(line)
-    lines += [f"disagreement: {n}" for n in range_disagreements(cert["ranges"], others)]
+    lines += [f"disagreement: {n}" for n in range_notes(document)]
+    if multistart_text(document):
+        lines.append(multistart_text(document))
     return "\n".join(lines)
 
 
@@ -202,6 +296,44 @@ def _paper_damping(document, cfg, mode, column):
     return None
 
 
+def _ranges_markdown(document: dict) -> list[str]:
+    """The paragraphs of ``report.md`` on the sampled and certified ranges, their
+    disagreements and the multistart."""
+    out = []
+    sampled = _sampled(document)
+    if sampled:
+        out += [f"Sampled range: {sampled['samples']} data sets drawn inside the measured intervals "
+                f"({sampled.get('distribution', 'uniform')}, seed {sampled.get('seed')}), each updated and verified "
+                "as this run was "
+                f"({sampled['verified']} verified, {sampled['unverified']} not verified, "
+                f"{sampled['failed']} failed; the last two are counted, not used). Where the data leave a "
+                "combination undetermined (an exact null direction at a verified answer) the answer was walked "
+                "along it to the farthest point still verified against the same data "
+                f"({sampled.get('line_ends', 0)} such ends). The range is the min and max over the verified "
+                "answers and these ends: an inner estimate of what the data allow (every value in it is a verified "
+                "answer of some data set inside the intervals; values outside may still be consistent).", ""]
+    info = _certified(document)
+    if info:
+        out += ["Certified outer range: min and max of each parameter over a convex (McCormick, linear "
+                "programming) relaxation of the consistent set S below, with bound tightening and branching; every point of S "
+                "lies inside. Each end is a safe Lagrangian bound evaluated from the LP solver's multipliers with "
+                "its rounding accounted for; \"certified\" means the safe bound confirms the solver's optimum, "
+                "\"no\" that the reported (still valid) range may be looser. " + info["definition"]
+                + f" Outcome: {info['message']}; {info['passes']} tightening pass(es), {info['n_lps']} LPs, "
+                f"{info['seconds']:.1f} s (root {info['root_seconds']:.1f} s).", ""]
+    if len(_other_ranges(document)) + bool(info) >= 2:
+        notes = range_notes(document)
+        out += (["Where the ranges disagree:", ""] + [f"- {n}" for n in notes] + [""] if notes
+                else ["The ranges agree: "
+                      + ("the other ranges lie inside the certified ones and none is less than half as wide"
+                         if info else "the sampled ranges lie inside the linearized ones and are at least half as "
+                         "wide") + ".", ""])
+    if multistart_text(document):
+        text = multistart_text(document)
+        out += [text[0].upper() + text[1:] + ".", ""]
+    return out
+
+
 def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: list[str] = ()) -> str:
     """``report.md``: parameters, frequencies, damping and solver tables, plots, notes."""
     paper = document.get("paper") or {}
@@ -225,9 +357,10 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
     truth = paper.get("truth") or {}
     ranges = (document.get("identifiability") or {}).get("ranges") or {}
     cert = _certified(document).get("ranges") or {}
+    sampled = _sampled(document).get("ranges") or {}
     header = (["parameter", "unit", "nominal", "lower", "upper", "updated"] + (["paper"] if pp else [])
               + (["true", "error %"] if truth else []) + (["consistent range", "width %"] if ranges else [])
-              + (["certified outer range", "certified"] if cert else []))
+              + (["sampled range"] if sampled else []) + (["certified outer range", "certified"] if cert else []))
     rows = []
     for p in document["parameters"]:
         row = [p["name"], p["unit"], _g(p["nominal"]), _g(p["lower"]), _g(p["upper"]), _g(p["updated"])]
@@ -239,13 +372,17 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
         if ranges:
             rg = ranges.get(p["name"], {})
             row += [f"[{_g(rg.get('lower'))}, {_g(rg.get('upper'))}]", _g(rg.get("width_pct"), ".1f")]
+        if sampled:
+            sr = sampled.get(p["name"], {})
+            row += [f"[{_g(sr.get('min'))}, {_g(sr.get('max'))}]"]
         if cert:
             c = cert.get(p["name"], {})
             row += [f"[{_g(c.get('lower'))}, {_g(c.get('upper'))}]", "yes" if c.get("certified") else "no"]
         rows.append(row)
     out += ["## Parameters", ""] + _md_table(header, rows) + [""]
     if ranges:
-        determined = [n for n, rg in ranges.items() if rg["width_pct"] <= 5.0]
+        # a width is None where its linear programs found no finite range (NaN in the results)
+        determined = [n for n, rg in ranges.items() if rg["width_pct"] is not None and rg["width_pct"] <= 5.0]
         tol = 100 * (document["identifiability"].get("frequency_tolerance") or 0)
         window = document["identifiability"].get("frequency_windows") or f"{tol:.2g} %"
         out += ["Consistent range (linearized at the verified answer, two linear programs per parameter): the "
@@ -255,20 +392,7 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
                 "linearization may miss consistent sets (another local minimum, a strongly nonlinear direction). "
                 "Its width, in per cent of the nominal (or reference) value, shows what the data determine near "
                 "the answer. Within 5 %: " + (", ".join(determined) or "none") + ".", ""]
-    if cert:
-        from vibupdate.ranges.certify import range_disagreements
-
-        info = _certified(document)
-        notes_ = range_disagreements(cert, _other_ranges(document))
-        out += ["Certified outer range: min and max of each parameter over a convex (McCormick, linear "
-                "programming) relaxation of the consistent set S below, with bound tightening and branching; every point of S "
-                "lies inside. Each end is a safe Lagrangian bound evaluated from the LP solver's multipliers with "
-                "its rounding accounted for; \"certified\" means the safe bound confirms the solver's optimum, "
-                "\"no\" that the reported (still valid) range may be looser. " + info["definition"]
-                + f" Outcome: {info['message']}; {info['passes']} tightening pass(es), {info['n_lps']} LPs, "
-                f"{info['seconds']:.1f} s (root {info['root_seconds']:.1f} s).", ""]
-        out += (["Where the ranges disagree:", ""] + [f"- {n}" for n in notes_] + [""] if notes_
-                else ["The other ranges lie inside the certified ones and none is less than half as wide.", ""])
+    out += _ranges_markdown(document)
     ident = document.get("identifiability")
     if ident:
         norms = ident["column_norm"]

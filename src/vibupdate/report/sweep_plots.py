@@ -71,16 +71,29 @@ def plot_histograms(path, document: dict, rows) -> Path:
     return _save(plt, fig, path)
 
 
-def plot_pairs(path, document: dict, rows, names) -> Path:
-    """Pairwise scatter of the named parameters over the verified samples."""
+def plot_pairs(path, document: dict, rows, names, ends=()) -> Path:
+    """Pairwise scatter of the named parameters over the verified samples; where a sample's
+    answer was walked along a null direction (``ends``, rows of ``line_ends.csv``), the segment
+    between the two ends of that direction is drawn as a line."""
     plt = _pyplot()
     ok = _verified(rows)
+    verified = {r["index"] for r in ok}
+    segments: dict = {}
+    for e in ends:
+        if e["index"] in verified:
+            segments.setdefault((e["index"], e["direction"]), []).append(e)
     pairs = list(combinations(names, 2))
     cols = min(3, max(1, len(pairs)))
     nrows = max(1, int(np.ceil(len(pairs) / cols)))
-    fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 3.2 * nrows), squeeze=False)
+    fig, axes = plt.subplots(nrows, cols, figsize=(max(3.6 * cols, 6.0), 3.2 * nrows + 0.4), squeeze=False)
     bounds = {p["name"]: (p["lower"], p["upper"]) for p in document["parameters"]}
+    by_index = {r["index"]: r for r in ok}
     for ax, (a, b) in zip(axes.flat, pairs):
+        for (index, _), pair in segments.items():
+            # the walk is straight through the answer: its ends (one per side) and the answer
+            points = sorted([by_index[index], *pair], key=lambda q: (q[f"p:{a}"], q[f"p:{b}"]))
+            ax.plot([points[0][f"p:{a}"], points[-1][f"p:{a}"]], [points[0][f"p:{b}"], points[-1][f"p:{b}"]],
+                    "-", color="tab:green", lw=0.6, alpha=0.5)
         ax.plot([r[f"p:{a}"] for r in ok], [r[f"p:{b}"] for r in ok], ".", ms=3)
         ax.set_xlim(*bounds[a])
         ax.set_ylim(*bounds[b])
@@ -88,7 +101,8 @@ def plot_pairs(path, document: dict, rows, names) -> Path:
         ax.set_ylabel(b)
     for ax in list(axes.flat)[len(pairs):]:
         ax.set_visible(False)
-    fig.suptitle(f"least-determined parameters (axes: bounds); {_counts(document)}", fontsize=9)
+    walked = f"\ngreen: lines of equally good answers ({len(segments)} walked to their ends)" if segments else ""
+    fig.suptitle(f"least-determined parameters (axes: bounds); {_counts(document)}{walked}", fontsize=9)
     return _save(plt, fig, path)
 
 
@@ -166,13 +180,13 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
     return _save(plt, fig, path)
 
 
-def write_sweep_plots(out: Path, case, rows, document: dict) -> list[Path]:
+def write_sweep_plots(out: Path, case, rows, document: dict, ends=()) -> list[Path]:
     """All plots of a sweep into ``out``; returns their paths."""
     out = Path(out)
     files = [plot_histograms(out / "parameters_hist.png", document, rows)]
     names = least_determined(document)
     if len(names) >= 2:
-        files.append(plot_pairs(out / "parameters_pairs.png", document, rows, names))
+        files.append(plot_pairs(out / "parameters_pairs.png", document, rows, names, ends))
     files.append(plot_frequency_bands(out / "frequency_bands.png", document))
     for cfg in case.configurations:
         files.append(plot_frf_band(out / f"frf_band_{cfg.name}.png", case, cfg, rows))

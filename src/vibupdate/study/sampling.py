@@ -59,6 +59,10 @@ class SamplingOptions:
         homotopy alone returns, for data that leave a direction undetermined, the point of
         that direction nearest the nominal model, so the samples would not show how far the
         direction extends.
+    walk : bool
+        At a verified answer whose sensitivity has exact null directions, walk along each to
+        the farthest point that is still a verified answer of the sample's data
+        (`vibupdate.study.extent`); the ends widen the sampled ``min`` and ``max``.
     """
 
     distribution: str = "uniform"
@@ -67,6 +71,7 @@ class SamplingOptions:
     damping_tolerance: float = 0.10
     shape_width: float = 0.10
     random_start: bool = True
+    walk: bool = True
 
     def __post_init__(self):
         if self.distribution not in DISTRIBUTIONS:
@@ -83,7 +88,7 @@ class SamplingOptions:
     def as_dict(self) -> dict:
         return {"distribution": self.distribution, "confidence": self.confidence,
                 "frequency_tolerance": self.frequency_tolerance, "damping_tolerance": self.damping_tolerance,
-                "shape_width": self.shape_width, "random_start": self.random_start}
+                "shape_width": self.shape_width, "random_start": self.random_start, "walk": self.walk}
 
 
 def sample_rng(seed: int, index: int, stream: int = 0) -> np.random.Generator:

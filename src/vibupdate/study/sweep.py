@@ -15,6 +15,13 @@ Outcome of a sample (column ``outcome``):
 Nothing is dropped: every sample is a row of ``samples.csv``; the ranges and quantiles of
 ``sweep.json`` are taken over the verified rows only, and the counts of the others stated.
 
+Where the data leave a combination of parameters undetermined (an exact null direction of
+the sensitivity at a verified answer), the answer is one point of a line of equally good
+answers; the walk of `vibupdate.study.extent` finds the line's ends inside the bounds (each a
+verified answer of the same sample's data) and writes them to ``line_ends.csv``, one row per
+end. The sampled ``min`` and ``max`` of each parameter are taken over the verified answers and
+these ends; the quantiles over the answers alone (one per sample).
+
 Robustness. Rows are appended to ``samples.csv`` (and flushed to disk) as tasks complete, so
 a stopped run keeps its work; ``resume=True`` reads the finished indices and submits only
 the others. A sample's data depend on ``(seed, index)`` alone, so a resumed run gives the
@@ -40,19 +47,23 @@ from vibupdate.io.case import Case, load_case
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
 from vibupdate.inverse.reduction import wants_reduction
+from vibupdate.study.extent import ACCEPT_FRACTION
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
 from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
+from vibupdate.study.sweep_summary import SweepSummary, summarize
 
-__all__ = ["CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize", "read_rows"]
+__all__ = ["ACCEPT_FRACTION", "CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize",
+           "read_rows"]
 
 SAMPLES_FILE = "samples.csv"
 SETTINGS_FILE = "sweep-settings.json"
 SUMMARY_FILE = "sweep.json"
 #: Columns whose values depend on the run (timing, worker), not on the sample.
-RUN_COLUMNS = ("seconds", "worker")
-#: A random-start answer replaces the homotopy answer of a sample when each of its frequency
-#: errors is at most the homotopy's plus this fraction of the datum's interval half-width.
-ACCEPT_FRACTION = 0.05
+RUN_COLUMNS = ("seconds", "cpu_seconds", "worker")
+#: The ends of the walks along null directions (`vibupdate.study.extent`), one row per end.
+ENDS_FILE = "line_ends.csv"
+#: Key of a task's row under which it returns its line ends (not a column of ``samples.csv``).
+ENDS_KEY = "_line_ends"
 #: Proximal weight of the random-start solve (`vibupdate.study.multistart.random_start_solve`).
 START_PROXIMAL = 1e-3
 
@@ -113,8 +124,15 @@ def columns(case: Case, sampling: SamplingOptions) -> list[str]:
     if any(f.damping_ratio is not None for c in cfgs for f in c.natural):
         exponents = (case.damping.exponents if case.damping else (0.0, 1.0))
         damping = [f"beta{i}" for i in range(len(exponents))]
-    return ["index", "outcome", "status", "start", "objective", *names, *predicted, *data, *damping,
-            "seconds", "worker", "message"]
+    return ["index", "outcome", "status", "start", "objective", *names, "line_ends", *predicted, *data, *damping,
+            "seconds", "cpu_seconds", "worker", "message"]
+
+
+def end_columns(case: Case) -> list[str]:
+    """Header of ``line_ends.csv``: the sample's index, the null direction (1-based), the
+    side (+1/-1), the step from the answer (normalized), why the walk stopped, parameters."""
+    return ["index", "direction", "side", "distance", "stop",
+            *[f"p:{p.name}" for p in case.configurations[0].model.parameters]]
 
 
 def _outcome(result) -> str:
@@ -126,6 +144,8 @@ def _outcome(result) -> str:
 def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     """Draw sample ``index`` and update it; one row of ``samples.csv`` (never raises on a
     failed solve or inconsistent drawn data: those are rows with ``outcome = "failed"``).
+    The row carries the sample's line ends (`vibupdate.study.extent`) under ``ENDS_KEY``, as
+    rows of ``line_ends.csv``.
 
     Parameters
     ----------
@@ -138,13 +158,14 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     from vibupdate.inverse.update import update
     from vibupdate.inverse.verify import VerifyOptions
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     case = _resolve(case)
     row: dict = {"index": index, "worker": os.getpid()}
     try:
         cfgs, drawn = draw_configurations(case.configurations, case.frequency_tolerance, seed, index, sampling)
     except ValueError as exc:
-        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
+        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
+                   cpu_seconds=time.process_time() - cpu)
         return row
     row.update({f"data:{k}": v for k, v in drawn.items()})
     tolerance = case.frequency_tolerance if sampling.frequency_tolerance is None else sampling.frequency_tolerance
@@ -152,16 +173,19 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     try:
         result = update(cfgs, formulation=case.formulation, solver=case.solver, verification=verification)
     except ValueError as exc:
-        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start)
+        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
+                   cpu_seconds=time.process_time() - cpu)
         return row
     row.update(outcome=_outcome(result), status=result.status.value, objective=result.objective,
                message=result.message, start="homotopy")
-    xbar, frequencies = result.xbar, None
-    if sampling.random_start and result.success and not wants_reduction(cfgs, case.formulation):
-        other = _random_start(case, cfgs, seed, index, result, sampling, verification)
-        if other is not None:
-            (xbar, row["objective"], frequencies), row["start"] = other, "random"
     model = cfgs[0].model
+    xbar, frequencies, ends = result.xbar, None, []
+    if result.success and (sampling.random_start or sampling.walk):
+        xbar, frequencies, ends, kept = _beyond_homotopy(case, cfgs, seed, index, result, sampling, verification)
+        if kept is not None:
+            row["objective"], row["start"] = kept, "random"
+    row["line_ends"] = len(ends)
+    row[ENDS_KEY] = ends
     row.update({f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(xbar))})
     for cfg, freqs in zip(cfgs, frequencies or [model_frequencies(c, xbar) for c in cfgs]):
         row.update({f"pred:{cfg.name}:f{k}_hz": float(w) / TWO_PI for k, w in enumerate(freqs.natural, start=1)})
@@ -174,115 +198,63 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
         except ValueError as exc:
             row["message"] += f"; damping stage: {exc}"
     row["seconds"] = time.perf_counter() - start
+    row["cpu_seconds"] = time.process_time() - cpu
     return row
 
 
-def _misfit(cfgs, frequencies) -> np.ndarray:
-    """Relative error of the model frequencies (`model_frequencies`, one per configuration)
-    for every measured frequency of ``cfgs``."""
-    errors = []
-    for cfg, freqs in zip(cfgs, frequencies):
-        errors += [abs(w - f.omega) / f.omega for w, f in zip(freqs.natural, cfg.natural)]
-        errors += [abs(w - a.omega) / a.omega for w, a in zip(freqs.antiresonances, cfg.antiresonances)]
-    return np.nan_to_num(np.array(errors), nan=np.inf)
+def _beyond_homotopy(case: Case, cfgs, seed: int, index: int, result, sampling: SamplingOptions, verification):
+    """After a verified homotopy answer: the random start's answer when it is accepted, then
+    the walk along the null directions at the kept answer.
+
+    Returns ``(xbar, frequencies, ends, objective)``: the kept answer, its paired model data,
+    the rows of its line ends, and the random start's objective (None when the homotopy's
+    answer stands)."""
+    model = cfgs[0].model
+    accept = _acceptance(case, cfgs, result, sampling, verification)
+    xbar, frequencies, objective, ends = result.xbar, accept.answer, None, []
+    if sampling.random_start and not wants_reduction(cfgs, case.formulation):
+        other = _random_start(case, cfgs, seed, index, accept)
+        if other is not None:
+            xbar, objective, frequencies = other
+    if sampling.walk:
+        from vibupdate.study.extent import walk_null_directions
+
+        for e in walk_null_directions(cfgs, xbar, accept, freqs=frequencies):
+            values = model.physical(e.xbar)
+            ends.append({"index": index, "direction": e.direction, "side": e.side, "distance": e.distance,
+                         "stop": e.stop, **{f"p:{p.name}": float(v) for p, v in zip(model.parameters, values)}})
+    return xbar, frequencies, ends, objective
 
 
-def _random_start(case: Case, cfgs, seed: int, index: int, result, sampling: SamplingOptions, verification):
+def _acceptance(case: Case, cfgs, result, sampling: SamplingOptions, verification):
+    """The test of other answers of the sample (`vibupdate.study.extent.Acceptance`), against
+    its verified homotopy answer ``result``."""
+    from vibupdate.study.extent import Acceptance
+
+    half = np.array([0.5 * (hi - lo) / value for label, value, lo, hi
+                     in data_intervals(case.configurations, case.frequency_tolerance, sampling) if ":xi" not in label])
+    return Acceptance(cfgs, result, half, verification)
+
+
+def _random_start(case: Case, cfgs, seed: int, index: int, accept) -> tuple | None:
     """``(xbar, objective, frequencies)`` of a random-start solve of the sample (`vibupdate.study.multistart.
-    random_start_solve`) when it converged, fits the drawn data no worse than the verified
-    homotopy answer ``result.xbar`` (every frequency's relative error at most the homotopy's
-    plus ``ACCEPT_FRACTION`` times that datum's relative interval half-width) and passes the
-    same verification (`vibupdate.inverse.verify.verify`); None otherwise, and the homotopy's answer
-    stands."""
+    random_start_solve`) when it converged and ``accept`` (`_acceptance`) takes its answer: it
+    fits the drawn data no worse than the verified homotopy answer (every frequency's
+    relative error at most the homotopy's plus ``ACCEPT_FRACTION`` times that datum's relative
+    interval half-width) and passes the same verification; None otherwise, and the homotopy's
+    answer stands."""
     from vibupdate.study.multistart import build_solver, random_start_solve
     from vibupdate.study.sampling import sample_rng
-    from vibupdate.inverse.verify import verify
 
-    xbar_h = result.xbar
     problem, backend = build_solver(cfgs, case.formulation, case.solver)
     other = random_start_solve(problem, backend, sample_rng(seed, index, stream=1), proximal=START_PROXIMAL)
     if not other["ok"]:
         return None
-    half = np.array([0.5 * (hi - lo) / value for label, value, lo, hi
-                     in data_intervals(case.configurations, case.frequency_tolerance, sampling) if ":xi" not in label])
     xbar = np.asarray(other["xbar"])
-    updated = [model_frequencies(c, xbar) for c in cfgs]
-    if not np.all(_misfit(cfgs, updated) <= _misfit(cfgs, [model_frequencies(c, xbar_h) for c in cfgs])
-                  + ACCEPT_FRACTION * half):
-        return None
-    checks = verify(cfgs, xbar, nominal=[model_frequencies(c) for c in cfgs],
-                    updated=updated, lower_bound=result.relaxation_lower_bound,
-                    n_blocks=len(result.vectors), options=verification)
-    if any(c.severity == "error" and not c.passed for c in checks):
+    updated = accept.frequencies(xbar)
+    if updated is None:
         return None
     return xbar, float(other["objective"]), updated
-
-
-# -- summary ----------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class SweepSummary:
-    """What ``sweep.json`` holds (see `summarize`) and where the run wrote it."""
-
-    document: dict
-    out_dir: Path
-
-    @property
-    def samples(self) -> int:
-        return self.document["samples"]
-
-    @property
-    def verified(self) -> int:
-        return self.document["verified"]
-
-    @property
-    def failed(self) -> int:
-        return self.document["failed"]
-
-    def parameter(self, name: str) -> dict:
-        for p in self.document["parameters"]:
-            if p["name"] == name:
-                return p
-        raise ValueError(f"no parameter {name!r} in the sweep; parameters: "
-                         f"{', '.join(p['name'] for p in self.document['parameters'])}")
-
-
-def _stats(values) -> dict:
-    v = np.asarray([x for x in values if x is not None], dtype=float)
-    if v.size == 0:
-        return {"min": None, "max": None, "q05": None, "q50": None, "q95": None}
-    q = np.quantile(v, [0.05, 0.5, 0.95])
-    return {"min": float(v.min()), "max": float(v.max()), "q05": float(q[0]), "q50": float(q[1]),
-            "q95": float(q[2])}
-
-
-def summarize(case: Case, rows: list[dict], settings: dict) -> dict:
-    """The ``sweep.json`` document: counts, and per parameter (in its unit) and per predicted
-    frequency (Hz) the range and the 5/50/95 % quantiles over the verified samples."""
-    outcomes = [r["outcome"] for r in rows]
-    ok = [r for r in rows if r["outcome"] == "verified"]
-    params = []
-    for p in case.configurations[0].model.parameters:
-        s = _stats(r.get(f"p:{p.name}") for r in ok)
-        width = p.upper - p.lower
-        spread = None if s["min"] is None or width <= 0 else (s["q95"] - s["q05"]) / width
-        params.append({"name": p.name, "unit": p.unit, **s, "nominal": p.nominal, "lower": p.lower,
-                       "upper": p.upper, "spread_of_bounds": spread})
-    predictions = []
-    for label, value, lo, hi in data_intervals(case.configurations, case.frequency_tolerance,
-                                               SamplingOptions(**settings["sampling"])):
-        if ":xi" in label:
-            continue
-        predictions.append({"label": label, "measured_hz": value, "interval_hz": [lo, hi],
-                            **_stats(r.get(f"pred:{label}") for r in ok)})
-    failures: dict[str, int] = {}
-    for r in rows:
-        if r["outcome"] == "failed":
-            failures[str(r["status"])] = failures.get(str(r["status"]), 0) + 1
-    return {"case": case.name, "samples": len(rows), "verified": outcomes.count("verified"),
-            "unverified": outcomes.count("unverified"), "failed": outcomes.count("failed"),
-            "failed_by_status": failures, "seed": settings["seed"], "sampling": settings["sampling"],
-            "parameters": params, "predictions": predictions}
 
 
 # -- the run ----------------------------------------------------------------------------------------
@@ -322,7 +294,8 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
         A loaded case, or the path of a case file (workers load it once each; it must be at
         the same path on every worker).
     out_dir : str or Path
-        ``samples.csv`` (one row per sample, sorted by index at the end), ``sweep.json``,
+        ``samples.csv`` (one row per sample, sorted by index at the end), ``line_ends.csv``
+        (the ends of the walks along null directions), ``sweep.json``,
         ``sweep-settings.json`` and the plots.
     samples : int
         Number of samples (indices ``0 .. samples - 1``).
@@ -359,18 +332,23 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     out = Path(out_dir)
     settings = _settings(seed, sampling, digest, loaded)
     _prepare_out(out, settings, resume)
-    fields = columns(loaded, sampling)
+    fields, end_fields = columns(loaded, sampling), end_columns(loaded)
     rows: list[dict] = []
+    ends: list[dict] = []
     if resume and (out / SAMPLES_FILE).exists():
         header, rows = read_rows(out / SAMPLES_FILE)
         if header and header != fields:
             raise ValueError(f"cannot resume {str(out)!r}: {SAMPLES_FILE} has other columns than this case gives")
         rows = [r for r in rows if isinstance(r["index"], int) and r["index"] < samples]
     done = {r["index"] for r in rows}
+    if resume and (out / ENDS_FILE).exists():
+        # ends are written before their sample's row: ends of a sample without a row are redone
+        ends = [e for e in read_rows(out / ENDS_FILE)[1] if e["index"] in done]
+        write_sorted(out / ENDS_FILE, end_fields, ends)
     todo = [i for i in range(samples) if i not in done]
     if resume:
         say(f"resuming: {len(done)} of {samples} samples done, {len(todo)} to go")
-    writer = RowWriter(out / SAMPLES_FILE, fields)
+    writers = (RowWriter(out / SAMPLES_FILE, fields), RowWriter(out / ENDS_FILE, end_fields))
     n_workers, wall = 0, 0.0
     try:
         if todo:
@@ -378,33 +356,41 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
                 n_workers = len(c.scheduler_info(n_workers=-1)["workers"])
                 say(f"sweep of {loaded.name!r}: {samples} samples on {n_workers} Dask worker(s)")
                 start = time.perf_counter()
-                rows += _run_tasks(c, loaded if source is None else source, todo, seed, sampling, digest, retries,
-                                   writer, Progress(samples, say, already=len(done)))
+                new_rows, new_ends = _run_tasks(c, loaded if source is None else source, todo, seed, sampling,
+                                                digest, retries, writers, Progress(samples, say, already=len(done)))
+                rows, ends = rows + new_rows, ends + new_ends
                 wall = time.perf_counter() - start
     finally:
-        writer.close()
+        for w in writers:
+            w.close()
     write_sorted(out / SAMPLES_FILE, fields, rows)
-    document = summarize(loaded, rows, settings)
+    write_sorted(out / ENDS_FILE, end_fields, ends)
+    document = summarize(loaded, rows, settings, ends)
     submitted = set(todo)
     new = [r for r in rows if r["index"] in submitted and isinstance(r.get("seconds"), float)]
     document["timing"] = {
         "note": ("this run only, from the first submission to the last result (cluster start-up excluded); "
-                 "overhead = (wall x workers - time inside the tasks) / tasks; timings vary with the load"),
+                 "overhead = (wall x workers - time inside the tasks) / tasks; task_cpu_seconds_mean is the CPU "
+                 "time of a task's process, below its wall time when other processes took the cores; timings "
+                 "vary with the load"),
         "tasks": len(new), "workers": n_workers, "task_phase_wall_seconds": wall,
         "task_seconds_mean": float(np.mean([r["seconds"] for r in new])) if new else None,
+        "task_cpu_seconds_mean": (float(np.mean([r["cpu_seconds"] for r in new]))
+                                  if new and all(isinstance(r.get("cpu_seconds"), float) for r in new) else None),
         "overhead_per_task_seconds": (wall * n_workers - sum(r["seconds"] for r in new)) / len(new) if new else None,
     }
     (out / SUMMARY_FILE).write_text(json.dumps(document, indent=2), encoding="utf-8")
     if plots:
         from vibupdate.report.sweep_plots import write_sweep_plots
 
-        write_sweep_plots(out, loaded, rows, document)
+        write_sweep_plots(out, loaded, rows, document, ends)
     say(f"{document['verified']} verified, {document['unverified']} unverified, {document['failed']} failed "
         f"of {document['samples']} samples; wrote {out}/")
     return SweepSummary(document, out)
 
 
-def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writer, progress) -> list[dict]:
+def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writers, progress) -> tuple[list[dict], list[dict]]:
+    """Submit the samples ``todo``; write each row (after its line ends) as it arrives."""
     from distributed import as_completed
 
     if isinstance(payload, Case):
@@ -414,7 +400,7 @@ def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writer, progre
         f = c.submit(run_sample, payload, i, seed, sampling, key=f"vibupdate-sample-{digest[:16]}-{seed}-{i}",
                      retries=retries, pure=False)
         futures[f.key] = (f, i)
-    rows = []
+    rows, ends = [], []
     for f in as_completed([f for f, _ in futures.values()]):
         index = futures[f.key][1]
         try:
@@ -423,7 +409,11 @@ def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writer, progre
             row = {"index": index, "outcome": "failed", "status": "task_error",
                    "message": f"{type(exc).__name__}: {exc}"}
         f.release()
-        writer.append(row)
+        sample_ends = row.pop(ENDS_KEY, [])
+        for e in sample_ends:
+            writers[1].append(e)
+        writers[0].append(row)
         rows.append(row)
+        ends += sample_ends
         progress.tick(failed=row["outcome"] == "failed")
-    return rows
+    return rows, ends

@@ -22,7 +22,7 @@ from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
 from vibupdate.study.sweep import RUN_COLUMNS, read_rows, run_sweep
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+SRC = str(Path(__file__).resolve().parents[2] / "src")
 
 
 @pytest.fixture(scope="module")
@@ -131,14 +131,14 @@ def scale_sweep(client, tmp_path_factory):
     case = Case("scale", None, (Configuration("A", model, (NaturalFrequency(omega[0]),)),), SolverOptions(),
                 FormulationOptions(), None, 0.005)
     out = tmp_path_factory.mktemp("scale") / "s"
-    summary = run_sweep(case, out, 20, seed=3, client=client, plots=False)
+    summary = run_sweep(case, out, 20, seed=3, client=client)
     _, rows = read_rows(out / "samples.csv")
     ok = np.array([[r["p:sk"], r["p:sm"]] for r in rows if r["outcome"] == "verified"])
-    return summary, ok
+    return summary, ok, model, rows, read_rows(out / "line_ends.csv")[1]
 
 
 def test_scale_symmetry_shows_as_a_line(scale_sweep):
-    summary, ok = scale_sweep
+    summary, ok, *_ = scale_sweep
     assert len(ok) >= 18
     ratio = ok[:, 0] / ok[:, 1]
     # a frequency interval of +-0.5 % allows sk / sm within about +-1 %: the answers lie on that line ...
@@ -147,13 +147,55 @@ def test_scale_symmetry_shows_as_a_line(scale_sweep):
     assert np.ptp(ok[:, 0]) > 5 * np.ptp(ratio)
 
 
-@pytest.mark.xfail(strict=True, reason="measured with 20 samples: the sampled sk range 0.722-1.250 covers 88 % "
-                   "of the bounds 0.7-1.3 (target 90 %); the random starts reach near, not to, the ends of the line")
 def test_scale_symmetry_range_fills_the_bounds(scale_sweep):
-    summary, _ = scale_sweep
-    p = summary.parameter("sk")
-    covered = (p["max"] - p["min"]) / (p["upper"] - p["lower"])
-    assert covered >= 0.9, f"sampled sk range {p['min']:.3f}-{p['max']:.3f} covers {100 * covered:.0f} % of the bounds"
+    summary, *_ = scale_sweep
+    for name in ("sk", "sm"):
+        p = summary.parameter(name)
+        covered = (p["max"] - p["min"]) / (p["upper"] - p["lower"])
+        assert covered >= 0.95, (f"sampled {name} range {p['min']:.3f}-{p['max']:.3f} covers {100 * covered:.0f} % "
+                                 "of the bounds")
+        # the answers alone stay inside; the quantiles are over the answers
+        assert p["min"] <= p["answers_min"] <= p["q05"] and p["q95"] <= p["answers_max"] <= p["max"]
+    assert summary.document["line_ends"] >= 2 * 18
+
+
+def test_line_ends_are_answers_of_their_sample(scale_sweep):
+    """Each end of a walk along the exact symmetry fits its sample's drawn frequency as well as
+    the sample's verified answer (checked here by a separate eigen-solve) and lies on the
+    bounds, on the same line sk / sm as the answer."""
+    summary, _, model, rows, ends = scale_sweep
+    by_index = {r["index"]: r for r in rows}
+    assert ends and {e["index"] for e in ends} <= {r["index"] for r in rows if r["outcome"] == "verified"}
+    for e in ends:
+        row = by_index[e["index"]]
+        M, K = model.matrices(model.normalized([e["p:sk"], e["p:sm"]]))
+        omega, _ = modes(M, K, 1)
+        assert omega[0] / (2 * np.pi) == pytest.approx(row["pred:A:f1_hz"], rel=1e-8)
+        assert e["p:sk"] / e["p:sm"] == pytest.approx(row["p:sk"] / row["p:sm"], rel=1e-9)
+        assert e["stop"] == "bound" and min(abs(e[f"p:{n}"] - b) for n in ("sk", "sm") for b in (0.7, 1.3)) < 1e-9
+
+
+def test_resume_drops_line_ends_of_unfinished_samples(client, tmp_path):
+    """A run stopped between writing a sample's line ends and its row: the resumed sweep redoes
+    that sample and keeps its ends once, as an uninterrupted run has them."""
+    model = from_builder(_scale_build, [Parameter("sk", 1.0, 0.7, 1.3), Parameter("sm", 1.0, 0.7, 1.3)])
+    M, K = model.matrices(model.normalized([1.1, 1.1]))
+    omega, _ = modes(M, K, 1)
+    case = Case("scale", None, (Configuration("A", model, (NaturalFrequency(omega[0]),)),), SolverOptions(),
+                FormulationOptions(), None, 0.005)
+    whole, stopped = tmp_path / "whole", tmp_path / "stopped"
+    run_sweep(case, whole, 5, seed=8, client=client, plots=False)
+    run_sweep(case, stopped, 5, seed=8, client=client, plots=False)
+    lines = (stopped / "samples.csv").read_text().splitlines(keepends=True)
+    (stopped / "samples.csv").write_text("".join(lines[:3]))        # header + 2 rows: 3 samples lost
+    _, ends_before = read_rows(stopped / "line_ends.csv")
+    assert len(ends_before) == 10                                    # their ends were written
+    run_sweep(case, stopped, 5, seed=8, client=client, resume=True, plots=False)
+    for name in ("samples.csv", "line_ends.csv"):
+        _, a = read_rows(stopped / name)
+        _, b = read_rows(whole / name)
+        assert _data_rows(a) == _data_rows(b), name
+    assert len(read_rows(stopped / "line_ends.csv")[1]) == 10
 
 
 def test_a_killed_worker_costs_only_its_tasks(client, chain_file, tmp_path):
@@ -303,9 +345,121 @@ def test_multistart_counts_minima_and_finds_the_truth(client, chain_file):
 def test_readme_shows_the_local_and_the_scheduler_sweep():
     from vibupdate.cli import _parser
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     lines = [line.split() for line in text.splitlines() if line.startswith("vibupdate sweep ")]
     parsed = [_parser().parse_args(words[1:]) for words in lines]
     assert any(a.scheduler is None for a in parsed)
     assert any(a.scheduler and a.scheduler.startswith("tcp://") for a in parsed)
-    assert all(Path(__file__).resolve().parents[1].joinpath(a.case).is_file() for a in parsed)
+    assert all(Path(__file__).resolve().parents[2].joinpath(a.case).is_file() for a in parsed)
+    runs = [_parser().parse_args(line.split()[1:]) for line in text.splitlines()
+            if line.startswith("vibupdate run ") and "--samples" in line]
+    assert runs and all(a.samples >= 1 and Path(__file__).resolve().parents[2].joinpath(a.case).is_file()
+                        for a in runs)
+    for a in runs:   # the data can be sampled as written (no frequency without an interval or a tolerance)
+        from vibupdate.study.sampled_ranges import SampledRanges
+        from vibupdate.study.sampling import SamplingOptions
+
+        case = load_case(Path(__file__).resolve().parents[2] / a.case)
+        SampledRanges(a.samples, sampling=SamplingOptions(frequency_tolerance=a.frequency_tolerance)).check(case)
+
+
+# -- sampled ranges inside `vibupdate run` ----------------------------------------------------------
+
+def test_run_with_samples_shows_the_ranges_side_by_side(chain_file, tmp_path, capsys):
+    from vibupdate.io.outputs import MANIFEST
+    from vibupdate.io.results import load_results
+
+    out = tmp_path / "run"
+    assert main(["run", str(chain_file), "--out", str(out), "--samples", "6", "--multistart", "3",
+                 "--workers", "1", "--seed", "4"]) == 0
+    printed = capsys.readouterr().out
+    assert "Parameter ranges: sampled, linearized at the answer" in printed
+    assert "sampled lower" in printed and "linearized lower" in printed
+    assert "6 verified, 0 unverified, 0 failed of 6 samples" in printed
+    assert "multistart of the point estimate: 1 distinct local minima from 3 converged of 3 random starts" in printed
+    run = load_results(out / "results.json")      # validated against the schema, typed
+    sampled, ms = run.sampled, run.multistart
+    assert (sampled.samples, sampled.verified, sampled.seed) == (6, 6, 4)
+    assert ms.starts == 3 and ms.distinct_minima == len(ms.minima) == 1
+    for name, value in TRUTH.items():
+        r = sampled.ranges[name]
+        assert r.unit == {"k": "N/m", "m": "kg"}[name[0]]
+        assert r.min <= r.q05 <= r.q50 <= r.q95 <= r.max
+        assert r.min <= value <= r.max, (name, r)
+        assert ms.minima[0]["values"][name] == pytest.approx(value, rel=1e-4)
+    report = (out / "report.md").read_text()
+    assert "| sampled range |" in report and "Sampled range: 6 data sets" in report
+    assert "![sampled parameters" in report and (out / "sampled_hist.png").stat().st_size > 1000
+    _, rows = read_rows(out / "samples.csv")
+    assert [r["index"] for r in rows] == list(range(6))
+    listed = json.loads((out / MANIFEST).read_text())["files"]
+    assert {"samples.csv", "line_ends.csv", "sampled_hist.png"} <= set(listed)
+    # data that cannot be sampled: refused before any work
+    zero = write_chain_case(tmp_path / "zero.toml", tolerance=0.0)
+    assert main(["run", str(zero), "--out", str(tmp_path / "z"), "--samples", "3"]) == 2
+    assert "frequency tolerance is 0" in capsys.readouterr().err and not (tmp_path / "z").exists()
+    # the same with a bad sample count: a clear message, nothing written
+    assert main(["run", str(chain_file), "--out", str(tmp_path / "bad"), "--samples", "0"]) == 2
+    assert "number of samples must be an integer >= 1, got 0" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
+
+
+@pytest.fixture(scope="module")
+def certified_run(client, chain_file, tmp_path_factory):
+    from vibupdate.pipeline import run_case
+    from vibupdate.study.sampled_ranges import SampledRanges
+
+    out = tmp_path_factory.mktemp("cert") / "r"
+    case = load_case(chain_file)
+    run = run_case(case, out, certify=20.0, study=SampledRanges(10, starts=0, seed=6, client=client))
+    return case, run, read_rows(out / "samples.csv")[1], (out / "report.md").read_text()
+
+
+def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(certified_run):
+    """Exact data (the answer is the truth): the sampled range holds the run's answer, and every
+    sampled answer that lies in the consistent set S (certify's own membership test) lies in
+    the certified outer range."""
+    from vibupdate.ranges.consistent import consistent_set, is_consistent
+
+    case, run, rows, report = certified_run
+    cert = run.identifiability["certified"]["ranges"]
+    model = case.configurations[0].model
+    cs = consistent_set(case.configurations, frequency_tolerance=case.frequency_tolerance,
+                        include=np.asarray(run.xbar), options=case.formulation)
+    ok = [r for r in rows if r["outcome"] == "verified"]
+    assert run.multistart is None and len(ok) == run.sampled.verified >= 9
+    in_s = [r for r in ok if is_consistent(cs, model.normalized([r[f"p:{p.name}"] for p in model.parameters]))]
+    assert len(in_s) >= 3  # not vacuous; measured: 4 of the 10 verified answers lie in S (see the xfail below)
+    for p in run.parameters:
+        s, c = run.sampled.ranges[p.name], cert[p.name]
+        assert s.min <= p.updated <= s.max, (p.name, s, p.updated)
+        assert c["lower"] <= p.updated <= c["upper"]
+        assert all(c["lower"] <= r[f"p:{p.name}"] <= c["upper"] for r in in_s), (p.name, c)
+    assert "Certified outer range:" in report and "Sampled range: 10 data sets" in report
+
+
+@pytest.mark.xfail(strict=True, reason="measured (chain, 10 samples, seed 6): 2 verified sampled answers have k3 "
+                   "761.8 and 779.6 below the certified lower bound 807.1; the first misses a measured frequency by "
+                   "0.514 % (outside the 0.5 % window: the drawn datum near the window's edge, m5 on its bound), the "
+                   "second fits every window but its exact eigenvectors leave S's vector boxes, which the "
+                   "verification of an answer does not check")
+def test_certified_range_contains_every_sampled_answer(certified_run):
+    _, run, rows, _ = certified_run
+    cert = run.identifiability["certified"]["ranges"]
+    for p in run.parameters:
+        values = [r[f"p:{p.name}"] for r in rows if r["outcome"] == "verified"]
+        assert cert[p.name]["lower"] <= min(values) and max(values) <= cert[p.name]["upper"], (p.name, values)
+
+
+def test_disagreements_between_sampled_and_linearized_ranges():
+    from vibupdate.report.document import sampled_disagreements
+
+    sampled = {"a": {"min": 1.0, "max": 1.0}, "b": {"min": 0.5, "max": 2.5}, "c": {"min": 1.0, "max": 1.1},
+               "d": {"min": 1.0, "max": 2.0}, "e": {"min": None, "max": None}}
+    linearized = {n: {"lower": lo, "upper": hi} for n, lo, hi in
+                  [("a", 0.9, 1.2), ("b", 1.0, 2.0), ("c", 0.0, 3.0), ("d", 0.8, 2.5), ("e", 0.0, 1.0)]}
+    notes = sampled_disagreements(sampled, linearized)
+    assert len(notes) == 3     # d agrees (inside, 1.7x), e has no verified sample
+    assert notes[0].startswith("a: every verified sample gave 1,")
+    assert notes[1].startswith("b: the sampled range [0.5, 2.5] reaches outside the linearized range [1, 2]")
+    assert notes[2].startswith("c: the linearized range [0, 3] is 30x the sampled range [1, 1.1]")

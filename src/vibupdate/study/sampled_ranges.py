@@ -1,0 +1,128 @@
+"""Sampled ranges and a multistart inside ``vibupdate run`` (``--samples N``).
+
+A `SampledRanges` is handed to `vibupdate.pipeline.run_case` as its ``study``. After the
+update it runs the sweep of `vibupdate.study.sweep` (``N`` data sets drawn inside the
+measured intervals, each updated and verified) and a multistart of the point estimate
+(`vibupdate.study.multistart`) on one Dask client (a ``LocalCluster`` by default, or an
+existing scheduler), and returns:
+
+* the ``identifiability`` sections ``sampled`` (counts; per parameter ``min``, ``max``,
+  ``q05``, ``q50``, ``q95`` in its unit) and ``multistart`` (distinct local minima);
+* a writer that puts ``samples.csv``, ``line_ends.csv`` and the histogram and pairs plots
+  into the results folder, so they are published with the other files.
+
+The pipeline does not import this module (it comes later in the data flow); it calls the
+object it is given.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from vibupdate.study.sampling import SamplingOptions
+
+__all__ = ["SampledRanges", "sampled_section"]
+
+#: What the study adds to a results folder.
+FILES = ("samples.csv", "line_ends.csv", "sampled_hist.png", "sampled_pairs.png")
+#: The per-parameter figures of a sweep kept in ``identifiability.sampled.ranges``.
+KEYS = ("unit", "min", "max", "q05", "q50", "q95", "answers_min", "answers_max")
+
+
+def sampled_section(document: dict) -> dict:
+    """``identifiability.sampled`` from a ``sweep.json`` document."""
+    return {"samples": document["samples"], "verified": document["verified"],
+            "unverified": document["unverified"], "failed": document["failed"],
+            "line_ends": document.get("line_ends", 0), "seed": document["seed"],
+            "distribution": document["sampling"]["distribution"],
+            "ranges": {p["name"]: {k: p.get(k) for k in KEYS} for p in document["parameters"]}}
+
+
+@dataclass(frozen=True)
+class SampledRanges:
+    """The sampled ranges and the multistart of a run (module docstring).
+
+    Attributes
+    ----------
+    samples : int
+        Data sets drawn (>= 1).
+    starts : int
+        Random starts of the multistart (0: none).
+    seed : int
+        Sample and start ``i`` depend on ``(seed, i)`` only.
+    sampling : SamplingOptions
+    workers, scheduler, client
+        The engine (`vibupdate.study.engine.open_client`).
+    """
+
+    samples: int
+    starts: int = 20
+    seed: int = 0
+    sampling: SamplingOptions = field(default_factory=SamplingOptions)
+    workers: int | None = None
+    scheduler: str | None = None
+    client: object = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self):
+        for name in ("samples", "starts", "seed"):
+            value = getattr(self, name)
+            least = 1 if name == "samples" else 0
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise ValueError(f"the number of {'random starts' if name == 'starts' else name} must be an "
+                                 f"integer >= {least}, got {value!r}")
+
+    @property
+    def files(self) -> tuple[str, ...]:
+        """Names of the files the study writes into the results folder."""
+        return FILES
+
+    def check(self, case) -> None:
+        """Raise ValueError, before any work, when the case's data cannot be sampled (a
+        frequency with neither an interval nor a tolerance)."""
+        from vibupdate.study.sampling import data_intervals
+
+        data_intervals(case.configurations, case.frequency_tolerance, self.sampling)
+
+    def __call__(self, case, result, say: Callable[[str], None]) -> tuple[dict, Callable[[Path], list]]:
+        """Run the sweep and the multistart of ``case``; the sections and the folder writer.
+
+        ``result`` (the run's `UpdateResult`) is not used: the samples are updated from
+        scratch, so the sampled ranges do not depend on the run's answer.
+        """
+        from vibupdate.study.engine import open_client
+        from vibupdate.study.multistart import multistart
+        from vibupdate.study.sweep import ENDS_FILE, SAMPLES_FILE, columns, end_columns, run_sweep
+        from vibupdate.study.sweep_rows import read_rows
+
+        sections = {}
+        with tempfile.TemporaryDirectory(prefix="vibupdate-sampled-") as tmp, \
+                open_client(self.workers, self.scheduler, client=self.client) as c:
+            summary = run_sweep(case, Path(tmp) / "sweep", self.samples, seed=self.seed, sampling=self.sampling,
+                                client=c, plots=False, progress=say)
+            rows = read_rows(Path(tmp) / "sweep" / SAMPLES_FILE)[1]
+            ends = read_rows(Path(tmp) / "sweep" / ENDS_FILE)[1]
+            sections["sampled"] = sampled_section(summary.document)
+            if self.starts:
+                ms = multistart(case, self.starts, seed=self.seed, client=c, progress=say)
+                sections["multistart"] = {**ms.as_dict(case.configurations[0].model.parameters), "seed": self.seed}
+        document, fields, end_fields = summary.document, columns(case, self.sampling), end_columns(case)
+
+        def write(folder: Path) -> list[tuple[str, str]]:
+            from vibupdate.report.sweep_plots import least_determined, plot_histograms, plot_pairs
+            from vibupdate.study.sweep_rows import write_sorted
+
+            write_sorted(folder / SAMPLES_FILE, fields, rows)
+            write_sorted(folder / ENDS_FILE, end_fields, ends)
+            plot_histograms(folder / "sampled_hist.png", document, rows)
+            images = [("sampled parameters (verified answers of data sets drawn inside the intervals)",
+                       "sampled_hist.png")]
+            names = least_determined(document)
+            if len(names) >= 2:
+                plot_pairs(folder / "sampled_pairs.png", document, rows, names, ends)
+                images.append(("sampled pairs of the least-determined parameters", "sampled_pairs.png"))
+            return images
+
+        return sections, write

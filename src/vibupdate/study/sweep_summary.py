@@ -1,0 +1,89 @@
+"""The summary of a sweep, ``sweep.json``: counts of the outcomes and, per parameter (in its
+unit) and per predicted frequency (Hz), the range and the 5/50/95 % quantiles over the
+verified samples (`summarize`), and the object `vibupdate.study.sweep.run_sweep` returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vibupdate.io.case import Case
+from vibupdate.study.sampling import SamplingOptions, data_intervals
+
+__all__ = ["SweepSummary", "summarize"]
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """What ``sweep.json`` holds (see `summarize`) and where the run wrote it."""
+
+    document: dict
+    out_dir: Path
+
+    @property
+    def samples(self) -> int:
+        return self.document["samples"]
+
+    @property
+    def verified(self) -> int:
+        return self.document["verified"]
+
+    @property
+    def failed(self) -> int:
+        return self.document["failed"]
+
+    def parameter(self, name: str) -> dict:
+        for p in self.document["parameters"]:
+            if p["name"] == name:
+                return p
+        raise ValueError(f"no parameter {name!r} in the sweep; parameters: "
+                         f"{', '.join(p['name'] for p in self.document['parameters'])}")
+
+
+def _stats(values) -> dict:
+    v = np.asarray([x for x in values if x is not None], dtype=float)
+    if v.size == 0:
+        return {"min": None, "max": None, "q05": None, "q50": None, "q95": None}
+    q = np.quantile(v, [0.05, 0.5, 0.95])
+    return {"min": float(v.min()), "max": float(v.max()), "q05": float(q[0]), "q50": float(q[1]),
+            "q95": float(q[2])}
+
+
+def summarize(case: Case, rows: list[dict], settings: dict, ends: list[dict] = ()) -> dict:
+    """The ``sweep.json`` document: counts, and per parameter (in its unit) and per predicted
+    frequency (Hz) the range and the 5/50/95 % quantiles over the verified samples.
+
+    A parameter's ``min`` and ``max`` are over the verified answers and the line ``ends`` of
+    verified samples (rows of ``line_ends.csv``); ``answers_min``, ``answers_max`` and the
+    quantiles over the answers alone."""
+    outcomes = [r["outcome"] for r in rows]
+    ok = [r for r in rows if r["outcome"] == "verified"]
+    verified = {r["index"] for r in ok}
+    ends = [e for e in ends if e["index"] in verified]
+    params = []
+    for p in case.configurations[0].model.parameters:
+        s = _stats(r.get(f"p:{p.name}") for r in ok)
+        reached = [v for v in [s["min"], s["max"], *(e.get(f"p:{p.name}") for e in ends)] if v is not None]
+        whole = {"min": min(reached), "max": max(reached)} if reached else {}
+        width = p.upper - p.lower
+        spread = None if s["min"] is None or width <= 0 else (s["q95"] - s["q05"]) / width
+        params.append({"name": p.name, "unit": p.unit, **s, **whole, "answers_min": s["min"],
+                       "answers_max": s["max"], "nominal": p.nominal, "lower": p.lower,
+                       "upper": p.upper, "spread_of_bounds": spread})
+    predictions = []
+    for label, value, lo, hi in data_intervals(case.configurations, case.frequency_tolerance,
+                                               SamplingOptions(**settings["sampling"])):
+        if ":xi" in label:
+            continue
+        predictions.append({"label": label, "measured_hz": value, "interval_hz": [lo, hi],
+                            **_stats(r.get(f"pred:{label}") for r in ok)})
+    failures: dict[str, int] = {}
+    for r in rows:
+        if r["outcome"] == "failed":
+            failures[str(r["status"])] = failures.get(str(r["status"]), 0) + 1
+    return {"case": case.name, "samples": len(rows), "verified": outcomes.count("verified"),
+            "unverified": outcomes.count("unverified"), "failed": outcomes.count("failed"), "line_ends": len(ends),
+            "failed_by_status": failures, "seed": settings["seed"], "sampling": settings["sampling"],
+            "parameters": params, "predictions": predictions}
