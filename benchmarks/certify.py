@@ -215,7 +215,7 @@ def main() -> None:
     parser.add_argument("--compare", action="store_true",
                         help="the enclosure with the tightening's economies off, then on, same budget")
     parser.add_argument("--ablate", action="store_true",
-                        help="the enclosure with each economy off in turn, the others on, same budget")
+                        help="the enclosure with each default switched in turn, same budget")
     args = parser.parse_args()
     print(f"load average before: {os.getloadavg()}")
     for example in args.examples:
