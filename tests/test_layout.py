@@ -68,6 +68,17 @@ def test_no_stage_imports_a_later_stage():
     assert not offenders, offenders
 
 
+TESTS = PACKAGE.parents[1] / "tests"
+#: Tests that exercise a whole run, across stages, stay at the top of ``tests/``.
+CROSS_STAGE = {"test_cli", "test_docs", "test_layout", "test_fuzz", "test_frf_updating", "test_solves"}
+
+
+def test_tests_mirror_the_stages():
+    stray = [p.name for p in TESTS.glob("test_*.py") if p.stem not in CROSS_STAGE]
+    unknown = [p.parent.name for p in TESTS.glob("*/test_*.py") if p.parent.name not in STAGES]
+    assert not stray and not unknown, (stray, unknown)
+
+
 def test_the_checker_sees_imports():
     assert {"io", "inverse"} <= imported_stages(PACKAGE / "pipeline.py")
     assert stage_of(PACKAGE / "inverse" / "backends" / "casadi_ipopt.py") == "inverse"

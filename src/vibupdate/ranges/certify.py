@@ -20,8 +20,10 @@ long as the time budget allows:
 
 Every step only removes parts of the box that hold no point of S, so the result stays an
 outer range whenever it stops. A bound is *confirmed* (the parameter's range flagged
-``certified``) when the safe value is within `GAP` of the solver's optimum; otherwise the
-weaker safe value is still what is reported. S is certified empty when every part of the box
+``certified``) when the safe value is within `GAP` of the solver's optimum, or, for Clarabel's
+bounds of a parameter, within ``Tactics.useful_gap`` (1e-3) of the parameter's width in the
+box (`vibupdate.ranges.tightening.Tactics`); otherwise the weaker safe value is still what is
+reported. S is certified empty when every part of the box
 is (crossing safe bounds, or a positive safe phase-1 bound).
 """
 
@@ -37,7 +39,7 @@ from vibupdate.data.measured import Configuration
 from vibupdate.inverse.formulation import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent
-from vibupdate.ranges.tightening import GAP, Box, Lifts, lifts, root_box, tighten, tighten_parameters
+from vibupdate.ranges.tightening import GAP, Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
 
 __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements", "GAP"]
 
@@ -61,7 +63,8 @@ class CertifiedRanges:
     width_pct : ndarray, shape (n_x,)
         Width in per cent of the parameter's reference value.
     certified : ndarray of bool, shape (n_x,)
-        Both ends are safe bounds that confirm the LP solver's optimum (within `GAP`). Where
+        Both ends are safe bounds that confirm the LP solver's optimum (within `GAP`, or
+        within 1e-3 of the parameter's width, `Tactics.useful_gap`). Where
         False, the range is still valid but may be looser than the relaxation allows (a failed
         or unconfirmed solve, or the time budget ran out before the parameter was bounded).
     root_lower, root_upper : ndarray, shape (n_x,)
@@ -187,8 +190,8 @@ class _Branching:
     halved after each split that did not move it (an end that S itself reaches cannot move).
     """
 
-    def __init__(self, cs: ConsistentSet, R: Lifts, root: Box, known):
-        self.cs, self.R, self.n_x = cs, R, cs.n_x
+    def __init__(self, cs: ConsistentSet, R: Lifts, root: Box, known, tactics: Tactics = Tactics()):
+        self.cs, self.R, self.n_x, self.tactics = cs, R, cs.n_x, tactics
         self.leaves = [root]
         self.width0 = np.maximum(root.width(cs.n_x), 1e-12)
         self.known = [np.asarray(k, dtype=float) for k in (known or [])]
@@ -248,7 +251,7 @@ class _Branching:
         low.confirmed[d, 1] = high.confirmed[d, 0] = True   # a branching point is exact
         self.leaves.remove(leaf)
         for child in (low, high):
-            tighten(self.R, child, deadline, max_passes=passes, focus=d)
+            tighten(self.R, child, deadline, max_passes=passes, focus=d, tactics=self.tactics)
             self.n_lps += child.n_lps
             if not child.empty:
                 self.leaves.append(child)
@@ -265,7 +268,7 @@ class _Branching:
 
 def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | None = None,
               max_splits: int | None = None, known=None, node_passes: int = 1,
-              progress: Callable[[str], None] | None = None) -> CertifiedRanges:
+              progress: Callable[[str], None] | None = None, tactics: Tactics = Tactics()) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
     The root ranges (two LPs per parameter over all blocks) are always computed. Then, while
@@ -286,6 +289,8 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
         Points believed to lie in S (e.g. the answer): they steer the branching only.
     node_passes : int
     progress : callable, optional
+    tactics : Tactics
+        How the tightening spends its LPs (`vibupdate.ranges.tightening.Tactics`).
     """
     if not seconds >= 0:
         raise ValueError(f"the time budget must be >= 0 seconds, got {seconds!r}")
@@ -297,7 +302,7 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
     R = lifts(cs)
     n_x = cs.n_x
     box = root_box(cs, R)
-    tighten_parameters(R, box, np.inf)
+    tighten_parameters(R, box, np.inf, tactics)
     root = (box.lo[:n_x].copy(), box.hi[:n_x].copy())
     root_seconds = time.perf_counter() - t0
     history = [(root_seconds, float(np.mean(box.width(n_x)) * 100))]
@@ -312,8 +317,8 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
         branching = max_splits != 0
         share = t0 + (0.5 * seconds if branching else seconds)
         passes = tighten(R, box, min(share, end), max_passes=max_passes, stall=ROOT_STALL if branching else STALL,
-                         on_pass=on_pass)
-    B = _Branching(cs, R, box, known)
+                         on_pass=on_pass, tactics=tactics)
+    B = _Branching(cs, R, box, known, tactics)
     if not box.empty:
         while (max_splits is None or B.splits < max_splits) and time.perf_counter() < end:
             if not B.split(end, node_passes):

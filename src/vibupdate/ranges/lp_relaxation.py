@@ -36,7 +36,8 @@ import scipy.sparse as sp
 
 from vibupdate.ranges.consistent import RESIDUAL_FLOOR, ConsistentSet
 
-__all__ = ["Lifted", "RelaxedLP", "lift", "relax", "safe_bound", "solve", "solve_clarabel", "highs_model",
+__all__ = ["Lifted", "RelaxedLP", "ClarabelModel", "lift", "relax", "safe_bound", "solve", "solve_clarabel",
+           "clarabel_model", "highs_model",
            "lifted_point", "phase1_bound"]
 
 _EPS = np.finfo(float).eps
@@ -324,11 +325,29 @@ def solve(lp: RelaxedLP, c, h=None, *, point: bool = False):
     return out + (None,) if point else out
 
 
-def solve_clarabel(lp: RelaxedLP, c, *, point: bool = False):
-    """Clarabel (interior point) on the LP with objective ``c``; returns (status, optimum,
-    safe bound from its multipliers), and with ``point`` its primal solution as a fourth
-    item (None unless optimal). On the large LPs of all blocks it was many times faster than
-    HiGHS (benchmarks/RESULTS.md)."""
+@dataclass(frozen=True)
+class ClarabelModel:
+    """A Clarabel instance holding the LP as ``G z <= h`` (rows of ``A`` with a finite upper,
+    then lower, end; then the column bounds), re-solved by `solve_clarabel` with a new
+    objective or narrower column bounds through Clarabel's data update, without rebuilding
+    (or refactoring the pattern of) its KKT system."""
+
+    solver: object
+    up: np.ndarray
+    dn: np.ndarray
+    n: int
+
+    def change_bounds(self, cols, zl, zu) -> None:
+        """Column bounds ``zl <= z[cols] <= zu`` (the `RelaxedLP` given to `solve_clarabel`
+        must hold these bounds or wider ones)."""
+        cols = np.asarray(cols, dtype=int)
+        k = int(self.up.sum()) + int(self.dn.sum())
+        self.solver.update(b=(np.concatenate([k + cols, k + self.n + cols]),
+                              np.concatenate([np.asarray(zu, dtype=float), -np.asarray(zl, dtype=float)])))
+
+
+def clarabel_model(lp: RelaxedLP, c=None) -> ClarabelModel:
+    """A Clarabel instance of the LP (objective ``c``, zero when not given)."""
     import clarabel
 
     A = sp.csc_matrix(lp.A)
@@ -339,12 +358,32 @@ def solve_clarabel(lp: RelaxedLP, c, *, point: bool = False):
     h = np.concatenate([lp.hi[up], -lp.lo[dn], lp.zu, -lp.zl])
     settings = clarabel.DefaultSettings()
     settings.verbose = False
-    sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), np.asarray(c, dtype=float), G, h,
-                                 [clarabel.NonnegativeConeT(G.shape[0])], settings).solve()
+    q = np.zeros(n) if c is None else np.asarray(c, dtype=float)
+    solver = clarabel.DefaultSolver(sp.csc_matrix((n, n)), q, G, h, [clarabel.NonnegativeConeT(G.shape[0])],
+                                    settings)
+    return ClarabelModel(solver, up, dn, n)
+
+
+def solve_clarabel(lp: RelaxedLP, c, model: ClarabelModel | None = None, *, point: bool = False):
+    """Clarabel (interior point) on the LP with objective ``c``; returns (status, optimum,
+    safe bound from its multipliers), and with ``point`` its primal solution as a fourth
+    item (None unless optimal). On the large LPs of all blocks it was many times faster than
+    HiGHS (benchmarks/RESULTS.md).
+
+    ``model`` (`clarabel_model`) is re-solved with the objective ``c`` instead of building a
+    new instance; it may hold narrower column bounds than ``lp`` (`ClarabelModel.change_bounds`),
+    which keeps the safe bound valid, as in `solve`."""
+    c = np.asarray(c, dtype=float)
+    if model is None:
+        model = clarabel_model(lp, c)
+    else:
+        model.solver.update(q=c)
+    sol = model.solver.solve()
     status = str(sol.status)
     if "Infeasible" in status or status not in ("Solved", "AlmostSolved"):
         out = ("infeasible" if "Infeasible" in status else "failed", np.nan, np.nan)
         return out + (None,) if point else out
+    up, dn = model.up, model.dn
     z = np.asarray(sol.z)   # G x + s = h, s >= 0; z >= 0 multiplies G x <= h
     k, m = int(up.sum()), int(dn.sum())
     y = np.zeros(lp.A.shape[0])

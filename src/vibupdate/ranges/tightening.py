@@ -14,8 +14,14 @@ repeated. Two relaxations are used:
   of its bounds in the solution of an earlier objective cannot move that bound, so its LP is
   skipped (the filtering of Gleixner et al., J. Global Optim. 67 (2017) 731-757);
 * all blocks together (they share ``x``): bounds of ``x``, by Clarabel (faster than HiGHS on
-  these larger LPs, `benchmarks/RESULTS.md`), re-solved by HiGHS when its multipliers do not
-  confirm its optimum.
+  these larger LPs, `benchmarks/RESULTS.md`). One Clarabel instance serves every objective of
+  a pass (its objective and the narrowed bounds of ``x`` updated in place). Its safe bound is
+  valid whatever its multipliers; it is kept when it lies within ``useful_gap`` of the
+  parameter's width below Clarabel's optimum, and otherwise the LP is re-solved by HiGHS
+  (one instance per pass, warm), whose simplex multipliers give a bound at the optimum.
+
+`Tactics` switches each of these economies off, for the before / after measurements of
+`benchmarks/certify.py`.
 
 A box is proved empty when two safe bounds of a variable cross, or when an LP solver reports
 its relaxation infeasible and the safe phase-1 bound confirms it (`phase1_bound` > 0).
@@ -30,15 +36,55 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.ranges.consistent import ConsistentSet
-from vibupdate.ranges.lp_relaxation import Lifted, highs_model, lift, phase1_bound, relax, solve, solve_clarabel
+from vibupdate.ranges.lp_relaxation import (Lifted, clarabel_model, highs_model, lift, phase1_bound, relax, solve,
+                                             solve_clarabel)
 
-__all__ = ["Lifts", "Box", "lifts", "root_box", "tighten_block", "tighten_parameters", "tighten", "GAP"]
+__all__ = ["Lifts", "Box", "Tactics", "BEFORE", "lifts", "root_box", "tighten_block", "tighten_parameters", "tighten",
+           "GAP"]
 
 #: Largest gap (normalized units) between the safe bound and the LP optimum for which the
 #: solver's answer counts as confirmed.
 GAP = 1e-6
 #: A solution value this close to a bound (absolute plus relative) counts as on the bound.
 _ON_BOUND = 1e-9
+
+
+@dataclass(frozen=True)
+class Tactics:
+    """How the tightening spends its LPs; each economy can be switched off (`BEFORE`: all
+    off, the code before they were measured in `benchmarks/RESULTS.md`). None changes what
+    is valid: every bound applied is a safe bound.
+
+    Attributes
+    ----------
+    reuse_solver : bool
+        One Clarabel (and, when needed, one HiGHS) instance per box and pass for the LPs of
+        all blocks, objective and parameter bounds updated in place; else one per LP.
+    useful_gap : float
+        Clarabel's safe bound of a parameter's end is kept, and counts as confirming the
+        optimum, when it lies within ``max(GAP, useful_gap * width)`` of Clarabel's optimum
+        (``width``: the parameter's range in the box); only a weaker bound is re-solved by
+        HiGHS. 0: re-solve whenever it is not within `GAP`.
+    parameters_first : bool
+        The per-block step bounds ``x`` before the block's vector entries (their LPs then see
+        the narrowed ``x`` columns); else after.
+    parameter_stall : bool
+        The passes end when a pass shrinks the summed relative widths of the *parameters*
+        (what is reported) by less than the stall fraction; else (the default) those of the
+        whole box, vector entries included. Off by default: at 120 s it narrowed the
+        cantilever's mlc and klc (earlier branching) but stopped the frame's passes after
+        one, where its 29 parameters, most filling their bounds, dilute the sum, and left
+        E4, m3, m7, m9, m11 wider (benchmarks/RESULTS.md).
+    """
+
+    reuse_solver: bool = True
+    useful_gap: float = 1e-3
+    parameters_first: bool = True
+    parameter_stall: bool = False
+
+
+#: The tightening before these economies (for before / after measurements).
+BEFORE = Tactics(reuse_solver=False, useful_gap=0.0, parameters_first=False, parameter_stall=False)
 
 
 @dataclass(frozen=True)
@@ -118,12 +164,14 @@ def root_box(cs: ConsistentSet, R: Lifts) -> Box:
                np.zeros((cs.n_x, 2), dtype=bool))
 
 
-def _narrow(box: Box, g: int, side: int, value: float, opt: float, bound: float, n_x: int) -> bool:
-    """Apply a safe bound ``value`` to entry ``g`` of the box; True when it narrowed it."""
+def _narrow(box: Box, g: int, side: int, value: float, opt: float, bound: float, n_x: int,
+            slack: float = GAP) -> bool:
+    """Apply a safe bound ``value`` to entry ``g`` of the box; True when it narrowed it. The
+    end counts as confirmed when ``bound`` is within ``slack`` of the optimum ``opt``."""
     old = box.lo[g] if side == 0 else box.hi[g]
     better = value > old if side == 0 else value < old
     if g < n_x and (better or abs(value - old) <= GAP):
-        box.confirmed[g, side] = bound >= opt - GAP
+        box.confirmed[g, side] = bound >= opt - slack
     if better:
         (box.lo if side == 0 else box.hi)[g] = value
         if box.lo[g] > box.hi[g]:
@@ -136,14 +184,16 @@ def _infeasible(box: Box, lp) -> None:
         box.empty = True
 
 
-def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None = None) -> bool:
+def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None = None,
+                  tactics: Tactics = Tactics()) -> bool:
     """Bound block ``b``'s entries and then ``x`` over the relaxation of block ``b`` alone;
     with ``focus``, only the entries that parameter ``focus`` multiplies (whose envelopes a
     split of that parameter changed). False when the deadline stopped it."""
     n_x, sl = R.n_x, R.block_slice(b)
     L = R.local[b]
     if focus is None:
-        targets = np.concatenate([np.arange(n_x, n_x + L.n_u), np.arange(n_x)])
+        entries = np.arange(n_x, n_x + L.n_u)
+        targets = np.concatenate([np.arange(n_x), entries] if tactics.parameters_first else [entries, np.arange(n_x)])
     else:
         targets = n_x + np.unique(L.tu[L.tx == focus])
         if targets.size == 0:
@@ -184,10 +234,12 @@ def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None
     return True
 
 
-def tighten_parameters(R: Lifts, box: Box, deadline: float) -> bool:
+def tighten_parameters(R: Lifts, box: Box, deadline: float, tactics: Tactics = Tactics()) -> bool:
     """Bound ``x`` over the relaxation of all blocks. False when the deadline stopped it."""
     n_x = R.n_x
     lp = relax(R.full, box.lo[:n_x], box.hi[:n_x], box.lo[n_x:], box.hi[n_x:])
+    cla = clarabel_model(lp) if tactics.reuse_solver else None
+    highs = None
     done = np.zeros((n_x, 2), dtype=bool)
     for i in range(n_x):
         for side in (0, 1):
@@ -201,19 +253,27 @@ def tighten_parameters(R: Lifts, box: Box, deadline: float) -> bool:
             c[i] = sign
             current = replace(lp, zl=np.concatenate([box.lo[:n_x], lp.zl[n_x:]]),
                               zu=np.concatenate([box.hi[:n_x], lp.zu[n_x:]]))
-            status, opt, bound, z = solve_clarabel(current, c, point=True)
+            status, opt, bound, z = solve_clarabel(current, c, cla, point=True)
             box.n_lps += 1
-            if status == "optimal" and not bound >= opt - GAP:
-                # Interior-point multipliers too loose to confirm the optimum: simplex duals.
-                status, opt, bound, z = solve(current, c, point=True)
+            slack = max(GAP, tactics.useful_gap * (box.hi[i] - box.lo[i]))
+            if status == "optimal" and not bound >= opt - slack:
+                # The interior-point multipliers give too weak a bound: simplex duals.
+                if tactics.reuse_solver and highs is None:
+                    highs = highs_model(current)
+                status, opt, bound, z = solve(current, c, highs, point=True)
                 box.n_lps += 1
+                slack = GAP
             if status == "infeasible":
                 _infeasible(box, current)
                 if box.empty:
                     return True
             if status != "optimal" or not np.isfinite(bound):
                 continue
-            _narrow(box, i, side, sign * bound, opt, bound, n_x)
+            if _narrow(box, i, side, sign * bound, opt, bound, n_x, slack):
+                if cla is not None:
+                    cla.change_bounds([i], [box.lo[i]], [box.hi[i]])
+                if highs is not None:
+                    highs.changeColBounds(int(i), float(box.lo[i]), float(box.hi[i]))
             if box.empty:
                 return True
             box.points[(i, side)] = z
@@ -225,25 +285,27 @@ def tighten_parameters(R: Lifts, box: Box, deadline: float) -> bool:
 
 
 def tighten(R: Lifts, box: Box, deadline: float, *, max_passes: int | None = None, stall: float = 1e-3,
-            focus: int | None = None, on_pass=None) -> int:
+            focus: int | None = None, on_pass=None, tactics: Tactics = Tactics()) -> int:
     """Passes of OBBT on ``box`` (every block alone, then ``x`` over all blocks) until one
     narrows the box (summed widths relative to the box's at the start) by less than
-    ``stall``, ``max_passes`` passes, the deadline or a proof that the box is empty. With
+    ``stall`` (the parameters' widths only with ``tactics.parameter_stall``), ``max_passes``
+    passes, the deadline or a proof that the box is empty. With
     ``focus`` the per-block step bounds only the entries parameter ``focus`` multiplies
     (`tighten_block`). Returns the number of passes completed; ``on_pass(passes)`` is called
     after each."""
-    span0 = np.maximum(box.hi - box.lo, 1e-300)
+    watched = slice(0, R.n_x) if tactics.parameter_stall else slice(None)
+    span0 = np.maximum(box.hi[watched] - box.lo[watched], 1e-300)
     passes = 0
     while max_passes is None or passes < max_passes:
-        before = np.sum((box.hi - box.lo) / span0)
+        before = np.sum((box.hi[watched] - box.lo[watched]) / span0)
         for b in range(len(R.local)):
-            if not tighten_block(R, box, b, deadline, focus) or box.empty:
+            if not tighten_block(R, box, b, deadline, focus, tactics) or box.empty:
                 return passes
-        if not tighten_parameters(R, box, deadline) or box.empty:
+        if not tighten_parameters(R, box, deadline, tactics) or box.empty:
             return passes
         passes += 1
         if on_pass is not None:
             on_pass(passes)
-        if np.sum((box.hi - box.lo) / span0) > (1 - stall) * before:
+        if np.sum((box.hi[watched] - box.lo[watched]) / span0) > (1 - stall) * before:
             break
     return passes

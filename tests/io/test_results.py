@@ -127,7 +127,7 @@ def test_the_outputs_page_example_runs(tiny_run, tmp_path, monkeypatch, capsys):
     _, out, _ = tiny_run
     shutil.copytree(out, tmp_path / "case-results")
     monkeypatch.chdir(tmp_path)
-    text = (Path(__file__).resolve().parents[1] / "docs" / "outputs.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "outputs.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
     assert blocks
     for block in blocks:

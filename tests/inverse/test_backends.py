@@ -21,7 +21,7 @@ from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import prepare, update
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "vibupdate"
+SRC = Path(__file__).resolve().parents[2] / "src" / "vibupdate"
 TRUTH = {"k1": 1100.0, "k3": 900.0, "m2": 1.15, "m5": 0.85}
 
 

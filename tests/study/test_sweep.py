@@ -22,7 +22,7 @@ from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
 from vibupdate.study.sweep import RUN_COLUMNS, read_rows, run_sweep
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+SRC = str(Path(__file__).resolve().parents[2] / "src")
 
 
 @pytest.fixture(scope="module")
@@ -345,21 +345,21 @@ def test_multistart_counts_minima_and_finds_the_truth(client, chain_file):
 def test_readme_shows_the_local_and_the_scheduler_sweep():
     from vibupdate.cli import _parser
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     lines = [line.split() for line in text.splitlines() if line.startswith("vibupdate sweep ")]
     parsed = [_parser().parse_args(words[1:]) for words in lines]
     assert any(a.scheduler is None for a in parsed)
     assert any(a.scheduler and a.scheduler.startswith("tcp://") for a in parsed)
-    assert all(Path(__file__).resolve().parents[1].joinpath(a.case).is_file() for a in parsed)
+    assert all(Path(__file__).resolve().parents[2].joinpath(a.case).is_file() for a in parsed)
     runs = [_parser().parse_args(line.split()[1:]) for line in text.splitlines()
             if line.startswith("vibupdate run ") and "--samples" in line]
-    assert runs and all(a.samples >= 1 and Path(__file__).resolve().parents[1].joinpath(a.case).is_file()
+    assert runs and all(a.samples >= 1 and Path(__file__).resolve().parents[2].joinpath(a.case).is_file()
                         for a in runs)
     for a in runs:   # the data can be sampled as written (no frequency without an interval or a tolerance)
         from vibupdate.study.sampled_ranges import SampledRanges
         from vibupdate.study.sampling import SamplingOptions
 
-        case = load_case(Path(__file__).resolve().parents[1] / a.case)
+        case = load_case(Path(__file__).resolve().parents[2] / a.case)
         SampledRanges(a.samples, sampling=SamplingOptions(frequency_tolerance=a.frequency_tolerance)).check(case)
 
 

@@ -12,8 +12,9 @@ from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInter
 from vibupdate.ranges.certify import enclosure
 from vibupdate.ranges.consistent import consistent_set, inner_ranges, is_consistent, witness
 from vibupdate.ranges.identifiability import parameter_ranges
-from vibupdate.ranges.lp_relaxation import lift, lifted_point, relax, safe_bound, solve
-from vibupdate.ranges.tightening import lifts, root_box, tighten
+from vibupdate.ranges.lp_relaxation import (clarabel_model, lift, lifted_point, relax, safe_bound, solve,
+                                             solve_clarabel)
+from vibupdate.ranges.tightening import BEFORE, lifts, root_box, tighten
 
 NAMES = ("k1", "k2", "k3", "m1", "m2", "m3")
 
@@ -121,6 +122,59 @@ def test_relaxation_holds_the_lifted_points_and_the_safe_bound_holds_for_any_mul
         assert np.all(Z @ c >= bound)
         y = rng.standard_normal(lp.A.shape[0]) * rng.uniform(0, 10)   # any multipliers at all
         assert np.all(Z @ c >= safe_bound(c, lp, y))
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_clarabel_s_safe_bound_never_exceeds_the_optimum_found_by_highs(case):
+    """The shortcut that keeps Clarabel's bound without a HiGHS re-solve: on random
+    objectives, with one Clarabel instance re-solved for each (objective and column bounds
+    updated in place), its safe bound never exceeds the LP's optimum computed by HiGHS, nor
+    the objective at lifted points of S in the narrowed box."""
+    names, fractions, tol, shape_tol, seed = case
+    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
+    cs = consistent_set([cfg], frequency_tolerance=tol)
+    assume(is_consistent(cs, truth))
+    rng = np.random.default_rng(seed)
+    L = lift(cs)
+    lp = relax(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
+    members = [truth] + points_near(cs, truth, rng, n=20)
+    Z = np.array([lifted_point(L, cs, x, witness(cs, x)) for x in members])
+    cla = clarabel_model(lp)
+    for k in range(6):
+        if k == 3:   # narrow the parameters' columns to the hull of the points, in place
+            zl, zu = lp.zl.copy(), lp.zu.copy()
+            n = L.n_x
+            zl[:n], zu[:n] = Z[:, :n].min(axis=0), Z[:, :n].max(axis=0)
+            cla.change_bounds(np.arange(n), zl[:n], zu[:n])
+            lp = type(lp)(lp.A, lp.lo, lp.hi, zl, zu, lp.n_eig)
+        c = rng.standard_normal(L.n_z) * (rng.random(L.n_z) < 0.3)
+        c[rng.integers(L.n_x)] += rng.choice([-1.0, 1.0])
+        status, opt, bound = solve_clarabel(lp, c, cla)
+        h_status, h_opt, h_bound = solve(lp, c)
+        assert status == h_status == "optimal"
+        assert bound <= h_opt + 1e-9 * (1 + abs(h_opt))
+        assert np.all(Z @ c >= bound)
+        fresh = solve_clarabel(lp, c)
+        assert abs(fresh[1] - h_opt) <= 1e-5 * (1 + abs(h_opt)) and fresh[2] <= h_opt + 1e-9 * (1 + abs(h_opt))
+
+
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_the_tightening_with_and_without_its_economies_keeps_every_point_of_s(case):
+    """Tightening with and without the economies of `Tactics` (solver reuse, Clarabel's bound
+    kept without a HiGHS re-solve, parameters first, the stall on parameter widths): both
+    ranges hold every sampled point of S."""
+    names, fractions, tol, shape_tol, seed = case
+    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
+    cs = consistent_set([cfg], frequency_tolerance=tol)
+    assume(is_consistent(cs, truth))
+    points = [truth] + points_near(cs, truth, np.random.default_rng(seed))
+    after = enclosure(cs, seconds=np.inf, max_passes=2, max_splits=0)
+    before = enclosure(cs, seconds=np.inf, max_passes=2, max_splits=0, tactics=BEFORE)
+    for r in (after, before):
+        for x in points:
+            assert inside(r, model, x)
 
 
 def test_inner_estimate_lies_inside_the_certified_range():

@@ -14,7 +14,7 @@ from vibupdate.cli import main
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.examples import cantilever
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DOC = (ROOT / "docs" / "case-file.md").read_text()
 EXAMPLE = re.search(r"```toml\n(.*?)```", DOC, re.S).group(1)
 
