@@ -99,3 +99,48 @@ def test_receptances_of_a_large_model_share_one_factorization_per_line(monkeypat
         receptances(M, K, [], omega)
     with pytest.raises(ValueError, match=r"receptance index c=14 is out of range for a model of 14 DOFs"):
         receptance(M, K, 0, 14, omega)
+
+
+def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_path, monkeypatch):
+    """Above DENSE_LIMIT the nominal (undamped) curve of `plot_frf` uses the updated damping
+    law's modal sum with zero damping, not one sparse LU per plotted line, and agrees with the
+    direct solve away from the resonances."""
+    import scipy.sparse as sp
+
+    from vibupdate import NaturalFrequency
+    from vibupdate.modal import receptance as receptance_module
+    from vibupdate.modal.eigen import DENSE_LIMIT
+    from vibupdate.report import plots
+
+    n = DENSE_LIMIT + 50
+    k = np.full(n, 1e4)
+    K = sp.diags([np.r_[k[:-1] + k[1:], k[-1]], -k[1:], -k[1:]], [0, 1, -1], format="csc")
+    M = sp.identity(n, format="csc")
+    law = CaugheyLaw((0.0, 1.0), (0.5, 1e-5), 40)
+    nominal, updated = (M, 1.1 * K, None), (M, K, law)
+    curve = plots._nominal_curve(nominal, updated)
+    assert isinstance(curve[2], CaugheyLaw) and curve[2].beta == () and curve[2].n_modes == 40
+    assert plots._nominal_curve(nominal, (M, K, None)) is nominal   # no law: exact path kept
+    assert plots._damping_note(curve[2]) == " (undamped, 40 modes)"
+
+    from vibupdate.modal.eigen import modes
+
+    w, _ = modes(M, 1.1 * K, 12)
+    omega = np.r_[0.0, 0.5 * (w[:-1] + w[1:])[:10]]   # static, and between the lowest modes
+    exact = receptance(M, 1.1 * K, n - 1, n - 1, omega)
+    # truncated above the 40th mode: off by the static share of the modes left out (the
+    # chain's tip: ~0.4 % of its static compliance)
+    assert np.abs(model_receptance(curve, n - 1, n - 1, omega) - exact).max() < 1e-2 * abs(exact[0])
+
+    lus = []
+    real_splu = receptance_module.spla.splu
+    monkeypatch.setattr(receptance_module.spla, "splu", lambda A, *a, **kw: lus.append(1) or real_splu(A, *a, **kw))
+
+    class Cfg:
+        name = "c"
+        natural = [NaturalFrequency(float(w[2]))]
+        antiresonances = []
+
+    plots.plot_frf(tmp_path / "f.png", Cfg, nominal, updated, n - 1, n - 1, "h")
+    # one shift-invert factorization per model's eigen-solve, not one per plotted line (2,000)
+    assert len(lus) <= 2 and (tmp_path / "f.png").stat().st_size > 5000
