@@ -40,24 +40,15 @@ import sys
 import time
 from pathlib import Path
 
+from exact_data import peak_mb as _peak_mb, timed as _timed, update_and_peers
+
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 SIZES = {300: (7, 1), 3000: (14, 6), 30000: (43, 21)}
 FREQUENCY_TOLERANCE = 1e-4
 TARGET = 1e-4
-PEER_TOL = 1e-12
 
 
-def _peak_mb() -> float:
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-
-
-def _timed(fn):
-    t0 = time.perf_counter()
-    out = fn()
-    return time.perf_counter() - t0, out
 
 
 def _parameter_error(parameters, values) -> dict:
@@ -149,29 +140,12 @@ def exact_case(size: int):
 
 
 def update_point(size: int) -> dict:
-    """`update` and both peers on exact data, same process."""
-    from vibupdate import update
-    from vibupdate.inverse.baseline import eigenvector_fit, frequency_fit
-    from vibupdate.inverse.verify import VerifyOptions
-
+    """`update` and both peers on exact data, same process (`exact_data.update_and_peers`)."""
     setup_s, case = _timed(lambda: exact_case(size))
     configurations = case.configurations
     parameters = configurations[0].model.parameters
-    update_s, result = _timed(lambda: update(configurations, formulation=case.formulation, solver=case.solver,
-                                             verification=VerifyOptions(frequency_tolerance=case.frequency_tolerance)))
     row = {"size": size, "dofs": configurations[0].model.n_dofs, "setup_s": setup_s,
-           "update": {"seconds": update_s, "status": result.status.value,
-                      "parameter_error": _parameter_error(parameters, result.values),
-                      "first_stage_error": _parameter_error(parameters, configurations[0].model.physical(
-                          result.first_stage_xbar)),
-                      "polish": result.polish.as_dict() if result.polish else None,
-                      "failed_checks": [c.message[:300] for c in result.checks
-                                        if c.severity == "error" and not c.passed]}}
-    for name, fn in (("frequency_fit", frequency_fit), ("eigenvector_fit", eigenvector_fit)):
-        fit = fn(configurations, tol=PEER_TOL)
-        row[name] = {"seconds": fit.seconds, "evaluations": fit.n_evaluations, "message": fit.message,
-                     "parameter_error": _parameter_error(parameters, fit.values),
-                     "mean_frequency_error_pct": fit.mean_error_pct}
+           **update_and_peers(case, lambda values: _parameter_error(parameters, values))}
     row["peak_mb"] = _peak_mb()
     return row
 

@@ -47,6 +47,8 @@ import sys
 import time
 from pathlib import Path
 
+from exact_data import peak_mb as _peak_mb, timed as _timed, update_and_peers
+
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 DEFAULTS = {"kernels": (8, 77, 770), "update": (8, 77, 770), "run": (8, 77, 770), "examples": (0,)}
@@ -57,14 +59,8 @@ FREQUENCY_TOLERANCE = 1e-4
 TARGET = 1e-4
 #: Tolerances of the peers on exact data, the polish's (scipy's default 1e-8 would stop them
 #: short of an exact answer); `examples` leaves them at scipy's defaults.
-PEER_TOL = 1e-12
 N_LINES = 400
 
-
-def _peak_mb() -> float:
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def kernels(subdivisions: int) -> dict:
@@ -166,35 +162,14 @@ def determinacy(configurations) -> dict:
             "undetermined_by_1e-4_intervals": [names[i] for i in order if with_intervals[i] > 1.0]}
 
 
-def _timed(fn):
-    t0 = time.perf_counter()
-    out = fn()
-    return time.perf_counter() - t0, out
-
 
 def update_point(subdivisions: int) -> dict:
-    """`update` and both peers on exact data, same process."""
-    from vibupdate import update
-    from vibupdate.inverse.baseline import eigenvector_fit, frequency_fit
-    from vibupdate.inverse.verify import VerifyOptions
-
+    """`update` and both peers on exact data, same process (`exact_data.update_and_peers`)."""
     setup_s, case = _timed(lambda: exact_case(subdivisions))
     configurations = case.configurations
     parameters = configurations[0].model.parameters
-    update_s, result = _timed(lambda: update(configurations, formulation=case.formulation, solver=case.solver,
-                                             verification=VerifyOptions(frequency_tolerance=case.frequency_tolerance)))
     row = {"subdivisions": subdivisions, "dofs": configurations[0].model.n_dofs, "setup_s": setup_s,
-           "update": {"seconds": update_s, "status": result.status.value,
-                      "parameter_error": _parameter_error(parameters, result.values),
-                      "first_stage_error": _parameter_error(parameters, configurations[0].model.physical(
-                          result.first_stage_xbar)),
-                      "polish": result.polish.as_dict() if result.polish else None,
-                      "failed_checks": [c.message for c in result.checks if c.severity == "error" and not c.passed]}}
-    for name, fn in (("frequency_fit", frequency_fit), ("eigenvector_fit", eigenvector_fit)):
-        fit = fn(configurations, tol=PEER_TOL)
-        row[name] = {"seconds": fit.seconds, "evaluations": fit.n_evaluations, "message": fit.message,
-                     "parameter_error": _parameter_error(parameters, fit.values),
-                     "mean_frequency_error_pct": fit.mean_error_pct}
+           **update_and_peers(case, lambda values: _parameter_error(parameters, values))}
     row["determinacy"] = determinacy(configurations)
     row["peak_mb"] = _peak_mb()
     return row

@@ -1,0 +1,49 @@
+"""Shared by the exact-data benchmarks (`scaling.py`, `large_structure.py`): timing, peak
+memory, and `update` beside the two peers on the same configurations in one process."""
+
+from __future__ import annotations
+
+import time
+
+PEER_TOL = 1e-12
+
+
+def peak_mb() -> float:
+    """Peak resident memory of this process so far, MB."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def timed(fn):
+    """``(seconds, fn())``."""
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
+
+
+def update_and_peers(case, parameter_error) -> dict:
+    """`update` of ``case`` (its formulation and solver options, verification at its frequency
+    tolerance), then the classical frequency fit and the eigenvector-difference fit from the
+    nominal model (exact Jacobians, ``ftol = xtol = gtol = PEER_TOL``), each with
+    ``parameter_error(values)`` of its physical parameter values."""
+    from vibupdate import update
+    from vibupdate.inverse.baseline import eigenvector_fit, frequency_fit
+    from vibupdate.inverse.verify import VerifyOptions
+
+    configurations = case.configurations
+    model = configurations[0].model
+    seconds, result = timed(lambda: update(configurations, formulation=case.formulation, solver=case.solver,
+                                           verification=VerifyOptions(frequency_tolerance=case.frequency_tolerance)))
+    row = {"update": {"seconds": seconds, "status": result.status.value,
+                      "parameter_error": parameter_error(result.values),
+                      "first_stage_error": parameter_error(model.physical(result.first_stage_xbar)),
+                      "polish": result.polish.as_dict() if result.polish else None,
+                      "failed_checks": [c.message[:300] for c in result.checks
+                                        if c.severity == "error" and not c.passed]}}
+    for name, fn in (("frequency_fit", frequency_fit), ("eigenvector_fit", eigenvector_fit)):
+        fit = fn(configurations, tol=PEER_TOL)
+        row[name] = {"seconds": fit.seconds, "evaluations": fit.n_evaluations, "message": fit.message,
+                     "parameter_error": parameter_error(fit.values),
+                     "mean_frequency_error_pct": fit.mean_error_pct}
+    return row
