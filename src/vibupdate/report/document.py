@@ -289,6 +289,14 @@ def _g(value, spec=".4g") -> str:
     return "-" if value is None else format(value, spec)
 
 
+def _width(pct) -> str:
+    """A range's width in per cent: one decimal from 1 % up, two significant digits below
+    (a width of 0.04 % must not print as 0.0)."""
+    if pct is None:
+        return "-"
+    return format(pct, ".1f") if abs(pct) >= 1 else format(pct, ".2g")
+
+
 def _paper_damping(document, cfg, mode, column):
     for p in (document.get("paper") or {}).get("damping", []):
         if p["configuration"] == cfg and int(p["mode"]) == mode:
@@ -371,7 +379,7 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
             row += [_g(t), _g(err, ".2f")]
         if ranges:
             rg = ranges.get(p["name"], {})
-            row += [f"[{_g(rg.get('lower'))}, {_g(rg.get('upper'))}]", _g(rg.get("width_pct"), ".1f")]
+            row += [f"[{_g(rg.get('lower'))}, {_g(rg.get('upper'))}]", _width(rg.get("width_pct"))]
         if sampled:
             sr = sampled.get(p["name"], {})
             row += [f"[{_g(sr.get('min'))}, {_g(sr.get('max'))}]"]
