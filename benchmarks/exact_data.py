@@ -47,3 +47,25 @@ def update_and_peers(case, parameter_error) -> dict:
                      "parameter_error": parameter_error(fit.values),
                      "mean_frequency_error_pct": fit.mean_error_pct}
     return row
+
+
+def run_sizes(script: str, what: str, sizes, key: str, timeout: float, error_chars: int = 300) -> None:
+    """Run ``script what --point SIZE`` for each size in its own process (so that its peak
+    memory is its own) and print one JSON row per size, with the load average before and
+    after it; a failed or over-time size is a row with ``error``."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    for size in sizes:
+        load_before = os.getloadavg()[0]
+        try:
+            proc = subprocess.run([sys.executable, script, what, "--point", str(size)],
+                                  capture_output=True, text=True, timeout=timeout)
+            row = json.loads(proc.stdout.strip().splitlines()[-1]) if proc.returncode == 0 else \
+                {key: size, "error": (proc.stderr.strip().splitlines() or ["?"])[-1][:error_chars]}
+        except subprocess.TimeoutExpired:
+            row = {key: size, "error": f"over {timeout:.0f} s"}
+        row["load_average"] = [round(load_before, 2), round(os.getloadavg()[0], 2)]
+        print(json.dumps(row), flush=True)

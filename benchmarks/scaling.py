@@ -42,12 +42,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
-from exact_data import peak_mb as _peak_mb, timed as _timed, update_and_peers
+from exact_data import peak_mb as _peak_mb, timed as _timed, run_sizes, update_and_peers
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -231,18 +229,7 @@ def main() -> None:
     if args.point is not None:
         print(json.dumps(POINTS[args.what](args.point)))
         return
-    for s in args.subdivisions or DEFAULTS[args.what]:
-        load_before = os.getloadavg()[0]
-        try:
-            proc = subprocess.run([sys.executable, __file__, args.what, "--point", str(s)],
-                                  capture_output=True, text=True, timeout=args.timeout)
-            row = json.loads(proc.stdout.strip().splitlines()[-1]) if proc.returncode == 0 else \
-                {"subdivisions": s, "error": (proc.stderr.strip().splitlines() or ["?"])[-1][:160]}
-        except subprocess.TimeoutExpired:
-            row = {"subdivisions": s, "error": f"over {args.timeout:.0f} s"}
-        row["load_average"] = [round(load_before, 2), round(os.getloadavg()[0], 2)]
-        print(json.dumps(row), flush=True)
-
+    run_sizes(__file__, args.what, args.subdivisions or DEFAULTS[args.what], "subdivisions", args.timeout, 160)
 
 if __name__ == "__main__":
     main()

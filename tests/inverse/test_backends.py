@@ -53,20 +53,25 @@ def test_an_unknown_backend_is_named_in_the_error():
         SolverOptions(backend="gurobi")
 
 
+class _Wrapping:
+    """A step solver that delegates to the CasADi one; tests override ``solve``."""
+
+    def __init__(self, inner):
+        self.inner = inner
+
+    def join(self, *parts):
+        return self.inner.join(*parts)
+
+    def split(self, z):
+        return self.inner.split(z)
+
+
 def test_the_homotopy_uses_the_backend_chosen_by_name(monkeypatch):
     """A backend registered under another name is the one the path calls, through the protocol
     alone; here it wraps the CasADi one and counts the solves, so the answer is the same."""
     calls = []
 
-    class Counting:
-        def __init__(self, inner):
-            self.inner = inner
-
-        def join(self, *parts):
-            return self.inner.join(*parts)
-
-        def split(self, z):
-            return self.inner.split(z)
+    class Counting(_Wrapping):
 
         def solve(self, z0, lam, **kwargs):
             calls.append((lam, kwargs.get("warm", False)))
@@ -280,15 +285,7 @@ def test_a_failed_direct_jump_falls_back_to_halved_steps(monkeypatch):
     problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=5)])
     failures = []
 
-    class FirstJumpFails:
-        def __init__(self, inner):
-            self.inner = inner
-
-        def join(self, *parts):
-            return self.inner.join(*parts)
-
-        def split(self, z):
-            return self.inner.split(z)
+    class FirstJumpFails(_Wrapping):
 
         def solve(self, z0, lam, **kwargs):
             out = self.inner.solve(z0, lam, **kwargs)

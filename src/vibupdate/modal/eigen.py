@@ -222,13 +222,19 @@ def _sparse_modes(M, K, k: int, rtol: float):
     eigval, V = refine_modes(Ms, Ks, lu.solve, sigma, V)
     eigval, V = eigval[:k], V[:, :k]
     omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
-    eta = mode_residuals(Ms, Ks, omega, V)
+    require_accuracy(Ms, Ks, omega, V, rtol, "shift-invert eigen-solve: mode")
+    return eigval, V
+
+
+def require_accuracy(M, K, omega, V, rtol: float, what: str) -> None:
+    """Raise `ModalAccuracyError` naming the first pair whose backward error
+    (`mode_residuals`) exceeds ``rtol``; ``what`` names the pairs, e.g. ``"... mode"``."""
+    eta = mode_residuals(M, K, omega, V)
     bad = np.flatnonzero(eta > rtol)
     if bad.size:
         j = bad[0]
-        raise ModalAccuracyError(f"shift-invert eigen-solve: mode {j + 1} ({omega[j]:.6g} rad/s) has a residual "
-                                 f"(backward error) of {eta[j]:.2e} > {rtol:.0e}; its frequency cannot be trusted")
-    return eigval, V
+        raise ModalAccuracyError(f"{what} {j + 1} ({omega[j]:.6g} rad/s) has a residual (backward error) of "
+                                 f"{eta[j]:.2e} > {rtol:.0e}; its frequency cannot be trusted")
 
 
 def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL):

@@ -36,6 +36,9 @@ __all__ = ["Acceptance", "LineEnd", "walk_null_directions", "BISECTIONS", "ACCEP
 BISECTIONS = 12
 #: A point other than the homotopy answer of a sample is accepted when each of its frequency
 #: errors is at most the homotopy answer's plus this fraction of the datum's interval half-width.
+#: A choice, not a measurement: a twentieth of the half-width is far below what the intervals
+#: resolve, and large enough that the exact symmetry of `tests/study/test_sweep.py` (misfit
+#: unchanged to rounding along the line) is walked to its bounds.
 ACCEPT_FRACTION = 0.05
 
 
