@@ -377,8 +377,21 @@ def test_southampton_antiresonances_found_and_references_within_intervals(soton_
         assert n["freq_hz"] == pytest.approx(ref, rel=1e-3)
 
 
-@pytest.mark.xfail(strict=True, reason="measured errors 0.04-0.23 % (h33 14.18 Hz: 0.23 %, h11 8.80 Hz: 0.20 %, "
-                                       "h21 14.39 Hz: 0.18 %), see docs/frf-extraction.md")
+def test_southampton_reciprocal_zeros_agree_within_their_intervals(soton_all):
+    """h21 / h12 and h32 / h23 are one physical zero each (symmetric M, K) measured in two
+    tests: their intervals overlap (measured 14.416 / 14.487 Hz, 0.49 % apart, and 19.407 /
+    19.439 Hz; the reference's own pairs are 0.63 % and 0.10 % apart)."""
+    got = {(z["response"], z["excitation"]): z["freq_hz_interval"] for z in soton_all["antiresonances"]
+           if (z["response"], z["excitation"]) in {("x2", "x1"), ("x1", "x2"), ("x3", "x2"), ("x2", "x3")}}
+    for a, b in ((("x2", "x1"), ("x1", "x2")), (("x3", "x2"), ("x2", "x3"))):
+        assert max(got[a][0], got[b][0]) <= min(got[a][1], got[b][1]), (a, got[a], b, got[b])
+
+
+@pytest.mark.xfail(strict=True, reason="measured errors 0.04-0.23 % (h33 14.18 Hz: 0.23 %, h11 8.80 Hz: 0.20 %, h21 "
+                                       "14.39 Hz: 0.18 %, h22 19.85 Hz: 0.16 %, h32 19.43 Hz: 0.12 %), each inside "
+                                       "its interval; the reference agrees with the sign change of the measured real "
+                                       "part (mean 0.04 %), an estimator 5-7x less accurate on known truth, and the "
+                                       "data's reciprocal pair h21/h12 differs by 0.5 %: docs/frf-extraction.md")
 def test_southampton_antiresonances_within_0p1_percent(soton_all):
     worst = max(e for e, _ in _soton_zero_errors(soton_all).values())
     assert worst <= 1e-3
