@@ -3,8 +3,8 @@ the same matrices within a run), per stage, on a bundled example.
 
 Run:  python benchmarks/eigen_solves.py [cantilever|frame]
 
-Counts calls of the kernels' entry points (the dense and sparse eigen-solves of a pencil
-``(K, M)`` and of an adjunct pencil), groups them by the matrices solved (a hash of ``M``
+Counts calls of the kernels' entry points (`vibupdate.modal.solve_log`: the dense and sparse
+eigen-solves of a pencil ``(K, M)`` and of an adjunct pencil), groups them by the matrices solved (a hash of ``M``
 and ``K``) and by the stage in whose call stack they ran, and prints the total, the solves of
 each configuration's updated matrices per stage, and how many solves repeated a pencil that
 had already been solved in the run. A count, not a timing: the machine's load does not enter.
@@ -13,18 +13,13 @@ had already been solved in the run. A count, not a timing: the machine's load do
 from __future__ import annotations
 
 import argparse
-import hashlib
 import os
 import tempfile
-import traceback
 from collections import Counter
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-import scipy.sparse as sp  # noqa: E402
-
-from vibupdate.modal import eigen, receptance, sensitivities, zeros  # noqa: E402
+from vibupdate.modal.solve_log import counting_solves, matrices_key  # noqa: E402
 from vibupdate.pipeline import run_example  # noqa: E402
 
 #: The stage of a solve: the first of these source files found in its call stack.
@@ -34,43 +29,14 @@ STAGES = (("polish", "inverse/polish.py"), ("ranges", "ranges/identifiability.py
           ("damping", "vibupdate/damping/"), ("update", "inverse/update.py"))
 
 
-def _key(M, K) -> str:
-    h = hashlib.sha1()
-    for A in (M, K):
-        A = A.toarray() if sp.issparse(A) else np.asarray(A)
-        h.update(np.ascontiguousarray(A, dtype=float).tobytes())
-    return h.hexdigest()
-
-
-def _stage(stack) -> str:
-    files = [f.filename.replace("\\", "/") for f in stack]
-    for stage, part in STAGES:
-        if any(part in f for f in files):
-            return stage
-    return "other"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("example", nargs="?", default="cantilever")
     args = parser.parse_args()
-    log = []
-    for module, name, kind in ((eigen, "_dense_modes", "modes"), (eigen, "_sparse_modes", "modes"),
-                               (receptance, "_dense_modes", "modes"),
-                               (zeros, "_dense_zeros", "zeros"), (zeros, "_sparse_zeros", "zeros"),
-                               (sensitivities, "adjunct_eigenpairs", "zeros")):
-        original = getattr(module, name)
-
-        def counted(M, K, *a, _original=original, _kind=kind, **k):
-            # an adjunct pencil is identified by the full matrices and the pair (r, c)
-            pair = tuple(a[:2]) if _kind == "zeros" else ()
-            log.append((_kind, _key(M, K), pair, _stage(traceback.extract_stack())))
-            return _original(M, K, *a, **k)
-
-        setattr(module, name, counted)
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, counting_solves(STAGES) as solves:
         run = run_example(args.example, os.path.join(tmp, "out"))
-    updated = {_key(m["M"], m["K"]): name for name, m in run.matrices.items()}
+    log = [(s.kind, s.key, s.pair, s.stage) for s in solves]
+    updated = {matrices_key(m["M"], m["K"]): name for name, m in run.matrices.items()}
     seen, repeats = set(), Counter()
     for kind, key, pair, stage in log:
         if (kind, key, pair) in seen:
