@@ -438,11 +438,6 @@ def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(
     assert "Certified outer range:" in report and "Sampled range: 10 data sets" in report
 
 
-@pytest.mark.xfail(strict=True, reason="measured (chain, 10 samples, seed 6): 2 verified sampled answers have k3 "
-                   "761.8 and 779.6 below the certified lower bound 807.1; the first misses a measured frequency by "
-                   "0.514 % (outside the 0.5 % window: the drawn datum near the window's edge, m5 on its bound), the "
-                   "second fits every window but its exact eigenvectors leave S's vector boxes, which the "
-                   "verification of an answer does not check")
 def test_certified_range_contains_every_sampled_answer(certified_run):
     _, run, rows, _ = certified_run
     cert = run.identifiability["certified"]["ranges"]

@@ -1,0 +1,270 @@
+"""Widening the consistent set S so that it holds every answer a run reports (issue 11).
+
+The certified range is an outer range of S (`vibupdate.ranges.consistent`), so it contains a
+reported answer only if S does. Two kinds of answer can lie outside S built on the data alone:
+
+* an answer that misses a measured window: a sampled answer (`vibupdate.study.sweep`) is
+  verified against its *drawn* data, each drawn datum a point inside the measured window, with
+  the verification's fit tolerance (2 % by default, `VerifyOptions.fit_tolerance`); its model
+  frequency may therefore lie up to that tolerance beyond the drawn datum, hence outside the
+  window. The run's own answer may miss the window as well;
+* an answer whose exact eigenvectors leave the first stage's vector boxes: the first stage
+  keeps its vectors in the boxes, but the polish on the full model moves the parameters and
+  nothing checks the exact eigenvectors against the boxes.
+
+`widen` takes the included points (normalized parameters, the answer first) and widens S just
+enough to hold each of them, with stated margins:
+
+* each frequency window to the hull of the window and every included point's paired model
+  frequency (mode ``k`` for the ``k``-th measured natural frequency, zero ``k`` of ``h_rc`` for
+  an antiresonance), reaching `WINDOW_MARGIN` (relative) past it;
+* each vector box to the hull of the box and the included point's paired exact eigenvector
+  (adjunct eigenvector), divided by the block's entry scaling and normalized as the first
+  stage normalizes it (its fixed entry at 1; a measured shape whose reference is free at its
+  reference entry = 1, and only when no scaling of the vector fits the box already), reaching
+  `BOX_MARGIN` past each entry;
+* the parameter box, by rounding only (`BOUND_ROUNDING`).
+
+Why not widen every window a priori to all the sampler's verification could accept (the
+measured interval plus the fit tolerance)? With the default 2 % fit tolerance and a 0.5 %
+window that is five times the window, for answers no sample reported. Widening to the
+reported answers themselves holds each of them exactly, whatever tolerance accepted it.
+
+A point cannot be covered (and is listed in `Inclusion.uncovered` with the figure) when a
+parameter lies outside its bounds by more than rounding, the model lacks the paired zero, the
+vector vanishes at its normalization entry (below `NODE_FRACTION` of its largest entry), or
+its box would have to grow more than `GROWTH_LIMIT`-fold. Then S does not hold every reported
+answer, and `vibupdate.ranges.certify` flags no range as certified.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from vibupdate.data.measured import Configuration
+from vibupdate.inverse.correlation import model_frequencies, zeros_wanted
+from vibupdate.inverse.formulation import VectorBlock
+from vibupdate.inverse.update import MAX_WIDENINGS
+
+__all__ = ["Inclusion", "widen", "paired_vectors", "WINDOW_MARGIN", "BOX_MARGIN", "GROWTH_LIMIT", "NODE_FRACTION",
+           "BOUND_ROUNDING"]
+
+#: Relative margin by which a widened window reaches past an included point's frequency.
+WINDOW_MARGIN = 1e-6
+#: Margin by which a widened box reaches past an included vector's entry: ``BOX_MARGIN (1 + |v|)``
+#: in scaled coordinates (ten times the margin of `vibupdate.ranges.consistent.witness`).
+BOX_MARGIN = 1e-6
+#: A vector box grows at most this factor (its largest bound against the block's largest
+#: bound before): the first stage itself widens its margins at most ``10 ** MAX_WIDENINGS``-fold.
+GROWTH_LIMIT = float(10 ** MAX_WIDENINGS)
+#: A vector whose normalization entry is below this fraction of its largest entry cannot be
+#: normalized there (its box would need at least ``1 / NODE_FRACTION``).
+NODE_FRACTION = 1e-4
+#: A parameter may exceed its normalized bounds by this much (rounding of the solvers); the
+#: parameter box is widened to hold it.
+BOUND_ROUNDING = 1e-9
+
+
+@dataclass(frozen=True)
+class Inclusion:
+    """How S was widened to hold the included points.
+
+    Attributes
+    ----------
+    labels : tuple of str
+        One per included point (e.g. ``"the answer"``, ``"sample 3"``).
+    windows : int
+        Frequency windows widened beyond the data's.
+    window_reach_pct : float
+        Largest distance of an included point's frequency beyond its datum's window, per cent
+        of the measured frequency (0 when none is outside).
+    vectors, entries : int
+        Vector boxes widened, and their entries widened.
+    growth : float
+        Largest factor by which a widened box grew (its largest bound against before; 1 when
+        none grew).
+    bounds : int
+        Parameters whose bounds were widened by rounding.
+    uncovered : tuple of str
+        One sentence per point S could not be widened to hold, with the figure.
+    """
+
+    labels: tuple[str, ...]
+    windows: int = 0
+    window_reach_pct: float = 0.0
+    vectors: int = 0
+    entries: int = 0
+    growth: float = 1.0
+    bounds: int = 0
+    uncovered: tuple[str, ...] = ()
+
+    def text(self) -> str:
+        """What the widening did, in words, for the definition of S."""
+        n = len(self.labels)
+        if self.labels and self.labels[0] == "the answer":
+            who = "the answer" + (f" and {n - 1} verified answer(s) of sampled data sets, line ends included"
+                                  if n > 1 else "")
+        else:
+            who = f"{n} point(s)"
+        text = (f"S is widened to hold every answer the run reports ({who}): {self.windows} frequency window(s) "
+                f"widened to reach each one's paired model frequency (the farthest {self.window_reach_pct:.3g} % of "
+                f"the measured frequency beyond its window) plus {WINDOW_MARGIN:g} relative, and {self.vectors} "
+                f"vector box(es) ({self.entries} entries) widened to hold each one's exact paired eigenvector or "
+                f"adjunct vector, normalized as the first stage normalizes it, plus {BOX_MARGIN:g} (1 + |v|)"
+                + (f"; the largest box grew {self.growth:.3g}-fold" if self.vectors else "")
+                + (f"; {self.bounds} parameter bound(s) widened by rounding" if self.bounds else "") + ".")
+        if self.uncovered:
+            text += (f" {len(self.uncovered)} could not be held, so no range is flagged certified: "
+                     + "; ".join(self.uncovered) + ".")
+        return text
+
+    def record(self) -> dict:
+        """The ``included`` part of ``identifiability.certified`` in ``results.json``."""
+        return {"points": len(self.labels), "windows_widened": self.windows,
+                "window_reach_pct": self.window_reach_pct, "vectors_widened": self.vectors,
+                "entries_widened": self.entries, "box_growth": self.growth, "bounds_widened": self.bounds,
+                "uncovered": list(self.uncovered)}
+
+
+def paired_vectors(cfg: Configuration, blocks: Sequence[VectorBlock], xbar) -> list[tuple[float, np.ndarray]]:
+    """Paired model frequency (rad/s) and exact physical vector of each of ``blocks`` of
+    ``cfg`` at ``xbar``: the declared mode's eigenvector, or the declared zero's right adjunct
+    eigenvector (shape ``(len(cols),)``; NaN frequency where the model lacks the zero). One
+    eigen-solve of the model and one adjunct solve per receptance with blocks."""
+    from vibupdate.modal.zeros import antiresonances
+
+    freqs = model_frequencies(cfg, xbar, zeros=False)
+    adjunct = {}
+    rcs = {blk.receptance for blk in blocks if blk.kind == "antiresonance"}
+    if rcs:
+        M, K = cfg.model.matrices(xbar)
+        for rc in rcs:
+            adjunct[rc] = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), with_vectors=True,
+                                         n_zeros=zeros_wanted(cfg, rc))
+    out = []
+    for blk in blocks:
+        if blk.kind == "natural":
+            out.append((float(freqs.natural[blk.index - 1]), freqs.Phi[:, blk.index - 1]))
+            continue
+        k = cfg.antiresonances[blk.index - 1].index - 1
+        z, V = adjunct[blk.receptance]
+        out.append((float(z[k]), V[:, k]) if k < z.size else (np.nan, np.full(blk.cols.size, np.nan)))
+    return out
+
+
+def _anchor(blk: VectorBlock) -> int:
+    """The entry a vector is normalized at: the fixed entry, else (a measured shape with its
+    reference freed) the entry whose box keeps farthest from zero."""
+    if blk.fixed.any():
+        return int(np.flatnonzero(blk.fixed)[0])
+    away = np.where(blk.lower * blk.upper > 0, np.minimum(np.abs(blk.lower), np.abs(blk.upper)), 0.0)
+    return int(np.argmax(away))
+
+
+def _fits_some_scale(blk: VectorBlock, v) -> bool:
+    """A block without a fixed entry: some scaling ``c v`` lies in the box shrunk by `BOX_MARGIN`."""
+    lo, hi = blk.lower + BOX_MARGIN, blk.upper - BOX_MARGIN
+    nz = v != 0
+    if np.any(~nz & ((lo > 0) | (hi < 0))):
+        return False
+    a, b = lo[nz] / v[nz], hi[nz] / v[nz]
+    return bool(np.max(np.minimum(a, b)) <= np.min(np.maximum(a, b)))
+
+
+def _widen_box(blk: VectorBlock, v, base: float, label: str, where: str):
+    """``(block, None)``: the block with its box widened to hold the scaled vector ``v``; or
+    ``(blk, reason)`` when it cannot be held (``base``: the largest bound before widening)."""
+    j = _anchor(blk)
+    big = float(np.max(np.abs(v)))
+    if not abs(v[j]) > NODE_FRACTION * big:
+        return blk, (f"{label}: its {where} vector is {abs(v[j]) / big:.2g} of its largest entry at the "
+                             f"normalization entry (below {NODE_FRACTION:g})")
+    if not blk.fixed.any() and _fits_some_scale(blk, v):
+        return blk, None
+    v = v / v[j] * (blk.lower[j] if blk.fixed.any() else 1.0)
+    pad = BOX_MARGIN * (1.0 + np.abs(v))
+    free = ~blk.fixed
+    lower = np.where(free, np.minimum(blk.lower, v - pad), blk.lower)
+    upper = np.where(free, np.maximum(blk.upper, v + pad), blk.upper)
+    grown = (lower < blk.lower) | (upper > blk.upper)
+    if not grown.any():
+        return blk, None
+    growth = float(np.max(np.maximum(np.abs(lower), np.abs(upper)))) / base
+    if growth > GROWTH_LIMIT:
+        return blk, (f"{label}: its {where} vector would need a box {growth:.3g} times the largest "
+                             f"bound of the first stage's (limit {GROWTH_LIMIT:g})")
+    return replace(blk, lower=lower, upper=upper), None
+
+
+def widen(configurations: Sequence[Configuration], blocks: Sequence[VectorBlock], omega_lower, omega_upper,
+          x_lower, x_upper, points, labels: Sequence[str]):
+    """Widen windows, vector boxes and (by rounding) parameter bounds to hold ``points``.
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+    blocks : sequence of VectorBlock
+        The blocks of S, boxes in scaled coordinates.
+    omega_lower, omega_upper : ndarray, shape (n_blocks,)
+        The data's windows, rad/s.
+    x_lower, x_upper : ndarray, shape (n_x,)
+        Normalized parameter bounds.
+    points : ndarray, shape (n_points, n_x)
+        Normalized parameters to hold.
+    labels : sequence of str
+        One per point, for the messages.
+
+    Returns
+    -------
+    blocks, omega_lower, omega_upper, x_lower, x_upper, Inclusion
+        The widened S's pieces (new arrays) and what was done.
+    """
+    blocks = list(blocks)
+    lo, hi = np.array(omega_lower, dtype=float), np.array(omega_upper, dtype=float)
+    xl, xu = np.array(x_lower, dtype=float), np.array(x_upper, dtype=float)
+    base = [max(float(np.max(np.abs(np.r_[b.lower, b.upper]))), 1.0) for b in blocks]
+    measured_w = np.array([b.omega for b in blocks])
+    by_name = {c.name: c for c in configurations}
+    model = configurations[0].model
+    before = list(blocks)
+    window_widened = np.zeros(len(blocks), dtype=bool)
+    reach, bounds, uncovered = 0.0, set(), []
+    for p, label in zip(np.atleast_2d(np.asarray(points, dtype=float)), labels):
+        out_low, out_high = xl - p, p - xu
+        if np.any(np.maximum(out_low, out_high) > BOUND_ROUNDING):
+            i = int(np.argmax(np.maximum(out_low, out_high)))
+            uncovered.append(f"{label}: parameter {model.parameter_names[i]} = {model.physical(p)[i]:.6g} lies "
+                             f"outside its bounds")
+            continue
+        bounds.update(np.flatnonzero((out_low > 0) | (out_high > 0)).tolist())
+        xl = np.minimum(xl, np.where(out_low > 0, p - 1e-3 * BOUND_ROUNDING, xl))   # just past the point: its physical
+        xu = np.maximum(xu, np.where(out_high > 0, p + 1e-3 * BOUND_ROUNDING, xu))  # value may round either way
+        for name, cfg in by_name.items():
+            ids = [b for b, blk in enumerate(blocks) if blk.configuration == name]
+            for b, (w, v) in zip(ids, paired_vectors(cfg, [blocks[b] for b in ids], p)):
+                blk = blocks[b]
+                where = (f"configuration {name!r} mode {blk.index}" if blk.kind == "natural" else
+                         f"configuration {name!r} zero {cfg.antiresonances[blk.index - 1].index} of "
+                         f"h_{blk.receptance[0]},{blk.receptance[1]}")
+                if not np.isfinite(w):
+                    uncovered.append(f"{label}: the model lacks {where}")
+                    continue
+                a, c = w * (1 - WINDOW_MARGIN), w * (1 + WINDOW_MARGIN)
+                if a < lo[b] or c > hi[b]:
+                    beyond = max(omega_lower[b] - w, w - omega_upper[b], 0.0)
+                    reach = max(reach, 100.0 * beyond / measured_w[b])
+                    window_widened[b] = True
+                    lo[b], hi[b] = min(lo[b], a), max(hi[b], c)
+                blocks[b], why = _widen_box(blk, v / blk.scale, base[b], label, where)
+                if why:
+                    uncovered.append(why)
+    grown = [(new.lower < old.lower) | (new.upper > old.upper) for new, old in zip(blocks, before)]
+    growth = max([float(np.max(np.maximum(np.abs(new.lower), np.abs(new.upper)))) / base[b]
+                  for b, (new, g) in enumerate(zip(blocks, grown)) if g.any()], default=1.0)
+    inclusion = Inclusion(tuple(labels), int(np.count_nonzero(window_widened)), reach,
+                          sum(bool(g.any()) for g in grown), int(sum(np.count_nonzero(g) for g in grown)),
+                          max(growth, 1.0), len(bounds), tuple(uncovered))
+    return tuple(blocks), lo, hi, xl, xu, inclusion
