@@ -446,6 +446,17 @@ def test_certified_range_contains_every_sampled_answer(certified_run):
         assert cert[p.name]["lower"] <= min(values) and max(values) <= cert[p.name]["upper"], (p.name, values)
 
 
+def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run):
+    """The certification ran after the sweep and widened S for the answer, every verified
+    sampled answer and every line end; results.json, the report and the definition say so."""
+    _, run, rows, report = certified_run
+    c = run.identifiability["certified"]
+    verified = sum(r["outcome"] == "verified" for r in rows)
+    assert c["included"] == 1 + verified + run.sampled.line_ends and c["uncovered"] == []
+    assert f"the answer and {verified + run.sampled.line_ends} verified answer(s) of sampled data sets" in c["definition"]
+    assert "S is widened to hold every answer the run reports" in report
+
+
 def test_disagreements_between_sampled_and_linearized_ranges():
     from vibupdate.report.document import sampled_disagreements
 
@@ -458,3 +469,19 @@ def test_disagreements_between_sampled_and_linearized_ranges():
     assert notes[0].startswith("a: every verified sample gave 1,")
     assert notes[1].startswith("b: the sampled range [0.5, 2.5] reaches outside the linearized range [1, 2]")
     assert notes[2].startswith("c: the linearized range [0, 3] is 30x the sampled range [1, 1.1]")
+
+
+def test_reported_answers_are_the_verified_samples_and_their_line_ends():
+    from vibupdate.study.sampled_ranges import reported_answers
+
+    from helpers import chain_model
+
+    model = chain_model(3, ["k1", "m2"])
+    rows = [{"index": 0, "outcome": "verified", "p:k1": 1000.0, "p:m2": 1.1},
+            {"index": 1, "outcome": "unverified", "p:k1": 1200.0, "p:m2": 1.2},
+            {"index": 2, "outcome": "verified", "p:k1": 900.0, "p:m2": 0.9}]
+    ends = [{"index": 2, "direction": 1, "side": -1, "p:k1": 800.0, "p:m2": 0.8},
+            {"index": 1, "direction": 1, "side": 1, "p:k1": 1250.0, "p:m2": 1.25}]
+    got = reported_answers(model, rows, ends)
+    assert [label for label, _ in got] == ["sample 0", "sample 2", "line end 1- of sample 2"]
+    np.testing.assert_allclose(model.physical(got[2][1]), [800.0, 0.8])

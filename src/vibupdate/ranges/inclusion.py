@@ -84,8 +84,8 @@ class Inclusion:
     vectors, entries : int
         Vector boxes widened, and their entries widened.
     growth : float
-        Largest factor by which a widened box grew (its largest bound against before; 1 when
-        none grew).
+        Largest ratio of a widened box's largest bound to that box's largest bound before (1
+        when none grew).
     bounds : int
         Parameters whose bounds were widened by rounding.
     uncovered : tuple of str
@@ -114,7 +114,8 @@ class Inclusion:
                 f"the measured frequency beyond its window) plus {WINDOW_MARGIN:g} relative, and {self.vectors} "
                 f"vector box(es) ({self.entries} entries) widened to hold each one's exact paired eigenvector or "
                 f"adjunct vector, normalized as the first stage normalizes it, plus {BOX_MARGIN:g} (1 + |v|)"
-                + (f"; the largest box grew {self.growth:.3g}-fold" if self.vectors else "")
+                + (f"; the widest widened box reaches {self.growth:.3g} times its vector's largest bound before"
+                   if self.vectors else "")
                 + (f"; {self.bounds} parameter bound(s) widened by rounding" if self.bounds else "") + ".")
         if self.uncovered:
             text += (f" {len(self.uncovered)} could not be held, so no range is flagged certified: "
