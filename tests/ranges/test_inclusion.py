@@ -44,9 +44,10 @@ def test_an_answer_whose_eigenvector_leaves_the_nominal_boxes_is_inside_the_cert
     assert any(out)                                           # ... but a vector leaves its box
     assert not is_consistent(plain, x)
     cs = consistent_set([cfg], frequency_tolerance=0.005, include=x)
-    assert cs.inclusion.vectors >= 1 and cs.inclusion.windows == 0 and not cs.inclusion.uncovered
+    assert len(cs.inclusion.vectors) >= 1 and cs.inclusion.windows == () and not cs.inclusion.uncovered
+    assert cs.inclusion.widened_by == ("the answer",)
     assert is_consistent(cs, x) and witness(cs, x) is not None
-    assert "vector box(es)" in cs.definition() and "the answer" in cs.definition()
+    assert "Vector boxes widened" in cs.definition() and "Widened for: the answer." in cs.definition()
     cert = certified_ranges([cfg], x, frequency_tolerance=0.005, seconds=3.0)
     assert inside(cert, model, x)
     assert cert.included == 1 and cert.uncovered == () and cert.certified.any()
@@ -69,7 +70,8 @@ def test_a_sampled_answer_outside_a_frequency_window_is_inside_the_certified_ran
     assert 0.0075 < max(misses) < 0.025
     cs = consistent_set([cfg], frequency_tolerance=0.005, include=[truth, sample],
                         include_labels=["the answer", "sample 0"])
-    assert cs.inclusion.windows >= 1 and cs.inclusion.vectors == 0 and not cs.inclusion.uncovered
+    assert cs.inclusion.windows[0][0] == "configuration 'A' mode 1" and cs.inclusion.vectors == ()
+    assert cs.inclusion.widened_by == ("sample 0",) and not cs.inclusion.uncovered
     assert cs.inclusion.window_reach_pct == pytest.approx(100 * (max(misses) - 0.005), rel=1e-6)
     assert is_consistent(cs, sample) and is_consistent(cs, truth)
     before = certified_ranges([cfg], truth, frequency_tolerance=0.005, seconds=2.0)
@@ -93,6 +95,6 @@ def test_an_answer_s_cannot_hold_leaves_every_range_unflagged_with_the_reason():
     assert cert.uncovered and cert.uncovered[0].startswith("sample 7: parameter k3 = ")
     assert "NOT certified" in cert.message and "sample 7" in cert.message
     record = cert.record()
-    assert record["uncovered"] == list(cert.uncovered) and record["included"] == 2
+    assert record["uncovered"] == list(cert.uncovered) and record["included"]["points"] == 2
     assert not any(r["certified"] for r in record["ranges"].values())
     assert "could not be held, so no range is flagged certified" in cert.definition

@@ -452,9 +452,12 @@ def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run
     _, run, rows, report = certified_run
     c = run.identifiability["certified"]
     verified = sum(r["outcome"] == "verified" for r in rows)
-    assert c["included"] == 1 + verified + run.sampled.line_ends and c["uncovered"] == []
+    assert c["included"]["points"] == 1 + verified + run.sampled.line_ends and c["uncovered"] == []
     assert f"the answer and {verified + run.sampled.line_ends} verified answer(s) of sampled data sets" in c["definition"]
     assert "S is widened to hold every answer the run reports" in report
+    from vibupdate.io.results import validate_document
+
+    validate_document(json.loads(json.dumps(run.as_document())))     # the certified section's schema
 
 
 def test_disagreements_between_sampled_and_linearized_ranges():

@@ -47,6 +47,7 @@ from vibupdate.data.measured import Configuration
 from vibupdate.inverse.formulation import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent, witness
+from vibupdate.ranges.inclusion import Inclusion
 from vibupdate.ranges.tightening import GAP, Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
 
 __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements", "GAP"]
@@ -94,8 +95,8 @@ class CertifiedRanges:
     definition : str
         The consistent set, for reports.
     message : str
-    included : int
-        Points S was widened to hold (the answer and the other reported answers).
+    inclusion : Inclusion, optional
+        How S was widened to hold the answer and the other reported answers.
     uncovered : tuple of str
         Why a reported answer is not held by S or not inside the ranges, with the figure (then
         no range, or not the parameters it escapes, is flagged certified).
@@ -118,8 +119,13 @@ class CertifiedRanges:
     history: tuple
     definition: str
     message: str
-    included: int = 0
+    inclusion: Inclusion | None = None
     uncovered: tuple[str, ...] = ()
+
+    @property
+    def included(self) -> int:
+        """Points S was widened to hold."""
+        return len(self.inclusion.labels) if self.inclusion is not None else 0
 
     def determined(self, within_pct: float = 5.0) -> list[str]:
         """Parameters whose whole certified range is narrower than ``within_pct``."""
@@ -139,7 +145,8 @@ class CertifiedRanges:
             "seconds": self.seconds, "root_seconds": self.root_seconds, "passes": self.passes,
             "splits": self.splits, "leaves": self.leaves, "n_lps": self.n_lps,
             "history": [[num(t), num(w)] for t, w in self.history],
-            "included": self.included, "uncovered": list(self.uncovered),
+            "included": self.inclusion.record() if self.inclusion is not None else None,
+            "uncovered": list(self.uncovered),
             "ranges": {n: {"lower": num(lo), "upper": num(hi), "width_pct": num(w), "certified": bool(c),
                            "root_lower": num(rl), "root_upper": num(ru)}
                        for n, lo, hi, w, c, rl, ru in zip(self.names, self.lower, self.upper, self.width_pct,
@@ -435,7 +442,7 @@ def _check_included(cs: ConsistentSet, cert: CertifiedRanges, points, labels) ->
                              f"[{cert.lower[i]:.6g}, {cert.upper[i]:.6g}]")
             certified = certified & ~out if not cert.empty else np.zeros_like(certified)
     if not uncovered:
-        return replace(cert, included=len(points))
+        return replace(cert, inclusion=cs.inclusion)
     message = (f"{cert.message}; NOT certified: {len(uncovered)} reported answer(s) not held: "
                + "; ".join(uncovered[:3]) + (f"; and {len(uncovered) - 3} more" if len(uncovered) > 3 else ""))
-    return replace(cert, certified=certified, included=len(points), uncovered=tuple(uncovered), message=message)
+    return replace(cert, certified=certified, inclusion=cs.inclusion, uncovered=tuple(uncovered), message=message)

@@ -68,6 +68,11 @@ NODE_FRACTION = 1e-4
 BOUND_ROUNDING = 1e-9
 
 
+def _listed(items: Sequence[str], limit: int = 6) -> str:
+    more = len(items) - limit
+    return ", ".join(items[:limit]) + (f" and {more} more" if more > 0 else "")
+
+
 @dataclass(frozen=True)
 class Inclusion:
     """How S was widened to hold the included points.
@@ -76,16 +81,14 @@ class Inclusion:
     ----------
     labels : tuple of str
         One per included point (e.g. ``"the answer"``, ``"sample 3"``).
-    windows : int
-        Frequency windows widened beyond the data's.
-    window_reach_pct : float
-        Largest distance of an included point's frequency beyond its datum's window, per cent
-        of the measured frequency (0 when none is outside).
-    vectors, entries : int
-        Vector boxes widened, and their entries widened.
-    growth : float
-        Largest ratio of a widened box's largest bound to that box's largest bound before (1
-        when none grew).
+    windows : tuple of (str, float)
+        Each frequency window widened beyond the data's: the datum, and how far the farthest
+        included frequency lies beyond the data's window (per cent of the measured frequency).
+    vectors : tuple of (str, int, float)
+        Each vector box widened: the vector, its entries widened, and its largest bound after
+        against before.
+    widened_by : tuple of str
+        Labels of the points that needed any widening.
     bounds : int
         Parameters whose bounds were widened by rounding.
     uncovered : tuple of str
@@ -93,13 +96,16 @@ class Inclusion:
     """
 
     labels: tuple[str, ...]
-    windows: int = 0
-    window_reach_pct: float = 0.0
-    vectors: int = 0
-    entries: int = 0
-    growth: float = 1.0
+    windows: tuple = ()
+    vectors: tuple = ()
+    widened_by: tuple[str, ...] = ()
     bounds: int = 0
     uncovered: tuple[str, ...] = ()
+
+    @property
+    def window_reach_pct(self) -> float:
+        """Farthest included frequency beyond its datum's window, per cent (0: none)."""
+        return max((r for _, r in self.windows), default=0.0)
 
     def text(self) -> str:
         """What the widening did, in words, for the definition of S."""
@@ -109,14 +115,15 @@ class Inclusion:
                                   if n > 1 else "")
         else:
             who = f"{n} point(s)"
-        text = (f"S is widened to hold every answer the run reports ({who}): {self.windows} frequency window(s) "
-                f"widened to reach each one's paired model frequency (the farthest {self.window_reach_pct:.3g} % of "
-                f"the measured frequency beyond its window) plus {WINDOW_MARGIN:g} relative, and {self.vectors} "
-                f"vector box(es) ({self.entries} entries) widened to hold each one's exact paired eigenvector or "
-                f"adjunct vector, normalized as the first stage normalizes it, plus {BOX_MARGIN:g} (1 + |v|)"
-                + (f"; the widest widened box reaches {self.growth:.3g} times its vector's largest bound before"
-                   if self.vectors else "")
-                + (f"; {self.bounds} parameter bound(s) widened by rounding" if self.bounds else "") + ".")
+        windows = [f"{where} ({r:.3g} % beyond its window)" for where, r in self.windows]
+        vectors = [f"{where} ({k} entries, its largest bound {g:.3g}x)" for where, k, g in self.vectors]
+        text = (f"S is widened to hold every answer the run reports ({who}). Frequency windows widened to reach "
+                f"each one's paired model frequency, plus {WINDOW_MARGIN:g} relative: "
+                f"{_listed(windows) if windows else 'none'}. Vector boxes widened to hold each one's exact paired "
+                f"eigenvector or adjunct vector (scaled and normalized as in the first stage), plus "
+                f"{BOX_MARGIN:g} (1 + |v|): {_listed(vectors) if vectors else 'none'}."
+                + (f" Widened for: {_listed(list(self.widened_by))}." if self.widened_by else "")
+                + (f" {self.bounds} parameter bound(s) widened by rounding." if self.bounds else ""))
         if self.uncovered:
             text += (f" {len(self.uncovered)} could not be held, so no range is flagged certified: "
                      + "; ".join(self.uncovered) + ".")
@@ -124,10 +131,10 @@ class Inclusion:
 
     def record(self) -> dict:
         """The ``included`` part of ``identifiability.certified`` in ``results.json``."""
-        return {"points": len(self.labels), "windows_widened": self.windows,
-                "window_reach_pct": self.window_reach_pct, "vectors_widened": self.vectors,
-                "entries_widened": self.entries, "box_growth": self.growth, "bounds_widened": self.bounds,
-                "uncovered": list(self.uncovered)}
+        return {"points": len(self.labels), "widened_by": list(self.widened_by),
+                "windows": [{"datum": where, "beyond_pct": r} for where, r in self.windows],
+                "vector_boxes": [{"vector": where, "entries": k, "bound_ratio": g} for where, k, g in self.vectors],
+                "bounds_widened": self.bounds}
 
 
 def paired_vectors(cfg: Configuration, blocks: Sequence[VectorBlock], xbar) -> list[tuple[float, np.ndarray]]:
@@ -226,46 +233,55 @@ def widen(configurations: Sequence[Configuration], blocks: Sequence[VectorBlock]
     blocks = list(blocks)
     lo, hi = np.array(omega_lower, dtype=float), np.array(omega_upper, dtype=float)
     xl, xu = np.array(x_lower, dtype=float), np.array(x_upper, dtype=float)
-    base = [max(float(np.max(np.abs(np.r_[b.lower, b.upper]))), 1.0) for b in blocks]
-    measured_w = np.array([b.omega for b in blocks])
-    by_name = {c.name: c for c in configurations}
-    model = configurations[0].model
     before = list(blocks)
-    window_widened = np.zeros(len(blocks), dtype=bool)
-    reach, bounds, uncovered = 0.0, set(), []
+    base = [max(float(np.max(np.abs(np.r_[b.lower, b.upper]))), 1.0) for b in blocks]
+    by_name = {c.name: c for c in configurations}
+    names = configurations[0].model.parameter_names
+    reach = np.full(len(blocks), -1.0)          # per cent beyond the data's window; < 0: not widened
+    where = [_where(by_name[b.configuration], b) for b in blocks]
+    bounds, uncovered, widened_by = set(), [], []
     for p, label in zip(np.atleast_2d(np.asarray(points, dtype=float)), labels):
         out_low, out_high = xl - p, p - xu
         if np.any(np.maximum(out_low, out_high) > BOUND_ROUNDING):
             i = int(np.argmax(np.maximum(out_low, out_high)))
-            uncovered.append(f"{label}: parameter {model.parameter_names[i]} = {model.physical(p)[i]:.6g} lies "
-                             f"outside its bounds")
+            value = configurations[0].model.physical(p)[i]
+            uncovered.append(f"{label}: parameter {names[i]} = {value:.6g} lies outside its bounds")
             continue
         bounds.update(np.flatnonzero((out_low > 0) | (out_high > 0)).tolist())
-        xl = np.minimum(xl, np.where(out_low > 0, p - 1e-3 * BOUND_ROUNDING, xl))   # just past the point: its physical
-        xu = np.maximum(xu, np.where(out_high > 0, p + 1e-3 * BOUND_ROUNDING, xu))  # value may round either way
+        # just past the point: its physical value may round either way
+        xl = np.minimum(xl, np.where(out_low > 0, p - 1e-3 * BOUND_ROUNDING, xl))
+        xu = np.maximum(xu, np.where(out_high > 0, p + 1e-3 * BOUND_ROUNDING, xu))
+        state = (lo.copy(), hi.copy(), list(blocks))
         for name, cfg in by_name.items():
             ids = [b for b, blk in enumerate(blocks) if blk.configuration == name]
             for b, (w, v) in zip(ids, paired_vectors(cfg, [blocks[b] for b in ids], p)):
-                blk = blocks[b]
-                where = (f"configuration {name!r} mode {blk.index}" if blk.kind == "natural" else
-                         f"configuration {name!r} zero {cfg.antiresonances[blk.index - 1].index} of "
-                         f"h_{blk.receptance[0]},{blk.receptance[1]}")
                 if not np.isfinite(w):
-                    uncovered.append(f"{label}: the model lacks {where}")
+                    uncovered.append(f"{label}: the model lacks {where[b]}")
                     continue
                 a, c = w * (1 - WINDOW_MARGIN), w * (1 + WINDOW_MARGIN)
                 if a < lo[b] or c > hi[b]:
                     beyond = max(omega_lower[b] - w, w - omega_upper[b], 0.0)
-                    reach = max(reach, 100.0 * beyond / measured_w[b])
-                    window_widened[b] = True
+                    reach[b] = max(reach[b], 100.0 * beyond / blocks[b].omega)
                     lo[b], hi[b] = min(lo[b], a), max(hi[b], c)
-                blocks[b], why = _widen_box(blk, v / blk.scale, base[b], label, where)
+                blocks[b], why = _widen_box(blocks[b], v / blocks[b].scale, base[b], label, where[b])
                 if why:
                     uncovered.append(why)
-    grown = [(new.lower < old.lower) | (new.upper > old.upper) for new, old in zip(blocks, before)]
-    growth = max([float(np.max(np.maximum(np.abs(new.lower), np.abs(new.upper)))) / base[b]
-                  for b, (new, g) in enumerate(zip(blocks, grown)) if g.any()], default=1.0)
-    inclusion = Inclusion(tuple(labels), int(np.count_nonzero(window_widened)), reach,
-                          sum(bool(g.any()) for g in grown), int(sum(np.count_nonzero(g) for g in grown)),
-                          max(growth, 1.0), len(bounds), tuple(uncovered))
+        if np.any(lo != state[0]) or np.any(hi != state[1]) or any(x is not y for x, y in zip(blocks, state[2])):
+            widened_by.append(label)
+    vectors = []
+    for b, (new, old) in enumerate(zip(blocks, before)):
+        grown = (new.lower < old.lower) | (new.upper > old.upper)
+        if grown.any():
+            ratio = float(np.max(np.maximum(np.abs(new.lower), np.abs(new.upper)))) / base[b]
+            vectors.append((where[b], int(np.count_nonzero(grown)), ratio))
+    windows = tuple((where[b], float(reach[b])) for b in np.flatnonzero(reach >= 0))
+    inclusion = Inclusion(tuple(labels), windows, tuple(vectors), tuple(widened_by), len(bounds), tuple(uncovered))
     return tuple(blocks), lo, hi, xl, xu, inclusion
+
+
+def _where(cfg: Configuration, blk: VectorBlock) -> str:
+    """The datum of a block, for messages."""
+    if blk.kind == "natural":
+        return f"configuration {cfg.name!r} mode {blk.index}"
+    a = cfg.antiresonances[blk.index - 1]
+    return f"configuration {cfg.name!r} zero {a.index} of h_{a.response},{a.excitation}"
