@@ -70,8 +70,8 @@ def measure(example: str, samples: int, seconds: float, seed: int, tolerance: fl
     found = {}
     for label, include in (("answer only", ()), ("every answer", answers)):
         load0 = os.getloadavg()[0]
-        cert = certified_ranges(case.configurations, xbar, include=include, frequency_tolerance=case.frequency_tolerance,
-                                seconds=seconds, options=boxes)
+        cert = certified_ranges(case.configurations, xbar, include=include,
+                                frequency_tolerance=case.frequency_tolerance, seconds=seconds, options=boxes)
         found[label] = cert
         print(f"{label}: {cert.message}; {cert.seconds:.1f} s, {cert.passes} passes, {cert.splits} splits, "
               f"{cert.n_lps} LPs; load {load0:.1f} -> {os.getloadavg()[0]:.1f}")

@@ -439,8 +439,8 @@ def _check_included(cs: ConsistentSet, cert: CertifiedRanges, points, labels) ->
             certified = certified & ~out if not cert.empty else np.zeros_like(certified)
     if not uncovered:
         return replace(cert, inclusion=cs.inclusion)
-    which = "NOT certified" if not certified.any() else (
-        "not certified for " + ", ".join(n for n, c, was in zip(cert.names, certified, cert.certified) if was and not c))
+    withdrawn = [n for n, c, was in zip(cert.names, certified, cert.certified) if was and not c]
+    which = "NOT certified" if not certified.any() else "not certified for " + ", ".join(withdrawn)
     message = (f"{cert.message}; {which}: {len(uncovered)} reported answer(s) not held: "
                + "; ".join(uncovered[:3]) + (f"; and {len(uncovered) - 3} more" if len(uncovered) > 3 else ""))
     return replace(cert, certified=certified, inclusion=cs.inclusion, uncovered=tuple(uncovered), message=message)

@@ -23,8 +23,8 @@ other blocks keep one entry fixed to 1 for normalization. With ``include`` (the 
 the other answers a run reports: verified sampled answers and line ends) the windows and the
 vector boxes are widened just enough to hold every included point, each point's paired model
 frequencies and exact eigenvectors with a stated margin (`vibupdate.ranges.inclusion`): S then
-holds every answer the run reports, so its certified outer range contains them all. With exact data and ``frequency_tolerance = 0`` the window is the single
-measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
+holds every answer the run reports, so its certified outer range contains them all. With
+exact data and ``frequency_tolerance = 0`` the window is the single measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
 
 S asks for *an* eigenpair in each window, not the k-th mode: it contains every parameter
 set that a mode-correspondence check would admit, and possibly more.
