@@ -110,3 +110,46 @@ def score(result, M, K, C, dofs, pairs=PAIRS):
                 out["zero_err"].append(abs(z.omega / t - 1))
                 out["zero_hit"].append(z.interval[0] <= t <= z.interval[1])
     return out
+
+
+#: Measured pairs of `frame_system`: the full 3x3 matrix of the sway DOFs.
+FRAME_PAIRS = tuple((f"x{r}", f"x{c}") for c in (1, 2, 3) for r in (1, 2, 3))
+
+
+def frame_system():
+    """A three-storey shear frame like the Southampton one (issue 9): storey masses 5.2 kg,
+    storey stiffnesses 33.7, 36.7, 39.5 kN/m (modes at 6.5, 17.0 and 24.5 Hz), and two
+    out-of-plane DOFs ``z1``, ``z2`` (5.2 kg, 28.9 and 42.1 Hz alone) tied to the floors by
+    weak 1.8 kN/m springs, so that two light modes just above the band show in the sway FRFs
+    (peaks of about 0.5 (m/s^2)/N against 5-25 for the sway modes, as measured there).
+    Damping about 0.2 % and non-proportional: C = 0.12 M + 2.3e-5 K + a 0.3 N s/m dashpot at
+    x1. Dense M, K, C (SI) and DOF names."""
+    k = 0.88 * np.array([38.35e3, 41.65e3, 44.9e3])
+    K = np.zeros((5, 5))
+    K[:3, :3] = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    M = np.diag([5.2] * 5)
+    K[3, 3], K[4, 4] = 5.2 * (2 * np.pi * 28.9) ** 2, 5.2 * (2 * np.pi * 42.1) ** 2
+    for a, b in ((2, 3), (1, 4), (0, 3)):  # weak ties: floor 3 and 1 to z1, floor 2 to z2
+        K[np.ix_([a, b], [a, b])] += 0.88 * 2e3 * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    C = 0.12 * M + 2.3e-5 * K
+    C[0, 0] += 0.3
+    return M, K, C, ["x1", "x2", "x3", "z1", "z2"]
+
+
+def frame_measured(seed: int, repeats: int = 1, floor: float = 4e-3, noise: float = 0.005,
+                   step_hz: float = 0.03125, band_hz=(3.0, 56.0)):
+    """Noisy accelerances of `frame_system` as the Southampton data are (one record per pair,
+    0.03125 Hz lines), returned as receptances: complex Gaussian noise of ``floor``
+    ((m/s^2)/N, the measured floor between the peaks) plus ``noise * |A|`` per line and
+    repeat, then divided by ``-omega^2``. Returns (FRFSet, M, K, C, dofs)."""
+    M, K, C, dofs = frame_system()
+    omega = 2 * np.pi * np.arange(band_hz[0], band_hz[1] + step_hz / 2, step_hz)
+    H = np.linalg.inv(K[None] - omega[:, None, None] ** 2 * M[None] + 1j * omega[:, None, None] * C[None])
+    rng = np.random.default_rng(seed)
+    blocks = []
+    for r, c in FRAME_PAIRS:
+        a = -omega**2 * H[:, dofs.index(r), dofs.index(c)]
+        sigma = floor + noise * np.abs(a)
+        e = rng.standard_normal((repeats, a.size)) + 1j * rng.standard_normal((repeats, a.size))
+        blocks.append((a[None] + sigma[None] * e / np.sqrt(2)) / -omega[None] ** 2)
+    return FRFSet(omega, FRAME_PAIRS, tuple(blocks)), M, K, C, dofs

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from frf_synthetic import CHAIN_PAIRS, PAIRS, chain_system, measured, score, true_poles, true_zeros
+from frf_synthetic import (CHAIN_PAIRS, FRAME_PAIRS, PAIRS, chain_system, frame_measured, measured, score, true_poles,
+                           true_zeros)
 from vibupdate.cli import main
 from vibupdate.data.extraction import extract
 from vibupdate.data.frf import FRFSet
@@ -52,6 +53,22 @@ def test_interval_coverage_over_50_seeds():
     for key in ("freq_hit", "damping_hit", "zero_hit"):
         coverage = float(np.mean(s[key]))
         assert 0.85 <= coverage <= 1.0, f"{key}: coverage {coverage:.3f} of the 95 % intervals"
+
+
+def test_accuracy_on_a_known_truth_frame_like_the_southampton_one():
+    """`frame_measured`: the Southampton situation with a known truth (one record per pair,
+    0.03125 Hz lines, about 0.2 % non-proportional damping, two light modes just above the
+    band, the measured noise floor of 4e-3 (m/s^2)/N). Measured over 20 seeds
+    (benchmarks/soton_zeros.py --synthetic 20): zeros worst 0.18 %, rms 0.034 %, coverage
+    0.85; the sign change of the measured real part (the local estimate the reference
+    values agree with) rms 0.24 %. Seeds 0-1 here."""
+    band = (2 * math.pi * 3, 2 * math.pi * 28)
+    for seed in range(2):
+        frfs, M, K, C, dofs = frame_measured(seed)
+        s = score(extract(frfs, band, n_modes=3), M, K, C, dofs, pairs=FRAME_PAIRS)
+        assert s["n_modes_ok"] and all(s["zero_count_ok"]), f"seed {seed}: {s['zero_count_ok']}"
+        assert max(s["freq_err"]) <= 5e-4 and max(s["damping_err"]) <= 0.02
+        assert max(s["zero_err"]) <= 2e-3
 
 
 def test_noise_free_fit_is_exact_and_finds_no_extra_mode():
@@ -360,8 +377,21 @@ def test_southampton_antiresonances_found_and_references_within_intervals(soton_
         assert n["freq_hz"] == pytest.approx(ref, rel=1e-3)
 
 
-@pytest.mark.xfail(strict=True, reason="measured errors 0.04-0.23 % (h33 14.18 Hz: 0.23 %, h11 8.80 Hz: 0.20 %, "
-                                       "h21 14.39 Hz: 0.18 %), see docs/frf-extraction.md")
+def test_southampton_reciprocal_zeros_agree_within_their_intervals(soton_all):
+    """h21 / h12 and h32 / h23 are one physical zero each (symmetric M, K) measured in two
+    tests: their intervals overlap (measured 14.416 / 14.487 Hz, 0.49 % apart, and 19.407 /
+    19.439 Hz; the reference's own pairs are 0.63 % and 0.10 % apart)."""
+    got = {(z["response"], z["excitation"]): z["freq_hz_interval"] for z in soton_all["antiresonances"]
+           if (z["response"], z["excitation"]) in {("x2", "x1"), ("x1", "x2"), ("x3", "x2"), ("x2", "x3")}}
+    for a, b in ((("x2", "x1"), ("x1", "x2")), (("x3", "x2"), ("x2", "x3"))):
+        assert max(got[a][0], got[b][0]) <= min(got[a][1], got[b][1]), (a, got[a], b, got[b])
+
+
+@pytest.mark.xfail(strict=True, reason="measured errors 0.04-0.23 % (h33 14.18 Hz: 0.23 %, h11 8.80 Hz: 0.20 %, h21 "
+                                       "14.39 Hz: 0.18 %, h22 19.85 Hz: 0.16 %, h32 19.43 Hz: 0.12 %), each inside "
+                                       "its interval; the reference agrees with the sign change of the measured real "
+                                       "part (mean 0.04 %), an estimator 5-7x less accurate on known truth, and the "
+                                       "data's reciprocal pair h21/h12 differs by 0.5 %: docs/frf-extraction.md")
 def test_southampton_antiresonances_within_0p1_percent(soton_all):
     worst = max(e for e, _ in _soton_zero_errors(soton_all).values())
     assert worst <= 1e-3

@@ -59,3 +59,23 @@ def test_exact_data_determine_every_parameter():
     assert found["condition"] < 1e4
     # a frequency and the ratios of all but the reference entry, per mode
     assert found["matrix"].shape == (building.N_MODES * len(building.measured_dofs(7, 1)), 12)
+
+
+def test_polish_by_reduced_rounds_reaches_the_truth_with_fewer_full_evaluations():
+    """546 DOFs (sparse path): the reduced rounds of the polish end where the full-model polish
+    ends, the truth, with fewer eigen-solves of the full model (measured, one BLAS thread: 4
+    full evaluations and 46 reduced against 35 full)."""
+    from vibupdate.inverse.polish import PolishOptions, polish
+
+    configurations = building.configurations(7, 2)
+    m = configurations[0].model
+    assert m.n_dofs == 546
+    truth = m.normalized(np.array([building.truth()[p.name] for p in m.parameters]))
+    x0 = np.clip(truth + 0.05 * np.cos(np.arange(truth.size)), *m.bounds())
+    rounds = polish(configurations, x0, PolishOptions())
+    full = polish(configurations, x0, PolishOptions(reduced_rounds=0))
+    assert rounds.rounds >= 1 and rounds.reduced_evaluations > 0 and full.rounds == 0
+    assert rounds.evaluations < full.evaluations
+    for result in (rounds, full):
+        assert result.kept and result.cost < 1e-15 * result.cost_start
+        assert np.abs(m.physical(result.xbar) / m.physical(truth) - 1).max() < 1e-8

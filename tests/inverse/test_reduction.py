@@ -5,7 +5,7 @@ import numpy as np
 from helpers import uniform_cantilever
 from vibupdate import FormulationOptions, Parameter, from_builder, modes, update
 from vibupdate.examples import frame
-from vibupdate.inverse.reduction import craig_bampton, reduce_configurations, wants_reduction
+from vibupdate.inverse.reduction import craig_bampton, reduce_configurations, ritz_reduction, wants_reduction
 from vibupdate.inverse.status import Status
 
 
@@ -41,6 +41,45 @@ def test_reduced_model_is_the_projection_and_stays_affine():
     w_red, _ = modes(Mr, Kr, 4)
     assert np.all(w_red >= w_full * (1 - 1e-12))
     np.testing.assert_allclose(w_red, w_full, rtol=1e-4)
+
+
+def test_ritz_reduction_holds_modes_zeros_and_ratio_derivatives_exactly():
+    """The basis of the polish's reduced rounds: kept DOFs plus modes, the shape-ratio
+    derivative solutions and the adjunct vectors of one point. At that point the reduced model
+    has the same low modes, zeros and ratio derivatives; elsewhere its modes are upper bounds."""
+    from vibupdate.examples import building
+    from vibupdate.modal.sensitivities import adjunct_eigenpairs, shape_ratio_derivatives
+    from vibupdate.modal.zeros import antiresonances
+
+    model = building.model(4, 1)   # 180 DOFs, 12 parameters that change the shapes
+    x = 0.1 * np.sin(np.arange(model.n_parameters))
+    M, K = model.matrices(x)
+    omega, Phi = modes(M, K, 4)
+    keep = list(building.measured_dofs(4, 1))[:4]
+    entries, ref = [model.dof(d) for d in keep[:3]], model.dof(keep[3])
+    D, V = shape_ratio_derivatives(model, x, omega[1], Phi[:, 1], entries, ref, vectors=True)
+    assert np.abs(D).max() > 1e-3          # the shapes do depend on the parameters
+    r, c = model.dof(keep[0]), model.dof(keep[1])
+    _, right, left = adjunct_eigenpairs(M, K, r, c, 3)
+    vectors = np.hstack([Phi, V, np.insert(right, r, 0.0, axis=0), np.insert(left, c, 0.0, axis=0)])
+    reduced, T = ritz_reduction(model, keep, vectors)
+    assert reduced.dofs[:4] == tuple(keep) and T.shape == (model.n_dofs, reduced.n_dofs)
+    assert reduced.n_dofs <= 4 + vectors.shape[1] < model.n_dofs
+    Mr, Kr = reduced.matrices(x)
+    w_red, Phi_red = modes(Mr, Kr, 4)
+    np.testing.assert_allclose(w_red, omega, rtol=1e-10)
+    D_red = shape_ratio_derivatives(reduced, x, w_red[1], Phi_red[:, 1], [reduced.dof(d) for d in keep[:3]],
+                                    reduced.dof(keep[3]))
+    np.testing.assert_allclose(D_red, D, rtol=1e-7, atol=1e-9 * np.abs(D).max())
+    z_full = antiresonances(M, K, r, c)[:3]
+    z_red = antiresonances(Mr, Kr, reduced.dof(keep[0]), reduced.dof(keep[1]))[:3]
+    np.testing.assert_allclose(z_red, z_full, rtol=1e-9)
+    # Away from the point the basis is not exact: Rayleigh-Ritz upper bounds, close by.
+    x2 = x + 0.02
+    w2_full, _ = modes(*model.matrices(x2), 4)
+    w2_red, _ = modes(*reduced.matrices(x2), 4)
+    assert np.all(w2_red >= w2_full * (1 - 1e-12))
+    np.testing.assert_allclose(w2_red, w2_full, rtol=1e-4)
 
 
 def test_kept_dofs_keep_their_physical_meaning():

@@ -29,7 +29,7 @@ from vibupdate.model.affine import AffineModel
 from vibupdate.modal.analysis import modes
 from vibupdate.data.measured import Configuration
 
-__all__ = ["craig_bampton", "reduce_configurations", "kept_dofs", "wants_reduction"]
+__all__ = ["craig_bampton", "ritz_reduction", "reduce_configurations", "kept_dofs", "wants_reduction"]
 
 
 def kept_dofs(cfg: Configuration) -> list[str]:
@@ -73,17 +73,73 @@ def craig_bampton(model: AffineModel, keep: Sequence[str], n_interior: int) -> t
         _, Phi = modes(sp.csr_matrix(model.M0)[i][:, i], Kii, n_interior)
         T[np.ix_(i, b.size + np.arange(n_interior))] = Phi
 
-    def project(A):
-        TA = (sp.csr_matrix(A) @ T)
-        out = T.T @ TA
-        out = 0.5 * (out + out.T)
-        out[np.abs(out) < 1e-14 * max(np.abs(out).max(), 1e-300)] = 0.0
-        return sp.csr_matrix(out)
-
     names = tuple(keep) + tuple(f"cb{k + 1}" for k in range(n_interior))
-    reduced = replace(model, dofs=names, M0=project(model.M0), K0=project(model.K0),
-                      M_par=tuple(project(A) for A in model.M_par), K_par=tuple(project(A) for A in model.K_par))
-    return reduced, T
+    return _projected(model, T, names), T
+
+
+def _project(A, T: np.ndarray) -> sp.csr_matrix:
+    """``T^T A T`` (symmetrized), touching only the rows of ``T`` where ``A`` has entries: a
+    parameter's matrix covers its own elements, often a small part of the model."""
+    A = sp.csr_matrix(A)
+    rows = np.flatnonzero(np.diff(A.indptr))
+    out = T[rows].T @ (A[rows] @ T)
+    out = 0.5 * (out + out.T)
+    out[np.abs(out) < 1e-14 * max(np.abs(out).max(initial=0.0), 1e-300)] = 0.0
+    return sp.csr_matrix(out)
+
+
+def _projected(model: AffineModel, T: np.ndarray, names) -> AffineModel:
+    """The affine model ``T^T M(xbar) T``, ``T^T K(xbar) T`` with DOF names ``names``."""
+    return replace(model, dofs=tuple(names), M0=_project(model.M0, T), K0=_project(model.K0, T),
+                   M_par=tuple(_project(A, T) for A in model.M_par),
+                   K_par=tuple(_project(A, T) for A in model.K_par))
+
+
+def ritz_reduction(model: AffineModel, keep: Sequence[str], vectors: np.ndarray,
+                   rank_tol: float = 1e-12) -> tuple[AffineModel, np.ndarray]:
+    """Reduce ``model`` to the DOFs ``keep`` plus the span of ``vectors`` (their other entries).
+
+    ``T = [E_keep, Q]``: unit columns at the kept DOFs (physical coordinates, as in
+    `craig_bampton`) and an orthonormal basis ``Q`` of ``vectors`` with their kept entries set
+    to zero (rank-revealing QR, columns below ``rank_tol`` of the largest dropped). Every
+    column of ``vectors`` lies in the span of ``T``, so a mode or an adjunct vector among them
+    is exactly a vector of the reduced model, and by Rayleigh-Ritz its eigenvalue is exactly
+    one of the reduced model's at the point where they were computed, with the same first
+    derivatives when the vectors' own parameter derivatives are among ``vectors``
+    (`vibupdate.inverse.polish`, the reduced rounds). No factorization is needed.
+
+    Parameters
+    ----------
+    model : AffineModel
+    keep : sequence of str
+        DOFs kept as physical coordinates (measured entries, receptance DOFs).
+    vectors : ndarray, shape (n, n_v)
+
+    Returns
+    -------
+    reduced : AffineModel
+        DOFs: ``keep`` then ``"ritz1"``, ``"ritz2"``, ...
+    T : ndarray, shape (n, len(keep) + rank)
+    """
+    import scipy.linalg as sla
+
+    n = model.n_dofs
+    b = np.array([model.dof(d) for d in keep], dtype=int)
+    W = np.array(vectors, dtype=float, copy=True).reshape(n, -1)
+    W[b] = 0.0
+    norms = np.linalg.norm(W, axis=0)
+    W = W[:, norms > 0] / norms[norms > 0]
+    if W.shape[1]:
+        Q, R, _ = sla.qr(W, mode="economic", pivoting=True)
+        diag = np.abs(np.diag(R))
+        Q = Q[:, :int(np.count_nonzero(diag > rank_tol * diag[0]))]
+    else:
+        Q = W
+    T = np.zeros((n, b.size + Q.shape[1]))
+    T[b, np.arange(b.size)] = 1.0
+    T[:, b.size:] = Q
+    names = tuple(keep) + tuple(f"ritz{k + 1}" for k in range(Q.shape[1]))
+    return _projected(model, T, names), T
 
 
 def wants_reduction(configurations: Sequence[Configuration], options) -> bool:

@@ -208,7 +208,43 @@ def mode_residuals(M, K, omega, Phi) -> np.ndarray:
     return np.linalg.norm(R, axis=0) / np.maximum(scale, 1e-300)
 
 
+#: Sparse eigen-solutions kept for re-use (the most recent ones): one run asks for the modes of
+#: the same updated pencil in several stages (verification, damping checks, FRF plots), each
+#: building its own copy of the matrices; a solve of at least as many modes serves them all.
+_SOLVED: dict = {}
+_SOLVED_KEPT = 4
+
+
+def _content_key(M, K, rtol: float) -> bytes:
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=20)
+    for A in (sp.csr_matrix(M), sp.csr_matrix(K)):
+        A.sum_duplicates()
+        h.update(np.asarray(A.shape, dtype=np.int64).tobytes())
+        for part in (A.indptr, A.indices, A.data):
+            h.update(np.ascontiguousarray(part).tobytes())
+    h.update(np.float64(rtol).tobytes())
+    return h.digest()
+
+
 def _sparse_modes(M, K, k: int, rtol: float):
+    """The ``k`` lowest eigenpairs by shift-invert (module docstring), from `_SOLVED` when the
+    same matrices were solved for at least ``k`` modes before."""
+    key = _content_key(M, K, rtol)
+    if key in _SOLVED and _SOLVED[key][0].size >= k:
+        eigval, V = _SOLVED.pop(key)
+        _SOLVED[key] = (eigval, V)              # most recent last
+        return eigval[:k].copy(), V[:, :k].copy()
+    eigval, V = _solve_sparse_modes(M, K, k, rtol)
+    _SOLVED.pop(key, None)
+    _SOLVED[key] = (eigval, V)
+    while len(_SOLVED) > _SOLVED_KEPT:
+        _SOLVED.pop(next(iter(_SOLVED)))
+    return eigval.copy(), V.copy()
+
+
+def _solve_sparse_modes(M, K, k: int, rtol: float):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
     sigma, lu = _shifted_lu(Ks, Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)

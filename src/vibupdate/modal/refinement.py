@@ -88,15 +88,19 @@ def refine_modes(M, K, solve, sigma: float, X: np.ndarray):
     Y = solve(np.asarray(B, dtype=float)).astype(ext)
     for _ in range(_SWEEPS):
         Y = Y + solve(np.asarray(B - AL @ Y, dtype=float))
-    Kr = Y.T @ (KL @ Y)
-    Mr = Y.T @ (ML @ Y)
+    # The products with K carry the cancellation and are formed in extended precision; the
+    # dot products of the projection do not cancel (K Y ~ eigval M Y) and run in double BLAS.
+    Yd = np.asarray(Y, dtype=float)
+    Kr = Yd.T @ np.asarray(KL @ Y, dtype=float)
+    Mr = Yd.T @ np.asarray(ML @ Y, dtype=float)
     # Scale to unit diagonal of Mr so that the small dense problem is well balanced.
-    d = 1.0 / np.sqrt(np.asarray(np.diagonal(Mr), dtype=float))
-    Kr_d = np.asarray(Kr, dtype=float) * np.outer(d, d)
-    Mr_d = np.asarray(Mr, dtype=float) * np.outer(d, d)
+    d = 1.0 / np.sqrt(np.diagonal(Mr))
+    Kr_d = Kr * np.outer(d, d)
+    Mr_d = Mr * np.outer(d, d)
     eigval, Q = sla.eigh(0.5 * (Kr_d + Kr_d.T), 0.5 * (Mr_d + Mr_d.T))
-    Phi = Y @ (d[:, None] * Q).astype(ext)
-    Phi = Phi / np.sqrt(np.einsum("ij,ij->j", Phi, ML @ Phi))
-    eigval = np.einsum("ij,ij->j", Phi, KL @ Phi)   # Rayleigh quotients, in extended precision
+    Phi = Yd @ (d[:, None] * Q)
+    PhiL = Phi.astype(ext)
+    Phi = Phi / np.sqrt(np.einsum("ij,ij->j", Phi, np.asarray(ML @ PhiL, dtype=float)))
+    eigval = np.einsum("ij,ij->j", Phi, np.asarray(KL @ Phi.astype(ext), dtype=float))   # Rayleigh quotients
     order = np.argsort(np.asarray(eigval, dtype=float))
     return np.asarray(eigval, dtype=float)[order], np.asarray(Phi, dtype=float)[:, order]

@@ -82,7 +82,8 @@ def _factor(A):
     return lambda b: sla.lu_solve(lu, b)
 
 
-def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: int) -> np.ndarray:
+def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: int, *,
+                            vectors: bool = False):
     """Exact derivative of the shape ratios ``phi[entries] / phi[reference]`` of one mode.
 
     Parameters
@@ -98,11 +99,16 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
         DOF indices of the ratios.
     reference : int
         DOF index of the denominator; ``phi[reference]`` must not vanish.
+    vectors : bool
+        Also return the solutions ``V`` of the module docstring (one per parameter): the
+        derivatives of ``phi`` up to multiples of ``phi``.
 
     Returns
     -------
-    ndarray, shape (n_e, n_x)
+    D : ndarray, shape (n_e, n_x)
         Derivatives of the dimensionless ratios per unit of normalized parameter.
+    V : ndarray, shape (n, n_x)
+        Only with ``vectors``.
     """
     M, K = model.matrices(xbar)
     eigval = omega**2
@@ -118,7 +124,8 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     V = np.zeros((n, model.n_parameters))
     V[keep] = solve((-F + np.outer(Mphi, d_eigval))[keep])   # every parameter in one solve
     ref = phi[reference]
-    return (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
+    D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
+    return (D, V) if vectors else D
 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):

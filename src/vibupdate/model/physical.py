@@ -89,6 +89,10 @@ def count_below(A, B, t: float) -> int:
     n = A.shape[0]
     if n <= DENSE_LIMIT:
         return int(np.sum(sla.eigvalsh(_dense(A) - t * _dense(B)) < 0))
+    if sp.issparse(A) and sp.issparse(B):
+        a, b = A.diagonal(), B.diagonal()
+        if np.count_nonzero(a) == A.count_nonzero() and np.count_nonzero(b) == B.count_nonzero():
+            return int(np.sum(a - t * b < 0))           # diagonal pencil (a lumped mass): its own eigenvalues
     S = sp.csc_matrix(A) - t * sp.csc_matrix(B)
     for nudge in (0.0, 1e-13, -1e-13):
         shifted = S if nudge == 0 else S + nudge * abs(S).max() * sp.eye(n, format="csc")
@@ -175,14 +179,14 @@ def definiteness(M, K) -> Definiteness:
     lam_ref = float(np.max(np.abs(kd[mass]) / dm))
     if not lam_ref > 0:
         return Definiteness(tuple(massless), 0, "the stiffness matrix K is zero on every DOF that carries mass")
-    negative = count_below(K, M, -RIGID_TOL * lam_ref)
+    below = count_below(K, M, RIGID_TOL * lam_ref)      # rigid-body modes and any negative ones
+    negative = count_below(K, M, -RIGID_TOL * lam_ref) if below else 0
     if negative:
         low = _lowest(K, M) if not massless.size else None
         shown = (f"; lowest eigenvalue of (K, M) {low:.6g} (rad/s)^2" if low is not None else "")
         return Definiteness(tuple(massless), 0, f"the stiffness matrix K is not positive semidefinite: {negative} "
                                                 f"negative eigenvalue(s){shown}")
-    rigid = count_below(K, M, RIGID_TOL * lam_ref)
-    return Definiteness(tuple(int(i) for i in massless), rigid, None)
+    return Definiteness(tuple(int(i) for i in massless), below, None)
 
 
 def box_corners(lower, upper, *, seed: int = 0) -> list[tuple[str, np.ndarray]]:
