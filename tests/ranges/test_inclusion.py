@@ -28,7 +28,7 @@ def inside(cert, model, x):
 
 def test_an_answer_whose_eigenvector_leaves_the_nominal_boxes_is_inside_the_certified_range():
     """Exact data of ``x``, boxes from the nominal model (default margins): ``x``'s frequencies
-    are the data, but its first mode leaves the box, so S built on the data alone misses the
+    are the data, but one of its modes leaves its box, so S built on the data alone misses the
     answer. Widened to hold it, S does, and the certified range contains it."""
     x = np.array([0.16, -0.033, -0.133, -0.253, 0.232, -0.247])
     model, cfg = exact_chain(x)
