@@ -209,8 +209,12 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     ``study``: a further study of the case run after the update, such as the sampled ranges
     and multistart of `vibupdate.study.sampled_ranges.SampledRanges`. It has ``files`` (names
     it writes), ``check(case)`` (raises ValueError before any work) and is called as
-    ``study(case, result, say) -> (sections, write)``: ``sections`` join
-    ``identifiability``, ``write(folder)`` writes its files and returns its plots.
+    ``study(case, result, say) -> (sections, write, answers)``: ``sections`` join
+    ``identifiability``, ``write(folder)`` writes its files and returns its plots, ``answers``
+    are the further answers it reports as consistent with the data (``(label, xbar)``,
+    normalized). The study runs before the certification, which widens the consistent set to
+    hold the run's answer and these (`vibupdate.ranges.inclusion`), so the certified range
+    contains every answer the run reports or is not flagged certified.
 
     The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
     file vibupdate did not write unless ``force``); the files are written beside it and moved
@@ -250,12 +254,12 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         identifiability["frequency_tolerance"] = case.frequency_tolerance
         identifiability["frequency_windows"] = _frequency_windows(case)
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
-    if certify is not None:
-        identifiability["certified"] = _certified(case, result, certify, say)
-    extra = None
+    extra, answers = None, ()
     if study is not None:
-        sections, extra = study(case, result, say)
+        sections, extra, answers = study(case, result, say)
         identifiability.update(sections)
+    if certify is not None:
+        identifiability["certified"] = _certified(case, result, certify, say, answers)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
     write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
@@ -264,15 +268,16 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     return run
 
 
-def _certified(case: Case, result: UpdateResult, seconds: float, say) -> dict:
+def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()) -> dict:
     """Certified outer ranges over the consistent set, with the vector boxes the first stage
-    ended with (it may have widened the margins)."""
+    ended with (it may have widened the margins), widened to hold the answer and ``answers``
+    (the study's, ``(label, xbar)``)."""
     from vibupdate.ranges.certify import certified_ranges
 
     last = result.attempts[-1] if result.attempts else {}
     boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
-    cert = certified_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
-                            seconds=seconds, options=boxes, progress=say)
+    cert = certified_ranges(case.configurations, result.xbar, include=answers,
+                            frequency_tolerance=case.frequency_tolerance, seconds=seconds, options=boxes, progress=say)
     say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
     return cert.record()
 

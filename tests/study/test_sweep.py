@@ -438,17 +438,26 @@ def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(
     assert "Certified outer range:" in report and "Sampled range: 10 data sets" in report
 
 
-@pytest.mark.xfail(strict=True, reason="measured (chain, 10 samples, seed 6): 2 verified sampled answers have k3 "
-                   "761.8 and 779.6 below the certified lower bound 807.1; the first misses a measured frequency by "
-                   "0.514 % (outside the 0.5 % window: the drawn datum near the window's edge, m5 on its bound), the "
-                   "second fits every window but its exact eigenvectors leave S's vector boxes, which the "
-                   "verification of an answer does not check")
 def test_certified_range_contains_every_sampled_answer(certified_run):
     _, run, rows, _ = certified_run
     cert = run.identifiability["certified"]["ranges"]
     for p in run.parameters:
         values = [r[f"p:{p.name}"] for r in rows if r["outcome"] == "verified"]
         assert cert[p.name]["lower"] <= min(values) and max(values) <= cert[p.name]["upper"], (p.name, values)
+
+
+def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run):
+    """The certification ran after the sweep and widened S for the answer, every verified
+    sampled answer and every line end; results.json, the report and the definition say so."""
+    _, run, rows, report = certified_run
+    c = run.identifiability["certified"]
+    others = sum(r["outcome"] == "verified" for r in rows) + run.sampled.line_ends
+    assert c["included"]["points"] == 1 + others and c["uncovered"] == []
+    assert f"the answer and {others} verified answer(s) of sampled data sets" in c["definition"]
+    assert "S is widened to hold every answer the run reports" in report
+    from vibupdate.io.results import validate_document
+
+    validate_document(json.loads(json.dumps(run.as_document())))     # the certified section's schema
 
 
 def test_disagreements_between_sampled_and_linearized_ranges():
@@ -463,3 +472,19 @@ def test_disagreements_between_sampled_and_linearized_ranges():
     assert notes[0].startswith("a: every verified sample gave 1,")
     assert notes[1].startswith("b: the sampled range [0.5, 2.5] reaches outside the linearized range [1, 2]")
     assert notes[2].startswith("c: the linearized range [0, 3] is 30x the sampled range [1, 1.1]")
+
+
+def test_reported_answers_are_the_verified_samples_and_their_line_ends():
+    from vibupdate.study.sampled_ranges import reported_answers
+
+    from helpers import chain_model
+
+    model = chain_model(3, ["k1", "m2"])
+    rows = [{"index": 0, "outcome": "verified", "p:k1": 1000.0, "p:m2": 1.1},
+            {"index": 1, "outcome": "unverified", "p:k1": 1200.0, "p:m2": 1.2},
+            {"index": 2, "outcome": "verified", "p:k1": 900.0, "p:m2": 0.9}]
+    ends = [{"index": 2, "direction": 1, "side": -1, "p:k1": 800.0, "p:m2": 0.8},
+            {"index": 1, "direction": 1, "side": 1, "p:k1": 1250.0, "p:m2": 1.25}]
+    got = reported_answers(model, rows, ends)
+    assert [label for label, _ in got] == ["sample 0", "sample 2", "line end 1- of sample 2"]
+    np.testing.assert_allclose(model.physical(got[2][1]), [800.0, 0.8])

@@ -25,13 +25,21 @@ bounds of a parameter, within ``Tactics.useful_gap`` (1e-3) of the parameter's w
 box (`vibupdate.ranges.tightening.Tactics`); otherwise the weaker safe value is still what is
 reported. S is certified empty when every part of the box
 is (crossing safe bounds, or a positive safe phase-1 bound).
+
+Every answer the run reports is held by S (`certified_ranges` ``include``: the windows and
+vector boxes widened for them, `vibupdate.ranges.inclusion`), and each must lie inside the
+final ranges (checked; no second eigen-solve at the points, whose eigenpairs the widening
+computed). A point that S could not be widened to hold leaves every range unflagged
+(``certified`` False), one outside the final ranges the parameters it escapes, with the
+reason in ``message`` and ``uncovered``: a range is never flagged certified while it misses
+a reported answer.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -39,6 +47,7 @@ from vibupdate.data.measured import Configuration
 from vibupdate.inverse.formulation import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent
+from vibupdate.ranges.inclusion import Inclusion
 from vibupdate.ranges.tightening import GAP, Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
 
 __all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements", "GAP"]
@@ -86,6 +95,11 @@ class CertifiedRanges:
     definition : str
         The consistent set, for reports.
     message : str
+    inclusion : Inclusion, optional
+        How S was widened to hold the answer and the other reported answers.
+    uncovered : tuple of str
+        Why a reported answer is not held by S or not inside the ranges, with the figure (then
+        no range, or not the parameters it escapes, is flagged certified).
     """
 
     names: tuple[str, ...]
@@ -105,6 +119,13 @@ class CertifiedRanges:
     history: tuple
     definition: str
     message: str
+    inclusion: Inclusion | None = None
+    uncovered: tuple[str, ...] = ()
+
+    @property
+    def included(self) -> int:
+        """Points S was widened to hold."""
+        return len(self.inclusion.labels) if self.inclusion is not None else 0
 
     def determined(self, within_pct: float = 5.0) -> list[str]:
         """Parameters whose whole certified range is narrower than ``within_pct``."""
@@ -124,6 +145,8 @@ class CertifiedRanges:
             "seconds": self.seconds, "root_seconds": self.root_seconds, "passes": self.passes,
             "splits": self.splits, "leaves": self.leaves, "n_lps": self.n_lps,
             "history": [[num(t), num(w)] for t, w in self.history],
+            "included": self.inclusion.record() if self.inclusion is not None else None,
+            "uncovered": list(self.uncovered),
             "ranges": {n: {"lower": num(lo), "upper": num(hi), "width_pct": num(w), "certified": bool(c),
                            "root_lower": num(rl), "root_upper": num(ru)}
                        for n, lo, hi, w, c, rl, ru in zip(self.names, self.lower, self.upper, self.width_pct,
@@ -366,8 +389,9 @@ def _result(cs, B, root, root_seconds, seconds, passes, history, empty, message,
                            cs.definition(), message)
 
 
-def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, frequency_tolerance: float = 0.0,
-                     seconds: float = 30.0, options: FormulationOptions | None = None,
+def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, include=(),
+                     frequency_tolerance: float = 0.0, seconds: float = 30.0,
+                     options: FormulationOptions | None = None,
                      progress: Callable[[str], None] | None = None) -> CertifiedRanges:
     """Certified outer ranges of every parameter over the consistent set of the data.
 
@@ -375,7 +399,10 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, freq
     ----------
     configurations : sequence of Configuration
     xbar : ndarray, shape (n_x,), optional
-        The answer (normalized); the frequency windows are widened to hold its frequencies.
+        The answer (normalized); S is widened to hold it (`vibupdate.ranges.inclusion`).
+    include : sequence of (str, ndarray of shape (n_x,))
+        Further answers the run reports (verified sampled answers, line ends), each with a
+        label; S is widened to hold them too.
     frequency_tolerance : float
         Relative half-width of the frequency windows where the data carry no interval.
     seconds : float
@@ -384,5 +411,36 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, freq
         The vector boxes, as in the first stage.
     progress : callable, optional
     """
-    cs = consistent_set(configurations, frequency_tolerance=frequency_tolerance, include=xbar, options=options)
-    return enclosure(cs, seconds=seconds, known=None if xbar is None else [xbar], progress=progress)
+    labels = (["the answer"] if xbar is not None else []) + [label for label, _ in include]
+    points = ([np.asarray(xbar, dtype=float)] if xbar is not None else []) + [np.asarray(p, dtype=float)
+                                                                            for _, p in include]
+    cs = consistent_set(configurations, frequency_tolerance=frequency_tolerance, include=points or None,
+                        include_labels=labels if points else None, options=options)
+    cert = enclosure(cs, seconds=seconds, known=points or None, progress=progress)
+    return _check_included(cs, cert, points, labels)
+
+
+def _check_included(cs: ConsistentSet, cert: CertifiedRanges, points, labels) -> CertifiedRanges:
+    """``cert`` with its flags withdrawn where a reported answer is not held (module docstring)."""
+    if not points:
+        return cert
+    uncovered = list(cs.inclusion.uncovered)
+    certified = cert.certified & (not uncovered)
+    model = cs.models[0]
+    for p, label in zip(points, labels):
+        if any(u.startswith(f"{label}:") for u in cs.inclusion.uncovered):
+            continue
+        value = model.physical(p)
+        out = ~((cert.lower <= value) & (value <= cert.upper))
+        if cert.empty or out.any():
+            i = int(np.argmax(out)) if out.any() else 0
+            uncovered.append(f"{label}: {cert.names[i]} = {value[i]:.6g} outside the range "
+                             f"[{cert.lower[i]:.6g}, {cert.upper[i]:.6g}]")
+            certified = certified & ~out if not cert.empty else np.zeros_like(certified)
+    if not uncovered:
+        return replace(cert, inclusion=cs.inclusion)
+    withdrawn = [n for n, c, was in zip(cert.names, certified, cert.certified) if was and not c]
+    which = "NOT certified" if not certified.any() else "not certified for " + ", ".join(withdrawn)
+    message = (f"{cert.message}; {which}: {len(uncovered)} reported answer(s) not held: "
+               + "; ".join(uncovered[:3]) + (f"; and {len(uncovered) - 3} more" if len(uncovered) > 3 else ""))
+    return replace(cert, certified=certified, inclusion=cs.inclusion, uncovered=tuple(uncovered), message=message)

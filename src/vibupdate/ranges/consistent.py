@@ -19,10 +19,12 @@ tolerance only for the others. A mode whose shape was measured has no fixed entr
 entries, the reference entry (`ShapeInterval.reference`) included, must lie in their intervals
 (divided by the reference midpoint) for *some* scaling of the eigenvector, so the reference
 entry's own interval counts too, as the data state it (a shape is known up to scale); the
-other blocks keep one entry fixed to 1 for normalization. With ``include`` (the answer) each window is widened
-symmetrically about the measured ``w`` to ``w -+ (|w_answer - w| + ANSWER_MARGIN w)``, so that
-the answer's own misfit is the floor of the tolerance, as for the linearized ranges. With exact data and ``frequency_tolerance = 0`` the window is the single
-measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
+other blocks keep one entry fixed to 1 for normalization. With ``include`` (the answer, and
+the other answers a run reports: verified sampled answers and line ends) the windows and the
+vector boxes are widened just enough to hold every included point, each point's paired model
+frequencies and exact eigenvectors with a stated margin (`vibupdate.ranges.inclusion`): S then
+holds every answer the run reports, so its certified outer range contains them all. With
+exact data and ``frequency_tolerance = 0`` the window is the single measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
 
 S asks for *an* eigenpair in each window, not the k-th mode: it contains every parameter
 set that a mode-correspondence check would admit, and possibly more.
@@ -44,6 +46,7 @@ from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.formulation import FormulationOptions, VectorBlock, formulate
 from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.data.measured import Configuration
+from vibupdate.ranges.inclusion import Inclusion, widen
 
 __all__ = ["ConsistentSet", "InnerRanges", "consistent_set", "is_consistent", "witness", "inner_ranges",
            "RESIDUAL_FLOOR"]
@@ -51,8 +54,6 @@ __all__ = ["ConsistentSet", "InnerRanges", "consistent_set", "is_consistent", "w
 #: Relative eigen-residual allowed in S: ``|((K - s M) v)_k| <= RESIDUAL_FLOOR * (|K| |v| + s |M| |v|)_k``
 #: row by row, so that rounding in building the operators cannot exclude an exact eigenpair.
 RESIDUAL_FLOOR = 1e-9
-#: Relative margin by which a window widened for the answer reaches past the answer's frequency.
-ANSWER_MARGIN = 1e-6
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,8 @@ class ConsistentSet:
         Relative half-width used where the data carry no interval.
     own_interval : ndarray of bool, shape (n_blocks,)
         The block's window is its datum's measured interval (else the global tolerance).
+    inclusion : Inclusion, optional
+        How the windows and boxes were widened to hold the included points.
     """
 
     configurations: tuple[Configuration, ...]
@@ -85,6 +88,7 @@ class ConsistentSet:
     x_upper: np.ndarray
     frequency_tolerance: float
     own_interval: np.ndarray | None = None
+    inclusion: Inclusion | None = None
 
     @property
     def n_x(self) -> int:
@@ -110,32 +114,21 @@ class ConsistentSet:
             "eigenvector's scale: each measured mode-shape entry (the reference entry included) in its own "
             "interval divided by the reference entry's midpoint, default margins on unmeasured entries, "
             "interlacing signs, and one entry fixed to 1 where no shape was measured "
-            f"({shapes} of {n} vectors carry a measured shape). Windows: {windows}, widened to hold the "
-            f"answer's frequency; widest half-window {100 * rel:.3g} %. Any eigenpair counts, not only the "
-            "paired mode."
+            f"({shapes} of {n} vectors carry a measured shape). Windows: {windows}; widest half-window "
+            f"{100 * rel:.3g} % after widening. Any eigenpair counts, not only the paired mode. "
+            + (self.inclusion.text() if self.inclusion is not None else "S is not widened for any answer.")
         )
 
 
-def _windows(configurations, blocks, tol, include):
-    answer = {}
-    if include is not None:
-        answer = {c.name: model_frequencies(c, include) for c in configurations}
+def _windows(configurations, blocks, tol):
+    """The data's window of each block, rad/s, and whether it is the datum's own interval."""
     by_name = {c.name: c for c in configurations}
     lo, hi, own = [], [], []
     for blk in blocks:
         cfg = by_name[blk.configuration]
         data = (cfg.natural if blk.kind == "natural" else cfg.antiresonances)[blk.index - 1]
         own.append(data.interval is not None)
-        if data.interval is not None:
-            a, b = data.interval
-        else:
-            a, b = data.omega * (1 - tol), data.omega * (1 + tol)
-        if blk.configuration in answer:
-            f = answer[blk.configuration]
-            w = (f.natural if blk.kind == "natural" else f.antiresonances)[blk.index - 1]
-            if np.isfinite(w):
-                reach = abs(w - data.omega) + ANSWER_MARGIN * data.omega
-                a, b = min(a, data.omega - reach), max(b, data.omega + reach)
+        a, b = data.interval if data.interval is not None else (data.omega * (1 - tol), data.omega * (1 + tol))
         lo.append(a)
         hi.append(b)
     return np.array(lo), np.array(hi), np.array(own, dtype=bool)
@@ -163,7 +156,8 @@ def _scale_free(blk: VectorBlock, cfg: Configuration) -> VectorBlock:
 
 
 def consistent_set(configurations: Sequence[Configuration], *, frequency_tolerance: float = 0.0,
-                   include=None, options: FormulationOptions | None = None) -> ConsistentSet:
+                   include=None, include_labels: Sequence[str] | None = None,
+                   options: FormulationOptions | None = None) -> ConsistentSet:
     """State the consistent set S of ``configurations`` (module docstring).
 
     Parameters
@@ -171,8 +165,12 @@ def consistent_set(configurations: Sequence[Configuration], *, frequency_toleran
     configurations : sequence of Configuration
     frequency_tolerance : float
         Relative half-width of the frequency windows where the data carry no interval.
-    include : ndarray, shape (n_x,), optional
-        Normalized parameters (the answer) whose paired frequencies the windows must hold.
+    include : ndarray, shape (n_x,) or (n_points, n_x), optional
+        Normalized parameters (the answer first, then any other reported answers) that S must
+        hold: windows and vector boxes are widened for them (`vibupdate.ranges.inclusion`).
+    include_labels : sequence of str, optional
+        A name per included point for the messages; default ``"the answer"`` for the first,
+        ``"point i"`` for the others.
     options : FormulationOptions, optional
         Vector boxes as in the first stage (interlacing signs when ``options.interlacing``).
     """
@@ -185,9 +183,21 @@ def consistent_set(configurations: Sequence[Configuration], *, frequency_toleran
     by_name = {c.name: c for c in configurations}
     blocks = tuple(_scale_free(b, by_name[b.configuration]) for b in problem.blocks)
     models = tuple(by_name[b.configuration].model for b in blocks)
-    lo, hi, own = _windows(configurations, blocks, frequency_tolerance, include)
-    return ConsistentSet(configurations, blocks, models, lo, hi, problem.x_lower.copy(), problem.x_upper.copy(),
-                         float(frequency_tolerance), own)
+    lo, hi, own = _windows(configurations, blocks, frequency_tolerance)
+    x_lower, x_upper, inclusion = problem.x_lower.copy(), problem.x_upper.copy(), None
+    if include is not None:
+        points = np.atleast_2d(np.asarray(include, dtype=float))
+        if points.shape[1] != x_lower.size:
+            raise ValueError(f"include must hold points of {x_lower.size} normalized parameters, got shape "
+                             f"{np.shape(include)}")
+        labels = list(include_labels) if include_labels is not None else (
+            ["the answer"] + [f"point {i}" for i in range(1, len(points))])
+        if len(labels) != len(points):
+            raise ValueError(f"include_labels has {len(labels)} names for {len(points)} points")
+        blocks, lo, hi, x_lower, x_upper, inclusion = widen(configurations, blocks, lo, hi, x_lower, x_upper,
+                                                            points, labels)
+    return ConsistentSet(configurations, blocks, models, lo, hi, x_lower, x_upper, float(frequency_tolerance), own,
+                         inclusion)
 
 
 def _block_pencil(dense, blk: VectorBlock):
@@ -229,13 +239,15 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
     xbar = np.asarray(xbar, dtype=float)
     if np.any(xbar < cs.x_lower) or np.any(xbar > cs.x_upper):
         return None
-    pairs, dense = [], {}
+    pairs, dense, solved = [], {}, {}
     for b, (blk, model) in enumerate(zip(cs.blocks, cs.models)):
         if id(model) not in dense:  # assembled once per model, not once per block
             M, K = model.matrices(xbar)
             dense[id(model)] = (K.toarray(), M.toarray())
-        K, M = _block_pencil(dense[id(model)], blk)
-        lam, V = _eigenpairs(K, M)
+        key = (id(model), blk.rows.tobytes(), blk.cols.tobytes())
+        if key not in solved:       # one eigen-solve per pencil: every mode block shares the full one
+            solved[key] = _eigenpairs(*_block_pencil(dense[id(model)], blk))
+        lam, V = solved[key]
         w = np.sqrt(lam)
         inside = (w >= cs.omega_lower[b] * (1 + margin)) & (w <= cs.omega_upper[b] * (1 - margin))
         if cs.omega_lower[b] == cs.omega_upper[b]:  # exact datum: within the residual floor

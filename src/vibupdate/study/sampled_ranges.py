@@ -9,7 +9,12 @@ existing scheduler), and returns:
 * the ``identifiability`` sections ``sampled`` (counts; per parameter ``min``, ``max``,
   ``q05``, ``q50``, ``q95`` in its unit) and ``multistart`` (distinct local minima);
 * a writer that puts ``samples.csv``, ``line_ends.csv`` and the histogram and pairs plots
-  into the results folder, so they are published with the other files.
+  into the results folder, so they are published with the other files;
+* the answers it reports (`reported_answers`: every verified sampled answer and the line ends
+  of verified samples, normalized), which the certified ranges must hold.
+
+The multistart's minima are not among them: they are local minima of the point estimate's
+objective on the measured data, not verified answers, and are reported as such.
 
 The pipeline does not import this module (it comes later in the data flow); it calls the
 object it is given.
@@ -24,7 +29,7 @@ from pathlib import Path
 
 from vibupdate.study.sampling import SamplingOptions
 
-__all__ = ["SampledRanges", "sampled_section"]
+__all__ = ["SampledRanges", "sampled_section", "reported_answers"]
 
 #: What the study adds to a results folder.
 FILES = ("samples.csv", "line_ends.csv", "sampled_hist.png", "sampled_pairs.png")
@@ -39,6 +44,19 @@ def sampled_section(document: dict) -> dict:
             "line_ends": document.get("line_ends", 0), "seed": document["seed"],
             "distribution": document["sampling"]["distribution"],
             "ranges": {p["name"]: {k: p.get(k) for k in KEYS} for p in document["parameters"]}}
+
+
+def reported_answers(model, rows: list[dict], ends: list[dict]) -> list[tuple[str, object]]:
+    """``(label, xbar)`` of every verified sampled answer and every line end of a verified
+    sample (the points the sampled range is taken over), ``xbar`` normalized, shape (n_x,)."""
+    names = [f"p:{p.name}" for p in model.parameters]
+    verified = sorted(r["index"] for r in rows if r["outcome"] == "verified")
+    by_index = {r["index"]: r for r in rows}
+    out = [(f"sample {i}", model.normalized([by_index[i][n] for n in names])) for i in verified]
+    kept = set(verified)
+    out += [(f"line end {e['direction']}{'+' if e['side'] > 0 else '-'} of sample {e['index']}",
+             model.normalized([e[n] for n in names])) for e in ends if e["index"] in kept]
+    return out
 
 
 @dataclass(frozen=True)
@@ -86,8 +104,9 @@ class SampledRanges:
 
         data_intervals(case.configurations, case.frequency_tolerance, self.sampling)
 
-    def __call__(self, case, result, say: Callable[[str], None]) -> tuple[dict, Callable[[Path], list]]:
-        """Run the sweep and the multistart of ``case``; the sections and the folder writer.
+    def __call__(self, case, result, say: Callable[[str], None]) -> tuple[dict, Callable[[Path], list], list]:
+        """Run the sweep and the multistart of ``case``; the sections, the folder writer and
+        the reported answers (`reported_answers`).
 
         ``result`` (the run's `UpdateResult`) is not used: the samples are updated from
         scratch, so the sampled ranges do not depend on the run's answer.
@@ -125,4 +144,4 @@ class SampledRanges:
                 images.append(("sampled pairs of the least-determined parameters", "sampled_pairs.png"))
             return images
 
-        return sections, write
+        return sections, write, reported_answers(case.configurations[0].model, rows, ends)

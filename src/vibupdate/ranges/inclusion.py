@@ -1,0 +1,287 @@
+"""Widening the consistent set S so that it holds every answer a run reports (issue 11).
+
+The certified range is an outer range of S (`vibupdate.ranges.consistent`), so it contains a
+reported answer only if S does. Two kinds of answer can lie outside S built on the data alone:
+
+* an answer that misses a measured window: a sampled answer (`vibupdate.study.sweep`) is
+  verified against its *drawn* data, each drawn datum a point inside the measured window, with
+  the verification's fit tolerance (2 % by default, `VerifyOptions.fit_tolerance`); its model
+  frequency may therefore lie up to that tolerance beyond the drawn datum, hence outside the
+  window. The run's own answer may miss the window as well;
+* an answer whose exact eigenvectors leave the first stage's vector boxes: the first stage
+  keeps its vectors in the boxes, but the polish on the full model moves the parameters and
+  nothing checks the exact eigenvectors against the boxes.
+
+`widen` takes the included points (normalized parameters, the answer first) and widens S just
+enough to hold each of them, with stated margins:
+
+* each frequency window to the hull of the window and every included point's paired model
+  frequency (mode ``k`` for the ``k``-th measured natural frequency, zero ``k`` of ``h_rc`` for
+  an antiresonance), reaching `WINDOW_MARGIN` (relative) past it;
+* each vector box to the hull of the box and the included point's paired exact eigenvector
+  (adjunct eigenvector), divided by the block's entry scaling and normalized as the first
+  stage normalizes it (its fixed entry at 1; a measured shape whose reference is free at its
+  reference entry = 1, and only when no scaling of the vector fits the box already), reaching
+  `BOX_MARGIN` past each entry;
+* the parameter box, by rounding only (`BOUND_ROUNDING`).
+
+Why not widen every window a priori to all the sampler's verification could accept (the
+measured interval plus the fit tolerance)? With the default 2 % fit tolerance and a 0.5 %
+window that is five times the window, for answers no sample reported. Widening to the
+reported answers themselves holds each of them exactly, whatever tolerance accepted it.
+
+A point cannot be covered (and is listed in `Inclusion.uncovered` with the figure) when a
+parameter lies outside its bounds by more than rounding, the model lacks the paired zero, the
+vector vanishes at its normalization entry (below `NODE_FRACTION` of its largest entry), or
+its box would have to grow more than `GROWTH_LIMIT`-fold. Then S does not hold every reported
+answer, and `vibupdate.ranges.certify` flags no range as certified.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from vibupdate.data.measured import Configuration
+from vibupdate.inverse.correlation import model_frequencies, zeros_wanted
+from vibupdate.inverse.formulation import VectorBlock
+from vibupdate.inverse.update import MAX_WIDENINGS
+
+__all__ = ["Inclusion", "widen", "paired_vectors", "WINDOW_MARGIN", "BOX_MARGIN", "GROWTH_LIMIT", "NODE_FRACTION",
+           "BOUND_ROUNDING"]
+
+#: Relative margin by which a widened window reaches past an included point's frequency.
+WINDOW_MARGIN = 1e-6
+#: Margin by which a widened box reaches past an included vector's entry: ``BOX_MARGIN (1 + |v|)``
+#: in scaled coordinates (ten times the margin of `vibupdate.ranges.consistent.witness`).
+BOX_MARGIN = 1e-6
+#: A vector box grows at most this factor (its largest bound against the block's largest
+#: bound before): the first stage itself widens its margins at most ``10 ** MAX_WIDENINGS``-fold.
+GROWTH_LIMIT = float(10 ** MAX_WIDENINGS)
+#: A vector whose normalization entry is below this fraction of its largest entry cannot be
+#: normalized there (its box would need at least ``1 / NODE_FRACTION``).
+NODE_FRACTION = 1e-4
+#: A parameter may exceed its normalized bounds by this much (rounding of the solvers); the
+#: parameter box is widened to hold it.
+BOUND_ROUNDING = 1e-9
+
+
+def _listed(items: Sequence[str], limit: int = 6) -> str:
+    more = len(items) - limit
+    return ", ".join(items[:limit]) + (f" and {more} more" if more > 0 else "")
+
+
+@dataclass(frozen=True)
+class Inclusion:
+    """How S was widened to hold the included points.
+
+    Attributes
+    ----------
+    labels : tuple of str
+        One per included point (e.g. ``"the answer"``, ``"sample 3"``).
+    windows : tuple of (str, float)
+        Each frequency window widened beyond the data's: the datum, and how far the farthest
+        included frequency lies beyond the data's window (per cent of the measured frequency).
+    vectors : tuple of (str, int, float)
+        Each vector box widened: the vector, its entries widened, and its largest bound after
+        against before.
+    widened_by : tuple of str
+        Labels of the points that needed any widening.
+    bounds : int
+        Parameters whose bounds were widened by rounding.
+    uncovered : tuple of str
+        One sentence per point S could not be widened to hold, with the figure.
+    """
+
+    labels: tuple[str, ...]
+    windows: tuple = ()
+    vectors: tuple = ()
+    widened_by: tuple[str, ...] = ()
+    bounds: int = 0
+    uncovered: tuple[str, ...] = ()
+
+    @property
+    def window_reach_pct(self) -> float:
+        """Farthest included frequency beyond its datum's window, per cent (0: none)."""
+        return max((r for _, r in self.windows), default=0.0)
+
+    def text(self) -> str:
+        """What the widening did, in words, for the definition of S."""
+        n = len(self.labels)
+        if self.labels and self.labels[0] == "the answer":
+            who = "the answer" + (f" and {n - 1} verified answer(s) of sampled data sets, line ends included"
+                                  if n > 1 else "")
+        else:
+            who = f"{n} point(s)"
+        windows = [f"{where} ({r:.3g} % beyond its window)" for where, r in self.windows]
+        vectors = [f"{where} ({k} entries, its largest bound {g:.3g}x)" for where, k, g in self.vectors]
+        text = (f"S is widened to hold every answer the run reports ({who}). Frequency windows widened to reach "
+                f"each one's paired model frequency, plus {WINDOW_MARGIN:g} relative: "
+                f"{_listed(windows) if windows else 'none'}. Vector boxes widened to hold each one's exact paired "
+                f"eigenvector or adjunct vector (scaled and normalized as in the first stage), plus "
+                f"{BOX_MARGIN:g} (1 + |v|): {_listed(vectors) if vectors else 'none'}."
+                + (f" Widened for: {_listed(list(self.widened_by))}." if self.widened_by else "")
+                + (f" {self.bounds} parameter bound(s) widened by rounding." if self.bounds else ""))
+        if self.uncovered:
+            text += (f" {len(self.uncovered)} could not be held, so no range is flagged certified: "
+                     + "; ".join(self.uncovered) + ".")
+        return text
+
+    def record(self) -> dict:
+        """The ``included`` part of ``identifiability.certified`` in ``results.json``."""
+        return {"points": len(self.labels), "widened_by": list(self.widened_by),
+                "windows": [{"datum": where, "beyond_pct": r} for where, r in self.windows],
+                "vector_boxes": [{"vector": where, "entries": k, "bound_ratio": g} for where, k, g in self.vectors],
+                "bounds_widened": self.bounds}
+
+
+def paired_vectors(cfg: Configuration, blocks: Sequence[VectorBlock], xbar) -> list[tuple[float, np.ndarray]]:
+    """Paired model frequency (rad/s) and exact physical vector of each of ``blocks`` of
+    ``cfg`` at ``xbar``: the declared mode's eigenvector, or the declared zero's right adjunct
+    eigenvector (shape ``(len(cols),)``; NaN frequency where the model lacks the zero). One
+    eigen-solve of the model and one adjunct solve per receptance with blocks."""
+    from vibupdate.modal.zeros import antiresonances
+
+    freqs = model_frequencies(cfg, xbar, zeros=False)
+    adjunct = {}
+    rcs = {blk.receptance for blk in blocks if blk.kind == "antiresonance"}
+    if rcs:
+        M, K = cfg.model.matrices(xbar)
+        for rc in rcs:
+            adjunct[rc] = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), with_vectors=True,
+                                         n_zeros=zeros_wanted(cfg, rc))
+    out = []
+    for blk in blocks:
+        if blk.kind == "natural":
+            out.append((float(freqs.natural[blk.index - 1]), freqs.Phi[:, blk.index - 1]))
+            continue
+        k = cfg.antiresonances[blk.index - 1].index - 1
+        z, V = adjunct[blk.receptance]
+        out.append((float(z[k]), V[:, k]) if k < z.size else (np.nan, np.full(blk.cols.size, np.nan)))
+    return out
+
+
+def _anchor(blk: VectorBlock) -> int:
+    """The entry a vector is normalized at: the fixed entry, else (a measured shape with its
+    reference freed) the entry whose box keeps farthest from zero."""
+    if blk.fixed.any():
+        return int(np.flatnonzero(blk.fixed)[0])
+    away = np.where(blk.lower * blk.upper > 0, np.minimum(np.abs(blk.lower), np.abs(blk.upper)), 0.0)
+    return int(np.argmax(away))
+
+
+def _fits_some_scale(blk: VectorBlock, v) -> bool:
+    """A block without a fixed entry: some scaling ``c v`` lies in the box shrunk by `BOX_MARGIN`."""
+    lo, hi = blk.lower + BOX_MARGIN, blk.upper - BOX_MARGIN
+    nz = v != 0
+    if np.any(~nz & ((lo > 0) | (hi < 0))):
+        return False
+    a, b = lo[nz] / v[nz], hi[nz] / v[nz]
+    return bool(np.max(np.minimum(a, b)) <= np.min(np.maximum(a, b)))
+
+
+def _widen_box(blk: VectorBlock, v, base: float, label: str, where: str):
+    """``(block, None)``: the block with its box widened to hold the scaled vector ``v``; or
+    ``(blk, reason)`` when it cannot be held (``base``: the largest bound before widening)."""
+    j = _anchor(blk)
+    big = float(np.max(np.abs(v)))
+    if not abs(v[j]) > NODE_FRACTION * big:
+        return blk, (f"{label}: its {where} vector is {abs(v[j]) / big:.2g} of its largest entry at the "
+                             f"normalization entry (below {NODE_FRACTION:g})")
+    if not blk.fixed.any() and _fits_some_scale(blk, v):
+        return blk, None
+    v = v / v[j] * (blk.lower[j] if blk.fixed.any() else 1.0)
+    pad = BOX_MARGIN * (1.0 + np.abs(v))
+    free = ~blk.fixed
+    lower = np.where(free, np.minimum(blk.lower, v - pad), blk.lower)
+    upper = np.where(free, np.maximum(blk.upper, v + pad), blk.upper)
+    grown = (lower < blk.lower) | (upper > blk.upper)
+    if not grown.any():
+        return blk, None
+    growth = float(np.max(np.maximum(np.abs(lower), np.abs(upper)))) / base
+    if growth > GROWTH_LIMIT:
+        return blk, (f"{label}: its {where} vector would need a box {growth:.3g} times the largest "
+                             f"bound of the first stage's (limit {GROWTH_LIMIT:g})")
+    return replace(blk, lower=lower, upper=upper), None
+
+
+def widen(configurations: Sequence[Configuration], blocks: Sequence[VectorBlock], omega_lower, omega_upper,
+          x_lower, x_upper, points, labels: Sequence[str]):
+    """Widen windows, vector boxes and (by rounding) parameter bounds to hold ``points``.
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+    blocks : sequence of VectorBlock
+        The blocks of S, boxes in scaled coordinates.
+    omega_lower, omega_upper : ndarray, shape (n_blocks,)
+        The data's windows, rad/s.
+    x_lower, x_upper : ndarray, shape (n_x,)
+        Normalized parameter bounds.
+    points : ndarray, shape (n_points, n_x)
+        Normalized parameters to hold.
+    labels : sequence of str
+        One per point, for the messages.
+
+    Returns
+    -------
+    blocks, omega_lower, omega_upper, x_lower, x_upper, Inclusion
+        The widened S's pieces (new arrays) and what was done.
+    """
+    blocks = list(blocks)
+    lo, hi = np.array(omega_lower, dtype=float), np.array(omega_upper, dtype=float)
+    xl, xu = np.array(x_lower, dtype=float), np.array(x_upper, dtype=float)
+    before = list(blocks)
+    base = [max(float(np.max(np.abs(np.r_[b.lower, b.upper]))), 1.0) for b in blocks]
+    by_name = {c.name: c for c in configurations}
+    names = configurations[0].model.parameter_names
+    reach = np.full(len(blocks), -1.0)          # per cent beyond the data's window; < 0: not widened
+    where = [_where(by_name[b.configuration], b) for b in blocks]
+    bounds, uncovered, widened_by = set(), [], []
+    for p, label in zip(np.atleast_2d(np.asarray(points, dtype=float)), labels):
+        out_low, out_high = xl - p, p - xu
+        if np.any(np.maximum(out_low, out_high) > BOUND_ROUNDING):
+            i = int(np.argmax(np.maximum(out_low, out_high)))
+            value = configurations[0].model.physical(p)[i]
+            uncovered.append(f"{label}: parameter {names[i]} = {value:.6g} lies outside its bounds")
+            continue
+        bounds.update(np.flatnonzero((out_low > 0) | (out_high > 0)).tolist())
+        # just past the point: its physical value may round either way
+        xl = np.minimum(xl, np.where(out_low > 0, p - 1e-3 * BOUND_ROUNDING, xl))
+        xu = np.maximum(xu, np.where(out_high > 0, p + 1e-3 * BOUND_ROUNDING, xu))
+        state = (lo.copy(), hi.copy(), list(blocks))
+        for name, cfg in by_name.items():
+            ids = [b for b, blk in enumerate(blocks) if blk.configuration == name]
+            for b, (w, v) in zip(ids, paired_vectors(cfg, [blocks[b] for b in ids], p)):
+                if not np.isfinite(w):
+                    uncovered.append(f"{label}: the model lacks {where[b]}")
+                    continue
+                a, c = w * (1 - WINDOW_MARGIN), w * (1 + WINDOW_MARGIN)
+                if a < lo[b] or c > hi[b]:
+                    beyond = max(omega_lower[b] - w, w - omega_upper[b], 0.0)
+                    reach[b] = max(reach[b], 100.0 * beyond / blocks[b].omega)
+                    lo[b], hi[b] = min(lo[b], a), max(hi[b], c)
+                blocks[b], why = _widen_box(blocks[b], v / blocks[b].scale, base[b], label, where[b])
+                if why:
+                    uncovered.append(why)
+        if np.any(lo != state[0]) or np.any(hi != state[1]) or any(x is not y for x, y in zip(blocks, state[2])):
+            widened_by.append(label)
+    vectors = []
+    for b, (new, old) in enumerate(zip(blocks, before)):
+        grown = (new.lower < old.lower) | (new.upper > old.upper)
+        if grown.any():
+            ratio = float(np.max(np.maximum(np.abs(new.lower), np.abs(new.upper)))) / base[b]
+            vectors.append((where[b], int(np.count_nonzero(grown)), ratio))
+    windows = tuple((where[b], float(reach[b])) for b in np.flatnonzero(reach >= 0))
+    inclusion = Inclusion(tuple(labels), windows, tuple(vectors), tuple(widened_by), len(bounds), tuple(uncovered))
+    return tuple(blocks), lo, hi, xl, xu, inclusion
+
+
+def _where(cfg: Configuration, blk: VectorBlock) -> str:
+    """The datum of a block, for messages."""
+    if blk.kind == "natural":
+        return f"configuration {cfg.name!r} mode {blk.index}"
+    a = cfg.antiresonances[blk.index - 1]
+    return f"configuration {cfg.name!r} zero {a.index} of h_{a.response},{a.excitation}"
