@@ -92,8 +92,8 @@ class AffineModel:
 
     @staticmethod
     def _combine(stacked, xbar) -> sp.csr_matrix:
-        data, indices, indptr, shape = stacked
-        return sp.csr_matrix((data[0] + xbar @ data[1:], indices, indptr), shape=shape)
+        base, per_parameter, indices, indptr, shape = stacked
+        return sp.csr_matrix((base + per_parameter @ xbar, indices, indptr), shape=shape)
 
     @cached_property
     def _stacked_M(self):
@@ -164,18 +164,24 @@ def with_lumped(model: "AffineModel", additions: Sequence[Lumped]) -> "AffineMod
 
 
 def _stack_on_union(A0, parts):
-    """``A0`` and ``parts`` on their union sparsity pattern: a data array of shape
-    (1 + n_x, nnz) with the pattern's indices, so that ``A(xbar)`` is one vector operation."""
+    """``A0`` and ``parts`` on their union sparsity pattern, so that ``A(xbar)`` is one
+    vector operation: the data of ``A0`` on the pattern, shape (nnz,), the parameter
+    matrices' data as a sparse matrix of shape (nnz, n_x) (column ``i`` holds ``A_i``; each
+    parameter usually touches a small part of the pattern), and the pattern's indices."""
     mats = [sp.coo_matrix(A) for A in (A0, *parts)]
     n_cols = mats[0].shape[1]
     lin = [A.row.astype(np.int64) * n_cols + A.col for A in mats]
     pattern = np.unique(np.concatenate(lin))
-    data = np.zeros((len(mats), pattern.size))
-    for k, (A, li) in enumerate(zip(mats, lin)):
-        np.add.at(data[k], np.searchsorted(pattern, li), A.data)
-    rows, cols = np.divmod(pattern, n_cols)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=mats[0].shape[0]))])
-    return data, cols.astype(np.int32), indptr.astype(np.int32), mats[0].shape
+    where = [np.searchsorted(pattern, li) for li in lin]
+    base = np.bincount(where[0], weights=mats[0].data, minlength=pattern.size)
+    counts = [li.size for li in lin[1:]]
+    columns = np.repeat(np.arange(len(parts)), counts)
+    rows = np.concatenate(where[1:]) if parts else np.zeros(0, dtype=np.int64)
+    values = np.concatenate([A.data for A in mats[1:]]) if parts else np.zeros(0)
+    per_parameter = sp.csr_matrix((values, (rows, columns)), shape=(pattern.size, len(parts)))
+    rows_, cols = np.divmod(pattern, n_cols)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows_, minlength=mats[0].shape[0]))])
+    return base, per_parameter, cols.astype(np.int32), indptr.astype(np.int32), mats[0].shape
 
 
 def _as_system(result, dofs: Sequence[str] | None) -> System:

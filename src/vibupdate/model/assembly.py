@@ -229,16 +229,17 @@ class Assembly:
     # -- result -------------------------------------------------------------------------
     def _parts(self, batches, lumped, value):
         """Stiffness and mass COO triplets of element ``batches`` and ``lumped`` items, every
-        property or lumped value mapped by ``value(prop, n) -> array (n,)``; the elements of
-        one kind are evaluated together by the batched element functions."""
+        property or lumped value mapped by ``value(prop)`` to a number (one for the batch) or
+        an array (n_e,); the elements of one kind are evaluated together by the batched
+        element functions."""
         parts = {"K": [], "M": []}
         for kind in ("beam", "frame"):
             chosen = [b for b in batches if b.kind == kind]
             if not chosen:
                 continue
             idx = np.concatenate([b.idx for b in chosen])
-            props = [np.concatenate([value(b.props[j], b.idx.shape[0]) for b in chosen])
-                     for j in range(len(chosen[0].props))]
+            sizes = [b.idx.shape[0] for b in chosen]
+            props = [_column([value(b.props[j]) for b in chosen], sizes) for j in range(len(chosen[0].props))]
             geometry = [np.concatenate(col) for col in zip(*(b.geometry for b in chosen))]
             k, m = getattr(elements, f"{kind}_matrices")(*props, *geometry)
             d = idx.shape[1]
@@ -249,7 +250,7 @@ class Assembly:
         for item in lumped:
             d = item.idx.size
             parts[item.matrix].append((np.repeat(item.idx, d), np.tile(item.idx, d),
-                                       item.pattern * value(item.value, 1)[0]))
+                                       item.pattern * value(item.value)))
         return parts["K"], parts["M"]
 
     def _free_map(self) -> tuple[np.ndarray, np.ndarray]:
@@ -300,8 +301,8 @@ class Assembly:
         if missing:
             raise ValueError(f"the assembly depends on parameters without a value: {', '.join(missing)}")
 
-        def value(prop, n):
-            return _property(prop(values) if isinstance(prop, LinearExpression) else prop, n, "value")
+        def value(prop):
+            return prop(values) if isinstance(prop, LinearExpression) else prop
 
         position, free = self._free_map()
         k_parts, m_parts = self._parts(self._elements, self._lumped, value)
@@ -350,9 +351,8 @@ class Assembly:
                     touching[name][1].append(item)
         M_par, K_par = [], []
         for p in parameters:
-            def value(prop, n, name=p.name, scale=p.reference):
-                c = prop.coefficient(name) * scale if isinstance(prop, LinearExpression) else 0.0
-                return np.full(n, c)
+            def value(prop, name=p.name, scale=p.reference):
+                return prop.coefficient(name) * scale if isinstance(prop, LinearExpression) else 0.0
 
             k_parts, m_parts = self._parts(*touching[p.name], value)
             M_par.append(self._matrix(m_parts, position, free.size))
@@ -395,8 +395,16 @@ def _property(value, n: int, what: str):
     return np.broadcast_to(a.astype(np.result_type(a, float)), (n,)).copy()
 
 
+def _column(values: list, sizes: list[int]) -> np.ndarray:
+    """One property of consecutive batches as an array (sum(sizes),): each item a number
+    for its whole batch or an array of its batch's size."""
+    if not any(isinstance(v, np.ndarray) and v.ndim for v in values):
+        return np.repeat(np.array(values), sizes)
+    return np.concatenate([np.broadcast_to(v, (n,)) for v, n in zip(values, sizes)])
+
+
 def _scalar(value, what: str):
-    """A lumped value: a `LinearExpression` or a number (real or complex)."""
+    """A lumped value: a `LinearExpression` or a number (real or complex) as an array ()."""
     if isinstance(value, LinearExpression):
         return value
     a = np.asarray(value)
