@@ -180,20 +180,34 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     # hold the answer). Either way |offset + G dx| <= half.
     offset = np.where(is_freq, 0.0, misfit)
     half = np.where(is_freq, half + np.abs(misfit), np.maximum(half, np.abs(misfit)))
-    half = half * (1 + 1e-9) + 1e-12 * np.abs(d_meas)
+    # A floor against rounding: relative to the datum, and at least 1e-12 for a shape ratio
+    # (dimensionless, of order 1 at its reference; a ratio near a node would otherwise get a
+    # width of 1e-16).
+    half = half * (1 + 1e-9) + 1e-12 * np.maximum(np.abs(d_meas), np.where(is_freq, 0.0, 1.0))
     lo, hi = model.bounds()
     xbar = np.asarray(xbar, dtype=float)
-    A = np.vstack([G, -G])
-    b = np.concatenate([half - offset, half + offset]) + A @ xbar
-    bounds = list(zip(lo, hi))
+    # Each row divided by its half-width: |offset + G dx| <= half as |offset / half + (G / half) dx|
+    # <= 1, so that data known to 1e-12 (exact points) and to 1 % weigh alike in the LP solver's
+    # tolerances (unscaled, HiGHS reported the refined frame's point data infeasible and all 29
+    # ranges were NaN).
+    # The unknown is the step dx from the answer, so that row activities are O(1) and not the
+    # difference of two large numbers. Where the default simplex gives up on a badly
+    # conditioned problem (the refined frame's exact data at 2,996 DOFs: a "solve error" in 3
+    # of 58 programs), the interior-point method solves it.
+    Gs, offs = G / half[:, None], offset / half
+    A = np.vstack([Gs, -Gs])
+    b = np.concatenate([1.0 - offs, 1.0 + offs])
+    bounds = list(zip(lo - xbar, hi - xbar))
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     for i in range(model.n_parameters):
         c = np.zeros(model.n_parameters)
         c[i] = 1.0
         for sign, target in ((1.0, lower), (-1.0, upper)):
-            sol = linprog(sign * c, A_ub=A, b_ub=b, bounds=bounds, method="highs")
-            if sol.status == 0:
-                target[i] = sol.x[i]
+            for method in ("highs", "highs-ipm"):
+                sol = linprog(sign * c, A_ub=A, b_ub=b, bounds=bounds, method=method)
+                if sol.status == 0:
+                    target[i] = xbar[i] + sol.x[i]
+                    break
     width = (upper - lower) * 100.0   # xbar is already relative to the reference value
     sv = np.linalg.svd(G / half[:, None], compute_uv=False)
     return ParameterRanges(model.parameter_names, model.physical(lower), model.physical(upper), width, sv)
