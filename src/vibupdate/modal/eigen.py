@@ -213,6 +213,8 @@ def mode_residuals(M, K, omega, Phi) -> np.ndarray:
 #: building its own copy of the matrices; a solve of at least as many modes serves them all.
 _SOLVED: dict = {}
 _SOLVED_KEPT = 4
+#: ... and at most this many bytes of mode shapes (the newest is always kept).
+_SOLVED_BYTES = 256 * 2**20
 
 
 def _content_key(M, K, rtol: float) -> bytes:
@@ -239,7 +241,8 @@ def _sparse_modes(M, K, k: int, rtol: float):
     eigval, V = _solve_sparse_modes(M, K, k, rtol)
     _SOLVED.pop(key, None)
     _SOLVED[key] = (eigval, V)
-    while len(_SOLVED) > _SOLVED_KEPT:
+    while len(_SOLVED) > 1 and (len(_SOLVED) > _SOLVED_KEPT
+                                or sum(v[1].nbytes for v in _SOLVED.values()) > _SOLVED_BYTES):
         _SOLVED.pop(next(iter(_SOLVED)))
     return eigval.copy(), V.copy()
 

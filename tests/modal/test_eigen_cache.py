@@ -1,0 +1,37 @@
+"""Re-use of sparse eigen-solutions within a run (`vibupdate.modal.eigen`)."""
+
+import numpy as np
+import scipy.sparse as sp
+
+from vibupdate.modal import eigen
+from vibupdate.modal.solve_log import counting_solves
+
+
+def _chain(n, k=1000.0):
+    main = np.full(n, 2 * k)
+    K = sp.diags([main, -k * np.ones(n - 1), -k * np.ones(n - 1)], [0, 1, -1], format="csr")
+    M = sp.diags(np.linspace(1.0, 2.0, n), format="csr")
+    return M, K
+
+
+def test_the_same_matrices_are_solved_once_and_fewer_modes_come_from_the_kept_solution():
+    M, K = _chain(600)
+    with counting_solves(()) as log:
+        w20, P20 = eigen.modes(M, K, 20)
+        w8, P8 = eigen.modes(M.copy(), K.copy(), 8)       # equal matrices, other objects
+        w8b, _ = eigen.modes(M, K * (1 + 1e-12), 8)       # other matrices: solved
+    assert len(log) == 2
+    np.testing.assert_array_equal(w8, w20[:8])
+    np.testing.assert_array_equal(P8, P20[:, :8])
+    assert not np.array_equal(w8b, w8)
+    P8[0, 0] = 1e9                                        # a copy: the kept solution is intact
+    assert eigen.modes(M, K, 8)[1][0, 0] != 1e9
+
+
+def test_the_kept_solutions_are_bounded_in_bytes(monkeypatch):
+    monkeypatch.setattr(eigen, "_SOLVED", {})
+    monkeypatch.setattr(eigen, "_SOLVED_BYTES", 600 * 10 * 8 * 2)   # two solutions of 10 modes
+    M, K = _chain(600)
+    for s in (1.0, 1.1, 1.2):
+        eigen.modes(M, K * s, 10)
+    assert len(eigen._SOLVED) == 2
