@@ -11,15 +11,15 @@ import importlib.util
 import math
 import re
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from vibupdate.io.case_keys import ELEMENTS_KEYS, Where, check_table
-from vibupdate.model.affine import AffineModel, Lumped, affine_from_builder, with_lumped
+from vibupdate.model.affine import AffineModel, Lumped, affine_from_assembly, affine_from_builder, with_lumped
 from vibupdate.model.assembly import Assembly
 from vibupdate.model.build import from_files
+from vibupdate.model.expressions import LinearExpression
 
 __all__ = ["LinearExpression", "linear_expression", "base_model", "configuration_model", "MAX_NODES"]
 
@@ -32,22 +32,6 @@ _TERM = re.compile(
     rf"\s*([+-])?\s*(?:(?P<c1>{_NUM})\s*\*\s*(?P<n1>{_NAME})|(?P<n2>{_NAME})\s*\*\s*(?P<c2>{_NUM})"
     rf"|(?P<n3>{_NAME})|(?P<c3>{_NUM}))\s*"
 )
-
-
-@dataclass(frozen=True)
-class LinearExpression:
-    """``constant + sum_i coefficient_i * p[name_i]``: a value affine in the parameters.
-
-    Calling it with a mapping of parameter values (real or complex, for the complex step of
-    Eq. 15) gives the value; `coefficients` are the exact derivatives ``d value / d p_i`` in
-    physical units.
-    """
-
-    constant: float
-    coefficients: tuple[tuple[str, float], ...]
-
-    def __call__(self, p):
-        return self.constant + sum(c * p[n] for n, c in self.coefficients)
 
 
 def linear_expression(text, names) -> LinearExpression:
@@ -136,8 +120,12 @@ def _nodes(spec: dict, where: Where) -> list[tuple]:
     return nodes
 
 
-def _elements_builder(spec: dict, names, where: Where):
-    """A builder ``p -> System`` of the elements model of ``spec`` (``type = "elements"``)."""
+def _elements_assembly(spec: dict, names, where: Where) -> Assembly:
+    """The elements model of ``spec`` (``type = "elements"``) as an `Assembly` whose
+    properties and lumped values are `LinearExpression` s of the parameters ``names``.
+
+    ``assembly.system(p)`` is the model at parameter values ``p``; `affine_from_assembly`
+    assembles its affine form directly."""
     check_table(spec, ELEMENTS_KEYS, "model", where, required=("kind",))
     kind = spec["kind"]
     if kind not in ("beam", "frame"):
@@ -172,30 +160,24 @@ def _elements_builder(spec: dict, names, where: Where):
             key = f"model.{family}[{i + 1}]"
             check_table(item, {"dof": str, "value": None, "other": str}, key, where, required=("dof", "value"))
             lumped.append((family, item["dof"], expr(item["value"], f"{key}.value"), item.get("other")))
-    supports = {s: spec.get(s, []) for s in ("clamp", "pin", "fix")}
 
-    def build(p):
-        asm = Assembly(kind)
-        for label, x, y in nodes:
-            asm.node(label, x, y)
-        for family, chain, c in elements:
-            values = {name: f(p) for name, f in c.items()}
-            for a, b in zip(chain, chain[1:]):
-                getattr(asm, family)(a, b, **values)
-        for family, dof, f, other in lumped:
-            if family == "mass":
-                asm.mass(dof, f(p))
-            else:
-                asm.spring(dof, f(p), other)
-        for label in supports["clamp"]:
-            asm.clamp(label)
-        for label in supports["pin"]:
-            asm.pin(label)
-        for dof in supports["fix"]:
-            asm.fix(dof)
-        return asm.system()
-
-    return build
+    asm = Assembly(kind)
+    labels, x, y = zip(*nodes)
+    asm.nodes(labels, x, y)
+    for family, chain, values in elements:
+        getattr(asm, f"{family}s")(chain[:-1], chain[1:], **values)
+    for family, dof, value, other in lumped:
+        if family == "mass":
+            asm.mass(dof, value)
+        else:
+            asm.spring(dof, value, other)
+    for label in spec.get("clamp", []):
+        asm.clamp(label)
+    for label in spec.get("pin", []):
+        asm.pin(label)
+    for dof in spec.get("fix", []):
+        asm.fix(dof)
+    return asm
 
 
 def _load_callable(ref: str, base: Path, where: Where):
@@ -230,7 +212,7 @@ def base_model(spec: dict, options: dict, parameters, base: Path, where: Where) 
     kind = spec.get("type")
     try:
         if kind == "elements":
-            return affine_from_builder(_elements_builder(spec, names, where), parameters)
+            return affine_from_assembly(_elements_assembly(spec, names, where), parameters)
         if kind == "builder":
             check_table(spec, {"type": str, "builder": str}, "model", where, required=("builder",))
             func = _load_callable(spec["builder"], base, where)

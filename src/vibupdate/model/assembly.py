@@ -4,20 +4,32 @@ DOF names are the DOF kind followed by the node label: ``"y3"``, ``"phi3"`` for 
 labelled 3, ``"x3"``, ``"y3"``, ``"phi3"`` for a frame node. Measured data refer to DOFs by
 these names.
 
-An `Assembly` is filled inside a model builder (a function ``params -> System``) and is
-evaluated once per call, so a builder can be called with complex parameter values for the
-complex-step derivative (Eq. 15): every stored value keeps its complex type.
+An `Assembly` is used in one of two ways:
+
+* filled inside a model builder (a function ``params -> System``) with numbers and evaluated
+  once per call, so that a builder can be called with complex parameter values for the
+  complex-step derivative (Eq. 15): every stored value keeps its complex type;
+* filled once with properties and lumped values that are `LinearExpression` s of the
+  parameters, then assembled directly into the affine form (`Assembly.affine_parts`,
+  `vibupdate.model.affine.affine_from_assembly`): each element is evaluated at the nominal
+  point and once per parameter it depends on, with no differentiation. ``system(values)``
+  evaluates the same assembly at given parameter values.
+
+Supports and the DOF order are the same either way.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.model import elements
+from vibupdate.model.expressions import LinearExpression
+from vibupdate.model.parameters import Parameter
 
 __all__ = ["Assembly", "System", "dof_index"]
 
@@ -85,11 +97,10 @@ class Assembly:
         self._index: dict[str, int] = {}
         self._base: dict[object, int] = {}  # node label -> index of its first DOF
         self._fixed: set[str] = set()
-        self._m: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-        self._k: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-        # Element batches: (DOF indices (n_e, n_d), properties..., geometry...), evaluated
-        # together in `system` by the batched element functions.
-        self._elements: list[tuple] = []
+        # Element batches and lumped items, evaluated in `system` (element batches of one
+        # kind together, by the batched element functions) or in `affine_parts`.
+        self._elements: list[_Batch] = []
+        self._lumped: list[_Lumped] = []
 
     # -- nodes and supports -------------------------------------------------------------
     def node(self, label, x: float, y: float = 0.0) -> None:
@@ -139,12 +150,6 @@ class Assembly:
         self._fixed.add(dof)
 
     # -- contributions ------------------------------------------------------------------
-    def _add(self, target, idx, block) -> None:
-        idx = np.asarray(idx)
-        rows = np.repeat(idx, idx.size)
-        cols = np.tile(idx, idx.size)
-        target.append((rows, cols, np.asarray(block).ravel()))
-
     def _element_dofs(self, first: Sequence, second: Sequence) -> np.ndarray:
         """DOF indices (n_e, 2 * n_kinds) of the elements between ``first[i]`` and ``second[i]``."""
         try:
@@ -173,14 +178,16 @@ class Assembly:
     def beams(self, first: Sequence, second: Sequence, *, EI, mass_per_length) -> None:
         """Many beam elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
 
-        ``EI`` (N m^2) and ``mass_per_length`` (kg/m): scalars or arrays of shape (n_e,).
+        ``EI`` (N m^2) and ``mass_per_length`` (kg/m): scalars or arrays of shape (n_e,), real
+        or complex, or one `LinearExpression` of the parameters for all the elements.
         """
         if self.kind != "beam":
             raise ValueError("beam() needs a beam assembly; use frame() in a frame assembly")
         idx = self._element_dofs(first, second)
         dx, _ = self._deltas(first, second)
         n = idx.shape[0]
-        self._elements.append(("beam", idx, _values(EI, n), _values(mass_per_length, n), np.abs(dx)))
+        props = (_property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"))
+        self._elements.append(_Batch("beam", idx, props, (np.abs(dx),)))
 
     def frame(self, n1, n2, *, EA, EI, mass_per_length) -> None:
         """Planar frame element (axial + bending) between two nodes of a frame assembly.
@@ -193,72 +200,214 @@ class Assembly:
         """Many frame elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
 
         ``EA`` (N), ``EI`` (N m^2) and ``mass_per_length`` (kg/m): scalars or arrays of shape
-        (n_e,), real or complex.
+        (n_e,), real or complex, or one `LinearExpression` of the parameters for all the
+        elements.
         """
         if self.kind != "frame":
             raise ValueError("frame() needs a frame assembly; use beam() in a beam assembly")
         idx = self._element_dofs(first, second)
         dx, dy = self._deltas(first, second)
         n = idx.shape[0]
-        self._elements.append(("frame", idx, _values(EA, n), _values(EI, n), _values(mass_per_length, n), dx, dy))
+        props = (_property(EA, n, "EA"), _property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"))
+        self._elements.append(_Batch("frame", idx, props, (dx, dy)))
 
     def mass(self, dof: str, value) -> None:
-        """Lumped mass (kg) on a translational DOF or rotary inertia (kg m^2) on a rotation."""
-        self._add(self._m, [self._dof(dof)], np.reshape(value, (1, 1)))
+        """Lumped mass (kg) on a translational DOF or rotary inertia (kg m^2) on a rotation;
+        ``value`` a number or a `LinearExpression` of the parameters."""
+        self._lumped.append(_Lumped("M", np.array([self._dof(dof)]), _POINT, _scalar(value, "mass")))
 
     def spring(self, dof: str, stiffness, other: str | None = None) -> None:
-        """Spring (N/m, or N m/rad on rotations) to ground, or between ``dof`` and ``other``."""
+        """Spring (N/m, or N m/rad on rotations) to ground, or between ``dof`` and ``other``;
+        ``stiffness`` a number or a `LinearExpression` of the parameters."""
+        value = _scalar(stiffness, "spring stiffness")
         if other is None:
-            self._add(self._k, [self._dof(dof)], np.reshape(stiffness, (1, 1)))
+            self._lumped.append(_Lumped("K", np.array([self._dof(dof)]), _POINT, value))
         else:
-            idx = [self._dof(dof), self._dof(other)]
-            self._add(self._k, idx, stiffness * np.array([[1.0, -1.0], [-1.0, 1.0]]))
+            idx = np.array([self._dof(dof), self._dof(other)])
+            self._lumped.append(_Lumped("K", idx, _LINK, value))
 
     # -- result -------------------------------------------------------------------------
-    def _element_parts(self):
-        """Stiffness and mass COO triplets of all element batches, evaluated kind by kind."""
-        k_parts, m_parts = [], []
+    def _parts(self, batches, lumped, value):
+        """Stiffness and mass COO triplets of element ``batches`` and ``lumped`` items, every
+        property or lumped value mapped by ``value(prop)`` to a number (one for the batch) or
+        an array (n_e,); the elements of one kind are evaluated together by the batched
+        element functions."""
+        parts = {"K": [], "M": []}
         for kind in ("beam", "frame"):
-            batches = [b[1:] for b in self._elements if b[0] == kind]
-            if not batches:
+            chosen = [b for b in batches if b.kind == kind]
+            if not chosen:
                 continue
-            idx, *columns = (np.concatenate(col) for col in zip(*batches))
-            if kind == "beam":
-                EI, mpl, length = columns
-                k, m = elements.beam_matrices(EI, mpl, length)
-            else:
-                EA, EI, mpl, dx, dy = columns
-                k, m = elements.frame_matrices(EA, EI, mpl, dx, dy)
+            idx = np.concatenate([b.idx for b in chosen])
+            sizes = [b.idx.shape[0] for b in chosen]
+            props = [_column([value(b.props[j]) for b in chosen], sizes) for j in range(len(chosen[0].props))]
+            geometry = [np.concatenate(col) for col in zip(*(b.geometry for b in chosen))]
+            k, m = getattr(elements, f"{kind}_matrices")(*props, *geometry)
             d = idx.shape[1]
             rows = np.repeat(idx, d, axis=1).ravel()
             cols = np.tile(idx, (1, d)).ravel()
-            k_parts.append((rows, cols, k.ravel()))
-            m_parts.append((rows, cols, m.ravel()))
-        return k_parts, m_parts
+            parts["K"].append((rows, cols, k.ravel()))
+            parts["M"].append((rows, cols, m.ravel()))
+        for item in lumped:
+            d = item.idx.size
+            parts[item.matrix].append((np.repeat(item.idx, d), np.tile(item.idx, d),
+                                       item.pattern * value(item.value)))
+        return parts["K"], parts["M"]
 
-    def _matrix(self, parts) -> sp.csr_matrix:
-        n = len(self._dofs)
-        if not parts:
-            return sp.csr_matrix((n, n))
-        rows = np.concatenate([p[0] for p in parts])
-        cols = np.concatenate([p[1] for p in parts])
-        vals = np.concatenate([p[2] for p in parts])
-        return sp.coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
-
-    def system(self) -> System:
-        """Sparse ``M``, ``K`` over the free DOFs (supports removed), with their names."""
+    def _free_map(self) -> tuple[np.ndarray, np.ndarray]:
+        """Position of every DOF among the free ones (-1 where fixed), shape (n_all,), and the
+        indices of the free DOFs in assembly order."""
         fixed = np.zeros(len(self._dofs), dtype=bool)
         fixed[[self._index[name] for name in self._fixed]] = True
         free = np.flatnonzero(~fixed)
-        k_parts, m_parts = self._element_parts()
-        M = self._matrix(m_parts + self._m)[free][:, free]
-        K = self._matrix(k_parts + self._k)[free][:, free]
-        M.eliminate_zeros()
-        K.eliminate_zeros()
-        return System(M.tocsr(), K.tocsr(), tuple(np.array(self._dofs, dtype=object)[free]))
+        position = np.full(len(self._dofs), -1, dtype=np.int64)
+        position[free] = np.arange(free.size)
+        return position, free
+
+    @staticmethod
+    def _matrix(parts, position: np.ndarray, n_free: int) -> sp.csr_matrix:
+        """Sum of COO ``parts`` over the free DOFs (``position`` from `_free_map`)."""
+        if not parts:
+            return sp.csr_matrix((n_free, n_free))
+        rows = position[np.concatenate([p[0] for p in parts])]
+        cols = position[np.concatenate([p[1] for p in parts])]
+        vals = np.concatenate([p[2] for p in parts])
+        keep = (rows >= 0) & (cols >= 0)
+        A = sp.coo_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n_free, n_free)).tocsr()
+        A.eliminate_zeros()
+        return A
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the parameters that `LinearExpression` properties and values involve,
+        in order of first appearance."""
+        names = {}
+        for item in [*self._elements, *self._lumped]:
+            for prop in (item.props if isinstance(item, _Batch) else (item.value,)):
+                if isinstance(prop, LinearExpression):
+                    names.update(dict.fromkeys(prop.names))
+        return tuple(names)
+
+    def system(self, values=None) -> System:
+        """Sparse ``M``, ``K`` over the free DOFs (supports removed), with their names.
+
+        Parameters
+        ----------
+        values : mapping of str to float or complex, optional
+            Parameter values at which `LinearExpression` properties are evaluated (complex
+            values give the complex step of Eq. 15); needed when the assembly has any.
+        """
+        needed = self.parameter_names
+        missing = [n for n in needed if values is None or n not in values]
+        if missing:
+            raise ValueError(f"the assembly depends on parameters without a value: {', '.join(missing)}")
+
+        def value(prop):
+            return prop(values) if isinstance(prop, LinearExpression) else prop
+
+        position, free = self._free_map()
+        k_parts, m_parts = self._parts(self._elements, self._lumped, value)
+        M = self._matrix(m_parts, position, free.size)
+        K = self._matrix(k_parts, position, free.size)
+        return System(M, K, tuple(np.array(self._dofs, dtype=object)[free]))
+
+    def affine_parts(self, parameters: Sequence[Parameter]):
+        """Nominal matrices and normalized parameter matrices of an assembly whose properties
+        are `LinearExpression` s, assembled directly (Eqs. 13-14).
+
+        Every element matrix is linear in its properties, so ``dK/dp_i`` is the assembly of
+        only the elements (and lumped values) whose expressions involve ``p_i``, with each
+        property set to its coefficient of ``p_i`` (0 where it does not involve ``p_i``);
+        ``K_i = dK/dp_i p_ref,i`` likewise for ``M``. Each element is evaluated once at the
+        nominal point and once per parameter its properties involve, so the work grows with
+        the DOFs, not with parameters x DOFs.
+
+        Parameters
+        ----------
+        parameters : sequence of Parameter, length n_x
+            Must include every parameter the expressions name.
+
+        Returns
+        -------
+        nominal : System
+            ``M0``, ``K0`` at the nominal values, DOFs and supports as `system`.
+        M_par, K_par : list of csr_matrix, each shape (n, n), length n_x
+            ``dM/dxbar_i``, ``dK/dxbar_i``.
+        """
+        known = {p.name for p in parameters}
+        unknown = [n for n in self.parameter_names if n not in known]
+        if unknown:
+            raise ValueError(f"the assembly depends on {', '.join(map(repr, unknown))}, which "
+                             f"{'is' if len(unknown) == 1 else 'are'} not a parameter")
+        nominal = self.system({p.name: p.nominal for p in parameters})
+        position, free = self._free_map()
+        touching = {name: ([], []) for name in known}
+        for batch in self._elements:
+            for name in dict.fromkeys(n for prop in batch.props if isinstance(prop, LinearExpression)
+                                      for n in prop.names):
+                touching[name][0].append(batch)
+        for item in self._lumped:
+            if isinstance(item.value, LinearExpression):
+                for name in item.value.names:
+                    touching[name][1].append(item)
+        M_par, K_par = [], []
+        for p in parameters:
+            def value(prop, name=p.name, scale=p.reference):
+                return prop.coefficient(name) * scale if isinstance(prop, LinearExpression) else 0.0
+
+            k_parts, m_parts = self._parts(*touching[p.name], value)
+            M_par.append(self._matrix(m_parts, position, free.size))
+            K_par.append(self._matrix(k_parts, position, free.size))
+        return nominal, M_par, K_par
 
 
-def _values(value, n: int) -> np.ndarray:
-    """A property as an array of shape (n,), complex values kept (complex step)."""
+class _Batch(NamedTuple):
+    """Elements of one kind added together: DOF indices (n_e, n_d), properties (each an
+    array (n_e,) or one `LinearExpression`) in the order of the element function, geometry."""
+
+    kind: str
+    idx: np.ndarray
+    props: tuple
+    geometry: tuple
+
+
+class _Lumped(NamedTuple):
+    """A lumped mass or spring: matrix ``"M"`` or ``"K"``, DOF indices (d,), the pattern
+    (d * d,) that multiplies the value, and the value (a number or a `LinearExpression`)."""
+
+    matrix: str
+    idx: np.ndarray
+    pattern: np.ndarray
+    value: object
+
+
+_POINT = np.array([1.0])
+_LINK = np.array([1.0, -1.0, -1.0, 1.0])
+
+
+def _property(value, n: int, what: str):
+    """A property as an array of shape (n,), complex values kept (complex step), or a
+    `LinearExpression` as it is."""
+    if isinstance(value, LinearExpression):
+        return value
     a = np.asarray(value)
+    if a.dtype == object or a.dtype.kind not in "biufc":
+        raise ValueError(f"{what} must be a number, an array of numbers or a LinearExpression, got {value!r}")
     return np.broadcast_to(a.astype(np.result_type(a, float)), (n,)).copy()
+
+
+def _column(values: list, sizes: list[int]) -> np.ndarray:
+    """One property of consecutive batches as an array (sum(sizes),): each item a number
+    for its whole batch or an array of its batch's size."""
+    if not any(isinstance(v, np.ndarray) and v.ndim for v in values):
+        return np.repeat(np.array(values), sizes)
+    return np.concatenate([np.broadcast_to(v, (n,)) for v, n in zip(values, sizes)])
+
+
+def _scalar(value, what: str):
+    """A lumped value: a `LinearExpression` or a number (real or complex) as an array ()."""
+    if isinstance(value, LinearExpression):
+        return value
+    a = np.asarray(value)
+    if a.size != 1 or a.dtype == object or a.dtype.kind not in "biufc":
+        raise ValueError(f"{what} must be a number or a LinearExpression, got {value!r}")
+    return a.reshape(()).astype(np.result_type(a, float))

@@ -1,9 +1,13 @@
 """Building a parametric model: from a builder function or from exported matrix files.
 
-Two ways lead to the same `AffineModel`:
+Three ways lead to the same `AffineModel`:
 
 * `from_builder` — a Python function ``params -> System | (M, K)`` (the built-in elements of
   `vibupdate.model.assembly` or the user's own code), differentiated by complex step;
+* `from_assembly` — an `Assembly` whose properties and lumped values are
+  `vibupdate.model.expressions.LinearExpression` s of the parameters (the elements model of a
+  case file), assembled directly into the affine form, each element once per parameter it
+  depends on;
 * `from_files` — nominal ``M0``, ``K0`` and per-parameter ``dM/dp``, ``dK/dp`` in Matrix Market
   (``.mtx``) or ``.npz`` files, the form exported by ANSYS, Abaqus or Nastran DMAP.
 """
@@ -17,12 +21,14 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from vibupdate.model.affine import AffineModel, _check_unique_names, affine_from_builder, check_matrices, symmetric_error
+from vibupdate.model.affine import (AffineModel, _check_unique_names, affine_from_assembly, affine_from_builder,
+                                   check_matrices, symmetric_error)
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["from_builder", "from_files", "load_matrix"]
+__all__ = ["from_assembly", "from_builder", "from_files", "load_matrix"]
 
 from_builder = affine_from_builder
+from_assembly = affine_from_assembly
 
 
 def load_matrix(path) -> sp.csr_matrix:

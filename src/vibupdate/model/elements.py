@@ -31,7 +31,7 @@ def _check_length(length):
     bad = ~(np.isfinite(length) & (np.asarray(length) > 0))
     if np.any(bad):
         first = np.asarray(length).ravel()[np.flatnonzero(np.ravel(bad))[0]]
-        raise ValueError(f"element length must be positive and finite, got {first!r}")
+        raise ValueError(f"element length must be positive and finite, got {float(first)!r} m")
 
 
 def _column(values, n: int) -> np.ndarray:
