@@ -35,3 +35,25 @@ def test_the_kept_solutions_are_bounded_in_bytes(monkeypatch):
     for s in (1.0, 1.1, 1.2):
         eigen.modes(M, K * s, 10)
     assert len(eigen._SOLVED) == 2
+
+
+def test_shape_ratio_solutions_are_factorized_once_per_point_of_a_large_model(monkeypatch):
+    """The polish's last evaluation, the sensitivity rows and the linearized ranges ask for the
+    same shape-ratio derivatives at the answer: one sparse LU per mode and point, not three."""
+    from vibupdate.examples import building
+    from vibupdate.modal import sensitivities
+
+    model = building.model(7, 2)                      # 546 DOFs: the sparse path
+    assert model.n_dofs > eigen.DENSE_LIMIT
+    x = 0.05 * np.cos(np.arange(model.n_parameters))
+    omega, Phi = eigen.modes(*model.matrices(x), 3)
+    calls = []
+    original = sensitivities._factor
+    monkeypatch.setattr(sensitivities, "_factor", lambda A: calls.append(A.shape) or original(A))
+    a = sensitivities.shape_ratio_derivatives(model, x, omega[2], Phi[:, 2], [0, 5, 9], 20)
+    b, V = sensitivities.shape_ratio_derivatives(model, x.copy(), omega[2], Phi[:, 2].copy(), [5, 9], 20,
+                                                 vectors=True)
+    assert len(calls) == 1
+    np.testing.assert_array_equal(a[1:], b)
+    sensitivities.shape_ratio_derivatives(model, x + 1e-3, omega[2], Phi[:, 2], [0], 20)   # another point
+    assert len(calls) == 2

@@ -154,36 +154,46 @@ def _mesh(storeys: int, bays: int):
             (tuple(beam_first), tuple(beam_second), np.array(beam_storey)))
 
 
-def build(p: dict, storeys: int, bays: int) -> System:
-    """Mass and stiffness of the frame (complex-safe in the parameter values ``p``)."""
+@lru_cache(maxsize=None)
+def assembly(storeys: int, bays: int) -> Assembly:
+    """The frame as an `Assembly` whose properties are linear in the 12 parameters: per group of
+    storeys, the columns' ``EA``, ``EI`` scale with ``Ec``, the beams' with ``Eb``, and the beams'
+    mass per length is the steel's plus ``q``."""
+    from vibupdate.model.expressions import LinearExpression
+
     labels, xs, ys, columns, beams = _mesh(storeys, bays)
     group = _groups(storeys)
     asm = Assembly("frame")
     asm.nodes(labels, xs, ys)
-    ec = np.array([p[f"Ec{g + 1}"] for g in range(GROUPS)])
-    eb = np.array([p[f"Eb{g + 1}"] for g in range(GROUPS)])
-    q = np.array([p[f"q{g + 1}"] for g in range(GROUPS)])
-    first, second, storey = columns
-    factor = ec[group[storey]]
-    area, inertia = COLUMN
-    asm.frames(first, second, EA=factor * E_STEEL * area, EI=factor * E_STEEL * inertia,
-               mass_per_length=RHO_STEEL * area)
-    first, second, storey = beams
-    factor = eb[group[storey]]
-    area, inertia = BEAM
-    asm.frames(first, second, EA=factor * E_STEEL * area, EI=factor * E_STEEL * inertia,
-               mass_per_length=RHO_STEEL * area + q[group[storey]])
+    for (first, second, storey), (area, inertia), factor in ((columns, COLUMN, "Ec"), (beams, BEAM, "Eb")):
+        first, second = np.asarray(first, dtype=object), np.asarray(second, dtype=object)
+        for g in range(GROUPS):
+            mine = group[storey] == g
+            if not mine.any():
+                continue
+            name = f"{factor}{g + 1}"
+            mass = (LinearExpression(RHO_STEEL * area, ((f"q{g + 1}", 1.0),)) if factor == "Eb"
+                    else RHO_STEEL * area)
+            asm.frames(tuple(first[mine]), tuple(second[mine]),
+                       EA=LinearExpression(0.0, ((name, E_STEEL * area),)),
+                       EI=LinearExpression(0.0, ((name, E_STEEL * inertia),)), mass_per_length=mass)
     for j in range(bays + 1):
         asm.clamp(f"c{j}.0")
-    return asm.system()
+    return asm
+
+
+def build(p: dict, storeys: int, bays: int) -> System:
+    """Mass and stiffness of the frame at the parameter values ``p`` (complex-safe)."""
+    return assembly(storeys, bays).system(p)
 
 
 @lru_cache(maxsize=None)
 def model(storeys: int, bays: int):
-    """The affine model of a ``storeys`` x ``bays`` frame (complex-step parameter matrices)."""
-    from vibupdate.model.build import from_builder
+    """The affine model of a ``storeys`` x ``bays`` frame, assembled directly from the linear
+    properties (`vibupdate.model.build.from_assembly`)."""
+    from vibupdate.model.build import from_assembly
 
-    return from_builder(lambda p: build(p, storeys, bays), parameters())
+    return from_assembly(assembly(storeys, bays), parameters())
 
 
 def measured_dofs(storeys: int, bays: int) -> tuple[str, ...]:
