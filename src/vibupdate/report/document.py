@@ -264,8 +264,10 @@ def verification_markdown(solver: dict) -> list[str]:
     if pol:
         stages += (f"; the polish (bounded least squares of the declared modes' relative frequency errors and the "
                    f"shape-interval penalties) took its objective from {_g(pol['cost_start'], '.4e')} to "
-                   f"{_g(pol['cost'], '.4e')} in {pol['evaluations']} evaluations and was "
-                   + ("kept" if pol["kept"] else "not kept"))
+                   f"{_g(pol['cost'], '.4e')} in {pol['evaluations']} evaluations of the full model"
+                   + (f" ({pol['rounds']} rounds on a reduced model, {pol.get('reduced_evaluations', 0)} evaluations "
+                      "there; each round checked on the full model)" if pol.get("rounds") else "")
+                   + " and was " + ("kept" if pol["kept"] else "not kept"))
     attempts = solver.get("attempts") or []
     if len(attempts) > 1:
         stages += (f"; the vector boxes were widened {len(attempts) - 1} time(s) because the relaxation proved that "

@@ -1,0 +1,21 @@
+"""The report's text (`vibupdate.report.document`)."""
+
+from vibupdate.report.document import verification_markdown
+
+
+def _solver(**polish):
+    check = {"name": "fit", "passed": True, "severity": "error", "message": "every frequency within 1 %"}
+    base = {"cost_start": 3.4381, "cost": 9.45e-20, "kept": True, "evaluations": 4, "message": "converged",
+            "seconds": 10.5}
+    return {"checks": [check], "verified": True, "polish": {**base, **polish}}
+
+
+def test_the_verification_section_says_how_the_polish_worked():
+    text = "\n".join(verification_markdown(_solver(rounds=4, reduced_evaluations=55)))
+    assert "from 3.4381e+00 to 9.4500e-20 in 4 evaluations of the full model (4 rounds on a reduced model, " \
+           "55 evaluations there; each round checked on the full model) and was kept" in text
+    assert "**verified**" in text
+    plain = "\n".join(verification_markdown(_solver(rounds=0, reduced_evaluations=0)))
+    assert "in 4 evaluations of the full model and was kept" in plain and "rounds" not in plain
+    older = "\n".join(verification_markdown(_solver()))          # a results file written before the rounds
+    assert "in 4 evaluations of the full model and was kept" in older
