@@ -255,13 +255,6 @@ def _correlation_inflation(r: np.ndarray, max_lag: int = 200, stop: float = 0.05
     return 1.0 + 2.0 * total
 
 
-def _residual_variance(x, F, wn, zeta, width: int = 21):
-    """Local mean square of the unweighted fit's residual, shape (n_pairs, n_freq)."""
-    r = _split_residual(_projected_residual(np.concatenate([wn, zeta]), x, F, np.ones_like(F.real)), F.shape)
-    var = _smooth(np.abs(r) ** 2, width)
-    return np.maximum(var, 1e-12 * np.max(var, axis=1, keepdims=True) + 1e-300)
-
-
 def _best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: int = 400):
     """Positions in ``candidates`` (indices into ``wn``) of the ``n_modes`` poles whose modal
     model, with the ``fixed`` poles always in it, fits the FRFs best (unweighted); by peak

@@ -75,8 +75,8 @@ import scipy.stats
 
 from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
                                        _noise_from_differences, _noise_from_repeats, _real_stack, _refine_poles,
-                                       _residual_variance, _significant, _split_residual, _stabilization,
-                                       _stable_poles)
+                                       _significant, _split_residual, _stabilization, _stable_poles)
+from vibupdate.data._noise import _residual_variance
 from vibupdate.data._zeros import _local_zero, _zero_se, _zeros_of
 from vibupdate.data.frf import FRFSet
 
@@ -329,13 +329,14 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     if len(orders) < min_stable:
         raise ValueError(f"{len(orders)} model orders given, fewer than min_stable = {min_stable}")
     var = _noise_from_repeats(frfs.H)
+    groups = [c for _, c in frfs.pairs]  # the proportional noise comes with the force: shared per excitation
     noise = "repeats" if var is not None else "residual"
     if var is not None:  # floored: identical repeats (noise-free data) would give infinite weights
         var = np.maximum(var / scales[:, None] ** 2, 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True))
     stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
     wn, zeta, counts = _stable_poles(stab, min_stable)
     if wn.size:
-        var = var if var is not None else _residual_variance(x, F, wn, zeta)
+        var = var if var is not None else _residual_variance(x, F, wn, zeta, groups)
         wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var)
     in_band = (wn >= x_report[0]) & (wn <= x_report[1])
     if not np.any(in_band):
@@ -352,9 +353,9 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
         wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True)
     else:  # feasible weighted least squares: noise from the residual, refit, once more
         for _ in range(2):
-            var = _residual_variance(x, F, wn, zeta)
+            var = _residual_variance(x, F, wn, zeta, groups)
             wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True)
-        var = _residual_variance(x, F, wn, zeta)
+        var = _residual_variance(x, F, wn, zeta, groups)
     order = np.argsort(wn)
     wn, zeta, counts, in_band = wn[order], zeta[order], [counts[k] for k in order], in_band[order]
     cov_poles = cov_poles[np.ix_(np.r_[order, order + wn.size], np.r_[order, order + wn.size])]

@@ -1,0 +1,123 @@
+"""Noise variance of a single FRF record from the modal fit's residual (private kernel of
+`vibupdate.data.extraction`). Frequencies and FRFs normalized as in `vibupdate.data._modal_fit`.
+
+Two things make the raw squared residual a poor estimate of the noise variance where it
+matters most, at the resonance peaks of lightly damped modes:
+
+1. **Leverage** (the degrees of freedom of the fit). For a least-squares fit
+   ``E |r_k|^2 = sigma_k^2 (1 - h_k)`` with ``h_k`` the diagonal of the hat matrix
+   (``sum_k h_k = p``, the number of fitted parameters: this is the ``n - p`` of the
+   unbiased variance, line by line). A mode whose half-power bandwidth ``2 zeta w_n`` spans
+   about one line is fitted from its few peak lines: there ``h_k`` nears 1 and the residual
+   nearly vanishes whatever the noise. Each squared residual is divided by ``1 - h_k``
+   (the "HC2" correction of MacKinnon and White, J. Econometrics 29, 1985), ``h_k`` from the
+   fit's exact Jacobian: the linear (residue) columns and the projected pole columns of the
+   variable-projection problem (Golub and Pereyra, SIAM J. Numer. Anal. 10, 1973), whose
+   hat matrices add because the second is orthogonal to the first.
+2. **Smoothing across a peak**. Measured FRFs carry a noise floor that varies slowly along
+   frequency and a part proportional to ``|H|`` (force-channel noise, leakage, the
+   estimator's bias at a peak), which varies as fast as the FRF itself: by a factor of 10 or
+   more across a peak one line wide. A running mean of the squared residual over 21 lines
+   spreads a peak's variance over its neighbours and under-states it at the peak lines,
+   which alone fix the damping ratio. The variance is therefore modelled per FRF as two
+   components, ``sigma_k^2 = s_k + beta |H_k|^2`` with ``s`` smooth (locally constant over
+   21 lines) and ``beta >= 0`` one number, ``H_k`` the fitted FRF, and both are estimated by
+   maximum likelihood from the corrected squared residuals by the EM iteration for variance
+   components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39, 1977): each line's
+   squared residual is shared between the components in proportion to their expected
+   shares, then each component is re-estimated from its share. With ``beta = 0`` this is
+   the previous running mean, so data without a proportional part lose nothing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from vibupdate.data._modal_fit import _basis, _poles, _projected_residual, _smooth, _split_residual
+
+SMOOTH_LINES = 21           # the additive component is locally constant over this many lines
+EM_ITERATIONS = 50          # iterations of the variance-component EM (converged to < 1e-3 in practice)
+
+
+def _pole_columns(x, xn, zeta, coef):
+    """Exact derivatives of the modal model ``Phi(theta) coef`` with respect to the poles.
+
+    ``x`` (n_freq,), ``xn``, ``zeta`` (n,), ``coef`` (n_pairs, n_cols) the linear
+    coefficients of each FRF. Returns complex (n_pairs, n_freq, 2 n): the columns for
+    ``w_n`` (first n) and ``zeta`` (last n)."""
+    s = 1j * np.asarray(x)[:, None]
+    a = _poles(xn, zeta)[None, :]                                       # (1, n)
+    p2, q2 = 1.0 / (s - a) ** 2, 1.0 / (s - np.conj(a)) ** 2             # (n_freq, n)
+    root = np.sqrt(1.0 - zeta**2)
+    da = {"wn": a / xn[None, :], "zeta": (xn * (-1.0 - 1j * zeta / root))[None, :]}
+    c_re, c_im = coef[:, 0:2 * xn.size:2], coef[:, 1:2 * xn.size:2]    # (n_pairs, n)
+    cols = []
+    for key in ("wn", "zeta"):
+        d = da[key]
+        plus, minus = p2 * d + q2 * np.conj(d), p2 * d - q2 * np.conj(d)
+        cols.append(c_re[:, None, :] * plus[None] + 1j * c_im[:, None, :] * minus[None])
+    return np.concatenate(cols, axis=2)
+
+
+def _leverage(x, xn, zeta, coef):
+    """Diagonal of the hat matrix of the unweighted modal fit of every FRF, shape
+    (n_pairs, 2, n_freq) (real and imaginary row of each line): the residue columns of each
+    FRF plus the pole columns shared by all FRFs, projected off the former."""
+    Phi = _basis(x, xn, zeta)
+    A = np.vstack([Phi.real, Phi.imag])                                   # (2 n_freq, n_cols)
+    Q = scipy.linalg.qr(A, mode="economic")[0]
+    h_lin = np.sum(Q**2, axis=1)
+    D = _pole_columns(x, xn, zeta, coef)                                  # (n_pairs, n_freq, 2n)
+    D = np.concatenate([D.real, D.imag], axis=1)                          # (n_pairs, 2 n_freq, 2n)
+    D = D - Q[None] @ (Q.T[None] @ D)                                     # off the residue columns
+    Qd = scipy.linalg.qr(D.reshape(-1, D.shape[2]), mode="economic")[0]
+    h = h_lin[None, :] + np.sum(Qd**2, axis=1).reshape(D.shape[0], -1)
+    return h.reshape(D.shape[0], 2, x.size)
+
+
+def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iterations: int = EM_ITERATIONS):
+    """Maximum-likelihood ``sigma^2 = s + beta g`` per row from squared residuals ``e``.
+
+    ``e`` (n_rows, n_freq): leverage-corrected squared moduli of complex residuals (each
+    ``sigma^2`` times a unit exponential variable); ``g`` (n_rows, n_freq) >= 0 the shape of
+    the proportional component (``|H|^2``). ``s`` is locally constant over ``width`` lines
+    (a running mean) per row; ``beta >= 0`` is shared by the rows of one group (``groups``,
+    (n_rows,) integer labels; default one group per row). Returns ``(sigma^2, s, beta)``
+    with ``beta`` per row."""
+    groups = np.arange(e.shape[0]) if groups is None else np.asarray(groups)
+    labels, member = np.unique(groups, return_inverse=True)
+    s = _smooth(e, width)
+    floor = 1e-12 * np.max(s, axis=1, keepdims=True) + 1e-300
+    s = np.maximum(s, floor)
+    gsum = np.maximum(np.bincount(member, np.sum(g, axis=1), labels.size), 1e-300)
+    # start: what the running mean leaves unexplained at the peaks
+    beta = (np.bincount(member, np.sum(np.maximum(e - s, 0.0), axis=1), labels.size) / gsum)[member]
+    for _ in range(iterations):
+        b = beta[:, None] * g
+        v = s + b
+        # E-step: expected energy of each component given the line's residual; M-step: the
+        # smooth component's running mean, the proportional one's group mean
+        share_s = s - s**2 / v + s**2 * e / v**2
+        share_b = b - b**2 / v + b**2 * e / v**2
+        s = np.maximum(_smooth(share_s, width), floor)
+        beta = (np.bincount(member, np.sum(share_b, axis=1), labels.size) / gsum)[member]
+    return s + beta[:, None] * g, s, beta
+
+
+def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES):
+    """Noise variance per line of each FRF from the unweighted fit's residual, shape
+    (n_pairs, n_freq): squared residuals corrected by the leverage, then split into a smooth
+    and a proportional component (module docstring), the latter's level shared by the FRFs
+    of one ``groups`` label ((n_pairs,), e.g. the excitation; default one per FRF)."""
+    theta = np.concatenate([wn, zeta])
+    W = np.ones_like(F.real)
+    r = _split_residual(_projected_residual(theta, x, F, W), F.shape)
+    fitted = F - r
+    Phi = _basis(x, wn, zeta)
+    A = np.vstack([Phi.real, Phi.imag])
+    coef = scipy.linalg.lstsq(A, np.concatenate([F.real, F.imag], axis=1).T, lapack_driver="gelsy")[0].T
+    h = np.minimum(_leverage(x, wn, zeta, coef), 0.99)
+    e = r.real**2 / (1.0 - h[:, 0]) + r.imag**2 / (1.0 - h[:, 1])
+    var = _variance_components(e, np.abs(fitted) ** 2, groups, width)[0]
+    return np.maximum(var, 1e-12 * np.max(var, axis=1, keepdims=True) + 1e-300)
