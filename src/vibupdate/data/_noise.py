@@ -37,7 +37,7 @@ import scipy.linalg
 from vibupdate.data._modal_fit import _basis, _poles, _projected_residual, _smooth, _split_residual
 
 SMOOTH_LINES = 21           # the additive component is locally constant over this many lines
-EM_ITERATIONS = 50          # iterations of the variance-component EM (converged to < 1e-3 in practice)
+EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
 
 
 def _pole_columns(x, xn, zeta, coef):
@@ -87,12 +87,11 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
     with ``beta`` per row."""
     groups = np.arange(e.shape[0]) if groups is None else np.asarray(groups)
     labels, member = np.unique(groups, return_inverse=True)
-    s = _smooth(e, width)
-    floor = 1e-12 * np.max(s, axis=1, keepdims=True) + 1e-300
-    s = np.maximum(s, floor)
+    floor = 1e-12 * np.max(_smooth(e, width), axis=1, keepdims=True) + 1e-300
     gsum = np.maximum(np.bincount(member, np.sum(g, axis=1), labels.size), 1e-300)
-    # start: what the running mean leaves unexplained at the peaks
-    beta = (np.bincount(member, np.sum(np.maximum(e - s, 0.0), axis=1), labels.size) / gsum)[member]
+    # start from an even split of each line's squared residual between the components
+    s = np.maximum(_smooth(e / 2, width), floor)
+    beta = (np.bincount(member, np.sum(e / 2, axis=1), labels.size) / gsum)[member]
     for _ in range(iterations):
         b = beta[:, None] * g
         v = s + b
