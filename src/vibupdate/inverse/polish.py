@@ -290,7 +290,7 @@ class _Converged:
     message: str
 
 
-def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict):
+def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict, say=None):
     """The reduced rounds (module docstring) from ``x0``.
 
     Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best point
@@ -347,11 +347,16 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
                              f"{ROUND_SETTLED:g} of the objective")
             break
         x, value, cost, basis = x_new, value_new, cost_new, basis_new
+        if say is not None:
+            say(f"  polish round {rounds}: objective {cost:.4e} on the full model ({int(sol.nfev)} evaluations "
+                f"of a {reduced[0].model.n_dofs}-DOF reduced model)")
     return x, value, evaluations, rounds, reduced_evaluations, converged
 
 
-def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None) -> PolishResult:
-    """Refine ``xbar0`` by bounded least squares (module docstring)."""
+def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None,
+           progress=None) -> PolishResult:
+    """Refine ``xbar0`` by bounded least squares (module docstring). ``progress(message)``, when
+    given, hears of each reduced round (large models)."""
     options = options or PolishOptions()
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
@@ -365,7 +370,7 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
         start_x, known, evaluations, converged = x0, None, 0, ""
         if options.reduced_rounds and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT:
             start_x, value, evaluations, rounds, reduced_evaluations, converged = _reduced_rounds(
-                configurations, x0, options, tols)
+                configurations, x0, options, tols, progress)
             known = (start_x, value)
         if converged:
             cost = 0.5 * float(known[1][0] @ known[1][0])
