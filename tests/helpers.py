@@ -1,5 +1,8 @@
 """Small models shared by the tests."""
 
+import re
+from pathlib import Path
+
 import numpy as np
 
 from vibupdate import Assembly, Parameter, from_builder
@@ -46,3 +49,9 @@ def chain_model(n_masses, names, nominal=None, spread=0.3, reference=None):
 def random_spd(rng, n, cond=10.0):
     Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
     return Q @ np.diag(np.linspace(1.0, cond, n)) @ Q.T
+
+
+#: The case file of docs/case-file.md (its first TOML block), as the docs show it.
+CASE_FILE_EXAMPLE = re.search(r"```toml\n(.*?)```",
+                              (Path(__file__).resolve().parents[1] / "docs" / "case-file.md").read_text(),
+                              re.S).group(1)

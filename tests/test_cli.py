@@ -139,7 +139,7 @@ def test_results_and_matrices_reload_and_reproduce_the_updated_frequencies(canti
 
 
 def test_a_failed_update_exits_non_zero_with_the_reason(tmp_path, capsys):
-    from test_case import EXAMPLE
+    from helpers import CASE_FILE_EXAMPLE as EXAMPLE
 
     case = tmp_path / "case.toml"
     case.write_text(EXAMPLE.replace("[solver]\nn_lambda = 10", "[solver]\nn_lambda = 2\nmax_iter = 1\nmin_step = 0.5"))

@@ -110,3 +110,23 @@ def test_polish_rounds_on_noisy_data_end_no_higher_than_the_full_model_polish(se
     assert rounds.rounds >= 1 and rounds.kept and full.kept
     assert rounds.cost <= full.cost * (1 + 1e-9)
     assert rounds.evaluations <= 5 < full.evaluations
+
+
+def test_polish_falls_back_to_the_full_model_when_a_round_fails(monkeypatch):
+    """A reduced round that raises (here a forced failure of the projection) costs the rounds,
+    not the polish: it says so and polishes on the full model."""
+    from vibupdate.inverse import reduction
+    from vibupdate.inverse.polish import polish
+
+    def broken(*args, **kwargs):
+        raise np.linalg.LinAlgError("forced")
+
+    monkeypatch.setattr(reduction, "ritz_reduction", broken)
+    configurations = building.configurations(7, 2)
+    m = configurations[0].model
+    truth = m.normalized(np.array([building.truth()[p.name] for p in m.parameters]))
+    said = []
+    result = polish(configurations, np.clip(truth + 0.02, *m.bounds()), progress=said.append)
+    assert result.kept and result.rounds == 0 and result.evaluations > 1
+    assert any("the reduced rounds failed (forced)" in s for s in said)
+    assert np.abs(m.physical(result.xbar) / m.physical(truth) - 1).max() < 1e-8

@@ -9,6 +9,7 @@ import pytest
 import scipy.io
 import scipy.sparse as sp
 
+from helpers import CASE_FILE_EXAMPLE
 from vibupdate.io.case import linear_expression, load_case
 from vibupdate.cli import main
 from vibupdate.inverse.correlation import model_frequencies
@@ -16,7 +17,7 @@ from vibupdate.examples import cantilever
 
 ROOT = Path(__file__).resolve().parents[2]
 DOC = (ROOT / "docs" / "case-file.md").read_text()
-EXAMPLE = re.search(r"```toml\n(.*?)```", DOC, re.S).group(1)
+EXAMPLE = CASE_FILE_EXAMPLE
 
 
 def write(tmp_path, text, name="case.toml"):

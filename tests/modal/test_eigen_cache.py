@@ -57,3 +57,20 @@ def test_shape_ratio_solutions_are_factorized_once_per_point_of_a_large_model(mo
     np.testing.assert_array_equal(a[1:], b)
     sensitivities.shape_ratio_derivatives(model, x + 1e-3, omega[2], Phi[:, 2], [0], 20)   # another point
     assert len(calls) == 2
+
+
+def test_threads_share_the_kept_solutions_safely(monkeypatch):
+    """Several threads solving equal and different matrices at once: every answer is right
+    and the bound on kept solutions holds (no error from one thread changing the store while
+    another reads it)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    monkeypatch.setattr(eigen, "_SOLVED", {})
+    M, K = _chain(500)
+    scales = [1.0, 1.0, 1.3, 1.3, 1.7, 2.1, 1.0, 2.5] * 3
+    reference = {s: eigen.modes(M, K * s, 6, dense=True)[0] for s in set(scales)}
+    with ThreadPoolExecutor(4) as pool:
+        found = list(pool.map(lambda s: eigen.modes(M, K * s, 6)[0], scales))
+    for s, w in zip(scales, found):
+        np.testing.assert_allclose(w, reference[s], rtol=1e-9)
+    assert len(eigen._SOLVED) <= eigen._SOLVED_KEPT

@@ -290,21 +290,21 @@ class _Converged:
     message: str
 
 
-def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict):
+def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict, say=None):
     """The reduced rounds (module docstring) from ``x0``.
 
     Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best point
     found, its full-model residual and Jacobian, the counts, and why the rounds converged ("" when
-    they did not):
-    a round's step moved no normalized parameter by more than `ROUND_XTOL`, or its reduced
-    model, at least as accurate as the full model at ``x``, predicted a
-    decrease below ``tol`` times the objective at ``x`` (scipy's ``ftol`` test, on the
-    prediction), or the full model refuted the round's step where the objective is below
-    ``tol`` times that at ``x0`` or the predicted gain below `ROUND_SETTLED` of the objective
-    (what is left is below the evaluations' own accuracy). Either way the full-model finish is
-    not needed. Where the reduced model's best is above the full
-    objective at ``x`` (its projection's rounding is the floor), the rounds stop unconverged and
-    the finish takes over."""
+    they did not, and the full-model finish is needed). They converge when a round's step moves
+    no normalized parameter by more than `ROUND_XTOL`; when the reduced model, at least as
+    accurate as the full model at ``x``, predicts a gain below ``tol`` times the objective
+    (scipy's ``ftol`` test, on the prediction); when what is left is below the reduced model's
+    accuracy (its best within `ROUND_SETTLED` above the full objective, or the full model
+    refuting a step whose predicted gain was below `ROUND_SETTLED` of the objective); or when
+    the full model refutes a step at an objective below ``tol`` times that at ``x0`` (rounding
+    noise). They stop unconverged where the reduced model's best lies further above the full
+    objective (its projection's rounding floor), where the full model refutes a larger predicted
+    gain, or at the round limit."""
     from threadpoolctl import threadpool_limits
 
     from vibupdate.inverse.reduction import kept_dofs, ritz_reduction
@@ -347,11 +347,16 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
                              f"{ROUND_SETTLED:g} of the objective")
             break
         x, value, cost, basis = x_new, value_new, cost_new, basis_new
+        if say is not None:
+            say(f"  polish round {rounds}: objective {cost:.4e} on the full model ({int(sol.nfev)} evaluations "
+                f"of a {reduced[0].model.n_dofs}-DOF reduced model)")
     return x, value, evaluations, rounds, reduced_evaluations, converged
 
 
-def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None) -> PolishResult:
-    """Refine ``xbar0`` by bounded least squares (module docstring)."""
+def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None,
+           progress=None) -> PolishResult:
+    """Refine ``xbar0`` by bounded least squares (module docstring). ``progress(message)``, when
+    given, hears of each reduced round (large models)."""
     options = options or PolishOptions()
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
@@ -364,9 +369,13 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     try:
         start_x, known, evaluations, converged = x0, None, 0, ""
         if options.reduced_rounds and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT:
-            start_x, value, evaluations, rounds, reduced_evaluations, converged = _reduced_rounds(
-                configurations, x0, options, tols)
-            known = (start_x, value)
+            try:
+                start_x, value, evaluations, rounds, reduced_evaluations, converged = _reduced_rounds(
+                    configurations, x0, options, tols, progress)
+                known = (start_x, value)
+            except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model polish alone, from x0
+                if progress is not None:
+                    progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
         if converged:
             cost = 0.5 * float(known[1][0] @ known[1][0])
             sol = _Converged(start_x, cost, 0, f"converged in {rounds} reduced rounds: {converged}")

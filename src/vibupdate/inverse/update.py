@@ -343,11 +343,12 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     status = path.status
     if status.ok:
         if polish.enabled:
-            polished = run_polish(configurations, first_xbar, polish)
+            polished = run_polish(configurations, first_xbar, polish, progress=say)
             xbar = polished.xbar
             say(f"polish: objective {polished.cost_start:.4e} -> {polished.cost:.4e} "
-                f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations, "
-                f"{polished.seconds:.2f} s)")
+                f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations"
+                + (f" of the full model in {polished.rounds} reduced rounds" if polished.rounds else "")
+                + f", {polished.seconds:.2f} s)")
     updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
     if status.ok:
         first = [model_frequencies(c, first_xbar) for c in configurations] if polished and polished.kept else updated

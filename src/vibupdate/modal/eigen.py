@@ -29,6 +29,8 @@ full length; a model with ``n_s`` massless DOFs has ``n - n_s`` finite natural f
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -212,6 +214,7 @@ def mode_residuals(M, K, omega, Phi) -> np.ndarray:
 #: the same updated pencil in several stages (verification, damping checks, FRF plots), each
 #: building its own copy of the matrices; a solve of at least as many modes serves them all.
 _SOLVED: dict = {}
+_SOLVED_LOCK = threading.Lock()
 _SOLVED_KEPT = 4
 #: ... and at most this many bytes of mode shapes (the newest is always kept).
 _SOLVED_BYTES = 256 * 2**20
@@ -234,16 +237,19 @@ def _sparse_modes(M, K, k: int, rtol: float):
     """The ``k`` lowest eigenpairs by shift-invert (module docstring), from `_SOLVED` when the
     same matrices were solved for at least ``k`` modes before."""
     key = _content_key(M, K, rtol)
-    if key in _SOLVED and _SOLVED[key][0].size >= k:
-        eigval, V = _SOLVED.pop(key)
-        _SOLVED[key] = (eigval, V)              # most recent last
-        return eigval[:k].copy(), V[:, :k].copy()
+    with _SOLVED_LOCK:
+        kept = _SOLVED.pop(key, None)
+        if kept is not None:
+            _SOLVED[key] = kept                 # most recent last
+    if kept is not None and kept[0].size >= k:
+        return kept[0][:k].copy(), kept[1][:, :k].copy()
     eigval, V = _solve_sparse_modes(M, K, k, rtol)
-    _SOLVED.pop(key, None)
-    _SOLVED[key] = (eigval, V)
-    while len(_SOLVED) > 1 and (len(_SOLVED) > _SOLVED_KEPT
-                                or sum(v[1].nbytes for v in _SOLVED.values()) > _SOLVED_BYTES):
-        _SOLVED.pop(next(iter(_SOLVED)))
+    with _SOLVED_LOCK:
+        _SOLVED.pop(key, None)
+        _SOLVED[key] = (eigval, V)
+        while len(_SOLVED) > 1 and (len(_SOLVED) > _SOLVED_KEPT
+                                    or sum(v[1].nbytes for v in _SOLVED.values()) > _SOLVED_BYTES):
+            _SOLVED.pop(next(iter(_SOLVED)))
     return eigval.copy(), V.copy()
 
 

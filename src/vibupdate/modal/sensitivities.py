@@ -24,6 +24,8 @@ derivatives are as accurate as the eigenpairs themselves.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -115,13 +117,16 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     key = None
     if n > eigen.DENSE_LIMIT:   # one sparse LU each: re-used by the stages that ask at the same point
         key = (model.fingerprint, np.asarray(xbar, dtype=float).tobytes(), float(omega), phi.tobytes())
-        V = _RATIO_SOLUTIONS.get(key)
+        with _RATIO_LOCK:
+            V = _RATIO_SOLUTIONS.get(key)
     if key is None or V is None:
         V = _ratio_solutions(model, xbar, omega, phi)
         if key is not None:
-            _RATIO_SOLUTIONS[key] = V
-            while len(_RATIO_SOLUTIONS) > 1 and sum(v.nbytes for v in _RATIO_SOLUTIONS.values()) > _RATIO_BYTES:
-                _RATIO_SOLUTIONS.pop(next(iter(_RATIO_SOLUTIONS)))
+            with _RATIO_LOCK:
+                _RATIO_SOLUTIONS[key] = V
+                while (len(_RATIO_SOLUTIONS) > 1
+                       and sum(v.nbytes for v in _RATIO_SOLUTIONS.values()) > _RATIO_BYTES):
+                    _RATIO_SOLUTIONS.pop(next(iter(_RATIO_SOLUTIONS)))
     entries = np.asarray(entries, dtype=int)
     ref = phi[reference]
     D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
@@ -132,6 +137,7 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
 #: evaluation, the sensitivity rows and the linearized ranges ask for the same ones at the
 #: answer (16 sparse LUs of 0.1 s saved at 30,315 DOFs); the most recent within 256 MB.
 _RATIO_SOLUTIONS: dict = {}
+_RATIO_LOCK = threading.Lock()
 _RATIO_BYTES = 256 * 2**20
 
 
