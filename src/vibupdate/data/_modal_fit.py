@@ -192,11 +192,12 @@ def _smooth(values: np.ndarray, width: int) -> np.ndarray:
 
 
 def _noise_from_repeats(blocks) -> np.ndarray | None:
-    """Variance of the mean per line, shape (n_pairs, n_freq); None unless every pair has >= 2 repeats."""
+    """Variance of the mean per line, shape (n_pairs, n_freq), unsmoothed (each line's an
+    unbiased estimate with ``2 (R - 1)`` real degrees of freedom, ``R`` repeats); None unless
+    every pair has >= 2 repeats."""
     if min(h.shape[0] for h in blocks) < 2:
         return None
-    var = np.array([np.sum(np.abs(h - h.mean(axis=0)) ** 2, axis=0) / (h.shape[0] - 1) / h.shape[0] for h in blocks])
-    return _smooth(var, 9)
+    return np.array([np.sum(np.abs(h - h.mean(axis=0)) ** 2, axis=0) / (h.shape[0] - 1) / h.shape[0] for h in blocks])
 
 
 def _noise_from_differences(F, width: int = 21) -> np.ndarray:

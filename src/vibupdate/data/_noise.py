@@ -1,5 +1,7 @@
-"""Noise variance of a single FRF record from the modal fit's residual (private kernel of
-`vibupdate.data.extraction`). Frequencies and FRFs normalized as in `vibupdate.data._modal_fit`.
+"""Noise variance of FRFs per line (private kernel of `vibupdate.data.extraction`): of a single
+record from the modal fit's residual, and the split of any per-line variance estimate (the
+residual's, or the repeats' scatter) into a smooth and a proportional component.
+Frequencies and FRFs normalized as in `vibupdate.data._modal_fit`.
 
 Two things make the raw squared residual a poor estimate of the noise variance where it
 matters most, at the resonance peaks of lightly damped modes:
@@ -26,7 +28,10 @@ matters most, at the resonance peaks of lightly damped modes:
    components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39, 1977): each line's
    squared residual is shared between the components in proportion to their expected
    shares, then each component is re-estimated from its share. With ``beta = 0`` this is
-   the previous running mean, so data without a proportional part lose nothing.
+   the previous running mean, so data without a proportional part lose nothing. The same
+   split applies to the repeats' per-line variance of the mean: a mean of ``R - 1``
+   exponential variables has a Gamma likelihood proportional to the exponential one in
+   ``sigma^2``, so the maximum-likelihood equations are the same.
 """
 
 from __future__ import annotations

@@ -51,8 +51,10 @@ Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DO
    constants (mass-normalized when a driving point is measured, else scaled to unit largest
    entry).
 
-Noise: with repeats, ``sigma^2`` per line is the variance of the mean of the repeats,
-smoothed over 9 lines. Without repeats, from the unweighted fit's residual
+Noise: with repeats, ``sigma^2`` per line comes from the variance of the mean of the repeats,
+split by maximum likelihood into a component smooth along frequency (locally constant over 9
+lines) and one proportional to ``|H|^2`` (`vibupdate.data._noise`; a plain running mean over
+9 lines spreads a sharp peak's noise over its neighbours). Without repeats, from the unweighted fit's residual
 (`vibupdate.data._noise`): each squared residual divided by ``1 - h`` (``h`` the leverage of
 its line in the fit: the ``n - p`` degrees of freedom, line by line), then split by maximum
 likelihood into a component smooth along frequency (locally constant over 21 lines) and one
@@ -87,7 +89,7 @@ import scipy.stats
 from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
                                        _noise_from_differences, _noise_from_repeats, _real_stack, _refine_poles,
                                        _significant, _split_residual, _stabilization, _stable_poles)
-from vibupdate.data._noise import _residual_variance
+from vibupdate.data._noise import _residual_variance, _variance_components
 from vibupdate.data._zeros import _local_zero, _zero_se, _zeros_of
 from vibupdate.data.frf import FRFSet
 
@@ -96,6 +98,7 @@ __all__ = ["ExtractedMode", "ExtractedZero", "FRFQuality", "Extraction", "extrac
 FREQUENCY_FLOOR = 1e-5      # relative half-width floor of frequency and antiresonance intervals
 FIT_BAND_FACTOR = 2.0       # default fit band: up to this times the band's top
 DAMPING_FLOOR = 0.001       # relative half-width floor of damping-ratio intervals
+REPEAT_LINES = 9            # with repeats, the smooth noise component is locally constant over this many lines
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 
 
@@ -343,7 +346,8 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     groups = [c for _, c in frfs.pairs]  # the proportional noise comes with the force: shared per excitation
     noise = "repeats" if var is not None else "residual"
     if var is not None:  # floored: identical repeats (noise-free data) would give infinite weights
-        var = np.maximum(var / scales[:, None] ** 2, 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True))
+        var = _variance_components(var / scales[:, None] ** 2, np.abs(F) ** 2, groups, REPEAT_LINES)[0]
+        var = np.maximum(var, 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True))
     stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
     wn, zeta, counts = _stable_poles(stab, min_stable)
     if wn.size:
