@@ -92,7 +92,8 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
     with ``beta`` per row."""
     groups = np.arange(e.shape[0]) if groups is None else np.asarray(groups)
     labels, member = np.unique(groups, return_inverse=True)
-    floor = 1e-12 * np.max(_smooth(e, width), axis=1, keepdims=True) + 1e-300
+    # a floor that keeps v^2 representable: noise-free data give residuals of rounding size or 0
+    floor = 1e-12 * np.max(_smooth(e, width), axis=1, keepdims=True) + 1e-150
     gsum = np.maximum(np.bincount(member, np.sum(g, axis=1), labels.size), 1e-300)
     # start from an even split of each line's squared residual between the components
     s = np.maximum(_smooth(e / 2, width), floor)

@@ -346,8 +346,9 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     groups = [c for _, c in frfs.pairs]  # the proportional noise comes with the force: shared per excitation
     noise = "repeats" if var is not None else "residual"
     if var is not None:  # floored: identical repeats (noise-free data) would give infinite weights
-        var = _variance_components(var / scales[:, None] ** 2, np.abs(F) ** 2, groups, REPEAT_LINES)[0]
-        var = np.maximum(var, 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True))
+        tiny = 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True)
+        var = _variance_components(np.maximum(var / scales[:, None] ** 2, tiny), np.abs(F) ** 2, groups,
+                                   REPEAT_LINES)[0]
     stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
     wn, zeta, counts = _stable_poles(stab, min_stable)
     if wn.size:
