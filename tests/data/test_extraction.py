@@ -8,7 +8,9 @@ intervals between 0.85 and 1. The CI profile checks the accuracy on 6 seeds; the
 needs many seeds and runs in the slow profile (50 seeds, ``pytest -m slow``). Measured on
 50 seeds (2026-11-21, loaded machine, one BLAS thread): worst errors 0.0077 % / 0.81 % /
 0.073 %, coverage 0.89 / 0.93 / 0.90 (frequencies / damping ratios / antiresonances), about
-0.3 s CPU per extraction.
+0.3 s CPU per extraction; 0.92 / 0.96 / 0.91 with the two-component noise estimate
+(benchmarks/frf_coverage.py). With one record per pair on the Southampton-like frame the
+slow profile checks the coverage too (docs/frf-extraction.md, "Honest intervals").
 """
 
 import json
