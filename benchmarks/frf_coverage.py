@@ -68,7 +68,8 @@ def _true_receptance(M, K, C, dofs, pairs, omega):
     return np.array([H[:, dofs.index(r), dofs.index(c)] for r, c in pairs])
 
 
-def _true_shapes(M, K, dofs, n_modes_band, wn_band):
+def _true_shapes(M, K, dofs, wn_band):
+    """Mass-normalized undamped modes nearest to ``wn_band`` (rad/s), as {dof: value} each."""
     lam, V = scipy.linalg.eigh(K, M)
     w = np.sqrt(lam)
     out = []
@@ -112,7 +113,7 @@ def collect(name, records, seeds, true_noise=False, floors=True):
         if len(result.modes) != wn.size:
             print(f"seed {seed}: {len(result.modes)} modes, {wn.size} true", file=sys.stderr)
             continue
-        shapes = _true_shapes(M, K, dofs, wn.size, wn)
+        shapes = _true_shapes(M, K, dofs, wn)
         for m, w, z, phi in zip(result.modes, wn, zeta, shapes):
             rows["freq"].append((m.omega / w - 1, (m.omega_interval[1] - m.omega) / w / Z95,
                                  m.omega_interval[0] <= w <= m.omega_interval[1]))
@@ -170,7 +171,8 @@ def main() -> None:
     if args.json:
         with open(args.json, "a") as fh:
             fh.write(json.dumps({"case": args.case, "records": args.records, "seeds": args.seeds,
-                                 "true_noise": args.true_noise, "floors": not args.no_floors, "cpu": cpu, "summary": summary}) + "\n")
+                                 "true_noise": args.true_noise, "floors": not args.no_floors, "cpu": cpu,
+                                 "summary": summary}) + "\n")
 
 
 if __name__ == "__main__":
