@@ -4,6 +4,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.modal import eigen
+from vibupdate.modal.kept import Kept
 from vibupdate.modal.solve_log import counting_solves
 
 
@@ -29,8 +30,7 @@ def test_the_same_matrices_are_solved_once_and_fewer_modes_come_from_the_kept_so
 
 
 def test_the_kept_solutions_are_bounded_in_bytes(monkeypatch):
-    monkeypatch.setattr(eigen, "_SOLVED", {})
-    monkeypatch.setattr(eigen, "_SOLVED_BYTES", 600 * 10 * 8 * 2)   # two solutions of 10 modes
+    monkeypatch.setattr(eigen, "_SOLVED", Kept(eigen._SOLVED_KEPT, 600 * 10 * 8 * 2))   # two solutions of 10 modes
     M, K = _chain(600)
     for s in (1.0, 1.1, 1.2):
         eigen.modes(M, K * s, 10)
@@ -65,7 +65,7 @@ def test_threads_share_the_kept_solutions_safely(monkeypatch):
     another reads it)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    monkeypatch.setattr(eigen, "_SOLVED", {})
+    monkeypatch.setattr(eigen, "_SOLVED", Kept(eigen._SOLVED_KEPT, 256 * 2**20))
     M, K = _chain(500)
     scales = [1.0, 1.0, 1.3, 1.3, 1.7, 2.1, 1.0, 2.5] * 3
     reference = {s: eigen.modes(M, K * s, 6, dense=True)[0] for s in set(scales)}
@@ -74,3 +74,22 @@ def test_threads_share_the_kept_solutions_safely(monkeypatch):
     for s, w in zip(scales, found):
         np.testing.assert_allclose(w, reference[s], rtol=1e-9)
     assert len(eigen._SOLVED) <= eigen._SOLVED_KEPT
+
+
+def test_content_key_names_matrices_by_their_values_alone():
+    """Dense or sparse, explicit zeros, unsorted indices: the same values, the same key; the
+    input is not touched. Another value, another key."""
+    from vibupdate.modal.kept import content_key
+
+    M, K = _chain(5)
+    order = np.concatenate([np.arange(a, b)[::-1] for a, b in zip(K.indptr[:-1], K.indptr[1:])])  # each row reversed
+    unsorted = sp.csr_matrix((K.data[order], K.indices[order], K.indptr), shape=K.shape)
+    unsorted.has_sorted_indices = False
+    coo = K.tocoo()
+    with_zero = sp.csr_matrix((np.r_[coo.data, 0.0], (np.r_[coo.row, 0], np.r_[coo.col, 4])), shape=K.shape)
+    assert with_zero.nnz == K.nnz + 1          # an explicit zero at (0, 4)
+    before = unsorted.indices.copy()
+    keys = {content_key(M, A) for A in (K, K.toarray(), K.tocsc(), with_zero)}
+    assert len(keys) == 1 and content_key(M, unsorted) in keys
+    np.testing.assert_array_equal(unsorted.indices, before)
+    assert content_key(M, K * (1 + 1e-15)) not in keys and content_key(K, M) not in keys

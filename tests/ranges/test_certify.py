@@ -58,14 +58,21 @@ cases = st.tuples(
 )
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(cases)
-def test_certified_range_contains_the_truth_and_every_point_of_s_found(case):
+def _drawn(case):
+    """The chain, its truth, its consistent set S and a generator of a drawn case; cases whose
+    truth is not in S (its eigenvectors outside the boxes) are discarded."""
     names, fractions, tol, shape_tol, seed = case
     model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
     cs = consistent_set([cfg], frequency_tolerance=tol)
     assume(is_consistent(cs, truth))
-    points = [truth] + points_near(cs, truth, np.random.default_rng(seed))
+    return model, truth, cs, np.random.default_rng(seed)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cases)
+def test_certified_range_contains_the_truth_and_every_point_of_s_found(case):
+    model, truth, cs, rng = _drawn(case)
+    points = [truth] + points_near(cs, truth, rng)
     for splits in (0, 6):   # bound tightening alone, then with branching
         r = enclosure(cs, seconds=np.inf, max_passes=3, max_splits=splits, known=[truth])
         assert not r.empty and r.splits <= splits
@@ -78,11 +85,7 @@ def test_certified_range_contains_the_truth_and_every_point_of_s_found(case):
 def test_bound_tightening_never_cuts_off_a_point_of_s_found_by_sampling(case):
     """Every point of S found by sampling, its eigenvectors included, stays inside the box
     after each pass of OBBT (parameters and vector entries), with and without a focus."""
-    names, fractions, tol, shape_tol, seed = case
-    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
-    cs = consistent_set([cfg], frequency_tolerance=tol)
-    assume(is_consistent(cs, truth))
-    rng = np.random.default_rng(seed)
+    model, truth, cs, rng = _drawn(case)
     members = [truth] + points_near(cs, truth, rng, scale=0.1)
     R = lifts(cs)
     L = R.full
@@ -98,11 +101,7 @@ def test_bound_tightening_never_cuts_off_a_point_of_s_found_by_sampling(case):
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(cases)
 def test_relaxation_holds_the_lifted_points_and_the_safe_bound_holds_for_any_multipliers(case):
-    names, fractions, tol, shape_tol, seed = case
-    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
-    cs = consistent_set([cfg], frequency_tolerance=tol)
-    assume(is_consistent(cs, truth))
-    rng = np.random.default_rng(seed)
+    model, truth, cs, rng = _drawn(case)
     L = lift(cs)
     lp = relax(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
     members = [truth] + points_near(cs, truth, rng, n=20)
@@ -131,11 +130,7 @@ def test_clarabel_s_safe_bound_never_exceeds_the_optimum_found_by_highs(case):
     objectives, with one Clarabel instance re-solved for each (objective and column bounds
     updated in place), its safe bound never exceeds the LP's optimum computed by HiGHS, nor
     the objective at lifted points of S in the narrowed box."""
-    names, fractions, tol, shape_tol, seed = case
-    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
-    cs = consistent_set([cfg], frequency_tolerance=tol)
-    assume(is_consistent(cs, truth))
-    rng = np.random.default_rng(seed)
+    model, truth, cs, rng = _drawn(case)
     L = lift(cs)
     lp = relax(L, cs.x_lower, cs.x_upper, L.u_lower, L.u_upper)
     members = [truth] + points_near(cs, truth, rng, n=20)
@@ -165,11 +160,8 @@ def test_the_tightening_with_and_without_its_economies_keeps_every_point_of_s(ca
     """Tightening with and without the economies of `Tactics` (solver reuse, Clarabel's bound
     kept without a HiGHS re-solve, parameters first, the stall on parameter widths): both
     ranges hold every sampled point of S."""
-    names, fractions, tol, shape_tol, seed = case
-    model, truth, cfg = chain_data(sorted(names), fractions[: len(names)], shape_tol)
-    cs = consistent_set([cfg], frequency_tolerance=tol)
-    assume(is_consistent(cs, truth))
-    points = [truth] + points_near(cs, truth, np.random.default_rng(seed))
+    model, truth, cs, rng = _drawn(case)
+    points = [truth] + points_near(cs, truth, rng)
     after = enclosure(cs, seconds=np.inf, max_passes=2, max_splits=0)
     before = enclosure(cs, seconds=np.inf, max_passes=2, max_splits=0, tactics=BEFORE)
     for r in (after, before):

@@ -29,13 +29,12 @@ full length; a model with ``n_s`` massless DOFs has ``n - n_s`` finite natural f
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from vibupdate.modal.kept import Kept, content_key
 from vibupdate.modal.refinement import block_size, refine_modes
 
 __all__ = ["modes", "mode_residuals", "massless_dofs", "check_dof_pair", "MASSLESS_TOL", "DENSE_LIMIT", "DENSE_MAX",
@@ -210,46 +209,22 @@ def mode_residuals(M, K, omega, Phi) -> np.ndarray:
     return np.linalg.norm(R, axis=0) / np.maximum(scale, 1e-300)
 
 
-#: Sparse eigen-solutions kept for re-use (the most recent ones): one run asks for the modes of
+#: Sparse eigen-solutions kept for re-use (`vibupdate.modal.kept`): one run asks for the modes of
 #: the same updated pencil in several stages (verification, damping checks, FRF plots), each
 #: building its own copy of the matrices; a solve of at least as many modes serves them all.
-_SOLVED: dict = {}
-_SOLVED_LOCK = threading.Lock()
 _SOLVED_KEPT = 4
-#: ... and at most this many bytes of mode shapes (the newest is always kept).
-_SOLVED_BYTES = 256 * 2**20
-
-
-def _content_key(M, K, rtol: float) -> bytes:
-    import hashlib
-
-    h = hashlib.blake2b(digest_size=20)
-    for A in (sp.csr_matrix(M), sp.csr_matrix(K)):
-        A.sum_duplicates()
-        h.update(np.asarray(A.shape, dtype=np.int64).tobytes())
-        for part in (A.indptr, A.indices, A.data):
-            h.update(np.ascontiguousarray(part).tobytes())
-    h.update(np.float64(rtol).tobytes())
-    return h.digest()
+_SOLVED = Kept(_SOLVED_KEPT, 256 * 2**20)
 
 
 def _sparse_modes(M, K, k: int, rtol: float):
     """The ``k`` lowest eigenpairs by shift-invert (module docstring), from `_SOLVED` when the
     same matrices were solved for at least ``k`` modes before."""
-    key = _content_key(M, K, rtol)
-    with _SOLVED_LOCK:
-        kept = _SOLVED.pop(key, None)
-        if kept is not None:
-            _SOLVED[key] = kept                 # most recent last
+    key = content_key(M, K, extra=np.float64(rtol).tobytes())
+    kept = _SOLVED.get(key)
     if kept is not None and kept[0].size >= k:
         return kept[0][:k].copy(), kept[1][:, :k].copy()
     eigval, V = _solve_sparse_modes(M, K, k, rtol)
-    with _SOLVED_LOCK:
-        _SOLVED.pop(key, None)
-        _SOLVED[key] = (eigval, V)
-        while len(_SOLVED) > 1 and (len(_SOLVED) > _SOLVED_KEPT
-                                    or sum(v[1].nbytes for v in _SOLVED.values()) > _SOLVED_BYTES):
-            _SOLVED.pop(next(iter(_SOLVED)))
+    _SOLVED.put(key, (eigval, V), V.nbytes)
     return eigval.copy(), V.copy()
 
 

@@ -24,8 +24,6 @@ derivatives are as accurate as the eigenpairs themselves.
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -33,6 +31,7 @@ import scipy.sparse.linalg as spla
 
 from vibupdate.modal import eigen
 from vibupdate.modal.eigen import _dense_modes
+from vibupdate.modal.kept import Kept
 from vibupdate.modal.zeros import adjunct, antiresonances
 
 __all__ = [
@@ -114,19 +113,14 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     """
     phi = np.asarray(phi, dtype=float)
     n = phi.size
-    key = None
+    key = V = None
     if n > eigen.DENSE_LIMIT:   # one sparse LU each: re-used by the stages that ask at the same point
         key = (model.fingerprint, np.asarray(xbar, dtype=float).tobytes(), float(omega), phi.tobytes())
-        with _RATIO_LOCK:
-            V = _RATIO_SOLUTIONS.get(key)
-    if key is None or V is None:
+        V = _RATIO_SOLUTIONS.get(key)
+    if V is None:
         V = _ratio_solutions(model, xbar, omega, phi)
         if key is not None:
-            with _RATIO_LOCK:
-                _RATIO_SOLUTIONS[key] = V
-                while (len(_RATIO_SOLUTIONS) > 1
-                       and sum(v.nbytes for v in _RATIO_SOLUTIONS.values()) > _RATIO_BYTES):
-                    _RATIO_SOLUTIONS.pop(next(iter(_RATIO_SOLUTIONS)))
+            _RATIO_SOLUTIONS.put(key, V, V.nbytes)
     entries = np.asarray(entries, dtype=int)
     ref = phi[reference]
     D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
@@ -136,9 +130,7 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
 #: Solutions ``V`` of large models kept by (model, point, eigenpair): the polish's last
 #: evaluation, the sensitivity rows and the linearized ranges ask for the same ones at the
 #: answer (16 sparse LUs of 0.1 s saved at 30,315 DOFs); the most recent within 256 MB.
-_RATIO_SOLUTIONS: dict = {}
-_RATIO_LOCK = threading.Lock()
-_RATIO_BYTES = 256 * 2**20
+_RATIO_SOLUTIONS = Kept(64, 256 * 2**20)
 
 
 def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray) -> np.ndarray:

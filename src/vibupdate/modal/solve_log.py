@@ -10,14 +10,12 @@ and the stage in whose call stack it ran.
 
 from __future__ import annotations
 
-import hashlib
 import sys
 import traceback
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-import numpy as np
-import scipy.sparse as sp
+from vibupdate.modal.kept import content_key
 
 __all__ = ["Solve", "counting_solves", "matrices_key"]
 
@@ -35,12 +33,9 @@ class Solve:
 
 
 def matrices_key(M, K) -> str:
-    """A hash of the values of ``M`` and ``K`` (dense or sparse, any storage order)."""
-    h = hashlib.sha1()
-    for A in (M, K):
-        A = A.toarray() if sp.issparse(A) else np.asarray(A)
-        h.update(np.ascontiguousarray(A, dtype=float).tobytes())
-    return h.hexdigest()
+    """A hash of the values of ``M`` and ``K`` (dense or sparse, any storage order;
+    `vibupdate.modal.kept.content_key`)."""
+    return content_key(M, K)
 
 
 @contextmanager

@@ -105,20 +105,12 @@ class AffineModel:
 
     @cached_property
     def fingerprint(self) -> str:
-        """A hash of the matrices ``M0``, ``K0``, ``M_i``, ``K_i`` (and the DOF count): two models
-        with the same fingerprint have the same ``M(xbar)``, ``K(xbar)`` at every ``xbar``; the
-        key of caches of results computed from them."""
-        import hashlib
+        """A hash of the matrices ``M0``, ``K0``, ``M_i``, ``K_i`` (`vibupdate.modal.kept.content_key`):
+        two models with the same fingerprint have the same ``M(xbar)``, ``K(xbar)`` at every
+        ``xbar``; the key of caches of results computed from them."""
+        from vibupdate.modal.kept import content_key
 
-        h = hashlib.blake2b(digest_size=20)
-        h.update(np.int64(self.n_dofs).tobytes())
-        for A in (self.M0, self.K0, *self.M_par, *self.K_par):
-            A = sp.csr_matrix(A)
-            A.sum_duplicates()
-            for part in (A.indptr, A.indices, A.data):
-                h.update(np.ascontiguousarray(part).tobytes())
-            h.update(b"|")
-        return h.hexdigest()
+        return content_key(self.M0, self.K0, *self.M_par, *self.K_par)
 
     def matrices_at(self, values) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """``M``, ``K`` at physical parameter values, shape (n_x,)."""
