@@ -145,11 +145,107 @@ def frame_measured(seed: int, repeats: int = 1, floor: float = 4e-3, noise: floa
     M, K, C, dofs = frame_system()
     omega = 2 * np.pi * np.arange(band_hz[0], band_hz[1] + step_hz / 2, step_hz)
     H = np.linalg.inv(K[None] - omega[:, None, None] ** 2 * M[None] + 1j * omega[:, None, None] * C[None])
+    A = np.array([-omega**2 * H[:, dofs.index(r), dofs.index(c)] for r, c in FRAME_PAIRS])
+    return _noisy_frame_records(A, omega, seed, repeats, floor, noise), M, K, C, dofs
+
+
+def _noisy_frame_records(A, omega, seed, repeats, floor, noise):
+    """FRFSet of `FRAME_PAIRS` from noise-free accelerances ``A`` (shape (n_pairs, n_freq),
+    (m/s^2)/N): per pair and repeat complex Gaussian noise of ``floor + noise * |A|`` per line,
+    then divided by ``-omega^2`` (receptances, m/N)."""
     rng = np.random.default_rng(seed)
     blocks = []
-    for r, c in FRAME_PAIRS:
-        a = -omega**2 * H[:, dofs.index(r), dofs.index(c)]
+    for a in A:
         sigma = floor + noise * np.abs(a)
         e = rng.standard_normal((repeats, a.size)) + 1j * rng.standard_normal((repeats, a.size))
         blocks.append((a[None] + sigma[None] * e / np.sqrt(2)) / -omega[None] ** 2)
-    return FRFSet(omega, FRAME_PAIRS, tuple(blocks)), M, K, C, dofs
+    return FRFSet(omega, FRAME_PAIRS, tuple(blocks))
+
+
+#: Points per line of the fine grid and half-span (lines) of the window kernel in `windowed_accelerance`.
+KERNEL_POINTS_PER_LINE = 32
+KERNEL_SPAN_LINES = 64
+
+
+def window_power_kernel(u, window: str = "hann"):
+    """Power kernel ``|W(u)|^2 / integral |W|^2`` of a data window over one record of length
+    ``T``, at frequency offsets ``u`` (array, in lines: ``u = f T``, one line = ``1/T`` Hz);
+    its integral over ``u`` is 1.
+
+    ``"hann"``: ``w(t) = sin^2(pi t / T)`` on ``[0, T]``, whose transform is, up to a phase,
+    ``T (sinc(u) / 2 + sinc(u - 1) / 4 + sinc(u + 1) / 4)`` (``sinc(x) = sin(pi x) / (pi x)``),
+    and ``integral |W|^2 du = 3 / 8`` in those units. ``"boxcar"`` (no window): ``sinc(u)^2``.
+    """
+    u = np.asarray(u, dtype=float)
+    if window == "hann":
+        return (0.5 * np.sinc(u) + 0.25 * np.sinc(u - 1) + 0.25 * np.sinc(u + 1)) ** 2 / 0.375
+    if window == "boxcar":
+        return np.sinc(u) ** 2
+    raise ValueError(f"window {window!r} is not known: expected 'hann' or 'boxcar'")
+
+
+def windowed_accelerance(M, K, C, dofs, pairs, omega, window: str = "hann",
+                         points_per_line: int = KERNEL_POINTS_PER_LINE, span_lines: int = KERNEL_SPAN_LINES):
+    """Expected H1 estimate of the accelerances under a flat-spectrum random force, each
+    record of length ``T = 2 pi / (omega[1] - omega[0])`` weighted by ``window``.
+
+    With ``x`` and ``f`` windowed over one record, ``E[X F*] / E[|F|^2]`` is the true FRF
+    smoothed by the window's power kernel (`window_power_kernel`)::
+
+        E[A1](f) = integral A(nu) |W(f - nu)|^2 dnu / integral |W|^2
+
+    the leakage bias of a windowed spectral estimate: a lightly damped peak comes out lower
+    and wider, the more so the fewer lines its half-power bandwidth ``2 zeta f`` spans. The
+    integral is a sum over a grid of ``points_per_line`` points per line, the kernel cut at
+    ``+-span_lines`` lines and normalized to a unit sum (the sum converges geometrically: a
+    peak one line wide is resolved by about 20 points; doubling either number changes the
+    result by under 1e-6 relative, a test), computed by one FFT convolution per call.
+
+    Parameters
+    ----------
+    M, K, C : ndarray, shape (n, n)
+        Mass (kg), stiffness (N/m) and viscous damping (N s/m) matrices.
+    dofs : sequence of str, length n
+    pairs : sequence of (response, excitation) DOF names, length n_pairs
+    omega : ndarray, shape (n_freq,)
+        Equally spaced lines, rad/s.
+    window : str
+        ``"hann"`` or ``"boxcar"``.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_pairs, n_freq)
+        Accelerances, (m/s^2)/N.
+    """
+    import scipy.signal
+
+    omega = np.asarray(omega, dtype=float)
+    step = omega[1] - omega[0]
+    if not np.allclose(np.diff(omega), step, rtol=1e-9, atol=0.0):
+        raise ValueError("windowed_accelerance needs equally spaced lines omega")
+    P, L = int(points_per_line), int(span_lines)
+    offsets = np.arange(-L * P, L * P + 1) / P
+    kernel = window_power_kernel(offsets, window)
+    kernel /= kernel.sum()
+    fine = omega[0] + step * np.arange(-L * P, (omega.size - 1) * P + L * P + 1) / P
+    H = np.linalg.inv(K[None] - fine[:, None, None] ** 2 * M[None] + 1j * fine[:, None, None] * C[None])
+    rows = [dofs.index(r) for r, _ in pairs]
+    cols = [dofs.index(c) for _, c in pairs]
+    A = -fine[None] ** 2 * H[:, rows, cols].T
+    smoothed = scipy.signal.fftconvolve(A, kernel[None], mode="valid", axes=1)
+    return smoothed[:, ::P]
+
+
+def frame_windowed(seed: int, repeats: int = 1, floor: float = 4e-3, noise: float = 0.005,
+                   step_hz: float = 0.03125, band_hz=(3.0, 56.0), window: str = "hann"):
+    """As `frame_measured` (same system, pairs, lines and noise model: ``floor + noise * |A|``
+    per line, (m/s^2)/N), but the noise-free accelerances are the expected H1 estimate of a
+    random-excitation test with a Hann window over each record of ``T = 1 / step_hz`` s
+    (`windowed_accelerance`): the exact FRF smoothed by the window's power kernel, the leakage
+    bias of the estimate. The truth is still the system's poles and undamped zeros; the bias is
+    part of the error an estimator faces. With the same seed the noise draws are those of
+    `frame_measured`. Returns (FRFSet of receptances, m/N; M, K, C, dofs)."""
+    M, K, C, dofs = frame_system()
+    omega = 2 * np.pi * np.arange(band_hz[0], band_hz[1] + step_hz / 2, step_hz)
+    A = windowed_accelerance(M, K, C, dofs, FRAME_PAIRS, omega, window)
+    return _noisy_frame_records(A, omega, seed, repeats, floor, noise), M, K, C, dofs
