@@ -249,3 +249,64 @@ def frame_windowed(seed: int, repeats: int = 1, floor: float = 4e-3, noise: floa
     omega = 2 * np.pi * np.arange(band_hz[0], band_hz[1] + step_hz / 2, step_hz)
     A = windowed_accelerance(M, K, C, dofs, FRAME_PAIRS, omega, window)
     return _noisy_frame_records(A, omega, seed, repeats, floor, noise), M, K, C, dofs
+
+
+def _exp_moments(a):
+    """``integral_0^1 exp(a x) dx`` and ``integral_0^1 x exp(a x) dx``, elementwise (a complex,
+    away from 0)."""
+    ea = np.exp(a)
+    return (ea - 1) / a, ea / a - (ea - 1) / a**2
+
+
+def _hann_lag(z):
+    """``integral_0^1 exp(z x) g(x) dx`` for the Hann window's normalized autocorrelation
+    ``g(x) = (2/3) [(1 - x)(1 + cos(2 pi x) / 2) + 3 sin(2 pi x) / (4 pi)]`` (``x = t / T``),
+    cos and sin written as exponentials."""
+    total = 0.0
+    for m, c_cos, c_sin in ((0, 1.0, 0.0), (1, 0.25, 3 / (8j * np.pi)), (-1, 0.25, -3 / (8j * np.pi))):
+        i0, i1 = _exp_moments(z + 2j * np.pi * m)
+        total = total + c_cos * (i0 - i1) + c_sin * i0
+    return 2 / 3 * total
+
+
+#: ``integral_0^1 exp(z x) g(x) dx`` of the lag window ``g`` (``x = t / T``) of an estimate:
+#: random force with a Hann window or none (``g`` the window's normalized autocorrelation),
+#: or one impact per record at ``t = 0`` with no window or an exponential one that ends at 1 %
+#: (``g`` the window itself).
+LAG_WINDOWS = {
+    "random, hann": _hann_lag,
+    "random, boxcar": lambda z: _exp_moments(z)[0] - _exp_moments(z)[1],
+    "impact, no window": lambda z: _exp_moments(z)[0],
+    "impact, exponential 1 %": lambda z: _exp_moments(z - np.log(100.0))[0],
+}
+
+
+def lagged_accelerance(M, K, C, dofs, pairs, omega, lag: str = "random, hann", record_s: float | None = None):
+    """The expectation of an FRF estimate as the transform of the impulse response times a lag
+    window ``g`` over the record ``[0, T]`` (``T = record_s``, s; default
+    ``2 pi / (omega[1] - omega[0])``, one record per line spacing), in closed
+    form from the modal expansion of the accelerance: an independent route to
+    `windowed_accelerance` (``"random, hann"``: with a flat-spectrum force and a window ``w``,
+    ``E[X F*] / E[|F|^2]`` is the transform of ``h(t) g(t)``, ``g`` the normalized
+    autocorrelation of ``w``) and other estimates (`LAG_WINDOWS`).
+
+    With the state-space poles ``lam_k`` and residues ``rho_k`` of the receptance,
+    ``A(s) = D + sum_k rho_k lam_k^2 / (s - lam_k)`` (``D = (M^-1)_rc``), and the estimate is
+    ``D + sum_k rho_k lam_k^2 T integral_0^1 exp((lam_k - j omega) T x) g(x) dx``.
+
+    Parameters are those of `windowed_accelerance` (``omega`` rad/s, shape (n_freq,), any
+    lines when ``record_s`` is given), ``lag`` a key of `LAG_WINDOWS`; returns accelerances, (m/s^2)/N, complex, shape (n_pairs, n_freq).
+    """
+    omega = np.asarray(omega, dtype=float)
+    T = 2 * np.pi / (omega[1] - omega[0]) if record_s is None else float(record_s)
+    n = M.shape[0]
+    Minv = scipy.linalg.inv(M)
+    lam, V = scipy.linalg.eig(np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ C]]))
+    W = scipy.linalg.inv(V)
+    integral = LAG_WINDOWS[lag]((lam[None, :] - 1j * omega[:, None]) * T) * T  # (n_freq, 2n)
+    out = []
+    for r, c in pairs:
+        i, j = dofs.index(r), dofs.index(c)
+        rho = V[i, :] * (W[:, n:] @ Minv[:, j])
+        out.append(Minv[i, j] + integral @ (rho * lam**2))
+    return np.array(out)
