@@ -295,8 +295,11 @@ def lagged_accelerance(M, K, C, dofs, pairs, omega, lag: str = "random, hann", r
     ``D + sum_k rho_k lam_k^2 T integral_0^1 exp((lam_k - j omega) T x) g(x) dx``.
 
     Parameters are those of `windowed_accelerance` (``omega`` rad/s, shape (n_freq,), any
-    lines when ``record_s`` is given), ``lag`` a key of `LAG_WINDOWS`; returns accelerances, (m/s^2)/N, complex, shape (n_pairs, n_freq).
+    lines when ``record_s`` is given), ``lag`` a key of `LAG_WINDOWS`; returns accelerances,
+    (m/s^2)/N, complex, shape (n_pairs, n_freq).
     """
+    if lag not in LAG_WINDOWS:
+        raise ValueError(f"lag window {lag!r} is not known: expected one of {sorted(LAG_WINDOWS)}")
     omega = np.asarray(omega, dtype=float)
     T = 2 * np.pi / (omega[1] - omega[0]) if record_s is None else float(record_s)
     n = M.shape[0]
