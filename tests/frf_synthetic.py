@@ -1,6 +1,8 @@
 """Known-truth FRFs for the extraction tests: the cantilever of the paper's test case 2
 (configuration A, nominal parameters) with non-proportional viscous damping, and noisy
-repeated measurements of its receptances."""
+repeated measurements of its receptances; a Southampton-like frame, measured exactly
+(`frame_measured`) or through the leakage bias of a Hann-windowed H1 estimate
+(`frame_windowed`, checked against a closed-form time-domain route, `lagged_accelerance`)."""
 
 from __future__ import annotations
 
