@@ -19,6 +19,8 @@ from vibupdate import __version__
 
 __all__ = ["main", "EXIT"]
 
+MISFIT_QUALITY = 2.0  # extract: FRFs fitted to a worse quality figure are named in a note
+
 #: Exit codes of the command line.
 EXIT = {"success": 0, "not_verified": 1, "bad_input": 2, "internal": 3, "interrupted": 130}
 
@@ -265,6 +267,11 @@ def _extract(args) -> int:
         print(f"  zero {z.index} of h({z.response},{z.excitation}): {z.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}]")
     for q in result.quality:
         print(f"  fit of h({q.response},{q.excitation}): quality {q.quality:.2f}, residual {100 * q.relative_residual:.2f} %")
+    misfit = [q for q in result.quality if q.quality > MISFIT_QUALITY]
+    if misfit:
+        print(f"note: {len(misfit)} of {len(result.quality)} FRF(s) have quality above {MISFIT_QUALITY:g}: the modal "
+              f"model misses them by more than their line-to-line noise (often at the peaks: leakage, a nonlinearity, "
+              f"a mode not fitted); the intervals count that misfit as noise")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
     print("paste into a case file (paths relative to it):")
     print(configuration_block())

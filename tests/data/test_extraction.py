@@ -109,7 +109,9 @@ def test_single_measurement_uses_the_residual_as_noise():
     s = score(result, M, K, C, dofs)
     assert s["n_modes_ok"] and all(s["zero_count_ok"])
     assert max(s["freq_err"]) <= 5e-4 and max(s["zero_err"]) <= 2e-3
-    assert all(0.5 < q.quality < 2.0 for q in result.quality)
+    # the noise of the quality figure is model-free (second differences) without repeats:
+    # about 1 on a fit within the noise (measured 0.93-1.07 on seeds 0-2 of both cases)
+    assert all(0.8 < q.quality < 1.25 for q in result.quality), [q.quality for q in result.quality]
 
 
 def test_quality_is_near_one_when_the_fit_is_within_the_noise():
@@ -387,6 +389,16 @@ def _soton_zero_errors(doc):
             ref = min(refs, key=lambda r: abs(r - z["freq_hz"]))
             errors[(z["response"], z["excitation"], ref)] = (abs(z["freq_hz"] / ref - 1), z["freq_hz_interval"])
     return errors
+
+
+def test_southampton_quality_shows_the_misfit_at_the_peaks(tmp_path, capsys):
+    """One record per pair: the modal model misses the measured peak lines by 6-14 % of |H|,
+    while between the peaks the residual is at the line-to-line noise, so the quality figure
+    is well above 1 (measured 2.7-3.6) and `extract` says so in a note; the residual's own
+    noise estimate made it 0.43-0.52, as if the fit were better than the noise."""
+    doc = _soton(tmp_path, SOTON_FILES[1:2], ["x2"])
+    assert all(q["quality"] > 2.0 for q in doc["quality"]), doc["quality"]
+    assert "note: 3 of 3 FRF(s) have quality above 2" in capsys.readouterr().out
 
 
 def test_southampton_antiresonances_found_and_references_within_intervals(soton_all):
