@@ -291,6 +291,9 @@ def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
     assert main(["extract", str(uff), "--band", "20", "300", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "[[configuration]]" in printed and "noise from repeats" in printed
+    assert "have quality above" not in printed  # within the noise
+    # mode 1 (67.7 Hz, 2 zeta f = 0.75 Hz) spans 3 lines of 0.25 Hz, modes 2 and 3 more than 4
+    assert "fewer than 4 lines (mode 1: 3.0):" in printed
     doc = json.loads((out / "extraction.json").read_text())
     natural = doc["natural"]
     assert len(natural) == 3 and [n["mode"] for n in natural] == [1, 2, 3]
@@ -398,7 +401,10 @@ def test_southampton_quality_shows_the_misfit_at_the_peaks(tmp_path, capsys):
     noise estimate made it 0.43-0.52, as if the fit were better than the noise."""
     doc = _soton(tmp_path, SOTON_FILES[1:2], ["x2"])
     assert all(q["quality"] > 2.0 for q in doc["quality"]), doc["quality"]
-    assert "note: 3 of 3 FRF(s) have quality above 2" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "note: 3 of 3 FRF(s) have quality above 2" in printed
+    # 2 zeta f / df: 0.7, 2.7 and 3.8 lines, each under 4
+    assert "note: half-power bandwidths of fewer than 4 lines (mode 1: 0.7, mode 2: 2.7, mode 3: 3.8)" in printed
 
 
 def test_southampton_antiresonances_found_and_references_within_intervals(soton_all):
