@@ -96,7 +96,7 @@ def _with_true_noise(sigma_raw, H_raw):
     return fake
 
 
-def collect(name, records, seeds, true_noise=False, floors=True):
+def collect(name, records, seeds, true_noise=False, floors=True, window=None):
     rows = {k: [] for k in ("freq", "damping", "zero", "shape")}
     t_cpu = 0.0
     for seed in range(seeds):
@@ -109,7 +109,7 @@ def collect(name, records, seeds, true_noise=False, floors=True):
             extraction.FREQUENCY_FLOOR = extraction.DAMPING_FLOOR = extraction.SHAPE_FLOOR = 0.0
         t0 = time.process_time()
         try:
-            result = extraction.extract(frfs, **kwargs)
+            result = extraction.extract(frfs, window=window, **kwargs)
         finally:
             (extraction._residual_variance, extraction.FREQUENCY_FLOOR, extraction.DAMPING_FLOOR,
              extraction.SHAPE_FLOOR) = original
@@ -166,11 +166,14 @@ def main() -> None:
     parser.add_argument("--true-noise", action="store_true")
     parser.add_argument("--no-floors", action="store_true", help="diagnostic: intervals without their floors")
     parser.add_argument("--json", help="append the summary to this file (JSON lines)")
+    parser.add_argument("--window", choices=("none", "hann", "rectangular"), default="none",
+                        help="the estimate's window that the extraction models (extract's window)")
     args = parser.parse_args()
-    rows, cpu = collect(args.case, args.records, args.seeds, args.true_noise, not args.no_floors)
+    rows, cpu = collect(args.case, args.records, args.seeds, args.true_noise, not args.no_floors,
+                        None if args.window == "none" else args.window)
     summary = summarize(rows)
     label = f"{args.case}, {args.records} record(s), {args.seeds} seeds" + (", true noise" if args.true_noise else "") \
-        + (", no floors" if args.no_floors else "")
+        + (", no floors" if args.no_floors else "") + (f", window {args.window} modelled" if args.window != "none" else "")
     print(f"{label}; {cpu:.2f} s CPU per extraction (loaded shared machine)")
     print(f"{'quantity':9} {'n':>5} {'coverage':>9} {'rms/SE':>8} {'bias/rms':>9} {'rms err':>10} {'median hw':>10}")
     for key, s in summary.items():
@@ -180,6 +183,7 @@ def main() -> None:
         with open(args.json, "a") as fh:
             fh.write(json.dumps({"case": args.case, "records": args.records, "seeds": args.seeds,
                                  "true_noise": args.true_noise, "floors": not args.no_floors, "cpu": cpu,
+                                 "window": args.window,
                                  "summary": summary}) + "\n")
 
 

@@ -161,7 +161,7 @@ def _noisy_frame_records(A, omega, seed, repeats, floor, noise):
         sigma = floor + noise * np.abs(a)
         e = rng.standard_normal((repeats, a.size)) + 1j * rng.standard_normal((repeats, a.size))
         blocks.append((a[None] + sigma[None] * e / np.sqrt(2)) / -omega[None] ** 2)
-    return FRFSet(omega, FRAME_PAIRS, tuple(blocks))
+    return FRFSet(omega, FRAME_PAIRS, tuple(blocks), measured="accelerance")
 
 
 #: Points per line of the fine grid and half-span (lines) of the window kernel in `windowed_accelerance`.

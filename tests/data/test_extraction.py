@@ -479,6 +479,13 @@ def test_case_configuration_from_frf_files(tmp_path):
     (tmp_path / "case.toml").write_text(text.replace("band_hz = [20, 300]", "band_hz = [20, 300]\nfit_band_hz = [30, 300]"))
     with pytest.raises(ValueError, match=r"configuration 'A'.frf: fit_band 30-300 Hz must contain"):
         load_case(tmp_path / "case.toml")
+    (tmp_path / "case.toml").write_text(text.replace("band_hz = [20, 300]", 'band_hz = [20, 300]\nwindow = "hamming"'))
+    with pytest.raises(ValueError, match=r"configuration 'A'.frf: window 'hamming' is not known"):
+        load_case(tmp_path / "case.toml")
+    (tmp_path / "case.toml").write_text(text.replace("band_hz = [20, 300]", 'band_hz = [20, 300]\nwindow = "hann"'))
+    windowed = load_case(tmp_path / "case.toml").configurations[0]  # the UFF file's receptances, windowed
+    assert [n.mode for n in windowed.natural] == [1, 2, 3]
+    assert windowed.natural[0].damping_ratio != cfg.natural[0].damping_ratio
 
 
 def test_fit_band_from_the_command_line_and_a_bad_one_is_a_clear_error(tmp_path, capsys):

@@ -26,15 +26,21 @@ def _all_poles(xn, zeta):
                                                                       np.array([PSEUDO_POLE[1]])))
 
 
-def _basis(x, xn, zeta) -> np.ndarray:
+def _basis(x, xn, zeta, window=None) -> np.ndarray:
     """Columns of the modal model at normalized frequencies ``x``, shape (n_freq, 2 n + 4).
 
     Per pole (modes, then the pseudo-mode): ``1/(s-a) + 1/(s-conj a)``, ``j/(s-a) - j/(s-conj a)``
-    (coefficients Re A, Im A); then ``1/s^2`` and ``1``.
+    (coefficients Re A, Im A); then ``1/s^2`` and ``1``. With ``window`` (a
+    `vibupdate.data._window.Window`) the pole terms are those of the windowed estimate.
     """
     s = 1j * np.asarray(x)[:, None]
     a = _all_poles(xn, zeta)[None, :]
-    p, q = 1.0 / (s - a), 1.0 / (s - np.conj(a))
+    if window is None:
+        p, q = 1.0 / (s - a), 1.0 / (s - np.conj(a))
+    else:
+        from vibupdate.data._window import windowed_poles
+
+        p, q = windowed_poles(x, a[0], window), windowed_poles(x, np.conj(a[0]), window)
     cols = np.empty((s.shape[0], 2 * a.shape[1] + 2), dtype=complex)
     cols[:, 0:-2:2], cols[:, 1:-2:2] = p + q, 1j * (p - q)
     cols[:, -2], cols[:, -1] = 1.0 / s[:, 0] ** 2, 1.0
@@ -76,9 +82,10 @@ def _undamped_derivatives(x, xn, zeta):
     return d_x, d_wn, d_zeta
 
 
-def _modal_basis(x, xn, zeta, damped: bool = True) -> np.ndarray:
-    """Stage-2 columns: `_basis` (damped) or `_undamped_basis`."""
-    return _basis(x, xn, zeta) if damped else _undamped_basis(x, xn, zeta)
+def _modal_basis(x, xn, zeta, damped: bool = True, window=None) -> np.ndarray:
+    """Stage-2 columns: `_basis` (damped, through ``window`` when given) or `_undamped_basis`
+    (the structure's own receptance: never windowed)."""
+    return _basis(x, xn, zeta, window) if damped else _undamped_basis(x, xn, zeta)
 
 
 def _real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -155,13 +162,13 @@ def _stable_poles(stab, min_stable):
             [counts[i] for i in order])
 
 
-def _projected_residual(theta, x, F, W):
+def _projected_residual(theta, x, F, W, window=None):
     n = theta.size // 2
-    Phi = _basis(x, theta[:n], theta[n:])
+    Phi = _basis(x, theta[:n], theta[n:], window)
     return np.concatenate([_linear_fit(Phi, f, w)[1] for f, w in zip(F, W)])
 
 
-def _refine_poles(x, F, wn, zeta, var, weighted: bool):
+def _refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     """Variable projection on (w_n, zeta); returns them and their covariance (sandwich).
 
     Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform."""
@@ -170,7 +177,7 @@ def _refine_poles(x, F, wn, zeta, var, weighted: bool):
     theta0 = np.concatenate([wn, zeta])
     lower = np.concatenate([np.full(n, x[0] * 0.5), np.full(n, 1e-6)])
     upper = np.concatenate([np.full(n, x[-1] * 1.5), np.full(n, 0.5)])
-    sol = scipy.optimize.least_squares(_projected_residual, theta0, args=(x, F, W), bounds=(lower, upper),
+    sol = scipy.optimize.least_squares(_projected_residual, theta0, args=(x, F, W, window), bounds=(lower, upper),
                                        x_scale=np.concatenate([wn, zeta]), xtol=1e-10, ftol=1e-10, max_nfev=60,
                                        method="trf")
     J, r = sol.jac, sol.fun
@@ -216,7 +223,7 @@ def _noise_from_differences(F, width: int = 21) -> np.ndarray:
 
 
 def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandwidth: float = 0.1,
-                 min_lines: int = 5):
+                 min_lines: int = 5, window=None):
     """Drop poles the data cannot resolve: a half-power bandwidth ``2 zeta w_n`` below
     ``min_bandwidth`` line spacings; a response on the measured lines below ``threshold``
     times the FRF at the pole in every FRF (computational poles of a noise-free fit); or a
@@ -224,7 +231,7 @@ def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandw
     lines in every FRF (a pole fitted to a noise spike). Returns the kept poles and their
     largest sampled response."""
     spacing = float(np.median(np.diff(x)))
-    Phi = _basis(x, wn, zeta)
+    Phi = _basis(x, wn, zeta, window)
     coef = np.array([_linear_fit(Phi, f, np.ones(x.size))[0] for f in F])
     n = wn.size
     own = np.abs(Phi[:, 0:2 * n:2][None] * coef[:, None, 0:2 * n:2]
@@ -256,7 +263,7 @@ def _correlation_inflation(r: np.ndarray, max_lag: int = 200, stop: float = 0.05
     return 1.0 + 2.0 * total
 
 
-def _best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: int = 400):
+def _best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: int = 400, window=None):
     """Positions in ``candidates`` (indices into ``wn``) of the ``n_modes`` poles whose modal
     model, with the ``fixed`` poles always in it, fits the FRFs best (unweighted); by peak
     response when there are too many subsets to try."""
@@ -269,7 +276,7 @@ def _best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: 
     for subset in combinations(range(candidates.size), n_modes):
         keep = np.r_[candidates[list(subset)], fixed]
         theta = np.concatenate([wn[keep], zeta[keep]])
-        cost = float(np.sum(_projected_residual(theta, x, F, np.ones_like(F.real)) ** 2))
+        cost = float(np.sum(_projected_residual(theta, x, F, np.ones_like(F.real), window) ** 2))
         if cost < best_cost:
             best, best_cost = np.array(subset), cost
     return best

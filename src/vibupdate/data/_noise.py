@@ -62,15 +62,21 @@ SMOOTH_LINES = 21           # the additive component is locally constant over th
 EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
 
 
-def _pole_columns(x, xn, zeta, coef):
+def _pole_columns(x, xn, zeta, coef, window=None):
     """Exact derivatives of the modal model ``Phi(theta) coef`` with respect to the poles.
 
     ``x`` (n_freq,), ``xn``, ``zeta`` (n,), ``coef`` (n_pairs, n_cols) the linear
-    coefficients of each FRF. Returns complex (n_pairs, n_freq, 2 n): the columns for
-    ``w_n`` (first n) and ``zeta`` (last n)."""
+    coefficients of each FRF; ``window`` that of `_basis`. Returns complex
+    (n_pairs, n_freq, 2 n): the columns for ``w_n`` (first n) and ``zeta`` (last n)."""
     s = 1j * np.asarray(x)[:, None]
     a = _poles(xn, zeta)[None, :]                                       # (1, n)
-    p2, q2 = 1.0 / (s - a) ** 2, 1.0 / (s - np.conj(a)) ** 2             # (n_freq, n)
+    if window is None:  # d/da of 1/(s - a)
+        p2, q2 = 1.0 / (s - a) ** 2, 1.0 / (s - np.conj(a)) ** 2         # (n_freq, n)
+    else:
+        from vibupdate.data._window import windowed_poles
+
+        p2 = windowed_poles(x, a[0], window, derivative=True)
+        q2 = windowed_poles(x, np.conj(a[0]), window, derivative=True)
     root = np.sqrt(1.0 - zeta**2)
     da = {"wn": a / xn[None, :], "zeta": (xn * (-1.0 - 1j * zeta / root))[None, :]}
     c_re, c_im = coef[:, 0:2 * xn.size:2], coef[:, 1:2 * xn.size:2]    # (n_pairs, n)
@@ -82,14 +88,14 @@ def _pole_columns(x, xn, zeta, coef):
     return np.concatenate(cols, axis=2)
 
 
-def _leverage(x, xn, zeta, coef, W=None):
+def _leverage(x, xn, zeta, coef, W=None, window=None):
     """Diagonal of the hat matrix of the modal fit of every FRF, shape (n_pairs, 2, n_freq)
     (real and imaginary row of each line): the residue columns of each FRF plus the pole
     columns shared by all FRFs, projected off the former. ``W`` (n_pairs, n_freq): the
     weights ``1/sigma`` per line of a weighted fit (default 1: unweighted); ``coef`` that
     fit's coefficients."""
-    Phi = _basis(x, xn, zeta)
-    D = _pole_columns(x, xn, zeta, coef)                                  # (n_pairs, n_freq, 2n)
+    Phi = _basis(x, xn, zeta, window)
+    D = _pole_columns(x, xn, zeta, coef, window)                          # (n_pairs, n_freq, 2n)
     if W is None:  # one residue basis for every FRF
         A = np.vstack([Phi.real, Phi.imag])                               # (2 n_freq, n_cols)
         Q = scipy.linalg.qr(A, mode="economic")[0][None]                  # (1, 2 n_freq, n_cols)
@@ -146,7 +152,7 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
 
 
 def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W=None,
-                       beta_width: int | None = None):
+                       beta_width: int | None = None, window=None):
     """Noise variance per line of each FRF from the fit's residual, shape (n_pairs, n_freq):
     squared residuals corrected by the leverage, then split into a smooth and a proportional
     component (module docstring), the latter's level shared by the FRFs of one ``groups``
@@ -158,15 +164,15 @@ def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W
     Default: unweighted."""
     theta = np.concatenate([wn, zeta])
     Wfit = np.ones_like(F.real) if W is None else W
-    r = _split_residual(_projected_residual(theta, x, F, Wfit), F.shape) / Wfit
+    r = _split_residual(_projected_residual(theta, x, F, Wfit, window), F.shape) / Wfit
     fitted = F - r
-    Phi = _basis(x, wn, zeta)
+    Phi = _basis(x, wn, zeta, window)
     if W is None:
         A = np.vstack([Phi.real, Phi.imag])
         coef = scipy.linalg.lstsq(A, np.concatenate([F.real, F.imag], axis=1).T, lapack_driver="gelsy")[0].T
     else:
         coef = np.array([_linear_fit(Phi, f, w)[0] for f, w in zip(F, W)])
-    h = np.minimum(_leverage(x, wn, zeta, coef, W), 0.99)
+    h = np.minimum(_leverage(x, wn, zeta, coef, W, window), 0.99)
     e = r.real**2 / (1.0 - h[:, 0]) + r.imag**2 / (1.0 - h[:, 1])
     var = _variance_components(e, np.abs(fitted) ** 2, groups, width, beta_width=beta_width)[0]
     return np.maximum(var, 1e-12 * np.max(var, axis=1, keepdims=True) + 1e-300)

@@ -50,18 +50,25 @@ class FRFSet:
         Receptance of every repeat of the pair, m/N (or rad/(N m) for rotations).
     sources : tuple of str
         Where the data came from (file names), for reports.
+    measured : str
+        What the files held before the conversion to receptance: ``"receptance"``,
+        ``"mobility"``, ``"accelerance"`` or ``"mixed"`` (a spectral estimate's window smooths
+        that quantity: `vibupdate.data.extraction.extract`'s ``window``).
     """
 
     omega: np.ndarray
     pairs: tuple
     H: tuple
     sources: tuple = ()
+    measured: str = "receptance"
 
     def __post_init__(self):
         omega = np.asarray(self.omega, dtype=float).ravel()
         if omega.size < 2 or not np.all(np.isfinite(omega)) or omega[0] <= 0 or np.any(np.diff(omega) <= 0):
             raise ValueError("FRF frequencies must be positive, finite and strictly increasing "
                              f"(got {omega.size} lines starting at {omega[:1]} rad/s)")
+        if self.measured not in (*KINDS, "mixed"):
+            raise ValueError(f"FRF measured quantity must be one of {(*KINDS, 'mixed')}, got {self.measured!r}")
         pairs = tuple((str(r), str(c)) for r, c in self.pairs)
         if len(set(pairs)) != len(pairs):
             raise ValueError(f"FRF pairs must be distinct, got {pairs}")
@@ -101,7 +108,7 @@ class FRFSet:
         if keep.sum() < 2:
             raise ValueError(f"band {lo / TWO_PI:.6g}-{hi / TWO_PI:.6g} Hz holds {int(keep.sum())} frequency lines; "
                              f"the data span {self.freq_hz[0]:.6g}-{self.freq_hz[-1]:.6g} Hz")
-        return FRFSet(self.omega[keep], self.pairs, tuple(h[:, keep] for h in self.H), self.sources)
+        return FRFSet(self.omega[keep], self.pairs, tuple(h[:, keep] for h in self.H), self.sources, self.measured)
 
     def renamed(self, mapping: Mapping[str, str]) -> "FRFSet":
         """DOF names mapped to model DOF names: ``{"y3": "x2", "y4": "-x3"}``.
@@ -117,7 +124,8 @@ class FRFSet:
         for (r, c), h in zip(self.pairs, self.H):
             (r2, sr), (c2, sc) = target(r), target(c)
             groups.setdefault((r2, c2), []).append(sr * sc * h)
-        return FRFSet(self.omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), self.sources)
+        return FRFSet(self.omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), self.sources,
+                      self.measured)
 
 
 def to_receptance(values, omega, kind: str, g_units: bool = False) -> np.ndarray:
@@ -154,17 +162,19 @@ def combine(sets: Sequence[FRFSet]) -> FRFSet:
                              f"vs {s.freq_hz[0]:.6g}-{s.freq_hz[-1]:.6g} Hz)")
         for pair, h in zip(s.pairs, s.H):
             groups.setdefault(pair, []).append(h)
+    kinds = {s.measured for s in sets}
     return FRFSet(omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()),
-                  tuple(src for s in sets for src in s.sources))
+                  tuple(src for s in sets for src in s.sources), kinds.pop() if len(kinds) == 1 else "mixed")
 
 
-def _group(omega, records, source) -> FRFSet:
-    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line."""
+def _group(omega, records, source, measured: str) -> FRFSet:
+    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line;
+    ``measured`` as in `FRFSet`."""
     keep = omega > 0
     groups: dict = {}
     for pair, h in records:
         groups.setdefault(pair, []).append(np.asarray(h)[keep])
-    return FRFSet(omega[keep], tuple(groups), tuple(np.array(v) for v in groups.values()), (str(source),))
+    return FRFSet(omega[keep], tuple(groups), tuple(np.array(v) for v in groups.values()), (str(source),), measured)
 
 
 def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
@@ -192,7 +202,7 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
     if not indices:
         raise ValueError(f"UFF file {str(path)!r} has no dataset 58 (FRFs); datasets found: "
                          f"{', '.join(map(str, types)) or 'none'}")
-    omega, records = None, []
+    omega, records, kinds = None, [], set()
     for number, i in enumerate(indices, start=1):
         try:
             rec = uff.read_sets(i)
@@ -219,7 +229,8 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
             sign *= -1.0 if direction < 0 else 1.0
         h = to_receptance(np.asarray(rec["data"], dtype=complex), np.where(x > 0, x, 1.0), rec_kind, g_units)
         records.append(((names[0], names[1]), sign * h))
-    return _group(omega, records, path)
+        kinds.add(rec_kind)
+    return _group(omega, records, path, kinds.pop() if len(kinds) == 1 else "mixed")
 
 
 def _parse_complex(text: str, where: str) -> complex:
@@ -290,7 +301,7 @@ def read_frf_table(path, responses: Sequence[str], excitation: str, kind: str = 
                          f"DOF names were given ({list(responses)})")
     omega = TWO_PI * freq_hz
     h = to_receptance(table.T, np.where(omega > 0, omega, 1.0), kind, g_units)
-    return _group(omega, [((str(r), str(excitation)), h[k]) for k, r in enumerate(responses)], path)
+    return _group(omega, [((str(r), str(excitation)), h[k]) for k, r in enumerate(responses)], path, kind)
 
 
 def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequence[str] | None = None,

@@ -90,6 +90,7 @@ CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_m
              "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list,
              "frf": dict}
 FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
-             "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float}
+             "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float,
+             "window": str}
 ELEMENTS_KEYS = {"type": str, "kind": str, "nodes": list, "line": dict, "clamp": list, "pin": list,
                   "fix": list, "beam": list, "frame": list, "mass": list, "spring": list}

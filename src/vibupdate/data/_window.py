@@ -1,0 +1,126 @@
+"""The leakage of a windowed spectral estimate, put into the modal model (private kernel of
+`vibupdate.data.extraction`). Frequencies normalized as in `vibupdate.data._modal_fit`.
+
+A frequency response estimated from random excitation, record by record with a data window
+``w`` over each record of length ``T`` (the ``H1`` estimate, averaged), is in expectation the
+true FRF smoothed by the window's power kernel ``|W|^2``. A lightly damped peak whose
+half-power bandwidth spans a few lines comes out lower and wider, and a modal fit reads that
+as damping: on known truth through a Hann window (``tests/frf_synthetic.py``'s
+``frame_windowed``) the damping ratios came out 55, 13 and 5 % high at 1.3, 2.4 and 3.7
+lines, and no interval held them (``benchmarks/frf_coverage.py frame-windowed``).
+
+In the time domain the same smoothing multiplies the impulse response by the window's
+normalized autocorrelation ``g(t / T)`` (``g(0) = 1``, zero beyond ``T``). A modal term
+``A / (j omega - a)`` is the transform of ``A exp(a t)``, so its windowed expectation is::
+
+    T integral_0^1 exp(z u) g(u) du,   z = (a - j omega) T
+
+in closed form for the windows here: ``g`` is a sum of ``(c0 + c1 u) exp(2 pi j m u)``, and
+``integral_0^1 u^k exp(w u) du`` has a closed form (a power series where ``|w| < 1``, whose
+closed form loses digits there). The derivative with respect to ``a`` (for the fit's exact
+Jacobian) is ``T^2 integral_0^1 u exp(z u) g(u) du``. The residual terms (``1/s^2``, a
+constant) vary slowly over a kernel's width and are left as they are. Nothing here is in the
+modal-analysis libraries measured for issue 9 (module docstring of
+`vibupdate.data.extraction`): they fit the estimate as if it were the FRF.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Windows of the estimate: ``(m, c0, c1)`` terms of ``g(u) = sum (c0 + c1 u) exp(2 pi j m u)``.
+#: ``"hann"``: ``w = sin^2(pi t / T)``, ``g(u) = (2/3) [(1 - u)(1 + cos(2 pi u) / 2)
+#: + 3 sin(2 pi u) / (4 pi)]``; ``"rectangular"`` (no window): ``g(u) = 1 - u``.
+WINDOWS = {
+    "hann": ((0, 2 / 3, -2 / 3), (1, 1 / 6 + 1 / (4j * math.pi), -1 / 6), (-1, 1 / 6 - 1 / (4j * math.pi), -1 / 6)),
+    "rectangular": ((0, 1.0, -1.0),),
+}
+SERIES_BELOW = 1.0      # |w| under which the moments are summed as a power series ...
+SERIES_TERMS = 24       # ... of this many terms (the 24th is under 1e-24 of the first)
+
+
+#: The quantity estimated, as the power of ``s = j omega`` that turns a receptance into it.
+ORDERS = {"receptance": 0, "mobility": 1, "accelerance": 2}
+
+
+@dataclass(frozen=True)
+class Window:
+    """The data window of the FRF estimate: ``name`` (a key of `WINDOWS`); ``record``, the
+    record length ``T`` in the units of ``1 / x`` (``2 pi`` over the line spacing); ``order``
+    of the quantity that was estimated (`ORDERS`): the window smooths that quantity, whose
+    pole term ``s^k / (s - a)`` is a polynomial in ``s`` of degree under 2 (which a symmetric
+    kernel of unit mass leaves as it is) plus ``a^k / (s - a)``."""
+
+    name: str
+    record: float
+    order: int = 0
+
+
+def window_for(name: str | None, x: np.ndarray, measured: str = "receptance") -> Window | None:
+    """`Window` of the named estimate of the ``measured`` quantity (a key of `ORDERS`) on
+    equally spaced lines ``x`` (normalized); None for ``None`` or ``"none"`` (the FRFs are
+    taken as they are). A ValueError names an unknown window or quantity, or unequal line
+    spacing."""
+    if name is None or name == "none":
+        return None
+    if name not in WINDOWS:
+        raise ValueError(f"window {name!r} is not known: expected one of {['none', *WINDOWS]}")
+    if measured not in ORDERS:
+        raise ValueError(f"window {name!r}: the FRFs must all be of one kind {tuple(ORDERS)} (the window smooths "
+                         f"what was estimated), got {measured!r}")
+    step = np.diff(np.asarray(x, dtype=float))
+    if step.size == 0 or np.ptp(step) > 1e-6 * float(np.mean(step)):
+        raise ValueError(f"window {name!r} needs equally spaced frequency lines (the record length is 1 / spacing); "
+                         f"the spacing here runs from {step.min():.6g} to {step.max():.6g} (normalized)")
+    return Window(name, 2 * math.pi / float(np.mean(step)), ORDERS[measured])
+
+
+def _moments(w: np.ndarray, kmax: int) -> list:
+    """``integral_0^1 u^k exp(w u) du`` for ``k = 0..kmax``, elementwise, complex."""
+    w = np.asarray(w, dtype=complex)
+    small = np.abs(w) < SERIES_BELOW
+    out = []
+    ew = np.exp(np.where(small, 0.0, w))
+    ws = np.where(small, 1.0, w)
+    prev = (ew - 1.0) / ws
+    for k in range(kmax + 1):
+        if k > 0:
+            prev = ew / ws - k * prev / ws
+        series = np.zeros_like(w)
+        term = np.ones_like(w)
+        for n in range(SERIES_TERMS):
+            series = series + term / (n + k + 1)
+            term = term * w / (n + 1)
+        out.append(np.where(small, series, prev))
+    return out
+
+
+def _lagged(z, name: str, k: int) -> np.ndarray:
+    """``integral_0^1 u^k exp(z u) g(u) du`` of window ``name``, elementwise."""
+    total = np.zeros(z.shape, dtype=complex)
+    for m, c0, c1 in WINDOWS[name]:
+        mom = _moments(z + 2j * math.pi * m, k + 1)
+        total = total + c0 * mom[k] + c1 * mom[k + 1]
+    return total
+
+
+def windowed_poles(x, a, window: Window, derivative: bool = False) -> np.ndarray:
+    """The pole term ``1 / (j x - a)`` of a receptance as the windowed estimate shows it,
+    shape (n_freq, n_poles), at lines ``x`` (n_freq,) for poles ``a`` (n_poles,) complex: the
+    expected windowed estimate of ``s^k / (s - a)`` (``k = window.order``) divided by ``s^k``;
+    with ``derivative`` its derivative with respect to ``a``."""
+    T = window.record
+    a = np.asarray(a, dtype=complex)[None, :]
+    s = 1j * np.asarray(x, dtype=float)[:, None]
+    z = (a - s) * T
+    p = _lagged(z, window.name, 0) * T                      # windowed 1/(s - a)
+    dp = _lagged(z, window.name, 1) * T**2 if derivative else None
+    k = window.order
+    if k == 0:
+        return dp if derivative else p
+    if k == 1:                                              # s/(s - a) = 1 + a/(s - a)
+        return (p + a * dp) / s if derivative else (1.0 + a * p) / s
+    return (1.0 + 2.0 * a * p + a**2 * dp) / s**2 if derivative else (s + a + a**2 * p) / s**2
