@@ -232,7 +232,7 @@ def test_declared_modes_and_zero_indices_in_case_files(tmp_path):
     assert cfg.natural[0].shape is None and cfg.natural[1].shape is not None
     assert [a.index for a in cfg.antiresonances] == [2]
     assert case.polish.enabled is False and case.polish.reduced_rounds == 0
-    with pytest.raises(ValueError, match="reduced_rounds must be an integer >= 0, got -1"):
+    with pytest.raises(ValueError, match=r": polish\.reduced_rounds: must be an integer >= 0, got -1$"):
         load_case(write(tmp_path, text.replace("reduced_rounds = 0", "reduced_rounds = -1")))
     assert case.verification.fit_tolerance == 0.05 and case.verification.mac_min == 0.9
     (tmp_path / "f.csv").write_text("kind,hz,mode,index,response,excitation\n"

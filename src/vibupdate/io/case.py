@@ -237,7 +237,13 @@ def _options(cls, table: dict, allowed: dict, key: str, where: Where):
     try:
         return cls(**table)
     except ValueError as exc:
-        raise where.error(key, str(exc)) from None
+        message = str(exc)
+        if message.split(" ", 1)[0] == key:  # "polish tol must ..." names the table, then the field
+            message = message.split(" ", 1)[1]
+        field_name, _, rest = message.partition(" ")
+        if field_name in allowed:  # "tol must be ..." -> "polish.tol: must be ..."
+            raise where.error(f"{key}.{field_name}", rest) from None
+        raise where.error(key, message) from None
 
 
 def _damping(table: dict, where: Where) -> DampingOptions:
