@@ -19,9 +19,6 @@ from vibupdate import __version__
 
 __all__ = ["main", "EXIT"]
 
-MISFIT_QUALITY = 2.0  # extract: FRFs fitted to a worse quality figure are named in a note
-NARROW_LINES = 4.0    # extract: modes whose half-power bandwidth spans fewer lines are named in a note
-
 #: Exit codes of the command line.
 EXIT = {"success": 0, "not_verified": 1, "bad_input": 2, "internal": 3, "interrupted": 130}
 
@@ -275,19 +272,8 @@ def _extract(args) -> int:
         print(f"  zero {z.index} of h({z.response},{z.excitation}): {z.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}]")
     for q in result.quality:
         print(f"  fit of h({q.response},{q.excitation}): quality {q.quality:.2f}, residual {100 * q.relative_residual:.2f} %")
-    misfit = [q for q in result.quality if q.quality > MISFIT_QUALITY]
-    if misfit:
-        print(f"note: {len(misfit)} of {len(result.quality)} FRF(s) have quality above {MISFIT_QUALITY:g}: the modal "
-              f"model misses them by more than their line-to-line noise (often at the peaks: leakage, a nonlinearity, "
-              f"a mode not fitted); the intervals count that misfit as noise")
-    spacing = float(np.median(np.diff(frfs.omega)))
-    narrow = [(args.first_mode + k, 2 * m.damping_ratio * m.omega / spacing) for k, m in enumerate(result.modes)
-              if 2 * m.damping_ratio * m.omega < NARROW_LINES * spacing]
-    if narrow and args.window == "none":
-        listed = ", ".join(f"mode {k}: {lines:.1f}" for k, lines in narrow)
-        print(f"note: half-power bandwidths of fewer than {NARROW_LINES:g} lines ({listed}): such damping ratios "
-              f"depend on the window of the spectral estimate (a Hann-windowed H1 reads them high, on known truth "
-              f"by 55, 13 and 5 % at 1.3, 2.4 and 3.7 lines) and their intervals do not hold that bias; --window names the estimate's window to model it")
+    for note in result.notes(float(np.median(np.diff(frfs.omega))), args.first_mode):
+        print(f"note: {note}")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
     print("paste into a case file (paths relative to it):")
     print(configuration_block())

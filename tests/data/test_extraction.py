@@ -575,6 +575,10 @@ def test_southampton_frame_element_model_updated_from_frfs_in_one_run(tmp_path):
     classical = frequency_fit(load_case(tmp_path / "case.toml").configurations).mean_error_pct
     # measured: nominal 9.22 %, updated 1.86 %, classical 1.77 %; not verified (fit check)
     assert updated < nominal / 4 and classical < nominal / 4
+    # the extraction's notes reach the run's warnings (terminal, report, results.json)
+    assert any("configuration 'frame' FRFs: half-power bandwidths of fewer than 4 lines" in w
+               for w in doc["warnings"]), doc["warnings"]
+    assert "FRFs: 9 of 9 FRF(s) have quality above 2" in (tmp_path / "out" / "report.md").read_text()
     assert updated < 1.2 * classical  # the homotopy answer is as good as the local fit, within 20 %
     if code == 1:
         failed = [c["name"] for c in doc["checks"] if not c.get("passed", True)]

@@ -73,6 +73,9 @@ class Case:
     """Per configuration whose data came from FRF files (``[configuration.frf]``), the
     measured receptances in the extraction band (`vibupdate.data.frf.FRFSet`): the report overlays
     them on the model FRFs."""
+    frf_notes: Mapping = field(default_factory=dict)
+    """Per such configuration, the extraction's notes (`vibupdate.data.extraction.Extraction.notes`):
+    `check` and `run` report them as warnings."""
 
 
 # -- measured data ------------------------------------------------------------------------------
@@ -108,7 +111,9 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
-    return natural, zeros, shapes, frfs.band(*result.band)
+    spacing = float(frfs.omega[-1] - frfs.omega[0]) / (frfs.omega.size - 1)
+    notes = tuple(result.notes(spacing, first))
+    return natural, zeros, shapes, frfs.band(*result.band), notes
 
 
 def _file_data(cfg: dict, model, base: Path, where: Where, key: str, natural, zeros, shapes):
@@ -195,13 +200,13 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
     if not 0 <= cfg.get("uff_tolerance", 0.05) < math.inf:
         raise where.error(f"{key}.uff_tolerance", f"must be a finite number >= 0, got {cfg['uff_tolerance']!r}")
     model = configuration_model(spec, cfg, parameters, base, where, key, models)
-    natural, zeros, shapes, frfs = [], [], {}, None
+    natural, zeros, shapes, frfs, notes = [], [], {}, None, ()
     if "frf" in cfg:
         mixed = [k for k in ("natural_hz", "antiresonances", "frequencies_csv", "mode_shapes_csv", "mode_shapes_uff")
                  if k in cfg]
         if mixed:
             raise where.error(f"{key}.frf", f"FRF files take the place of typed data; remove {', '.join(mixed)}")
-        natural, zeros, shapes, frfs = _frf_data(cfg["frf"], base, where, key)
+        natural, zeros, shapes, frfs, notes = _frf_data(cfg["frf"], base, where, key)
     natural, zeros, shapes = _file_data(cfg, model, base, where, key, natural, zeros, shapes)
     if "natural_hz" in cfg:
         natural = _typed_natural(cfg, where, key)
@@ -225,7 +230,7 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
         zs = tuple(Antiresonance.from_hz(z["hz"], z["response"], z["excitation"], weight=z["weight"],
                                          index=z.get("index"), interval=rad(z.get("interval"))) for z in zeros)
         return Configuration(cfg["name"], model, nat, zs, interlacing=cfg.get("interlacing", True),
-                             first_sign=first_sign), frfs
+                             first_sign=first_sign), (frfs, notes)
     except ValueError as exc:
         raise where.error(key, str(exc)) from None
 
@@ -298,5 +303,6 @@ def load_case(path) -> Case:
         frequency_tolerance=float(data.get("frequency_tolerance", 0.0)),
         polish=_options(PolishOptions, data.get("polish", {}), POLISH_KEYS, "polish", where),
         verification=_options(VerifyOptions, data.get("verification", {}), VERIFICATION_KEYS, "verification", where),
-        frfs={c.name: f for c, f in loaded if f is not None},
+        frfs={c.name: f for c, (f, _) in loaded if f is not None},
+        frf_notes={c.name: n for c, (_, n) in loaded if n},
     )

@@ -303,6 +303,8 @@ def validate_case(case) -> CaseCheck:
     notes, rigid = _physical(case, error)
     warnings = _check_damping(case, rigid, error)
     warnings += [w for w in (_rad_s_warning(c) for c in case.configurations) if w]
+    warnings += [f"configuration '{name}' FRFs: {note}" for name, notes in case.frf_notes.items()
+                 for note in notes]
     try:
         prepared = prepare_first_stage(case.configurations, case.formulation)
     except ValueError as exc:
