@@ -140,3 +140,25 @@ def test_the_window_smooths_the_quantity_that_was_estimated():
     right = extract(frfs, BAND, n_modes=3, window="hann").modes[0].omega / w1 - 1
     wrong = extract(dataclasses.replace(frfs, measured="receptance"), BAND, n_modes=3, window="hann").modes[0].omega
     assert abs(right) < 5e-6 and abs(wrong / w1 - 1) > 1e-5, (right, wrong / w1 - 1)
+
+
+@pytest.mark.parametrize("lag, model", [("random, boxcar", "rectangular"), ("random, hann", "hann")])
+def test_window_model_against_the_time_domain_expectation(lag, model):
+    """Truth from the independent closed form in the time domain (`lagged_accelerance`:
+    the impulse response times the lag window), one record, seed 0: the plain fit reads the
+    damping 44/16/10 % (no window) and 55/13/5 % (Hann) high, and its quality figure stays
+    near 1.2 without a window, so only the bandwidth note flags it; modelled, the errors are
+    under 0.4 % (measured)."""
+    import frf_synthetic as syn
+
+    M, K, C, dofs = syn.frame_system()
+    omega = 2 * np.pi * np.arange(3.0, 56.0 + 1 / 64, 1 / 32)
+    A = syn.lagged_accelerance(M, K, C, dofs, syn.FRAME_PAIRS, omega, lag)
+    frfs = syn._noisy_frame_records(A, omega, 0, 1, 4e-3, 0.005)
+    zeta = true_poles(M, K, C)[1][:3]
+    plain = extract(frfs, BAND, n_modes=3)
+    fitted = extract(frfs, BAND, n_modes=3, window=model)
+    assert min(m.damping_ratio / z - 1 for m, z in zip(plain.modes, zeta)) > 0.04
+    assert max(abs(m.damping_ratio / z - 1) for m, z in zip(fitted.modes, zeta)) < 0.01
+    spacing = float(omega[1] - omega[0])
+    assert any("fewer than 4 lines" in n for n in plain.notes(spacing)) and not fitted.notes(spacing)
