@@ -49,6 +49,26 @@ def update_and_peers(case, parameter_error) -> dict:
     return row
 
 
+def sizes_main(script: str, doc: str, points: dict, option: str, key: str, default, choices=None,
+               error_chars: int = 300) -> None:
+    """The command line of a size sweep: ``script WHAT [--OPTION N ...] [--timeout S]`` runs
+    `run_sizes` over the sizes (``default(WHAT)`` when none are given); the hidden ``--point N``
+    runs ``points[WHAT](N)`` in this process and prints its JSON row."""
+    import argparse
+    import json
+
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("what", choices=sorted(points))
+    parser.add_argument(f"--{option}", type=int, nargs="+", choices=choices)
+    parser.add_argument("--timeout", type=float, default=1800.0, help="seconds per size")
+    parser.add_argument("--point", type=int, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.point is not None:
+        print(json.dumps(points[args.what](args.point)))
+        return
+    run_sizes(script, args.what, getattr(args, option) or default(args.what), key, args.timeout, error_chars)
+
+
 def run_sizes(script: str, what: str, sizes, key: str, timeout: float, error_chars: int = 300) -> None:
     """Run ``script what --point SIZE`` for each size in its own process (so that its peak
     memory is its own) and print one JSON row per size, with the load average before and

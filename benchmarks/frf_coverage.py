@@ -89,7 +89,7 @@ def _true_shapes(M, K, dofs, wn_band):
 
 def _with_true_noise(sigma_raw, H_raw):
     """A stand-in for `_residual_variance` that returns the true noise variance (normalized)."""
-    def fake(x, F, wn, zeta, width=21):
+    def fake(x, F, wn, zeta, *_, **__):
         n = F.shape[1]  # the fit band of both cases starts at the record's first line
         scale = np.abs(H_raw[:, :1] / F[:, :1])
         return (sigma_raw[:, :n] / scale) ** 2

@@ -32,13 +32,11 @@ imported libraries) is its own. Parameter error: ``|updated - true| / |true|``.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import time
 from pathlib import Path
 
-from exact_data import peak_mb as _peak_mb, timed as _timed, run_sizes, update_and_peers
+from exact_data import peak_mb as _peak_mb, timed as _timed, sizes_main, update_and_peers
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -178,16 +176,8 @@ POINTS = {"check": check_point, "update": update_point, "run": run_point}
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("what", choices=sorted(POINTS))
-    parser.add_argument("--sizes", type=int, nargs="+", choices=sorted(SIZES), default=sorted(SIZES))
-    parser.add_argument("--timeout", type=float, default=1800.0, help="seconds per size")
-    parser.add_argument("--point", type=int, help=argparse.SUPPRESS)
-    args = parser.parse_args()
-    if args.point is not None:
-        print(json.dumps(POINTS[args.what](args.point)))
-        return
-    run_sizes(__file__, args.what, args.sizes, "size", args.timeout)
+    sizes_main(__file__, __doc__, POINTS, "sizes", "size", lambda what: sorted(SIZES), sorted(SIZES))
+
 
 if __name__ == "__main__":
     main()

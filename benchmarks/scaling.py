@@ -39,13 +39,11 @@ needed to fix it to 1e-4 and which parameters +-1e-4 intervals leave undetermine
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import time
 from pathlib import Path
 
-from exact_data import peak_mb as _peak_mb, timed as _timed, run_sizes, update_and_peers
+from exact_data import peak_mb as _peak_mb, timed as _timed, sizes_main, update_and_peers
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -220,16 +218,8 @@ POINTS = {"kernels": kernels, "update": update_point, "run": run_point, "example
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("what", choices=sorted(POINTS))
-    parser.add_argument("--subdivisions", type=int, nargs="+")
-    parser.add_argument("--timeout", type=float, default=1800.0, help="seconds per size")
-    parser.add_argument("--point", type=int, help=argparse.SUPPRESS)
-    args = parser.parse_args()
-    if args.point is not None:
-        print(json.dumps(POINTS[args.what](args.point)))
-        return
-    run_sizes(__file__, args.what, args.subdivisions or DEFAULTS[args.what], "subdivisions", args.timeout, 160)
+    sizes_main(__file__, __doc__, POINTS, "subdivisions", "subdivisions", DEFAULTS.__getitem__, error_chars=160)
+
 
 if __name__ == "__main__":
     main()

@@ -55,3 +55,37 @@ def random_spd(rng, n, cond=10.0):
 CASE_FILE_EXAMPLE = re.search(r"```toml\n(.*?)```",
                               (Path(__file__).resolve().parents[1] / "docs" / "case-file.md").read_text(),
                               re.S).group(1)
+
+
+#: The three-mass chain of the case-file tests: K of the springs (N/m), M = I; the case file
+#: reads M0.mtx, K0.mtx and dK.mtx (= K / 1000, per unit of the parameter k).
+CHAIN_K = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
+CHAIN_CASE = """
+case = "chain"
+[model]
+type = "matrices"
+M0 = "M0.mtx"
+K0 = "K0.mtx"
+dofs = ["a", "b", "c"]
+[model.dK]
+k = "dK.mtx"
+[[parameter]]
+name = "k"
+nominal = 1000.0
+lower = 500.0
+upper = 2000.0
+[[configuration]]
+name = "only"
+"""
+
+
+def write_chain_matrices(folder):
+    """M0.mtx, K0.mtx, dK.mtx of `CHAIN_CASE` in ``folder``; returns the chain's natural
+    frequencies at k = 1200 (Hz), the truth of the tests."""
+    import scipy.io
+    import scipy.sparse as sp
+
+    scipy.io.mmwrite(str(Path(folder) / "M0.mtx"), sp.coo_matrix(np.eye(3)))
+    scipy.io.mmwrite(str(Path(folder) / "K0.mtx"), sp.coo_matrix(CHAIN_K))
+    scipy.io.mmwrite(str(Path(folder) / "dK.mtx"), sp.coo_matrix(CHAIN_K / 1000))
+    return np.sqrt(np.linalg.eigvalsh(CHAIN_K * 1.2)) / (2 * np.pi)

@@ -6,7 +6,6 @@ consistent parameter ranges; damping-ratio intervals give the damping fit's weig
 """
 
 import numpy as np
-import pytest
 
 from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, antiresonances, modes

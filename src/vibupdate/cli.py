@@ -241,8 +241,6 @@ def _command(args) -> int:
 def _extract(args) -> int:
     import math
 
-    import numpy as np
-
     from vibupdate.data.extraction import extract
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import read_frfs
@@ -272,7 +270,7 @@ def _extract(args) -> int:
         print(f"  zero {z.index} of h({z.response},{z.excitation}): {z.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}]")
     for q in result.quality:
         print(f"  fit of h({q.response},{q.excitation}): quality {q.quality:.2f}, residual {100 * q.relative_residual:.2f} %")
-    for note in result.notes(float(np.median(np.diff(frfs.omega))), args.first_mode):
+    for note in result.notes(args.first_mode):
         print(f"note: {note}")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
     print("paste into a case file (paths relative to it):")

@@ -6,10 +6,8 @@ from pathlib import Path
 import numpy as np
 import pyuff
 import pytest
-import scipy.io
-import scipy.sparse as sp
 
-from helpers import CASE_FILE_EXAMPLE
+from helpers import CASE_FILE_EXAMPLE, CHAIN_CASE, CHAIN_K, write_chain_matrices
 from vibupdate.io.case import linear_expression, load_case
 from vibupdate.cli import main
 from vibupdate.inverse.correlation import model_frequencies
@@ -67,39 +65,12 @@ def test_linear_expressions():
         linear_expression("E*E", ["E"])
 
 
-MINIMAL = """
-case = "chain"
-[model]
-type = "matrices"
-M0 = "M0.mtx"
-K0 = "K0.mtx"
-dofs = ["a", "b", "c"]
-[model.dK]
-k = "dK.mtx"
-[[parameter]]
-name = "k"
-nominal = 1000.0
-lower = 500.0
-upper = 2000.0
-[[configuration]]
-name = "only"
-"""
-
-
-def _chain_files(tmp_path):
-    K = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
-    scipy.io.mmwrite(str(tmp_path / "M0.mtx"), sp.coo_matrix(np.eye(3)))
-    scipy.io.mmwrite(str(tmp_path / "K0.mtx"), sp.coo_matrix(K))
-    scipy.io.mmwrite(str(tmp_path / "dK.mtx"), sp.coo_matrix(K / 1000))
-    return np.sqrt(np.linalg.eigvalsh(K * 1.2)) / (2 * np.pi)
-
-
 def test_matrices_csv_and_uff_inputs(tmp_path):
-    hz = _chain_files(tmp_path)
+    hz = write_chain_matrices(tmp_path)
     (tmp_path / "f.csv").write_text("kind,hz,weight,damping_ratio,response,excitation\n"
                                     + "".join(f"natural,{h},1,0.02,,\n" for h in hz[:2]))
     (tmp_path / "s.csv").write_text("mode,dof,value,tolerance\n1,a,0.5,0.1\n1,c,1.0,0.1\n")
-    case = load_case(write(tmp_path, MINIMAL + 'frequencies_csv = "f.csv"\nmode_shapes_csv = "s.csv"\n'))
+    case = load_case(write(tmp_path, CHAIN_CASE + 'frequencies_csv = "f.csv"\nmode_shapes_csv = "s.csv"\n'))
     cfg = case.configurations[0]
     assert [f.freq_hz for f in cfg.natural] == pytest.approx(hz[:2])
     assert cfg.natural[0].shape.bounds == {"a": (0.4, 0.6), "c": (0.9, 1.1)}
@@ -111,7 +82,7 @@ def test_matrices_csv_and_uff_inputs(tmp_path):
             n_data_per_node=3, r1=np.array([0.3, 0.6, 1.0]) * (k + 1), r2=np.zeros(3), r3=np.zeros(3),
             load_case=1, mode_n=k + 1, freq=float(h), modal_m=0.0, modal_damp_vis=0.01 * (k + 1),
             modal_damp_his=0.0, node_nums=np.array([1, 2, 3])), "add")
-    text = MINIMAL.replace('["a", "b", "c"]', '["x1", "x2", "x3"]') + 'mode_shapes_uff = "m.uff"\nuff_tolerance = 0.1\n'
+    text = CHAIN_CASE.replace('["a", "b", "c"]', '["x1", "x2", "x3"]') + 'mode_shapes_uff = "m.uff"\nuff_tolerance = 0.1\n'
     cfg = load_case(write(tmp_path, text)).configurations[0]
     assert [f.freq_hz for f in cfg.natural] == pytest.approx(hz[:2], rel=1e-5)
     assert [f.damping_ratio for f in cfg.natural] == pytest.approx([0.01, 0.02])
@@ -169,11 +140,11 @@ def test_malformed_case_files_give_one_clear_message(tmp_path, capsys, edit, mes
 
 
 def test_uff_without_dataset_55_is_named(tmp_path, capsys):
-    _chain_files(tmp_path)
+    write_chain_matrices(tmp_path)
     uff = pyuff.UFF(str(tmp_path / "no55.uff"))
     uff.write_sets(pyuff.prepare_15(node_nums=[1, 2], def_cs=[0, 0], disp_cs=[0, 0], color=[1, 1],
                                     x=[0.0, 1.0], y=[0.0, 0.0], z=[0.0, 0.0]), "add")
-    path = write(tmp_path, MINIMAL + 'mode_shapes_uff = "no55.uff"\n')
+    path = write(tmp_path, CHAIN_CASE + 'mode_shapes_uff = "no55.uff"\n')
     assert main(["check", str(path)]) == 2
     assert "has no dataset 55" in capsys.readouterr().err
 
@@ -206,10 +177,9 @@ def test_matrices_case_runs_end_to_end(tmp_path):
     writes a complete output directory."""
     import json
 
-    K = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
-    _chain_files(tmp_path)  # M0 = I, K0 = K, dK/dk = K / 1000
-    hz = np.sqrt(np.linalg.eigvalsh(K * 1.3)) / (2 * np.pi)
-    text = MINIMAL + f"natural_hz = [{float(hz[0])!r}, {float(hz[1])!r}]\ndamping_ratios = [0.02, 0.015]\n"
+    write_chain_matrices(tmp_path)  # M0 = I, K0 = K, dK/dk = K / 1000
+    hz = np.sqrt(np.linalg.eigvalsh(CHAIN_K * 1.3)) / (2 * np.pi)
+    text = CHAIN_CASE + f"natural_hz = [{float(hz[0])!r}, {float(hz[1])!r}]\ndamping_ratios = [0.02, 0.015]\n"
     out = tmp_path / "out"
     assert main(["run", str(write(tmp_path, text)), "--out", str(out)]) == 0
     doc = json.loads((out / "results.json").read_text())
@@ -220,8 +190,8 @@ def test_matrices_case_runs_end_to_end(tmp_path):
 def test_declared_modes_and_zero_indices_in_case_files(tmp_path):
     """natural_modes, antiresonance index, CSV mode/index columns, shapes keyed by the declared mode;
     [polish] and [verification] tables."""
-    hz = _chain_files(tmp_path)
-    text = MINIMAL + f"natural_modes = [2, 3]\nnatural_hz = [{hz[1]}, {hz[2]}]\n"
+    hz = write_chain_matrices(tmp_path)
+    text = CHAIN_CASE + f"natural_modes = [2, 3]\nnatural_hz = [{hz[1]}, {hz[2]}]\n"
     text += '[[configuration.antiresonances]]\nhz = 20.0\nresponse = "a"\nexcitation = "a"\nindex = 2\n'
     (tmp_path / "s.csv").write_text("mode,dof,value,tolerance\n3,a,0.5,0.1\n3,c,1.0,0.1\n")
     text = text.replace('name = "only"\n', 'name = "only"\nmode_shapes_csv = "s.csv"\n')
@@ -237,11 +207,11 @@ def test_declared_modes_and_zero_indices_in_case_files(tmp_path):
     assert case.verification.fit_tolerance == 0.05 and case.verification.mac_min == 0.9
     (tmp_path / "f.csv").write_text("kind,hz,mode,index,response,excitation\n"
                                     f"natural,{hz[1]},2,,,\nnatural,{hz[2]},3,,,\nantiresonance,20.0,,2,a,a\n")
-    case = load_case(write(tmp_path, MINIMAL + 'frequencies_csv = "f.csv"\n'))
+    case = load_case(write(tmp_path, CHAIN_CASE + 'frequencies_csv = "f.csv"\n'))
     cfg = case.configurations[0]
     assert [f.mode for f in cfg.natural] == [2, 3] and [a.index for a in cfg.antiresonances] == [2]
     (tmp_path / "f.csv").write_text("kind,hz,mode\nnatural,10.0,1.5\n")
     with pytest.raises(ValueError, match="row 2: mode must be an integer"):
-        load_case(write(tmp_path, MINIMAL + 'frequencies_csv = "f.csv"\n'))
+        load_case(write(tmp_path, CHAIN_CASE + 'frequencies_csv = "f.csv"\n'))
     with pytest.raises(ValueError, match="natural_modes"):
-        load_case(write(tmp_path, MINIMAL + f"natural_modes = [2]\nnatural_hz = [{hz[1]}, {hz[2]}]\n"))
+        load_case(write(tmp_path, CHAIN_CASE + f"natural_modes = [2]\nnatural_hz = [{hz[1]}, {hz[2]}]\n"))

@@ -10,7 +10,7 @@ import pytest
 from vibupdate import Assembly, Parameter, from_builder
 from vibupdate.io.case import load_case
 from vibupdate.io.case_keys import Where
-from vibupdate.io.case_model import _elements_assembly, _nodes, base_model, linear_expression
+from vibupdate.io.case_model import _nodes, base_model, linear_expression
 from vibupdate.model import elements
 
 WHERE = Where(Path("case.toml"))

@@ -9,30 +9,14 @@ import scipy.io
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from helpers import CHAIN_CASE, CHAIN_K, write_chain_matrices
 from vibupdate.cli import main
 from vibupdate.model.physical import box_corners, count_below, definiteness
 
-K3 = np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]) * 1000
+K3 = CHAIN_K
 HZ = np.sqrt(np.linalg.eigvalsh(K3 * 1.2)) / (2 * np.pi)
 
-BASE = f"""
-case = "chain"
-frequency_tolerance = 0.01
-[model]
-type = "matrices"
-M0 = "M0.mtx"
-K0 = "K0.mtx"
-dofs = ["a", "b", "c"]
-[model.dK]
-k = "dK.mtx"
-[[parameter]]
-name = "k"
-nominal = 1000.0
-lower = 500.0
-upper = 2000.0
-[[configuration]]
-name = "only"
-natural_hz = [{float(HZ[0])!r}, {float(HZ[1])!r}]
+BASE = CHAIN_CASE.replace('case = "chain"\n', 'case = "chain"\nfrequency_tolerance = 0.01\n') + f"""natural_hz = [{float(HZ[0])!r}, {float(HZ[1])!r}]
 damping_ratios = [0.02, 0.015]
 antiresonances = [{{ hz = 5.0, response = "a", excitation = "a" }}]
 [solver]
@@ -46,9 +30,7 @@ exponents = [0.0, 1.0]
 
 @pytest.fixture
 def folder(tmp_path):
-    scipy.io.mmwrite(str(tmp_path / "M0.mtx"), sp.coo_matrix(np.eye(3)))
-    scipy.io.mmwrite(str(tmp_path / "K0.mtx"), sp.coo_matrix(K3))
-    scipy.io.mmwrite(str(tmp_path / "dK.mtx"), sp.coo_matrix(K3 / 1000))
+    write_chain_matrices(tmp_path)
     return tmp_path
 
 

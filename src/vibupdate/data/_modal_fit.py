@@ -40,7 +40,7 @@ def _basis(x, xn, zeta, window=None) -> np.ndarray:
     else:
         from vibupdate.data._window import windowed_poles
 
-        p, q = windowed_poles(x, a[0], window), windowed_poles(x, np.conj(a[0]), window)
+        p, q = np.split(windowed_poles(x, np.concatenate([a[0], np.conj(a[0])]), window), 2, axis=1)
     cols = np.empty((s.shape[0], 2 * a.shape[1] + 2), dtype=complex)
     cols[:, 0:-2:2], cols[:, 1:-2:2] = p + q, 1j * (p - q)
     cols[:, -2], cols[:, -1] = 1.0 / s[:, 0] ** 2, 1.0

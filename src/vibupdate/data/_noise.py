@@ -56,7 +56,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from vibupdate.data._modal_fit import _basis, _linear_fit, _poles, _projected_residual, _smooth, _split_residual
+from vibupdate.data._modal_fit import _basis, _linear_fit, _poles, _smooth
 
 SMOOTH_LINES = 21           # the additive component is locally constant over this many lines
 EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
@@ -75,8 +75,8 @@ def _pole_columns(x, xn, zeta, coef, window=None):
     else:
         from vibupdate.data._window import windowed_poles
 
-        p2 = windowed_poles(x, a[0], window, derivative=True)
-        q2 = windowed_poles(x, np.conj(a[0]), window, derivative=True)
+        p2, q2 = np.split(windowed_poles(x, np.concatenate([a[0], np.conj(a[0])]), window, derivative=True), 2,
+                          axis=1)
     root = np.sqrt(1.0 - zeta**2)
     da = {"wn": a / xn[None, :], "zeta": (xn * (-1.0 - 1j * zeta / root))[None, :]}
     c_re, c_im = coef[:, 0:2 * xn.size:2], coef[:, 1:2 * xn.size:2]    # (n_pairs, n)
@@ -162,16 +162,14 @@ def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W
     the residual and the leverage are then those of the weighted fit (feasible weighted
     least squares; the module docstring says why an unweighted fit misleads on real data).
     Default: unweighted."""
-    theta = np.concatenate([wn, zeta])
-    Wfit = np.ones_like(F.real) if W is None else W
-    r = _split_residual(_projected_residual(theta, x, F, Wfit, window), F.shape) / Wfit
-    fitted = F - r
     Phi = _basis(x, wn, zeta, window)
-    if W is None:
+    if W is None:  # one least-squares solve for every FRF
         A = np.vstack([Phi.real, Phi.imag])
         coef = scipy.linalg.lstsq(A, np.concatenate([F.real, F.imag], axis=1).T, lapack_driver="gelsy")[0].T
     else:
         coef = np.array([_linear_fit(Phi, f, w)[0] for f, w in zip(F, W)])
+    fitted = coef @ Phi.T
+    r = F - fitted
     h = np.minimum(_leverage(x, wn, zeta, coef, W, window), 0.99)
     e = r.real**2 / (1.0 - h[:, 0]) + r.imag**2 / (1.0 - h[:, 1])
     var = _variance_components(e, np.abs(fitted) ** 2, groups, width, beta_width=beta_width)[0]

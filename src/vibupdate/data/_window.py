@@ -78,32 +78,38 @@ def window_for(name: str | None, x: np.ndarray, measured: str = "receptance") ->
     return Window(name, 2 * math.pi / float(np.mean(step)), ORDERS[measured])
 
 
-def _moments(w: np.ndarray, kmax: int) -> list:
-    """``integral_0^1 u^k exp(w u) du`` for ``k = 0..kmax``, elementwise, complex."""
+def _moments(w: np.ndarray, kmax: int) -> np.ndarray:
+    """``integral_0^1 u^k exp(w u) du`` for ``k = 0..kmax``, shape (kmax + 1, *w.shape),
+    complex: the closed form where ``|w| >= SERIES_BELOW``, the power series elsewhere."""
     w = np.asarray(w, dtype=complex)
+    out = np.empty((kmax + 1,) + w.shape, dtype=complex)
     small = np.abs(w) < SERIES_BELOW
-    out = []
-    ew = np.exp(np.where(small, 0.0, w))
-    ws = np.where(small, 1.0, w)
-    prev = (ew - 1.0) / ws
-    for k in range(kmax + 1):
-        if k > 0:
-            prev = ew / ws - k * prev / ws
-        series = np.zeros_like(w)
-        term = np.ones_like(w)
+    big = ~small
+    wb = w[big]
+    ew = np.exp(wb)
+    moment = (ew - 1.0) / wb
+    out[0][big] = moment
+    for k in range(1, kmax + 1):
+        moment = ew / wb - k * moment / wb
+        out[k][big] = moment
+    if np.any(small):
+        ws = w[small]
+        ks = np.arange(kmax + 1)[:, None]
+        term, total = np.ones_like(ws), np.zeros((kmax + 1, ws.size), dtype=complex)
         for n in range(SERIES_TERMS):
-            series = series + term / (n + k + 1)
-            term = term * w / (n + 1)
-        out.append(np.where(small, series, prev))
+            total += term[None] / (n + ks + 1)
+            term = term * ws / (n + 1)
+        out[:, small] = total
     return out
 
 
-def _lagged(z, name: str, k: int) -> np.ndarray:
-    """``integral_0^1 u^k exp(z u) g(u) du`` of window ``name``, elementwise."""
-    total = np.zeros(z.shape, dtype=complex)
+def _lagged(z, name: str, kmax: int) -> np.ndarray:
+    """``integral_0^1 u^k exp(z u) g(u) du`` of window ``name`` for ``k = 0..kmax``, shape
+    (kmax + 1, *z.shape)."""
+    total = np.zeros((kmax + 1,) + z.shape, dtype=complex)
     for m, c0, c1 in WINDOWS[name]:
-        mom = _moments(z + 2j * math.pi * m, k + 1)
-        total = total + c0 * mom[k] + c1 * mom[k + 1]
+        mom = _moments(z + 2j * math.pi * m, kmax + 1)
+        total += c0 * mom[:-1] + c1 * mom[1:]
     return total
 
 
@@ -116,8 +122,9 @@ def windowed_poles(x, a, window: Window, derivative: bool = False) -> np.ndarray
     a = np.asarray(a, dtype=complex)[None, :]
     s = 1j * np.asarray(x, dtype=float)[:, None]
     z = (a - s) * T
-    p = _lagged(z, window.name, 0) * T                      # windowed 1/(s - a)
-    dp = _lagged(z, window.name, 1) * T**2 if derivative else None
+    lagged = _lagged(z, window.name, 1 if derivative else 0)
+    p = lagged[0] * T                                       # windowed 1/(s - a)
+    dp = lagged[1] * T**2 if derivative else None           # and its derivative in a
     k = window.order
     if k == 0:
         return dp if derivative else p

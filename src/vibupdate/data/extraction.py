@@ -201,6 +201,10 @@ class Extraction:
         when the FRFs were taken as they are.
     record_s : float
         The record length of that estimate, s (one over the line spacing); 0 without window.
+    measured : str
+        The quantity the FRF files held (`FRFSet.measured`): the one a window smooths.
+    line_spacing : float
+        Spacing of the fitted lines, rad/s.
     """
 
     modes: tuple
@@ -217,25 +221,29 @@ class Extraction:
     fitted_poles: np.ndarray
     window: str = "none"
     record_s: float = 0.0
+    measured: str = "receptance"
+    line_spacing: float = 0.0
 
     def synthesize(self, omega, damped: bool = True) -> np.ndarray:
         """Fitted receptances, shape (n_pairs, n_freq), at ``omega`` (rad/s, shape (n_freq,)):
         ``damped`` as estimated (through the window the fit modelled, if any), else the
         undamped receptance of the fitted modes."""
-        from vibupdate.data._window import Window
+        from vibupdate.data._window import ORDERS, Window
 
         x = np.asarray(omega, dtype=float) / self.fit_band[1]
         xn = self.fitted_poles[:, 0] / self.fit_band[1]
         zeta = self.fitted_poles[:, 1]
-        window = None if self.window == "none" else Window(self.window, self.record_s * self.fit_band[1])
+        window = None if self.window == "none" else Window(self.window, self.record_s * self.fit_band[1],
+                                                           ORDERS[self.measured])
         return (_modal_basis(x, xn, zeta, damped, window) @ self.coefficients.T).T * self.scales[:, None]
 
-    def notes(self, line_spacing: float, first_mode: int = 1) -> list:
+    def notes(self, first_mode: int = 1) -> list:
         """What a user should know before using this extraction, as sentences: FRFs whose
         fit misses the data by more than their noise (quality above `MISFIT_QUALITY`), and,
         when no window was modelled, modes whose half-power bandwidth ``2 zeta omega`` spans
-        fewer than `NARROW_LINES` lines of ``line_spacing`` (rad/s), whose damping ratio then
-        depends on the window of the spectral estimate."""
+        fewer than `NARROW_LINES` lines, whose damping ratio then depends on the window of
+        the spectral estimate; modes numbered from ``first_mode``."""
+        line_spacing = self.line_spacing
         out = []
         misfit = [q for q in self.quality if q.quality > MISFIT_QUALITY]
         if misfit:
@@ -543,4 +551,5 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
     return Extraction(tuple(modes), tuple(zeros), tuple(quality), band, float(confidence), noise, stabilization,
                       frfs.pairs, np.array(coefs), np.asarray(scales), (float(frfs.omega[0]), float(frfs.omega[-1])),
                       np.column_stack([wn * scale_w, zeta]), "none" if fit.window is None else fit.window.name,
-                      0.0 if fit.window is None else fit.window.record / scale_w)
+                      0.0 if fit.window is None else fit.window.record / scale_w, frfs.measured,
+                      float(np.median(np.diff(x))) * scale_w)

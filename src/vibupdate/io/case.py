@@ -111,8 +111,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
-    spacing = float(frfs.omega[-1] - frfs.omega[0]) / (frfs.omega.size - 1)
-    notes = tuple(result.notes(spacing, first))
+    notes = tuple(result.notes(first))
     return natural, zeros, shapes, frfs.band(*result.band), notes
 
 
