@@ -142,7 +142,9 @@ def test_a_failed_update_exits_non_zero_with_the_reason(tmp_path, capsys):
     from helpers import CASE_FILE_EXAMPLE as EXAMPLE
 
     case = tmp_path / "case.toml"
-    case.write_text(EXAMPLE.replace("[solver]\nn_lambda = 10", "[solver]\nn_lambda = 2\nmax_iter = 1\nmin_step = 0.5"))
+    # without the polish no further start can rescue the failed path (`update` restarts by polishing)
+    case.write_text(EXAMPLE.replace("[solver]\nn_lambda = 10", "[polish]\nenabled = false\n\n"
+                                    "[solver]\nn_lambda = 2\nmax_iter = 1\nmin_step = 0.5"))
     out = tmp_path / "out"
     assert main(["run", str(case), "--out", str(out)]) == 1
     assert "updating failed" in capsys.readouterr().err

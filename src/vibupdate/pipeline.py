@@ -60,7 +60,9 @@ def _identifiability(result: UpdateResult) -> dict:
     names = [p.name for p in result.parameters]
     return {"rank": s["rank"], "condition": s["condition"], "singular_values": s["singular_values"],
             "column_norm": {p.name: float(v) for p, v in zip(result.parameters, s["column_norm"])},
-            "undetermined_combinations": [describe_direction(names, v) for v in s["null_directions"]]}
+            "undetermined_combinations": [describe_direction(names, v) for v in s["null_directions"]],
+            "minimum_change": (result.minimum_change.message
+                               if result.minimum_change is not None and result.minimum_change.applied else None)}
 
 
 def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:

@@ -13,6 +13,7 @@ from vibupdate import (Antiresonance, Assembly, Configuration, NaturalFrequency,
 from vibupdate.inverse.backends.casadi_ipopt import CasadiIpopt
 from vibupdate.examples import cantilever
 from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.inverse.polish import PolishOptions
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import prepare, update
@@ -258,13 +259,26 @@ def test_a_failed_solve_is_a_status_not_an_exception():
     model = chain_model(5, list(TRUE_CHAIN))
     _, _, omega, _ = exact(model, TRUE_CHAIN)
     cfg = Configuration("P2", model, tuple(NaturalFrequency(w) for w in omega))
-    result = update([cfg], solver=SolverOptions(max_iter=1, min_step=0.25))
+    result = update([cfg], solver=SolverOptions(max_iter=1, min_step=0.25), polish=PolishOptions(enabled=False))
     assert not result.success
     assert result.status in (Status.MAX_ITERATIONS, Status.STEP_FAILED)
     assert "stopped at lambda" in result.message
     # Every attempt is on record, the failed ones included, and none claims lambda = 1.
     assert any(not s.accepted for s in result.steps)
     assert not any(s.accepted and s.lam == 1.0 for s in result.steps)
+
+
+def test_a_failed_path_is_on_record_when_a_further_start_verifies():
+    model = chain_model(5, list(TRUE_CHAIN))
+    _, _, omega, _ = exact(model, TRUE_CHAIN)
+    x_true = model.normalized([TRUE_CHAIN[p.name] for p in model.parameters])
+    cfg = Configuration("P2", model, tuple(NaturalFrequency(w) for w in omega))
+    result = update([cfg], solver=SolverOptions(max_iter=1, min_step=0.25))
+    assert not any(s.accepted and s.lam == 1.0 for s in result.steps)
+    assert result.restarts and result.restarts[0]["start"] == "stepped homotopy path"
+    assert result.success, result.message
+    assert "homotopy stopped at lambda" in result.message and "passed every verification check" in result.message
+    assert np.allclose(result.xbar, x_true, atol=1e-6)
 
 
 def test_bad_input_is_caught_before_any_solve():
@@ -355,6 +369,6 @@ def test_a_backend_exception_becomes_a_status(monkeypatch):
 
     monkeypatch.setattr(backend.CasadiIpopt, "__init__", broken_init)
     # the lam = 0 step by IPOPT, not by the QP solver, so that the broken call is reached
-    result = update([cfg], solver=SolverOptions(relaxation_solver="nlp"))
+    result = update([cfg], solver=SolverOptions(relaxation_solver="nlp"), polish=PolishOptions(enabled=False))
     assert result.status == Status.NUMERICAL_ERROR
     assert not result.success and result.relaxation_lower_bound is None

@@ -9,9 +9,17 @@
    Whether the widening removed the misfit is measured, not assumed: a bound that stays
    positive points at the parameter bounds or the data.
 3. The polish (`vibupdate.inverse.polish`) on the full model, default on.
-4. Verification (`vibupdate.inverse.verify`): the status is ``success`` only when every check of the
+4. Where the data leave parameter combinations undetermined, the answer is moved along them
+   to the point nearest the nominal model with the same data
+   (`vibupdate.inverse.minimum_change`).
+5. Verification (`vibupdate.inverse.verify`): the status is ``success`` only when every check of the
    returned model against the data passes, ``not_verified`` when the path reached
    ``lam = 1`` but a check failed.
+6. When the answer does not verify (for a reason other than the data contradicting the
+   bounds) or the path failed, further starts are tried (`_restart`): the stepped homotopy
+   path, then the polish from the nominal point and from two seeded random points of the box.
+   The first verified answer is returned; otherwise the one of lowest polish objective, still
+   ``not_verified``. Every start is recorded.
 
 The result is a frozen record of the updated model and of how it was found.
 """
@@ -28,6 +36,7 @@ from vibupdate.inverse.correlation import frequency_rows, model_frequencies, sen
 from vibupdate.inverse.formulation import BilinearProblem, FormulationOptions, formulate
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
+from vibupdate.inverse.minimum_change import MinimumChange, minimum_change
 from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
@@ -79,12 +88,19 @@ class UpdateResult:
     warnings : tuple of str
         Every failed check and warning, in words, with its figures.
     first_stage_xbar : ndarray, shape (n_x,)
-        The homotopy's answer before the polish.
+        The homotopy's answer before the polish (``polish.xbar_start`` is the start of the
+        returned answer, which differs when a further start gave it: ``restarts``).
     polish : PolishResult or None
         What the polish did (None when it was off or the path failed).
     attempts : tuple of dict
         One entry per first-stage attempt: margins of the vector boxes, lower bound,
         objective and status (more than one when the boxes were widened).
+    restarts : tuple of dict
+        Further starts tried when the direct path's answer did not verify or the path failed
+        (`_restart`): ``start``, ``status``, failed checks, polish objective, seconds.
+    minimum_change : MinimumChange or None
+        Where the data leave directions undetermined, the move of the answer along them to the
+        point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
     modal : dict of str to ModelFrequencies
         Modal data of each configuration's updated model, as correlation, verification and
         sensitivity used them (modes, every mode on the dense path in ``spectrum``, zeros and
@@ -112,6 +128,8 @@ class UpdateResult:
     first_stage_xbar: np.ndarray | None = None
     polish: PolishResult | None = None
     attempts: tuple[dict, ...] = ()
+    restarts: tuple[dict, ...] = ()
+    minimum_change: MinimumChange | None = None
     modal: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -143,6 +161,8 @@ class UpdateResult:
             "first_stage_xbar": None if self.first_stage_xbar is None else self.first_stage_xbar.tolist(),
             "polish": None if self.polish is None else self.polish.as_dict(),
             "attempts": list(self.attempts),
+            "restarts": list(self.restarts),
+            "minimum_change": None if self.minimum_change is None else self.minimum_change.as_dict(),
         }
 
 
@@ -282,6 +302,116 @@ def _full_vector(problem: BilinearProblem, b: int, u, configurations, bases) -> 
     return bases[k] @ v
 
 
+#: Random starts of the polish tried, after the stepped path and the nominal point, when the
+#: direct path's answer does not verify.
+RANDOM_STARTS = 2
+#: Checks whose failure no other start can repair: the relaxation's lower bound is a property of
+#: the data and the boxes, not of the answer.
+_DATA_CHECKS = frozenset({"consistency"})
+
+
+@dataclass(frozen=True)
+class _Finish:
+    """One candidate answer: a start, polished, moved to the minimum change and verified."""
+
+    label: str
+    first_xbar: np.ndarray
+    xbar: np.ndarray
+    polished: PolishResult | None
+    minimum: MinimumChange | None
+    updated: list
+    checks: tuple
+    status: Status
+
+    @property
+    def failed(self) -> list[str]:
+        return [c.name for c in self.checks if c.severity == "error" and not c.passed]
+
+    @property
+    def cost(self) -> float:
+        return self.polished.cost if self.polished is not None else float("inf")
+
+
+def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, say) -> _Finish:
+    """Polish ``start``, take the minimum change along undetermined directions, verify."""
+    xbar, polished, minimum = start, None, None
+    if polish.enabled:
+        polished = run_polish(configurations, start, polish, progress=say)
+        xbar = polished.xbar
+        say(f"polish ({label}): objective {polished.cost_start:.4e} -> {polished.cost:.4e} "
+            f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations"
+            + (f" of the full model in {polished.rounds} reduced rounds" if polished.rounds else "")
+            + f", {polished.seconds:.2f} s; {polished.message})")
+        minimum = minimum_change(configurations, xbar)
+        if minimum.kept:
+            xbar = minimum.xbar
+            say(f"minimum change: {minimum.message}")
+    updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
+    first = ([model_frequencies(c, start) for c in configurations]
+             if not np.array_equal(xbar, start) else updated)
+    checks = verify(configurations, xbar, nominal=nominal, updated=updated, lower_bound=path.lower_bound,
+                    n_blocks=len(problem.blocks), active_bounds=active, first_stage=first, options=verification)
+    ok = not any(c.severity == "error" and not c.passed for c in checks)
+    status = (path.status if path.status.ok else Status.SUCCESS) if ok else Status.NOT_VERIFIED
+    return _Finish(label, start, xbar, polished, minimum, updated, tuple(checks), status)
+
+
+def _worth_restarting(candidate: _Finish) -> bool:
+    """True when the answer failed a check that another start may pass."""
+    return bool(set(candidate.failed) - _DATA_CHECKS)
+
+
+def _restart(configurations, problem, solver, best, finish, restarts: list, say):
+    """Further starts when the direct path's answer did not verify or the path failed: the
+    stepped homotopy path (when the direct jump was taken), then the polish from the nominal
+    point and from `RANDOM_STARTS` points of the box drawn with a fixed seed (the same input
+    gives the same answer). The first verified answer ends the search; otherwise the answer of
+    lowest polish objective is kept. Each start is recorded in ``restarts``.
+
+    Returns the chosen candidate (None when none could be polished) and the homotopy steps of
+    the stepped path."""
+    import time
+
+    steps: tuple = ()
+    lo, hi = configurations[0].model.bounds()
+    starts: list[tuple[str, Callable[[], np.ndarray | None]]] = []
+    solver = solver or SolverOptions()
+    if solver.n_lambda == 1:
+        def stepped():
+            nonlocal steps
+            say("restart: the stepped homotopy path (n_lambda = 10)")
+            path = solve_homotopy(problem, replace(solver, n_lambda=10), progress=say)
+            steps = path.steps
+            return np.clip(path.x, problem.x_lower, problem.x_upper) if path.status.ok else None
+        starts.append(("stepped homotopy path", stepped))
+    starts.append(("nominal point", lambda: np.clip(np.zeros(lo.size), lo, hi)))
+    rng = np.random.default_rng(0)
+    for k in range(RANDOM_STARTS):
+        point = rng.uniform(lo, hi)
+        starts.append((f"random start {k + 1}", lambda point=point: point))
+    if best is not None:
+        say(f"the answer did not verify (failed {', '.join(best.failed)}): trying {len(starts)} further starts")
+    for label, start in starts:
+        t0 = time.perf_counter()
+        x0 = start()
+        if x0 is None:
+            restarts.append({"start": label, "status": "path failed", "failed": [], "cost": None,
+                             "seconds": time.perf_counter() - t0})
+            continue
+        candidate = finish(x0, label)
+        restarts.append({"start": label, "status": candidate.status.value, "failed": candidate.failed,
+                         "cost": candidate.cost, "seconds": time.perf_counter() - t0
+                         - (sum(s.seconds for s in steps) if label.startswith("stepped") else 0.0)})
+        say(f"restart from the {label}: {candidate.status.value}"
+            + (f" (failed {', '.join(candidate.failed)})" if candidate.failed else ""))
+        if best is None or (candidate.status.ok and not best.status.ok) or (
+                candidate.status.ok == best.status.ok and candidate.cost < best.cost):
+            best = candidate
+        if best.status.ok:
+            break
+    return best, steps
+
+
 def update(configurations: Sequence[Configuration], *, formulation: FormulationOptions | None = None,
            solver: SolverOptions | None = None, polish: PolishOptions | None = None,
            verification: VerifyOptions | None = None,
@@ -338,31 +468,33 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     if bases is not None:
         size["reduced_dofs"] = solved[0].model.n_dofs
     model = configurations[0].model
+
+    def finish(start: np.ndarray, label: str) -> _Finish:
+        return _finish(configurations, start, label, path, problem, active, nominal, polish, verification, say)
+
     first_xbar = np.clip(path.x, problem.x_lower, problem.x_upper)
-    xbar, polished, checks = first_xbar, None, ()
-    status = path.status
-    if status.ok:
-        if polish.enabled:
-            polished = run_polish(configurations, first_xbar, polish, progress=say)
-            xbar = polished.xbar
-            say(f"polish: objective {polished.cost_start:.4e} -> {polished.cost:.4e} "
-                f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations"
-                + (f" of the full model in {polished.rounds} reduced rounds" if polished.rounds else "")
-                + f", {polished.seconds:.2f} s)")
-    updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
-    if status.ok:
-        first = [model_frequencies(c, first_xbar) for c in configurations] if polished and polished.kept else updated
-        checks = verify(configurations, xbar, nominal=nominal, updated=updated, lower_bound=path.lower_bound,
-                        n_blocks=len(problem.blocks), active_bounds=active, first_stage=first,
-                        options=verification)
-        if any(c.severity == "error" and not c.passed for c in checks):
-            status = Status.NOT_VERIFIED
+    best = finish(first_xbar, "homotopy") if path.status.ok else None
+    restarts: list[dict] = []
+    if polish.enabled and (best is None or _worth_restarting(best)):
+        best, more_steps = _restart(configurations, problem, solver, best, finish, restarts, say)
+        steps = steps + more_steps
+    status = best.status if best is not None else path.status
+    if best is None:   # the path failed and no start verified: the first stage's point, unpolished
+        updated = [model_frequencies(c, first_xbar, derivatives=True) for c in configurations]
+        best = _Finish("homotopy", first_xbar, first_xbar, None, None, updated, (), status)
+    xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
     warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
     for w in warnings:
         say(f"warning: {w}")
+    message = _message(status, path.lam, steps, checks)
+    if best.label != "homotopy":
+        head = ("homotopy reached lambda = 1 but its answer did not verify" if path.status.ok else
+                f"homotopy stopped at lambda = {path.lam:.4f} ({path.status.value})")
+        message = (f"{head}; the answer polished from the {best.label} "
+                   + ("passed every verification check" if status.ok else "failed " + ", ".join(best.failed)))
     return UpdateResult(
         status=status,
-        message=_message(status, path.lam, steps, checks),
+        message=message,
         parameters=model.parameters,
         xbar=xbar,
         values=model.physical(xbar),
@@ -374,12 +506,15 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         steps=steps,
         objective=path.objective,
         relaxation_lower_bound=path.lower_bound,
-        seconds=sum(st.seconds for st in steps) + (polished.seconds if polished else 0.0),
+        seconds=sum(st.seconds for st in steps) + (polished.seconds if polished else 0.0)
+        + sum(r["seconds"] for r in restarts),
         sensitivity=sensitivity(configurations, xbar, freqs=updated),
         checks=checks,
         warnings=warnings,
         first_stage_xbar=first_xbar,
         polish=polished,
         attempts=attempts,
+        restarts=tuple(restarts),
+        minimum_change=best.minimum,
         modal={c.name: f for c, f in zip(configurations, updated)},
     )

@@ -195,8 +195,8 @@ def _stack_on_union(A0, parts):
 
 def _as_system(result, dofs: Sequence[str] | None) -> System:
     """Normalize a builder's return value to a `System` with sparse matrices."""
-    if isinstance(result, System):
-        return result
+    if isinstance(result, System):     # a user's System may hold dense arrays
+        return System(sp.csr_matrix(result.M), sp.csr_matrix(result.K), tuple(result.dofs))
     if not isinstance(result, tuple) or len(result) not in (2, 3):
         raise ValueError(
             "a model builder must return a System or a tuple (M, K) or (M, K, dofs), "

@@ -415,6 +415,8 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
         if combos:
             out += ["Combinations the data do not determine (exact null directions, normalized parameters): "
                     + "; ".join(f"`{c}`" for c in combos) + ".", ""]
+        if ident.get("minimum_change"):
+            out += ["Minimum change: " + ident["minimum_change"] + ".", ""]
         if ident.get("ranges_note"):
             out += [ident["ranges_note"] + ".", ""]
     # Frequencies

@@ -156,7 +156,6 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     """
     from vibupdate.pipeline import _damping_stage
     from vibupdate.inverse.update import update
-    from vibupdate.inverse.verify import VerifyOptions
 
     start, cpu = time.perf_counter(), time.process_time()
     case = _resolve(case)
@@ -169,9 +168,10 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
         return row
     row.update({f"data:{k}": v for k, v in drawn.items()})
     tolerance = case.frequency_tolerance if sampling.frequency_tolerance is None else sampling.frequency_tolerance
-    verification = VerifyOptions(frequency_tolerance=tolerance) if tolerance > 0 else VerifyOptions()
-    try:
-        result = update(cfgs, formulation=case.formulation, solver=case.solver, verification=verification)
+    verification = replace(case.verification, frequency_tolerance=tolerance) if tolerance > 0 else case.verification
+    try:   # the case's own options, as `vibupdate run` uses them
+        result = update(cfgs, formulation=case.formulation, solver=case.solver, polish=case.polish,
+                        verification=verification)
     except ValueError as exc:
         row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
                    cpu_seconds=time.process_time() - cpu)

@@ -1,0 +1,187 @@
+"""Minimum change along what the data leave undetermined.
+
+Where the measured data do not determine every parameter (fewer independent data than
+parameters, an exact symmetry), the fitted parameters form a set, not a point, and the point
+the homotopy and the polish return is an accident of the path: on an 18-storey shear building
+with 4 measured frequencies and 18 storey stiffnesses two solver schedules returned answers
+73 % and 15 % from the truth, both fitting the data exactly. A user expects the answer
+closest to the nominal model along the undetermined directions, as a regularized or
+minimum-norm fit gives. This module takes the polished answer ``x*`` there.
+
+Let ``g(x)`` be the measured data as the model gives them: every declared natural frequency
+and zero relative to its measured value, and every measured shape ratio (the residuals of
+`vibupdate.inverse.polish.polish_residuals` with ``shape_target="midpoint"``, which differ
+from ``g`` by constants and fixed weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
+(singular values above ``RANK_RTOL`` of the largest, the threshold of the reported
+sensitivity, `vibupdate.inverse.correlation.sensitivity`), below the number of parameters.
+The answer is
+
+    min ||x||^2   over   { x in the box : g(x) = g(x*) },
+
+the normalized parameters (Eq. 12) closest to the nominal point (``x = 0``) among those that
+reproduce *exactly the same data* as ``x*``: every frequency, zero and shape ratio is unchanged,
+so the fit and every verification figure stay what they were, only the parameters move. It is
+solved by the minimum-norm Gauss-Newton iteration on the constraint,
+
+    d = -V_k S_k^-1 U_k^T (g(x) - g(x*)) - (I - V_k V_k^T) x,
+
+(``J = U S V^T`` at the current point, truncated at rank ``k``): the first term returns to the
+data, the second removes the component of ``x`` along the null directions. It converges
+quadratically where the rank is constant. The new point is kept only when its data agree with
+those of ``x*`` to ``DATA_TOL`` (relative) and it is nearer the nominal point; otherwise ``x*``
+is returned and the reason recorded.
+
+Written here rather than taken from scipy: `scipy.optimize.minimize` with equality constraints
+(SLSQP, trust-constr) needs the constraint Jacobian to keep full row rank, which ``J`` never
+has in this situation (it is the rank deficiency that makes the problem), and a Tikhonov
+continuation changes the fit by ``O(mu^2)`` at every stage.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.data.measured import Configuration
+
+__all__ = ["MinimumChange", "minimum_change", "RANK_RTOL", "DATA_TOL"]
+
+#: Singular values of the data Jacobian below this fraction of the largest count as zero (the
+#: derivatives are exact: an exact symmetry gives ~1e-15); the reported sensitivity uses the same.
+RANK_RTOL = 1e-8
+#: The minimum-change point is kept only when each datum of the model there agrees with the
+#: polished answer's to this (relative frequency; shape ratio in its own units).
+DATA_TOL = 1e-9
+#: Gauss-Newton iterations at most.
+MAX_ITERATIONS = 30
+
+
+@dataclass(frozen=True)
+class MinimumChange:
+    """Outcome of the minimum-change step.
+
+    Attributes
+    ----------
+    xbar_start, xbar : ndarray, shape (n_x,)
+        The polished answer and the answer returned (equal when not applied or not kept).
+    applied : bool
+        Whether the data left directions undetermined (rank below the number of parameters).
+    kept : bool
+        Whether the minimum-change point replaced the polished answer.
+    rank : int
+        Rank of the data Jacobian at the polished answer.
+    norm_start, norm : float
+        ``||xbar||`` (Euclidean norm of the normalized parameters) at both points.
+    data_change : float
+        Largest change of a datum between the two points (relative frequency, shape ratio).
+    iterations : int
+        Gauss-Newton iterations (each one evaluation of the model with exact derivatives).
+    message : str
+    """
+
+    xbar_start: np.ndarray
+    xbar: np.ndarray
+    applied: bool
+    kept: bool
+    rank: int
+    norm_start: float
+    norm: float
+    data_change: float
+    iterations: int
+    message: str
+
+    def as_dict(self) -> dict:
+        return {"applied": self.applied, "kept": self.kept, "rank": self.rank, "norm_start": self.norm_start,
+                "norm": self.norm, "data_change": self.data_change, "iterations": self.iterations,
+                "message": self.message}
+
+
+def _data(configurations, x, shape_weight):
+    """``g(x)`` up to fixed weights and constants, and its exact Jacobian."""
+    from vibupdate.inverse.polish import polish_residuals
+
+    return polish_residuals(configurations, x, shape_weight, shape_target="midpoint")
+
+
+def _weights(configurations: Sequence[Configuration], shape_weight: float) -> np.ndarray:
+    """Per residual row of `_data`, the factor that turns it into a datum change: the inverse
+    of a frequency's ``sqrt(weight)``, of ``shape_weight`` for a shape ratio (the rows of
+    `vibupdate.inverse.polish.polish_residuals`, configuration by configuration)."""
+    from vibupdate.inverse.polish import _shape_terms
+
+    out = []
+    for cfg in configurations:
+        out += [1 / np.sqrt(f.weight) for f in cfg.natural]
+        for rc in cfg.receptances():
+            out += [1 / np.sqrt(a.weight) for a in cfg.antiresonances if a.receptance == rc]
+        if shape_weight > 0:
+            out += [1 / shape_weight] * sum(term[2].size for term in _shape_terms(cfg))
+    return np.array(out)
+
+
+def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weight: float = 100.0,
+                   rank_rtol: float = RANK_RTOL) -> MinimumChange:
+    """The answer nearest the nominal point with the same data as ``xbar`` (module docstring).
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+    xbar : ndarray, shape (n_x,)
+        The polished answer, normalized parameters.
+    shape_weight : float
+        Weight of the shape-ratio rows (any positive value: the constraint is ``g(x) = g(x*)``).
+    rank_rtol : float
+        Singular values below this fraction of the largest count as zero.
+    """
+    configurations = list(configurations)
+    lo, hi = configurations[0].model.bounds()
+    x0 = np.asarray(xbar, dtype=float)
+    norm0 = float(np.linalg.norm(x0))
+    g0, J = _data(configurations, x0, shape_weight)
+    n_x = x0.size
+    if J is None:
+        J = np.zeros((0, n_x))
+
+    def outcome(x, applied, kept, rank, change, iterations, message):
+        return MinimumChange(x0, x, applied, kept, rank, norm0, float(np.linalg.norm(x)), change, iterations,
+                             message)
+
+    finite = np.all(np.isfinite(J), axis=1) & np.isfinite(g0)
+    if not finite.any():
+        return outcome(x0, False, False, 0, 0.0, 0, "no data with derivatives")
+    sv = np.linalg.svd(J[finite], compute_uv=False)
+    rank = int(np.sum(sv > rank_rtol * sv[0])) if sv[0] > 0 else 0
+    if rank >= n_x:
+        return outcome(x0, False, False, rank, 0.0, 0, "the data determine every parameter")
+    if norm0 == 0.0:
+        return outcome(x0, True, False, rank, 0.0, 0, "the answer is the nominal point")
+    scale = _weights(configurations, shape_weight)[finite]
+    x, g, iterations = x0.copy(), g0, 0
+    for iterations in range(1, MAX_ITERATIONS + 1):
+        U, s, Vt = np.linalg.svd(J[finite], full_matrices=False)
+        Uk, sk, Vk = U[:, :rank], s[:rank], Vt[:rank].T
+        back = -Vk @ ((Uk.T @ (g[finite] - g0[finite])) / sk)
+        d = back - (x - Vk @ (Vk.T @ x))
+        x_new = np.clip(x + d, lo, hi)
+        step = float(np.max(np.abs(x_new - x)))
+        x = x_new
+        g, J = _data(configurations, x, shape_weight)
+        if J is None or not np.all(np.isfinite(g[finite])):
+            return outcome(x0, True, False, rank, float("inf"), iterations,
+                           "not kept: the model lost a declared mode or zero on the way")
+        if step <= 1e-13 * max(1.0, float(np.max(np.abs(x)))):
+            break
+    change = float(np.max(np.abs((g[finite] - g0[finite]) * scale)))
+    norm = float(np.linalg.norm(x))
+    undetermined = n_x - rank
+    if change > DATA_TOL:
+        return outcome(x0, True, False, rank, change, iterations,
+                       f"not kept: the data moved by {change:.2e} (> {DATA_TOL:g}) on the way to the nominal point")
+    if not norm < norm0:
+        return outcome(x0, True, False, rank, change, iterations, "the answer is already the minimum change")
+    return outcome(x, True, True, rank, change, iterations,
+                   f"{undetermined} direction(s) undetermined by the data: the answer moved along them to the "
+                   f"point nearest the nominal model (||xbar|| {norm0:.4g} -> {norm:.4g}), every datum unchanged "
+                   f"within {change:.1e}")
