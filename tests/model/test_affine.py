@@ -139,3 +139,20 @@ def test_bad_matrices_are_named(tmp_path):
     bad.write_text("not a matrix market file\n")
     with pytest.raises(ValueError, match="could not be read"):
         from_files(bad, I2, p, dK={"k": I2})
+
+
+def test_a_builder_may_return_a_system_of_dense_arrays():
+    """A user's builder that fills `System` with numpy arrays (not sparse) builds the same model."""
+    import numpy as np
+
+    from vibupdate import Parameter, System, from_builder
+
+    def dense(p):
+        k = p["k"]
+        K = np.array([[2 * k, -k], [-k, k]])
+        return System(np.eye(2), K, ("x1", "x2"))
+
+    model = from_builder(dense, [Parameter("k", 100.0, 50.0, 150.0)])
+    M, K = model.matrices()
+    assert K.toarray() == pytest.approx(np.array([[200.0, -100.0], [-100.0, 100.0]]))
+    assert model.dofs == ("x1", "x2")
