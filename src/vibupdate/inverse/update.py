@@ -320,6 +320,7 @@ class _Finish:
     polished: PolishResult | None
     minimum: MinimumChange | None
     updated: list
+    sensitivity: dict
     checks: tuple
     status: Status
 
@@ -342,18 +343,22 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
             f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations"
             + (f" of the full model in {polished.rounds} reduced rounds" if polished.rounds else "")
             + f", {polished.seconds:.2f} s; {polished.message})")
+    updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
+    sens = sensitivity(configurations, xbar, freqs=updated)
+    if polish.enabled and sens["rank"] < xbar.size:   # the data leave directions undetermined
         minimum = minimum_change(configurations, xbar)
         if minimum.kept:
             xbar = minimum.xbar
             say(f"minimum change: {minimum.message}")
-    updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
+            updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]
+            sens = sensitivity(configurations, xbar, freqs=updated)
     first = ([model_frequencies(c, start) for c in configurations]
              if not np.array_equal(xbar, start) else updated)
     checks = verify(configurations, xbar, nominal=nominal, updated=updated, lower_bound=path.lower_bound,
                     n_blocks=len(problem.blocks), active_bounds=active, first_stage=first, options=verification)
     ok = not any(c.severity == "error" and not c.passed for c in checks)
     status = (path.status if path.status.ok else Status.SUCCESS) if ok else Status.NOT_VERIFIED
-    return _Finish(label, start, xbar, polished, minimum, updated, tuple(checks), status)
+    return _Finish(label, start, xbar, polished, minimum, updated, sens, tuple(checks), status)
 
 
 def _worth_restarting(candidate: _Finish) -> bool:
@@ -481,7 +486,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     status = best.status if best is not None else path.status
     if best is None:   # the path failed and no start verified: the first stage's point, unpolished
         updated = [model_frequencies(c, first_xbar, derivatives=True) for c in configurations]
-        best = _Finish("homotopy", first_xbar, first_xbar, None, None, updated, (), status)
+        best = _Finish("homotopy", first_xbar, first_xbar, None, None, updated,
+                       sensitivity(configurations, first_xbar, freqs=updated), (), status)
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
     warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
     for w in warnings:
@@ -508,7 +514,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         relaxation_lower_bound=path.lower_bound,
         seconds=sum(st.seconds for st in steps) + (polished.seconds if polished else 0.0)
         + sum(r["seconds"] for r in restarts),
-        sensitivity=sensitivity(configurations, xbar, freqs=updated),
+        sensitivity=best.sensitivity,
         checks=checks,
         warnings=warnings,
         first_stage_xbar=first_xbar,
