@@ -113,8 +113,8 @@ class DampingRow(_Row):
     configuration: str
     mode: int
     measured: float
-    identified: float
-    error_pct: float
+    identified: float | None
+    error_pct: float | None
     rayleigh: float | None
     error_rayleigh_pct: float | None
     extra: tuple = ()

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-__all__ = ["frequency_table_text", "parameter_table_text", "damping_table_text", "summary_text", "markdown_report",
+from vibupdate.report.numbers import finite, fmt
+
+__all__ = ["failed_report", "frequency_table_text", "parameter_table_text", "damping_table_text", "summary_text", "markdown_report",
            "ranges_table_text", "sampled_disagreements", "range_notes", "multistart_text"]
 
 #: What the lambda = 0 optimum says (issue 11): the lifted variables absorb every mismatch, so
@@ -11,18 +13,44 @@ LOWER_BOUND_NOTE = "a valid bound of the global minimum, but it certifies nothin
 
 
 def _fmt(value, spec: str) -> str:
-    if value is None:
-        width = spec.split(".")[0]
-        return "-".rjust(int(width) if width.isdigit() else 0)
-    return format(value, spec)
+    """A figure of the terminal tables (`vibupdate.report.numbers.fmt`: never raises)."""
+    return fmt(value, spec)
+
+
+def _weak(norms: dict) -> list[str]:
+    """Parameters whose sensitivity column norm is below 1 % of the largest finite one
+    (a norm that is not finite is neither weak nor the largest)."""
+    values = [v for v in norms.values() if finite(v)]
+    if not values:
+        return []
+    top = max(values)
+    return [n for n, v in norms.items() if finite(v) and v < 1e-2 * top]
+
+
+def _condition(ident: dict, n_parameters: int) -> str:
+    """The condition number of the sensitivity as text: ``inf`` where it is not finite
+    (``null`` in ``results.json``) and the rank is below the number of parameters."""
+    value = ident.get("condition")
+    rank = ident.get("rank")
+    if value is None and isinstance(rank, int) and rank < n_parameters:
+        return "inf (rank deficient)"
+    return fmt(value, ".3g", missing="not computed")
 
 
 def _paper_frequency(document: dict, row: dict, column: str):
     paper = document.get("paper") or {}
     for p in paper.get("frequencies", []):
         if (p["configuration"], p["kind"], int(p["index"])) == (row["configuration"], row["kind"], row["index"]):
-            return float(p[column])
+            return _number(p.get(column))
     return None
+
+
+def _number(value):
+    """A published value as a float; None where it is missing or not a number."""
+    try:
+        return None if value is None else float(value)
+    except (TypeError, ValueError):
+        return None
 
 
 def frequency_table_text(document: dict) -> str:
@@ -35,36 +63,38 @@ def frequency_table_text(document: dict) -> str:
         head += f" {'paper upd':>9} {'err%':>6}"
     lines = ["Frequencies [Hz]", head]
     for r in document["frequencies"]:
-        line = (f"{r['configuration']:>4} {r['kind']:>13} {r['index']:>2} {r['measured_hz']:9.2f} "
+        line = (f"{r['configuration']:>4} {r['kind']:>13} {_fmt(r['index'], '>2')} {_fmt(r['measured_hz'], '9.2f')} "
                 f"{_fmt(r['nominal_hz'], '9.2f')} {_fmt(r['error_nominal_pct'], '6.2f')} "
                 f"{_fmt(r['updated_hz'], '9.2f')} {_fmt(r['error_updated_pct'], '6.2f')}")
         if has_paper:
             p = _paper_frequency(document, r, "paper_updated_hz")
-            err = None if p is None else 100 * abs(p - r["measured_hz"]) / r["measured_hz"]
-            line += f" {_fmt(p, '9.2f')} {_fmt(err, '6.2f')}"
+            line += f" {_fmt(p, '9.2f')} {_fmt(_error_pct(p, r['measured_hz']), '6.2f')}"
         lines.append(line)
     return "\n".join(lines)
 
 
 def parameter_table_text(document: dict) -> str:
     """Parameters nominal / bounds / updated, with the paper's updated value if known."""
-    paper = {p["name"]: float(p["paper_updated"]) for p in (document.get("paper") or {}).get("parameters", [])}
+    paper = {p["name"]: _number(p.get("paper_updated")) for p in (document.get("paper") or {}).get("parameters", [])}
     head = f"{'name':>8} {'unit':>7} {'nominal':>11} {'lower':>11} {'upper':>11} {'updated':>11}"
     if paper:
         head += f" {'paper':>11}"
     lines = ["Parameters", head]
     for p in document["parameters"]:
-        line = (f"{p['name']:>8} {p['unit']:>7} {p['nominal']:11.4g} {p['lower']:11.4g} {p['upper']:11.4g} "
+        line = (f"{p['name']:>8} {p['unit']:>7} {_fmt(p['nominal'], '11.4g')} {_fmt(p['lower'], '11.4g')} "
+                f"{_fmt(p['upper'], '11.4g')} "
                 f"{_fmt(p['updated'], '11.4g')}")
         if paper:
             line += f" {_fmt(paper.get(p['name']), '11.4g')}"
         lines.append(line)
     ident = document.get("identifiability")
     if ident:
-        weak = [n for n, v in ident["column_norm"].items() if v < 1e-2 * max(ident["column_norm"].values())]
-        lines.append(f"sensitivity rank {ident['rank']} of {len(document['parameters'])}, "
-                     f"condition {ident['condition']:.3g}"
+        weak = _weak(ident.get("column_norm") or {})
+        lines.append(f"sensitivity rank {ident.get('rank')} of {len(document['parameters'])}, "
+                     f"condition {_condition(ident, len(document['parameters']))}"
                      + (f"; weakly determined by the data: {', '.join(weak)}" if weak else ""))
+        lines += [f"not determined by the data (exact null direction, normalized parameters): {c}"
+                  for c in ident.get("undetermined_combinations") or []]
     return "\n".join(lines)
 
 
@@ -114,20 +144,20 @@ def sampled_disagreements(sampled: dict, linearized: dict, wider: float = 2.0) -
     for name, s in sampled.items():
         lo, hi = _ends(s)
         lin = linearized.get(name)
-        if lo is None or hi is None or not lin or lin.get("lower") is None or lin.get("upper") is None:
+        if not lin or not all(finite(v) for v in (lo, hi, lin.get("lower"), lin.get("upper"))):
             continue
         a, b = lin["lower"], lin["upper"]
         tol = 1e-9 * max(abs(a), abs(b), 1e-300)
         if lo < a - tol or hi > b + tol:
-            notes.append(f"{name}: the sampled range [{lo:.4g}, {hi:.4g}] reaches outside the linearized range "
-                         f"[{a:.4g}, {b:.4g}]: the linearization at the answer misses verified answers of sampled "
+            notes.append(f"{name}: the sampled range [{fmt(lo)}, {fmt(hi)}] reaches outside the linearized range "
+                         f"[{fmt(a)}, {fmt(b)}]: the linearization at the answer misses verified answers of sampled "
                          "data sets")
         elif hi - lo <= 1e-12 * max(abs(lo), abs(hi), 1e-300) and b > a:
-            notes.append(f"{name}: every verified sample gave {lo:.4g}, the linearized range is [{a:.4g}, {b:.4g}]: "
+            notes.append(f"{name}: every verified sample gave {fmt(lo)}, the linearized range is [{fmt(a)}, {fmt(b)}]: "
                          "the samples did not move it (a bound active in every sample?)")
         elif (b - a) > wider * (hi - lo):
-            notes.append(f"{name}: the linearized range [{a:.4g}, {b:.4g}] is {(b - a) / (hi - lo):.3g}x "
-                         f"the sampled range [{lo:.4g}, {hi:.4g}]: the samples did not reach all the linearization "
+            notes.append(f"{name}: the linearized range [{fmt(a)}, {fmt(b)}] is {fmt((b - a) / (hi - lo), '.3g')}x "
+                         f"the sampled range [{fmt(lo)}, {fmt(hi)}]: the samples did not reach all the linearization "
                          "allows")
     return notes
 
@@ -150,10 +180,11 @@ def multistart_text(document: dict) -> str:
         return ""
     converged = ms["starts"] - ms["failed"]
     objectives = [m["objective"] for m in ms["minima"] if m.get("objective") is not None]
-    spread = (f", objectives {min(objectives):.4g} to {max(objectives):.4g}" if len(objectives) > 1
-              else (f", objective {objectives[0]:.4g}" if objectives else ""))
+    objectives = [v for v in objectives if finite(v)]
+    spread = (f", objectives {fmt(min(objectives))} to {fmt(max(objectives))}" if len(objectives) > 1
+              else (f", objective {fmt(objectives[0])}" if objectives else ""))
     return (f"multistart of the point estimate: {ms['distinct_minima']} distinct local minima from {converged} "
-            f"converged of {ms['starts']} random starts{spread} (answers more than {ms['x_tol']:g} apart in a "
+            f"converged of {ms['starts']} random starts{spread} (answers more than {fmt(ms['x_tol'], 'g')} apart in a "
             "normalized parameter count as distinct; many minima with equal objectives are a continuum, not "
             "competing answers)")
 
@@ -174,7 +205,7 @@ def ranges_table_text(document: dict) -> str:
         {"sampled": "sampled", "linearized": "linearized at the answer"}[label] for label in others]
     lines = ["Parameter ranges: " + ", ".join(kinds)]
     if cert:
-        lines.append(f"Certified outer ranges ({cert['message']}, {cert['seconds']:.1f} s)")
+        lines.append(f"Certified outer ranges ({cert['message']}, {fmt(cert.get('seconds'), '.1f')} s)")
     sampled = _sampled(document)
     if sampled:
         lines.append(f"Sampled ranges: {sampled['verified']} verified, {sampled['unverified']} unverified, "
@@ -206,13 +237,13 @@ def damping_table_text(document: dict) -> str:
     head += f" {'paper R.':>9} {'paper C.':>9} {'err%':>6}" if has_paper else ""
     lines = ["Damping ratios [-]", head]
     for d in document["damping"]:
-        line = (f"{d['configuration']:>4} {d['mode']:>4} {d['measured']:9.4f} {_fmt(d.get('rayleigh'), '9.4f')} "
-                f"{_fmt(d.get('error_rayleigh_pct'), '6.1f')} {d['identified']:9.4f} {d['error_pct']:6.1f}")
+        line = (f"{d['configuration']:>4} {_fmt(d['mode'], '>4')} {_fmt(d['measured'], '9.4f')} "
+                f"{_fmt(d.get('rayleigh'), '9.4f')} {_fmt(d.get('error_rayleigh_pct'), '6.1f')} "
+                f"{_fmt(d['identified'], '9.4f')} {_fmt(d['error_pct'], '6.1f')}")
         if has_paper:
             pr = _paper_damping(document, d["configuration"], d["mode"], "paper_rayleigh")
             p = _paper_damping(document, d["configuration"], d["mode"], "paper_caughey")
-            err = None if p is None else 100 * abs(p - d["measured"]) / d["measured"]
-            line += f" {_fmt(pr, '9.4f')} {_fmt(p, '9.4f')} {_fmt(err, '6.1f')}"
+            line += f" {_fmt(pr, '9.4f')} {_fmt(p, '9.4f')} {_fmt(_error_pct(p, d['measured']), '6.1f')}"
         lines.append(line)
     return "\n".join(lines)
 
@@ -228,15 +259,15 @@ def summary_text(document: dict) -> str:
     ]
     if s.get("mean_damping_error_pct") is not None:
         lines.append(
-            f"mean damping error: Rayleigh {s['mean_damping_error_rayleigh_pct']:.1f} %, Caughey "
-            f"{s['mean_damping_error_pct']:.1f} %"
+            f"mean damping error: Rayleigh {_fmt(s.get('mean_damping_error_rayleigh_pct'), '.1f')} %, Caughey "
+            f"{_fmt(s['mean_damping_error_pct'], '.1f')} %"
             + (f" (paper: {paper['mean_damping_error_rayleigh_pct']} %, {paper['mean_damping_error_pct']} %)"
                if "mean_damping_error_pct" in paper else ""))
     if solver:
         lines.append(
-            f"solver: {solver['status']}, objective {solver['objective']:.4e}, relaxation lower bound "
-            f"{_fmt(solver['relaxation_lower_bound'], '.4e')} ({LOWER_BOUND_NOTE}), {len(solver['steps'])} solves, "
-            f"{solver['seconds']:.2f} s"
+            f"solver: {solver.get('status')}, objective {_fmt(solver.get('objective'), '.4e')}, relaxation lower "
+            f"bound {_fmt(solver.get('relaxation_lower_bound'), '.4e')} ({LOWER_BOUND_NOTE}), "
+            f"{len(solver.get('steps') or [])} solves, {_fmt(solver.get('seconds'), '.2f')} s"
         )
     for w in solver.get("warnings", []):
         lines.append(f"warning: {w}")
@@ -288,21 +319,30 @@ def _md_table(header: list[str], rows: list[list]) -> list[str]:
 
 
 def _g(value, spec=".4g") -> str:
-    return "-" if value is None else format(value, spec)
+    """A figure of ``report.md`` (`vibupdate.report.numbers.fmt`: never raises)."""
+    return fmt(value, spec)
+
+
+def _error_pct(value, reference):
+    """``100 |value - reference| / |reference|``; None where either is missing or not
+    finite, or the reference is 0."""
+    if not (finite(value) and finite(reference)) or reference == 0:
+        return None
+    return 100 * abs(value - reference) / abs(reference)
 
 
 def _width(pct) -> str:
     """A range's width in per cent: one decimal from 1 % up, two significant digits below
     (a width of 0.04 % must not print as 0.0)."""
-    if pct is None:
-        return "-"
-    return format(pct, ".1f") if abs(pct) >= 1 else format(pct, ".2g")
+    if not finite(pct):
+        return fmt(pct)
+    return fmt(pct, ".1f") if abs(pct) >= 1 else fmt(pct, ".2g")
 
 
 def _paper_damping(document, cfg, mode, column):
     for p in (document.get("paper") or {}).get("damping", []):
         if p["configuration"] == cfg and int(p["mode"]) == mode:
-            return float(p[column])
+            return _number(p.get(column))
     return None
 
 
@@ -330,7 +370,7 @@ def _ranges_markdown(document: dict) -> list[str]:
                 "its rounding accounted for; \"certified\" means the safe bound confirms the solver's optimum, "
                 "\"no\" that the reported (still valid) range may be looser. " + info["definition"]
                 + f" Outcome: {info['message']}; {info['passes']} tightening pass(es), {info['n_lps']} LPs, "
-                f"{info['seconds']:.1f} s (root {info['root_seconds']:.1f} s).", ""]
+                f"{fmt(info.get('seconds'), '.1f')} s (root {fmt(info.get('root_seconds'), '.1f')} s).", ""]
     if len(_other_ranges(document)) + bool(info) >= 2:
         notes = range_notes(document)
         out += (["Where the ranges disagree:", ""] + [f"- {n}" for n in notes] + [""] if notes
@@ -363,7 +403,7 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
         out += [text + ".", ""]
     out += verification_markdown(document.get("solver") or {})
     # Parameters
-    pp = {p["name"]: float(p["paper_updated"]) for p in paper.get("parameters", [])}
+    pp = {p["name"]: _number(p.get("paper_updated")) for p in paper.get("parameters", [])}
     truth = paper.get("truth") or {}
     ranges = (document.get("identifiability") or {}).get("ranges") or {}
     cert = _certified(document).get("ranges") or {}
@@ -392,9 +432,9 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
     out += ["## Parameters", ""] + _md_table(header, rows) + [""]
     if ranges:
         # a width is None where its linear programs found no finite range (NaN in the results)
-        determined = [n for n, rg in ranges.items() if rg["width_pct"] is not None and rg["width_pct"] <= 5.0]
+        determined = [n for n, rg in ranges.items() if finite(rg.get("width_pct")) and rg["width_pct"] <= 5.0]
         tol = 100 * (document["identifiability"].get("frequency_tolerance") or 0)
-        window = document["identifiability"].get("frequency_windows") or f"{tol:.2g} %"
+        window = document["identifiability"].get("frequency_windows") or f"{fmt(tol, '.2g')} %"
         out += ["Consistent range (linearized at the verified answer, two linear programs per parameter): the "
                 "parameter sets within the bounds whose measured mode-shape entries stay in their intervals and "
                 f"whose frequencies move from the answer's by at most {window} plus the answer's own misfit, "
@@ -405,10 +445,11 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
     out += _ranges_markdown(document)
     ident = document.get("identifiability")
     if ident:
-        norms = ident["column_norm"]
-        weak = [n for n, v in norms.items() if v < 1e-2 * max(norms.values())]
-        out += [f"Sensitivity of the measured data (exact derivatives): rank {ident['rank']} of {len(norms)}, "
-                f"condition {ident['condition']:.3g}. "
+        norms = ident.get("column_norm") or {}
+        weak = _weak(norms)
+        n_parameters = len(document["parameters"])
+        out += [f"Sensitivity of the measured data (exact derivatives): rank {ident.get('rank')} of {n_parameters}, "
+                f"condition {_condition(ident, n_parameters)}. "
                 + (f"Weakly determined by the data (sensitivity below 1 % of the largest): {', '.join(weak)}."
                    if weak else "Every parameter moves the measured data."), ""]
         combos = ident.get("undetermined_combinations") or []
@@ -427,7 +468,7 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
                _g(r["error_nominal_pct"], ".2f"), _g(r["updated_hz"], ".2f"), _g(r["error_updated_pct"], ".2f")]
         if paper.get("frequencies"):
             p = _paper_frequency(document, r, "paper_updated_hz")
-            row += [_g(p, ".2f"), _g(None if p is None else 100 * abs(p - r["measured_hz"]) / r["measured_hz"], ".2f")]
+            row += [_g(p, ".2f"), _g(_error_pct(p, r["measured_hz"]), ".2f")]
         rows.append(row)
     out += ["## Frequencies", ""] + _md_table(header, rows) + [""]
     # Damping
@@ -447,18 +488,19 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
         out += ["## Damping", ""] + _md_table(header, rows) + [""]
         info = document.get("damping_model") or {}
         if info:
-            out += [f"Caughey exponents Y = {info.get('exponents')}, coefficients beta = "
-                    f"{[float(f'{b:.4g}') for b in info.get('beta', [])]}; Rayleigh baseline Y = [0, 1]. "
+            out += [f"Caughey exponents Y = [{', '.join(fmt(y, 'g') for y in info.get('exponents') or [])}], coefficients beta = "
+                    f"[{', '.join(fmt(b) for b in info.get('beta') or [])}]; Rayleigh baseline Y = [0, 1]. "
                     f"Weights: {info.get('weights_text', 'unweighted')}.", ""]
     # Solver
     solver = document.get("solver") or {}
     if solver:
-        rows = [[f"{st['lambda']:.4f}", f"{st['objective']:.4e}", st["iterations"], st["status"],
-                 "yes" if st.get("cold") else "no", f"{st['seconds']:.3f}"] for st in solver["steps"]]
-        out += ["## Solver", "", f"{solver.get('message', '')}; objective {_g(solver['objective'], '.4e')}, "
+        rows = [[fmt(st.get("lambda"), ".4f"), fmt(st.get("objective"), ".4e"), fmt(st.get("iterations"), "d"),
+                 st.get("status"), "yes" if st.get("cold") else "no", fmt(st.get("seconds"), ".3f")]
+                for st in solver.get("steps") or []]
+        out += ["## Solver", "", f"{solver.get('message', '')}; objective {_g(solver.get('objective'), '.4e')}, "
                 f"lower bound of the global minimum from the lambda = 0 relaxation "
-                f"{_g(solver['relaxation_lower_bound'], '.4e')} ({LOWER_BOUND_NOTE}: the lifted variables can "
-                f"absorb every mismatch); {solver['seconds']:.2f} s.", ""]
+                f"{_g(solver.get('relaxation_lower_bound'), '.4e')} ({LOWER_BOUND_NOTE}: the lifted variables can "
+                f"absorb every mismatch); {_g(solver.get('seconds'), '.2f')} s.", ""]
         size = document.get("problem_size") or {}
         if size:
             table1 = paper.get("problem_size")
@@ -473,3 +515,14 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
     if images:
         out += ["## Plots", ""] + [f"![{title}]({name})" for title, name in images] + [""]
     return "\n".join(out)
+
+
+def failed_report(case, status, reason: str, notes=()) -> str:
+    """The short ``report.md`` written when the full report could not be: what failed and
+    where the figures are. Plain text of its arguments only, so that it cannot fail itself."""
+    lines = [f"# vibupdate report: {case}", "", f"Status: **{status}**.", "",
+             f"The full report could not be written ({reason}). Every figure of the run is in `results.json` "
+             "(and the updated matrices in the `.mtx` files); `vibupdate.io.results.load_results` reads it.", ""]
+    if notes:
+        lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
+    return "\n".join(lines)
