@@ -171,12 +171,13 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
 
     The results come first: the matrices and ``results.json`` are written before any plot or
     the report, and only a failure there is an error. A plot, the study's files or the report
-    that cannot be written costs a note (`vibupdate.report.plots.OutputWarning`): it is added
+    that cannot be written costs a note (`vibupdate.io.outputs.OutputWarning`): it is added
     to the run's warnings, ``results.json`` is written again with it, and a report that
     failed is replaced by a short one saying what failed. Returns the run as written (with
     those notes).
     """
-    from vibupdate.report.plots import OutputWarning, drawn, plot_frf, plot_homotopy, plot_mac
+    from vibupdate.io.outputs import OutputWarning, drawn
+    from vibupdate.report.plots import plot_frf, plot_homotopy, plot_mac
 
     parts = file_names([c.name for c in case.configurations])
     for cfg in case.configurations:
@@ -217,6 +218,9 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
                 warnings.warn(OutputWarning(f"the files of the study were not all written: {type(exc).__name__}: "
                                             f"{exc}"))
     failures = [str(w.message) for w in caught if issubclass(w.category, OutputWarning)]
+    for w in caught:   # any other warning of the plots is shown as it would have been
+        if not issubclass(w.category, OutputWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     failures += _write_report(folder / "report.md", replace(run, warnings=run.warnings + tuple(failures)), images)
     if failures:
         run = replace(run, warnings=run.warnings + tuple(failures))
@@ -258,9 +262,10 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     contains every answer the run reports or is not flagged certified.
 
     The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
-    file vibupdate did not write unless ``force``); the files are written beside it and moved
-    into place at the end, so a run that fails or is interrupted leaves earlier results as
-    they were, and files in the folder that vibupdate did not write are never touched.
+    file a run did not write unless ``force``, no file the case reads among those a run would
+    replace or remove); the files are written beside it and moved into place at the end, so a
+    run that fails or is interrupted leaves earlier results as they were, and files in the
+    folder that a run did not write (the user's, another command's) are never touched.
     """
     from vibupdate import __version__
 
@@ -272,7 +277,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         say(f"warning: {w}")
     if study is not None:
         study.check(case)
-    target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()))
+    target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()),
+                            command="run", inputs=case.inputs)
     verification = case.verification
     if case.frequency_tolerance > 0:
         verification = replace(verification, frequency_tolerance=case.frequency_tolerance)

@@ -174,8 +174,6 @@ def range_disagreements(certified: dict, others: dict, wider: float = 2.0) -> li
         values are not consistent with the data as S states them), or a certified range much
         wider than another (the other misses what the data allow).
     """
-    from vibupdate.report.numbers import finite, fmt
-
     notes = []
     for label, ranges in others.items():
         for name, c in certified.items():
@@ -183,16 +181,17 @@ def range_disagreements(certified: dict, others: dict, wider: float = 2.0) -> li
             if not o or c.get("lower") is None or c.get("upper") is None:
                 continue
             lo, hi = o.get("lower", o.get("min")), o.get("upper", o.get("max"))
-            if not all(finite(v) for v in (lo, hi, c["lower"], c["upper"])):
-                continue
+            ends = (lo, hi, c["lower"], c["upper"])
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in ends):
+                continue   # a range end that is missing or not finite is no disagreement
             tol = 1e-9 * max(abs(c["lower"]), abs(c["upper"]), 1e-300)
             if lo < c["lower"] - tol or hi > c["upper"] + tol:
-                notes.append(f"{name}: the {label} range [{fmt(lo)}, {fmt(hi)}] reaches outside the certified range "
-                             f"[{fmt(c['lower'])}, {fmt(c['upper'])}]")
+                notes.append(f"{name}: the {label} range [{lo:.4g}, {hi:.4g}] reaches outside the certified range "
+                             f"[{c['lower']:.4g}, {c['upper']:.4g}]")
             elif (c["upper"] - c["lower"]) > wider * (hi - lo):
-                notes.append(f"{name}: the certified range [{fmt(c['lower'])}, {fmt(c['upper'])}] is "
-                             f"{fmt((c['upper'] - c['lower']) / max(hi - lo, 1e-300), '.3g')}x the {label} range "
-                             f"[{fmt(lo)}, {fmt(hi)}]")
+                notes.append(f"{name}: the certified range [{c['lower']:.4g}, {c['upper']:.4g}] is "
+                             f"{(c['upper'] - c['lower']) / max(hi - lo, 1e-300):.3g}x the {label} range "
+                             f"[{lo:.4g}, {hi:.4g}]")
     return notes
 
 

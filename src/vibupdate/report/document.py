@@ -255,13 +255,15 @@ def summary_text(document: dict) -> str:
     lines = [
         f"mean frequency error: nominal {_fmt(s['mean_error_nominal_pct'], '.2f')} %, "
         f"updated {_fmt(s['mean_error_updated_pct'], '.2f')} %"
-        + (f" (paper: {paper['mean_error_nominal_pct']} % -> {paper['mean_error_updated_pct']} %)" if paper else ""),
+        + (f" (paper: {fmt(paper.get('mean_error_nominal_pct'), 'g')} % -> "
+           f"{fmt(paper.get('mean_error_updated_pct'), 'g')} %)" if paper else ""),
     ]
     if s.get("mean_damping_error_pct") is not None:
         lines.append(
             f"mean damping error: Rayleigh {_fmt(s.get('mean_damping_error_rayleigh_pct'), '.1f')} %, Caughey "
             f"{_fmt(s['mean_damping_error_pct'], '.1f')} %"
-            + (f" (paper: {paper['mean_damping_error_rayleigh_pct']} %, {paper['mean_damping_error_pct']} %)"
+            + (f" (paper: {fmt(paper.get('mean_damping_error_rayleigh_pct'), 'g')} %, "
+               f"{fmt(paper.get('mean_damping_error_pct'), 'g')} %)"
                if "mean_damping_error_pct" in paper else ""))
     if solver:
         lines.append(
@@ -396,9 +398,11 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
             f"{_g(s['mean_damping_error_pct'], '.1f')} % (Caughey).", ""]
     if paper.get("summary"):
         ps = paper["summary"]
-        text = f"The paper reports {ps['mean_error_nominal_pct']} % -> {ps['mean_error_updated_pct']} % for frequencies"
+        text = (f"The paper reports {fmt(ps.get('mean_error_nominal_pct'), 'g')} % -> "
+                f"{fmt(ps.get('mean_error_updated_pct'), 'g')} % for frequencies")
         if "mean_damping_error_pct" in ps:
-            text += (f" and {ps['mean_damping_error_rayleigh_pct']} % (Rayleigh) / {ps['mean_damping_error_pct']} % "
+            text += (f" and {fmt(ps.get('mean_damping_error_rayleigh_pct'), 'g')} % (Rayleigh) / "
+                     f"{fmt(ps.get('mean_damping_error_pct'), 'g')} % "
                      "(Caughey) for damping")
         out += [text + ".", ""]
     out += verification_markdown(document.get("solver") or {})

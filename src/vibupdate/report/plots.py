@@ -12,40 +12,7 @@ import numpy as np
 from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
-__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance", "model_receptances",
-           "OutputWarning", "drawn"]
-
-
-class OutputWarning(UserWarning):
-    """A file of the results (a plot, the report) that could not be written; the results
-    themselves are kept and the warning says which file and why."""
-
-
-def drawn(path, plot, *args, **kwargs) -> bool:
-    """Call ``plot(path, *args, **kwargs)``; a plot that fails costs a warning, not the run.
-
-    Returns True when the plot was written. On any exception of ``plot`` (a degenerate
-    figure, a font or backend problem) the partial file and the figures it opened are
-    removed, an `OutputWarning` naming the file and the error is issued, and False is
-    returned. KeyboardInterrupt is not caught.
-    """
-    path = Path(path)
-    plt, before = None, set()
-    try:
-        plt = _pyplot()
-        before = set(plt.get_fignums())
-        plot(path, *args, **kwargs)
-        return True
-    except Exception as exc:  # a plot is never worth the run: any failure is a note
-        if plt is not None:
-            for number in set(plt.get_fignums()) - before:
-                plt.close(number)
-        if path.is_file():
-            path.unlink()
-        import warnings
-
-        warnings.warn(OutputWarning(f"{path.name} was not drawn: {type(exc).__name__}: {exc}"), stacklevel=2)
-        return False
+__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance", "model_receptances"]
 
 
 def _pyplot():

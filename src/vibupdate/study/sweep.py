@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.io.case import Case, load_case
+from vibupdate.io.results import json_text
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
 from vibupdate.inverse.reduction import wants_reduction
@@ -53,11 +54,12 @@ from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
 from vibupdate.study.sweep_summary import SweepSummary, summarize
 
 __all__ = ["ACCEPT_FRACTION", "CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize",
-           "read_rows"]
+           "read_rows", "write_multistart"]
 
 SAMPLES_FILE = "samples.csv"
 SETTINGS_FILE = "sweep-settings.json"
 SUMMARY_FILE = "sweep.json"
+MULTISTART_FILE = "multistart.json"
 #: Columns whose values depend on the run (timing, worker), not on the sample.
 RUN_COLUMNS = ("seconds", "cpu_seconds", "worker")
 #: The ends of the walks along null directions (`vibupdate.study.extent`), one row per end.
@@ -274,12 +276,23 @@ def _prepare_out(out: Path, settings: dict, resume: bool) -> None:
             if old.get(key) != settings.get(key):
                 raise ValueError(f"cannot resume {str(out)!r}: its {key} is {old.get(key)!r}, this run's is "
                                  f"{settings.get(key)!r}")
+        _list(out, settings, SETTINGS_FILE, SAMPLES_FILE, ENDS_FILE)
         return
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ValueError(f"output directory {str(out)!r} exists and is not empty; use --resume to finish "
                          "a sweep there, or another --out")
     out.mkdir(parents=True, exist_ok=True)
     file.write_text(json.dumps(settings, indent=2), encoding="utf-8")
+    _list(out, settings, SETTINGS_FILE, SAMPLES_FILE, ENDS_FILE)
+
+
+def _list(out: Path, settings: dict, *names: str) -> None:
+    """List files the sweep wrote into ``out`` in its manifest (`vibupdate.io.outputs`,
+    command ``sweep``), so that no other command replaces or removes them."""
+    from vibupdate import __version__
+    from vibupdate.io.outputs import add_to_manifest
+
+    add_to_manifest(out, "sweep", names, case=str(settings.get("case", "")), version=__version__)
 
 
 def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingOptions | None = None,
@@ -379,14 +392,46 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
                                   if new and all(isinstance(r.get("cpu_seconds"), float) for r in new) else None),
         "overhead_per_task_seconds": (wall * n_workers - sum(r["seconds"] for r in new)) / len(new) if new else None,
     }
-    (out / SUMMARY_FILE).write_text(json.dumps(document, indent=2), encoding="utf-8")
+    (out / SUMMARY_FILE).write_text(json_text(document), encoding="utf-8")
+    _list(out, settings, SUMMARY_FILE)
     if plots:
-        from vibupdate.report.sweep_plots import write_sweep_plots
-
-        write_sweep_plots(out, loaded, rows, document, ends)
+        _plots(out, loaded, rows, document, ends, settings, say)
     say(f"{document['verified']} verified, {document['unverified']} unverified, {document['failed']} failed "
         f"of {document['samples']} samples; wrote {out}/")
     return SweepSummary(document, out)
+
+
+def _plots(out: Path, case: Case, rows, document: dict, ends, settings: dict, say) -> None:
+    """The plots of the sweep, after ``sweep.json``: a plot that fails costs a warning (printed
+    and added to ``sweep.json`` as ``warnings``), never the sweep."""
+    import warnings
+
+    from vibupdate.io.outputs import OutputWarning
+    from vibupdate.report.sweep_plots import write_sweep_plots
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", OutputWarning)
+        files = write_sweep_plots(out, case, rows, document, ends)
+    _list(out, settings, *(f.name for f in files))
+    notes = [str(w.message) for w in caught if issubclass(w.category, OutputWarning)]
+    for w in caught:
+        if not issubclass(w.category, OutputWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    if notes:
+        for note in notes:
+            say(f"warning: {note}")
+        document["warnings"] = document.get("warnings", []) + notes
+        (out / SUMMARY_FILE).write_text(json_text(document), encoding="utf-8")
+
+
+def write_multistart(out_dir, case: Case, result) -> Path:
+    """``multistart.json`` of a sweep (`vibupdate.study.multistart.multistart` of its case),
+    listed in the sweep's manifest."""
+    out = Path(out_dir)
+    path = out / MULTISTART_FILE
+    path.write_text(json_text(result.as_dict(case.configurations[0].model.parameters)), encoding="utf-8")
+    _list(out, {"case": case.name}, MULTISTART_FILE)
+    return path
 
 
 def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writers, progress) -> tuple[list[dict], list[dict]]:
