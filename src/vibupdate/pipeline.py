@@ -177,7 +177,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     those notes).
     """
     from vibupdate.io.outputs import OutputWarning, drawn
-    from vibupdate.report.plots import plot_frf, plot_homotopy, plot_mac
+    from vibupdate.report.plots import plot_homotopy
 
     parts = file_names([c.name for c in case.configurations])
     for cfg in case.configurations:
@@ -191,24 +191,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
         for cfg in case.configurations:
-            part, matrices = parts[cfg.name], run.matrices[cfg.name]
-            file = f"frf_{part}.png"
-            updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
-            if cfg.name in case.frfs:
-                caption = _measured_frf_caption(cfg, case.frfs[cfg.name], matrices["nominal"], updated)
-                ok = drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices["nominal"], updated)
-            else:
-                response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
-                caption = f"FRF h_{response},{excitation}, configuration {cfg.name}"
-                ok = drawn(folder / file, plot_frf, cfg, matrices["nominal"], updated, cfg.model.dof(response),
-                           cfg.model.dof(excitation), f"h_{response},{excitation}")
-            images += [(caption, file)] if ok else []
-            mac = run.mac_matrix.get(cfg.name)
-            if mac is not None:
-                file = f"mac_{part}.png"
-                values = np.array(mac["values"], dtype=float)  # None (not computed) becomes NaN
-                if drawn(folder / file, plot_mac, values, f"MAC, configuration {cfg.name}"):
-                    images.append((f"MAC configuration {cfg.name}", file))
+            images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
         if drawn(folder / "homotopy.png", plot_homotopy, run.solver["steps"]):
             images.append(("homotopy objective per step", "homotopy.png"))
         if extra is not None:
@@ -226,6 +209,34 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
         run = replace(run, warnings=run.warnings + tuple(failures))
         write_results(folder / "results.json", run)
     return run
+
+
+def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResult) -> list[tuple[str, str]]:
+    """The FRF plot and (with measured shapes) the MAC plot of one configuration; returns the
+    ``(caption, file name)`` of those drawn (`vibupdate.io.outputs.drawn`: a failure is a
+    warning)."""
+    from vibupdate.io.outputs import drawn
+    from vibupdate.report.plots import plot_frf, plot_mac
+
+    images = []
+    matrices = run.matrices[cfg.name]
+    file = f"frf_{part}.png"
+    updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
+    if cfg.name in case.frfs:
+        if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices["nominal"], updated):
+            images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices["nominal"], updated), file))
+    else:
+        response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
+        if drawn(folder / file, plot_frf, cfg, matrices["nominal"], updated, cfg.model.dof(response),
+                 cfg.model.dof(excitation), f"h_{response},{excitation}"):
+            images.append((f"FRF h_{response},{excitation}, configuration {cfg.name}", file))
+    mac = run.mac_matrix.get(cfg.name)
+    if mac is not None:
+        file = f"mac_{part}.png"
+        values = np.array(mac["values"], dtype=float)  # None (not computed) becomes NaN
+        if drawn(folder / file, plot_mac, values, f"MAC, configuration {cfg.name}"):
+            images.append((f"MAC configuration {cfg.name}", file))
+    return images
 
 
 def _write_report(path: Path, run: RunResult, images) -> list[str]:
