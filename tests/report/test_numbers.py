@@ -27,7 +27,8 @@ NASTY = [math.nan, math.inf, -math.inf, None, 1e308, -1e308, 5e-324, 1e-300, 0.0
 
 
 @pytest.mark.parametrize("value, spec, text", [
-    (None, "9.2f", "        -"), (math.nan, "6.2f", "   n/a"), (math.inf, ".3g", "inf"), (-math.inf, "9.4f", "     -inf"),
+    (None, "9.2f", "        -"), (math.nan, "6.2f", "   n/a"), (math.inf, ".3g", "inf"),
+    (-math.inf, "9.4f", "     -inf"),
     (1e300, "9.2f", "1.00e+300"), (5e-324, ".4g", "4.941e-324"), (2.5, "9.2f", "     2.50"), ("x", "6.2f", "     x"),
     (np.float64(1.5), ".2f", "1.50"), (3.5, "d", "3.5"), (7, ">2", " 7"), (np.int64(3), "d", "3"),
 ])
