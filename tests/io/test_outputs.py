@@ -313,3 +313,22 @@ def test_a_report_that_fails_leaves_a_short_report_and_the_results(tmp_path, mon
     run = load_results(out / "results.json")
     assert run.success and any("report.md is a short report" in w for w in run.warnings)
     assert {"homotopy.png", "frf_A.png", "M_A.mtx"} <= set(read_manifest(out))
+
+
+def test_ctrl_c_while_plotting_still_exits_130_with_nothing_written(earlier_results, tmp_path, monkeypatch, capsys):
+    """A plot's failure is a note, an interrupt is not: Ctrl-C after results.json was written
+    into the staging folder leaves the earlier results as they were."""
+    import shutil
+
+    import vibupdate.report.plots as plots
+
+    shutil.copytree(earlier_results, tmp_path, dirs_exist_ok=True)
+    before = snapshot(tmp_path)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plots, "plot_homotopy", interrupted)
+    assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert snapshot(tmp_path) == before
