@@ -295,3 +295,63 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
     assert "lambda = 0.0000" not in text and "lambda = 1.0000" not in text and "Traceback" not in text
     assert "interrupted" in rest
     assert snapshot(tmp_path) == before
+
+
+#: Three springs of a chain of three unit masses, two natural frequencies: fewer data than
+#: parameters, so one combination of the springs is not determined by the data.
+UNDER_DETERMINED_CHAIN = """\
+case = "chain3"
+
+[model]
+type = "elements"
+kind = "beam"
+line = { first = 1, last = 3, start = [1.0], end = [3.0] }
+fix = ["phi1", "phi2", "phi3"]
+mass = [{ dof = "y1", value = 1.0 }, { dof = "y2", value = 1.0 }, { dof = "y3", value = 1.0 }]
+spring = [{ dof = "y1", value = "k1" }, { dof = "y1", other = "y2", value = "k2" },
+          { dof = "y2", other = "y3", value = "k3" }]
+
+[[parameter]]
+name = "k1"
+nominal = 1000.0
+lower = 700.0
+upper = 1300.0
+
+[[parameter]]
+name = "k2"
+nominal = 1000.0
+lower = 700.0
+upper = 1300.0
+
+[[parameter]]
+name = "k3"
+nominal = 1000.0
+lower = 700.0
+upper = 1300.0
+
+[[configuration]]
+name = "A"
+natural_hz = [2.2, 6.1]
+"""
+
+
+def test_an_under_determined_chain_writes_its_results_and_names_the_undetermined_combination(tmp_path, capsys):
+    from vibupdate.io.results import load_results
+
+    case = tmp_path / "case.toml"
+    case.write_text(UNDER_DETERMINED_CHAIN)
+    out = tmp_path / "out"
+    assert main(["check", str(case)]) == 0
+    code = main(["run", str(case), "--out", str(out)])
+    printed = capsys.readouterr()
+    assert code in (0, 1), printed.err
+    assert "internal error" not in printed.err
+    run = load_results(out / "results.json")
+    ident = run.identifiability
+    assert ident["rank"] == 2 and ident["condition"] is None  # infinite: written as null
+    (combo,) = ident["undetermined_combinations"]
+    assert all(name in combo for name in ("k1", "k2", "k3"))
+    report = (out / "report.md").read_text()
+    assert combo in report and "condition inf" in report
+    tables = printed.out[printed.out.index("Frequencies [Hz]"):]   # the tables printed after the run
+    assert combo in tables and "condition inf" in tables

@@ -315,7 +315,7 @@ def _run_body(mutation) -> None:
         if code == 2:
             assert _snapshot(folder) == before, "a rejected run wrote files"
         else:
-            assert {"results.json", "report.md", "vibupdate-manifest.json"} <= {p.name for p in out.iterdir()}
+            assert {"results.json", "report.md", "vibupdate-manifest-run.json"} <= {p.name for p in out.iterdir()}
 
 
 CHEAP = json.loads(json.dumps(CANTILEVER))

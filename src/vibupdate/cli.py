@@ -119,10 +119,10 @@ def _say(line: str) -> None:
 
 
 def _sweep(args) -> int:
-    import json
     from pathlib import Path
 
     from vibupdate.io.case import load_case
+    from vibupdate.report.numbers import fmt
     from vibupdate.study.sampling import SamplingOptions
     from vibupdate.study.sweep import run_sweep
 
@@ -136,16 +136,15 @@ def _sweep(args) -> int:
                         scheduler=args.scheduler, resume=args.resume, progress=_say)
     if args.multistart:
         from vibupdate.study.multistart import multistart
+        from vibupdate.study.sweep import write_multistart
 
         result = multistart(case, args.multistart, seed=args.seed, workers=args.workers, scheduler=args.scheduler,
                             progress=_say)
-        doc = result.as_dict(case.configurations[0].model.parameters)
-        (out / "multistart.json").write_text(json.dumps(doc, indent=2), encoding="utf-8")
+        write_multistart(out, case, result)
     print()
     print(f"{'parameter':<12} {'unit':<8} {'min':>12} {'q05':>12} {'q50':>12} {'q95':>12} {'max':>12}")
     for p in summary.document["parameters"]:
-        cells = " ".join(f"{p[k]:>12.6g}" if p[k] is not None else f"{'-':>12}"
-                         for k in ("min", "q05", "q50", "q95", "max"))
+        cells = " ".join(fmt(p[k], ">12.6g") for k in ("min", "q05", "q50", "q95", "max"))
         print(f"{p['name']:<12} {p['unit']:<8} {cells}")
     return EXIT["success"] if summary.verified > 0 else EXIT["not_verified"]
 
@@ -240,7 +239,9 @@ def _command(args) -> int:
 
 def _extract(args) -> int:
     import math
+    import warnings
 
+    from vibupdate.io.outputs import OutputWarning
     from vibupdate.data.extraction import extract
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import read_frfs
@@ -254,11 +255,18 @@ def _extract(args) -> int:
     frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
     fit_band = None if args.fit_band is None else (2 * math.pi * args.fit_band[0], 2 * math.pi * args.fit_band[1])
-    check_extraction_folder(args.out, args.force)  # before the fit, as run checks before solving
+    check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
                      window=args.window)
-    paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
-                             force=args.force)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", OutputWarning)
+        paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
+                                 force=args.force, inputs=args.files)
+    for w in caught:
+        if issubclass(w.category, OutputWarning):
+            print(f"warning: {w.message}")
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
           f"intervals at {100 * args.confidence:g} %")
     for k, m in enumerate(result.modes):

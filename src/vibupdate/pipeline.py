@@ -138,66 +138,122 @@ def planned_files(case: Case) -> list[str]:
     return names
 
 
-def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> tuple[str, str]:
+def _damping_labels(nominal, updated) -> tuple[str, str]:
+    """How the nominal and the updated model of an FRF plot are damped (``(M, K, C)`` each)."""
+    return ("identified damping applied" if nominal[2] is not None else "undamped",
+            "with the identified Caughey damping" if updated[2] is not None else "undamped")
+
+
+def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> None:
     """``frf_NAME.png`` of a configuration whose data came from FRF files: the measured
-    receptances over the nominal and updated model receptances; returns the report's caption
-    and the file name."""
+    receptances over the nominal and updated model receptances."""
     from vibupdate.report.plots import plot_measured_frf
 
-    damped = "with the identified Caughey damping" if updated[2] is not None else "undamped"
-    nominal_damping = "identified damping applied" if nominal[2] is not None else "undamped"
+    nominal_damping, damped = _damping_labels(nominal, updated)
     title = f"configuration {cfg.name}: measured and model receptances (m/N)"
     plot_measured_frf(path, frfs, cfg.model.dofs, nominal, updated, title,
                       f"nominal model ({nominal_damping})", f"updated model ({damped})")
-    caption = (f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
-               f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model ({nominal_damping}) "
-               f"and the updated model ({damped})")
-    return caption, path.name
+
+
+def _measured_frf_caption(cfg, frfs, nominal, updated) -> str:
+    """The report's caption of `_measured_frf_plot`."""
+    nominal_damping, damped = _damping_labels(nominal, updated)
+    return (f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
+            f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model ({nominal_damping}) "
+            f"and the updated model ({damped})")
 
 
 def write_outputs(folder: Path, case: Case, run: RunResult,
-                  extra: Callable[[Path], list[tuple[str, str]]] | None = None) -> list[str]:
-    """Write ``results.json``, ``report.md``, plots and matrices of ``run`` into ``folder``.
+                  extra: Callable[[Path], list[tuple[str, str]]] | None = None) -> RunResult:
+    """Write ``results.json``, matrices, plots and ``report.md`` of ``run`` into ``folder``.
 
     Every file is written from ``run`` (the nominal models for the FRF plot from ``case``);
     ``extra(folder)``, when given, writes a study's files and returns its plots as
-    ``(caption, file name)`` for the report. Returns the file names written.
+    ``(caption, file name)`` for the report.
+
+    The results come first: the matrices and ``results.json`` are written before any plot or
+    the report, and only a failure there is an error. A plot, the study's files or the report
+    that cannot be written costs a note (`vibupdate.io.outputs.OutputWarning`): it is added
+    to the run's warnings, ``results.json`` is written again with it, and a report that
+    failed is replaced by a short one saying what failed. Returns the run as written (with
+    those notes).
     """
-    from vibupdate.report.plots import plot_frf, plot_homotopy, plot_mac
-    from vibupdate.report.document import markdown_report
+    from vibupdate.io.outputs import OutputWarning, drawn
+    from vibupdate.report.plots import plot_homotopy
 
     parts = file_names([c.name for c in case.configurations])
-    images = []
     for cfg in case.configurations:
         part, matrices = parts[cfg.name], run.matrices[cfg.name]
         for name in ("M", "K", "C"):
             if name in matrices:
                 scipy.io.mmwrite(str(folder / f"{name}_{part}.mtx"), sp.coo_matrix(matrices[name]),
                                  comment=f"vibupdate: updated {name} of configuration {part} (SI units)")
-        file = f"frf_{part}.png"
-        updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
-        if cfg.name in case.frfs:
-            images.append(_measured_frf_plot(folder / file, cfg, case.frfs[cfg.name], matrices["nominal"], updated))
-        else:
-            response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
-            label = f"h_{response},{excitation}"
-            plot_frf(folder / file, cfg, matrices["nominal"], updated, cfg.model.dof(response),
-                     cfg.model.dof(excitation), label)
-            images.append((f"FRF {label}, configuration {cfg.name}", file))
-        mac = run.mac_matrix.get(cfg.name)
-        if mac is not None:
-            file = f"mac_{part}.png"
-            values = np.array(mac["values"], dtype=float)  # None (not computed) becomes NaN
-            plot_mac(folder / file, values, f"MAC, configuration {cfg.name}")
-            images.append((f"MAC configuration {cfg.name}", file))
-    plot_homotopy(folder / "homotopy.png", run.solver["steps"])
-    images.append(("homotopy objective per step", "homotopy.png"))
-    if extra is not None:
-        images += extra(folder)
-    document = run.as_document()
-    (folder / "report.md").write_text(markdown_report(document, images, list(run.warnings)), encoding="utf-8")
     write_results(folder / "results.json", run)
-    return sorted(p.name for p in folder.iterdir())
+    images = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", OutputWarning)
+        for cfg in case.configurations:
+            images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
+        if drawn(folder / "homotopy.png", plot_homotopy, run.solver["steps"]):
+            images.append(("homotopy objective per step", "homotopy.png"))
+        if extra is not None:
+            try:
+                images += extra(folder)
+            except Exception as exc:  # the study's files are extras: the run's results stand without them
+                warnings.warn(OutputWarning(f"the files of the study were not all written: {type(exc).__name__}: "
+                                            f"{exc}"))
+    failures = [str(w.message) for w in caught if issubclass(w.category, OutputWarning)]
+    for w in caught:   # any other warning of the plots is shown as it would have been
+        if not issubclass(w.category, OutputWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    failures += _write_report(folder / "report.md", replace(run, warnings=run.warnings + tuple(failures)), images)
+    if failures:
+        run = replace(run, warnings=run.warnings + tuple(failures))
+        write_results(folder / "results.json", run)
+    return run
+
+
+def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResult) -> list[tuple[str, str]]:
+    """The FRF plot and (with measured shapes) the MAC plot of one configuration; returns the
+    ``(caption, file name)`` of those drawn (`vibupdate.io.outputs.drawn`: a failure is a
+    warning)."""
+    from vibupdate.io.outputs import drawn
+    from vibupdate.report.plots import plot_frf, plot_mac
+
+    images = []
+    matrices = run.matrices[cfg.name]
+    file = f"frf_{part}.png"
+    updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
+    if cfg.name in case.frfs:
+        if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices["nominal"], updated):
+            images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices["nominal"], updated), file))
+    else:
+        response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
+        if drawn(folder / file, plot_frf, cfg, matrices["nominal"], updated, cfg.model.dof(response),
+                 cfg.model.dof(excitation), f"h_{response},{excitation}"):
+            images.append((f"FRF h_{response},{excitation}, configuration {cfg.name}", file))
+    mac = run.mac_matrix.get(cfg.name)
+    if mac is not None:
+        file = f"mac_{part}.png"
+        values = np.array(mac["values"], dtype=float)  # None (not computed) becomes NaN
+        if drawn(folder / file, plot_mac, values, f"MAC, configuration {cfg.name}"):
+            images.append((f"MAC configuration {cfg.name}", file))
+    return images
+
+
+def _write_report(path: Path, run: RunResult, images) -> list[str]:
+    """Write ``report.md``; when the full report fails, a short one saying what failed.
+    Returns the note of the failure ([] when the full report was written)."""
+    from vibupdate.report.document import failed_report, markdown_report
+
+    try:
+        path.write_text(markdown_report(run.as_document(), images, list(run.warnings)), encoding="utf-8")
+        return []
+    except Exception as exc:  # the report is a view of results.json, already written: a failure is a note
+        note = f"report.md is a short report: the full report failed ({type(exc).__name__}: {exc})"
+        path.write_text(failed_report(run.case, run.status, f"{type(exc).__name__}: {exc}", list(run.warnings)),
+                        encoding="utf-8")
+        return [note]
 
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
@@ -219,9 +275,10 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     contains every answer the run reports or is not flagged certified.
 
     The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
-    file vibupdate did not write unless ``force``); the files are written beside it and moved
-    into place at the end, so a run that fails or is interrupted leaves earlier results as
-    they were, and files in the folder that vibupdate did not write are never touched.
+    file a run did not write unless ``force``, no file the case reads among those a run would
+    replace or remove); the files are written beside it and moved into place at the end, so a
+    run that fails or is interrupted leaves earlier results as they were, and files in the
+    folder that a run did not write (the user's, another command's) are never touched.
     """
     from vibupdate import __version__
 
@@ -233,7 +290,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         say(f"warning: {w}")
     if study is not None:
         study.check(case)
-    target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()))
+    target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()),
+                            command="run", inputs=case.inputs)
     verification = case.verification
     if case.frequency_tolerance > 0:
         verification = replace(verification, frequency_tolerance=case.frequency_tolerance)
@@ -264,10 +322,12 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         identifiability["certified"] = _certified(case, result, certify, say, answers)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper)
-    write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
-                    version=__version__)
+    written = write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
+                              version=__version__)
+    for note in written.warnings[len(run.warnings):]:
+        say(f"warning: {note}")
     say(f"wrote {target.path}/ (results.json, report.md, plots, matrices; {MANIFEST} lists them)")
-    return run
+    return written
 
 
 def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()) -> dict:

@@ -329,16 +329,16 @@ def test_cli_extract_writes_through_the_manifest_and_keeps_foreign_files(tmp_pat
     args = ["extract", str(uff), "--band", "20", "300", "--out", str(out), "--no-plot"]
     assert main(args) == 2
     err = capsys.readouterr().err
-    assert "holds files vibupdate did not write (notes.txt)" in err and "--force" in err
+    assert "holds files `vibupdate extract` did not write (notes.txt)" in err and "--force" in err
     assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]  # refused before writing anything
     assert main(args + ["--force"]) == 0
-    assert read_manifest(out) == ["configuration.toml", "damping.csv", "extraction.json", "frequencies.csv",
+    assert read_manifest(out, "extract") == ["configuration.toml", "damping.csv", "extraction.json", "frequencies.csv",
                                   "shapes.csv"]
     assert (out / "notes.txt").read_text() == "mine"
     (out / "frequencies.csv").unlink()
     (out / "fit.png").write_text("not ours")  # a foreign file where the plot would go
     assert main(args[:-1] + ["--force"]) == 2
-    assert "fit.png, which vibupdate did not write and would overwrite" in capsys.readouterr().err
+    assert "fit.png, which `vibupdate extract` did not write and would overwrite" in capsys.readouterr().err
     assert main(args) == 2  # foreign files again without --force
     (out / "fit.png").unlink()
     (out / "notes.txt").unlink()

@@ -270,3 +270,65 @@ def test_write_published_stages_publishes_and_cleans_up_for_both_writers(tmp_pat
     # both writers of a results folder go through it
     assert pipeline.write_published is write_published
     assert "write_published" in extraction_io.write_extraction.__code__.co_names
+
+
+def test_a_plot_that_fails_costs_a_note_not_the_run(tmp_path, monkeypatch, capsys):
+    """results.json and the matrices come before any plot; a plot that raises is named in the
+    warnings (results.json, report.md, terminal), the other files are written, exit 0."""
+    import vibupdate.report.plots as plots
+    from vibupdate.io.results import load_results
+
+    def broken(*args, **kwargs):
+        raise ValueError("Too many bins for data range")
+
+    monkeypatch.setattr(plots, "plot_homotopy", broken)
+    case = write_case(tmp_path)
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    note = "homotopy.png was not drawn: ValueError: Too many bins for data range"
+    assert note in printed.out
+    files = set(read_manifest(out))
+    assert {"results.json", "report.md", "M_A.mtx", "K_A.mtx", "C_A.mtx", "frf_A.png"} <= files
+    assert "homotopy.png" not in files and not (out / "homotopy.png").exists()
+    assert note in load_results(out / "results.json").warnings
+    report = (out / "report.md").read_text()
+    assert note in report and "## Parameters" in report and "(homotopy.png)" not in report
+
+
+def test_a_report_that_fails_leaves_a_short_report_and_the_results(tmp_path, monkeypatch, capsys):
+    import vibupdate.report.document as document
+    from vibupdate.io.results import load_results
+
+    def broken(*args, **kwargs):
+        raise TypeError("unsupported format string passed to NoneType.__format__")
+
+    monkeypatch.setattr(document, "markdown_report", broken)
+    case = write_case(tmp_path)
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out)]) == 0
+    assert "report.md is a short report" in capsys.readouterr().out
+    report = (out / "report.md").read_text()
+    assert "could not be written (TypeError: unsupported format string" in report and "results.json" in report
+    run = load_results(out / "results.json")
+    assert run.success and any("report.md is a short report" in w for w in run.warnings)
+    assert {"homotopy.png", "frf_A.png", "M_A.mtx"} <= set(read_manifest(out))
+
+
+def test_ctrl_c_while_plotting_still_exits_130_with_nothing_written(earlier_results, tmp_path, monkeypatch, capsys):
+    """A plot's failure is a note, an interrupt is not: Ctrl-C after results.json was written
+    into the staging folder leaves the earlier results as they were."""
+    import shutil
+
+    import vibupdate.report.plots as plots
+
+    shutil.copytree(earlier_results, tmp_path, dirs_exist_ok=True)
+    before = snapshot(tmp_path)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plots, "plot_homotopy", interrupted)
+    assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert snapshot(tmp_path) == before

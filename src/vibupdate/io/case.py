@@ -76,6 +76,9 @@ class Case:
     frf_notes: Mapping = field(default_factory=dict)
     """Per such configuration, the extraction's notes (`vibupdate.data.extraction.Extraction.notes`):
     `check` and `run` report them as warnings."""
+    inputs: tuple[Path, ...] = ()
+    """The files the case reads: the case file and every file a value of it names (matrices,
+    builder module, data files); a run never replaces or removes them."""
 
 
 # -- measured data ------------------------------------------------------------------------------
@@ -304,4 +307,27 @@ def load_case(path) -> Case:
         verification=_options(VerifyOptions, data.get("verification", {}), VERIFICATION_KEYS, "verification", where),
         frfs={c.name: f for c, (f, _) in loaded if f is not None},
         frf_notes={c.name: n for c, (_, n) in loaded if n},
+        inputs=(path, *_named_files(data, base)),
     )
+
+
+def _named_files(data, base: Path) -> list[Path]:
+    """Every existing file that a string value of the case file names, relative to ``base``
+    (a builder's ``"module.py:function"`` names ``module.py``)."""
+    found = []
+    if isinstance(data, Mapping):
+        for value in data.values():
+            found += _named_files(value, base)
+    elif isinstance(data, list):
+        for value in data:
+            found += _named_files(value, base)
+    elif isinstance(data, str) and 0 < len(data) < 4096 and "\n" not in data:
+        for text in (data, data.rsplit(":", 1)[0]):
+            try:
+                path = base / text
+                if path.is_file():
+                    found.append(path)
+                    break
+            except (OSError, ValueError):
+                continue
+    return found

@@ -12,15 +12,14 @@ file read (``docs/case-file.md``):
   into a case file.
 
 The folder is written as a run's results folder is (`vibupdate.io.outputs`): checked first, the
-files written beside it and moved into place, listed in the folder's manifest; files that
-vibupdate did not write are never replaced, and a folder holding any is refused unless
-``force``.
+files written beside it and moved into place, listed in the manifest of ``extract``; files
+that ``extract`` did not write (the user's, a run's) are never replaced or removed, and a
+folder holding any is refused unless ``force``.
 """
 
 from __future__ import annotations
 
 import csv
-import json
 import math
 from pathlib import Path
 
@@ -39,15 +38,17 @@ EXTRACTION_FILES = ("extraction.json", "frequencies.csv", "shapes.csv", "damping
                     "fit.png")
 
 
-def check_extraction_folder(out_dir, force: bool = False):
-    """Check the output folder before extracting (`vibupdate.io.outputs.prepare_output`).
+def check_extraction_folder(out_dir, force: bool = False, inputs=()):
+    """Check the output folder before extracting (`vibupdate.io.outputs.prepare_output`, as the
+    command ``extract``).
 
     Raises ValueError naming the folder when it is not a writable folder, or holds files
-    vibupdate did not write and ``force`` is false, or a file it would overwrite is not its own.
+    ``extract`` did not write and ``force`` is false, or a file it would overwrite is not its
+    own, or it would replace or remove one of the FRF files it reads (``inputs``).
     """
     from vibupdate.io.outputs import prepare_output
 
-    return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES)
+    return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES, command="extract", inputs=inputs)
 
 
 def _hz(pair) -> list[float]:
@@ -96,26 +97,30 @@ def _write_csv(path: Path, header, rows) -> None:
 
 
 def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int = 1, name: str = "measured",
-                     plot: bool = True, force: bool = False) -> dict:
+                     plot: bool = True, force: bool = False, inputs=()) -> dict:
     """Write every output file into the folder ``out_dir``; returns ``{kind: path}``.
 
     Through the manifest-protected path of `vibupdate.io.outputs` (module docstring): raises
-    ValueError, writing nothing, when the folder holds files vibupdate did not write and
-    ``force`` is false, or when one of them would be overwritten.
+    ValueError, writing nothing, when the folder holds files ``extract`` did not write and
+    ``force`` is false, when one of them would be overwritten, or when one of the files read
+    (``inputs``, the FRF files) would be replaced or removed. A ``fit.png`` that cannot be
+    drawn costs a warning (`vibupdate.io.outputs.OutputWarning`), not the extraction.
     """
     from vibupdate import __version__
     from vibupdate.io.outputs import write_published
 
-    target = check_extraction_folder(out_dir, force)
+    target = check_extraction_folder(out_dir, force, inputs)
     paths = write_published(target, lambda staged: _write_files(result, frfs, staged, first_mode, name, plot),
                             case="extraction", version=__version__)
     return {kind: target.path / path.name for kind, path in paths.items()}
 
 
 def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, name: str, plot: bool) -> dict:
+    from vibupdate.io.results import json_text
+
     paths = {"json": out / "extraction.json", "frequencies": out / "frequencies.csv",
              "shapes": out / "shapes.csv", "damping": out / "damping.csv", "configuration": out / "configuration.toml"}
-    paths["json"].write_text(json.dumps(extraction_document(result, first_mode), indent=2), encoding="utf-8")
+    paths["json"].write_text(json_text(extraction_document(result, first_mode)), encoding="utf-8")
     rows = [["natural", f"{m.omega / TWO_PI:.8g}", 1, f"{m.damping_ratio:.6g}", "", "",
              *(f"{v:.8g}" for v in _hz(m.omega_interval))] for m in result.modes]
     rows += [["antiresonance", f"{z.omega / TWO_PI:.8g}", 1, "", z.response, z.excitation,
@@ -133,7 +138,10 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
         block += "# the lowest extracted mode is model mode %d: list the modes below it or narrow the model\n" % first_mode
     paths["configuration"].write_text(block, encoding="utf-8")
     if plot:
-        paths["plot"] = plot_extraction(result, frfs, out / "fit.png")
+        from vibupdate.io.outputs import drawn
+
+        if drawn(out / "fit.png", lambda path: plot_extraction(result, frfs, path)):
+            paths["plot"] = out / "fit.png"
     return paths
 
 

@@ -1,18 +1,23 @@
-"""The results folder: which files vibupdate owns, and how they are put in place.
+"""Output folders: which files each command owns, and how they are put in place.
 
-A results folder holds a manifest, ``vibupdate-manifest.json``, listing the files vibupdate
-wrote there. Only those files are ever replaced or removed; anything else in the folder is
-the user's and is kept. The protocol of a run:
+Every command that writes a folder (``run`` and ``example``, ``extract``, ``sweep``,
+``batch``) keeps its own manifest there, ``vibupdate-manifest-COMMAND.json``, listing the
+files it wrote. A command replaces or removes only files of its own manifest: the files of
+another command, and anything else in the folder, are kept. The protocol of a command:
 
-1. `prepare_output` (before solving): the folder is a directory or does not exist yet, it is
-   writable, and it holds no file vibupdate did not write, unless ``force`` is given (then
-   those files are kept, and a run that would overwrite one of them is refused).
-2. The writers fill a staging folder (`staging_folder`): a hidden sibling when the results
-   folder does not exist yet, a hidden folder inside it otherwise (same file system, so the
-   final moves are renames).
+1. `prepare_output` (before any work): the folder is a directory or does not exist yet, it
+   is writable, and it holds no file this command did not write, unless ``force`` is given
+   (then those files are kept, and a command that would overwrite one of them is refused).
+   A file the command reads (``inputs``: the case file and its data, the FRF files) is never
+   replaced or removed: a command that would is refused.
+2. The writers fill a staging folder (`staging_folder`): a hidden sibling when the folder
+   does not exist yet, a hidden folder inside it otherwise (same file system, so the final
+   moves are renames).
 3. `publish` moves the new files into place with SIGINT held back, removes the files of the
-   previous run that this run did not write, and writes the new manifest last. A run that
-   fails or is interrupted before `publish` leaves the earlier results as they were.
+   command's previous run that this run did not write, and writes its manifest last. A run
+   that fails or is interrupted before `publish` leaves the folder as it was.
+
+The manifests, and how the older shared one is read, are in `vibupdate.io.manifests`.
 
 Files and folders get the permissions of the user's umask (``tempfile`` would make them
 private). Names derived from user text (the case name, configuration names) go through
@@ -22,7 +27,6 @@ private). Names derived from user text (the case name, configuration names) go t
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import re
 import shutil
@@ -35,16 +39,65 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
+from vibupdate.io.manifests import (
+    COMMANDS,
+    LEGACY_MANIFEST,
+    add_to_manifest,
+    is_manifest,
+    legacy_owner,
+    manifest_files,
+    manifest_name,
+    ownership,
+    read_manifest,
+    read_manifests,
+    write_manifest,
+)
+
 _T = TypeVar("_T")
 
-__all__ = ["MANIFEST", "OutputTarget", "safe_name", "file_names", "prepare_output", "staging_folder", "publish",
-           "write_published", "read_manifest"]
+__all__ = ["MANIFEST", "LEGACY_MANIFEST", "COMMANDS", "manifest_name", "OutputTarget", "safe_name", "file_names",
+           "prepare_output", "staging_folder", "publish", "write_published", "read_manifest", "read_manifests",
+           "add_to_manifest", "OutputWarning", "drawn"]
 
-#: Name of the manifest file in every results folder.
-MANIFEST = "vibupdate-manifest.json"
+#: Name of the manifest of a run's results folder.
+MANIFEST = manifest_name("run")
 #: Longest name derived from user text (characters).
 MAX_NAME = 64
 _PARTIAL = ".vibupdate-partial-"
+
+
+class OutputWarning(UserWarning):
+    """A file of the results (a plot, the report) that could not be written; the results
+    themselves are kept and the warning says which file and why."""
+
+
+def drawn(path, plot, *args, **kwargs) -> bool:
+    """Call ``plot(path, *args, **kwargs)``; a plot (or another optional file) that fails costs
+    a warning, not the run.
+
+    Returns True when the file was written. On any exception of ``plot`` (a degenerate
+    figure, a font or backend problem) the partial file and the matplotlib figures it opened
+    are removed, an `OutputWarning` naming the file and the error is issued, and False is
+    returned. KeyboardInterrupt is not caught.
+    """
+    import sys
+    import warnings
+
+    path = Path(path)
+    plt = sys.modules.get("matplotlib.pyplot")
+    before = set(plt.get_fignums()) if plt is not None else set()
+    try:
+        plot(path, *args, **kwargs)
+        return True
+    except Exception as exc:  # an optional file is never worth the run: any failure is a note
+        plt = sys.modules.get("matplotlib.pyplot")
+        if plt is not None:
+            for number in set(plt.get_fignums()) - before:
+                plt.close(number)
+        if path.is_file():
+            path.unlink()
+        warnings.warn(OutputWarning(f"{path.name} was not drawn: {type(exc).__name__}: {exc}"), stacklevel=2)
+        return False
 
 
 def safe_name(text: str, *, default: str = "case") -> str:
@@ -91,40 +144,67 @@ def _umask() -> int:
     return mask
 
 
-def read_manifest(folder) -> list[str] | None:
-    """Files listed in the manifest of ``folder``; None when there is no readable manifest."""
-    path = Path(folder) / MANIFEST
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    files = data.get("files") if isinstance(data, dict) else None
-    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
-        return None
-    # Only plain names in the folder itself: a manifest never reaches outside it.
-    return [f for f in files if f == Path(f).name and f not in ("", ".", "..", MANIFEST)]
-
-
 @dataclass(frozen=True)
 class OutputTarget:
-    """A results folder checked by `prepare_output`.
+    """A folder checked by `prepare_output`.
 
     Attributes
     ----------
     path : Path
-        The results folder.
+        The folder.
     exists : bool
         Whether it existed when checked.
     owned : tuple of str
-        Files of the previous run (from its manifest).
+        Files of this command's previous run (from its manifest).
     foreign : tuple of str
-        Entries vibupdate did not write; kept, never replaced.
+        Entries this command did not write (another command's, or the user's); kept, never
+        replaced.
+    command : str
+        The command writing the folder (`COMMANDS`).
+    protected : tuple of str
+        Files in the folder that the command reads (its ``inputs``); kept, never replaced.
     """
 
     path: Path
     exists: bool
     owned: tuple[str, ...]
     foreign: tuple[str, ...]
+    command: str = "run"
+    protected: tuple[str, ...] = ()
+
+
+def _inputs_in(folder: Path, inputs: Iterable) -> set[str]:
+    """Names of the files of ``inputs`` that live in ``folder`` itself."""
+    try:
+        here = folder.resolve()
+    except OSError:
+        return set()
+    names = set()
+    for item in inputs:
+        try:
+            path = Path(item).resolve()
+        except (OSError, TypeError, ValueError):
+            continue
+        if path.parent == here:
+            names.add(path.name)
+    return names
+
+
+def _shown(names) -> str:
+    names = sorted(names)
+    return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+
+
+def _described(names, others: dict[str, str]) -> str:
+    """``names`` for a message, those of other commands grouped with the command that wrote
+    them: ``"notes.txt; extraction.json, shapes.csv written by `vibupdate extract`"``."""
+    by: dict[str, list[str]] = {}
+    for n in names:
+        by.setdefault(others.get(n, "-"), []).append(n)
+    parts = [_shown(by.pop("-"))] if "-" in by else []
+    parts += [f"{_shown(files)} written by " + (f"`vibupdate {c}`" if c in COMMANDS else "an earlier vibupdate")
+              for c, files in by.items()]
+    return "; ".join(parts)
 
 
 def _check_writable(folder: Path) -> None:
@@ -136,25 +216,34 @@ def _check_writable(folder: Path) -> None:
         raise ValueError(f"output folder {str(folder)!r} is not writable ({exc.strerror or exc})") from None
 
 
-def prepare_output(path, *, force: bool = False, planned: Iterable[str] = ()) -> OutputTarget:
-    """Check the results folder before any solve; nothing is created or changed.
+def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), command: str = "run",
+                   inputs: Iterable = ()) -> OutputTarget:
+    """Check the output folder before any work; nothing is created or changed.
 
     Parameters
     ----------
     path : str or Path
-        The results folder.
+        The folder.
     force : bool
-        Accept a folder that holds files vibupdate did not write (they are kept).
+        Accept a folder that holds files this command did not write (they are kept).
     planned : iterable of str
-        Names of the files the run will write, to refuse overwriting a foreign file.
+        Names of the files the command will write, to refuse overwriting a file it did not
+        write.
+    command : str
+        The command writing the folder (`COMMANDS`): its manifest says which files it owns.
+    inputs : iterable of str or Path
+        Files the command reads (the case file and its data); those in the folder are never
+        replaced or removed.
 
     Raises
     ------
     ValueError
         The path is not a folder, the folder (or the parent that would hold it) is not
-        writable, it holds foreign files and ``force`` is false, or a planned file would
-        overwrite a foreign one.
+        writable, it holds files this command did not write and ``force`` is false, a
+        planned file would overwrite one of them, or the command would replace or remove a
+        file it reads.
     """
+    manifest_name(command)  # a known command
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise ValueError(f"output path {str(path)!r} exists and is not a folder")
@@ -165,21 +254,27 @@ def prepare_output(path, *, force: bool = False, planned: Iterable[str] = ()) ->
         if not parent.is_dir():
             raise ValueError(f"output path {str(path)!r} cannot be created: {str(parent)!r} is not a folder")
         _check_writable(parent)
-        return OutputTarget(path, False, (), ())
+        return OutputTarget(path, False, (), (), command)
     _check_writable(path)
-    owned = read_manifest(path) or []
+    owned, others = ownership(path, command)
+    protected = _inputs_in(path, inputs)
+    planned = set(planned)
+    touched = sorted(protected & (owned | planned))
+    if touched:
+        raise ValueError(f"output folder {str(path)!r} holds {', '.join(touched)}, which this case reads and "
+                         f"`vibupdate {command}` would replace or remove; choose another --out")
     foreign = sorted(e.name for e in path.iterdir()
-                     if e.name != MANIFEST and e.name not in owned and not e.name.startswith(_PARTIAL))
+                     if not is_manifest(e.name) and e.name not in owned and not e.name.startswith(_PARTIAL))
     if foreign and not force:
-        shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
-        raise ValueError(f"output folder {str(path)!r} holds files vibupdate did not write ({shown}); "
-                         "choose a new or empty folder with --out, or pass --force to write beside them "
-                         "(only vibupdate's own files are then replaced)")
-    clash = sorted(set(planned) & set(foreign))
+        raise ValueError(f"output folder {str(path)!r} holds files `vibupdate {command}` did not write "
+                         f"({_described(foreign, others)}); choose a new or empty folder with "
+                         "--out, or pass --force to write beside them (they are kept; only this command's own "
+                         "files are then replaced)")
+    clash = sorted(planned & set(foreign))
     if clash:
-        raise ValueError(f"output folder {str(path)!r} holds {', '.join(clash)}, which vibupdate did not write "
-                         "and would overwrite; move it or choose another --out")
-    return OutputTarget(path, True, tuple(owned), tuple(foreign))
+        raise ValueError(f"output folder {str(path)!r} holds {', '.join(clash)}, which `vibupdate {command}` did not "
+                         f"write and would overwrite ({_described(clash, others)}); move it or choose another --out")
+    return OutputTarget(path, True, tuple(sorted(owned)), tuple(foreign), command, tuple(sorted(protected)))
 
 
 def staging_folder(target: OutputTarget) -> Path:
@@ -207,41 +302,38 @@ def _sigint_held():
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
-def _write_manifest(folder: Path, files: list[str], case: str, version: str) -> None:
-    text = json.dumps({"vibupdate": version, "case": case, "files": sorted(files)}, indent=2) + "\n"
-    tmp = folder / f"{MANIFEST}.tmp"
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, folder / MANIFEST)
-
-
 def publish(staged: Path, target: OutputTarget, *, case: str, version: str) -> list[str]:
-    """Move the files of ``staged`` into the results folder; returns their names.
+    """Move the files of ``staged`` into the folder; returns their names.
 
     Raises ValueError, before anything is moved, when a staged file would replace a file
-    vibupdate did not write (the folder changed since `prepare_output`).
+    this command did not write or one it reads (the folder changed since `prepare_output`).
     """
-    files = sorted(p.name for p in staged.iterdir() if p.is_file() and p.name != MANIFEST)
-    final = target.path
+    files = sorted(p.name for p in staged.iterdir() if p.is_file() and not is_manifest(p.name))
+    final, command = target.path, target.command
     with _sigint_held():
         if not target.exists:
             if final.exists():
                 raise ValueError(f"output folder {str(final)!r} appeared while vibupdate was running; "
                                  "nothing was written, run again")
-            _write_manifest(staged, files, case, version)
+            write_manifest(staged, command, files, case, version)
             os.rename(staged, final)
             return files
-        owned = set(read_manifest(final) or [])
-        clash = [f for f in files if (final / f).exists() and f not in owned]
+        owned, others = ownership(final, command)
+        owned -= set(target.protected)
+        clash = [f for f in files if (final / f).exists() and (f not in owned or f in target.protected)]
         if clash:
-            raise ValueError(f"output folder {str(final)!r} now holds {', '.join(clash)}, which vibupdate did not "
-                             "write; nothing was replaced")
+            raise ValueError(f"output folder {str(final)!r} now holds {', '.join(clash)}, which `vibupdate {command}` "
+                             f"did not write ({_described(clash, others)}); nothing was replaced")
         for f in files:
             os.replace(staged / f, final / f)
         for f in sorted(owned - set(files)):
             stale = final / f
             if stale.is_file() or stale.is_symlink():
                 stale.unlink()
-        _write_manifest(final, files, case, version)
+        write_manifest(final, command, files, case, version)
+        legacy = manifest_files(final / LEGACY_MANIFEST)
+        if legacy is not None and legacy_owner(*legacy) == command:
+            (final / LEGACY_MANIFEST).unlink()   # its files are now in this command's manifest, or removed
         shutil.rmtree(staged, ignore_errors=True)
     return files
 

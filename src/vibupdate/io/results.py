@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["FORMAT_VERSION", "ParameterRow", "FrequencyRow", "DampingRow", "Summary", "SampledRange", "Sampled",
-           "Multistart", "RunResult", "run_result", "write_results", "load_results", "schema", "validate_document"]
+           "Multistart", "RunResult", "run_result", "write_results", "load_results", "schema", "validate_document",
+           "json_text"]
 
 #: Version of the layout of ``results.json`` (raised when a key is added).
 FORMAT_VERSION = 2
@@ -56,6 +57,12 @@ def _plain(obj):
     if hasattr(obj, "value") and isinstance(getattr(obj, "value"), str):  # enums such as Status
         return obj.value
     return obj
+
+
+def json_text(obj) -> str:
+    """``obj`` as strict JSON text (indented): numpy to Python, NaN and +-inf to ``null`` (no
+    ``NaN``/``Infinity`` tokens, which JSON does not have)."""
+    return json.dumps(_plain(obj), indent=2, allow_nan=False)
 
 
 class _Row:
@@ -113,8 +120,8 @@ class DampingRow(_Row):
     configuration: str
     mode: int
     measured: float
-    identified: float
-    error_pct: float
+    identified: float | None
+    error_pct: float | None
     rayleigh: float | None
     error_rayleigh_pct: float | None
     extra: tuple = ()

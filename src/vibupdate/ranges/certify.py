@@ -181,8 +181,9 @@ def range_disagreements(certified: dict, others: dict, wider: float = 2.0) -> li
             if not o or c.get("lower") is None or c.get("upper") is None:
                 continue
             lo, hi = o.get("lower", o.get("min")), o.get("upper", o.get("max"))
-            if lo is None or hi is None or not (np.isfinite(lo) and np.isfinite(hi)):
-                continue
+            ends = (lo, hi, c["lower"], c["upper"])
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in ends):
+                continue   # a range end that is missing or not finite is no disagreement
             tol = 1e-9 * max(abs(c["lower"]), abs(c["upper"]), 1e-300)
             if lo < c["lower"] - tol or hi > c["upper"] + tol:
                 notes.append(f"{name}: the {label} range [{lo:.4g}, {hi:.4g}] reaches outside the certified range "

@@ -15,10 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI
+from vibupdate.io.outputs import drawn, file_names
+from vibupdate.report.numbers import finite
 from vibupdate.report.plots import _pyplot
 
 __all__ = ["write_sweep_plots", "plot_histograms", "plot_pairs", "plot_frequency_bands", "plot_frf_band",
-           "least_determined"]
+           "least_determined", "histogram_bins"]
 
 #: Samples used for an FRF band (the first verified ones by index).
 FRF_SAMPLES = 100
@@ -39,7 +41,7 @@ def _verified(rows):
 
 def least_determined(document: dict, n: int = 4) -> list[str]:
     """Names of the ``n`` parameters with the largest sampled spread relative to their bounds."""
-    known = [p for p in document["parameters"] if p["spread_of_bounds"] is not None]
+    known = [p for p in document["parameters"] if finite(p.get("spread_of_bounds"))]
     known.sort(key=lambda p: -p["spread_of_bounds"])
     return [p["name"] for p in known[:n]]
 
@@ -47,6 +49,30 @@ def least_determined(document: dict, n: int = 4) -> list[str]:
 def _counts(document) -> str:
     return (f"{document['verified']} verified of {document['samples']} "
             f"({document['unverified']} unverified, {document['failed']} failed)")
+
+
+def histogram_bins(values, lower: float, upper: float) -> tuple[int, tuple[float, float] | None]:
+    """Bins of a histogram of ``values`` (the finite ones) chosen from their spread.
+
+    Returns ``(bins, (low, high))``: between 5 and 30 bins over the values' range, fewer
+    where a bin would be narrower than half a per cent of the bounds ``upper - lower`` (it
+    would not show on the axis, which spans the bounds) or than 1e-9 of the values (equal
+    bins that floating point cannot resolve); identical or nearly identical values get one
+    bin of that least width centred on them. ``(0, None)`` without a finite value.
+    """
+    v = np.array([x for x in values if finite(x)], dtype=float)
+    if v.size == 0:
+        return 0, None
+    low, high = float(v.min()), float(v.max())
+    width = abs(upper - lower) if finite(upper) and finite(lower) else 0.0
+    least = max(0.005 * width, 1e-9 * max(abs(low), abs(high)), 1e-300)
+    bins = min(30, max(5, v.size // 4))
+    if high - low >= bins * least:
+        return bins, (low, high)
+    if high - low >= least:
+        return int((high - low) // least), (low, high)
+    middle = 0.5 * (low + high)
+    return 1, (middle - 0.5 * least, middle + 0.5 * least)
 
 
 def plot_histograms(path, document: dict, rows) -> Path:
@@ -59,8 +85,9 @@ def plot_histograms(path, document: dict, rows) -> Path:
     fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 2.8 * nrows), squeeze=False)
     for ax, p in zip(axes.flat, params):
         values = [r[f"p:{p['name']}"] for r in ok]
-        if values:
-            ax.hist(values, bins=min(30, max(5, len(values) // 4)), color="tab:blue", alpha=0.8)
+        bins, span = histogram_bins(values, p["lower"], p["upper"])
+        if bins:
+            ax.hist([v for v in values if finite(v)], bins=bins, range=span, color="tab:blue", alpha=0.8)
         ax.axvline(p["lower"], color="0.3", ls="--", lw=0.8)
         ax.axvline(p["upper"], color="0.3", ls="--", lw=0.8)
         ax.axvline(p["nominal"], color="tab:orange", lw=0.8)
@@ -181,13 +208,15 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
 
 
 def write_sweep_plots(out: Path, case, rows, document: dict, ends=()) -> list[Path]:
-    """All plots of a sweep into ``out``; returns their paths."""
+    """All plots of a sweep into ``out``; returns the paths of those drawn. A plot that fails
+    is left out with an `vibupdate.io.outputs.OutputWarning` naming it and the error."""
     out = Path(out)
-    files = [plot_histograms(out / "parameters_hist.png", document, rows)]
+    plots = [(out / "parameters_hist.png", plot_histograms, (document, rows))]
     names = least_determined(document)
     if len(names) >= 2:
-        files.append(plot_pairs(out / "parameters_pairs.png", document, rows, names, ends))
-    files.append(plot_frequency_bands(out / "frequency_bands.png", document))
+        plots.append((out / "parameters_pairs.png", plot_pairs, (document, rows, names, ends)))
+    plots.append((out / "frequency_bands.png", plot_frequency_bands, (document,)))
+    parts = file_names([cfg.name for cfg in case.configurations])
     for cfg in case.configurations:
-        files.append(plot_frf_band(out / f"frf_band_{cfg.name}.png", case, cfg, rows))
-    return files
+        plots.append((out / f"frf_band_{parts[cfg.name]}.png", plot_frf_band, (case, cfg, rows)))
+    return [path for path, plot, args in plots if drawn(path, plot, *args)]

@@ -6,6 +6,10 @@ folder under the batch's output directory (named after the case file; a repeated
 a ``-2``, ``-3`` suffix). A summary table across the cases is written as ``summary.csv`` and
 ``summary.md``: status, objective, mean frequency error, and each parameter's updated value in
 its unit. A case that cannot be read or updated is a row with its error, never dropped.
+
+The batch keeps its own manifest in the output directory (`vibupdate.io.outputs`, command
+``batch``): a ``summary.csv`` or ``summary.md`` it did not write is never replaced (the batch
+is refused before any work), and each case folder is written as ``vibupdate run`` writes it.
 """
 
 from __future__ import annotations
@@ -14,7 +18,10 @@ import csv
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-__all__ = ["run_batch", "run_one", "summary_markdown"]
+__all__ = ["run_batch", "run_one", "summary_markdown", "SUMMARY_FILES"]
+
+#: The files a batch writes into its output directory beside the case folders.
+SUMMARY_FILES = ("summary.csv", "summary.md")
 
 
 def run_one(path: str, out_dir: str) -> dict:
@@ -49,11 +56,13 @@ def _folders(paths: Sequence[str], out: Path) -> list[Path]:
 
 def summary_markdown(rows: Sequence[dict], fields: Sequence[str]) -> str:
     """The summary table as markdown (numbers to 6 significant digits)."""
+    from vibupdate.report.numbers import fmt
+
     def cell(v):
         if v is None:
             return ""
         if isinstance(v, float):
-            return f"{v:.6g}"
+            return fmt(v, ".6g")
         return str(v).replace("|", "/")
 
     lines = ["| " + " | ".join(fields) + " |", "|" + "---|" * len(fields)]
@@ -76,6 +85,8 @@ def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler
     """
     from distributed import as_completed
 
+    from vibupdate import __version__
+    from vibupdate.io.outputs import write_published
     from vibupdate.study.engine import Progress, open_client
 
     say = progress or (lambda message: None)
@@ -85,8 +96,13 @@ def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler
     missing = [p for p in files if not Path(p).is_file()]
     if missing:
         raise ValueError(f"case file {missing[0]!r} does not exist")
+    from vibupdate.io.outputs import prepare_output
+
     out = Path(out_dir)
+    # the summary files only: case folders are checked by their runs, other files are kept
+    prepare_output(out, force=True, planned=SUMMARY_FILES, command="batch")
     out.mkdir(parents=True, exist_ok=True)
+    target = prepare_output(out, force=True, planned=SUMMARY_FILES, command="batch")
     folders = _folders(files, out)
     rows: list[dict | None] = [None] * len(files)
     with open_client(workers, scheduler, client=client) as c:
@@ -104,10 +120,15 @@ def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler
     for r in rows:
         fields += [k for k in r if k not in fields and k not in ("message", "case_file", "results")]
     fields += ["message", "results"]
-    with open(out / "summary.csv", "w", newline="", encoding="utf-8") as f:
+    write_published(target, lambda staged: _write_summary(staged, rows, fields), case="batch", version=__version__)
+    say(f"wrote {out}/ ({len(rows)} case folders, summary.csv, summary.md)")
+    return rows
+
+
+def _write_summary(folder: Path, rows: list[dict], fields: list[str]) -> None:
+    with open(folder / "summary.csv", "w", newline="", encoding="utf-8") as f:
         w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
-    (out / "summary.md").write_text(summary_markdown(rows, [f for f in fields if f != "results"]), encoding="utf-8")
-    say(f"wrote {out}/ ({len(rows)} case folders, summary.csv, summary.md)")
-    return rows
+    (folder / "summary.md").write_text(summary_markdown(rows, [f for f in fields if f != "results"]),
+                                       encoding="utf-8")

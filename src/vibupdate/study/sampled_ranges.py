@@ -130,17 +130,20 @@ class SampledRanges:
         document, fields, end_fields = summary.document, columns(case, self.sampling), end_columns(case)
 
         def write(folder: Path) -> list[tuple[str, str]]:
+            """The rows first, then the plots: a plot that fails is left out with an
+            `vibupdate.io.outputs.OutputWarning` (a note of the run), never the run."""
+            from vibupdate.io.outputs import drawn
             from vibupdate.report.sweep_plots import least_determined, plot_histograms, plot_pairs
             from vibupdate.study.sweep_rows import write_sorted
 
             write_sorted(folder / SAMPLES_FILE, fields, rows)
             write_sorted(folder / ENDS_FILE, end_fields, ends)
-            plot_histograms(folder / "sampled_hist.png", document, rows)
-            images = [("sampled parameters (verified answers of data sets drawn inside the intervals)",
-                       "sampled_hist.png")]
+            images = []
+            if drawn(folder / "sampled_hist.png", plot_histograms, document, rows):
+                images.append(("sampled parameters (verified answers of data sets drawn inside the intervals)",
+                               "sampled_hist.png"))
             names = least_determined(document)
-            if len(names) >= 2:
-                plot_pairs(folder / "sampled_pairs.png", document, rows, names, ends)
+            if len(names) >= 2 and drawn(folder / "sampled_pairs.png", plot_pairs, document, rows, names, ends):
                 images.append(("sampled pairs of the least-determined parameters", "sampled_pairs.png"))
             return images
 

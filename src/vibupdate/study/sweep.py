@@ -33,7 +33,6 @@ case object is broadcast once to every worker.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import pickle
 import time
@@ -49,19 +48,22 @@ from vibupdate.data.measured import TWO_PI
 from vibupdate.inverse.reduction import wants_reduction
 from vibupdate.study.extent import ACCEPT_FRACTION
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
+from vibupdate.study.sweep_files import (
+    ENDS_FILE,
+    SAMPLES_FILE,
+    prepare_sweep_folder,
+    settings_of,
+    write_multistart,
+    write_summary,
+)
 from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
 from vibupdate.study.sweep_summary import SweepSummary, summarize
 
 __all__ = ["ACCEPT_FRACTION", "CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize",
-           "read_rows"]
+           "read_rows", "write_multistart"]
 
-SAMPLES_FILE = "samples.csv"
-SETTINGS_FILE = "sweep-settings.json"
-SUMMARY_FILE = "sweep.json"
 #: Columns whose values depend on the run (timing, worker), not on the sample.
 RUN_COLUMNS = ("seconds", "cpu_seconds", "worker")
-#: The ends of the walks along null directions (`vibupdate.study.extent`), one row per end.
-ENDS_FILE = "line_ends.csv"
 #: Key of a task's row under which it returns its line ends (not a column of ``samples.csv``).
 ENDS_KEY = "_line_ends"
 #: Proximal weight of the random-start solve (`vibupdate.study.multistart.random_start_solve`).
@@ -259,29 +261,6 @@ def _random_start(case: Case, cfgs, seed: int, index: int, accept) -> tuple | No
 
 # -- the run ----------------------------------------------------------------------------------------
 
-def _settings(seed: int, sampling: SamplingOptions, digest: str, case: Case) -> dict:
-    return {"case": case.name, "case_digest": digest, "seed": seed, "sampling": sampling.as_dict(),
-            "frequency_tolerance": case.frequency_tolerance}
-
-
-def _prepare_out(out: Path, settings: dict, resume: bool) -> None:
-    file = out / SETTINGS_FILE
-    if resume:
-        if not file.exists():
-            raise ValueError(f"nothing to resume in {str(out)!r}: no {SETTINGS_FILE}")
-        old = json.loads(file.read_text(encoding="utf-8"))
-        for key in ("case_digest", "seed", "sampling", "frequency_tolerance"):
-            if old.get(key) != settings.get(key):
-                raise ValueError(f"cannot resume {str(out)!r}: its {key} is {old.get(key)!r}, this run's is "
-                                 f"{settings.get(key)!r}")
-        return
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ValueError(f"output directory {str(out)!r} exists and is not empty; use --resume to finish "
-                         "a sweep there, or another --out")
-    out.mkdir(parents=True, exist_ok=True)
-    file.write_text(json.dumps(settings, indent=2), encoding="utf-8")
-
-
 def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingOptions | None = None,
               workers: int | None = None, scheduler: str | None = None, client=None, resume: bool = False,
               retries: int = 3, plots: bool = True,
@@ -330,8 +309,8 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
         loaded = replace(loaded, frequency_tolerance=sampling.frequency_tolerance)
     data_intervals(loaded.configurations, loaded.frequency_tolerance, sampling)  # bad data: error before any work
     out = Path(out_dir)
-    settings = _settings(seed, sampling, digest, loaded)
-    _prepare_out(out, settings, resume)
+    settings = settings_of(seed, sampling, digest, loaded)
+    prepare_sweep_folder(out, settings, resume)
     fields, end_fields = columns(loaded, sampling), end_columns(loaded)
     rows: list[dict] = []
     ends: list[dict] = []
@@ -379,11 +358,7 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
                                   if new and all(isinstance(r.get("cpu_seconds"), float) for r in new) else None),
         "overhead_per_task_seconds": (wall * n_workers - sum(r["seconds"] for r in new)) / len(new) if new else None,
     }
-    (out / SUMMARY_FILE).write_text(json.dumps(document, indent=2), encoding="utf-8")
-    if plots:
-        from vibupdate.report.sweep_plots import write_sweep_plots
-
-        write_sweep_plots(out, loaded, rows, document, ends)
+    write_summary(out, loaded, rows, document, ends, settings, say, plots)
     say(f"{document['verified']} verified, {document['unverified']} unverified, {document['failed']} failed "
         f"of {document['samples']} samples; wrote {out}/")
     return SweepSummary(document, out)

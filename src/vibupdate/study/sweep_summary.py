@@ -44,6 +44,7 @@ class SweepSummary:
 
 def _stats(values) -> dict:
     v = np.asarray([x for x in values if x is not None], dtype=float)
+    v = v[np.isfinite(v)]   # a value that is not finite has no place in a range or a quantile
     if v.size == 0:
         return {"min": None, "max": None, "q05": None, "q50": None, "q95": None}
     q = np.quantile(v, [0.05, 0.5, 0.95])

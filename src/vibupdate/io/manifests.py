@@ -1,0 +1,120 @@
+"""Manifests: which files of a folder each vibupdate command wrote.
+
+Every command that writes a folder (`COMMANDS`: ``run``, which ``example`` also is,
+``extract``, ``sweep``, ``batch``) lists the files it wrote there in its own manifest,
+``vibupdate-manifest-COMMAND.json`` (`manifest_name`): a JSON object with ``files`` (plain
+names in the folder), ``command``, ``case`` and the ``vibupdate`` version. A command owns
+exactly the files of its manifest (`vibupdate.io.outputs` replaces or removes nothing else).
+
+Folders written before the manifests were per command hold one shared manifest,
+``vibupdate-manifest.json`` (`LEGACY_MANIFEST`). Its files belong to the command that wrote
+it when the manifest or its files say which (``results.json``: a run;
+``extraction.json``: an extraction); otherwise they belong to no command and are kept. A
+command that takes over its legacy files lists them in its own manifest and removes the
+legacy one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+__all__ = ["COMMANDS", "LEGACY_MANIFEST", "manifest_name", "read_manifests", "read_manifest", "ownership",
+           "is_manifest", "write_manifest", "add_to_manifest", "legacy_owner", "manifest_files"]
+
+#: The commands that write folders, each with its own manifest (``example`` writes as ``run``).
+COMMANDS = ("run", "extract", "sweep", "batch")
+#: The manifest shared by every command before the manifests were per command.
+LEGACY_MANIFEST = "vibupdate-manifest.json"
+_MANIFEST_PREFIX = "vibupdate-manifest"
+
+
+def manifest_name(command: str) -> str:
+    """File name of the manifest of ``command`` (one of `COMMANDS`)."""
+    if command not in COMMANDS:
+        raise ValueError(f"unknown command {command!r} of an output folder; expected one of {', '.join(COMMANDS)}")
+    return f"{_MANIFEST_PREFIX}-{command}.json"
+
+
+def is_manifest(name: str) -> bool:
+    """Whether ``name`` is a manifest of some command (or one being written)."""
+    names = {LEGACY_MANIFEST, *(manifest_name(c) for c in COMMANDS)}
+    return name in names or (name.endswith(".tmp") and name[:-4] in names)
+
+
+def manifest_files(path: Path) -> tuple[list[str], dict] | None:
+    """The plain file names listed in a manifest file and its whole content; None when it
+    cannot be read."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    files = data.get("files") if isinstance(data, dict) else None
+    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+        return None
+    # Only plain names in the folder itself: a manifest never reaches outside it.
+    return [f for f in files if f == Path(f).name and f not in ("", ".", "..") and not is_manifest(f)], data
+
+
+def legacy_owner(files: list[str], data: dict) -> str | None:
+    """The command that wrote a legacy shared manifest, when it or its files say so."""
+    if data.get("command") in COMMANDS:
+        return data["command"]
+    names = set(files)
+    if "extraction.json" in names and "results.json" not in names:
+        return "extract"
+    if "results.json" in names and "extraction.json" not in names:
+        return "run"
+    return None
+
+
+def read_manifests(folder) -> dict[str, list[str]]:
+    """Files of every command's manifest in ``folder``: ``{command: [names]}``; the files
+    of a legacy manifest under the command that wrote it, or under ``""`` when unknown."""
+    folder = Path(folder)
+    out: dict[str, list[str]] = {}
+    for command in COMMANDS:
+        read = manifest_files(folder / manifest_name(command))
+        if read is not None:
+            out[command] = read[0]
+    legacy = manifest_files(folder / LEGACY_MANIFEST)
+    if legacy is not None:
+        owner = legacy_owner(*legacy) or ""
+        out[owner] = sorted(set(out.get(owner, [])) | set(legacy[0]))
+    return out
+
+
+def read_manifest(folder, command: str = "run") -> list[str] | None:
+    """Files that ``command`` wrote in ``folder`` (its manifest, and a legacy manifest it
+    wrote); None when there is no readable manifest of it."""
+    files = read_manifests(folder).get(command)
+    return None if files is None else sorted(files)
+
+
+def ownership(folder: Path, command: str) -> tuple[set[str], dict[str, str]]:
+    """The files ``command`` owns in ``folder``, and every file another command wrote with
+    that command's name (``""``: a legacy manifest of an unknown command). A file listed by
+    two commands belongs to neither: it is kept."""
+    manifests = read_manifests(folder)
+    others = {f: c for c, files in manifests.items() if c != command for f in files}
+    owned = set(manifests.get(command, [])) - set(others)
+    return owned, others
+
+
+def write_manifest(folder: Path, command: str, files: list[str], case: str, version: str) -> None:
+    text = json.dumps({"vibupdate": version, "command": command, "case": case, "files": sorted(files)},
+                      indent=2) + "\n"
+    name = manifest_name(command)
+    tmp = folder / f"{name}.tmp"
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, folder / name)
+
+
+def add_to_manifest(folder, command: str, files: Iterable[str], *, case: str, version: str) -> None:
+    """List ``files`` (written into ``folder`` by ``command`` outside `publish`, e.g. rows
+    appended as a sweep runs) in the command's manifest, beside those already listed."""
+    folder = Path(folder)
+    listed = read_manifests(folder).get(command, [])
+    write_manifest(folder, command, sorted(set(listed) | set(files)), case, version)
