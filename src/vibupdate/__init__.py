@@ -7,7 +7,7 @@ Caughey-series damping identification.
 """
 
 from vibupdate.model.affine import AffineModel
-from vibupdate.modal.analysis import antiresonances, mac, modes, receptance
+from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes, receptance
 from vibupdate.model.assembly import Assembly, System
 from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 from vibupdate.model.build import from_builder, from_files
@@ -41,6 +41,7 @@ __all__ = [
     "from_files",
     "mac",
     "modes",
+    "flexible_modes",
     "receptance",
     "update",
 ]

@@ -288,6 +288,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     checked = validate_case(case)       # what check validates, before anything is touched
     for w in checked.warnings:
         say(f"warning: {w}")
+    case = checked.case or case         # with the solver's bounds where the box reaches unphysical models
     if study is not None:
         study.check(case)
     target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()),

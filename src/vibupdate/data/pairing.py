@@ -3,10 +3,13 @@
 Correspondence is data, never inferred from nearness at the updated point:
 
 * a measured natural frequency is the model's mode ``mode`` (1-based, counted from the lowest
-  eigenvalue); when omitted, measured frequencies are consecutive modes from mode 1, or from
-  the mode after the previous measured one;
+  *flexible* mode: rigid-body modes, `vibupdate.modal.rigid`, are not counted, so mode 1 of a
+  free-free test is its first flexible mode); when omitted, measured frequencies are
+  consecutive modes from mode 1, or from the mode after the previous measured one;
 * a measured antiresonance of ``h_rc`` is the model's zero ``index`` of that receptance
-  (1-based, counted from the lowest real zero); when omitted it is assigned once, from the
+  (1-based, counted from the lowest real zero above 0 Hz: the structural zeros of a model with
+  rigid-body modes are not zeros, `vibupdate.modal.zeros.structural`); when omitted it is
+  assigned once, from the
   nominal model: if it lies above the measured pole of mode ``m`` and is the ``j``-th
   measured zero of ``h_rc`` there, it is zero ``n_0 + j`` where ``n_0`` counts the nominal
   model's zeros of ``h_rc`` below its mode ``m``; below the lowest measured pole, counting
@@ -80,7 +83,7 @@ def declare(cfg):
     natural : tuple of NaturalFrequency
     antiresonances : tuple of Antiresonance
     """
-    from vibupdate.modal.analysis import antiresonances, modes
+    from vibupdate.modal.analysis import antiresonances, flexible_modes
     from vibupdate.data.measured import declared_modes
 
     where = f"configuration {cfg.name!r}"
@@ -92,7 +95,7 @@ def declare(cfg):
     if todo:
         M0, K0 = cfg.model.matrices()
         n_modes = min(cfg.model.n_dofs, max(mode_list, default=0) + 1)
-        nominal_omega = modes(M0, K0, n_modes)[0] if mode_list else np.array([])
+        nominal_omega = flexible_modes(M0, K0, n_modes)[0] if mode_list else np.array([])
         for rc in todo:
             mine = [i for i, a in enumerate(zeros) if a.receptance == rc]
             nominal_z = antiresonances(M0, K0, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]))

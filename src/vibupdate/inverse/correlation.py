@@ -1,7 +1,8 @@
 """Correlation of a model with measured data: paired frequencies, errors (Eq. 26), MAC.
 
 Pairing follows the declared correspondence (`vibupdate.data.pairing`): the measured natural
-frequency of mode ``m`` is compared with the model's ``m``-th eigenvalue, the measured
+frequency of mode ``m`` is compared with the model's ``m``-th flexible mode (rigid-body modes,
+at 0 rad/s, are not counted), the measured
 antiresonance ``j`` of ``h_rc`` with the model's ``j``-th zero of ``h_rc``; never by nearness.
 Where the model has no such zero the paired value is NaN.
 """
@@ -13,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vibupdate.modal.analysis import antiresonances, mac, modes
+from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes
 from vibupdate.data.measured import TWO_PI, Configuration
 
 __all__ = ["ModelFrequencies", "model_frequencies", "frequency_rows", "percent_error", "shape_mac"]
@@ -32,8 +33,8 @@ class ModelFrequencies:
     Phi : ndarray, shape (n, n_p)
         Mass-normalized model modes paired with the natural frequencies.
     omega_all : ndarray, shape (n_m,)
-        Every computed model frequency, rad/s, ascending (at least one above the highest
-        declared mode when the model has it).
+        Every computed flexible model frequency, rad/s, ascending (at least one above the
+        highest declared mode when the model has it); ``omega_all[m - 1]`` is mode ``m``.
     Phi_all : ndarray, shape (n, n_m)
     zeros_all : dict of (str, str) to ndarray
         Every real zero of each measured receptance, rad/s, ascending.
@@ -45,6 +46,8 @@ class ModelFrequencies:
     zero_derivatives : ndarray, shape (n_z, n_x), or None
         ``d antiresonances / d xbar`` (rad/s per unit of normalized parameter, NaN rows where
         the model lacks the zero), when asked for (``derivatives=True``).
+    rigid : ndarray, shape (n, n_r)
+        The model's rigid-body modes (0 rad/s, mass-normalized), which the mode numbers skip.
     """
 
     natural: np.ndarray
@@ -55,6 +58,7 @@ class ModelFrequencies:
     zeros_all: dict = field(default_factory=dict)
     spectrum: tuple | None = None
     zero_derivatives: np.ndarray | None = None
+    rigid: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 def percent_error(model, measured) -> np.ndarray:
@@ -91,12 +95,15 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     spectrum = None
     if cfg.model.n_dofs <= DENSE_LIMIT:    # the dense solve gives every mode: keep them
         spectrum = modes(M, K)
-        if top > spectrum[0].size:
+        flexible = spectrum[0] != 0        # rigid-body modes are exactly 0 (`vibupdate.modal.rigid`)
+        rigid = spectrum[1][:, ~flexible]
+        if top > np.count_nonzero(flexible):
             raise ValueError(f"configuration {cfg.name!r}: mode {top} is declared, but the model has "
-                             f"{spectrum[0].size} finite modes ({cfg.model.n_dofs} DOFs, some without mass)")
-        omega, Phi = spectrum[0][:n_modes], spectrum[1][:, :n_modes]
+                             f"{np.count_nonzero(flexible)} finite modes besides its {rigid.shape[1]} rigid-body "
+                             f"mode(s) ({cfg.model.n_dofs} DOFs, some perhaps without mass)")
+        omega, Phi = spectrum[0][flexible][:n_modes], spectrum[1][:, flexible][:, :n_modes]
     else:
-        omega, Phi = modes(M, K, n_modes)
+        omega, Phi, rigid = flexible_modes(M, K, n_modes)
     paired = np.full(len(cfg.antiresonances), np.nan)
     slopes = None
     zeros_all = {}
@@ -109,7 +116,8 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= model_z.size:
                 paired[i] = model_z[a.index - 1]
-    return ModelFrequencies(omega[mode_index], paired, Phi[:, mode_index], omega, Phi, zeros_all, spectrum, slopes)
+    return ModelFrequencies(omega[mode_index], paired, Phi[:, mode_index], omega, Phi, zeros_all, spectrum, slopes,
+                            rigid)
 
 
 def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:

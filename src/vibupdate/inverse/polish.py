@@ -195,7 +195,7 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
     for cfg in configurations:
         model = cfg.model
         freqs = model_frequencies(cfg, xbar, zeros=not jacobian)   # with a Jacobian, zeros come with it
-        vectors = [freqs.Phi_all] if basis is not None and jacobian else None
+        vectors = [freqs.Phi_all, freqs.rigid] if basis is not None and jacobian else None
         w_meas = np.array([f.omega for f in cfg.natural])
         sw = np.sqrt([f.weight for f in cfg.natural])
         if w_meas.size:

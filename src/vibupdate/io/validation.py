@@ -6,8 +6,9 @@ beforehand, so that ``check`` accepts exactly the cases ``run`` accepts:
 * options: every number finite and in its range (the option classes accept some values that
   the solver or the damping stage reject later);
 * physics: ``M`` and ``K`` of every configuration admissible (`vibupdate.model.physical`) at the
-  nominal point and at corners of the parameter box, rigid-body modes and massless DOFs
-  counted and reported;
+  nominal point (an error otherwise) and at corners of the parameter box (where not, a
+  warning naming the bound and the solver's narrower bound, `physical_box`), rigid-body
+  modes and massless DOFs counted and reported;
 * measured data: damping ratios in (0, 1) (a warning above `HIGH_DAMPING`), frequencies
   ascending in mode order, a warning when the frequencies look like rad/s written as Hz;
 * the problem itself, built as the run builds it (with the model reduction when the
@@ -57,12 +58,16 @@ class CaseCheck:
         Suspicious but admissible input.
     prepared : vibupdate.inverse.update.Prepared or None
         The problem built to check the case, for `update` to use instead of building it again.
+    case : vibupdate.io.case.Case or None
+        The case the run solves: the one checked, with the parameter bounds narrowed where
+        they reach models that are not physical (``warnings`` say which and to what).
     """
 
     sizes: dict
     notes: tuple[str, ...]
     warnings: tuple[str, ...]
     prepared: object = field(default=None, repr=False, compare=False)
+    case: object = field(default=None, repr=False, compare=False)
 
 
 def _finite(value) -> bool:
@@ -206,38 +211,42 @@ def _rad_s_warning(cfg) -> str | None:
     return None
 
 
-def _physical(case, error) -> tuple[list[str], int]:
-    """M and K at the nominal point and at corners of the box; returns notes and rigid modes."""
-    from vibupdate.model.physical import box_corners, definiteness
+def _physical(case, error) -> tuple[list[str], list[str], int, object]:
+    """M and K at the nominal point and at corners of the box; returns notes, warnings, the
+    most rigid-body modes of a configuration, and the case with the solver's bounds (the same
+    case unless a corner is not admissible, `vibupdate.model.physical.physical_box`)."""
+    from dataclasses import replace
 
-    notes, rigid_all = [], 0
+    from vibupdate.model.physical import box_corners, definiteness, physical_box
+
+    notes, warnings, rigid_all = [], [], 0
+    lower, upper = case.configurations[0].model.bounds()
+    lower, upper = lower.copy(), upper.copy()
     for cfg in case.configurations:
         model = cfg.model
         key = f"configuration '{cfg.name}'" if len(case.configurations) > 1 else "model"
         found = definiteness(*model.matrices())
         if found.problem:
             raise error(key, f"the nominal model is not physical: {found.problem}")
-        lower, upper = model.bounds()
-        corners = box_corners(lower, upper)
-        changed = []
-        for up, xbar in corners:
-            at = definiteness(*model.matrices(xbar))
-            if at.problem:
-                raise error(key, f"the parameter bounds allow a model that is not physical: at the corner with "
-                                 f"{_describe(model, up)}: {at.problem}. Narrow the bounds")
-            if at.rigid_body_modes != found.rigid_body_modes:
-                changed.append((at.rigid_body_modes, _describe(model, up)))
+        box = physical_box(model, found.rigid_body_modes, lambda up, m=model: _describe(m, up))
+        if box.changed:
+            warnings.append(f"{key}: the parameter bounds reach models that are not physical; "
+                            + "; ".join(box.findings))
+            lower, upper = np.maximum(lower, box.lower), np.minimum(upper, box.upper)
         rigid_all = max(rigid_all, found.rigid_body_modes)
         text = (f"{cfg.name}: {model.n_dofs} DOFs, {found.rigid_body_modes} rigid-body mode(s)"
                 + (f", {len(found.massless)} DOF(s) without mass ({_massless_path(model.n_dofs)})"
                    if found.massless else ", M positive definite")
-                + f"; M, K checked at the nominal point and {len(corners)} corners of the parameter box")
+                + f"; M, K checked at the nominal point and {len(box_corners(*model.bounds()))} corners of the "
+                  "parameter box")
         notes.append(text)
-        if changed:
-            n, where = changed[0]
-            notes.append(f"{cfg.name}: {n} rigid-body mode(s) at the corner with {where} (nominal: "
-                         f"{found.rigid_body_modes})")
-    return notes, rigid_all
+    if not warnings:
+        return notes, warnings, rigid_all, case
+    parameters = tuple(replace(p, lower=min(p.nominal + lo * p.reference, p.nominal),
+                               upper=max(p.nominal + hi * p.reference, p.nominal))
+                       for p, lo, hi in zip(case.configurations[0].model.parameters, lower, upper))
+    configurations = tuple(replace(c, model=replace(c.model, parameters=parameters)) for c in case.configurations)
+    return notes, warnings, rigid_all, replace(case, configurations=configurations)
 
 
 def _massless_path(n_dofs: int) -> str:
@@ -300,8 +309,8 @@ def validate_case(case) -> CaseCheck:
     for cfg in case.configurations:
         _check_order(cfg, error)
         _check_data(cfg, error)
-    notes, rigid = _physical(case, error)
-    warnings = _check_damping(case, rigid, error)
+    notes, physical_warnings, rigid, case = _physical(case, error)
+    warnings = physical_warnings + _check_damping(case, rigid, error)
     warnings += [w for w in (_rad_s_warning(c) for c in case.configurations) if w]
     warnings += [f"configuration '{name}' FRFs: {note}" for name, notes in case.frf_notes.items()
                  for note in notes]
@@ -309,4 +318,4 @@ def validate_case(case) -> CaseCheck:
         prepared = prepare_first_stage(case.configurations, case.formulation)
     except ValueError as exc:
         raise error("configuration", str(exc)) from None
-    return CaseCheck(prepared.problem.sizes(), tuple(notes), tuple(warnings), prepared)
+    return CaseCheck(prepared.problem.sizes(), tuple(notes), tuple(warnings), prepared, case)

@@ -24,8 +24,47 @@ from vibupdate.modal.eigen import (
 from vibupdate.modal.receptance import receptance, receptances
 from vibupdate.modal.zeros import adjunct, antiresonances
 
-__all__ = ["modes", "mode_residuals", "receptance", "receptances", "adjunct", "antiresonances", "mac", "massless_dofs",
+__all__ = ["modes", "flexible_modes", "mode_residuals", "receptance", "receptances", "adjunct", "antiresonances", "mac", "massless_dofs",
            "MASSLESS_TOL", "DENSE_LIMIT", "DENSE_MAX", "RESIDUAL_TOL", "ModalAccuracyError"]
+
+
+def flexible_modes(M, K, n_modes: int | None = None, **options):
+    """The lowest flexible modes: `modes` without the rigid-body modes (those `modes` returns
+    at exactly 0 rad/s, `vibupdate.modal.rigid`), and the rigid-body modes apart.
+
+    Measured natural frequencies are numbered by these (docs/vocabulary.md): mode 1 of a
+    free-free test is the first flexible mode, whatever the number of rigid-body modes.
+
+    Parameters
+    ----------
+    M, K : sparse or ndarray, shape (n, n)
+    n_modes : int, optional
+        How many flexible modes; by default every finite one (dense) or 20 (sparse).
+    **options
+        ``dense``, ``rtol`` of `modes`.
+
+    Returns
+    -------
+    omega : ndarray, shape (n_modes,)
+        rad/s, ascending (fewer when the model has fewer flexible modes).
+    Phi : ndarray, shape (n, n_modes)
+        Mass-normalized.
+    rigid : ndarray, shape (n, n_r)
+        The rigid-body modes, mass-normalized.
+    """
+    n_finite = M.shape[0] - massless_dofs(M).size
+    want = None if n_modes is None else min(n_modes, n_finite)
+    while True:
+        omega, Phi = modes(M, K, want, **options)
+        zero = omega == 0
+        n_rigid = int(np.count_nonzero(zero))
+        if n_modes is None or omega.size - n_rigid >= n_modes or omega.size >= n_finite:
+            break
+        want = min(n_finite, n_modes + n_rigid + (n_rigid == omega.size) * omega.size)
+    flexible = np.flatnonzero(~zero)
+    if n_modes is not None:
+        flexible = flexible[:n_modes]
+    return omega[flexible], Phi[:, flexible], Phi[:, zero]
 
 
 def mac(A, B) -> np.ndarray:

@@ -34,6 +34,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from vibupdate.modal import rigid
 from vibupdate.modal.kept import Kept, content_key
 from vibupdate.modal.refinement import block_size, refine_modes
 
@@ -103,17 +104,37 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
     try:
         mu, V = sla.eigh(M, K)
     except (sla.LinAlgError, ValueError):
+        mu = None
+    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, [1.0 / mu[-1]], V[:, -1:])[0]:
+        # A singular K whose Cholesky factor completed on rounding-level pivots: its largest
+        # mu is rounding, and the error n eps mu_max it puts on every mu swamps the flexible
+        # modes (measured: frequencies jumping by 1e-5 between neighbouring points).
+        mu = None
+    if mu is None:
         # K is not positive definite (rigid-body modes or an unstable parameter point): shift
         # below the lowest eigenvalue, estimated by the direct pencil.
+        # With rigid-body modes the shift goes one first flexible eigenvalue below zero: the
+        # error n eps mu_max then stays at n eps of the flexible modes (a millionth of the
+        # largest eigenvalue, the former shift, cost 1.8e-8 on a free-free 602-DOF beam, a
+        # shift at rounding level 5e-7 on a 22-DOF one). An unstable point: at its own size.
         eigval_direct, V_direct = _direct_eigh(K, M)
-        spread = max(abs(eigval_direct[0]), 1e-6 * abs(eigval_direct[-1]), 1e-300)
-        sigma = eigval_direct[0] - spread
-        mu, V = sla.eigh(M, K - sigma * M)
+        zero = rigid.is_zero(M, K, eigval_direct, V_direct)
+        mu = None
+        if zero[0] and not zero.all():
+            sigma = min(eigval_direct[0], 0.0) - eigval_direct[np.argmin(zero)]
+            try:
+                mu, V = sla.eigh(M, K - sigma * M)
+            except (sla.LinAlgError, ValueError):
+                mu = None
+        if mu is None:
+            spread = max(abs(eigval_direct[0]), 1e-6 * abs(eigval_direct[-1]), 1e-300)
+            sigma = eigval_direct[0] - spread
+            mu, V = sla.eigh(M, K - sigma * M)
     mu, V = mu[::-1], V[:, ::-1]
     if mu[-1] < 1e-6 * mu[0]:
         if eigval_direct is None:
             eigval_direct, V_direct = _direct_eigh(K, M)
-        split = np.sqrt((sigma + 1.0 / mu[0]) * eigval_direct[-1])
+        split = np.sqrt(_lowest_flexible(K, M, sigma, mu, V, eigval_direct[-1]) * eigval_direct[-1])
         with np.errstate(divide="ignore"):
             n_low = int(np.sum((mu > 0) & (sigma + 1.0 / mu < split)))
         eigval = np.concatenate([sigma + 1.0 / mu[:n_low], eigval_direct[n_low:]])
@@ -122,6 +143,20 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
         eigval = sigma + 1.0 / mu
     V = V / np.sqrt(np.einsum("ij,ij->j", V, M @ V))
     return eigval, V
+
+
+def _lowest_flexible(K, M, sigma: float, mu: np.ndarray, V: np.ndarray, top: float) -> float:
+    """Lowest eigenvalue of the reciprocal pencil that is not zero within rounding
+    (`vibupdate.modal.rigid`), or ``top`` when there is none: the low end of the splice, so that
+    a free-free model's flexible modes still come from the reciprocal pencil."""
+    positive = mu > 0
+    with np.errstate(divide="ignore"):
+        eigval = np.where(positive, sigma + 1.0 / np.where(positive, mu, 1.0), np.inf)
+    candidates = np.flatnonzero(positive & (eigval > 0))
+    if candidates.size:
+        zero = rigid.is_zero(M, K, eigval[candidates], V[:, candidates])
+        candidates = candidates[~zero]
+    return float(eigval[candidates[0]]) if candidates.size else float(top)
 
 
 def _direct_eigh(K: np.ndarray, M: np.ndarray):
@@ -169,11 +204,47 @@ def _norm1(A) -> float:
     return float(abs(A).sum(axis=0).max()) if A.nnz else 0.0
 
 
+#: Shift of a singular ``K`` (rigid-body modes, structural zeros of an adjunct pencil), in units
+#: of the rounding level of its null vector (`_null_level`): far above rounding, far below the
+#: lowest flexible eigenvalue (at least 4.6e4 rounding units in the measurements of
+#: `vibupdate.modal.rigid`).
+SINGULAR_SHIFT = 1e3
+
+
+def _null_level(K, M, lu) -> float | None:
+    """Rounding level (rad/s)^2 of the null vector of ``K`` when ``K`` is singular within
+    rounding, else None: three steps of inverse iteration from a fixed start with the LU of
+    ``K``, then ``||K x|| <= RIGID_FACTOR eps || |K| |x| ||`` (symmetric or not)."""
+    x = np.random.default_rng(1).standard_normal(K.shape[0])
+    for _ in range(3):
+        with np.errstate(all="ignore"):
+            x = lu.solve(np.asarray(M @ x))
+        size = np.linalg.norm(x)
+        if not np.isfinite(size) or size == 0:
+            break
+        x = x / size
+    if not np.all(np.isfinite(x)) or not np.any(x):
+        return float(abs(_diagonal(K)).max() / max(abs(_diagonal(M)).max(), 1e-300)) * 1e-9
+    eps = np.finfo(float).eps
+    rounding = eps * np.linalg.norm(abs(K) @ np.abs(x))
+    if np.linalg.norm(K @ x) > rigid.RIGID_FACTOR * rounding:
+        return None
+    return float(rounding / max(np.linalg.norm(M @ x), 1e-300))
+
+
 def _shifted_lu(K, M):
-    """Sparse LU of ``K - sigma M`` with ``sigma = 0`` when K is nonsingular, else below zero."""
+    """Sparse LU of ``K - sigma M`` with ``sigma = 0`` when K is nonsingular, else below zero:
+    ``-SINGULAR_SHIFT`` rounding levels of its null vector (`_null_level`) when the LU of a
+    singular ``K`` completes on rounding-level pivots, a millionth of ``max K_ii / max M_ii``
+    when it stops on an exactly zero one."""
     K, M = sp.csc_matrix(K), sp.csc_matrix(M)
     try:
-        return 0.0, spla.splu(K)
+        lu = spla.splu(K)
+        level = _null_level(K, M, lu)
+        if level is None:
+            return 0.0, lu
+        sigma = -SINGULAR_SHIFT * level
+        return sigma, spla.splu(sp.csc_matrix(K - sigma * M))
     except RuntimeError:
         dm = abs(_diagonal(M)).max()
         sigma = -1e-6 * abs(_diagonal(K)).max() / max(dm, 1e-300)
@@ -281,7 +352,9 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     Returns
     -------
     omega : ndarray, shape (n_modes,)
-        Natural frequencies in rad/s, ascending (negative eigenvalues give ``-sqrt(|.|)``).
+        Natural frequencies in rad/s, ascending. Rigid-body modes (eigenvalues zero within the
+        rounding of their own Rayleigh quotient, `vibupdate.modal.rigid`) are exactly 0;
+        negative eigenvalues beyond rounding give ``-sqrt(|.|)``.
     Phi : ndarray, shape (n, n_modes)
         Mass-normalized modes, ``Phi.T @ M @ Phi = I``, full length (massless DOFs included);
         each column's largest-magnitude entry is positive.
@@ -307,6 +380,9 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     else:
         k = n_modes if n_modes is not None else min(n_finite - 1, 20)
         eigval, Phi = _sparse_modes(M, K, k, rtol)
+    # rigid-body modes (zero within the rounding of their own Rayleigh quotient,
+    # `vibupdate.modal.rigid`) are exactly 0 rad/s, whatever sign rounding gave them
+    eigval = np.where(rigid.is_zero(M, K, eigval, Phi), 0.0, eigval)
     omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
     idx = np.argmax(np.abs(Phi), axis=0)
     Phi = Phi * np.sign(Phi[idx, np.arange(Phi.shape[1])])

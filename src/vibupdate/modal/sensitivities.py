@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 from vibupdate.modal import eigen
 from vibupdate.modal.eigen import _dense_modes
 from vibupdate.modal.kept import Kept
-from vibupdate.modal.zeros import adjunct, antiresonances
+from vibupdate.modal.zeros import adjunct, antiresonances, structural
 
 __all__ = [
     "eigenvalue_derivatives",
@@ -154,7 +154,8 @@ def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray) -> np.ndarray:
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     """Finite, real, positive eigenvalues of the adjunct pencil of ``h_rc`` with right and left
-    vectors: dense up to `vibupdate.modal.eigen.DENSE_LIMIT` DOFs, shift-invert above (the
+    vectors, without the structural zeros of a model with rigid-body modes
+    (`vibupdate.modal.zeros.structural`): dense up to `vibupdate.modal.eigen.DENSE_LIMIT` DOFs, shift-invert above (the
     lowest ``n_zeros``; the left vectors are the right vectors of the transposed pencil, the
     adjunct of ``h_cr``).
 
@@ -182,7 +183,7 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     Kr = Kr.toarray() if sp.issparse(Kr) else np.asarray(Kr)
     if r == c:   # symmetric: the solver of `antiresonances` (reciprocal pencil, massless DOFs condensed)
         eigval_z, V_right = _dense_modes(Mr, Kr)
-        keep = eigval_z > 0
+        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right)
         eigval_z, V_right = eigval_z[keep][:n_zeros], V_right[:, keep][:, :n_zeros]
         return eigval_z, V_right, V_right
     (num, den), V_left, V_right = sla.eig(Kr, Mr, left=True, right=True, homogeneous_eigvals=True)
@@ -191,6 +192,7 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     eigval_z = np.full(num.shape, np.nan, dtype=complex)
     eigval_z[finite] = num[finite] / den[finite]
     real = finite & (np.abs(eigval_z.imag) <= 1e-8 * np.abs(eigval_z.real)) & (eigval_z.real > 0)
+    real[real] = ~structural(M, K, r, eigval_z[real].real, V_right[:, real])
     eigval_z, V_right, V_left = eigval_z[real].real, V_right[:, real].real, V_left[:, real].real
     order = np.argsort(eigval_z)[:n_zeros]
     return eigval_z[order], V_right[:, order], V_left[:, order]

@@ -3,6 +3,10 @@ eigenvalues of the adjunct pencil ``(K_rc, M_rc)``, ``K`` and ``M`` without row 
 ``r``. Dense up to `vibupdate.modal.eigen.DENSE_LIMIT` DOFs (the symmetric reciprocal pencil for
 ``r == c``, QZ otherwise), shift-invert on the sparse adjunct pencil above, with a residual
 check per zero. rad/s throughout.
+
+A model with rigid-body modes gives every adjunct pencil eigenvalues 0 that are no
+antiresonances (`vibupdate.modal.rigid`); they are removed (`structural`) before anything is
+counted, so zero ``j`` of ``h_rc`` is the ``j``-th antiresonance above 0 Hz on every path.
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.modal import eigen
+from vibupdate.modal import eigen, rigid
 from vibupdate.modal.eigen import (
     RESIDUAL_TOL,
     _dense,
@@ -21,7 +25,7 @@ from vibupdate.modal.eigen import (
     check_dof_pair,
 )
 
-__all__ = ["adjunct", "antiresonances"]
+__all__ = ["adjunct", "antiresonances", "structural"]
 
 
 def adjunct(A, r: int, c: int):
@@ -44,11 +48,34 @@ def adjunct(A, r: int, c: int):
     return np.asarray(A)[np.ix_(rows, cols)]
 
 
+def structural(M, K, r: int, eigval_z, V) -> np.ndarray:
+    """Which eigenvalues of the adjunct pencil of ``h_rc`` are its structural zeros, the
+    rigid-body combinations with no motion at ``r`` (`vibupdate.modal.rigid`), no
+    antiresonances.
+
+    Parameters
+    ----------
+    M, K : sparse or ndarray, shape (n, n)
+        The full model.
+    r : int
+        Response DOF (the removed column).
+    eigval_z : ndarray, shape (k,)
+        Eigenvalues of the adjunct pencil, (rad/s)^2.
+    V : ndarray, shape (n - 1, k)
+        Their right vectors.
+
+    Returns
+    -------
+    ndarray of bool, shape (k,)
+    """
+    return rigid.is_zero(M, K, eigval_z, rigid.embed(_real_vectors(V), M.shape[0], r))
+
+
 def _dense_zeros(M, K, r: int, c: int, rtol: float):
     Mr, Kr = _dense(adjunct(M, r, c)), _dense(adjunct(K, r, c))
     if r == c:
         eigval_z, V = _dense_modes(Mr, Kr)
-        keep = eigval_z > 0
+        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V)
         return eigval_z[keep], V[:, keep]
     (num, den), V = sla.eig(Kr, Mr, homogeneous_eigvals=True)
     scale = np.abs(num) + np.abs(den)
@@ -57,6 +84,7 @@ def _dense_zeros(M, K, r: int, c: int, rtol: float):
     eigval_z[finite] = num[finite] / den[finite]
     real = finite & (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real))
     keep = real & (eigval_z.real > 0)
+    keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V[:, keep])
     return eigval_z[keep].real, _real_vectors(V[:, keep])
 
 
@@ -86,6 +114,7 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
         real = (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real) if np.iscomplexobj(eigval_z)
                 else np.ones(eigval_z.size, bool))
         keep = real & (eigval_z.real > 0)
+        keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V[:, keep])
         if keep.sum() >= n_zeros or k >= m - 2:
             break
         k = min(m - 2, 2 * k)
@@ -102,7 +131,8 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
     """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8).
 
     They are the finite, real, positive eigenvalues ``omega^2`` of the adjunct pencil
-    ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed). Small models: dense (symmetric
+    ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed), without the structural zeros of a
+    model with rigid-body modes (`structural`). Small models: dense (symmetric
     reciprocal pencil for ``r == c``, QZ otherwise); large models: shift-invert on the sparse
     adjunct pencil (Lanczos for ``r == c``, Arnoldi otherwise) with a residual check per zero.
 

@@ -6,11 +6,15 @@ A model is admissible when
 * ``M`` is positive definite, or positive semidefinite with *massless DOFs* (a zero row and
   column, as in FE models whose rotations carry no inertia) on which ``K`` is positive
   definite, so that they can be condensed statically;
-* ``K`` is positive semidefinite. Its null space holds the rigid-body modes, counted as the
-  eigenvalues of the pencil ``(K, M)`` below ``RIGID_TOL * lam_ref``, with
-  ``lam_ref = max_i K_ii / M_ii`` over the DOFs with mass (a Rayleigh quotient, so at most
-  the largest eigenvalue); ``K`` is rejected when an eigenvalue of the pencil lies below
-  ``-RIGID_TOL * lam_ref``.
+* ``K`` is positive semidefinite. Its null space holds the rigid-body modes. The eigenvalues
+  of the pencil ``(K, M)`` below ``RIGID_TOL * lam_ref``, with ``lam_ref = max_i K_ii / M_ii``
+  over the DOFs with mass (a Rayleigh quotient, so at most the largest eigenvalue), are the
+  candidates; each is then solved for and counted rigid when it is zero within the rounding
+  of its own mode's Rayleigh quotient (`vibupdate.modal.rigid`), negative below that. The
+  threshold alone grows with the fourth power of the inverse element length on bending
+  meshes and counted 4 flexible modes of the 3,893-DOF refined frame as rigid. ``K`` is
+  rejected when an eigenvalue lies below ``-RIGID_TOL * lam_ref`` or is negative beyond
+  rounding.
 
 Eigenvalues of the pencil below a threshold ``t`` are counted by Sylvester's law of inertia:
 their number is the number of negative eigenvalues of ``K - t M`` (with massless DOFs too,
@@ -22,7 +26,10 @@ formed.
 
 Over the parameter box, ``M(xbar)`` and ``K(xbar)`` are affine (Eqs. 12-14), so they are
 positive (semi)definite on the whole box when they are at every corner; the corners checked
-are listed by `box_corners`.
+are listed by `box_corners`. A box that reaches beyond the admissible region (a stiffness
+parameter whose lower bound is 0, so that ``K`` turns singular there) while the nominal model
+is admissible is not an error: `physical_box` gives the solver bounds inside the region, and
+the check warns with the figures.
 """
 
 from __future__ import annotations
@@ -35,9 +42,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.modal.analysis import DENSE_LIMIT, MASSLESS_TOL, massless_dofs
+from vibupdate.modal.analysis import DENSE_LIMIT, MASSLESS_TOL, massless_dofs, modes
 
-__all__ = ["DENSE_LIMIT", "RIGID_TOL", "Definiteness", "definiteness", "box_corners", "count_below"]
+__all__ = ["DENSE_LIMIT", "RIGID_TOL", "Definiteness", "definiteness", "box_corners", "count_below", "PhysicalBox",
+           "physical_box"]
 
 #: Relative threshold (to ``lam_ref``) of a zero eigenvalue of the pencil ``(K, M)``.
 RIGID_TOL = 1e-10
@@ -179,14 +187,22 @@ def definiteness(M, K) -> Definiteness:
     lam_ref = float(np.max(np.abs(kd[mass]) / dm))
     if not lam_ref > 0:
         return Definiteness(tuple(massless), 0, "the stiffness matrix K is zero on every DOF that carries mass")
-    below = count_below(K, M, RIGID_TOL * lam_ref)      # rigid-body modes and any negative ones
+    below = count_below(K, M, RIGID_TOL * lam_ref)      # candidates: rigid-body modes and any negative ones
     negative = count_below(K, M, -RIGID_TOL * lam_ref) if below else 0
+    rigid = 0
+    if below and not negative:
+        # told apart by the rounding of each mode's own Rayleigh quotient (`vibupdate.modal.rigid`):
+        # the threshold above, relative to the largest K_ii / M_ii, takes flexible modes of
+        # finely meshed models for rigid ones (4 on the 3,893-DOF refined frame)
+        omega = modes(M, K, min(below, M.shape[0] - massless.size))[0]
+        rigid = int(np.count_nonzero(omega == 0))
+        negative = int(np.count_nonzero(omega < 0))
     if negative:
         low = _lowest(K, M) if not massless.size else None
         shown = (f"; lowest eigenvalue of (K, M) {low:.6g} (rad/s)^2" if low is not None else "")
         return Definiteness(tuple(massless), 0, f"the stiffness matrix K is not positive semidefinite: {negative} "
                                                 f"negative eigenvalue(s){shown}")
-    return Definiteness(tuple(int(i) for i in massless), below, None)
+    return Definiteness(tuple(int(i) for i in massless), rigid, None)
 
 
 def box_corners(lower, upper, *, seed: int = 0) -> list[tuple[str, np.ndarray]]:
@@ -216,3 +232,111 @@ def box_corners(lower, upper, *, seed: int = 0) -> list[tuple[str, np.ndarray]]:
             seen.add(key)
             out.append((up, x))
     return out
+
+
+#: Bisection steps of `physical_box` along an axis or a common shrink factor.
+BISECTION_STEPS = 12
+#: How far the solver's bound stays inside the last admissible point found, as a fraction of
+#: its distance from the nominal value.
+BOUND_MARGIN = 0.01
+
+
+@dataclass(frozen=True)
+class PhysicalBox:
+    """Bounds (normalized, Eq. 12) inside which a model with an admissible nominal point stays
+    admissible with the nominal number of rigid-body modes, and what was found beyond.
+
+    Attributes
+    ----------
+    lower, upper : ndarray, shape (n_x,)
+        The bounds for the solver; the model's own where nothing was found.
+    findings : tuple of str
+        Per corner or bound that was not admissible: where, and what.
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    findings: tuple[str, ...]
+
+    @property
+    def changed(self) -> bool:
+        return bool(self.findings)
+
+
+def _admissible(model, xbar, rigid: int) -> str | None:
+    """None where ``M``, ``K`` at ``xbar`` are admissible with ``rigid`` rigid-body modes, else why."""
+    found = definiteness(*model.matrices(xbar))
+    if found.problem:
+        return found.problem
+    if found.rigid_body_modes != rigid:
+        return (f"K is singular there: {found.rigid_body_modes} rigid-body mode(s) where the nominal model has "
+                f"{rigid} (a stiffness reaches zero)")
+    return None
+
+
+def _last_admissible(model, rigid: int, start, end) -> float:
+    """Largest ``t`` in [0, 1] found by bisection with ``start + t (end - start)`` admissible
+    (``start`` is)."""
+    good, bad = 0.0, 1.0
+    for _ in range(BISECTION_STEPS):
+        mid = 0.5 * (good + bad)
+        if _admissible(model, start + mid * (end - start), rigid) is None:
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
+def physical_box(model, rigid: int, describe) -> PhysicalBox:
+    """Bounds for the solver that keep an admissible nominal model admissible (module docstring).
+
+    Each bound is tried alone (the other parameters nominal); one that is not admissible is
+    moved toward the nominal value to the last admissible point found by `BISECTION_STEPS`
+    bisections, less `BOUND_MARGIN` of its distance from the nominal. Then the corners of the
+    resulting box (`box_corners`) are checked; if one is still not admissible the whole box is
+    shrunk toward the nominal point by one common factor, found the same way. ``describe(up)``
+    names a corner in words.
+
+    Parameters
+    ----------
+    model : AffineModel
+    rigid : int
+        Rigid-body modes of the nominal model.
+    describe : callable
+        ``describe(up)`` for ``up`` a bool array (which parameters at their upper bound).
+
+    Returns
+    -------
+    PhysicalBox
+    """
+    lower, upper = (np.array(b, dtype=float) for b in model.bounds())
+    x0 = np.zeros(lower.size)
+    findings = []
+    bad_corners = [(up, x) for up, x in box_corners(lower, upper) if _admissible(model, x, rigid) is not None]
+    if not bad_corners:
+        return PhysicalBox(lower, upper, ())
+    up0, x_bad = bad_corners[0]
+    findings.append(f"at the corner with {describe(up0)}: {_admissible(model, x_bad, rigid)}")
+    for i, p in enumerate(model.parameters):
+        for side, bounds in (("lower", lower), ("upper", upper)):
+            if bounds[i] == 0.0:
+                continue
+            end = x0.copy()
+            end[i] = bounds[i]
+            why = _admissible(model, end, rigid)
+            if why is None:
+                continue
+            t = _last_admissible(model, rigid, x0, end) * (1.0 - BOUND_MARGIN)
+            new = t * bounds[i]
+            old_value, new_value = p.nominal + bounds[i] * p.reference, p.nominal + new * p.reference
+            findings.append(f"parameter '{p.name}' at its {side} bound {old_value:.6g} {p.unit}".rstrip()
+                            + f": {why}; the solver keeps {p.name} {'>=' if side == 'lower' else '<='} "
+                            f"{new_value:.6g} {p.unit}".rstrip())
+            bounds[i] = new
+    still = [x for _, x in box_corners(lower, upper) if _admissible(model, x, rigid) is not None]
+    if still:
+        factor = min(_last_admissible(model, rigid, x0, x) for x in still) * (1.0 - BOUND_MARGIN)
+        lower, upper = factor * lower, factor * upper
+        findings.append(f"corners of the box combine to a model that is not admissible; the solver's box is shrunk "
+                        f"toward the nominal point to {factor:.4g} of its size")
+    return PhysicalBox(lower, upper, tuple(findings))
