@@ -348,7 +348,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
             say(f"polish: objective {polished.cost_start:.4e} -> {polished.cost:.4e} "
                 f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations"
                 + (f" of the full model in {polished.rounds} reduced rounds" if polished.rounds else "")
-                + f", {polished.seconds:.2f} s)")
+                + f", {polished.seconds:.2f} s; {polished.message})")
     updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
     if status.ok:
         first = [model_frequencies(c, first_xbar) for c in configurations] if polished and polished.kept else updated
@@ -358,6 +358,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         if any(c.severity == "error" and not c.passed for c in checks):
             status = Status.NOT_VERIFIED
     warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
+    if polished is not None and polished.on_limit:   # short of the optimum, maybe: said where checks are said
+        warnings += (f"polish: {polished.message}",)
     for w in warnings:
         say(f"warning: {w}")
     return UpdateResult(
