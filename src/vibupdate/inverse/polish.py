@@ -24,6 +24,13 @@ value away (J9) and the polish takes every parameter to within 6e-7 (305 DOFs, 3
 evaluations) and 7e-6 (2,996 DOFs, 30 evaluations) of the truth, stopping on ``xtol``, not
 on the evaluation limit (`benchmarks/RESULTS.md`).
 
+**Stopping.** The least squares ends on scipy's tests (``ftol``, ``xtol``, ``gtol``), or on a
+stall (`STALL_DECREASE`); the evaluation budget (`EVALUATIONS_PER_UNKNOWN`) and the optional
+time limit are backstops, and a stop on either is reported (`PolishResult.stopped_on`) and
+made a warning of the update. On noisy interval shapes from a poor start the polish may need
+hundreds of evaluations: the interval penalty is a hinge, and trust-region steps zig-zag
+across one interval edge while the frequencies creep down (docs/method.md, section 7.2).
+
 **Reduced rounds on large models.** Above `vibupdate.modal.eigen.DENSE_LIMIT` DOFs one full
 evaluation is one shift-invert eigen-solve and one sparse LU per measured shape (its
 shape-ratio derivatives); at 30,315 DOFs (the building frame of `benchmarks/large_structure.py`)
@@ -108,8 +115,9 @@ class PolishOptions:
         scipy's convergence tests or on a stall (`STALL_DECREASE`); a stop on this limit is
         reported (`PolishResult.stopped_on`) and made a warning of the update.
     max_seconds : float or None
-        Wall-clock limit of the polish (None: none); a stop on it is reported like the
-        evaluation limit.
+        Wall-clock limit of the polish (None: none), checked after each full-model evaluation
+        of the least squares (the reduced rounds, a few full evaluations, run to their end); a
+        stop on it is reported like the evaluation limit.
     tol : float
         ``ftol``, ``xtol`` and ``gtol`` of `scipy.optimize.least_squares`.
     reduced_rounds : int
