@@ -93,18 +93,18 @@ def test_the_stall_criterion_lets_a_crawl_go_on_and_stops_a_plateau():
     """A best objective falling 1 % per evaluation (the crawl along an interval edge measured on
     the noisy beam) is not a stall; one that falls by less than `STALL_DECREASE` over the
     window is, and the best point is kept."""
-    from vibupdate.inverse.polish import STALL_DECREASE, _Monitor, _Stop
+    from vibupdate.inverse.bounded_lsq import STALL_DECREASE, Monitor, Stop
 
     def value(cost):
         return np.array([np.sqrt(2 * cost)]), None
 
-    monitor = _Monitor(np.zeros(1), value(1.0), limit=10_000, budget=10_000, window=20, started=0.0,
+    monitor = Monitor(np.zeros(1), value(1.0), limit=10_000, budget=10_000, window=20, started=0.0,
                        max_seconds=None)
     cost = 1.0
     for i in range(300):
         cost *= 0.99
         monitor.seen(np.array([float(i)]), value(cost))
-    with pytest.raises(_Stop) as stop:
+    with pytest.raises(Stop) as stop:
         for i in range(21):
             monitor.seen(np.array([-1.0]), value(cost * (1 - 0.1 * STALL_DECREASE)))
     assert stop.value.reason == "stall" and "stalled" in str(stop.value)

@@ -62,8 +62,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import least_squares
 
+from vibupdate.inverse.bounded_lsq import (STALL_DECREASE, Monitor, Stop, bounded_least_squares, inside,
+                                           stall_window)
 from vibupdate.inverse.correlation import zeros_wanted, model_frequencies
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -85,9 +86,6 @@ ROUND_XTOL = 1e-10
 #: to 491 from a poor start, most of them crawling along one interval edge; the budget is a
 #: backstop, the polish ends on convergence or on `STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
-#: The polish has stalled when its best objective fell by less than this fraction over the last
-#: ``stall window`` evaluations (`stall_window`); it then stops with the best point.
-STALL_DECREASE = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
@@ -151,12 +149,6 @@ class PolishOptions:
     def budget(self, n_x: int) -> int:
         """Full-model evaluations allowed for ``n_x`` parameters."""
         return self.max_evaluations if self.max_evaluations is not None else EVALUATIONS_PER_UNKNOWN * (n_x + 1)
-
-
-def stall_window(n_x: int) -> int:
-    """Evaluations over which a stall is judged (`STALL_DECREASE`): twice the unknowns plus
-    one, at least 20 (scipy's trust region may need several rejected steps in a row)."""
-    return max(20, 2 * (n_x + 1))
 
 
 @dataclass(frozen=True)
@@ -299,77 +291,6 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
     return r, (np.vstack(jac) if jacobian and jac else None)
 
 
-def _inside(x, lower, upper) -> np.ndarray:
-    """``x`` nudged strictly inside the box (trf needs it; parameters with nominal 0 often sit
-    on a bound); idempotent."""
-    span = upper - lower
-    return np.clip(np.asarray(x, dtype=float), lower + 1e-10 * span, upper - 1e-10 * span)
-
-
-class _Stop(Exception):
-    """Raised by `_Monitor` to end a least-squares run on a limit or a stall."""
-
-    def __init__(self, reason: str, message: str):
-        super().__init__(message)
-        self.reason = reason
-
-
-class _Monitor:
-    """Counts the full-model evaluations of the polish's least squares, keeps the best point
-    seen, and raises `_Stop` after ``limit`` of them (what is left of ``budget``), on the time
-    limit or on a stall (the best objective fell by less than `STALL_DECREASE` over the last
-    ``window`` evaluations)."""
-
-    def __init__(self, x, value, limit: int, budget: int, window: int, started: float, max_seconds: float | None):
-        self.best = (np.asarray(x, dtype=float), value, 0.5 * float(value[0] @ value[0]))
-        self.limit, self.budget, self.window = limit, budget, window
-        self.started, self.max_seconds = started, max_seconds
-        self.count = 0
-        self.history = [self.best[2]]
-
-    def seen(self, x, value) -> None:
-        self.count += 1
-        cost = 0.5 * float(value[0] @ value[0])
-        if cost < self.best[2]:
-            self.best = (np.array(x, dtype=float), value, cost)
-        self.history.append(self.best[2])
-        if self.count >= self.limit:
-            raise _Stop("evaluations", f"stopped on the limit of {self.budget} evaluations of the full model, "
-                                       f"objective {self.best[2]:.4g} (set polish.max_evaluations to allow more)")
-        if self.max_seconds is not None and time.perf_counter() - self.started > self.max_seconds:
-            raise _Stop("time", f"stopped on the time limit of {self.max_seconds:g} s after {self.count} evaluations, "
-                                f"objective {self.best[2]:.4g} (polish.max_seconds)")
-        if len(self.history) > self.window:
-            before = self.history[-1 - self.window]
-            if self.best[2] > (1 - STALL_DECREASE) * before:
-                raise _Stop("stall", f"stalled: the objective fell by less than {STALL_DECREASE:g} of itself over "
-                                     f"the last {self.window} evaluations (to {self.best[2]:.4g})")
-
-
-def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, **options):
-    """`scipy.optimize.least_squares` (trf, ``x_scale="jac"``) of ``evaluate`` from ``x0`` in
-    the box ``[lower, upper]`` (all shape (n_x,)). ``evaluate(x)`` returns the residual and its
-    exact Jacobian from one eigen-solve; it is called once per point. ``x0`` is nudged strictly
-    inside the box (`_inside`). ``known = (x, evaluate(x))`` saves the first evaluation when
-    ``x`` is that start. ``monitor`` (a `_Monitor`) hears of every new evaluation and may end
-    the run by raising `_Stop`. ``options`` go to ``least_squares``."""
-    cache: dict = {} if known is None else {np.asarray(known[0], dtype=float).tobytes(): known[1]}
-
-    def at(x):
-        key = x.tobytes()
-        if key not in cache:
-            value = evaluate(x)
-            cache.clear()
-            cache[key] = value
-            if monitor is not None:
-                monitor.seen(x, value)
-        return cache[key]
-
-    x_in = _inside(x0, lower, upper)
-    return least_squares(lambda x: at(x)[0], x_in, jac=lambda x: at(x)[1], bounds=(lower, upper),
-                         method="trf", x_scale="jac", **options)
-
-
 def fit_least_squares(configurations: Sequence[Configuration], x0, shape_weight: float, known=None,
                       monitor=None, **options):
     """`bounded_least_squares` of `polish_residuals` from ``x0``, shape (n_x,), in the box of
@@ -409,7 +330,7 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
     from vibupdate.inverse.reduction import kept_dofs, ritz_reduction
 
     lo, hi = configurations[0].model.bounds()
-    x = _inside(x0, lo, hi)
+    x = inside(x0, lo, hi)
     basis: list = []
     value = polish_residuals(configurations, x, options.shape_weight, basis=basis)
     cost = 0.5 * float(value[0] @ value[0])
@@ -422,7 +343,7 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
             sol = fit_least_squares(reduced, x, options.shape_weight, max_nfev=REDUCED_EVALUATIONS, **tols)
         rounds += 1
         reduced_evaluations += int(sol.nfev)
-        x_new = _inside(sol.x, lo, hi)
+        x_new = inside(sol.x, lo, hi)
         if np.max(np.abs(x_new - x)) <= ROUND_XTOL:
             converged = f"the next step moves no parameter by more than {ROUND_XTOL:g} of its reference value"
             break
@@ -517,10 +438,10 @@ def _full_model(configurations: list, x, known, options: PolishOptions, tols: di
     """
     lo, hi = configurations[0].model.bounds()
     if known is None:
-        x = _inside(x, lo, hi)
+        x = inside(x, lo, hi)
         known = (x, polish_residuals(configurations, x, options.shape_weight))
         evaluations += 1
-    monitor = _Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
+    monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
                        options.max_seconds)
     stopped_on = "convergence"
     try:
@@ -532,7 +453,7 @@ def _full_model(configurations: list, x, known, options: PolishOptions, tols: di
             if not again.cost < sol.cost:
                 break
             sol = again
-    except _Stop as stop:
+    except Stop as stop:
         x_best, _, cost_best = monitor.best
         sol, stopped_on = _Converged(x_best, cost_best, -2, stop.args[0]), stop.reason
     return sol, evaluations + monitor.count, stopped_on
