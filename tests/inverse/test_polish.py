@@ -65,14 +65,15 @@ def _poor_start(model):
 
 def test_noisy_interval_shapes_converge_from_a_poor_start():
     """Measured: the polish used to stop on its fixed 50 evaluations here at objective 2.1e-4,
-    frequencies up to 1.5 % off; it now converges (scipy's gtol) in 385 evaluations, every
-    frequency and interval met, though the truth itself fits within 0.2 %."""
+    frequencies up to 1.5 % off; it now converges (scipy's gtol) in 37 evaluations with the
+    soft start (385 without), every frequency and interval met, where the truth misses the
+    frequencies by their 0.2 % noise."""
     cfg, model, x_true = noisy_beam()
     x0 = _poor_start(model)
     out = polish([cfg], x0)
     assert out.cost_start > 1e3
     assert out.stopped_on == "convergence" and not out.on_limit, out.message
-    assert out.evaluations < out.budget == 100 * (model.n_parameters + 1)
+    assert out.evaluations <= 60 and out.budget == 100 * (model.n_parameters + 1)
     r, _ = polish_residuals([cfg], out.xbar)
     assert np.abs(r[:6]).max() < 1e-9        # relative frequency errors
     assert np.abs(r[6:]).max() < 1e-9        # distances outside the shape intervals
@@ -168,3 +169,18 @@ def test_identical_inputs_give_identical_answers_in_fresh_processes():
                                       check=True).stdout.strip().splitlines()[-1]) for _ in range(2)]
     assert runs[0]["dofs"] == 422
     assert runs[0] == runs[1]
+
+
+def test_soft_start_on_intervals_the_frequencies_cannot_all_meet():
+    """1 % frequency noise, the same shape intervals: no point meets every datum. From the
+    nominal point and from the poor start the polish ends at the same objective (measured
+    7.39e-6 for seed 8, 99 and 189 evaluations; without the soft start 1,100 each, on the
+    limit)."""
+    cfg, model, _ = noisy_beam(seed=8, frequency_error=0.01)
+    lo, hi = model.bounds()
+    ends = [polish([cfg], x0) for x0 in (model.normalized(np.array([p.nominal for p in model.parameters])),
+                                         _poor_start(model))]
+    for out in ends:
+        assert not out.on_limit and out.evaluations < 300, out.message
+    assert ends[0].cost == pytest.approx(ends[1].cost, rel=1e-3)
+    assert 1e-7 < ends[0].cost < 1e-5
