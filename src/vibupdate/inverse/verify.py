@@ -181,7 +181,8 @@ def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies) -> float:
             continue
         m = nat.mode - 1
         idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
-        floor = max(floor, shape_ratio_floor(M, K, f.omega_all[m] ** 2, f.Phi_all[:, m], idx,
+        w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
+        floor = max(floor, shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
                                              cfg.model.dof(nat.shape.reference)))
     return ROUNDING_SAFETY * floor
 
