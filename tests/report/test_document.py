@@ -19,3 +19,11 @@ def test_the_verification_section_says_how_the_polish_worked():
     assert "in 4 evaluations of the full model and was kept" in plain and "rounds" not in plain
     older = "\n".join(verification_markdown(_solver()))          # a results file written before the rounds
     assert "in 4 evaluations of the full model and was kept" in older
+
+
+def test_the_verification_section_says_when_the_polish_stopped_on_a_limit():
+    said = "stopped on the limit of 5 evaluations of the full model, objective 0.01"
+    text = "\n".join(verification_markdown(_solver(stopped_on="evaluations", message=said)))
+    assert f"was kept (stopped on its evaluations limit: {said})" in text
+    converged = "\n".join(verification_markdown(_solver(stopped_on="convergence")))
+    assert "limit" not in converged

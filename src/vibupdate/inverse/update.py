@@ -490,6 +490,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
                        sensitivity(configurations, first_xbar, freqs=updated), (), status)
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
     warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
+    if polished is not None and polished.on_limit:   # short of the optimum, maybe: said where checks are said
+        warnings += (f"polish: {polished.message}",)
     for w in warnings:
         say(f"warning: {w}")
     message = _message(status, path.lam, steps, checks)

@@ -76,7 +76,7 @@ TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list
              "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
              "verification": dict}
 POLISH_KEYS = {"enabled": bool, "shape_weight": float, "max_evaluations": int, "tol": float,
-               "reduced_rounds": int}
+               "reduced_rounds": int, "max_seconds": float}
 VERIFICATION_KEYS = {"mac_min": float, "shape_slack": float, "fit_tolerance": float}
 SOLVER_KEYS = {"n_lambda": int, "step_growth": float, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
                 "tol": float, "relaxation_solver": str}

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["refine_modes", "block_size", "EXTENDED"]
+__all__ = ["refine_modes", "block_size", "shape_ratio_floor", "EXTENDED"]
 
 #: Whether ``numpy.longdouble`` carries more digits than ``double`` on this platform.
 EXTENDED = bool(np.finfo(np.longdouble).eps < np.finfo(np.float64).eps)
@@ -104,3 +104,63 @@ def refine_modes(M, K, solve, sigma: float, X: np.ndarray):
     eigval = np.einsum("ij,ij->j", Phi, np.asarray(KL @ Phi.astype(ext), dtype=float))   # Rayleigh quotients
     order = np.argsort(np.asarray(eigval, dtype=float))
     return np.asarray(eigval, dtype=float)[order], np.asarray(Phi, dtype=float)[:, order]
+
+
+def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: int, seed: int = 0) -> float:
+    """How far rounding alone moves the shape ratios ``phi[entries] / phi[reference]`` of one
+    mode: the first-order change when every stored entry of ``K`` and ``M`` moves by one unit
+    of rounding (relative `numpy.finfo` eps, signs drawn from a generator seeded with ``seed``).
+
+    The double-precision pencil fixes its modes only to this level (module docstring): a
+    solver of any accuracy returns ratios that differ from those of the same model assembled
+    at a neighbouring point, or exported with other rounding, by about this much. It is the
+    achievable accuracy against which point shape data are checked
+    (`vibupdate.inverse.verify`). One factorization of ``K - eigval M`` with the row and
+    column of the largest ``|phi|`` removed (as in Nelson's method).
+
+    Parameters
+    ----------
+    M, K : sparse matrix or ndarray, shape (n, n)
+    eigval : float
+        ``w^2`` of the mode, (rad/s)^2.
+    phi : ndarray, shape (n,)
+        The mode (any scaling).
+    entries : sequence of int
+        DOF indices of the ratios' numerators.
+    reference : int
+        DOF index of the denominator (``phi[reference] != 0``).
+
+    Returns
+    -------
+    float
+        Largest absolute change of the ratios (dimensionless).
+    """
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    Ms, Ks = sp.csr_matrix(M), sp.csr_matrix(K)
+    phi = np.asarray(phi, dtype=float)
+    n = phi.size
+    rng = np.random.default_rng(seed)
+    eps = np.finfo(float).eps
+
+    def rounding(A):   # symmetric, one rounding unit per stored entry, random signs
+        U = sp.triu(A, format="coo")
+        D = sp.coo_matrix((U.data * eps * rng.choice([-1.0, 1.0], size=U.nnz), (U.row, U.col)), shape=A.shape)
+        return (D + sp.triu(D, k=1, format="coo").T).tocsr()
+
+    b = -(rounding(Ks) @ phi - eigval * (rounding(Ms) @ phi))
+    Mphi = Ms @ phi
+    b = b - Mphi * (phi @ b) / (phi @ Mphi)          # the eigenvalue's own change, as in the derivative
+    p = int(np.argmax(np.abs(phi)))
+    keep = np.delete(np.arange(n), p)
+    A = (Ks - eigval * Ms)[keep][:, keep]
+    v = np.zeros(n)
+    if n > 400:
+        v[keep] = spla.splu(sp.csc_matrix(A)).solve(b[keep])
+    else:
+        v[keep] = sla.solve(A.toarray(), b[keep], assume_a="sym")
+    entries = np.asarray(entries, dtype=int)
+    ref = phi[reference]
+    d = (v[entries] * ref - phi[entries] * v[reference]) / ref**2
+    return float(np.max(np.abs(d))) if d.size else 0.0

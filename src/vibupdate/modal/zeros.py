@@ -106,10 +106,11 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
     while True:
         if r == c:
             op = spla.LinearOperator(Kr.shape, matvec=lu.solve, dtype=float)
-            eigval_z, V = spla.eigsh(Kr, k=k, M=Mr, sigma=sigma, which="LM", OPinv=op, tol=0)
+            eigval_z, V = spla.eigsh(Kr, k=k, M=Mr, sigma=sigma, which="LM", OPinv=op, tol=0,
+                                  **eigen.repeatable(m))
         else:
             op = spla.LinearOperator(Kr.shape, matvec=lambda x: lu.solve(np.asarray(Mr @ x)), dtype=float)
-            nu, V = spla.eigs(op, k=k, which="LM", tol=0)
+            nu, V = spla.eigs(op, k=k, which="LM", tol=0, **eigen.repeatable(m))
             eigval_z = sigma + 1.0 / nu
         real = (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real) if np.iscomplexobj(eigval_z)
                 else np.ones(eigval_z.size, bool))

@@ -43,6 +43,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from vibupdate.modal.analysis import DENSE_LIMIT, MASSLESS_TOL, massless_dofs, modes
+from vibupdate.modal.eigen import repeatable
 
 __all__ = ["DENSE_LIMIT", "RIGID_TOL", "Definiteness", "definiteness", "box_corners", "count_below", "PhysicalBox",
            "physical_box"]
@@ -114,7 +115,7 @@ def count_below(A, B, t: float) -> int:
     # SuperLU left the symmetric ordering: count with shift-invert eigenvalues near t
     k = min(n - 2, 20)
     vals = spla.eigsh(sp.csc_matrix(A), k=k, M=sp.csc_matrix(B) + 1e-12 * sp.eye(n), sigma=t, which="LM",
-                      return_eigenvectors=False)
+                      return_eigenvectors=False, **repeatable(n))
     below = int(np.sum(vals < t))
     if below == k:
         raise ValueError(f"could not count the eigenvalues below {t:g}: at least {k} (the inertia "

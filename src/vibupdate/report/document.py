@@ -177,7 +177,9 @@ def verification_markdown(solver: dict) -> list[str]:
                    f"{fmt(pol['cost'], '.4e')} in {pol['evaluations']} evaluations of the full model"
                    + (f" ({pol['rounds']} rounds on a reduced model, {pol.get('reduced_evaluations', 0)} evaluations "
                       "there; each round checked on the full model)" if pol.get("rounds") else "")
-                   + " and was " + ("kept" if pol["kept"] else "not kept"))
+                   + " and was " + ("kept" if pol["kept"] else "not kept")
+                   + (f" (stopped on its {pol['stopped_on']} limit: {pol['message']})"
+                      if pol.get("stopped_on") in ("evaluations", "time") else ""))
     attempts = solver.get("attempts") or []
     if len(attempts) > 1:
         stages += (f"; the vector boxes were widened {len(attempts) - 1} time(s) because the relaxation proved that "

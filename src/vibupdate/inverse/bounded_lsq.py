@@ -1,0 +1,101 @@
+"""Bounded nonlinear least squares with an exact Jacobian, each point evaluated once, watched
+for limits and stalls: the solver of the polish (`vibupdate.inverse.polish`) and of the
+classical peers (`vibupdate.inverse.baseline`).
+
+`bounded_least_squares` runs `scipy.optimize.least_squares` (trust-region reflective,
+``x_scale="jac"``) on a function that returns residual and Jacobian from one eigen-solve.
+A `Monitor`, when given, counts the evaluations, keeps the best point and ends the run by
+raising `Stop` on an evaluation limit, a time limit or a stall: the best objective fell by
+less than `STALL_DECREASE` of itself over the last `stall_window` evaluations.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+__all__ = ["bounded_least_squares", "inside", "Monitor", "Stop", "STALL_DECREASE", "stall_window"]
+
+#: A run has stalled when its best objective fell by less than this fraction over the last
+#: `stall_window` evaluations; it then stops with the best point. (The crawl of the polish
+#: along an interval edge on noisy shapes, about 1 % per evaluation, is not a stall.)
+STALL_DECREASE = 1e-3
+
+
+def stall_window(n_x: int) -> int:
+    """Evaluations over which a stall is judged (`STALL_DECREASE`): twice the unknowns plus
+    one, at least 20 (scipy's trust region may need several rejected steps in a row)."""
+    return max(20, 2 * (n_x + 1))
+
+
+def inside(x, lower, upper) -> np.ndarray:
+    """``x`` nudged strictly inside the box (trf needs it; parameters with nominal 0 often sit
+    on a bound); idempotent."""
+    span = upper - lower
+    return np.clip(np.asarray(x, dtype=float), lower + 1e-10 * span, upper - 1e-10 * span)
+
+
+class Stop(Exception):
+    """Raised by `Monitor` to end a least-squares run on a limit or a stall."""
+
+    def __init__(self, reason: str, message: str):
+        super().__init__(message)
+        self.reason = reason
+
+
+class Monitor:
+    """Counts the full-model evaluations of the polish's least squares, keeps the best point
+    seen, and raises `Stop` after ``limit`` of them (what is left of ``budget``), on the time
+    limit or on a stall (the best objective fell by less than `STALL_DECREASE` over the last
+    ``window`` evaluations)."""
+
+    def __init__(self, x, value, limit: int, budget: int, window: int, started: float, max_seconds: float | None):
+        self.best = (np.asarray(x, dtype=float), value, 0.5 * float(value[0] @ value[0]))
+        self.limit, self.budget, self.window = limit, budget, window
+        self.started, self.max_seconds = started, max_seconds
+        self.count = 0
+        self.history = [self.best[2]]
+
+    def seen(self, x, value) -> None:
+        self.count += 1
+        cost = 0.5 * float(value[0] @ value[0])
+        if cost < self.best[2]:
+            self.best = (np.array(x, dtype=float), value, cost)
+        self.history.append(self.best[2])
+        if self.count >= self.limit:
+            raise Stop("evaluations", f"stopped on the limit of {self.budget} evaluations of the full model, "
+                                       f"objective {self.best[2]:.4g} (set polish.max_evaluations to allow more)")
+        if self.max_seconds is not None and time.perf_counter() - self.started > self.max_seconds:
+            raise Stop("time", f"stopped on the time limit of {self.max_seconds:g} s after {self.count} evaluations, "
+                                f"objective {self.best[2]:.4g} (polish.max_seconds)")
+        if len(self.history) > self.window:
+            before = self.history[-1 - self.window]
+            if self.best[2] > (1 - STALL_DECREASE) * before:
+                raise Stop("stall", f"stalled: the objective fell by less than {STALL_DECREASE:g} of itself over "
+                                     f"the last {self.window} evaluations (to {self.best[2]:.4g})")
+
+
+def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, **options):
+    """`scipy.optimize.least_squares` (trf, ``x_scale="jac"``) of ``evaluate`` from ``x0`` in
+    the box ``[lower, upper]`` (all shape (n_x,)). ``evaluate(x)`` returns the residual and its
+    exact Jacobian from one eigen-solve; it is called once per point. ``x0`` is nudged strictly
+    inside the box (`inside`). ``known = (x, evaluate(x))`` saves the first evaluation when
+    ``x`` is that start. ``monitor`` (a `Monitor`) hears of every new evaluation and may end
+    the run by raising `Stop`. ``options`` go to ``least_squares``."""
+    cache: dict = {} if known is None else {np.asarray(known[0], dtype=float).tobytes(): known[1]}
+
+    def at(x):
+        key = x.tobytes()
+        if key not in cache:
+            value = evaluate(x)
+            cache.clear()
+            cache[key] = value
+            if monitor is not None:
+                monitor.seen(x, value)
+        return cache[key]
+
+    x_in = inside(x0, lower, upper)
+    return least_squares(lambda x: at(x)[0], x_in, jac=lambda x: at(x)[1], bounds=(lower, upper),
+                         method="trf", x_scale="jac", **options)

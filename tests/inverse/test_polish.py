@@ -1,0 +1,186 @@
+"""The polish: it stops on convergence, not on a fixed count; a stop on a limit is said in the
+result and the warnings; identical inputs give identical answers in fresh processes."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from vibupdate import Assembly, Parameter
+from vibupdate.data.measured import Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.inverse.polish import PolishOptions, polish, polish_residuals
+from vibupdate.modal.analysis import modes
+
+#: The noisy-shape beam: a clamped beam of 10 elements, 8 bending-stiffness groups and two
+#: lumped masses (tip and mid-span), true values 4-12 % off nominal.
+BEAM_NAMES = tuple(f"EI{i}" for i in range(1, 9)) + ("mt", "mm")
+BEAM_TRUE = (1.08, 0.93, 1.05, 0.90, 1.12, 0.96, 1.04, 0.88, 0.26, 0.17)
+BEAM_GROUPS = (0, 1, 2, 3, 4, 5, 6, 6, 7, 7)
+BEAM_DOFS = tuple(f"y{i}" for i in range(3, 11))
+
+
+def _beam(p):
+    asm = Assembly("beam")
+    for i in range(11):
+        asm.node(i, i / 10)
+    for i, g in enumerate(BEAM_GROUPS):
+        asm.beam(i, i + 1, EI=100.0 * p[f"EI{g + 1}"], mass_per_length=2.0)
+    asm.mass("y10", p["mt"])
+    asm.mass("y6", p["mm"])
+    asm.clamp(0)
+    return asm.system()
+
+
+def noisy_beam(seed: int = 8, frequency_error: float = 0.002, shape_error: float = 0.01):
+    """Problem 1 with noise: 6 frequencies (relative sigma ``frequency_error``) and the shapes
+    at 8 translational DOFs as intervals of +-3 sigma around noisy values (sigma
+    ``shape_error`` of the largest entry). Seed 8 keeps the true shape ratios inside their
+    intervals. Returns the configuration, the model and the true normalized parameters."""
+    from vibupdate.model.build import from_builder
+
+    parameters = tuple(Parameter(n, 1.0, 0.6, 1.4) for n in BEAM_NAMES[:8]) + (
+        Parameter("mt", 0.2, 0.1, 0.4), Parameter("mm", 0.2, 0.1, 0.4))
+    model = from_builder(_beam, parameters)
+    omega, Phi = modes(*model.matrices_at(np.array(BEAM_TRUE)), 6)
+    rng = np.random.default_rng(seed)
+    idx = [model.dof(d) for d in BEAM_DOFS]
+    natural = []
+    for k in range(6):
+        v = Phi[idx, k] / np.abs(Phi[idx, k]).max()
+        noisy = v + shape_error * rng.standard_normal(v.size)
+        w = omega[k] * (1 + frequency_error * rng.standard_normal())
+        shape = ShapeInterval({d: (x - 3 * shape_error, x + 3 * shape_error) for d, x in zip(BEAM_DOFS, noisy)})
+        natural.append(NaturalFrequency(w, shape=shape))
+    return Configuration("beam", model, tuple(natural)), model, model.normalized(np.array(BEAM_TRUE))
+
+
+def _poor_start(model):
+    """Every parameter a tenth of its range from alternate bounds: shapes far outside their
+    intervals (objective ~5e3), as a first stage that missed them leaves it."""
+    lo, hi = model.bounds()
+    return np.where(np.arange(lo.size) % 2 == 0, lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))
+
+
+def test_noisy_interval_shapes_converge_from_a_poor_start():
+    """Measured: the polish used to stop on its fixed 50 evaluations here at objective 2.1e-4,
+    frequencies up to 1.5 % off; it now converges (scipy's gtol) in 37 evaluations with the
+    soft start (385 without), every frequency and interval met, where the truth misses the
+    frequencies by their 0.2 % noise."""
+    cfg, model, x_true = noisy_beam()
+    x0 = _poor_start(model)
+    out = polish([cfg], x0)
+    assert out.cost_start > 1e3
+    assert out.stopped_on == "convergence" and not out.on_limit, out.message
+    assert out.evaluations <= 60 and out.budget == 100 * (model.n_parameters + 1)
+    r, _ = polish_residuals([cfg], out.xbar)
+    assert np.abs(r[:6]).max() < 1e-9        # relative frequency errors
+    assert np.abs(r[6:]).max() < 1e-9        # distances outside the shape intervals
+    r_true, _ = polish_residuals([cfg], x_true)
+    assert out.cost < 1e-6 * 0.5 * float(r_true @ r_true)
+
+
+def test_a_stop_on_the_evaluation_limit_is_reported():
+    cfg, model, _ = noisy_beam()
+    out = polish([cfg], _poor_start(model), PolishOptions(max_evaluations=20))
+    assert out.on_limit and out.stopped_on == "evaluations" and out.budget == 20
+    assert out.evaluations == 20 and out.kept
+    assert "limit of 20 evaluations" in out.message
+    assert out.as_dict()["stopped_on"] == "evaluations"
+
+
+def test_the_stall_criterion_lets_a_crawl_go_on_and_stops_a_plateau():
+    """A best objective falling 1 % per evaluation (the crawl along an interval edge measured on
+    the noisy beam) is not a stall; one that falls by less than `STALL_DECREASE` over the
+    window is, and the best point is kept."""
+    from vibupdate.inverse.bounded_lsq import STALL_DECREASE, Monitor, Stop
+
+    def value(cost):
+        return np.array([np.sqrt(2 * cost)]), None
+
+    monitor = Monitor(np.zeros(1), value(1.0), limit=10_000, budget=10_000, window=20, started=0.0,
+                       max_seconds=None)
+    cost = 1.0
+    for i in range(300):
+        cost *= 0.99
+        monitor.seen(np.array([float(i)]), value(cost))
+    with pytest.raises(Stop) as stop:
+        for i in range(21):
+            monitor.seen(np.array([-1.0]), value(cost * (1 - 0.1 * STALL_DECREASE)))
+    assert stop.value.reason == "stall" and "stalled" in str(stop.value)
+    assert monitor.best[2] == pytest.approx(cost * (1 - 0.1 * STALL_DECREASE))
+
+
+def test_a_limit_stop_is_a_warning_of_the_update():
+    """The cantilever (paper test case 2) polish needs 19 evaluations; with 5 it stops on its
+    limit, and the update says so among its warnings."""
+    from vibupdate import update
+    from vibupdate.examples import cantilever
+
+    result = update(cantilever.configurations(), polish=PolishOptions(max_evaluations=5))
+    assert result.polish.on_limit
+    assert any(w.startswith("polish: stopped on the limit of 5 evaluations") for w in result.warnings), \
+        result.warnings
+    record = result.solver_record()
+    assert record["polish"]["stopped_on"] == "evaluations"
+
+
+@pytest.mark.parametrize("bad", [0, -3, 2.5, True])
+def test_max_evaluations_must_be_a_positive_integer(bad):
+    with pytest.raises(ValueError, match="max_evaluations"):
+        PolishOptions(max_evaluations=bad)
+
+
+def test_max_seconds_must_be_positive():
+    with pytest.raises(ValueError, match="max_seconds"):
+        PolishOptions(max_seconds=0.0)
+
+
+_CHILD = """
+import json
+import numpy as np
+from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency
+from vibupdate.examples import frame
+from vibupdate.inverse.polish import polish
+from vibupdate.modal.analysis import antiresonances, modes
+
+model = frame.model(11)
+truth = frame.truth()
+values = np.array([truth[p.name] for p in model.parameters])
+M, K = model.matrices_at(values)
+omega, _ = modes(M, K, 4)
+zeros = antiresonances(M, K, model.dof("x6"), model.dof("y10"), n_zeros=4)
+cfg = Configuration("frame", model, tuple(NaturalFrequency(w) for w in omega),
+                    tuple(Antiresonance(z, "x6", "y10", index=i + 1) for i, z in enumerate(zeros)))
+lo, hi = model.bounds()
+x0 = np.clip(model.normalized(values) + 0.02 * np.cos(np.arange(lo.size)) * (hi - lo), lo, hi)
+out = polish([cfg], x0)
+print(json.dumps({"dofs": model.n_dofs, "evaluations": out.evaluations, "rounds": out.rounds,
+                  "reduced": out.reduced_evaluations, "xbar": out.xbar.tobytes().hex()}))
+"""
+
+
+def test_identical_inputs_give_identical_answers_in_fresh_processes():
+    """Frequencies and antiresonances on the frame refined to 422 DOFs (sparse path: shift-invert
+    modes and zeros, reduced rounds). ARPACK's start vectors used to come from the operating
+    system's entropy: three fresh processes took 3, 6 and 3 reduced rounds to different points."""
+    runs = [json.loads(subprocess.run([sys.executable, "-c", _CHILD], capture_output=True, text=True,
+                                      check=True).stdout.strip().splitlines()[-1]) for _ in range(2)]
+    assert runs[0]["dofs"] == 422
+    assert runs[0] == runs[1]
+
+
+def test_soft_start_on_intervals_the_frequencies_cannot_all_meet():
+    """1 % frequency noise, the same shape intervals: no point meets every datum. From the
+    nominal point and from the poor start the polish ends at the same objective (measured
+    7.39e-6 for seed 8, 99 and 189 evaluations; without the soft start 1,100 each, on the
+    limit)."""
+    cfg, model, _ = noisy_beam(seed=8, frequency_error=0.01)
+    lo, hi = model.bounds()
+    ends = [polish([cfg], x0) for x0 in (model.normalized(np.array([p.nominal for p in model.parameters])),
+                                         _poor_start(model))]
+    for out in ends:
+        assert not out.on_limit and out.evaluations < 300, out.message
+    assert ends[0].cost == pytest.approx(ends[1].cost, rel=1e-3)
+    assert 1e-7 < ends[0].cost < 1e-5
