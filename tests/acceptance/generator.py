@@ -104,8 +104,8 @@ class Problem:
         Standard deviation of the shape ratios.
     seed : int or None
     symmetries : tuple of tuple of (str, str)
-        Parameter swaps that leave every datum unchanged (an exact symmetry): the judge accepts
-        the truth's image under them as the truth.
+        Exact symmetries, each a tuple of parameter swaps that leaves every frequency unchanged:
+        the judge accepts the truth's image under them as the truth.
     csv : bool
         Frequencies in a CSV file of the case folder (else typed in the TOML).
     note : str
@@ -368,7 +368,7 @@ def random_problem(seed: int) -> Problem:
         extra = (dof, float(rng.uniform(0.1, 0.3) * _mass_scale(spec)))
         data.append(measure(spec, params, truth, modes=modes if kind != "P3" else None, name="B",
                             extra_mass=extra, **common))
-    symmetries = (("kL", "kR"),) if label == "chain-symmetric" else ()
+    symmetries = ((("kL", "kR"),),) if label == "chain-symmetric" else ()
     return Problem(f"r{seed}", spec, tuple(params), truth, tuple(data), noise, shape_noise, seed,
                    symmetries, csv=rng.random() < 0.5)
 
@@ -461,24 +461,26 @@ def shear_building_18() -> Problem:
 
 
 def exact_points_large() -> Problem:
-    """Exact point data (frequencies and shapes with lower = upper) on a 28-element clamped
-    beam (56 DOFs)."""
+    """Exact point data (six frequencies, shapes at eight DOFs with lower = upper) on a
+    110-element clamped beam (220 DOFs, above the Craig-Bampton threshold of 200)."""
     rng = np.random.default_rng(7)
-    spec, params = S.beam(rng, 28, support="clamped", ei_groups=3, m_groups=1)
+    spec, params = S.beam(rng, 110, support="clamped", ei_groups=3, m_groups=1)
     truth = _pattern(params)
-    data = [measure(spec, params, truth, kind="P1", rng=rng, n_modes=4,
-                    sensors=["y4", "y9", "y14", "y19", "y24", "y28"])]
-    return _named("exact_points_large", spec, params, truth, data, "exact point shapes, 56 DOFs")
+    sensors = [f"y{i}" for i in (14, 28, 41, 55, 69, 82, 96, 110)]
+    data = [measure(spec, params, truth, kind="P1", rng=rng, n_modes=6, sensors=sensors)]
+    return _named("exact_points_large", spec, params, truth, data, "exact point shapes, 220 DOFs")
 
 
 def zero_stiffness_corner() -> Problem:
-    """A chain grounded at both ends whose first spring may reach 0 N/m at a box corner (the
-    structure stays grounded at the other end, so every corner is a valid model)."""
+    """A pinned beam with its mass lumped on the translations (massless rotations, exported as
+    matrices) whose first bending stiffness group may reach 0 at a box corner: there the
+    rotations are held by no stiffness. The truth and the nominal point are valid models."""
     rng = np.random.default_rng(8)
-    spec, params = _each_own(rng, 4, ends="both")
-    params = [replace(p, lower=0.0) if p.name == "k1" else p for p in params]
+    spec, params = S.beam(rng, 4, support="pinned", ei_groups=2, m_groups=1, lumped_mass=True)
+    spec = replace(spec, export="mtx")
+    params = [replace(p, lower=0.0) if p.name == "EI1" else p for p in params]
     truth = _pattern(params)
-    data = [measure(spec, params, truth, kind="P2", rng=rng, n_modes=4)]
+    data = [measure(spec, params, truth, kind="P2", rng=rng, n_modes=3)]
     return _named("zero_stiffness_corner", spec, params, truth, data, "a stiffness bound at 0")
 
 
@@ -489,7 +491,7 @@ def symmetric_chain() -> Problem:
     spec, params = S.chain(rng, 4, symmetric=True)
     truth = _scaled(params, {"kL": 1.2, "kR": 0.85, "kc": 1.1})
     data = [measure(spec, params, truth, kind="P2", rng=rng, n_modes=4)]
-    return _named("symmetric_chain", spec, params, truth, data, "exact symmetry", symmetries=(("kL", "kR"),))
+    return _named("symmetric_chain", spec, params, truth, data, "exact symmetry", symmetries=((("kL", "kR"),),))
 
 
 def named_problems() -> dict:

@@ -17,7 +17,8 @@ The judge (`judge`), on what the user sees:
   range at the truth, `vibupdate.ranges.identifiability.parameter_ranges` on the judge's
   configurations, narrower than `DETERMINED_PCT`) outside that range (plus `MARGIN` of its
   width for the linearization, and `EXACT_SLACK` of its reference value); the mirror image of the truth under an exact symmetry counts
-  as the truth;
+  as the truth; ``other_solution`` marks such a miss whose model fits every datum (the data
+  admit another isolated solution: determined locally, not globally);
 * ``truth_outside_reported``: the truth outside a consistent range that ``results.json``
   reports (same margin);
 * ``report``: ``results.json`` frequencies that differ from the recomputed ones;
@@ -47,8 +48,9 @@ __all__ = ["Reference", "Verdict", "reference", "run_cli", "run_api", "judge", "
 DETERMINED_PCT = 5.0
 #: Allowance beyond a linearized range, as a fraction of its width (second-order terms).
 MARGIN = 0.1
-#: Numerical floor of the interval checks, in half-widths (an answer on a bound is inside).
-FLOOR = 1e-6
+#: Numerical floor of the interval checks, in half-widths: an answer on a bound to 0.1 % of
+#: its half-width is inside (the polish ends on the bounds of the intervals it reaches).
+FLOOR = 1e-3
 #: The failure codes that are defects (not_verified and path_failed are outcomes, counted apart).
 DEFECTS = ("crash", "refused", "exit_code", "outside", "determined_miss", "truth_outside_reported", "report")
 TWO_PI = 2.0 * np.pi
@@ -266,6 +268,8 @@ def judge(problem, route: str, outcome: dict, ref: Reference) -> Verdict:
         found = [_outside_ranges(names, values, r, refs, ref.determined) for r in ref.ranges]
         if all(found):
             v.failures.append("determined_miss")
+            if not misses:   # every datum fits: the data admit another, isolated solution
+                v.failures.append("other_solution")
             v.details += [f"{n} = {x:.6g} outside its consistent range [{lo:.6g}, {hi:.6g}] at the truth"
                           for n, x, lo, hi in found[0][:4]]
     reported = outcome.get("ranges")
