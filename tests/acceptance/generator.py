@@ -12,7 +12,7 @@ the true model by an independent modal analysis (`acceptance.truth`):
 
 Data are exact, or noisy with a relative standard deviation ``noise`` of 0.1 to 1 % on every
 frequency and an absolute one on the shape ratios (shapes normalized at their largest measured
-entry, which is 1 exactly); every interval is 3 sigma and is redrawn until it contains the
+entry, which is 1 exactly, or noisy as well: half of the noisy problems); every interval is 3 sigma and is redrawn until it contains the
 true value (the truth satisfies its data), frequencies keep their order and the pole/zero
 pattern, and each measured value stays nearest to its own model mode or zero. A second
 configuration with a known added mass is drawn sometimes.
@@ -202,9 +202,12 @@ def _nearest_ok(measured: np.ndarray, positions: np.ndarray, every: np.ndarray) 
     return True
 
 
-def _shape(rng, Phi: np.ndarray, k: int, sensors: list[int], names: list[str], sigma: float, all_modes) -> dict | None:
+def _shape(rng, Phi: np.ndarray, k: int, sensors: list[int], names: list[str], sigma: float, all_modes,
+           noisy_reference: bool = False) -> dict | None:
     """Shape intervals of mode ``k`` at ``sensors`` normalized at its largest entry, or None when
-    the sensors cannot tell the mode from another (MAC)."""
+    the sensors cannot tell the mode from another (MAC). The reference entry is 1 exactly, or,
+    with ``noisy_reference``, as noisy as the others (the true shape normalized at it still
+    lies in every interval)."""
     v = Phi[sensors, k]
     ref = int(np.argmax(np.abs(v)))
     ratios = v / v[ref]
@@ -214,7 +217,8 @@ def _shape(rng, Phi: np.ndarray, k: int, sensors: list[int], names: list[str], s
     ratios, idx = ratios[keep], [sensors[j] for j in keep]
     ref = keep.index(ref)
     e = rng.standard_normal(len(keep)).clip(-3, 3)
-    e[ref] = 0.0
+    if not noisy_reference:
+        e[ref] = 0.0
     m = ratios + sigma * e
     macs = [T.mac(m, Phi[idx, j]) for j in all_modes]
     own = macs[list(all_modes).index(k)]
@@ -227,14 +231,15 @@ def measure(structure, parameters, truth: dict, *, kind: str, rng, noise: float 
             modes: list[int] | None = None, sensors: list[str] | None = None,
             receptances: list[tuple[str, str]] | None = None, zero_indices: list[int] | None = None,
             n_modes: int | None = None, name: str = "A", extra_mass=None, declare: bool = True,
-            avoid_poles: bool = False) -> ConfigData:
+            avoid_poles: bool = False, noisy_reference: bool = False) -> ConfigData:
     """The data of one configuration measured on the true model.
 
     ``modes`` (1-based model modes) or ``n_modes`` consecutive elastic modes; ``sensors`` the
     DOFs of the shapes; ``receptances`` ``(response, excitation)`` pairs; ``zero_indices``
     which zeros (1-based) of each receptance for Problem 3 (Problem 4 takes every zero between
     the measured poles); ``avoid_poles`` drops zeros within 1 % of a pole of the model (no FRF
-    shows a zero that cancels a pole).
+    shows a zero that cancels a pole); ``noisy_reference``: noise on the reference entry of each
+    shape too (`_shape`).
     """
     spec = structure.with_mass(*extra_mass) if extra_mass else structure
     M, K, dofs = S.matrices_at(spec, truth)
@@ -253,7 +258,7 @@ def measure(structure, parameters, truth: dict, *, kind: str, rng, noise: float 
             with_shape = modes if kind == "P1" else modes[: max(1, len(modes) // 2)]
             elastic = [j for j in range(len(w)) if w[j] > 0][: max(modes) + 2]
             for mode in with_shape:
-                shapes[mode] = _shape(rng, Phi, mode - 1, idx, list(dofs), shape_noise, elastic)
+                shapes[mode] = _shape(rng, Phi, mode - 1, idx, list(dofs), shape_noise, elastic, noisy_reference)
         natural = [Natural(float(h), int(m), shapes.get(m)) for h, m in zip(hz, modes)]
     zeros, interlacing = [], True
     for r, c in receptances or []:
@@ -361,7 +366,7 @@ def random_problem(seed: int) -> Problem:
                    or rng.random() < 0.5)
     common = dict(kind=kind, rng=rng, noise=noise, shape_noise=shape_noise, sensors=sensors,
                   receptances=receptances if kind in ("P3", "P4", "mix") else None, zero_indices=zero_indices,
-                  declare=declare, avoid_poles=True)
+                  declare=declare, avoid_poles=True, noisy_reference=not exact and rng.random() < 0.5)
     data = [measure(spec, params, truth, modes=modes if kind != "P3" else None, **common)]
     if rng.random() < 0.2:
         dof = meas[int(rng.integers(len(meas)))]
@@ -442,12 +447,12 @@ def free_free_beam() -> Problem:
 
 def noisy_shapes_beam() -> Problem:
     """Problem 1 on a clamped beam: six frequencies with 0.2 % noise, shapes at five DOFs with
-    0.2 % noise, intervals at 3 sigma."""
+    0.2 % noise on every entry (the reference too), intervals at 3 sigma."""
     rng = np.random.default_rng(5)
     spec, params = S.beam(rng, 10, support="clamped", ei_groups=3, m_groups=1, tip_mass=True)
     truth = _pattern(params)
     data = [measure(spec, params, truth, kind="P1", rng=rng, n_modes=6, noise=0.002, shape_noise=0.002,
-                    sensors=["y2", "y4", "y6", "y8", "y10"])]
+                    sensors=["y2", "y4", "y6", "y8", "y10"], noisy_reference=True)]
     return _named("noisy_shapes_beam", spec, params, truth, data, "noisy Problem 1", noise=0.002, shape_noise=0.002)
 
 

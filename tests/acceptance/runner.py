@@ -12,7 +12,8 @@ The judge (`judge`), on what the user sees:
 * ``exit_code``: an exit code that does not match the status (0 success, 1 otherwise);
 * ``outside``: a ``success`` whose model has a datum outside its interval, recomputed from
   the returned parameters by the independent dense analysis of `acceptance.truth` (exact data:
-  intervals of relative half-width `acceptance.emit.EXACT_SLACK`);
+  intervals of relative half-width `acceptance.emit.EXACT_SLACK`); a shape is inside when some
+  common scaling puts every measured entry in its interval (`_scale_miss`);
 * ``determined_miss``: a ``success`` with a parameter that the data determine (its consistent
   range at the truth, `vibupdate.ranges.identifiability.parameter_ranges` on the judge's
   configurations, narrower than `DETERMINED_PCT`) outside that range (plus `MARGIN` of its
@@ -200,17 +201,14 @@ def _misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple]]:
             checks.append((f"{cfg.name} mode {n.mode}", n.hz, model))
             freqs.append((cfg.name, "natural", n.mode, model))
             if n.shape:
-                mid = {d: 0.5 * (lo + hi) for d, (lo, hi) in n.shape.items()}
-                ref = max(mid, key=lambda d: abs(mid[d]))
-                for d, (lo, hi) in n.shape.items():
-                    slack = EXACT_SLACK if problem.shape_noise == 0 else 0.0
-                    ratio = Phi[dofs.index(d), n.mode - 1] / Phi[dofs.index(ref), n.mode - 1]
-                    a, b = sorted((lo / mid[ref], hi / mid[ref]))
-                    floor = FLOOR * max(0.5 * (b - a), slack) + 1e-9
-                    if not (a - slack - floor <= ratio <= b + slack + floor):
-                        half = max(0.5 * (b - a), slack)
-                        out.append(f"{cfg.name} mode {n.mode} {d}: ratio {ratio:.6g} outside [{a:.6g}, {b:.6g}] "
-                                   f"({max(a - ratio, ratio - b) / half:.3g} half-widths)")
+                slack = EXACT_SLACK if problem.shape_noise == 0 else 0.0
+                names = list(n.shape)
+                phi = np.array([Phi[dofs.index(d), n.mode - 1] for d in names])
+                lo, hi = (np.array([n.shape[d][i] for d in names]) + sign * slack for i, sign in ((0, -1), (1, 1)))
+                miss = _scale_miss(phi, lo, hi)
+                if miss > FLOOR:
+                    out.append(f"{cfg.name} mode {n.mode}: shape at {', '.join(names)} outside its intervals at "
+                               f"every scaling ({miss:.3g} half-widths)")
         zeros: dict = {}
         for z in cfg.zeros:
             if z.receptance not in zeros:
@@ -224,6 +222,22 @@ def _misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple]]:
                 out.append(f"{label}: {model:.7g} Hz vs {hz:.7g} Hz +- {100 * tol:.3g} % "
                            f"({100 * (model - hz) / hz:+.3g} %)")
     return out, freqs
+
+
+def _scale_miss(phi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """How far a model shape ``phi`` (at the measured DOFs) is from its entry intervals
+    ``[lo, hi]`` at the best common scaling: ``min over c, max over j`` of the distance of
+    ``c phi_j`` outside ``[lo_j, hi_j]`` in half-widths (0 when some scaling fits every entry; the
+    normalization of a measured shape is free, `vibupdate.ShapeInterval`). A linear program in
+    ``(c, t)``."""
+    from scipy.optimize import linprog
+
+    half = np.maximum(0.5 * (hi - lo), 1e-12)
+    # c phi_j - t half_j <= hi_j  and  -c phi_j - t half_j <= -lo_j
+    A = np.vstack([np.column_stack([phi, -half]), np.column_stack([-phi, -half])])
+    b = np.concatenate([hi, -lo])
+    sol = linprog([0.0, 1.0], A_ub=A, b_ub=b, bounds=[(None, None), (0.0, None)], method="highs")
+    return float(sol.x[1]) if sol.status == 0 else np.inf
 
 
 def _outside_ranges(names, values, ranges, references, only=None) -> list[str]:
