@@ -37,10 +37,14 @@ def _one(args) -> list[dict]:
     from acceptance import generator as G
     from acceptance import runner as R
 
-    problem = G.named_problems()[index]() if named else G.random_problem(index)
+    try:
+        problem = G.named_problems()[index]() if named else G.random_problem(index)
+    except Exception as exc:   # a generator failure is reported, not hidden
+        return [{"case": f"r{index}", "route": "engine", "status": "engine_error", "exit_code": None,
+                 "seconds": 0.0, "failures": ["engine_error"], "details": [f"{type(exc).__name__}: {exc}"]}]
     try:
         return [v.as_dict() for v in R.run_problem(problem, routes=routes)]
-    except Exception as exc:   # a generator or judge failure is reported, not hidden
+    except Exception as exc:   # a judge failure likewise
         return [{"case": problem.case_id, "route": "engine", **problem.classes(), "determinacy": "?",
                  "status": "engine_error", "exit_code": None, "seconds": 0.0, "failures": ["engine_error"],
                  "details": [f"{type(exc).__name__}: {exc}"]}]
@@ -108,13 +112,21 @@ def main(argv=None) -> int:
     if args.named:
         jobs += [(name, tuple(args.routes), True) for name in G.named_problems()]
     start = time.perf_counter()
+    results = []
+
+    def done(result):
+        results.append(result)
+        print(f"{len(results)}/{len(jobs)} problems, {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
+
     if args.workers > 1:
         from multiprocessing import get_context
 
         with get_context("spawn").Pool(args.workers) as pool:
-            results = pool.map(_one, jobs, chunksize=1)
+            for result in pool.imap_unordered(_one, jobs, chunksize=1):
+                done(result)
     else:
-        results = [_one(job) for job in jobs]
+        for job in jobs:
+            done(_one(job))
     rows = [r for rs in results for r in rs]
     wall = time.perf_counter() - start
     print(f"{len(jobs)} problems (seeds {args.seed}..{args.seed + args.cases - 1}"

@@ -30,270 +30,19 @@ holds both writers.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
 from acceptance import structures as S
 from acceptance import truth as T
+from acceptance.measure import draw_truth, measure
+from acceptance.problem import ConfigData, Natural, Problem, Zero
 
 __all__ = ["Natural", "Zero", "ConfigData", "Problem", "random_problem", "named_problems", "measure",
            "shear_underdetermined", "frequencies_only_10", "antiresonances_3_for_10", "free_free_beam",
            "noisy_shapes_beam", "shear_building_18", "exact_points_large", "zero_stiffness_corner",
            "symmetric_chain"]
-
-TWO_PI = 2.0 * np.pi
-
-
-@dataclass(frozen=True)
-class Natural:
-    """A measured natural frequency (Hz), its model mode (1-based, rigid-body modes counted)
-    and its shape intervals ``{dof: (lower, upper)}`` (ratios to the reference entry) or None."""
-
-    hz: float
-    mode: int
-    shape: dict | None = None
-
-
-@dataclass(frozen=True)
-class Zero:
-    """A measured antiresonance (Hz) of ``h_{response, excitation}``, zero ``index`` (1-based)."""
-
-    hz: float
-    response: str
-    excitation: str
-    index: int
-
-    @property
-    def receptance(self) -> tuple[str, str]:
-        return (self.response, self.excitation)
-
-
-@dataclass(frozen=True)
-class ConfigData:
-    """The data of one configuration; ``extra_mass`` ``(dof, kg)`` a known added mass;
-    ``declare``: state the modes and zero indices (else the defaults must find them)."""
-
-    name: str
-    natural: tuple = ()
-    zeros: tuple = ()
-    extra_mass: tuple | None = None
-    declare: bool = True
-    interlacing: bool = True
-
-    @property
-    def n_data(self) -> int:
-        return len(self.natural) + len(self.zeros) + sum(len(n.shape) - 1 for n in self.natural if n.shape)
-
-
-@dataclass(frozen=True)
-class Problem:
-    """One known-truth problem (module docstring).
-
-    Attributes
-    ----------
-    case_id : str
-    structure : StructureSpec
-    parameters : tuple of Parameter
-    truth : dict of str to float
-        True physical parameter values.
-    data : tuple of ConfigData
-    noise : float
-        Relative standard deviation of the frequencies (0: exact data).
-    shape_noise : float
-        Standard deviation of the shape ratios.
-    seed : int or None
-    symmetries : tuple of tuple of (str, str)
-        Exact symmetries, each a tuple of parameter swaps that leaves every frequency unchanged:
-        the judge accepts the truth's image under them as the truth.
-    csv : bool
-        Frequencies in a CSV file of the case folder (else typed in the TOML).
-    note : str
-    """
-
-    case_id: str
-    structure: S.StructureSpec
-    parameters: tuple
-    truth: dict
-    data: tuple
-    noise: float = 0.0
-    shape_noise: float = 0.0
-    seed: int | None = None
-    symmetries: tuple = ()
-    csv: bool = False
-    note: str = ""
-    expected: str = field(default="", compare=False)
-
-    @property
-    def kind(self) -> str:
-        """``"P1"`` frequencies with shapes, ``"P2"`` frequencies, ``"P3"`` antiresonances,
-        ``"P4"`` frequencies and antiresonances, ``"mix"`` shapes and antiresonances."""
-        shapes = any(n.shape for c in self.data for n in c.natural)
-        natural = any(c.natural for c in self.data)
-        zeros = any(c.zeros for c in self.data)
-        if shapes:
-            return "mix" if zeros else "P1"
-        if natural:
-            return "P4" if zeros else "P2"
-        return "P3"
-
-    @property
-    def tolerance(self) -> float:
-        """Relative half-width of every frequency interval (3 sigma; 0 for exact data)."""
-        return 3.0 * self.noise
-
-    @property
-    def exact(self) -> bool:
-        return self.noise == 0.0
-
-    @property
-    def n_data(self) -> int:
-        return sum(c.n_data for c in self.data)
-
-    @property
-    def xbar_true(self) -> np.ndarray:
-        return np.array([(self.truth[p.name] - p.nominal) / p.reference for p in self.parameters])
-
-    @property
-    def structure_class(self) -> str:
-        label = self.structure.label
-        if self.structure.export:
-            label = "matrices-" + ("massless" if self.structure.massless else label.split("-")[0])
-        return label
-
-    def classes(self) -> dict:
-        """The class labels of the tables (determinacy is judged by the runner)."""
-        return {"structure": self.structure_class, "kind": self.kind, "data": "exact" if self.exact else "noisy",
-                "fewer_data": self.n_data < len(self.parameters)}
-
-    def configurations(self, judge: bool = False):
-        """The Python route's `vibupdate.Configuration` s (`acceptance.emit.configurations`)."""
-        from acceptance.emit import configurations
-
-        return configurations(self, judge=judge)
-
-    def write_case(self, folder):
-        """Write the case folder; returns the path of ``case.toml`` (`acceptance.emit.write_case`)."""
-        from acceptance.emit import write_case
-
-        return write_case(self, folder)
-
-
-# -- measuring the true model ------------------------------------------------------------------
-
-
-def _noisy(rng, values: np.ndarray, sigma: float, valid) -> np.ndarray:
-    """``values (1 + sigma e)`` redrawn until every interval of 3 sigma contains its true value
-    and ``valid(measured)`` holds."""
-    if sigma == 0:
-        return values.copy()
-    for _ in range(200):
-        m = values * (1 + sigma * rng.standard_normal(values.size))
-        if np.all(np.abs(m - values) <= 3 * sigma * m) and valid(m):
-            return m
-    raise RuntimeError("no noisy draw kept the order of the data; lower the noise")
-
-
-def _nearest_ok(measured: np.ndarray, positions: np.ndarray, every: np.ndarray) -> bool:
-    """Each measured value is nearest (relatively) to its own model value ``every[positions]``."""
-    for v, j in zip(measured, positions):
-        if int(np.argmin(np.abs(every - v) / v)) != j:
-            return False
-    return True
-
-
-def _shape(rng, Phi: np.ndarray, k: int, sensors: list[int], names: list[str], sigma: float, all_modes,
-           noisy_reference: bool = False) -> dict | None:
-    """Shape intervals of mode ``k`` at ``sensors`` normalized at its largest entry, or None when
-    the sensors cannot tell the mode from another (MAC). The reference entry is 1 exactly, or,
-    with ``noisy_reference``, as noisy as the others (the true shape normalized at it still
-    lies in every interval)."""
-    v = Phi[sensors, k]
-    ref = int(np.argmax(np.abs(v)))
-    ratios = v / v[ref]
-    keep = [j for j in range(len(sensors)) if j == ref or abs(ratios[j]) < 0.95]
-    if len(keep) < 2:
-        return None
-    ratios, idx = ratios[keep], [sensors[j] for j in keep]
-    ref = keep.index(ref)
-    e = rng.standard_normal(len(keep)).clip(-3, 3)
-    if not noisy_reference:
-        e[ref] = 0.0
-    m = ratios + sigma * e
-    macs = [T.mac(m, Phi[idx, j]) for j in all_modes]
-    own = macs[list(all_modes).index(k)]
-    if own < 0.8 or any(x > own - 0.02 for j, x in zip(all_modes, macs) if j != k):
-        return None
-    return {names[i]: (float(x - 3 * sigma), float(x + 3 * sigma)) for i, x in zip(idx, m)}
-
-
-def measure(structure, parameters, truth: dict, *, kind: str, rng, noise: float = 0.0, shape_noise: float = 0.0,
-            modes: list[int] | None = None, sensors: list[str] | None = None,
-            receptances: list[tuple[str, str]] | None = None, zero_indices: list[int] | None = None,
-            n_modes: int | None = None, name: str = "A", extra_mass=None, declare: bool = True,
-            avoid_poles: bool = False, noisy_reference: bool = False) -> ConfigData:
-    """The data of one configuration measured on the true model.
-
-    ``modes`` (1-based model modes) or ``n_modes`` consecutive elastic modes; ``sensors`` the
-    DOFs of the shapes; ``receptances`` ``(response, excitation)`` pairs; ``zero_indices``
-    which zeros (1-based) of each receptance for Problem 3 (Problem 4 takes every zero between
-    the measured poles); ``avoid_poles`` drops zeros within 1 % of a pole of the model (no FRF
-    shows a zero that cancels a pole); ``noisy_reference``: noise on the reference entry of each
-    shape too (`_shape`).
-    """
-    spec = structure.with_mass(*extra_mass) if extra_mass else structure
-    M, K, dofs = S.matrices_at(spec, truth)
-    w, Phi = T.modes(M, K)
-    rigid = int(np.count_nonzero(w == 0))
-    if modes is None and kind != "P3":
-        modes = list(range(rigid + 1, rigid + 1 + (n_modes or 3)))
-    natural = []
-    if kind != "P3":
-        pos = np.array(modes) - 1
-        hz = _noisy(rng, w[pos] / TWO_PI, noise, lambda m: bool(np.all(np.diff(m) > 0))
-                    and _nearest_ok(m, pos, w / TWO_PI))
-        shapes = {}
-        if kind in ("P1", "mix"):
-            idx = [dofs.index(d) for d in sensors]
-            with_shape = modes if kind == "P1" else modes[: max(1, len(modes) // 2)]
-            elastic = [j for j in range(len(w)) if w[j] > 0][: max(modes) + 2]
-            for mode in with_shape:
-                shapes[mode] = _shape(rng, Phi, mode - 1, idx, list(dofs), shape_noise, elastic, noisy_reference)
-        natural = [Natural(float(h), int(m), shapes.get(m)) for h, m in zip(hz, modes)]
-    zeros, interlacing = [], True
-    for r, c in receptances or []:
-        z, n_complex = T.zeros(M, K, dofs.index(r), dofs.index(c))
-        if kind == "P3":
-            chosen = [i for i in (zero_indices or [1, 2]) if i <= z.size]
-        else:
-            lo, hi = w[modes[0] - 1], w[modes[-1] - 1]
-            chosen = [i + 1 for i in range(z.size) if lo < z[i] < hi]
-        if avoid_poles:   # a zero on a pole cancels it: no FRF shows it
-            kept = [i for i in chosen if np.min(np.abs(w - z[i - 1])) > 0.01 * z[i - 1]]
-            interlacing = interlacing and (kind == "P3" or kept == chosen)   # not every zero listed
-            chosen = kept
-        if not chosen:
-            continue
-        pos = np.array(chosen) - 1
-        poles = np.array([n.hz for n in natural])
-        pattern = np.searchsorted(poles, z[pos] / TWO_PI)
-
-        def keeps(m, pos=pos, z=z, pattern=pattern):
-            return bool(np.all(np.diff(m) > 0) and _nearest_ok(m, pos, z / TWO_PI)
-                        and np.array_equal(np.searchsorted(poles, m), pattern))
-
-        hz = _noisy(rng, z[pos] / TWO_PI, noise, keeps)
-        zeros += [Zero(float(h), r, c, int(i)) for h, i in zip(hz, chosen)]
-    return ConfigData(name, tuple(natural), tuple(zeros), extra_mass, declare, interlacing)
-
-
-def _draw_truth(rng, parameters) -> dict:
-    """Each parameter between 15 % and 85 % of the way from its nominal to a bound."""
-    out = {}
-    for p in parameters:
-        bound = p.upper if rng.random() < 0.5 else p.lower
-        out[p.name] = p.nominal + rng.uniform(0.15, 0.85) * (bound - p.nominal)
-    return out
 
 
 # -- random problems -----------------------------------------------------------------------------
@@ -339,20 +88,21 @@ def random_problem(seed: int) -> Problem:
     label = STRUCTURES[int(rng.integers(len(STRUCTURES)))]
     kind = KINDS[int(rng.integers(len(KINDS)))]
     spec, params = _structure(rng, label)
-    truth = _draw_truth(rng, params)
+    truth = draw_truth(rng, params)
     exact = rng.random() < 0.5
     noise = 0.0 if exact else float(10 ** rng.uniform(-3, -2))
     shape_noise = 0.0 if exact else float(10 ** rng.uniform(-3, -2))
     M, K, dofs = S.matrices_at(spec, truth)
     n_elastic = int(np.count_nonzero(T.modes(M, K)[0] > 0))
     rigid = spec.rigid_modes
-    n_f = int(rng.integers(2 if kind in ("P4", "mix") else 1, min(6, n_elastic) + 1))
+    low = 2 if kind in ("P4", "mix") else 1
+    n_f = int(rng.integers(low, max(low, min(6, n_elastic)) + 1))
     if kind in ("P4", "mix") or rng.random() < 0.7:
         modes = list(range(rigid + 1, rigid + 1 + n_f))
     else:
         modes = sorted((rigid + 1 + np.array(_pick(rng, range(min(8, n_elastic)), n_f))).tolist())
     meas = list(spec.measurable)
-    sensors = [meas[i] for i in _pick(rng, meas, int(rng.integers(3, min(8, len(meas)) + 1)))]
+    sensors = [meas[i] for i in _pick(rng, meas, int(rng.integers(min(3, len(meas)), min(8, len(meas)) + 1)))]
     receptances = []
     for _ in range(1 if kind != "P3" or rng.random() < 0.6 else 2):
         r = meas[int(rng.integers(len(meas)))]

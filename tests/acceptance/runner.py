@@ -153,9 +153,9 @@ def run_cli(problem, folder: Path) -> dict:
     status = doc["solver"]["status"] if doc else ("refused" if code == 2 else "crash")
     values = np.array([p["updated"] for p in doc["parameters"]]) if doc else None
     ranges = (doc["identifiability"] or {}).get("ranges") if doc else None
-    err = crash or buf_err.getvalue().strip().splitlines()[-1:] or [""]
+    last = buf_err.getvalue().strip().splitlines()[-1:]
     return {"exit_code": code, "status": status, "values": values, "ranges": ranges, "seconds": seconds,
-            "rows": doc["frequencies"] if doc else None, "error": err if isinstance(err, str) else err[0]}
+            "rows": doc["frequencies"] if doc else None, "error": crash or (last[0] if last else "")}
 
 
 def run_api(problem) -> dict:

@@ -22,7 +22,7 @@ its `vibupdate.Parameter` s, grouped as described):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +89,8 @@ class StructureSpec:
         Rigid-body modes of the structure (zero frequencies, model modes ``1 .. rigid_modes``).
     export : {None, "mtx", "npz"}
         None: an elements model; else exported as matrix files of that format.
+    massless : bool
+        Rotations without mass (element mass lumped on the translations).
     """
 
     label: str
@@ -100,7 +102,7 @@ class StructureSpec:
     measurable: tuple
     rigid_modes: int = 0
     export: str | None = None
-    massless: bool = field(default=False)
+    massless: bool = False
 
     def with_mass(self, dof: str, value: float) -> "StructureSpec":
         """The spec with one more (known) lumped mass: another configuration."""
@@ -280,7 +282,7 @@ def chain(rng: np.random.Generator, n: int, *, ends: str = "one", k_groups: int 
         params["kp"] = _parameter("kp", 300.0, spread, "N/m")
         lumped.append(("spring", "y1", Lin.of(1.0, "kp"), None))
     nodes = tuple((i + 1, float(i + 1), 0.0) for i in range(n))
-    spec = StructureSpec(f"chain-{ends}", "beam", nodes, {"fix": [f"phi{i + 1}" for i in range(n)]}, (),
+    spec = StructureSpec("chain-symmetric" if symmetric else f"chain-{ends}", "beam", nodes, {"fix": [f"phi{i + 1}" for i in range(n)]}, (),
                          tuple(lumped), tuple(f"y{i + 1}" for i in range(n)))
     return spec, _ordered(params)
 
@@ -363,18 +365,18 @@ def frame(rng: np.random.Generator, n_col: int = 3, n_beam: int = 4, *, base: st
     nodes += [(f"c{j}", span * j / n_beam, height) for j in range(1, n_beam)]
     elements = []
 
-    def member(n1, n2, ei_name, ei_nominal):
+    def member(n1, n2, ei_name):
         factor = float(rng.uniform(0.9, 1.1))
         ei = Lin.of(factor, ei_name)
         elements.append(("frame", n1, n2, {"EA": Lin.of(1e4 * factor, ei_name), "EI": ei,
                                            "mass_per_length": Lin.of(1.0, "rA")}))
 
     for i in range(n_col):
-        member(f"a{i}", f"a{i + 1}", names[0], 100.0)
-        member(f"b{i}", f"b{i + 1}", names[1], 100.0)
+        member(f"a{i}", f"a{i + 1}", names[0])
+        member(f"b{i}", f"b{i + 1}", names[1])
     chain_nodes = [f"a{n_col}"] + [f"c{j}" for j in range(1, n_beam)] + [f"b{n_col}"]
     for n1, n2 in zip(chain_nodes[:-1], chain_nodes[1:]):
-        member(n1, n2, "EIb", 60.0)
+        member(n1, n2, "EIb")
     lumped = [("mass", f"x{side}{n_col}", Lin.of(1.0, "mk"), None) for side in "ab"]
     lumped += [("mass", f"y{side}{n_col}", Lin.of(1.0, "mk"), None) for side in "ab"]
     if base == "clamped":

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as la
 
-__all__ = ["modes", "zeros", "shape_ratios", "mac"]
+__all__ = ["modes", "zeros", "mac"]
 
 #: Eigenvalues (rad^2/s^2) below this fraction of the largest are taken as 0 (rigid-body).
 ZERO_FRACTION = 1e-9
@@ -67,11 +67,6 @@ def _finite(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
     alpha, beta = np.asarray(alpha), np.asarray(beta)
     ok = np.abs(beta) > 1e-10 * np.abs(alpha)
     return alpha[ok] / beta[ok]
-
-
-def shape_ratios(Phi_k: np.ndarray, idx: list[int], ref: int) -> np.ndarray:
-    """``phi_j / phi_ref`` at the DOFs ``idx`` of one mode."""
-    return Phi_k[idx] / Phi_k[ref]
 
 
 def mac(a: np.ndarray, b: np.ndarray) -> float:
