@@ -106,6 +106,8 @@ def random_problem(seed: int) -> Problem:
     receptances = []
     for _ in range(1 if kind != "P3" or rng.random() < 0.6 else 2):
         r = meas[int(rng.integers(len(meas)))]
+        if (r, r) in receptances:   # two different driving points
+            r = meas[(meas.index(r) + 1) % len(meas)]
         receptances.append((r, r))
     zero_indices = None
     if kind == "P3":
