@@ -89,8 +89,12 @@ def defects(rows: list[dict], limit: int = 12) -> str:
     lines = []
     for code in sorted(by):
         ids = sorted({f"{r['case']}" for r in by[code]}, key=lambda s: (len(s), s))
-        example = next((r for r in by[code] if r["details"]), by[code][0])
-        detail = example["details"][0] if example["details"] else ""
+        example, detail = by[code][0], ""
+        for r in by[code]:
+            found = [d for d in r["details"] if d.startswith(code + ":")]
+            if found:
+                example, detail = r, found[0]
+                break
         lines.append(f"- `{code}` ({len(by[code])} runs): {', '.join(ids[:limit])}"
                      + (" ..." if len(ids) > limit else "") + (f" - e.g. {example['case']} [{example['route']}]: "
                                                                f"{detail[:220]}" if detail else ""))

@@ -17,9 +17,10 @@ The judge (`judge`), on what the user sees:
 * ``determined_miss``: a ``success`` with a parameter that the data determine (its consistent
   range at the truth, `vibupdate.ranges.identifiability.parameter_ranges` on the judge's
   configurations, narrower than `DETERMINED_PCT`) outside that range (plus `MARGIN` of its
-  width for the linearization, and `EXACT_SLACK` of its reference value); the mirror image of the truth under an exact symmetry counts
-  as the truth; ``other_solution`` marks such a miss whose model fits every datum (the data
-  admit another isolated solution: determined locally, not globally);
+  width for the linearization, and `EXACT_SLACK` of its reference value); the mirror image of
+  the truth under an exact symmetry counts as the truth; ``other_solution`` marks such a miss
+  whose model fits every datum (the data admit another isolated solution: determined locally,
+  not globally);
 * ``truth_outside_reported``: the truth outside a consistent range that ``results.json``
   reports (same margin);
 * ``report``: ``results.json`` frequencies that differ from the recomputed ones;
@@ -260,31 +261,32 @@ def judge(problem, route: str, outcome: dict, ref: Reference) -> Verdict:
     refs = [p.reference for p in problem.parameters]
     if outcome["status"] == "crash" or outcome["exit_code"] == 3:
         v.failures.append("crash")
-        v.details.append(outcome.get("error", ""))
+        v.details.append("crash: " + outcome.get("error", ""))
     elif outcome["status"] == "refused":
         v.failures.append("refused")
-        v.details.append(outcome.get("error", ""))
+        v.details.append("refused: " + outcome.get("error", ""))
     elif not v.success:
         v.failures.append("not_verified" if v.status == "not_verified" else "path_failed")
     if route == "cli" and outcome["exit_code"] not in (2, 3) and outcome["exit_code"] != (0 if v.success else 1):
         v.failures.append("exit_code")
-        v.details.append(f"exit {outcome['exit_code']} with status {v.status}")
+        v.details.append(f"exit_code: exit {outcome['exit_code']} with status {v.status}")
     values = outcome.get("values")
     if values is None:
         return v
     misses, freqs = _misses(problem, values)
     if v.success and misses:
         v.failures.append("outside")
-        v.details += misses[:4]
+        v.details += ["outside: " + m for m in misses[:4]]
     if not v.success and misses:
-        v.details.append(f"{len(misses)} data outside their intervals, e.g. {misses[0]}")
+        v.details.append(f"{v.failures[-1]}: {len(misses)} data outside their intervals, e.g. {misses[0]}")
     if v.success:
         found = [_outside_ranges(names, values, r, refs, ref.determined) for r in ref.ranges]
         if all(found):
             v.failures.append("determined_miss")
             if not misses:   # every datum fits: the data admit another, isolated solution
                 v.failures.append("other_solution")
-            v.details += [f"{n} = {x:.6g} outside its consistent range [{lo:.6g}, {hi:.6g}] at the truth"
+            v.details += [f"determined_miss: {n} = {x:.6g} outside its consistent range [{lo:.6g}, {hi:.6g}] "
+                          "at the truth"
                           for n, x, lo, hi in found[0][:4]]
     reported = outcome.get("ranges")
     if reported:
@@ -293,7 +295,7 @@ def judge(problem, route: str, outcome: dict, ref: Reference) -> Verdict:
         found = [_outside_ranges(names, np.array([t[n] for n in names]), rr, refs) for t in truths]
         if all(found):
             v.failures.append("truth_outside_reported")
-            v.details += [f"true {n} = {x:.6g} outside the reported range [{lo:.6g}, {hi:.6g}]"
+            v.details += [f"truth_outside_reported: true {n} = {x:.6g} outside the reported range [{lo:.6g}, {hi:.6g}]"
                           for n, x, lo, hi in found[0][:4]]
     rows = outcome.get("rows") or []
     lookup = {(c, k, i): hz for c, k, i, hz in freqs}
@@ -302,7 +304,8 @@ def judge(problem, route: str, outcome: dict, ref: Reference) -> Verdict:
         hz, got = lookup.get(key), row.get("updated_hz")
         if hz is not None and got is not None and np.isfinite(hz) and abs(got - hz) > 1e-6 * hz:
             v.failures.append("report")
-            v.details.append(f"reported {row['kind']} {key[2]} of {key[0]} at {got:.7g} Hz, recomputed {hz:.7g} Hz")
+            v.details.append(f"report: {row['kind']} {key[2]} of {key[0]} reported at {got:.7g} Hz, recomputed "
+                             f"{hz:.7g} Hz")
             break
     return v
 

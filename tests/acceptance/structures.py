@@ -282,7 +282,8 @@ def chain(rng: np.random.Generator, n: int, *, ends: str = "one", k_groups: int 
         params["kp"] = _parameter("kp", 300.0, spread, "N/m")
         lumped.append(("spring", "y1", Lin.of(1.0, "kp"), None))
     nodes = tuple((i + 1, float(i + 1), 0.0) for i in range(n))
-    spec = StructureSpec("chain-symmetric" if symmetric else f"chain-{ends}", "beam", nodes, {"fix": [f"phi{i + 1}" for i in range(n)]}, (),
+    label = "chain-symmetric" if symmetric else f"chain-{ends}"
+    spec = StructureSpec(label, "beam", nodes, {"fix": [f"phi{i + 1}" for i in range(n)]}, (),
                          tuple(lumped), tuple(f"y{i + 1}" for i in range(n)))
     return spec, _ordered(params)
 
