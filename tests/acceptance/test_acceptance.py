@@ -1,12 +1,14 @@
 """Acceptance on known-truth problems (the CI profile of `acceptance.runner`).
 
-The profile: the named problems of `acceptance.generator` (each a known failure class) and
-`N_RANDOM` seeded random problems (small models, at most ~60 DOFs), each run through
+The profile: the named problems of `acceptance.generator` (each a known failure class),
+`N_RANDOM` seeded random problems (small models, at most ~60 DOFs) and the
+`REGRESSION_SEEDS`, each run through
 ``vibupdate run`` (in-process) and ``vibupdate.update``. What must hold, on both routes:
 
 * no crash or internal error, and no valid problem refused;
 * exit codes that match the status;
-* no ``success`` with a datum outside its interval (recomputed independently);
+* no ``success`` with a datum outside its interval (recomputed independently), and
+  ``results.json`` frequencies that are the returned model's;
 * every parameter the data determine (consistent range at the truth narrower than 5 %) within
   that range at a ``success``; the truth inside every range ``results.json`` reports;
 * at least 97 % of the runs end ``success``.
@@ -28,12 +30,18 @@ from vibupdate.io.case import load_case
 
 #: Random problems of the CI profile (seeds 0 .. N_RANDOM - 1).
 N_RANDOM = 31
+#: Seeds of `benchmarks/acceptance.py` (500 problems, 2026-11-25) whose failure class the first
+#: N_RANDOM do not show: 51 the truth outside the reported ranges (a nearly symmetric frame),
+#: 167 exact frequencies missed by 0.16 % at a success, 236 a free-free zero missed by 1.3 % at a
+#: success (case file), 266 massless DOFs with the highest mode measured refused, 358 a
+#: frequency outside its case-file interval at a success (the 2 % fit check).
+REGRESSION_SEEDS = (51, 167, 236, 266, 358)
 SUCCESS_FRACTION = 0.97
 
 
 def _problems():
     named = [make() for make in G.named_problems().values()]
-    return named + [G.random_problem(seed) for seed in range(N_RANDOM)]
+    return named + [G.random_problem(seed) for seed in (*range(N_RANDOM), *REGRESSION_SEEDS)]
 
 
 @pytest.fixture(scope="module")
@@ -103,7 +111,12 @@ def test_valid_problems_are_not_refused(verdicts):
 
 
 def test_no_success_with_data_outside_their_intervals(verdicts):
-    bad = [v for v in verdicts if "outside" in v.failures or "report" in v.failures]
+    bad = [v for v in verdicts if "outside" in v.failures]
+    assert not bad, _listing(bad)
+
+
+def test_results_report_the_models_frequencies(verdicts):
+    bad = [v for v in verdicts if "report" in v.failures]
     assert not bad, _listing(bad)
 
 
