@@ -112,6 +112,8 @@ def measure(structure, parameters, truth: dict, *, kind: str, rng, noise: float 
             chosen = kept
         if not chosen:
             continue
+        if kind == "P3" and chosen != list(range(1, len(chosen) + 1)):
+            declare = True   # without poles the default is zeros 1, 2, ...: a subset must say which
         pos = np.array(chosen) - 1
         poles = np.array([n.hz for n in natural])
         pattern = np.searchsorted(poles, z[pos] / TWO_PI)
