@@ -94,9 +94,9 @@ def measure(structure, parameters, truth: dict, *, kind: str, rng, noise: float 
         if kind in ("P1", "mix"):
             idx = [dofs.index(d) for d in sensors]
             with_shape = modes if kind == "P1" else modes[: max(1, len(modes) // 2)]
-            elastic = [j for j in range(len(w)) if w[j] > 0][: max(modes) + 2]
+            every = list(range(len(w)))   # rigid-body modes too: the verification compares with all
             for mode in with_shape:
-                shapes[mode] = _shape(rng, Phi, mode - 1, idx, list(dofs), shape_noise, elastic, noisy_reference)
+                shapes[mode] = _shape(rng, Phi, mode - 1, idx, list(dofs), shape_noise, every, noisy_reference)
         natural = [Natural(float(h), int(m), shapes.get(m)) for h, m in zip(hz, modes)]
     zeros, interlacing = [], True
     for r, c in receptances or []:
