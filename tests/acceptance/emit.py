@@ -1,0 +1,132 @@
+"""A known-truth `Problem` as a case folder and as Python `Configuration` objects.
+
+* `write_case`: ``case.toml`` with the ``[model]`` table of the structure (elements, or matrix
+  files in Matrix Market or ``.npz``), the parameters, one ``[[configuration]]`` per data set
+  (frequencies typed in the TOML or in a CSV table with the columns of
+  `vibupdate.io.measured_io.read_frequency_csv`, shapes in a CSV table ``mode,dof,lower,upper``),
+  and ``frequency_tolerance`` = the problem's 3-sigma half-width for noisy data.
+* `configurations`: the same data for `vibupdate.update`; a noisy frequency carries its
+  interval. ``judge=True`` gives the judge's configurations: modes and zeros always declared,
+  and exact data widened into intervals of relative half-width `EXACT_SLACK` (frequencies) and
+  absolute `EXACT_SLACK` (shape ratios), the numerical meaning of "exact".
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from acceptance import structures as S
+from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+
+__all__ = ["write_case", "configurations", "toml_value", "EXACT_SLACK"]
+
+#: Half-width the judge gives exact data: relative for frequencies, absolute for shape ratios
+#: (well above the 1e-8 of a dense eigen-solve, far below any measurement).
+EXACT_SLACK = 1e-6
+
+TWO_PI = 2.0 * math.pi
+
+
+def toml_value(value) -> str:
+    """A TOML value (inline tables and arrays)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int,)) and not isinstance(value, bool):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + " }"
+    raise TypeError(f"cannot write {value!r} as TOML")
+
+
+def _table(lines: list[str], header: str, items: dict) -> None:
+    lines.append(header)
+    lines += [f"{k} = {toml_value(v)}" for k, v in items.items()]
+    lines.append("")
+
+
+def _configuration_table(problem, cfg, folder: Path) -> dict:
+    table: dict = {"name": cfg.name}
+    if cfg.extra_mass:
+        table["mass"] = [{"dof": cfg.extra_mass[0], "value": float(cfg.extra_mass[1])}]
+    if problem.csv and (cfg.natural or cfg.zeros):
+        rows = ["kind,hz,response,excitation,mode,index"]
+        rows += [f"natural,{n.hz!r},,,{n.mode if cfg.declare else ''}," for n in cfg.natural]
+        rows += [f"antiresonance,{z.hz!r},{z.response},{z.excitation},,{z.index if cfg.declare else ''}"
+                 for z in cfg.zeros]
+        (folder / f"frequencies_{cfg.name}.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+        table["frequencies_csv"] = f"frequencies_{cfg.name}.csv"
+    else:
+        if cfg.natural:
+            table["natural_hz"] = [float(n.hz) for n in cfg.natural]
+            if cfg.declare:
+                table["natural_modes"] = [n.mode for n in cfg.natural]
+        if cfg.zeros:
+            table["antiresonances"] = [{"hz": float(z.hz), "response": z.response, "excitation": z.excitation,
+                                        **({"index": z.index} if cfg.declare else {})} for z in cfg.zeros]
+    shaped = [n for n in cfg.natural if n.shape]
+    if shaped:
+        rows = ["mode,dof,lower,upper"]
+        rows += [f"{n.mode},{dof},{lo!r},{hi!r}" for n in shaped for dof, (lo, hi) in n.shape.items()]
+        (folder / f"shapes_{cfg.name}.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+        table["mode_shapes_csv"] = f"shapes_{cfg.name}.csv"
+    if not cfg.interlacing:
+        table["interlacing"] = False
+    return table
+
+
+def write_case(problem, folder) -> Path:
+    """Write ``problem`` as a case folder (module docstring); returns the path of ``case.toml``."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    lines = [f"# known-truth problem {problem.case_id} (tests/acceptance/generator.py); truth: "
+             + ", ".join(f"{k} = {v:.6g}" for k, v in problem.truth.items()),
+             f"case = {toml_value(problem.case_id)}"]
+    if problem.tolerance > 0:
+        lines.append(f"frequency_tolerance = {problem.tolerance!r}")
+    lines.append("")
+    _table(lines, "[model]", S.model_table(problem.structure, problem.parameters, folder))
+    for p in problem.parameters:
+        _table(lines, "[[parameter]]", {"name": p.name, "unit": p.unit, "nominal": p.nominal, "lower": p.lower,
+                                        "upper": p.upper})
+    for cfg in problem.data:
+        _table(lines, "[[configuration]]", _configuration_table(problem, cfg, folder))
+    path = folder / "case.toml"
+    path.write_text("\n".join(lines), encoding="utf-8")
+    return path
+
+
+def _interval(value: float, half: float):
+    return (value - half, value + half) if half > 0 else None
+
+
+def configurations(problem, judge: bool = False) -> tuple:
+    """The Python route's configurations, or the judge's (module docstring)."""
+    rel = problem.tolerance if problem.tolerance > 0 else (EXACT_SLACK if judge else 0.0)
+    models: dict = {}
+    out = []
+    for cfg in problem.data:
+        key = cfg.extra_mass
+        if key not in models:
+            models[key] = S.affine_model(problem.structure, problem.parameters, extra_mass=cfg.extra_mass)
+        declare = cfg.declare or judge
+        natural = []
+        for n in cfg.natural:
+            shape = None
+            if n.shape:
+                widen = EXACT_SLACK if judge and problem.shape_noise == 0 else 0.0
+                shape = ShapeInterval({d: (lo - widen, hi + widen) for d, (lo, hi) in n.shape.items()})
+            w = TWO_PI * n.hz
+            natural.append(NaturalFrequency(w, shape=shape, mode=n.mode if declare else None,
+                                            interval=_interval(w, rel * w)))
+        zeros = [Antiresonance(TWO_PI * z.hz, z.response, z.excitation, index=z.index if declare else None,
+                               interval=_interval(TWO_PI * z.hz, rel * TWO_PI * z.hz)) for z in cfg.zeros]
+        out.append(Configuration(cfg.name, models[key], tuple(natural), tuple(zeros), interlacing=cfg.interlacing))
+    return tuple(out)

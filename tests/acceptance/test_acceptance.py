@@ -1,0 +1,131 @@
+"""Acceptance on known-truth problems (the CI profile of `acceptance.runner`).
+
+The profile: the named problems of `acceptance.generator` (each a known failure class),
+`N_RANDOM` seeded random problems (small models, at most ~60 DOFs) and the
+`REGRESSION_SEEDS`, each run through
+``vibupdate run`` (in-process) and ``vibupdate.update``. What must hold, on both routes:
+
+* no crash or internal error, and no valid problem refused;
+* exit codes that match the status;
+* no ``success`` with a datum outside its interval (recomputed independently), and
+  ``results.json`` frequencies that are the returned model's;
+* every parameter the data determine (consistent range at the truth narrower than 5 %) within
+  that range at a ``success``; the truth inside every range ``results.json`` reports;
+* at least 97 % of the runs end ``success``.
+
+The generator's own invariants are tested first: the truth satisfies its data, and the case
+file and the Python objects are the same model and data.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from acceptance import generator as G
+from acceptance import runner as R
+from vibupdate.io.case import load_case
+
+#: Random problems of the CI profile (seeds 0 .. N_RANDOM - 1).
+N_RANDOM = 31
+#: Seeds of `benchmarks/acceptance.py` (500 problems, 2026-11-25) whose failure class the first
+#: N_RANDOM do not show: 51 the truth outside the reported ranges (a nearly symmetric frame),
+#: 167 exact frequencies missed by 0.16 % at a success, 236 a free-free zero missed by 1.3 % at a
+#: success (case file), 266 massless DOFs with the highest mode measured refused, 358 a
+#: frequency outside its case-file interval at a success (the 2 % fit check).
+REGRESSION_SEEDS = (51, 167, 236, 266, 358)
+SUCCESS_FRACTION = 0.97
+
+
+def _problems():
+    named = [make() for make in G.named_problems().values()]
+    return named + [G.random_problem(seed) for seed in (*range(N_RANDOM), *REGRESSION_SEEDS)]
+
+
+@pytest.fixture(scope="module")
+def verdicts(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("acceptance")
+    start = time.perf_counter()
+    out = [v for p in _problems() for v in R.run_problem(p, workdir=folder)]
+    print(f"\nacceptance profile: {len(out)} runs in {time.perf_counter() - start:.1f} s")
+    return out
+
+
+def _listing(bad) -> str:
+    return "\n".join(f"{v.case_id} [{v.route}] {v.classes} {v.status}: {v.failures} {v.details[:2]}" for v in bad)
+
+
+# -- the generator's invariants (fast) -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(0, 60, 3))
+def test_the_truth_satisfies_its_data(seed):
+    problem = G.random_problem(seed)
+    values = np.array([problem.truth[p.name] for p in problem.parameters])
+    misses, _ = R._misses(problem, values)
+    assert not misses, misses
+    lo, hi = zip(*[(p.lower, p.upper) for p in problem.parameters])
+    assert np.all(values >= lo) and np.all(values <= hi)
+    assert not np.allclose(problem.xbar_true, 0.0)
+
+
+@pytest.mark.parametrize("seed", [1, 4, 13, 14, 19, 25])
+def test_case_file_and_python_objects_are_the_same_problem(tmp_path, seed):
+    problem = G.random_problem(seed)
+    case = load_case(problem.write_case(tmp_path))
+    python = problem.configurations()
+    assert [c.name for c in case.configurations] == [c.name for c in python]
+    x = problem.xbar_true
+    for a, b in zip(case.configurations, python):
+        assert a.model.dofs == b.model.dofs
+        for A, B in zip(a.model.matrices(x), b.model.matrices(x)):
+            assert abs(A - B).max() <= 1e-9 * abs(B).max()
+        assert [n.omega for n in a.natural] == pytest.approx([n.omega for n in b.natural], rel=1e-14)
+        assert [n.mode for n in a.natural] == [n.mode for n in b.natural]
+        assert [z.index for z in a.antiresonances] == [z.index for z in b.antiresonances]
+        assert [n.shape for n in a.natural] == [n.shape for n in b.natural]
+
+
+def test_a_wrong_answer_is_caught():
+    """The judge can fail: the nominal model as a 'success' misses its data."""
+    problem = G.noisy_shapes_beam()
+    outcome = {"status": "success", "exit_code": None, "seconds": 0.0,
+               "values": np.array([p.nominal for p in problem.parameters])}
+    verdict = R.judge(problem, "api", outcome, R.reference(problem))
+    assert "outside" in verdict.failures
+
+
+# -- the profile -----------------------------------------------------------------------------------
+
+
+def test_no_crash_or_internal_error(verdicts):
+    bad = [v for v in verdicts if "crash" in v.failures]
+    assert not bad, _listing(bad)
+
+
+def test_valid_problems_are_not_refused(verdicts):
+    bad = [v for v in verdicts if "refused" in v.failures or "exit_code" in v.failures]
+    assert not bad, _listing(bad)
+
+
+def test_no_success_with_data_outside_their_intervals(verdicts):
+    bad = [v for v in verdicts if "outside" in v.failures]
+    assert not bad, _listing(bad)
+
+
+def test_results_report_the_models_frequencies(verdicts):
+    bad = [v for v in verdicts if "report" in v.failures]
+    assert not bad, _listing(bad)
+
+
+def test_determined_parameters_lie_in_their_consistent_ranges(verdicts):
+    bad = [v for v in verdicts if "determined_miss" in v.failures or "truth_outside_reported" in v.failures]
+    assert not bad, _listing(bad)
+
+
+def test_success_fraction(verdicts):
+    ok = sum(v.success for v in verdicts)
+    failed = [v for v in verdicts if not v.success]
+    assert ok >= SUCCESS_FRACTION * len(verdicts), f"{ok}/{len(verdicts)} success\n" + _listing(failed)

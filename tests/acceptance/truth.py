@@ -1,0 +1,74 @@
+"""Modal data of small dense models, computed independently of vibupdate's modal kernels.
+
+The acceptance engine computes the exact data of its known-truth problems, and judges the
+returned models, with these few lines of `scipy.linalg` instead of `vibupdate.modes` and
+`vibupdate.antiresonances`, so that an error in the library's kernels cannot hide itself.
+
+* `modes`: ``(K - w^2 M) phi = 0``, mass-normalized, every mode (rigid-body modes first at
+  about 0 rad/s). Massless DOFs (zero rows of ``M``) are condensed statically.
+* `zeros`: the antiresonances of the receptance ``h_rc``: the eigenvalues of the pencil with
+  row ``r`` and column ``c`` removed, real and positive (a zero at 0 rad/s of a free structure
+  cancels against its rigid-body poles and is not a zero of ``h_rc``); infinite eigenvalues of
+  a pencil with massless DOFs are dropped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as la
+
+__all__ = ["modes", "zeros", "mac"]
+
+#: Eigenvalues (rad^2/s^2) below this fraction of the largest are taken as 0 (rigid-body).
+ZERO_FRACTION = 1e-9
+
+
+def _massless(M: np.ndarray) -> np.ndarray:
+    scale = np.max(np.abs(np.diag(M)))
+    return np.flatnonzero(np.all(np.abs(M) <= 1e-14 * scale, axis=1))
+
+
+def modes(M: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every natural frequency (rad/s, ascending, shape (n_m,)) and the mass-normalized modes
+    (shape (n, n_m)); ``n_m = n`` less the massless DOFs."""
+    n = M.shape[0]
+    zero = _massless(M)
+    keep = np.setdiff1d(np.arange(n), zero)
+    if zero.size:
+        Kzz, Kzk = K[np.ix_(zero, zero)], K[np.ix_(zero, keep)]
+        T = -la.solve(Kzz, Kzk, assume_a="pos")
+        Kc = K[np.ix_(keep, keep)] + Kzk.T @ T
+        lam, Y = la.eigh(0.5 * (Kc + Kc.T), M[np.ix_(keep, keep)])
+        Phi = np.zeros((n, keep.size))
+        Phi[keep], Phi[zero] = Y, T @ Y
+    else:
+        lam, Phi = la.eigh(K, M)
+    lam = np.where(lam < ZERO_FRACTION * lam[-1], 0.0, lam)
+    return np.sqrt(lam), Phi
+
+
+def zeros(M: np.ndarray, K: np.ndarray, r: int, c: int) -> tuple[np.ndarray, int]:
+    """Real positive zeros of ``h_rc`` (rad/s, ascending) and the number of complex ones."""
+    rows = np.delete(np.arange(M.shape[0]), r)
+    cols = np.delete(np.arange(M.shape[0]), c)
+    A, B = K[np.ix_(rows, cols)], M[np.ix_(rows, cols)]
+    if r == c and not _massless(B).size:
+        lam = la.eigh(A, B, eigvals_only=True).astype(complex)
+    else:
+        alpha, beta = la.eig(A, B, right=False, homogeneous_eigvals=True)
+        lam = _finite(alpha, beta)
+    scale = np.max(np.abs(lam)) if lam.size else 1.0
+    lam = lam[np.abs(lam) > ZERO_FRACTION * scale]
+    complex_ = (np.abs(lam.imag) > 1e-7 * np.abs(lam)) | (lam.real < 0)
+    return np.sort(np.sqrt(lam.real[~complex_])), int(np.count_nonzero(complex_))
+
+
+def _finite(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    alpha, beta = np.asarray(alpha), np.asarray(beta)
+    ok = np.abs(beta) > 1e-10 * np.abs(alpha)
+    return alpha[ok] / beta[ok]
+
+
+def mac(a: np.ndarray, b: np.ndarray) -> float:
+    """Modal assurance criterion of two real vectors."""
+    return float((a @ b) ** 2 / ((a @ a) * (b @ b)))
