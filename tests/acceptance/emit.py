@@ -20,7 +20,7 @@ from pathlib import Path
 from acceptance import structures as S
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 
-__all__ = ["write_case", "configurations", "toml_value", "EXACT_SLACK"]
+__all__ = ["write_case", "configurations", "toml_value", "flexible_mode", "EXACT_SLACK"]
 
 #: Half-width the judge gives exact data: relative for frequencies, absolute for shape ratios
 #: (well above the 1e-8 of a dense eigen-solve, far below any measurement).
@@ -58,7 +58,7 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
         table["mass"] = [{"dof": cfg.extra_mass[0], "value": float(cfg.extra_mass[1])}]
     if problem.csv and (cfg.natural or cfg.zeros):
         rows = ["kind,hz,response,excitation,mode,index"]
-        rows += [f"natural,{n.hz!r},,,{n.mode if cfg.declare else ''}," for n in cfg.natural]
+        rows += [f"natural,{n.hz!r},,,{flexible_mode(problem, n) if cfg.declare else ''}," for n in cfg.natural]
         rows += [f"antiresonance,{z.hz!r},{z.response},{z.excitation},,{z.index if cfg.declare else ''}"
                  for z in cfg.zeros]
         (folder / f"frequencies_{cfg.name}.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
@@ -67,14 +67,14 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
         if cfg.natural:
             table["natural_hz"] = [float(n.hz) for n in cfg.natural]
             if cfg.declare:
-                table["natural_modes"] = [n.mode for n in cfg.natural]
+                table["natural_modes"] = [flexible_mode(problem, n) for n in cfg.natural]
         if cfg.zeros:
             table["antiresonances"] = [{"hz": float(z.hz), "response": z.response, "excitation": z.excitation,
                                         **({"index": z.index} if cfg.declare else {})} for z in cfg.zeros]
     shaped = [n for n in cfg.natural if n.shape]
     if shaped:
         rows = ["mode,dof,lower,upper"]
-        rows += [f"{n.mode},{dof},{lo!r},{hi!r}" for n in shaped for dof, (lo, hi) in n.shape.items()]
+        rows += [f"{flexible_mode(problem, n)},{dof},{lo!r},{hi!r}" for n in shaped for dof, (lo, hi) in n.shape.items()]
         (folder / f"shapes_{cfg.name}.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
         table["mode_shapes_csv"] = f"shapes_{cfg.name}.csv"
     if not cfg.interlacing:
@@ -103,6 +103,11 @@ def write_case(problem, folder) -> Path:
     return path
 
 
+def flexible_mode(problem, natural) -> int:
+    """The mode number vibupdate reads: rigid-body modes are not counted (docs/vocabulary.md)."""
+    return natural.mode - problem.structure.rigid_modes
+
+
 def _interval(value: float, half: float):
     return (value - half, value + half) if half > 0 else None
 
@@ -124,7 +129,7 @@ def configurations(problem, judge: bool = False) -> tuple:
                 widen = EXACT_SLACK if judge and problem.shape_noise == 0 else 0.0
                 shape = ShapeInterval({d: (lo - widen, hi + widen) for d, (lo, hi) in n.shape.items()})
             w = TWO_PI * n.hz
-            natural.append(NaturalFrequency(w, shape=shape, mode=n.mode if declare else None,
+            natural.append(NaturalFrequency(w, shape=shape, mode=flexible_mode(problem, n) if declare else None,
                                             interval=_interval(w, rel * w)))
         zeros = [Antiresonance(TWO_PI * z.hz, z.response, z.excitation, index=z.index if declare else None,
                                interval=_interval(TWO_PI * z.hz, rel * TWO_PI * z.hz)) for z in cfg.zeros]

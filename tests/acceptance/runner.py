@@ -42,7 +42,7 @@ import numpy as np
 
 from acceptance import structures as S
 from acceptance import truth as T
-from acceptance.emit import EXACT_SLACK
+from acceptance.emit import EXACT_SLACK, flexible_mode
 
 __all__ = ["Reference", "Verdict", "reference", "run_cli", "run_api", "judge", "run_problem", "DEFECTS"]
 
@@ -200,7 +200,7 @@ def _misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple]]:
         for n in cfg.natural:
             model = w[n.mode - 1] / TWO_PI if n.mode <= w.size else np.nan
             checks.append((f"{cfg.name} mode {n.mode}", n.hz, model))
-            freqs.append((cfg.name, "natural", n.mode, model))
+            freqs.append((cfg.name, "natural", flexible_mode(problem, n), model))
             if n.shape:
                 slack = EXACT_SLACK if problem.shape_noise == 0 else 0.0
                 names = list(n.shape)
