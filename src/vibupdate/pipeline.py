@@ -62,7 +62,9 @@ def _identifiability(result: UpdateResult) -> dict:
             "column_norm": {p.name: float(v) for p, v in zip(result.parameters, s["column_norm"])},
             "undetermined_combinations": [describe_direction(names, v) for v in s["null_directions"]],
             "minimum_change": (result.minimum_change.message
-                               if result.minimum_change is not None and result.minimum_change.applied else None)}
+                               if result.minimum_change is not None and result.minimum_change.applied else None),
+            "alternatives": [{"start": a["start"], "objective": a["objective"], "values": a["values"]}
+                             for a in result.alternatives]}
 
 
 def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:

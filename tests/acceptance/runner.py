@@ -20,7 +20,9 @@ The judge (`judge`), on what the user sees:
   width for the linearization, and `EXACT_SLACK` of its reference value); the mirror image of
   the truth under an exact symmetry counts as the truth; ``other_solution`` marks such a miss
   whose model fits every datum (the data admit another isolated solution: determined locally,
-  not globally);
+  not globally); none of this counts when the truth is one of the other answers the run
+  reports as fitting the data as well (``alternatives`` of the result, "Not unique" in the
+  report): the user is told what the data cannot tell apart;
 * ``truth_outside_reported``: the truth outside a consistent range that ``results.json``
   reports (same margin);
 * ``report``: ``results.json`` frequencies that differ from the recomputed ones;
@@ -154,9 +156,13 @@ def run_cli(problem, folder: Path) -> dict:
     status = doc["solver"]["status"] if doc else ("refused" if code == 2 else "crash")
     values = np.array([p["updated"] for p in doc["parameters"]]) if doc else None
     ranges = (doc["identifiability"] or {}).get("ranges") if doc else None
+    others = ((doc["identifiability"] or {}).get("alternatives") or []) if doc else []
+    names = [p["name"] for p in doc["parameters"]] if doc else []
+    alternatives = [np.array([a["values"][n] for n in names]) for a in others]
     last = buf_err.getvalue().strip().splitlines()[-1:]
     return {"exit_code": code, "status": status, "values": values, "ranges": ranges, "seconds": seconds,
-            "rows": doc["frequencies"] if doc else None, "error": crash or (last[0] if last else "")}
+            "rows": doc["frequencies"] if doc else None, "error": crash or (last[0] if last else ""),
+            "alternatives": alternatives}
 
 
 def run_api(problem) -> dict:
@@ -180,7 +186,8 @@ def run_api(problem) -> dict:
         return {"exit_code": None, "status": "crash", "values": None, "seconds": time.perf_counter() - start,
                 "error": f"{type(exc).__name__}: {exc}"[:300]}
     return {"exit_code": None, "status": result.status.value, "values": np.asarray(result.values),
-            "seconds": time.perf_counter() - start, "rows": list(result.frequencies), "error": ""}
+            "seconds": time.perf_counter() - start, "rows": list(result.frequencies), "error": "",
+            "alternatives": [np.array(list(a["values"].values())) for a in result.alternatives]}
 
 
 # -- judging -------------------------------------------------------------------------------------
@@ -279,7 +286,14 @@ def judge(problem, route: str, outcome: dict, ref: Reference) -> Verdict:
         v.details += ["outside: " + m for m in misses[:4]]
     if not v.success and misses:
         v.details.append(f"{v.failures[-1]}: {len(misses)} data outside their intervals, e.g. {misses[0]}")
-    if v.success:
+    # the truth among the other answers the run reports as fitting as well (`alternatives`):
+    # the user is told the data admit it, which is all the data can say
+    named = [a for a in outcome.get("alternatives") or []
+             if not all(_outside_ranges(names, a, r, refs, ref.determined) for r in ref.ranges)]
+    if named:
+        v.details.append("other_solution_reported: the truth is one of the answers the run reports as fitting "
+                         "the data as well")
+    if v.success and not named:
         found = [_outside_ranges(names, values, r, refs, ref.determined) for r in ref.ranges]
         if all(found):
             v.failures.append("determined_miss")
@@ -289,7 +303,7 @@ def judge(problem, route: str, outcome: dict, ref: Reference) -> Verdict:
                           "at the truth"
                           for n, x, lo, hi in found[0][:4]]
     reported = outcome.get("ranges")
-    if reported:
+    if reported and not named:
         truths = [problem.truth] + [_mirror(problem, s) for s in problem.symmetries]
         rr = (np.array([reported[n]["lower"] for n in names]), np.array([reported[n]["upper"] for n in names]))
         found = [_outside_ranges(names, np.array([t[n] for n in names]), rr, refs) for t in truths]

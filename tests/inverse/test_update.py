@@ -281,6 +281,23 @@ def test_a_failed_path_is_on_record_when_a_further_start_verifies():
     assert np.allclose(result.xbar, x_true, atol=1e-6)
 
 
+def test_two_answers_that_fit_exactly_are_both_said():
+    # two springs of a 2-mass chain from its two natural frequencies: k1 + 2 k2 and k1 k2 are
+    # fixed (unit masses), so (1000, 1000) and (2000, 500) fit exactly; the first is nearer
+    # the nominal (1200, 900) and is returned, the second is reported
+    model = chain_model(2, ["k1", "k2"], nominal={"k1": 1200.0, "k2": 900.0}, spread=0.7)
+    truth = {"k1": 1000.0, "k2": 1000.0}
+    _, _, omega, _ = exact(model, truth)
+    result = update([Configuration("P2", model, tuple(NaturalFrequency(w) for w in omega))])
+    assert result.success, result.message
+    assert np.allclose(result.values, [1000.0, 1000.0], rtol=1e-6)
+    assert len(result.alternatives) == 1
+    other = result.alternatives[0]["values"]
+    assert np.allclose([other["k1"], other["k2"]], [2000.0, 500.0], rtol=1e-6)
+    assert any(w.startswith("uniqueness: 1 other answer") for w in result.warnings)
+    assert {r["purpose"] for r in result.restarts if "purpose" in r} == {"uniqueness"}
+
+
 def test_bad_input_is_caught_before_any_solve():
     model = chain_model(4, ["k1", "m2"])
     nat = (NaturalFrequency.from_hz(3.0), NaturalFrequency.from_hz(8.0))

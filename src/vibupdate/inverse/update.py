@@ -98,6 +98,10 @@ class UpdateResult:
     restarts : tuple of dict
         Further starts tried when the direct path's answer did not verify or the path failed
         (`_restart`): ``start``, ``status``, failed checks, polish objective, seconds.
+    alternatives : tuple of dict
+        Other verified answers that fit the data about as well (`_choose`): ``start``,
+        ``objective``, ``values`` (physical, by parameter name) and ``xbar``. Not empty means
+        the data do not single out the parameters in which they differ.
     minimum_change : MinimumChange or None
         Where the data leave directions undetermined, the move of the answer along them to the
         point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
@@ -130,6 +134,7 @@ class UpdateResult:
     attempts: tuple[dict, ...] = ()
     restarts: tuple[dict, ...] = ()
     minimum_change: MinimumChange | None = None
+    alternatives: tuple[dict, ...] = ()
     modal: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -163,6 +168,7 @@ class UpdateResult:
             "attempts": list(self.attempts),
             "restarts": list(self.restarts),
             "minimum_change": None if self.minimum_change is None else self.minimum_change.as_dict(),
+            "alternatives": list(self.alternatives),
         }
 
 
@@ -366,21 +372,88 @@ def _worth_restarting(candidate: _Finish) -> bool:
     return bool(set(candidate.failed) - _DATA_CHECKS)
 
 
-#: A verified answer pressed against the parameter box with a misfit left (polish objective
-#: above this) may be a local minimum that the bound created: the further starts are tried
-#: and the lowest objective among the verified answers kept. (On the acceptance engine's frame
-#: r167, exact frequencies, the direct path's answer had two parameters on their bounds and
-#: missed a frequency by 0.155 %.)
-IMPROVABLE_COST = 1e-12
-#: A further start replaces a verified answer only when it lowers the objective below this
-#: fraction of it (a different point of equal fit is no reason to move).
+#: A polish objective below this is an exact fit (every datum within about 1e-6): exact fits
+#: tie whatever their objectives (`_choose`).
+EXACT_FIT = 1e-12
+#: An answer fits "about as well" as the best when its objective is below the best's over this.
 IMPROVEMENT = 0.5
 
 
-def _improvable(candidate: _Finish) -> bool:
-    """True for a verified answer on a bound of the box with a misfit left (`IMPROVABLE_COST`)."""
-    on_bound = any(c.name == "bounds" and not c.passed for c in candidate.checks)
-    return candidate.status.ok and on_bound and candidate.cost > IMPROVABLE_COST
+def _box_starts(lo: np.ndarray, hi: np.ndarray) -> list[tuple[str, np.ndarray]]:
+    """The nominal point and `RANDOM_STARTS` points of the box drawn with a fixed seed (the
+    same input gives the same answer)."""
+    rng = np.random.default_rng(0)
+    return [("nominal point", np.clip(np.zeros(lo.size), lo, hi))] + [
+        (f"random start {k + 1}", rng.uniform(lo, hi)) for k in range(RANDOM_STARTS)]
+
+
+#: Models up to this many DOFs (after any reduction) are probed for other answers (`_probe`):
+#: a polish there costs a fraction of a second.
+PROBE_DOFS = 400
+#: ... and up to this many parameters: with more, a polish from a random point of the box
+#: costs hundreds of evaluations (the bundled 29-parameter frame: 36 s for four starts, its
+#: answer unchanged).
+PROBE_PARAMETERS = 12
+#: Evaluations allowed to each probing polish, per unknown plus one (a start that has not
+#: converged by then is not an answer that fits as well).
+PROBE_EVALUATIONS = 20
+#: Two answers are distinct when a normalized parameter differs by more than this.
+DISTINCT = 1e-3
+#: Objectives within this relative margin of the lowest tie: the nearest the nominal model wins.
+TIE = 1e-3
+
+
+def _choose(tried: list[_Finish], fallback: _Finish) -> tuple[_Finish, tuple[_Finish, ...]]:
+    """The verified answer of lowest polish objective (objectives within `TIE` of it, or all
+    below `EXACT_FIT`, an exact fit, tie: the one nearest the nominal model wins), and
+    the distinct verified answers that fit about as well (objective below the lowest over
+    `IMPROVEMENT`, or an exact fit)."""
+    verified = [c for c in tried if c.status.ok]
+    if not verified:
+        return fallback, ()
+    low = min(c.cost for c in verified)
+    ties = [c for c in verified if c.cost <= max(low * (1.0 + TIE), EXACT_FIT)]
+    nearest = min(ties, key=lambda c: float(np.linalg.norm(c.xbar)))
+    chosen = next(c for c in ties if np.max(np.abs(c.xbar - nearest.xbar)) <= DISTINCT)  # the first found
+    close = sorted((c for c in verified if c.cost <= max(low / IMPROVEMENT, EXACT_FIT)),
+                   key=lambda c: float(np.linalg.norm(c.xbar)))
+    others: list[_Finish] = []
+    for c in close:
+        if all(np.max(np.abs(c.xbar - d.xbar)) > DISTINCT for d in [chosen, *others]):
+            others.append(c)
+    return chosen, tuple(others)
+
+
+def _probe(configurations, finish, tried: list[_Finish], restarts: list, say, options: PolishOptions) -> None:
+    """Polish from the starts of `_box_starts` not tried yet, so that an answer that is not the
+    only one fitting the data is found and said (`_choose`). Each start is recorded in
+    ``restarts`` with ``purpose`` "uniqueness"."""
+    import time
+
+    lo, hi = configurations[0].model.bounds()
+    done = {c.label for c in tried}
+    todo = [(label, x) for label, x in _box_starts(lo, hi) if label not in done]
+    if todo:
+        say(f"uniqueness: polishing from {len(todo)} further starts")
+    for label, x0 in todo:
+        t0 = time.perf_counter()
+        candidate = finish(x0, label, options)
+        restarts.append({"start": label, "purpose": "uniqueness", "status": candidate.status.value,
+                         "failed": candidate.failed, "cost": candidate.cost, "seconds": time.perf_counter() - t0})
+
+
+def _alternatives_text(model, best: _Finish, alternatives: tuple[_Finish, ...]) -> str:
+    """The other answers in words: which parameters differ, in their units."""
+    names = model.parameter_names
+    parts = []
+    for c in alternatives:
+        values, mine = model.physical(c.xbar), model.physical(best.xbar)
+        differ = [i for i in range(len(names)) if abs(c.xbar[i] - best.xbar[i]) > DISTINCT]
+        parts.append(f"from the {c.label} (objective {c.cost:.3g}): "
+                     + ", ".join(f"{names[i]} = {values[i]:.5g} (here {mine[i]:.5g})" for i in differ[:6])
+                     + (f" and {len(differ) - 6} more" if len(differ) > 6 else ""))
+    return (f"{len(alternatives)} other answer(s) fit the data about as well and pass every check, so the data do "
+            "not single out the parameters that differ; " + "; ".join(parts))
 
 
 def _restart(configurations, problem, solver, best, finish, restarts: list, say):
@@ -406,16 +479,8 @@ def _restart(configurations, problem, solver, best, finish, restarts: list, say)
             steps = path.steps
             return np.clip(path.x, problem.x_lower, problem.x_upper) if path.status.ok else None
         starts.append(("stepped homotopy path", stepped))
-    starts.append(("nominal point", lambda: np.clip(np.zeros(lo.size), lo, hi)))
-    rng = np.random.default_rng(0)
-    for k in range(RANDOM_STARTS):
-        point = rng.uniform(lo, hi)
-        starts.append((f"random start {k + 1}", lambda point=point: point))
-    improving = best is not None and best.status.ok
-    if improving:
-        say(f"the answer has parameters on a bound and a misfit left (objective {best.cost:.3e}): "
-            f"trying {len(starts)} further starts")
-    elif best is not None:
+    starts += [(label, lambda point=point: point) for label, point in _box_starts(lo, hi)]
+    if best is not None:
         say(f"the answer did not verify (failed {', '.join(best.failed)}): trying {len(starts)} further starts")
     for label, start in starts:
         t0 = time.perf_counter()
@@ -431,10 +496,9 @@ def _restart(configurations, problem, solver, best, finish, restarts: list, say)
         say(f"restart from the {label}: {candidate.status.value}"
             + (f" (failed {', '.join(candidate.failed)})" if candidate.failed else ""))
         if best is None or (candidate.status.ok and not best.status.ok) or (
-                candidate.status.ok == best.status.ok and candidate.cost < (IMPROVEMENT if improving else 1.0)
-                * best.cost):
+                candidate.status.ok == best.status.ok and candidate.cost < best.cost):
             best = candidate
-        if best.status.ok and not (improving and _improvable(best)):
+        if best.status.ok:
             break
     return best, steps
 
@@ -496,16 +560,28 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         size["reduced_dofs"] = solved[0].model.n_dofs
     model = configurations[0].model
 
-    def finish(start: np.ndarray, label: str) -> _Finish:
-        return _finish(configurations, start, label, path, problem, active, nominal, polish, verification, say)
+    tried: list[_Finish] = []
+
+    def finish(start: np.ndarray, label: str, options: PolishOptions | None = None) -> _Finish:
+        candidate = _finish(configurations, start, label, path, problem, active, nominal, options or polish,
+                            verification, say)
+        tried.append(candidate)
+        return candidate
 
     first_xbar = np.clip(path.x, problem.x_lower, problem.x_upper)
     best = finish(first_xbar, "homotopy") if path.status.ok else None
     direct = best
     restarts: list[dict] = []
-    if polish.enabled and (best is None or _worth_restarting(best) or _improvable(best)):
+    if polish.enabled and (best is None or _worth_restarting(best)):
         best, more_steps = _restart(configurations, problem, solver, best, finish, restarts, say)
         steps = steps + more_steps
+    alternatives: tuple[_Finish, ...] = ()
+    if (polish.enabled and best is not None and best.status.ok and solved[0].model.n_dofs <= PROBE_DOFS
+            and model.n_parameters <= PROBE_PARAMETERS):
+        _probe(configurations, finish, tried, restarts, say,
+               replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
+                                                   PROBE_EVALUATIONS * (model.n_parameters + 1))))
+        best, alternatives = _choose(tried, best)
     status = best.status if best is not None else path.status
     if best is None:   # the path failed and no start verified: the first stage's point, unpolished
         updated = [model_frequencies(c, first_xbar, derivatives=True) for c in configurations]
@@ -513,6 +589,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
                        sensitivity(configurations, first_xbar, freqs=updated), (), status)
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
     warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
+    if alternatives:
+        warnings += ("uniqueness: " + _alternatives_text(model, best, alternatives),)
     if polished is not None and polished.on_limit:   # short of the optimum, maybe: said where checks are said
         warnings += (f"polish: {polished.message}",)
     for w in warnings:
@@ -520,8 +598,9 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     message = _message(status, path.lam, steps, checks)
     if best.label != "homotopy":
         if direct is not None and direct.status.ok:
-            head = (f"the homotopy's answer verified but lay on a bound with objective {direct.cost:.3e}; "
-                    f"a lower one, {best.cost:.3e}, was found")
+            head = (f"the homotopy's answer verified with objective {direct.cost:.3e}; "
+                    + (f"a lower one, {best.cost:.3e}, was found" if best.cost < (1 - TIE) * direct.cost else
+                       f"an answer that fits as well ({best.cost:.3e}) lies nearer the nominal model"))
         elif path.status.ok:
             head = "homotopy reached lambda = 1 but its answer did not verify"
         else:
@@ -552,5 +631,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         attempts=attempts,
         restarts=tuple(restarts),
         minimum_change=best.minimum,
+        alternatives=tuple({"start": c.label, "objective": c.cost, "xbar": c.xbar.tolist(),
+                            "values": dict(zip(model.parameter_names, model.physical(c.xbar).tolist()))}
+                           for c in alternatives),
         modal={c.name: f for c, f in zip(configurations, updated)},
     )
