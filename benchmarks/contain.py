@@ -1,4 +1,4 @@
-"""Benchmark: what holding every reported answer costs the certified ranges (issue 11).
+"""Benchmark: what holding every reported answer costs the certified ranges.
 
 Run:  PYTHONPATH=src python benchmarks/contain.py [--examples chain cantilever] [--samples 10]
       [--seconds 60] [--seed 6]
@@ -7,7 +7,7 @@ For each example, one process: the run's update and a sweep of ``--samples`` dat
 ``vibupdate run --samples N`` does; ``starts = 0``), then the certified enclosure twice under
 the same time budget:
 
-* *answer only*: S widened to hold the run's answer alone (the set certified before issue 11's
+* *answer only*: S widened to hold the run's answer alone (the set certified before the
   fix, with today's widening rule for the answer);
 * *every answer*: S widened to hold the answer, every verified sampled answer and every line
   end (what ``run --certify`` does now).

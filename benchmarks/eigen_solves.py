@@ -1,4 +1,4 @@
-"""Count the eigen-solves of one whole ``vibupdate run`` (issue 10: no repeated eigen-solves of
+"""Count the eigen-solves of one whole ``vibupdate run`` (no repeated eigen-solves of
 the same matrices within a run), per stage, on a bundled example.
 
 Run:  python benchmarks/eigen_solves.py [cantilever|frame]

@@ -1,4 +1,4 @@
-"""Coverage of the extraction's 95 % intervals on known-truth FRFs (issue 9), one process.
+"""Coverage of the extraction's 95 % intervals on known-truth FRFs, one process.
 
 Run:  python benchmarks/frf_coverage.py CASE RECORDS SEEDS [--true-noise]
 

@@ -1,4 +1,4 @@
-"""Does the leakage bias of a windowed H1 estimate explain the Southampton misfit? (issue 9)
+"""Does the leakage bias of a windowed H1 estimate explain the Southampton misfit?
 
 Run:  python benchmarks/frf_leakage.py [DATA_DIR] [SEED]
 

@@ -51,7 +51,7 @@ DEFAULTS = {"kernels": (8, 77, 770), "update": (8, 77, 770), "run": (8, 77, 770)
 #: Half-width of the exact shape data (points) and the frequency tolerance of the checks.
 SHAPE_TOLERANCE = 0.0
 FREQUENCY_TOLERANCE = 1e-4
-#: Target of issue 10 for the parameter errors on exact data.
+#: Target for the parameter errors on exact data.
 TARGET = 1e-4
 #: Tolerances of the peers on exact data, the polish's (scipy's default 1e-8 would stop them
 #: short of an exact answer); `examples` leaves them at scipy's defaults.

@@ -1,4 +1,4 @@
-"""The Southampton frame's extracted intervals (issue 9): frequencies, damping ratios and the
+"""The Southampton frame's extracted intervals: frequencies, damping ratios and the
 ten listed antiresonances with their 95 % intervals, against the reference values.
 
 Run:  python benchmarks/soton_intervals.py [DATA_DIR] [--json FILE]

@@ -1,4 +1,4 @@
-"""The single-record noise estimate on real FRFs (issue 9): what it is, what it would be.
+"""The single-record noise estimate on real FRFs: what it is, what it would be.
 
 Run:  python benchmarks/soton_noise.py [DATA_DIR]
 
@@ -36,7 +36,7 @@ from vibupdate.data.frf import read_frfs  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from soton_zeros import FILES, REFERENCE_HZ, TWO_PI  # noqa: E402
 
-MODES_HZ = (6.5126, 17.4608, 26.5003)  # the reference analysis (issue 9)
+MODES_HZ = (6.5126, 17.4608, 26.5003)  # the reference analysis
 
 
 def _alternative():

@@ -1,4 +1,4 @@
-"""What separates the extracted Southampton antiresonances from the reference values (issue 9).
+"""What separates the extracted Southampton antiresonances from the reference values.
 
 Run:  python benchmarks/soton_zeros.py [DATA_DIR]
       python benchmarks/soton_zeros.py --synthetic [SEEDS] [RECORDS]

@@ -119,7 +119,7 @@ FRAME_PAIRS = tuple((f"x{r}", f"x{c}") for c in (1, 2, 3) for r in (1, 2, 3))
 
 
 def frame_system():
-    """A three-storey shear frame like the Southampton one (issue 9): storey masses 5.2 kg,
+    """A three-storey shear frame like the Southampton one: storey masses 5.2 kg,
     storey stiffnesses 33.7, 36.7, 39.5 kN/m (modes at 6.5, 17.0 and 24.5 Hz), and two
     out-of-plane DOFs ``z1``, ``z2`` (5.2 kg, 28.9 and 42.1 Hz alone) tied to the floors by
     weak 1.8 kN/m springs, so that two light modes just above the band show in the sway FRFs

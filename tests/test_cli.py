@@ -153,7 +153,7 @@ def test_a_failed_update_exits_non_zero_with_the_reason(tmp_path, capsys):
     assert doc["solver"]["status"] != "success" and doc["success"] is False
 
 
-# --- exit codes and messages (issue 12, items 3 and 4) ---------------------------------------
+# --- exit codes and messages ---------------------------------------
 
 BUILDER_CASE = """\
 case = "built"

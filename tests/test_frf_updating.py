@@ -1,4 +1,4 @@
-"""Issue 9, from FRFs to the updated model: measured intervals feed the updating.
+"""From FRFs to the updated model: measured intervals feed the updating.
 
 Frequency intervals (e.g. extracted from FRFs) are the per-datum tolerances of the
 consistent parameter ranges; damping-ratio intervals give the damping fit's weights

@@ -1,4 +1,4 @@
-"""Fuzz suite (issue 12): hypothesis mutates the bundled case files and data files, then
+"""Fuzz suite: hypothesis mutates the bundled case files and data files, then
 runs ``vibupdate check`` (and ``run`` on a small sample) in-process through
 `vibupdate.cli.main`. For every mutation:
 

@@ -1,4 +1,4 @@
-"""No repeated eigen-solves of the same matrices within a run (issue 10, Kernels): one whole
+"""No repeated eigen-solves of the same matrices within a run (Kernels): one whole
 ``run_case`` on the cantilever (four configurations, one receptance each, damping ratios)
 solves each configuration's updated pencil and its adjunct once per stage that needs them at
 a point of its own, and never again in the damping stage, the results object or the writers."""

@@ -109,7 +109,7 @@ def test_negative_band_starts_at_a_root_that_falls_exactly_on_a_grid_point():
 
 
 def test_cantilever_caughey_and_rayleigh_fits_are_flagged_where_damping_turns_negative():
-    """Issue 12 item 6: with the paper's updated parameters (Table 6) the Caughey fit with
+    """With the paper's updated parameters (Table 6) the Caughey fit with
     Y = [-1.5, -0.75, 0] is negative at low frequency and the Rayleigh baseline at high
     frequency, so its C has negative eigenvalues; both are warnings of the stage."""
     cfgs = cantilever.configurations()
@@ -131,7 +131,7 @@ def test_cantilever_caughey_and_rayleigh_fits_are_flagged_where_damping_turns_ne
 
 
 def test_frf_plot_draws_the_nominal_model_without_the_updated_damping(tmp_path, monkeypatch):
-    """Issue 12 item 6: the nominal curve is undamped (labelled so), never the updated C."""
+    """The nominal curve is undamped (labelled so), never the updated C."""
     from vibupdate.report import plots
 
     calls = []

@@ -1,6 +1,6 @@
 """Modal extraction from FRFs on known-truth data (tests/frf_synthetic.py).
 
-The figures of issue 9's "Must hold" list, on the cantilever with non-proportional damping,
+The extraction's accuracy targets, on the cantilever with non-proportional damping,
 5 repeats, 3 % complex noise plus a -60 dB floor, 0.25 Hz lines from 20 to 300 Hz (three
 modes in the band, a fourth at 403 Hz above it): frequencies <= 0.05 %, damping <= 2 %,
 antiresonances <= 0.2 % with the exact zero count on every FRF, coverage of the 95 %
@@ -262,7 +262,7 @@ def test_bad_arguments_are_clear_errors():
 
 REALDATA = Path(__file__).resolve().parents[2].parent / "shared" / "realdata" / "soton3storey"
 SOTON_FILES = ("Experimental.csv", "test_2.csv", "test_3.csv")  # force at floor 1, 2, 3
-#: Reference values of an independent analysis (issue 9), Hz.
+#: Reference values of an independent analysis, Hz.
 SOTON_MODES_HZ = (6.5126, 17.4608, 26.5003)
 SOTON_DAMPING = (0.0017, 0.0025, 0.0022)
 SOTON_ZEROS_HZ = {("x1", "x1"): (8.80, 23.94), ("x2", "x2"): (14.99, 19.85), ("x3", "x3"): (14.18, 25.24),

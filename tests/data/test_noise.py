@@ -1,6 +1,6 @@
 """The noise variance of a single FRF record from the modal fit's residual
 (`vibupdate.data._noise`): the leverage of the fit, the two variance components, and the
-estimate at the peak lines of a mode whose bandwidth is about one line (issue 9)."""
+estimate at the peak lines of a mode whose bandwidth is about one line."""
 
 import numpy as np
 

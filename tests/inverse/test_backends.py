@@ -1,5 +1,5 @@
 """The backend protocol, the CasADi backend's status table, and its cache of compiled solvers
-(issue 10: the homotopy names no solver library; issue 11: a solver is built once per
+(the homotopy names no solver library; a solver is built once per
 structure and process, not once per sample)."""
 
 import ast
@@ -167,7 +167,7 @@ def test_another_structure_gets_its_own_solver():
 
 
 def test_sweep_samples_of_one_case_build_the_solver_once(tmp_path):
-    """issue 11: the compiled solver is built once per worker process, not once per task."""
+    """The compiled solver is built once per worker process, not once per task."""
     from vibupdate.io.case import load_case
     from vibupdate.study.sampling import SamplingOptions
     from vibupdate.study.sweep import run_sample

@@ -1,4 +1,4 @@
-"""Exact data give exact answers (issue 10): a model with massless DOFs, as FE packages export
+"""Exact data give exact answers: a model with massless DOFs, as FE packages export
 them, updated to the truth through `update()` and through `vibupdate run` on matrices read
 from files; accurate sparse modes; the eigenvector-difference peer."""
 

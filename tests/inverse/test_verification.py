@@ -1,4 +1,4 @@
-"""Issue 8: declared correspondence, verification before success, polish, exact derivatives.
+"""Declared correspondence, verification before success, polish, exact derivatives.
 
 Every case is a known truth written here; none is shipped with the package.
 """
@@ -102,7 +102,7 @@ def test_antiresonance_indices_pair_with_the_declared_zero():
 
 
 def test_driving_point_subset_of_zeros_is_accepted():
-    """Six natural frequencies and three driving-point zeros (issue 8, item 6)."""
+    """Six natural frequencies and three driving-point zeros."""
     truth = {"k2": 1080.0, "k5": 930.0, "m3": 1.1, "m6": 0.9}
     model = chain_model(6, list(truth))
     x = model.normalized([truth[p.name] for p in model.parameters])

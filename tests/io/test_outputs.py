@@ -1,4 +1,4 @@
-"""The results folder never loses a user's file (issue 12, items 1, 2 and 4)."""
+"""The results folder never loses a user's file."""
 
 import json
 import os

@@ -1,5 +1,5 @@
 """One results object: results.json is written from it, matches the shipped schema and reads
-back into the same typed object (issue 12 item 8, issue 10 item 1)."""
+back into the same typed object."""
 
 import dataclasses
 import json

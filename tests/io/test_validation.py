@@ -45,7 +45,7 @@ def _add(section, line):
 
 
 # Each of these passed `check` and then failed in `run` (or ran on meaningless numbers) when
-# issue 12 was written. Some are now rejected while loading (the option classes), the others
+# these cases were first collected. Some are now rejected while loading (the option classes), the others
 # by `vibupdate.io.validation.validate_case`, which `check` and `run` share.
 CHECK_WAS_LOOSER = [
     (_add("solver", "max_iter = 0"), r"solver\.max_iter: must be an integer"),

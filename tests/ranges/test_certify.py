@@ -1,4 +1,4 @@
-"""Certified outer ranges (issue 11, item 0): the relaxation holds every point of the
+"""Certified outer ranges: the relaxation holds every point of the
 consistent set, the safe dual bound holds for any multipliers, and the ranges contain the
 truth, the answer and every point of S that random sampling and local NLP solves find."""
 

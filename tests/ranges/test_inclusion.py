@@ -1,4 +1,4 @@
-"""The consistent set S holds every answer a run reports (issue 11): windows and vector boxes
+"""The consistent set S holds every answer a run reports: windows and vector boxes
 widened for the included points, the certified range containing them, and no range flagged
 certified when one cannot be held."""
 
@@ -76,7 +76,7 @@ def test_a_sampled_answer_outside_a_frequency_window_is_inside_the_certified_ran
     assert is_consistent(cs, sample) and is_consistent(cs, truth)
     before = certified_ranges([cfg], truth, frequency_tolerance=0.005, seconds=2.0)
     after = certified_ranges([cfg], truth, include=[("sample 0", sample)], frequency_tolerance=0.005, seconds=2.0)
-    assert not inside(before, model, sample)   # the miss of issue 11, reproduced
+    assert not inside(before, model, sample)   # the earlier miss, reproduced
     assert inside(after, model, sample) and inside(after, model, truth)
     assert after.included == 2 and after.uncovered == ()
     assert "1 verified answer(s) of sampled data sets" in after.definition

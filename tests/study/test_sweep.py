@@ -1,4 +1,4 @@
-"""Sampling sweep on Dask, batches and multistart (issue 11): small chains, a shared local cluster."""
+"""Sampling sweep on Dask, batches and multistart: small chains, a shared local cluster."""
 
 import json
 import os

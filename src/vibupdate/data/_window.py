@@ -20,7 +20,7 @@ in closed form for the windows here: ``g`` is a sum of ``(c0 + c1 u) exp(2 pi j 
 closed form loses digits there). The derivative with respect to ``a`` (for the fit's exact
 Jacobian) is ``T^2 integral_0^1 u exp(z u) g(u) du``. The residual terms (``1/s^2``, a
 constant) vary slowly over a kernel's width and are left as they are. Nothing here is in the
-modal-analysis libraries measured for issue 9 (module docstring of
+modal-analysis libraries measured (module docstring of
 `vibupdate.data.extraction`): they fit the estimate as if it were the FRF.
 """
 

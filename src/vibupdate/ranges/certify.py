@@ -1,4 +1,4 @@
-"""Certified outer bounds of the parameters over the consistent set S (issue 11, item 0).
+"""Certified outer bounds of the parameters over the consistent set S.
 
 S is stated in `vibupdate.ranges.consistent`; `vibupdate.ranges.lp_relaxation` relaxes it to a linear
 program (McCormick envelopes of the lifted products, Eq. 19) on boxes of the parameters and

@@ -1,4 +1,4 @@
-"""Widening the consistent set S so that it holds every answer a run reports (issue 11).
+"""Widening the consistent set S so that it holds every answer a run reports.
 
 The certified range is an outer range of S (`vibupdate.ranges.consistent`), so it contains a
 reported answer only if S does. Two kinds of answer can lie outside S built on the data alone:

@@ -19,7 +19,7 @@ from vibupdate.report.ranges_text import (
 __all__ = ["failed_report", "frequency_table_text", "parameter_table_text", "damping_table_text", "summary_text", "markdown_report",
            "ranges_table_text", "sampled_disagreements", "range_notes", "multistart_text"]
 
-#: What the lambda = 0 optimum says (issue 11): the lifted variables absorb every mismatch, so
+#: What the lambda = 0 optimum says: the lifted variables absorb every mismatch, so
 #: it is ~0 on every example.
 LOWER_BOUND_NOTE = "a valid bound of the global minimum, but it certifies nothing unless positive"
 
