@@ -120,3 +120,36 @@ def test_update_returns_the_minimum_change_answer_and_says_so():
     assert again.norm >= np.linalg.norm(result.xbar) - 1e-9
     assert any(line.startswith("minimum change:") for line in lines) or not mc.kept
     assert result.solver_record()["minimum_change"]["rank"] == 3
+
+
+def _two_mass_chain(p):
+    """Two unit masses between two walls: springs kL (left wall), kc (between), kR (right wall)."""
+    dtype = complex if any(isinstance(v, complex) for v in p.values()) else float
+    kL, kc, kR = p["kL"], p["kc"], p["kR"]
+    K = np.array([[kL + kc, -kc], [-kc, kR + kc]], dtype=dtype)
+    return np.eye(2), K, ["x1", "x2"]
+
+
+def test_valley_points_keep_the_data_and_bend_where_the_line_does_not():
+    # two frequencies fix kL + kR + 2 kc and (kL + kc)(kR + kc) - kc^2; at the symmetric answer
+    # kL = kR the undetermined direction is (1, -1, 0), along which kc changes only at second
+    # order: the straight line keeps kc fixed, the valley of answers does not
+    from vibupdate.inverse.minimum_change import valley_points
+    from vibupdate.ranges.identifiability import parameter_ranges
+
+    params = [Parameter(n, 1000.0, 600.0, 1400.0) for n in ("kL", "kc", "kR")]
+    model = from_builder(_two_mass_chain, params)
+    x_sym = model.normalized([1000.0, 800.0, 1000.0])
+    omega, _ = modes(*model.matrices(x_sym))
+    cfg = Configuration("A", model, tuple(NaturalFrequency(float(w)) for w in omega))
+    points = valley_points([cfg], x_sym)
+    assert points.shape[0] >= 8
+    for x in points:
+        assert np.allclose(model_frequencies(cfg, x).natural, omega, rtol=1e-9, atol=0)
+    kc = np.array([model.physical(x)[1] for x in points])
+    assert kc.min() < 800.0 - 1.0            # the valley bends: kc falls away from the symmetric point
+    # a truth on that valley with kL != kR: its kc lies inside the reported range
+    truth = points[len(points) // 3]
+    ranges = parameter_ranges([cfg], x_sym)
+    assert ranges.lower[1] <= model.physical(truth)[1] <= ranges.upper[1]
+    assert ranges.upper[1] - ranges.lower[1] > 1.0

@@ -46,7 +46,7 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration
 
-__all__ = ["MinimumChange", "minimum_change", "RANK_RTOL", "DATA_TOL"]
+__all__ = ["MinimumChange", "minimum_change", "valley_points", "RANK_RTOL", "DATA_TOL", "VALLEY_STEPS"]
 
 #: Singular values of the data Jacobian below this fraction of the largest count as zero (the
 #: derivatives are exact: an exact symmetry gives ~1e-15); the reported sensitivity uses the same.
@@ -121,6 +121,77 @@ def _weights(configurations: Sequence[Configuration], shape_weight: float) -> np
     return np.array(out)
 
 
+def _same_data_nearest(configurations, x0, target, g0, finite, rank, shape_weight, lo, hi, at_x0=None):
+    """The point of the box nearest ``target`` with the data ``g0`` of ``x0``, by the
+    minimum-norm Gauss-Newton iteration of the module docstring started at ``x0`` (``target``
+    0 is the minimum change); ``at_x0``: `_data` at ``x0`` when the caller has it. Returns the
+    point, the largest datum change there (relative, as `DATA_TOL`), the iterations, and whether
+    the model lost a declared mode or zero."""
+    scale = _weights(configurations, shape_weight)[finite]
+    x, iterations = x0.copy(), 0
+    g, J = at_x0 if at_x0 is not None else _data(configurations, x0, shape_weight)
+    for iterations in range(1, MAX_ITERATIONS + 1):
+        U, s, Vt = np.linalg.svd(J[finite], full_matrices=False)
+        Uk, sk, Vk = U[:, :rank], s[:rank], Vt[:rank].T
+        back = -Vk @ ((Uk.T @ (g[finite] - g0[finite])) / sk)
+        off = x - target
+        d = back - (off - Vk @ (Vk.T @ off))
+        x_new = np.clip(x + d, lo, hi)
+        step = float(np.max(np.abs(x_new - x)))
+        x = x_new
+        g, J = _data(configurations, x, shape_weight)
+        if J is None or not np.all(np.isfinite(g[finite])):
+            return x, float("inf"), iterations, True
+        if step <= 1e-13 * max(1.0, float(np.max(np.abs(x)))):
+            break
+    return x, float(np.max(np.abs((g[finite] - g0[finite]) * scale))), iterations, False
+
+
+#: Points per sense of each undetermined direction in `valley_points`.
+VALLEY_STEPS = 6
+
+
+def valley_points(configurations: Sequence[Configuration], xbar, *, shape_weight: float = 100.0,
+                  rank_rtol: float = RANK_RTOL, steps: int = VALLEY_STEPS) -> np.ndarray:
+    """Points with exactly the data of ``xbar`` along each direction the data leave
+    undetermined, out to the box: for each null direction ``v`` of the data Jacobian and each
+    sense, the points nearest ``xbar + (k / steps) t v`` (``t`` to the box boundary, ``k = 1 ..
+    steps``) that keep every datum to `DATA_TOL`. The set of parameters that fit bends away from
+    the straight line (at a symmetric answer ``kL = kR`` of a chain the coupling spring changes
+    at second order), so these points, not the line, show how far each parameter moves along
+    it. A sense stops at its first point that fails. Returns shape (n_points, n_x), empty when
+    the data determine every parameter."""
+    configurations = list(configurations)
+    lo, hi = configurations[0].model.bounds()
+    x0 = np.asarray(xbar, dtype=float)
+    g0, J = _data(configurations, x0, shape_weight)
+    if J is None:
+        return np.zeros((0, x0.size))
+    finite = np.all(np.isfinite(J), axis=1) & np.isfinite(g0)
+    if not finite.any():
+        return np.zeros((0, x0.size))
+    _, sv, Vt = np.linalg.svd(J[finite])
+    rank = int(np.sum(sv > rank_rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    points = []
+    for v in Vt[rank:]:
+        for sense in (1.0, -1.0):
+            d = sense * v
+            with np.errstate(divide="ignore", invalid="ignore"):
+                reach = np.where(d > 0, (hi - x0) / d, np.where(d < 0, (lo - x0) / d, np.inf))
+            t_max = float(np.min(reach))
+            if not np.isfinite(t_max) or t_max <= 0:
+                continue
+            start, at = x0, (g0, J)
+            for k in range(1, steps + 1):
+                x, change, _, lost = _same_data_nearest(configurations, start, x0 + (k / steps) * t_max * d, g0,
+                                                        finite, rank, shape_weight, lo, hi, at_x0=at)
+                if lost or change > DATA_TOL:
+                    break
+                points.append(x)
+                start, at = x, None
+    return np.array(points).reshape(-1, x0.size)
+
+
 def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weight: float = 100.0,
                    rank_rtol: float = RANK_RTOL) -> MinimumChange:
     """The answer nearest the nominal point with the same data as ``xbar`` (module docstring).
@@ -157,23 +228,11 @@ def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weigh
         return outcome(x0, False, False, rank, 0.0, 0, "the data determine every parameter")
     if norm0 == 0.0:
         return outcome(x0, True, False, rank, 0.0, 0, "the answer is the nominal point")
-    scale = _weights(configurations, shape_weight)[finite]
-    x, g, iterations = x0.copy(), g0, 0
-    for iterations in range(1, MAX_ITERATIONS + 1):
-        U, s, Vt = np.linalg.svd(J[finite], full_matrices=False)
-        Uk, sk, Vk = U[:, :rank], s[:rank], Vt[:rank].T
-        back = -Vk @ ((Uk.T @ (g[finite] - g0[finite])) / sk)
-        d = back - (x - Vk @ (Vk.T @ x))
-        x_new = np.clip(x + d, lo, hi)
-        step = float(np.max(np.abs(x_new - x)))
-        x = x_new
-        g, J = _data(configurations, x, shape_weight)
-        if J is None or not np.all(np.isfinite(g[finite])):
-            return outcome(x0, True, False, rank, float("inf"), iterations,
-                           "not kept: the model lost a declared mode or zero on the way")
-        if step <= 1e-13 * max(1.0, float(np.max(np.abs(x)))):
-            break
-    change = float(np.max(np.abs((g[finite] - g0[finite]) * scale)))
+    x, change, iterations, lost = _same_data_nearest(configurations, x0, np.zeros(n_x), g0, finite, rank,
+                                                     shape_weight, lo, hi, at_x0=(g0, J))
+    if lost:
+        return outcome(x0, True, False, rank, float("inf"), iterations,
+                       "not kept: the model lost a declared mode or zero on the way")
     norm = float(np.linalg.norm(x))
     undetermined = n_x - rank
     if change > DATA_TOL:

@@ -22,7 +22,10 @@ parameter whose range is narrow is determined by the data; a wide range says tha
 cannot separate it (e.g. two springs acting in parallel). Without a frequency tolerance the
 window is the answer's misfit alone: a measure of the spread the model's own error allows.
 A parameter that moves along a direction the data do not see at all (a null direction of the
-Jacobian) gets its whole box: the linearization cannot bound a curved valley.
+Jacobian) gets its whole box: the linearization cannot bound a curved valley. On models of up
+to `VALLEY_DOFS` DOFs the ranges also hold the points of that valley that keep the answer's
+data exactly (`vibupdate.inverse.minimum_change.valley_points`): the other parameters move
+along it at second order.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from vibupdate.inverse.correlation import model_frequencies, zero_derivatives
+from vibupdate.inverse.minimum_change import valley_points
 from vibupdate.data.measured import Configuration
 
 __all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian", "NULL_RTOL", "NULL_COMPONENT"]
@@ -41,6 +45,10 @@ __all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian", "NULL_RTOL", 
 #: Singular values of the scaled data Jacobian below this fraction of the largest: directions
 #: the data do not see (as `vibupdate.inverse.minimum_change.RANK_RTOL`).
 NULL_RTOL = 1e-8
+#: Models up to this many DOFs have their ranges widened by the points of the valley of
+#: answers with the same data (`vibupdate.inverse.minimum_change.valley_points`, about 12
+#: Gauss-Newton solves per undetermined direction).
+VALLEY_DOFS = 400
 #: A parameter moves along a null direction when its component there exceeds this; its range
 #: is then its box (`parameter_ranges`).
 NULL_COMPONENT = 1e-3
@@ -226,5 +234,11 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     rank = int(np.sum(sv > NULL_RTOL * sv[0])) if sv.size and sv[0] > 0 else 0
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
+    if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:
+        # the other parameters move along the curved valley too (at second order where the
+        # answer is a symmetric point): the points of the valley with the answer's data
+        points = valley_points(configurations, xbar)
+        if points.size:
+            lower, upper = np.fmin(lower, points.min(axis=0)), np.fmax(upper, points.max(axis=0))
     width = (upper - lower) * 100.0   # xbar is already relative to the reference value
     return ParameterRanges(model.parameter_names, model.physical(lower), model.physical(upper), width, sv)
