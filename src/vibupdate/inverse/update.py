@@ -510,7 +510,8 @@ def _restart(configurations, problem, solver, best, finish, restarts: list, say)
 def update(configurations: Sequence[Configuration], *, formulation: FormulationOptions | None = None,
            solver: SolverOptions | None = None, polish: PolishOptions | None = None,
            verification: VerifyOptions | None = None,
-           progress: Callable[[str], None] | None = None, prepared: Prepared | None = None) -> UpdateResult:
+           progress: Callable[[str], None] | None = None, prepared: Prepared | None = None,
+           probe: bool = True) -> UpdateResult:
     """Update the shared parameters of ``configurations`` (Problems 1-4 and their mixes).
 
     Which Problem is solved follows from the data: natural frequencies with mode-shape
@@ -531,6 +532,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     prepared : Prepared, optional
         The problem of these configurations and this formulation, already built
         (`prepare_first_stage`); ignored when it was built from other ones.
+    probe : bool
+        On small models, polish a verified answer from further starts to find other answers
+        that fit as well (`_probe`); a sampling sweep, which starts each sample at a random
+        point of its own, turns it off.
 
     Returns
     -------
@@ -580,7 +585,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         best, more_steps = _restart(configurations, problem, solver, best, finish, restarts, say)
         steps = steps + more_steps
     alternatives: tuple[_Finish, ...] = ()
-    if (polish.enabled and best is not None and best.status.ok and solved[0].model.n_dofs <= PROBE_DOFS
+    if (probe and polish.enabled and best is not None and best.status.ok and solved[0].model.n_dofs <= PROBE_DOFS
             and model.n_parameters <= PROBE_PARAMETERS):
         _probe(configurations, finish, tried, restarts, say,
                replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,

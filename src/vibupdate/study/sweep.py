@@ -173,7 +173,7 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     verification = replace(case.verification, frequency_tolerance=tolerance) if tolerance > 0 else case.verification
     try:   # the case's own options, as `vibupdate run` uses them
         result = update(cfgs, formulation=case.formulation, solver=case.solver, polish=case.polish,
-                        verification=verification)
+                        verification=verification, probe=False)   # the sweep's own random start follows
     except ValueError as exc:
         row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
                    cpu_seconds=time.process_time() - cpu)
