@@ -34,8 +34,14 @@ N_RANDOM = 31
 #: N_RANDOM do not show: 51 the truth outside the reported ranges (a nearly symmetric frame),
 #: 167 exact frequencies missed by 0.16 % at a success, 236 a free-free zero missed by 1.3 % at a
 #: success (case file), 266 massless DOFs with the highest mode measured refused, 358 a
-#: frequency outside its case-file interval at a success (the 2 % fit check).
-REGRESSION_SEEDS = (51, 167, 236, 266, 358)
+#: frequency outside its case-file interval at a success (the 2 % fit check). From the runs of
+#: 2026-11-26 on the merged fixes (13 and 21, among the first N_RANDOM, showed two more: a
+#: free-free beam whose flexible modes were 5e-6 to 2.5e-3 off, and three antiresonances that
+#: admit two exact answers): 142 exact point shapes
+#: missed by 1.4x the rounding allowance, 204 a point on a bound missing exact data by 3e-5
+#: where 5 of 12 random starts find the exact fit, 368 a symmetric answer whose coupling
+#: spring was reported as a point range without the truth.
+REGRESSION_SEEDS = (51, 142, 167, 204, 236, 266, 358, 368)
 SUCCESS_FRACTION = 0.97
 
 

@@ -169,8 +169,9 @@ def _zero_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
 
 
 def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies) -> float:
-    """`ROUNDING_SAFETY` times the largest rounding floor of the measured shape ratios of
-    ``cfg`` at ``xbar`` (`vibupdate.modal.refinement.shape_ratio_floor`, one factorization per
+    """The largest, over the measured modes of ``cfg`` at ``xbar``, of `ROUNDING_SAFETY` times
+    the rounding floor of the shape ratios plus the computed vector's own error estimated from
+    its residual (`vibupdate.modal.refinement.shape_ratio_floor`, one factorization per
     measured mode); ``f`` holds the model's modes there."""
     from vibupdate.modal.refinement import shape_ratio_floor
 
@@ -182,9 +183,10 @@ def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies) -> float:
         m = nat.mode - 1
         idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
         w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
-        floor = max(floor, shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
-                                             cfg.model.dof(nat.shape.reference)))
-    return ROUNDING_SAFETY * floor
+        rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
+                                          cfg.model.dof(nat.shape.reference), own=True)
+        floor = max(floor, ROUNDING_SAFETY * rounding + own)
+    return floor
 
 
 def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xbar):
