@@ -260,7 +260,20 @@ def test_bad_arguments_are_clear_errors():
 
 # ----------------------------------------------------------------------------- CLI
 
-REALDATA = Path(__file__).resolve().parents[2].parent / "shared" / "realdata" / "soton3storey"
+def _realdata() -> Path:
+    """The real-data folder (never part of the repository): ``$VIBUPDATE_REALDATA``, else
+    ``shared/realdata`` beside the checkout or beside any folder above it, else the machines'
+    ``/work/shared/realdata`` (a clean checkout for CI may live elsewhere)."""
+    import os
+
+    here = Path(__file__).resolve().parents[2]
+    candidates = [Path(os.environ["VIBUPDATE_REALDATA"])] if os.environ.get("VIBUPDATE_REALDATA") else []
+    candidates += [p / "shared" / "realdata" for p in here.parents] + [Path("/work/shared/realdata")]
+    return next((c / "soton3storey" for c in candidates if (c / "soton3storey").is_dir()),
+                here.parent / "shared" / "realdata" / "soton3storey")
+
+
+REALDATA = _realdata()
 SOTON_FILES = ("Experimental.csv", "test_2.csv", "test_3.csv")  # force at floor 1, 2, 3
 #: Reference values of an independent analysis, Hz.
 SOTON_MODES_HZ = (6.5126, 17.4608, 26.5003)
