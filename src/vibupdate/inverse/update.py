@@ -476,6 +476,64 @@ def _alternatives_text(model, best: _Finish, alternatives: tuple[_Finish, ...]) 
             "not single out the parameters that differ; " + "; ".join(parts))
 
 
+#: Rounds of the interval refit (`_refit_intervals`), each multiplying the weight of every
+#: frequency outside its band by `REFIT_FACTOR`.
+REFIT_ROUNDS = 6
+REFIT_FACTOR = 4.0
+
+
+def _outside_bands(cfg: Configuration, f, fit_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the natural frequencies and zeros of ``cfg`` that the model ``f`` puts outside
+    their band (the datum's interval, else ``omega (1 +- fit_tolerance)``), as the fit check."""
+    def out(data, model):
+        mask = []
+        for datum, value in zip(data, model):
+            lo, hi = datum.interval or (datum.omega * (1 - fit_tolerance), datum.omega * (1 + fit_tolerance))
+            mask.append(not (np.isfinite(value) and lo <= value <= hi))
+        return np.array(mask, dtype=bool)
+    return out(cfg.natural, f.natural), out(cfg.antiresonances, f.antiresonances)
+
+
+def _refit_intervals(configurations, best: _Finish, finish, tried: list, polish: PolishOptions,
+                     verification: VerifyOptions, restarts: list, say) -> _Finish:
+    """When the answer fails only the fit check, the least-squares optimum has left some
+    frequencies outside their bands although the data may allow a model inside all of them
+    (noisy data: the truth is inside its 3-sigma intervals, the optimum need not be). The
+    polish is rerun from the answer with the weight of every frequency outside its band
+    multiplied by `REFIT_FACTOR`, at most `REFIT_ROUNDS` times, until every frequency is inside;
+    that point is verified against the data as given. Returns the verified candidate, or
+    ``best``. (Acceptance run r358: one frequency 1.78 % off against a 1.66 % interval at the
+    optimum; inside after one round.)"""
+    import time
+
+    t0 = time.perf_counter()
+    weights = [(np.ones(len(c.natural)), np.ones(len(c.antiresonances))) for c in configurations]
+    x, result, rounds = best.xbar, None, 0
+    for _ in range(REFIT_ROUNDS):
+        masks = [_outside_bands(c, model_frequencies(c, x), verification.fit_tolerance) for c in configurations]
+        if not any(m.any() for pair in masks for m in pair):
+            break
+        for (wn, wa), (mn, ma) in zip(weights, masks):
+            wn[mn] *= REFIT_FACTOR
+            wa[ma] *= REFIT_FACTOR
+        weighted = [replace(c, natural=tuple(replace(n, weight=n.weight * w) for n, w in zip(c.natural, wn)),
+                            antiresonances=tuple(replace(a, weight=a.weight * w)
+                                                 for a, w in zip(c.antiresonances, wa)))
+                    for c, (wn, wa) in zip(configurations, weights)]
+        result = run_polish(weighted, x, polish)
+        x, rounds = result.xbar, rounds + 1
+    if result is None:
+        return best
+    candidate = replace(finish(x, "interval refit", replace(polish, enabled=False)), polished=result)
+    tried[-1] = candidate   # with its polish on record (its objective is that of the weighted data)
+    restarts.append({"start": "interval refit", "purpose": "fit", "status": candidate.status.value,
+                     "failed": candidate.failed, "cost": result.cost, "rounds": rounds,
+                     "seconds": time.perf_counter() - t0})
+    say(f"interval refit ({rounds} weighted polish round(s)): {candidate.status.value}"
+        + (f" (failed {', '.join(candidate.failed)})" if candidate.failed else ""))
+    return candidate if candidate.status.ok else best
+
+
 def _restart(configurations, problem, solver, best, finish, restarts: list, say):
     """Further starts when the direct path's answer did not verify or the path failed: the
     stepped homotopy path (when the direct jump was taken), then the polish from the nominal
@@ -600,6 +658,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     if polish.enabled and (best is None or _worth_restarting(best)):
         best, more_steps = _restart(configurations, problem, solver, best, finish, restarts, say)
         steps = steps + more_steps
+    if polish.enabled and best is not None and not best.status.ok and set(best.failed) == {"fit"}:
+        best = _refit_intervals(configurations, best, finish, tried, polish, verification, restarts, say)
     alternatives: tuple[_Finish, ...] = ()
     if (probe and polish.enabled and best is not None and best.status.ok and solved[0].model.n_dofs <= PROBE_DOFS
             and model.n_parameters <= PROBE_PARAMETERS):
@@ -630,8 +690,12 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
             head = "homotopy reached lambda = 1 but its answer did not verify"
         else:
             head = f"homotopy stopped at lambda = {path.lam:.4f} ({path.status.value})"
-        message = (f"{head}; the answer polished from the {best.label} "
-                   + ("passed every verification check" if status.ok else "failed " + ", ".join(best.failed)))
+        if best.label == "interval refit":
+            message = (f"{head}; its least-squares optimum left frequencies outside their bands, and reweighted "
+                       "toward them the answer passed every verification check")
+        else:
+            message = (f"{head}; the answer polished from the {best.label} "
+                       + ("passed every verification check" if status.ok else "failed " + ", ".join(best.failed)))
     return UpdateResult(
         status=status,
         message=message,
