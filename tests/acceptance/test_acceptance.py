@@ -40,8 +40,9 @@ N_RANDOM = 31
 #: admit two exact answers): 142 exact point shapes
 #: missed by 1.4x the rounding allowance, 204 a point on a bound missing exact data by 3e-5
 #: where 5 of 12 random starts find the exact fit, 368 a symmetric answer whose coupling
-#: spring was reported as a point range without the truth.
-REGRESSION_SEEDS = (51, 142, 167, 204, 236, 266, 358, 368)
+#: spring was reported as a point range without the truth. Held out (seeds 500-999): 574, a
+#: success with a shape 0.0048 half-widths outside its intervals at every scaling.
+REGRESSION_SEEDS = (51, 142, 167, 204, 236, 266, 358, 368, 574)
 SUCCESS_FRACTION = 0.97
 
 

@@ -344,3 +344,15 @@ def test_point_shape_data_are_held_to_what_the_pencil_resolves(shift, passes):
     assert checks["shape_intervals"].passed is passes, checks["shape_intervals"].message
     if not passes:
         assert "for rounding" in checks["shape_intervals"].message
+
+
+def test_a_shape_is_judged_at_its_best_common_scaling():
+    from vibupdate.inverse.verify import _common_scaling_miss
+
+    shape = ShapeInterval({"a": (0.9, 1.1), "b": (0.4, 0.6), "c": (-0.3, -0.1)})
+    assert _common_scaling_miss(np.array([2.0, 1.0, -0.4]), shape) == 0.0      # inside at s = 0.5
+    assert _common_scaling_miss(np.array([-2.0, -1.0, 0.4]), shape) == 0.0     # the sign is free
+    # a = b in the model: the common scaling s must lie in [0.9 - 0.1 t, 1.1 + 0.1 t] and in
+    # [0.4 - 0.1 t, 0.6 + 0.1 t] (intervals widened by t half-widths), first possible at t = 1.5
+    miss = _common_scaling_miss(np.array([1.0, 1.0, -0.2]), shape)
+    assert abs(miss - 1.5) < 1e-9

@@ -216,6 +216,7 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
         if phi_ref == 0:
             bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}")
             continue
+        before = len(bad_box)
         for d, (lo, hi) in nat.shape.ratio_bounds().items():
             ratio = f.Phi_all[cfg.model.dof(d), m] / phi_ref
             slack = options.shape_slack * 0.5 * (hi - lo)
@@ -228,7 +229,54 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
                                f"interval [{lo:.10g}, {hi:.10g}] (normalized at {ref!r}) by "
                                f"{max(lo - ratio, ratio - hi):.2g}, more than the {slack:.2g} allowed plus "
                                f"{rounding:.2g} for rounding")
+        miss = _common_scaling_miss(f.Phi_all[idx, m], nat.shape) if len(bad_box) == before else 0.0
+        if miss > SCALING_SLACK:   # said only where no ratio of the mode was already out
+            bad_box.append(f"{label}: no common scaling puts the model shape inside every measured interval; "
+                           f"at the best one it is {miss:.2g} half-widths outside (allowed {SCALING_SLACK:g})")
     return bad_mac, bad_box, worst_mac
+
+
+#: Largest distance, in half-widths, by which a model shape may lie outside its measured
+#: intervals at the best common scaling (`_common_scaling_miss`): the polish ends on the edges
+#: of the intervals it reaches, to about this.
+SCALING_SLACK = 1e-3
+
+
+def _common_scaling_miss(phi: np.ndarray, shape) -> float:
+    """How far the model shape ``phi`` (at the measured DOFs, in the order of ``shape.bounds``)
+    lies outside its intervals at the best common scaling, in half-widths: the least ``t`` such
+    that some ``s`` puts every ``s phi_j`` within ``t`` half-widths of interval ``j``. The ratio
+    check normalizes at the reference entry's midpoint, a box stricter than the intervals, and
+    lets a shape through within ``shape_slack`` of it; this is the intervals' own meaning. 0
+    for point data (zero widths), which the ratio check covers with its rounding allowance.
+
+    Bisection on ``t``: for a given ``t`` the admissible scalings of each entry form one
+    interval, and they intersect or not."""
+    bounds = np.array(list(shape.bounds.values()), dtype=float)
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    half = 0.5 * (hi - lo)
+    if np.any(half <= 0) or not np.all(np.isfinite(phi)):
+        return 0.0
+
+    def feasible(t: float) -> bool:
+        a, b = lo - t * half, hi + t * half
+        zero = phi == 0
+        if np.any(zero & ((a > 0) | (b < 0))):
+            return False
+        p = phi[~zero]
+        s1, s2 = a[~zero] / p, b[~zero] / p
+        return bool(np.max(np.minimum(s1, s2)) <= np.min(np.maximum(s1, s2)))
+
+    if feasible(0.0):
+        return 0.0
+    top = 1.0
+    while not feasible(top) and top < 1e6:
+        top *= 2.0
+    low = 0.0
+    for _ in range(40):
+        mid = 0.5 * (low + top)
+        low, top = (low, mid) if feasible(mid) else (mid, top)
+    return top
 
 
 def _fit(cfg: Configuration, f: ModelFrequencies, tolerance: float) -> tuple[list[str], float]:
