@@ -46,7 +46,8 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration
 
-__all__ = ["MinimumChange", "minimum_change", "valley_points", "RANK_RTOL", "DATA_TOL", "VALLEY_STEPS"]
+__all__ = ["MinimumChange", "minimum_change", "valley_points", "numerical_rank", "RANK_RTOL", "DATA_TOL",
+           "VALLEY_STEPS"]
 
 #: Singular values of the data Jacobian below this fraction of the largest count as zero (the
 #: derivatives are exact: an exact symmetry gives ~1e-15); the reported sensitivity uses the same.
@@ -121,6 +122,25 @@ def _weights(configurations: Sequence[Configuration], shape_weight: float) -> np
     return np.array(out)
 
 
+def numerical_rank(sv: np.ndarray, rtol: float = RANK_RTOL) -> int:
+    """Singular values ``sv`` (descending) above ``rtol`` of the largest."""
+    return int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+
+
+def _undetermined(configurations, x0, shape_weight, rank_rtol):
+    """`_data` at ``x0``, the rows with finite derivatives, the rank of their Jacobian and its
+    right singular vectors (rows ``rank:`` span the directions the data leave undetermined);
+    None when no datum has derivatives."""
+    g0, J = _data(configurations, x0, shape_weight)
+    if J is None:
+        return None
+    finite = np.all(np.isfinite(J), axis=1) & np.isfinite(g0)
+    if not finite.any():
+        return None
+    _, sv, Vt = np.linalg.svd(J[finite])
+    return g0, J, finite, numerical_rank(sv, rank_rtol), Vt
+
+
 def _same_data_nearest(configurations, x0, target, g0, finite, rank, shape_weight, lo, hi, at_x0=None):
     """The point of the box nearest ``target`` with the data ``g0`` of ``x0``, by the
     minimum-norm Gauss-Newton iteration of the module docstring started at ``x0`` (``target``
@@ -164,14 +184,10 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, shape_weight
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
     x0 = np.asarray(xbar, dtype=float)
-    g0, J = _data(configurations, x0, shape_weight)
-    if J is None:
+    found = _undetermined(configurations, x0, shape_weight, rank_rtol)
+    if found is None:
         return np.zeros((0, x0.size))
-    finite = np.all(np.isfinite(J), axis=1) & np.isfinite(g0)
-    if not finite.any():
-        return np.zeros((0, x0.size))
-    _, sv, Vt = np.linalg.svd(J[finite])
-    rank = int(np.sum(sv > rank_rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    g0, J, finite, rank, Vt = found
     points = []
     for v in Vt[rank:]:
         for sense in (1.0, -1.0):
@@ -210,20 +226,16 @@ def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weigh
     lo, hi = configurations[0].model.bounds()
     x0 = np.asarray(xbar, dtype=float)
     norm0 = float(np.linalg.norm(x0))
-    g0, J = _data(configurations, x0, shape_weight)
     n_x = x0.size
-    if J is None:
-        J = np.zeros((0, n_x))
 
     def outcome(x, applied, kept, rank, change, iterations, message):
         return MinimumChange(x0, x, applied, kept, rank, norm0, float(np.linalg.norm(x)), change, iterations,
                              message)
 
-    finite = np.all(np.isfinite(J), axis=1) & np.isfinite(g0)
-    if not finite.any():
+    found = _undetermined(configurations, x0, shape_weight, rank_rtol)
+    if found is None:
         return outcome(x0, False, False, 0, 0.0, 0, "no data with derivatives")
-    sv = np.linalg.svd(J[finite], compute_uv=False)
-    rank = int(np.sum(sv > rank_rtol * sv[0])) if sv[0] > 0 else 0
+    g0, J, finite, rank, _ = found
     if rank >= n_x:
         return outcome(x0, False, False, rank, 0.0, 0, "the data determine every parameter")
     if norm0 == 0.0:

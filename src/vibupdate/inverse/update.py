@@ -26,6 +26,7 @@ The result is a frozen record of the updated model and of how it was found.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -42,7 +43,8 @@ from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
+from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, frequency_band, verify
+from vibupdate.modal.analysis import DENSE_LIMIT
 
 __all__ = ["UpdateResult", "update", "prepare", "Prepared", "prepare_first_stage"]
 
@@ -100,8 +102,9 @@ class UpdateResult:
         (`_restart`): ``start``, ``status``, failed checks, polish objective, seconds.
     alternatives : tuple of dict
         Other verified answers that fit the data about as well (`_choose`): ``start``,
-        ``objective``, ``values`` (physical, by parameter name) and ``xbar``. Not empty means
-        the data do not single out the parameters in which they differ.
+        ``objective``, ``values`` (physical, by parameter name), ``xbar`` and ``differs`` (the
+        parameters that differ from the returned answer). Not empty means the data do not
+        single out those parameters.
     minimum_change : MinimumChange or None
         Where the data leave directions undetermined, the move of the answer along them to the
         point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
@@ -351,12 +354,9 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
             + f", {polished.seconds:.2f} s; {polished.message})")
     updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
     sens = sensitivity(configurations, xbar, freqs=updated)
-    first = None
+    first = updated if np.array_equal(xbar, start) else [model_frequencies(c, start) for c in configurations]
 
     def checked(x, at):
-        nonlocal first
-        if first is None:
-            first = ([model_frequencies(c, start) for c in configurations] if not np.array_equal(x, start) else at)
         out = verify(configurations, x, nominal=nominal, updated=at, lower_bound=path.lower_bound,
                      n_blocks=len(problem.blocks), active_bounds=active, first_stage=first, options=verification)
         return tuple(out), not any(c.severity == "error" and not c.passed for c in out)
@@ -404,8 +404,8 @@ def _box_starts(lo: np.ndarray, hi: np.ndarray, n_random: int = RANDOM_STARTS) -
 
 
 #: Models up to this many DOFs (after any reduction) are probed for other answers (`_probe`):
-#: a polish there costs a fraction of a second.
-PROBE_DOFS = 400
+#: those solved densely, where a polish costs a fraction of a second.
+PROBE_DOFS = DENSE_LIMIT
 #: ... and up to this many parameters: with more, a polish from a random point of the box
 #: costs hundreds of evaluations (the bundled 29-parameter frame: 36 s for four starts, its
 #: answer unchanged).
@@ -448,8 +448,6 @@ def _probe(configurations, finish, tried: list[_Finish], restarts: list, say, op
     """Polish from the starts of `_box_starts` not tried yet, so that an answer that is not the
     only one fitting the data is found and said (`_choose`). Each start is recorded in
     ``restarts`` with ``purpose`` "uniqueness"."""
-    import time
-
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
     todo = [(label, x) for label, x in _box_starts(lo, hi, PROBE_RANDOM_STARTS) if label not in done]
@@ -462,17 +460,27 @@ def _probe(configurations, finish, tried: list[_Finish], restarts: list, say, op
                          "failed": candidate.failed, "cost": candidate.cost, "seconds": time.perf_counter() - t0})
 
 
-def _alternatives_text(model, best: _Finish, alternatives: tuple[_Finish, ...]) -> str:
-    """The other answers in words: which parameters differ, in their units."""
+def _alternative_records(model, best: _Finish, alternatives: tuple[_Finish, ...]) -> tuple[dict, ...]:
+    """``UpdateResult.alternatives``: each other answer's start, objective, ``xbar``, physical
+    ``values`` and the parameters that differ from the returned answer (``differs``, by more
+    than `DISTINCT` normalized)."""
     names = model.parameter_names
+    return tuple({"start": c.label, "objective": c.cost, "xbar": c.xbar.tolist(),
+                  "values": dict(zip(names, model.physical(c.xbar).tolist())),
+                  "differs": [n for n, a, b in zip(names, c.xbar, best.xbar) if abs(a - b) > DISTINCT]}
+                 for c in alternatives)
+
+
+def _alternatives_text(records: tuple[dict, ...], mine: dict) -> str:
+    """The other answers in words: which parameters differ, in their units (``mine``: the
+    returned answer's physical values by name)."""
     parts = []
-    for c in alternatives:
-        values, mine = model.physical(c.xbar), model.physical(best.xbar)
-        differ = [i for i in range(len(names)) if abs(c.xbar[i] - best.xbar[i]) > DISTINCT]
-        parts.append(f"from the {c.label} (objective {c.cost:.3g}): "
-                     + ", ".join(f"{names[i]} = {values[i]:.5g} (here {mine[i]:.5g})" for i in differ[:6])
+    for a in records:
+        differ = a["differs"]
+        parts.append(f"from the {a['start']} (objective {a['objective']:.3g}): "
+                     + ", ".join(f"{n} = {a['values'][n]:.5g} (here {mine[n]:.5g})" for n in differ[:6])
                      + (f" and {len(differ) - 6} more" if len(differ) > 6 else ""))
-    return (f"{len(alternatives)} other answer(s) fit the data about as well and pass every check, so the data do "
+    return (f"{len(records)} other answer(s) fit the data about as well and pass every check, so the data do "
             "not single out the parameters that differ; " + "; ".join(parts))
 
 
@@ -484,13 +492,11 @@ REFIT_FACTOR = 4.0
 
 def _outside_bands(cfg: Configuration, f, fit_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """Masks of the natural frequencies and zeros of ``cfg`` that the model ``f`` puts outside
-    their band (the datum's interval, else ``omega (1 +- fit_tolerance)``), as the fit check."""
+    their band (`vibupdate.inverse.verify.frequency_band`, as the fit check)."""
     def out(data, model):
-        mask = []
-        for datum, value in zip(data, model):
-            lo, hi = datum.interval or (datum.omega * (1 - fit_tolerance), datum.omega * (1 + fit_tolerance))
-            mask.append(not (np.isfinite(value) and lo <= value <= hi))
-        return np.array(mask, dtype=bool)
+        bands = np.array([frequency_band(d, fit_tolerance) for d in data]).reshape(-1, 2)
+        model = np.asarray(model, dtype=float)
+        return ~(np.isfinite(model) & (bands[:, 0] <= model) & (model <= bands[:, 1]))
     return out(cfg.natural, f.natural), out(cfg.antiresonances, f.antiresonances)
 
 
@@ -504,13 +510,11 @@ def _refit_intervals(configurations, best: _Finish, finish, tried: list, polish:
     that point is verified against the data as given. Returns the verified candidate, or
     ``best``. (Acceptance run r358: one frequency 1.78 % off against a 1.66 % interval at the
     optimum; inside after one round.)"""
-    import time
-
     t0 = time.perf_counter()
     weights = [(np.ones(len(c.natural)), np.ones(len(c.antiresonances))) for c in configurations]
-    x, result, rounds = best.xbar, None, 0
+    x, freqs, result, rounds = best.xbar, best.updated, None, 0
     for _ in range(REFIT_ROUNDS):
-        masks = [_outside_bands(c, model_frequencies(c, x), verification.fit_tolerance) for c in configurations]
+        masks = [_outside_bands(c, f, verification.fit_tolerance) for c, f in zip(configurations, freqs)]
         if not any(m.any() for pair in masks for m in pair):
             break
         for (wn, wa), (mn, ma) in zip(weights, masks):
@@ -522,10 +526,12 @@ def _refit_intervals(configurations, best: _Finish, finish, tried: list, polish:
                     for c, (wn, wa) in zip(configurations, weights)]
         result = run_polish(weighted, x, polish)
         x, rounds = result.xbar, rounds + 1
+        freqs = [model_frequencies(c, x) for c in configurations]
     if result is None:
         return best
-    candidate = replace(finish(x, "interval refit", replace(polish, enabled=False)), polished=result)
-    tried[-1] = candidate   # with its polish on record (its objective is that of the weighted data)
+    raw = finish(x, "interval refit", replace(polish, enabled=False))
+    candidate = replace(raw, polished=result)   # its polish on record (the objective of the weighted data)
+    tried[next(i for i, c in enumerate(tried) if c is raw)] = candidate
     restarts.append({"start": "interval refit", "purpose": "fit", "status": candidate.status.value,
                      "failed": candidate.failed, "cost": result.cost, "rounds": rounds,
                      "seconds": time.perf_counter() - t0})
@@ -543,8 +549,6 @@ def _restart(configurations, problem, solver, best, finish, restarts: list, say)
 
     Returns the chosen candidate (None when none could be polished) and the homotopy steps of
     the stepped path."""
-    import time
-
     steps: tuple = ()
     lo, hi = configurations[0].model.bounds()
     starts: list[tuple[str, Callable[[], np.ndarray | None]]] = []
@@ -674,8 +678,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
                        sensitivity(configurations, first_xbar, freqs=updated), (), status)
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
     warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
-    if alternatives:
-        warnings += ("uniqueness: " + _alternatives_text(model, best, alternatives),)
+    records = _alternative_records(model, best, alternatives)
+    if records:
+        warnings += ("uniqueness: " + _alternatives_text(records, dict(zip(model.parameter_names,
+                                                                           model.physical(xbar)))),)
     if polished is not None and polished.on_limit:   # short of the optimum, maybe: said where checks are said
         warnings += (f"polish: {polished.message}",)
     for w in warnings:
@@ -720,8 +726,6 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         attempts=attempts,
         restarts=tuple(restarts),
         minimum_change=best.minimum,
-        alternatives=tuple({"start": c.label, "objective": c.cost, "xbar": c.xbar.tolist(),
-                            "values": dict(zip(model.parameter_names, model.physical(c.xbar).tolist()))}
-                           for c in alternatives),
+        alternatives=records,
         modal={c.name: f for c, f in zip(configurations, updated)},
     )

@@ -58,7 +58,8 @@ from vibupdate.modal.analysis import mac
 from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.data.measured import TWO_PI, Configuration
 
-__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance", "ROUNDING_SAFETY"]
+__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance", "frequency_band",
+           "ROUNDING_SAFETY"]
 
 #: Multiple of the estimated rounding floor of the shape ratios allowed outside an interval
 #: (module docstring): the estimate draws one rounding unit per entry with random signs, a
@@ -184,7 +185,7 @@ def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies) -> float:
         idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
         w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
         rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
-                                          cfg.model.dof(nat.shape.reference), own=True)
+                                          cfg.model.dof(nat.shape.reference))
         floor = max(floor, ROUNDING_SAFETY * rounding + own)
     return floor
 
@@ -279,13 +280,19 @@ def _common_scaling_miss(phi: np.ndarray, shape) -> float:
     return top
 
 
+def frequency_band(datum, tolerance: float) -> tuple[float, float]:
+    """Where the fit check wants a measured frequency's model value (rad/s): the datum's own
+    ``interval``, else ``omega (1 -+ tolerance)``."""
+    return datum.interval or (datum.omega * (1 - tolerance), datum.omega * (1 + tolerance))
+
+
 def _fit(cfg: Configuration, f: ModelFrequencies, tolerance: float) -> tuple[list[str], float]:
     bad, worst = [], 0.0
     items = [(n, f.natural[k], f"mode {n.mode}") for k, n in enumerate(cfg.natural)]
     items += [(a, f.antiresonances[k], f"zero {a.index} of h_{a.response},{a.excitation}")
               for k, a in enumerate(cfg.antiresonances)]
     for datum, model, label in items:
-        lo, hi = datum.interval or (datum.omega * (1 - tolerance), datum.omega * (1 + tolerance))
+        lo, hi = frequency_band(datum, tolerance)
         miss = abs(model - datum.omega) / datum.omega if np.isfinite(model) else np.inf
         worst = max(worst, miss)
         if not (lo <= model <= hi):

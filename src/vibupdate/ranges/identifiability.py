@@ -37,18 +37,16 @@ import numpy as np
 from scipy.optimize import linprog
 
 from vibupdate.inverse.correlation import model_frequencies, zero_derivatives
-from vibupdate.inverse.minimum_change import valley_points
+from vibupdate.inverse.minimum_change import numerical_rank, valley_points
+from vibupdate.modal.analysis import DENSE_LIMIT
 from vibupdate.data.measured import Configuration
 
-__all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian", "NULL_RTOL", "NULL_COMPONENT"]
+__all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian", "NULL_COMPONENT"]
 
-#: Singular values of the scaled data Jacobian below this fraction of the largest: directions
-#: the data do not see (as `vibupdate.inverse.minimum_change.RANK_RTOL`).
-NULL_RTOL = 1e-8
-#: Models up to this many DOFs have their ranges widened by the points of the valley of
-#: answers with the same data (`vibupdate.inverse.minimum_change.valley_points`, about 12
-#: Gauss-Newton solves per undetermined direction).
-VALLEY_DOFS = 400
+#: Models up to this many DOFs (those solved densely) have their ranges widened by the points
+#: of the valley of answers with the same data (`vibupdate.inverse.minimum_change.valley_points`,
+#: about 12 Gauss-Newton solves per undetermined direction).
+VALLEY_DOFS = DENSE_LIMIT
 #: A parameter moves along a null direction when its component there exceeds this; its range
 #: is then its box (`parameter_ranges`).
 NULL_COMPONENT = 1e-3
@@ -230,8 +228,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     # bends away from that line: on the known-truth acceptance problems the truth lay outside
     # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance"). A parameter that moves
     # along a null direction is bounded by the box alone.
-    _, sv, Vt = np.linalg.svd(Gs)
-    rank = int(np.sum(sv > NULL_RTOL * sv[0])) if sv.size and sv[0] > 0 else 0
+    _, sv, Vt = np.linalg.svd(Gs)   # null directions: singular values below RANK_RTOL of the largest
+    rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
     if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:

@@ -301,14 +301,12 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
         others = ident.get("alternatives") or []
         if others:
             units = {p["name"]: p.get("unit", "") for p in document["parameters"]}
-            mine = {p["name"]: p.get("updated") for p in document["parameters"]}
             out += [f"Not unique: {len(others)} other answer(s) fit the data about as well and pass every check; "
                     "the data do not single out the parameters in which they differ:", ""]
             for a in others:
-                differ = [(n, v) for n, v in a["values"].items()
-                          if mine.get(n) is not None and abs(v - mine[n]) > 1e-3 * max(abs(mine[n]), 1e-300)]
                 out += [f"- from the {a['start']} (objective {fmt(a['objective'], '.3g')}): "
-                        + ", ".join(f"{n} = {fmt(v, '.5g')} {units.get(n, '')}".rstrip() for n, v in differ)]
+                        + ", ".join(f"{n} = {fmt(a['values'][n], '.5g')} {units.get(n, '')}".rstrip()
+                                    for n in a.get("differs", a["values"]))]
             out += [""]
         if ident.get("ranges_note"):
             out += [ident["ranges_note"] + ".", ""]
