@@ -6,8 +6,9 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-# Natural frequencies of the model below at E = 75 GPa, rho = 2600 kg/m^3 (computed with
-# vibupdate.modes, 4 decimals); the damping ratios are made up.
+# Natural frequencies and the first antiresonance of the tip's driving point of the model below
+# at E = 75 GPa, rho = 2600 kg/m^3 (computed with vibupdate.modes and antiresonances, 4
+# decimals); the damping ratios are made up.
 TINY_CASE = """\
 case = "tiny"
 
@@ -40,6 +41,7 @@ upper = 3400.0
 name = "A"
 natural_hz = [37.3397, 234.7489]
 damping_ratios = [0.02, 0.01]
+antiresonances = [{ hz = 164.0447, response = "y1", excitation = "y1" }]
 
 [solver]
 n_lambda = 2

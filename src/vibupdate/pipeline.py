@@ -134,7 +134,7 @@ def _frequency_windows(case: Case) -> str:
 def planned_files(case: Case) -> list[str]:
     """Names of the files a run of ``case`` writes (before knowing which plots apply: the MAC
     plots only where shapes were measured, ``C`` only with damping ratios)."""
-    names = ["results.json", "report.md", "homotopy.png"]
+    names = ["results.json", "report.md", "homotopy.png", "frf.png"]
     for part in file_names([c.name for c in case.configurations]).values():
         names += [f"M_{part}.mtx", f"K_{part}.mtx", f"C_{part}.mtx", f"frf_{part}.png", f"mac_{part}.png"]
     return names
@@ -194,9 +194,11 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     images = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
+        images += _receptance_plot(folder, case, run)
         for cfg in case.configurations:
             images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
-        if drawn(folder / "homotopy.png", plot_homotopy, run.solver["steps"]):
+        # the path is worth a plot when it has steps between the relaxation and lambda = 1
+        if len(run.solver["steps"]) > 2 and drawn(folder / "homotopy.png", plot_homotopy, run.solver["steps"]):
             images.append(("homotopy objective per step", "homotopy.png"))
         if extra is not None:
             try:
@@ -215,12 +217,35 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     return run
 
 
-def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResult) -> list[tuple[str, str]]:
-    """The FRF plot and (with measured shapes) the MAC plot of one configuration; returns the
-    ``(caption, file name)`` of those drawn (`vibupdate.io.outputs.drawn`: a failure is a
-    warning)."""
+def _receptance_plot(folder: Path, case: Case, run: RunResult) -> list[tuple[str, str]]:
+    """``frf.png``: the receptances with measured antiresonances of every configuration with
+    typed data, nominal and updated, in one figure (one panel each); nothing when no
+    configuration has antiresonances (any pair drawn would be arbitrary: the frequency table
+    compares the models with the data). Returns the ``(caption, file name)`` when drawn."""
     from vibupdate.io.outputs import drawn
-    from vibupdate.report.plots import plot_frf, plot_mac
+    from vibupdate.report.plots import plot_receptances
+
+    panels = []
+    for cfg in case.configurations:
+        if cfg.name in case.frfs or not cfg.antiresonances:
+            continue
+        matrices = run.matrices[cfg.name]
+        updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
+        pairs = [(cfg.model.dof(r), cfg.model.dof(c), f"h_{r},{c}",
+                  [a.omega for a in cfg.antiresonances if a.receptance == (r, c)]) for r, c in cfg.receptances()]
+        panels.append((cfg, matrices["nominal"], updated, pairs))
+    if not panels or not drawn(folder / "frf.png", plot_receptances, panels):
+        return []
+    drawn_pairs = "; ".join(f"{cfg.name} {', '.join(p[2] for p in pairs)}" for cfg, _, _, pairs in panels)
+    return [(f"Receptances with measured antiresonances, nominal and updated models ({drawn_pairs})", "frf.png")]
+
+
+def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResult) -> list[tuple[str, str]]:
+    """The FRF plot of a configuration whose data came from FRF files (measured over model
+    receptances) and the MAC plot of one with measured shapes; returns the ``(caption, file
+    name)`` of those drawn (`vibupdate.io.outputs.drawn`: a failure is a warning)."""
+    from vibupdate.io.outputs import drawn
+    from vibupdate.report.plots import plot_mac
 
     images = []
     matrices = run.matrices[cfg.name]
@@ -229,11 +254,7 @@ def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResul
     if cfg.name in case.frfs:
         if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices["nominal"], updated):
             images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices["nominal"], updated), file))
-    else:
-        response, excitation = run.frf[cfg.name]["response"], run.frf[cfg.name]["excitation"]
-        if drawn(folder / file, plot_frf, cfg, matrices["nominal"], updated, cfg.model.dof(response),
-                 cfg.model.dof(excitation), f"h_{response},{excitation}"):
-            images.append((f"FRF h_{response},{excitation}, configuration {cfg.name}", file))
+
     mac = run.mac_matrix.get(cfg.name)
     if mac is not None:
         file = f"mac_{part}.png"

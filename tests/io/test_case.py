@@ -184,7 +184,7 @@ def test_matrices_case_runs_end_to_end(tmp_path):
     assert main(["run", str(write(tmp_path, text)), "--out", str(out)]) == 0
     doc = json.loads((out / "results.json").read_text())
     assert doc["parameters"][0]["updated"] == pytest.approx(1300.0, rel=1e-6)
-    assert {"M_only.mtx", "K_only.mtx", "C_only.mtx", "frf_only.png", "report.md"} <= {p.name for p in out.iterdir()}
+    assert {"M_only.mtx", "K_only.mtx", "C_only.mtx", "report.md"} <= {p.name for p in out.iterdir()}
 
 
 def test_declared_modes_and_zero_indices_in_case_files(tmp_path):

@@ -55,7 +55,7 @@ def test_rerun_replaces_only_vibupdates_files_and_needs_force_beside_foreign_one
     out = tmp_path / "case" / "tiny-results"
     assert main(["run", str(case), "--out", str(out)]) == 0
     owned = read_manifest(out)
-    assert {"results.json", "report.md", "M_A.mtx", "K_A.mtx", "C_A.mtx", "frf_A.png", "homotopy.png"} <= set(owned)
+    assert {"results.json", "report.md", "M_A.mtx", "K_A.mtx", "C_A.mtx", "frf.png", "homotopy.png"} <= set(owned)
     assert sorted(p.name for p in out.iterdir()) == sorted(owned + [MANIFEST])
     # The user adds notes; a file of an older run that this run no longer writes is listed too.
     (out / "notes.txt").write_text("my notes")
@@ -209,8 +209,9 @@ def test_large_model_keeps_the_caughey_law_instead_of_a_dense_C(tmp_path):
     """Above 400 DOFs no dense C is built or written; the FRF plot uses the modal law."""
     import numpy as np
     from helpers import chain_model
-    from vibupdate import Configuration, NaturalFrequency, modes
+    from vibupdate import Antiresonance, Configuration, NaturalFrequency, modes
     from vibupdate.io.case import Case, DampingOptions
+    from vibupdate.modal.analysis import antiresonances
     from vibupdate.damping import CaugheyLaw, caughey_matrix
     from vibupdate.inverse.formulation import FormulationOptions
     from vibupdate.inverse.homotopy import SolverOptions
@@ -220,11 +221,14 @@ def test_large_model_keeps_the_caughey_law_instead_of_a_dense_C(tmp_path):
     x = np.array([0.05, -0.05, 0.1])
     w, _ = modes(*model.matrices(x), 4)
     nat = tuple(NaturalFrequency(v, damping_ratio=0.01 * (k + 1)) for k, v in enumerate(w[:3]))
-    case = Case("big", None, (Configuration("A", model, nat),), SolverOptions(), FormulationOptions(),
+    tip = model.dofs[-1]
+    z = antiresonances(*model.matrices(x), model.n_dofs - 1, model.n_dofs - 1, n_zeros=1)
+    zeros = (Antiresonance(float(z[0]), tip, tip),)   # a measured receptance: plotted
+    case = Case("big", None, (Configuration("A", model, nat, zeros),), SolverOptions(), FormulationOptions(),
                 DampingOptions((0.0, 1.0)))
     run_case(case, tmp_path / "out", progress=lambda m: None)
     files = sorted(p.name for p in (tmp_path / "out").iterdir())
-    assert "C_A.mtx" not in files and "frf_A.png" in files and "M_A.mtx" in files
+    assert "C_A.mtx" not in files and "frf.png" in files and "M_A.mtx" in files
     # the law's modal receptance equals the direct solve with the dense C on a small model
     small = chain_model(6, ["k1"])
     M, K = small.matrices()
@@ -289,7 +293,7 @@ def test_a_plot_that_fails_costs_a_note_not_the_run(tmp_path, monkeypatch, capsy
     note = "homotopy.png was not drawn: ValueError: Too many bins for data range"
     assert note in printed.out
     files = set(read_manifest(out))
-    assert {"results.json", "report.md", "M_A.mtx", "K_A.mtx", "C_A.mtx", "frf_A.png"} <= files
+    assert {"results.json", "report.md", "M_A.mtx", "K_A.mtx", "C_A.mtx", "frf.png"} <= files
     assert "homotopy.png" not in files and not (out / "homotopy.png").exists()
     assert note in load_results(out / "results.json").warnings
     report = (out / "report.md").read_text()
@@ -312,7 +316,7 @@ def test_a_report_that_fails_leaves_a_short_report_and_the_results(tmp_path, mon
     assert "could not be written (TypeError: unsupported format string" in report and "results.json" in report
     run = load_results(out / "results.json")
     assert run.success and any("report.md is a short report" in w for w in run.warnings)
-    assert {"homotopy.png", "frf_A.png", "M_A.mtx"} <= set(read_manifest(out))
+    assert {"homotopy.png", "frf.png", "M_A.mtx"} <= set(read_manifest(out))
 
 
 def test_ctrl_c_while_plotting_still_exits_130_with_nothing_written(earlier_results, tmp_path, monkeypatch, capsys):

@@ -104,7 +104,8 @@ def test_receptances_of_a_large_model_share_one_factorization_per_line(monkeypat
 def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_path, monkeypatch):
     """Above DENSE_LIMIT the nominal (undamped) curve of `plot_frf` uses the updated damping
     law's modal sum with zero damping, not one sparse LU per plotted line, and agrees with the
-    direct solve away from the resonances."""
+    direct solve away from the resonances (the modes left out are in the Krylov vectors of the
+    sum: 1.3e-12 of the static compliance measured)."""
     import scipy.sparse as sp
 
     from vibupdate import NaturalFrequency
@@ -127,10 +128,12 @@ def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_pa
 
     w, _ = modes(M, 1.1 * K, 12)
     omega = np.r_[0.0, 0.5 * (w[:-1] + w[1:])[:10]]   # static, and between the lowest modes
-    exact = receptance(M, 1.1 * K, n - 1, n - 1, omega)
-    # truncated above the 40th mode: off by the static share of the modes left out (the
-    # chain's tip: ~0.4 % of its static compliance)
-    assert np.abs(model_receptance(curve, n - 1, n - 1, omega) - exact).max() < 1e-2 * abs(exact[0])
+    tip = np.zeros(n)
+    tip[-1] = 1.0
+    exact = np.array([sp.linalg.spsolve(sp.csc_matrix(1.1 * K - x**2 * M), tip)[-1] for x in omega])
+    # 40 modes and the Krylov vectors of the excitation: the modes left out are not lost (with
+    # the modes alone the chain's tip was ~0.4 % of its static compliance off)
+    assert np.abs(model_receptance(curve, n - 1, n - 1, omega) - exact).max() < 1e-8 * abs(exact[0])
 
     lus = []
     real_splu = receptance_module.spla.splu

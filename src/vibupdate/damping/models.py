@@ -12,6 +12,7 @@ import numpy as np
 
 from vibupdate.damping.series import _check_exponents, modal_damping
 from vibupdate.modal.analysis import DENSE_LIMIT, modes
+from vibupdate.modal.eigen import massless_dofs
 
 __all__ = ["CaugheyLaw", "caughey_damping", "caughey_matrix"]
 
@@ -36,8 +37,8 @@ class CaugheyLaw:
     def receptances(self, M, K, pairs, omega) -> np.ndarray:
         """``h_rc(j omega)`` (m/N) of every ``(r, c)`` in ``pairs`` by modal superposition of the
         lowest ``n_modes`` modes (one eigen-solve for all pairs), each with its modal damping
-        ratio from the law; exact for these modes (the law is classical damping), truncated
-        above them.
+        ratio from the law, plus the residual flexibility of the modes above them
+        (`vibupdate.modal.receptance.modal_sum`); all modes when ``n_modes`` reaches them.
 
         Parameters
         ----------
@@ -51,8 +52,13 @@ class CaugheyLaw:
         -------
         ndarray of complex, shape (n_pairs, n_f)
         """
+        from vibupdate.modal.receptance import modal_sum
+
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
-        w, Phi = modes(M, K, None if self.n_modes >= M.shape[0] else self.n_modes)
+        if self.n_modes < M.shape[0] - massless_dofs(M).size - 1:
+            return modal_sum(M, K, pairs, omega, lambda w: modal_damping(self.exponents, self.beta, w),
+                             n_modes=self.n_modes)
+        w, Phi = modes(M, K)
         rows = np.array([p[0] for p in pairs], dtype=int)
         cols = np.array([p[1] for p in pairs], dtype=int)
         xi = np.zeros_like(w)

@@ -295,21 +295,22 @@ _SOLVED_KEPT = 4
 _SOLVED = Kept(_SOLVED_KEPT, 256 * 2**20)
 
 
-def _sparse_modes(M, K, k: int, rtol: float):
+def _sparse_modes(M, K, k: int, rtol: float, factor=None):
     """The ``k`` lowest eigenpairs by shift-invert (module docstring), from `_SOLVED` when the
-    same matrices were solved for at least ``k`` modes before."""
+    same matrices were solved for at least ``k`` modes before; ``factor``: `_shifted_lu` of
+    ``(K, M)`` when the caller has it."""
     key = content_key(M, K, extra=np.float64(rtol).tobytes())
     kept = _SOLVED.get(key)
     if kept is not None and kept[0].size >= k:
         return kept[0][:k].copy(), kept[1][:, :k].copy()
-    eigval, V = _solve_sparse_modes(M, K, k, rtol)
+    eigval, V = _solve_sparse_modes(M, K, k, rtol, factor)
     _SOLVED.put(key, (eigval, V), V.nbytes)
     return eigval.copy(), V.copy()
 
 
-def _solve_sparse_modes(M, K, k: int, rtol: float):
+def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
-    sigma, lu = _shifted_lu(Ks, Ms)
+    sigma, lu = _shifted_lu(Ks, Ms) if factor is None else factor
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
     q = block_size(k, Ks.shape[0] - massless_dofs(Ms).size - 1)
     _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0, **repeatable(Ks.shape[0]))
@@ -350,7 +351,8 @@ def require_accuracy(M, K, omega, V, rtol: float, what: str) -> None:
                                  f"{eta[j]:.2e} > {rtol:.0e}; its frequency cannot be trusted")
 
 
-def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL):
+def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL,
+          factor=None):
     """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0).
 
     Accuracy (see the module docstring): the dense path solves the reciprocal pencil with the
@@ -370,6 +372,9 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
         all modes are asked for.
     rtol : float
         Largest accepted backward error of a sparse eigenpair.
+    factor : (float, SuperLU), optional
+        The shift and sparse LU of ``K - sigma M`` (`_shifted_lu`) when the caller already
+        has them (the sparse path does not factorize again).
 
     Returns
     -------
@@ -401,7 +406,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
             eigval, Phi = eigval[:n_modes], Phi[:, :n_modes]
     else:
         k = n_modes if n_modes is not None else min(n_finite - 1, 20)
-        eigval, Phi = _sparse_modes(M, K, k, rtol)
+        eigval, Phi = _sparse_modes(M, K, k, rtol, factor)
     # rigid-body modes (zero within the rounding of their own Rayleigh quotient,
     # `vibupdate.modal.rigid`) are exactly 0 rad/s, whatever sign rounding gave them
     eigval = np.where(rigid.is_zero(M, K, eigval, Phi), 0.0, eigval)

@@ -12,7 +12,7 @@ import numpy as np
 from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
-__all__ = ["plot_frf", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance", "model_receptances"]
+__all__ = ["plot_frf", "plot_receptances", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance", "model_receptances"]
 
 
 def _pyplot():
@@ -24,14 +24,24 @@ def _pyplot():
     return plt
 
 
+#: Lines of a model receptance plot, about the pixels across its axes.
+LINES = 1000
+
+
+def _margins(fig, height_in: float) -> None:
+    """Fixed margins in inches (``tight_layout`` measures every text and tick: 40 % of a plot's
+    cost)."""
+    fig.subplots_adjust(left=0.11, right=0.97, bottom=0.55 / height_in, top=1 - 0.35 / height_in, hspace=0.12)
+
+
 def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
     """Labels, legend and grid, then save as PNG and close."""
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.legend(fontsize=8)
+    ax.set_title(title, y=1.0)
+    ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
+    _margins(fig, fig.get_figheight())
     return _save(plt, fig, path)
 
 
@@ -97,34 +107,69 @@ def _damping_note(C) -> str:
 
 
 def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
-    """|h_rc| of the nominal and updated models of one configuration, measured frequencies
-    marked (natural: solid, antiresonance: dashed).
+    """|h_rc| of the nominal and updated models of one configuration (`plot_receptances` of
+    one pair)."""
+    return plot_receptances(path, [(cfg, nominal, updated, [(r, c, label, [a.omega for a in cfg.antiresonances])])])
+
+
+def plot_receptances(path, panels) -> Path:
+    """|h_rc| of the nominal and updated models, one panel per receptance of every
+    configuration given, in one figure; measured natural frequencies (solid) and the measured
+    antiresonances of that receptance (dotted) marked.
 
     Parameters
     ----------
-    nominal, updated : tuple (M, K, C)
-        Matrices of the two models, ``C`` possibly None (undamped, and labelled so) or a
-        `vibupdate.damping.CaugheyLaw` (large models: modal superposition). Each curve uses its
-        own model's damping: never the updated ``C`` on the nominal curve.
-    r, c : int
-        Response and excitation DOF indices.
-    label : str
-        ``h_{r,c}`` for the title.
+    panels : sequence of (cfg, nominal, updated, pairs)
+        Per configuration: the `Configuration` (its measured frequencies), the nominal and
+        updated models as ``(M, K, C)`` with ``C`` possibly None (undamped, and labelled so) or
+        a `vibupdate.damping.CaugheyLaw` (large models: modal superposition; each curve uses its
+        own model's damping, never the updated ``C`` on the nominal curve), and ``pairs``: the
+        response and excitation DOF indices, the label (``h_{r,c}``) and the measured
+        antiresonances (rad/s) of each receptance. The pairs of one model share its eigen-solve
+        (`model_receptances`).
     """
     plt = _pyplot()
-    measured = [f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances]
-    top = 1.25 * max(measured) if measured else 1.0
-    omega = np.linspace(top / 2000, top, 2000)
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
-    for (M, K, C), name, style in ((_nominal_curve(nominal, updated), "nominal", "--"), (updated, "updated", "-")):
-        h = model_receptance((M, K, C), r, c, omega)
-        ax.semilogy(omega / TWO_PI, np.abs(h), style, label=f"{name} model{_damping_note(C)}")
-    for i, f in enumerate(cfg.natural):
-        ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
-    for i, a in enumerate(cfg.antiresonances):
-        ax.axvline(a.omega / TWO_PI, color="tab:red", lw=0.8, ls=":", label="measured antiresonance" if i == 0 else None)
-    return _finish(plt, fig, ax, path, "frequency [Hz]", f"|{label}| [m/N]",
-                   f"configuration {cfg.name}: receptance {label}")
+    count = sum(len(p[3]) for p in panels)
+    ncols = 2 if count >= 3 else 1
+    nrows = -(-count // ncols)
+    height = 0.9 + 2.3 * nrows
+    fig, axes = plt.subplots(nrows, ncols, figsize=(7.5 if ncols == 1 else 11.0, height), squeeze=False)
+    cells = iter(axes.ravel())
+    for cfg, nominal, updated, pairs in panels:
+        measured = [f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances]
+        top = 1.25 * max(measured) if measured else 1.0
+        omega = np.linspace(top / LINES, top, LINES)
+        at = [(r, c) for r, c, _, _ in pairs]
+        curves = [(np.abs(model_receptances(model, at, omega)), f"{name} model{_damping_note(model[2])}", style)
+                  for model, name, style in ((_nominal_curve(nominal, updated), "nominal", "--"),
+                                             (updated, "updated", "-"))]
+        for n, (_, _, label, zeros) in enumerate(pairs):
+            ax = next(cells)
+            for h, name, style in curves:
+                ax.semilogy(omega / TWO_PI, h[n], style, lw=1.0, label=name)
+            for i, f in enumerate(cfg.natural):
+                ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
+            for i, z in enumerate(zeros):
+                ax.axvline(z / TWO_PI, color="tab:red", lw=0.8, ls=":",
+                           label="measured antiresonance" if i == 0 else None)
+            # a title at a set height: placed automatically, it measures every tick label of a log axis
+            ax.set_title(f"configuration {cfg.name}: {label}", fontsize=9, y=1.0)
+            ax.set_ylabel("|h| [m/N]")
+            ax.set_xlabel("frequency [Hz]")
+            ax.grid(True, which="both", alpha=0.3)
+    for ax in cells:
+        ax.set_visible(False)
+    # one legend above the panels, at a set place (matplotlib's "best" place searches every
+    # point of every curve)
+    labels = {}
+    for ax in axes.ravel():
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            labels.setdefault(label, handle)
+    fig.legend(list(labels.values()), list(labels), loc="upper center", ncol=4, fontsize=8,
+               bbox_to_anchor=(0.5, 1 - 0.05 / height))
+    fig.subplots_adjust(left=0.09 if ncols == 2 else 0.11, right=0.98, bottom=0.5 / height,
+                        top=1 - 0.6 / height, hspace=0.75 / 2.3 + 0.1, wspace=0.22)
+    return _save(plt, fig, path)
 
 
 def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nominal_label: str,
