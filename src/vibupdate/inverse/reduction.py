@@ -23,10 +23,10 @@ from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from vibupdate.model.affine import AffineModel
 from vibupdate.modal.analysis import modes
+from vibupdate.modal.eigen import sparse_lu
 from vibupdate.data.measured import Configuration
 
 __all__ = ["craig_bampton", "ritz_reduction", "reduce_configurations", "kept_dofs", "wants_reduction"]
@@ -63,7 +63,7 @@ def craig_bampton(model: AffineModel, keep: Sequence[str], n_interior: int) -> t
     Kii = K0[i][:, i].tocsc()
     Kib = K0[i][:, b].toarray()
     try:
-        lu = spla.splu(Kii)
+        lu = sparse_lu(Kii)
     except RuntimeError as exc:
         raise ValueError(f"Craig-Bampton reduction: the interior stiffness is singular ({exc})") from None
     T = np.zeros((n, b.size + n_interior))

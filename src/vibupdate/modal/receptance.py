@@ -26,7 +26,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from vibupdate.modal import eigen
 from vibupdate.modal.eigen import _dense, _dense_modes, check_dof_pair, massless_dofs
@@ -242,7 +241,7 @@ def receptances(M, K, pairs, omega, C=None) -> np.ndarray:
     out = np.empty((rows.size, omega.size), dtype=complex)
     for i, w in enumerate(omega):
         A = Ks - w**2 * Ms if Cs is None else Ks + 1j * w * Cs - w**2 * Ms
-        X = spla.splu(sp.csc_matrix(A)).solve(E.astype(A.dtype))
+        X = eigen.sparse_lu(A).solve(E.astype(A.dtype))
         out[:, i] = X[rows, which]
     return out
 

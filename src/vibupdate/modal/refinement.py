@@ -144,7 +144,6 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
         rounding unit per entry moves the ratios by 1.6e-15.
     """
     import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
 
     Ms, Ks = sp.csr_matrix(M), sp.csr_matrix(K)
     phi = np.asarray(phi, dtype=float)
@@ -167,7 +166,9 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
     A = (Ks - eigval * Ms)[keep][:, keep]
     V = np.zeros((n, B.shape[1]))
     if n > 400:
-        V[keep] = spla.splu(sp.csc_matrix(A)).solve(B[keep])
+        from vibupdate.modal.eigen import sparse_lu   # eigen imports this module
+
+        V[keep] = sparse_lu(A).solve(B[keep])
     else:
         V[keep] = sla.solve(A.toarray(), B[keep], assume_a="sym")
     entries = np.asarray(entries, dtype=int)

@@ -27,10 +27,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from vibupdate.modal import eigen
-from vibupdate.modal.eigen import _dense_modes
+from vibupdate.modal.eigen import _dense_modes, sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.zeros import adjunct, antiresonances, structural
 
@@ -78,7 +77,7 @@ def frequency_derivatives(model, omega, Phi) -> np.ndarray:
 
 def _factor(A):
     if sp.issparse(A):
-        return spla.splu(sp.csc_matrix(A)).solve
+        return sparse_lu(A).solve
     lu = sla.lu_factor(np.asarray(A))
     return lambda b: sla.lu_solve(lu, b)
 

@@ -86,10 +86,9 @@ def _nominal_curve(nominal, updated):
     """The model whose receptance draws the nominal curve.
 
     On a large model the updated curve is the modal sum of its damping law (`CaugheyLaw`); an
-    undamped nominal model is then drawn by the same modal sum with zero damping, over the
-    same modes, instead of one sparse LU per plotted line: on a 30,315-DOF frame those 2,000
-    LUs took 585 s of a 780 s `vibupdate run`. Both curves are then truncated alike, above
-    1.25 times the highest measured frequency only (`caughey_damping` chooses the modes).
+    undamped nominal model is then drawn by the same sum with zero damping, over as many modes
+    (`vibupdate.modal.receptance.modal_sum`, the modes left out in its Krylov vectors), so that
+    the two curves differ by the models only.
     """
     from vibupdate.damping import CaugheyLaw
 
