@@ -34,6 +34,18 @@ def test_the_extras_of_pyproject_are_those_the_code_names():
     assert core == {"numpy", "scipy", "casadi", "piqp", "threadpoolctl"}
 
 
+def test_the_readme_table_lists_every_extra_with_what_it_installs():
+    import re
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    readme = (ROOT / "README.md").read_text()
+    rows = dict(re.findall(r"^\| `(\w+)` \| ([^|]+) \|", readme, re.M))
+    for name in EXTRAS:
+        packages = {d.split(">")[0] for d in project["optional-dependencies"][name]}
+        assert set(rows[name].strip().split(", ")) == packages, name
+    assert {"all", "test"} <= set(rows)
+
+
 def _imported_modules(node) -> set[str]:
     if isinstance(node, ast.Import):
         return {a.name.split(".")[0] for a in node.names}

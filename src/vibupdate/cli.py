@@ -52,7 +52,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="write into a folder that holds other files (they are kept; only vibupdate's own "
                           "files are replaced)")
     check = sub.add_parser("check", help="validate a case file and print the problem size")
-    check.add_argument("case")
+    check.add_argument("case", help="case file (TOML), see docs/case-file.md")
     ex = sub.add_parser("example", help="run a bundled example")
     ex.add_argument("name", nargs="?", help="example name (see --list)")
     ex.add_argument("--list", action="store_true", help="list the bundled examples")
