@@ -418,7 +418,7 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
     vibupdate._extras.MissingExtra
         Without the optional extra ``[certify]`` (HiGHS, Clarabel), before any work.
     """
-    require("certify", "the certified ranges")
+    require("certify", "computing certified ranges")
     labels = (["the answer"] if xbar is not None else []) + [label for label, _ in include]
     points = ([np.asarray(xbar, dtype=float)] if xbar is not None else []) + [np.asarray(p, dtype=float)
                                                                             for _, p in include]
