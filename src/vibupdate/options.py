@@ -136,10 +136,13 @@ OPTIONS = (
     Option("solver", "max_cpu_time", "number", 600.0, "seconds per solve", lower=0, open_lower=True),
     Option("solver", "tol", "number", 1e-10, "IPOPT tolerance", lower=0, upper=1, open_lower=True, open_upper=True),
     # -- [formulation]: the first-stage problem (vibupdate.inverse.formulation.FormulationOptions)
+    # The margins: the first stage itself widens them tenfold, at most twice, when the relaxation
+    # proves the boxes exclude every fit (vibupdate.inverse.update.MAX_WIDENINGS), so the range
+    # holds 100 (the widest worth stating) widened twice; wider boxes bound nothing.
     Option("formulation", "shape_margin", "number", 1.5, "unmeasured mode entries within "
-           "`+- shape_margin * max abs nominal`", lower=1, upper=100),
+           "`+- shape_margin * max abs nominal`", lower=1, upper=10_000),
     Option("formulation", "adjunct_margin", "number", 1.5, "adjunct entries within `+- adjunct_margin`",
-           lower=1, upper=100),
+           lower=1, upper=10_000),
     Option("formulation", "sign_delta", "number", 1e-3, "distance from zero of interlacing sign bounds",
            lower=0, upper=1, open_lower=True, open_upper=True),
     Option("formulation", "length_scale", "number", None, "m, scales rotational entries", lower=0, open_lower=True,

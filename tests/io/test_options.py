@@ -61,7 +61,7 @@ REFUSED = [("solver", "step_growth", 1000.0, "in [1, 100]"), ("solver", "step_gr
            ("solver", "max_iter", 2_000_000, "from 1 to 1000000"), ("solver", "proximal", 2.0, "in [0, 1]"),
            ("solver", "tol", 0.0, "in (0, 1)"), ("solver", "max_cpu_time", float("inf"), "> 0"),
            ("solver", "relaxation_solver", "osqp", "'piqp' or 'nlp'"),
-           ("formulation", "shape_margin", 1e300, "in [1, 100]"), ("formulation", "sign_delta", 1.0, "in (0, 1)"),
+           ("formulation", "shape_margin", 1e300, "in [1, 10000]"), ("formulation", "sign_delta", 1.0, "in (0, 1)"),
            ("formulation", "length_scale", -1.0, "> 0"), ("formulation", "reduction", "guyan", "'craig-bampton'"),
            ("formulation", "interlacing", 1, "true or false"),
            ("polish", "shape_weight", -1.0, ">= 0"), ("polish", "max_evaluations", 0, ">= 1"),
