@@ -103,6 +103,15 @@ def case_file(tmp_path_factory):
     return str(write_case(tmp_path_factory.mktemp("extras")))
 
 
+@pytest.fixture(scope="module")
+def uff_case_file(tmp_path_factory):
+    """The tiny case with its mode shapes in a UFF file (read through pyuff)."""
+    from outputs_helpers import TINY_CASE
+
+    text = TINY_CASE.replace('name = "A"\n', 'name = "A"\nmode_shapes_uff = "shapes.uff"\n')
+    return str(write_case(tmp_path_factory.mktemp("extras_uff"), text))
+
+
 @pytest.mark.parametrize("argv, missing, line", [
     (["sweep", "{case}", "--samples", "2"], "distributed",
      'vibupdate sweep needs the optional extra [study]: pip install "vibupdate[study]"'),
@@ -118,16 +127,25 @@ def case_file(tmp_path_factory):
      'vibupdate example --certify needs the optional extra [certify]: pip install "vibupdate[certify]"'),
     (["extract", "x.uff", "--band", "10", "100"], "pyuff",
      'vibupdate extract needs the optional extra [frf] for reading UFF files: pip install "vibupdate[frf]"'),
+    (["run", "{uff_case}"], "pyuff",
+     'vibupdate run needs the optional extra [frf] for reading UFF files: pip install "vibupdate[frf]"'),
 ])
-def test_a_command_whose_extra_is_missing_exits_2_with_one_line(monkeypatch, capsys, tmp_path, case_file, argv,
-                                                                 missing, line):
+def test_a_command_whose_extra_is_missing_exits_2_with_one_line(monkeypatch, capsys, tmp_path, case_file,
+                                                                 uff_case_file, argv, missing, line):
     _without(monkeypatch, missing)
     out = tmp_path / "out"
-    argv = [a.format(case=case_file) for a in argv] + ["--out", str(out)]
+    argv = [a.format(case=case_file, uff_case=uff_case_file) for a in argv] + ["--out", str(out)]
     assert main(argv) == 2
     captured = capsys.readouterr()
     assert captured.err.strip() == line
     assert not out.exists()
+
+
+def test_check_of_a_case_with_uff_data_names_the_extra(monkeypatch, capsys, uff_case_file):
+    _without(monkeypatch, "pyuff")
+    assert main(["check", uff_case_file]) == 2
+    assert capsys.readouterr().err.strip() == ('vibupdate check needs the optional extra [frf] for reading UFF files: '
+                                               'pip install "vibupdate[frf]"')
 
 
 def test_the_example_runs_without_matplotlib_and_says_the_plots_were_skipped(monkeypatch, capsys, tmp_path):
