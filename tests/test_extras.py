@@ -98,6 +98,19 @@ def test_library_calls_raise_the_import_error_naming_the_extra(monkeypatch, tmp_
             pass
 
 
+def test_certified_ranges_and_plots_name_their_extra_before_any_work(monkeypatch, tmp_path):
+    from vibupdate.examples import cantilever
+    from vibupdate.ranges.certify import certified_ranges
+    from vibupdate.report.plots import plot_homotopy
+
+    _without(monkeypatch, "highspy", "matplotlib", "matplotlib.pyplot")
+    with pytest.raises(MissingExtra, match=r"computing certified ranges needs the optional extra \[certify\]"):
+        certified_ranges(cantilever.configurations(), seconds=0.0)
+    with pytest.raises(MissingExtra, match=r"drawing plots needs the optional extra \[plots\]"):
+        plot_homotopy(tmp_path / "h.png", [])
+    assert not (tmp_path / "h.png").exists()
+
+
 @pytest.fixture(scope="module")
 def case_file(tmp_path_factory):
     return str(write_case(tmp_path_factory.mktemp("extras")))
