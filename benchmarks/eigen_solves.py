@@ -3,7 +3,7 @@ the same matrices within a run), per stage, on a bundled example.
 
 Run:  python benchmarks/eigen_solves.py [cantilever|frame]
 
-Counts calls of the kernels' entry points (`vibupdate.modal.solve_log`: the dense and sparse
+Counts calls of the kernels' entry points (`tests/solve_log.py`: the dense and sparse
 eigen-solves of a pencil ``(K, M)`` and of an adjunct pencil), groups them by the matrices solved (a hash of ``M``
 and ``K``) and by the stage in whose call stack they ran, and prints the total, the solves of
 each configuration's updated matrices per stage, and how many solves repeated a pencil that
@@ -14,12 +14,15 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import tempfile
 from collections import Counter
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from vibupdate.modal.solve_log import counting_solves, matrices_key  # noqa: E402
+from solve_log import counting_solves, matrices_key  # noqa: E402
 from vibupdate.pipeline import run_example  # noqa: E402
 
 #: The stage of a solve: the first of these source files found in its call stack.

@@ -118,6 +118,59 @@ def test_the_method_and_vocabulary_pages_exist_and_are_linked_from_the_readme():
         assert f"]({page})" in readme, f"README does not link {page}"
 
 
+    for page in ("docs/python-api.md", "docs/cli.md"):
+        assert f"]({page})" in readme, f"README does not link {page}"
+
+
+def test_the_readme_is_short_and_the_manual_is_in_docs():
+    assert len((ROOT / "README.md").read_text(encoding="utf-8").splitlines()) <= 130
+
+
+def test_the_python_examples_of_the_api_page_run(tmp_path, monkeypatch):
+    """Every Python block of docs/python-api.md runs, each in a fresh namespace."""
+    monkeypatch.chdir(tmp_path)
+    text = (ROOT / "docs" / "python-api.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks
+    for block in blocks:
+        exec(compile(block, "docs/python-api.md", "exec"), {})
+
+
+@pytest.mark.parametrize("path", _markdown_documents(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_command_line_shown_parses(path):
+    """Every ``vibupdate ...`` line of a bash block parses with the command line's own parser,
+    and the case files it names exist."""
+    from vibupdate.cli import _parser
+
+    text = path.read_text(encoding="utf-8")
+    for block in re.findall(r"```bash\n(.*?)```", text, re.S):
+        for line in block.splitlines():
+            if line.startswith("vibupdate "):
+                words = line.split("&&")[0].split()
+                args = _parser().parse_args(words[1:])
+                if getattr(args, "case", None):
+                    assert (ROOT / args.case).is_file(), line
+
+
+def _cli_options() -> dict[str, set[str]]:
+    import argparse
+
+    from vibupdate.cli import _parser
+
+    commands = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
+    return {name: {o for a in sub._actions if a.help != argparse.SUPPRESS for o in a.option_strings
+                   if o not in ("-h", "--help")} for name, sub in commands.items()}
+
+
+def test_every_command_and_option_is_in_the_cli_page():
+    """docs/cli.md is the command-line reference: it names every command and every option."""
+    text = (ROOT / "docs" / "cli.md").read_text(encoding="utf-8")
+    missing = [f"{name} {option}" for name, options in _cli_options().items()
+               for option in sorted(options) if f"`{option}" not in text]
+    missing += [name for name in _cli_options() if f"`{name} " not in text and f"`vibupdate {name} " not in text]
+    assert not missing, missing
+
+
 @pytest.mark.parametrize("path", _markdown_documents(), ids=lambda p: str(p.relative_to(ROOT)))
 def test_every_relative_link_resolves(path):
     bad = broken_links(path)

@@ -41,7 +41,7 @@ def stage_of(path: Path) -> str:
 
 def test_every_module_sits_in_a_stage():
     stray = [str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
-             if stage_of(p) not in STAGES + ["__init__", "__main__", "examples"]]
+             if stage_of(p) not in STAGES + ["__init__", "__main__", "_extras", "options", "examples"]]
     assert not stray, stray
 
 
@@ -70,7 +70,8 @@ def test_no_stage_imports_a_later_stage():
 
 TESTS = PACKAGE.parents[1] / "tests"
 #: Tests that exercise a whole run, across stages, stay at the top of ``tests/``.
-CROSS_STAGE = {"test_cli", "test_docs", "test_layout", "test_fuzz", "test_frf_updating", "test_solves"}
+CROSS_STAGE = {"test_cli", "test_docs", "test_layout", "test_fuzz", "test_frf_updating", "test_solves",
+               "test_extras"}
 #: Folders of whole-run tests: the known-truth acceptance engine (generator, runner, its profile).
 CROSS_STAGE_FOLDERS = {"acceptance"}
 

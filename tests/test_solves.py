@@ -7,7 +7,7 @@ from collections import Counter
 
 import pytest
 
-from vibupdate.modal.solve_log import counting_solves, matrices_key as _key
+from solve_log import counting_solves, matrices_key as _key
 
 #: Which stage a solve belongs to: the first source file of these in its call stack.
 STAGES = (("polish", "inverse/polish.py"), ("ranges", "ranges/identifiability.py"),

@@ -6,6 +6,9 @@ or the homotopy path failed (results are written, their status says which); 2 ba
 verified sample, for ``batch`` a case that did not succeed; 3 internal error (one line
 naming what failed, ``--debug`` prints the traceback; nothing written); 130 interrupted
 (nothing written, earlier results intact; a sweep keeps the rows it wrote, ``--resume``).
+
+A command or option whose optional extra is not installed (`NEEDS`, `vibupdate._extras`)
+exits 2 with one line naming the extra, before any work.
 """
 
 from __future__ import annotations
@@ -16,11 +19,18 @@ import sys
 import traceback
 
 from vibupdate import __version__
+from vibupdate._extras import MissingExtra, install_hint, require
 
 __all__ = ["main", "EXIT"]
 
 #: Exit codes of the command line.
 EXIT = {"success": 0, "not_verified": 1, "bad_input": 2, "internal": 3, "interrupted": 130}
+
+#: What a command, or one of its options, needs beyond the core: ``(command, option, extra)``,
+#: option None for the command itself (``extract`` of UFF files is checked where they are read).
+NEEDS = (("sweep", None, "study"), ("batch", None, "study"),
+         ("run", "--samples", "study"), ("example", "--samples", "study"),
+         ("run", "--certify", "certify"), ("example", "--certify", "certify"))
 
 
 class _BadInput(Exception):
@@ -36,12 +46,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("case", help="case file (TOML), see docs/case-file.md")
     run.add_argument("--out", default=None, help="output folder (default: ./CASE-results)")
     run.add_argument("--certify", type=float, default=None, metavar="SECONDS",
-                     help="also compute certified outer parameter ranges within this time budget")
+                     help="also compute certified outer parameter ranges within this time budget (needs the "
+                          "extra [certify])")
     run.add_argument("--force", action="store_true",
                      help="write into a folder that holds other files (they are kept; only vibupdate's own "
                           "files are replaced)")
     check = sub.add_parser("check", help="validate a case file and print the problem size")
-    check.add_argument("case")
+    check.add_argument("case", help="case file (TOML), see docs/case-file.md")
     ex = sub.add_parser("example", help="run a bundled example")
     ex.add_argument("name", nargs="?", help="example name (see --list)")
     ex.add_argument("--list", action="store_true", help="list the bundled examples")
@@ -51,7 +62,7 @@ def _parser() -> argparse.ArgumentParser:
     for p in (run, ex):
         p.add_argument("--samples", type=int, default=None, metavar="N",
                        help="also update N data sets drawn inside the measured intervals on Dask and report the "
-                            "sampled ranges beside the linearized (and certified) ones")
+                            "sampled ranges beside the linearized (and certified) ones (needs the extra [study])")
         p.add_argument("--multistart", type=int, default=None, metavar="N",
                        help="random starts of the point estimate whose distinct local minima are counted "
                             "(default 20 with --samples, else none)")
@@ -60,7 +71,8 @@ def _parser() -> argparse.ArgumentParser:
                        help="for --samples: relative half-width of frequencies without an interval (default: the "
                             "case's)")
     fx = sub.add_parser("extract", help="extract modes and antiresonances from measured FRFs (docs/frf-extraction.md)")
-    fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58) or CSV/npz FRF files")
+    fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58; needs the extra [frf]) or CSV/npz FRF "
+                                             "files")
     fx.add_argument("--band", nargs=2, type=float, metavar=("F1", "F2"), help="frequency band, Hz")
     fx.add_argument("--fit-band", nargs=2, type=float, metavar=("F1", "F2"),
                     help="lines fitted, Hz, containing --band (default: the band's bottom to twice its top)")
@@ -80,9 +92,10 @@ def _parser() -> argparse.ArgumentParser:
     fx.add_argument("--modes", type=int, default=None, help="keep this many modes (default: all stable ones)")
     fx.add_argument("--first-mode", type=int, default=1, help="model mode number of the lowest extracted mode")
     fx.add_argument("--confidence", type=float, default=0.95, help="level of the intervals (default 0.95)")
-    fx.add_argument("--no-plot", action="store_true", help="do not write fit.png")
+    fx.add_argument("--no-plot", action="store_true", help="do not write fit.png (drawn with the extra [plots])")
     fx.add_argument("--force", action="store_true", help="as for run")
-    sweep = sub.add_parser("sweep", help="update many data sets drawn inside the measured intervals (Dask)")
+    sweep = sub.add_parser("sweep", help="update many data sets drawn inside the measured intervals (Dask; needs "
+                                         "the extra [study])")
     sweep.add_argument("case", help="case file (TOML)")
     sweep.add_argument("--samples", type=int, required=True, help="number of data sets to draw")
     sweep.add_argument("--seed", type=int, default=0, help="seed; sample i depends on (seed, i) only (default 0)")
@@ -101,7 +114,8 @@ def _parser() -> argparse.ArgumentParser:
                             "ends of its line of equally good answers")
     sweep.add_argument("--resume", action="store_true", help="finish the sweep already in --out")
     sweep.add_argument("--out", default=None, help="output directory (default: ./CASE-sweep)")
-    batch = sub.add_parser("batch", help="run many case files, one results folder each and a summary table")
+    batch = sub.add_parser("batch", help="run many case files, one results folder each and a summary table (needs "
+                                         "the extra [study])")
     batch.add_argument("cases", nargs="+", help="case files (TOML)")
     batch.add_argument("--out", required=True, help="output directory")
     for p in (run, ex, sweep, batch):
@@ -201,16 +215,28 @@ def _load(path):
 
     try:
         return load_case(path)
-    except (ValueError, KeyboardInterrupt):
+    except (ValueError, KeyboardInterrupt, MissingExtra):
         raise
     except Exception as exc:  # user code: a builder that raises, has a syntax error or a wrong signature
         raise _BadInput(f"{path}: the model could not be built: {type(exc).__name__}: {exc}") from exc
+
+
+def _check_extras(args) -> None:
+    """Raise `MissingExtra` for the first command or option of ``args`` whose extra is missing."""
+    for command, option, extra in NEEDS:
+        if command != args.command:
+            continue
+        if option is None:
+            require(extra, f"vibupdate {command}")
+        elif getattr(args, option.lstrip("-").replace("-", "_"), None) is not None:
+            require(extra, f"vibupdate {command} {option}")
 
 
 def _command(args) -> int:
     from vibupdate.io.outputs import safe_name
     from vibupdate.pipeline import check_case, example_names, run_case, run_example
 
+    _check_extras(args)
     if args.command == "extract":
         return _extract(args)
     if args.command == "sweep":
@@ -298,6 +324,12 @@ def main(argv=None) -> int:
             sys.stderr.flush()
             os._exit(EXIT["interrupted"])
         return EXIT["interrupted"]
+    except MissingExtra as exc:
+        line = str(exc) if exc.feature.startswith("vibupdate ") else (
+            f"vibupdate {args.command} needs the optional extra [{exc.extra}] for {exc.feature}: "
+            f"{install_hint(exc.extra)}")
+        print(line, file=sys.stderr)
+        return EXIT["bad_input"]
     except (ValueError, _BadInput) as exc:
         print(f"vibupdate: error: {exc}", file=sys.stderr)
         return EXIT["bad_input"]

@@ -180,6 +180,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     failed is replaced by a short one saying what failed. Returns the run as written (with
     those notes).
     """
+    from vibupdate._extras import available, skipped
     from vibupdate.io.outputs import OutputWarning, drawn
     from vibupdate.report.plots import plot_homotopy
 
@@ -194,11 +195,16 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     images = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
-        images += _receptance_plot(folder, case, run)
-        for cfg in case.configurations:
+        plots = available("plots")      # without matplotlib: one note and no plots
+        if not plots:
+            warnings.warn(OutputWarning(skipped("plots", "plots")))
+        if plots:
+            images += _receptance_plot(folder, case, run)
+        for cfg in case.configurations if plots else ():
             images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
         # the path is worth a plot when it has steps between the relaxation and lambda = 1
-        if len(run.solver["steps"]) > 2 and drawn(folder / "homotopy.png", plot_homotopy, run.solver["steps"]):
+        if plots and len(run.solver["steps"]) > 2 and drawn(folder / "homotopy.png", plot_homotopy,
+                                                             run.solver["steps"]):
             images.append(("homotopy objective per step", "homotopy.png"))
         if extra is not None:
             try:

@@ -49,7 +49,7 @@ def test_ipopt_codes_map_to_the_one_status_enum():
 
 
 def test_an_unknown_backend_is_named_in_the_error():
-    with pytest.raises(ValueError, match="backend must be one of .*'casadi-ipopt'.*got 'gurobi'"):
+    with pytest.raises(ValueError, match="solver.backend: must be one of .*'casadi-ipopt'.*got 'gurobi'"):
         SolverOptions(backend="gurobi")
 
 
@@ -272,7 +272,7 @@ def test_a_failed_relaxation_qp_falls_back_to_ipopt(monkeypatch):
 
 
 def test_an_unknown_relaxation_solver_is_named_in_the_error():
-    with pytest.raises(ValueError, match="relaxation_solver must be 'piqp' or 'nlp', got 'osqp'"):
+    with pytest.raises(ValueError, match="solver.relaxation_solver: must be 'piqp' or 'nlp', got 'osqp'"):
         SolverOptions(relaxation_solver="osqp")
 
 

@@ -133,3 +133,49 @@ def test_the_outputs_page_example_runs(tiny_run, tmp_path, monkeypatch, capsys):
     for block in blocks:
         exec(compile(block, "docs/outputs.md", "exec"), {})
     assert "tiny" in capsys.readouterr().out
+
+
+def _paths(value, path=()):
+    """Every place in a JSON document: ``path`` tuples of keys and indices."""
+    yield path
+    if isinstance(value, dict):
+        for key, item in value.items():
+            yield from _paths(item, path + (key,))
+    elif isinstance(value, list):
+        for k, item in enumerate(value):
+            yield from _paths(item, path + (k,))
+
+
+def _replaced(doc, path, new):
+    doc = json.loads(json.dumps(doc))
+    *head, last = path
+    target = doc
+    for key in head:
+        target = target[key]
+    if new is _DELETE:
+        del target[last]
+    else:
+        target[last] = new
+    return doc
+
+
+_DELETE = object()
+
+
+def test_the_schema_checker_agrees_with_jsonschema_on_valid_and_broken_documents(tiny_run):
+    """`vibupdate.io.schema_check` (no schema library at run time) against the reference
+    implementation: every place of a written document replaced by a string, a negative
+    number, null, an empty list or deleted; both must agree on valid or not."""
+    jsonschema = pytest.importorskip("jsonschema")
+    from vibupdate.io.schema_check import first_error
+
+    _, out, _ = tiny_run
+    doc = json.loads((out / "results.json").read_text())
+    reference = jsonschema.Draft202012Validator(schema())
+    cases = [doc]
+    for path in list(_paths(doc))[1:]:
+        cases += [_replaced(doc, path, new) for new in ("text", -1, -0.5, None, [], _DELETE)
+                  if not (new is _DELETE and isinstance(path[-1], int))]
+    disagree = [k for k, case in enumerate(cases)
+                if (first_error(case, schema()) is None) != reference.is_valid(case)]
+    assert len(cases) > 500 and not disagree, disagree[:5]

@@ -5,7 +5,7 @@ import scipy.sparse as sp
 
 from vibupdate.modal import eigen
 from vibupdate.modal.kept import Kept
-from vibupdate.modal.solve_log import counting_solves
+from solve_log import counting_solves
 
 
 def _chain(n, k=1000.0):

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -342,10 +343,11 @@ def test_multistart_counts_minima_and_finds_the_truth(client, chain_file):
             assert np.max(np.abs(np.asarray(a.xbar) - np.asarray(b.xbar))) > 1e-3
 
 
-def test_readme_shows_the_local_and_the_scheduler_sweep():
+def test_the_cli_page_shows_the_local_and_the_scheduler_sweep():
     from vibupdate.cli import _parser
 
-    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    page = (Path(__file__).resolve().parents[2] / "docs" / "cli.md").read_text()
+    text = "".join(re.findall(r"```bash\n(.*?)```", page, re.S))   # the command lines shown
     lines = [line.split() for line in text.splitlines() if line.startswith("vibupdate sweep ")]
     parsed = [_parser().parse_args(words[1:]) for words in lines]
     assert any(a.scheduler is None for a in parsed)

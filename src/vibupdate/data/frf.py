@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate._extras import require
+
 __all__ = ["FRFSet", "read_frfs", "read_uff58", "read_frf_table", "to_receptance", "combine", "G"]
 
 G = 9.80665  # m/s^2, standard gravity
@@ -188,6 +190,7 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
     g_units : bool
         The ordinate is in g per newton.
     """
+    require("frf", "reading UFF files")
     import pyuff
 
     path = Path(path)

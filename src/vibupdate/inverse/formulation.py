@@ -32,6 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
+from vibupdate.options import check, default
 from vibupdate.modal.analysis import antiresonances
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import Configuration, validate_configurations
@@ -75,31 +76,19 @@ class FormulationOptions:
         formulation took 6.9 s at 110 DOFs and 331 s at 305, the reduced one 15 s at both).
     """
 
-    shape_margin: float = 1.5
-    adjunct_margin: float = 1.5
-    sign_delta: float = 1e-3
-    length_scale: float | None = None
+    shape_margin: float = default("formulation", "shape_margin")
+    adjunct_margin: float = default("formulation", "adjunct_margin")
+    sign_delta: float = default("formulation", "sign_delta")
+    length_scale: float | None = default("formulation", "length_scale")
     rotation_prefixes: tuple[str, ...] = ROTATION_PREFIXES
-    weighting: str = "relative"
-    interlacing: bool = True
-    reduction: str = "auto"
-    reduction_modes: int = 20
-    reduction_threshold: int = 200
+    weighting: str = default("formulation", "weighting")
+    interlacing: bool = default("formulation", "interlacing")
+    reduction: str = default("formulation", "reduction")
+    reduction_modes: int = default("formulation", "reduction_modes")
+    reduction_threshold: int = default("formulation", "reduction_threshold")
 
     def __post_init__(self):
-        if self.reduction not in ("auto", "none", "craig-bampton"):
-            raise ValueError(f"reduction must be 'auto', 'none' or 'craig-bampton', got {self.reduction!r}")
-        if not isinstance(self.reduction_modes, int) or self.reduction_modes < 0:
-            raise ValueError(f"reduction_modes must be an integer >= 0, got {self.reduction_modes!r}")
-        for name in ("shape_margin", "adjunct_margin"):
-            if not getattr(self, name) >= 1.0:
-                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)!r}")
-        if not 0 < self.sign_delta < 1:
-            raise ValueError(f"sign_delta must be in (0, 1), got {self.sign_delta!r}")
-        if self.weighting not in ("relative", "unit"):
-            raise ValueError(f"weighting must be 'relative' or 'unit', got {self.weighting!r}")
-        if self.length_scale is not None and not self.length_scale > 0:
-            raise ValueError(f"length_scale must be positive, got {self.length_scale!r}")
+        check("formulation", self)      # types and ranges: vibupdate.options
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vibupdate.options import check, default
 from vibupdate.inverse.backends import BACKENDS, StepOutcome, build
 from vibupdate.inverse.formulation import BilinearProblem
 from vibupdate.inverse.relaxation import lifted_values, mccormick
@@ -65,35 +66,20 @@ class SolverOptions:
         (docs/method.md, section 6).
     """
 
-    n_lambda: int = 1
-    step_growth: float = 2.0
-    min_step: float = 1e-3
-    proximal: float = 1e-6
-    max_iter: int = 3000
-    max_cpu_time: float = 600.0
-    tol: float = 1e-10
+    n_lambda: int = default("solver", "n_lambda")
+    step_growth: float = default("solver", "step_growth")
+    min_step: float = default("solver", "min_step")
+    proximal: float = default("solver", "proximal")
+    max_iter: int = default("solver", "max_iter")
+    max_cpu_time: float = default("solver", "max_cpu_time")
+    tol: float = default("solver", "tol")
     backend: str = "casadi-ipopt"
-    relaxation_solver: str = "piqp"
+    relaxation_solver: str = default("solver", "relaxation_solver")
 
     def __post_init__(self):
-        if not isinstance(self.n_lambda, int) or self.n_lambda < 1:
-            raise ValueError(f"n_lambda must be an integer >= 1, got {self.n_lambda!r}")
-        if not 1.0 <= self.step_growth < float("inf"):
-            raise ValueError(f"step_growth must be a number >= 1, got {self.step_growth!r}")
-        if not 0 < self.min_step <= 1:
-            raise ValueError(f"min_step must be in (0, 1], got {self.min_step!r}")
-        if not self.proximal >= 0:
-            raise ValueError(f"proximal must be >= 0, got {self.proximal!r}")
-        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
-            raise ValueError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
-        if not 0 < self.max_cpu_time < float("inf"):
-            raise ValueError(f"max_cpu_time must be a positive number of seconds, got {self.max_cpu_time!r}")
-        if not 0 < self.tol < float("inf"):
-            raise ValueError(f"tol must be a positive number, got {self.tol!r}")
+        check("solver", self)       # types and ranges: vibupdate.options
         if self.backend not in BACKENDS:
-            raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
-        if self.relaxation_solver not in ("piqp", "nlp"):
-            raise ValueError(f"relaxation_solver must be 'piqp' or 'nlp', got {self.relaxation_solver!r}")
+            raise ValueError(f"solver.backend: must be one of {sorted(BACKENDS)}, got {self.backend!r}")
 
 
 @dataclass(frozen=True)

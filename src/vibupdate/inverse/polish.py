@@ -72,6 +72,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import (STALL_DECREASE, Monitor, Stop, bounded_least_squares, inside,
                                            stall_window)
 from vibupdate.inverse.correlation import zeros_wanted, model_frequencies
@@ -138,28 +139,15 @@ class PolishOptions:
         models above `vibupdate.modal.eigen.DENSE_LIMIT` DOFs; 0 polishes on the full model only.
     """
 
-    enabled: bool = True
-    shape_weight: float = 100.0
-    max_evaluations: int | None = None
-    tol: float = 1e-12
-    reduced_rounds: int = 6
-    max_seconds: float | None = None
+    enabled: bool = default("polish", "enabled")
+    shape_weight: float = default("polish", "shape_weight")
+    max_evaluations: int | None = default("polish", "max_evaluations")
+    tol: float = default("polish", "tol")
+    reduced_rounds: int = default("polish", "reduced_rounds")
+    max_seconds: float | None = default("polish", "max_seconds")
 
     def __post_init__(self):
-        if not isinstance(self.enabled, bool):
-            raise ValueError(f"polish enabled must be true or false, got {self.enabled!r}")
-        if not (self.shape_weight >= 0 and np.isfinite(self.shape_weight)):
-            raise ValueError(f"polish shape_weight must be finite and >= 0, got {self.shape_weight!r}")
-        if self.max_evaluations is not None and (not isinstance(self.max_evaluations, int)
-                                                 or isinstance(self.max_evaluations, bool) or self.max_evaluations < 1):
-            raise ValueError(f"polish max_evaluations must be an integer >= 1, got {self.max_evaluations!r}")
-        if self.max_seconds is not None and not (isinstance(self.max_seconds, (int, float))
-                                                 and 0 < self.max_seconds < float("inf")):
-            raise ValueError(f"polish max_seconds must be a positive number of seconds, got {self.max_seconds!r}")
-        if not (0 < self.tol < 1):
-            raise ValueError(f"polish tol must be in (0, 1), got {self.tol!r}")
-        if not isinstance(self.reduced_rounds, int) or isinstance(self.reduced_rounds, bool) or self.reduced_rounds < 0:
-            raise ValueError(f"polish reduced_rounds must be an integer >= 0, got {self.reduced_rounds!r}")
+        check("polish", self)       # types and ranges: vibupdate.options
 
     def budget(self, n_x: int) -> int:
         """Full-model evaluations allowed for ``n_x`` parameters."""

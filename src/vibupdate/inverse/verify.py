@@ -54,6 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vibupdate.options import check, default
 from vibupdate.modal.analysis import mac
 from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.data.measured import TWO_PI, Configuration
@@ -90,20 +91,13 @@ class VerifyOptions:
         Largest relative miss of a measured frequency without an interval.
     """
 
-    mac_min: float = 0.8
-    shape_slack: float = 0.5
-    frequency_tolerance: float = 0.01
-    fit_tolerance: float = 0.02
+    mac_min: float = default("verification", "mac_min")
+    shape_slack: float = default("verification", "shape_slack")
+    frequency_tolerance: float = default("verification", "frequency_tolerance")
+    fit_tolerance: float = default("verification", "fit_tolerance")
 
     def __post_init__(self):
-        if not 0 <= self.mac_min <= 1:
-            raise ValueError(f"mac_min must be in [0, 1], got {self.mac_min!r}")
-        if not (self.shape_slack >= 0 and np.isfinite(self.shape_slack)):
-            raise ValueError(f"shape_slack must be finite and >= 0, got {self.shape_slack!r}")
-        if not (0 <= self.frequency_tolerance < 1):
-            raise ValueError(f"frequency_tolerance must be in [0, 1), got {self.frequency_tolerance!r}")
-        if not (0 < self.fit_tolerance < 1):
-            raise ValueError(f"fit_tolerance must be in (0, 1), got {self.fit_tolerance!r}")
+        check("verification", self)     # types and ranges: vibupdate.options
 
 
 @dataclass(frozen=True)

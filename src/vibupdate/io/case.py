@@ -41,6 +41,7 @@ from vibupdate.io.case_keys import (
 )
 from vibupdate.io.case_model import LinearExpression, configuration_model, linear_expression
 from vibupdate.model.parameters import Parameter
+from vibupdate.options import problem as option_problem
 
 __all__ = ["Case", "DampingOptions", "LinearExpression", "load_case", "linear_expression"]
 
@@ -240,17 +241,14 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
 # -- the whole file -----------------------------------------------------------------------------
 
 def _options(cls, table: dict, allowed: dict, key: str, where: Where):
+    """The option object of the case file's ``[key]``: each value checked against its
+    declaration (`vibupdate.options`), in the words the Python API uses."""
     check_table(table, allowed, key, where)
-    try:
-        return cls(**table)
-    except ValueError as exc:
-        message = str(exc)
-        if message.split(" ", 1)[0] == key:  # "polish tol must ..." names the table, then the field
-            message = message.split(" ", 1)[1]
-        field_name, _, rest = message.partition(" ")
-        if field_name in allowed:  # "tol must be ..." -> "polish.tol: must be ..."
-            raise where.error(f"{key}.{field_name}", rest) from None
-        raise where.error(key, message) from None
+    for name, value in table.items():
+        why = option_problem(key, name, value)
+        if why is not None:
+            raise ValueError(f"{where.path}: {why}")
+    return cls(**table)
 
 
 def _damping(table: dict, where: Where) -> DampingOptions:

@@ -12,6 +12,8 @@ import math
 import re
 from pathlib import Path
 
+from vibupdate.options import declared
+
 __all__ = ["Where", "check_table", "numbers", "TOP_KEYS", "CFG_KEYS", "FRF_KEYS", "ELEMENTS_KEYS", "POLISH_KEYS",
            "VERIFICATION_KEYS", "SOLVER_KEYS", "FORMULATION_KEYS", "DAMPING_KEYS", "PARAMETER_KEYS"]
 
@@ -75,14 +77,11 @@ def numbers(values, key, where) -> list[float]:
 TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list, "solver": dict,
              "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
              "verification": dict}
-POLISH_KEYS = {"enabled": bool, "shape_weight": float, "max_evaluations": int, "tol": float,
-               "reduced_rounds": int, "max_seconds": float}
-VERIFICATION_KEYS = {"mac_min": float, "shape_slack": float, "fit_tolerance": float}
-SOLVER_KEYS = {"n_lambda": int, "step_growth": float, "min_step": float, "proximal": float, "max_iter": int, "max_cpu_time": float,
-                "tol": float, "relaxation_solver": str}
-FORMULATION_KEYS = {"shape_margin": float, "adjunct_margin": float, "sign_delta": float, "length_scale": float,
-                     "weighting": str, "interlacing": bool, "reduction": str, "reduction_modes": int,
-                     "reduction_threshold": int}
+# The option tables: their keys from the declarations, each value checked there (vibupdate.options).
+POLISH_KEYS = {o.name: None for o in declared("polish", case_file=True)}
+VERIFICATION_KEYS = {o.name: None for o in declared("verification", case_file=True)}
+SOLVER_KEYS = {o.name: None for o in declared("solver", case_file=True)}
+FORMULATION_KEYS = {o.name: None for o in declared("formulation", case_file=True)}
 DAMPING_KEYS = {"exponents": list, "mode_weights": dict, "relative": bool, "rationale": str}
 PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float}
 CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_modes": list, "damping_ratios": list,

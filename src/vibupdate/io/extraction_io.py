@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate._extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
 
@@ -147,6 +148,7 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
 
 def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
+    require("plots", "drawing plots")
     import matplotlib
 
     matplotlib.use("Agg")

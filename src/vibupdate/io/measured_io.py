@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate._extras import require
+
 __all__ = ["read_frequency_csv", "read_shape_csv", "read_uff_modes", "UffMode"]
 
 _UFF_DIRECTIONS = {"r1": "x", "r2": "y", "r3": "z", "r4": "rx", "r5": "ry", "r6": "phi"}
@@ -180,6 +182,7 @@ class UffMode(dict):
 
 def read_uff_modes(path) -> list[UffMode]:
     """Normal modes from the dataset-55 records of a UFF file, in file order."""
+    require("frf", "reading UFF files")
     import pyuff
 
     path = Path(path)

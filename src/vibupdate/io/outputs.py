@@ -39,6 +39,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
+from vibupdate._extras import MissingExtra
 from vibupdate.io.manifests import (
     COMMANDS,
     LEGACY_MANIFEST,
@@ -76,9 +77,9 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     a warning, not the run.
 
     Returns True when the file was written. On any exception of ``plot`` (a degenerate
-    figure, a font or backend problem) the partial file and the matplotlib figures it opened
-    are removed, an `OutputWarning` naming the file and the error is issued, and False is
-    returned. KeyboardInterrupt is not caught.
+    figure, a font or backend problem, matplotlib not installed: `vibupdate._extras`) the
+    partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
+    the file and the error is issued, and False is returned. KeyboardInterrupt is not caught.
     """
     import sys
     import warnings
@@ -96,7 +97,8 @@ def drawn(path, plot, *args, **kwargs) -> bool:
                 plt.close(number)
         if path.is_file():
             path.unlink()
-        warnings.warn(OutputWarning(f"{path.name} was not drawn: {type(exc).__name__}: {exc}"), stacklevel=2)
+        why = str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
+        warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
         return False
 
 

@@ -435,14 +435,15 @@ def schema() -> dict:
 
 
 def validate_document(doc) -> None:
-    """Raise ValueError naming the first place where ``doc`` breaks the schema."""
-    import jsonschema
+    """Raise ValueError naming the first place where ``doc`` breaks the schema
+    (`vibupdate.io.schema_check`: the keywords the schema uses, no schema library)."""
+    from vibupdate.io.schema_check import first_error
 
-    validator = jsonschema.Draft202012Validator(schema())
-    error = next(iter(sorted(validator.iter_errors(doc), key=lambda e: list(e.path))), None)
+    error = first_error(doc, schema())
     if error is not None:
-        where = "/".join(str(p) for p in error.absolute_path) or "(top level)"
-        raise ValueError(f"results document does not match the schema at {where}: {error.message}")
+        path, message = error
+        where = "/".join(str(p) for p in path) or "(top level)"
+        raise ValueError(f"results document does not match the schema at {where}: {message}")
 
 
 def write_results(path, run: RunResult) -> Path:

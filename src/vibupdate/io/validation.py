@@ -3,8 +3,9 @@
 `validate_case` does everything a run would reject before and after solving that can be known
 beforehand, so that ``check`` accepts exactly the cases ``run`` accepts:
 
-* options: every number finite and in its range (the option classes accept some values that
-  the solver or the damping stage reject later);
+* options: the solver, formulation, polish and verification options are checked where they
+  are made, against their declarations (`vibupdate.options`), so a case holds only valid ones;
+  here the top-level ``frequency_tolerance`` and the damping options;
 * physics: ``M`` and ``K`` of every configuration admissible (`vibupdate.model.physical`) at the
   nominal point (an error otherwise) and at corners of the parameter box (where not, a
   warning naming the bound and the solver's narrower bound, `physical_box`), rigid-body
@@ -30,14 +31,10 @@ __all__ = ["CaseCheck", "validate_case", "HIGH_DAMPING"]
 
 #: Damping ratios above this get a warning.
 HIGH_DAMPING = 0.2
-#: Most homotopy steps and IPOPT iterations per solve.
-MAX_STEPS, MAX_ITERATIONS = 10_000, 1_000_000
 #: Largest magnitude of a Caughey exponent.
 MAX_EXPONENT = 10.0
 #: Largest magnitude of a normalized bound (Eq. 12): a parameter may move this many reference values.
 MAX_NORMALIZED_BOUND = 1e6
-#: Largest shape or adjunct margin.
-MAX_MARGIN = 100.0
 #: Largest user weight of a measured frequency.
 MAX_WEIGHT = 1e6
 #: Measured / nominal frequency ratios within this factor of 2 pi look like rad/s given as Hz.
@@ -73,37 +70,6 @@ class CaseCheck:
 def _finite(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
         and math.isfinite(value)
-
-
-def _check_solver(solver, error) -> None:
-    for name, most in (("n_lambda", MAX_STEPS), ("max_iter", MAX_ITERATIONS)):
-        value = getattr(solver, name)
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= most:
-            raise error(f"solver.{name}", f"must be an integer from 1 to {most}, got {value!r}")
-    checks = (("min_step", lambda v: 0 < v <= 1, "in (0, 1]"),
-              ("step_growth", lambda v: 1 <= v <= 100, "in [1, 100]"),
-              ("proximal", lambda v: 0 <= v <= 1, "in [0, 1]"),
-              ("max_cpu_time", lambda v: v > 0, "a positive number of seconds"),
-              ("tol", lambda v: 0 < v < 1, "in (0, 1)"))
-    for name, ok, expected in checks:
-        value = getattr(solver, name)
-        if not _finite(value) or not ok(value):
-            raise error(f"solver.{name}", f"must be finite and {expected}, got {value!r}")
-
-
-def _check_formulation(options, error) -> None:
-    for name in ("shape_margin", "adjunct_margin", "sign_delta", "length_scale"):
-        value = getattr(options, name)
-        if value is not None and not _finite(value):
-            raise error(f"formulation.{name}", f"must be a finite number, got {value!r}")
-    for name in ("shape_margin", "adjunct_margin"):
-        value = getattr(options, name)
-        if value > MAX_MARGIN:
-            raise error(f"formulation.{name}", f"must be <= {MAX_MARGIN:g} (wider boxes bound nothing and make the "
-                                               f"relaxation ill-conditioned), got {value!r}")
-    value = options.reduction_threshold
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise error("formulation.reduction_threshold", f"must be an integer >= 0, got {value!r}")
 
 
 def _check_damping(case, rigid: int, error) -> list[str]:
@@ -296,8 +262,6 @@ def validate_case(case) -> CaseCheck:
     from vibupdate.io.case_keys import Where
 
     error = Where(case.path if case.path is not None else Path("case")).error
-    _check_solver(case.solver, error)
-    _check_formulation(case.formulation, error)
     tol = case.frequency_tolerance
     if not _finite(tol) or not 0 <= tol < 1:
         raise error("frequency_tolerance", f"must be a finite relative half-width in [0, 1), got {tol!r}")

@@ -43,6 +43,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from vibupdate._extras import require
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.formulation import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -411,7 +412,13 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
     options : FormulationOptions, optional
         The vector boxes, as in the first stage.
     progress : callable, optional
+
+    Raises
+    ------
+    vibupdate._extras.MissingExtra
+        Without the optional extra ``[certify]`` (HiGHS, Clarabel), before any work.
     """
+    require("certify", "computing certified ranges")
     labels = (["the answer"] if xbar is not None else []) + [label for label, _ in include]
     points = ([np.asarray(xbar, dtype=float)] if xbar is not None else []) + [np.asarray(p, dtype=float)
                                                                             for _, p in include]

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from vibupdate._extras import require
 from vibupdate.ranges.consistent import RESIDUAL_FLOOR, ConsistentSet
 
 __all__ = ["Lifted", "RelaxedLP", "ClarabelModel", "lift", "relax", "safe_bound", "solve", "solve_clarabel",
@@ -278,6 +279,7 @@ def safe_bound(c, lp: RelaxedLP, y) -> float:
 
 def highs_model(lp: RelaxedLP):
     """A HiGHS instance holding the LP (objective set per solve by `solve`)."""
+    require("certify", "computing certified ranges")
     import highspy
 
     h = highspy.Highs()
@@ -305,6 +307,7 @@ def solve(lp: RelaxedLP, c, h=None, *, point: bool = False):
     ``h`` may hold tighter column bounds than ``lp`` (`vibupdate.ranges.certify` narrows them in
     place between solves); ``lp.zl``, ``lp.zu`` must then be those bounds or wider, which keeps
     the safe bound valid (it holds over the wider box too)."""
+    require("certify", "computing certified ranges")
     import highspy
 
     h = h if h is not None else highs_model(lp)
@@ -348,6 +351,7 @@ class ClarabelModel:
 
 def clarabel_model(lp: RelaxedLP, c=None) -> ClarabelModel:
     """A Clarabel instance of the LP (objective ``c``, zero when not given)."""
+    require("certify", "computing certified ranges")
     import clarabel
 
     A = sp.csc_matrix(lp.A)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate._extras import require
 from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
@@ -16,6 +17,7 @@ __all__ = ["plot_frf", "plot_receptances", "plot_measured_frf", "plot_homotopy",
 
 
 def _pyplot():
+    require("plots", "drawing plots")
     import matplotlib
 
     matplotlib.use("Agg")

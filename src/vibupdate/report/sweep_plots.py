@@ -9,13 +9,15 @@ matplotlib is imported inside the functions (Agg backend).
 
 from __future__ import annotations
 
+import warnings
 from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI
-from vibupdate.io.outputs import drawn, file_names
+from vibupdate._extras import available, skipped
+from vibupdate.io.outputs import OutputWarning, drawn, file_names
 from vibupdate.report.numbers import finite
 from vibupdate.report.plots import _pyplot
 
@@ -209,7 +211,11 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
 
 def write_sweep_plots(out: Path, case, rows, document: dict, ends=()) -> list[Path]:
     """All plots of a sweep into ``out``; returns the paths of those drawn. A plot that fails
-    is left out with an `vibupdate.io.outputs.OutputWarning` naming it and the error."""
+    is left out with an `vibupdate.io.outputs.OutputWarning` naming it and the error; without
+    the optional extra ``[plots]`` none is drawn and one warning says so."""
+    if not available("plots"):
+        warnings.warn(OutputWarning(skipped("plots", "the sweep's plots")), stacklevel=2)
+        return []
     out = Path(out)
     plots = [(out / "parameters_hist.png", plot_histograms, (document, rows))]
     names = least_determined(document)

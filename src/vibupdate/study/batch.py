@@ -18,6 +18,8 @@ import csv
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from vibupdate._extras import require
+
 __all__ = ["run_batch", "run_one", "summary_markdown", "SUMMARY_FILES"]
 
 #: The files a batch writes into its output directory beside the case folders.
@@ -83,6 +85,7 @@ def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler
     workers, scheduler, client
         The engine (`vibupdate.study.engine.open_client`).
     """
+    require("study", "running on Dask")
     from distributed import as_completed
 
     from vibupdate import __version__

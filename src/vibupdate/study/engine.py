@@ -17,6 +17,8 @@ import os
 import time
 from collections.abc import Callable, Iterator
 
+from vibupdate._extras import require
+
 __all__ = ["open_client", "Progress", "default_workers"]
 
 
@@ -46,6 +48,7 @@ def open_client(workers: int | None = None, scheduler: str | None = None, *,
     if client is not None:
         yield client
         return
+    require("study", "running on Dask")
     from distributed import Client, LocalCluster
 
     if scheduler is not None:

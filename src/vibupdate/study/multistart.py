@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vibupdate._extras import require
 from vibupdate.io.case import Case
 
 __all__ = ["LocalMinimum", "MultistartResult", "multistart", "solve_start", "random_start_solve", "build_solver"]
@@ -171,6 +172,7 @@ def multistart(case: Case, starts: int, *, seed: int = 0, x_tol: float = 1e-3, w
     workers, scheduler, client
         The engine (`vibupdate.study.engine.open_client`).
     """
+    require("study", "running on Dask")
     from distributed import as_completed
 
     from vibupdate.study.engine import Progress, open_client

@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate._extras import require
 from vibupdate.io.case import Case, load_case
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
@@ -366,6 +367,7 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
 
 def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writers, progress) -> tuple[list[dict], list[dict]]:
     """Submit the samples ``todo``; write each row (after its line ends) as it arrives."""
+    require("study", "running on Dask")
     from distributed import as_completed
 
     if isinstance(payload, Case):

@@ -1,5 +1,7 @@
 """Which eigen-solves a piece of code runs: a diagnostic for "no repeated eigen-solves of the
-same matrices within a run" (`benchmarks/eigen_solves.py`, `tests/test_solves.py`).
+same matrices within a run" (`benchmarks/eigen_solves.py`, `tests/test_solves.py`). A test
+instrument: it patches the modules of the package while it runs, so it lives beside the tests,
+not in the package.
 
 `counting_solves` wraps the kernels' entry points for the duration of a ``with`` block (the
 dense and sparse eigen-solves of a pencil ``(K, M)`` and of an adjunct pencil; a re-use of a
