@@ -19,6 +19,10 @@ Parameters (property groups):
   area, second moments and torsion constant are polynomials of degree up to 3 in ``d_beam``,
   so the model is *not* affine in it.
 
+A known payload of `PAYLOAD` kg sits on each roof corner node (translational mass, no
+parameter): with every stiffness and mass term a parameter, scaling them all together would
+change neither frequencies nor mode shapes, and no modal data could fix the scale.
+
 The rotations of the beams' mid-span nodes carry no mass (the beams are massless and the floor
 mass is translational), so ``M`` is singular on that set (`FrameModel.massless`). The base
 translations are constrained: `matrices` leaves them out unless ``constrained=True``, which
@@ -45,6 +49,8 @@ NOMINAL = {"E_col": 210e9, "E_beam": 200e9, "rho_col": 7850.0, "m_floor": 400.0,
 #: Width of the rectangular beam section, m.
 BEAM_WIDTH = 0.2
 #: Column section: area (m^2), second moments Iy, Iz (m^4), torsion constant J (m^4).
+#: Known mass on each roof corner node, kg.
+PAYLOAD = 2000.0
 COLUMN = (1.2e-2, 1.6e-4, 1.6e-4, 2.4e-4)
 POISSON = 0.3
 BAY = (5.0, 4.0)
@@ -137,7 +143,7 @@ class FrameModel:
         P = self._parts
         K = (p["E_col"] * P["Kc"] + p["k_base"] * P["Ks"]
              + p["E_beam"] * (A * P["KbA"] + Iy * P["KbIy"] + Iz * P["KbIz"] + J * P["KbJ"]))
-        M = p["rho_col"] * P["Mc"] + p["m_floor"] * P["Mf"]
+        M = p["rho_col"] * P["Mc"] + p["m_floor"] * P["Mf"] + P["Mp"]
         if not constrained:
             keep = P["free"]
             K, M = K[keep][:, keep], M[keep][:, keep]
@@ -217,6 +223,12 @@ def frame3d(bays_x: int = 3, bays_y: int = 2, stories: int = 4) -> FrameModel:
     for label, area in floor_mass.items():
         lumped[6 * index[label]:6 * index[label] + 3] = area
     parts["Mf"] = sp.diags(lumped).tocsr()
+    payload = np.zeros(n)
+    for i in range(bays_x + 1):
+        for j in range(bays_y + 1):
+            k = 6 * index[corner[(stories, i, j)]]
+            payload[k:k + 3] = PAYLOAD
+    parts["Mp"] = sp.diags(payload).tocsr()
     base_translations = {f"{label}:{d}" for label in base for d in ("x", "y", "z")}
     free = np.array([k for k, name in enumerate(all_dofs) if name not in base_translations])
     parts["free"] = free
