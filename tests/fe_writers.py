@@ -132,4 +132,5 @@ def write_abaqus(folder, K, M, dofs, job="job", step=1):
 
 def relative_difference(A, B) -> float:
     A, B = sp.csr_matrix(A), sp.csr_matrix(B)
-    return float(abs(A - B).max() / abs(B).max())
+    scale = abs(B).max() if B.nnz else 0.0
+    return float(abs(A - B).max() / scale) if scale else float(abs(A).max() if A.nnz else 0.0)

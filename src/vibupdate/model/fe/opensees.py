@@ -41,13 +41,14 @@ def openseespy():
         raise ValueError('an OpenSees model needs the opensees package: pip install "vibupdate[fe]"') from None
 
 
-def _system_matrix(ops, factors, n) -> np.ndarray:
+def _system_matrix(ops, factors) -> np.ndarray:
     ops.integrator("GimmeMCK", *factors)
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         ops.analyze(1, 0.0)   # assembles the system; the (singular) M solve may complain: ignored
     A = np.asarray(ops.printA("-ret"), dtype=float)
-    if A.size != n * n:
-        raise ValueError(f"OpenSees returned a system of {A.size} terms, expected {n} x {n}")
+    n = int(round(np.sqrt(A.size)))
+    if n * n != A.size:
+        raise ValueError(f"OpenSees returned a system of {A.size} terms, not a square matrix")
     return A.reshape(n, n)
 
 
@@ -68,6 +69,15 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
     tags = [int(t) for t in ops.getNodeTags()]
     if not tags:
         raise ValueError(f"{name}: the OpenSees builder made no nodes")
+    ops.wipeAnalysis()
+    ops.constraints("Plain")
+    ops.numberer("Plain")
+    ops.system("FullGeneral")
+    ops.algorithm("Linear")
+    ops.analysis("Transient")
+    K = _system_matrix(ops, (0.0, 0.0, 1.0))
+    M = _system_matrix(ops, (1.0, 0.0, 0.0))
+    n = K.shape[0]
     ndf = {len(ops.nodeDOFs(t)) for t in tags}
     ndm = len(ops.nodeCoord(tags[0]))
     if ndf == {6}:
@@ -82,17 +92,8 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
         for d, eq in zip(directions, ops.nodeDOFs(t)):
             if eq >= 0:
                 equations[int(eq)] = f"{t}:{d}"
-    n = len(equations)
     if sorted(equations) != list(range(n)):
         raise ValueError(f"{name}: OpenSees equation numbers are not 0..{n - 1}")
-    ops.wipeAnalysis()
-    ops.constraints("Plain")
-    ops.numberer("Plain")
-    ops.system("FullGeneral")
-    ops.algorithm("Linear")
-    ops.analysis("Transient")
-    K = _system_matrix(ops, (0.0, 0.0, 1.0), n)
-    M = _system_matrix(ops, (1.0, 0.0, 0.0), n)
     nodes = {str(t): np.asarray(ops.nodeCoord(t), dtype=float) for t in tags}
     ops.wipe()
     # FullGeneral assembles in floating point: symmetrize the last bits

@@ -12,7 +12,7 @@ parameter changed by a stated step ``h`` (the others at nominal). The derivative
 The second step also measures how far the matrix is from affine in the parameter: the
 *departure* ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
 M's, 0 for an affine parameter up to rounding (a beam depth in bending, ``K ~ d^3``, departs
-by about ``|h1 - h2| / d``). The affine model is then the linearization at ``p0``: exact for an
+by up to ``|h1 - h2| / d``). The affine model is then the linearization at ``p0``: exact for an
 affine parameter, first-order for another.
 
 Each parameter also names the property group it moves: the DOFs (and their nodes) whose rows of

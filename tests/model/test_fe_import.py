@@ -1,0 +1,215 @@
+"""FE-code exports of the known-truth space frame: readers, perturbed exports, `vibupdate import`."""
+
+import json
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import fe_cases
+import fe_writers
+from vibupdate.cli import main
+from vibupdate.examples.frame3d import NOMINAL, frame3d
+from vibupdate.model.fe.abaqus import read_abaqus
+from vibupdate.model.fe.ansys import read_hbmat
+from vibupdate.model.fe.export import without_dofs
+from vibupdate.model.fe.nastran import nastran_float, read_dmig
+from vibupdate.model.fe.perturbed import Perturbation, derivatives
+from vibupdate.model.fe.sensors import locate
+from vibupdate.model.parameters import Parameter
+
+SMALL = (2, 1, 2)
+
+
+@pytest.fixture(scope="module")
+def small():
+    return frame3d(*SMALL)
+
+
+def test_frame3d_is_symmetric_with_massless_rotations_and_over_1000_dofs():
+    frame = frame3d()
+    K, M = frame.matrices()
+    assert K.shape == (1020, 1020) and len(frame.massless) == 204
+    assert abs(K - K.T).max() == 0 and abs(M - M.T).max() == 0
+    where = [frame.dofs.index(d) for d in frame.massless]
+    assert abs(M[where]).max() == 0
+
+
+@pytest.mark.parametrize("field, tol", [("free", 0.0), ("large", 1e-11), ("small", 1e-3)])
+def test_dmig_reads_back_to_the_precision_of_its_field(small, tmp_path, field, tol):
+    K, M = small.matrices()
+    export = read_dmig(fe_writers.write_dmig(tmp_path / "a.pch", K, M, small.dofs, field))
+    assert export.dofs == small.dofs
+    assert fe_writers.relative_difference(export.K, K) <= tol
+    assert fe_writers.relative_difference(export.M, M) <= tol
+
+
+def test_nastran_reals():
+    assert nastran_float("1.5+3") == 1500.0 and nastran_float("-2.D-4") == -2e-4 and nastran_float("7.E5") == 7e5
+
+
+@pytest.mark.parametrize("symmetric", [False, True])
+def test_hbmat_and_mapping_read_back_exactly(small, tmp_path, symmetric):
+    K, M = small.matrices()
+    folder = fe_writers.write_hbmat(tmp_path, K, M, small.dofs, symmetric)
+    export = read_hbmat(folder / "K.matrix", folder / "M.matrix", folder / "K.mapping")
+    assert export.dofs == small.dofs
+    assert fe_writers.relative_difference(export.K, K) == 0 and fe_writers.relative_difference(export.M, M) == 0
+
+
+def test_abaqus_unconstrained_matrices_minus_the_fixed_dofs_are_the_model(small, tmp_path):
+    Ka, Ma = small.matrices(constrained=True)
+    fe_writers.write_abaqus(tmp_path, Ka, Ma, small.all_dofs)
+    export = read_abaqus(tmp_path / "job_STIF1.mtx", tmp_path / "job_MASS1.mtx")
+    export = without_dofs(export, sorted(set(small.all_dofs) - set(small.dofs)))
+    K, M = small.matrices()
+    assert export.dofs == small.dofs
+    assert fe_writers.relative_difference(export.K, K) <= 1e-15 and fe_writers.relative_difference(export.M, M) <= 1e-15
+
+
+def test_a_beam_depth_is_reported_non_affine_and_linearized_by_the_central_difference(small, tmp_path):
+    def export(values):
+        K, M = small.matrices(values)
+        return read_dmig(fe_writers.write_dmig(tmp_path / f"{len(list(tmp_path.iterdir()))}.pch", K, M, small.dofs))
+
+    d0, h = NOMINAL["d_beam"], 0.02
+    depth = Parameter("d_beam", d0, 0.3, 0.5, "m")
+    young = Parameter("E_beam", NOMINAL["E_beam"], 1e11, 3e11, "Pa")
+    nominal = export({})
+    ders = derivatives(nominal, [Perturbation(depth, h, export({"d_beam": d0 + h}), -h, export({"d_beam": d0 - h})),
+                                 Perturbation(young, 2e10, export({"E_beam": 2.2e11}), -2e10,
+                                              export({"E_beam": 1.8e11}))])
+    # the section area is linear in d, Iy cubic: a departure of 0.02 with h / d = 0.05 (0.1 for Iy alone)
+    assert ders[0].departure > 0.01 and not ders[0].affine
+    assert ders[1].departure < 1e-12 and ders[1].affine
+    # the central difference is the derivative of the cubic K(d) to O(h^2)
+    Kp, _ = small.matrices({"d_beam": d0 * (1 + 1e-6)})
+    Km, _ = small.matrices({"d_beam": d0 * (1 - 1e-6)})
+    exact = (Kp - Km) / (2e-6 * d0)
+    assert fe_writers.relative_difference(ders[0].dK, exact) < 2 * (h / d0) ** 2
+    assert set(ders[0].nodes) == {str(n) for n in small.groups["E_beam"]}
+
+
+def test_sensors_by_dof_and_by_coordinates(small):
+    nodes = {str(k): v for k, v in small.nodes.items()}
+    corner = fe_cases.measured_dofs(small, SMALL[2])[0].split(":")[0]
+    s = locate("a", small.dofs, nodes, position=small.nodes[int(corner)] + [0.01, 0, 0], direction=[0, -1, 0])
+    assert (s.dof, s.sign) == (f"{corner}:y", -1.0) and s.distance == pytest.approx(0.01)
+    with pytest.raises(ValueError, match="mixes the node's axes"):
+        locate("b", small.dofs, nodes, position=small.nodes[int(corner)], direction=[1, 1, 0])
+    assert locate("c", small.dofs, dof=f"{corner}:z").dof == f"{corner}:z"
+
+
+@pytest.mark.parametrize("route", ["ansys", "abaqus", "nastran-large"])
+def test_every_route_imports_the_same_model_as_the_free_field_dmig(small, tmp_path, route):
+    from vibupdate.io.fe_import import read_import
+
+    ref = read_import(fe_cases.write_export_set("nastran", tmp_path / "ref", small))
+    other = read_import(fe_cases.write_export_set(route, tmp_path / route, small))
+    # 10 significant digits in 16 characters, divided by the 10 % step in the derivatives
+    tol = 1e-8 if route == "nastran-large" else 1e-13
+    assert other.model.dofs == ref.model.dofs
+    for a, b in zip(other.model.K_par + other.model.M_par + (other.model.K0, other.model.M0),
+                    ref.model.K_par + ref.model.M_par + (ref.model.K0, ref.model.M0)):
+        assert fe_writers.relative_difference(a, b) <= tol
+
+
+def test_import_then_run_recovers_the_truth_from_exact_data(small, tmp_path, capsys):
+    spec = fe_cases.write_export_set("nastran", tmp_path / "exports", small,
+                                     sensors='[[sensor]]\nname = "roof"\ndof = "2001:x"\n')
+    assert main(["import", str(spec), "--out", str(tmp_path / "model")]) == 0
+    said = capsys.readouterr().out
+    assert "rigid-body modes: 0" in said and "first frequencies (Hz)" in said and "24 without mass" not in said
+    truth = {k: NOMINAL[k] * fe_cases.TRUTH[k] for k in fe_cases.AFFINE}
+    K, M = small.matrices(truth)
+    case = fe_cases.exact_case(tmp_path / "model", K, M, small.dofs, fe_cases.measured_dofs(small, SMALL[2]), 8)
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 0, capsys.readouterr().err
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    err = {p["name"]: abs(p["updated"] / truth[p["name"]] - 1) for p in doc["parameters"]}
+    assert max(err.values()) <= 1e-6, err
+
+
+def _bad(tmp_path, small, route="nastran"):
+    return fe_cases.write_export_set(route, tmp_path / "exports", small, names=("E_col", "k_base"))
+
+
+@pytest.mark.parametrize("spoil, expected", [
+    ("missing", "does not exist"),
+    ("identical", "is identical to the nominal export"),
+    ("size", "DOFs, expected"),
+    ("dofmap", "does not match the nominal export"),
+    ("asymmetric", "not symmetric"),
+])
+def test_a_bad_export_exits_2_naming_the_file_and_writes_nothing(small, tmp_path, capsys, spoil, expected):
+    spec = _bad(tmp_path, small)
+    target = tmp_path / "exports" / "E_col_plus.pch"
+    text = (tmp_path / "exports" / "nominal.pch").read_text()
+    if spoil == "missing":
+        target.unlink()
+    elif spoil == "identical":
+        target.write_text(text)
+    elif spoil == "size":
+        K, M = small.matrices()
+        fe_writers.write_dmig(target, K[:-6, :-6], M[:-6, :-6], small.dofs[:-6])
+    elif spoil == "dofmap":
+        K, M = small.matrices({"E_col": 2.3e11})
+        dofs = list(small.dofs)
+        dofs[0] = "99999:x"
+        fe_writers.write_dmig(target, K, M, dofs)
+    else:
+        K, M = small.matrices({"E_col": 2.3e11})
+        i, j = sp.triu(K, 1).nonzero()
+        K = K.tolil()
+        K[i[0], j[0]] = K[i[0], j[0]] * 1.5
+        fe_writers.write_hbmat(tmp_path / "hb", K.tocsr(), M, small.dofs)   # both triangles, differing
+        spec = fe_cases.write_export_set("ansys", tmp_path / "ans", small, names=("E_col",))
+        for name in ("K.matrix",):
+            (tmp_path / "ans" / "E_col_plus" / name).write_text((tmp_path / "hb" / name).read_text())
+        target = tmp_path / "ans" / "E_col_plus" / "K.matrix"
+    out = tmp_path / "model"
+    assert main(["import", str(spec), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and target.name in err, err
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".vibupdate-import")]
+
+
+def test_opensees_route_needs_the_extra_or_reads_the_builder(tmp_path, capsys):
+    (tmp_path / "model.py").write_text(
+        "from opensees import openseespy as ops\n"
+        "def build(p):\n"
+        "    ops.model('basic', '-ndm', 3, '-ndf', 6)\n"
+        "    ops.node(1, 0, 0, 0); ops.node(2, 0, 0, 3.0)\n"
+        "    ops.fix(1, 1, 1, 1, 1, 1, 1)\n"
+        "    ops.geomTransf('Linear', 1, 1, 0, 0)\n"
+        "    ops.element('elasticBeamColumn', 1, 1, 2, 0.01, p['E'], 8e10, 2e-4, 1e-4, 1e-4, 1, '-mass', 78.5)\n"
+        "    ops.mass(2, 100.0, 100.0, 100.0, 1.0, 1.0, 1.0)\n")
+    (tmp_path / "import.toml").write_text(
+        'format = "opensees"\nbuilder = "model.py:build"\n[[parameter]]\nname = "E"\nnominal = 2e11\n'
+        "lower = 1e11\nupper = 3e11\nstep = 2e10\nstep2 = -2e10\n")
+    code = main(["import", str(tmp_path / "import.toml"), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr()
+    try:
+        import opensees.openseespy  # noqa: F401
+    except ImportError:
+        assert code == 2 and 'vibupdate[fe]' in err.err
+        return
+    assert code == 0, err.err
+    # E moves the axial and bending terms of node 2, not its torsion (G is fixed)
+    assert "moves 5 DOFs at 1 node(s) [2]" in err.out and "affine at the nominal" in err.out, err.out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("route", ["nastran", "ansys", "abaqus"])
+def test_the_1020_dof_frame_updates_to_the_truth_through_every_route(tmp_path, route, capsys):
+    frame = frame3d()
+    spec = fe_cases.write_export_set(route, tmp_path / "exports", frame)
+    assert main(["import", str(spec), "--out", str(tmp_path / "model")]) == 0
+    truth = {k: NOMINAL[k] * fe_cases.TRUTH[k] for k in fe_cases.AFFINE}
+    K, M = frame.matrices(truth)
+    case = fe_cases.exact_case(tmp_path / "model", K, M, frame.dofs, fe_cases.measured_dofs(frame, 4), 8)
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 0, capsys.readouterr().err
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    err = {p["name"]: abs(p["updated"] / truth[p["name"]] - 1) for p in doc["parameters"]}
+    print(route, err)
+    assert max(err.values()) <= 1e-6, err
