@@ -32,7 +32,8 @@ def write_export(route: str, folder: Path, frame, values) -> str:
 
 
 def write_export_set(route: str, root: Path, frame, names=AFFINE, two_steps=(), sensors: str = "") -> Path:
-    """Nominal export, one per parameter (+10 %; a second at -10 % for ``two_steps``) and the import file."""
+    """Nominal export, one per parameter (+10 %, 5 % for ``d_beam``; a second step of the opposite
+    sign for ``two_steps``) and the import file."""
     root.mkdir(parents=True, exist_ok=True)
     nominal = write_export(route, root / "nominal", frame, {})
     fmt = "nastran" if route.startswith("nastran") else route
@@ -42,13 +43,13 @@ def write_export_set(route: str, root: Path, frame, names=AFFINE, two_steps=(), 
         lines.append("fix = [" + ", ".join(f'"{d}"' for d in fixed) + "]")
     lines.append(sensors)
     for name in names:
-        p0 = NOMINAL[name]
-        export = write_export(route, root / f"{name}_plus", frame, {name: 1.1 * p0})
+        p0, rel = NOMINAL[name], 0.05 if name == "d_beam" else 0.1
+        export = write_export(route, root / f"{name}_plus", frame, {name: p0 + rel * p0})
         lines += ["[[parameter]]", f'name = "{name}"', f'unit = "{UNITS[name]}"', f"nominal = {p0!r}",
-                  f"lower = {0.5 * p0!r}", f"upper = {1.5 * p0!r}", f"step = {0.1 * p0!r}", f'export = "{export}"']
+                  f"lower = {0.5 * p0!r}", f"upper = {1.5 * p0!r}", f"step = {rel * p0!r}", f'export = "{export}"']
         if name in two_steps:
-            export2 = write_export(route, root / f"{name}_minus", frame, {name: 0.9 * p0})
-            lines += [f"step2 = {-0.1 * p0!r}", f'export2 = "{export2}"']
+            export2 = write_export(route, root / f"{name}_minus", frame, {name: p0 - rel * p0})
+            lines += [f"step2 = {-rel * p0!r}", f'export2 = "{export2}"']
     (root / "import.toml").write_text("\n".join(lines) + "\n")
     return root / "import.toml"
 

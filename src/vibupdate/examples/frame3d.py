@@ -124,6 +124,12 @@ class FrameModel:
         DOFs with no mass (rotations of the beams' mid-span nodes).
     groups : dict of str to tuple of int
         Parameter name -> nodes of its property group.
+    columns, beams : tuple of (int, int)
+        Node pairs of the column and beam elements.
+    floor_area : dict of int to float
+        Floor node -> tributary floor area, m^2 (its mass is ``m_floor`` times it).
+    payload : tuple of int
+        Roof corner nodes carrying `PAYLOAD`.
     """
 
     nodes: dict
@@ -131,6 +137,10 @@ class FrameModel:
     all_dofs: tuple
     massless: tuple
     groups: dict
+    columns: tuple
+    beams: tuple
+    floor_area: dict
+    payload: tuple
     _parts: dict
 
     def matrices(self, values: Mapping | None = None, constrained: bool = False):
@@ -240,4 +250,5 @@ def frame3d(bays_x: int = 3, bays_y: int = 2, stories: int = 4) -> FrameModel:
               "rho_col": tuple(sorted({v for e in columns for v in e})),
               "m_floor": tuple(sorted(floor_mass)), "k_base": tuple(base),
               "d_beam": tuple(sorted({v for e in beams for v in e}))}
-    return FrameModel(nodes, dofs, all_dofs, massless, groups, parts)
+    roof = tuple(corner[(stories, i, j)] for i in range(bays_x + 1) for j in range(bays_y + 1))
+    return FrameModel(nodes, dofs, all_dofs, massless, groups, tuple(columns), tuple(beams), floor_mass, roof, parts)

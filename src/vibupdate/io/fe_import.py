@@ -28,7 +28,7 @@ from vibupdate.model.fe.perturbed import Perturbation, affine_from_exports
 from vibupdate.model.fe.sensors import locate
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["ImportedModel", "import_model", "read_import", "summary_lines", "FORMATS"]
+__all__ = ["ImportedModel", "check_import", "import_model", "read_import", "summary_lines", "FORMATS"]
 
 FORMATS = ("nastran", "ansys", "abaqus", "opensees")
 _TOP = {"format": str, "nominal": None, "builder": str, "fix": list, "stiffness": str, "mass": str,
@@ -110,16 +110,8 @@ def _files(item, defaults: dict, base: Path, key: str, where: Where) -> dict:
     return out
 
 
-def read_import(path) -> ImportedModel:
-    """Read and check the import file ``path`` and every export it names."""
-    path = Path(path)
-    where = Where(path)
-    if not path.is_file():
-        raise ValueError(f"import file {str(path)!r} does not exist")
-    try:
-        spec = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+def check_import(spec: dict, where: Where) -> list[tuple[Parameter, dict]]:
+    """Check the tables of an import file (not its exports); returns each parameter with its table."""
     check_table(spec, _TOP, "import", where, required=("format", "parameter"))
     fmt = spec["format"]
     if fmt not in FORMATS:
@@ -128,8 +120,7 @@ def read_import(path) -> ImportedModel:
         raise where.error("builder", "an OpenSees import needs builder = 'file.py:function'")
     if fmt != "opensees" and "nominal" not in spec:
         raise where.error("nominal", "the nominal export is required")
-    base = path.parent
-    params, rows = [], []
+    out = []
     for i, item in enumerate(spec["parameter"], start=1):
         key = f"parameter[{i}]"
         check_table(item, _PARAMETER, key, where, required=("name", "nominal", "lower", "upper", "step")
@@ -141,8 +132,25 @@ def read_import(path) -> ImportedModel:
                           item.get("reference"))
         except ValueError as exc:
             raise where.error(key, str(exc)) from None
-        params.append(p)
-        rows.append(item)
+        out.append((p, item))
+    for i, item in enumerate(spec.get("sensor", []), start=1):
+        check_table(item, _SENSOR, f"sensor[{i}]", where, required=("name",))
+    return out
+
+
+def read_import(path) -> ImportedModel:
+    """Read and check the import file ``path`` and every export it names."""
+    path = Path(path)
+    where = Where(path)
+    if not path.is_file():
+        raise ValueError(f"import file {str(path)!r} does not exist")
+    try:
+        spec = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    checked = check_import(spec, where)
+    params, rows = [p for p, _ in checked], [item for _, item in checked]
+    fmt, base = spec["format"], path.parent
     nominal_values = {p.name: p.nominal for p in params}
     nominal = _export(fmt, "nominal", spec.get("nominal"), spec, base, where, nominal_values)
     perts = []
@@ -159,7 +167,6 @@ def read_import(path) -> ImportedModel:
     model, ders = affine_from_exports(nominal, perts)
     sensors = []
     for i, item in enumerate(spec.get("sensor", []), start=1):
-        check_table(item, _SENSOR, f"sensor[{i}]", where, required=("name",))
         try:
             sensors.append(locate(item["name"], nominal.dofs, nominal.nodes, dof=item.get("dof"),
                                   position=item.get("position"), direction=item.get("direction")))

@@ -1,9 +1,12 @@
 """Nastran DMIG matrices (a punch file of ``PARAM,EXTOUT,DMIGPCH`` or any bulk data).
 
-Why a reader of its own: pyNastran is the usual Python reader of these cards, but its
-release 1.4.1 requires ``numpy < 2`` and cannot be installed beside this package's numpy 2;
-pip resolves the older 1.3.4 (no upper bound on numpy) instead, a release built and tested
-before numpy 2. The DMIG card is small, so it is read here.
+Why a reader of its own: pyNastran is the usual Python reader of these cards, but its current
+release (1.4.1) requires ``numpy < 2`` and cannot be installed beside this package's numpy 2.
+Given numpy 2, pip resolves the older 1.3.4 instead (it states no upper bound on numpy); it
+predates numpy 2, and asking for pyNastran in a fresh environment makes pip downgrade numpy to
+reach 1.4.1. So it is not a dependency: the DMIG card is small and is read here, and the tests
+compare this reader with pyNastran's when pyNastran is installed (1.3.4 under numpy 2.4 read
+the three field formats to the same matrices).
 
 Format read
 -----------
