@@ -315,3 +315,31 @@ def test_the_import_files_of_docs_fe_models_are_valid():
     for block in blocks:
         spec = tomllib.loads(block)
         assert check_import(spec, Where(Path("docs/fe-models.md")))
+
+
+def test_without_the_fe_extra_opensees_and_full_imports_exit_2_naming_it(tmp_path, monkeypatch, capsys):
+    import sys
+
+    for name in ("opensees", "opensees.openseespy", "openseespy", "openseespy.opensees", "ansys.mapdl.reader"):
+        monkeypatch.setitem(sys.modules, name, None)     # an import of it raises ImportError
+    (tmp_path / "model.py").write_text("def build(p):\n    pass\n")
+    (tmp_path / "ops.toml").write_text('format = "opensees"\nbuilder = "model.py:build"\n[[parameter]]\nname = "E"\n'
+                                       "nominal = 1.0\nlower = 0.5\nupper = 2.0\nstep = 0.1\n")
+    (tmp_path / "ans.toml").write_text('format = "ansys"\nnominal = "file.full"\n[[parameter]]\nname = "E"\n'
+                                       'nominal = 1.0\nlower = 0.5\nupper = 2.0\nstep = 0.1\nexport = "e.full"\n')
+    for spec in ("ops.toml", "ans.toml"):
+        assert main(["import", str(tmp_path / spec), "--out", str(tmp_path / "out")]) == 2
+        assert 'pip install "vibupdate[fe]"' in capsys.readouterr().err
+        assert not (tmp_path / "out").exists()
+
+
+def test_k_and_m_of_different_sizes_in_one_export_exit_2_naming_the_file(small, tmp_path, capsys):
+    spec = fe_cases.write_export_set("ansys", tmp_path / "exports", small, names=("E_col",))
+    K, M = small.matrices()
+    fe_writers.write_hbmat(tmp_path / "short", K, M[:-6, :-6], small.dofs[:-6])
+    target = tmp_path / "exports" / "nominal" / "M.matrix"
+    target.write_text((tmp_path / "short" / "M.matrix").read_text())
+    assert main(["import", str(spec), "--out", str(tmp_path / "model")]) == 2
+    err = capsys.readouterr().err
+    assert str(target) in err and "240 equations, but the mapping" in err and "lists 246" in err, err
+    assert not (tmp_path / "model").exists()

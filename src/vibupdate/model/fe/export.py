@@ -9,6 +9,7 @@ triangle or both) into symmetric CSR matrices and check what every reader must c
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -66,12 +67,7 @@ class FEExport:
                                  f"{abs(A - A.T).max():.3g} against largest entry {scale:.3g}); a symmetric matrix "
                                  "is expected")
         if len(set(self.dofs)) != n:
-            seen, twice = set(), None
-            for d in self.dofs:
-                if d in seen:
-                    twice = d
-                    break
-                seen.add(d)
+            twice = next(d for d, count in Counter(self.dofs).items() if count > 1)
             raise ValueError(f"{self.source}: DOF {twice!r} appears twice in the DOF map")
 
 
