@@ -86,9 +86,15 @@ def dmig_text(name: str, A, dofs, field: str = "free") -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_dmig(path, K, M, dofs, field="free"):
-    """A punch file with ``KAAX`` and ``MAAX``."""
+def grid_text(nodes) -> str:
+    """Free-field GRID cards (basic system) of ``nodes``: label -> (x, y, z), m."""
+    return "".join(f"GRID,{label},,{x!r},{y!r},{z!r}\n" for label, (x, y, z) in nodes.items())
+
+
+def write_dmig(path, K, M, dofs, field="free", nodes=None):
+    """A punch file with ``KAAX`` and ``MAAX`` (and GRID cards of ``nodes``)."""
     text = "$ punch written by the test fixtures\n" + dmig_text("KAAX", K, dofs, field) + dmig_text("MAAX", M, dofs, field)
+    text += grid_text(nodes) if nodes else ""
     Path(path).write_text(text)
     return Path(path)
 

@@ -343,3 +343,26 @@ def test_k_and_m_of_different_sizes_in_one_export_exit_2_naming_the_file(small, 
     err = capsys.readouterr().err
     assert str(target) in err and "240 equations, but the mapping" in err and "lists 246" in err, err
     assert not (tmp_path / "model").exists()
+
+
+@pytest.mark.parametrize("source", ["grid", "csv"])
+def test_sensors_by_position_use_the_grid_cards_or_a_node_file(small, tmp_path, capsys, source):
+    K, M = small.matrices()
+    nodes = {k: tuple(map(float, v)) for k, v in small.nodes.items()}
+    fe_writers.write_dmig(tmp_path / "nominal.pch", K, M, small.dofs, nodes=nodes if source == "grid" else None)
+    Kp, Mp = small.matrices({"k_base": 4.4e7})
+    fe_writers.write_dmig(tmp_path / "plus.pch", Kp, Mp, small.dofs)
+    corner = fe_cases.measured_dofs(small, SMALL[2])[0].split(":")[0]
+    x, y, z = nodes[int(corner)]
+    lines = ['format = "nastran"', 'nominal = "nominal.pch"']
+    if source == "csv":
+        (tmp_path / "nodes.csv").write_text("node,x,y,z\n" + "".join(f"{k},{a!r},{b!r},{c!r}\n"
+                                                                     for k, (a, b, c) in nodes.items()))
+        lines.append('nodes = "nodes.csv"')
+    lines += ["[[parameter]]", 'name = "k_base"', "nominal = 4e7", "lower = 2e7", "upper = 6e7", "step = 4e6",
+              'export = "plus.pch"', "[[sensor]]", 'name = "roof"', f"position = [{x + 0.02}, {y}, {z - 0.01}]",
+              "direction = [0.0, 0.0, -1.0]"]
+    (tmp_path / "import.toml").write_text("\n".join(lines) + "\n")
+    assert main(["import", str(tmp_path / "import.toml"), "--out", str(tmp_path / "out")]) == 0
+    assert f"sensor roof: -{corner}:z" in capsys.readouterr().out
+    assert (tmp_path / "out" / "sensors.csv").read_text().splitlines()[1].startswith(f"roof,{corner}:z,-1,0.0223")

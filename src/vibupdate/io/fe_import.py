@@ -16,7 +16,7 @@ import json
 import shutil
 import tempfile
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +32,7 @@ __all__ = ["ImportedModel", "check_import", "import_model", "read_import", "summ
 
 FORMATS = ("nastran", "ansys", "abaqus", "opensees")
 _TOP = {"format": str, "nominal": None, "builder": str, "fix": list, "stiffness": str, "mass": str,
-        "parameter": list, "sensor": list}
+        "nodes": str, "parameter": list, "sensor": list}
 _PARAMETER = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float,
               "step": float, "export": None, "step2": float, "export2": None}
 _SENSOR = {"name": str, "dof": str, "position": list, "direction": list}
@@ -62,13 +62,24 @@ def _export(fmt: str, where_key: str, item, spec: dict, base: Path, where: Where
         from vibupdate.io.case_model import _load_callable
         from vibupdate.model.fe.opensees import export_from_builder
 
+        from vibupdate.model.fe.opensees import openseespy
+
+        openseespy()   # the optional extra, or a ValueError naming it
         func = _load_callable(spec["builder"], base, Where(where.path))
+
+        def build(p):
+            try:
+                func(p)
+            except Exception as exc:  # the user's OpenSees code: whatever it raises is bad input, named
+                raise where.error("builder", f"{spec['builder']} raised {type(exc).__name__}: {exc}") from None
+
         try:
-            export = export_from_builder(func, values, name=spec["builder"])
+            export = export_from_builder(build, values, name=spec["builder"])
         except ValueError:
             raise
-        except Exception as exc:  # the user's OpenSees code: whatever it raises is bad input, named
-            raise where.error("builder", f"{spec['builder']} raised {type(exc).__name__}: {exc}") from None
+        except Exception as exc:  # OpenSees refusing to assemble the model the builder made
+            raise where.error("builder", f"OpenSees could not assemble the model of {spec['builder']}: "
+                                         f"{type(exc).__name__}: {exc}") from None
     elif fmt == "nastran":
         from vibupdate.model.fe.nastran import read_dmig
 
@@ -165,6 +176,8 @@ def read_import(path) -> ImportedModel:
                                    values))
         perts.append(Perturbation(p, item["step"], exports[0], item.get("step2"), exports[1]))
     model, ders = affine_from_exports(nominal, perts)
+    if "nodes" in spec:
+        nominal = replace(nominal, nodes={**nominal.nodes, **_read_nodes(base / spec["nodes"], where)})
     sensors = []
     for i, item in enumerate(spec.get("sensor", []), start=1):
         try:
@@ -173,6 +186,23 @@ def read_import(path) -> ImportedModel:
         except ValueError as exc:
             raise where.error(f"sensor[{i}]", str(exc)) from None
     return ImportedModel(model, nominal, ders, tuple(sensors))
+
+
+def _read_nodes(path: Path, where: Where) -> dict:
+    """Node label -> coordinates (m) from a CSV file with columns ``node, x, y, z``."""
+    import csv
+
+    if not path.is_file():
+        raise where.error("nodes", f"node file {str(path)!r} does not exist")
+    nodes = {}
+    with path.open(newline="") as handle:
+        for number, row in enumerate(csv.DictReader(handle), start=2):
+            try:
+                nodes[str(int(row["node"]))] = np.array([float(row[k]) for k in ("x", "y", "z")])
+            except (KeyError, TypeError, ValueError):
+                raise where.error("nodes", f"{path}: line {number}: expected columns node, x, y, z (numbers), got "
+                                           f"{row}") from None
+    return nodes
 
 
 def _model_toml(imported: ImportedModel, source: str) -> str:

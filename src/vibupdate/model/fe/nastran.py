@@ -17,7 +17,8 @@ per column ``DMIG, NAME, GJ, CJ, , G1, C1, A1, B1, G2, C2, A2, B2, ...``: the co
 point and component, then (grid, component, value) of each row term. ``IFO = 6`` (symmetric)
 holds one triangle, which is mirrored (a term given in both triangles must agree); ``IFO = 1``
 (square) must be symmetric. Reals are Nastran numbers (``1.5+3``, ``-2.D-4``, ``7.E5``).
-Complex matrices (``TIN`` 3 or 4) are refused. Component 1..6 of a grid point is
+Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards in the file (basic coordinate
+system) give the node coordinates. Component 1..6 of a grid point is
 ``"<grid>:x"`` ... ``"<grid>:rz"``; component 0 (a scalar point) is ``"<id>:s"``. The DMIG
 punch holds the analysis set: the constrained DOFs are already gone.
 """
@@ -144,7 +145,23 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
 
     K = symmetric_from_entries(*remap(kr, kc, kdofs), kv, n, str(path), f"DMIG {stiffness}")
     M = symmetric_from_entries(*remap(mr, mc, mdofs), mv, n, str(path), f"DMIG {mass}")
-    return FEExport(K, M, tuple(order), str(path))
+    return FEExport(K, M, tuple(order), str(path), _grids(path))
+
+
+def _grids(path: Path) -> dict:
+    """Coordinates (m) of the GRID cards of the file in the basic system (``CP`` blank or 0)."""
+    nodes = {}
+    for number, head, data in _cards(path):
+        if head != "GRID":
+            continue
+        if data[1] not in ("", "0"):
+            raise ValueError(f"{path}: line {number}: GRID {data[0]} is in coordinate system {data[1]}; "
+                             "only the basic system (CP blank or 0) is read")
+        try:
+            nodes[str(int(data[0]))] = np.array([nastran_float(v or "0.") for v in data[2:5]])
+        except ValueError:
+            raise ValueError(f"{path}: line {number}: cannot read GRID {data[:5]}") from None
+    return nodes
 
 
 def _dof_key(name: str):
