@@ -35,6 +35,22 @@ def test_frame3d_is_symmetric_with_massless_rotations_and_over_1000_dofs():
     assert abs(M[where]).max() == 0
 
 
+def test_the_beam_element_resists_no_rigid_motion_and_carries_its_mass():
+    from vibupdate.examples.frame3d import _rotation, element_mass, element_stiffness
+
+    p1, p2 = np.array([0.0, 0.0, 0.0]), np.array([1.0, 2.0, 3.0])
+    T = np.kron(np.eye(4), _rotation(p1, p2))
+    L = float(np.linalg.norm(p2 - p1))
+    k = T.T @ element_stiffness(L, 1e-2, 2e-4, 1e-4, 3e-4) @ T
+    m = T.T @ element_mass(L, 1e-2, 3e-4) @ T
+    for c in np.eye(6):   # three translations, three rotations about the origin
+        u = np.concatenate([np.r_[c[:3] + np.cross(c[3:], p), c[3:]] for p in (p1, p2)])
+        assert np.abs(k @ u).max() <= 1e-12 * np.abs(k).max()
+        if c[:3].any():
+            assert u @ m @ u == pytest.approx(1e-2 * L, rel=1e-14)
+    assert np.linalg.eigvalsh(element_stiffness(L, 1e-2, 2e-4, 1e-4, 3e-4))[6] > 0   # exactly 6 rigid modes
+
+
 @pytest.mark.parametrize("field, tol", [("free", 0.0), ("large", 1e-11), ("small", 1e-3)])
 def test_dmig_reads_back_to_the_precision_of_its_field(small, tmp_path, field, tol):
     K, M = small.matrices()
