@@ -29,7 +29,8 @@ def test_the_extras_of_pyproject_are_those_the_code_names():
     extras = project["optional-dependencies"]
     assert set(extras) == set(EXTRAS) | {"all", "test"}
     assert extras["all"] == [f"vibupdate[{','.join(EXTRAS)}]"]
-    assert "vibupdate[all]" in extras["test"]
+    # the tests install every extra but the ANSYS reader (about 700 MB of VTK, no .full file to read)
+    assert f"vibupdate[{','.join(e for e in EXTRAS if e != 'fe')}]" in extras["test"] and "opensees>=0.1.32" in extras["test"]
     core = {d.split(">")[0].split("[")[0] for d in project["dependencies"]}
     assert core == {"numpy", "scipy", "casadi", "piqp", "threadpoolctl"}
 

@@ -29,6 +29,7 @@ EXTRAS = {
     "frf": Extra(("pyuff",), "reading Universal File Format (UFF) files"),
     "study": Extra(("distributed",), "sweep, batch, sampled ranges and multistart on Dask"),
     "certify": Extra(("highspy", "clarabel"), "certified parameter ranges (LP relaxations)"),
+    "fe": Extra(("opensees", "ansys"), "models from FE codes: OpenSees builders, ANSYS .full files"),
 }
 
 
@@ -71,7 +72,7 @@ def available(extra: str) -> bool:
     return True
 
 
-def require(extra: str, feature: str) -> None:
+def require(extra: str, feature: str, modules: tuple[str, ...] | None = None) -> None:
     """Raise `MissingExtra` unless ``extra`` is installed.
 
     Parameters
@@ -80,8 +81,11 @@ def require(extra: str, feature: str) -> None:
         A key of `EXTRAS`.
     feature : str
         What needs it, as the subject of the message: "reading UFF files", "vibupdate sweep".
+    modules : tuple of str, optional
+        The modules of the extra this feature needs (default: all of them; an OpenSees model
+        does not need the ANSYS reader).
     """
-    for module in _extra(extra).modules:
+    for module in modules if modules is not None else _extra(extra).modules:
         try:
             importlib.import_module(module)
         except ImportError as exc:

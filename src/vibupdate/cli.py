@@ -59,6 +59,10 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("--out", default=None, help="output folder (default: ./NAME-results)")
     ex.add_argument("--force", action="store_true", help="as for run")
     ex.add_argument("--certify", type=float, default=None, metavar="SECONDS", help="as for run")
+    imp = sub.add_parser("import", help="read an FE code's export set and write the model of a case file "
+                                        "(docs/fe-models.md)")
+    imp.add_argument("spec", help="import file (TOML): the code, the nominal export and one per parameter")
+    imp.add_argument("--out", required=True, help="new folder for model.toml and the matrix files")
     for p in (run, ex):
         p.add_argument("--samples", type=int, default=None, metavar="N",
                        help="also update N data sets drawn inside the measured intervals on Dask and report the "
@@ -123,7 +127,7 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                        help="address of an existing Dask scheduler, e.g. tcp://10.0.0.5:8786")
     # --debug is accepted after the subcommand too.
-    for p in (run, check, ex, fx, sweep, batch):
+    for p in (run, check, ex, fx, sweep, batch, imp):
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     return parser
 
@@ -243,6 +247,8 @@ def _command(args) -> int:
         return _sweep(args)
     if args.command == "batch":
         return _batch(args)
+    if args.command == "import":
+        return _import(args)
     if args.command == "example":
         if args.list or not args.name:
             print("\n".join(example_names()))
@@ -261,6 +267,16 @@ def _command(args) -> int:
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
     return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args)))
+
+
+def _import(args) -> int:
+    from vibupdate.io.fe_import import import_model, summary_lines
+
+    imported = import_model(args.spec, args.out)
+    for line in summary_lines(imported):
+        print(line)
+    print(f"wrote {args.out}/model.toml and its matrix files; add the configurations to make a case file")
+    return EXIT["success"]
 
 
 def _extract(args) -> int:

@@ -1,0 +1,283 @@
+"""``vibupdate import``: an FE code's export set -> the ``[model]`` of a case file and its files.
+
+An *import file* (TOML, ``docs/fe-models.md``) names the code, the nominal export, one export
+per parameter with the step it was made with (and optionally a second one), and optionally
+sensors. `import_model` reads them (`vibupdate.model.fe`), forms the affine model
+(`vibupdate.model.fe.perturbed`) and writes, into a new folder, ``model.toml`` (the
+``[model]`` of ``type = "matrices"`` and the ``[[parameter]]`` tables), ``M0.npz``,
+``K0.npz``, ``dM_<name>.npz``, ``dK_<name>.npz``, and ``nodes.csv`` / ``sensors.csv`` when
+known. Everything is written to a temporary folder beside the target and moved at the end, so a
+bad export leaves nothing behind.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from vibupdate.io.case_keys import Where, check_table
+from vibupdate.model.fe.export import FEExport, without_dofs
+from vibupdate.model.fe.perturbed import Perturbation, affine_from_exports
+from vibupdate.model.fe.sensors import locate
+from vibupdate.model.parameters import Parameter
+
+__all__ = ["ImportedModel", "check_import", "import_model", "read_import", "summary_lines", "FORMATS"]
+
+FORMATS = ("nastran", "ansys", "abaqus", "opensees")
+_TOP = {"format": str, "nominal": None, "builder": str, "fix": list, "stiffness": str, "mass": str,
+        "nodes": str, "parameter": list, "sensor": list}
+_PARAMETER = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float,
+              "step": float, "export": None, "step2": float, "export2": None}
+_SENSOR = {"name": str, "dof": str, "position": list, "direction": list}
+
+
+@dataclass(frozen=True)
+class ImportedModel:
+    """What an import file describes, read and checked.
+
+    Attributes
+    ----------
+    model : AffineModel
+    nominal : FEExport
+    derivatives : tuple of Derivative
+    sensors : tuple of Sensor
+    """
+
+    model: object
+    nominal: FEExport
+    derivatives: tuple
+    sensors: tuple
+
+
+def _export(fmt: str, where_key: str, item, spec: dict, base: Path, where: Where, values=None) -> FEExport:
+    """One export of the set, as an `FEExport` with the ``fix`` DOFs removed."""
+    if fmt == "opensees":
+        from vibupdate.io.case_model import _load_callable
+        from vibupdate.model.fe.opensees import export_from_builder
+
+        from vibupdate.model.fe.opensees import openseespy
+
+        openseespy()   # the optional extra, or MissingExtra naming it
+        func = _load_callable(spec["builder"], base, Where(where.path))
+
+        def build(p):
+            try:
+                func(p)
+            except Exception as exc:  # the user's OpenSees code: whatever it raises is bad input, named
+                raise where.error("builder", f"{spec['builder']} raised {type(exc).__name__}: {exc}") from None
+
+        try:
+            export = export_from_builder(build, values, name=spec["builder"])
+        except ValueError:
+            raise
+        except Exception as exc:  # OpenSees refusing to assemble the model the builder made
+            raise where.error("builder", f"OpenSees could not assemble the model of {spec['builder']}: "
+                                         f"{type(exc).__name__}: {exc}") from None
+    elif fmt == "nastran":
+        from vibupdate.model.fe.nastran import read_dmig
+
+        if not isinstance(item, str):
+            raise where.error(where_key, f"a Nastran export is the punch file's path, got {item!r}")
+        export = read_dmig(base / item, spec.get("stiffness", "KAAX"), spec.get("mass", "MAAX"))
+    elif fmt == "ansys":
+        from vibupdate.model.fe.ansys import read_full, read_hbmat
+
+        if isinstance(item, str) and item.lower().endswith(".full"):
+            export = read_full(base / item)
+        else:
+            files = _files(item, {"K": "K.matrix", "M": "M.matrix", "mapping": "K.mapping"}, base, where_key, where)
+            export = read_hbmat(files["K"], files["M"], files["mapping"])
+    else:
+        from vibupdate.model.fe.abaqus import read_abaqus
+
+        files = _files(item, {"K": "*_STIF*.mtx", "M": "*_MASS*.mtx"}, base, where_key, where)
+        export = read_abaqus(files["K"], files["M"])
+    return without_dofs(export, spec.get("fix", [])) if spec.get("fix") else export
+
+
+def _files(item, defaults: dict, base: Path, key: str, where: Where) -> dict:
+    """Files of an export given as a folder (default names) or a table of paths."""
+    if isinstance(item, dict):
+        check_table(item, {k: str for k in defaults}, key, where, required=tuple(defaults))
+        return {k: base / v for k, v in item.items()}
+    if not isinstance(item, str):
+        raise where.error(key, f"an export is a folder or a table of files ({', '.join(defaults)}), got {item!r}")
+    folder = base / item
+    if not folder.is_dir():
+        raise where.error(key, f"export folder {str(folder)!r} does not exist")
+    out = {}
+    for k, pattern in defaults.items():
+        found = sorted(folder.glob(pattern))
+        if len(found) != 1:
+            raise where.error(key, f"folder {str(folder)!r} must hold one file {pattern}, found {len(found)}")
+        out[k] = found[0]
+    return out
+
+
+def check_import(spec: dict, where: Where) -> list[tuple[Parameter, dict]]:
+    """Check the tables of an import file (not its exports); returns each parameter with its table."""
+    check_table(spec, _TOP, "import", where, required=("format", "parameter"))
+    fmt = spec["format"]
+    if fmt not in FORMATS:
+        raise where.error("format", f"must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if fmt == "opensees" and "builder" not in spec:
+        raise where.error("builder", "an OpenSees import needs builder = 'file.py:function'")
+    if fmt != "opensees" and "nominal" not in spec:
+        raise where.error("nominal", "the nominal export is required")
+    out = []
+    for i, item in enumerate(spec["parameter"], start=1):
+        key = f"parameter[{i}]"
+        check_table(item, _PARAMETER, key, where, required=("name", "nominal", "lower", "upper", "step")
+                    + (() if fmt == "opensees" else ("export",)))
+        if fmt != "opensees" and ("step2" in item) != ("export2" in item):
+            raise where.error(key, "a second perturbation needs both step2 and export2")
+        try:
+            p = Parameter(item["name"], item["nominal"], item["lower"], item["upper"], item.get("unit", ""),
+                          item.get("reference"))
+        except ValueError as exc:
+            raise where.error(key, str(exc)) from None
+        out.append((p, item))
+    for i, item in enumerate(spec.get("sensor", []), start=1):
+        check_table(item, _SENSOR, f"sensor[{i}]", where, required=("name",))
+    return out
+
+
+def read_import(path) -> ImportedModel:
+    """Read and check the import file ``path`` and every export it names."""
+    path = Path(path)
+    where = Where(path)
+    if not path.is_file():
+        raise ValueError(f"import file {str(path)!r} does not exist")
+    try:
+        spec = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    checked = check_import(spec, where)
+    params, rows = [p for p, _ in checked], [item for _, item in checked]
+    fmt, base = spec["format"], path.parent
+    nominal_values = {p.name: p.nominal for p in params}
+    nominal = _export(fmt, "nominal", spec.get("nominal"), spec, base, where, nominal_values)
+    perts = []
+    for i, (p, item) in enumerate(zip(params, rows), start=1):
+        exports = []
+        for step_key, export_key in (("step", "export"), ("step2", "export2")):
+            if step_key not in item:
+                exports.append(None)
+                continue
+            values = {**nominal_values, p.name: p.nominal + item[step_key]}
+            exports.append(_export(fmt, f"parameter[{i}].{export_key}", item.get(export_key), spec, base, where,
+                                   values))
+        perts.append(Perturbation(p, item["step"], exports[0], item.get("step2"), exports[1]))
+    model, ders = affine_from_exports(nominal, perts)
+    if "nodes" in spec:
+        nominal = replace(nominal, nodes={**nominal.nodes, **_read_nodes(base / spec["nodes"], where)})
+    sensors = []
+    for i, item in enumerate(spec.get("sensor", []), start=1):
+        try:
+            sensors.append(locate(item["name"], nominal.dofs, nominal.nodes, dof=item.get("dof"),
+                                  position=item.get("position"), direction=item.get("direction")))
+        except ValueError as exc:
+            raise where.error(f"sensor[{i}]", str(exc)) from None
+    return ImportedModel(model, nominal, ders, tuple(sensors))
+
+
+def _read_nodes(path: Path, where: Where) -> dict:
+    """Node label -> coordinates (m) from a CSV file with columns ``node, x, y, z``."""
+    import csv
+
+    if not path.is_file():
+        raise where.error("nodes", f"node file {str(path)!r} does not exist")
+    nodes = {}
+    with path.open(newline="") as handle:
+        for number, row in enumerate(csv.DictReader(handle), start=2):
+            try:
+                nodes[str(int(row["node"]))] = np.array([float(row[k]) for k in ("x", "y", "z")])
+            except (KeyError, TypeError, ValueError):
+                raise where.error("nodes", f"{path}: line {number}: expected columns node, x, y, z (numbers), got "
+                                           f"{row}") from None
+    return nodes
+
+
+def _model_toml(imported: ImportedModel, source: str) -> str:
+    m = imported.model
+    lines = [f"# [model] and [[parameter]] written by `vibupdate import {source}`; add `case = ...` above and the",
+             "# [[configuration]] tables below (docs/case-file.md)", "[model]", 'type = "matrices"',
+             'M0 = "M0.npz"', 'K0 = "K0.npz"', f"dofs = {json.dumps(list(m.dofs))}", "", "[model.dM]"]
+    lines += [f'{d.name} = "dM_{d.name}.npz"' for d in imported.derivatives if d.dM.nnz]
+    lines += ["", "[model.dK]"] + [f'{d.name} = "dK_{d.name}.npz"' for d in imported.derivatives if d.dK.nnz]
+    for p, d in zip(m.parameters, imported.derivatives):
+        note = "" if d.departure is None else f"   # departure from affine {d.departure:.3g} ({d.scheme})"
+        lines += ["", "[[parameter]]" + note, f'name = "{p.name}"', f'unit = "{p.unit}"', f"nominal = {p.nominal!r}",
+                  f"lower = {p.lower!r}", f"upper = {p.upper!r}"]
+        if p.reference != p.nominal:
+            lines.append(f"reference = {p.reference!r}")
+    return "\n".join(lines) + "\n"
+
+
+def import_model(path, out) -> ImportedModel:
+    """Read the import file ``path`` and write the model files into the new folder ``out``."""
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ValueError(f"output folder {str(out)!r} exists and is not empty; name a new folder")
+    imported = read_import(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".vibupdate-import-", dir=out.parent))
+    try:
+        m = imported.model
+        sp.save_npz(tmp / "M0.npz", sp.csr_matrix(m.M0))
+        sp.save_npz(tmp / "K0.npz", sp.csr_matrix(m.K0))
+        for d in imported.derivatives:
+            if d.dM.nnz:
+                sp.save_npz(tmp / f"dM_{d.name}.npz", d.dM)
+            if d.dK.nnz:
+                sp.save_npz(tmp / f"dK_{d.name}.npz", d.dK)
+        (tmp / "model.toml").write_text(_model_toml(imported, Path(path).name))
+        if imported.nominal.nodes:
+            rows = ["node,x,y,z"] + [f"{k}," + ",".join(repr(float(c)) for c in np.resize(v, 3))
+                                     for k, v in imported.nominal.nodes.items()]
+            (tmp / "nodes.csv").write_text("\n".join(rows) + "\n")
+        if imported.sensors:
+            rows = ["sensor,dof,sign,distance_m"] + [f"{s.name},{s.dof},{s.sign:g},{s.distance:.6g}"
+                                                      for s in imported.sensors]
+            (tmp / "sensors.csv").write_text("\n".join(rows) + "\n")
+        if out.exists():
+            out.rmdir()
+        tmp.rename(out)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp)
+    return imported
+
+
+def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
+    """Model size, total mass, rigid-body modes, first frequencies and each parameter's group and
+    departure from affine: what to compare with the FE code's own output."""
+    from vibupdate.modal.analysis import massless_dofs, modes
+    from vibupdate.model.physical import definiteness
+
+    m = imported.model
+    M, K = sp.csr_matrix(m.M0), sp.csr_matrix(m.K0)
+    lines = [f"model: {m.n_dofs} DOFs, {len(massless_dofs(M))} without mass; {len(m.parameters)} parameter(s)"]
+    for axis in ("x", "y", "z"):
+        e = np.array([d.endswith(f":{axis}") for d in m.dofs], dtype=float)
+        lines.append(f"mass moving with a unit {axis} translation: {float(e @ (M @ e)):.6g} kg")
+    state = definiteness(M, K)
+    lines.append(f"rigid-body modes: {state.rigid_body_modes}" + (f" ({state.problem})" if state.problem else ""))
+    omega = modes(M, K, min(n_modes + state.rigid_body_modes, m.n_dofs - len(massless_dofs(M))))[0]
+    lines.append("first frequencies (Hz): " + ", ".join(f"{w / (2 * np.pi):.6g}" for w in omega))
+    for d in imported.derivatives:
+        how = "one step, affinity not checked" if d.departure is None else \
+            f"departure from affine {d.departure:.3g} ({'affine' if d.affine else 'NOT affine: linearized'} " \
+            f"at the nominal, {d.scheme} difference)"
+        shown = ", ".join(d.nodes[:8]) + (" ..." if len(d.nodes) > 8 else "")
+        lines.append(f"parameter {d.name}: moves {len(d.dofs)} DOFs at {len(d.nodes)} node(s) [{shown}]; {how}")
+    for s in imported.sensors:
+        lines.append(f"sensor {s.name}: {'-' if s.sign < 0 else ''}{s.dof} ({s.distance:.3g} m from the position)")
+    return lines

@@ -1,0 +1,120 @@
+"""ANSYS Mechanical APDL matrices: ``HBMAT`` Harwell-Boeing files with their ``.mapping``,
+or the binary ``.full`` file.
+
+HBMAT
+-----
+``HBMAT, K, matrix, , ASCII, STIFF, NO, YES`` (and ``MASS``) writes the assembled matrix of the
+``.full`` file in Harwell-Boeing form and, with ``Mapping = YES``, a text file with one line per
+equation: the equation number, the node and the DOF label (``UX, UY, UZ, ROTX, ROTY, ROTZ``).
+The matrices are read with `scipy.io.hb_read`, which takes unsymmetric assembled real
+matrices (``RUA``); a symmetric file (``RSA``, one triangle) is read the same way and mirrored.
+The equations are those ANSYS solved: constrained DOFs are not written.
+
+``.full``
+---------
+Read through ``ansys-mapdl-reader`` (the optional extra ``vibupdate[fe]``), which applies the
+constraints and returns each equation's node and DOF.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from vibupdate.model.fe.export import DIRECTIONS, FEExport, dof_name, symmetric_from_entries
+
+__all__ = ["read_hbmat", "read_mapping", "read_full", "ANSYS_LABELS"]
+
+#: ANSYS DOF labels -> component 1..6.
+ANSYS_LABELS = {"UX": 1, "UY": 2, "UZ": 3, "ROTX": 4, "ROTY": 5, "ROTZ": 6}
+
+
+def read_mapping(path) -> tuple[str, ...]:
+    """DOF names of the equations of an HBMAT ``.mapping`` file, in equation order."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"ANSYS mapping file {str(path)!r} does not exist")
+    names = {}
+    for number, line in enumerate(path.read_text(errors="replace").splitlines(), start=1):
+        parts = line.split()
+        if len(parts) < 3 or not parts[0].isdigit():
+            continue     # the header line
+        label = parts[2].upper()
+        if label not in ANSYS_LABELS:
+            raise ValueError(f"{path}: line {number}: DOF label {parts[2]!r}, expected one of "
+                             f"{', '.join(ANSYS_LABELS)}")
+        try:
+            names[int(parts[0])] = dof_name(int(parts[1]), ANSYS_LABELS[label])
+        except ValueError:
+            raise ValueError(f"{path}: line {number}: expected 'equation node label', got {line.strip()!r}") from None
+    if not names:
+        raise ValueError(f"{path}: no equation lines ('equation node label'); is it an HBMAT .mapping file?")
+    if sorted(names) != list(range(1, len(names) + 1)):
+        raise ValueError(f"{path}: equations must be numbered 1 to {len(names)}")
+    return tuple(names[k] for k in range(1, len(names) + 1))
+
+
+def _read_hb(path: Path) -> sp.csr_matrix:
+    import scipy.io
+
+    if not path.is_file():
+        raise ValueError(f"ANSYS matrix file {str(path)!r} does not exist")
+    lines = path.read_text(errors="replace").splitlines(keepends=True)
+    if len(lines) < 4:
+        raise ValueError(f"{path}: too short for a Harwell-Boeing file")
+    kind = lines[2][:3].upper()
+    if kind not in ("RUA", "RSA"):
+        raise ValueError(f"{path}: Harwell-Boeing type {kind!r}; a real assembled matrix (RUA or RSA) is expected")
+    lines[2] = "RUA" + lines[2][3:]
+    try:
+        A = sp.csr_matrix(scipy.io.hb_read(io.StringIO("".join(lines))), dtype=float)
+    except (ValueError, IndexError, TypeError) as exc:
+        raise ValueError(f"{path}: not a readable Harwell-Boeing file: {exc}") from None
+    if A.shape[0] != A.shape[1]:
+        raise ValueError(f"{path}: matrix of shape {A.shape}, a square one is expected")
+    if kind == "RSA":
+        coo = A.tocoo()
+        A = symmetric_from_entries(coo.row, coo.col, coo.data, A.shape[0], str(path), "the matrix")
+    return A
+
+
+def read_hbmat(stiffness, mass, mapping) -> FEExport:
+    """K and M written by ``HBMAT`` and the ``.mapping`` of their equations.
+
+    Parameters
+    ----------
+    stiffness, mass : path
+        Harwell-Boeing files of K and M.
+    mapping : path
+        The ``.mapping`` file (both matrices share the equations of the ``.full`` file).
+    """
+    dofs = read_mapping(mapping)
+    K, M = _read_hb(Path(stiffness)), _read_hb(Path(mass))
+    for path, A in ((stiffness, K), (mass, M)):
+        if A.shape[0] != len(dofs):
+            raise ValueError(f"{path}: {A.shape[0]} equations, but the mapping {str(mapping)!r} lists {len(dofs)}")
+    return FEExport(K, M, dofs, f"{stiffness}, {mass}")
+
+
+def read_full(path) -> FEExport:
+    """K and M of an ANSYS ``.full`` file (needs ``ansys-mapdl-reader``: ``pip install "vibupdate[fe]"``)."""
+    from vibupdate._extras import require
+
+    require("fe", f"reading the ANSYS .full file {str(path)!r}", modules=("ansys",))
+    from ansys.mapdl import reader as pymapdl_reader
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"ANSYS .full file {str(path)!r} does not exist")
+    full = pymapdl_reader.read_binary(str(path))
+    dof_ref, k, m = full.load_km(as_sparse=True, sort=True)
+    dofs = tuple(f"{int(node)}:{DIRECTIONS[int(d)]}" for node, d in np.asarray(dof_ref))
+    return FEExport(_mirrored(k), _mirrored(m), dofs, str(path))
+
+
+def _mirrored(A) -> sp.csr_matrix:
+    """The full symmetric matrix of one stored as its upper triangle (as the reader returns it)."""
+    A = sp.csr_matrix(A, dtype=float)
+    return A if sp.tril(A, -1).nnz else sp.csr_matrix(A + sp.triu(A, 1).T)

@@ -1,0 +1,109 @@
+"""The one object every FE-code reader returns: an exported model.
+
+`FEExport` holds the stiffness and mass matrices of one export as the code wrote them (after
+the constrained DOFs are removed), the name of each DOF, ``"<node>:<dir>"`` with ``dir`` in
+``x, y, z, rx, ry, rz`` (`DIRECTIONS`; a scalar point is ``"<id>:s"``), and the node
+coordinates when the export holds them. The helpers here turn the entries a code writes (one
+triangle or both) into symmetric CSR matrices and check what every reader must check.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["FEExport", "DIRECTIONS", "dof_name", "symmetric_from_entries", "without_dofs"]
+
+#: The directions of a node's six DOFs, in the order FE codes number them (1..6).
+DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
+#: Relative asymmetry above which a matrix is refused as not symmetric.
+SYMMETRY_TOL = 1e-10
+
+
+def dof_name(node, component: int) -> str:
+    """``"<node>:<dir>"`` of component 1..6 (0: a scalar point, ``"<node>:s"``)."""
+    if component == 0:
+        return f"{node}:s"
+    if not 1 <= component <= 6:
+        raise ValueError(f"DOF component of node {node} must be 0 to 6, got {component}")
+    return f"{node}:{DIRECTIONS[component - 1]}"
+
+
+@dataclass(frozen=True)
+class FEExport:
+    """Stiffness and mass exported by an FE code.
+
+    Attributes
+    ----------
+    K, M : scipy.sparse.csr_matrix, shape (n, n)
+        Stiffness (N/m, N m/rad) and mass (kg, kg m^2), symmetric.
+    dofs : tuple of str, length n
+        DOF names in matrix order, ``"<node>:<dir>"``.
+    source : str
+        The file(s) read, for messages.
+    nodes : mapping of str to ndarray of shape (3,), optional
+        Node label -> coordinates, m, when the export holds them.
+    """
+
+    K: sp.csr_matrix
+    M: sp.csr_matrix
+    dofs: tuple
+    source: str
+    nodes: Mapping = field(default_factory=dict)
+
+    def __post_init__(self):
+        n = len(self.dofs)
+        for label, A in (("K", self.K), ("M", self.M)):
+            if A.shape != (n, n):
+                raise ValueError(f"{self.source}: {label} has shape {A.shape}, expected ({n}, {n}) for the "
+                                 f"{n} DOFs of the DOF map")
+            scale = abs(A).max() if A.nnz else 0.0
+            if scale and abs(A - A.T).max() > SYMMETRY_TOL * scale:
+                raise ValueError(f"{self.source}: {label} is not symmetric (largest |A - A^T| "
+                                 f"{abs(A - A.T).max():.3g} against largest entry {scale:.3g}); a symmetric matrix "
+                                 "is expected")
+        if len(set(self.dofs)) != n:
+            twice = next(d for d, count in Counter(self.dofs).items() if count > 1)
+            raise ValueError(f"{self.source}: DOF {twice!r} appears twice in the DOF map")
+
+
+def symmetric_from_entries(rows, cols, values, n: int, source: str, what: str) -> sp.csr_matrix:
+    """Symmetric matrix from entries of one triangle or of both, shape (n, n).
+
+    An entry given in both triangles must agree to `SYMMETRY_TOL`; one given in one triangle is
+    mirrored. Repeated entries at one position are refused (FE codes write each term once).
+    """
+    rows, cols = np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64)
+    values = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{source}: {what} holds a value that is not a finite number")
+    A = sp.coo_matrix((values, (rows, cols)), shape=(n, n)).tocsr()
+    if A.nnz and np.unique(rows * n + cols).size != rows.size:
+        raise ValueError(f"{source}: {what} gives some entry twice; each term is expected once")
+    lower, upper = sp.tril(A, -1).tocsr(), sp.triu(A, 1).tocsr()
+    both = lower.T.astype(bool).multiply(upper.astype(bool)).tocsr()
+    if both.nnz:
+        gap = abs((lower.T - upper).multiply(both)).max()
+        scale = abs(A).max()
+        if gap > SYMMETRY_TOL * scale:
+            raise ValueError(f"{source}: {what} is not symmetric: its two triangles differ by up to {gap:.3g} "
+                             f"(largest entry {scale:.3g}); a symmetric matrix is expected")
+        upper = sp.csr_matrix(upper - upper.multiply(both))   # keep the lower copy of terms given twice
+    return sp.csr_matrix(lower + lower.T + upper + upper.T + sp.diags(A.diagonal()))
+
+
+def without_dofs(export: FEExport, fixed: Sequence[str]) -> FEExport:
+    """The export with the DOFs ``fixed`` (names) removed: constraints the code did not apply."""
+    fixed = list(fixed)
+    where = {d: k for k, d in enumerate(export.dofs)}
+    missing = [d for d in fixed if d not in where]
+    if missing:
+        raise ValueError(f"{export.source}: fixed DOF {missing[0]!r} is not in the export's DOF map")
+    drop = {where[d] for d in fixed}
+    keep = np.array([k for k in range(len(export.dofs)) if k not in drop], dtype=int)
+    return FEExport(sp.csr_matrix(export.K[keep][:, keep]), sp.csr_matrix(export.M[keep][:, keep]),
+                    tuple(export.dofs[k] for k in keep), export.source, export.nodes)

@@ -1,0 +1,169 @@
+"""Nastran DMIG matrices (a punch file of ``PARAM,EXTOUT,DMIGPCH`` or any bulk data).
+
+Why a reader of its own: pyNastran is the usual Python reader of these cards, but its current
+release (1.4.1) requires ``numpy < 2`` and cannot be installed beside this package's numpy 2.
+Given numpy 2, pip resolves the older 1.3.4 instead (it states no upper bound on numpy); it
+predates numpy 2, and asking for pyNastran in a fresh environment makes pip downgrade numpy to
+reach 1.4.1. So it is not a dependency: the DMIG card is small and is read here, and the tests
+compare this reader with pyNastran's when pyNastran is installed (1.3.4 under numpy 2.4 read
+the three field formats to the same matrices).
+
+Format read
+-----------
+Bulk data in small field (8-character fields, ``DMIG``), large field (16-character fields,
+``DMIG*``, continuation lines starting with ``*``) or free field (comma separated). Each
+matrix is a header card ``DMIG, NAME, 0, IFO, TIN, TOUT, POLAR, , NCOL`` followed by one card
+per column ``DMIG, NAME, GJ, CJ, , G1, C1, A1, B1, G2, C2, A2, B2, ...``: the column's grid
+point and component, then (grid, component, value) of each row term. ``IFO = 6`` (symmetric)
+holds one triangle, which is mirrored (a term given in both triangles must agree); ``IFO = 1``
+(square) must be symmetric. Reals are Nastran numbers (``1.5+3``, ``-2.D-4``, ``7.E5``).
+Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards in the file (basic coordinate
+system) give the node coordinates. Component 1..6 of a grid point is
+``"<grid>:x"`` ... ``"<grid>:rz"``; component 0 (a scalar point) is ``"<id>:s"``. The DMIG
+punch holds the analysis set: the constrained DOFs are already gone.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from vibupdate.model.fe.export import FEExport, dof_name, symmetric_from_entries
+
+__all__ = ["read_dmig", "read_dmig_matrices", "nastran_float"]
+
+_EXPONENT = re.compile(r"^([+-]?[0-9.]+)([+-][0-9]+)$")
+
+
+def nastran_float(text: str) -> float:
+    """A Nastran real: ``1.5+3``, ``-2.D-4``, ``7.E5``, ``0.25``."""
+    t = text.strip().upper().replace("D", "E")
+    m = _EXPONENT.match(t)
+    if m:
+        t = f"{m.group(1)}E{m.group(2)}"
+    return float(t)
+
+
+def _cards(path: Path):
+    """``(line number, data fields)`` of each card, data fields being fields 2-9 of each line."""
+    cards = []
+    text = path.read_text(errors="replace").splitlines()
+    for number, raw in enumerate(text, start=1):
+        line = raw.split("$", 1)[0].rstrip()
+        if not line.strip() or line.upper().startswith(("BEGIN", "ENDDATA", "CEND", "SOL ", "PARAM")):
+            continue
+        if "," in line:   # free field: fixed-field DMIG cards hold no commas
+            fields = [f.strip() for f in line.split(",")]
+            head, data = fields[0], (fields[1:9] + [""] * 8)[:8]
+        elif line[:8].rstrip().endswith("*") or line.startswith("*"):
+            head = line[:8].strip()
+            data = [line[8 + 16 * k:24 + 16 * k].strip() for k in range(4)]
+        else:
+            head = line[:8].strip()
+            data = [line[8 + 8 * k:16 + 8 * k].strip() for k in range(8)]
+        if head and not head.startswith(("+", "*")):
+            cards.append([number, head.rstrip("*").upper(), data])
+        elif cards:
+            cards[-1][2] = cards[-1][2] + data
+        else:
+            raise ValueError(f"{path}: line {number} continues a card but no card starts before it")
+    return cards
+
+
+def read_dmig_matrices(path) -> dict:
+    """Every DMIG matrix of a bulk-data file: name -> ``(rows, cols, values, dofs)`` with the
+    DOF names in the order met and the entries in that numbering (0-based)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"Nastran file {str(path)!r} does not exist")
+    out, forms = {}, {}
+    for number, head, data in _cards(path):
+        if head != "DMIG":
+            continue
+        where = f"{path}: line {number}"
+        name = data[0].upper()
+        try:
+            if data[1] == "0":
+                ifo, tin = int(data[2]), int(data[3])
+                if tin not in (1, 2):
+                    raise ValueError(f"{where}: DMIG {name} has TIN = {tin}; only real matrices (1 or 2) are read")
+                if ifo not in (1, 6):
+                    raise ValueError(f"{where}: DMIG {name} has IFO = {ifo}; a symmetric matrix (6) or a square "
+                                     "one (1) is expected")
+                forms[name] = ifo
+                out[name] = ([], [], [], {})
+                continue
+            if name not in out:
+                raise ValueError(f"{where}: column of DMIG {name} before its header card")
+            rows, cols, values, index = out[name]
+            col = index.setdefault(dof_name(int(data[1]), int(data[2] or 0)), len(index))
+            terms = data[4:]
+            for k in range(0, len(terms) - 2, 4):
+                g, c, a = terms[k:k + 3]
+                if not g:
+                    continue
+                row = index.setdefault(dof_name(int(g), int(c or 0)), len(index))
+                rows.append(row)
+                cols.append(col)
+                values.append(nastran_float(a))
+        except (ValueError, IndexError) as exc:
+            if str(exc).startswith(str(path)):
+                raise
+            raise ValueError(f"{where}: cannot read DMIG {name}: {exc}") from None
+    if not out:
+        raise ValueError(f"Nastran file {str(path)!r} holds no DMIG matrix")
+    return {name: (rows, cols, values, tuple(index), forms[name]) for name, (rows, cols, values, index) in out.items()}
+
+
+def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
+    """Stiffness and mass DMIG matrices of a Nastran file as an `FEExport`.
+
+    Parameters
+    ----------
+    path : path
+        Punch or bulk-data file.
+    stiffness, mass : str
+        Names of the two DMIG matrices (default ``KAAX``, ``MAAX``, the punch's names).
+    """
+    path = Path(path)
+    found = read_dmig_matrices(path)
+    for name in (stiffness, mass):
+        if name.upper() not in found:
+            raise ValueError(f"{path}: no DMIG matrix {name!r}; the file holds {', '.join(sorted(found))}")
+    kr, kc, kv, kdofs, _ = found[stiffness.upper()]
+    mr, mc, mv, mdofs, _ = found[mass.upper()]
+    # a DOF with terms in one matrix only still belongs to both: the union, by grid then direction
+    order = sorted(set(kdofs) | set(mdofs), key=_dof_key)
+    pos = {d: k for k, d in enumerate(order)}
+    n = len(order)
+
+    def remap(rows, cols, dofs):
+        table = np.array([pos[d] for d in dofs], dtype=np.int64)
+        return table[np.asarray(rows, dtype=np.int64)], table[np.asarray(cols, dtype=np.int64)]
+
+    K = symmetric_from_entries(*remap(kr, kc, kdofs), kv, n, str(path), f"DMIG {stiffness}")
+    M = symmetric_from_entries(*remap(mr, mc, mdofs), mv, n, str(path), f"DMIG {mass}")
+    return FEExport(K, M, tuple(order), str(path), _grids(path))
+
+
+def _grids(path: Path) -> dict:
+    """Coordinates (m) of the GRID cards of the file in the basic system (``CP`` blank or 0)."""
+    nodes = {}
+    for number, head, data in _cards(path):
+        if head != "GRID":
+            continue
+        if data[1] not in ("", "0"):
+            raise ValueError(f"{path}: line {number}: GRID {data[0]} is in coordinate system {data[1]}; "
+                             "only the basic system (CP blank or 0) is read")
+        try:
+            nodes[str(int(data[0]))] = np.array([nastran_float(v or "0.") for v in data[2:5]])
+        except ValueError:
+            raise ValueError(f"{path}: line {number}: cannot read GRID {data[:5]}") from None
+    return nodes
+
+
+def _dof_key(name: str):
+    node, d = name.split(":")
+    return int(node), ("s", "x", "y", "z", "rx", "ry", "rz").index(d)

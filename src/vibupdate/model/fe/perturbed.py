@@ -1,0 +1,175 @@
+"""Parameter derivatives from perturbed exports, and the affine model they make.
+
+An FE code exports its model at the nominal parameters ``p0`` and once per parameter with that
+parameter changed by a stated step ``h`` (the others at nominal). The derivative of each matrix
+``A`` (K or M) is the difference quotient:
+
+* one step: the forward difference ``D = (A(p0 + h) - A(p0)) / h``;
+* two steps ``h1``, ``h2``: the derivative at ``p0`` of the quadratic through the three
+  exports, ``D = (h2^2 dA1 - h1^2 dA2) / (h1 h2 (h2 - h1))`` with ``dAk = A(p0 + hk) - A(p0)``
+  (the central difference ``(A(p0 + h) - A(p0 - h)) / 2h`` when ``h2 = -h1``).
+
+The second step also measures how far the matrix is from affine in the parameter: the
+*departure* ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
+M's, 0 for an affine parameter up to rounding (a beam depth in bending, ``K ~ d^3``, departs
+by up to ``|h1 - h2| / d``). The affine model is then the linearization at ``p0``: exact for an
+affine parameter, first-order for another.
+
+Each parameter also names the property group it moves: the DOFs (and their nodes) whose rows of
+``D`` are not zero.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from vibupdate.model.affine import AffineModel
+from vibupdate.model.build import from_files
+from vibupdate.model.fe.export import FEExport
+from vibupdate.model.parameters import Parameter
+
+__all__ = ["Perturbation", "Derivative", "derivatives", "affine_from_exports", "AFFINE_TOL"]
+
+#: Departure below which a parameter is reported affine (rounding of text exports is far below).
+AFFINE_TOL = 1e-6
+#: Relative size below which a change or a row of a derivative counts as zero.
+ZERO_TOL = 1e-12
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """The exports of one parameter changed from its nominal value.
+
+    Attributes
+    ----------
+    parameter : Parameter
+    step : float
+        ``h1``, the change of the parameter in the export, in its unit.
+    export : FEExport
+    step2 : float, optional
+        ``h2``, the change in a second export (e.g. ``-h1``), for the linearization and the
+        departure from affine.
+    export2 : FEExport, optional
+    """
+
+    parameter: Parameter
+    step: float
+    export: FEExport
+    step2: float | None = None
+    export2: FEExport | None = None
+
+
+@dataclass(frozen=True)
+class Derivative:
+    """``dK/dp`` and ``dM/dp`` of one parameter, shapes (n, n), in N/m and kg per unit of it.
+
+    Attributes
+    ----------
+    name : str
+    dK, dM : scipy.sparse.csr_matrix
+    scheme : str
+        ``"forward"`` or ``"two-step"`` (``"central"`` when ``h2 = -h1``).
+    departure : float or None
+        Relative departure from affine (module docstring); None with one step.
+    dofs : tuple of str
+        DOFs whose rows of dK or dM are not zero: the property group.
+    nodes : tuple of str
+        Their nodes.
+    """
+
+    name: str
+    dK: sp.csr_matrix
+    dM: sp.csr_matrix
+    scheme: str
+    departure: float | None
+    dofs: tuple
+    nodes: tuple
+
+    @property
+    def affine(self) -> bool | None:
+        """Whether the departure is below `AFFINE_TOL` (None without a second step)."""
+        return None if self.departure is None else self.departure <= AFFINE_TOL
+
+
+def _check_same_dofs(nominal: FEExport, other: FEExport, name: str) -> None:
+    if other.dofs == nominal.dofs:
+        return
+    if len(other.dofs) != len(nominal.dofs):
+        raise ValueError(f"{other.source}: the export of parameter '{name}' has {len(other.dofs)} DOFs, expected "
+                         f"{len(nominal.dofs)} like the nominal export {nominal.source}")
+    k = next(i for i, (a, b) in enumerate(zip(other.dofs, nominal.dofs)) if a != b)
+    raise ValueError(f"{other.source}: the DOF map of parameter '{name}' does not match the nominal export "
+                     f"{nominal.source}: DOF {k + 1} is {other.dofs[k]!r}, expected {nominal.dofs[k]!r}")
+
+
+def _change(nominal: FEExport, other: FEExport, name: str, step: float):
+    if not np.isfinite(step) or step == 0:
+        raise ValueError(f"parameter '{name}': step must be a finite non-zero number, got {step!r}")
+    _check_same_dofs(nominal, other, name)
+    dK, dM = sp.csr_matrix(other.K - nominal.K), sp.csr_matrix(other.M - nominal.M)
+    size = max(abs(dK).max() / max(abs(nominal.K).max(), 1e-300), abs(dM).max() / max(abs(nominal.M).max(), 1e-300))
+    if size <= ZERO_TOL:
+        raise ValueError(f"{other.source}: the export of parameter '{name}' (step {step:g}) is identical to the "
+                         f"nominal export {nominal.source}; expected matrices changed by the parameter")
+    return dK, dM
+
+
+def _frobenius(A) -> float:
+    return float(np.sqrt((A.multiply(A)).sum())) if A.nnz else 0.0
+
+
+def _departure(d1, d2) -> float:
+    worst = 0.0
+    for a, b in zip(d1, d2):
+        scale = max(_frobenius(a), _frobenius(b))
+        if scale:
+            worst = max(worst, _frobenius(a - b) / scale)
+    return worst
+
+
+def _group(dK, dM, dofs) -> tuple[tuple, tuple]:
+    rows = set()
+    for A in (dK, dM):
+        if A.nnz:
+            big = abs(A).max()
+            coo = A.tocoo()
+            rows.update(coo.row[np.abs(coo.data) > ZERO_TOL * 1e3 * big].tolist())
+    names = tuple(dofs[i] for i in sorted(rows))
+    nodes = tuple(dict.fromkeys(d.split(":")[0] for d in names))
+    return names, nodes
+
+
+def derivatives(nominal: FEExport, perturbations: Sequence[Perturbation]) -> tuple[Derivative, ...]:
+    """The derivative of K and M for each perturbation (module docstring)."""
+    out = []
+    for pert in perturbations:
+        name, h1 = pert.parameter.name, float(pert.step)
+        dK1, dM1 = _change(nominal, pert.export, name, h1)
+        if pert.export2 is None:
+            dK, dM, scheme, departure = dK1 / h1, dM1 / h1, "forward", None
+        else:
+            h2 = float(pert.step2) if pert.step2 is not None else float("nan")
+            dK2, dM2 = _change(nominal, pert.export2, name, h2)
+            if h2 == h1:
+                raise ValueError(f"parameter '{name}': the two steps are equal ({h1:g}); a second, different step "
+                                 "is expected")
+            c = h1 * h2 * (h2 - h1)
+            dK, dM = (h2 * h2 * dK1 - h1 * h1 * dK2) / c, (h2 * h2 * dM1 - h1 * h1 * dM2) / c
+            scheme = "central" if h2 == -h1 else "two-step"
+            departure = _departure((dK1 / h1, dM1 / h1), (dK2 / h2, dM2 / h2))
+        dofs, nodes = _group(dK, dM, nominal.dofs)
+        out.append(Derivative(name, sp.csr_matrix(dK), sp.csr_matrix(dM), scheme, departure, dofs, nodes))
+    return tuple(out)
+
+
+def affine_from_exports(nominal: FEExport, perturbations: Sequence[Perturbation]) -> tuple[AffineModel, tuple]:
+    """The affine model linearized at the nominal export, and the `Derivative` of each parameter."""
+    ders = derivatives(nominal, perturbations)
+    model = from_files(nominal.M, nominal.K, [p.parameter for p in perturbations],
+                       dM={d.name: d.dM for d in ders if d.dM.nnz}, dK={d.name: d.dK for d in ders if d.dK.nnz},
+                       dofs=nominal.dofs)
+    return model, ders
