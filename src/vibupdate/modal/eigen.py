@@ -241,12 +241,17 @@ def _null_level(K, M, lu) -> float | None:
 
 
 def sparse_lu(A):
-    """Sparse LU (SuperLU, partial pivoting) of a structurally symmetric matrix with a
-    symmetric fill-reducing ordering, minimum degree on ``A^T + A``. SuperLU's default column
-    ordering (COLAMD) left 4.6 times the fill on the 30,315-DOF building frame (2.2e6 against
-    4.8e5 entries in L and U, 0.64 s against 0.21 s) and had not finished one factorization of
-    the 300,105-DOF one after 9 minutes (`benchmarks/RESULTS.md`)."""
-    return spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A")
+    """Sparse LU (SuperLU) of a structurally symmetric matrix with a symmetric fill-reducing
+    ordering (minimum degree on ``A^T + A``) and threshold pivoting that keeps a diagonal pivot
+    within a factor 10 of the column's largest entry.
+
+    SuperLU's defaults (COLAMD ordering, partial pivoting) factor the matrices of this package
+    (``K - sigma M``, symmetric, often indefinite) with many times the fill: on the 30,315-DOF
+    building frame, ``K`` 2.2e6 entries in L and U against 4.8e5 (0.64 s against 0.21 s), and
+    ``K - w_8^2 M`` 9.0e6 against 4.8e5 (1.31 s against 0.07 s), the same backward error
+    (3e-16); at 300,105 DOFs one factorization had not finished after 9 minutes, against 2.1 s
+    (`benchmarks/RESULTS.md`)."""
+    return spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1)
 
 
 def _shifted_lu(K, M):
