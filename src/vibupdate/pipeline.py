@@ -357,7 +357,11 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
                               version=__version__)
     for note in written.warnings[len(run.warnings):]:
         say(f"warning: {note}")
-    say(f"wrote {target.path}/ (results.json, report.md, plots, matrices; {MANIFEST} lists them)")
+    from vibupdate.io.manifests import read_manifest
+
+    plotted = any(name.endswith(".png") for name in read_manifest(target.path) or ())
+    kinds = "results.json, report.md, " + ("plots, " if plotted else "") + "matrices"
+    say(f"wrote {target.path}/ ({kinds}; {MANIFEST} lists them)")
     return written
 
 
