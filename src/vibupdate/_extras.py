@@ -29,7 +29,7 @@ EXTRAS = {
     "frf": Extra(("pyuff",), "reading Universal File Format (UFF) files"),
     "study": Extra(("distributed",), "sweep, batch, sampled ranges and multistart on Dask"),
     "certify": Extra(("highspy", "clarabel"), "certified parameter ranges (LP relaxations)"),
-    "fe": Extra(("opensees", "ansys"), "models from FE codes: OpenSees builders, ANSYS .full files"),
+    "fe": Extra(("opensees", "ansys.mapdl.reader"), "models from FE codes: OpenSees builders, ANSYS .full files"),
 }
 
 

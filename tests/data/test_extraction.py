@@ -616,6 +616,8 @@ def test_extraction_runs_on_one_blas_thread(monkeypatch):
     monkeypatch.setattr(extraction, "_extract", spy)
     frfs, *_ = measured(3, repeats=2)
     with threadpool_limits(limits=2, user_api="blas"):  # as on a machine without OMP_NUM_THREADS=1
-        assert {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"} == {2}
+        # scipy's BLAS takes the limit (an old BLAS another package bundles, as opensees does,
+        # may keep its one thread)
+        assert 2 in {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"}
         extraction.extract(frfs)
     assert seen and set(seen) == {1}

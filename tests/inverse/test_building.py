@@ -87,7 +87,9 @@ def test_polish_rounds_on_noisy_data_end_no_higher_than_the_full_model_polish(se
     optimum with active interval penalties) from a start 10 % off: the reduced rounds end at
     an objective no higher than the full-model polish's (measured on seeds 0-5: equal within
     1.2e-12, or lower where the full-model polish used its 50 evaluations, seed 5: 41.35
-    against 49.71), in at most 5 full evaluations against 37-50."""
+    against 49.71), in at most 6 full evaluations against 37-50 (5 with SuperLU's partial
+    pivoting; with pivots kept near the diagonal, `vibupdate.modal.eigen.sparse_lu`, seed 5
+    takes a sixth round to the same objective)."""
     from dataclasses import replace
 
     from vibupdate.data.measured import ShapeInterval
@@ -109,7 +111,7 @@ def test_polish_rounds_on_noisy_data_end_no_higher_than_the_full_model_polish(se
     full = polish(configurations, x0, PolishOptions(reduced_rounds=0))
     assert rounds.rounds >= 1 and rounds.kept and full.kept
     assert rounds.cost <= full.cost * (1 + 1e-9)
-    assert rounds.evaluations <= 5 < full.evaluations
+    assert rounds.evaluations <= 6 < full.evaluations
 
 
 def test_polish_falls_back_to_the_full_model_when_a_round_fails(monkeypatch):

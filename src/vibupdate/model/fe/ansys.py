@@ -103,7 +103,7 @@ def read_full(path) -> FEExport:
     """K and M of an ANSYS ``.full`` file (needs ``ansys-mapdl-reader``: ``pip install "vibupdate[fe]"``)."""
     from vibupdate._extras import require
 
-    require("fe", f"reading the ANSYS .full file {str(path)!r}", modules=("ansys",))
+    require("fe", f"reading the ANSYS .full file {str(path)!r}", modules=("ansys.mapdl.reader",))
     from ansys.mapdl import reader as pymapdl_reader
     path = Path(path)
     if not path.is_file():
