@@ -154,6 +154,29 @@ def _check_bounds(model, error) -> None:
                                                  "give a reference value near the expected size (Eq. 12)")
 
 
+def _nominal_figures(cfg, n_modes: int = 6) -> str:
+    """The nominal model's first flexible frequencies and, when its DOFs are named by node and
+    direction (``"1203:y"``, an imported FE model), the mass moving with each translation: what
+    to compare with the FE code's own modal analysis."""
+    from vibupdate.modal.analysis import flexible_modes
+
+    M, K = cfg.model.matrices()
+    try:
+        # as many modes as the data name, so that the later solves of the nominal model reuse these
+        omega = flexible_modes(M, K, max([n_modes, len(cfg.natural)] + [f.mode or 0 for f in cfg.natural]))[0][:n_modes]
+        text = (f"{cfg.name}: nominal model's first flexible frequencies "
+                + ", ".join(f"{w / TWO_PI:.6g}" for w in omega) + " Hz")
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        text = f"{cfg.name}: nominal frequencies not computed ({exc})"
+    dofs = cfg.model.dofs
+    axes = [a for a in ("x", "y", "z") if any(d.endswith(f":{a}") for d in dofs)]
+    if axes:
+        moving = [np.array([d.endswith(f":{a}") for d in dofs], dtype=float) for a in axes]
+        text += "; mass moving with a unit translation " + ", ".join(
+            f"{a} {float(e @ (M @ e)):.6g} kg" for a, e in zip(axes, moving))
+    return text
+
+
 def _rad_s_warning(cfg) -> str | None:
     """A warning when the measured frequencies are ~2 pi times the nominal model's."""
     from vibupdate.inverse.correlation import model_frequencies
@@ -206,6 +229,7 @@ def _physical(case, error) -> tuple[list[str], list[str], int, object]:
                 + f"; M, K checked at the nominal point and {len(box_corners(*model.bounds()))} corners of the "
                   "parameter box")
         notes.append(text)
+        notes.append(_nominal_figures(cfg))
     if not warnings:
         return notes, warnings, rigid_all, case
     parameters = tuple(replace(p, lower=min(p.nominal + lo * p.reference, p.nominal),
