@@ -65,6 +65,21 @@ def test_linear_expressions():
         linear_expression("E*E", ["E"])
 
 
+def test_csv_and_case_files_saved_with_a_byte_order_mark_read_as_without(tmp_path):
+    """A spreadsheet's "CSV UTF-8" and some editors' TOML start with a byte-order mark: the
+    first column is still `kind` (it read as '\\ufeffkind'), the case file still parses."""
+    hz = write_chain_matrices(tmp_path)
+    bom = "\ufeff"
+    (tmp_path / "f.csv").write_text(bom + "kind,hz,damping_ratio\n" + "".join(f"natural,{h},0.02\n" for h in hz[:2]),
+                                    encoding="utf-8")
+    (tmp_path / "s.csv").write_text(bom + "mode,dof,value,tolerance\n1,a,0.5,0.1\n1,c,1.0,0.1\n", encoding="utf-8")
+    path = write(tmp_path, CHAIN_CASE + 'frequencies_csv = "f.csv"\nmode_shapes_csv = "s.csv"\n')
+    path.write_text(bom + path.read_text(encoding="utf-8"), encoding="utf-8")
+    cfg = load_case(path).configurations[0]
+    assert [f.freq_hz for f in cfg.natural] == pytest.approx(hz[:2])
+    assert cfg.natural[0].shape.bounds == {"a": (0.4, 0.6), "c": (0.9, 1.1)}
+
+
 def test_matrices_csv_and_uff_inputs(tmp_path):
     hz = write_chain_matrices(tmp_path)
     (tmp_path / "f.csv").write_text("kind,hz,weight,damping_ratio,response,excitation\n"

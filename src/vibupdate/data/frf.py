@@ -253,7 +253,7 @@ def _read_columns(path: Path, pairs: bool) -> tuple[np.ndarray, np.ndarray]:
                              f"(n_freq, n_columns): {exc}") from None
         return f, h.reshape(f.size, -1)
     try:
-        lines = [ln for ln in path.read_text(encoding="utf-8").splitlines()
+        lines = [ln for ln in path.read_text(encoding="utf-8-sig").splitlines()
                  if ln.strip() and not ln.lstrip().startswith("#")]
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"FRF file {str(path)!r} could not be read: {exc}") from None

@@ -269,7 +269,7 @@ def load_case(path) -> Case:
     path = Path(path)
     where = Where(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
     except FileNotFoundError:
         raise ValueError(f"case file {str(path)!r} does not exist") from None
     except UnicodeDecodeError as exc:

@@ -47,7 +47,7 @@ def _rows(path: Path) -> list[tuple[int, dict]]:
     """Data rows of a CSV file with their line numbers; blank and ``#`` lines are skipped."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")   # "CSV UTF-8" from a spreadsheet starts with a byte-order mark
     except UnicodeDecodeError as exc:
         raise ValueError(f"{path}: {not_utf8(path.read_bytes(), exc)}") from None
     except OSError as exc:
