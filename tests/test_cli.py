@@ -275,8 +275,11 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
     (out / "results.json").write_text('{"earlier": true}\n')
     (out / "vibupdate-manifest.json").write_text('{"files": ["results.json"]}\n')
     before = snapshot(tmp_path)
+    # a user's terminal delivers Ctrl-C; a test runner's worker may ignore SIGINT, and a child
+    # inherits an ignored SIGINT (Python then installs no handler): restore the default
     proc = subprocess.Popen([sys.executable, "-m", "vibupdate", "run", str(case), "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=os.environ, cwd=tmp_path)
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=os.environ, cwd=tmp_path,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     lines = []
     try:
         for line in proc.stdout:  # the solver is built: the next thing is the long lambda = 0 solve
