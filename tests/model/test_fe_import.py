@@ -143,6 +143,24 @@ def test_import_then_run_recovers_the_truth_from_exact_data(small, tmp_path, cap
     doc = json.loads((tmp_path / "out" / "results.json").read_text())
     err = {p["name"]: abs(p["updated"] / truth[p["name"]] - 1) for p in doc["parameters"]}
     assert max(err.values()) <= 1e-6, err
+    # the sensor map travels from the import to the results and the report
+    assert 'sensors = "sensors.csv"' in (tmp_path / "model" / "model.toml").read_text()
+    assert doc["sensors"] == [{"sensor": "roof", "dof": "2001:x", "sign": 1.0, "distance_m": 0.0}]
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "## Measured points on the mesh" in report and "| roof | 2001:x | + | 0 |" in report
+
+
+def test_a_sensor_map_naming_a_dof_the_model_lacks_exits_2_naming_the_row(small, tmp_path, capsys):
+    spec = fe_cases.write_export_set("nastran", tmp_path / "exports", small, names=("E_col",),
+                                     sensors='[[sensor]]\nname = "roof"\ndof = "2001:x"\n')
+    assert main(["import", str(spec), "--out", str(tmp_path / "model")]) == 0
+    (tmp_path / "model" / "sensors.csv").write_text("sensor,dof,sign,distance_m\nroof,9999:x,1,0\n")
+    K, M = small.matrices()
+    case = fe_cases.exact_case(tmp_path / "model", K, M, small.dofs, fe_cases.measured_dofs(small, SMALL[2]), 4)
+    capsys.readouterr()
+    assert main(["check", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "sensors.csv: row 2: sensor 'roof' measures '9999:x', which is not a DOF of the model" in err, err
 
 
 def _bad(tmp_path, small, route="nastran"):

@@ -80,6 +80,9 @@ class Case:
     inputs: tuple[Path, ...] = ()
     """The files the case reads: the case file and every file a value of it names (matrices,
     builder module, data files); a run never replaces or removes them."""
+    sensors: tuple[dict, ...] = ()
+    """Measured points on an imported FE mesh (``[model] sensors``): ``sensor``, ``dof``,
+    ``sign``, ``distance_m`` per sensor; the report shows the map."""
 
 
 # -- measured data ------------------------------------------------------------------------------
@@ -306,7 +309,17 @@ def load_case(path) -> Case:
         frfs={c.name: f for c, (f, _) in loaded if f is not None},
         frf_notes={c.name: n for c, (_, n) in loaded if n},
         inputs=(path, *_named_files(data, base)),
+        sensors=_sensors(data["model"], configurations, base, where),
     )
+
+
+def _sensors(spec: dict, configurations, base: Path, where: Where) -> tuple[dict, ...]:
+    """``[model] sensors`` of a matrices model, read and checked against its DOFs."""
+    from vibupdate.io.case_model import read_sensors
+
+    if not isinstance(spec, dict) or "sensors" not in spec:
+        return ()
+    return read_sensors(base / spec["sensors"], configurations[0].model.dofs, where)
 
 
 def _named_files(data, base: Path) -> list[Path]:

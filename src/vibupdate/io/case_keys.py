@@ -14,7 +14,7 @@ from pathlib import Path
 
 from vibupdate.options import declared
 
-__all__ = ["Where", "check_table", "numbers", "TOP_KEYS", "CFG_KEYS", "FRF_KEYS", "ELEMENTS_KEYS", "POLISH_KEYS",
+__all__ = ["Where", "check_table", "numbers", "TOP_KEYS", "CFG_KEYS", "FRF_KEYS", "ELEMENTS_KEYS", "MATRICES_KEYS", "POLISH_KEYS",
            "VERIFICATION_KEYS", "SOLVER_KEYS", "FORMULATION_KEYS", "DAMPING_KEYS", "PARAMETER_KEYS"]
 
 class Where:
@@ -91,5 +91,8 @@ CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_m
 FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
              "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float,
              "window": str}
+
+#: Keys of a ``[model]`` table of ``type = "matrices"``.
+MATRICES_KEYS = {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict, "sensors": str}
 ELEMENTS_KEYS = {"type": str, "kind": str, "nodes": list, "line": dict, "clamp": list, "pin": list,
                   "fix": list, "beam": list, "frame": list, "mass": list, "spring": list}

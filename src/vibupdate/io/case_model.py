@@ -15,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.io.case_keys import ELEMENTS_KEYS, Where, check_table
+from vibupdate.io.case_keys import ELEMENTS_KEYS, MATRICES_KEYS, Where, check_table
 from vibupdate.model.affine import AffineModel, Lumped, affine_from_assembly, affine_from_builder, with_lumped
 from vibupdate.model.assembly import Assembly
 from vibupdate.model.build import from_files
 from vibupdate.model.expressions import LinearExpression
 
-__all__ = ["LinearExpression", "linear_expression", "base_model", "configuration_model", "MAX_NODES"]
+__all__ = ["LinearExpression", "linear_expression", "base_model", "configuration_model", "MAX_NODES", "read_sensors"]
 
 
 # -- linear expressions of parameters ---------------------------------------------------------
@@ -227,8 +227,7 @@ def base_model(spec: dict, options: dict, parameters, base: Path, where: Where) 
 
             return affine_from_builder(build, parameters)
         if kind == "matrices":
-            check_table(spec, {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict},
-                        "model", where, required=("M0", "K0"))
+            check_table(spec, MATRICES_KEYS, "model", where, required=("M0", "K0"))
             return from_files(base / spec["M0"], base / spec["K0"], parameters,
                               dM={n: base / f for n, f in spec.get("dM", {}).items()},
                               dK={n: base / f for n, f in spec.get("dK", {}).items()},
@@ -266,4 +265,30 @@ def configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: Wh
     except ValueError as exc:
         raise where.error(f"{key}.mass", str(exc)) from None
 
+
+def read_sensors(path: Path, dofs, where: Where) -> tuple[dict, ...]:
+    """The measured points of an imported FE mesh (``[model] sensors``, written by
+    `vibupdate import`): rows ``sensor, dof, sign, distance_m``, each DOF one of the model's."""
+    from vibupdate.io.measured_io import _number, _rows
+
+    known = set(dofs)
+    out = []
+    try:
+        rows = _rows(path)
+    except ValueError as exc:
+        raise where.error("model.sensors", str(exc)) from None
+    for line, row in rows:
+        missing = [c for c in ("sensor", "dof", "sign", "distance_m") if c not in row]
+        if missing:
+            raise where.error("model.sensors", f"{path}: needs columns sensor, dof, sign, distance_m; "
+                                               f"missing {missing}")
+        if row["dof"] not in known:
+            raise where.error("model.sensors", f"{path}: row {line}: sensor {row['sensor']!r} measures "
+                                               f"{row['dof']!r}, which is not a DOF of the model")
+        sign = _number(row["sign"], "sign", path, line)
+        if sign not in (1.0, -1.0):
+            raise where.error("model.sensors", f"{path}: row {line}: sign must be 1 or -1, got {row['sign']!r}")
+        out.append({"sensor": row["sensor"], "dof": row["dof"], "sign": sign,
+                    "distance_m": _number(row["distance_m"], "distance_m", path, line)})
+    return tuple(out)
 

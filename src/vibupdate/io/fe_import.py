@@ -209,7 +209,8 @@ def _model_toml(imported: ImportedModel, source: str) -> str:
     m = imported.model
     lines = [f"# [model] and [[parameter]] written by `vibupdate import {source}`; add `case = ...` above and the",
              "# [[configuration]] tables below (docs/case-file.md)", "[model]", 'type = "matrices"',
-             'M0 = "M0.npz"', 'K0 = "K0.npz"', f"dofs = {json.dumps(list(m.dofs))}", "", "[model.dM]"]
+             'M0 = "M0.npz"', 'K0 = "K0.npz"'] + (['sensors = "sensors.csv"'] if imported.sensors else []) + [
+             f"dofs = {json.dumps(list(m.dofs))}", "", "[model.dM]"]
     lines += [f'{d.name} = "dM_{d.name}.npz"' for d in imported.derivatives if d.dM.nnz]
     lines += ["", "[model.dK]"] + [f'{d.name} = "dK_{d.name}.npz"' for d in imported.derivatives if d.dK.nnz]
     for p, d in zip(m.parameters, imported.derivatives):

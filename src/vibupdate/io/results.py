@@ -236,6 +236,9 @@ class RunResult:
         Verification checks of the first stage, as it reports them.
     paper : dict or None
         Published values to compare with (bundled examples).
+    sensors : tuple of dict
+        Measured points on an imported FE mesh (``[model] sensors``, `vibupdate import`):
+        ``sensor``, ``dof`` (``"<node>:<dir>"``), ``sign``, ``distance_m``; empty otherwise.
     matrices : dict
         Not written to JSON: per configuration ``{"M", "K", "C"}`` updated matrices (scipy
         sparse; ``C`` absent without damping data) and ``"nominal"`` ``(M0, K0, None)``: the
@@ -263,6 +266,7 @@ class RunResult:
     warnings: tuple[str, ...] = ()
     checks: tuple[dict, ...] = ()
     paper: dict | None = None
+    sensors: tuple[dict, ...] = ()
     matrices: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -311,6 +315,7 @@ class RunResult:
             problem_size=dict(doc["problem_size"]), solver=dict(doc["solver"]),
             identifiability=doc.get("identifiability"), damping_model=doc.get("damping_model"),
             warnings=tuple(doc.get("warnings", ())), checks=tuple(doc.get("checks", ())), paper=doc.get("paper"),
+            sensors=tuple(dict(s) for s in doc.get("sensors", ())),
         )
 
 
@@ -424,7 +429,8 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         identifiability=_plain(identifiability) if identifiability else None,
         damping_model=_plain(damping_model) if damping_model else None,
         warnings=run_warnings, checks=tuple(_check_dict(c) for c in getattr(result, "checks", ())),
-        paper=_plain(paper) if paper else None, matrices=matrices)
+        paper=_plain(paper) if paper else None, sensors=tuple(dict(s) for s in getattr(case, "sensors", ())),
+        matrices=matrices)
 
 
 def schema() -> dict:

@@ -323,6 +323,14 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
             row += [fmt(p, ".2f"), fmt(_error_pct(p, r["measured_hz"]), ".2f")]
         rows.append(row)
     out += ["## Frequencies", ""] + _md_table(header, rows) + [""]
+    # Where the measured points sit on an imported FE mesh
+    if document.get("sensors"):
+        rows = [[s["sensor"], s["dof"], "+" if s["sign"] > 0 else "-", fmt(s["distance_m"], ".3g")]
+                for s in document["sensors"]]
+        out += ["## Measured points on the mesh", "",
+                "Each sensor measures one DOF of the model (node:direction); a sensor pointing along the "
+                "negative axis reads the DOF with sign -; distance from the sensor's given position to the node, m.",
+                ""] + _md_table(["sensor", "DOF", "sign", "distance (m)"], rows) + [""]
     # Damping
     if document.get("damping"):
         has_paper = bool(paper.get("damping"))
