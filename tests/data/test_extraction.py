@@ -328,6 +328,14 @@ def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
     shapes = read_shape_csv(out / "shapes.csv")
     assert set(shapes) == {1, 2, 3} and set(shapes[1]) == {"y1", "y2", "y3"}
     assert "frequencies_csv" in (out / "configuration.toml").read_text()
+    assert [r["mode"] for r in natural_rows] == [1, 2, 3]
+    # --first-mode: the frequencies declare the modes the shapes are numbered by (the two files
+    # read together: before, the frequencies had no mode column and counted from 1)
+    again = tmp_path / "ex2"
+    assert main(["extract", str(uff), "--band", "20", "300", "--first-mode", "2", "--no-plot", "--out",
+                 str(again)]) == 0
+    natural_rows, _ = read_frequency_csv(again / "frequencies.csv")
+    assert [r["mode"] for r in natural_rows] == [2, 3, 4] and set(read_shape_csv(again / "shapes.csv")) == {2, 3, 4}
 
 
 def test_cli_extract_writes_through_the_manifest_and_keeps_foreign_files(tmp_path, capsys):

@@ -3,9 +3,9 @@
 Hz only here, at the edge. The files are those that `vibupdate.io.measured_io` and the case
 file read (``docs/case-file.md``):
 
-* ``frequencies.csv``: ``kind,hz,weight,damping_ratio,response,excitation,lower_hz,upper_hz``
-  (natural frequencies with their damping ratios, then antiresonances; the interval columns
-  are extra information the reader ignores);
+* ``frequencies.csv``: ``kind,hz,weight,damping_ratio,response,excitation,mode,lower_hz,upper_hz``
+  (natural frequencies with their damping ratios and model mode numbers, from ``first_mode``,
+  then antiresonances; the interval columns are extra information the reader ignores);
 * ``shapes.csv``: ``mode,dof,lower,upper`` (shape intervals);
 * ``damping.csv``: ``mode,hz,damping_ratio,lower,upper``;
 * ``configuration.toml``: a ``[[configuration]]`` block naming the two CSV files, to paste
@@ -122,11 +122,13 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
     paths = {"json": out / "extraction.json", "frequencies": out / "frequencies.csv",
              "shapes": out / "shapes.csv", "damping": out / "damping.csv", "configuration": out / "configuration.toml"}
     paths["json"].write_text(json_text(extraction_document(result, first_mode)), encoding="utf-8")
-    rows = [["natural", f"{m.omega / TWO_PI:.8g}", 1, f"{m.damping_ratio:.6g}", "", "",
-             *(f"{v:.8g}" for v in _hz(m.omega_interval))] for m in result.modes]
-    rows += [["antiresonance", f"{z.omega / TWO_PI:.8g}", 1, "", z.response, z.excitation,
+    # the mode column declares each natural frequency's model mode as shapes.csv numbers it: with
+    # --first-mode N both files start at mode N and read together
+    rows = [["natural", f"{m.omega / TWO_PI:.8g}", 1, f"{m.damping_ratio:.6g}", "", "", first_mode + k,
+             *(f"{v:.8g}" for v in _hz(m.omega_interval))] for k, m in enumerate(result.modes)]
+    rows += [["antiresonance", f"{z.omega / TWO_PI:.8g}", 1, "", z.response, z.excitation, "",
               *(f"{v:.8g}" for v in _hz(z.interval))] for z in result.zeros]
-    _write_csv(paths["frequencies"], ["kind", "hz", "weight", "damping_ratio", "response", "excitation",
+    _write_csv(paths["frequencies"], ["kind", "hz", "weight", "damping_ratio", "response", "excitation", "mode",
                                       "lower_hz", "upper_hz"], rows)
     _write_csv(paths["shapes"], ["mode", "dof", "lower", "upper"],
                [[first_mode + k, d, f"{lo:.8g}", f"{hi:.8g}"]
@@ -136,7 +138,8 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
                  f"{m.damping_interval[0]:.6g}", f"{m.damping_interval[1]:.6g}"] for k, m in enumerate(result.modes)])
     block = configuration_block(name)
     if first_mode != 1:
-        block += "# the lowest extracted mode is model mode %d: list the modes below it or narrow the model\n" % first_mode
+        block += (f"# the lowest extracted mode is model mode {first_mode}: frequencies.csv declares each "
+                  "natural frequency's mode (column mode)\n")
     paths["configuration"].write_text(block, encoding="utf-8")
     if plot:
         from vibupdate.io.outputs import drawn
