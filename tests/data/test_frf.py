@@ -157,3 +157,54 @@ def test_to_receptance_units():
     assert np.allclose(to_receptance([-100.0, -400.0], omega, "accelerance"), [1.0, 1.0])
     assert np.allclose(to_receptance([10j, 20j], omega, "mobility"), [1.0, 1.0])
     assert np.allclose(to_receptance([-100.0 / G, -400.0 / G], omega, "accelerance", g_units=True), [1.0, 1.0])
+
+
+def _noisy(h, seed, level=0.03):
+    rng = np.random.default_rng(seed)
+    return h * (1 + level * (rng.standard_normal(h.size) + 1j * rng.standard_normal(h.size)) / np.sqrt(2))
+
+
+def _table(path, freq_hz, columns):
+    path.write_text("\n".join(f"{f};" + ";".join(f"{c[k].real:.17g}{c[k].imag:+.17g}j" for c in columns)
+                              for k, f in enumerate(freq_hz)) + "\n")
+    return path
+
+
+def test_mislabelled_or_repeated_input_is_refused_naming_the_file(tmp_path):
+    """The same file twice, identical repeats, two different FRFs under one label, a transposed
+    .npz and a decimal comma: each a clear error, where they used to read as data (intervals
+    40-60x too narrow, one mode instead of three, zeros moved, bogus modes)."""
+    freq_hz = np.linspace(1, 80, 200)
+    h = _receptance(2 * math.pi * freq_hz)
+    a = _table(tmp_path / "a.csv", freq_hz, [_noisy(h, 1)])
+    b = _table(tmp_path / "b.csv", freq_hz, [_noisy(h, 2)])
+    frfs = read_frfs([a, b], ["y2"], ["y1", "y1"])       # two hits of one FRF: repeats
+    assert frfs.n_repeats == (1 + 1,)
+    with pytest.raises(ValueError, match=r"a.csv' is given twice"):
+        read_frfs([a, tmp_path / "." / "a.csv"], ["y2"], ["y1", "y1"])
+    c = _table(tmp_path / "c.csv", freq_hz, [_noisy(h, 1)])   # a copy of a.csv under another name
+    with pytest.raises(ValueError, match=r"FRF h_y2,y1 .*repeats 1 and 2 are identical"):
+        read_frfs([a, c], ["y2"], ["y1", "y1"])
+    other = _table(tmp_path / "d.csv", freq_hz, [_noisy(_receptance(2 * math.pi * freq_hz * 1.7) * 4, 3)])
+    with pytest.raises(ValueError, match=r"FRF h_y2,y1 .*are not repeats of one FRF.*mislabelled"):
+        read_frfs([a, other], ["y2"], ["y1", "y1"])   # hit at another point, labelled the same
+    with pytest.raises(ValueError, match=r"not repeats of one FRF"):
+        read_frfs([_table(tmp_path / "e.csv", freq_hz, [_noisy(h, 4), 5 * _noisy(h[::-1], 5)])], ["y2", "y2"], ["y1"])
+    npz = tmp_path / "t.npz"
+    np.savez(npz, freq_hz=freq_hz, H=np.vstack([h, 2 * h]))   # (n_columns, n_freq)
+    with pytest.raises(ValueError, match=r"t.npz'.*shape \(2, 200\), expected \(200, n_columns\).*transpose it"):
+        read_frf_table(npz, ["y1", "y2"], "y1")
+    comma = tmp_path / "comma.csv"
+    comma.write_text("1,5;0,25+0,1j\n2,5;0,3+0,1j\n")
+    with pytest.raises(ValueError, match=r"comma.csv', row 1, column 0: .*decimal comma"):
+        read_frf_table(comma, ["y1"], "y1")
+
+
+def test_the_cli_refuses_a_file_given_twice_and_writes_nothing(tmp_path, capsys):
+    from vibupdate.cli import main
+
+    freq_hz = np.linspace(1, 80, 200)
+    a = _table(tmp_path / "a.csv", freq_hz, [_noisy(_receptance(2 * math.pi * freq_hz), 1)])
+    out = tmp_path / "ex"
+    assert main(["extract", str(a), str(a), "--responses", "y2", "--excitations", "y1", "y1", "--out", str(out)]) == 2
+    assert "is given twice" in capsys.readouterr().err and not out.exists()
