@@ -93,6 +93,8 @@ def _parser() -> argparse.ArgumentParser:
     fx.add_argument("--re-im", action="store_true", help="tables hold real/imaginary column pairs")
     fx.add_argument("--map", nargs="+", default=(), metavar="FROM=TO",
                     help="rename DOFs, e.g. y3=x2 y4=-x3 (a '-' flips the sign)")
+    fx.add_argument("--reciprocal", action="store_true",
+                    help="roving hammer: read each h_rc as h_cr (reciprocity), so the shapes are at every hammer point")
     fx.add_argument("--modes", type=int, default=None, help="keep this many modes (default: all stable ones)")
     fx.add_argument("--first-mode", type=int, default=1, help="model mode number of the lowest extracted mode")
     fx.add_argument("--confidence", type=float, default=0.95, help="level of the intervals (default 0.95)")
@@ -295,6 +297,8 @@ def _extract(args) -> int:
         key, value = item.split("=", 1)
         mapping[key.strip()] = value.strip()
     frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
+    if args.reciprocal:
+        frfs = frfs.reciprocal()
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
     fit_band = None if args.fit_band is None else (2 * math.pi * args.fit_band[0], 2 * math.pi * args.fit_band[1])
     check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving

@@ -629,3 +629,34 @@ def test_extraction_runs_on_one_blas_thread(monkeypatch):
         assert 2 in {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"}
         extraction.extract(frfs)
     assert seen and set(seen) == {1}
+
+
+def test_a_roving_hammer_test_read_reciprocally_gives_shapes_at_every_hammer_point(tmp_path, capsys):
+    """One accelerometer at y3, the hammer at y1, y2, y3: as measured, the shapes have the one
+    response entry; read reciprocally (`--reciprocal`, h_rc as h_cr) they have all three, and
+    equal those of the roving-accelerometer layout of the same structure within their intervals."""
+    from vibupdate.data.frf import FRFSet
+
+    roving = [("y3", "y1"), ("y3", "y2"), ("y3", "y3")]
+    hammer, *_ = measured(11, repeats=3, pairs=roving)
+    as_measured = extract(hammer)
+    assert all(set(m.shape_interval) == {"y3"} for m in as_measured.modes)
+    swapped = hammer.reciprocal()
+    assert set(swapped.pairs) == {("y1", "y3"), ("y2", "y3"), ("y3", "y3")}
+    result = extract(swapped)
+    accelerometers, *_ = measured(12, repeats=3)          # responses y1, y2, y3, excitation y3
+    reference = extract(accelerometers)
+    assert len(result.modes) == len(reference.modes) == 3
+    for m, ref in zip(result.modes, reference.modes):
+        assert set(m.shape_interval) == {"y1", "y2", "y3"}
+        for dof, (lo, hi) in m.shape_interval.items():
+            rlo, rhi = ref.shape_interval[dof]
+            assert lo <= rhi and rlo <= hi, (dof, (lo, hi), (rlo, rhi))   # the intervals overlap
+    # the command line and a case file say it the same way
+    uff = tmp_path / "hammer.uff"
+    _write_uff(uff, hammer)
+    assert main(["extract", str(uff), "--reciprocal", "--no-plot", "--out", str(tmp_path / "ex")]) == 0
+    shapes = read_shape_csv(tmp_path / "ex" / "shapes.csv")
+    assert set(shapes[1]) == {"y1", "y2", "y3"}
+    both = FRFSet(hammer.omega, (("y3", "y1"), ("y1", "y3")), (hammer.H[0], hammer.H[1])).reciprocal()
+    assert both.pairs == (("y1", "y3"), ("y3", "y1")) and both.H[0] is hammer.H[0]

@@ -105,6 +105,8 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
     try:
         frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
                          spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
+        if spec.get("reciprocal", False):
+            frfs = frfs.reciprocal()
         result = extract(frfs, band=band, n_modes=spec.get("modes"), confidence=spec.get("confidence", 0.95),
                          fit_band=fit_band, window=spec.get("window"))
     except ValueError as exc:
