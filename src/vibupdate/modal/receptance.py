@@ -19,7 +19,8 @@ excitation) to the modes and solving the model projected on them (Rayleigh-Ritz)
 those terms and keeps the included modes exact: the static part of massless DOFs, the modes'
 resonances and the residual are all in one small dense solve. Measured on the 2,940-DOF
 building, driving point and one transfer pair, 40 modes: static correction alone 2.6e-2 of the
-peak, 4 Krylov vectors 8e-7 (`tests/modal/test_receptance.py`)."""
+peak, 4 Krylov vectors 8e-7 (`benchmarks/RESULTS.md`); held against direct solves in
+`tests/modal/test_receptance.py`."""
 
 from __future__ import annotations
 
