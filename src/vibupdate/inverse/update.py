@@ -266,6 +266,21 @@ def _margin_entries(blk) -> np.ndarray:
     return np.ones(blk.lower.size, dtype=bool) if blk.measured is None else ~blk.measured
 
 
+def _reduction_error(solved, nominal) -> float:
+    """Largest relative difference between the natural frequencies of the reduced models
+    (Craig-Bampton, ``solved``) and the full ones (``nominal``) at the nominal point, over the
+    declared modes: the first stage's relaxation bounds the reduced problem, which misses even
+    exact data by about this much (a 2,880-DOF building, 6 exact frequencies: relaxation bound
+    1.1e-6, where 0.01 % frequency errors explain 2.4e-7, and the update exact to 2e-11)."""
+    worst = 0.0
+    for cfg, full in zip(solved, nominal):
+        reduced = model_frequencies(cfg).natural
+        ok = np.isfinite(reduced) & np.isfinite(full.natural) & (full.natural > 0)
+        if np.any(ok):
+            worst = max(worst, float(np.max(np.abs(reduced[ok] - full.natural[ok]) / full.natural[ok])))
+    return worst
+
+
 def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None, problem=None):
     """The homotopy, repeated with wider vector boxes while the relaxation proves that the
     current boxes exclude every fit (module docstring, item 2). ``problem``: the first
@@ -342,7 +357,8 @@ class _Finish:
         return self.polished.cost if self.polished is not None else float("inf")
 
 
-def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, say) -> _Finish:
+def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, say,
+            reduction_error: float = 0.0) -> _Finish:
     """Polish ``start``, take the minimum change along undetermined directions, verify."""
     xbar, polished, minimum = start, None, None
     if polish.enabled:
@@ -358,7 +374,8 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
 
     def checked(x, at):
         out = verify(configurations, x, nominal=nominal, updated=at, lower_bound=path.lower_bound,
-                     n_blocks=len(problem.blocks), active_bounds=active, first_stage=first, options=verification)
+                     n_blocks=len(problem.blocks), active_bounds=active, first_stage=first, options=verification,
+                     reduction_error=reduction_error)
         return tuple(out), not any(c.severity == "error" and not c.passed for c in out)
 
     verdict = None
@@ -641,8 +658,9 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         say(f"Craig-Bampton reduction: {configurations[0].model.n_dofs} -> {solved[0].model.n_dofs} DOFs "
             f"(measured DOFs kept, {formulation.reduction_modes} fixed-interface modes)")
     nominal = [model_frequencies(c) for c in configurations]
+    reduction_error = 0.0 if bases is None else _reduction_error(solved, nominal)
     problem, path, steps, attempts, active = _first_stage(solved, formulation, solver,
-                                                          verification.frequency_tolerance, say,
+                                                          max(verification.frequency_tolerance, reduction_error), say,
                                                           nominal if bases is None else None, first_problem)
     size = problem.sizes()
     if bases is not None:
@@ -653,7 +671,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
 
     def finish(start: np.ndarray, label: str, options: PolishOptions | None = None) -> _Finish:
         candidate = _finish(configurations, start, label, path, problem, active, nominal, options or polish,
-                            verification, say)
+                            verification, say, reduction_error)
         tried.append(candidate)
         return candidate
 
