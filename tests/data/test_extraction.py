@@ -660,3 +660,25 @@ def test_a_roving_hammer_test_read_reciprocally_gives_shapes_at_every_hammer_poi
     assert set(shapes[1]) == {"y1", "y2", "y3"}
     both = FRFSet(hammer.omega, (("y3", "y1"), ("y1", "y3")), (hammer.H[0], hammer.H[1])).reciprocal()
     assert both.pairs == (("y1", "y3"), ("y3", "y1")) and both.H[0] is hammer.H[0]
+
+
+def test_zeros_above_the_highest_fitted_pole_are_left_out_unless_kept(tmp_path):
+    """Fitting 20-200 Hz of the cantilever (modes 67.7 and 127 Hz; the next, 229 Hz, outside the
+    fitted lines): the zeros above 127 Hz are shaped by the residual terms and left out, said in
+    the notes; kept on request; with the default fit band (to twice the band's top) the 229 Hz
+    mode is fitted and they are ordinary zeros again."""
+    frfs, *_ = measured(5, repeats=5)
+    band = (2 * math.pi * 20.0, 2 * math.pi * 200.0)
+    narrow = extract(frfs, band=band, fit_band=band)
+    assert len(narrow.modes) == 2 and narrow.outer_zeros
+    top = narrow.fitted_poles[:, 0].max()
+    assert all(z.omega > top for z in narrow.outer_zeros) and all(z.omega <= top for z in narrow.zeros)
+    note = next(n for n in narrow.notes() if "outside the fitted poles" in n)
+    assert "left out" in note and "keep_outer_zeros" in note
+    kept = extract(frfs, band=band, fit_band=band, keep_outer_zeros=True)
+    assert not kept.outer_zeros and len(kept.zeros) == len(narrow.zeros) + len(narrow.outer_zeros)
+    # each zero keeps its index, counted from the lowest in the band, left out or not
+    indices = {(z.response, z.excitation, z.index) for z in kept.zeros}
+    assert indices == {(z.response, z.excitation, z.index) for z in narrow.zeros + narrow.outer_zeros}
+    wide = extract(frfs, band=band)
+    assert not wide.outer_zeros and wide.fitted_poles[:, 0].max() > 2 * math.pi * 200

@@ -205,6 +205,11 @@ class Extraction:
         The quantity the FRF files held (`FRFSet.measured`): the one a window smooths.
     line_spacing : float
         Spacing of the fitted lines, rad/s.
+    outer_zeros : tuple of ExtractedZero
+        Zeros in the band below the lowest or above the highest fitted pole, left out of
+        ``zeros`` (`extract`, ``keep_outer_zeros``): there the receptance is shaped by the
+        residual terms standing for modes outside the fitted lines, which place a zero only
+        loosely, and its interval does not hold that.
     """
 
     modes: tuple
@@ -223,6 +228,7 @@ class Extraction:
     record_s: float = 0.0
     measured: str = "receptance"
     line_spacing: float = 0.0
+    outer_zeros: tuple = ()
 
     def synthesize(self, omega, damped: bool = True) -> np.ndarray:
         """Fitted receptances, shape (n_pairs, n_freq), at ``omega`` (rad/s, shape (n_freq,)):
@@ -252,6 +258,13 @@ class Extraction:
                        f"nonlinearity, a mode not fitted); the intervals count that misfit as noise")
         narrow = [(first_mode + k, 2 * m.damping_ratio * m.omega / line_spacing) for k, m in enumerate(self.modes)
                   if 2 * m.damping_ratio * m.omega < NARROW_LINES * line_spacing]
+        if self.outer_zeros:
+            listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz" for z in self.outer_zeros)
+            poles = self.fitted_poles[:, 0] / (2 * math.pi)
+            out.append(f"{len(self.outer_zeros)} antiresonance(s) outside the fitted poles ({poles.min():.5g}-"
+                       f"{poles.max():.5g} Hz) left out: {listed}; the residual terms that stand for modes outside "
+                       f"the fitted lines place them only loosely (keep them with keep_outer_zeros, or widen the "
+                       f"fit band to the next mode)")
         if narrow and self.window == "none":
             listed = ", ".join(f"mode {k}: {lines:.1f}" for k, lines in narrow)
             out.append(f"half-power bandwidths of fewer than {NARROW_LINES:g} lines ({listed}): such damping ratios "
@@ -333,7 +346,7 @@ def _shapes(pairs, constants, se, n_modes):
 def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
             orders: Sequence[int] | None = None, min_stable: int = 3, max_damping: float = 0.1,
             confidence: float = 0.95, fit_band: tuple | None = None, local_zeros: bool = True,
-            window: str | None = None) -> Extraction:
+            window: str | None = None, keep_outer_zeros: bool = False) -> Extraction:
     """Natural frequencies, damping ratios, shapes and antiresonances from measured FRFs.
 
     Parameters
@@ -367,6 +380,9 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         record = one over the line spacing). When given, the fit models the window's leakage
         (`vibupdate.data._window`), so the damping ratios of peaks a few lines wide are not
         read high; default None: the FRFs are fitted as they are.
+    keep_outer_zeros : bool
+        Report the antiresonances below the lowest or above the highest fitted pole with the
+        others; by default they are left out (`Extraction.outer_zeros`) and said in the notes.
 
     Returns
     -------
@@ -380,11 +396,11 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     # 1.9 s with one.
     with threadpool_limits(limits=1, user_api="blas"):
         return _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, fit_band, local_zeros,
-                        window)
+                        window, keep_outer_zeros)
 
 
 def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, fit_band, local_zeros,
-             window_name) -> Extraction:
+             window_name, keep_outer_zeros=False) -> Extraction:
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
     report = _check_band(band, "band") if band is not None else (float(frfs.omega[0]), float(frfs.omega[-1]))
@@ -443,7 +459,7 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     wn, zeta, counts, in_band = wn[order], zeta[order], [counts[k] for k in order], in_band[order]
     cov_poles = cov_poles[np.ix_(np.r_[order, order + wn.size], np.r_[order, order + wn.size])]
     fitted = _Fitted(x, F, var, scales, wn, zeta, cov_poles, in_band, inside, x_report, scale_w, window)
-    return _stage_two(frfs, fitted, counts, stab, noise, confidence, local_zeros)
+    return _stage_two(frfs, fitted, counts, stab, noise, confidence, local_zeros, keep_outer_zeros)
 
 
 def _check_band(band, name):
@@ -484,11 +500,14 @@ class _Fitted:
     window: object = None   # vibupdate.data._window.Window of the estimate, or None
 
 
-def _located_zeros(found, fit, Phi, confidence, local_refit):
+def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False):
     """`ExtractedZero` of every FRF from its fitted zeros: the global zero, or the local refit's
-    (`_local_zero`) when its standard error is the smaller."""
+    (`_local_zero`) when its standard error is the smaller; and, apart unless ``keep_outer``,
+    those below the lowest or above the highest fitted pole (`Extraction.outer_zeros`; their
+    ``index`` still counts them, so the others keep theirs)."""
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
-    zeros = []
+    zeros, outer = [], []
+    lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
     for pair, f, v, coef, cov, fitted in found:
         index = 0
         for z in fitted:
@@ -500,12 +519,13 @@ def _located_zeros(found, fit, Phi, confidence, local_refit):
             if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
                 continue  # not located within the band (a residual-term artefact near an edge)
             index += 1
-            zeros.append(ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
-                                       (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w))))
-    return zeros
+            found_zero = ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
+                                       (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w)))
+            (outer if not keep_outer and not lowest <= z <= highest else zeros).append(found_zero)
+    return zeros, outer
 
 
-def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
+def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_outer_zeros=False):
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
     x, F, var, scales, wn, zeta, scale_w = fit.x, fit.F, fit.var, fit.scales, fit.wn, fit.zeta, fit.scale_w
     n = wn.size
@@ -531,7 +551,7 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
         found.append((pair, f, v, coef, cov, _zeros_of(x[fit.inside], coef, wn, zeta)))
-    zeros = _located_zeros(found, fit, Phi, confidence, local_refit)
+    zeros, outer = _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer_zeros)
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
     modes = []
@@ -552,4 +572,4 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit):
                       frfs.pairs, np.array(coefs), np.asarray(scales), (float(frfs.omega[0]), float(frfs.omega[-1])),
                       np.column_stack([wn * scale_w, zeta]), "none" if fit.window is None else fit.window.name,
                       0.0 if fit.window is None else fit.window.record / scale_w, frfs.measured,
-                      float(np.median(np.diff(x))) * scale_w)
+                      float(np.median(np.diff(x))) * scale_w, tuple(outer))

@@ -69,8 +69,11 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
         "shape_normalization": m.normalization,
         "stable_orders": m.stable_orders,
     } for k, m in enumerate(result.modes)]
-    zeros = [{"response": z.response, "excitation": z.excitation, "index": z.index,
-              "freq_hz": z.omega / TWO_PI, "freq_hz_interval": _hz(z.interval)} for z in result.zeros]
+    def zero(z):
+        return {"response": z.response, "excitation": z.excitation, "index": z.index,
+                "freq_hz": z.omega / TWO_PI, "freq_hz_interval": _hz(z.interval)}
+
+    zeros = [zero(z) for z in result.zeros]
     quality = [{"response": q.response, "excitation": q.excitation, "quality": q.quality,
                 "relative_residual": q.relative_residual, "repeats": q.n_repeats} for q in result.quality]
     stabilization = [{"pole_pairs": int(n), "freq_hz": (w / TWO_PI).tolist(), "damping_ratio": z.tolist()}
@@ -79,7 +82,8 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
                "reported": any(m.omega == w for m in result.modes)} for w, z in result.fitted_poles]
     return {"band_hz": _hz(result.band), "fit_band_hz": _hz(result.fit_band), "confidence": result.confidence,
             "noise": result.noise, "window": result.window, "record_s": result.record_s, "natural": natural,
-            "antiresonances": zeros, "fitted_modes": fitted,
+            "antiresonances": zeros, "outer_antiresonances": [zero(z) for z in result.outer_zeros],
+            "fitted_modes": fitted,
             "quality": quality, "stabilization": stabilization}
 
 
