@@ -52,29 +52,21 @@ def _columns(A, dofs):
 def dmig_text(name: str, A, dofs, field: str = "free") -> str:
     """One symmetric DMIG matrix (``IFO = 6``, lower triangle) in ``small``, ``large`` or ``free`` field."""
     lines = []
-    if field == "small":
-        def card(first, data):      # 8 data fields per line, blank continuation markers
-            out = []
-            for k in range(0, max(len(data), 1), 8):
-                chunk = data[k:k + 8]
-                out.append(f"{first if k == 0 else '':<8}" + "".join(f"{c:>8}" for c in chunk))
-            return out
-        fmt = _nastran_small
-    elif field == "large":
-        def card(first, data):      # 4 data fields per line; continuation lines start with '*'
-            out = []
-            for k in range(0, max(len(data), 1), 4):
-                chunk = data[k:k + 4]
-                out.append(f"{(first + '*') if k == 0 else '*':<8}" + "".join(f"{c:>16}" for c in chunk))
-            return out
-        fmt = _nastran_large
-    else:
-        def card(first, data):
-            out = []
-            for k in range(0, max(len(data), 1), 8):
-                out.append(",".join([first if k == 0 else ""] + data[k:k + 8]))
-            return out
-        fmt = repr
+    # fields per line, field width, continuation marker of the first and later lines
+    per_line, width, marks, fmt = {"small": (8, 8, ("", ""), _nastran_small),
+                                   "large": (4, 16, ("*", "*"), _nastran_large)}.get(field, (8, 0, None, repr))
+
+    def card(first, data):
+        out = []
+        for k in range(0, max(len(data), 1), per_line):
+            chunk = data[k:k + per_line]
+            if marks is None:    # free field: comma separated
+                out.append(",".join([first if k == 0 else ""] + chunk))
+            else:
+                head = first + marks[0] if k == 0 else marks[1]
+                out.append(f"{head:<8}" + "".join(f"{c:>{width}}" for c in chunk))
+        return out
+
     lines += card("DMIG", [name, "0", "6", "2", "0", "", "", ""])
     for col, terms in _columns(A, dofs):
         g, c = _split(col)

@@ -195,17 +195,15 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     images = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
-        plots = available("plots")      # without matplotlib: one note and no plots
-        if not plots:
+        if not available("plots"):      # without matplotlib: one note and no plots
             warnings.warn(OutputWarning(skipped("plots", "plots")))
-        if plots:
+        else:
             images += _receptance_plot(folder, case, run)
-        for cfg in case.configurations if plots else ():
-            images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
-        # the path is worth a plot when it has steps between the relaxation and lambda = 1
-        if plots and len(run.solver["steps"]) > 2 and drawn(folder / "homotopy.png", plot_homotopy,
-                                                             run.solver["steps"]):
-            images.append(("homotopy objective per step", "homotopy.png"))
+            for cfg in case.configurations:
+                images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
+            # the path is worth a plot when it has steps between the relaxation and lambda = 1
+            if len(run.solver["steps"]) > 2 and drawn(folder / "homotopy.png", plot_homotopy, run.solver["steps"]):
+                images.append(("homotopy objective per step", "homotopy.png"))
         if extra is not None:
             try:
                 images += extra(folder)
@@ -260,7 +258,6 @@ def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResul
     if cfg.name in case.frfs:
         if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices["nominal"], updated):
             images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices["nominal"], updated), file))
-
     mac = run.mac_matrix.get(cfg.name)
     if mac is not None:
         file = f"mac_{part}.png"

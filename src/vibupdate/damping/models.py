@@ -52,19 +52,13 @@ class CaugheyLaw:
         -------
         ndarray of complex, shape (n_pairs, n_f)
         """
-        from vibupdate.modal.receptance import modal_sum
+        from vibupdate.modal.receptance import classical_terms, modal_sum
 
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        law = lambda w: modal_damping(self.exponents, self.beta, w)   # noqa: E731
         if self.n_modes < M.shape[0] - massless_dofs(M).size - 1:
-            return modal_sum(M, K, pairs, omega, lambda w: modal_damping(self.exponents, self.beta, w),
-                             n_modes=self.n_modes)
-        w, Phi = modes(M, K)
-        rows = np.array([p[0] for p in pairs], dtype=int)
-        cols = np.array([p[1] for p in pairs], dtype=int)
-        xi = np.zeros_like(w)
-        xi[w > 0] = modal_damping(self.exponents, self.beta, w[w > 0])
-        den = w[:, None] ** 2 - omega[None, :] ** 2 + 2j * xi[:, None] * w[:, None] * omega[None, :]
-        return (Phi[rows] * Phi[cols]) @ (1.0 / den)
+            return modal_sum(M, K, pairs, omega, law, n_modes=self.n_modes)
+        return classical_terms(*modes(M, K), pairs, omega, law)
 
     def receptance(self, M, K, r: int, c: int, omega) -> np.ndarray:
         """``h_rc(j omega)`` of one pair (`receptances`), shape (n_f,), m/N."""

@@ -371,11 +371,12 @@ def check_repeats(frfs: FRFSet) -> None:
         if h.shape[0] < 2:
             continue
         where = f"FRF h_{r},{c} (files {', '.join(frfs.sources)})"
-        for i in range(h.shape[0]):
-            for j in range(i):
-                if np.array_equal(h[i], h[j]):
-                    raise ValueError(f"{where}: repeats {j + 1} and {i + 1} are identical, the same record twice "
-                                     "(a file given twice, or one column under two labels?)")
+        first: dict = {}
+        for i, record in enumerate(h):
+            j = first.setdefault(record.tobytes(), i)
+            if j != i:
+                raise ValueError(f"{where}: repeats {j + 1} and {i + 1} are identical, the same record twice "
+                                 "(a file given twice, or one column under two labels?)")
         mean = h.mean(axis=0)
         spread = np.median(np.abs(h - mean[None]) / np.maximum(np.abs(mean), 1e-300)[None], axis=1)
         if spread.max() > CONTRADICTORY:

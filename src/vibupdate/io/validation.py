@@ -162,8 +162,10 @@ def _nominal_figures(cfg, n_modes: int = 6) -> str:
 
     M, K = cfg.model.matrices()
     try:
-        # as many modes as the data name, so that the later solves of the nominal model reuse these
-        omega = flexible_modes(M, K, max([n_modes, len(cfg.natural)] + [f.mode or 0 for f in cfg.natural]))[0][:n_modes]
+        # one above the highest mode the data name, as `model_frequencies` asks of the nominal
+        # model later in the run: its sparse solve then reuses this one (`vibupdate.modal.eigen`)
+        top = max([len(cfg.natural)] + [f.mode or 0 for f in cfg.natural])
+        omega = flexible_modes(M, K, max(n_modes, top + 1))[0][:n_modes]
         text = (f"{cfg.name}: nominal model's first flexible frequencies "
                 + ", ".join(f"{w / TWO_PI:.6g}" for w in omega) + " Hz")
     except (ValueError, np.linalg.LinAlgError) as exc:

@@ -31,15 +31,18 @@ import scipy.sparse as sp
 from vibupdate.modal import eigen
 from vibupdate.modal.eigen import _dense, _dense_modes, check_dof_pair, massless_dofs
 
-__all__ = ["receptance", "receptances", "modal_sum"]
+__all__ = ["receptance", "receptances", "modal_sum", "classical_terms"]
 
 #: Bytes a dense damped receptance may hold in its stack of dynamic stiffness matrices.
 _CHUNK_BYTES = 32 * 2**20
-#: Fewest modes of a modal sum on a large model (`modal_sum`).
+#: Fewest modes of a modal sum on a large model (`modal_sum`): the count `CaugheyLaw` took.
 MODAL_SUM_MODES = 40
-#: A modal sum takes modes up to this multiple of its highest line (`modal_sum`).
+#: A modal sum takes modes up to this multiple of its highest line (`modal_sum`), so that every
+#: resonance drawn is an exact mode and the nearest ones left out lie above the plot.
 MODAL_SUM_REACH = 1.2
-#: Krylov vectors per excitation added to the modes of a modal sum (`modal_sum`).
+#: Krylov vectors per excitation added to the modes of a modal sum (`modal_sum`). On the
+#: 2,940-DOF building with 40 modes the worst error relative to the peak was 1.4e-2, 1.6e-4,
+#: 4.9e-5 and 7.9e-7 with 1, 2, 3 and 4 vectors.
 KRYLOV_DEPTH = 4
 
 
@@ -131,6 +134,31 @@ def _state_space_receptances(M, K, C, rows, cols, omega: np.ndarray):
     return h
 
 
+def classical_terms(w, Phi, pairs, omega, damping=None) -> np.ndarray:
+    """``sum_k phi_rk phi_ck / (w_k^2 - omega^2 + 2 j zeta_k w_k omega)`` over the given modes,
+    shape (n_pairs, n_f), m/N: exact modes of a model with classical damping (``damping(w)``,
+    the ratio of each flexible mode; rigid-body modes, ``w = 0``, undamped).
+
+    Parameters
+    ----------
+    w : ndarray, shape (k,)
+        rad/s.
+    Phi : ndarray, shape (n, k)
+        Mass-normalized modes.
+    pairs : sequence of (int, int), length n_pairs
+    omega : ndarray, shape (n_f,)
+        rad/s.
+    damping : callable, optional
+        As in `modal_sum`.
+    """
+    rows, cols = _pair_arrays(Phi.shape[0], pairs)
+    xi = np.zeros_like(w)
+    if damping is not None:
+        xi[w > 0] = damping(w[w > 0])
+    den = w[:, None] ** 2 - omega[None, :] ** 2 + 2j * (xi * w)[:, None] * omega[None, :]
+    return (Phi[rows] * Phi[cols]) @ (1.0 / den)
+
+
 def modal_sum(M, K, pairs, omega, damping=None, n_modes: int | None = None) -> np.ndarray:
     """``h_rc(j omega)`` of several pairs of a large model from its lowest modes and the
     Krylov vectors of its excitations (module docstring), with classical damping.
@@ -186,14 +214,12 @@ def modal_sum(M, K, pairs, omega, damping=None, n_modes: int | None = None) -> n
     mu, Z = sla.eigh(Q.T @ np.asarray(Ms @ Q), Q.T @ np.asarray((Ks - sigma * Ms) @ Q))
     Psi = Q @ Z
     lam = sigma + 1.0 / np.where(mu > 0, mu, np.inf)
-    xi, zeta = np.zeros_like(w), np.zeros_like(mu)
+    zeta = np.zeros_like(mu)
     if damping is not None:
-        xi[w > 0] = damping(w[w > 0])
         zeta[lam > 0] = damping(np.sqrt(lam[lam > 0]))
-    jw = 1j * omega[None, :]
-    exact = w[:, None] ** 2 - omega[None, :] ** 2 + 2 * (xi * w)[:, None] * jw
-    rest = 1.0 - (omega[None, :] ** 2 - sigma) * mu[:, None] + 2 * (zeta * np.sqrt(np.maximum(lam, 0.0)) * mu)[:, None] * jw
-    return (Phi[rows] * Phi[cols]) @ (1.0 / exact) + (Psi[rows] * Psi[cols]) @ (1.0 / rest)
+    rest = (1.0 - (omega[None, :] ** 2 - sigma) * mu[:, None]
+            + 2j * (zeta * np.sqrt(np.maximum(lam, 0.0)) * mu)[:, None] * omega[None, :])
+    return classical_terms(w, Phi, pairs, omega, damping) + (Psi[rows] * Psi[cols]) @ (1.0 / rest)
 
 
 def receptances(M, K, pairs, omega, C=None) -> np.ndarray:
@@ -236,12 +262,11 @@ def receptances(M, K, pairs, omega, C=None) -> np.ndarray:
         return _dense_damped_receptances(M, K, C, rows, cols, omega)
     if C is None:
         return modal_sum(M, K, pairs, omega)
-    Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
-    Cs = None if C is None else sp.csc_matrix(C)
+    Ms, Ks, Cs = sp.csc_matrix(M), sp.csc_matrix(K), sp.csc_matrix(C)
     E, which = _unit_columns(n, cols)
     out = np.empty((rows.size, omega.size), dtype=complex)
     for i, w in enumerate(omega):
-        A = Ks - w**2 * Ms if Cs is None else Ks + 1j * w * Cs - w**2 * Ms
+        A = Ks + 1j * w * Cs - w**2 * Ms
         X = eigen.sparse_lu(A).solve(E.astype(A.dtype))
         out[:, i] = X[rows, which]
     return out
