@@ -31,8 +31,6 @@ from vibupdate.io.validation import CaseCheck, validate_case
 __all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
            "planned_files"]
 
-#: Parameter ranges (exact Jacobian of the modal data, two LPs per parameter) up to this size.
-RANGES_DOF_LIMIT = 2000
 
 
 def example_names() -> list[str]:
@@ -334,7 +332,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     if not result.success:
         identifiability["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
                                           "answer and mean something only at a verified answer")
-    elif case.configurations[0].model.n_dofs <= RANGES_DOF_LIMIT:
+    else:   # at any size: the Jacobian is the exact sparse one (0.18 s at 2,940 DOFs, 1.0 s at 30,315)
         from vibupdate.ranges.identifiability import parameter_ranges
 
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)
