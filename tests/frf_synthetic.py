@@ -315,3 +315,18 @@ def lagged_accelerance(M, K, C, dofs, pairs, omega, lag: str = "random, hann", r
         rho = V[i, :] * (W[:, n:] @ Minv[:, j])
         out.append(Minv[i, j] + integral @ (rho * lam**2))
     return np.array(out)
+
+
+def write_uff(path, frfs):
+    """``frfs`` as UFF dataset 58 accelerances (one record per repeat), DOF names ``y<node>``."""
+    import pyuff
+
+    sets = []
+    for (r, c), h in zip(frfs.pairs, frfs.H):
+        for rep in h:
+            acc = (1j * frfs.omega) ** 2 * rep
+            sets.append(pyuff.prepare_58(
+                func_type=4, rsp_node=int(r[1:]), rsp_dir=2, ref_node=int(c[1:]), ref_dir=2, data=acc,
+                x=frfs.freq_hz, id1="FRF", rsp_ent_name="beam", ref_ent_name="beam", abscissa_spacing=1,
+                abscissa_spec_data_type=18, ordinate_spec_data_type=12, orddenom_spec_data_type=13, binary=0))
+    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")

@@ -80,3 +80,56 @@ def test_frequency_windows_text_names_the_source():
     _, plain = _chain(np.zeros(3))
     case = Case("c", None, (plain,), SolverOptions(), FormulationOptions(), None, frequency_tolerance=0.01)
     assert _frequency_windows(case) == "1 % of each frequency"
+
+
+def _frf_route_case(tmp_path):
+    """The cantilever's known-truth hits as a UFF file, and the case text of the FRF route."""
+    from frf_synthetic import measured, write_uff
+    from vibupdate.examples import cantilever
+
+    frfs, *_ = measured(9, repeats=3)
+    write_uff(tmp_path / "hits.uff", frfs)
+    params = "\n".join(f'[[parameter]]\nname = "{p.name}"\nnominal = {p.nominal!r}\nlower = {p.lower!r}\n'
+                       f'upper = {p.upper!r}\n' for p in cantilever.parameters())
+    head = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
+            '[[configuration]]\nname = "A"\n')
+    return head, head + '[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n'
+
+
+def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tmp_path, capsys):
+    """The tables `extract` writes carry every interval the FRF route gives (frequency, damping
+    ratio, zero numbers, shapes), so a case reading them is held to the same measurement
+    intervals and weighs its data the same: same status, same checks, same parameters."""
+    import json
+
+    from vibupdate.cli import main
+
+    head, frf_case = _frf_route_case(tmp_path)
+    (tmp_path / "frf.toml").write_text(frf_case)
+    assert main(["extract", str(tmp_path / "hits.uff"), "--band", "20", "300", "--out", str(tmp_path / "ex"),
+                 "--no-plot"]) == 0
+    (tmp_path / "csv.toml").write_text(head + 'frequencies_csv = "ex/frequencies.csv"\n'
+                                       'mode_shapes_csv = "ex/shapes.csv"\n')
+    from vibupdate.io.case import load_case
+
+    by_frf, by_csv = (load_case(tmp_path / f"{name}.toml").configurations[0] for name in ("frf", "csv"))
+    for a, b in zip((*by_frf.natural, *by_frf.antiresonances), (*by_csv.natural, *by_csv.antiresonances),
+                    strict=True):   # equal to the Hz -> rad/s rounding
+        np.testing.assert_allclose((b.omega, *b.interval), (a.omega, *a.interval), rtol=1e-14)
+        assert getattr(a, "index", None) == getattr(b, "index", None)
+    for a, b in zip(by_frf.natural, by_csv.natural):
+        assert (a.mode, a.damping_ratio, a.damping_interval, a.shape) == (b.mode, b.damping_ratio,
+                                                                          b.damping_interval, b.shape)
+    codes, docs = [], []
+    for name in ("frf", "csv"):
+        codes.append(main(["run", str(tmp_path / f"{name}.toml"), "--out", str(tmp_path / f"out_{name}")]))
+        docs.append(json.loads((tmp_path / f"out_{name}" / "results.json").read_text()))
+    capsys.readouterr()
+    frf, csv = docs
+    assert codes[0] == codes[1]
+    assert frf["solver"]["status"] == csv["solver"]["status"]
+    assert [(c["name"], c["passed"], c.get("limited_by")) for c in frf["solver"]["checks"]] == \
+        [(c["name"], c["passed"], c.get("limited_by")) for c in csv["solver"]["checks"]]
+    a = np.array([p["updated"] for p in frf["parameters"]])
+    b = np.array([p["updated"] for p in csv["parameters"]])
+    np.testing.assert_allclose(b, a, rtol=1e-6)

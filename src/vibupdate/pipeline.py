@@ -317,13 +317,15 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         study.check(case)
     target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()),
                             command="run", inputs=case.inputs)
-    verification = case.verification
-    if case.frequency_tolerance > 0:   # the stated intervals of the frequencies without their own
-        verification = replace(verification, frequency_tolerance=case.frequency_tolerance,
-                               fit_tolerance=min(verification.fit_tolerance, case.frequency_tolerance))
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
-                    verification=verification, progress=say, prepared=checked.prepared)
+                    verification=case.verify_options(), progress=say, prepared=checked.prepared)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
+    if result.success:
+        from vibupdate.report.document import limited_text
+
+        limited = limited_text([c.as_dict() for c in result.checks])
+        if limited:
+            say(limited[2:])
     stage, notes, info = _damping_stage(case, result.xbar, say, result.modal)
     notes = list(checked.warnings) + notes
     identifiability = _identifiability(result)

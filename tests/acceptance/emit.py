@@ -4,7 +4,8 @@
   files in Matrix Market or ``.npz``), the parameters, one ``[[configuration]]`` per data set
   (frequencies typed in the TOML or in a CSV table with the columns of
   `vibupdate.io.measured_io.read_frequency_csv`, shapes in a CSV table ``mode,dof,lower,upper``),
-  and ``frequency_tolerance`` = the problem's 3-sigma half-width for noisy data.
+  ``frequency_tolerance`` = the problem's 3-sigma half-width for noisy data, and the model-form
+  tolerances of a model family that holds the truth (`model_form`).
 * `configurations`: the same data for `vibupdate.update`; a noisy frequency carries its
   interval. ``judge=True`` gives the judge's configurations: modes and zeros always declared,
   and exact data widened into intervals of relative half-width `EXACT_SLACK` (frequencies) and
@@ -20,7 +21,7 @@ from pathlib import Path
 from acceptance import structures as S
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 
-__all__ = ["write_case", "configurations", "toml_value", "flexible_mode", "EXACT_SLACK"]
+__all__ = ["write_case", "configurations", "toml_value", "flexible_mode", "model_form", "EXACT_SLACK"]
 
 #: Half-width the judge gives exact data: relative for frequencies, absolute for shape ratios
 #: (well above the 1e-8 of a dense eigen-solve, far below any measurement).
@@ -92,6 +93,7 @@ def write_case(problem, folder) -> Path:
     if problem.tolerance > 0:
         lines.append(f"frequency_tolerance = {problem.tolerance!r}")
     lines.append("")
+    _table(lines, "[verification]", model_form(problem))
     _table(lines, "[model]", S.model_table(problem.structure, problem.parameters, folder))
     for p in problem.parameters:
         _table(lines, "[[parameter]]", {"name": p.name, "unit": p.unit, "nominal": p.nominal, "lower": p.lower,
@@ -101,6 +103,17 @@ def write_case(problem, folder) -> Path:
     path = folder / "case.toml"
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
+
+
+def model_form(problem) -> dict:
+    """The model-form tolerances a known-truth case states: the model family holds the truth,
+    so shapes are held to their intervals alone, and noisy frequencies to theirs; exact
+    frequencies keep the default (a wrong answer within it is what the judge's
+    ``outside`` and ``determined_miss`` classes find)."""
+    tolerances = {"shape_tolerance": 0.0}
+    if problem.tolerance > 0:
+        tolerances.update(natural_tolerance=0.0, antiresonance_tolerance=0.0)
+    return tolerances
 
 
 def flexible_mode(problem, natural) -> int:

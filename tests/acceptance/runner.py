@@ -171,9 +171,12 @@ def run_api(problem) -> dict:
 
     from vibupdate import VerifyOptions, update
 
-    verification = VerifyOptions()
+    from acceptance.emit import model_form
+
+    verification = VerifyOptions(**model_form(problem))
     if problem.tolerance > 0:
-        verification = _replace(verification, frequency_tolerance=problem.tolerance)
+        verification = _replace(verification, frequency_tolerance=problem.tolerance,
+                                measurement_tolerance=problem.tolerance)
     start = time.perf_counter()
     try:
         with warnings.catch_warnings():

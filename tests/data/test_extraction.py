@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from frf_synthetic import (CHAIN_PAIRS, FRAME_PAIRS, PAIRS, chain_system, frame_measured, measured, score, true_poles,
-                           true_zeros)
+                           true_zeros, write_uff)
 from vibupdate.cli import main
 from vibupdate.data.extraction import extract
 from vibupdate.data.frf import FRFSet
@@ -282,24 +282,12 @@ SOTON_ZEROS_HZ = {("x1", "x1"): (8.80, 23.94), ("x2", "x2"): (14.99, 19.85), ("x
                   ("x2", "x1"): (14.39,), ("x1", "x2"): (14.48,), ("x3", "x2"): (19.43,), ("x2", "x3"): (19.45,)}
 
 
-def _write_uff(path, frfs):
-    import pyuff
-
-    sets = []
-    for (r, c), h in zip(frfs.pairs, frfs.H):
-        for rep in h:
-            acc = (1j * frfs.omega) ** 2 * rep
-            sets.append(pyuff.prepare_58(
-                func_type=4, rsp_node=int(r[1:]), rsp_dir=2, ref_node=int(c[1:]), ref_dir=2, data=acc,
-                x=frfs.freq_hz, id1="FRF", rsp_ent_name="beam", ref_ent_name="beam", abscissa_spacing=1,
-                abscissa_spec_data_type=18, ordinate_spec_data_type=12, orddenom_spec_data_type=13, binary=0))
-    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
 
 
 def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
     frfs, *_ = measured(8, repeats=3)
     uff = tmp_path / "hits.uff"
-    _write_uff(uff, frfs)
+    write_uff(uff, frfs)
     out = tmp_path / "ex"
     assert main(["extract", str(uff), "--band", "20", "300", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
@@ -343,7 +331,7 @@ def test_cli_extract_writes_through_the_manifest_and_keeps_foreign_files(tmp_pat
 
     frfs, *_ = measured(8, repeats=2)
     uff = tmp_path / "hits.uff"
-    _write_uff(uff, frfs)
+    write_uff(uff, frfs)
     out = tmp_path / "ex"
     out.mkdir()
     (out / "notes.txt").write_text("mine")
@@ -476,7 +464,7 @@ def test_case_configuration_from_frf_files(tmp_path):
     from vibupdate.examples import cantilever
 
     frfs, *_ = measured(9, repeats=3)
-    _write_uff(tmp_path / "hits.uff", frfs)
+    write_uff(tmp_path / "hits.uff", frfs)
     params = "\n".join(f'[[parameter]]\nname = "{p.name}"\nnominal = {p.nominal!r}\nlower = {p.lower!r}\n'
                        f'upper = {p.upper!r}\n' for p in cantilever.parameters())
     text = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
@@ -512,7 +500,7 @@ def test_case_configuration_from_frf_files(tmp_path):
 def test_fit_band_from_the_command_line_and_a_bad_one_is_a_clear_error(tmp_path, capsys):
     frfs, *_ = measured(8, repeats=2)
     uff = tmp_path / "hits.uff"
-    _write_uff(uff, frfs)
+    write_uff(uff, frfs)
     top = float(frfs.freq_hz[-1])
     out = tmp_path / "ex"
     assert main(["extract", str(uff), "--band", "40", "250", "--fit-band", "30", f"{top}", "--out", str(out),
@@ -654,7 +642,7 @@ def test_a_roving_hammer_test_read_reciprocally_gives_shapes_at_every_hammer_poi
             assert lo <= rhi and rlo <= hi, (dof, (lo, hi), (rlo, rhi))   # the intervals overlap
     # the command line and a case file say it the same way
     uff = tmp_path / "hammer.uff"
-    _write_uff(uff, hammer)
+    write_uff(uff, hammer)
     assert main(["extract", str(uff), "--reciprocal", "--no-plot", "--out", str(tmp_path / "ex")]) == 0
     shapes = read_shape_csv(tmp_path / "ex" / "shapes.csv")
     assert set(shapes[1]) == {"y1", "y2", "y3"}

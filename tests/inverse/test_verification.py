@@ -13,7 +13,7 @@ from vibupdate.ranges.identifiability import parameter_ranges
 from vibupdate.modal.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import update
-from vibupdate.inverse.verify import verify
+from vibupdate.inverse.verify import VerifyOptions, verify
 
 
 def spectrum(model, xbar):
@@ -329,7 +329,9 @@ def test_point_shape_data_are_held_to_what_the_pencil_resolves(shift, passes):
     """The true model of the frame refined to 1,553 DOFs against its own exact point data,
     exported with other rounding: its ratios miss the points by 2.1e-9 (measured), more than the
     fixed 1e-9 the check allowed before, so the truth itself was not verified; the allowance now
-    follows from the pencil's rounding floor. A data point moved by 1e-6 still fails."""
+    follows from the pencil's rounding floor. A data point moved by 1e-6 still fails when the
+    model-form tolerance is 0 (the model is the truth's); within the default 0.02 it passes as
+    limited by the model's form, and the exact data as limited by the measurement."""
     from vibupdate.inverse.correlation import model_frequencies
     from vibupdate.inverse.verify import rounding_allowance
 
@@ -340,10 +342,14 @@ def test_point_shape_data_are_held_to_what_the_pencil_resolves(shift, passes):
     assert misfit > 1e-9
     allowance = rounding_allowance(cfg, x, f)
     assert 1e-9 < allowance < 1e-7
-    checks = {c.name: c for c in verify([cfg], x, nominal=[f], updated=[f], lower_bound=None, n_blocks=7)}
+    checks = {c.name: c for c in verify([cfg], x, nominal=[f], updated=[f], lower_bound=None, n_blocks=7,
+                                        options=VerifyOptions(shape_tolerance=0.0))}
     assert checks["shape_intervals"].passed is passes, checks["shape_intervals"].message
     if not passes:
         assert "for rounding" in checks["shape_intervals"].message
+    loose = {c.name: c for c in verify([cfg], x, nominal=[f], updated=[f], lower_bound=None, n_blocks=7)}
+    assert loose["shape_intervals"].passed
+    assert loose["shape_intervals"].limited_by == ("measurement" if passes else "model_form")
 
 
 def test_a_shape_is_judged_at_its_best_common_scaling():

@@ -210,7 +210,7 @@ def test_declared_modes_and_zero_indices_in_case_files(tmp_path):
     text += '[[configuration.antiresonances]]\nhz = 20.0\nresponse = "a"\nexcitation = "a"\nindex = 2\n'
     (tmp_path / "s.csv").write_text("mode,dof,value,tolerance\n3,a,0.5,0.1\n3,c,1.0,0.1\n")
     text = text.replace('name = "only"\n', 'name = "only"\nmode_shapes_csv = "s.csv"\n')
-    text += "[polish]\nenabled = false\nreduced_rounds = 0\n[verification]\nfit_tolerance = 0.05\nmac_min = 0.9\n"
+    text += "[polish]\nenabled = false\nreduced_rounds = 0\n[verification]\nnatural_tolerance = 0.05\nmac_min = 0.9\n"
     case = load_case(write(tmp_path, text))
     cfg = case.configurations[0]
     assert [f.mode for f in cfg.natural] == [2, 3]
@@ -219,7 +219,7 @@ def test_declared_modes_and_zero_indices_in_case_files(tmp_path):
     assert case.polish.enabled is False and case.polish.reduced_rounds == 0
     with pytest.raises(ValueError, match=r": polish\.reduced_rounds: must be an integer >= 0, got -1$"):
         load_case(write(tmp_path, text.replace("reduced_rounds = 0", "reduced_rounds = -1")))
-    assert case.verification.fit_tolerance == 0.05 and case.verification.mac_min == 0.9
+    assert case.verification.natural_tolerance == 0.05 and case.verification.mac_min == 0.9
     (tmp_path / "f.csv").write_text("kind,hz,mode,index,response,excitation\n"
                                     f"natural,{hz[1]},2,,,\nnatural,{hz[2]},3,,,\nantiresonance,20.0,,2,a,a\n")
     case = load_case(write(tmp_path, CHAIN_CASE + 'frequencies_csv = "f.csv"\n'))

@@ -43,7 +43,7 @@ from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, frequency_band, verify
+from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, tolerance_weights, verify
 from vibupdate.modal.analysis import DENSE_LIMIT
 
 __all__ = ["UpdateResult", "update", "prepare", "Prepared", "prepare_first_stage"]
@@ -205,22 +205,27 @@ class Prepared:
     solved: tuple
     bases: tuple | None
     problem: BilinearProblem
+    verification: VerifyOptions = VerifyOptions()
 
-    def matches(self, configurations, formulation) -> bool:
-        return (self.formulation == formulation and len(configurations) == len(self.configurations)
+    def matches(self, configurations, formulation, verification) -> bool:
+        return (self.formulation == formulation and self.verification == verification
+                and len(configurations) == len(self.configurations)
                 and all(a is b for a, b in zip(configurations, self.configurations)))
 
 
-def prepare_first_stage(configurations: Sequence[Configuration],
-                        formulation: FormulationOptions | None = None) -> Prepared:
-    """Reduce where wanted and build the problem; no solve (raises ValueError on bad data)."""
+def prepare_first_stage(configurations: Sequence[Configuration], formulation: FormulationOptions | None = None,
+                        verification: VerifyOptions | None = None) -> Prepared:
+    """Weigh the data by their tolerances (`vibupdate.inverse.verify.tolerance_weights`),
+    reduce where wanted and build the problem; no solve (raises ValueError on bad data)."""
     configurations = tuple(configurations)
     formulation = formulation or FormulationOptions()
-    solved, bases = configurations, None
-    if wants_reduction(list(configurations), formulation):
-        solved, bases = reduce_configurations(list(configurations), formulation.reduction_modes)
+    verification = verification or VerifyOptions()
+    solved, bases = tuple(tolerance_weights(configurations, verification)), None
+    if wants_reduction(list(solved), formulation):
+        solved, bases = reduce_configurations(list(solved), formulation.reduction_modes)
         solved, bases = tuple(solved), tuple(bases)
-    return Prepared(configurations, formulation, tuple(solved), bases, prepare(list(solved), formulation))
+    return Prepared(configurations, formulation, tuple(solved), bases, prepare(list(solved), formulation),
+                    verification)
 
 
 def _message(status: Status, lam: float, steps, checks=()) -> str:
@@ -509,11 +514,11 @@ REFIT_ROUNDS = 6
 REFIT_FACTOR = 4.0
 
 
-def _outside_bands(cfg: Configuration, f, fit_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+def _outside_bands(cfg: Configuration, f, verification: VerifyOptions) -> tuple[np.ndarray, np.ndarray]:
     """Masks of the natural frequencies and zeros of ``cfg`` that the model ``f`` puts outside
-    their band (`vibupdate.inverse.verify.frequency_band`, as the fit check)."""
+    their band (`vibupdate.inverse.verify.VerifyOptions.band`, as the fit check)."""
     def out(data, model):
-        bands = np.array([frequency_band(d, fit_tolerance) for d in data]).reshape(-1, 2)
+        bands = np.array([verification.band(d) for d in data]).reshape(-1, 2)
         model = np.asarray(model, dtype=float)
         return ~(np.isfinite(model) & (bands[:, 0] <= model) & (model <= bands[:, 1]))
     return out(cfg.natural, f.natural), out(cfg.antiresonances, f.antiresonances)
@@ -533,7 +538,7 @@ def _refit_intervals(configurations, best: _Finish, finish, tried: list, polish:
     weights = [(np.ones(len(c.natural)), np.ones(len(c.antiresonances))) for c in configurations]
     x, freqs, result, rounds = best.xbar, best.updated, None, 0
     for _ in range(REFIT_ROUNDS):
-        masks = [_outside_bands(c, f, verification.fit_tolerance) for c, f in zip(configurations, freqs)]
+        masks = [_outside_bands(c, f, verification) for c, f in zip(configurations, freqs)]
         if not any(m.any() for pair in masks for m in pair):
             break
         for (wn, wa), (mn, ma) in zip(weights, masks):
@@ -648,7 +653,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     verification = verification or VerifyOptions()
     say = progress or (lambda message: None)
     first_problem = None
-    if prepared is not None and prepared.matches(configurations, formulation):
+    reused = prepared is not None and prepared.matches(configurations, formulation, verification)
+    # the fit weighs each frequency in units of its tolerance; the checks do not read weights
+    configurations = tolerance_weights(configurations, verification)
+    if reused:
         solved, bases, first_problem = list(prepared.solved), prepared.bases, prepared.problem
     else:
         solved, bases = configurations, None

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -83,6 +83,15 @@ class Case:
     sensors: tuple[dict, ...] = ()
     """Measured points on an imported FE mesh (``[model] sensors``): ``sensor``, ``dof``,
     ``sign``, ``distance_m`` per sensor; the report shows the map."""
+
+    def verify_options(self) -> VerifyOptions:
+        """The verification's options with the case's ``frequency_tolerance``: the measurement
+        interval of the frequencies without their own, and the consistency allowance's
+        tolerance (`vibupdate.inverse.verify.VerifyOptions`)."""
+        tol = self.frequency_tolerance
+        if not (math.isfinite(tol) and 0 < tol < 1):   # 0: none stated; out of range: refused by check
+            return self.verification
+        return replace(self.verification, frequency_tolerance=tol, measurement_tolerance=tol)
 
 
 # -- measured data ------------------------------------------------------------------------------

@@ -45,12 +45,18 @@ def _join(key: str, name: str) -> str:
     return f"{key}.{shown}" if key else shown
 
 
+#: Keys of earlier versions and what replaced them, said when a case file uses one.
+RENAMED = {"fit_tolerance": "now natural_tolerance and antiresonance_tolerance, the model-form tolerances beyond "
+                            "each frequency's measurement interval (docs/method.md)"}
+
+
 def check_table(table, allowed: dict, key: str, where: Where, required=()) -> dict:
     if not isinstance(table, dict):
         raise where.error(key, f"must be a table, got {type(table).__name__}")
     for name in table:
         if name not in allowed:
-            raise where.error(_join(key, name), f"unknown key; allowed here: {', '.join(sorted(allowed))}")
+            hint = f" ({RENAMED[name]})" if name in RENAMED and RENAMED[name].split()[1] in allowed else ""
+            raise where.error(_join(key, name), f"unknown key{hint}; allowed here: {', '.join(sorted(allowed))}")
     for name in required:
         if name not in table:
             raise where.error(_join(key, name), "is required")

@@ -3,11 +3,12 @@
 Hz only here, at the edge. The files are those that `vibupdate.io.measured_io` and the case
 file read (``docs/case-file.md``):
 
-* ``frequencies.csv``: ``kind,hz,weight,damping_ratio,response,excitation,mode,lower_hz,upper_hz``
-  (natural frequencies with their damping ratios and model mode numbers, from ``first_mode``,
-  then antiresonances; the interval columns are extra information the reader ignores);
+* ``frequencies.csv``: ``kind,hz,weight,damping_ratio,response,excitation,mode,index,lower_hz,
+  upper_hz,damping_lower,damping_upper`` (natural frequencies with their damping ratios and model mode
+  numbers, from ``first_mode``, then antiresonances, each with its intervals);
 * ``shapes.csv``: ``mode,dof,lower,upper`` (shape intervals);
-* ``damping.csv``: ``mode,hz,damping_ratio,lower,upper``;
+* ``damping.csv``: ``mode,hz,damping_ratio,lower,upper``, the damping ratios alone for reading
+  (``frequencies.csv`` holds them for the case file);
 * ``configuration.toml``: a ``[[configuration]]`` block naming the two CSV files, to paste
   into a case file.
 
@@ -50,6 +51,11 @@ def check_extraction_folder(out_dir, force: bool = False, inputs=()):
     from vibupdate.io.outputs import prepare_output
 
     return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES, command="extract", inputs=inputs)
+
+
+def _num(value) -> str:
+    """The shortest text that reads back as the same double."""
+    return repr(float(value))
 
 
 def _hz(pair) -> list[float]:
@@ -128,14 +134,18 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
     paths["json"].write_text(json_text(extraction_document(result, first_mode)), encoding="utf-8")
     # the mode column declares each natural frequency's model mode as shapes.csv numbers it: with
     # --first-mode N both files start at mode N and read together
-    rows = [["natural", f"{m.omega / TWO_PI:.8g}", 1, f"{m.damping_ratio:.6g}", "", "", first_mode + k,
-             *(f"{v:.8g}" for v in _hz(m.omega_interval))] for k, m in enumerate(result.modes)]
-    rows += [["antiresonance", f"{z.omega / TWO_PI:.8g}", 1, "", z.response, z.excitation, "",
-              *(f"{v:.8g}" for v in _hz(z.interval))] for z in result.zeros]
+    # every interval the FRF route gives, at full precision, so the table reads back as that route
+    # zeros counted from the lowest only when the band starts below the first mode, as the FRF route
+    rows = [["natural", _num(m.omega / TWO_PI), 1, _num(m.damping_ratio), "", "", first_mode + k, "",
+             *map(_num, _hz(m.omega_interval)), *map(_num, m.damping_interval)]
+            for k, m in enumerate(result.modes)]
+    rows += [["antiresonance", _num(z.omega / TWO_PI), 1, "", z.response, z.excitation, "",
+              z.index if first_mode == 1 and z.index else "", *map(_num, _hz(z.interval)), "", ""]
+             for z in result.zeros]
     _write_csv(paths["frequencies"], ["kind", "hz", "weight", "damping_ratio", "response", "excitation", "mode",
-                                      "lower_hz", "upper_hz"], rows)
+                                      "index", "lower_hz", "upper_hz", "damping_lower", "damping_upper"], rows)
     _write_csv(paths["shapes"], ["mode", "dof", "lower", "upper"],
-               [[first_mode + k, d, f"{lo:.8g}", f"{hi:.8g}"]
+               [[first_mode + k, d, _num(lo), _num(hi)]
                 for k, m in enumerate(result.modes) for d, (lo, hi) in m.shape_interval.items()])
     _write_csv(paths["damping"], ["mode", "hz", "damping_ratio", "lower", "upper"],
                [[first_mode + k, f"{m.omega / TWO_PI:.8g}", f"{m.damping_ratio:.6g}",

@@ -2,13 +2,16 @@
 
 CSV frequency table, one row per measured frequency::
 
-    kind,hz,weight,damping_ratio,response,excitation,mode,index
-    natural,73.4,1,0.044,,,1,
-    antiresonance,101.3,1,,y1,y3,,1
+    kind,hz,weight,damping_ratio,response,excitation,mode,index,lower_hz,upper_hz
+    natural,73.4,1,0.044,,,1,,73.38,73.42
+    antiresonance,101.3,1,,y1,y3,,1,,
 
 (``weight``, ``damping_ratio``, ``response``, ``excitation``, ``mode``, ``index`` optional per
 row; ``mode`` is the model mode a natural frequency is, ``index`` which zero of its receptance
-an antiresonance is, both 1-based; see `vibupdate.data.pairing` for the defaults.)
+an antiresonance is, both 1-based; see `vibupdate.data.pairing` for the defaults.
+``lower_hz``/``upper_hz``: the frequency's measurement interval, both or neither in a row;
+``damping_lower``/``damping_upper``: the damping ratio's. ``vibupdate extract`` writes all four,
+so its table reads back with the intervals the FRF route gives.)
 
 CSV mode-shape table, one row per measured entry, bounds or value and tolerance::
 
@@ -102,10 +105,10 @@ def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
     Returns
     -------
     natural : list of dict
-        ``{"hz", "weight", "damping_ratio", "mode"}`` in file order (``mode`` None where the
-        optional column is empty).
+        ``{"hz", "weight", "damping_ratio", "mode", "interval", "damping_interval"}`` in file
+        order (None where an optional column is empty; ``interval`` in Hz).
     antiresonances : list of dict
-        ``{"hz", "weight", "response", "excitation", "index"}`` in file order.
+        ``{"hz", "weight", "response", "excitation", "index", "interval"}`` in file order.
     """
     path = Path(path)
     rows = _rows(path)
@@ -122,19 +125,41 @@ def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
         kind = row["kind"].lower()
         hz = _number(row["hz"], "hz", path, i)
         weight = _number(row["weight"], "weight", path, i) if row.get("weight") else 1.0
+        interval = _pair(row, ("lower_hz", "upper_hz"), hz, "hz", path, i)
         if kind == "natural":
             xi = row.get("damping_ratio")
-            natural.append({"hz": hz, "weight": weight,
-                            "damping_ratio": _number(xi, "damping_ratio", path, i) if xi else None,
-                            "mode": _count(row.get("mode"), "mode", path, i)})
+            xi = _number(xi, "damping_ratio", path, i) if xi else None
+            natural.append({"hz": hz, "weight": weight, "damping_ratio": xi,
+                            "mode": _count(row.get("mode"), "mode", path, i), "interval": interval,
+                            "damping_interval": _pair(row, ("damping_lower", "damping_upper"), xi, "damping_ratio",
+                                                      path, i)})
         elif kind == "antiresonance":
             if not row.get("response") or not row.get("excitation"):
                 raise ValueError(f"{path}: row {i}: an antiresonance needs 'response' and 'excitation' DOFs")
+            if row.get("damping_lower") or row.get("damping_upper"):
+                raise ValueError(f"{path}: row {i}: an antiresonance has no damping ratio; leave damping_lower and "
+                                 "damping_upper empty")
             zeros.append({"hz": hz, "weight": weight, "response": row["response"], "excitation": row["excitation"],
-                          "index": _count(row.get("index"), "index", path, i)})
+                          "index": _count(row.get("index"), "index", path, i), "interval": interval})
         else:
             raise ValueError(f"{path}: row {i}: kind must be 'natural' or 'antiresonance', got {row['kind']!r}")
     return natural, zeros
+
+
+def _pair(row: dict, columns: tuple[str, str], value, what: str, path: Path, line: int):
+    """The interval in ``columns`` of a row, checked to hold ``value``; None when both are empty."""
+    lo, hi = (row.get(c) or "" for c in columns)
+    if not lo and not hi:
+        return None
+    if not lo or not hi:
+        raise ValueError(f"{path}: row {line}: {columns[0]} and {columns[1]} go together; one of them is empty")
+    if value is None:
+        raise ValueError(f"{path}: row {line}: {columns[0]}/{columns[1]} given without {what}")
+    a, b = _number(lo, columns[0], path, line), _number(hi, columns[1], path, line)
+    if not a <= value <= b:
+        raise ValueError(f"{path}: row {line}: the interval [{a:g}, {b:g}] ({columns[0]}, {columns[1]}) does not "
+                         f"hold its {what} {value:g}")
+    return (a, b)
 
 
 def read_shape_csv(path) -> dict[int, dict[str, tuple[float, float]]]:

@@ -305,7 +305,7 @@ def validate_case(case) -> CaseCheck:
     warnings += [f"configuration '{name}' FRFs: {note}" for name, notes in case.frf_notes.items()
                  for note in notes]
     try:
-        prepared = prepare_first_stage(case.configurations, case.formulation)
+        prepared = prepare_first_stage(case.configurations, case.formulation, case.verify_options())
     except ValueError as exc:
         raise error("configuration", str(exc)) from None
     return CaseCheck(prepared.problem.sizes(), tuple(notes), tuple(warnings), prepared, case)

@@ -5,7 +5,7 @@ reported answer only if S does. Two kinds of answer can lie outside S built on t
 
 * an answer that misses a measured window: a sampled answer (`vibupdate.study.sweep`) is
   verified against its *drawn* data, each drawn datum a point inside the measured window, with
-  the verification's fit tolerance (2 % by default, `VerifyOptions.fit_tolerance`); its model
+  the verification's model-form tolerance (2 % by default, `VerifyOptions.natural_tolerance`); its model
   frequency may therefore lie up to that tolerance beyond the drawn datum, hence outside the
   window. The run's own answer may miss the window as well;
 * an answer whose exact eigenvectors leave the first stage's vector boxes: the first stage

@@ -186,11 +186,24 @@ def verification_markdown(solver: dict) -> list[str]:
                    "they excluded every fit (lower bounds "
                    + ", ".join(fmt(a["relaxation_lower_bound"], ".3g") for a in attempts) + ")")
     verdict = ("**verified**: every check of the returned model against the data passed"
-               if solver.get("verified") else "**not verified**: the failed checks below say why")
+               + limited_text(checks) if solver.get("verified") else "**not verified**: the failed checks below say why")
     out += [stages + ". The answer is " + verdict + ".", ""]
     rows = [[c["name"], "pass" if c["passed"] else ("FAIL" if c["severity"] == "error" else "warning"),
              c["message"].replace("|", "/")] for c in checks]
     return out + _md_table(["check", "result", "finding"], rows) + [""]
+
+
+def limited_text(checks) -> str:
+    """What limited a verified answer, from the checks' ``limited_by``: ``""`` when no check
+    says, else the clause the report and the terminal add to the verdict."""
+    limits = [c.get("limited_by") for c in checks if c.get("limited_by")]
+    if not limits:
+        return ""
+    if "model_form" in limits:
+        names = ", ".join(c["name"] for c in checks if c.get("limited_by") == "model_form")
+        return (f"; the model's form limits it: some data lie outside their measurement intervals and within the "
+                f"model-form tolerances (check {names})")
+    return "; the measurements limit it: every datum lies in its measurement interval"
 
 
 def _md_table(header: list[str], rows: list[list]) -> list[str]:
