@@ -80,13 +80,17 @@ def _undamped_basis(x, xn, zeta) -> np.ndarray:
     """Real columns of the undamped receptance, same coefficients as `_basis`: each mode's
     ``-2 w_d / (w_n^2 - x^2)`` on Im A (its real modal constant ``Re(2 j w_d A)``); the
     pseudo-mode and the residual terms (which stand for modes outside the band, real in it)
-    keep the real part of their damped columns."""
-    cols = _basis(x, xn, zeta).real
+    keep the real part of their damped columns. Built in real arithmetic: the zeros are
+    searched on twenty points per line (`vibupdate.data._zeros`)."""
+    x = np.asarray(x, dtype=float)
     a = _poles(np.asarray(xn), np.asarray(zeta))
-    x = np.asarray(x)[:, None]
     n = a.size
-    cols[:, 0:2 * n:2] = 0.0
-    cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x**2)
+    cols = np.zeros((x.size, 2 * n + 4))
+    cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x[:, None] ** 2)
+    pseudo = _poles(np.array([PSEUDO_POLE[0]]), np.array([PSEUDO_POLE[1]]))[0]
+    p, q = 1.0 / (1j * x - pseudo), 1.0 / (1j * x - np.conj(pseudo))
+    cols[:, 2 * n], cols[:, 2 * n + 1] = (p + q).real, (1j * (p - q)).real
+    cols[:, 2 * n + 2], cols[:, 2 * n + 3] = -1.0 / x**2, 1.0
     return cols
 
 
