@@ -230,23 +230,60 @@ def _projection(theta, x, F, W, window=None, jacobian: bool = False):
     Returns ``r`` (n_pairs * 2 n_freq,), stacked [Re f1, Im f1, Re f2, ...] (weighted), and
     ``J`` (n_pairs * 2 n_freq, 2 n) or None.
     """
+    blocks = list(_projection_blocks(theta, x, F, W, window, jacobian))
+    r = np.concatenate([b[0] for b in blocks])
+    return r, (np.vstack([b[1] for b in blocks]) if jacobian else None)
+
+
+def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
+    """`_projection` one FRF at a time: yields ``(r_k, J_k)`` ((2 n_freq,), (2 n_freq, 2 n) or
+    None), so that a caller may reduce each block before the next is formed."""
     n = theta.size // 2
     xn, zeta = theta[:n], theta[n:]
     Phi = _basis(x, xn, zeta, window)
     if jacobian:
         d_wn, d_zeta = _basis_derivatives(x, xn, zeta, window)
-        J = np.empty((F.shape[0], 2 * x.size, 2 * n))
-    r = np.empty((F.shape[0], 2 * x.size))
-    for k, (f, w) in enumerate(zip(F, W)):
+    for f, w in zip(F, W):
         A = _real_stack(Phi, w)
         b = np.concatenate([f.real * w, f.imag * w])
         Q, R, piv = _weighted_qr(A)
         c = np.zeros(A.shape[1])
         c[piv] = scipy.linalg.solve_triangular(R, Q.T @ b, check_finite=False)
-        r[k] = b - A @ c
-        if jacobian:
-            J[k] = _projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r[k], w)
-    return r.ravel(), (J.reshape(-1, 2 * n) if jacobian else None)
+        r = b - A @ c
+        yield r, (_projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r, w) if jacobian else None)
+
+
+class _CompressedProjection:
+    """`_projection` as ``scipy.optimize.least_squares`` needs it, in ``2 n + 1`` numbers.
+
+    With ``[J r] = Q_t R_t`` (QR of the Jacobian beside the residual, all FRFs), the residual
+    ``R_t[:, -1]`` and Jacobian ``R_t[:, :-1]`` have the same ``J^T J``, ``J^T r`` and
+    ``|r|`` as the full ones, which is all a Gauss-Newton trust-region step uses: the
+    iterations are those of the full problem, without its (n_pairs * 2 n_freq, 2 n)
+    Jacobian and the solver's copies and SVD of it (hundreds of MB at 50,000 lines). Each
+    FRF's block is reduced by its own QR as it is formed; the last point's ``R_t`` is kept,
+    since the solver asks for the Jacobian where it has just asked for the residual."""
+
+    def __init__(self, x, F, W, window=None):
+        self.args = (x, F, W, window)
+        self.theta, self.R = None, None
+
+    def _at(self, theta):
+        if self.theta is None or not np.array_equal(theta, self.theta):
+            tops = [_triangle(np.column_stack([J, r])) for r, J in _projection_blocks(theta, *self.args, jacobian=True)]
+            self.theta, self.R = np.array(theta, copy=True), _triangle(np.vstack(tops))
+        return self.R
+
+    def residual(self, theta):
+        return self._at(theta)[:, -1]
+
+    def jacobian(self, theta):
+        return self._at(theta)[:, :-1]
+
+
+def _triangle(A):
+    """The ``R`` of a QR of ``A`` (m >= n), (n, n)."""
+    return scipy.linalg.qr(A, mode="r", overwrite_a=True, check_finite=False)[0][:A.shape[1]]
 
 
 def _projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r, w):
@@ -268,10 +305,6 @@ def _projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r, w):
     return -(dAc - Q @ (Q.T @ dAc)) - second
 
 
-def _projection_jac(theta, x, F, W, window=None):
-    return _projection(theta, x, F, W, window, jacobian=True)[1]
-
-
 def _refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     """Variable projection on (w_n, zeta); returns them and their covariance (sandwich).
 
@@ -283,15 +316,22 @@ def _refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     theta0 = np.concatenate([wn, zeta])
     lower = np.concatenate([np.full(n, x[0] * 0.5), np.full(n, 1e-6)])
     upper = np.concatenate([np.full(n, x[-1] * 1.5), np.full(n, 0.5)])
-    sol = scipy.optimize.least_squares(_projected_residual, theta0, jac=_projection_jac, args=(x, F, W, window),
-                                       bounds=(lower, upper), x_scale=np.concatenate([wn, zeta]), xtol=1e-10,
-                                       ftol=1e-10, max_nfev=60, method="trf")
-    J, r = sol.jac, sol.fun
-    v = np.concatenate([var * W**2, var * W**2], axis=1).ravel() / 2.0  # per weighted real component
-    JtJ_inv = np.linalg.pinv(J.T @ J)
-    cov = JtJ_inv @ (J.T * v) @ J @ JtJ_inv
-    chi2 = float(np.sum(r**2 / v)) / max(r.size - theta0.size, 1)
-    tau = _correlation_inflation(_split_residual(r, F.shape) / np.sqrt(var * W**2))
+    problem = _CompressedProjection(x, F, W, window)
+    sol = scipy.optimize.least_squares(problem.residual, theta0, jac=problem.jacobian, bounds=(lower, upper),
+                                       x_scale=np.concatenate([wn, zeta]), xtol=1e-10, ftol=1e-10, max_nfev=60,
+                                       method="trf")
+    # the sandwich from the full residual and Jacobian at the solution, one FRF at a time
+    v = var * W**2 / 2.0                                                 # per weighted real component
+    JtJ, JtVJ, r = 0.0, 0.0, []
+    for k, (r_k, J_k) in enumerate(_projection_blocks(sol.x, x, F, W, window, jacobian=True)):
+        v_k = np.concatenate([v[k], v[k]])
+        JtJ, JtVJ = JtJ + J_k.T @ J_k, JtVJ + (J_k.T * v_k) @ J_k
+        r.append(r_k / np.sqrt(v_k))
+    r = np.concatenate(r)                                               # residual over its noise
+    JtJ_inv = np.linalg.pinv(JtJ)
+    cov = JtJ_inv @ JtVJ @ JtJ_inv
+    chi2 = float(np.sum(r**2)) / max(r.size - theta0.size, 1)
+    tau = _correlation_inflation(_split_residual(r, F.shape) / math.sqrt(2.0))  # over sigma per line
     return sol.x[:n], sol.x[n:], cov * max(1.0, chi2) * tau
 
 
