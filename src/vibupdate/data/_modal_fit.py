@@ -1,7 +1,14 @@
 """Numerical kernels of `vibupdate.data.extraction` (private): the modal-model basis, vector
 fitting, the stabilization check, variable projection of the poles, noise estimates and
 pole selection. Frequencies are normalized by the band's top (``x = omega / omega_max``);
-FRFs by their RMS. The method is described in `vibupdate.data.extraction`."""
+FRFs by their RMS. The method is described in `vibupdate.data.extraction`.
+
+Cost on long records (``benchmarks/extraction_cost.py``: nine FRFs of 51,200 lines): the
+variable projection of the poles has an exact Jacobian (`_projection`; a finite difference
+cost ``2 n`` extra least-squares solves per FRF and step, most of the time), and hands the
+optimizer the ``(2 n + 1)``-square triangle of ``[J r]`` instead of ``J`` and ``r``
+(`_CompressedProjection`), so that neither the Jacobian of every line nor its SVD is held;
+what must see every line is formed one FRF at a time."""
 
 from __future__ import annotations
 
