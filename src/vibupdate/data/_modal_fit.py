@@ -1,7 +1,14 @@
 """Numerical kernels of `vibupdate.data.extraction` (private): the modal-model basis, vector
 fitting, the stabilization check, variable projection of the poles, noise estimates and
 pole selection. Frequencies are normalized by the band's top (``x = omega / omega_max``);
-FRFs by their RMS. The method is described in `vibupdate.data.extraction`."""
+FRFs by their RMS. The method is described in `vibupdate.data.extraction`.
+
+Cost on long records (``benchmarks/extraction_cost.py``: nine FRFs of 51,200 lines): the
+variable projection of the poles has an exact Jacobian (`_projection`; a finite difference
+cost ``2 n`` extra least-squares solves per FRF and step, most of the time), and hands the
+optimizer the ``(2 n + 1)``-square triangle of ``[J r]`` instead of ``J`` and ``r``
+(`_CompressedProjection`), so that neither the Jacobian of every line nor its SVD is held;
+what must see every line is formed one FRF at a time."""
 
 from __future__ import annotations
 
@@ -26,6 +33,23 @@ def _all_poles(xn, zeta):
                                                                       np.array([PSEUDO_POLE[1]])))
 
 
+def _pole_terms(x, a, window=None, derivative: bool = False):
+    """``1/(s - a)`` and ``1/(s - conj a)`` at ``s = j x`` (each (n_freq, n_poles)), through
+    ``window`` when given; with ``derivative`` their derivatives with respect to ``a`` and
+    ``conj a`` too (both terms are analytic in their pole)."""
+    if window is None:
+        s = 1j * np.asarray(x)[:, None]
+        p, q = 1.0 / (s - a[None, :]), 1.0 / (s - np.conj(a)[None, :])
+        return (p, q, p * p, q * q) if derivative else (p, q)
+    from vibupdate.data._window import windowed_poles
+
+    both = np.concatenate([a, np.conj(a)])
+    p, q = np.split(windowed_poles(x, both, window), 2, axis=1)
+    if not derivative:
+        return p, q
+    return (p, q, *np.split(windowed_poles(x, both, window, derivative=True), 2, axis=1))
+
+
 def _basis(x, xn, zeta, window=None) -> np.ndarray:
     """Columns of the modal model at normalized frequencies ``x``, shape (n_freq, 2 n + 4).
 
@@ -33,31 +57,47 @@ def _basis(x, xn, zeta, window=None) -> np.ndarray:
     (coefficients Re A, Im A); then ``1/s^2`` and ``1``. With ``window`` (a
     `vibupdate.data._window.Window`) the pole terms are those of the windowed estimate.
     """
-    s = 1j * np.asarray(x)[:, None]
-    a = _all_poles(xn, zeta)[None, :]
-    if window is None:
-        p, q = 1.0 / (s - a), 1.0 / (s - np.conj(a))
-    else:
-        from vibupdate.data._window import windowed_poles
-
-        p, q = np.split(windowed_poles(x, np.concatenate([a[0], np.conj(a[0])]), window), 2, axis=1)
-    cols = np.empty((s.shape[0], 2 * a.shape[1] + 2), dtype=complex)
+    x = np.asarray(x)
+    p, q = _pole_terms(x, _all_poles(xn, zeta), window)
+    cols = np.empty((x.size, 2 * p.shape[1] + 2), dtype=complex)
     cols[:, 0:-2:2], cols[:, 1:-2:2] = p + q, 1j * (p - q)
-    cols[:, -2], cols[:, -1] = 1.0 / s[:, 0] ** 2, 1.0
+    cols[:, -2], cols[:, -1] = -1.0 / x**2, 1.0      # 1/s^2 = -1/x^2
     return cols
+
+
+def _basis_derivatives(x, xn, zeta, window=None):
+    """Exact derivatives of the modes' columns of `_basis` with respect to their poles'
+    ``w_n`` and ``zeta``: two complex arrays (n_freq, 2 n), column ``2 r`` (``2 r + 1``) the
+    derivative of column ``2 r`` (``2 r + 1``) of `_basis` with respect to ``w_n`` (``zeta``)
+    of mode ``r`` (no other parameter moves those columns)."""
+    xn, zeta = np.asarray(xn, dtype=float), np.asarray(zeta, dtype=float)
+    a = _poles(xn, zeta)
+    _, _, dp, dq = _pole_terms(x, a, window, derivative=True)
+    root = np.sqrt(1.0 - zeta**2)
+    out = []
+    for da in (a / xn, xn * (-1.0 - 1j * zeta / root)):         # da/dw_n, da/dzeta
+        plus, minus = dp * da[None, :], dq * np.conj(da)[None, :]
+        d = np.empty((plus.shape[0], 2 * xn.size), dtype=complex)
+        d[:, 0::2], d[:, 1::2] = plus + minus, 1j * (plus - minus)
+        out.append(d)
+    return out[0], out[1]
 
 
 def _undamped_basis(x, xn, zeta) -> np.ndarray:
     """Real columns of the undamped receptance, same coefficients as `_basis`: each mode's
     ``-2 w_d / (w_n^2 - x^2)`` on Im A (its real modal constant ``Re(2 j w_d A)``); the
     pseudo-mode and the residual terms (which stand for modes outside the band, real in it)
-    keep the real part of their damped columns."""
-    cols = _basis(x, xn, zeta).real
+    keep the real part of their damped columns. Built in real arithmetic: the zeros are
+    searched on twenty points per line (`vibupdate.data._zeros`)."""
+    x = np.asarray(x, dtype=float)
     a = _poles(np.asarray(xn), np.asarray(zeta))
-    x = np.asarray(x)[:, None]
     n = a.size
-    cols[:, 0:2 * n:2] = 0.0
-    cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x**2)
+    cols = np.zeros((x.size, 2 * n + 4))
+    cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x[:, None] ** 2)
+    pseudo = _poles(np.array([PSEUDO_POLE[0]]), np.array([PSEUDO_POLE[1]]))[0]
+    p, q = 1.0 / (1j * x - pseudo), 1.0 / (1j * x - np.conj(pseudo))
+    cols[:, 2 * n], cols[:, 2 * n + 1] = (p + q).real, (1j * (p - q)).real
+    cols[:, 2 * n + 2], cols[:, 2 * n + 3] = -1.0 / x**2, 1.0
     return cols
 
 
@@ -163,29 +203,142 @@ def _stable_poles(stab, min_stable):
 
 
 def _projected_residual(theta, x, F, W, window=None):
+    """The variable-projection residual at poles ``theta`` = (w_n, zeta): `_projection`'s."""
+    return _projection(theta, x, F, W, window)[0]
+
+
+def _weighted_qr(A):
+    """Orthonormal basis ``Q`` of the range of ``A`` (pivoted QR, columns of negligible
+    ``|R_kk|`` dropped: the rank rule of the LAPACK least-squares solver), with ``R`` and
+    the pivots of the kept columns."""
+    Q, R, piv = scipy.linalg.qr(A, mode="economic", pivoting=True, check_finite=False)
+    diag = np.abs(np.diag(R))
+    rank = int(np.sum(diag > np.finfo(float).eps * diag[0])) if diag[0] > 0 else 0
+    return Q[:, :rank], R[:rank, :rank], piv[:rank]
+
+
+def _projection(theta, x, F, W, window=None, jacobian: bool = False):
+    """Weighted residual of the variable-projection problem at poles ``theta`` and, with
+    ``jacobian``, its exact derivative with respect to ``theta``.
+
+    ``theta`` (2 n,): ``w_n`` then ``zeta`` of the modes; ``F``, ``W`` (n_pairs, n_freq):
+    FRFs and weights ``1/sigma`` per line. Per FRF, with ``A`` the weighted real basis
+    (`_real_stack`), ``b`` the weighted FRF and ``c`` its least-squares coefficients (one
+    pivoted QR ``A = Q R``), the residual is ``r = b - A c`` and its derivative (Golub and
+    Pereyra, SIAM J. Numer. Anal. 10, 1973)::
+
+        dr/dtheta_k = -(I - Q Q^T) (dA/dtheta_k) c - Q R^-T (dA/dtheta_k)^T r
+
+    with ``dA/dtheta_k`` from `_basis_derivatives` (two columns per mode). The second term is
+    orthogonal to ``r`` (Kaufman's approximation drops it): the gradient ``J^T r`` is the
+    same either way, and keeping it gives the same Jacobian as a finite difference of the
+    residual, so the sandwich covariance of `_refine_poles` is unchanged.
+
+    Returns ``r`` (n_pairs * 2 n_freq,), stacked [Re f1, Im f1, Re f2, ...] (weighted), and
+    ``J`` (n_pairs * 2 n_freq, 2 n) or None.
+    """
+    blocks = list(_projection_blocks(theta, x, F, W, window, jacobian))
+    r = np.concatenate([b[0] for b in blocks])
+    return r, (np.vstack([b[1] for b in blocks]) if jacobian else None)
+
+
+def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
+    """`_projection` one FRF at a time: yields ``(r_k, J_k)`` ((2 n_freq,), (2 n_freq, 2 n) or
+    None), so that a caller may reduce each block before the next is formed."""
     n = theta.size // 2
-    Phi = _basis(x, theta[:n], theta[n:], window)
-    return np.concatenate([_linear_fit(Phi, f, w)[1] for f, w in zip(F, W)])
+    xn, zeta = theta[:n], theta[n:]
+    Phi = _basis(x, xn, zeta, window)
+    if jacobian:
+        d_wn, d_zeta = _basis_derivatives(x, xn, zeta, window)
+    for f, w in zip(F, W):
+        A = _real_stack(Phi, w)
+        b = np.concatenate([f.real * w, f.imag * w])
+        Q, R, piv = _weighted_qr(A)
+        c = np.zeros(A.shape[1])
+        c[piv] = scipy.linalg.solve_triangular(R, Q.T @ b, check_finite=False)
+        r = b - A @ c
+        yield r, (_projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r, w) if jacobian else None)
+
+
+class _CompressedProjection:
+    """`_projection` as ``scipy.optimize.least_squares`` needs it, in ``2 n + 1`` numbers.
+
+    With ``[J r] = Q_t R_t`` (QR of the Jacobian beside the residual, all FRFs), the residual
+    ``R_t[:, -1]`` and Jacobian ``R_t[:, :-1]`` have the same ``J^T J``, ``J^T r`` and
+    ``|r|`` as the full ones, which is all a Gauss-Newton trust-region step uses: the
+    iterations are those of the full problem, without its (n_pairs * 2 n_freq, 2 n)
+    Jacobian and the solver's copies and SVD of it (hundreds of MB at 50,000 lines). Each
+    FRF's block is reduced by its own QR as it is formed; the last point's ``R_t`` is kept,
+    since the solver asks for the Jacobian where it has just asked for the residual."""
+
+    def __init__(self, x, F, W, window=None):
+        self.args = (x, F, W, window)
+        self.theta, self.R = None, None
+
+    def _at(self, theta):
+        if self.theta is None or not np.array_equal(theta, self.theta):
+            tops = [_triangle(np.column_stack([J, r])) for r, J in _projection_blocks(theta, *self.args, jacobian=True)]
+            self.theta, self.R = np.array(theta, copy=True), _triangle(np.vstack(tops))
+        return self.R
+
+    def residual(self, theta):
+        return self._at(theta)[:, -1]
+
+    def jacobian(self, theta):
+        return self._at(theta)[:, :-1]
+
+
+def _triangle(A):
+    """The ``R`` of a QR of ``A`` (m >= n), (n, n)."""
+    return scipy.linalg.qr(A, mode="r", overwrite_a=True, check_finite=False)[0][:A.shape[1]]
+
+
+def _projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r, w):
+    """One FRF's block of `_projection`'s Jacobian, (2 n_freq, 2 n): ``d_wn``, ``d_zeta``
+    (n_freq, 2 n) from `_basis_derivatives`; ``Q``, ``R``, ``piv`` from `_weighted_qr`;
+    ``c`` the coefficients, ``r`` the weighted residual, ``w`` the weights."""
+    n = d_wn.shape[1] // 2
+    cols = np.hstack([d_wn, d_zeta])                                   # (n_freq, 4 n)
+    dA = _real_stack(cols, w)                                         # dA/dtheta's nonzero columns
+    even = np.r_[c[0:2 * n:2], c[0:2 * n:2]]
+    odd = np.r_[c[1:2 * n:2], c[1:2 * n:2]]
+    dAc = dA[:, 0::2] * even + dA[:, 1::2] * odd                     # (dA/dtheta_k) c, (2 n_freq, 2 n)
+    g = dA.T @ r                                                      # (4 n,): the nonzero (dA/dtheta_k)^T r
+    E = np.zeros((c.size, 2 * n))                                     # (dA/dtheta_k)^T r, full length
+    k = np.arange(2 * n)
+    mode = k % n
+    E[2 * mode, k], E[2 * mode + 1, k] = g[0::2], g[1::2]
+    second = Q @ scipy.linalg.solve_triangular(R, E[piv], trans="T", check_finite=False)
+    return -(dAc - Q @ (Q.T @ dAc)) - second
 
 
 def _refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     """Variable projection on (w_n, zeta); returns them and their covariance (sandwich).
 
-    Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform."""
+    Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform. The
+    Jacobian is exact (`_projection`): a finite difference would cost ``2 n`` more
+    least-squares solves per FRF and step."""
     n = wn.size
     W = 1.0 / np.sqrt(var) if weighted else np.ones_like(F.real)
     theta0 = np.concatenate([wn, zeta])
     lower = np.concatenate([np.full(n, x[0] * 0.5), np.full(n, 1e-6)])
     upper = np.concatenate([np.full(n, x[-1] * 1.5), np.full(n, 0.5)])
-    sol = scipy.optimize.least_squares(_projected_residual, theta0, args=(x, F, W, window), bounds=(lower, upper),
+    problem = _CompressedProjection(x, F, W, window)
+    sol = scipy.optimize.least_squares(problem.residual, theta0, jac=problem.jacobian, bounds=(lower, upper),
                                        x_scale=np.concatenate([wn, zeta]), xtol=1e-10, ftol=1e-10, max_nfev=60,
                                        method="trf")
-    J, r = sol.jac, sol.fun
-    v = np.concatenate([var * W**2, var * W**2], axis=1).ravel() / 2.0  # per weighted real component
-    JtJ_inv = np.linalg.pinv(J.T @ J)
-    cov = JtJ_inv @ (J.T * v) @ J @ JtJ_inv
-    chi2 = float(np.sum(r**2 / v)) / max(r.size - theta0.size, 1)
-    tau = _correlation_inflation(_split_residual(r, F.shape) / np.sqrt(var * W**2))
+    # the sandwich from the full residual and Jacobian at the solution, one FRF at a time
+    v = var * W**2 / 2.0                                                 # per weighted real component
+    JtJ, JtVJ, r = 0.0, 0.0, []
+    for k, (r_k, J_k) in enumerate(_projection_blocks(sol.x, x, F, W, window, jacobian=True)):
+        v_k = np.concatenate([v[k], v[k]])
+        JtJ, JtVJ = JtJ + J_k.T @ J_k, JtVJ + (J_k.T * v_k) @ J_k
+        r.append(r_k / np.sqrt(v_k))
+    r = np.concatenate(r)                                               # residual over its noise
+    JtJ_inv = np.linalg.pinv(JtJ)
+    cov = JtJ_inv @ JtVJ @ JtJ_inv
+    chi2 = float(np.sum(r**2)) / max(r.size - theta0.size, 1)
+    tau = _correlation_inflation(_split_residual(r, F.shape) / math.sqrt(2.0))  # over sigma per line
     return sol.x[:n], sol.x[n:], cov * max(1.0, chi2) * tau
 
 

@@ -56,7 +56,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from vibupdate.data._modal_fit import _basis, _linear_fit, _poles, _smooth
+from vibupdate.data._modal_fit import _basis, _basis_derivatives, _linear_fit, _real_stack, _smooth, _triangle
 
 SMOOTH_LINES = 21           # the additive component is locally constant over this many lines
 EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
@@ -68,24 +68,14 @@ def _pole_columns(x, xn, zeta, coef, window=None):
     ``x`` (n_freq,), ``xn``, ``zeta`` (n,), ``coef`` (n_pairs, n_cols) the linear
     coefficients of each FRF; ``window`` that of `_basis`. Returns complex
     (n_pairs, n_freq, 2 n): the columns for ``w_n`` (first n) and ``zeta`` (last n)."""
-    s = 1j * np.asarray(x)[:, None]
-    a = _poles(xn, zeta)[None, :]                                       # (1, n)
-    if window is None:  # d/da of 1/(s - a)
-        p2, q2 = 1.0 / (s - a) ** 2, 1.0 / (s - np.conj(a)) ** 2         # (n_freq, n)
-    else:
-        from vibupdate.data._window import windowed_poles
+    derivatives = _basis_derivatives(x, xn, zeta, window)
+    return np.array([_combined(derivatives, c) for c in np.atleast_2d(coef)])
 
-        p2, q2 = np.split(windowed_poles(x, np.concatenate([a[0], np.conj(a[0])]), window, derivative=True), 2,
-                          axis=1)
-    root = np.sqrt(1.0 - zeta**2)
-    da = {"wn": a / xn[None, :], "zeta": (xn * (-1.0 - 1j * zeta / root))[None, :]}
-    c_re, c_im = coef[:, 0:2 * xn.size:2], coef[:, 1:2 * xn.size:2]    # (n_pairs, n)
-    cols = []
-    for key in ("wn", "zeta"):
-        d = da[key]
-        plus, minus = p2 * d + q2 * np.conj(d), p2 * d - q2 * np.conj(d)
-        cols.append(c_re[:, None, :] * plus[None] + 1j * c_im[:, None, :] * minus[None])
-    return np.concatenate(cols, axis=2)
+
+def _combined(derivatives, c):
+    """One FRF's pole columns (n_freq, 2 n) from `_basis_derivatives` and its coefficients ``c``."""
+    n = derivatives[0].shape[1] // 2
+    return np.hstack([d[:, 0::2] * c[0:2 * n:2] + d[:, 1::2] * c[1:2 * n:2] for d in derivatives])
 
 
 def _leverage(x, xn, zeta, coef, W=None, window=None):
@@ -93,22 +83,36 @@ def _leverage(x, xn, zeta, coef, W=None, window=None):
     (real and imaginary row of each line): the residue columns of each FRF plus the pole
     columns shared by all FRFs, projected off the former. ``W`` (n_pairs, n_freq): the
     weights ``1/sigma`` per line of a weighted fit (default 1: unweighted); ``coef`` that
-    fit's coefficients."""
+    fit's coefficients.
+
+    The two hat matrices add because the projected pole columns ``D`` are orthogonal to the
+    residue columns. ``D`` stacks every FRF's block (the poles are shared); its hat diagonal
+    is the row norm of ``D V S^-1`` (``S``, ``V`` of the SVD of ``D``'s triangle ``R``, built
+    FRF by FRF), so that no FRF's block is kept beyond its own pass: two passes, the blocks
+    formed again in the second, instead of the whole ``D`` and its QR (hundreds of MB at
+    50,000 lines)."""
     Phi = _basis(x, xn, zeta, window)
-    D = _pole_columns(x, xn, zeta, coef, window)                          # (n_pairs, n_freq, 2n)
-    if W is None:  # one residue basis for every FRF
-        A = np.vstack([Phi.real, Phi.imag])                               # (2 n_freq, n_cols)
-        Q = scipy.linalg.qr(A, mode="economic")[0][None]                  # (1, 2 n_freq, n_cols)
-    else:
-        A = np.concatenate([Phi.real[None] * W[:, :, None], Phi.imag[None] * W[:, :, None]], axis=1)
-        Q = np.array([scipy.linalg.qr(a, mode="economic")[0] for a in A])  # (n_pairs, 2 n_freq, n_cols)
-        D = D * W[:, :, None]
-    h_lin = np.sum(Q**2, axis=2)                                          # (1 or n_pairs, 2 n_freq)
-    D = np.concatenate([D.real, D.imag], axis=1)                          # (n_pairs, 2 n_freq, 2n)
-    D = D - Q @ (np.swapaxes(Q, 1, 2) @ D)                                # off the residue columns
-    Qd = scipy.linalg.qr(D.reshape(-1, D.shape[2]), mode="economic")[0]
-    h = h_lin + np.sum(Qd**2, axis=1).reshape(D.shape[0], -1)
-    return h.reshape(D.shape[0], 2, x.size)
+    derivatives = _basis_derivatives(x, xn, zeta, window)
+    shared = None if W is not None else _orthonormal(np.vstack([Phi.real, Phi.imag]))
+
+    def blocks():  # per FRF: the residue columns' basis and the projected pole columns
+        for k, c in enumerate(coef):
+            w = np.ones(x.size) if W is None else W[k]
+            Q = shared if W is None else _orthonormal(_real_stack(Phi, w))
+            D = _real_stack(_combined(derivatives, c), w)
+            yield Q, D - Q @ (Q.T @ D)
+
+    R = _triangle(np.vstack([_triangle(D) for _, D in blocks()]))
+    _, sv, Vt = np.linalg.svd(R)
+    keep = sv > np.finfo(float).eps * max(R.shape) * sv[0]
+    T = Vt[keep].T / sv[keep]
+    h = np.array([np.sum(Q**2, axis=1) + np.sum((D @ T) ** 2, axis=1) for Q, D in blocks()])
+    return h.reshape(coef.shape[0], 2, x.size)
+
+
+def _orthonormal(A):
+    """An orthonormal basis of the columns of ``A`` (economic QR)."""
+    return scipy.linalg.qr(A, mode="economic", check_finite=False)[0]
 
 
 def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iterations: int = EM_ITERATIONS,

@@ -18,20 +18,44 @@ LOCAL_FRACTION = 1 / 3      # local refit: window of this times the distance to 
 LOCAL_LINES = 21            # ... holding at least this many lines
 
 
+GRID_CHUNK = 65536          # grid points evaluated at once by `_zeros_of_all` (bounds its memory)
+
+
 def _zeros_of(x, coef, xn, zeta):
-    """Real zeros of the undamped fitted receptance in (x[0], x[-1]), shape (n_zeros,).
+    """Real zeros of the undamped fitted receptance in (x[0], x[-1]), shape (n_zeros,): those
+    of `_zeros_of_all` for one FRF."""
+    return _zeros_of_all(x, np.asarray(coef)[None, :], xn, zeta)[0]
+
+
+def _zeros_of_all(x, coefs, xn, zeta):
+    """Real zeros of the undamped fitted receptance of each FRF in (x[0], x[-1]): a list of
+    arrays, one per row of ``coefs`` (n_fun, n_cols).
 
     Sign changes of the receptance times ``prod (w_r^2 - x^2)`` (which removes the sign
-    changes at the poles) on a grid of 20 points per line, refined by Brent's method."""
+    changes at the poles) on a grid of 20 points per line, refined by Brent's method. The
+    FRFs share the poles, so each stretch of the grid is evaluated once for all of them, in
+    stretches of `GRID_CHUNK` points (the whole grid would hold 20 lines' worth of basis
+    columns per line)."""
+    coefs = np.asarray(coefs)
     grid = np.linspace(x[0], x[-1], max(20 * x.size, 4000))
 
-    def g(t):
+    def g(t, c):  # (n_t, n_fun) for coefficient rows c
         t = np.atleast_1d(t)
-        return (_modal_basis(t, xn, zeta, False) @ coef) * np.prod(xn[None, :] ** 2 - t[:, None] ** 2, axis=1)
+        return (_modal_basis(t, xn, zeta, False) @ c.T) * np.prod(xn[None, :] ** 2 - t[:, None] ** 2, axis=1)[:, None]
 
-    values = g(grid)
-    idx = np.nonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0)[0]
-    return np.array([scipy.optimize.brentq(lambda t: g(t)[0], grid[i], grid[i + 1], xtol=1e-14) for i in idx])
+    brackets = []
+    for lo in range(0, grid.size - 1, GRID_CHUNK):
+        sign = np.sign(g(grid[lo:lo + GRID_CHUNK + 1], coefs))   # one point of overlap: no change missed
+        point, fun = np.nonzero(sign[:-1] * sign[1:] < 0)
+        brackets.append(np.column_stack([point + lo, fun]))
+    brackets = np.vstack(brackets)
+    out = []
+    for k in range(coefs.shape[0]):
+        idx = np.sort(brackets[brackets[:, 1] == k, 0])
+        c = coefs[k:k + 1]
+        out.append(np.array([scipy.optimize.brentq(lambda t: float(g(t, c)[0, 0]), grid[i], grid[i + 1], xtol=1e-14)
+                             for i in idx]))
+    return out
 
 
 def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, slope_offset: float = 0.0):

@@ -104,7 +104,7 @@ from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _li
                                        _significant, _split_residual, _stabilization, _stable_poles)
 from vibupdate.data._noise import _residual_variance, _variance_components
 from vibupdate.data._window import window_for
-from vibupdate.data._zeros import _local_zero, _zero_se, _zeros_of
+from vibupdate.data._zeros import _local_zero, _zero_se, _zeros_of_all
 from vibupdate.data.frf import FRFSet
 
 __all__ = ["ExtractedMode", "ExtractedZero", "FRFQuality", "Extraction", "extract"]
@@ -550,7 +550,9 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         wd = wn * np.sqrt(1 - zeta**2)
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
-        found.append((pair, f, v, coef, cov, _zeros_of(x[fit.inside], coef, wn, zeta)))
+        found.append((pair, f, v, coef, cov))
+    # the FRFs share the poles: their zeros are searched together, one grid for all
+    found = [(*k, z) for k, z in zip(found, _zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
     zeros, outer = _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer_zeros)
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
