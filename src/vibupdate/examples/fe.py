@@ -65,7 +65,8 @@ def _check_code(name: str) -> str:
 
 
 def sensors(frame=None) -> list[str]:
-    """The measured DOFs: x and y at the four roof corners, z at the first and last of them."""
+    """The measured DOFs: x and y at the first four roof nodes over columns (2001-2004 at the default
+    size), z at the first and last of them."""
     frame = frame or frame3d(*SIZE)
     roof = SIZE[2] * STOREY
     corners = sorted(n for n in frame.nodes if n // 1000 == SIZE[2] and frame.nodes[n][2] == roof)[:4]
@@ -92,19 +93,18 @@ def _export(code: str, folder: Path, values: dict) -> str:
 
 
 def _sensor_lines(code: str) -> list[str]:
+    """The ``sensor`` array of the import file (before the ``[[parameter]]`` tables, as TOML needs)."""
     frame = frame3d(*SIZE)
-    lines = []
+    lines = ["sensor = ["]
     for dof in sensors(frame):
-        lines += ["", "[[sensor]]", f'name = "roof-{dof.replace(":", "-")}"']
         node, direction = dof.split(":")
+        where = f'dof = "{dof}"'
         if code == "nastran" and direction == "z":
             # placed by position: the GRID cards of the punch give the nearest node
             x, y, z = (float(c) for c in frame.nodes[int(node)])
-            unit = {"x": "[1.0, 0.0, 0.0]", "y": "[0.0, 1.0, 0.0]", "z": "[0.0, 0.0, 1.0]"}[direction]
-            lines += [f"position = [{x!r}, {y!r}, {z!r}]", f"direction = {unit}"]
-        else:
-            lines.append(f'dof = "{dof}"')
-    return lines
+            where = f"position = [{x!r}, {y!r}, {z!r}], direction = [0.0, 0.0, 1.0]"
+        lines.append(f'  {{ name = "roof-{node}-{direction}", {where} }},')
+    return lines + ["]"]
 
 
 def _write_import(code: str, folder: Path) -> Path:
@@ -123,6 +123,7 @@ def _write_import(code: str, folder: Path) -> Path:
     if code == "abaqus":
         fixed = [d for d in frame.all_dofs if d not in set(frame.dofs)]
         lines.append("fix = [" + ", ".join(f'"{d}"' for d in fixed) + "]   # the base translations")
+    lines += _sensor_lines(code)
     for name, unit in PARAMETERS.items():
         p0 = NOMINAL[name]
         lines += ["", "[[parameter]]", f'name = "{name}"', f'unit = "{unit}"', f"nominal = {p0!r}",
@@ -133,7 +134,6 @@ def _write_import(code: str, folder: Path) -> Path:
             lines.append(f"step2 = {-STEP * p0!r}")
             if code != "opensees":
                 lines.append(f'export2 = "{_export(code, folder / f"{name}_minus", {name: p0 * (1 - STEP)})}"')
-    lines += _sensor_lines(code)
     (folder / "import.toml").write_text("\n".join(lines) + "\n")
     return folder / "import.toml"
 
