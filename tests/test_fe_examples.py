@@ -40,6 +40,9 @@ def test_the_worked_example_updates_to_the_truth_through_import_and_run(name, tm
     truth = fe.truth()
     err = {p["name"]: abs(p["updated"] / truth[p["name"]] - 1) for p in doc["parameters"]}
     assert set(err) == set(fe.PARAMETERS) and max(err.values()) <= TOLERANCE, err
+    ranges = doc["identifiability"]["ranges"]
+    outside = [n for n, v in truth.items() if not ranges[n]["lower"] <= v <= ranges[n]["upper"]]
+    assert not outside, (outside, ranges)
     assert "relative error" in said and all(name_ in said for name_ in fe.PARAMETERS)
 
 
