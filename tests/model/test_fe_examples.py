@@ -14,7 +14,7 @@ import pytest
 from vibupdate.cli import main
 from vibupdate.examples import fe
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: Largest relative parameter error allowed: the data are rounded to about 1e-5 (frequencies)
 #: and 5e-5 (shapes) and rho_col is the weakest-determined parameter (measured 7.4e-4).
 TOLERANCE = 1e-3
