@@ -17,6 +17,7 @@ import argparse
 import os
 import sys
 import traceback
+from pathlib import Path
 
 from vibupdate import __version__
 from vibupdate._extras import MissingExtra, install_hint, require
@@ -257,6 +258,8 @@ def _command(args) -> int:
         if args.list or not args.name:
             print("\n".join(example_names()))
             return EXIT["success"]
+        if args.name.startswith("fe-"):
+            return _fe_example(args)
         return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
                                    force=args.force, certify=args.certify, study=_study(args)))
     case = _load(args.case)
@@ -271,6 +274,40 @@ def _command(args) -> int:
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
     return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args)))
+
+
+def _run_options(args) -> list[str]:
+    """The options of ``example`` given on its command line, as ``run`` takes them."""
+    words = []
+    for option in ("certify", "samples", "multistart", "frequency_tolerance", "workers", "scheduler"):
+        value = getattr(args, option)
+        if value is not None:
+            words += [f"--{option.replace('_', '-')}", str(value)]
+    return words + (["--seed", str(args.seed)] if args.seed else [])
+
+
+def _fe_example(args) -> int:
+    """``example fe-<code>``: write the export set and the measured data, then run the import and
+    the run commands it prints (`vibupdate.examples.fe`)."""
+    from vibupdate.examples import fe
+    from vibupdate.io.outputs import safe_name
+
+    if args.force:
+        raise ValueError(f"example {args.name} writes into a new folder (--out); --force does not apply to it")
+    out = args.out or f"{safe_name(args.name)}-results"
+    fe.write_inputs(args.name, out)
+    print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
+    imp, run = fe.commands(out)
+    print("$ vibupdate " + " ".join(imp))
+    _import(_parser().parse_args(imp))
+    print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
+    run += _run_options(args)
+    print("$ vibupdate " + " ".join(run))
+    code = _command(_parser().parse_args(run))
+    if (Path(out) / "results" / "results.json").is_file():
+        print()
+        print("\n".join(fe.truth_lines(out)))
+    return code
 
 
 def _import(args) -> int:

@@ -34,12 +34,16 @@ __all__ = ["run_case", "run_example", "example_names", "example_module", "check_
 
 
 def example_names() -> list[str]:
-    """Names of the bundled examples."""
-    return sorted(EXAMPLES)
+    """Names of the bundled examples (the FE-code ones, ``fe-<code>``, run from the command line)."""
+    from vibupdate.examples.fe import CODES
+
+    return sorted(EXAMPLES) + sorted(CODES)
 
 
 def example_module(name: str):
     """The module of a bundled example (``case()``, ``configurations()``, ``paper_values()``)."""
+    if name.startswith("fe-") and name in example_names():
+        raise ValueError(f"example {name!r} runs FE-code commands: `vibupdate example {name}` on the command line")
     if name not in EXAMPLES:
         raise ValueError(f"unknown example {name!r}; bundled examples: {', '.join(example_names())}")
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")

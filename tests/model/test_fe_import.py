@@ -400,3 +400,21 @@ def test_sensors_by_position_use_the_grid_cards_or_a_node_file(small, tmp_path, 
     assert main(["import", str(tmp_path / "import.toml"), "--out", str(tmp_path / "out")]) == 0
     assert f"sensor roof: -{corner}:z" in capsys.readouterr().out
     assert (tmp_path / "out" / "sensors.csv").read_text().splitlines()[1].startswith(f"roof,{corner}:z,-1,0.0223")
+
+
+def test_the_full_file_mapdl_wrote_reads_to_a_positive_definite_model_without_its_constrained_dofs():
+    """The one `.full` file MAPDL wrote that this machine has: the sample shipped with
+    ansys-mapdl-reader (a solid beam, 321 nodes, 3 DOFs each, 21 nodes fixed)."""
+    reader = pytest.importorskip("ansys.mapdl.reader")
+    from ansys.mapdl.reader import examples
+
+    from vibupdate.model.fe.ansys import read_full
+
+    export = read_full(examples.fullfile)
+    constrained = {f"{n}:{'xyz'[d]}" for n, d in reader.read_binary(examples.fullfile).const}
+    assert len(constrained) == 63 and not constrained & set(export.dofs)
+    assert len(export.dofs) == 963 - 63 and export.K.shape == export.M.shape == (900, 900)
+    assert abs(export.K - export.K.T).max() == 0 and abs(export.M - export.M.T).max() == 0
+    # every equation left has stiffness and mass, and the fixed beam has no rigid-body mode
+    assert np.all(export.K.diagonal() > 0) and np.all(export.M.diagonal() > 0)
+    assert np.linalg.eigvalsh(export.K.toarray())[0] > 0

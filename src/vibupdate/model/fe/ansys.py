@@ -12,8 +12,11 @@ The equations are those ANSYS solved: constrained DOFs are not written.
 
 ``.full``
 ---------
-Read through ``ansys-mapdl-reader`` (the optional extra ``vibupdate[fe]``), which applies the
-constraints and returns each equation's node and DOF.
+Read through ``ansys-mapdl-reader`` (the optional extra ``vibupdate[fe]``), which returns each
+equation's node and DOF and the constrained DOFs. Its ``load_km`` (0.56.0) keeps the constrained
+DOFs as zero rows and columns of K and M (the sample ``file.full`` it ships: 963 equations, 63
+of them constrained and all zero), so they are removed here: left in, they would be massless
+DOFs without stiffness, a singular model.
 """
 
 from __future__ import annotations
@@ -110,8 +113,16 @@ def read_full(path) -> FEExport:
         raise ValueError(f"ANSYS .full file {str(path)!r} does not exist")
     full = pymapdl_reader.read_binary(str(path))
     dof_ref, k, m = full.load_km(as_sparse=True, sort=True)
-    dofs = tuple(f"{int(node)}:{DIRECTIONS[int(d)]}" for node, d in np.asarray(dof_ref))
-    return FEExport(_mirrored(k), _mirrored(m), dofs, str(path))
+    dofs = tuple(_full_dof(node, d) for node, d in np.asarray(dof_ref))
+    constrained = {_full_dof(node, d) for node, d in np.asarray(full.const).reshape(-1, 2)}
+    keep = np.array([i for i, name in enumerate(dofs) if name not in constrained], dtype=int)
+    K, M = _mirrored(k)[keep][:, keep], _mirrored(m)[keep][:, keep]
+    return FEExport(sp.csr_matrix(K), sp.csr_matrix(M), tuple(dofs[i] for i in keep), str(path))
+
+
+def _full_dof(node, d) -> str:
+    """The name of DOF ``d`` (0-based: ``UX`` ... ``ROTZ``) of ``node`` in a ``.full`` file."""
+    return f"{int(node)}:{DIRECTIONS[int(d)]}"
 
 
 def _mirrored(A) -> sp.csr_matrix:
