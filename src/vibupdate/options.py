@@ -182,6 +182,9 @@ OPTIONS = (
     Option("verification", "fit_tolerance", "number", 0.02, "largest relative miss of a measured frequency that has "
            "no interval", lower=0, upper=1, open_lower=True, open_upper=True,
            default_text="0.02; the case's `frequency_tolerance` when that is smaller"),
+    Option("verification", "diagnose", "boolean", True, "when the answer does not fit the data, rank the groups of "
+           "the data (each frequency, each shape, each shape DOF across modes) by how well the model fits without "
+           "each, and update again without the worst (docs/method.md, section 7.8)"),
 )
 
 _BY_NAME = {(o.table, o.name): o for o in OPTIONS}

@@ -199,7 +199,7 @@ class GroupTrial:
     seconds: float
 
     def as_dict(self) -> dict:
-        return {"group": self.group.as_dict(), "share": self.share, "objective": self.objective,
+        return {**self.group.as_dict(), "share": self.share, "objective": self.objective,
                 "passed": self.passed, "failed": list(self.failed), "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "shape_misses": self.shape_misses,
                 "xbar": self.xbar.tolist(), "seconds": self.seconds}
@@ -226,6 +226,8 @@ class Diagnosis:
     best : UpdateResult or None
         The update without the top group, run in full with the same options; None when no
         group was screened.
+    best_seconds : float
+        Wall-clock seconds of that update (its ``seconds`` count the solves only).
     seconds : float
         The whole diagnosis.
     """
@@ -239,6 +241,7 @@ class Diagnosis:
     groups: int
     best: UpdateResult | None
     seconds: float
+    best_seconds: float = 0.0
 
     @property
     def worst(self) -> DataGroup | None:
@@ -261,13 +264,13 @@ class Diagnosis:
         best = None
         if self.best is not None:
             b = self.best
-            best = {"without": self.worst.as_dict(), "status": b.status.value, "message": b.message,
+            best = {"without": self.worst.key, "without_label": self.worst.label, "status": b.status.value, "message": b.message,
                     "success": bool(b.success),
                     "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
                     "xbar": np.asarray(b.xbar, dtype=float).tolist(),
                     "mean_error_pct": _frequency_errors(b.frequencies)[0],
                     "max_error_pct": _frequency_errors(b.frequencies)[1],
-                    "checks": [c.as_dict() for c in b.checks], "seconds": b.seconds}
+                    "checks": [c.as_dict() for c in b.checks], "seconds": self.best_seconds}
         return {"failed": list(self.failed), "objective": self.objective, "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,
                 "trials": [t.as_dict() for t in self.trials], "best": best, "seconds": self.seconds,
@@ -373,13 +376,13 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
             f"{trial.objective:.3g}, frequency error max {trial.max_error_pct:.3g} %, "
             + ("passes" if trial.passed else f"fails {', '.join(trial.failed)}") + f" ({trial.seconds:.2f} s)")
     trials.sort(key=_rank)
-    best = None
+    best, t1 = None, time.perf_counter()
     if trials:
         kept = without(configurations, trials[0].group)
         say(f"diagnosis: updating again without the {trials[0].group.label} (the same options)")
         best = update(kept, formulation=formulation, solver=solver, polish=polish, verification=verification,
                       probe=False)
     diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(candidates) - len(trials), len(candidates),
-                          best, time.perf_counter() - t0)
+                          best, time.perf_counter() - t0, time.perf_counter() - t1)
     say(diagnosis.message() + f" ({diagnosis.seconds:.1f} s)")
     return diagnosis

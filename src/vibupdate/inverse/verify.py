@@ -89,12 +89,16 @@ class VerifyOptions:
         ``frequency_tolerance`` when it states one; 1 % otherwise).
     fit_tolerance : float
         Largest relative miss of a measured frequency without an interval.
+    diagnose : bool
+        Not a threshold: whether a run whose answer does not fit the data goes on to say which
+        data conflict (`vibupdate.inverse.diagnosis`); the checks ignore it.
     """
 
     mac_min: float = default("verification", "mac_min")
     shape_slack: float = default("verification", "shape_slack")
     frequency_tolerance: float = default("verification", "frequency_tolerance")
     fit_tolerance: float = default("verification", "fit_tolerance")
+    diagnose: bool = default("verification", "diagnose")
 
     def __post_init__(self):
         check("verification", self)     # types and ranges: vibupdate.options
