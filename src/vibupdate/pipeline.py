@@ -23,7 +23,8 @@ import scipy.sparse as sp
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.io.outputs import MANIFEST, file_names, matrix_files_planned, prepare_output, write_published
+from vibupdate.io.outputs import (MANIFEST, file_names, matrix_file, matrix_files_planned, prepare_output,
+                                  write_published)
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
@@ -184,7 +185,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
 
     parts = file_names([c.name for c in case.configurations])
     for cfg in case.configurations:
-        _write_matrices(folder, parts[cfg.name], run.matrices[cfg.name], run.matrix_files[cfg.name], run)
+        _write_matrices(folder, parts[cfg.name], run.matrices[cfg.name], run.matrix_files.get(cfg.name), run)
     write_results(folder / "results.json", run)
     images = []
     with warnings.catch_warnings(record=True) as caught:
@@ -215,10 +216,12 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     return run
 
 
-def _write_matrices(folder: Path, part: str, matrices: dict, files: dict, run: RunResult) -> None:
+def _write_matrices(folder: Path, part: str, matrices: dict, files: dict | None, run: RunResult) -> None:
     """The Matrix Market files of one configuration, under the names of ``run.matrix_files``
-    (a model that is not verified says so in its name and its comment line)."""
-    for role, file in files.items():
+    (``files``; None: the run's own matrices, named from its status): a model that is not
+    verified says so in its name and its comment line."""
+    for role, file in (files or {m: matrix_file(m, part, verified=run.success) for m in ("M", "K", "C")
+                                 if m in matrices}).items():
         name, _, variant = role.partition("_")
         if variant:   # the diagnosis's model: the update without the group that conflicts most
             best = run.diagnosis.best
@@ -340,10 +343,10 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say, prepared=checked.prepared)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
-    diagnosis = _diagnosis(case, result, verification, say,
-                           verification.diagnose if diagnose is None else diagnose)
+    diagnosis, diagnosis_notes = _diagnosis(case, result, verification, say,
+                                            verification.diagnose if diagnose is None else diagnose)
     stage, notes, info = _damping_stage(case, result.xbar, say, result.modal)
-    notes = list(checked.warnings) + notes
+    notes = list(checked.warnings) + notes + diagnosis_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
         say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
@@ -380,14 +383,20 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
 
 def _diagnosis(case: Case, result: UpdateResult, verification, say, wanted: bool):
     """Which data conflict (`vibupdate.inverse.diagnosis`), when ``wanted`` and the answer
-    failed a check of its fit to the data; None otherwise."""
+    failed a check of its fit to the data; None otherwise. Returns it and the run's notes: a
+    diagnosis that fails costs a note, never the run's results."""
     from vibupdate.inverse.diagnosis import diagnose, wants_diagnosis
 
     failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
     if not (wanted and wants_diagnosis(result.status, failed)):
-        return None
-    return diagnose(case.configurations, result, formulation=case.formulation, solver=case.solver,
-                    polish=case.polish, verification=verification, progress=say)
+        return None, []
+    try:
+        return diagnose(case.configurations, result, formulation=case.formulation, solver=case.solver,
+                        polish=case.polish, verification=verification, progress=say), []
+    except Exception as exc:  # the diagnosis explains the answer; the answer stands without it
+        note = f"the diagnosis of which data conflict failed: {type(exc).__name__}: {exc}"
+        say(f"warning: {note}")
+        return None, [note]
 
 
 def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()) -> dict:

@@ -358,7 +358,11 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
     failed = tuple(c.name for c in result.checks if c.severity == "error" and not c.passed)
     candidates = []
     for group in data_groups(configurations):
-        kept = without(configurations, group)
+        try:
+            kept = without(configurations, group)
+        except ValueError as exc:   # data that are invalid without the group (a check of Configuration)
+            say(f"diagnosis: the data without the {group.label} are not a valid problem ({exc}); not screened")
+            continue
         if kept is not None:   # the share of the misfit the group carries at the answer orders the screening
             share = (full - _objective(kept, xbar, polish.shape_weight)) / full if full > 0 else 0.0
             candidates.append((share, group, kept))
@@ -370,7 +374,11 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
         if time.perf_counter() - t0 > max_seconds:
             say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s")
             break
-        trial = _screen(kept, group, share, xbar, polish, verification)
+        try:
+            trial = _screen(kept, group, share, xbar, polish, verification)
+        except (ValueError, np.linalg.LinAlgError) as exc:   # one group's refit is not worth the ranking
+            say(f"diagnosis {k}: without the {group.label}: the refit failed ({exc}); left out of the ranking")
+            continue
         trials.append(trial)
         say(f"diagnosis {k}/{min(len(candidates), max_groups)}: without the {group.label}: objective "
             f"{trial.objective:.3g}, frequency error max {trial.max_error_pct:.3g} %, "
