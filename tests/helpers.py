@@ -89,3 +89,29 @@ def write_chain_matrices(folder):
     scipy.io.mmwrite(str(Path(folder) / "K0.mtx"), sp.coo_matrix(CHAIN_K))
     scipy.io.mmwrite(str(Path(folder) / "dK.mtx"), sp.coo_matrix(CHAIN_K / 1000))
     return np.sqrt(np.linalg.eigvalsh(CHAIN_K * 1.2)) / (2 * np.pi)
+
+
+#: The known truth of the biased-sensor chain (`biased_chain`): five springs, N/m.
+BIASED_CHAIN_TRUTH = {"k1": 1100.0, "k2": 900.0, "k3": 1050.0, "k4": 950.0, "k5": 1080.0}
+
+
+def biased_chain(bias_dof="y3", bias=0.10, half_width=0.005, modes=4):
+    """A known-truth chain of five unit masses on springs ``k1..k5`` (nominal 1000 N/m, +-30 %),
+    its first ``modes`` natural frequencies exact and its shapes measured at every DOF within
+    ``+- half_width`` (the largest entry 1), but the entry of ``bias_dof`` (the driving point)
+    scaled by ``1 + bias`` in every mode: a biased force cell or sensor.
+
+    Returns the model, the frequencies (Hz) and per mode the measured ``{dof: value}`` of the
+    intervals' midpoints (half-width ``half_width`` each)."""
+    model = chain_model(5, list(BIASED_CHAIN_TRUTH))
+    xbar = np.array([(BIASED_CHAIN_TRUTH[p.name] - p.nominal) / p.reference for p in model.parameters])
+    M, K = (A.toarray() for A in model.matrices(xbar))
+    import scipy.linalg
+
+    eigenvalues, Phi = scipy.linalg.eigh(K, M)
+    freqs, shapes = [], []
+    for m in range(modes):
+        phi = Phi[:, m] / np.max(np.abs(Phi[:, m]))
+        freqs.append(float(np.sqrt(eigenvalues[m]) / (2 * np.pi)))
+        shapes.append({d: float(phi[model.dof(d)]) * (1 + bias if d == bias_dof else 1.0) for d in model.dofs})
+    return model, freqs, shapes

@@ -52,6 +52,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--force", action="store_true",
                      help="write into a folder that holds other files (they are kept; only vibupdate's own "
                           "files are replaced)")
+    run.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None,
+                     help="when the answer does not fit the data, do not rank which data conflict (the case's "
+                          "[verification] diagnose, default true)")
     check = sub.add_parser("check", help="validate a case file and print the problem size")
     check.add_argument("case", help="case file (TOML), see docs/case-file.md")
     ex = sub.add_parser("example", help="run a bundled example")
@@ -60,6 +63,7 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("--out", default=None, help="output folder (default: ./NAME-results)")
     ex.add_argument("--force", action="store_true", help="as for run")
     ex.add_argument("--certify", type=float, default=None, metavar="SECONDS", help="as for run")
+    ex.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None, help="as for run")
     imp = sub.add_parser("import", help="read an FE code's export set and write the model of a case file "
                                         "(docs/fe-models.md)")
     imp.add_argument("spec", help="import file (TOML): the code, the nominal export and one per parameter")
@@ -196,11 +200,11 @@ def _batch(args) -> int:
 
 
 def _print_tables(document: dict) -> None:
-    from vibupdate.report.document import (damping_table_text, ranges_table_text, frequency_table_text,
-                                  parameter_table_text, summary_text)
+    from vibupdate.report.document import (damping_table_text, diagnosis_text, ranges_table_text,
+                                           frequency_table_text, parameter_table_text, summary_text)
 
     for text in (frequency_table_text(document), parameter_table_text(document), ranges_table_text(document),
-                 damping_table_text(document), summary_text(document)):
+                 damping_table_text(document), summary_text(document), diagnosis_text(document)):
         if text:
             print()
             print(text)
@@ -261,7 +265,8 @@ def _command(args) -> int:
         if args.name.startswith("fe-"):
             return _fe_example(args)
         return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
-                                   force=args.force, certify=args.certify, study=_study(args)))
+                                   force=args.force, certify=args.certify, study=_study(args),
+                                   diagnose=args.diagnose))
     case = _load(args.case)
     if args.command == "check":
         checked = check_case(case)
@@ -273,7 +278,8 @@ def _command(args) -> int:
         print("problem size: " + ", ".join(f"{k} {v}" for k, v in checked.sizes.items()))
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
-    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args)))
+    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
+                            diagnose=args.diagnose))
 
 
 def _run_options(args) -> list[str]:

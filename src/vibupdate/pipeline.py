@@ -23,7 +23,8 @@ import scipy.sparse as sp
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.io.outputs import MANIFEST, file_names, prepare_output, write_published
+from vibupdate.io.outputs import (MANIFEST, file_names, matrix_file, matrix_files_planned, prepare_output,
+                                  write_published)
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
@@ -138,7 +139,7 @@ def planned_files(case: Case) -> list[str]:
     plots only where shapes were measured, ``C`` only with damping ratios)."""
     names = ["results.json", "report.md", "homotopy.png", "frf.png"]
     for part in file_names([c.name for c in case.configurations]).values():
-        names += [f"M_{part}.mtx", f"K_{part}.mtx", f"C_{part}.mtx", f"frf_{part}.png", f"mac_{part}.png"]
+        names += matrix_files_planned(part) + [f"frf_{part}.png", f"mac_{part}.png"]
     return names
 
 
@@ -188,11 +189,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
 
     parts = file_names([c.name for c in case.configurations])
     for cfg in case.configurations:
-        part, matrices = parts[cfg.name], run.matrices[cfg.name]
-        for name in ("M", "K", "C"):
-            if name in matrices:
-                scipy.io.mmwrite(str(folder / f"{name}_{part}.mtx"), sp.coo_matrix(matrices[name]),
-                                 comment=f"vibupdate: updated {name} of configuration {part} (SI units)")
+        _write_matrices(folder, parts[cfg.name], run.matrices[cfg.name], run.matrix_files.get(cfg.name), run)
     write_results(folder / "results.json", run)
     images = []
     with warnings.catch_warnings(record=True) as caught:
@@ -221,6 +218,24 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
         run = replace(run, warnings=run.warnings + tuple(failures))
         write_results(folder / "results.json", run)
     return run
+
+
+def _write_matrices(folder: Path, part: str, matrices: dict, files: dict | None, run: RunResult) -> None:
+    """The Matrix Market files of one configuration, under the names of ``run.matrix_files``
+    (``files``; None: the run's own matrices, named from its status): a model that is not
+    verified says so in its name and its comment line."""
+    for role, file in (files or {m: matrix_file(m, part, verified=run.success) for m in ("M", "K", "C")
+                                 if m in matrices}).items():
+        name, _, variant = role.partition("_")
+        if variant:   # the diagnosis's model: the update without the group that conflicts most
+            best = run.diagnosis.best
+            matrix = matrices["without_worst"][0 if name == "M" else 1]
+            what = f"{best.status} model updated without the {best.without_label}"
+        else:
+            matrix = matrices[name]
+            what = f"{run.status} updated model"
+        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix),
+                         comment=f"vibupdate: {name} of configuration {part}, {what} (SI units)")
 
 
 def _receptance_plot(folder: Path, case: Case, run: RunResult) -> list[tuple[str, str]]:
@@ -286,7 +301,7 @@ def _write_report(path: Path, run: RunResult, images) -> list[str]:
 
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
              paper: dict | None = None, force: bool = False, certify: float | None = None,
-             study=None) -> RunResult:
+             study=None, diagnose: bool | None = None) -> RunResult:
     """Both stages on a case; writes the results folder and returns the results object.
 
     ``certify``: time budget in seconds of the certified outer parameter ranges
@@ -307,6 +322,10 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     replace or remove); the files are written beside it and moved into place at the end, so a
     run that fails or is interrupted leaves earlier results as they were, and files in the
     folder that a run did not write (the user's, another command's) are never touched.
+
+    ``diagnose``: whether an answer that does not fit the data is followed by the diagnosis of
+    which data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
+    ``[verification] diagnose``.
     """
     from vibupdate import __version__
 
@@ -321,8 +340,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         study.check(case)
     target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()),
                             command="run", inputs=case.inputs)
+    verification = case.verify_options()
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
-                    verification=case.verify_options(), progress=say, prepared=checked.prepared)
+                    verification=verification, progress=say, prepared=checked.prepared)
     say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
     if result.success:
         from vibupdate.report.document import limited_text
@@ -330,8 +350,10 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         limited = limited_text([c.as_dict() for c in result.checks])
         if limited:
             say(limited[2:])
+    diagnosis, diagnosis_notes = _diagnosis(case, result, verification, say,
+                                            verification.diagnose if diagnose is None else diagnose)
     stage, notes, info = _damping_stage(case, result.xbar, say, result.modal)
-    notes = list(checked.warnings) + notes
+    notes = list(checked.warnings) + notes + diagnosis_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
         say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
@@ -353,7 +375,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     if certify is not None:
         identifiability["certified"] = _certified(case, result, certify, say, answers)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
-                     warnings=notes, paper=paper)
+                     warnings=notes, paper=paper, diagnosis=diagnosis)
     written = write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
                               version=__version__)
     for note in written.warnings[len(run.warnings):]:
@@ -364,6 +386,24 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     kinds = "results.json, report.md, " + ("plots, " if plotted else "") + "matrices"
     say(f"wrote {target.path}/ ({kinds}; {MANIFEST} lists them)")
     return written
+
+
+def _diagnosis(case: Case, result: UpdateResult, verification, say, wanted: bool):
+    """Which data conflict (`vibupdate.inverse.diagnosis`), when ``wanted`` and the answer
+    failed a check of its fit to the data; None otherwise. Returns it and the run's notes: a
+    diagnosis that fails costs a note, never the run's results."""
+    from vibupdate.inverse.diagnosis import diagnose, wants_diagnosis
+
+    failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
+    if not (wanted and wants_diagnosis(result.status, failed)):
+        return None, []
+    try:
+        return diagnose(case.configurations, result, formulation=case.formulation, solver=case.solver,
+                        polish=case.polish, verification=verification, progress=say), []
+    except Exception as exc:  # the diagnosis explains the answer; the answer stands without it
+        note = f"the diagnosis of which data conflict failed: {type(exc).__name__}: {exc}"
+        say(f"warning: {note}")
+        return None, [note]
 
 
 def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()) -> dict:
@@ -381,7 +421,8 @@ def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()
 
 
 def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,
-                force: bool = False, certify: float | None = None, study=None) -> RunResult:
+                force: bool = False, certify: float | None = None, study=None,
+                diagnose: bool | None = None) -> RunResult:
     """Run a bundled example end to end (`run_case`); returns the results object."""
     say = progress or (lambda message: None)
     module = example_module(name)
@@ -390,4 +431,5 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
     paper = module.paper_values() if hasattr(module, "paper_values") else None
-    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify, study=study)
+    return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify, study=study,
+                    diagnose=diagnose)

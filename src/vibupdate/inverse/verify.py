@@ -103,6 +103,9 @@ class VerifyOptions:
     shape_tolerance : float
         Model-form tolerance of the shapes: the largest distance of a shape ratio (normalized at
         the mode's largest measured entry) beyond its measurement interval.
+    diagnose : bool
+        Not a threshold: whether a run whose answer does not fit the data goes on to say which
+        data conflict (`vibupdate.inverse.diagnosis`); the checks ignore it.
     """
 
     mac_min: float = default("verification", "mac_min")
@@ -112,6 +115,7 @@ class VerifyOptions:
     natural_tolerance: float = default("verification", "natural_tolerance")
     antiresonance_tolerance: float = default("verification", "antiresonance_tolerance")
     shape_tolerance: float = default("verification", "shape_tolerance")
+    diagnose: bool = default("verification", "diagnose")
 
     def tolerance(self, datum) -> float:
         """The model-form tolerance of ``datum``'s kind (a natural frequency or an antiresonance)."""

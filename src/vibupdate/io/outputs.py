@@ -58,7 +58,7 @@ _T = TypeVar("_T")
 
 __all__ = ["MANIFEST", "LEGACY_MANIFEST", "COMMANDS", "manifest_name", "OutputTarget", "safe_name", "file_names",
            "prepare_output", "staging_folder", "publish", "write_published", "read_manifest", "read_manifests",
-           "add_to_manifest", "OutputWarning", "drawn"]
+           "add_to_manifest", "OutputWarning", "drawn", "matrix_file", "matrix_files_planned", "NOT_VERIFIED"]
 
 #: Name of the manifest of a run's results folder.
 MANIFEST = manifest_name("run")
@@ -138,6 +138,29 @@ def file_names(names: Sequence[str]) -> dict[str, str]:
             part = _hashed(part, n)
         out[n] = part
     return out
+
+
+#: Prefix of the matrix files of a model that is not verified.
+NOT_VERIFIED = "not_verified_"
+#: Matrix-file variants besides the run's own model: the best model of the diagnosis, updated
+#: without the group of data that conflicts most (`vibupdate.inverse.diagnosis`).
+VARIANTS = ("", "without_worst")
+
+
+def matrix_file(matrix: str, part: str, *, verified: bool = True, variant: str = "") -> str:
+    """The file of matrix ``matrix`` (``M``, ``K``, ``C``) of configuration ``part`` (a
+    `file_names` part): ``M_A.mtx`` for a verified model, ``not_verified_M_A.mtx`` for one
+    that is not, ``without_worst_M_A.mtx`` (or ``not_verified_without_worst_M_A.mtx``) for the
+    diagnosis's model. A prefix, so that no configuration name can make one name another's."""
+    if variant not in VARIANTS:
+        raise ValueError(f"matrix-file variant must be one of {VARIANTS}, got {variant!r}")
+    return ("" if verified else NOT_VERIFIED) + (f"{variant}_" if variant else "") + f"{matrix}_{part}.mtx"
+
+
+def matrix_files_planned(part: str) -> list[str]:
+    """Every name `matrix_file` may give configuration ``part`` (before the run says which)."""
+    return [matrix_file(m, part, verified=v, variant=variant) for variant in VARIANTS for v in (True, False)
+            for m in ("M", "K", "C") if not (variant and m == "C")]
 
 
 def _umask() -> int:

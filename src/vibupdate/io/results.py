@@ -23,9 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 
 __all__ = ["FORMAT_VERSION", "ParameterRow", "FrequencyRow", "DampingRow", "Summary", "SampledRange", "Sampled",
-           "Multistart", "RunResult", "run_result", "write_results", "load_results", "schema", "validate_document",
+           "Multistart", "GroupTrialRow", "DiagnosisBest", "DiagnosisRecord", "RunResult", "run_result", "write_results", "load_results", "schema", "validate_document",
            "json_text"]
 
 #: Version of the layout of ``results.json`` (raised when a key is added).
@@ -191,6 +192,91 @@ class Multistart:
                    tuple(dict(m) for m in data["minima"]))
 
 
+@dataclass(frozen=True)
+class GroupTrialRow(_Row):
+    """One group of the data left out by the diagnosis (`vibupdate.inverse.diagnosis`): the
+    group (``key``, ``kind``, ``configuration``, ``label``, ``size``), its ``share`` of the
+    misfit at the full answer, and the fit without it after refitting: polish ``objective``,
+    whether the screened checks ``passed`` (``failed``: those that did not), relative frequency
+    errors on the data kept (per cent), shape-interval misses, the answer ``xbar``, seconds."""
+
+    key: str
+    kind: str
+    configuration: str
+    label: str
+    size: int
+    share: float | None
+    objective: float | None
+    passed: bool
+    failed: tuple
+    mean_error_pct: float | None
+    max_error_pct: float | None
+    shape_misses: int
+    xbar: tuple
+    seconds: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class DiagnosisBest(_Row):
+    """The update run again without the top group: which group (``without``, its key, and
+    ``without_label``), its ``status``, ``success`` and ``message``, the physical ``values`` by
+    parameter name, ``xbar``, frequency errors on the data kept (per cent), its verification
+    ``checks`` on the data kept and seconds."""
+
+    without: str
+    without_label: str
+    status: str
+    success: bool
+    message: str
+    values: dict
+    xbar: tuple
+    mean_error_pct: float | None
+    max_error_pct: float | None
+    checks: tuple
+    seconds: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class DiagnosisRecord(_Row):
+    """``diagnosis`` of ``results.json``: which data conflict with the model. The checks that
+    ``failed``, the full answer's polish ``objective`` and frequency errors, the number of
+    ``groups`` and of those ``untried`` (limits), the ``trials`` ranked (best fit without the
+    group first), the ``best`` update without the top group, and ``seconds``."""
+
+    failed: tuple
+    objective: float | None
+    mean_error_pct: float | None
+    max_error_pct: float | None
+    groups: int
+    untried: int
+    trials: tuple[GroupTrialRow, ...]
+    best: DiagnosisBest | None
+    seconds: float | None
+    limits: dict
+    extra: tuple = ()
+
+    def as_dict(self) -> dict:
+        out = super().as_dict()
+        out["trials"] = [t.as_dict() for t in self.trials]
+        out["best"] = None if self.best is None else self.best.as_dict()
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping) -> DiagnosisRecord:
+        plain = dict(data)
+        plain["trials"] = tuple(GroupTrialRow.from_dict(t) for t in data["trials"])
+        plain["best"] = None if data.get("best") is None else DiagnosisBest.from_dict(data["best"])
+        plain["failed"] = tuple(data["failed"])
+        return super().from_dict(plain)
+
+    @property
+    def worst(self) -> GroupTrialRow | None:
+        """The group whose removal leaves the best fit."""
+        return self.trials[0] if self.trials else None
+
+
 #: Top-level fields of `RunResult` that are not written to ``results.json``.
 _NOT_WRITTEN = ("matrices",)
 
@@ -239,6 +325,13 @@ class RunResult:
     sensors : tuple of dict
         Measured points on an imported FE mesh (``[model] sensors``, `vibupdate import`):
         ``sensor``, ``dof`` (``"<node>:<dir>"``), ``sign``, ``distance_m``; empty otherwise.
+    diagnosis : DiagnosisRecord or None
+        Which data conflict with the model, when the answer did not fit them
+        (`vibupdate.inverse.diagnosis`); None otherwise.
+    matrix_files : dict of str to dict
+        Per configuration, the file of each matrix written (``M``, ``K``, ``C`` and, after a
+        diagnosis, ``M_without_worst``, ``K_without_worst``): the names say when a model is
+        not verified (`vibupdate.io.outputs.matrix_file`).
     matrices : dict
         Not written to JSON: per configuration ``{"M", "K", "C"}`` updated matrices (scipy
         sparse; ``C`` absent without damping data) and ``"nominal"`` ``(M0, K0, None)``: the
@@ -267,6 +360,8 @@ class RunResult:
     checks: tuple[dict, ...] = ()
     paper: dict | None = None
     sensors: tuple[dict, ...] = ()
+    diagnosis: DiagnosisRecord | None = None
+    matrix_files: dict = field(default_factory=dict)
     matrices: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -316,6 +411,8 @@ class RunResult:
             identifiability=doc.get("identifiability"), damping_model=doc.get("damping_model"),
             warnings=tuple(doc.get("warnings", ())), checks=tuple(doc.get("checks", ())), paper=doc.get("paper"),
             sensors=tuple(dict(s) for s in doc.get("sensors", ())),
+            diagnosis=DiagnosisRecord.from_dict(doc["diagnosis"]) if doc.get("diagnosis") else None,
+            matrix_files={k: dict(v) for k, v in doc.get("matrix_files", {}).items()},
         )
 
 
@@ -373,7 +470,7 @@ def _mac_matrix(cfg, Phi: np.ndarray) -> dict:
 
 def run_result(case, result, stage=None, *, identifiability: dict | None = None,
                damping_model: dict | None = None, warnings: Sequence[str] = (),
-               paper: dict | None = None) -> RunResult:
+               paper: dict | None = None, diagnosis=None) -> RunResult:
     """Build the results object of a run.
 
     Parameters
@@ -392,6 +489,9 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         Warnings of the run besides those of ``result``.
     paper : dict, optional
         Published values (bundled examples).
+    diagnosis : Diagnosis, optional
+        Which data conflict (`vibupdate.inverse.diagnosis`): its record goes to ``diagnosis``,
+        the matrices of its best model (the update without the top group) beside the run's.
     """
     from vibupdate import __version__
 
@@ -419,6 +519,10 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         frf[cfg.name] = {"response": response, "excitation": excitation}
         if any(f.shape is not None for f in cfg.natural):
             mac_matrix[cfg.name] = _mac_matrix(cfg, modal.Phi)
+    best = diagnosis.best if diagnosis is not None else None
+    if best is not None:   # every configuration: the parameters are shared, whatever data were left out
+        for cfg in configurations:
+            matrices[cfg.name]["without_worst"] = tuple(sp.csr_matrix(A) for A in cfg.model.matrices(best.xbar))
     run_warnings = tuple(str(w) for w in getattr(result, "warnings", ())) + tuple(str(w) for w in warnings)
     return RunResult(
         version=__version__, format_version=FORMAT_VERSION, case=case.name, success=bool(result.success),
@@ -430,7 +534,26 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         damping_model=_plain(damping_model) if damping_model else None,
         warnings=run_warnings, checks=tuple(_check_dict(c) for c in getattr(result, "checks", ())),
         paper=_plain(paper) if paper else None, sensors=tuple(dict(s) for s in getattr(case, "sensors", ())),
+        diagnosis=DiagnosisRecord.from_dict(_plain(diagnosis.record())) if diagnosis is not None else None,
+        matrix_files=_matrix_files(configurations, matrices, bool(result.success), best),
         matrices=matrices)
+
+
+def _matrix_files(configurations, matrices: dict, verified: bool, best) -> dict:
+    """Per configuration, the file of each matrix written (`vibupdate.io.outputs.matrix_file`):
+    a model that is not verified is written under a name that says so."""
+    from vibupdate.io.outputs import file_names, matrix_file
+
+    parts = file_names([c.name for c in configurations])
+    files = {}
+    for cfg in configurations:
+        entry = matrices[cfg.name]
+        names = {m: matrix_file(m, parts[cfg.name], verified=verified) for m in ("M", "K", "C") if m in entry}
+        if "without_worst" in entry:
+            names.update({f"{m}_without_worst": matrix_file(m, parts[cfg.name], verified=bool(best.success),
+                                                             variant="without_worst") for m in ("M", "K")})
+        files[cfg.name] = names
+    return files
 
 
 def schema() -> dict:

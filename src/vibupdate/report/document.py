@@ -16,7 +16,7 @@ from vibupdate.report.ranges_text import (
     sampled_info,
 )
 
-__all__ = ["failed_report", "frequency_table_text", "parameter_table_text", "damping_table_text", "summary_text", "markdown_report",
+__all__ = ["failed_report", "diagnosis_text", "diagnosis_markdown", "matrix_files_markdown", "frequency_table_text", "parameter_table_text", "damping_table_text", "summary_text", "markdown_report",
            "ranges_table_text", "sampled_disagreements", "range_notes", "multistart_text"]
 
 #: What the lambda = 0 optimum says: the lifted variables absorb every mismatch, so
@@ -206,6 +206,89 @@ def limited_text(checks) -> str:
     return "; the measurements limit it: every datum lies in its measurement interval"
 
 
+#: Groups of the ranking shown in the terminal and the report (every one is in results.json).
+RANKED_SHOWN = 5
+
+
+def _trial_cells(t: dict) -> list[str]:
+    """A screened group's figures: objective, frequency errors on the data kept, shape misses,
+    the screened checks."""
+    return [fmt(t.get("share"), ".2f"), fmt(t.get("objective"), ".3g"), fmt(t.get("mean_error_pct"), ".3g"),
+            fmt(t.get("max_error_pct"), ".3g"), fmt(t.get("shape_misses"), "d"),
+            "pass" if t.get("passed") else "fail: " + ", ".join(t.get("failed") or [])]
+
+
+def diagnosis_text(document: dict) -> str:
+    """The diagnosis for the terminal: the top groups and the best model without the top one
+    beside the full one; empty without a diagnosis."""
+    d = document.get("diagnosis")
+    if not d:
+        return ""
+    lines = [f"Which data conflict (the answer failed {', '.join(d.get('failed') or [])}; {d.get('groups')} groups "
+             f"of the data, each left out in turn; {fmt(d.get('seconds'), '.1f')} s)",
+             f"full data: objective {fmt(d.get('objective'), '.3g')}, frequency error mean "
+             f"{fmt(d.get('mean_error_pct'), '.3g')} % max {fmt(d.get('max_error_pct'), '.3g')} %"]
+    for rank, t in enumerate((d.get("trials") or [])[:RANKED_SHOWN], start=1):
+        share, obj, mean, top, misses, verdict = _trial_cells(t)
+        lines.append(f"{rank}. without the {t['label']}: objective {obj}, frequency error mean {mean} % max {top} %, "
+                     f"{misses} shape-interval misses, {verdict}")
+    best = d.get("best")
+    if best:
+        lines.append(f"updated again without the {best['without_label']}: {best['status']}")
+        full = {p["name"]: p.get("updated") for p in document["parameters"]}
+        lines.append(f"{'name':>8} {'all data':>11} {'without':>11}")
+        lines += [f"{n:>8} {fmt(full.get(n), '11.5g')} {fmt(v, '11.5g')}" for n, v in best["values"].items()]
+    return "\n".join(lines)
+
+
+def diagnosis_markdown(document: dict) -> list[str]:
+    """The report's section "Which data conflict"; empty without a diagnosis."""
+    d = document.get("diagnosis")
+    if not d:
+        return []
+    trials = d.get("trials") or []
+    out = ["## Which data conflict", "",
+           f"The answer failed {', '.join(d.get('failed') or [])}: the model does not fit all the data. Each group "
+           "of the data (each natural frequency with its shape, each antiresonance, each mode's shape, each shape "
+           "DOF across all modes: a biased sensor or driving point corrupts that DOF in every mode) was left out "
+           "in turn, the rest refitted from the answer (polish, the same options) and verified on the data kept "
+           f"(the consistency check aside). {len(trials)} of {d.get('groups')} groups screened"
+           + (f", {d.get('untried')} left untried on the limits" if d.get("untried") else "")
+           + f", {fmt(d.get('seconds'), '.1f')} s in all. With all the data: objective {fmt(d.get('objective'), '.3g')}, "
+           f"frequency error mean {fmt(d.get('mean_error_pct'), '.3g')} %, max {fmt(d.get('max_error_pct'), '.3g')} %. "
+           "Ranked by the fit without the group (passing first, then the objective):", ""]
+    rows = [[str(rank), t["label"]] + _trial_cells(t) for rank, t in enumerate(trials[:RANKED_SHOWN], start=1)]
+    out += _md_table(["rank", "left out", "share of the misfit", "objective", "freq. err. mean %",
+                      "freq. err. max %", "shape misses", "checks"], rows) + [""]
+    if len(trials) > RANKED_SHOWN:
+        out += [f"The other {len(trials) - RANKED_SHOWN} groups fit worse without them (all in `results.json`, "
+                "`diagnosis.trials`).", ""]
+    best = d.get("best")
+    if best:
+        failed = [c["name"] for c in best.get("checks") or [] if c.get("severity") == "error" and not c.get("passed")]
+        out += [f"Updated again in full (the same options) without the {best['without_label']}: **{best['status']}**"
+                + (f" (failed {', '.join(failed)})" if failed else ", every check passed on the data kept")
+                + f"; frequency error on the data kept mean {fmt(best.get('mean_error_pct'), '.3g')} %, max "
+                f"{fmt(best.get('max_error_pct'), '.3g')} %; {fmt(best.get('seconds'), '.2f')} s.", ""]
+        full = {p["name"]: p for p in document["parameters"]}
+        rows = [[n, full.get(n, {}).get("unit", ""), fmt(full.get(n, {}).get("updated")), fmt(v),
+                 fmt(_error_pct(v, full.get(n, {}).get("updated")), ".3g")] for n, v in best["values"].items()]
+        out += _md_table(["parameter", "unit", "all data (not verified)", "without the group", "differ %"], rows)
+        out += [""]
+    return out
+
+
+def matrix_files_markdown(document: dict) -> list[str]:
+    """One line naming the matrix files, when a model written is not verified."""
+    files = document.get("matrix_files") or {}
+    names = [f for per in files.values() for f in per.values()]
+    if document.get("success") or not names:
+        return []
+    return ["Matrices written: " + ", ".join(f"`{n}`" for n in names) + ". The run's model is not verified, and its "
+            "files say so (`not_verified_`); `without_worst_` files hold the model updated without the group of "
+            "data that conflicts most (prefixed `not_verified_` too when that one is not verified either).", ""]
+
+
 def _md_table(header: list[str], rows: list[list]) -> list[str]:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---:" if i else "---" for i in range(len(header))) + "|"]
     lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
@@ -255,6 +338,8 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
                      "(Caughey) for damping")
         out += [text + ".", ""]
     out += verification_markdown(document.get("solver") or {})
+    out += matrix_files_markdown(document)
+    out += diagnosis_markdown(document)
     # Parameters
     pp = {p["name"]: _number(p.get("paper_updated")) for p in paper.get("parameters", [])}
     truth = paper.get("truth") or {}

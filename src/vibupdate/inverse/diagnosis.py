@@ -1,0 +1,396 @@
+"""Which data conflict: leave-one-group-out after an answer that does not fit the data.
+
+When the returned model fails a check that measures its fit to the data (`MISFIT_CHECKS`),
+the data are split into groups, each a unit that one fault corrupts:
+
+* each natural frequency (with its shape: a shape is measured at its frequency and cannot be
+  kept without it);
+* each antiresonance;
+* each mode's shape (every measured entry of it);
+* each measured shape DOF across all modes of its configuration: a biased sensor, or a
+  driving point whose entry carries the force cell's mass or a calibration error, corrupts
+  that DOF's entry in every mode.
+
+Each group is screened: the data without it are polished from the full answer (the same
+polish options) and the result verified against the data kept (every check but the
+consistency of the relaxation, which needs a first stage of its own). The groups are ranked
+verified first, then by the polish objective on the data kept (relative frequency errors and
+shape-interval distances, the quantity the update minimizes): the group whose removal leaves
+the best fit heads the list. The first stage is then run again, in full (`update`, the same
+options), without the top group: that is the best model without the worst group, with its
+own status and verification on the data kept.
+
+The cost is one polish and one verification per group plus one update; the groups are tried
+in order of their share of the misfit at the full answer (the objective's drop when the group
+is dropped without refitting) and the screening stops at `MAX_GROUPS` groups or
+`MAX_SECONDS`, the groups left untried counted in the record.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from vibupdate.data.measured import TWO_PI, Configuration, ShapeInterval
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.polish import PolishOptions, polish as run_polish, polish_residuals
+from vibupdate.inverse.status import Status
+from vibupdate.inverse.update import UpdateResult, update
+from vibupdate.inverse.verify import VerifyOptions, tolerance_weights, verify
+
+__all__ = ["MISFIT_CHECKS", "MAX_GROUPS", "MAX_SECONDS", "DataGroup", "GroupTrial", "Diagnosis", "data_groups",
+           "without", "wants_diagnosis", "diagnose"]
+
+#: Failed checks that say the model does not fit the data: only these start a diagnosis. A
+#: failure of ``mode_order``, ``zero_order`` or ``correspondence`` alone is a question of which
+#: model mode or zero a datum is, which its message already names; removing data does not
+#: answer it.
+MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "consistency", "improvement"})
+#: Groups screened at most (the rest are counted as untried).
+MAX_GROUPS = 60
+#: Seconds of screening at most; the group under way is finished.
+MAX_SECONDS = 120.0
+#: Trials reported in words (terminal, report); every trial is in the record.
+SHOWN = 5
+
+
+@dataclass(frozen=True)
+class DataGroup:
+    """Data that one fault would corrupt together.
+
+    Attributes
+    ----------
+    key : str
+        ``"CFG/natural/MODE"``, ``"CFG/antiresonance/R,C/INDEX"``, ``"CFG/shape/MODE"`` or
+        ``"CFG/dof/DOF"``: unique within a run.
+    kind : {"natural", "antiresonance", "shape", "dof"}
+    configuration : str
+    label : str
+        The group in words.
+    size : int
+        Data removed with it (frequencies and shape entries).
+    """
+
+    key: str
+    kind: str
+    configuration: str
+    label: str
+    size: int
+
+    def as_dict(self) -> dict:
+        return {"key": self.key, "kind": self.kind, "configuration": self.configuration, "label": self.label,
+                "size": self.size}
+
+
+def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
+    """Every group of the data (module docstring), configuration by configuration: natural
+    frequencies, antiresonances, mode shapes, shape DOFs."""
+    groups = []
+    for cfg in configurations:
+        where = f"configuration {cfg.name!r}"
+        for f in cfg.natural:
+            extra = len(f.shape.bounds) if f.shape is not None else 0
+            groups.append(DataGroup(f"{cfg.name}/natural/{f.mode}", "natural", cfg.name,
+                                    f"natural frequency of mode {f.mode} ({f.freq_hz:.5g} Hz"
+                                    + (", with its shape" if extra else "") + f"), {where}", 1 + extra))
+        for a in cfg.antiresonances:
+            groups.append(DataGroup(f"{cfg.name}/antiresonance/{a.response},{a.excitation}/{a.index}",
+                                    "antiresonance", cfg.name, f"antiresonance {a.index} of h_{a.response},"
+                                    f"{a.excitation} ({a.freq_hz:.5g} Hz), {where}", 1))
+        for f in cfg.natural:
+            if f.shape is not None:
+                groups.append(DataGroup(f"{cfg.name}/shape/{f.mode}", "shape", cfg.name,
+                                        f"shape of mode {f.mode} ({len(f.shape.bounds)} entries), {where}",
+                                        len(f.shape.bounds)))
+        shaped = [f for f in cfg.natural if f.shape is not None]
+        for dof in sorted({d for f in shaped for d in f.shape.bounds}, key=cfg.model.dof):
+            modes = [f.mode for f in shaped if dof in f.shape.bounds]
+            groups.append(DataGroup(f"{cfg.name}/dof/{dof}", "dof", cfg.name,
+                                    f"shape entry of DOF {dof!r} in every mode (modes "
+                                    f"{', '.join(map(str, modes))}), {where}", len(modes)))
+    return groups
+
+
+def _drop_dof(shape: ShapeInterval | None, dof: str) -> ShapeInterval | None:
+    if shape is None or dof not in shape.bounds:
+        return shape
+    rest = {d: b for d, b in shape.bounds.items() if d != dof}
+    return ShapeInterval(rest) if rest else None
+
+
+def _without_in(cfg: Configuration, group: DataGroup) -> Configuration | None:
+    """``cfg`` without ``group``; None when nothing measured is left."""
+    natural, zeros, interlacing = cfg.natural, cfg.antiresonances, cfg.interlacing
+    part = group.key[len(cfg.name) + 1:].split("/")
+    if group.kind == "natural":
+        natural = tuple(f for f in natural if f.mode != int(part[1]))
+    elif group.kind == "antiresonance":
+        response, excitation = part[1].split(",")
+        zeros = tuple(a for a in zeros if (a.response, a.excitation, a.index) != (response, excitation,
+                                                                                 int(part[2])))
+        # the interlacing signs assert that every zero between two measured poles is listed
+        interlacing = False
+    elif group.kind == "shape":
+        natural = tuple(replace(f, shape=None) if f.mode == int(part[1]) else f for f in natural)
+    elif group.kind == "dof":
+        natural = tuple(replace(f, shape=_drop_dof(f.shape, part[1])) for f in natural)
+    else:
+        raise ValueError(f"unknown data group kind {group.kind!r}; expected natural, antiresonance, shape or dof")
+    if not natural and not zeros:
+        return None
+    return replace(cfg, natural=natural, antiresonances=zeros, interlacing=interlacing)
+
+
+def without(configurations: Sequence[Configuration], group: DataGroup) -> list[Configuration] | None:
+    """The configurations without ``group``: a configuration left with no data is dropped
+    (its parameters are shared with the others); None when no data would be left at all."""
+    kept = []
+    for cfg in configurations:
+        rest = _without_in(cfg, group) if cfg.name == group.configuration else cfg
+        if rest is not None:
+            kept.append(rest)
+    return kept or None
+
+
+def wants_diagnosis(status: Status, failed: Sequence[str]) -> bool:
+    """True for an answer that reached lambda = 1 (``not_verified``) and failed a check of its
+    fit to the data (`MISFIT_CHECKS`): a failed path leaves no answer to start from."""
+    return status == Status.NOT_VERIFIED and bool(MISFIT_CHECKS & set(failed))
+
+
+@dataclass(frozen=True)
+class GroupTrial:
+    """The fit without one group (screened: polished from the full answer, verified without
+    the consistency check).
+
+    Attributes
+    ----------
+    group : DataGroup
+    share : float
+        Fraction of the full answer's objective that the group carries there (before refitting).
+    objective : float
+        Polish objective on the data kept after refitting.
+    passed : bool
+        Every screened check passed on the data kept.
+    failed : tuple of str
+        The failed checks.
+    mean_error_pct, max_error_pct : float
+        Relative frequency errors on the frequencies kept (per cent).
+    shape_misses : int
+        Shape-interval misses on the data kept (the value of the ``shape_intervals`` check).
+    xbar : ndarray
+    seconds : float
+    """
+
+    group: DataGroup
+    share: float
+    objective: float
+    passed: bool
+    failed: tuple[str, ...]
+    mean_error_pct: float
+    max_error_pct: float
+    shape_misses: int
+    xbar: np.ndarray
+    seconds: float
+
+    def as_dict(self) -> dict:
+        return {**self.group.as_dict(), "share": self.share, "objective": self.objective,
+                "passed": self.passed, "failed": list(self.failed), "mean_error_pct": self.mean_error_pct,
+                "max_error_pct": self.max_error_pct, "shape_misses": self.shape_misses,
+                "xbar": self.xbar.tolist(), "seconds": self.seconds}
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Which data conflict with the model (module docstring).
+
+    Attributes
+    ----------
+    failed : tuple of str
+        The checks of the full answer that failed.
+    objective : float
+        Polish objective of the full answer on all the data.
+    mean_error_pct, max_error_pct : float
+        Relative frequency errors of the full answer.
+    trials : tuple of GroupTrial
+        Screened groups, ranked: passed first, then by objective.
+    untried : int
+        Groups not screened because of `MAX_GROUPS` or `MAX_SECONDS`.
+    groups : int
+        Groups of the data in all.
+    best : UpdateResult or None
+        The update without the top group, run in full with the same options; None when no
+        group was screened.
+    best_seconds : float
+        Wall-clock seconds of that update (its ``seconds`` count the solves only).
+    seconds : float
+        The whole diagnosis.
+    """
+
+    failed: tuple[str, ...]
+    objective: float
+    mean_error_pct: float
+    max_error_pct: float
+    trials: tuple[GroupTrial, ...]
+    untried: int
+    groups: int
+    best: UpdateResult | None
+    seconds: float
+    best_seconds: float = 0.0
+
+    @property
+    def worst(self) -> DataGroup | None:
+        """The group whose removal fits best (the top of the ranking)."""
+        return self.trials[0].group if self.trials else None
+
+    def message(self) -> str:
+        """One line: the top group and the best model without it."""
+        if not self.trials:
+            return "diagnosis: no group of the data could be screened"
+        top = self.trials[0]
+        text = (f"diagnosis: the data fit best without the {top.group.label} (objective {self.objective:.3g} -> "
+                f"{top.objective:.3g}, frequency error max {self.max_error_pct:.3g} % -> {top.max_error_pct:.3g} %)")
+        if self.best is not None:
+            text += f"; updated again without it: {self.best.status.value}"
+        return text
+
+    def record(self) -> dict:
+        """The ``diagnosis`` section of ``results.json`` (``best`` without its matrices)."""
+        best = None
+        if self.best is not None:
+            b = self.best
+            best = {"without": self.worst.key, "without_label": self.worst.label, "status": b.status.value, "message": b.message,
+                    "success": bool(b.success),
+                    "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
+                    "xbar": np.asarray(b.xbar, dtype=float).tolist(),
+                    "mean_error_pct": _frequency_errors(b.frequencies)[0],
+                    "max_error_pct": _frequency_errors(b.frequencies)[1],
+                    "checks": [c.as_dict() for c in b.checks], "seconds": self.best_seconds}
+        return {"failed": list(self.failed), "objective": self.objective, "mean_error_pct": self.mean_error_pct,
+                "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,
+                "trials": [t.as_dict() for t in self.trials], "best": best, "seconds": self.seconds,
+                "limits": {"groups": MAX_GROUPS, "seconds": MAX_SECONDS}}
+
+
+def _frequency_errors(rows) -> tuple[float, float]:
+    """Mean and max of ``error_updated_pct`` over `UpdateResult.frequencies` rows."""
+    errors = np.array([r["error_updated_pct"] for r in rows], dtype=float)
+    errors = errors[np.isfinite(errors)]
+    return (float(np.mean(errors)), float(np.max(errors))) if errors.size else (float("nan"), float("nan"))
+
+
+def _errors(configurations, updated) -> tuple[float, float]:
+    """Mean and max relative frequency error (per cent) of the model ``updated`` on the data."""
+    measured = np.concatenate([[n.omega for n in c.natural] + [a.omega for a in c.antiresonances]
+                               for c in configurations])
+    model = np.concatenate([np.r_[f.natural, f.antiresonances] for f in updated])
+    errors = 100 * np.abs(model - measured) / measured
+    errors = np.where(np.isfinite(errors), errors, np.inf)
+    return float(np.mean(errors)), float(np.max(errors))
+
+
+def _objective(configurations, xbar, shape_weight: float) -> float:
+    r, _ = polish_residuals(configurations, xbar, shape_weight, jacobian=False)
+    return 0.5 * float(r @ r)
+
+
+def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
+            verification: VerifyOptions) -> GroupTrial:
+    """Polish the data ``kept`` from ``xbar`` and verify the answer on them."""
+    t0 = time.perf_counter()
+    nominal = [model_frequencies(c) for c in kept]
+    polished = run_polish(tolerance_weights(kept, verification), xbar, replace(polish, enabled=True))  # as update
+    x = polished.xbar
+    updated = [model_frequencies(c, x, derivatives=True) for c in kept]
+    checks = verify(kept, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0, options=verification)
+    failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
+    shape = next((c for c in checks if c.name == "shape_intervals"), None)
+    mean, worst = _errors(kept, updated)
+    return GroupTrial(group, share, float(polished.cost), not failed, failed, mean, worst,
+                      int(shape.value) if shape is not None else 0, np.asarray(x, dtype=float),
+                      time.perf_counter() - t0)
+
+
+def _rank(trial: GroupTrial) -> tuple:
+    return (not trial.passed, trial.objective, trial.max_error_pct)
+
+
+def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, formulation: FormulationOptions | None = None,
+             solver: SolverOptions | None = None, polish: PolishOptions | None = None,
+             verification: VerifyOptions | None = None, progress: Callable[[str], None] | None = None,
+             max_groups: int = MAX_GROUPS, max_seconds: float = MAX_SECONDS) -> Diagnosis:
+    """Rank the groups of the data by how well the model fits without each, and update again
+    without the top one (module docstring).
+
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+        The data of the run.
+    result : UpdateResult
+        The run's answer (not verified); its ``xbar`` starts every screening polish.
+    formulation, solver, polish, verification : options, optional
+        Those of the run: the screening polishes and the final update use them.
+    progress : callable, optional
+        Receives one line per group.
+    max_groups, max_seconds : int, float
+        Limits of the screening.
+
+    Returns
+    -------
+    Diagnosis
+    """
+    if not max_groups >= 1 or not max_seconds > 0:
+        raise ValueError(f"the diagnosis needs max_groups >= 1 and max_seconds > 0, got {max_groups!r} and "
+                         f"{max_seconds!r}")
+    t0 = time.perf_counter()
+    say = progress or (lambda message: None)
+    polish = polish or PolishOptions()
+    verification = verification or VerifyOptions()
+    configurations = list(configurations)
+    xbar = np.asarray(result.xbar, dtype=float)
+    full = _objective(configurations, xbar, polish.shape_weight)
+    mean, worst = _errors(configurations, [model_frequencies(c, xbar) for c in configurations])
+    failed = tuple(c.name for c in result.checks if c.severity == "error" and not c.passed)
+    candidates = []
+    for group in data_groups(configurations):
+        try:
+            kept = without(configurations, group)
+        except ValueError as exc:   # data that are invalid without the group (a check of Configuration)
+            say(f"diagnosis: the data without the {group.label} are not a valid problem ({exc}); not screened")
+            continue
+        if kept is not None:   # the share of the misfit the group carries at the answer orders the screening
+            share = (full - _objective(kept, xbar, polish.shape_weight)) / full if full > 0 else 0.0
+            candidates.append((share, group, kept))
+    candidates.sort(key=lambda c: -c[0])
+    say(f"diagnosis: the answer failed {', '.join(failed)}; screening {min(len(candidates), max_groups)} of "
+        f"{len(candidates)} groups of the data, each left out in turn (polished from the answer)")
+    trials = []
+    for k, (share, group, kept) in enumerate(candidates[:max_groups], start=1):
+        if time.perf_counter() - t0 > max_seconds:
+            say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s")
+            break
+        try:
+            trial = _screen(kept, group, share, xbar, polish, verification)
+        except (ValueError, np.linalg.LinAlgError) as exc:   # one group's refit is not worth the ranking
+            say(f"diagnosis {k}: without the {group.label}: the refit failed ({exc}); left out of the ranking")
+            continue
+        trials.append(trial)
+        say(f"diagnosis {k}/{min(len(candidates), max_groups)}: without the {group.label}: objective "
+            f"{trial.objective:.3g}, frequency error max {trial.max_error_pct:.3g} %, "
+            + ("passes" if trial.passed else f"fails {', '.join(trial.failed)}") + f" ({trial.seconds:.2f} s)")
+    trials.sort(key=_rank)
+    best, t1 = None, time.perf_counter()
+    if trials:
+        kept = without(configurations, trials[0].group)
+        say(f"diagnosis: updating again without the {trials[0].group.label} (the same options)")
+        best = update(kept, formulation=formulation, solver=solver, polish=polish, verification=verification,
+                      probe=False)
+    diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(candidates) - len(trials), len(candidates),
+                          best, time.perf_counter() - t0, time.perf_counter() - t1)
+    say(diagnosis.message() + f" ({diagnosis.seconds:.1f} s)")
+    return diagnosis

@@ -1,0 +1,109 @@
+"""Which data conflict (`vibupdate.inverse.diagnosis`): the groups of the data, what leaving
+one out keeps, when a diagnosis runs, and a known truth with one biased driving point."""
+
+import time
+
+import numpy as np
+import pytest
+
+from helpers import BIASED_CHAIN_TRUTH, biased_chain
+from vibupdate import Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.data.measured import Antiresonance
+from vibupdate.inverse.diagnosis import DataGroup, data_groups, diagnose, wants_diagnosis, without
+from vibupdate.inverse.status import Status
+from vibupdate.inverse.update import update
+
+#: Half-width of the measured shape intervals (the largest entry is 1).
+HALF_WIDTH = 0.005
+
+
+def biased_configuration(bias_dof="y3", bias=0.10) -> Configuration:
+    model, freqs, shapes = biased_chain(bias_dof, bias, HALF_WIDTH)
+    natural = [NaturalFrequency.from_hz(f, shape=ShapeInterval.from_values(s, HALF_WIDTH))
+               for f, s in zip(freqs, shapes)]
+    return Configuration("A", model, tuple(natural))
+
+
+def test_the_groups_are_each_frequency_each_shape_and_each_dof_across_modes():
+    cfg = biased_configuration()
+    keys = [g.key for g in data_groups([cfg])]
+    assert keys == ([f"A/natural/{m}" for m in range(1, 5)] + [f"A/shape/{m}" for m in range(1, 5)]
+                    + [f"A/dof/y{i}" for i in range(1, 6)])
+    dof = next(g for g in data_groups([cfg]) if g.key == "A/dof/y3")
+    assert dof.size == 4 and "'y3'" in dof.label
+
+
+def test_leaving_a_group_out_keeps_every_other_datum():
+    cfg = biased_configuration()
+    groups = {g.key: g for g in data_groups([cfg])}
+    (no_dof,) = without([cfg], groups["A/dof/y3"])
+    assert all("y3" not in f.shape.bounds and len(f.shape.bounds) == 4 for f in no_dof.natural)
+    (no_mode,) = without([cfg], groups["A/natural/2"])
+    assert [f.mode for f in no_mode.natural] == [1, 3, 4]
+    (no_shape,) = without([cfg], groups["A/shape/2"])
+    assert [f.shape is None for f in no_shape.natural] == [False, True, False, False]
+    assert [f.omega for f in no_shape.natural] == [f.omega for f in cfg.natural]
+
+
+def test_an_antiresonance_left_out_drops_the_interlacing_signs_and_an_empty_configuration_is_dropped():
+    model, freqs, _ = biased_chain(bias=0.0)
+    zero = Antiresonance.from_hz(0.5 * (freqs[0] + freqs[1]), "y5", "y5", index=1)
+    first = Configuration("A", model, (NaturalFrequency.from_hz(freqs[0]), NaturalFrequency.from_hz(freqs[1])),
+                          (zero,))
+    only = Configuration("B", model, (NaturalFrequency.from_hz(freqs[0]),))
+    groups = {g.key: g for g in data_groups([first, only])}
+    a, b = without([first, only], groups["A/antiresonance/y5,y5/1"])
+    assert not a.antiresonances and not a.interlacing and b is only
+    assert [c.name for c in without([first, only], groups["B/natural/1"])] == ["A"]
+    assert without([only], groups["B/natural/1"]) is None
+    with pytest.raises(ValueError, match="unknown data group kind 'sensor'"):
+        without([only], DataGroup("B/sensor/y1", "sensor", "B", "a sensor", 1))
+
+
+@pytest.mark.parametrize("status, failed, wanted", [
+    (Status.NOT_VERIFIED, ["shape_intervals", "consistency"], True),
+    (Status.NOT_VERIFIED, ["fit"], True),
+    (Status.NOT_VERIFIED, ["mode_order"], False),        # a question of pairing, named by the check
+    (Status.NOT_VERIFIED, ["mode_order", "correspondence"], False),
+    (Status.STEP_FAILED, ["fit"], False),                 # no answer to start from
+    (Status.SUCCESS, [], False),
+])
+def test_a_diagnosis_runs_only_when_the_answer_does_not_fit_the_data(status, failed, wanted):
+    assert wants_diagnosis(status, failed) is wanted
+
+
+def test_a_biased_driving_point_is_named_first_and_the_model_without_it_is_the_truth():
+    """The driving point's entry (y3) is 10 % off in every mode: no parameter set fits every
+    shape interval, the run is not verified, and the diagnosis names that DOF; updated again
+    without it the model is the truth within 0.1 %."""
+    cfg = biased_configuration("y3", 0.10)
+    result = update([cfg])
+    failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
+    assert result.status == Status.NOT_VERIFIED and "shape_intervals" in failed, result.message
+    t0 = time.perf_counter()
+    lines = []
+    found = diagnose([cfg], result, progress=lines.append)
+    seconds = time.perf_counter() - t0
+    assert found.worst.key == "A/dof/y3", [(t.group.key, t.objective) for t in found.trials]
+    top, second = found.trials[:2]
+    assert top.passed and not second.passed and top.objective < 1e-6 * second.objective
+    assert found.untried == 0 and len(found.trials) == 13
+    assert sum(line.startswith("diagnosis ") for line in lines) == 13      # one progress line per group
+    assert found.best.status.ok
+    truth = np.array([BIASED_CHAIN_TRUTH[p.name] for p in found.best.parameters])
+    error = np.abs(found.best.values - truth) / truth
+    assert np.max(error) < 1e-3, dict(zip(BIASED_CHAIN_TRUTH, error))
+    record = found.record()
+    assert record["best"]["without"] == "A/dof/y3" and record["trials"][0]["key"] == "A/dof/y3"
+    assert seconds < 10.0
+
+
+def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
+    cfg = biased_configuration("y3", 0.10)
+    result = update([cfg])
+    found = diagnose([cfg], result, max_groups=3)
+    assert len(found.trials) == 3 and found.untried == 10 and found.groups == 13
+    # the groups carrying most of the misfit at the answer come first: the biased DOF among them
+    assert found.worst.key == "A/dof/y3"
+    with pytest.raises(ValueError, match="max_groups >= 1"):
+        diagnose([cfg], result, max_groups=0)
