@@ -115,3 +115,15 @@ def biased_chain(bias_dof="y3", bias=0.10, half_width=0.005, modes=4):
         freqs.append(float(np.sqrt(eigenvalues[m]) / (2 * np.pi)))
         shapes.append({d: float(phi[model.dof(d)]) * (1 + bias if d == bias_dof else 1.0) for d in model.dofs})
     return model, freqs, shapes
+
+
+def realdata(name: str) -> Path:
+    """A real data set's folder (never part of the repository): ``$VIBUPDATE_REALDATA/name``,
+    else ``shared/realdata/name`` beside the checkout or beside any folder above it, else the
+    machines' ``/work/shared/realdata/name`` (a clean checkout for CI may live elsewhere)."""
+    import os
+
+    here = Path(__file__).resolve().parents[1]
+    candidates = [Path(os.environ["VIBUPDATE_REALDATA"])] if os.environ.get("VIBUPDATE_REALDATA") else []
+    candidates += [p / "shared" / "realdata" for p in here.parents] + [Path("/work/shared/realdata")]
+    return next((c / name for c in candidates if (c / name).is_dir()), here.parent / "shared" / "realdata" / name)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import realdata
 from frf_synthetic import (CHAIN_PAIRS, FRAME_PAIRS, PAIRS, chain_system, frame_measured, measured, score, true_poles,
                            true_zeros, write_uff)
 from vibupdate.cli import main
@@ -260,20 +261,7 @@ def test_bad_arguments_are_clear_errors():
 
 # ----------------------------------------------------------------------------- CLI
 
-def _realdata() -> Path:
-    """The real-data folder (never part of the repository): ``$VIBUPDATE_REALDATA``, else
-    ``shared/realdata`` beside the checkout or beside any folder above it, else the machines'
-    ``/work/shared/realdata`` (a clean checkout for CI may live elsewhere)."""
-    import os
-
-    here = Path(__file__).resolve().parents[2]
-    candidates = [Path(os.environ["VIBUPDATE_REALDATA"])] if os.environ.get("VIBUPDATE_REALDATA") else []
-    candidates += [p / "shared" / "realdata" for p in here.parents] + [Path("/work/shared/realdata")]
-    return next((c / "soton3storey" for c in candidates if (c / "soton3storey").is_dir()),
-                here.parent / "shared" / "realdata" / "soton3storey")
-
-
-REALDATA = _realdata()
+REALDATA = realdata("soton3storey")
 SOTON_FILES = ("Experimental.csv", "test_2.csv", "test_3.csv")  # force at floor 1, 2, 3
 #: Reference values of an independent analysis, Hz.
 SOTON_MODES_HZ = (6.5126, 17.4608, 26.5003)
@@ -414,6 +402,15 @@ def test_southampton_quality_shows_the_misfit_at_the_peaks(tmp_path, capsys):
     assert "note: 3 of 3 FRF(s) have quality above 2" in printed
     # 2 zeta f / df: 0.7, 2.7 and 3.8 lines, each under 4
     assert "note: half-power bandwidths of fewer than 4 lines (mode 1: 0.7, mode 2: 2.7, mode 3: 3.8)" in printed
+
+
+def test_southampton_modes_within_0p05_percent_of_the_reference_and_inside_their_intervals(soton_all):
+    """All nine FRFs in one extraction: measured -0.015, -0.0038 and +0.0095 % from the
+    reference values, each reference inside its 95 % interval."""
+    for n, ref in zip(soton_all["natural"], SOTON_MODES_HZ, strict=True):
+        assert n["freq_hz"] == pytest.approx(ref, rel=5e-4)
+        lo, hi = n["freq_hz_interval"]
+        assert lo <= ref <= hi
 
 
 def test_southampton_antiresonances_found_and_references_within_intervals(soton_all):
@@ -559,6 +556,15 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, c
         assert "fit" in failed, failed
     report = (tmp_path / "out" / "report.md").read_text()
     assert "FRFs of configuration frame: measured receptance (m/N" in report  # the overlay (Fig. 11)
+    # which data conflict with a planar model: every group of the 13 frequencies and the shapes
+    # left out in turn (measured: 19 groups; with free masses, leaving out mode 1 at 6.51 Hz
+    # verifies at 1.23 % mean, 2.29 % max; the shear frame verifies without no single group)
+    diagnosis = doc["diagnosis"]
+    assert code == 1 and diagnosis["groups"] == 19 and "## Which data conflict" in report
+    if case_file == "soton-frame-masses.toml":
+        assert diagnosis["trials"][0]["key"] == "frame/natural/1" and diagnosis["best"]["status"] == "success"
+        assert (tmp_path / "out" / "without_worst_K_frame.mtx").is_file()
+    assert (tmp_path / "out" / "not_verified_K_frame.mtx").is_file()
     assert (tmp_path / "out" / "frf_frame.png").stat().st_size > 20_000
 
 
