@@ -676,3 +676,21 @@ def test_zeros_above_the_highest_fitted_pole_are_left_out_unless_kept(tmp_path):
     assert indices == {(z.response, z.excitation, z.index) for z in narrow.zeros + narrow.outer_zeros}
     wide = extract(frfs, band=band)
     assert not wide.outer_zeros and wide.fitted_poles[:, 0].max() > 2 * math.pi * 200
+
+
+def test_the_docs_extract_command_names_the_files_of_the_southampton_data_set(tmp_path):
+    """docs/frf-extraction.md opens with the Southampton command; it names files the data set
+    has, and runs as written."""
+    import re
+    import shlex
+
+    if not REALDATA.is_dir():
+        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
+    text = (Path(__file__).resolve().parents[2] / "docs" / "frf-extraction.md").read_text()
+    line = re.search(r"^vibupdate extract Experimental\.csv .*?(?<!\\)$", text.replace("\\\n", " "), re.M).group(0)
+    args = shlex.split(line)[1:]
+    files = [a for a in args if a.endswith(".csv")]
+    assert files and all((REALDATA / f).is_file() for f in files), files
+    args = [str(REALDATA / a) if a in files else a for a in args]
+    args[args.index("--out") + 1] = str(tmp_path / "extraction")
+    assert main(args + ["--no-plot"]) == 0
