@@ -336,7 +336,7 @@ def _extract(args) -> int:
     from vibupdate.io.outputs import OutputWarning
     from vibupdate.data.extraction import extract
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
-    from vibupdate.data.frf import read_frfs
+    from vibupdate.data.frf import FRFWarning, read_frfs
 
     mapping = {}
     for item in args.map:
@@ -344,7 +344,14 @@ def _extract(args) -> int:
             raise ValueError(f"--map entries are FROM=TO, got {item!r}")
         key, value = item.split("=", 1)
         mapping[key.strip()] = value.strip()
-    frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
+    with warnings.catch_warnings(record=True) as doubts:
+        warnings.simplefilter("always", FRFWarning)
+        frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
+    for w in doubts:
+        if issubclass(w.category, FRFWarning):
+            print(f"warning: {w.message}")
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     if args.reciprocal:
         frfs = frfs.reciprocal()
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])

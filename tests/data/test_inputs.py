@@ -101,3 +101,99 @@ def test_cli_exponential_window(impact, tmp_path, capsys):
     zeta = true_poles(*frame_system()[:3])[1]
     for n, z in zip(doc["natural"], zeta):
         assert n["damping_ratio_interval"][0] <= z <= n["damping_ratio_interval"][1]
+
+
+# ----------------------------------------------------------------------------- implausible kinds
+
+def _as_read(frfs, true_kind, declared):
+    """``frfs`` as a file holding ``true_kind`` would give them when read as ``declared``."""
+    from vibupdate.data.frf import KINDS, FRFSet
+
+    jw = 1j * frfs.omega
+    k = KINDS.index(true_kind) - KINDS.index(declared)
+    return FRFSet(frfs.omega, frfs.pairs, tuple(h * jw**k for h in frfs.H), ("hits.csv",), declared)
+
+
+@pytest.mark.parametrize("true_kind, declared", [("receptance", "receptance"), ("receptance", "mobility")])
+def test_a_plausible_kind_passes_silently(true_kind, declared, recwarn):
+    """One order off (a mobility read as a receptance or so) often looks plausible: the phase
+    of a driving point then changes sign at each mode and the slope stays in range."""
+    from frf_synthetic import measured
+    from vibupdate.data.frf import check_kind
+
+    check_kind(_as_read(measured(0)[0], true_kind, declared))
+    assert not [w for w in recwarn if "declared" in str(w.message)]
+
+
+def test_an_accelerance_read_as_a_receptance_is_named_with_its_slope():
+    """The Southampton-like frame (accelerances) read as receptances: slope +0.13 (in the
+    receptance range: a flat accelerance above the modes) but the driving points' phase that of
+    an accelerance (Im H < 0 on a share 0.01): a warning naming file, kinds and figures."""
+    from frf_synthetic import frame_measured
+    from vibupdate.data.frf import FRFWarning, check_kind
+
+    frfs = frame_measured(0)[0]
+    with pytest.warns(FRFWarning) as caught:
+        check_kind(_as_read(frfs, "accelerance", "receptance"))
+    text = str(caught[0].message)
+    assert "hits.csv: declared receptance, but the data look like accelerance" in text
+    assert "slope +0.13" in text and "share 0.01" in text and "sign is flipped" in text
+
+
+def test_a_free_free_receptance_read_as_an_accelerance_is_an_error():
+    """Slope -3.60 (no receptance falls that fast on average) and the driving points' phase two
+    orders off: unambiguous."""
+    from frf_synthetic import CHAIN_PAIRS, chain_system, measured
+    from vibupdate.data.frf import check_kind
+
+    M, K, C, dofs = chain_system()
+    K[0, 0] -= 4e4                                   # the spring to the ground removed
+    frfs = measured(0, system=(M, K, C, dofs), pairs=CHAIN_PAIRS, band_hz=(2.0, 80.0))[0]
+    with pytest.raises(ValueError, match="declared accelerance, but the data look like receptance") as err:
+        check_kind(_as_read(frfs, "receptance", "accelerance"))
+    assert "slope -3.60" in str(err.value)
+
+
+def test_a_rising_receptance_is_an_error_through_the_cli(tmp_path, capsys):
+    """The cantilever's accelerances (transfer FRFs only, no driving point) read as
+    receptances: slope +1.85, above any receptance's: exit 2, nothing written."""
+    from frf_synthetic import measured
+
+    frfs = measured(0, pairs=(("y1", "y3"), ("y2", "y3")))[0]
+    paths, excitations = _write_npz(tmp_path, frfs, kind="accelerance")
+    out = tmp_path / "ex"
+    args = ["extract", *paths, "--responses", "y1", "y2", "--excitations", *excitations, "--no-plot",
+            "--out", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "declared receptance, but the data look like accelerance" in err and "slope +1.85" in err
+    assert not out.exists()
+    assert main(args + ["--kind", "accelerance"]) == 0
+    assert "warning" not in capsys.readouterr().out
+
+
+def _realdata_files():
+    from test_extraction import REALDATA, SOTON_FILES
+
+    if not REALDATA.is_dir():
+        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
+    return [str(REALDATA / f) for f in SOTON_FILES]
+
+
+def test_southampton_accelerances_pass_and_read_as_receptances_are_warned(tmp_path, capsys):
+    """The real accelerances: as accelerances, slopes -2.05, -2.01, -2.08 and driving-point
+    shares 0.94, 0.92, 0.89, no warning; read as receptances (a table's default kind) a warning
+    per file names it (slopes -0.05, -0.00, -0.07, shares 0.06, 0.08, 0.11)."""
+    from vibupdate.data.frf import FRFWarning, read_frfs
+
+    files = _realdata_files()
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FRFWarning)
+        read_frfs(files, ["x1", "x2", "x3"], ["x1", "x2", "x3"], "accelerance")
+    with pytest.warns(FRFWarning) as caught:
+        read_frfs(files, ["x1", "x2", "x3"], ["x1", "x2", "x3"])
+    texts = [str(w.message) for w in caught if issubclass(w.category, FRFWarning)]
+    assert len(texts) == 3 and all("declared receptance, but the data look like accelerance" in t for t in texts)
+    assert "Experimental.csv" in texts[0] and "slope -0.05" in texts[0]

@@ -111,9 +111,15 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
     fit_band = spec.get("fit_band_hz")
     if fit_band is not None:
         fit_band = tuple(2 * math.pi * b for b in numbers(fit_band, f"{key}.frf.fit_band_hz", where))
+    import warnings
+
+    from vibupdate.data.frf import FRFWarning
+
     try:
-        frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
-                         spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
+        with warnings.catch_warnings(record=True) as doubts:  # said with the extraction's notes
+            warnings.simplefilter("always", FRFWarning)
+            frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
+                             spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
         if spec.get("reciprocal", False):
             frfs = frfs.reciprocal()
         result = extract(frfs, band=band, n_modes=spec.get("modes"), confidence=spec.get("confidence", 0.95),
@@ -131,7 +137,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
-    notes = tuple(result.notes(first))
+    notes = tuple(str(w.message) for w in doubts if issubclass(w.category, FRFWarning)) + tuple(result.notes(first))
     return natural, zeros, shapes, frfs.band(*result.band), notes
 
 
