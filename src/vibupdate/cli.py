@@ -103,6 +103,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="rename DOFs, e.g. y3=x2 y4=-x3 (a '-' flips the sign)")
     fx.add_argument("--keep-outer-zeros", action="store_true",
                     help="report antiresonances below the lowest or above the highest fitted pole (left out by default)")
+    fx.add_argument("--keep-noisy-zeros", action="store_true",
+                    help="report antiresonances at the noise floor (local SNR under 0.1; left out by default)")
     fx.add_argument("--reciprocal", action="store_true",
                     help="roving hammer: read each h_rc as h_cr (reciprocity), so the shapes are at every hammer point")
     fx.add_argument("--modes", type=int, default=None, help="keep this many modes (default: all stable ones)")
@@ -359,7 +361,7 @@ def _extract(args) -> int:
     check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
                      window=args.window, keep_outer_zeros=args.keep_outer_zeros, window_decay=args.window_decay,
-                     window_tau=args.window_tau)
+                     window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
         paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,

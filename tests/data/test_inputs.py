@@ -197,3 +197,45 @@ def test_southampton_accelerances_pass_and_read_as_receptances_are_warned(tmp_pa
     texts = [str(w.message) for w in caught if issubclass(w.category, FRFWarning)]
     assert len(texts) == 3 and all("declared receptance, but the data look like accelerance" in t for t in texts)
     assert "Experimental.csv" in texts[0] and "slope -0.05" in texts[0]
+
+
+# ----------------------------------------------------------------------------- zeros at the noise floor
+
+def test_zeros_at_the_noise_floor_are_left_out_unless_kept(tmp_path, capsys):
+    """The frame with its floor raised to 5e-2 (m/s^2)/N: the fit's |H| around some zeros is
+    under a tenth of the noise (benchmarks/noisy_zeros.py: spurious zeros there at SNR
+    0.04-0.07); they are left out, each with its local SNR, said in the notes and in
+    extraction.json, and kept on request."""
+    from frf_synthetic import frame_measured
+    from vibupdate.data.extraction import NOISY_ZERO_SNR
+
+    frfs = frame_measured(0, floor=5e-2)[0]
+    result = extract(frfs, band=BAND, n_modes=3)
+    assert result.noisy_zeros and all(z.snr < NOISY_ZERO_SNR for z in result.noisy_zeros)
+    assert all(z.snr >= NOISY_ZERO_SNR for z in result.zeros)
+    note = next(n for n in result.notes() if "at the noise floor" in n)
+    assert "keep_noisy_zeros" in note and "(SNR 0.0" in note
+    kept = extract(frfs, band=BAND, n_modes=3, keep_noisy_zeros=True)
+    assert not kept.noisy_zeros and len(kept.zeros) == len(result.zeros) + len(result.noisy_zeros)
+    assert {(z.response, z.excitation, z.index) for z in kept.zeros} == {
+        (z.response, z.excitation, z.index) for z in result.zeros + result.noisy_zeros}
+    paths, excitations = _write_npz(tmp_path, frfs)
+    args = ["extract", *paths, "--responses", "x1", "x2", "x3", "--excitations", *excitations, "--kind",
+            "accelerance", "--band", "3", "28", "--modes", "3", "--no-plot"]
+    assert main(args + ["--out", str(tmp_path / "a")]) == 0
+    assert "antiresonance(s) at the noise floor left out" in capsys.readouterr().out
+    doc = json.loads((tmp_path / "a" / "extraction.json").read_text())
+    assert len(doc["noisy_antiresonances"]) == len(result.noisy_zeros)
+    assert all(z["snr"] < NOISY_ZERO_SNR for z in doc["noisy_antiresonances"])
+    assert main(args + ["--keep-noisy-zeros", "--out", str(tmp_path / "b")]) == 0
+    doc = json.loads((tmp_path / "b" / "extraction.json").read_text())
+    assert not doc["noisy_antiresonances"] and len(doc["antiresonances"]) == len(kept.zeros)
+
+
+def test_true_zeros_of_the_test_settings_are_above_the_noise_threshold():
+    """The project's known-truth settings: no zero is left out (cantilever SNR >= 1.75, frame
+    >= 0.47 measured)."""
+    from frf_synthetic import frame_measured, measured
+
+    assert not extract(measured(0)[0]).noisy_zeros
+    assert not extract(frame_measured(0)[0], band=BAND, n_modes=3).noisy_zeros

@@ -125,7 +125,8 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
         result = extract(frfs, band=band, n_modes=spec.get("modes"), confidence=spec.get("confidence", 0.95),
                          fit_band=fit_band, window=spec.get("window"),
                          keep_outer_zeros=spec.get("keep_outer_zeros", False),
-                         window_decay=spec.get("window_decay"), window_tau=spec.get("window_tau"))
+                         window_decay=spec.get("window_decay"), window_tau=spec.get("window_tau"),
+                         keep_noisy_zeros=spec.get("keep_noisy_zeros", False))
     except ValueError as exc:
         raise where.error(f"{key}.frf", str(exc)) from None
     first = spec.get("first_mode", 1)
