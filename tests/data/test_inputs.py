@@ -239,3 +239,57 @@ def test_true_zeros_of_the_test_settings_are_above_the_noise_threshold():
 
     assert not extract(measured(0)[0]).noisy_zeros
     assert not extract(frame_measured(0)[0], band=BAND, n_modes=3).noisy_zeros
+
+
+# ----------------------------------------------------------------------------- labels and axes
+
+def _soton_args(tmp_path, files, responses, excitations, *extra):
+    out = tmp_path / "ex"
+    return out, ["extract", *files, "--responses", *responses, "--excitations", *excitations, "--kind",
+                 "accelerance", "--band", "3", "28", "--modes", "3", "--no-plot", "--out", str(out), *extra]
+
+
+@pytest.mark.parametrize("responses, excitations, extra, message", [
+    # three tests with the hammer at floors 1, 2, 3 all labelled floor 1: one mode found
+    # instead of three before; now their "repeats" contradict each other
+    (["x1", "x2", "x3"], ["x1", "x1", "x1"], [], "h_x1,x1"),
+    # two different columns under one response name
+    (["x1", "x1", "x3"], ["x1", "x2", "x3"], [], "h_x1,x1"),
+    # a mapping that puts two different responses under one name
+    (["x1", "x2", "x3"], ["x1", "x2", "x3"], ["--map", "x2=x1"], "h_x1,x1"),
+])
+def test_contradictory_labels_are_errors_through_the_cli(tmp_path, capsys, responses, excitations, extra, message):
+    files = _realdata_files()
+    out, args = _soton_args(tmp_path, files, responses, excitations, *extra)
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert message in err and "are not repeats of one FRF" in err and "mislabelled" in err, err
+    assert "Experimental.csv" in err and not out.exists()
+
+
+def test_files_on_different_frequency_axes_are_an_error_through_the_cli(tmp_path, capsys):
+    from frf_synthetic import measured
+
+    frfs = measured(0, pairs=(("y1", "y3"), ("y3", "y3")))[0]
+    np.savez(tmp_path / "a.npz", freq_hz=frfs.freq_hz, H=frfs.mean().T)
+    np.savez(tmp_path / "b.npz", freq_hz=frfs.freq_hz[1:], H=frfs.mean()[:, 1:].T)
+    out = tmp_path / "ex"
+    assert main(["extract", str(tmp_path / "a.npz"), str(tmp_path / "b.npz"), "--responses", "y1", "y3",
+                 "--excitations", "y3", "y3", "--no-plot", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "a.npz" in err and "b.npz" in err and "different frequency lines" in err and "1121 vs 1120" in err
+    assert not out.exists()
+
+
+def test_a_shape_table_whose_modes_the_frequency_table_lacks_is_an_error(tmp_path, capsys):
+    import shutil
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "frame"
+    for name in ("case.toml", "frequencies.csv", "shapes.csv"):
+        shutil.copy(example / name, tmp_path / name)
+    shapes = tmp_path / "shapes.csv"
+    shapes.write_text(shapes.read_text() + "9,x3,0.5,0.06\n")
+    assert main(["check", str(tmp_path / "case.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "a mode shape is given for mode 9 (shapes.csv), but the measured natural frequencies are modes" in err

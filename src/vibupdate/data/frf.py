@@ -438,7 +438,11 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
         seen[key] = path
     out = combine(sets)
     check_repeats(out)
-    return out.renamed(mapping) if mapping else out
+    if not mapping:
+        return out
+    renamed = out.renamed(mapping)
+    check_repeats(renamed)  # a mapping may put two different FRFs under one label
+    return renamed
 
 
 #: Repeats of one FRF whose median difference from their mean, relative to its magnitude, is

@@ -240,8 +240,9 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
     declared = declared_modes([SimpleNamespace(mode=f.get("mode")) for f in natural])  # reads only .mode
     for mode in shapes:
         if mode not in declared:
-            raise where.error(key, f"a mode shape is given for mode {mode}, but the measured natural frequencies "
-                                   f"are modes {declared}")
+            source = cfg.get("mode_shapes_csv") or cfg.get("mode_shapes_uff") or "the FRF extraction"
+            raise where.error(key, f"a mode shape is given for mode {mode} ({source}), but the measured natural "
+                                   f"frequencies are modes {declared}")
     first_sign = _first_signs(cfg, where, key)
     try:
         def rad(pair):  # optional intervals (extracted from FRFs), Hz -> rad/s
