@@ -85,10 +85,13 @@ def _parser() -> argparse.ArgumentParser:
     fx.add_argument("--band", nargs=2, type=float, metavar=("F1", "F2"), help="frequency band, Hz")
     fx.add_argument("--fit-band", nargs=2, type=float, metavar=("F1", "F2"),
                     help="lines fitted, Hz, containing --band (default: the band's bottom to twice its top)")
-    fx.add_argument("--window", choices=("none", "hann", "rectangular"), default="none",
+    fx.add_argument("--window", choices=("none", "hann", "rectangular", "exponential", "force"), default="none",
                     help="data window of the FRF estimate (random excitation, H1 per record of 1/spacing s): the fit "
                          "models its leakage, which otherwise reads peaks a few lines wide as extra damping "
-                         "(default none: the FRFs are fitted as they are)")
+                         "(default none: the FRFs are fitted as they are); impact tests: exponential (on the "
+                         "response, with --window-decay or --window-tau: its added damping is modelled) or force")
+    fx.add_argument("--window-decay", type=float, help="exponential window: its value at the end of the record")
+    fx.add_argument("--window-tau", type=float, help="exponential window: its time constant, s")
     fx.add_argument("--out", default="extraction", help="output folder (default: ./extraction)")
     fx.add_argument("--responses", nargs="+", help="table files: response DOF of each data column")
     fx.add_argument("--excitations", nargs="+", help="table files: excitation DOF of each file, in order")
@@ -100,6 +103,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="rename DOFs, e.g. y3=x2 y4=-x3 (a '-' flips the sign)")
     fx.add_argument("--keep-outer-zeros", action="store_true",
                     help="report antiresonances below the lowest or above the highest fitted pole (left out by default)")
+    fx.add_argument("--keep-noisy-zeros", action="store_true",
+                    help="report antiresonances at the noise floor (local SNR under 0.1; left out by default)")
     fx.add_argument("--reciprocal", action="store_true",
                     help="roving hammer: read each h_rc as h_cr (reciprocity), so the shapes are at every hammer point")
     fx.add_argument("--modes", type=int, default=None, help="keep this many modes (default: all stable ones)")
@@ -333,7 +338,7 @@ def _extract(args) -> int:
     from vibupdate.io.outputs import OutputWarning
     from vibupdate.data.extraction import extract
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
-    from vibupdate.data.frf import read_frfs
+    from vibupdate.data.frf import FRFWarning, read_frfs
 
     mapping = {}
     for item in args.map:
@@ -341,14 +346,22 @@ def _extract(args) -> int:
             raise ValueError(f"--map entries are FROM=TO, got {item!r}")
         key, value = item.split("=", 1)
         mapping[key.strip()] = value.strip()
-    frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
+    with warnings.catch_warnings(record=True) as doubts:
+        warnings.simplefilter("always", FRFWarning)
+        frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
+    for w in doubts:
+        if issubclass(w.category, FRFWarning):
+            print(f"warning: {w.message}")
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     if args.reciprocal:
         frfs = frfs.reciprocal()
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
     fit_band = None if args.fit_band is None else (2 * math.pi * args.fit_band[0], 2 * math.pi * args.fit_band[1])
     check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
-                     window=args.window, keep_outer_zeros=args.keep_outer_zeros)
+                     window=args.window, keep_outer_zeros=args.keep_outer_zeros, window_decay=args.window_decay,
+                     window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
         paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,

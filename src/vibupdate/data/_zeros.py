@@ -18,6 +18,8 @@ LOCAL_FRACTION = 1 / 3      # local refit: window of this times the distance to 
 LOCAL_LINES = 21            # ... holding at least this many lines
 
 
+SNR_LINES = 5               # local signal-to-noise ratio of a zero: over this many lines each side
+
 GRID_CHUNK = 65536          # grid points evaluated at once by `_zeros_of_all` (bounds its memory)
 
 
@@ -56,6 +58,16 @@ def _zeros_of_all(x, coefs, xn, zeta):
         out.append(np.array([scipy.optimize.brentq(lambda t: float(g(t, c)[0, 0]), grid[i], grid[i + 1], xtol=1e-14)
                              for i in idx]))
     return out
+
+
+def _zero_snr(z, x, fitted, v) -> float:
+    """Local signal-to-noise ratio of a zero ``z``: the median over the `SNR_LINES` lines each
+    side of ``z`` of ``|fitted| / sigma`` (``fitted`` the damped fit (n_freq,), ``v`` its noise
+    variance per line). A zero of the structure keeps the fit's damped minimum above the noise
+    around it; one where the FRF sinks into the noise floor has it near 1 or below."""
+    k = int(np.searchsorted(x, z))
+    near = slice(max(k - SNR_LINES, 0), min(k + SNR_LINES, x.size))
+    return float(np.median(np.abs(fitted[near]) / np.sqrt(v[near])))
 
 
 def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, slope_offset: float = 0.0):

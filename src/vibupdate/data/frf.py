@@ -21,6 +21,7 @@ columns with column 0 the frequency in Hz and then complex values, either as ``1
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +30,8 @@ import numpy as np
 
 from vibupdate._extras import require
 
-__all__ = ["FRFSet", "read_frfs", "read_uff58", "read_frf_table", "to_receptance", "combine", "G"]
+__all__ = ["FRFSet", "read_frfs", "read_uff58", "read_frf_table", "to_receptance", "combine", "G", "FRFWarning",
+           "check_kind", "kind_evidence"]
 
 G = 9.80665  # m/s^2, standard gravity
 TWO_PI = 2.0 * math.pi
@@ -137,6 +139,87 @@ class FRFSet:
         accelerometer, so the mode shapes are known at every hammer point. Repeats stay
         repeats; a pair measured both ways stays two FRFs (each read the other way)."""
         return FRFSet(self.omega, tuple((c, r) for r, c in self.pairs), self.H, self.sources, self.measured)
+
+
+class FRFWarning(UserWarning):
+    """Measured FRFs that read but look wrong (an implausible kind): the command line prints it."""
+
+
+#: Slope of ``log |H|`` over ``log omega`` of a receptance (`kind_evidence`), averaged over a
+#: file's FRFs: measured -2.08 to +0.20 on the project's known-truth sets (grounded cantilever
+#: and chain, free-free chain, the frame, hammer tests of it: -2.61 to +0.31 FRF by FRF) and on
+#: the Southampton accelerances read as such; a kind one or two orders off moves it by 1 or 2.
+RECEPTANCE_SLOPE = (-2.7, 0.8)
+#: Above this slope no receptance of a passive structure runs in a band (measured at most +0.31;
+#: an accelerance read as one rises as omega^2 below its first mode and is flat above it: the
+#: cantilever's transfer accelerances read as receptances gave +1.85): an error, not a warning.
+RISING = 1.5
+#: A driving point's receptance has ``Im H <= 0`` at every line (passivity); the weighted share
+#: of its lines that do (`kind_evidence`) was 0.87-1.00 on the sets above (0.89-0.94 on the
+#: Southampton data, 0.87 on a band below the first mode, where ``Im H`` is small), 0.00-0.13
+#: for a kind two orders off (or a flipped sign), 0.14-1.00 for one order off.
+PASSIVE_SHARE = 0.5
+TWO_ORDERS = 0.2
+SLOPE_BINS = 12
+
+
+def kind_evidence(frfs: FRFSet) -> tuple[float, dict]:
+    """What the data say of their kind: the slope of ``log |H|`` over ``log omega`` of the
+    receptances (the median of each of `SLOPE_BINS` log-spaced bins, a line through them: the
+    peaks and zeros, a few lines each, leave the medians be; mean over the FRFs), and, per
+    shift ``k`` of the kind's order (-2..2), the share of the driving points' lines whose
+    ``Im(H / (j omega)^k) < 0``, weighted by ``|Im|`` in the units the file held (so that the
+    noisy lowest lines of an accelerance, divided by ``omega^2``, do not outweigh the rest);
+    empty without a driving point."""
+    lw = np.log(frfs.omega)
+    edges = np.linspace(lw[0], lw[-1], SLOPE_BINS + 1)
+    which = np.clip(np.digitize(lw, edges) - 1, 0, SLOPE_BINS - 1)
+    used = np.unique(which)
+    centres = np.array([lw[which == b].mean() for b in used])
+    mean = frfs.mean()
+    medians = np.array([np.median(np.log(np.abs(mean[:, which == b]) + 1e-300), axis=1) for b in used])
+    slope = float(np.mean(np.polyfit(centres, medians, 1)[0])) if used.size > 1 else 0.0
+    order = {"receptance": 0, "mobility": 1, "accelerance": 2}.get(frfs.measured, 0)
+    drive = [k for k, (r, c) in enumerate(frfs.pairs) if r == c]
+    shares = {}
+    if drive:
+        held = mean[drive] * frfs.omega[None] ** order
+        for k in range(-2, 3):
+            im = (held * (-1j) ** k).imag
+            shares[k] = float(np.sum(np.maximum(-im, 0.0)) / max(float(np.sum(np.abs(im))), 1e-300))
+    return slope, shares
+
+
+def check_kind(frfs: FRFSet) -> None:
+    """Warn (`FRFWarning`) when one file's FRFs do not look like the kind declared, raise
+    ValueError when they cannot be: the file, the kind declared, the likely one, the measured
+    slope (`kind_evidence`, `RECEPTANCE_SLOPE`) and the driving point's phase share
+    (`PASSIVE_SHARE`). Unambiguous: a slope above `RISING`, or outside the receptance range
+    with the driving point's phase two orders off, and one kind that fits both."""
+    if frfs.measured not in KINDS:
+        return
+    slope, shares = kind_evidence(frfs)
+    lo, hi = RECEPTANCE_SLOPE
+    order = KINDS.index(frfs.measured)
+
+    def fits(k):
+        return lo <= slope - k <= hi and (not shares or shares[k] >= PASSIVE_SHARE)
+
+    if fits(0):
+        return
+    shifts = sorted((k for k in (2, 1, -1, -2) if 0 <= order + k < len(KINDS) and fits(k)),
+                    key=lambda k: (-shares.get(k, 0.0), abs(k)))     # the phase most like a receptance's first
+    likely = [KINDS[order + k] for k in shifts]
+    phase = f", the driving point's Im H < 0 on a share {shares[0]:.2f} of it (a receptance: near 1)" if shares else ""
+    text = (f"FRF file {', '.join(frfs.sources)}: declared {frfs.measured}, but the data look like "
+            f"{' or '.join(likely) if likely else 'no FRF kind'}: log |H| of the receptance runs with log frequency "
+            f"at slope {slope:+.2f} (a receptance: {lo:g} to {hi:+g}{phase}); is the kind (--kind, kind =) right?")
+    two_off = bool(shares) and shares[0] <= TWO_ORDERS and not lo <= slope <= hi
+    if len(likely) == 1 and (slope > RISING or two_off):
+        raise ValueError(text)
+    if shares and shares[0] <= TWO_ORDERS and lo <= slope <= hi:
+        text += " (or the driving point's sign is flipped)"
+    warnings.warn(text, FRFWarning, stacklevel=3)
 
 
 def to_receptance(values, omega, kind: str, g_units: bool = False) -> np.ndarray:
@@ -336,12 +419,14 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
     for path in paths:
         if path.suffix.lower() in (".uff", ".unv"):
             sets.append(read_uff58(path, kind, g_units))
+            check_kind(sets[-1])
             continue
         if responses is None or excitations is None or k >= len(excitations):
             raise ValueError(f"FRF file {str(path)!r} is a table: give the response DOF of each column and one "
                              f"excitation DOF per table file ({len(excitations or [])} given)")
         sets.append(read_frf_table(path, responses, excitations[k], kind or "receptance", g_units, pairs))
         k += 1
+        check_kind(sets[-1])
     if excitations is not None and k != len(excitations):
         raise ValueError(f"{len(excitations)} excitation DOFs given for {k} table file(s)")
     seen: dict = {}
@@ -353,7 +438,11 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
         seen[key] = path
     out = combine(sets)
     check_repeats(out)
-    return out.renamed(mapping) if mapping else out
+    if not mapping:
+        return out
+    renamed = out.renamed(mapping)
+    check_repeats(renamed)  # a mapping may put two different FRFs under one label
+    return renamed
 
 
 #: Repeats of one FRF whose median difference from their mean, relative to its magnitude, is

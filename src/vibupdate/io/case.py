@@ -111,14 +111,22 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
     fit_band = spec.get("fit_band_hz")
     if fit_band is not None:
         fit_band = tuple(2 * math.pi * b for b in numbers(fit_band, f"{key}.frf.fit_band_hz", where))
+    import warnings
+
+    from vibupdate.data.frf import FRFWarning
+
     try:
-        frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
-                         spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
+        with warnings.catch_warnings(record=True) as doubts:  # said with the extraction's notes
+            warnings.simplefilter("always", FRFWarning)
+            frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
+                             spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
         if spec.get("reciprocal", False):
             frfs = frfs.reciprocal()
         result = extract(frfs, band=band, n_modes=spec.get("modes"), confidence=spec.get("confidence", 0.95),
                          fit_band=fit_band, window=spec.get("window"),
-                         keep_outer_zeros=spec.get("keep_outer_zeros", False))
+                         keep_outer_zeros=spec.get("keep_outer_zeros", False),
+                         window_decay=spec.get("window_decay"), window_tau=spec.get("window_tau"),
+                         keep_noisy_zeros=spec.get("keep_noisy_zeros", False))
     except ValueError as exc:
         raise where.error(f"{key}.frf", str(exc)) from None
     first = spec.get("first_mode", 1)
@@ -130,7 +138,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
-    notes = tuple(result.notes(first))
+    notes = tuple(str(w.message) for w in doubts if issubclass(w.category, FRFWarning)) + tuple(result.notes(first))
     return natural, zeros, shapes, frfs.band(*result.band), notes
 
 
@@ -232,8 +240,9 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
     declared = declared_modes([SimpleNamespace(mode=f.get("mode")) for f in natural])  # reads only .mode
     for mode in shapes:
         if mode not in declared:
-            raise where.error(key, f"a mode shape is given for mode {mode}, but the measured natural frequencies "
-                                   f"are modes {declared}")
+            source = cfg.get("mode_shapes_csv") or cfg.get("mode_shapes_uff") or "the FRF extraction"
+            raise where.error(key, f"a mode shape is given for mode {mode} ({source}), but the measured natural "
+                                   f"frequencies are modes {declared}")
     first_sign = _first_signs(cfg, where, key)
     try:
         def rad(pair):  # optional intervals (extracted from FRFs), Hz -> rad/s

@@ -96,7 +96,8 @@ CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_m
              "frf": dict}
 FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
              "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float,
-             "window": str, "reciprocal": bool, "keep_outer_zeros": bool}
+             "window": str, "reciprocal": bool, "keep_outer_zeros": bool, "window_decay": float,
+             "window_tau": float, "keep_noisy_zeros": bool}
 
 #: Keys of a ``[model]`` table of ``type = "matrices"``.
 MATRICES_KEYS = {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict, "sensors": str}

@@ -77,7 +77,7 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
     } for k, m in enumerate(result.modes)]
     def zero(z):
         return {"response": z.response, "excitation": z.excitation, "index": z.index,
-                "freq_hz": z.omega / TWO_PI, "freq_hz_interval": _hz(z.interval)}
+                "freq_hz": z.omega / TWO_PI, "freq_hz_interval": _hz(z.interval), "snr": z.snr}
 
     zeros = [zero(z) for z in result.zeros]
     quality = [{"response": q.response, "excitation": q.excitation, "quality": q.quality,
@@ -87,8 +87,10 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
     fitted = [{"freq_hz": float(w) / TWO_PI, "damping_ratio": float(z),
                "reported": any(m.omega == w for m in result.modes)} for w, z in result.fitted_poles]
     return {"band_hz": _hz(result.band), "fit_band_hz": _hz(result.fit_band), "confidence": result.confidence,
-            "noise": result.noise, "window": result.window, "record_s": result.record_s, "natural": natural,
+            "noise": result.noise, "window": result.window, "record_s": result.record_s,
+            "window_tau_s": result.window_tau, "natural": natural,
             "antiresonances": zeros, "outer_antiresonances": [zero(z) for z in result.outer_zeros],
+            "noisy_antiresonances": [zero(z) for z in result.noisy_zeros],
             "fitted_modes": fitted,
             "quality": quality, "stabilization": stabilization}
 
