@@ -4,7 +4,8 @@ Exit codes (`EXIT`): 0 the updating succeeded (verified); 1 it was solved but no
 or the homotopy path failed (results are written, their status says which); 2 bad input
 (one message naming the file, key or folder; nothing written); for ``sweep``, 1 means no
 verified sample, for ``batch`` a case that did not succeed; 3 internal error (one line
-naming what failed, ``--debug`` prints the traceback; nothing written); 130 interrupted
+naming what failed, ``--debug`` prints the traceback; nothing written); for ``suggest``, 0
+means some set of candidates verified, 1 none; 130 interrupted
 (nothing written, earlier results intact; a sweep keeps the rows it wrote, ``--resume``).
 
 A command or option whose optional extra is not installed (`NEEDS`, `vibupdate._extras`)
@@ -79,6 +80,14 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--frequency-tolerance", type=float, default=None,
                        help="for --samples: relative half-width of frequencies without an interval (default: the "
                             "case's)")
+    sg = sub.add_parser("suggest", help="which of the case's [[candidate]] parameters to update: the smallest sets "
+                                         "that let the data fit, ranked and checked by a full update")
+    sg.add_argument("case", help="case file (TOML) with [[candidate]] tables, see docs/case-file.md")
+    sg.add_argument("--max-size", type=int, default=3, metavar="K", help="largest set of candidates tried (default 3)")
+    sg.add_argument("--checked", type=int, default=3, metavar="N",
+                    help="top sets checked by a full update (default 3)")
+    sg.add_argument("--out", default=None, help="folder for suggestion.json and suggestion.md (default: none written)")
+    sg.add_argument("--force", action="store_true", help="as for run")
     fx = sub.add_parser("extract", help="extract modes and antiresonances from measured FRFs (docs/frf-extraction.md)")
     fx.add_argument("files", nargs="+", help="UFF (.uff/.unv, dataset 58; needs the extra [frf]) or CSV/npz FRF "
                                              "files")
@@ -141,7 +150,7 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                        help="address of an existing Dask scheduler, e.g. tcp://10.0.0.5:8786")
     # --debug is accepted after the subcommand too.
-    for p in (run, check, ex, fx, sweep, batch, imp):
+    for p in (run, check, ex, fx, sweep, batch, imp, sg):
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     return parser
 
@@ -273,6 +282,8 @@ def _command(args) -> int:
                                    force=args.force, certify=args.certify, study=_study(args),
                                    diagnose=args.diagnose))
     case = _load(args.case)
+    if args.command == "suggest":
+        return _suggest(args, case)
     if args.command == "check":
         checked = check_case(case)
         print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
@@ -285,6 +296,17 @@ def _command(args) -> int:
     out = args.out or f"{safe_name(case.name)}-results"
     return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
                             diagnose=args.diagnose))
+
+
+def _suggest(args, case) -> int:
+    from vibupdate.report.suggestion import suggestion_text
+    from vibupdate.study.suggest import suggest_case
+
+    found = suggest_case(case, args.out, max_size=args.max_size, checked=args.checked, force=args.force,
+                         progress=_say)
+    print()
+    print(suggestion_text(found.record()))
+    return EXIT["success"] if found.best is not None else EXIT["not_verified"]
 
 
 def _run_options(args) -> list[str]:

@@ -195,6 +195,9 @@ OPTIONS = (
     Option("verification", "diagnose", "boolean", True, "when the answer does not fit the data, rank the groups of "
            "the data (each frequency, each shape, each shape DOF across modes) by how well the model fits without "
            "each, and update again without the worst (docs/method.md, section 7.8)"),
+    Option("verification", "suggest", "boolean", True, "when the answer is not verified and the case declares "
+           "[[candidate]]s, screen each candidate added to the parameters (a polish from the answer and a "
+           "verification each, no full update) and name the best in the report (docs/method.md, section 7.9)"),
 )
 
 _BY_NAME = {(o.table, o.name): o for o in OPTIONS}

@@ -352,8 +352,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
             say(limited[2:])
     diagnosis, diagnosis_notes = _diagnosis(case, result, verification, say,
                                             verification.diagnose if diagnose is None else diagnose)
+    suggestion, suggestion_notes = _suggestion(case, result, verification, say)
     stage, notes, info = _damping_stage(case, result.xbar, say, result.modal)
-    notes = list(checked.warnings) + notes + diagnosis_notes
+    notes = list(checked.warnings) + notes + diagnosis_notes + suggestion_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
         say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
@@ -375,7 +376,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     if certify is not None:
         identifiability["certified"] = _certified(case, result, certify, say, answers)
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
-                     warnings=notes, paper=paper, diagnosis=diagnosis)
+                     warnings=notes, paper=paper, diagnosis=diagnosis, suggestion=suggestion)
     written = write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
                               version=__version__)
     for note in written.warnings[len(run.warnings):]:
@@ -402,6 +403,31 @@ def _diagnosis(case: Case, result: UpdateResult, verification, say, wanted: bool
                         polish=case.polish, verification=verification, progress=say), []
     except Exception as exc:  # the diagnosis explains the answer; the answer stands without it
         note = f"the diagnosis of which data conflict failed: {type(exc).__name__}: {exc}"
+        say(f"warning: {note}")
+        return None, [note]
+
+
+#: Seconds of the screening of candidates after a run that is not verified (docs/method.md, 7.9).
+SUGGEST_SECONDS = 60.0
+
+
+def _suggestion(case: Case, result: UpdateResult, verification, say):
+    """When the answer is not verified and the case declares candidates (and ``[verification]
+    suggest``): each single candidate screened from the answer, no full update
+    (`vibupdate.ranges.candidates`). Returns its record (None otherwise) and the run's notes:
+    a screening that fails costs a note, never the run's results."""
+    from vibupdate.ranges.candidates import suggest_sets
+
+    if result.success or not case.candidates or not verification.suggest or result.status.value != "not_verified":
+        return None, []
+    own = [p.name for p in result.parameters]
+    try:
+        found = suggest_sets(case.pool, own, [p.name for p in case.candidates], max_size=1, checked=0,
+                             polish=case.polish, verification=verification, progress=say,
+                             start=dict(zip(own, np.asarray(result.xbar, dtype=float))), max_seconds=SUGGEST_SECONDS)
+        return found.record(), []
+    except (ValueError, np.linalg.LinAlgError) as exc:  # the screening explains the answer; it stands without it
+        note = f"the screening of the candidates failed: {exc}"
         say(f"warning: {note}")
         return None, [note]
 

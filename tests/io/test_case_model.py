@@ -128,9 +128,9 @@ def _count_elements(monkeypatch):
     counted = []
     original = elements.frame_matrices
 
-    def counting(EA, EI, mass_per_length, dx, dy):
+    def counting(EA, EI, mass_per_length, dx, dy, rotary_inertia=0.0):
         counted.append(np.size(dx))
-        return original(EA, EI, mass_per_length, dx, dy)
+        return original(EA, EI, mass_per_length, dx, dy, rotary_inertia)
 
     monkeypatch.setattr(elements, "frame_matrices", counting)
     return counted

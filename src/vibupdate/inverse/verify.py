@@ -106,6 +106,9 @@ class VerifyOptions:
     diagnose : bool
         Not a threshold: whether a run whose answer does not fit the data goes on to say which
         data conflict (`vibupdate.inverse.diagnosis`); the checks ignore it.
+    suggest : bool
+        Not a threshold: whether a run that is not verified screens the case's candidates
+        (`vibupdate.ranges.candidates`); the checks ignore it.
     """
 
     mac_min: float = default("verification", "mac_min")
@@ -116,6 +119,7 @@ class VerifyOptions:
     antiresonance_tolerance: float = default("verification", "antiresonance_tolerance")
     shape_tolerance: float = default("verification", "shape_tolerance")
     diagnose: bool = default("verification", "diagnose")
+    suggest: bool = default("verification", "suggest")
 
     def tolerance(self, datum) -> float:
         """The model-form tolerance of ``datum``'s kind (a natural frequency or an antiresonance)."""

@@ -83,6 +83,26 @@ class Case:
     sensors: tuple[dict, ...] = ()
     """Measured points on an imported FE mesh (``[model] sensors``): ``sensor``, ``dof``,
     ``sign``, ``distance_m`` per sensor; the report shows the map."""
+    candidates: tuple[Parameter, ...] = ()
+    """The ``[[candidate]]`` parameters: named in the model as parameters are, held at their
+    nominal values in ``configurations`` and freed by `vibupdate suggest`."""
+    pool: tuple[Configuration, ...] = ()
+    """The configurations with the case's parameters and every candidate free, in that order
+    (empty without candidates); `with_candidates` frees a subset."""
+
+    def with_candidates(self, names) -> "Case":
+        """The case with the candidates ``names`` free beside its own parameters (in the order
+        of the pool); the other candidates stay at their nominal values."""
+        from vibupdate.model.affine import restricted
+
+        known = [p.name for p in self.candidates]
+        unknown = [n for n in names if n not in known]
+        if unknown:
+            raise ValueError(f"{', '.join(map(repr, unknown))} {'is' if len(unknown) == 1 else 'are'} not a candidate "
+                             f"of case {self.name!r} (its candidates: {', '.join(known) or 'none'})")
+        own = [p.name for p in self.pool[0].model.parameters if p.name not in known] if self.pool else []
+        free = own + [n for n in known if n in set(names)]
+        return replace(self, configurations=tuple(replace(c, model=restricted(c.model, free)) for c in self.pool))
 
     def verify_options(self) -> VerifyOptions:
         """The verification's options with the case's ``frequency_tolerance``: the measurement
@@ -302,21 +322,26 @@ def load_case(path) -> Case:
         raise ValueError(f"case file {str(path)!r} could not be read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: not valid TOML: {exc}") from None
-    check_table(data, TOP_KEYS, "", where, required=("model", "parameter", "configuration"))
-    parameters = []
-    for i, item in enumerate(data["parameter"], start=1):
-        key = f"parameter[{i}]"
-        check_table(item, PARAMETER_KEYS, key, where, required=("name", "nominal", "lower", "upper"))
-        try:
-            parameters.append(Parameter(item["name"], item["nominal"], item["lower"], item["upper"],
-                                        unit=item.get("unit", ""), reference=item.get("reference")))
-        except ValueError as exc:
-            raise where.error(key, str(exc)) from None
+    # a case whose parameters are all still to be chosen among its candidates (`vibupdate suggest`)
+    check_table(data, TOP_KEYS, "", where,
+                required=("model", "configuration") + (() if "candidate" in data else ("parameter",)))
+    parameters = _parameters(data.get("parameter", []), "parameter", where)
+    candidates = _parameters(data.get("candidate", []), "candidate", where)
+    twice = sorted({p.name for p in parameters} & {p.name for p in candidates})
+    if twice:
+        raise where.error("candidate", f"{', '.join(map(repr, twice))} is declared both as a [[parameter]] and as a "
+                                       f"[[candidate]]; declare each name once")
     base = path.parent
     models: dict = {}
-    loaded = [_configuration(cfg, i, data["model"], parameters, base, where, models)
+    loaded = [_configuration(cfg, i, data["model"], parameters + candidates, base, where, models)
               for i, cfg in enumerate(data["configuration"], start=1)]
     configurations = tuple(c for c, _ in loaded)
+    pool = ()
+    if candidates:   # held at their nominal values: exact, see vibupdate.model.affine.restricted
+        from vibupdate.model.affine import restricted
+
+        pool = configurations
+        configurations = tuple(replace(c, model=restricted(c.model, [p.name for p in parameters])) for c in pool)
     return Case(
         name=data.get("case", path.stem),
         path=path,
@@ -331,7 +356,25 @@ def load_case(path) -> Case:
         frf_notes={c.name: n for c, (_, n) in loaded if n},
         inputs=(path, *_named_files(data, base)),
         sensors=_sensors(data["model"], configurations, base, where),
+        candidates=tuple(candidates),
+        pool=pool,
     )
+
+
+def _parameters(items, table: str, where: Where) -> list[Parameter]:
+    """The ``[[parameter]]`` or ``[[candidate]]`` tables as `Parameter` s."""
+    if not isinstance(items, list):
+        raise where.error(table, f"must be an array of tables ([[{table}]]), got {items!r}")
+    out = []
+    for i, item in enumerate(items, start=1):
+        key = f"{table}[{i}]"
+        check_table(item, PARAMETER_KEYS, key, where, required=("name", "nominal", "lower", "upper"))
+        try:
+            out.append(Parameter(item["name"], item["nominal"], item["lower"], item["upper"],
+                                 unit=item.get("unit", ""), reference=item.get("reference")))
+        except ValueError as exc:
+            raise where.error(key, str(exc)) from None
+    return out
 
 
 def _sensors(spec: dict, configurations, base: Path, where: Where) -> tuple[dict, ...]:

@@ -80,7 +80,7 @@ def numbers(values, key, where) -> list[float]:
 
 # -- the keys of each table (None: any type, checked where it is read) ---------------------------
 
-TOP_KEYS = {"case": str, "model": dict, "parameter": list, "configuration": list, "solver": dict,
+TOP_KEYS = {"case": str, "model": dict, "parameter": list, "candidate": list, "configuration": list, "solver": dict,
              "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
              "verification": dict}
 # The option tables: their keys from the declarations, each value checked there (vibupdate.options).

@@ -148,11 +148,12 @@ def _elements_assembly(spec: dict, names, where: Where) -> Assembly:
     for family, props in (("beam", ("EI", "mass_per_length")), ("frame", ("EA", "EI", "mass_per_length"))):
         for i, item in enumerate(spec.get(family, [])):
             key = f"model.{family}[{i + 1}]"
-            check_table(item, {"nodes": list, **{p: None for p in props}}, key, where, required=("nodes", *props))
+            check_table(item, {"nodes": list, "rotary_inertia": None, **{p: None for p in props}}, key, where,
+                        required=("nodes", *props))
             chain = [_label(n, f"{key}.nodes", where) for n in item["nodes"]]
             if len(chain) < 2:
                 raise where.error(f"{key}.nodes", "needs at least two nodes")
-            compiled = {p: expr(item[p], f"{key}.{p}") for p in props}
+            compiled = {p: expr(item[p], f"{key}.{p}") for p in (*props, "rotary_inertia") if p in item}
             elements.append((family, chain, compiled))
     lumped = []
     for family in ("mass", "spring"):

@@ -25,7 +25,7 @@ __all__ = ["COMMANDS", "LEGACY_MANIFEST", "manifest_name", "read_manifests", "re
            "is_manifest", "write_manifest", "add_to_manifest", "legacy_owner", "manifest_files"]
 
 #: The commands that write folders, each with its own manifest (``example`` writes as ``run``).
-COMMANDS = ("run", "extract", "sweep", "batch")
+COMMANDS = ("run", "extract", "sweep", "batch", "suggest")
 #: The manifest shared by every command before the manifests were per command.
 LEGACY_MANIFEST = "vibupdate-manifest.json"
 _MANIFEST_PREFIX = "vibupdate-manifest"

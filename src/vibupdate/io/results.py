@@ -362,6 +362,7 @@ class RunResult:
     sensors: tuple[dict, ...] = ()
     diagnosis: DiagnosisRecord | None = None
     matrix_files: dict = field(default_factory=dict)
+    suggestion: dict | None = None
     matrices: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -413,6 +414,7 @@ class RunResult:
             sensors=tuple(dict(s) for s in doc.get("sensors", ())),
             diagnosis=DiagnosisRecord.from_dict(doc["diagnosis"]) if doc.get("diagnosis") else None,
             matrix_files={k: dict(v) for k, v in doc.get("matrix_files", {}).items()},
+            suggestion=doc.get("suggestion"),
         )
 
 
@@ -470,7 +472,7 @@ def _mac_matrix(cfg, Phi: np.ndarray) -> dict:
 
 def run_result(case, result, stage=None, *, identifiability: dict | None = None,
                damping_model: dict | None = None, warnings: Sequence[str] = (),
-               paper: dict | None = None, diagnosis=None) -> RunResult:
+               paper: dict | None = None, diagnosis=None, suggestion: dict | None = None) -> RunResult:
     """Build the results object of a run.
 
     Parameters
@@ -492,6 +494,9 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     diagnosis : Diagnosis, optional
         Which data conflict (`vibupdate.inverse.diagnosis`): its record goes to ``diagnosis``,
         the matrices of its best model (the update without the top group) beside the run's.
+    suggestion : dict, optional
+        Which candidates might be missing (`vibupdate.ranges.candidates.Suggestion.record`, the
+        screening after a run that did not verify).
     """
     from vibupdate import __version__
 
@@ -536,7 +541,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         paper=_plain(paper) if paper else None, sensors=tuple(dict(s) for s in getattr(case, "sensors", ())),
         diagnosis=DiagnosisRecord.from_dict(_plain(diagnosis.record())) if diagnosis is not None else None,
         matrix_files=_matrix_files(configurations, matrices, bool(result.success), best),
-        matrices=matrices)
+        suggestion=_plain(suggestion) if suggestion else None, matrices=matrices)
 
 
 def _matrix_files(configurations, matrices: dict, verified: bool, best) -> dict:

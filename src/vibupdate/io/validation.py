@@ -288,6 +288,9 @@ def validate_case(case) -> CaseCheck:
     from vibupdate.io.case_keys import Where
 
     error = Where(case.path if case.path is not None else Path("case")).error
+    if not case.configurations[0].model.n_parameters:
+        raise error("parameter", "the case updates no parameter: declare a [[parameter]], or let `vibupdate suggest` "
+                                 f"choose among its {len(case.candidates)} [[candidate]]s")
     tol = case.frequency_tolerance
     if not _finite(tol) or not 0 <= tol < 1:
         raise error("frequency_tolerance", f"must be a finite relative half-width in [0, 1), got {tol!r}")

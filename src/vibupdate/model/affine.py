@@ -26,7 +26,7 @@ import scipy.sparse.linalg as spla
 from vibupdate.model.assembly import Assembly, System, dof_index
 from vibupdate.model.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
-__all__ = ["AffineModel", "Lumped", "with_lumped", "complex_step_jacobians", "affine_from_builder",
+__all__ = ["AffineModel", "Lumped", "with_lumped", "restricted", "complex_step_jacobians", "affine_from_builder",
            "affine_from_assembly", "check_matrices"]
 
 Builder = Callable[[dict], "System | tuple"]
@@ -170,6 +170,26 @@ def with_lumped(model: "AffineModel", additions: Sequence[Lumped]) -> "AffineMod
     return replace(model, M0=sp.csr_matrix(mats["M"][0]), K0=sp.csr_matrix(mats["K"][0]),
                    M_par=tuple(sp.csr_matrix(A) for A in mats["M"][1]),
                    K_par=tuple(sp.csr_matrix(A) for A in mats["K"][1]))
+
+
+def restricted(model: "AffineModel", names: Sequence[str]) -> "AffineModel":
+    """``model`` with only the parameters ``names`` free, in the model's order; every other
+    parameter is held at its nominal value.
+
+    Exact for the affine form: the nominal value is ``xbar = 0``, where a parameter's matrices
+    contribute nothing, so holding it there drops its ``M_i``, ``K_i`` and leaves ``M0``,
+    ``K0`` as they are.
+    """
+    known = model.parameter_names
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(f"{', '.join(map(repr, unknown))} {'is' if len(unknown) == 1 else 'are'} not a parameter "
+                         f"of the model ({', '.join(known)})")
+    keep = [k for k, n in enumerate(known) if n in set(names)]
+    if len(keep) == len(known):
+        return model
+    return replace(model, parameters=tuple(model.parameters[k] for k in keep),
+                   M_par=tuple(model.M_par[k] for k in keep), K_par=tuple(model.K_par[k] for k in keep))
 
 
 def _stack_on_union(A0, parts):

@@ -167,48 +167,52 @@ class Assembly:
         xy2 = np.array([self._coords[b] for b in second], dtype=float).reshape(-1, 2)
         return xy2[:, 0] - xy1[:, 0], xy2[:, 1] - xy1[:, 1]
 
-    def beam(self, n1, n2, *, EI, mass_per_length) -> None:
+    def beam(self, n1, n2, *, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Euler-Bernoulli beam element between two nodes of a beam assembly.
 
-        ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m; the length is the distance of
-        the nodes along x.
+        ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m, ``rotary_inertia`` (rho I, kg m;
+        default 0, none); the length is the distance of the nodes along x.
         """
-        self.beams([n1], [n2], EI=EI, mass_per_length=mass_per_length)
+        self.beams([n1], [n2], EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
 
-    def beams(self, first: Sequence, second: Sequence, *, EI, mass_per_length) -> None:
+    def beams(self, first: Sequence, second: Sequence, *, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Many beam elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
 
-        ``EI`` (N m^2) and ``mass_per_length`` (kg/m): scalars or arrays of shape (n_e,), real
-        or complex, or one `LinearExpression` of the parameters for all the elements.
+        ``EI`` (N m^2), ``mass_per_length`` (kg/m) and ``rotary_inertia`` (rho I of the
+        section, kg m; default 0): scalars or arrays of shape (n_e,), real or complex, or one
+        `LinearExpression` of the parameters for all the elements.
         """
         if self.kind != "beam":
             raise ValueError("beam() needs a beam assembly; use frame() in a frame assembly")
         idx = self._element_dofs(first, second)
         dx, _ = self._deltas(first, second)
         n = idx.shape[0]
-        props = (_property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"))
+        props = (_property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"),
+                 _property(rotary_inertia, n, "rotary_inertia"))
         self._elements.append(_Batch("beam", idx, props, (np.abs(dx),)))
 
-    def frame(self, n1, n2, *, EA, EI, mass_per_length) -> None:
+    def frame(self, n1, n2, *, EA, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Planar frame element (axial + bending) between two nodes of a frame assembly.
 
-        ``EA`` in N, ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m.
+        ``EA`` in N, ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m, ``rotary_inertia``
+        (rho I, kg m; default 0, none).
         """
-        self.frames([n1], [n2], EA=EA, EI=EI, mass_per_length=mass_per_length)
+        self.frames([n1], [n2], EA=EA, EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
 
-    def frames(self, first: Sequence, second: Sequence, *, EA, EI, mass_per_length) -> None:
+    def frames(self, first: Sequence, second: Sequence, *, EA, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Many frame elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
 
-        ``EA`` (N), ``EI`` (N m^2) and ``mass_per_length`` (kg/m): scalars or arrays of shape
-        (n_e,), real or complex, or one `LinearExpression` of the parameters for all the
-        elements.
+        ``EA`` (N), ``EI`` (N m^2), ``mass_per_length`` (kg/m) and ``rotary_inertia`` (rho I
+        of the section, kg m; default 0): scalars or arrays of shape (n_e,), real or complex,
+        or one `LinearExpression` of the parameters for all the elements.
         """
         if self.kind != "frame":
             raise ValueError("frame() needs a frame assembly; use beam() in a beam assembly")
         idx = self._element_dofs(first, second)
         dx, dy = self._deltas(first, second)
         n = idx.shape[0]
-        props = (_property(EA, n, "EA"), _property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"))
+        props = (_property(EA, n, "EA"), _property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"),
+                 _property(rotary_inertia, n, "rotary_inertia"))
         self._elements.append(_Batch("frame", idx, props, (dx, dy)))
 
     def mass(self, dof: str, value) -> None:
@@ -241,7 +245,9 @@ class Assembly:
             sizes = [b.idx.shape[0] for b in chosen]
             props = [_column([value(b.props[j]) for b in chosen], sizes) for j in range(len(chosen[0].props))]
             geometry = [np.concatenate(col) for col in zip(*(b.geometry for b in chosen))]
-            k, m = getattr(elements, f"{kind}_matrices")(*props, *geometry)
+            # the element functions take the section properties, the geometry, then the rotary
+            # inertia (the last property, optional there)
+            k, m = getattr(elements, f"{kind}_matrices")(*props[:-1], *geometry, props[-1])
             d = idx.shape[1]
             rows = np.repeat(idx, d, axis=1).ravel()
             cols = np.tile(idx, (1, d)).ravel()

@@ -340,6 +340,9 @@ def markdown_report(document: dict, images: list[tuple[str, str]] = (), notes: l
     out += verification_markdown(document.get("solver") or {})
     out += matrix_files_markdown(document)
     out += diagnosis_markdown(document)
+    from vibupdate.report.suggestion import run_section_markdown
+
+    out += run_section_markdown(document)
     # Parameters
     pp = {p["name"]: _number(p.get("paper_updated")) for p in paper.get("parameters", [])}
     truth = paper.get("truth") or {}
