@@ -114,16 +114,14 @@ def true_shapes(n_modes: int = 4):
 NATURAL_TOLERANCE, SHAPE_TOLERANCE = 0.001, 0.02
 
 
-def case_text(uff: str = "hammer.uff", shape_weight: float | None = NATURAL_TOLERANCE / SHAPE_TOLERANCE) -> str:
+def case_text(uff: str = "hammer.uff", shape_weight: float | None = None) -> str:
     """The case file: the Euler-Bernoulli model of the bar, no parameter of its own, six
     candidates (E, rho, the rotary-inertia factor r, the two suspension springs, the tip mass)
     and the roving-hammer FRFs read reciprocally.
 
-    ``shape_weight`` (``[polish]``; None: the default, 100): by default the fit weighs a
-    frequency's relative error by its tolerance but a shape ratio's distance outside its
-    measurement interval (half-widths about 0.001 here) by 100 with no model-form tolerance, so
-    it trades the frequencies' 0.1 % for shape misses the verification allows (0.02). The
-    ratio of the two tolerances weighs each in units of what the verification allows it."""
+    ``shape_weight`` (``[polish]``; None: the default, which the fit scales to the ratio of
+    the frequencies' tolerance to the shapes', here 0.001 / 0.02, so that each misses in units of
+    what the verification allows it: `vibupdate.inverse.verify.tolerance_shape_weight`)."""
     beams = (f'[[model.beam]]\nnodes = {list(range(1, MODEL_ELEMENTS + 2))}\nEI = "{INERTIA!r}*E"\n'
              f'mass_per_length = "{AREA!r}*rho"\nrotary_inertia = "{RHO_NOMINAL * INERTIA!r}*r"\n')
     springs = "".join(f'[[model.spring]]\ndof = "y{n}"\nvalue = "ks{i}"\n' for i, n in enumerate(SUPPORTS, 1))

@@ -557,13 +557,19 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, c
     report = (tmp_path / "out" / "report.md").read_text()
     assert "FRFs of configuration frame: measured receptance (m/N" in report  # the overlay (Fig. 11)
     # which data conflict with a planar model: every group of the 13 frequencies and the shapes
-    # left out in turn (measured: 19 groups; with free masses, leaving out mode 1 at 6.51 Hz
-    # verifies at 1.23 % mean, 2.29 % max; the shear frame verifies without no single group)
+    # left out in turn (measured, 19 groups: the low end of the frame; with free masses, left
+    # without the first zero of h_x1,x1 (8.78 Hz) it verifies at 1.25 % mean, 2.16 % max, and
+    # without mode 1 (6.51 Hz) it fits best (objective 9.7e-4 against 1.3e-3) but misses by
+    # 2.45 %; the shear frame ranks mode 1 first and verifies without no single group)
     diagnosis = doc["diagnosis"]
     assert code == 1 and diagnosis["groups"] == 19 and "## Which data conflict" in report
+    top = [t["key"] for t in diagnosis["trials"][:2]]
     if case_file == "soton-frame-masses.toml":
-        assert diagnosis["trials"][0]["key"] == "frame/natural/1" and diagnosis["best"]["status"] == "success"
+        assert set(top) == {"frame/antiresonance/x1,x1/1", "frame/natural/1"}, top
+        assert diagnosis["trials"][0]["passed"] and diagnosis["best"]["status"] == "success"
         assert (tmp_path / "out" / "without_worst_K_frame.mtx").is_file()
+    else:
+        assert top[0] == "frame/natural/1" and not diagnosis["trials"][0]["passed"]
     assert (tmp_path / "out" / "not_verified_K_frame.mtx").is_file()
     assert (tmp_path / "out" / "frf_frame.png").stat().st_size > 20_000
 

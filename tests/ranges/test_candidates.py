@@ -185,10 +185,12 @@ def test_free_free_bar_known_truth_suggests_the_rotary_inertia_factor_with_E(tmp
     """The known-truth bar of `bar_synthetic`: a Timoshenko truth (shear and rotary inertia)
     modelled as an Euler-Bernoulli beam, one accelerometer, nine hammer points, 1 % noise.
     `extract` gives shapes at all nine points whose 95 % intervals hold the truth at a rate of
-    0.90-1.00 over 10 seeds; `suggest` over six candidates ranks E + r first (tied with rho +
-    r: the data see E and rho through their ratio but for the tip mass and the springs, and E
-    is declared first); the update with it is `success` with every natural frequency within
-    0.1 %. Figures over 20 seeds: benchmarks/suggest_bar.py, benchmarks/RESULTS.md."""
+    0.90-1.00 over 10 seeds; `suggest` over six candidates ranks the rotary-inertia factor r
+    with E and with rho first, in either order: the data see E and rho through their ratio but
+    for the tip mass and the springs (seed 0, shapes weighed in units of their tolerance:
+    rho + r 8.01e-7, E + r 8.14e-7, 1.6 % apart; both verify); each update is `success` with
+    every natural frequency within 0.1 %, and no single candidate verifies. Figures over 20
+    seeds: benchmarks/suggest_bar.py, benchmarks/RESULTS.md."""
     import bar_synthetic as bar
     from frf_synthetic import write_uff
     from vibupdate.data.extraction import extract
@@ -209,8 +211,9 @@ def test_free_free_bar_known_truth_suggests_the_rotary_inertia_factor_with_E(tmp
     assert main(["suggest", str(tmp_path / "case.toml"), "--out", str(tmp_path / "sg")]) == 0
     capsys.readouterr()
     record = json.loads((tmp_path / "sg" / "suggestion.json").read_text())
-    top = record["trials"][0]
-    assert top["candidates"] == ["E", "r"] and record["best"] == ["E", "r"]
-    assert top["update"]["success"] and top["update"]["natural_max_pct"] < 0.1
-    assert ["rho", "r"] in top["tied_with"]
+    first, second = record["trials"][:2]
+    assert sorted([first["candidates"], second["candidates"]]) == [["E", "r"], ["rho", "r"]]
+    assert record["best"] == first["candidates"]
+    for top in (first, second):
+        assert top["update"]["success"] and top["update"]["natural_max_pct"] < 0.1
     assert all(not t["passed"] for t in record["trials"] if len(t["candidates"]) == 1)

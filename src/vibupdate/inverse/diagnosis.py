@@ -34,14 +34,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vibupdate.data.measured import TWO_PI, Configuration, ShapeInterval
+from vibupdate.data.measured import Configuration, ShapeInterval
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.formulation import FormulationOptions
 from vibupdate.inverse.polish import PolishOptions, polish as run_polish, polish_residuals
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update
-from vibupdate.inverse.verify import VerifyOptions, tolerance_weights, verify
+from vibupdate.inverse.verify import VerifyOptions, fit_data, verify
 
 __all__ = ["MISFIT_CHECKS", "MAX_GROUPS", "MAX_SECONDS", "DataGroup", "GroupTrial", "Diagnosis", "data_groups",
            "without", "wants_diagnosis", "diagnose"]
@@ -294,8 +294,10 @@ def _errors(configurations, updated) -> tuple[float, float]:
     return float(np.mean(errors)), float(np.max(errors))
 
 
-def _objective(configurations, xbar, shape_weight: float) -> float:
-    r, _ = polish_residuals(configurations, xbar, shape_weight, jacobian=False)
+def _objective(configurations, xbar, polish: PolishOptions, verification: VerifyOptions) -> float:
+    """The polish's objective at ``xbar``, the data weighed as the update weighs them."""
+    weighted, options = fit_data(configurations, verification, polish)
+    r, _ = polish_residuals(weighted, xbar, options.shape_weight, jacobian=False)
     return 0.5 * float(r @ r)
 
 
@@ -304,7 +306,8 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
     """Polish the data ``kept`` from ``xbar`` and verify the answer on them."""
     t0 = time.perf_counter()
     nominal = [model_frequencies(c) for c in kept]
-    polished = run_polish(tolerance_weights(kept, verification), xbar, replace(polish, enabled=True))  # as update
+    weighted, options = fit_data(kept, verification, replace(polish, enabled=True))   # as update
+    polished = run_polish(weighted, xbar, options)
     x = polished.xbar
     updated = [model_frequencies(c, x, derivatives=True) for c in kept]
     checks = verify(kept, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0, options=verification)
@@ -353,7 +356,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
     verification = verification or VerifyOptions()
     configurations = list(configurations)
     xbar = np.asarray(result.xbar, dtype=float)
-    full = _objective(configurations, xbar, polish.shape_weight)
+    full = _objective(configurations, xbar, polish, verification)
     mean, worst = _errors(configurations, [model_frequencies(c, xbar) for c in configurations])
     failed = tuple(c.name for c in result.checks if c.severity == "error" and not c.passed)
     candidates = []
@@ -364,7 +367,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
             say(f"diagnosis: the data without the {group.label} are not a valid problem ({exc}); not screened")
             continue
         if kept is not None:   # the share of the misfit the group carries at the answer orders the screening
-            share = (full - _objective(kept, xbar, polish.shape_weight)) / full if full > 0 else 0.0
+            share = (full - _objective(kept, xbar, polish, verification)) / full if full > 0 else 0.0
             candidates.append((share, group, kept))
     candidates.sort(key=lambda c: -c[0])
     say(f"diagnosis: the answer failed {', '.join(failed)}; screening {min(len(candidates), max_groups)} of "

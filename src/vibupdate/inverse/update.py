@@ -43,7 +43,7 @@ from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, tolerance_weights, verify
+from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, fit_data, tolerance_weights, verify
 from vibupdate.modal.analysis import DENSE_LIMIT
 
 __all__ = ["UpdateResult", "update", "prepare", "Prepared", "prepare_first_stage"]
@@ -654,8 +654,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     say = progress or (lambda message: None)
     first_problem = None
     reused = prepared is not None and prepared.matches(configurations, formulation, verification)
-    # the fit weighs each frequency in units of its tolerance; the checks do not read weights
-    configurations = tolerance_weights(configurations, verification)
+    # the fit weighs each datum in units of its tolerance; the checks do not read weights
+    configurations, polish = fit_data(configurations, verification, polish)
     if reused:
         solved, bases, first_problem = list(prepared.solved), prepared.bases, prepared.problem
     else:

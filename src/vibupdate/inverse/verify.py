@@ -56,6 +56,7 @@ frequency by the same tolerances (`tolerance_weights`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -67,7 +68,7 @@ from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration
 
 __all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance", "tolerance_weights",
-           "ROUNDING_SAFETY"]
+           "tolerance_shape_weight", "fit_data", "ROUNDING_SAFETY"]
 
 #: Multiple of the estimated rounding floor of the shape ratios allowed outside an interval
 #: (module docstring): the estimate draws one rounding unit per entry with random signs, a
@@ -372,6 +373,37 @@ def _fit(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions) -> tup
     return bad, worst, by_model
 
 
+def _relative_tolerances(data, options: VerifyOptions) -> np.ndarray:
+    """Each frequency's relative tolerance: measurement half-width plus the model-form
+    tolerance of its kind, at least `WEIGHT_FLOOR`."""
+    return np.array([max(0.5 * (np.subtract(*options.measurement_interval(d)[::-1])) / d.omega
+                         + options.tolerance(d), WEIGHT_FLOOR) for d in data])
+
+
+def tolerance_shape_weight(configurations: Sequence[Configuration], options: VerifyOptions,
+                           shape_weight: float) -> float:
+    """The polish's weight of a shape ratio's distance outside its interval, in the units the
+    frequencies are weighed in (`tolerance_weights`): ``t_f / shape_tolerance``, ``t_f`` the
+    frequencies' tolerance as their normalized weights use it (the root mean of ``1 / t^2``,
+    inverted), capped by ``shape_weight``. A shape miss then costs in units of what the
+    verification allows it, as a frequency miss does; without a shape tolerance, or with a
+    larger ``t_f``, it is ``shape_weight``."""
+    data = [d for c in configurations for d in (*c.natural, *c.antiresonances)]
+    if options.shape_tolerance <= 0 or not data:
+        return shape_weight
+    t_f = 1.0 / math.sqrt(float(np.mean(1.0 / _relative_tolerances(data, options) ** 2)))
+    return min(shape_weight, t_f / options.shape_tolerance)
+
+
+def fit_data(configurations: Sequence[Configuration], options: VerifyOptions, polish):
+    """The data and the polish's options as the fit weighs them by the tolerances the
+    verification holds them to (`tolerance_weights`, `tolerance_shape_weight`)."""
+    from dataclasses import replace
+
+    weight = tolerance_shape_weight(configurations, options, polish.shape_weight)
+    return tolerance_weights(configurations, options), replace(polish, shape_weight=weight)
+
+
 def tolerance_weights(configurations: Sequence[Configuration], options: VerifyOptions | None = None):
     """The data with each frequency's weight multiplied by ``1 / t^2``, ``t`` its relative
     tolerance (measurement half-width plus the model-form tolerance of its kind, at least
@@ -384,9 +416,7 @@ def tolerance_weights(configurations: Sequence[Configuration], options: VerifyOp
     data = [d for c in configurations for d in (*c.natural, *c.antiresonances)]
     if not data:
         return list(configurations)
-    t = np.array([max(0.5 * (np.subtract(*options.measurement_interval(d)[::-1])) / d.omega
-                      + options.tolerance(d), WEIGHT_FLOOR) for d in data])
-    factor = 1.0 / t**2
+    factor = 1.0 / _relative_tolerances(data, options) ** 2
     factor /= factor.mean()
     if np.allclose(factor, 1.0, rtol=1e-12, atol=0.0):
         return list(configurations)

@@ -45,7 +45,7 @@ from vibupdate.inverse.formulation import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.polish import PolishOptions, polish as run_polish
 from vibupdate.inverse.update import update
-from vibupdate.inverse.verify import VerifyOptions, tolerance_weights, verify
+from vibupdate.inverse.verify import VerifyOptions, fit_data, verify
 from vibupdate.model.affine import restricted
 
 __all__ = ["MAX_SETS", "MAX_SECONDS", "CHECKED", "TIE_RTOL", "SetTrial", "Suggestion", "suggest_sets",
@@ -240,7 +240,8 @@ def _screen(configurations, start, polish: PolishOptions, verification: VerifyOp
     Returns the answer, its objective, the failed checks, the frequency errors, the rank and
     condition of the sensitivity."""
     nominal = [model_frequencies(c) for c in configurations]
-    polished = run_polish(tolerance_weights(configurations, verification), start, replace(polish, enabled=True))
+    weighted, options = fit_data(configurations, verification, replace(polish, enabled=True))   # as update
+    polished = run_polish(weighted, start, options)
     x = np.asarray(polished.xbar, dtype=float)
     updated = [model_frequencies(c, x, derivatives=True) for c in configurations]
     checks = verify(configurations, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0,
