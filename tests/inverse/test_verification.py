@@ -8,7 +8,8 @@ import pytest
 
 from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval, antiresonances, modes
-from vibupdate.inverse.correlation import describe_direction, model_frequencies, sensitivity
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.data_map import describe_direction, sensitivity
 from vibupdate.ranges.identifiability import parameter_ranges
 from vibupdate.modal.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
 from vibupdate.inverse.status import Status
