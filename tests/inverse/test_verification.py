@@ -251,7 +251,7 @@ def test_vector_boxes_that_exclude_the_truth_are_widened():
     unit margins the box of the unmeasured oscillator entry excludes the true vector of
     modes 2 and 4 and the relaxation's lower bound proves it (data stated precise to 0.1 %).
     The update widens the boxes and finds the truth."""
-    from vibupdate.inverse.formulation import FormulationOptions
+    from vibupdate.inverse.formulation.options import FormulationOptions
     from vibupdate.inverse.update import prepare
     from vibupdate.inverse.verify import VerifyOptions
 

@@ -35,7 +35,9 @@ import scipy.sparse as sp
 
 from vibupdate.inverse.correlation import frequency_rows, model_frequencies, shape_mac
 from vibupdate.inverse.data_map import sensitivity
-from vibupdate.inverse.formulation import BilinearProblem, FormulationOptions, formulate
+from vibupdate.inverse.formulation import formulate
+from vibupdate.inverse.formulation.options import FormulationOptions
+from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.inverse.minimum_change import MinimumChange, minimum_change
