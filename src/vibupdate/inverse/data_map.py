@@ -235,7 +235,8 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
     freqs = list(freqs) if freqs is not None else [None] * len(configurations)
     maps = [data_map(c, xbar, freqs=f) for c, f in zip(configurations, freqs)]
     S = np.vstack([m.frequency_jacobian / m.frequency_values[:, None] for m in maps]
-                  + [np.zeros((0, n_x))] + [D for m in maps for D in m.ratio_jacobians])
+                  + [np.zeros((0, n_x))]   # a block for vstack where nothing was measured
+                  + [D for m in maps for D in m.ratio_jacobians])
     S = S[np.all(np.isfinite(S), axis=1)]
     if S.size:
         _, sv, Vt = np.linalg.svd(S)   # full_matrices: Vt is n_x x n_x, its last rows span the null space
