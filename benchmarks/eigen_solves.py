@@ -27,7 +27,7 @@ from vibupdate.pipeline import run_example  # noqa: E402
 
 #: The stage of a solve: the first of these source files found in its call stack.
 STAGES = (("polish", "inverse/polish.py"), ("ranges", "ranges/identifiability.py"),
-          ("formulation", "inverse/formulation.py"), ("validation", "io/validation.py"),
+          ("formulation", "inverse/formulation/"), ("validation", "io/validation.py"),
           ("data", "data/"), ("model build", "model/"), ("results", "io/results.py"), ("report", "report/"),
           ("damping", "vibupdate/damping/"), ("update", "inverse/update.py"))
 

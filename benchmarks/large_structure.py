@@ -96,7 +96,7 @@ def check_point(size: int) -> dict:
     import numpy as np
 
     from vibupdate.examples import building
-    from vibupdate.inverse.correlation import sensitivity
+    from vibupdate.inverse.data_map import sensitivity
 
     storeys, bays = SIZES[size]
     build_s, configurations = _timed(lambda: building.configurations(storeys, bays))
@@ -124,7 +124,7 @@ def check_point(size: int) -> dict:
 
 def exact_case(size: int):
     from vibupdate.examples import building
-    from vibupdate.inverse.formulation import FormulationOptions
+    from vibupdate.inverse.formulation.options import FormulationOptions
     from vibupdate.inverse.homotopy import SolverOptions
     from vibupdate.io.case import Case, DampingOptions
 

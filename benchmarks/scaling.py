@@ -140,7 +140,7 @@ def determinacy(configurations) -> dict:
     ``1e-4 p_ref_i amplification[i] / scale_i`` of its scale (undetermined above 1)."""
     import numpy as np
 
-    from vibupdate.inverse.correlation import sensitivity
+    from vibupdate.inverse.data_map import sensitivity
 
     model = configurations[0].model
     true, scale = _scale(model.parameters)

@@ -11,7 +11,7 @@ from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, antiresonances, modes
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import identify_damping
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.ranges.identifiability import parameter_ranges
 from vibupdate.pipeline import _damping_stage, _frequency_windows

@@ -85,3 +85,19 @@ def test_tests_mirror_the_stages():
 def test_the_checker_sees_imports():
     assert {"io", "inverse"} <= imported_stages(PACKAGE / "pipeline.py")
     assert stage_of(PACKAGE / "inverse" / "backends" / "casadi_ipopt.py") == "inverse"
+
+
+def test_the_parts_of_the_formulation_do_not_import_its_entry_point():
+    """``inverse/formulation/`` has a module per job and ``formulate`` in its ``__init__``; the
+    parts import one another, never the package itself (which imports them all)."""
+    folder = PACKAGE / "inverse" / "formulation"
+    offenders = []
+    for path in folder.glob("*.py"):
+        if path.name == "__init__.py":
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        if any(isinstance(node, ast.ImportFrom) and node.module == "vibupdate.inverse.formulation"
+               for node in ast.walk(tree)):
+            offenders.append(path.name)
+    assert stage_of(folder / "blocks.py") == "inverse"
+    assert not offenders, offenders

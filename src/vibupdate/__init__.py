@@ -11,7 +11,7 @@ from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes,
 from vibupdate.model.assembly import Assembly, System
 from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 from vibupdate.model.build import from_builder, from_files
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.polish import PolishOptions
 from vibupdate.model.parameters import Parameter

@@ -57,7 +57,7 @@ def check_case(case: Case) -> CaseCheck:
 
 
 def _identifiability(result: UpdateResult) -> dict:
-    from vibupdate.inverse.correlation import describe_direction
+    from vibupdate.inverse.data_map import describe_direction
 
     s = result.sensitivity
     names = [p.name for p in result.parameters]

@@ -49,7 +49,7 @@ def test_floor_mass_is_carried_by_its_floors_beams():
 def test_exact_data_determine_every_parameter():
     """The exact sensitivity of the benchmark's smallest size (7 x 1, 315 DOFs) at the truth:
     full rank over the 12 parameters and a moderate condition (measured 1.3e3)."""
-    from vibupdate.inverse.correlation import sensitivity
+    from vibupdate.inverse.data_map import sensitivity
 
     configurations = building.configurations(7, 1)
     m = configurations[0].model

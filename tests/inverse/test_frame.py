@@ -6,7 +6,8 @@ import pytest
 from vibupdate import SolverOptions, update
 from vibupdate.damping import identify_damping
 from vibupdate.examples import frame, read_table
-from vibupdate.ranges.identifiability import data_jacobian, parameter_ranges
+from vibupdate.inverse.data_map import data_jacobian
+from vibupdate.ranges.identifiability import parameter_ranges
 from vibupdate.inverse.status import Status
 
 

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from vibupdate import Configuration, NaturalFrequency, Parameter, ShapeInterval, from_builder, modes, update
-from vibupdate.inverse.correlation import model_frequencies, sensitivity
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.data_map import sensitivity
 from vibupdate.inverse.minimum_change import DATA_TOL, minimum_change
 
 N_STOREYS = 8

@@ -8,7 +8,8 @@ import pytest
 
 from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval, antiresonances, modes
-from vibupdate.inverse.correlation import describe_direction, model_frequencies, sensitivity
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.data_map import describe_direction, sensitivity
 from vibupdate.ranges.identifiability import parameter_ranges
 from vibupdate.modal.sensitivities import antiresonance_derivatives, frequency_derivatives, shape_ratio_derivatives
 from vibupdate.inverse.status import Status
@@ -250,7 +251,7 @@ def test_vector_boxes_that_exclude_the_truth_are_widened():
     unit margins the box of the unmeasured oscillator entry excludes the true vector of
     modes 2 and 4 and the relaxation's lower bound proves it (data stated precise to 0.1 %).
     The update widens the boxes and finds the truth."""
-    from vibupdate.inverse.formulation import FormulationOptions
+    from vibupdate.inverse.formulation.options import FormulationOptions
     from vibupdate.inverse.update import prepare
     from vibupdate.inverse.verify import VerifyOptions
 

@@ -101,7 +101,7 @@ def test_an_answer_s_cannot_hold_leaves_every_range_unflagged_with_the_reason():
 
 
 def test_a_vector_at_a_node_of_its_normalization_entry_or_needing_a_huge_box_is_not_held():
-    from vibupdate.inverse.formulation import VectorBlock
+    from vibupdate.inverse.formulation.blocks import VectorBlock
     from vibupdate.ranges.inclusion import GROWTH_LIMIT, NODE_FRACTION, _widen_box
 
     n = 3

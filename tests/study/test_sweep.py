@@ -18,7 +18,7 @@ from sweep_cases import TRUTH, write_chain_case
 from vibupdate import Assembly, Configuration, NaturalFrequency, Parameter, from_builder, modes
 from vibupdate.io.case import Case, load_case
 from vibupdate.cli import main
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
 from vibupdate.study.sweep import RUN_COLUMNS, read_rows, run_sweep

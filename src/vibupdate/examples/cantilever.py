@@ -16,7 +16,7 @@ from functools import lru_cache
 
 from vibupdate.model.assembly import Assembly, System
 from vibupdate.io.case import Case, DampingOptions
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.examples import read_table
 from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency

@@ -33,7 +33,7 @@ import numpy as np
 from vibupdate.model.assembly import Assembly, System
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.examples import read_table
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.data.measured import Configuration, NaturalFrequency, ShapeInterval
 from vibupdate.model.build import from_builder

@@ -5,6 +5,9 @@ frequency of mode ``m`` is compared with the model's ``m``-th flexible mode (rig
 at 0 rad/s, are not counted), the measured
 antiresonance ``j`` of ``h_rc`` with the model's ``j``-th zero of ``h_rc``; never by nearness.
 Where the model has no such zero the paired value is NaN.
+
+The same pairing as a vector of data with its exact Jacobian, for the polish, the sensitivity
+and the ranges: `vibupdate.inverse.data_map`.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes
 from vibupdate.data.measured import TWO_PI, Configuration
 
-__all__ = ["ModelFrequencies", "model_frequencies", "frequency_rows", "percent_error", "shape_mac"]
+__all__ = ["ModelFrequencies", "model_frequencies", "declared_zeros", "frequency_rows", "percent_error", "shape_mac"]
 
 
 @dataclass(frozen=True)
@@ -83,7 +86,7 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data by the
     declared modes and zero indices. ``zeros=False`` skips the antiresonances (NaN, and
     ``zeros_all`` empty): for callers that take them with their derivatives from
-    `zero_derivatives`, which solves the same adjunct eigenproblem. ``derivatives=True`` takes
+    `declared_zeros`, which solves the same adjunct eigenproblem. ``derivatives=True`` takes
     the zeros from that solve and keeps their derivatives (``zero_derivatives``): one adjunct
     eigen-solve per receptance for both."""
     from vibupdate.modal.analysis import DENSE_LIMIT
@@ -108,7 +111,7 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     slopes = None
     zeros_all = {}
     if derivatives:
-        paired, slopes, zeros_all = _zeros_with_derivatives(cfg, xbar, M, K)
+        paired, slopes, zeros_all, _ = declared_zeros(cfg, xbar, M, K)
     for rc in (cfg.receptances() if zeros and not derivatives else ()):
         model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
                                  n_zeros=zeros_wanted(cfg, rc))
@@ -163,131 +166,39 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
     return rows
 
 
-def relative_sensitivity(cfg: Configuration, xbar, freqs: ModelFrequencies | None = None) -> np.ndarray:
-    """Exact relative sensitivity of one configuration's measured frequencies.
+def declared_zeros(cfg: Configuration, xbar, M, K):
+    """The declared zeros of ``cfg`` at ``xbar`` with their exact derivatives: one adjunct
+    eigen-solve per receptance for both (`vibupdate.modal.sensitivities`).
 
-    Rows: ``(d w / d xbar) / w`` of every measured natural frequency (declared mode), then of
-    every measured antiresonance (declared zero), analytic (`vibupdate.modal.sensitivities`).
-
-    Returns
-    -------
-    ndarray, shape (n_p + n_z, n_x)
-        NaN rows where the model lacks the declared zero.
-    """
-    from vibupdate.modal.sensitivities import frequency_derivatives
-
-    xbar = np.asarray(xbar, dtype=float)
-    model = cfg.model
-    freqs = freqs or model_frequencies(cfg, xbar, zeros=False)
-    if freqs.zero_derivatives is not None:
-        z, D = freqs.antiresonances, freqs.zero_derivatives
-    else:
-        z, D = zero_derivatives(cfg, xbar)
-    return np.vstack([frequency_derivatives(model, freqs.natural, freqs.Phi) / freqs.natural[:, None],
-                      D / z[:, None]])
-
-
-def zero_derivatives(cfg: Configuration, xbar) -> tuple[np.ndarray, np.ndarray]:
-    """The declared zeros of ``cfg`` at ``xbar`` and their exact derivatives (one adjunct
-    eigen-solve per receptance).
+    Parameters
+    ----------
+    M, K : sparse matrix, shape (n, n)
+        ``cfg.model.matrices(xbar)``.
 
     Returns
     -------
-    z : ndarray, shape (n_z,)
+    values : ndarray, shape (n_z,)
         rad/s, paired with ``cfg.antiresonances``; NaN where the model lacks the zero.
     D : ndarray, shape (n_z, n_x)
-        ``d z / d xbar``, rad/s per unit of normalized parameter; NaN rows likewise.
+        ``d values / d xbar``, rad/s per unit of normalized parameter; NaN rows likewise.
+    zeros_all : dict of (str, str) to ndarray
+        Every computed zero of each receptance (``zeros_all`` of `ModelFrequencies`).
+    pairs : list of tuple
+        Per receptance of ``cfg.receptances()``, its `adjunct_eigenpairs` (squared zeros, right
+        and left vectors).
     """
-    values, out, _ = _zeros_with_derivatives(cfg, xbar, *cfg.model.matrices(xbar))
-    return values, out
-
-
-def _zeros_with_derivatives(cfg: Configuration, xbar, M, K):
-    """`zero_derivatives` at the matrices ``M, K`` of ``cfg.model`` at ``xbar``, and every
-    computed zero of each receptance (``zeros_all`` of `ModelFrequencies`)."""
     from vibupdate.modal.sensitivities import adjunct_eigenpairs, antiresonance_derivatives
 
     model = cfg.model
     values = np.full(len(cfg.antiresonances), np.nan)
     out = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
-    zeros_all = {}
+    zeros_all, pairs = {}, []
     for rc in cfg.receptances():
         r, c = model.dof(rc[0]), model.dof(rc[1])
-        pairs = adjunct_eigenpairs(M, K, r, c, zeros_wanted(cfg, rc))
-        z, D = antiresonance_derivatives(model, xbar, r, c, pairs=pairs)
+        pairs.append(adjunct_eigenpairs(M, K, r, c, zeros_wanted(cfg, rc)))
+        z, D = antiresonance_derivatives(model, xbar, r, c, pairs=pairs[-1])
         zeros_all[rc] = z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= z.size:
                 values[i], out[i] = z[a.index - 1], D[a.index - 1]
-    return values, out, zeros_all
-
-
-def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8,
-                freqs: Sequence[ModelFrequencies] | None = None) -> dict:
-    """Sensitivity of the measured data to the normalized parameters.
-
-    ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
-    antiresonance (`relative_sensitivity`), then ``d (phi_j / phi_p) / d xbar_i`` of every
-    measured shape entry normalized at the mode's largest measured entry ``p``; all exact. Its singular values tell how many parameter
-    combinations the data determine; the right singular vectors of the (near-)zero singular
-    values are the combinations the data cannot see.
-
-    Parameters
-    ----------
-    rtol : float
-        Singular values below ``rtol`` times the largest count as zero (the derivatives are
-        exact, so an exact symmetry gives values at rounding level, ~1e-15).
-    freqs : sequence of ModelFrequencies, optional
-        `model_frequencies` of each configuration at ``xbar``, when already computed.
-
-    Returns
-    -------
-    dict
-        ``matrix`` (n_data, n_x), ``singular_values``, ``condition``, ``rank``,
-        ``column_norm`` per parameter and ``null_directions`` (n_x - rank, n_x), each a unit
-        combination of normalized parameters that leaves every measured frequency unchanged
-        to first order.
-    """
-    xbar = np.asarray(xbar, dtype=float)
-    freqs = list(freqs) if freqs is not None else [model_frequencies(c, xbar, zeros=False) for c in configurations]
-    S = np.vstack([relative_sensitivity(c, xbar, f) for c, f in zip(configurations, freqs)]
-                  + [_shape_rows(c, xbar, f) for c, f in zip(configurations, freqs)])
-    S = S[np.all(np.isfinite(S), axis=1)]
-    n_x = xbar.size
-    if S.size:
-        _, sv, Vt = np.linalg.svd(S)   # full_matrices: Vt is n_x x n_x, its last rows span the null space
-    else:
-        sv, Vt = np.array([]), np.eye(n_x)
-    rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
-    null = Vt[rank:]
-    null = null * np.sign(null[np.arange(null.shape[0]), np.argmax(np.abs(null), axis=1)])[:, None]
-    return {
-        "matrix": S,
-        "singular_values": sv,
-        "condition": float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and sv.size >= n_x else float("inf"),
-        "rank": rank,
-        "column_norm": np.linalg.norm(S, axis=0),
-        "null_directions": null,
-    }
-
-
-def _shape_rows(cfg: Configuration, xbar, freqs: ModelFrequencies | None = None) -> np.ndarray:
-    """Exact derivatives of the measured shape ratios, shape (n_ratios, n_x)."""
-    from vibupdate.modal.sensitivities import shape_ratio_derivatives
-
-    rows = [np.zeros((0, cfg.model.n_parameters))]
-    measured = [(k, f) for k, f in enumerate(cfg.natural) if f.shape is not None and len(f.shape.bounds) > 1]
-    if not measured:
-        return rows[0]
-    freqs = freqs or model_frequencies(cfg, xbar)
-    for k, f in measured:
-        idx = [cfg.model.dof(d) for d in f.shape.ratio_bounds()]
-        rows.append(shape_ratio_derivatives(cfg.model, xbar, freqs.natural[k], freqs.Phi[:, k], idx,
-                                            cfg.model.dof(f.shape.reference)))
-    return np.vstack(rows)
-
-
-def describe_direction(names, v, *, threshold: float = 0.05) -> str:
-    """A null direction as text, e.g. ``+0.58 rho +0.58 E -0.58 m1`` (normalized units)."""
-    terms = [(abs(c), f"{c:+.2f} {n}") for n, c in zip(names, v) if abs(c) >= threshold]
-    return " ".join(t for _, t in sorted(terms, reverse=True)) or "(none)"
+    return values, out, zeros_all, pairs

@@ -37,7 +37,7 @@ import numpy as np
 from vibupdate.data.measured import Configuration, ShapeInterval
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.homotopy import SolverOptions
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.polish import PolishOptions, polish as run_polish, polish_residuals
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update

@@ -27,7 +27,7 @@ import numpy as np
 
 from vibupdate.options import check, default
 from vibupdate.inverse.backends import BACKENDS, StepOutcome, build
-from vibupdate.inverse.formulation import BilinearProblem
+from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
 

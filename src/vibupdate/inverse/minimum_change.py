@@ -13,7 +13,7 @@ and zero relative to its measured value, and every measured shape ratio (the res
 `vibupdate.inverse.polish.polish_residuals` with ``shape_target="midpoint"``, which differ
 from ``g`` by constants and fixed weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
 (singular values above ``RANK_RTOL`` of the largest, the threshold of the reported
-sensitivity, `vibupdate.inverse.correlation.sensitivity`), below the number of parameters.
+sensitivity, `vibupdate.inverse.data_map.sensitivity`), below the number of parameters.
 The answer is
 
     min ||x||^2   over   { x in the box : g(x) = g(x*) },
@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vibupdate.data.measured import Configuration
+from vibupdate.inverse.data_map import measured_shapes
 
 __all__ = ["MinimumChange", "minimum_change", "valley_points", "numerical_rank", "RANK_RTOL", "DATA_TOL",
            "VALLEY_STEPS"]
@@ -109,16 +110,13 @@ def _data(configurations, x, shape_weight):
 def _weights(configurations: Sequence[Configuration], shape_weight: float) -> np.ndarray:
     """Per residual row of `_data`, the factor that turns it into a datum change: the inverse
     of a frequency's ``sqrt(weight)``, of ``shape_weight`` for a shape ratio (the rows of
-    `vibupdate.inverse.polish.polish_residuals`, configuration by configuration)."""
-    from vibupdate.inverse.polish import _shape_terms
-
+    `vibupdate.inverse.polish.polish_residuals`, configuration by configuration, in the order of
+    `vibupdate.inverse.data_map`)."""
     out = []
     for cfg in configurations:
-        out += [1 / np.sqrt(f.weight) for f in cfg.natural]
-        for rc in cfg.receptances():
-            out += [1 / np.sqrt(a.weight) for a in cfg.antiresonances if a.receptance == rc]
+        out += [1 / np.sqrt(d.weight) for d in (*cfg.natural, *cfg.antiresonances)]
         if shape_weight > 0:
-            out += [1 / shape_weight] * sum(term[2].size for term in _shape_terms(cfg))
+            out += [1 / shape_weight] * sum(s.entries.size for s in measured_shapes(cfg))
     return np.array(out)
 
 

@@ -12,8 +12,8 @@ where ``w_model,k`` is the model's *declared* mode or zero (`vibupdate.data.pair
 correspondence is enforced rather than hoped for, and ``d_s`` is how far the model's shape
 ratio ``phi_j / phi_p`` (``p`` the entry of largest measured magnitude) lies outside its
 measured interval (zero inside): the intervals act as penalties of weight ``gamma``.
-The Jacobian is exact (`vibupdate.modal.sensitivities`); one eigen-solve per evaluation serves
-residual and Jacobian. The refined point is kept only where it lowers this objective; both
+The model's values and their exact Jacobian come from the data map
+(`vibupdate.inverse.data_map`); one eigen-solve per evaluation serves residual and Jacobian. The refined point is kept only where it lowers this objective; both
 points are recorded.
 
 Measured on test case 2 (the cantilever, 16 frequencies): the homotopy alone gives 0.574 %
@@ -75,11 +75,9 @@ import numpy as np
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import (STALL_DECREASE, Monitor, Stop, bounded_least_squares, inside,
                                            stall_window)
-from vibupdate.inverse.correlation import zeros_wanted, model_frequencies
+from vibupdate.inverse.data_map import data_map, measured_shapes
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
-from vibupdate.modal.sensitivities import (adjunct_eigenpairs, antiresonance_derivatives, frequency_derivatives,
-                                          shape_ratio_derivatives)
 
 #: Evaluations of a reduced model in one round, at most (each a dense solve of ~100 DOFs).
 REDUCED_EVALUATIONS = 200
@@ -207,19 +205,6 @@ class PolishResult:
                 "stopped_on": self.stopped_on, "budget": self.budget}
 
 
-def _shape_terms(cfg: Configuration):
-    """Per measured shape: (k, reference DOF, entry DOFs, lower, upper) of the ratios."""
-    out = []
-    for k, f in enumerate(cfg.natural):
-        if f.shape is None or len(f.shape.bounds) < 2:
-            continue
-        ratios = f.shape.ratio_bounds()
-        idx = np.array([cfg.model.dof(d) for d in ratios])
-        lo, hi = np.array(list(ratios.values())).T
-        out.append((k, cfg.model.dof(f.shape.reference), idx, lo, hi))
-    return out
-
-
 def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight: float = 100.0,
                      jacobian: bool = True, shape_target: str = "interval", basis: list | None = None):
     """Residuals of the polish objective (module docstring) and their exact Jacobian.
@@ -228,68 +213,43 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
     signed difference from the interval's midpoint: the residual of the classical
     eigenvector-difference fit (`vibupdate.inverse.baseline.eigenvector_fit`).
     ``basis``, a list (with ``jacobian``), receives per configuration the vectors the
-    evaluation computed, shape (n, n_v): the modes, the shape-ratio derivative solutions and
-    the adjunct vectors of the zeros (right and left, zero at the removed entry): the basis of
-    the reduced rounds (module docstring).
+    evaluation computed, shape (n, n_v): the modes, the adjunct vectors of the zeros (right and
+    left, zero at the removed entry) and the shape-ratio derivative solutions
+    (`vibupdate.inverse.data_map.DataMap.vectors`): the basis of the reduced rounds (module
+    docstring).
 
     Returns
     -------
     r : ndarray, shape (n_r,)
+        Per configuration, in the order of the data map (`vibupdate.inverse.data_map`): the
+        weighted relative errors of the natural frequencies and zeros, then the shape terms.
     J : ndarray, shape (n_r, n_x), or None without ``jacobian``
     """
     if shape_target not in ("interval", "midpoint"):
         raise ValueError(f"shape_target must be 'interval' or 'midpoint', got {shape_target!r}")
-    xbar = np.asarray(xbar, dtype=float)
     res, jac = [], []
     for cfg in configurations:
-        model = cfg.model
-        freqs = model_frequencies(cfg, xbar, zeros=not jacobian)   # with a Jacobian, zeros come with it
-        vectors = [freqs.Phi_all, freqs.rigid] if basis is not None and jacobian else None
-        w_meas = np.array([f.omega for f in cfg.natural])
-        sw = np.sqrt([f.weight for f in cfg.natural])
-        if w_meas.size:
-            res.append(sw * (freqs.natural - w_meas) / w_meas)
-            if jacobian:
-                jac.append(sw[:, None] * frequency_derivatives(model, freqs.natural, freqs.Phi) / w_meas[:, None])
-        for rc in cfg.receptances():
-            mine = [i for i, a in enumerate(cfg.antiresonances) if a.receptance == rc]
-            if jacobian:
-                r_dof, c_dof = model.dof(rc[0]), model.dof(rc[1])
-                pairs = adjunct_eigenpairs(*model.matrices(xbar), r_dof, c_dof, zeros_wanted(cfg, rc))
-                z, D = antiresonance_derivatives(model, xbar, r_dof, c_dof, pairs=pairs)
-                if vectors is not None:
-                    vectors += [np.insert(pairs[1], r_dof, 0.0, axis=0), np.insert(pairs[2], c_dof, 0.0, axis=0)]
+        want_vectors = basis is not None and jacobian
+        d = data_map(cfg, xbar, jacobian=jacobian, shapes=shape_weight > 0, vectors=want_vectors)
+        measured = (*cfg.natural, *cfg.antiresonances)
+        w = np.array([m.omega for m in measured])
+        s = np.sqrt([m.weight for m in measured])
+        lost = np.isnan(d.frequency_values)   # a zero the model lost: a constant penalty, no direction to follow
+        res.append(np.where(lost, s, s * (d.frequency_values - w) / w))
+        if jacobian:
+            jac.append(np.where(lost[:, None], 0.0, s[:, None] * d.frequency_jacobian / w[:, None]))
+        for k, (shape, ratio) in enumerate(zip(d.shapes, d.ratios)):
+            if shape_target == "midpoint":
+                res.append(shape_weight * (ratio - shape.midpoint))
+                sign = np.ones(ratio.size)
             else:
-                z, D = freqs.zeros_all[rc], None
-            for i in mine:
-                a = cfg.antiresonances[i]
-                s = np.sqrt(a.weight)
-                if a.index <= z.size:
-                    res.append(np.array([s * (z[a.index - 1] - a.omega) / a.omega]))
-                    if jacobian:
-                        jac.append(s * D[a.index - 1][None, :] / a.omega)
-                else:  # the model lost this zero: a constant penalty, no direction to follow
-                    res.append(np.array([s]))
-                    if jacobian:
-                        jac.append(np.zeros((1, model.n_parameters)))
-        if shape_weight > 0:
-            for k, p, idx, lo, hi in _shape_terms(cfg):
-                phi = freqs.Phi[:, k]
-                ratio = phi[idx] / phi[p]
-                if shape_target == "midpoint":
-                    res.append(shape_weight * (ratio - 0.5 * (lo + hi)))
-                    sign = np.ones(ratio.size)
-                else:
-                    below, above = np.maximum(lo - ratio, 0), np.maximum(ratio - hi, 0)
-                    res.append(shape_weight * (below + above))
-                    sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
-                if jacobian:
-                    dr, V = shape_ratio_derivatives(model, xbar, freqs.natural[k], phi, idx, p, vectors=True)
-                    jac.append(shape_weight * sign[:, None] * dr)
-                    if vectors is not None:
-                        vectors.append(V)
-        if vectors is not None:
-            basis.append(np.hstack(vectors))
+                below, above = np.maximum(shape.lower - ratio, 0), np.maximum(ratio - shape.upper, 0)
+                res.append(shape_weight * (below + above))
+                sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
+            if jacobian:
+                jac.append(shape_weight * sign[:, None] * d.ratio_jacobians[k])
+        if want_vectors:
+            basis.append(np.hstack(d.vectors))
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
 
@@ -439,7 +399,7 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
 
 def _has_intervals(configurations) -> bool:
     """Whether any measured shape ratio has an interval of nonzero width."""
-    return any(np.any(hi > lo) for cfg in configurations for *_, lo, hi in _shape_terms(cfg))
+    return any(np.any(s.upper > s.lower) for cfg in configurations for s in measured_shapes(cfg))
 
 
 def _full_model(configurations: list, x, known, options: PolishOptions, tols: dict, budget: int, evaluations: int,

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.inverse.formulation import BilinearProblem
+from vibupdate.inverse.formulation.problem import BilinearProblem
 
 __all__ = ["McCormick", "mccormick", "homotopy_residual", "lifted_values"]
 

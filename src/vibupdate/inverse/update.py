@@ -33,8 +33,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.inverse.correlation import frequency_rows, model_frequencies, sensitivity, shape_mac
-from vibupdate.inverse.formulation import BilinearProblem, FormulationOptions, formulate
+from vibupdate.inverse.correlation import frequency_rows, model_frequencies, shape_mac
+from vibupdate.inverse.data_map import sensitivity
+from vibupdate.inverse.formulation import formulate
+from vibupdate.inverse.formulation.options import FormulationOptions
+from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.inverse.minimum_change import MinimumChange, minimum_change
@@ -84,7 +87,7 @@ class UpdateResult:
     seconds : float
     sensitivity : dict
         Singular values, condition number, rank and null directions of the exact relative
-        frequency sensitivity at the answer (`vibupdate.inverse.correlation.sensitivity`).
+        frequency sensitivity at the answer (`vibupdate.inverse.data_map.sensitivity`).
     checks : tuple of Check
         Verification of the returned model (`vibupdate.inverse.verify`); empty when the path failed.
     warnings : tuple of str

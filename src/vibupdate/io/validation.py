@@ -48,7 +48,7 @@ class CaseCheck:
     Attributes
     ----------
     sizes : dict
-        Problem size (`vibupdate.inverse.formulation.BilinearProblem.sizes`).
+        Problem size (`vibupdate.inverse.formulation.problem.BilinearProblem.sizes`).
     notes : tuple of str
         Facts worth printing: rigid-body modes, massless DOFs, what was checked.
     warnings : tuple of str

@@ -45,7 +45,7 @@ import numpy as np
 
 from vibupdate._extras import require
 from vibupdate.data.measured import Configuration
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent
 from vibupdate.ranges.inclusion import Inclusion

@@ -43,7 +43,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from vibupdate.inverse.correlation import model_frequencies
-from vibupdate.inverse.formulation import FormulationOptions, VectorBlock, formulate
+from vibupdate.inverse.formulation import formulate
+from vibupdate.inverse.formulation.blocks import VectorBlock
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.data.measured import Configuration
 from vibupdate.ranges.inclusion import Inclusion, widen

@@ -3,8 +3,9 @@
 The first stage returns *a* parameter set whose model fits the measured frequencies and lies
 inside the mode-shape intervals. When other parameter sets fit as well, the answer is one of
 many; this module measures how many. Around the answer ``xbar_hat``, with the data map
-``d(xbar)`` (natural frequencies, antiresonances, measured mode-shape entries normalized at
-the reference entry of each mode) linearized as ``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
+``d(xbar)`` (natural frequencies, antiresonances, measured mode-shape ratios to the reference
+entry of each mode: `vibupdate.inverse.data_map`) linearized as
+``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
 the *consistent set* is the set of ``xbar`` within the bounds such that
 
 * every measured mode-shape entry stays inside its interval,
@@ -36,12 +37,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from vibupdate.inverse.correlation import model_frequencies, zero_derivatives
+from vibupdate.inverse.data_map import data_jacobian, measured_shapes
 from vibupdate.inverse.minimum_change import numerical_rank, valley_points
 from vibupdate.modal.analysis import DENSE_LIMIT
 from vibupdate.data.measured import Configuration
 
-__all__ = ["ParameterRanges", "parameter_ranges", "data_jacobian", "NULL_COMPONENT"]
+__all__ = ["ParameterRanges", "parameter_ranges", "NULL_COMPONENT"]
 
 #: Models up to this many DOFs (those solved densely) have their ranges widened by the points
 #: of the valley of answers with the same data (`vibupdate.inverse.minimum_change.valley_points`,
@@ -84,78 +85,22 @@ class ParameterRanges:
                 for n, lo, hi, w in zip(self.names, self.lower, self.upper, self.width_pct)}
 
 
-def _reference_entries(cfg: Configuration) -> list[tuple[list[str], str] | None]:
-    refs = []
-    for f in cfg.natural:
-        if f.shape is None:
-            refs.append(None)
-            continue
-        refs.append((list(f.shape.bounds), f.shape.reference))
-    return refs
-
-
-def _data(configurations, xbar, refs, jacobian: bool = False):
-    from vibupdate.modal.sensitivities import frequency_derivatives, shape_ratio_derivatives
-
-    out, jac = [], []
-    for cfg, cfg_refs in zip(configurations, refs):
-        model = cfg.model
-        f = model_frequencies(cfg, xbar, zeros=not jacobian)
-        if jacobian:
-            z, Dz = zero_derivatives(cfg, xbar)
-            out += [f.natural, z]
-            jac += [frequency_derivatives(model, f.natural, f.Phi), Dz]
-        else:
-            out += [f.natural, f.antiresonances]
-        for k, ref in enumerate(cfg_refs):
-            if ref is None:
-                continue
-            dofs, r = ref
-            idx = [model.dof(d) for d in dofs]
-            p = model.dof(r)
-            out.append(f.Phi[idx, k] / f.Phi[p, k])
-            if jacobian:
-                jac.append(shape_ratio_derivatives(model, xbar, f.natural[k], f.Phi[:, k], idx, p))
-    d = np.concatenate(out)
-    return (d, np.vstack(jac)) if jacobian else d
-
-
-def _measured(configurations, refs, frequency_tolerance):
-    """Measured data, their half-widths, and a mask of the frequency rows."""
+def _measured(configurations, frequency_tolerance):
+    """Measured data in the order of the data map (`vibupdate.inverse.data_map`), their
+    half-widths, and a mask of the frequency rows."""
     values, half, is_freq = [], [], []
-    for cfg, cfg_refs in zip(configurations, refs):
+    for cfg in configurations:
         data = list(cfg.natural) + list(cfg.antiresonances)
         w = np.array([d.omega for d in data])
         values.append(w)
         half.append(np.array([frequency_tolerance * d.omega if d.interval is None
                               else 0.5 * (d.interval[1] - d.interval[0]) for d in data]))
         is_freq.append(np.ones(w.size, dtype=bool))
-        for f, ref in zip(cfg.natural, cfg_refs):
-            if ref is None:
-                continue
-            dofs, r = ref
-            mid = f.shape.midpoint
-            scale = mid[r]
-            values.append(np.array([mid[d] for d in dofs]) / scale)
-            half.append(np.array([0.5 * (f.shape.bounds[d][1] - f.shape.bounds[d][0]) for d in dofs]) / abs(scale))
-            is_freq.append(np.zeros(len(dofs), dtype=bool))
+        for shape in measured_shapes(cfg):
+            values.append(shape.midpoint)
+            half.append(shape.half_width)
+            is_freq.append(np.zeros(shape.entries.size, dtype=bool))
     return np.concatenate(values), np.concatenate(half), np.concatenate(is_freq)
-
-
-def data_jacobian(configurations: Sequence[Configuration], xbar):
-    """Data map and its exact Jacobian at ``xbar``.
-
-    Returns
-    -------
-    d : ndarray, shape (n_data,)
-        Frequencies (rad/s) then measured shape entries (normalized at each mode's largest
-        measured entry), per configuration.
-    G : ndarray, shape (n_data, n_x)
-        ``d d / d xbar`` (analytic).
-    """
-    configurations = list(configurations)
-    refs = [_reference_entries(c) for c in configurations]
-    return _data(configurations, np.asarray(xbar, dtype=float), refs, jacobian=True)
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
@@ -187,9 +132,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         raise ValueError(f"method must be 'linearized' or 'certified', got {method!r}")
     configurations = list(configurations)
     model = configurations[0].model
-    refs = [_reference_entries(c) for c in configurations]
     d_hat, G = data_jacobian(configurations, xbar)
-    d_meas, half, is_freq = _measured(configurations, refs, frequency_tolerance)
+    d_meas, half, is_freq = _measured(configurations, frequency_tolerance)
     misfit = d_hat - d_meas
     # Frequencies: a window centred on the answer; shapes: the measured intervals (widened to
     # hold the answer). Either way |offset + G dx| <= half.

@@ -46,7 +46,7 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import model_frequencies, zeros_wanted
-from vibupdate.inverse.formulation import VectorBlock
+from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.update import MAX_WIDENINGS
 
 __all__ = ["Inclusion", "widen", "paired_vectors", "WINDOW_MARGIN", "BOX_MARGIN", "GROWTH_LIMIT", "NODE_FRACTION",

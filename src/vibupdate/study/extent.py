@@ -8,7 +8,7 @@ a random point of the box, and that point is the mean of the start's coordinates
 line, so it is rarely near the ends. The sampled range then stops short of what the data allow.
 
 Here, at a verified answer ``xbar`` of a sample, the exact sensitivity of the measured data
-(`vibupdate.inverse.correlation.sensitivity`) gives its null directions ``v`` (right singular
+(`vibupdate.inverse.data_map.sensitivity`) gives its null directions ``v`` (right singular
 vectors of singular values below ``1e-8`` of the largest). Along each, in both senses, the
 point ``xbar + t v`` is tried at the box boundary ``t = t_max`` first; when that point is
 not acceptable, the largest acceptable ``t`` is found by bisection on ``[0, t_max]``
@@ -147,7 +147,7 @@ def walk_null_directions(configurations, xbar, acceptable: Callable[[np.ndarray]
         ``acceptable(xbar) -> bool`` for a point of shape (n_x,).
     rtol : float
         Singular values below ``rtol`` times the largest count as zero
-        (`vibupdate.inverse.correlation.sensitivity`).
+        (`vibupdate.inverse.data_map.sensitivity`).
     freqs : sequence of ModelFrequencies, optional
         `model_frequencies` of each configuration at ``xbar``, when already computed.
 
@@ -157,7 +157,7 @@ def walk_null_directions(configurations, xbar, acceptable: Callable[[np.ndarray]
         The ends that lie beyond the answer (``distance > 0``); none when the sensitivity has
         full rank.
     """
-    from vibupdate.inverse.correlation import sensitivity
+    from vibupdate.inverse.data_map import sensitivity
 
     x = np.asarray(xbar, dtype=float)
     lower, upper = configurations[0].model.bounds()

@@ -45,7 +45,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.inverse.backends import StepOutcome
-from vibupdate.inverse.formulation import BilinearProblem
+from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.interrupt import watch_sigint
 from vibupdate.inverse.relaxation import McCormick
 from vibupdate.inverse.status import Status

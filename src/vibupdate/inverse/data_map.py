@@ -1,0 +1,262 @@
+"""The measured-data map: the model's value of every measured quantity, and its exact Jacobian.
+
+A configuration measures three kinds of quantity: the natural frequencies of its declared
+modes, the declared antiresonances of its receptances (`vibupdate.data.pairing`), and the shape
+ratios ``phi_j / phi_p`` of each measured mode at its measured DOFs, ``p`` the entry of largest
+measured magnitude (`vibupdate.data.measured.ShapeInterval.reference`). As functions of the
+normalized parameters they are the data map ``d(xbar)``; with its exact Jacobian
+``G = d d / d xbar`` (`vibupdate.modal.sensitivities`) it is what the polish fits
+(`vibupdate.inverse.polish.polish_residuals`), what the sensitivity reports (`sensitivity`) and
+what the linearized ranges bound (`vibupdate.ranges.identifiability`).
+
+It is evaluated here and nowhere else, so that those three agree on which model value is
+paired with which datum, in which order, and from which solves: one eigen-solve for the modes
+(`vibupdate.inverse.correlation.model_frequencies`), one adjunct eigen-solve per receptance for
+the zeros and their derivatives together, one factorization per measured shape for its ratio
+derivatives (kept on large models for the next caller at the same point).
+
+Order of one configuration's data: the natural frequencies as declared, the antiresonances as
+declared, then the shape ratios mode by mode in the order of the measured DOFs, without the
+reference entry (its ratio is 1 at every point and carries no information).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.data.measured import Configuration
+from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, model_frequencies
+from vibupdate.modal.sensitivities import frequency_derivatives, shape_ratio_derivatives
+
+__all__ = ["MeasuredShape", "measured_shapes", "DataMap", "data_map", "data_jacobian", "sensitivity",
+           "describe_direction"]
+
+
+@dataclass(frozen=True)
+class MeasuredShape:
+    """A measured mode shape as ratios to its reference entry.
+
+    Attributes
+    ----------
+    position : int
+        Of the mode in ``Configuration.natural`` (0-based).
+    reference : int
+        DOF index ``p`` of the denominator.
+    entries : ndarray of int, shape (n_e,)
+        DOF indices ``j`` of the ratios: the other measured DOFs, in their measured order.
+    lower, upper : ndarray, shape (n_e,)
+        Measured interval of each ratio (`vibupdate.data.measured.ShapeInterval.ratio_bounds`).
+    """
+
+    position: int
+    reference: int
+    entries: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @property
+    def midpoint(self) -> np.ndarray:
+        return 0.5 * (self.lower + self.upper)
+
+    @property
+    def half_width(self) -> np.ndarray:
+        return 0.5 * (self.upper - self.lower)
+
+
+def measured_shapes(cfg: Configuration) -> list[MeasuredShape]:
+    """The measured shapes of ``cfg`` that give a ratio (two measured DOFs or more), in the order
+    of ``cfg.natural``."""
+    out = []
+    for k, f in enumerate(cfg.natural):
+        if f.shape is None or len(f.shape.bounds) < 2:
+            continue
+        ratios = f.shape.ratio_bounds()
+        lower, upper = np.array(list(ratios.values())).T
+        out.append(MeasuredShape(k, cfg.model.dof(f.shape.reference), np.array([cfg.model.dof(d) for d in ratios]),
+                                 lower, upper))
+    return out
+
+
+@dataclass(frozen=True)
+class DataMap:
+    """One configuration's measured quantities as the model gives them at one point.
+
+    Attributes
+    ----------
+    natural : ndarray, shape (n_p,)
+        rad/s, the declared modes of ``Configuration.natural``.
+    zeros : ndarray, shape (n_z,)
+        rad/s, the declared zeros of ``Configuration.antiresonances``; NaN where the model
+        lacks the zero.
+    shapes : tuple of MeasuredShape
+        The measured shapes the ratios belong to (`measured_shapes`); empty when not asked for.
+    ratios : tuple of ndarray
+        Per shape, ``phi[entries] / phi[reference]`` of the paired model mode, shape (n_e,).
+    frequencies : ModelFrequencies
+        The eigen-solution the values come from.
+    natural_jacobian : ndarray, shape (n_p, n_x), or None
+        ``d natural / d xbar``, rad/s per unit of normalized parameter; None without a Jacobian.
+    zero_jacobian : ndarray, shape (n_z, n_x), or None
+        ``d zeros / d xbar``, NaN rows where the model lacks the zero.
+    ratio_jacobians : tuple of ndarray
+        Per shape, ``d ratios / d xbar``, shape (n_e, n_x); empty without a Jacobian.
+    vectors : tuple of ndarray
+        With ``vectors=True``: the vectors the evaluation computed, each shape (n, .): every
+        computed flexible mode, the rigid-body modes, per receptance the right and left
+        adjunct vectors (zero at the removed entry), per shape the ratio-derivative solutions
+        (`vibupdate.modal.sensitivities.shape_ratio_derivatives`). They span the reduced model
+        of the polish's rounds.
+    """
+
+    natural: np.ndarray
+    zeros: np.ndarray
+    shapes: tuple[MeasuredShape, ...]
+    ratios: tuple[np.ndarray, ...]
+    frequencies: ModelFrequencies
+    natural_jacobian: np.ndarray | None = None
+    zero_jacobian: np.ndarray | None = None
+    ratio_jacobians: tuple[np.ndarray, ...] = ()
+    vectors: tuple[np.ndarray, ...] = ()
+
+    @property
+    def frequency_values(self) -> np.ndarray:
+        """The natural frequencies, then the zeros, shape (n_p + n_z,), rad/s."""
+        return np.concatenate([self.natural, self.zeros])
+
+    @property
+    def frequency_jacobian(self) -> np.ndarray:
+        """Their Jacobian, shape (n_p + n_z, n_x)."""
+        return np.vstack([self.natural_jacobian, self.zero_jacobian])
+
+    def values(self) -> np.ndarray:
+        """Every datum in the module's order, shape (n_data,)."""
+        return np.concatenate([self.natural, self.zeros, *self.ratios])
+
+    def jacobian(self) -> np.ndarray:
+        """``d values / d xbar``, shape (n_data, n_x)."""
+        return np.vstack([self.natural_jacobian, self.zero_jacobian, *self.ratio_jacobians])
+
+
+def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = True, vectors: bool = False,
+             freqs: ModelFrequencies | None = None) -> DataMap:
+    """The measured quantities of ``cfg`` at ``xbar`` and, with ``jacobian``, their exact
+    derivatives.
+
+    Parameters
+    ----------
+    cfg : Configuration
+    xbar : ndarray, shape (n_x,)
+    jacobian : bool
+        Also the derivatives. Without them the zeros come from the antiresonance solver of
+        `vibupdate.modal.analysis`; with them from the adjunct eigen-solve that gives their
+        derivatives too.
+    shapes : bool
+        Also the shape ratios (the polish without shape weight does not need them, nor their
+        factorizations).
+    vectors : bool
+        Keep the vectors the evaluation computed (`DataMap.vectors`); with ``jacobian`` only.
+    freqs : ModelFrequencies, optional
+        `model_frequencies` of ``cfg`` at ``xbar`` when the caller has them; their zeros and
+        zero derivatives are used where present (``derivatives=True``).
+    """
+    xbar = np.asarray(xbar, dtype=float)
+    model = cfg.model
+    freqs = freqs or model_frequencies(cfg, xbar, zeros=not jacobian)   # with a Jacobian, zeros come with it
+    zeros, natural_jacobian, zero_jacobian = freqs.antiresonances, None, None
+    found = [freqs.Phi_all, freqs.rigid] if vectors else []
+    if jacobian:
+        natural_jacobian = frequency_derivatives(model, freqs.natural, freqs.Phi)
+        if freqs.zero_derivatives is not None and not vectors:
+            zero_jacobian = freqs.zero_derivatives
+        else:
+            zeros, zero_jacobian, _, pairs = declared_zeros(cfg, xbar, *model.matrices(xbar))
+            for (r, c), (_, right, left) in zip(cfg.receptances(), pairs if vectors else ()):
+                found += [np.insert(right, model.dof(r), 0.0, axis=0), np.insert(left, model.dof(c), 0.0, axis=0)]
+    measured = tuple(measured_shapes(cfg)) if shapes else ()
+    ratios, ratio_jacobians = [], []
+    for s in measured:
+        phi = freqs.Phi[:, s.position]
+        ratios.append(phi[s.entries] / phi[s.reference])
+        if jacobian:
+            out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
+                                          vectors=vectors)
+            ratio_jacobians.append(out[0] if vectors else out)
+            if vectors:
+                found.append(out[1])
+    return DataMap(freqs.natural, zeros, measured, tuple(ratios), freqs, natural_jacobian, zero_jacobian,
+                   tuple(ratio_jacobians), tuple(found))
+
+
+def data_jacobian(configurations: Sequence[Configuration], xbar):
+    """The data map of every configuration at ``xbar`` and its exact Jacobian, stacked.
+
+    Returns
+    -------
+    d : ndarray, shape (n_data,)
+        Per configuration, in the module's order: frequencies (rad/s), then shape ratios.
+    G : ndarray, shape (n_data, n_x)
+        ``d d / d xbar``.
+    """
+    maps = [data_map(c, xbar) for c in configurations]
+    return np.concatenate([m.values() for m in maps]), np.vstack([m.jacobian() for m in maps])
+
+
+def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8,
+                freqs: Sequence[ModelFrequencies] | None = None) -> dict:
+    """Sensitivity of the measured data to the normalized parameters.
+
+    ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
+    antiresonance of every configuration, then ``d (phi_j / phi_p) / d xbar_i`` of every
+    measured shape ratio (`data_map`); all exact. Its singular values tell how many parameter
+    combinations the data determine; the right singular vectors of the (near-)zero singular
+    values are the combinations the data cannot see.
+
+    Parameters
+    ----------
+    rtol : float
+        Singular values below ``rtol`` times the largest count as zero (the derivatives are
+        exact, so an exact symmetry gives values at rounding level, ~1e-15).
+    freqs : sequence of ModelFrequencies, optional
+        `model_frequencies` of each configuration at ``xbar``, when already computed.
+
+    Returns
+    -------
+    dict
+        ``matrix`` (n_data, n_x), ``singular_values``, ``condition``, ``rank``,
+        ``column_norm`` per parameter and ``null_directions`` (n_x - rank, n_x), each a unit
+        combination of normalized parameters that leaves every measured frequency unchanged
+        to first order; NaN rows (a zero the model lacks) are left out.
+    """
+    xbar = np.asarray(xbar, dtype=float)
+    n_x = xbar.size
+    freqs = list(freqs) if freqs is not None else [None] * len(configurations)
+    maps = [data_map(c, xbar, freqs=f) for c, f in zip(configurations, freqs)]
+    S = np.vstack([m.frequency_jacobian / m.frequency_values[:, None] for m in maps]
+                  + [np.zeros((0, n_x))]   # a block for vstack where nothing was measured
+                  + [D for m in maps for D in m.ratio_jacobians])
+    S = S[np.all(np.isfinite(S), axis=1)]
+    if S.size:
+        _, sv, Vt = np.linalg.svd(S)   # full_matrices: Vt is n_x x n_x, its last rows span the null space
+    else:
+        sv, Vt = np.array([]), np.eye(n_x)
+    rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    null = Vt[rank:]
+    null = null * np.sign(null[np.arange(null.shape[0]), np.argmax(np.abs(null), axis=1)])[:, None]
+    return {
+        "matrix": S,
+        "singular_values": sv,
+        "condition": float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and sv.size >= n_x else float("inf"),
+        "rank": rank,
+        "column_norm": np.linalg.norm(S, axis=0),
+        "null_directions": null,
+    }
+
+
+def describe_direction(names, v, *, threshold: float = 0.05) -> str:
+    """A null direction of `sensitivity` as text, e.g. ``+0.58 rho +0.58 E -0.58 m1``
+    (normalized units)."""
+    terms = [(abs(c), f"{c:+.2f} {n}") for n, c in zip(names, v) if abs(c) >= threshold]
+    return " ".join(t for _, t in sorted(terms, reverse=True)) or "(none)"

@@ -1,0 +1,92 @@
+"""Scaling of the formulation: rotational entries by a characteristic length, residual rows by
+the stiffness diagonal (docs/method.md, section 4, item 3).
+
+Separate because the blocks (their bounds are in scaled coordinates) and the stacking (every
+matrix term is scaled once) both need it, and because it is the one place to change how the
+problem is conditioned.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from vibupdate.inverse.formulation.options import ROTATION_PREFIXES, FormulationOptions
+
+__all__ = ["length_scale", "Scaling", "scaling_of", "ScaledTerms", "scaled_terms"]
+
+
+def length_scale(model, prefixes: Sequence[str] = ROTATION_PREFIXES) -> float:
+    """Characteristic length from the stiffness diagonal: ``sqrt(3 median(K_rot) / median(K_tr))``.
+
+    For a uniform Euler-Bernoulli mesh (``K_yy = 24 EI / l^3``, ``K_phiphi = 8 EI / l``) this
+    is the element length ``l``. Returns 1 when the model has no rotational DOF.
+    """
+    rot = rotation_mask(model.dofs, prefixes)
+    if not rot.any() or rot.all():
+        return 1.0
+    d = np.abs(model.K0.diagonal())
+    kr, kt = np.median(d[rot]), np.median(d[~rot])
+    return float(np.sqrt(3.0 * kr / kt)) if kr > 0 and kt > 0 else 1.0
+
+
+def rotation_mask(dofs, prefixes) -> np.ndarray:
+    """Which of ``dofs`` (names) are rotations, by their prefixes; shape (n,) of bool."""
+    return np.array([d.startswith(tuple(prefixes)) for d in dofs], dtype=bool)
+
+
+@dataclass(frozen=True)
+class Scaling:
+    """Scaling of one model's DOFs.
+
+    Attributes
+    ----------
+    s : ndarray, shape (n,)
+        Physical entry = ``s * scaled entry``, per DOF (``S``).
+    dr : ndarray, shape (n,)
+        Residual row scaling per DOF, ``diag(K0)^(-1/2)`` (``D_r``).
+    """
+
+    s: np.ndarray
+    dr: np.ndarray
+
+
+def scaling_of(model, options: FormulationOptions) -> Scaling:
+    """The `Scaling` of ``model`` under ``options`` (its length scale, or the one from ``K0``)."""
+    lc = options.length_scale or length_scale(model, options.rotation_prefixes)
+    rot = rotation_mask(model.dofs, options.rotation_prefixes)
+    s = np.where(rot, 1.0 / lc, 1.0)
+    kd = np.abs(model.K0.diagonal())
+    kd = np.where(kd > 0, kd, kd.max() if kd.max() > 0 else 1.0)   # a DOF without diagonal stiffness: no division by 0
+    return Scaling(s=s, dr=1.0 / np.sqrt(kd))
+
+
+@dataclass(frozen=True)
+class ScaledTerms:
+    """Every term of a configuration's affine form on its scaled coordinates, as one list of
+    entries: term ``term`` (0 nominal, ``i + 1`` parameter ``i``) has ``D K S`` = ``k`` and
+    ``D M S`` = ``m`` at ``(row, col)`` (``D`` the row scaling, ``S`` the entry scaling). The
+    pattern of a term is the union of its ``K`` and ``M`` patterns."""
+
+    n: int
+    term: np.ndarray
+    row: np.ndarray
+    col: np.ndarray
+    k: np.ndarray
+    m: np.ndarray
+
+
+def scaled_terms(model, scaling: Scaling) -> ScaledTerms:
+    """The `ScaledTerms` of ``model``: every nominal and parameter matrix scaled once."""
+    parts = []
+    for term, (M, K) in enumerate(zip([model.M0, *model.M_par], [model.K0, *model.K_par])):
+        # K + iM keeps the union pattern: its real and imaginary parts cannot cancel.
+        C = sp.coo_matrix(sp.csr_matrix(K, dtype=complex) + 1j * sp.csr_matrix(M, dtype=complex))
+        parts.append((np.full(C.nnz, term), C.row, C.col, C.data))
+    term, row, col, val = (np.concatenate(a) for a in zip(*parts))
+    factor = scaling.dr[row] * scaling.s[col]
+    return ScaledTerms(model.n_dofs, term, row.astype(np.int64), col.astype(np.int64), factor * val.real,
+                       factor * val.imag)

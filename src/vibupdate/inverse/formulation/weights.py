@@ -1,0 +1,36 @@
+"""Weights of the blocks' residuals (Eqs. 7, 9; docs/method.md, "Default weights").
+
+Separate because the default weight is a choice the paper leaves open (docs/method.md,
+section 4, item 4) and the one a user most often questions: it has its own measurement and
+its own option (``FormulationOptions.weighting``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vibupdate.inverse.formulation.blocks import VectorBlock
+from vibupdate.inverse.formulation.options import FormulationOptions
+
+__all__ = ["block_weight"]
+
+
+def block_weight(blk: VectorBlock, entries: dict, options: FormulationOptions) -> float:
+    """Weight of a block's squared residual: ``alpha / (w^2 ||D M0 S v0||)^2``, so that the
+    residual approximates the relative eigenvalue error, or the user's ``alpha`` alone with
+    ``weighting = "unit"``.
+
+    Parameters
+    ----------
+    blk : VectorBlock
+        With its user weight ``alpha`` and its start ``v0``.
+    entries : dict
+        The block's entries of every term (`vibupdate.inverse.formulation.stacking.block_entries`).
+    options : FormulationOptions
+    """
+    if options.weighting == "unit":
+        return blk.alpha
+    nominal = entries["term"] == 0
+    Mv = np.bincount(entries["row"][nominal], weights=entries["m"][nominal] * blk.start[entries["col"][nominal]],
+                     minlength=len(blk.rows))
+    return blk.alpha / (blk.omega**2 * np.linalg.norm(Mv)) ** 2

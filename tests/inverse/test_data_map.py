@@ -1,0 +1,61 @@
+"""The measured-data map: exact Jacobian, one order of the data for every reader."""
+
+import numpy as np
+import pytest
+
+from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.examples import cantilever
+from vibupdate.inverse.data_map import data_jacobian, data_map, measured_shapes, sensitivity
+from vibupdate.inverse.polish import polish_residuals
+from vibupdate.modal.analysis import antiresonances, modes
+
+
+@pytest.fixture(scope="module")
+def mixed():
+    """Cantilever A's model with shape intervals and the zeros of two receptances, declared
+    interleaved (the map keeps the declared order)."""
+    model = cantilever.configurations()[0].model
+    x_true = np.linspace(-0.3, 0.3, model.n_parameters)
+    M, K = model.matrices(x_true)
+    omega, Phi = modes(M, K, 3)
+    ydofs = [d for d in model.dofs if d.startswith("y")]
+    idx = [model.dof(d) for d in ydofs]
+    natural = tuple(NaturalFrequency(omega[k], mode=k + 1, shape=ShapeInterval.from_values(
+        dict(zip(ydofs, Phi[idx, k] / np.abs(Phi[idx, k]).max())), 0.02)) for k in range(3))
+    pairs = ((ydofs[0], ydofs[-1]), (ydofs[-1], ydofs[-1]))
+    z = {rc: antiresonances(M, K, model.dof(rc[0]), model.dof(rc[1])) for rc in pairs}
+    zeros = tuple(Antiresonance(float(z[rc][j]) * 1.001, *rc, index=j + 1) for j in range(2) for rc in pairs)
+    return Configuration("mixed", model, natural, zeros), x_true
+
+
+def test_the_jacobian_is_the_derivative_of_the_map(mixed):
+    cfg, x = mixed
+    d, G = data_jacobian([cfg], x)
+    h = 1e-6
+    fd = np.column_stack([(data_jacobian([cfg], x + h * e)[0] - data_jacobian([cfg], x - h * e)[0]) / (2 * h)
+                          for e in np.eye(x.size)])
+    scale = np.maximum(np.abs(d), 1.0)[:, None]
+    np.testing.assert_allclose(G / scale, fd / scale, atol=1e-6)
+    n_ratios = sum(s.entries.size for s in measured_shapes(cfg))
+    assert d.size == len(cfg.natural) + len(cfg.antiresonances) + n_ratios
+
+
+def test_the_polish_and_the_sensitivity_read_the_map_in_its_order(mixed):
+    cfg, x = mixed
+    m = data_map(cfg, x)
+    measured = np.array([f.omega for f in (*cfg.natural, *cfg.antiresonances)])
+    shapes = [s.midpoint for s in measured_shapes(cfg)]
+    r, J = polish_residuals([cfg], x, 1.0, shape_target="midpoint")
+    np.testing.assert_array_equal(r, np.concatenate([(m.frequency_values - measured) / measured, *
+                                                     [q - mid for q, mid in zip(m.ratios, shapes)]]))
+    np.testing.assert_array_equal(J, m.jacobian() / np.concatenate([measured, np.ones(r.size - measured.size)])[:, None])
+    S = sensitivity([cfg], x)["matrix"]
+    np.testing.assert_array_equal(S, np.vstack([m.frequency_jacobian / m.frequency_values[:, None],
+                                                *m.ratio_jacobians]))
+
+
+def test_without_a_jacobian_the_values_are_the_same(mixed):
+    cfg, x = mixed
+    with_jacobian, without = data_map(cfg, x), data_map(cfg, x, jacobian=False)
+    assert without.natural_jacobian is None and without.ratio_jacobians == ()
+    np.testing.assert_allclose(without.values(), with_jacobian.values(), rtol=1e-10)
