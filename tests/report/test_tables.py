@@ -2,8 +2,10 @@
 and an example's reference columns join the tables they name."""
 
 import contextlib
+import importlib.util
 import io
 import re
+from pathlib import Path
 
 import pytest
 
@@ -53,19 +55,33 @@ def test_reference_columns_join_by_row_key_with_their_errors_and_notes():
     assert with_reference(table, older, "T") == table and with_reference(table, None, "T") == table
 
 
-@pytest.fixture(scope="module", params=["cantilever", "frame"])
+def _conflicting_case(folder):
+    """The chain whose driving-point shape is biased, of the diagnosis's run test: the run
+    fails a check and shows which data conflict."""
+    path = Path(__file__).parents[1] / "pipeline" / "test_diagnosis_run.py"
+    spec = importlib.util.spec_from_file_location("diagnosis_run_case", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return str(module.write_case(folder, 0.10))
+
+
+@pytest.fixture(scope="module", params=["cantilever", "frame", "conflicting"])
 def example_run(request, tmp_path_factory):
-    out = tmp_path_factory.mktemp(request.param) / "out"
+    folder = tmp_path_factory.mktemp(request.param)
+    out = folder / "out"
+    args = (["run", _conflicting_case(folder)] if request.param == "conflicting"
+            else ["example", request.param]) + ["--out", str(out)]
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        assert main(["example", request.param, "--out", str(out)]) == 0
+        assert main(args) == (1 if request.param == "conflicting" else 0)
     return request.param, printed.getvalue(), (out / "report.md").read_text(), load_results(out / "results.json")
 
 
 def test_the_terminal_and_the_report_show_the_same_cells_of_every_table(example_run):
     name, printed, report, run = example_run
     shown = tables(run)          # from the reloaded results.json: the same cells as the run printed and wrote
-    assert {"frequencies", "parameters", "ranges", "damping", "summary", "checks", "steps"} <= set(shown)
+    assert {"frequencies", "parameters", "summary", "checks", "steps"} <= set(shown)
+    assert {"ranges", "damping"} <= set(shown) if name != "conflicting" else {"trials", "best"} <= set(shown)
     for key, table in shown.items():
         cells = [[c.header for c in table.columns]] + table.cells()
         assert _markdown_cells(report, table) == cells, key
@@ -79,6 +95,10 @@ def test_the_examples_reference_columns_join_their_tables(example_run):
     name, printed, report, run = example_run
     shown = tables(run)
     headers = {key: [c.name for c in t.columns] for key, t in shown.items()}
+    if name == "conflicting":
+        assert run.paper is None   # no reference: the tables have their own columns only
+        assert len(shown["frequencies"].columns) == 8 and len(shown["parameters"].columns) == 6
+        return
     if name == "cantilever":
         assert headers["frequencies"][-2:] == ["paper updated (Table 5) [Hz]", "paper err %"]
         assert headers["parameters"][-1] == "paper (Table 6)"

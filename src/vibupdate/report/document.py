@@ -100,7 +100,7 @@ def damping_table(run: RunResult) -> Table | None:
 
 
 def summary_table(run: RunResult) -> Table:
-    """Mean errors and problem size (the counts of Table 1 of the formulation's paper)."""
+    """Mean errors and problem size, and any reference columns."""
     s, size = run.summary, run.problem_size or {}
     rows = [("mean_error_nominal_pct", "mean frequency error, nominal", "%", fmt(s.mean_error_nominal_pct, ".2f")),
             ("mean_error_updated_pct", "mean frequency error, updated", "%", fmt(s.mean_error_updated_pct, ".2f"))]
@@ -141,15 +141,10 @@ def sensors_table(run: RunResult) -> Table | None:
                                                  Column("distance", "m", ".3g")), rows)
 
 
-def _trial_cells(t) -> tuple:
-    """A screened group's figures: objective, frequency errors on the data kept, shape misses,
-    the screened checks."""
-    return (fmt(t.share, ".2f"), fmt(t.objective, ".3g"), fmt(t.mean_error_pct, ".3g"), fmt(t.max_error_pct, ".3g"),
-            fmt(t.shape_misses, "d"), "pass" if t.passed else "fail: " + ", ".join(t.failed or []))
-
-
 def trials_table(run: RunResult) -> Table | None:
-    """The groups of data whose removal fits best, ranked; None without a diagnosis."""
+    """The groups of data whose removal fits best, ranked, with the fit without each (objective,
+    frequency errors on the data kept, shape misses, the screened checks); None without a
+    diagnosis."""
     d = run.diagnosis
     if d is None:
         return None
@@ -159,7 +154,10 @@ def trials_table(run: RunResult) -> Table | None:
     more = len(d.trials) - RANKED_SHOWN
     notes = ((f"The other {more} groups fit worse without them (all in `results.json`, `diagnosis.trials`).",)
              if more > 0 else ())
-    rows = tuple((str(rank), t.label) + _trial_cells(t) for rank, t in enumerate(d.trials[:RANKED_SHOWN], start=1))
+    rows = tuple((str(rank), t.label, fmt(t.share, ".2f"), fmt(t.objective, ".3g"), fmt(t.mean_error_pct, ".3g"),
+                  fmt(t.max_error_pct, ".3g"), fmt(t.shape_misses, "d"),
+                  "pass" if t.passed else "fail: " + ", ".join(t.failed or []))
+                 for rank, t in enumerate(d.trials[:RANKED_SHOWN], start=1))
     return Table(title, tuple(Column(n) for n in ("rank", "left out", "share of the misfit", "objective",
                                                   "freq. err. mean %", "freq. err. max %", "shape misses",
                                                   "checks")), rows, notes=notes)

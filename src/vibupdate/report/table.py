@@ -51,23 +51,20 @@ class Table:
     notes: tuple[str, ...] = ()
 
     def cells(self) -> list[list[str]]:
-        """The rows as text, the same in both renderings: never empty (a missing figure is
-        `MISSING`) and without ``|``, which would split a markdown cell."""
+        """The rows as text, the same in both renderings: one line, never empty (a missing
+        figure is `MISSING`), spaces single (two apart columns in the terminal) and no ``|``
+        (it would split a markdown cell)."""
         return [[_cell(v, c.spec) for v, c in zip(row, self.columns)] for row in self.rows]
-
-    def index(self, name: str) -> int:
-        """Position of the first column called ``name``."""
-        return [c.name for c in self.columns].index(name)
 
 
 def _cell(value, spec: str) -> str:
     text = value if isinstance(value, str) else fmt(value, spec)
-    return text.strip().replace("|", "/") or MISSING
+    return " ".join(text.replace("|", "/").split()) or MISSING
 
 
 def text(table: Table) -> str:
     """Fixed-width text for the terminal: the title, the first column left-aligned, the others
-    right-aligned, two spaces apart (cells hold at most single spaces, so they stay apart)."""
+    right-aligned, two spaces apart."""
     rows = [[c.header for c in table.columns]] + table.cells()
     widths = [max(len(r[i]) for r in rows) for i in range(len(table.columns))]
     lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))).rstrip()
@@ -91,14 +88,6 @@ def error_pct(value, reference):
     return 100 * abs(value - reference) / abs(reference)
 
 
-def _number(value):
-    """A supplied value as a float; None where it is missing or not a number."""
-    try:
-        return None if value is None or isinstance(value, bool) else float(value)
-    except (TypeError, ValueError):
-        return None
-
-
 def with_reference(table: Table, reference: dict | None, name: str) -> Table:
     """``table`` with the reference columns given for it.
 
@@ -118,16 +107,14 @@ def with_reference(table: Table, reference: dict | None, name: str) -> Table:
     columns = (ref.get("columns") or {}).get(name) or {}
     errors = (ref.get("errors") or {}).get(name) or {}
     notes = tuple((ref.get("notes") or {}).get(name) or ())
-    if not (columns or errors or notes):
-        return table
-    rows = [list(r) for r in table.rows]
+    cols, rows = list(table.columns), [list(r) for r in table.rows]
     for column, values in columns.items():
+        cols.append(Column(column))
         for row, key in zip(rows, table.keys):
-            row.append(_number(values.get(key)))
-    table = replace(table, columns=table.columns + tuple(Column(c) for c in columns), rows=rows)
+            row.append(values.get(key))
     for column, (value, against) in errors.items():
-        i, j = table.index(value), table.index(against)
+        i, j = ([c.name for c in cols].index(n) for n in (value, against))
+        cols.append(Column(column, spec=".2f"))
         for row in rows:
             row.append(error_pct(row[i], row[j]))
-        table = replace(table, columns=table.columns + (Column(column, spec=".2f"),))
-    return replace(table, rows=tuple(tuple(r) for r in rows), notes=table.notes + notes)
+    return replace(table, columns=tuple(cols), rows=tuple(map(tuple, rows)), notes=table.notes + notes)
