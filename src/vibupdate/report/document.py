@@ -93,8 +93,8 @@ def damping_table(run: RunResult) -> Table | None:
     law = (f"Caughey exponents Y = [{', '.join(fmt(y, 'g') for y in info.get('exponents') or [])}], coefficients "
            f"beta = [{', '.join(fmt(b) for b in info.get('beta') or [])}]; Rayleigh baseline Y = [0, 1]. "
            f"Weights: {info.get('weights_text', 'unweighted')}.")
-    table = Table("Damping ratios", (Column("cfg"), Column("mode", spec="d"), Column("measured"), Column("Rayleigh"), pct,
-                                     Column("Caughey"), pct), rows,
+    table = Table("Damping ratios", (Column("cfg"), Column("mode", spec="d"), Column("measured"), Column("Rayleigh"),
+                                     pct, Column("Caughey"), pct), rows,
                   keys=tuple(f"{d.configuration}/{d.mode}" for d in run.damping), notes=(law,) if info else ())
     return with_reference(table, run.paper, "damping")
 
@@ -109,8 +109,8 @@ def summary_table(run: RunResult) -> Table:
                   fmt(s.mean_damping_error_rayleigh_pct, ".1f")),
                  ("mean_damping_error_pct", "mean damping error, Caughey", "%", fmt(s.mean_damping_error_pct, ".1f"))]
     rows += [(key, label, "", fmt(size[key], "d")) for key, label in (
-        ("n_parameters", "parameters"), ("n_mode_unknowns", "mode unknowns"), ("n_adjunct_unknowns", "adjunct unknowns"),
-        ("n_lifted", "lifted scalars")) if key in size]
+        ("n_parameters", "parameters"), ("n_mode_unknowns", "mode unknowns"),
+        ("n_adjunct_unknowns", "adjunct unknowns"), ("n_lifted", "lifted scalars")) if key in size]
     table = Table("Summary", (Column("quantity"), Column("unit"), Column("this run")),
                   tuple(r[1:] for r in rows), keys=tuple(r[0] for r in rows))
     return with_reference(table, run.paper, "summary")
