@@ -213,19 +213,15 @@ def _batch(args) -> int:
     return EXIT["success"] if all(r["status"] in ("success", "acceptable") for r in rows) else EXIT["not_verified"]
 
 
-def _print_tables(document: dict) -> None:
-    from vibupdate.report.document import (damping_table_text, diagnosis_text, ranges_table_text,
-                                           frequency_table_text, parameter_table_text, summary_text)
+def _print_tables(run) -> None:
+    from vibupdate.report.document import terminal_text
 
-    for text in (frequency_table_text(document), parameter_table_text(document), ranges_table_text(document),
-                 damping_table_text(document), summary_text(document), diagnosis_text(document)):
-        if text:
-            print()
-            print(text)
+    print()
+    print(terminal_text(run))
 
 
 def _finish(run) -> int:
-    _print_tables(run.as_document())
+    _print_tables(run)
     if not run.success:
         if run.status == "not_verified":
             print(f"vibupdate: {run.solver.get('message')}; see the warnings above and the report", file=sys.stderr)

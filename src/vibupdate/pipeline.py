@@ -42,7 +42,7 @@ def example_names() -> list[str]:
 
 
 def example_module(name: str):
-    """The module of a bundled example (``case()``, ``configurations()``, ``paper_values()``)."""
+    """The module of a bundled example (``case()``, ``configurations()``, ``reference_columns()``)."""
     if name.startswith("fe-") and name in example_names():
         raise ValueError(f"example {name!r} runs FE-code commands: `vibupdate example {name}` on the command line")
     if name not in EXAMPLES:
@@ -290,7 +290,7 @@ def _write_report(path: Path, run: RunResult, images) -> list[str]:
     from vibupdate.report.document import failed_report, markdown_report
 
     try:
-        path.write_text(markdown_report(run.as_document(), images, list(run.warnings)), encoding="utf-8")
+        path.write_text(markdown_report(run, images, list(run.warnings)), encoding="utf-8")
         return []
     except Exception as exc:  # the report is a view of results.json, already written: a failure is a note
         note = f"report.md is a short report: the full report failed ({type(exc).__name__}: {exc})"
@@ -456,6 +456,6 @@ def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = 
     model = case.configurations[0].model
     say(f"example {name}: {len(case.configurations)} configuration(s), {model.n_parameters} parameters, "
         f"{model.n_dofs} DOFs")
-    paper = module.paper_values() if hasattr(module, "paper_values") else None
+    paper = module.reference_columns() if hasattr(module, "reference_columns") else None
     return run_case(case, out_dir, progress=say, paper=paper, force=force, certify=certify, study=study,
                     diagnose=diagnose)

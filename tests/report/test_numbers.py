@@ -13,14 +13,7 @@ from hypothesis import strategies as st
 from outputs_helpers import write_case
 
 from vibupdate.io.results import RunResult, load_results, validate_document, write_results
-from vibupdate.report.document import (
-    damping_table_text,
-    frequency_table_text,
-    markdown_report,
-    parameter_table_text,
-    ranges_table_text,
-    summary_text,
-)
+from vibupdate.report.document import markdown_report, terminal_text
 from vibupdate.report.numbers import fmt
 
 NASTY = [math.nan, math.inf, -math.inf, None, 1e308, -1e308, 5e-324, 1e-300, 0.0, np.float64("nan"),
@@ -40,19 +33,22 @@ def test_fmt_writes_every_value_as_readable_text_of_the_field_width(value, spec,
 @pytest.fixture(scope="module")
 def full_document(tmp_path_factory):
     """A results document of a real run (damping, linearized ranges) with every further
-    section the report reads: paper values, certified and sampled ranges, a multistart."""
+    section the report reads: reference columns, certified and sampled ranges, a multistart."""
     from vibupdate.io.case import load_case
     from vibupdate.pipeline import run_case
 
     folder = tmp_path_factory.mktemp("numbers")
     case = load_case(write_case(folder))
-    paper = {"frequencies": [{"configuration": "A", "kind": "natural", "index": 1, "paper_updated_hz": 37.3}],
-             "parameters": [{"name": "E", "paper_updated": 7.4e10}, {"name": "rho", "paper_updated": 2600.0}],
-             "damping": [{"configuration": "A", "mode": 1, "paper_rayleigh": 0.02, "paper_caughey": 0.019}],
-             "summary": {"mean_error_nominal_pct": 5.6, "mean_error_updated_pct": 0.6,
-                         "mean_damping_error_rayleigh_pct": 84.5, "mean_damping_error_pct": 16.6},
-             "problem_size": {"n_mode_unknowns": 1, "n_adjunct_unknowns": 0, "n_lifted": 2},
-             "truth": {"E": 7.5e10, "rho": 2600.0}}
+    paper = {"columns": {"frequencies": {"paper updated [Hz]": {"A/natural/1": 37.3}},
+                         "parameters": {"paper": {"E": 7.4e10, "rho": 2600.0}, "true": {"E": 7.5e10, "rho": 2600.0}},
+                         "damping": {"paper Rayleigh": {"A/1": 0.02}, "paper Caughey": {"A/1": 0.019}},
+                         "summary": {"paper": {"mean_error_nominal_pct": 5.6, "mean_error_updated_pct": 0.6,
+                                               "mean_damping_error_rayleigh_pct": 84.5, "mean_damping_error_pct": 16.6,
+                                               "n_mode_unknowns": 1, "n_adjunct_unknowns": 0, "n_lifted": 2}}},
+             "errors": {"frequencies": {"paper err %": ["paper updated [Hz]", "measured"]},
+                        "parameters": {"error %": ["updated", "true"]},
+                        "damping": {"paper Caughey err %": ["paper Caughey", "measured"]}},
+             "notes": {"summary": ["paper: a note"]}}
     run = run_case(case, folder / "out", paper=paper)
     doc = run.as_document()
     names = [p["name"] for p in doc["parameters"]]
@@ -95,14 +91,14 @@ def _set(doc, path, value):
 
 
 def _texts(doc):
-    return [frequency_table_text(doc), parameter_table_text(doc), ranges_table_text(doc), damping_table_text(doc),
-            summary_text(doc), markdown_report(doc, [("plot", "p.png")], ["a note"])]
+    return [terminal_text(doc), markdown_report(doc, [("plot", "p.png")], ["a note"])]
 
 
 def test_the_untouched_document_renders(full_document):
     doc, _ = full_document
     texts = _texts(doc)
-    assert "## Parameters" in texts[-1] and "certified outer" in texts[2]
+    assert "## Parameters" in texts[-1] and "certified outer" in texts[0]
+    assert "paper err %" in texts[0] and "| paper Caughey err % |" in texts[-1]
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

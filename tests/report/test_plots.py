@@ -148,6 +148,6 @@ def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_pa
 
 def test_report_range_widths_below_one_percent_keep_two_digits():
     """A linearized range 0.042 % wide printed as "0.0" would read as a zero-width range."""
-    from vibupdate.report.document import _width
+    from vibupdate.report.ranges_text import _width
 
     assert [_width(w) for w in (0.0424, 134.5, 1e-7, None)] == ["0.042", "134.5", "1e-07", "-"]

@@ -23,7 +23,7 @@ from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequen
 from vibupdate.model.build import from_builder
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["parameters", "build", "configurations", "case", "paper_values", "CONFIGURATIONS", "DAMPING"]
+__all__ = ["parameters", "build", "configurations", "case", "reference_columns", "CONFIGURATIONS", "DAMPING"]
 
 LENGTH = 0.493          # m
 WIDTH = 0.040           # m
@@ -116,17 +116,30 @@ def case() -> Case:
     return Case("cantilever", None, tuple(configurations()), SolverOptions(), FormulationOptions(), DAMPING)
 
 
-def paper_values() -> dict:
-    """The paper's published figures (Tables 5-7) for side-by-side reports."""
+#: Mean errors the paper reports (Tables 5 and 7) and its problem size (Table 1), by the keys
+#: of the summary table.
+PAPER_SUMMARY = {"mean_error_nominal_pct": 5.6, "mean_error_updated_pct": 0.6, "mean_damping_error_rayleigh_pct": 84.5,
+                 "mean_damping_error_pct": 16.6, "n_mode_unknowns": 168, "n_adjunct_unknowns": 48, "n_lifted": 596}
+
+
+def reference_columns() -> dict:
+    """The paper's published figures (Tables 1, 5-7) as reference columns of the report's
+    tables (`vibupdate.report.table.with_reference`), by table and row key."""
+    freqs, params, damping = (read_table(f"cantilever_{name}.csv") for name in ("frequencies", "parameters", "damping"))
+    column = (lambda rows, key, name: {key(r): float(r[name]) for r in rows})
+    by_mode = (lambda r: f"{r['configuration']}/{r['mode']}")
     return {
-        "frequencies": read_table("cantilever_frequencies.csv"),
-        "parameters": read_table("cantilever_parameters.csv"),
-        "damping": read_table("cantilever_damping.csv"),
-        "problem_size": {"n_mode_unknowns": 168, "n_adjunct_unknowns": 48, "n_lifted": 596},  # Table 1
-        "summary": {
-            "mean_error_nominal_pct": 5.6,
-            "mean_error_updated_pct": 0.6,
-            "mean_damping_error_rayleigh_pct": 84.5,
-            "mean_damping_error_pct": 16.6,
+        "columns": {
+            "frequencies": {"paper updated (Table 5) [Hz]": column(
+                freqs, lambda r: f"{r['configuration']}/{r['kind']}/{r['index']}", "paper_updated_hz")},
+            "parameters": {"paper (Table 6)": column(params, lambda r: r["name"], "paper_updated")},
+            "damping": {"paper Rayleigh (Table 7)": column(damping, by_mode, "paper_rayleigh"),
+                        "paper Caughey (Table 7)": column(damping, by_mode, "paper_caughey")},
+            "summary": {"paper": PAPER_SUMMARY},
         },
+        "errors": {"frequencies": {"paper err %": ["paper updated (Table 5) [Hz]", "measured"]},
+                   "damping": {"paper Caughey err %": ["paper Caughey (Table 7)", "measured"]}},
+        "notes": {"summary": ["paper: Richiedei, Tamellin, Trevisani, Mech. Mach. Theory 160 (2021) 104288; its "
+                              "problem size (Table 1) leaves every entry of every vector unknown, here one is fixed "
+                              "for normalization"]},
     }

@@ -321,7 +321,8 @@ class RunResult:
     checks : tuple of dict
         Verification checks of the first stage, as it reports them.
     paper : dict or None
-        Published values to compare with (bundled examples).
+        Reference columns of the tables (a bundled example's ``reference_columns()``:
+        published values, a synthetic example's truth; `vibupdate.report.table.with_reference`).
     sensors : tuple of dict
         Measured points on an imported FE mesh (``[model] sensors``, `vibupdate import`):
         ``sensor``, ``dof`` (``"<node>:<dir>"``), ``sign``, ``distance_m``; empty otherwise.
@@ -490,7 +491,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     warnings : sequence of str
         Warnings of the run besides those of ``result``.
     paper : dict, optional
-        Published values (bundled examples).
+        Reference columns of the tables (a bundled example's ``reference_columns()``).
     diagnosis : Diagnosis, optional
         Which data conflict (`vibupdate.inverse.diagnosis`): its record goes to ``diagnosis``,
         the matrices of its best model (the update without the top group) beside the run's.

@@ -1,31 +1,21 @@
-"""The parameter ranges of a results document as text: the certified outer, sampled and
-linearized ranges side by side, where they disagree, and the multistart count (terminal and
-``report.md``; `vibupdate.report.document` joins them to the other tables)."""
+"""The parameter ranges of a run as one table (certified outer, sampled and linearized ranges
+side by side, where they disagree, the multistart count) and the report's paragraphs on how
+each was computed; `vibupdate.report.document` joins them to the other tables. Each function
+reads ``identifiability`` of the results."""
 
 from __future__ import annotations
 
 from vibupdate.report.numbers import finite, fmt
+from vibupdate.report.table import Column, Table
 
-__all__ = ["ranges_table_text", "ranges_markdown", "sampled_disagreements", "range_notes", "multistart_text",
-           "certified_info", "sampled_info"]
-
-
-def certified_info(document: dict) -> dict:
-    """``identifiability.certified`` of a document ({} when not computed)."""
-    return (document.get("identifiability") or {}).get("certified") or {}
+__all__ = ["ranges_table", "ranges_markdown", "sampled_disagreements", "range_notes", "multistart_text"]
 
 
-def sampled_info(document: dict) -> dict:
-    """``identifiability.sampled`` of a document ({} when not computed)."""
-    return (document.get("identifiability") or {}).get("sampled") or {}
-
-
-def _other_ranges(document: dict) -> dict:
+def _other_ranges(ident: dict) -> dict:
     """The ranges beside the certified ones: ``{label: {name: {...}}}``, sampled first."""
-    ident = document.get("identifiability") or {}
     others = {}
-    if sampled_info(document).get("ranges"):
-        others["sampled"] = sampled_info(document)["ranges"]
+    if (ident.get("sampled") or {}).get("ranges"):
+        others["sampled"] = ident["sampled"]["ranges"]
     if ident.get("ranges"):
         others["linearized"] = ident["ranges"]
     return others
@@ -76,25 +66,24 @@ def sampled_disagreements(sampled: dict, linearized: dict, wider: float = 2.0) -
     return notes
 
 
-def range_notes(document: dict) -> list[str]:
+def range_notes(ident: dict) -> list[str]:
     """Every disagreement between the certified, sampled and linearized ranges present."""
     from vibupdate.ranges.certify import range_disagreements
 
-    others = _other_ranges(document)
-    notes = range_disagreements(certified_info(document)["ranges"], others) if certified_info(document) else []
+    others, cert = _other_ranges(ident), ident.get("certified") or {}
+    notes = range_disagreements(cert["ranges"], others) if cert else []
     if "sampled" in others and "linearized" in others:
         notes += sampled_disagreements(others["sampled"], others["linearized"])
     return notes
 
 
-def multistart_text(document: dict) -> str:
+def multistart_text(ident: dict) -> str:
     """One sentence on the multistart of the point estimate, or "" without one."""
-    ms = (document.get("identifiability") or {}).get("multistart")
+    ms = ident.get("multistart")
     if not ms:
         return ""
     converged = ms["starts"] - ms["failed"]
-    objectives = [m["objective"] for m in ms["minima"] if m.get("objective") is not None]
-    objectives = [v for v in objectives if finite(v)]
+    objectives = [m["objective"] for m in ms["minima"] if finite(m.get("objective"))]
     spread = (f", objectives {fmt(min(objectives))} to {fmt(max(objectives))}" if len(objectives) > 1
               else (f", objective {fmt(objectives[0])}" if objectives else ""))
     return (f"multistart of the point estimate: {ms['distinct_minima']} distinct local minima from {converged} "
@@ -103,50 +92,78 @@ def multistart_text(document: dict) -> str:
             "competing answers)")
 
 
-def ranges_table_text(document: dict) -> str:
-    """Certified outer, sampled and linearized ranges per parameter side by side (those present),
-    the disagreements between them and the multistart count; "" when no range was computed."""
-    cert = certified_info(document)
-    others = _other_ranges(document)
-    if not cert and not others:
-        return multistart_text(document)
-    names = [p["name"] for p in document["parameters"]]
-    head = f"{'name':>8}"
-    if cert:
-        head += f" {'certified lower':>15} {'upper':>11} {'cert.':>5}"
-    head += "".join(f" {label + ' lower':>17} {'upper':>11}" for label in others)
-    kinds = (["certified outer"] if cert else []) + [
-        {"sampled": "sampled", "linearized": "linearized at the answer"}[label] for label in others]
-    lines = ["Parameter ranges: " + ", ".join(kinds)]
-    if cert:
-        lines.append(f"Certified outer ranges ({cert['message']}, {fmt(cert.get('seconds'), '.1f')} s)")
-    sampled = sampled_info(document)
+def _width(pct) -> str:
+    """A range's width in per cent: one decimal from 1 % up, two significant digits below
+    (a width of 0.04 % must not print as 0.0)."""
+    return fmt(pct, ".1f") if finite(pct) and abs(pct) >= 1 else fmt(pct, ".2g")
+
+
+def _range(r: dict) -> str:
+    lo, hi = _ends(r)
+    return f"[{fmt(lo)}, {fmt(hi)}]"
+
+
+def _range_notes(ident: dict) -> tuple[str, ...]:
+    """Below the table: how the certified and sampled ranges ended, where the ranges
+    disagree (or that they agree), the multistart."""
+    cert, sampled = ident.get("certified") or {}, ident.get("sampled") or {}
+    notes = [f"Certified outer ranges ({cert['message']}, {fmt(cert.get('seconds'), '.1f')} s)"] if cert else []
     if sampled:
-        lines.append(f"Sampled ranges: {sampled['verified']} verified, {sampled['unverified']} unverified, "
+        notes.append(f"Sampled ranges: {sampled['verified']} verified, {sampled['unverified']} unverified, "
                      f"{sampled['failed']} failed of {sampled['samples']} samples; {sampled.get('line_ends', 0)} "
                      "line ends along null directions")
-    lines.append(head)
-    for name in names:
-        line = f"{name:>8}"
-        if cert:
-            c = cert["ranges"].get(name, {})
-            line += (f" {fmt(c.get('lower'), '15.5g')} {fmt(c.get('upper'), '11.5g')} "
-                     f"{'yes' if c.get('certified') else 'no':>5}")
-        for ranges in others.values():
-            lo, hi = _ends(ranges.get(name, {}))
-            line += f" {fmt(lo, '17.5g')} {fmt(hi, '11.5g')}"
-        lines.append(line)
-    lines += [f"disagreement: {n}" for n in range_notes(document)]
-    if multistart_text(document):
-        lines.append(multistart_text(document))
-    return "\n".join(lines)
+    if len(_other_ranges(ident)) + bool(cert) >= 2:
+        notes += [f"Disagreement: {n}" for n in range_notes(ident)] or [
+            "The ranges agree: " + ("the other ranges lie inside the certified ones and none is less than half as wide"
+                                    if cert else "the sampled ranges lie inside the linearized ones and are at least "
+                                    "half as wide")]
+    return tuple(notes) + ((f"The {multistart_text(ident)}.",) if ident.get("multistart") else ())
 
 
-def ranges_markdown(document: dict) -> list[str]:
-    """The paragraphs of ``report.md`` on the sampled and certified ranges, their
-    disagreements and the multistart."""
+def ranges_table(ident: dict, names: list[str]) -> Table | None:
+    """Certified outer, sampled and linearized (consistent) ranges per parameter side by side
+    (those computed), with `_range_notes`; None when no range was computed."""
+    cert, others = (ident.get("certified") or {}).get("ranges"), _other_ranges(ident)
+    if not cert and not others:
+        return None
+    columns, cells = [Column("parameter")], [[n] for n in names]
+    if cert:
+        columns += [Column("certified outer range"), Column("certified")]
+        for row in cells:
+            c = cert.get(row[0], {})
+            row += [_range(c), "yes" if c.get("certified") else "no"]
+    if "sampled" in others:
+        columns.append(Column("sampled range"))
+        for row in cells:
+            row.append(_range(others["sampled"].get(row[0], {})))
+    if "linearized" in others:
+        columns += [Column("consistent range"), Column("width %")]
+        for row in cells:
+            r = others["linearized"].get(row[0], {})
+            row += [_range(r), _width(r.get("width_pct"))]
+    kinds = (["certified outer"] if cert else []) + [
+        {"sampled": "sampled", "linearized": "linearized at the answer"}[label] for label in others]
+    return Table("Parameter ranges: " + ", ".join(kinds), tuple(columns), tuple(tuple(r) for r in cells),
+                 notes=_range_notes(ident))
+
+
+def ranges_markdown(ident: dict) -> list[str]:
+    """The paragraphs of ``report.md`` on how the linearized, sampled and certified ranges
+    were computed."""
     out = []
-    sampled = sampled_info(document)
+    ranges = ident.get("ranges") or {}
+    if ranges:
+        # a width is None where its linear programs found no finite range (NaN in the results)
+        determined = [n for n, rg in ranges.items() if finite(rg.get("width_pct")) and rg["width_pct"] <= 5.0]
+        window = ident.get("frequency_windows") or f"{fmt(100 * (ident.get('frequency_tolerance') or 0), '.2g')} %"
+        out += ["Consistent range (linearized at the verified answer, two linear programs per parameter): the "
+                "parameter sets within the bounds whose measured mode-shape entries stay in their intervals and "
+                f"whose frequencies move from the answer's by at most {window} plus the answer's own misfit, "
+                "to first order in the parameter change. It is not a certified enclosure: far from the answer the "
+                "linearization may miss consistent sets (another local minimum, a strongly nonlinear direction). "
+                "Its width, in per cent of the nominal (or reference) value, shows what the data determine near "
+                "the answer. Within 5 %: " + (", ".join(determined) or "none") + ".", ""]
+    sampled = ident.get("sampled") or {}
     if sampled:
         out += [f"Sampled range: {sampled['samples']} data sets drawn inside the measured intervals "
                 f"({sampled.get('distribution', 'uniform')}, seed {sampled.get('seed')}), each updated and verified "
@@ -158,7 +175,7 @@ def ranges_markdown(document: dict) -> list[str]:
                 f"({sampled.get('line_ends', 0)} such ends). The range is the min and max over the verified "
                 "answers and these ends: an inner estimate of what the data allow (every value in it is a verified "
                 "answer of some data set inside the intervals; values outside may still be consistent).", ""]
-    info = certified_info(document)
+    info = ident.get("certified") or {}
     if info:
         out += ["Certified outer range: min and max of each parameter over a convex (McCormick, linear "
                 "programming) relaxation of the consistent set S below, with bound tightening and branching; every point of S "
@@ -167,14 +184,4 @@ def ranges_markdown(document: dict) -> list[str]:
                 "\"no\" that the reported (still valid) range may be looser. " + info["definition"]
                 + f" Outcome: {info['message']}; {info['passes']} tightening pass(es), {info['n_lps']} LPs, "
                 f"{fmt(info.get('seconds'), '.1f')} s (root {fmt(info.get('root_seconds'), '.1f')} s).", ""]
-    if len(_other_ranges(document)) + bool(info) >= 2:
-        notes = range_notes(document)
-        out += (["Where the ranges disagree:", ""] + [f"- {n}" for n in notes] + [""] if notes
-                else ["The ranges agree: "
-                      + ("the other ranges lie inside the certified ones and none is less than half as wide"
-                         if info else "the sampled ranges lie inside the linearized ones and are at least half as "
-                         "wide") + ".", ""])
-    if multistart_text(document):
-        text = multistart_text(document)
-        out += [text[0].upper() + text[1:] + ".", ""]
     return out
