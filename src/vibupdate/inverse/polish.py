@@ -25,7 +25,7 @@ evaluations) and 7e-6 (2,996 DOFs, 30 evaluations) of the truth, stopping on ``x
 on the evaluation limit (`benchmarks/RESULTS.md`).
 
 **Stopping.** The least squares ends on scipy's tests (``ftol``, ``xtol``, ``gtol``), or on a
-stall (`STALL_DECREASE`); the evaluation budget (`EVALUATIONS_PER_UNKNOWN`) and the optional
+stall (`vibupdate.inverse.bounded_lsq.STALL_DECREASE`); the evaluation budget (`EVALUATIONS_PER_UNKNOWN`) and the optional
 time limit are backstops, and a stop on either is reported (`PolishResult.stopped_on`) and
 made a warning of the update. On noisy interval shapes from a poor start the polish may need
 hundreds of evaluations: the interval penalty is a hinge, and trust-region steps zig-zag
@@ -73,8 +73,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from vibupdate.options import check, default
-from vibupdate.inverse.bounded_lsq import (STALL_DECREASE, Monitor, Stop, bounded_least_squares, inside,
-                                           stall_window)
+from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
 from vibupdate.inverse.data_map import data_map, measured_shapes
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -92,7 +91,7 @@ ROUND_XTOL = 1e-10
 #: Full-model evaluations of the default budget per unknown plus one (`PolishOptions`): the
 #: noisy-shape beam of the tests (10 parameters, 6 modes, shape intervals of +-3 sigma) takes up
 #: to 491 from a poor start, most of them crawling along one interval edge; the budget is a
-#: backstop, the polish ends on convergence or on `STALL_DECREASE`.
+#: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
 #: The soft start (module docstring): on the full-model path, with shape intervals of nonzero
 #: width, the polish first runs with the shape weight times this, then with the full weight
@@ -124,7 +123,7 @@ class PolishOptions:
         Residual evaluations on the full model at most (each one eigen-solve per
         configuration); None (default) scales it with the problem,
         `EVALUATIONS_PER_UNKNOWN` ``(n_x + 1)``. The polish normally ends long before, on
-        scipy's convergence tests or on a stall (`STALL_DECREASE`); a stop on this limit is
+        scipy's convergence tests or on a stall (`vibupdate.inverse.bounded_lsq.STALL_DECREASE`); a stop on this limit is
         reported (`PolishResult.stopped_on`) and made a warning of the update.
     max_seconds : float or None
         Wall-clock limit of the polish (None: none), checked after each full-model evaluation
@@ -174,7 +173,7 @@ class PolishResult:
     reduced_evaluations : int
         Evaluations of the reduced models in those rounds.
     stopped_on : {"convergence", "stall", "evaluations", "time", "failure"}
-        What ended it: a convergence test, a stall (`STALL_DECREASE`), one of the `LIMITS`
+        What ended it: a convergence test, a stall (`vibupdate.inverse.bounded_lsq.STALL_DECREASE`), one of the `LIMITS`
         (then the answer may be short of the optimum), or an error.
     budget : int
         The evaluation limit it had.

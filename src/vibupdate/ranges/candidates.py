@@ -40,8 +40,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from vibupdate.data.measured import Configuration
-from vibupdate.inverse.correlation import model_frequencies, sensitivity
-from vibupdate.inverse.formulation import FormulationOptions
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.data_map import sensitivity
+from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.polish import PolishOptions, polish as run_polish
 from vibupdate.inverse.update import update
