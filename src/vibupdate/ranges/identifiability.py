@@ -9,8 +9,10 @@ entry of each mode: `vibupdate.inverse.data_map`) linearized as
 the *consistent set* is the set of ``xbar`` within the bounds such that
 
 * every measured mode-shape entry stays inside its interval,
-  ``|d_s(xbar_hat) + G_s dx - d_s,measured| <= h_s`` (the interval half-width, or the answer's
-  own distance from the midpoint if larger, so that the answer is inside);
+  ``|d_s(xbar_hat) + G_s dx - d_s,measured| <= h_s`` (the interval half-width); where the
+  answer lies outside an interval by ``e`` (a model-form error the verification allowed), that
+  interval widened on its side to ``e`` beyond the answer, so that the answer can move by the
+  error it has, as for the frequencies;
 * every frequency moves from the answer's by no more than the measurement tolerance plus the
   answer's own misfit, ``|G_f dx| <= h_f + |w(xbar_hat) - w_measured|``, with ``h_f`` the
   half-width of the frequency's measured ``interval`` where it has one (e.g. extracted from
@@ -135,10 +137,17 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     d_hat, G = data_jacobian(configurations, xbar)
     d_meas, half, is_freq = _measured(configurations, frequency_tolerance)
     misfit = d_hat - d_meas
-    # Frequencies: a window centred on the answer; shapes: the measured intervals (widened to
-    # hold the answer). Either way |offset + G dx| <= half.
-    offset = np.where(is_freq, 0.0, misfit)
-    half = np.where(is_freq, half + np.abs(misfit), np.maximum(half, np.abs(misfit)))
+    # Frequencies: a window centred on the answer; shapes: the measured intervals, and where the
+    # answer lies outside one by ``d`` (a model-form error the verification allowed) the interval
+    # widened on that side to ``d`` beyond the answer, so that the answer can move by the error it
+    # already has either way, as for the frequencies (with the answer on the window's edge, many
+    # such rows left a point: ranges of 1e-6 % on a bar whose shapes the model misses by 0.004).
+    # Either way |offset + G dx| <= half.
+    out = np.maximum(np.abs(misfit) - half, 0.0)
+    low = np.minimum(-half, misfit - out)          # the shape window about the midpoint
+    high = np.maximum(half, misfit + out)
+    offset = np.where(is_freq, 0.0, misfit - 0.5 * (low + high))
+    half = np.where(is_freq, half + np.abs(misfit), 0.5 * (high - low))
     # A floor against rounding: relative to the datum, and at least 1e-12 for a shape ratio
     # (dimensionless, of order 1 at its reference; a ratio near a node would otherwise get a
     # width of 1e-16).
