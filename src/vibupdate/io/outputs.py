@@ -76,6 +76,9 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     """Call ``plot(path, *args, **kwargs)``; a plot (or another optional file) that fails costs
     a warning, not the run.
 
+    The plot is drawn by the run's plotting process when one is up
+    (`vibupdate.report.plot_process`), else here.
+
     Returns True when the file was written. On any exception of ``plot`` (a degenerate
     figure, a font or backend problem, matplotlib not installed: `vibupdate._extras`) the
     partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
@@ -84,7 +87,14 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     import sys
     import warnings
 
+    from vibupdate.report.plot_process import draw
+
     path = Path(path)
+    done = draw(path, plot, args, kwargs)   # by the run's plotting process, when one is up
+    if done is not None:
+        if not done[0]:
+            warnings.warn(OutputWarning(f"{path.name} was not drawn: {done[1]}"), stacklevel=2)
+        return done[0]
     plt = sys.modules.get("matplotlib.pyplot")
     before = set(plt.get_fignums()) if plt is not None else set()
     try:
