@@ -348,6 +348,11 @@ def _bar_example(args) -> int:
 
     if args.force:
         raise ValueError("example bar writes into a new folder (--out); --force does not apply to it")
+    ignored = _run_options(args) + (["--no-diagnose"] if args.diagnose is False else [])
+    if ignored:
+        # its commands are the ones docs/worked-bar.md shows; run them by hand to change them
+        raise ValueError(f"example bar runs its commands as shown; {' '.join(ignored)} does not apply to it "
+                         "(expected only --out)")
     out = args.out or "bar-results"
     bar.write_inputs(out)
     print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
