@@ -3,4 +3,3 @@ the worked example `vibupdate.examples.bar` (its docstring says what the truth a
 are), under the name the tests and benchmarks import."""
 
 from vibupdate.examples.bar import *  # noqa: F401,F403
-from vibupdate.examples.bar import __all__  # noqa: F401
