@@ -274,6 +274,8 @@ def _command(args) -> int:
             return EXIT["success"]
         if args.name.startswith("fe-"):
             return _fe_example(args)
+        if args.name == "bar":
+            return _bar_example(args)
         return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
                                    force=args.force, certify=args.certify, study=_study(args),
                                    diagnose=args.diagnose))
@@ -337,6 +339,32 @@ def _fe_example(args) -> int:
         print()
         print("\n".join(fe.truth_lines(out)))
     return code
+
+
+def _bar_example(args) -> int:
+    """``example bar``: write the roving-hammer test of the free-free bar and its case files, then
+    run the extract, run, suggest and run commands it prints (`vibupdate.examples.bar`)."""
+    from vibupdate.examples import bar
+
+    if args.force:
+        raise ValueError("example bar writes into a new folder (--out); --force does not apply to it")
+    ignored = _run_options(args) + (["--no-diagnose"] if args.diagnose is False else [])
+    if ignored:
+        # its commands are the ones docs/worked-bar.md shows; run them by hand to change them
+        raise ValueError(f"example bar runs its commands as shown; {' '.join(ignored)} does not apply to it "
+                         "(expected only --out)")
+    out = args.out or "bar-results"
+    bar.write_inputs(out)
+    print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
+          f"{out}/{bar.CASE_R} (E and r)")
+    codes = []
+    for command in bar.commands(out):
+        print("$ vibupdate " + " ".join(command))
+        codes.append(_command(_parser().parse_args(command)))
+    print()
+    print("\n".join(bar.truth_lines(out)))
+    # the example did what it shows when the run with E alone is not verified and the others succeed
+    return EXIT["success"] if codes == [0, 1, 0, 0] else EXIT["not_verified"]
 
 
 def _import(args) -> int:

@@ -35,16 +35,20 @@ __all__ = ["run_case", "run_example", "example_names", "example_module", "check_
 
 
 def example_names() -> list[str]:
-    """Names of the bundled examples (the FE-code ones, ``fe-<code>``, run from the command line)."""
+    """Names of the bundled examples (the FE-code ones, ``fe-<code>``, and the bar's roving-hammer
+    test, ``bar``, run from the command line)."""
     from vibupdate.examples.fe import CODES
 
-    return sorted(EXAMPLES) + sorted(CODES)
+    return sorted(EXAMPLES) + ["bar"] + sorted(CODES)
 
 
 def example_module(name: str):
     """The module of a bundled example (``case()``, ``configurations()``, ``reference_columns()``)."""
     if name.startswith("fe-") and name in example_names():
         raise ValueError(f"example {name!r} runs FE-code commands: `vibupdate example {name}` on the command line")
+    if name == "bar":
+        raise ValueError("example 'bar' runs the commands of a roving-hammer test: `vibupdate example bar` on the "
+                         "command line")
     if name not in EXAMPLES:
         raise ValueError(f"unknown example {name!r}; bundled examples: {', '.join(example_names())}")
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")

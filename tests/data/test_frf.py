@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from vibupdate.data.frf import G, FRFSet, combine, read_frf_table, read_frfs, read_uff58, to_receptance
+from vibupdate.data.frf import (G, FRFSet, combine, read_frf_table, read_frfs, read_uff58, to_receptance,
+                                write_uff58)
 
 
 def _receptance(omega):
@@ -43,6 +44,23 @@ def test_uff58_round_trip_converts_accelerance_names_dofs_and_groups_repeats(tmp
     assert np.allclose(frfs.H[0][1], 1.01 * h, rtol=1e-5)
     assert np.allclose(frfs.H[1][0], -h, rtol=1e-5)  # -Y response: sign flipped to +Y
     assert frfs.sources == (str(path),)
+
+
+def test_the_uff58_writer_is_read_back_to_the_same_receptances_names_and_repeats(tmp_path):
+    """`write_uff58` writes what `read_uff58` reads: accelerances, one record per repeat, the DOF
+    names as direction and node; a name without them is refused by name."""
+    omega = 2 * math.pi * np.arange(1.0, 80.0, 0.5)
+    h = _receptance(omega)
+    frfs = FRFSet(omega, (("y3", "y1"), ("rx12", "y1")), (np.array([h, 1.01 * h]), np.array([2 * h])))
+    pytest.importorskip("pyuff")
+    write_uff58(tmp_path / "out.uff", frfs)
+    back = read_uff58(tmp_path / "out.uff")
+    assert back.pairs == frfs.pairs and back.n_repeats == (2, 1) and back.measured == "accelerance"
+    for a, b in zip(back.H, frfs.H):
+        np.testing.assert_allclose(a, b, rtol=1e-5)
+    bad = FRFSet(omega, (("tip", "y1"),), (np.array([h]),))
+    with pytest.raises(ValueError, match="DOF name 'tip' cannot be written to a UFF record"):
+        write_uff58(tmp_path / "bad.uff", bad)
 
 
 def test_uff58_kind_override_g_units_and_errors(tmp_path):

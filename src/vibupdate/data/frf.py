@@ -30,8 +30,8 @@ import numpy as np
 
 from vibupdate._extras import require
 
-__all__ = ["FRFSet", "read_frfs", "read_uff58", "read_frf_table", "to_receptance", "combine", "G", "FRFWarning",
-           "check_kind", "kind_evidence"]
+__all__ = ["FRFSet", "read_frfs", "read_uff58", "write_uff58", "read_frf_table", "to_receptance", "combine", "G",
+           "FRFWarning", "check_kind", "kind_evidence"]
 
 G = 9.80665  # m/s^2, standard gravity
 TWO_PI = 2.0 * math.pi
@@ -326,6 +326,44 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
         records.append(((names[0], names[1]), sign * h))
         kinds.add(rec_kind)
     return _group(omega, records, path, kinds.pop() if len(kinds) == 1 else "mixed")
+
+
+def _uff_node_direction(name: str) -> tuple[int, int]:
+    """Node and UFF direction code of a DOF name such as ``y3`` (the inverse of `read_uff58`'s naming)."""
+    for code, prefix in sorted(_UFF_DIRECTIONS.items(), key=lambda item: -len(item[1])):
+        rest = name[len(prefix):]
+        if name.startswith(prefix) and rest.isdigit():
+            return int(rest), code
+    raise ValueError(f"DOF name {name!r} cannot be written to a UFF record: expected a direction "
+                     f"({', '.join(_UFF_DIRECTIONS.values())}) followed by a node number, such as 'y3'")
+
+
+def write_uff58(path, frfs: FRFSet) -> None:
+    """Write ``frfs`` as a UFF file of dataset-58 accelerances, one ASCII record per repeat.
+
+    What a test system exports after a hammer test: `read_uff58` reads it back to the same
+    receptances (to the file's printed digits) and DOF names.
+
+    Parameters
+    ----------
+    path : path-like
+        The file written (replaced if it exists).
+    frfs : FRFSet
+        Receptances; every DOF name a direction and a node (``y3``, ``rx12``).
+    """
+    require("frf", "writing UFF files")
+    import pyuff
+
+    sets = []
+    for pair, h in zip(frfs.pairs, frfs.H):
+        (rsp_node, rsp_dir), (ref_node, ref_dir) = (_uff_node_direction(name) for name in pair)
+        for repeat in h:
+            sets.append(pyuff.prepare_58(
+                func_type=4, rsp_node=rsp_node, rsp_dir=rsp_dir, ref_node=ref_node, ref_dir=ref_dir,
+                data=(1j * frfs.omega) ** 2 * repeat, x=frfs.freq_hz, id1="FRF", rsp_ent_name="structure",
+                ref_ent_name="structure", abscissa_spacing=1, abscissa_spec_data_type=18,
+                ordinate_spec_data_type=12, orddenom_spec_data_type=13, binary=0))
+    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
 
 
 def _parse_complex(text: str, where: str) -> complex:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate.examples import new_folder
 from vibupdate.examples.frame3d import NOMINAL, STOREY, frame3d
 
 __all__ = ["CODES", "SIZE", "PARAMETERS", "TRUTH_FACTOR", "N_MODES", "truth", "sensors", "write_inputs",
@@ -169,12 +170,6 @@ def _write_measured(code: str, folder: Path) -> None:
     (folder / "shapes.csv").write_text("\n".join(rows) + "\n")
 
 
-def _new_folder(out: Path) -> None:
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ValueError(f"output folder {str(out)!r} exists and is not empty; name a new folder")
-    out.mkdir(parents=True, exist_ok=True)
-
-
 def write_inputs(name: str, out) -> Path:
     """Write ``out/exports`` and ``out/measured`` of example ``name`` into the new folder ``out``;
     returns the import file. Raises ValueError for an unknown name or a folder in use, and
@@ -185,7 +180,7 @@ def write_inputs(name: str, out) -> Path:
 
         openseespy()   # before any file is written
     out = Path(out)
-    _new_folder(out)
+    new_folder(out)
     for sub in ("exports", "measured"):
         (out / sub).mkdir()
     spec = _write_import(code, out / "exports")
