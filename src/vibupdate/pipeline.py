@@ -331,7 +331,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     which data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
     ``[verification] diagnose``.
     """
-    from vibupdate.report.plot_process import plot_process
+    from vibupdate.io.plot_process import plot_process
 
     if certify is not None and not certify >= 0:
         raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")

@@ -77,7 +77,7 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     a warning, not the run.
 
     The plot is drawn by the run's plotting process when one is up
-    (`vibupdate.report.plot_process`), else here.
+    (`vibupdate.io.plot_process`), else here.
 
     Returns True when the file was written. On any exception of ``plot`` (a degenerate
     figure, a font or backend problem, matplotlib not installed: `vibupdate._extras`) the
@@ -87,7 +87,7 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     import sys
     import warnings
 
-    from vibupdate.report.plot_process import draw
+    from vibupdate.io.plot_process import draw
 
     path = Path(path)
     done = draw(path, plot, args, kwargs)   # by the run's plotting process, when one is up

@@ -115,9 +115,11 @@ def _warm_up() -> None:
     """Import matplotlib and draw one small figure to memory: fonts, the Agg canvas."""
     import io
 
-    from vibupdate.report.plots import _pyplot
+    import matplotlib
 
-    plt = _pyplot()
+    matplotlib.use("Agg")   # as the plots do (vibupdate.report.plots)
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(2, 1.5))
     ax.plot([0.0, 1.0], [0.0, 1.0], label="warm-up")
     ax.set_xlabel("x [Hz]")

@@ -1,4 +1,4 @@
-"""Plots drawn by the run's second process (vibupdate.report.plot_process)."""
+"""Plots drawn by the run's second process (vibupdate.io.plot_process)."""
 
 import os
 import sys
@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from vibupdate.io.outputs import OutputWarning, drawn
-from vibupdate.report import plot_process as pp
+from vibupdate.io import plot_process as pp
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the child is forked on Linux only")
 
