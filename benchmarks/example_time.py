@@ -1,13 +1,15 @@
 """Where the wall time of ``vibupdate example cantilever`` goes: interpreter and imports,
 `update` (the solve), plots, and the rest (loading, damping, ranges, results, report).
 
-Run:  python benchmarks/example_time.py [--repeats 5]
+Run:  python benchmarks/example_time.py [--repeats 5] [--in-process]
 
 Each repeat is a fresh child process (``python -c``) that records the time of its imports and
 wraps `vibupdate.update` and the plot writer in timers, then runs the CLI's ``main(["example",
 "cantilever"])`` in an empty temporary folder; the child's wall time is measured by the parent
 from spawn to exit. The median over the repeats of each share is printed, with the load average
-(other work on the machine inflates every stage alike).
+(other work on the machine inflates every stage alike). ``--in-process``: the plots drawn by
+the run's own process, as before the plotting process (`vibupdate.io.plot_process`); without
+it, ``plots`` is the time the run waits for the child's drawings.
 """
 
 from __future__ import annotations
@@ -40,6 +42,9 @@ def timed(key, fn):
             times[key] += time.perf_counter() - t
     return wrapper
 
+if IN_PROCESS:   # the plots drawn by the run's own process, as before the plotting process
+    import vibupdate.io.plot_process as plot_process
+    plot_process.plot_process = lambda wanted=True: contextlib.nullcontext()
 outputs.drawn = timed("plots", drawn)
 pipeline.update = timed("update", update)
 t = time.perf_counter()
@@ -52,10 +57,11 @@ print(json.dumps(times))
 """
 
 
-def one() -> dict:
+def one(in_process: bool) -> dict:
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
-        done = subprocess.run([sys.executable, "-c", CHILD], capture_output=True, text=True, cwd=folder)
+        done = subprocess.run([sys.executable, "-c", f"IN_PROCESS = {in_process}\n" + CHILD], capture_output=True,
+                              text=True, cwd=folder)
         wall = time.perf_counter() - t0
     if done.returncode != 0:
         raise RuntimeError(done.stderr[-2000:])
@@ -69,8 +75,10 @@ def one() -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--in-process", action="store_true",
+                        help="draw the plots in the run's own process (no plotting process), for comparison")
     args = parser.parse_args()
-    rows = [one() for _ in range(args.repeats)]
+    rows = [one(args.in_process) for _ in range(args.repeats)]
     keys = ("wall", "interpreter", "imports", "update", "plots", "rest")
     median = {k: sorted(r[k] for r in rows)[len(rows) // 2] for k in keys}
     share = {k: median[k] / median["wall"] for k in keys[1:]}

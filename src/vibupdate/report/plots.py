@@ -148,11 +148,14 @@ def plot_receptances(path, panels) -> Path:
             ax = next(cells)
             for h, name, style in curves:
                 ax.semilogy(omega / TWO_PI, h[n], style, lw=1.0, label=name)
-            for i, f in enumerate(cfg.natural):
-                ax.axvline(f.omega / TWO_PI, color="0.3", lw=0.8, label="measured natural" if i == 0 else None)
-            for i, z in enumerate(zeros):
-                ax.axvline(z / TWO_PI, color="tab:red", lw=0.8, ls=":",
-                           label="measured antiresonance" if i == 0 else None)
+            # one collection per kind of marker: a line artist per marker costs its own draw
+            across = ax.get_xaxis_transform()
+            if cfg.natural:
+                ax.vlines([f.omega / TWO_PI for f in cfg.natural], 0, 1, transform=across, color="0.3", lw=0.8,
+                          label="measured natural")
+            if zeros:
+                ax.vlines(np.asarray(zeros) / TWO_PI, 0, 1, transform=across, color="tab:red", lw=0.8, ls=":",
+                          label="measured antiresonance")
             # a title at a set height: placed automatically, it measures every tick label of a log axis
             ax.set_title(f"configuration {cfg.name}: {label}", fontsize=9, y=1.0)
             ax.set_ylabel("|h| [m/N]")
