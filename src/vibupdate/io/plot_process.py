@@ -115,6 +115,9 @@ def _warm_up() -> None:
     """Import matplotlib and draw one small figure to memory: fonts, the Agg canvas."""
     import io
 
+    from vibupdate._extras import require
+
+    require("plots", "drawing plots")
     import matplotlib
 
     matplotlib.use("Agg")   # as the plots do (vibupdate.report.plots)
