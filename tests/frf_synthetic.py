@@ -353,3 +353,18 @@ def impact_measured(seed: int, decay: float = 0.05, repeats: int = 3, noise: flo
         accelerance = np.fft.rfft(records * window[None], axis=1)[:, keep] / spectrum[None]
         blocks.append(accelerance / -(2 * np.pi * freq[keep][None]) ** 2)
     return FRFSet(2 * np.pi * freq[keep], FRAME_PAIRS, tuple(blocks), measured="accelerance"), M, K, C, dofs
+
+
+def cantilever_frf_case(folder):
+    """The cantilever's known-truth hits (`measured`, seed 9, three repeats) as ``hits.uff`` in
+    ``folder``, and the case text: its head (model and parameters, one configuration ``A``)
+    and the whole case reading the hits through ``[configuration.frf]`` in 20-300 Hz."""
+    from vibupdate.examples import cantilever
+
+    frfs, *_ = measured(9, repeats=3)
+    write_uff(folder / "hits.uff", frfs)
+    params = "\n".join(f'[[parameter]]\nname = "{p.name}"\nnominal = {p.nominal!r}\nlower = {p.lower!r}\n'
+                       f'upper = {p.upper!r}\n' for p in cantilever.parameters())
+    head = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
+            '[[configuration]]\nname = "A"\n')
+    return head, head + '[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n'

@@ -82,20 +82,6 @@ def test_frequency_windows_text_names_the_source():
     assert _frequency_windows(case) == "1 % of each frequency"
 
 
-def _frf_route_case(tmp_path):
-    """The cantilever's known-truth hits as a UFF file, and the case text of the FRF route."""
-    from frf_synthetic import measured, write_uff
-    from vibupdate.examples import cantilever
-
-    frfs, *_ = measured(9, repeats=3)
-    write_uff(tmp_path / "hits.uff", frfs)
-    params = "\n".join(f'[[parameter]]\nname = "{p.name}"\nnominal = {p.nominal!r}\nlower = {p.lower!r}\n'
-                       f'upper = {p.upper!r}\n' for p in cantilever.parameters())
-    head = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
-            '[[configuration]]\nname = "A"\n')
-    return head, head + '[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n'
-
-
 def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tmp_path, capsys):
     """The tables `extract` writes carry every interval the FRF route gives (frequency, damping
     ratio, zero numbers, shapes), so a case reading them is held to the same measurement
@@ -104,7 +90,9 @@ def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tm
 
     from vibupdate.cli import main
 
-    head, frf_case = _frf_route_case(tmp_path)
+    from frf_synthetic import cantilever_frf_case
+
+    head, frf_case = cantilever_frf_case(tmp_path)
     (tmp_path / "frf.toml").write_text(frf_case)
     assert main(["extract", str(tmp_path / "hits.uff"), "--band", "20", "300", "--out", str(tmp_path / "ex"),
                  "--no-plot"]) == 0

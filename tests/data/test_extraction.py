@@ -457,15 +457,11 @@ def test_docs_example_runs_and_finds_the_truth(capsys):
 
 
 def test_case_configuration_from_frf_files(tmp_path):
+    from frf_synthetic import cantilever_frf_case
     from vibupdate.io.case import load_case
-    from vibupdate.examples import cantilever
 
     frfs, *_ = measured(9, repeats=3)
-    write_uff(tmp_path / "hits.uff", frfs)
-    params = "\n".join(f'[[parameter]]\nname = "{p.name}"\nnominal = {p.nominal!r}\nlower = {p.lower!r}\n'
-                       f'upper = {p.upper!r}\n' for p in cantilever.parameters())
-    text = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
-            '[[configuration]]\nname = "A"\n[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n')
+    _, text = cantilever_frf_case(tmp_path)
     (tmp_path / "case.toml").write_text(text)
     case = load_case(tmp_path / "case.toml")
     cfg = case.configurations[0]
