@@ -1,4 +1,4 @@
-"""The free-free bar of `tests/bar_synthetic.py` through `extract` and `vibupdate suggest`.
+"""The free-free bar of `vibupdate.examples.bar` through `extract` and `vibupdate suggest`.
 
 Run:  python benchmarks/suggest_bar.py [SEEDS]
 
@@ -21,11 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
-import bar_synthetic as bar  # noqa: E402
-from frf_synthetic import write_uff  # noqa: E402
-from vibupdate.data.extraction import extract  # noqa: E402
+from vibupdate.data.extraction import extract
+from vibupdate.data.frf import write_uff58 as write_uff
+from vibupdate.examples import bar
 
 
 def coverage(seeds: int) -> dict:
