@@ -288,7 +288,7 @@ def validate_case(case) -> CaseCheck:
     from vibupdate.io.case_keys import Where
 
     error = Where(case.path if case.path is not None else Path("case")).error
-    if not case.configurations[0].model.n_parameters:
+    if case.configurations and not case.configurations[0].model.n_parameters:   # none: validate_configurations says
         raise error("parameter", "the case updates no parameter: declare a [[parameter]], or let `vibupdate suggest` "
                                  f"choose among its {len(case.candidates)} [[candidate]]s")
     tol = case.frequency_tolerance
