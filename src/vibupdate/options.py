@@ -160,8 +160,9 @@ OPTIONS = (
     # -- [polish]: the refinement after the homotopy (vibupdate.inverse.polish.PolishOptions) --
     Option("polish", "enabled", "boolean", True, "refine the homotopy's answer by bounded least squares of the "
            "declared modes' relative frequency errors and the shape-interval penalties"),
-    Option("polish", "shape_weight", "number", 100.0, "largest weight of a shape ratio's distance outside its "
-           "interval (the fit uses the ratio of the frequencies' tolerance to `shape_tolerance` when smaller)",
+    Option("polish", "shape_weight", "number", 100.0, "weight of a shape ratio's distance outside its interval "
+           "(an answer that fails the fit check is refitted with the ratio of the frequencies' tolerance to "
+           "`shape_tolerance` when smaller)",
            lower=0),
     Option("polish", "max_evaluations", "integer", None, "full-model evaluations of the refinement at most", lower=1,
            optional=True, default_text="100 per parameter plus 100; it normally ends on convergence or a stall long "
