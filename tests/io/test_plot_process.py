@@ -11,6 +11,12 @@ from vibupdate.io import plot_process as pp
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the child is forked on Linux only")
 
 
+@pytest.fixture(autouse=True)
+def fresh_process(monkeypatch):
+    """As a process that has not drawn yet: the child starts only there."""
+    monkeypatch.delitem(sys.modules, "matplotlib.pyplot", raising=False)
+
+
 def _pid_plot(path, value):
     """A module-level plot: writes the drawing process's pid, so a test can tell who drew."""
     path.write_text(f"{os.getpid()} {value}")
@@ -46,6 +52,9 @@ def test_a_dead_child_leaves_the_plots_to_the_run(tmp_path):
         assert int((tmp_path / "a.png").read_text().split()[0]) == os.getpid()
 
 
-def test_no_child_when_not_wanted(tmp_path):
+def test_no_child_when_not_wanted_or_pyplot_is_loaded_already(tmp_path, monkeypatch):
     with pp.plot_process(False) as worker:
         assert worker is None and pp.active() is None
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", object())
+    with pp.plot_process() as worker:
+        assert worker is None

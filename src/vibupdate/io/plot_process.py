@@ -11,8 +11,8 @@ keeps its meaning: True when the file was written, a warning naming the file oth
 child's own warnings are issued again in the parent.
 
 A plot whose arguments cannot be sent (pickled), a child that died, or a platform without
-``fork`` or a run inside a daemon process (a batch's worker) draws in the run's own process,
-as without this module. The child is a daemon: an
+``fork``, a run inside a daemon process (a batch's worker) or a process that has imported
+pyplot already (its cost paid) draws in the run's own process, as without this module. The child is a daemon: an
 interrupted run does not wait for it. Threads and ``fork``: the child is forked before any
 solve, and draws with numpy and matplotlib only.
 """
@@ -40,7 +40,10 @@ def plot_process(wanted: bool = True):
     ``wanted`` is false, matplotlib is not installed, one is already up, or the platform does
     not fork."""
     global _WORKER
-    if not wanted or _WORKER is not None or not sys.platform.startswith("linux") or not _has_matplotlib():
+    # with pyplot already imported (a second run in one process: tests, batches, notebooks) the
+    # cost this saves is paid, and a child would only spend a core on its warm-up
+    if (not wanted or _WORKER is not None or not sys.platform.startswith("linux") or "matplotlib.pyplot" in sys.modules
+            or not _has_matplotlib()):
         yield None
         return
     import multiprocessing
