@@ -70,6 +70,31 @@ def percent_error(model, measured) -> np.ndarray:
     return 100.0 * np.abs(model - measured) / np.abs(measured)
 
 
+def declared_errors(configurations, freqs) -> dict[str, np.ndarray]:
+    """`percent_error` of the declared natural frequencies and zeros (``freqs``: the paired
+    `ModelFrequencies` per configuration), by kind, ``inf`` where the model lacks one."""
+    out = {}
+    for kind, data, model in (("natural", "natural", "natural"), ("antiresonance", "antiresonances", "antiresonances")):
+        measured = np.array([d.omega for c in configurations for d in getattr(c, data)], dtype=float)
+        values = np.concatenate([np.asarray(getattr(f, model), dtype=float) for f in freqs] or [np.zeros(0)])
+        errors = percent_error(values, measured) if measured.size else measured
+        out[kind] = np.where(np.isfinite(errors), errors, np.inf)
+    return out
+
+
+def row_errors(rows, kind: str | None = None) -> np.ndarray:
+    """The finite ``error_updated_pct`` of `frequency_rows` (of one ``kind`` when given)."""
+    e = np.array([r["error_updated_pct"] for r in rows
+                  if (kind is None or r["kind"] == kind) and r["error_updated_pct"] is not None], dtype=float)
+    return np.abs(e[np.isfinite(e)])
+
+
+def mean_max(errors) -> tuple[float, float]:
+    """Mean and largest of per-cent errors; NaN, NaN without any."""
+    errors = np.asarray(errors, dtype=float)
+    return (float(np.mean(errors)), float(np.max(errors))) if errors.size else (float("nan"), float("nan"))
+
+
 def zeros_wanted(cfg: Configuration, rc) -> int | None:
     """How many of the lowest zeros of ``h_rc`` a large model must give (one above the highest
     declared); None (all) for models on the dense path."""

@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from vibupdate.data.measured import Configuration, ShapeInterval
-from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies, row_errors
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.polish import PolishOptions, polish as run_polish, polish_residuals
@@ -268,30 +268,13 @@ class Diagnosis:
                     "success": bool(b.success),
                     "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
                     "xbar": np.asarray(b.xbar, dtype=float).tolist(),
-                    "mean_error_pct": _frequency_errors(b.frequencies)[0],
-                    "max_error_pct": _frequency_errors(b.frequencies)[1],
+                    "mean_error_pct": mean_max(row_errors(b.frequencies))[0],
+                    "max_error_pct": mean_max(row_errors(b.frequencies))[1],
                     "checks": [c.as_dict() for c in b.checks], "seconds": self.best_seconds}
         return {"failed": list(self.failed), "objective": self.objective, "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,
                 "trials": [t.as_dict() for t in self.trials], "best": best, "seconds": self.seconds,
                 "limits": {"groups": MAX_GROUPS, "seconds": MAX_SECONDS}}
-
-
-def _frequency_errors(rows) -> tuple[float, float]:
-    """Mean and max of ``error_updated_pct`` over `UpdateResult.frequencies` rows."""
-    errors = np.array([r["error_updated_pct"] for r in rows], dtype=float)
-    errors = errors[np.isfinite(errors)]
-    return (float(np.mean(errors)), float(np.max(errors))) if errors.size else (float("nan"), float("nan"))
-
-
-def _errors(configurations, updated) -> tuple[float, float]:
-    """Mean and max relative frequency error (per cent) of the model ``updated`` on the data."""
-    measured = np.concatenate([[n.omega for n in c.natural] + [a.omega for a in c.antiresonances]
-                               for c in configurations])
-    model = np.concatenate([np.r_[f.natural, f.antiresonances] for f in updated])
-    errors = 100 * np.abs(model - measured) / measured
-    errors = np.where(np.isfinite(errors), errors, np.inf)
-    return float(np.mean(errors)), float(np.max(errors))
 
 
 def _objective(configurations, xbar, polish: PolishOptions, verification: VerifyOptions) -> float:
@@ -313,7 +296,7 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
     checks = verify(kept, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0, options=verification)
     failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
     shape = next((c for c in checks if c.name == "shape_intervals"), None)
-    mean, worst = _errors(kept, updated)
+    mean, worst = mean_max(np.concatenate(list(declared_errors(kept, updated).values())))
     return GroupTrial(group, share, float(polished.cost), not failed, failed, mean, worst,
                       int(shape.value) if shape is not None else 0, np.asarray(x, dtype=float),
                       time.perf_counter() - t0)
@@ -357,7 +340,8 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
     configurations = list(configurations)
     xbar = np.asarray(result.xbar, dtype=float)
     full = _objective(configurations, xbar, polish, verification)
-    mean, worst = _errors(configurations, [model_frequencies(c, xbar) for c in configurations])
+    mean, worst = mean_max(np.concatenate(list(declared_errors(
+        configurations, [model_frequencies(c, xbar) for c in configurations]).values())))
     failed = tuple(c.name for c in result.checks if c.severity == "error" and not c.passed)
     candidates = []
     for group in data_groups(configurations):

@@ -46,7 +46,8 @@ from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, fit_data, tolerance_weights, verify
+from vibupdate.inverse.verify import (Check, VerifyOptions, consistency_allowance, tolerance_shape_weight,
+                                     tolerance_weights, verify)
 from vibupdate.modal.analysis import DENSE_LIMIT
 
 __all__ = ["UpdateResult", "update", "prepare", "Prepared", "prepare_first_stage"]
@@ -537,9 +538,10 @@ def _refit_shapes(configurations, best: _Finish, finish, polish: PolishOptions, 
     `vibupdate.examples.bar`: frequencies to 0.1 %, shapes to 0.02; at the shapes' weight 100 no
     set verified, the frequencies off by up to 0.42 %.) Exact and consistent data keep the
     stronger weight, which ends nearer the exact answer (30,315 DOFs: 2.6e-11 against 2.3e-9)."""
-    _, weighed = fit_data(configurations, verification, polish)
-    if weighed.shape_weight >= polish.shape_weight or not any(n.shape for c in configurations for n in c.natural):
+    weight = tolerance_shape_weight(configurations, verification, polish.shape_weight)
+    if weight >= polish.shape_weight or not any(n.shape for c in configurations for n in c.natural):
         return best
+    weighed = replace(polish, shape_weight=weight)
     t0 = time.perf_counter()
     candidate = finish(best.xbar, "shapes weighed by their tolerance", weighed)
     restarts.append({"start": "shapes weighed by their tolerance", "purpose": "fit", "status": candidate.status.value,

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -342,8 +342,9 @@ def _common_scaling_miss(phi: np.ndarray, shape, widen: float = 0.0) -> float:
 FIT_FLOOR = 1e-8
 
 #: Smallest relative tolerance (measurement half-width plus model-form tolerance) a datum is
-#: weighted by (`tolerance_weights`): below it the residuals' own conditioning, not the datum,
-#: limits what a larger weight could buy.
+#: weighted by (`tolerance_weights`): a chosen cap, not a measured one, so that an exact datum
+#: among 1 % ones weighs 1e4^2 times more rather than without bound (extracted intervals of
+#: 1e-5 with a model-form tolerance of 0 all sit at it, and keep equal weights).
 WEIGHT_FLOOR = 1e-4
 
 
@@ -398,8 +399,6 @@ def tolerance_shape_weight(configurations: Sequence[Configuration], options: Ver
 def fit_data(configurations: Sequence[Configuration], options: VerifyOptions, polish):
     """The data and the polish's options as the fit weighs them by the tolerances the
     verification holds them to (`tolerance_weights`, `tolerance_shape_weight`)."""
-    from dataclasses import replace
-
     weight = tolerance_shape_weight(configurations, options, polish.shape_weight)
     return tolerance_weights(configurations, options), replace(polish, shape_weight=weight)
 
@@ -410,8 +409,6 @@ def tolerance_weights(configurations: Sequence[Configuration], options: VerifyOp
     `WEIGHT_FLOOR`), the multipliers normalized to mean 1 over all frequencies: the fit weighs
     each residual in units of what the verification allows it, and data with equal tolerances
     keep their weights (the same objects are returned then)."""
-    from dataclasses import replace
-
     options = options or VerifyOptions()
     data = [d for c in configurations for d in (*c.natural, *c.antiresonances)]
     if not data:

@@ -84,22 +84,29 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
     the file and the error is issued, and False is returned. KeyboardInterrupt is not caught.
     """
-    import sys
     import warnings
 
     from vibupdate.io.plot_process import draw
 
     path = Path(path)
     done = draw(path, plot, args, kwargs)   # by the run's plotting process, when one is up
-    if done is not None:
-        if not done[0]:
-            warnings.warn(OutputWarning(f"{path.name} was not drawn: {done[1]}"), stacklevel=2)
-        return done[0]
+    ok, why = done if done is not None else draw_here(path, plot, args, kwargs)
+    if not ok:
+        warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
+    return ok
+
+
+def draw_here(path: Path, plot, args, kwargs) -> tuple[bool, str | None]:
+    """``plot(path, *args, **kwargs)`` in this process: ``(True, None)``, or ``(False, reason)``
+    with the partial file and the figures it opened removed (`drawn`; the plotting process
+    draws with it too)."""
+    import sys
+
     plt = sys.modules.get("matplotlib.pyplot")
     before = set(plt.get_fignums()) if plt is not None else set()
     try:
         plot(path, *args, **kwargs)
-        return True
+        return True, None
     except Exception as exc:  # an optional file is never worth the run: any failure is a note
         plt = sys.modules.get("matplotlib.pyplot")
         if plt is not None:
@@ -107,9 +114,7 @@ def drawn(path, plot, *args, **kwargs) -> bool:
                 plt.close(number)
         if path.is_file():
             path.unlink()
-        why = str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
-        warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
-        return False
+        return False, str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
 
 
 def safe_name(text: str, *, default: str = "case") -> str:

@@ -135,24 +135,10 @@ def _warm_up() -> None:
 
 
 def _call(plot, path, args, kwargs):
-    """One plot, as `vibupdate.io.outputs.drawn` would call it: ``(ok, reason, warnings)``."""
-    from pathlib import Path
+    """One plot, as `vibupdate.io.outputs.drawn` draws it: ``(ok, reason, warnings)``."""
+    from vibupdate.io.outputs import draw_here
 
-    from vibupdate._extras import MissingExtra
-
-    plt = sys.modules.get("matplotlib.pyplot")
-    before = set(plt.get_fignums()) if plt is not None else set()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        try:
-            plot(path, *args, **kwargs)
-            ok, why = True, None
-        except Exception as exc:  # said in the parent as a warning naming the file
-            plt = sys.modules.get("matplotlib.pyplot")
-            if plt is not None:
-                for number in set(plt.get_fignums()) - before:
-                    plt.close(number)
-            if Path(path).is_file():
-                Path(path).unlink()
-            ok, why = False, str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
+        ok, why = draw_here(path, plot, args, kwargs)
     return ok, why, [(w.category, str(w.message)) for w in caught]

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from vibupdate.data.measured import Configuration
-from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies, row_errors
 from vibupdate.inverse.data_map import sensitivity
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
@@ -216,15 +216,8 @@ def _frequency_errors(configurations, freqs) -> dict:
     """Mean and max relative error (per cent) of the declared modes (``natural_*``) and of the
     zeros (``antiresonance_*``, NaN without any)."""
     out = {}
-    for kind, measured, model in (
-            ("natural", [[n.omega for n in c.natural] for c in configurations], [f.natural for f in freqs]),
-            ("antiresonance", [[a.omega for a in c.antiresonances] for c in configurations],
-             [f.antiresonances for f in freqs])):
-        w = np.concatenate([np.asarray(m, dtype=float) for m in measured])
-        errors = 100 * np.abs(np.concatenate([np.asarray(m, dtype=float) for m in model]) - w) / w if w.size else w
-        errors = np.where(np.isfinite(errors), errors, np.inf)
-        out[f"{kind}_mean_pct"] = float(np.mean(errors)) if errors.size else float("nan")
-        out[f"{kind}_max_pct"] = float(np.max(errors)) if errors.size else float("nan")
+    for kind, errors in declared_errors(configurations, freqs).items():
+        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(errors)
     return out
 
 
@@ -232,11 +225,7 @@ def _row_errors(rows) -> dict:
     """`_frequency_errors` of `UpdateResult.frequencies` rows."""
     out = {}
     for kind in ("natural", "antiresonance"):
-        e = np.array([r["error_updated_pct"] for r in rows if r["kind"] == kind and r["error_updated_pct"] is not None],
-                     dtype=float)
-        e = np.abs(e[np.isfinite(e)])
-        out[f"{kind}_mean_pct"] = float(np.mean(e)) if e.size else float("nan")
-        out[f"{kind}_max_pct"] = float(np.max(e)) if e.size else float("nan")
+        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(row_errors(rows, kind))
     return out
 
 
