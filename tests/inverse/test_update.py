@@ -13,7 +13,7 @@ from vibupdate import (Antiresonance, Assembly, Configuration, NaturalFrequency,
 from vibupdate.inverse.backends.casadi_ipopt import CasadiIpopt
 from vibupdate.examples import cantilever
 from vibupdate.inverse.homotopy import SolverOptions
-from vibupdate.inverse.polish import PolishOptions
+from vibupdate.inverse.polish import PolishOptions, polish
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import prepare, update
@@ -296,6 +296,23 @@ def test_two_answers_that_fit_exactly_are_both_said():
     assert np.allclose([other["k1"], other["k2"]], [2000.0, 500.0], rtol=1e-6)
     assert any(w.startswith("uniqueness: 1 other answer") for w in result.warnings)
     assert {r["purpose"] for r in result.restarts if "purpose" in r} == {"uniqueness"}
+    # starts that find one of the two answers again stop there instead of converging on it twice
+    statuses = [r["status"] for r in result.restarts if r.get("purpose") == "uniqueness"]
+    assert "same answer" in statuses, statuses
+
+
+def test_a_probing_polish_stops_on_a_known_answer_and_not_elsewhere():
+    model = chain_model(2, ["k1", "k2"], nominal={"k1": 1200.0, "k2": 900.0}, spread=0.7)
+    _, _, omega, _ = exact(model, {"k1": 1000.0, "k2": 1000.0})
+    cfg = Configuration("P2", model, tuple(NaturalFrequency(w) for w in omega))
+    near = model.normalized([1000.0, 1000.0])
+    far = model.normalized([2000.0, 500.0])
+    start = model.normalized([1100.0, 950.0])
+    again = polish([cfg], start, answers=[far, near])
+    assert again.stopped_on == "known answer" and "known answer 2" in again.message, again.message
+    alone = polish([cfg], start, answers=[far])
+    assert alone.stopped_on == "convergence" and np.allclose(alone.xbar, near, atol=1e-8)
+    assert again.evaluations < alone.evaluations
 
 
 def test_bad_input_is_caught_before_any_solve():

@@ -172,9 +172,10 @@ class PolishResult:
         Reduced rounds taken (module docstring); 0 on the full model only.
     reduced_evaluations : int
         Evaluations of the reduced models in those rounds.
-    stopped_on : {"convergence", "stall", "evaluations", "time", "failure"}
+    stopped_on : {"convergence", "stall", "evaluations", "time", "known answer", "failure"}
         What ended it: a convergence test, a stall (`vibupdate.inverse.bounded_lsq.STALL_DECREASE`), one of the `LIMITS`
-        (then the answer may be short of the optimum), or an error.
+        (then the answer may be short of the optimum), reaching one of the known ``answers``
+        again (`polish`), or an error.
     budget : int
         The evaluation limit it had.
     """
@@ -336,13 +337,15 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
 
 
 def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None,
-           progress=None) -> PolishResult:
+           progress=None, answers=None) -> PolishResult:
     """Refine ``xbar0`` by bounded least squares (module docstring). ``progress(message)``, when
     given, hears of each reduced round (large models).
 
     It ends on scipy's convergence tests (``ftol``, ``xtol``, ``gtol`` = ``tol``), on a stall
-    (`STALL_DECREASE`), or on a limit (`PolishOptions.budget` evaluations, ``max_seconds``);
-    ``PolishResult.stopped_on`` and ``message`` say which."""
+    (`STALL_DECREASE`), on a limit (`PolishOptions.budget` evaluations, ``max_seconds``), or,
+    given ``answers`` (known answers, shape (n_a, n_x)), on reaching one of them again
+    (`SAME_ANSWER`, stopped on "known answer"); ``PolishResult.stopped_on`` and ``message`` say
+    which."""
     options = options or PolishOptions()
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
@@ -377,15 +380,17 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
                 # the soft start (module docstring): the same fit with the intervals priced lower
                 soft = replace(options, shape_weight=SOFT_START * options.shape_weight)
                 first, evaluations, stopped_on = _full_model(configurations, start_x, None, soft, tols, budget,
-                                                             evaluations, start)
+                                                             evaluations, start, answers)
                 start_x = first.x
-            if stopped_on in LIMITS:
+            if stopped_on == "known answer":
+                sol = first
+            elif stopped_on in LIMITS:
                 r, _ = polish_residuals(configurations, start_x, options.shape_weight, jacobian=False)
                 sol = _Converged(start_x, 0.5 * float(r @ r), -2, f"{first.message}, in the soft start "
                                                                   f"(shape weight {soft.shape_weight:g})")
             else:
                 sol, evaluations, stopped_on = _full_model(configurations, start_x, known, options, tols, budget,
-                                                           evaluations, start)
+                                                           evaluations, start, answers)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
@@ -402,7 +407,7 @@ def _has_intervals(configurations) -> bool:
 
 
 def _full_model(configurations: list, x, known, options: PolishOptions, tols: dict, budget: int, evaluations: int,
-                started: float):
+                started: float, answers=None):
     """The full-model least squares from ``x`` (``known``: its residual and Jacobian when
     evaluated) after ``evaluations`` of the ``budget``; restarted while scipy's step or cost
     test stopped it and a restart still lowers the objective: trf's trust radius collapses on
@@ -420,7 +425,7 @@ def _full_model(configurations: list, x, known, options: PolishOptions, tols: di
         known = (x, polish_residuals(configurations, x, options.shape_weight))
         evaluations += 1
     monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
-                       options.max_seconds)
+                       options.max_seconds, answers)
     stopped_on = "convergence"
     try:
         sol = fit_least_squares(configurations, known[0], options.shape_weight, known=known, monitor=monitor,

@@ -367,11 +367,15 @@ class _Finish:
 
 
 def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, say,
-            reduction_error: float = 0.0) -> _Finish:
-    """Polish ``start``, take the minimum change along undetermined directions, verify."""
+            reduction_error: float = 0.0, answers=None) -> _Finish | None:
+    """Polish ``start``, take the minimum change along undetermined directions, verify. None
+    when the polish reached one of the known ``answers`` again (`polish`)."""
     xbar, polished, minimum = start, None, None
     if polish.enabled:
-        polished = run_polish(configurations, start, polish, progress=say)
+        polished = run_polish(configurations, start, polish, progress=say, answers=answers)
+        if polished.stopped_on == "known answer":
+            say(f"polish ({label}): {polished.message}")
+            return None
         xbar = polished.xbar
         say(f"polish ({label}): objective {polished.cost_start:.4e} -> {polished.cost:.4e} "
             f"({'kept' if polished.kept else 'not kept'}, {polished.evaluations} evaluations"
@@ -474,8 +478,10 @@ def _choose(tried: list[_Finish], fallback: _Finish) -> tuple[_Finish, tuple[_Fi
 
 def _probe(configurations, finish, tried: list[_Finish], restarts: list, say, options: PolishOptions) -> None:
     """Polish from the starts of `_box_starts` not tried yet, so that an answer that is not the
-    only one fitting the data is found and said (`_choose`). Each start is recorded in
-    ``restarts`` with ``purpose`` "uniqueness"."""
+    only one fitting the data is found and said (`_choose`). A start whose polish reaches a
+    verified answer again stops there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`): it is that
+    answer, found again, and is neither verified nor compared a second time. Each start is
+    recorded in ``restarts`` with ``purpose`` "uniqueness" (``status`` "same answer" for those)."""
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
     todo = [(label, x) for label, x in _box_starts(lo, hi, PROBE_RANDOM_STARTS) if label not in done]
@@ -483,9 +489,14 @@ def _probe(configurations, finish, tried: list[_Finish], restarts: list, say, op
         say(f"uniqueness: polishing from {len(todo)} further starts")
     for label, x0 in todo:
         t0 = time.perf_counter()
-        candidate = finish(x0, label, options)
-        restarts.append({"start": label, "purpose": "uniqueness", "status": candidate.status.value,
-                         "failed": candidate.failed, "cost": candidate.cost, "seconds": time.perf_counter() - t0})
+        answers = [c.xbar for c in tried if c.status.ok]
+        candidate = finish(x0, label, options, answers)
+        record = {"start": label, "purpose": "uniqueness", "seconds": time.perf_counter() - t0}
+        if candidate is None:
+            record.update(status="same answer", failed=[], cost=None)
+        else:
+            record.update(status=candidate.status.value, failed=candidate.failed, cost=candidate.cost)
+        restarts.append(record)
 
 
 def _alternative_records(model, best: _Finish, alternatives: tuple[_Finish, ...]) -> tuple[dict, ...]:
@@ -705,10 +716,11 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
 
     tried: list[_Finish] = []
 
-    def finish(start: np.ndarray, label: str, options: PolishOptions | None = None) -> _Finish:
+    def finish(start: np.ndarray, label: str, options: PolishOptions | None = None, answers=None) -> _Finish | None:
         candidate = _finish(configurations, start, label, path, problem, active, nominal, options or polish,
-                            verification, say, reduction_error)
-        tried.append(candidate)
+                            verification, say, reduction_error, answers)
+        if candidate is not None:
+            tried.append(candidate)
         return candidate
 
     first_xbar = np.clip(path.x, problem.x_lower, problem.x_upper)
