@@ -194,3 +194,14 @@ def test_extract_without_matplotlib_writes_its_files_and_names_the_extra_for_the
     printed = capsys.readouterr().out
     assert "fit.png was not drawn: drawing plots needs the optional extra [plots]" in printed
     assert not (out / "fit.png").exists() and (out / "extraction.json").exists()
+
+
+def test_installed_finds_a_module_without_importing_it(monkeypatch):
+    from vibupdate._extras import installed
+
+    monkeypatch.delitem(sys.modules, "pyuff", raising=False)
+    found = installed("frf")
+    assert "pyuff" not in sys.modules       # found, not imported
+    assert found == available("frf")
+    _without(monkeypatch, "pyuff")
+    assert not installed("frf")

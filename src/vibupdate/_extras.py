@@ -10,9 +10,11 @@ the command that installs it; the command line turns it into one line and exit c
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import sys
 from dataclasses import dataclass
 
-__all__ = ["Extra", "EXTRAS", "MissingExtra", "available", "require", "install_hint", "skipped"]
+__all__ = ["Extra", "EXTRAS", "MissingExtra", "available", "installed", "require", "install_hint", "skipped"]
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,24 @@ def available(extra: str) -> bool:
         try:
             importlib.import_module(module)
         except ImportError:
+            return False
+    return True
+
+
+def installed(extra: str) -> bool:
+    """Whether every module of ``extra`` is installed, found without importing it (a module
+    set to None in ``sys.modules`` counts as missing, as an import of it fails). Cheaper than
+    `available` (importing matplotlib costs about 0.2 s): for a run that only needs to know
+    whether to plan plots, whose drawing reports its own failure."""
+    for module in _extra(extra).modules:
+        if module in sys.modules:
+            if sys.modules[module] is None:
+                return False
+            continue
+        try:
+            if importlib.util.find_spec(module) is None:
+                return False
+        except (ImportError, ValueError):
             return False
     return True
 

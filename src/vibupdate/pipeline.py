@@ -187,7 +187,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     failed is replaced by a short one saying what failed. Returns the run as written (with
     those notes).
     """
-    from vibupdate._extras import available, skipped
+    from vibupdate._extras import installed, skipped
     from vibupdate.io.outputs import OutputWarning, drawn
     from vibupdate.report.plots import plot_homotopy
 
@@ -198,7 +198,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     images = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
-        if not available("plots"):      # without matplotlib: one note and no plots
+        if not installed("plots"):      # without matplotlib: one note and no plots
             warnings.warn(OutputWarning(skipped("plots", "plots")))
         else:
             images += _receptance_plot(folder, case, run)

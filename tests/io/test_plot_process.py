@@ -58,3 +58,17 @@ def test_no_child_when_not_wanted_or_pyplot_is_loaded_already(tmp_path, monkeypa
     monkeypatch.setitem(sys.modules, "matplotlib.pyplot", object())
     with pp.plot_process() as worker:
         assert worker is None
+
+
+def test_a_run_with_the_child_never_imports_matplotlib_itself(tmp_path):
+    """The child imports and warms matplotlib up while the run solves; the run's own process
+    only asks whether it is installed (`vibupdate._extras.installed`), so it does not pay the
+    import too, and the plots are still drawn."""
+    import subprocess
+
+    script = ("import contextlib, io, sys\nfrom vibupdate.cli import main\n"
+              "with contextlib.redirect_stdout(io.StringIO()):\n    code = main(['example', 'cantilever'])\n"
+              "print(code, 'matplotlib' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert out.stdout.split() == ["0", "False"], out.stderr[-2000:]
+    assert (tmp_path / "cantilever-results" / "frf.png").stat().st_size > 1000

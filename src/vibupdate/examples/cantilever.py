@@ -71,9 +71,20 @@ def build(p: dict, proof_mass_dof: str | None = None) -> System:
 
 
 @lru_cache(maxsize=None)
+def _bare():
+    """The beam without a proof mass (its parameter matrices by the complex step)."""
+    return from_builder(lambda p: build(p), parameters())
+
+
+@lru_cache(maxsize=None)
 def _model(name: str):
+    """Configuration ``name``: the bare beam, built once, with the configuration's proof mass
+    added as a lumped mass (`vibupdate.model.affine.with_lumped`)."""
+    from vibupdate.model.affine import Lumped, with_lumped
+    from vibupdate.model.expressions import LinearExpression
+
     dof = CONFIGURATIONS[name]
-    return from_builder(lambda p: build(p, dof), parameters())
+    return _bare() if dof is None else with_lumped(_bare(), [Lumped("M", dof, LinearExpression(PROOF_MASS, ()))])
 
 
 def configurations() -> list[Configuration]:

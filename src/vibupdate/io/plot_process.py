@@ -71,9 +71,9 @@ def plot_process(wanted: bool = True):
 
 
 def _has_matplotlib() -> bool:
-    from vibupdate._extras import available
+    from vibupdate._extras import installed
 
-    return available("plots")
+    return installed("plots")   # found, not imported: the child imports it
 
 
 def draw(path, plot, args, kwargs) -> tuple[bool, str | None] | None:
