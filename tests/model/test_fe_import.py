@@ -15,7 +15,7 @@ from vibupdate.model.fe.ansys import read_hbmat
 from vibupdate.model.fe.export import without_dofs
 from vibupdate.model.fe.nastran import nastran_float, read_dmig
 from vibupdate.model.fe.perturbed import Perturbation, derivatives
-from vibupdate.model.fe.sensors import locate
+from vibupdate.model.fe.sensors import place
 from vibupdate.model.parameters import Parameter
 
 SMALL = (2, 1, 2)
@@ -109,11 +109,11 @@ def test_a_beam_depth_is_reported_non_affine_and_linearized_by_the_central_diffe
 def test_sensors_by_dof_and_by_coordinates(small):
     nodes = {str(k): v for k, v in small.nodes.items()}
     corner = fe_cases.measured_dofs(small, SMALL[2])[0].split(":")[0]
-    s = locate("a", small.dofs, nodes, position=small.nodes[int(corner)] + [0.01, 0, 0], direction=[0, -1, 0])
+    (s, c), obliques = place([{"name": "a", "position": small.nodes[int(corner)] + [0.01, 0, 0],
+                               "direction": [0, -1, 0]}, {"name": "c", "dof": f"{corner}:z"}], small.dofs, nodes)
     assert (s.dof, s.sign) == (f"{corner}:y", -1.0) and s.distance == pytest.approx(0.01)
-    with pytest.raises(ValueError, match="mixes the node's axes"):
-        locate("b", small.dofs, nodes, position=small.nodes[int(corner)], direction=[1, 1, 0])
-    assert locate("c", small.dofs, dof=f"{corner}:z").dof == f"{corner}:z"
+    assert s.direction.tolist() == [0, -1, 0] and not obliques
+    assert (c.dof, c.sign, c.direction.tolist()) == (f"{corner}:z", 1.0, [0, 0, 1])
 
 
 @pytest.mark.parametrize("route", ["ansys", "abaqus", "nastran-large"])
@@ -145,9 +145,10 @@ def test_import_then_run_recovers_the_truth_from_exact_data(small, tmp_path, cap
     assert max(err.values()) <= 1e-6, err
     # the sensor map travels from the import to the results and the report
     assert 'sensors = "sensors.csv"' in (tmp_path / "model" / "model.toml").read_text()
-    assert doc["sensors"] == [{"sensor": "roof", "dof": "2001:x", "sign": 1.0, "distance_m": 0.0}]
+    assert doc["sensors"] == [{"sensor": "roof", "dof": "2001:x", "sign": 1.0, "distance_m": 0.0,
+                               "direction": [1.0, 0.0, 0.0]}]
     report = (tmp_path / "out" / "report.md").read_text()
-    assert "## Measured points on the mesh" in report and "| roof | 2001:x | + | 0 |" in report
+    assert "## Measured points on the mesh" in report and "| roof | 2001:x | + | (1, 0, 0) | 0 |" in report
 
 
 def test_a_sensor_map_naming_a_dof_the_model_lacks_exits_2_naming_the_row(small, tmp_path, capsys):

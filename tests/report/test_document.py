@@ -27,3 +27,17 @@ def test_the_verification_section_says_when_the_polish_stopped_on_a_limit():
     assert f"was kept (stopped on its evaluations limit: {said})" in text
     converged = "\n".join(verification_markdown(_solver(stopped_on="convergence")))
     assert "limit" not in converged
+
+
+def test_the_sensor_map_shows_each_direction_and_a_dash_where_a_results_file_has_none():
+    from types import SimpleNamespace
+
+    from vibupdate.report.document import sensors_table
+    from vibupdate.report.table import markdown
+
+    run = SimpleNamespace(sensors=({"sensor": "d", "dof": "7:n1", "sign": -1.0, "distance_m": 0.01,
+                                    "direction": [-0.6, 0.0, -0.8]},
+                                   {"sensor": "old", "dof": "7:x", "sign": 1.0, "distance_m": 0.0}))
+    text = "\n".join(markdown(sensors_table(run)))
+    assert "| sensor | DOF | sign | reads along (x, y, z) | distance [m] |" in text
+    assert "| d | 7:n1 | - | (-0.6, 0, -0.8) | 0.01 |" in text and "| old | 7:x | + | - | 0 |" in text

@@ -269,7 +269,10 @@ def configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: Wh
 
 def read_sensors(path: Path, dofs, where: Where) -> tuple[dict, ...]:
     """The measured points of an imported FE mesh (``[model] sensors``, written by
-    `vibupdate import`): rows ``sensor, dof, sign, distance_m``, each DOF one of the model's."""
+    `vibupdate import`): rows ``sensor, dof, sign, distance_m`` and optionally ``nx, ny, nz``
+    (the unit direction the sensor reads, needed for an oblique DOF ``"<node>:n<k>"``), each
+    DOF one of the model's. Each row gives a dict with those keys and ``direction`` (a list of
+    3 floats; for a file without ``nx, ny, nz``, the signed axis of an x, y or z DOF; else None)."""
     from vibupdate.io.measured_io import _number, _rows
 
     known = set(dofs)
@@ -281,15 +284,37 @@ def read_sensors(path: Path, dofs, where: Where) -> tuple[dict, ...]:
     for line, row in rows:
         missing = [c for c in ("sensor", "dof", "sign", "distance_m") if c not in row]
         if missing:
-            raise where.error("model.sensors", f"{path}: needs columns sensor, dof, sign, distance_m; "
-                                               f"missing {missing}")
+            raise where.error("model.sensors", f"{path}: needs columns sensor, dof, sign, distance_m (and "
+                                               f"optionally nx, ny, nz); missing {missing}")
         if row["dof"] not in known:
             raise where.error("model.sensors", f"{path}: row {line}: sensor {row['sensor']!r} measures "
                                                f"{row['dof']!r}, which is not a DOF of the model")
-        sign = _number(row["sign"], "sign", path, line)
-        if sign not in (1.0, -1.0):
-            raise where.error("model.sensors", f"{path}: row {line}: sign must be 1 or -1, got {row['sign']!r}")
-        out.append({"sensor": row["sensor"], "dof": row["dof"], "sign": sign,
-                    "distance_m": _number(row["distance_m"], "distance_m", path, line)})
+        try:
+            sign = _number(row["sign"], "sign", path, line)
+            if sign not in (1.0, -1.0):
+                raise ValueError(f"{path}: row {line}: sign must be 1 or -1, got {row['sign']!r}")
+            out.append({"sensor": row["sensor"], "dof": row["dof"], "sign": sign,
+                        "distance_m": _number(row["distance_m"], "distance_m", path, line),
+                        "direction": _sensor_direction(row, sign, path, line)})
+        except ValueError as exc:
+            raise where.error("model.sensors", str(exc)) from None
     return tuple(out)
 
+
+def _sensor_direction(row: dict, sign: float, path: Path, line: int) -> list | None:
+    """The unit direction of one row of a sensors file (`read_sensors`)."""
+    from vibupdate.io.measured_io import _number
+    from vibupdate.model.fe.oblique import AXES, OBLIQUE_DOF
+
+    given = [row.get(k, "") for k in ("nx", "ny", "nz")]
+    if any(given):
+        n = np.array([_number(t, k, path, line) for t, k in zip(given, ("nx", "ny", "nz"))])
+        if abs(np.linalg.norm(n) - 1) > 1e-6:
+            raise ValueError(f"{path}: row {line}: nx, ny, nz must be a unit vector, got {n.tolist()} (length "
+                             f"{np.linalg.norm(n):.6g})")
+        return n.tolist()
+    if OBLIQUE_DOF.match(row["dof"]):
+        raise ValueError(f"{path}: row {line}: sensor {row['sensor']!r} reads the oblique DOF {row['dof']!r}: "
+                         "its direction nx, ny, nz is needed")
+    axis = row["dof"].rsplit(":", 1)[-1]
+    return (sign * np.eye(3)[AXES.index(axis)]).tolist() if axis in AXES else None

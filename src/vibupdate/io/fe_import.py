@@ -6,7 +6,9 @@ sensors. `import_model` reads them (`vibupdate.model.fe`), forms the affine mode
 (`vibupdate.model.fe.perturbed`) and writes, into a new folder, ``model.toml`` (the
 ``[model]`` of ``type = "matrices"`` and the ``[[parameter]]`` tables), ``M0.npz``,
 ``K0.npz``, ``dM_<name>.npz``, ``dK_<name>.npz``, and ``nodes.csv`` / ``sensors.csv`` when
-known. Everything is written to a temporary folder beside the target and moved at the end, so a
+known. An oblique sensor's reading becomes a DOF of the written model
+(`vibupdate.model.fe.oblique`: the matrices are those of the export in the new coordinates).
+Everything is written to a temporary folder beside the target and moved at the end, so a
 bad export leaves nothing behind.
 """
 
@@ -25,7 +27,8 @@ import scipy.sparse as sp
 from vibupdate.io.case_keys import Where, check_table
 from vibupdate.model.fe.export import FEExport, without_dofs
 from vibupdate.model.fe.perturbed import Perturbation, affine_from_exports
-from vibupdate.model.fe.sensors import locate
+from vibupdate.model.fe.oblique import coordinate_change, congruent, translation_masses
+from vibupdate.model.fe.sensors import place
 from vibupdate.model.parameters import Parameter
 
 __all__ = ["ImportedModel", "check_import", "import_model", "read_import", "summary_lines", "FORMATS"]
@@ -45,15 +48,27 @@ class ImportedModel:
     Attributes
     ----------
     model : AffineModel
+        In the coordinates the sensors read: the export's, with an oblique DOF in place of one
+        translation per oblique sensor direction.
     nominal : FEExport
+        As exported.
     derivatives : tuple of Derivative
+        In the model's coordinates.
     sensors : tuple of Sensor
+    obliques : tuple of Oblique
+        The model's oblique DOFs.
     """
 
     model: object
     nominal: FEExport
     derivatives: tuple
     sensors: tuple
+    obliques: tuple = ()
+
+    @property
+    def directions(self) -> dict:
+        """Oblique DOF -> its unit direction (3,)."""
+        return {o.dof: o.direction for o in self.obliques}
 
 
 def _export(fmt: str, where_key: str, item, spec: dict, base: Path, where: Where, values=None) -> FEExport:
@@ -178,14 +193,19 @@ def read_import(path) -> ImportedModel:
     model, ders = affine_from_exports(nominal, perts)
     if "nodes" in spec:
         nominal = replace(nominal, nodes={**nominal.nodes, **_read_nodes(base / spec["nodes"], where)})
-    sensors = []
-    for i, item in enumerate(spec.get("sensor", []), start=1):
-        try:
-            sensors.append(locate(item["name"], nominal.dofs, nominal.nodes, dof=item.get("dof"),
-                                  position=item.get("position"), direction=item.get("direction")))
-        except ValueError as exc:
-            raise where.error(f"sensor[{i}]", str(exc)) from None
-    return ImportedModel(model, nominal, ders, tuple(sensors))
+    sensors, obliques = place(spec.get("sensor", []), nominal.dofs, nominal.nodes, where.error)
+    if obliques:
+        model, ders = _in_coordinates(model, ders, obliques)
+    return ImportedModel(model, nominal, ders, sensors, obliques)
+
+
+def _in_coordinates(model, ders, obliques):
+    """The affine model and its derivatives with the oblique DOFs (`vibupdate.model.fe.oblique`)."""
+    T, dofs = coordinate_change(model.dofs, obliques)
+    model = replace(model, dofs=dofs, M0=congruent(model.M0, T), K0=congruent(model.K0, T),
+                    M_par=tuple(congruent(A, T) for A in model.M_par),
+                    K_par=tuple(congruent(A, T) for A in model.K_par))
+    return model, tuple(d.in_coordinates(T, dofs) for d in ders)
 
 
 def _read_nodes(path: Path, where: Where) -> dict:
@@ -245,9 +265,7 @@ def import_model(path, out) -> ImportedModel:
                                      for k, v in imported.nominal.nodes.items()]
             (tmp / "nodes.csv").write_text("\n".join(rows) + "\n")
         if imported.sensors:
-            rows = ["sensor,dof,sign,distance_m"] + [f"{s.name},{s.dof},{s.sign:g},{s.distance:.6g}"
-                                                      for s in imported.sensors]
-            (tmp / "sensors.csv").write_text("\n".join(rows) + "\n")
+            (tmp / "sensors.csv").write_text(_sensors_csv(imported.sensors))
         if out.exists():
             out.rmdir()
         tmp.rename(out)
@@ -255,6 +273,20 @@ def import_model(path, out) -> ImportedModel:
         if tmp.exists():
             shutil.rmtree(tmp)
     return imported
+
+
+def _sensors_csv(sensors) -> str:
+    """``sensors.csv``: one row per sensor, its direction to full precision (the oblique DOFs'
+    directions are read back from it)."""
+    rows = ["sensor,dof,sign,distance_m,nx,ny,nz"]
+    for s in sensors:
+        along = ",," if s.direction is None else ",".join(repr(float(c) + 0.0) for c in s.direction)
+        rows.append(f"{s.name},{s.dof},{s.sign:g},{s.distance:.6g},{along}")
+    return "\n".join(rows) + "\n"
+
+
+def _direction(n) -> str:
+    return "(" + ", ".join(f"{c + 0.0:.4g}" for c in n) + ")"
 
 
 def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
@@ -266,9 +298,8 @@ def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
     m = imported.model
     M, K = sp.csr_matrix(m.M0), sp.csr_matrix(m.K0)
     lines = [f"model: {m.n_dofs} DOFs, {len(massless_dofs(M))} without mass; {len(m.parameters)} parameter(s)"]
-    for axis in ("x", "y", "z"):
-        e = np.array([d.endswith(f":{axis}") for d in m.dofs], dtype=float)
-        lines.append(f"mass moving with a unit {axis} translation: {float(e @ (M @ e)):.6g} kg")
+    for axis, mass in translation_masses(M, m.dofs, imported.directions).items():
+        lines.append(f"mass moving with a unit {axis} translation: {mass or 0.0:.6g} kg")
     state = definiteness(M, K)
     lines.append(f"rigid-body modes: {state.rigid_body_modes}" + (f" ({state.problem})" if state.problem else ""))
     omega = modes(M, K, min(n_modes + state.rigid_body_modes, m.n_dofs - len(massless_dofs(M))))[0]
@@ -281,4 +312,7 @@ def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
         lines.append(f"parameter {d.name}: moves {len(d.dofs)} DOFs at {len(d.nodes)} node(s) [{shown}]; {how}")
     for s in imported.sensors:
         lines.append(f"sensor {s.name}: {'-' if s.sign < 0 else ''}{s.dof} ({s.distance:.3g} m from the position)")
+    for o in imported.obliques:
+        lines.append(f"oblique DOF {o.dof} in place of {o.replaces}: the node's translation along "
+                     f"{_direction(o.direction)}")
     return lines

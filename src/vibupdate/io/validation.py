@@ -154,11 +154,13 @@ def _check_bounds(model, error) -> None:
                                                  "give a reference value near the expected size (Eq. 12)")
 
 
-def _nominal_figures(cfg, n_modes: int = 6) -> str:
+def _nominal_figures(cfg, directions: dict, n_modes: int = 6) -> str:
     """The nominal model's first flexible frequencies and, when its DOFs are named by node and
     direction (``"1203:y"``, an imported FE model), the mass moving with each translation: what
-    to compare with the FE code's own modal analysis."""
+    to compare with the FE code's own modal analysis. ``directions``: oblique DOF -> unit
+    vector (3,) (`_oblique_directions`)."""
     from vibupdate.modal.analysis import flexible_modes
+    from vibupdate.model.fe.oblique import translation_masses
 
     M, K = cfg.model.matrices()
     try:
@@ -170,13 +172,22 @@ def _nominal_figures(cfg, n_modes: int = 6) -> str:
                 + ", ".join(f"{w / TWO_PI:.6g}" for w in omega) + " Hz")
     except (ValueError, np.linalg.LinAlgError) as exc:
         text = f"{cfg.name}: nominal frequencies not computed ({exc})"
-    dofs = cfg.model.dofs
-    axes = [a for a in ("x", "y", "z") if any(d.endswith(f":{a}") for d in dofs)]
-    if axes:
-        moving = [np.array([d.endswith(f":{a}") for d in dofs], dtype=float) for a in axes]
-        text += "; mass moving with a unit translation " + ", ".join(
-            f"{a} {float(e @ (M @ e)):.6g} kg" for a, e in zip(axes, moving))
+    try:
+        masses = {a: m for a, m in translation_masses(M, cfg.model.dofs, directions).items() if m is not None}
+    except ValueError as exc:
+        return text + f"; mass moving with a unit translation not computed: {exc}"
+    if masses:
+        text += "; mass moving with a unit translation " + ", ".join(f"{a} {m:.6g} kg" for a, m in masses.items())
     return text
+
+
+def _oblique_directions(sensors) -> dict:
+    """Oblique DOF -> unit vector (3,) from the sensor map (``[model] sensors``): the direction
+    a sensor reads divided by its sign."""
+    from vibupdate.model.fe.oblique import OBLIQUE_DOF
+
+    return {s["dof"]: s["sign"] * np.asarray(s["direction"], dtype=float) for s in sensors
+            if OBLIQUE_DOF.match(s["dof"]) and s.get("direction") is not None}
 
 
 def _rad_s_warning(cfg) -> str | None:
@@ -231,7 +242,7 @@ def _physical(case, error) -> tuple[list[str], list[str], int, object]:
                 + f"; M, K checked at the nominal point and {len(box_corners(*model.bounds()))} corners of the "
                   "parameter box")
         notes.append(text)
-        notes.append(_nominal_figures(cfg))
+        notes.append(_nominal_figures(cfg, _oblique_directions(getattr(case, "sensors", ()))))
     if not warnings:
         return notes, warnings, rigid_all, case
     parameters = tuple(replace(p, lower=min(p.nominal + lo * p.reference, p.nominal),

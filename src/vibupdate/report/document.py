@@ -137,9 +137,18 @@ def sensors_table(run: RunResult) -> Table | None:
     """Where the measured points sit on an imported FE mesh; None without sensors."""
     if not run.sensors:
         return None
-    rows = tuple((s["sensor"], s["dof"], "+" if s["sign"] > 0 else "-", s["distance_m"]) for s in run.sensors)
+    rows = tuple((s["sensor"], s["dof"], "+" if s["sign"] > 0 else "-", _along(s.get("direction")),
+                  s["distance_m"]) for s in run.sensors)
     return Table("Measured points on the mesh", (Column("sensor"), Column("DOF"), Column("sign"),
-                                                 Column("distance", "m", ".3g")), rows)
+                                                 Column("reads along (x, y, z)"), Column("distance", "m", ".3g")),
+                 rows)
+
+
+def _along(direction) -> str:
+    """A sensor's unit direction as text, ``"(0.7071, 0.7071, 0)"``; ``"-"`` when not known."""
+    if direction is None:
+        return "-"
+    return "(" + ", ".join(f"{float(c) + 0.0:.4g}" for c in direction) + ")"
 
 
 def trials_table(run: RunResult) -> Table | None:
@@ -320,8 +329,11 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
     out += section("Frequencies", "frequencies")
     if "sensors" in shown:
         out += ["## Measured points on the mesh", "",
-                "Each sensor measures one DOF of the model (node:direction); a sensor pointing along the "
-                "negative axis reads the DOF with sign -; distance from the sensor's given position to the node.",
+                "Each sensor reads one DOF of the model: its node's translation projected on the direction "
+                "shown. A DOF node:x, node:y or node:z is the translation along that axis; an oblique DOF "
+                "node:n1 (n2, n3) is the translation along an oblique sensor's direction, made a DOF by the "
+                "import. A sensor pointing against its DOF's direction reads it with sign -; distance from "
+                "the sensor's given position to the node.",
                 ""] + markdown(shown["sensors"])
     out += section("Damping", "damping")
     if solver:

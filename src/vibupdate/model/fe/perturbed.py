@@ -94,6 +94,15 @@ class Derivative:
         """Whether the departure is below `AFFINE_TOL` (None without a second step)."""
         return None if self.departure is None else self.departure <= AFFINE_TOL
 
+    def in_coordinates(self, T: sp.csr_matrix, dofs) -> Derivative:
+        """This derivative for the coordinates ``q'`` of ``q = T q'`` (``T`` constant and
+        invertible, shape (n, n)): ``T^T dK T`` and ``T^T dM T``, the group named by ``dofs``
+        (length n)."""
+        from vibupdate.model.fe.oblique import congruent
+
+        dK, dM = congruent(self.dK, T), congruent(self.dM, T)
+        return Derivative(self.name, dK, dM, self.scheme, self.departure, *_group(dK, dM, tuple(dofs)))
+
 
 def _check_same_dofs(nominal: FEExport, other: FEExport, name: str) -> None:
     if other.dofs == nominal.dofs:

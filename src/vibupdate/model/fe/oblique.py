@@ -1,0 +1,127 @@
+"""Oblique DOFs: the reading of a sensor that is not along a node axis, as a DOF of the model.
+
+A case file measures single DOFs. A sensor at node N along the unit direction ``n`` reads
+``n . u``, where ``u = (u_x, u_y, u_z)`` is the node's translation (m). To make that reading a
+DOF, the node's translations are replaced by the coordinates ``u' = D u``: ``D`` (3 x 3) is the
+identity with the row of one axis per oblique direction replaced by that direction
+(`Oblique.replaces`). The new DOF is named ``"<node>:n<k>"`` (k = 1, 2, 3 in the order of the
+node's oblique directions); the node's other translations keep their names and their meaning.
+With ``T`` (n x n) the identity except ``D^-1`` in the rows and columns of each such node's x,
+y, z (``q = T q'``):
+
+    M' = T^T M T,   K' = T^T K T,   dM'/dp = T^T (dM/dp) T,   dK'/dp = T^T (dK/dp) T.
+
+A congruence by a constant invertible ``T`` keeps the eigenvalues, the definiteness, the
+affinity in the parameters and the derivatives' meaning; a mode shape becomes ``T^-1 phi``:
+unchanged except at those nodes, where it is ``D u`` — the oblique readings. ``D`` need not be
+orthogonal, so two sensors 45 degrees apart on one node are two DOFs; its rows must be
+independent (`vibupdate.model.fe.sensors` refuses a direction within ``ALIGN_TOL`` of the span
+of the node's other readings).
+
+A rigid translation along axis ``a`` (1 m) is ``D e_a`` in the new coordinates: 1 on the
+``a`` translations, ``n_a`` on an oblique DOF of direction ``n`` (`rigid_translations`).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Oblique", "OBLIQUE_DOF", "coordinate_change", "congruent", "rigid_translations", "translation_masses"]
+
+#: An oblique DOF's name: ``"<node>:n1"``, ``n2`` or ``n3``.
+OBLIQUE_DOF = re.compile(r"^(.+):n([123])$")
+AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class Oblique:
+    """One oblique DOF of the model.
+
+    Attributes
+    ----------
+    dof : str
+        Its name, ``"<node>:n<k>"``.
+    replaces : str
+        The translation whose place (row and column of the matrices) it takes, ``"<node>:x"``.
+    direction : ndarray, shape (3,)
+        Unit vector (x, y, z): the DOF is the node's translation projected on it, m.
+    """
+
+    dof: str
+    replaces: str
+    direction: np.ndarray
+
+
+def _node_block(obliques: Sequence[Oblique], index: Mapping[str, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Indices (3,) of one node's x, y, z and ``D^-1`` (3, 3) for its oblique DOFs."""
+    node = obliques[0].replaces.rsplit(":", 1)[0]
+    slots = np.array([index[f"{node}:{a}"] for a in AXES])
+    D = np.eye(3)
+    for o in obliques:
+        D[AXES.index(o.replaces.rsplit(":", 1)[1])] = o.direction
+    return slots, np.linalg.inv(D)
+
+
+def coordinate_change(dofs: Sequence[str], obliques: Sequence[Oblique]) -> tuple[sp.csr_matrix, tuple[str, ...]]:
+    """``T`` (n, n), with ``q = T q'`` from the new coordinates ``q'`` to the exported ones,
+    and the names of the new coordinates (``dofs`` with each `Oblique.replaces` renamed)."""
+    index = {d: i for i, d in enumerate(dofs)}
+    by_node: dict[str, list[Oblique]] = {}
+    for o in obliques:
+        by_node.setdefault(o.replaces.rsplit(":", 1)[0], []).append(o)
+    n = len(dofs)
+    kept = np.ones(n, dtype=bool)
+    rows, cols, vals = [], [], []
+    for group in by_node.values():
+        slots, block = _node_block(group, index)
+        kept[slots] = False
+        rows.append(np.repeat(slots, 3))
+        cols.append(np.tile(slots, 3))
+        vals.append(block.ravel())
+    identity = np.flatnonzero(kept)
+    T = sp.csr_matrix((np.concatenate([np.ones(identity.size)] + vals),
+                       (np.concatenate([identity] + rows), np.concatenate([identity] + cols))), shape=(n, n))
+    T.eliminate_zeros()
+    names = list(dofs)
+    for o in obliques:
+        names[index[o.replaces]] = o.dof
+    return T, tuple(names)
+
+
+def congruent(A, T: sp.csr_matrix) -> sp.csr_matrix:
+    """``T^T A T`` (both (n, n), sparse), made exactly symmetric (A is)."""
+    B = sp.csr_matrix(T.T @ sp.csr_matrix(A) @ T)
+    B = sp.csr_matrix((B + B.T) * 0.5)
+    B.eliminate_zeros()
+    return B
+
+
+def rigid_translations(dofs: Sequence[str], directions: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
+    """A rigid translation of 1 m along x, y and z in the coordinates ``dofs``, shape (n, 3):
+    1 on the ``"<node>:x"`` DOFs for x, the direction cosines of each oblique DOF (``directions``,
+    DOF name -> unit vector (3,)) on it. Raises ValueError naming an oblique DOF
+    (`OBLIQUE_DOF`) whose direction is not given."""
+    directions = dict(directions or {})
+    E = np.array([[d.endswith(f":{a}") for a in AXES] for d in dofs], dtype=float).reshape(len(dofs), 3)
+    unknown = [d for d in dofs if OBLIQUE_DOF.match(d) and d not in directions]
+    if unknown:
+        shown = ", ".join(unknown[:4]) + (" ..." if len(unknown) > 4 else "")
+        raise ValueError(f"the directions of the oblique DOFs {shown} are not known (the sensors file gives them)")
+    index = {d: i for i, d in enumerate(dofs)}
+    for dof, n in directions.items():
+        if dof in index:
+            E[index[dof]] = n
+    return E
+
+
+def translation_masses(M, dofs: Sequence[str], directions: Mapping[str, np.ndarray] | None = None) -> dict:
+    """Mass moving with a unit translation along ``"x"``, ``"y"``, ``"z"``, kg: ``e^T M e`` with
+    ``e`` from `rigid_translations` (M (n, n), kg); None for an axis no DOF moves along."""
+    E = rigid_translations(dofs, directions)
+    ME = sp.csr_matrix(M) @ E
+    return {a: float(E[:, k] @ ME[:, k]) if E[:, k].any() else None for k, a in enumerate(AXES)}
