@@ -59,3 +59,28 @@ def test_without_a_jacobian_the_values_are_the_same(mixed):
     with_jacobian, without = data_map(cfg, x), data_map(cfg, x, jacobian=False)
     assert without.natural_jacobian is None and without.ratio_jacobians == ()
     np.testing.assert_allclose(without.values(), with_jacobian.values(), rtol=1e-10)
+
+
+def test_a_reciprocal_pair_is_solved_once_with_the_zeros_and_derivatives_of_each_alone(mixed, monkeypatch):
+    """h_rc and h_cr of a symmetric model have the same zeros: `declared_zeros` solves the
+    adjunct pencil once for both (left and right vectors swapped) and gives what solving each
+    alone gives, to the rounding of the nonsymmetric solver."""
+    from vibupdate.inverse import correlation
+    from vibupdate.modal import sensitivities
+
+    cfg, x = mixed
+    r, c = cfg.antiresonances[0].receptance
+    both = Configuration("both", cfg.model, cfg.natural, cfg.antiresonances[:1] + (Antiresonance(
+        cfg.antiresonances[0].omega, c, r, index=1),))
+    calls = []
+    solve = sensitivities.adjunct_eigenpairs
+    monkeypatch.setattr(sensitivities, "adjunct_eigenpairs", lambda *a, **k: calls.append(a[2:4]) or solve(*a, **k))
+    M, K = cfg.model.matrices(x)
+    values, D, zeros_all, _ = correlation.declared_zeros(both, x, M, K)
+    assert len(calls) == 1
+    assert values[0] == values[1] and np.array_equal(D[0], D[1])
+    for rc in ((r, c), (c, r)):
+        alone = sensitivities.antiresonance_derivatives(cfg.model, x, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
+                                                        pairs=solve(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1])))
+        np.testing.assert_allclose(zeros_all[rc], alone[0], rtol=1e-9)
+        np.testing.assert_allclose(D[0], alone[1][0], rtol=1e-7, atol=1e-9 * np.abs(alone[1][0]).max())

@@ -193,7 +193,8 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
 
 def declared_zeros(cfg: Configuration, xbar, M, K):
     """The declared zeros of ``cfg`` at ``xbar`` with their exact derivatives: one adjunct
-    eigen-solve per receptance for both (`vibupdate.modal.sensitivities`).
+    eigen-solve per receptance for both (`vibupdate.modal.sensitivities`), one for a
+    reciprocal pair ``h_rc``, ``h_cr`` measured both ways.
 
     Parameters
     ----------
@@ -218,10 +219,20 @@ def declared_zeros(cfg: Configuration, xbar, M, K):
     values = np.full(len(cfg.antiresonances), np.nan)
     out = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
     zeros_all, pairs = {}, []
+    done: dict = {}
     for rc in cfg.receptances():
         r, c = model.dof(rc[0]), model.dof(rc[1])
-        pairs.append(adjunct_eigenpairs(M, K, r, c, zeros_wanted(cfg, rc)))
-        z, D = antiresonance_derivatives(model, xbar, r, c, pairs=pairs[-1])
+        wanted = zeros_wanted(cfg, rc)
+        mirror = done.get((rc[1], rc[0]))
+        if mirror is not None and mirror[0] == wanted:
+            # h_cr = h_rc (M, K symmetric): the adjunct pencil of one is the transpose of the
+            # other's, the same zeros with right and left vectors swapped, the same derivatives
+            (eigval, right, left), z, D = mirror[1:]
+            pairs.append((eigval, left, right))
+        else:
+            pairs.append(adjunct_eigenpairs(M, K, r, c, wanted))
+            z, D = antiresonance_derivatives(model, xbar, r, c, pairs=pairs[-1])
+        done[rc] = (wanted, pairs[-1], z, D)
         zeros_all[rc] = z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= z.size:
