@@ -84,3 +84,19 @@ def test_a_reciprocal_pair_is_solved_once_with_the_zeros_and_derivatives_of_each
                                                         pairs=solve(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1])))
         np.testing.assert_allclose(zeros_all[rc], alone[0], rtol=1e-9)
         np.testing.assert_allclose(D[0], alone[1][0], rtol=1e-7, atol=1e-9 * np.abs(alone[1][0]).max())
+
+
+def test_the_zeros_of_a_reciprocal_pair_without_derivatives_are_solved_once(mixed, monkeypatch):
+    from vibupdate.inverse import correlation
+
+    cfg, x = mixed
+    r, c = cfg.antiresonances[0].receptance
+    both = Configuration("both", cfg.model, cfg.natural, cfg.antiresonances[:1] + (Antiresonance(
+        cfg.antiresonances[0].omega, c, r, index=1),))
+    calls = []
+    solve = correlation.antiresonances
+    monkeypatch.setattr(correlation, "antiresonances", lambda *a, **k: calls.append(a[2:4]) or solve(*a, **k))
+    f = correlation.model_frequencies(both, x)
+    assert len(calls) == 1 and np.array_equal(f.zeros_all[(r, c)], f.zeros_all[(c, r)])
+    M, K = cfg.model.matrices(x)
+    np.testing.assert_allclose(f.zeros_all[(c, r)], solve(M, K, cfg.model.dof(c), cfg.model.dof(r)), rtol=1e-9)

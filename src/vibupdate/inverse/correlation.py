@@ -138,8 +138,11 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     if derivatives:
         paired, slopes, zeros_all, _ = declared_zeros(cfg, xbar, M, K)
     for rc in (cfg.receptances() if zeros and not derivatives else ()):
-        model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
-                                 n_zeros=zeros_wanted(cfg, rc))
+        wanted = zeros_wanted(cfg, rc)
+        if (rc[1], rc[0]) in zeros_all and wanted == zeros_wanted(cfg, (rc[1], rc[0])):
+            model_z = zeros_all[(rc[1], rc[0])]   # h_cr = h_rc: the same zeros (`declared_zeros`)
+        else:
+            model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), n_zeros=wanted)
         zeros_all[rc] = model_z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= model_z.size:
