@@ -9,8 +9,8 @@
    Each step starts warm from the previous
    point and multipliers; a small proximal term ``prox_weight ||z - z_prev||^2`` on the parameters
    and vectors regularizes the degenerate intermediate problems (docs/method.md, section 6). A failed
-   step is retried cold, then halved, down to ``min_step``; after a halved step succeeds the
-   step returns to at least ``1 / n_lambda``.
+   step is retried cold, then halved (the step as tried, clipped at ``lam = 1``), down to
+   ``min_step``; after a halved step succeeds the step returns to at least ``1 / n_lambda``.
 3. The last step is ``lam = 1`` without the proximal term: the original problem.
 
 Every solve is recorded; a failed path is a status, never an exception. The steps are solved
@@ -188,7 +188,9 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
             current, lam = out, target
             step = max(base, step * options.step_growth)
             continue
-        step /= 2.0
+        # halve the step that was tried: one clipped at lam = 1 is shorter than ``step``, and
+        # halving ``step`` itself would try the same target (the same failed solves) again
+        step = (target - lam) / 2.0
         if step < options.min_step:
             status = Status.STEP_FAILED
             say(f"  step failed at lambda = {target:.4f}: {out.raw_status}; stopped at lambda = {lam:.4f}")
