@@ -80,6 +80,16 @@ def test_csv_and_case_files_saved_with_a_byte_order_mark_read_as_without(tmp_pat
     assert cfg.natural[0].shape.bounds == {"a": (0.4, 0.6), "c": (0.9, 1.1)}
 
 
+def test_a_shape_at_a_dof_the_model_lacks_names_the_csv_row_and_the_closest_dofs(tmp_path, capsys):
+    hz = write_chain_matrices(tmp_path)
+    (tmp_path / "f.csv").write_text("kind,hz\n" + "".join(f"natural,{h}\n" for h in hz[:2]))
+    (tmp_path / "s.csv").write_text("mode,dof,value,tolerance\n1,a,0.5,0.1\n1,cc,1.0,0.1\n")
+    path = write(tmp_path, CHAIN_CASE + 'frequencies_csv = "f.csv"\nmode_shapes_csv = "s.csv"\n')
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "s.csv: row 3: DOF 'cc' is not in the model (closest: c" in err and err.count("error:") == 1
+
+
 def test_matrices_csv_and_uff_inputs(tmp_path):
     hz = write_chain_matrices(tmp_path)
     (tmp_path / "f.csv").write_text("kind,hz,weight,damping_ratio,response,excitation\n"

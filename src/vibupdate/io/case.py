@@ -169,7 +169,7 @@ def _file_data(cfg: dict, model, base: Path, where: Where, key: str, natural, ze
         if "frequencies_csv" in cfg:
             natural, zeros = read_frequency_csv(base / cfg["frequencies_csv"])
         if "mode_shapes_csv" in cfg:
-            shapes = read_shape_csv(base / cfg["mode_shapes_csv"])
+            shapes = read_shape_csv(base / cfg["mode_shapes_csv"], model.dofs)
         if "mode_shapes_uff" in cfg:
             tol = float(cfg.get("uff_tolerance", 0.05))
             uff = read_uff_modes(base / cfg["mode_shapes_uff"])
