@@ -399,8 +399,15 @@ def test_sensors_by_position_use_the_grid_cards_or_a_node_file(small, tmp_path, 
               "direction = [0.0, 0.0, -1.0]"]
     (tmp_path / "import.toml").write_text("\n".join(lines) + "\n")
     assert main(["import", str(tmp_path / "import.toml"), "--out", str(tmp_path / "out")]) == 0
-    assert f"sensor roof: -{corner}:z" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"sensor roof: -{corner}:z" in printed and "warning: sensor" not in printed
     assert (tmp_path / "out" / "sensors.csv").read_text().splitlines()[1].startswith(f"roof,{corner}:z,-1,0.0223")
+    # the same position in millimetres: far from every node, still placed, and said
+    text = (tmp_path / "import.toml").read_text().replace(f"position = [{x + 0.02}, {y}, {z - 0.01}]",
+                                                          f"position = [{1000 * x}, {1000 * y}, {1000 * z}]")
+    (tmp_path / "import.toml").write_text(text)
+    assert main(["import", str(tmp_path / "import.toml"), "--out", str(tmp_path / "out_mm")]) == 0
+    assert "warning: sensor roof is " in capsys.readouterr().out
 
 
 def test_the_full_file_mapdl_wrote_reads_to_a_positive_definite_model_without_its_constrained_dofs():

@@ -285,6 +285,20 @@ def _sensors_csv(sensors) -> str:
     return "\n".join(rows) + "\n"
 
 
+#: A sensor placed farther from its node than this fraction of the mesh's extent (the diagonal
+#: of the nodes' bounding box) is warned about: on a mesh it should sit on the structure, and a
+#: position in millimetres or in another coordinate system lands far from every node.
+FAR_SENSOR = 0.1
+
+
+def _mesh_span(nodes) -> float:
+    """Diagonal of the bounding box of the nodes' coordinates, m (0 without nodes)."""
+    if not nodes:
+        return 0.0
+    xyz = np.array([np.resize(np.asarray(v, dtype=float), 3) for v in nodes.values()])
+    return float(np.linalg.norm(xyz.max(axis=0) - xyz.min(axis=0)))
+
+
 def _direction(n) -> str:
     return "(" + ", ".join(f"{c + 0.0:.4g}" for c in n) + ")"
 
@@ -310,8 +324,13 @@ def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
             f"at the nominal, {d.scheme} difference)"
         shown = ", ".join(d.nodes[:8]) + (" ..." if len(d.nodes) > 8 else "")
         lines.append(f"parameter {d.name}: moves {len(d.dofs)} DOFs at {len(d.nodes)} node(s) [{shown}]; {how}")
+    span = _mesh_span(imported.nominal.nodes)
     for s in imported.sensors:
         lines.append(f"sensor {s.name}: {'-' if s.sign < 0 else ''}{s.dof} ({s.distance:.3g} m from the position)")
+        if span > 0 and s.distance > FAR_SENSOR * span:
+            lines.append(f"warning: sensor {s.name} is {s.distance:.3g} m from its node, {s.distance / span:.2g} times "
+                         f"the mesh's extent ({span:.3g} m): is its position in the model's units and coordinate "
+                         "system?")
     for o in imported.obliques:
         lines.append(f"oblique DOF {o.dof} in place of {o.replaces}: the node's translation along "
                      f"{_direction(o.direction)}")
