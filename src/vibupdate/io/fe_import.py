@@ -278,11 +278,16 @@ def import_model(path, out) -> ImportedModel:
 def _sensors_csv(sensors) -> str:
     """``sensors.csv``: one row per sensor, its direction to full precision (the oblique DOFs'
     directions are read back from it)."""
-    rows = ["sensor,dof,sign,distance_m,nx,ny,nz"]
+    import csv
+    import io
+
+    out = io.StringIO()
+    table = csv.writer(out, lineterminator="\n")   # a name with a comma or a quote is quoted
+    table.writerow(["sensor", "dof", "sign", "distance_m", "nx", "ny", "nz"])
     for s in sensors:
-        along = ",," if s.direction is None else ",".join(repr(float(c) + 0.0) for c in s.direction)
-        rows.append(f"{s.name},{s.dof},{s.sign:g},{s.distance:.6g},{along}")
-    return "\n".join(rows) + "\n"
+        along = ["", "", ""] if s.direction is None else [repr(float(c) + 0.0) for c in s.direction]
+        table.writerow([s.name, s.dof, f"{s.sign:g}", f"{s.distance:.6g}", *along])
+    return out.getvalue()
 
 
 #: A sensor placed farther from its node than this fraction of the mesh's extent (the diagonal
