@@ -240,3 +240,12 @@ def test_declared_modes_and_zero_indices_in_case_files(tmp_path):
         load_case(write(tmp_path, CHAIN_CASE + 'frequencies_csv = "f.csv"\n'))
     with pytest.raises(ValueError, match="natural_modes"):
         load_case(write(tmp_path, CHAIN_CASE + f"natural_modes = [2]\nnatural_hz = [{hz[1]}, {hz[2]}]\n"))
+
+
+@pytest.mark.parametrize("modes, said", [("[2, 2]", "mode 2 is given twice"), ("[3, 2]", "mode 2 comes after a higher one")])
+def test_natural_modes_that_do_not_rise_are_named(tmp_path, capsys, modes, said):
+    hz = write_chain_matrices(tmp_path)
+    path = write(tmp_path, CHAIN_CASE + f"natural_modes = {modes}\nnatural_hz = [{hz[1]}, {hz[2]}]\n")
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "natural_modes: " + said in err and err.count("error:") == 1

@@ -205,6 +205,11 @@ def _typed_natural(cfg: dict, where: Where, key: str) -> list[dict]:
         if len(modes) != len(hz) or any(isinstance(m, bool) or not isinstance(m, int) or m < 1 for m in modes):
             raise where.error(f"{key}.natural_modes",
                               f"needs {len(hz)} integers >= 1 (the model mode of each frequency), got {modes!r}")
+        rising = next((i for i in range(1, len(modes)) if modes[i] <= modes[i - 1]), None)
+        if rising is not None:
+            what = "is given twice" if modes[rising] == modes[rising - 1] else "comes after a higher one"
+            raise where.error(f"{key}.natural_modes", f"mode {modes[rising]} {what} ({modes!r}): each measured "
+                                                      "frequency is one model mode, rising with the frequencies")
     return [{"hz": h, "weight": w, "damping_ratio": None if ratios is None else ratios[i],
              "mode": None if modes is None else modes[i]}
             for i, (h, w) in enumerate(zip(hz, weights))]
