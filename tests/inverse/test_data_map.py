@@ -61,6 +61,14 @@ def test_without_a_jacobian_the_values_are_the_same(mixed):
     np.testing.assert_allclose(without.values(), with_jacobian.values(), rtol=1e-10)
 
 
+def _both_ways(cfg):
+    """``cfg`` with its first zero's receptance measured both ways (``h_rc`` and ``h_cr``), and
+    ``(r, c)``."""
+    r, c = cfg.antiresonances[0].receptance
+    mirror = Antiresonance(cfg.antiresonances[0].omega, c, r, index=1)
+    return Configuration("both", cfg.model, cfg.natural, cfg.antiresonances[:1] + (mirror,)), (r, c)
+
+
 def test_a_reciprocal_pair_is_solved_once_with_the_zeros_and_derivatives_of_each_alone(mixed, monkeypatch):
     """h_rc and h_cr of a symmetric model have the same zeros: `declared_zeros` solves the
     adjunct pencil once for both (left and right vectors swapped) and gives what solving each
@@ -69,9 +77,7 @@ def test_a_reciprocal_pair_is_solved_once_with_the_zeros_and_derivatives_of_each
     from vibupdate.modal import sensitivities
 
     cfg, x = mixed
-    r, c = cfg.antiresonances[0].receptance
-    both = Configuration("both", cfg.model, cfg.natural, cfg.antiresonances[:1] + (Antiresonance(
-        cfg.antiresonances[0].omega, c, r, index=1),))
+    both, (r, c) = _both_ways(cfg)
     calls = []
     solve = sensitivities.adjunct_eigenpairs
     monkeypatch.setattr(sensitivities, "adjunct_eigenpairs", lambda *a, **k: calls.append(a[2:4]) or solve(*a, **k))
@@ -90,9 +96,7 @@ def test_the_zeros_of_a_reciprocal_pair_without_derivatives_are_solved_once(mixe
     from vibupdate.inverse import correlation
 
     cfg, x = mixed
-    r, c = cfg.antiresonances[0].receptance
-    both = Configuration("both", cfg.model, cfg.natural, cfg.antiresonances[:1] + (Antiresonance(
-        cfg.antiresonances[0].omega, c, r, index=1),))
+    both, (r, c) = _both_ways(cfg)
     calls = []
     solve = correlation.antiresonances
     monkeypatch.setattr(correlation, "antiresonances", lambda *a, **k: calls.append(a[2:4]) or solve(*a, **k))

@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from vibupdate.io.case_keys import Where, check_table
 from vibupdate.model.fe.export import FEExport, without_dofs
 from vibupdate.model.fe.perturbed import Perturbation, affine_from_exports
-from vibupdate.model.fe.oblique import coordinate_change, congruent, translation_masses
+from vibupdate.model.fe.oblique import coordinate_change, congruent, direction_text, translation_masses
 from vibupdate.model.fe.sensors import place
 from vibupdate.model.parameters import Parameter
 
@@ -304,10 +304,6 @@ def _mesh_span(nodes) -> float:
     return float(np.linalg.norm(xyz.max(axis=0) - xyz.min(axis=0)))
 
 
-def _direction(n) -> str:
-    return "(" + ", ".join(f"{c + 0.0:.4g}" for c in n) + ")"
-
-
 def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
     """Model size, total mass, rigid-body modes, first frequencies and each parameter's group and
     departure from affine: what to compare with the FE code's own output."""
@@ -338,5 +334,5 @@ def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
                          "system?")
     for o in imported.obliques:
         lines.append(f"oblique DOF {o.dof} in place of {o.replaces}: the node's translation along "
-                     f"{_direction(o.direction)}")
+                     f"{direction_text(o.direction)}")
     return lines

@@ -137,18 +137,13 @@ def sensors_table(run: RunResult) -> Table | None:
     """Where the measured points sit on an imported FE mesh; None without sensors."""
     if not run.sensors:
         return None
-    rows = tuple((s["sensor"], s["dof"], "+" if s["sign"] > 0 else "-", _along(s.get("direction")),
+    from vibupdate.model.fe.oblique import direction_text
+
+    rows = tuple((s["sensor"], s["dof"], "+" if s["sign"] > 0 else "-", direction_text(s.get("direction")),
                   s["distance_m"]) for s in run.sensors)
     return Table("Measured points on the mesh", (Column("sensor"), Column("DOF"), Column("sign"),
                                                  Column("reads along (x, y, z)"), Column("distance", "m", ".3g")),
                  rows)
-
-
-def _along(direction) -> str:
-    """A sensor's unit direction as text, ``"(0.7071, 0.7071, 0)"``; ``"-"`` when not known."""
-    if direction is None:
-        return "-"
-    return "(" + ", ".join(f"{float(c) + 0.0:.4g}" for c in direction) + ")"
 
 
 def trials_table(run: RunResult) -> Table | None:

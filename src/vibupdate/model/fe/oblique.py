@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Oblique", "OBLIQUE_DOF", "coordinate_change", "congruent", "rigid_translations", "translation_masses"]
+__all__ = ["Oblique", "OBLIQUE_DOF", "coordinate_change", "congruent", "rigid_translations", "translation_masses",
+           "direction_text"]
 
 #: An oblique DOF's name: ``"<node>:n1"``, ``n2`` or ``n3``.
 OBLIQUE_DOF = re.compile(r"^(.+):n([123])$")
@@ -125,3 +126,10 @@ def translation_masses(M, dofs: Sequence[str], directions: Mapping[str, np.ndarr
     E = rigid_translations(dofs, directions)
     ME = sp.csr_matrix(M) @ E
     return {a: float(E[:, k] @ ME[:, k]) if E[:, k].any() else None for k, a in enumerate(AXES)}
+
+
+def direction_text(direction) -> str:
+    """A unit direction (3,) as text, ``"(0.7071, 0.7071, 0)"``; ``"-"`` when None."""
+    if direction is None:
+        return "-"
+    return "(" + ", ".join(f"{float(c) + 0.0:.4g}" for c in direction) + ")"
