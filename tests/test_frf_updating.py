@@ -6,6 +6,7 @@ consistent parameter ranges; damping-ratio intervals give the damping fit's weig
 """
 
 import numpy as np
+import pytest
 
 from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, antiresonances, modes
@@ -82,10 +83,12 @@ def test_frequency_windows_text_names_the_source():
     assert _frequency_windows(case) == "1 % of each frequency"
 
 
-def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tmp_path, capsys):
+@pytest.mark.parametrize("weighed", [False, True], ids=["shapes", "mass-normalized shapes"])
+def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tmp_path, capsys, weighed):
     """The tables `extract` writes carry every interval the FRF route gives (frequency, damping
     ratio, zero numbers, shapes), so a case reading them is held to the same measurement
-    intervals and weighs its data the same: same status, same checks, same parameters."""
+    intervals and weighs its data the same: same status, same checks, same parameters; with
+    ``mass_normalized_shapes`` too, where the modal masses are data (the ``modal_mass`` check)."""
     import json
 
     from vibupdate.cli import main
@@ -93,6 +96,9 @@ def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tm
     from frf_synthetic import cantilever_frf_case
 
     head, frf_case = cantilever_frf_case(tmp_path)
+    if weighed:
+        head += "mass_normalized_shapes = true\n"
+        frf_case = head + frf_case[len(head) - len("mass_normalized_shapes = true\n"):]
     (tmp_path / "frf.toml").write_text(frf_case)
     assert main(["extract", str(tmp_path / "hits.uff"), "--band", "20", "300", "--out", str(tmp_path / "ex"),
                  "--no-plot"]) == 0
@@ -118,6 +124,7 @@ def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tm
     assert frf["solver"]["status"] == csv["solver"]["status"]
     assert [(c["name"], c["passed"], c.get("limited_by")) for c in frf["solver"]["checks"]] == \
         [(c["name"], c["passed"], c.get("limited_by")) for c in csv["solver"]["checks"]]
+    assert weighed == any(c["name"] == "modal_mass" for c in frf["solver"]["checks"])
     a = np.array([p["updated"] for p in frf["parameters"]])
     b = np.array([p["updated"] for p in csv["parameters"]])
     np.testing.assert_allclose(b, a, rtol=1e-6)

@@ -104,3 +104,61 @@ def test_the_zeros_of_a_reciprocal_pair_without_derivatives_are_solved_once(mixe
     assert len(calls) == 1 and np.array_equal(f.zeros_all[(r, c)], f.zeros_all[(c, r)])
     M, K = cfg.model.matrices(x)
     np.testing.assert_allclose(f.zeros_all[(c, r)], solve(M, K, cfg.model.dof(c), cfg.model.dof(r)), rtol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def weighed():
+    """Cantilever A's model with mass-normalized shapes (modal constants of calibrated FRFs):
+    mode 1 at every deflection, mode 2 at the driving point only (a modal mass, no ratio)."""
+    model = cantilever.configurations()[0].model
+    x_true = np.linspace(-0.3, 0.3, model.n_parameters)
+    M, K = model.matrices(x_true)
+    omega, Phi = modes(M, K, 3)
+    ydofs = [d for d in model.dofs if d.startswith("y")]
+    tip = model.dof(ydofs[-1])
+    first = ShapeInterval.from_values({d: Phi[model.dof(d), 0] * 1.01 for d in ydofs}, 1e-3 * abs(Phi[tip, 0]))
+    second = ShapeInterval.from_values({ydofs[-1]: Phi[tip, 1]}, 1e-3 * abs(Phi[tip, 1]))
+    natural = (NaturalFrequency(omega[0], mode=1, shape=ShapeInterval(first.bounds, mass_normalized=True)),
+               NaturalFrequency(omega[1], mode=2, shape=ShapeInterval(second.bounds, mass_normalized=True)),
+               NaturalFrequency(omega[2], mode=3))
+    return Configuration("weighed", model, natural), x_true, M, Phi
+
+
+def test_a_mass_normalized_shape_adds_its_modal_mass_with_its_exact_derivative(weighed):
+    cfg, x, M, Phi = weighed
+    m = data_map(cfg, x)
+    ydofs = [d for d in cfg.model.dofs if d.startswith("y")]
+    p = [cfg.model.dof(f.shape.reference) for f in cfg.natural[:2]]
+    # 1 / phi_p^2 of the mass-normalized mode, phi_p its largest measured entry; q^T M q of phi / phi_p
+    q = Phi[:, :2] / Phi[p, [0, 1]]
+    np.testing.assert_allclose(m.masses, 1 / Phi[p, [0, 1]] ** 2, rtol=1e-12)
+    np.testing.assert_allclose(m.masses, np.einsum("ik,ij,jk->k", q, M.toarray(), q), rtol=1e-10)
+    d, G = data_jacobian([cfg], x)
+    assert d.size == 3 + (len(ydofs) - 1) + 2 and np.array_equal(d[-2:], m.masses)
+    h = 1e-6
+    fd = np.column_stack([(data_jacobian([cfg], x + h * e)[0] - data_jacobian([cfg], x - h * e)[0]) / (2 * h)
+                          for e in np.eye(x.size)])
+    scale = np.maximum(np.abs(d), 1.0)[:, None]
+    np.testing.assert_allclose(G / scale, fd / scale, atol=1e-6)
+    assert np.abs(G[-2:]).max() > 1e-3   # the masses move with the parameters: not a vacuous check
+
+
+def test_a_modal_mass_is_fitted_to_its_interval_in_relative_units(weighed):
+    cfg, x, _, _ = weighed
+    m = data_map(cfg, x)
+    shapes = measured_shapes(cfg)
+    lower, upper = np.array([s.mass for s in shapes]).T
+    r, J = polish_residuals([cfg], x, 2.0)
+    outside = np.maximum(lower - m.masses, 0) + np.maximum(m.masses - upper, 0)
+    np.testing.assert_allclose(r[-2:], 2.0 * outside / (0.5 * (lower + upper)), rtol=1e-12)
+    assert r[-2] > 0 and r[-1] == 0   # mode 1 was scaled by 1.01: its modal mass is 2 % low, outside
+    S = sensitivity([cfg], x)["matrix"]
+    np.testing.assert_allclose(S[-2:], m.mass_jacobian / m.masses[:, None], rtol=1e-12)
+
+
+def test_a_mass_normalized_shape_whose_largest_entry_may_be_zero_is_refused():
+    with pytest.raises(ValueError, match="holds zero: its modal mass is not measured"):
+        ShapeInterval({"y1": (-0.1, 0.3), "y2": (0.0, 0.1)}, mass_normalized=True)
+    with pytest.raises(ValueError, match="mass_normalized must be true or false"):
+        ShapeInterval({"y1": (0.1, 0.3)}, mass_normalized="yes")
+    assert ShapeInterval({"y1": (-0.5, -0.4)}, mass_normalized=True).modal_mass_bounds() == pytest.approx((1 / 0.5**2, 1 / 0.4**2), rel=1e-15)

@@ -308,20 +308,25 @@ class Extraction:
                        f"bias; the estimate's window, when named, is modelled (window)")
         return out
 
-    def to_measured(self, first_mode: int | None = None, weight: float = 1.0):
+    def to_measured(self, first_mode: int | None = None, weight: float = 1.0, mass_normalized: bool = False):
         """Measured data for a `Configuration`: ``(naturals, antiresonances)``.
 
         ``naturals`` are `NaturalFrequency` with ``interval``, damping ratio and its interval,
         and a `ShapeInterval` from the shape intervals; ``mode`` is set when ``first_mode``
         (the model mode number of the lowest extracted mode) is given. Antiresonances get
         ``index`` only when ``first_mode == 1`` (the band then starts below the first mode, so
-        zeros counted in the band are counted from the lowest).
+        zeros counted in the band are counted from the lowest). ``mass_normalized``: the
+        shapes are taken as mass-normalized (`ShapeInterval`), for FRFs calibrated in SI
+        units; ValueError when they are not (no driving point).
         """
         from vibupdate.data.measured import Antiresonance, NaturalFrequency, ShapeInterval
 
+        if mass_normalized and any(m.normalization != "mass" for m in self.modes):
+            raise ValueError("the extracted shapes are not mass-normalized: that needs a driving-point FRF")
         naturals = [NaturalFrequency(m.omega, weight=weight, damping_ratio=m.damping_ratio,
                                      interval=m.omega_interval, damping_interval=m.damping_interval,
-                                     shape=ShapeInterval(m.shape_interval) if m.shape_interval else None,
+                                     shape=ShapeInterval(m.shape_interval, mass_normalized) if m.shape_interval
+                                     else None,
                                      mode=None if first_mode is None else first_mode + k)
                     for k, m in enumerate(self.modes)]
         zeros = [Antiresonance(z.omega, z.response, z.excitation, weight=weight, interval=z.interval,

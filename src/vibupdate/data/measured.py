@@ -66,10 +66,17 @@ class ShapeInterval:
     ----------
     bounds : mapping of DOF name to (lower, upper)
         Interval of each measured entry, in the units of the DOF (m or rad), any common
-        scaling (the shape's normalization is free).
+        scaling (the shape's normalization is free) unless ``mass_normalized``.
+    mass_normalized : bool
+        The entries are those of the mass-normalized mode (``phi^T M phi = 1``, units
+        1/sqrt(kg) times the DOF's unit), up to a common sign: what the modal constants of
+        calibrated FRFs with a driving point give. The shape then also measures the modal mass
+        at its reference entry (`modal_mass_bounds`), which sees mass where frequencies and
+        shape ratios see only stiffness over mass.
     """
 
     bounds: Mapping[str, tuple[float, float]]
+    mass_normalized: bool = False
 
     def __post_init__(self):
         clean = {}
@@ -86,6 +93,14 @@ class ShapeInterval:
         if not clean:
             raise ValueError("a mode-shape interval needs at least one measured DOF")
         object.__setattr__(self, "bounds", clean)
+        if not isinstance(self.mass_normalized, (bool, np.bool_)):
+            raise ValueError(f"mass_normalized must be true or false, got {self.mass_normalized!r}")
+        object.__setattr__(self, "mass_normalized", bool(self.mass_normalized))
+        if self.mass_normalized:
+            lo, hi = clean[self.reference]
+            if lo <= 0 <= hi:
+                raise ValueError(f"a mass-normalized shape's largest entry ({self.reference!r}) has the interval "
+                                 f"({lo:g}, {hi:g}), which holds zero: its modal mass is not measured")
 
     @classmethod
     def from_values(cls, values: Mapping[str, float], tolerance) -> "ShapeInterval":
@@ -106,6 +121,14 @@ class ShapeInterval:
         shape is normalized at (shape ratios ``phi_j / phi_reference``)."""
         mid = self.midpoint
         return max(mid, key=lambda d: abs(mid[d]))
+
+    def modal_mass_bounds(self) -> tuple[float, float] | None:
+        """Of a mass-normalized shape, the interval (kg) of the modal mass at the reference
+        entry ``p``: ``1 / phi_p^2``, the mass of the mode scaled to 1 at ``p``; None otherwise."""
+        if not self.mass_normalized:
+            return None
+        lo, hi = sorted(abs(v) for v in self.bounds[self.reference])
+        return (1.0 / hi**2, 1.0 / lo**2)
 
     def ratio_bounds(self) -> dict[str, tuple[float, float]]:
         """Interval of each ratio ``phi_j / phi_reference`` (the other DOFs), from the bounds

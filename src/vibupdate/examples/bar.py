@@ -154,11 +154,14 @@ def _parameter_tables(parameters) -> str:
     return text
 
 
-def case_text(uff: str = "hammer.uff", shape_weight: float | None = None, parameters=()) -> str:
+def case_text(uff: str = "hammer.uff", shape_weight: float | None = None, parameters=(),
+              mass_normalized: bool = True) -> str:
     """The case file: the Euler-Bernoulli model of the bar, the names in ``parameters`` its
     ``[[parameter]]``s (default none), the others of `CANDIDATES` (E, rho, the rotary-inertia
     factor r, the two suspension springs, the tip mass) its ``[[candidate]]``s, and the
-    roving-hammer FRFs of ``uff`` read reciprocally.
+    roving-hammer FRFs of ``uff`` read reciprocally; with ``mass_normalized`` their shapes are
+    taken as mass-normalized (the test is calibrated in SI units and has its driving point
+    ``h_y1,y1``), so that their modal masses see the density apart from E.
 
     ``shape_weight`` (``[polish]``; None: the default, which the fit scales to the ratio of
     the frequencies' tolerance to the shapes' (0.107 here: 0.1 % for the natural frequencies and
@@ -172,7 +175,8 @@ def case_text(uff: str = "hammer.uff", shape_weight: float | None = None, parame
             f'line = {{ first = 1, last = {MODEL_ELEMENTS + 1}, start = [0.0], end = [{LENGTH!r}] }}\n'
             f'{beams}{springs}[[model.mass]]\ndof = "y{ACCELEROMETER}"\nvalue = "macc"\n\n'
             f'{_parameter_tables(parameters)}\n'
-            f'[[configuration]]\nname = "bar"\n[configuration.frf]\nfiles = ["{uff}"]\n'
+            f'[[configuration]]\nname = "bar"\nmass_normalized_shapes = {str(mass_normalized).lower()}\n'
+            f'[configuration.frf]\nfiles = ["{uff}"]\n'
             f'band_hz = [{BAND_HZ[0]!r}, {BAND_HZ[1]!r}]\nfirst_mode = {FIRST_MODE}\nreciprocal = true\n\n'
             + ("" if shape_weight is None else f'[polish]\nshape_weight = {shape_weight!r}\n\n')
             + f'[verification]\nnatural_tolerance = {NATURAL_TOLERANCE!r}\nshape_tolerance = {SHAPE_TOLERANCE!r}\n'

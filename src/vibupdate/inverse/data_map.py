@@ -1,9 +1,10 @@
 """The measured-data map: the model's value of every measured quantity, and its exact Jacobian.
 
-A configuration measures three kinds of quantity: the natural frequencies of its declared
-modes, the declared antiresonances of its receptances (`vibupdate.data.pairing`), and the shape
+A configuration measures four kinds of quantity: the natural frequencies of its declared
+modes, the declared antiresonances of its receptances (`vibupdate.data.pairing`), the shape
 ratios ``phi_j / phi_p`` of each measured mode at its measured DOFs, ``p`` the entry of largest
-measured magnitude (`vibupdate.data.measured.ShapeInterval.reference`). As functions of the
+measured magnitude (`vibupdate.data.measured.ShapeInterval.reference`), and, of a
+mass-normalized measured shape, the modal mass ``1 / phi_p^2`` at that entry (kg). As functions of the
 normalized parameters they are the data map ``d(xbar)``; with its exact Jacobian
 ``G = d d / d xbar`` (`vibupdate.modal.sensitivities`) it is what the polish fits
 (`vibupdate.inverse.polish.polish_residuals`), what the sensitivity reports (`sensitivity`) and
@@ -17,19 +18,20 @@ derivatives (kept on large models for the next caller at the same point).
 
 Order of one configuration's data: the natural frequencies as declared, the antiresonances as
 declared, then the shape ratios mode by mode in the order of the measured DOFs, without the
-reference entry (its ratio is 1 at every point and carries no information).
+reference entry (its ratio is 1 at every point and carries no information), then the modal
+masses mode by mode.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, model_frequencies
-from vibupdate.modal.sensitivities import frequency_derivatives, shape_ratio_derivatives
+from vibupdate.modal.sensitivities import frequency_derivatives, modal_mass_derivatives, shape_ratio_derivatives
 
 __all__ = ["MeasuredShape", "measured_shapes", "DataMap", "data_map", "data_jacobian", "sensitivity",
            "describe_direction"]
@@ -49,6 +51,9 @@ class MeasuredShape:
         DOF indices ``j`` of the ratios: the other measured DOFs, in their measured order.
     lower, upper : ndarray, shape (n_e,)
         Measured interval of each ratio (`vibupdate.data.measured.ShapeInterval.ratio_bounds`).
+    mass : (float, float) or None
+        Of a mass-normalized shape, the measured interval of the modal mass at ``reference``, kg
+        (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
     """
 
     position: int
@@ -56,6 +61,7 @@ class MeasuredShape:
     entries: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
+    mass: tuple[float, float] | None = None
 
     @property
     def midpoint(self) -> np.ndarray:
@@ -67,16 +73,17 @@ class MeasuredShape:
 
 
 def measured_shapes(cfg: Configuration) -> list[MeasuredShape]:
-    """The measured shapes of ``cfg`` that give a ratio (two measured DOFs or more), in the order
-    of ``cfg.natural``."""
+    """The measured shapes of ``cfg`` that give a ratio (two measured DOFs or more) or a modal
+    mass, in the order of ``cfg.natural``."""
     out = []
     for k, f in enumerate(cfg.natural):
-        if f.shape is None or len(f.shape.bounds) < 2:
+        if f.shape is None or (len(f.shape.bounds) < 2 and not f.shape.mass_normalized):
             continue
         ratios = f.shape.ratio_bounds()
-        lower, upper = np.array(list(ratios.values())).T
-        out.append(MeasuredShape(k, cfg.model.dof(f.shape.reference), np.array([cfg.model.dof(d) for d in ratios]),
-                                 lower, upper))
+        lower, upper = np.array(list(ratios.values())).reshape(-1, 2).T
+        out.append(MeasuredShape(k, cfg.model.dof(f.shape.reference),
+                                 np.array([cfg.model.dof(d) for d in ratios], dtype=int), lower, upper,
+                                 f.shape.modal_mass_bounds()))
     return out
 
 
@@ -103,6 +110,10 @@ class DataMap:
         ``d zeros / d xbar``, NaN rows where the model lacks the zero.
     ratio_jacobians : tuple of ndarray
         Per shape, ``d ratios / d xbar``, shape (n_e, n_x); empty without a Jacobian.
+    masses : ndarray, shape (n_m,)
+        kg, the modal masses of the shapes with a measured ``mass``, in their order.
+    mass_jacobian : ndarray, shape (n_m, n_x), or None
+        ``d masses / d xbar``; None without a Jacobian.
     vectors : tuple of ndarray
         With ``vectors=True``: the vectors the evaluation computed, each shape (n, .): every
         computed flexible mode, the rigid-body modes, per receptance the right and left
@@ -120,6 +131,8 @@ class DataMap:
     zero_jacobian: np.ndarray | None = None
     ratio_jacobians: tuple[np.ndarray, ...] = ()
     vectors: tuple[np.ndarray, ...] = ()
+    masses: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    mass_jacobian: np.ndarray | None = None
 
     @property
     def frequency_values(self) -> np.ndarray:
@@ -133,11 +146,13 @@ class DataMap:
 
     def values(self) -> np.ndarray:
         """Every datum in the module's order, shape (n_data,)."""
-        return np.concatenate([self.natural, self.zeros, *self.ratios])
+        return np.concatenate([self.natural, self.zeros, *self.ratios, self.masses])
 
     def jacobian(self) -> np.ndarray:
         """``d values / d xbar``, shape (n_data, n_x)."""
-        return np.vstack([self.natural_jacobian, self.zero_jacobian, *self.ratio_jacobians])
+        n_x = self.natural_jacobian.shape[1]
+        return np.vstack([self.natural_jacobian, self.zero_jacobian, *self.ratio_jacobians,
+                          np.zeros((0, n_x)) if self.mass_jacobian is None else self.mass_jacobian])
 
 
 def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = True, vectors: bool = False,
@@ -176,18 +191,24 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
             for (r, c), (_, right, left) in zip(cfg.receptances(), pairs if vectors else ()):
                 found += [np.insert(right, model.dof(r), 0.0, axis=0), np.insert(left, model.dof(c), 0.0, axis=0)]
     measured = tuple(measured_shapes(cfg)) if shapes else ()
-    ratios, ratio_jacobians = [], []
+    ratios, ratio_jacobians, masses, mass_jacobian = [], [], [], []
     for s in measured:
         phi = freqs.Phi[:, s.position]
         ratios.append(phi[s.entries] / phi[s.reference])
+        if s.mass is not None:
+            masses.append(1.0 / phi[s.reference] ** 2)
         if jacobian:
             out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
-                                          vectors=vectors)
-            ratio_jacobians.append(out[0] if vectors else out)
+                                          vectors=vectors or s.mass is not None)
+            ratio_jacobians.append(out[0] if isinstance(out, tuple) else out)
             if vectors:
                 found.append(out[1])
+            if s.mass is not None:
+                mass_jacobian.append(modal_mass_derivatives(model, xbar, phi, s.reference, out[1])[1])
+    n_x = xbar.size
     return DataMap(freqs.natural, zeros, measured, tuple(ratios), freqs, natural_jacobian, zero_jacobian,
-                   tuple(ratio_jacobians), tuple(found))
+                   tuple(ratio_jacobians), tuple(found), np.array(masses, dtype=float),
+                   np.array(mass_jacobian).reshape(-1, n_x) if jacobian else None)
 
 
 def data_jacobian(configurations: Sequence[Configuration], xbar):
@@ -210,7 +231,8 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
 
     ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
     antiresonance of every configuration, then ``d (phi_j / phi_p) / d xbar_i`` of every
-    measured shape ratio (`data_map`); all exact. Its singular values tell how many parameter
+    measured shape ratio, then ``d m / d xbar_i / m`` of every measured modal mass
+    (`data_map`); all exact. Its singular values tell how many parameter
     combinations the data determine; the right singular vectors of the (near-)zero singular
     values are the combinations the data cannot see.
 
@@ -236,7 +258,8 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
     maps = [data_map(c, xbar, freqs=f) for c, f in zip(configurations, freqs)]
     S = np.vstack([m.frequency_jacobian / m.frequency_values[:, None] for m in maps]
                   + [np.zeros((0, n_x))]   # a block for vstack where nothing was measured
-                  + [D for m in maps for D in m.ratio_jacobians])
+                  + [D for m in maps for D in m.ratio_jacobians]
+                  + [m.mass_jacobian / m.masses[:, None] for m in maps if m.masses.size])
     S = S[np.all(np.isfinite(S), axis=1)]
     if S.size:
         _, sv, Vt = np.linalg.svd(S)   # full_matrices: Vt is n_x x n_x, its last rows span the null space

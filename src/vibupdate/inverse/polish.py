@@ -222,7 +222,8 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
     -------
     r : ndarray, shape (n_r,)
         Per configuration, in the order of the data map (`vibupdate.inverse.data_map`): the
-        weighted relative errors of the natural frequencies and zeros, then the shape terms.
+        weighted relative errors of the natural frequencies and zeros, then the shape terms
+        (ratios, then the modal masses' relative distances).
     J : ndarray, shape (n_r, n_x), or None without ``jacobian``
     """
     if shape_target not in ("interval", "midpoint"):
@@ -248,6 +249,19 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
                 sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
             if jacobian:
                 jac.append(shape_weight * sign[:, None] * d.ratio_jacobians[k])
+        weighed = [shape for shape in d.shapes if shape.mass is not None]
+        if weighed:   # modal masses: as a shape ratio, in units of the measured value
+            lower, upper = np.array([shape.mass for shape in weighed]).T
+            mid = 0.5 * (lower + upper)
+            if shape_target == "midpoint":
+                res.append(shape_weight * (d.masses - mid) / mid)
+                sign = np.ones(mid.size)
+            else:
+                below, above = np.maximum(lower - d.masses, 0), np.maximum(d.masses - upper, 0)
+                res.append(shape_weight * (below + above) / mid)
+                sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
+            if jacobian:
+                jac.append(shape_weight * (sign / mid)[:, None] * d.mass_jacobian)
         if want_vectors:
             basis.append(np.hstack(d.vectors))
     r = np.concatenate(res) if res else np.zeros(0)

@@ -24,6 +24,10 @@ against the data it was given:
     the frame refined to 2,996 DOFs the estimate is 4e-10 to 1.1e-8 per mode, and the polished
     answer misses its point data by up to 1.5e-9, above the fixed 1e-9 that was allowed
     before; on the 2,940-DOF building frame it is 1.5e-12;
+``modal_mass``
+    where a shape was measured mass-normalized, the model's modal mass at its reference entry
+    (``1 / phi_p^2``) lies in the measured interval widened by the model-form tolerance
+    ``modal_mass_tolerance`` (relative, default 5 %) and by `FIT_FLOOR`;
 ``fit``
     every measured frequency is matched by its declared mode or zero within its measurement
     interval (its own, else ``measurement_tolerance``, else the value) widened by the
@@ -104,6 +108,9 @@ class VerifyOptions:
     shape_tolerance : float
         Model-form tolerance of the shapes: the largest distance of a shape ratio (normalized at
         the mode's largest measured entry) beyond its measurement interval.
+    modal_mass_tolerance : float
+        Model-form tolerance of the modal masses of mass-normalized shapes: the largest
+        relative miss beyond the measurement interval.
     diagnose : bool
         Not a threshold: whether a run whose answer does not fit the data goes on to say which
         data conflict (`vibupdate.inverse.diagnosis`); the checks ignore it.
@@ -119,6 +126,7 @@ class VerifyOptions:
     natural_tolerance: float = default("verification", "natural_tolerance")
     antiresonance_tolerance: float = default("verification", "antiresonance_tolerance")
     shape_tolerance: float = default("verification", "shape_tolerance")
+    modal_mass_tolerance: float = default("verification", "modal_mass_tolerance")
     diagnose: bool = default("verification", "diagnose")
     suggest: bool = default("verification", "suggest")
 
@@ -290,6 +298,39 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
             elif model_form > 0 or (tol > 0 and _common_scaling_miss(f.Phi_all[idx, m], nat.shape) > SCALING_SLACK):
                 by_model.append(f"mode {nat.mode} by {model_form:.2g}" if model_form > 0 else f"mode {nat.mode}")
     return bad_mac, bad_box, worst_mac, by_model
+
+
+def _modal_mass_check(configurations, updated, options: VerifyOptions) -> Check:
+    """The ``modal_mass`` check (module docstring): each measured modal mass against the model's."""
+    bad, by_model, worst = [], [], 0.0
+    tol = options.modal_mass_tolerance
+    for cfg, f in zip(configurations, updated):
+        for nat in cfg.natural:
+            if nat.shape is None or not nat.shape.mass_normalized:
+                continue
+            lo, hi = nat.shape.modal_mass_bounds()
+            mid = 0.5 * (lo + hi)
+            phi_p = f.Phi_all[cfg.model.dof(nat.shape.reference), nat.mode - 1]
+            mass = 1.0 / phi_p**2 if phi_p != 0 else math.inf
+            out = max(lo - mass, mass - hi, 0.0) / mid
+            worst = max(worst, abs(mass / mid - 1))
+            label = (f"configuration {cfg.name!r}, mode {nat.mode} ({nat.freq_hz:.5g} Hz), modal mass at "
+                     f"{nat.shape.reference!r}")
+            if out > tol + FIT_FLOOR:
+                bad.append(f"{label}: model {mass:.6g} kg, measured [{lo:.6g}, {hi:.6g}] kg: outside by "
+                           f"{100 * out:.3g} %, more than the {100 * tol:g} % model-form tolerance")
+            elif out > 0:
+                by_model.append(f"mode {nat.mode} by {100 * out:.2g} %")
+    if bad:
+        text = _join(bad)
+    elif by_model:
+        text = (f"{len(by_model)} modal mass(es) lie outside their measurement intervals and within the "
+                f"{100 * tol:g} % model-form tolerance ({_join(by_model, 6)}): the model's form, not the "
+                "measurement, limits the answer")
+    else:
+        text = f"every modal mass lies in its measured interval (largest departure from a midpoint {100 * worst:.3g} %)"
+    return Check("modal_mass", not bad, "error", text, 100 * worst, 100 * tol,
+                 limited_by=None if bad else ("model_form" if by_model else "measurement"))
 
 
 #: Largest distance, in half-widths, by which a model shape may lie outside its measured
@@ -491,6 +532,8 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
             text = "every model shape ratio lies in its measured interval"
         checks.append(Check("shape_intervals", not bad_box, "error", text, float(len(bad_box)), 0.0,
                             limited_by=None if bad_box else ("model_form" if by_model else "measurement")))
+    if any(n.shape is not None and n.shape.mass_normalized for c in configurations for n in c.natural):
+        checks.append(_modal_mass_check(configurations, updated, options))
     fits = [_fit(c, f, options) for c, f in zip(configurations, updated)]
     bad_fit = [m for b, _, _ in fits for m in b]
     by_model = [m for _, _, b in fits for m in b]

@@ -116,11 +116,12 @@ class Case:
 
 # -- measured data ------------------------------------------------------------------------------
 
-def _frf_data(spec: dict, base: Path, where: Where, key: str):
+def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: bool = False):
     """Measured data extracted from FRF files (``[configuration.frf]``, docs/frf-extraction.md):
     natural-frequency and antiresonance dicts as the other sources give, plus intervals (Hz),
     mode and zero numbers, shape intervals ``{mode: {dof: (lo, hi)}}`` and the measured FRFs
-    in the extraction band (`vibupdate.data.frf.FRFSet`)."""
+    in the extraction band (`vibupdate.data.frf.FRFSet`). With ``mass_normalized`` the shapes
+    must be mass-normalized, which needs a driving-point FRF."""
     from vibupdate.data.extraction import extract
     from vibupdate.data.frf import read_frfs
 
@@ -158,6 +159,10 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str):
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
+    if mass_normalized and any(m.normalization != "mass" for m in result.modes):
+        raise where.error(f"{key}.mass_normalized_shapes", "the extracted shapes are not mass-normalized: that needs "
+                                                           "a driving-point FRF (a response equal to its excitation) "
+                                                           f"among {', '.join(f'h_{r},{c}' for r, c in frfs.pairs)}")
     notes = tuple(str(w.message) for w in doubts if issubclass(w.category, FRFWarning)) + tuple(result.notes(first))
     return natural, zeros, shapes, frfs.band(*result.band), notes
 
@@ -257,7 +262,8 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
                  if k in cfg]
         if mixed:
             raise where.error(f"{key}.frf", f"FRF files take the place of typed data; remove {', '.join(mixed)}")
-        natural, zeros, shapes, frfs, notes = _frf_data(cfg["frf"], base, where, key)
+        natural, zeros, shapes, frfs, notes = _frf_data(cfg["frf"], base, where, key,
+                                                        cfg.get("mass_normalized_shapes", False))
     natural, zeros, shapes = _file_data(cfg, model, base, where, key, natural, zeros, shapes)
     if "natural_hz" in cfg:
         natural = _typed_natural(cfg, where, key)
@@ -275,7 +281,8 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
 
         nat = tuple(
             NaturalFrequency.from_hz(f["hz"], weight=f["weight"], damping_ratio=f["damping_ratio"],
-                                     shape=ShapeInterval(shapes[declared[k]]) if declared[k] in shapes else None,
+                                     shape=ShapeInterval(shapes[declared[k]], cfg.get("mass_normalized_shapes", False))
+                                     if declared[k] in shapes else None,
                                      mode=f.get("mode"), interval=rad(f.get("interval")),
                                      damping_interval=f.get("damping_interval"))
             for k, f in enumerate(natural))

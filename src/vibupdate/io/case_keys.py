@@ -93,7 +93,7 @@ PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "u
 CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_modes": list, "damping_ratios": list,
              "antiresonances": list, "frequencies_csv": str, "mode_shapes_csv": str, "mode_shapes_uff": str,
              "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list,
-             "frf": dict}
+             "frf": dict, "mass_normalized_shapes": bool}
 FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
              "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float,
              "window": str, "reciprocal": bool, "keep_outer_zeros": bool, "window_decay": float,

@@ -14,6 +14,10 @@ derivatives are as accurate as the eigenpairs themselves.
   derivative of the ratio, ``(v_j phi_p - phi_j v_p) / phi_p^2``, because the multiple of
   ``phi`` cancels. ``v`` is found as in Nelson's method: fix the entry of largest ``|phi|``
   to zero and solve the remaining non-singular system (one factorization per mode).
+* **Modal mass.** A mass-normalized measured shape also fixes the mode's scale: with the ratio
+  vector ``q = phi / phi_p`` (``q_p = 1``), the modal mass at ``p`` is ``m_p = 1 / phi_p^2 =
+  q^T M q``, so ``d m_p / d xbar_i = q^T M_i q + 2 (M q)^T dq_i``, ``dq_i`` the ratio derivative
+  above over every entry: the same solutions ``v``, no further factorization.
 * **Antiresonances.** The zeros of ``h_rc`` are eigenvalues of the adjunct pencil
   ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed, Eq. 8), which is not symmetric when
   ``r != c``. With right vector ``v`` and left vector ``y``,
@@ -37,6 +41,7 @@ __all__ = [
     "eigenvalue_derivatives",
     "frequency_derivatives",
     "shape_ratio_derivatives",
+    "modal_mass_derivatives",
     "antiresonance_derivatives",
     "adjunct_eigenpairs",
 ]
@@ -124,6 +129,20 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     ref = phi[reference]
     D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
     return (D, V.copy()) if vectors else D
+
+
+def modal_mass_derivatives(model, xbar, phi, reference: int, V) -> tuple[float, np.ndarray]:
+    """The modal mass ``1 / phi_p^2`` (kg) of a mass-normalized mode ``phi`` at ``xbar``, scaled
+    to 1 at DOF ``reference``, and its exact derivative, shape (n_x,), from the solutions ``V``
+    of `shape_ratio_derivatives` (``vectors=True``) of the same mode (module docstring)."""
+    phi = np.asarray(phi, dtype=float)
+    ref = phi[reference]
+    q = phi / ref
+    dQ = (V * ref - np.outer(phi, V[reference])) / ref**2
+    M = model.matrices(xbar)[0]
+    Mq = M @ q
+    direct = np.array([q @ (Mi @ q) for Mi in model.M_par])
+    return float(q @ Mq), direct + 2.0 * (Mq @ dQ)
 
 
 #: Solutions ``V`` of large models kept by (model, point, eigenpair): the polish's last

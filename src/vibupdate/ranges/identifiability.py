@@ -98,10 +98,15 @@ def _measured(configurations, frequency_tolerance):
         half.append(np.array([frequency_tolerance * d.omega if d.interval is None
                               else 0.5 * (d.interval[1] - d.interval[0]) for d in data]))
         is_freq.append(np.ones(w.size, dtype=bool))
-        for shape in measured_shapes(cfg):
+        shapes = measured_shapes(cfg)
+        for shape in shapes:
             values.append(shape.midpoint)
             half.append(shape.half_width)
             is_freq.append(np.zeros(shape.entries.size, dtype=bool))
+        masses = np.array([shape.mass for shape in shapes if shape.mass is not None]).reshape(-1, 2)
+        values.append(masses.mean(axis=1))
+        half.append(0.5 * (masses[:, 1] - masses[:, 0]))
+        is_freq.append(np.zeros(len(masses), dtype=bool))
     return np.concatenate(values), np.concatenate(half), np.concatenate(is_freq)
 
 
