@@ -125,6 +125,15 @@ def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tm
     assert [(c["name"], c["passed"], c.get("limited_by")) for c in frf["solver"]["checks"]] == \
         [(c["name"], c["passed"], c.get("limited_by")) for c in csv["solver"]["checks"]]
     assert weighed == any(c["name"] == "modal_mass" for c in frf["solver"]["checks"])
+    if weighed:   # each mode's modal mass reported, typed on reloading, and in the report
+        from vibupdate.io.results import ModalMassRow, load_results
+
+        rows = load_results(tmp_path / "out_frf" / "results.json").modal_masses
+        assert len(rows) == len(frf["frequencies"]) - sum(r["kind"] == "antiresonance" for r in frf["frequencies"])
+        assert all(isinstance(r, ModalMassRow) and r.measured_lower_kg < r.measured_upper_kg for r in rows)
+        assert "## Modal masses" in (tmp_path / "out_frf" / "report.md").read_text()
+    else:
+        assert frf.get("modal_masses", []) == []
     a = np.array([p["updated"] for p in frf["parameters"]])
     b = np.array([p["updated"] for p in csv["parameters"]])
     np.testing.assert_allclose(b, a, rtol=1e-6)

@@ -172,6 +172,46 @@ def test_a_rising_receptance_is_an_error_through_the_cli(tmp_path, capsys):
     assert "warning" not in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("system, true_kind, declared, likely", [
+    ("cantilever", "mobility", "receptance", "mobility"),
+    ("cantilever", "receptance", "mobility", "receptance"),
+    ("frame", "accelerance", "mobility", "accelerance"),
+    ("frame", "mobility", "accelerance", "mobility"),
+])
+def test_a_kind_one_order_off_is_refused_after_the_fit(system, true_kind, declared, likely):
+    """What the raw FRFs leave plausible (`test_a_plausible_kind_passes_silently`), the fit
+    does not: one order off turns every fitted modal constant by 90 degrees (measured 88-90,
+    against 0-5 declared right; `vibupdate.data.residue_kind`), and the driving point says which
+    way. The file and the likely kind are named."""
+    from frf_synthetic import frame_measured, measured
+
+    frfs, band = ((measured(0)[0], (2 * math.pi * 20, 2 * math.pi * 300)) if system == "cantilever"
+                  else (frame_measured(0)[0], (2 * math.pi * 3, 2 * math.pi * 28)))
+    with pytest.raises(ValueError) as err:
+        extract(_as_read(frfs, true_kind, declared), band=band)
+    text = str(err.value)
+    assert f"hits.csv: declared {declared}, but the fitted modal constants turn by" in text
+    assert f"the data look like {likely}, one order off" in text
+    assert extract(_as_read(frfs, true_kind, true_kind), band=band).modes   # declared right: no error
+
+
+def test_a_kind_one_order_off_exits_2_through_the_cli_naming_the_files(tmp_path, capsys):
+    """The frame's accelerances saved as mobilities and read as accelerances (``--kind``):
+    exit 2, every file named, nothing written; read as what they are, exit 0."""
+    from frf_synthetic import frame_measured
+
+    frfs = frame_measured(0)[0]
+    paths, excitations = _write_npz(tmp_path, frfs, kind="mobility")
+    out = tmp_path / "ex"
+    args = ["extract", *paths, "--responses", "x1", "x2", "x3", "--excitations", *excitations, "--band", "3", "28",
+            "--no-plot", "--out", str(out)]
+    assert main(args + ["--kind", "accelerance"]) == 2
+    err = capsys.readouterr().err
+    assert "declared accelerance, but the fitted modal constants turn by" in err and "look like mobility" in err
+    assert all(p in err for p in paths) and "Traceback" not in err and not out.exists()
+    assert main(args + ["--kind", "mobility"]) == 0
+
+
 def _realdata_files():
     from test_extraction import REALDATA, SOTON_FILES
 

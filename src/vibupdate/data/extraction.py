@@ -110,7 +110,8 @@ from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _li
 from vibupdate.data._noise import _residual_variance, _variance_components
 from vibupdate.data._window import window_for
 from vibupdate.data._zeros import _local_zero, _zero_se, _zero_snr, _zeros_of_all
-from vibupdate.data.frf import FRFSet
+from vibupdate.data.frf import KINDS, FRFSet
+from vibupdate.data.residue_kind import check_fitted_kind
 
 __all__ = ["ExtractedMode", "ExtractedZero", "FRFQuality", "Extraction", "extract"]
 
@@ -536,6 +537,7 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     fitted = _Fitted(x, F, var, scales, wn, zeta, cov_poles, in_band, inside, x_report, scale_w, window)
     result = _stage_two(frfs, fitted, counts, stab, noise, confidence, local_zeros, keep_outer_zeros,
                         keep_noisy_zeros)
+    check_fitted_kind(result, KINDS, frfs.sources)   # a kind one order off turns every constant by 90 degrees
     if window_name == "force":
         result = dataclasses.replace(result, window="force")
     return dataclasses.replace(result, window_tau=1.0 / decay_rate) if decay_rate else result

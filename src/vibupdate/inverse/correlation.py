@@ -12,6 +12,8 @@ and the ranges: `vibupdate.inverse.data_map`.
 
 from __future__ import annotations
 
+import math
+
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -20,7 +22,8 @@ import numpy as np
 from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes
 from vibupdate.data.measured import TWO_PI, Configuration
 
-__all__ = ["ModelFrequencies", "model_frequencies", "declared_zeros", "frequency_rows", "percent_error", "shape_mac"]
+__all__ = ["ModelFrequencies", "model_frequencies", "declared_zeros", "frequency_rows", "modal_mass_rows",
+           "percent_error", "shape_mac"]
 
 
 @dataclass(frozen=True)
@@ -191,6 +194,26 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
                     "error_updated_pct": None if upd is None else float(percent_error(upd[k], w)),
                 }
                 rows.append(row)
+    return rows
+
+
+def modal_mass_rows(configurations: Sequence[Configuration], nominal: Sequence[ModelFrequencies],
+                    updated: Sequence[ModelFrequencies]) -> list[dict]:
+    """Rows of the ``modal_masses`` table of ``results.json`` (docs/outputs.md), kg: per
+    mass-normalized measured shape, the modal mass ``1 / phi_p^2`` at its reference entry
+    measured (interval), nominal and updated, the errors against the interval's midpoint."""
+    rows = []
+    for cfg, nom, upd in zip(configurations, nominal, updated):
+        for k, f in enumerate(cfg.natural):
+            if f.shape is None or not f.shape.mass_normalized:
+                continue
+            lo, hi = f.shape.modal_mass_bounds()
+            mid, p = 0.5 * (lo + hi), cfg.model.dof(f.shape.reference)
+            masses = [1.0 / m.Phi[p, k] ** 2 if m.Phi[p, k] != 0 else math.inf for m in (nom, upd)]
+            rows.append({"configuration": cfg.name, "mode": f.mode, "dof": f.shape.reference,
+                         "measured_lower_kg": lo, "measured_upper_kg": hi, "nominal_kg": masses[0],
+                         "updated_kg": masses[1], "error_nominal_pct": 100 * (masses[0] / mid - 1),
+                         "error_updated_pct": 100 * (masses[1] / mid - 1)})
     return rows
 
 

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.inverse.correlation import frequency_rows, model_frequencies, shape_mac
+from vibupdate.inverse.correlation import frequency_rows, modal_mass_rows, model_frequencies, shape_mac
 from vibupdate.inverse.data_map import sensitivity
 from vibupdate.inverse.formulation import formulate
 from vibupdate.inverse.formulation.options import FormulationOptions
@@ -112,6 +112,9 @@ class UpdateResult:
     minimum_change : MinimumChange or None
         Where the data leave directions undetermined, the move of the answer along them to the
         point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
+    modal_masses : tuple of dict
+        Rows measured / nominal / updated of the modal masses of mass-normalized shapes, kg
+        (`vibupdate.inverse.correlation.modal_mass_rows`); empty without them.
     modal : dict of str to ModelFrequencies
         Modal data of each configuration's updated model, as correlation, verification and
         sensitivity used them (modes, every mode on the dense path in ``spectrum``, zeros and
@@ -142,6 +145,7 @@ class UpdateResult:
     restarts: tuple[dict, ...] = ()
     minimum_change: MinimumChange | None = None
     alternatives: tuple[dict, ...] = ()
+    modal_masses: tuple[dict, ...] = ()
     modal: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -780,6 +784,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         values=model.physical(xbar),
         matrices={c.name: tuple(sp.csr_matrix(A) for A in c.model.matrices(xbar)) for c in configurations},
         frequencies=tuple(frequency_rows(configurations, nominal, updated)),
+        modal_masses=tuple(modal_mass_rows(configurations, nominal, updated)),
         mac={c.name: shape_mac(c, f.Phi) for c, f in zip(configurations, updated)},
         vectors=tuple(_full_vector(problem, b, path.u, solved, bases) for b in range(len(problem.blocks))),
         problem_size=size,

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["FORMAT_VERSION", "ParameterRow", "FrequencyRow", "DampingRow", "Summary", "SampledRange", "Sampled",
+__all__ = ["FORMAT_VERSION", "ParameterRow", "FrequencyRow", "ModalMassRow", "DampingRow", "Summary", "SampledRange", "Sampled",
            "Multistart", "GroupTrialRow", "DiagnosisBest", "DiagnosisRecord", "RunResult", "run_result", "write_results", "load_results", "schema", "validate_document",
            "json_text"]
 
@@ -109,6 +109,23 @@ class FrequencyRow(_Row):
     measured_hz: float
     nominal_hz: float | None
     updated_hz: float | None
+    error_nominal_pct: float | None
+    error_updated_pct: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class ModalMassRow(_Row):
+    """One measured modal mass (kg, of a mass-normalized shape at its reference DOF) against
+    the nominal and updated models; errors against the measured interval's midpoint."""
+
+    configuration: str
+    mode: int
+    dof: str
+    measured_lower_kg: float
+    measured_upper_kg: float
+    nominal_kg: float | None
+    updated_kg: float | None
     error_nominal_pct: float | None
     error_updated_pct: float | None
     extra: tuple = ()
@@ -299,6 +316,8 @@ class RunResult:
     xbar : tuple of float
         Updated normalized parameters (Eq. 12), in the order of ``parameters``.
     frequencies : tuple of FrequencyRow
+    modal_masses : tuple of ModalMassRow
+        The modal masses of mass-normalized measured shapes; empty without them.
     mac : dict of str to list
         Per configuration, MAC of each measured mode shape with its paired updated mode
         (None where no shape was measured).
@@ -364,6 +383,7 @@ class RunResult:
     diagnosis: DiagnosisRecord | None = None
     matrix_files: dict = field(default_factory=dict)
     suggestion: dict | None = None
+    modal_masses: tuple[ModalMassRow, ...] = ()
     matrices: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -416,6 +436,7 @@ class RunResult:
             diagnosis=DiagnosisRecord.from_dict(doc["diagnosis"]) if doc.get("diagnosis") else None,
             matrix_files={k: dict(v) for k, v in doc.get("matrix_files", {}).items()},
             suggestion=doc.get("suggestion"),
+            modal_masses=tuple(ModalMassRow.from_dict(r) for r in doc.get("modal_masses", ())),
         )
 
 
@@ -542,7 +563,9 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         paper=_plain(paper) if paper else None, sensors=tuple(dict(s) for s in getattr(case, "sensors", ())),
         diagnosis=DiagnosisRecord.from_dict(_plain(diagnosis.record())) if diagnosis is not None else None,
         matrix_files=_matrix_files(configurations, matrices, bool(result.success), best),
-        suggestion=_plain(suggestion) if suggestion else None, matrices=matrices)
+        suggestion=_plain(suggestion) if suggestion else None,
+        modal_masses=tuple(ModalMassRow.from_dict(_plain(row)) for row in getattr(result, "modal_masses", ())),
+        matrices=matrices)
 
 
 def _matrix_files(configurations, matrices: dict, verified: bool, best) -> dict:

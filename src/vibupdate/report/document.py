@@ -60,6 +60,20 @@ def frequency_table(run: RunResult) -> Table:
     return with_reference(table, run.paper, "frequencies")
 
 
+def modal_mass_table(run: RunResult) -> Table | None:
+    """Measured / nominal / updated modal masses of mass-normalized shapes; None without them."""
+    if not run.modal_masses:
+        return None
+    kg, pct = (lambda name: Column(name, "kg", ".4g")), Column("err %", spec=".2f")
+    rows = tuple((r.configuration, r.mode, r.dof, r.measured_lower_kg, r.measured_upper_kg, r.nominal_kg,
+                  r.error_nominal_pct, r.updated_kg, r.error_updated_pct) for r in run.modal_masses)
+    return Table("Modal masses", (Column("cfg"), Column("mode", spec="d"), Column("at"), kg("measured from"),
+                                  kg("to"), kg("nominal"), pct, kg("updated"), pct), rows,
+                 keys=tuple(f"{r.configuration}/{r.mode}" for r in run.modal_masses),
+                 notes=("The mass of each mode scaled to 1 at the DOF named, 1 / phi^2 of the mass-normalized mode "
+                        "there; errors against the middle of the measured interval.",))
+
+
 def _sensitivity_notes(run: RunResult) -> tuple[str, ...]:
     """What the sensitivity of the measured data says of the parameters (none without it)."""
     ident = run.identifiability
@@ -190,13 +204,13 @@ def tables(results) -> dict[str, Table]:
     built = {"summary": summary_table(run), "checks": checks_table(solver) if solver.get("checks") else None,
              "trials": trials_table(run), "best": best_table(run), "parameters": parameter_table(run),
              "ranges": ranges_table(run.identifiability or {}, [p.name for p in run.parameters]),
-             "frequencies": frequency_table(run), "sensors": sensors_table(run), "damping": damping_table(run),
+             "frequencies": frequency_table(run), "modal_masses": modal_mass_table(run), "sensors": sensors_table(run), "damping": damping_table(run),
              "steps": steps_table(solver) if solver else None}
     return {name: t for name, t in built.items() if t is not None}
 
 
 #: The tables the terminal shows, in its order.
-TERMINAL = ("frequencies", "parameters", "ranges", "damping", "summary", "trials", "best")
+TERMINAL = ("frequencies", "modal_masses", "parameters", "ranges", "damping", "summary", "trials", "best")
 
 
 def terminal_text(results) -> str:
@@ -321,7 +335,7 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
     out += section("Parameters", "parameters")
     out += (markdown(shown["ranges"]) if "ranges" in shown else []) + ranges_markdown(run.identifiability or {})
     out += _identifiability_markdown(run.identifiability or {}, {p.name: p.unit for p in run.parameters})
-    out += section("Frequencies", "frequencies")
+    out += section("Frequencies", "frequencies") + section("Modal masses", "modal_masses")
     if "sensors" in shown:
         out += ["## Measured points on the mesh", "",
                 "Each sensor reads one DOF of the model: its node's translation projected on the direction "

@@ -1,0 +1,86 @@
+"""Is the FRF kind declared right? The phase of the fitted modal constants says.
+
+A receptance's modal constants are real: ``h_jk = sum_r A_jkr / (w_r^2 - w^2 + 2 j zeta_r w_r w)``
+with ``A_jkr = phi_jr phi_kr``, so the complex constant ``2 j w_d A`` that the extraction fits
+per FRF and mode (`vibupdate.data.extraction`) points at 0 or 180 degrees, up to the small
+turn of non-proportional damping, and at 0 at a driving point. Data one order off the kind
+declared (a mobility read as a receptance, an accelerance read as a mobility) multiply every
+constant by ``j w`` or ``1 / (j w)``: all of them turn by +90 or -90 degrees. The doubled angle
+``2 theta`` folds 0 and 180 together and sends +-90 to 180, so the weighted mean of
+``exp(2 j theta)`` over every FRF and fitted mode tells one order off from right without a
+driving point; a driving point then gives the direction.
+
+Measured on known truth (grounded cantilever and chain, frame with non-proportional damping,
+free-free bar; benchmarks/RESULTS.md, "A kind one order off"): declared right, every
+dominant constant within 5 degrees of 0 or 180; one order off, within 10 degrees of +-90
+(a mode of 1 % of the largest weight at 41). The Southampton accelerances, right: the
+dominant constants within 4 degrees. `KIND_TURN` sits halfway.
+
+This replaces no check of the raw FRFs (`vibupdate.data.frf.check_kind`): their slope and
+phase share catch two orders off, and whether a kind one order off reads plausibly there
+depends on which lines and peaks count; after the fit, every mode counts by its constant.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["KIND_TURN", "constant_turn", "check_fitted_kind"]
+
+#: Degrees by which the weighted modal constants may turn from real before the declared kind
+#: is refused: halfway between right (0) and one order off (90).
+KIND_TURN = 45.0
+
+
+def constant_turn(pairs, coefficients: np.ndarray, fitted_poles: np.ndarray) -> tuple[float, float | None]:
+    """How far the fitted modal constants turn from real, degrees: ``(turn, drive)``.
+
+    ``turn`` in [0, 90]: half the angle of the mean of ``exp(2 j theta)`` over every FRF and
+    fitted mode, each FRF's constants weighted by their magnitude relative to its largest (so
+    every FRF counts alike). ``drive``: the weighted mean angle of the driving points'
+    constants, in (-180, 180], None without a driving point.
+
+    Parameters
+    ----------
+    pairs : sequence of (str, str)
+    coefficients : ndarray, shape (n_pairs, n_columns)
+        The stage-2 coefficients (`vibupdate.data.extraction.Extraction.coefficients`): per
+        mode ``r`` the real and imaginary parts of its residue in columns ``2 r`` and ``2 r + 1``.
+    fitted_poles : ndarray, shape (n_modes, 2)
+        Natural frequency and damping ratio of every fitted mode.
+    """
+    n = fitted_poles.shape[0]
+    wd = fitted_poles[:, 0] * np.sqrt(1.0 - fitted_poles[:, 1] ** 2)
+    constants = wd * (-coefficients[:, 1:2 * n:2] + 1j * coefficients[:, 0:2 * n:2])   # 2 j w_d A, up to a scale
+    size = np.abs(constants)
+    weight = size / np.maximum(size.max(axis=1, keepdims=True), 1e-300)
+    folded = np.sum(weight * np.exp(2j * np.angle(constants)))
+    turn = 0.5 * math.degrees(abs(math.atan2(folded.imag, folded.real)))
+    drives = [k for k, (r, c) in enumerate(pairs) if r == c]
+    if not drives:
+        return turn, None
+    at = np.sum(weight[drives] * np.exp(1j * np.angle(constants[drives])))
+    return turn, math.degrees(math.atan2(at.imag, at.real))
+
+
+def check_fitted_kind(result, kinds, sources) -> None:
+    """Raise ValueError naming the files when the fitted modal constants of ``result`` (an
+    `Extraction`) turn by more than `KIND_TURN` from real: the kind declared is one order off.
+    Nothing is said of data of mixed kinds."""
+    if result.measured not in kinds:
+        return
+    turn, drive = constant_turn(result.pairs, result.coefficients, result.fitted_poles)
+    if turn <= KIND_TURN:
+        return
+    order = kinds.index(result.measured)
+    steps = [1] if drive is not None and drive > 0 else [-1] if drive is not None else [1, -1]
+    likely = [kinds[order + k] for k in steps if 0 <= order + k < len(kinds)]
+    which = " or ".join(likely) if likely else "a kind one order off"
+    where = f"FRF file {', '.join(sources)}" if sources else "FRFs"
+    raise ValueError(f"{where}: declared {result.measured}, but the fitted modal constants turn by "
+                     f"{turn:.0f} degrees from real (a receptance's are real; the weighted mean over every FRF and "
+                     f"mode" + (f", the driving point's at {drive:+.0f} degrees" if drive is not None else "")
+                     + f"): the data look like {which}, one order off the kind declared. Is the kind "
+                     "(--kind, kind =) right?")
