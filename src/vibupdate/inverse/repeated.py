@@ -10,11 +10,14 @@ vectors fits it, and the measured frequency of the pair's second mode is as near
 model's first mode as to its second.
 
 `cluster` groups the model's modes whose frequencies agree to `REPEATED_GAP`;
-`best_combination` finds the combination of a cluster's vectors whose shape ratios lie
-deepest in the measured intervals (`vibupdate.inverse.verify` then checks that vector as it
-checks a single mode's, with a rounding allowance that projects out the whole cluster,
-`vibupdate.modal.refinement.shape_ratio_floor`); `subspace_mac` is the MAC of a measured shape
-with its best combination.
+`paired_vector` is the vector a measured mode is compared with: its declared mode, or for a
+repeated frequency the combination of the group's vectors whose shape ratios lie deepest in
+the measured intervals (`best_combination`). The verification checks that vector as it checks
+a single mode's, with a rounding allowance that clears the whole eigenspace
+(`vibupdate.modal.refinement.shape_ratio_floor`); the data map of the polish takes its ratios
+and their derivative as the eigenspace moves (`vibupdate.modal.sensitivities`), and the first
+stage starts from it. `subspace_mac` is the MAC of a measured shape with its best combination,
+`combination_miss` the distance of the best combination at any scaling from the intervals.
 """
 
 from __future__ import annotations
@@ -22,12 +25,15 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["REPEATED_GAP", "cluster", "paired_vector", "best_combination", "combination_miss", "subspace_mac"]
+__all__ = ["REPEATED_GAP", "cluster", "paired_vector", "paired_modes", "best_combination", "combination_miss",
+           "subspace_mac"]
 
 #: Largest relative difference of two model frequencies that are taken as one repeated frequency
 #: (`cluster`). Far below any measurement of a frequency, and far above the split that rounding
 #: leaves in an exactly repeated pair (1.7e-10 on the square frame exported to ten digits, 5e-14
-#: exported in full); a pair this close fixes its own vectors only through digits no datum sees.
+#: exported in full). A split this small is below what a measured frequency resolves, and a
+#: change of the parameters as small (one that breaks the symmetry) turns the pair's vectors
+#: anywhere in their plane: the model does not say which combination the structure shows.
 REPEATED_GAP = 1e-8
 
 
@@ -87,6 +93,16 @@ def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int,
     c = best_combination(U[[cfg.model.dof(d) for d in bounds]], U[cfg.model.dof(nat.shape.reference)],
                          lo - slack, hi + slack)
     return (Phi_all[:, m] if c is None else U @ c), near
+
+
+def paired_modes(cfg, f) -> np.ndarray:
+    """`paired_vector` of every measured natural frequency of ``cfg``, shape (n, n_p): ``f.Phi``
+    (a `vibupdate.inverse.correlation.ModelFrequencies`) with each mode of a repeated frequency
+    that has a measured shape replaced by its best combination."""
+    if not f.Phi_all.size:
+        return f.Phi
+    return np.column_stack([paired_vector(cfg, f.Phi_all, f.omega_all, k)[0] for k in range(len(cfg.natural))]
+                           or [np.zeros((f.Phi.shape[0], 0))])
 
 
 def best_combination(U_entries: np.ndarray, u_reference: np.ndarray, lower: np.ndarray,

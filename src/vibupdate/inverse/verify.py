@@ -5,8 +5,9 @@ not make the model right. Before an answer is called a success the returned mode
 against the data it was given:
 
 ``mode_order``
-    every measured natural frequency is nearest to its declared model mode (no mode of the
-    model skipped or inserted below the highest measured one);
+    every measured natural frequency is nearest to its declared model mode, or to a mode that
+    repeats its frequency (no mode of the model skipped or inserted below the highest measured
+    one);
 ``zero_order``
     every measured antiresonance is nearest to its declared zero of its receptance, and the
     model has that zero;
@@ -23,7 +24,10 @@ against the data it was given:
     lies outside the widened interval. It matters for point data (intervals of zero width): on
     the frame refined to 2,996 DOFs the estimate is 4e-10 to 1.1e-8 per mode, and the polished
     answer misses its point data by up to 1.5e-9, above the fixed 1e-9 that was allowed
-    before; on the 2,940-DOF building frame it is 1.5e-12;
+    before; on the 2,940-DOF building frame it is 1.5e-12. A mode of a repeated frequency is
+    checked as its eigenspace (`vibupdate.inverse.repeated`): the MAC and the ratios are
+    those of the best combination of the modes that share the frequency, and the rounding
+    allowance that of the eigenspace;
 ``fit``
     every measured frequency is matched by its declared mode or zero within its measurement
     interval (its own, else ``measurement_tolerance``, else the value) widened by the
@@ -273,7 +277,7 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
         phi_ref = phi[cfg.model.dof(ref)]
         if phi_ref == 0:
             bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}"
-                           + ("" if near.size == 1 else f", and so is every mode that repeats its frequency"))
+                           + ("" if near.size == 1 else ", and so is every mode that repeats its frequency"))
             continue
         before, model_form = len(bad_box), 0.0
         for d, (lo, hi) in nat.shape.ratio_bounds().items():
