@@ -250,9 +250,10 @@ class Configuration:
     name : str
     model : AffineModel
     natural : tuple of NaturalFrequency
-        Measured natural frequencies, ascending. Each says which model mode it is (``mode``);
-        omitted modes are consecutive (`declared_modes`). After construction every entry
-        carries its mode explicitly.
+        Measured natural frequencies, ascending; equal ones are the modes of a repeated
+        frequency (each its own model mode, `vibupdate.inverse.repeated`). Each says which model
+        mode it is (``mode``); omitted modes are consecutive (`declared_modes`). After
+        construction every entry carries its mode explicitly.
     antiresonances : tuple of Antiresonance
         Measured antiresonances, of one or more receptances, any subset of each receptance's
         zeros. Each says which zero of its receptance it is (``index``); omitted indices are
@@ -304,9 +305,10 @@ def validate_configuration(cfg: Configuration) -> None:
     if len(omegas) > cfg.model.n_dofs:
         raise ValueError(f"{where}: {len(omegas)} natural frequencies measured, but the model has only "
                          f"{cfg.model.n_dofs} DOFs (modes)")
-    if any(b <= a for a, b in zip(omegas, omegas[1:])):
+    if any(b < a for a, b in zip(omegas, omegas[1:])):
         shown = ", ".join(f"{w / TWO_PI:.4g}" for w in omegas)
-        raise ValueError(f"{where}: natural frequencies must be strictly ascending, got {shown} Hz")
+        raise ValueError(f"{where}: natural frequencies must not fall, got {shown} Hz (equal ones are the "
+                         "modes of a repeated frequency)")
     for i, f in enumerate(cfg.natural, start=1):
         if f.shape is not None:
             for dof in f.shape.bounds:

@@ -12,8 +12,6 @@ and the ranges: `vibupdate.inverse.data_map`.
 
 from __future__ import annotations
 
-import math
-
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -198,18 +196,24 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
 
 
 def modal_mass_rows(configurations: Sequence[Configuration], nominal: Sequence[ModelFrequencies],
-                    updated: Sequence[ModelFrequencies]) -> list[dict]:
+                    updated: Sequence[ModelFrequencies], xbar) -> list[dict]:
     """Rows of the ``modal_masses`` table of ``results.json`` (docs/outputs.md), kg: per
     mass-normalized measured shape, the modal mass ``1 / phi_p^2`` at its reference entry
-    measured (interval), nominal and updated, the errors against the interval's midpoint."""
+    measured (interval), nominal and updated (at ``xbar``), the errors against the interval's
+    midpoint."""
+    from vibupdate.inverse.repeated import paired_modal_mass
+
     rows = []
     for cfg, nom, upd in zip(configurations, nominal, updated):
+        if not any(f.shape is not None and f.shape.mass_normalized for f in cfg.natural):
+            continue
+        mass_matrices = (cfg.model.matrices()[0], cfg.model.matrices(xbar)[0])
         for k, f in enumerate(cfg.natural):
             if f.shape is None or not f.shape.mass_normalized:
                 continue
             lo, hi = f.shape.modal_mass_bounds()
-            mid, p = 0.5 * (lo + hi), cfg.model.dof(f.shape.reference)
-            masses = [1.0 / m.Phi[p, k] ** 2 if m.Phi[p, k] != 0 else math.inf for m in (nom, upd)]
+            mid = 0.5 * (lo + hi)
+            masses = [paired_modal_mass(cfg, M, m.Phi_all, m.omega_all, k) for M, m in zip(mass_matrices, (nom, upd))]
             rows.append({"configuration": cfg.name, "mode": f.mode, "dof": f.shape.reference,
                          "measured_lower_kg": lo, "measured_upper_kg": hi, "nominal_kg": masses[0],
                          "updated_kg": masses[1], "error_nominal_pct": 100 * (masses[0] / mid - 1),

@@ -31,6 +31,7 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, model_frequencies
+from vibupdate.inverse.repeated import paired_vector
 from vibupdate.modal.sensitivities import frequency_derivatives, modal_mass_derivatives, shape_ratio_derivatives
 
 __all__ = ["MeasuredShape", "measured_shapes", "DataMap", "data_map", "data_jacobian", "sensitivity",
@@ -101,7 +102,9 @@ class DataMap:
     shapes : tuple of MeasuredShape
         The measured shapes the ratios belong to (`measured_shapes`); empty when not asked for.
     ratios : tuple of ndarray
-        Per shape, ``phi[entries] / phi[reference]`` of the paired model mode, shape (n_e,).
+        Per shape, ``phi[entries] / phi[reference]`` of the paired model mode, shape (n_e,);
+        for a mode of a repeated frequency, of the combination of its modes that fits the
+        measured shape best (`vibupdate.inverse.repeated.paired_vector`).
     frequencies : ModelFrequencies
         The eigen-solution the values come from.
     natural_jacobian : ndarray, shape (n_p, n_x), or None
@@ -193,14 +196,17 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
     measured = tuple(measured_shapes(cfg)) if shapes else ()
     ratios, ratio_jacobians, masses, mass_jacobian = [], [], [], []
     for s in measured:
-        phi = freqs.Phi[:, s.position]
+        phi, near = paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position)
         ratios.append(phi[s.entries] / phi[s.reference])
-        if s.mass is not None:
-            masses.append(1.0 / phi[s.reference] ** 2)
+        if s.mass is not None:   # q^T M q, q = phi / phi_p: 1 / phi_p^2 of a mass-normalized mode
+            q = phi / phi[s.reference]
+            masses.append(float(q @ (model.matrices(xbar)[0] @ q)))
         if jacobian:
+            basis = freqs.Phi_all[:, near] if near.size > 1 else None
             out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
-                                          vectors=vectors or s.mass is not None)
-            ratio_jacobians.append(out[0] if isinstance(out, tuple) else out)
+                                          vectors=vectors or s.mass is not None, basis=basis)
+            D = out[0] if isinstance(out, tuple) else out
+            ratio_jacobians.append(D if basis is None else _refitted(D, basis[s.entries], basis[s.reference]))
             if vectors:
                 found.append(out[1])
             if s.mass is not None:
@@ -209,6 +215,22 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
     return DataMap(freqs.natural, zeros, measured, tuple(ratios), freqs, natural_jacobian, zero_jacobian,
                    tuple(ratio_jacobians), tuple(found), np.array(masses, dtype=float),
                    np.array(mass_jacobian).reshape(-1, n_x) if jacobian else None)
+
+
+def _refitted(D: np.ndarray, U_entries: np.ndarray, u_reference: np.ndarray) -> np.ndarray:
+    """The derivative ``D`` (n_e, n_x) of the ratios of a fixed combination of a repeated
+    frequency's modes, made that of the best combination's: the combination is chosen again at
+    every point, which takes out the part of a change that another combination's ratios can
+    follow, the span of ``U_entries N`` (``N``: the combinations keeping the reference entry,
+    ``u_reference c = 0``). Exact where the best combination fits its data (the polish's
+    solution with point data); the least-squares step's linearization elsewhere."""
+    import scipy.linalg as sla
+
+    W = U_entries @ sla.null_space(u_reference[None, :])
+    if not W.size:
+        return D
+    Q = sla.orth(W)
+    return D - Q @ (Q.T @ D)
 
 
 def data_jacobian(configurations: Sequence[Configuration], xbar):

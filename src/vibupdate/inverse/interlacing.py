@@ -41,14 +41,16 @@ def modal_constant_signs(poles: Sequence[float], zeros: Sequence[float], first: 
     -------
     list, length n_p
         +1 / -1 where the pattern determines the sign relative to ``first``; None from the
-        first pole after a gap in the modes on (not determined by the data).
+        first pole after a gap in the modes, or after a repeated pole, on (not determined by
+        the data: the modes of a repeated frequency are any combination of each other, and so
+        are their modal constants).
     """
     poles, zeros = np.asarray(poles, float), np.asarray(zeros, float)
     modes = list(range(1, poles.size + 1)) if modes is None else list(modes)
     signs: list[int | None] = [int(first)]
     for k in range(poles.size - 1):
-        if signs[-1] is None or modes[k + 1] != modes[k] + 1:
-            signs.append(None)
+        if signs[-1] is None or modes[k + 1] != modes[k] + 1 or poles[k + 1] == poles[k]:
+            signs.append(None)   # a gap in the modes, or a repeated frequency: its modes' constants are any split
             continue
         between = int(np.count_nonzero((zeros > poles[k]) & (zeros < poles[k + 1])))
         signs.append(signs[-1] if between % 2 == 1 else -signs[-1])

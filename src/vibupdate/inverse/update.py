@@ -45,6 +45,7 @@ from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
+from vibupdate.inverse.repeated import paired_modes
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.verify import (Check, VerifyOptions, consistency_allowance, tolerance_shape_weight,
                                      tolerance_weights, verify)
@@ -784,8 +785,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         values=model.physical(xbar),
         matrices={c.name: tuple(sp.csr_matrix(A) for A in c.model.matrices(xbar)) for c in configurations},
         frequencies=tuple(frequency_rows(configurations, nominal, updated)),
-        modal_masses=tuple(modal_mass_rows(configurations, nominal, updated)),
-        mac={c.name: shape_mac(c, f.Phi) for c, f in zip(configurations, updated)},
+        modal_masses=tuple(modal_mass_rows(configurations, nominal, updated, xbar)),
+        mac={c.name: shape_mac(c, paired_modes(c, f)) for c, f in zip(configurations, updated)},
         vectors=tuple(_full_vector(problem, b, path.u, solved, bases) for b in range(len(problem.blocks))),
         problem_size=size,
         steps=steps,

@@ -5,8 +5,9 @@ not make the model right. Before an answer is called a success the returned mode
 against the data it was given:
 
 ``mode_order``
-    every measured natural frequency is nearest to its declared model mode (no mode of the
-    model skipped or inserted below the highest measured one);
+    every measured natural frequency is nearest to its declared model mode, or to a mode that
+    repeats its frequency (no mode of the model skipped or inserted below the highest measured
+    one);
 ``zero_order``
     every measured antiresonance is nearest to its declared zero of its receptance, and the
     model has that zero;
@@ -23,7 +24,10 @@ against the data it was given:
     lies outside the widened interval. It matters for point data (intervals of zero width): on
     the frame refined to 2,996 DOFs the estimate is 4e-10 to 1.1e-8 per mode, and the polished
     answer misses its point data by up to 1.5e-9, above the fixed 1e-9 that was allowed
-    before; on the 2,940-DOF building frame it is 1.5e-12;
+    before; on the 2,940-DOF building frame it is 1.5e-12. A mode of a repeated frequency is
+    checked as its eigenspace (`vibupdate.inverse.repeated`): the MAC and the ratios are
+    those of the best combination of the modes that share the frequency, and the rounding
+    allowance that of the eigenspace;
 ``modal_mass``
     where a shape was measured mass-normalized, the model's modal mass at its reference entry
     (``1 / phi_p^2``) lies in the measured interval widened by the model-form tolerance
@@ -69,6 +73,7 @@ import numpy as np
 from vibupdate.options import check, default
 from vibupdate.modal.analysis import mac
 from vibupdate.inverse.correlation import ModelFrequencies, percent_error
+from vibupdate.inverse.repeated import cluster, combination_miss, paired_vector, subspace_mac
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration
 
 __all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance", "tolerance_weights",
@@ -197,7 +202,7 @@ def _mode_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
     bad = []
     for k, nat in enumerate(cfg.natural):
         j = _nearest(f.omega_all, nat.omega)
-        if j != nat.mode - 1:
+        if j not in cluster(f.omega_all, nat.mode - 1):   # a repeated frequency's modes tie (`repeated`)
             bad.append(f"configuration {cfg.name!r}: measured {nat.freq_hz:.5g} Hz (declared mode {nat.mode}) is "
                        f"nearest to model mode {j + 1} at {f.omega_all[j] / TWO_PI:.5g} Hz; its mode {nat.mode} "
                        f"is at {f.natural[k] / TWO_PI:.5g} Hz (a mode skipped or inserted)")
@@ -219,23 +224,28 @@ def _zero_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
     return bad
 
 
-def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies) -> float:
+def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies, vectors: dict | None = None) -> float:
     """The largest, over the measured modes of ``cfg`` at ``xbar``, of `ROUNDING_SAFETY` times
     the rounding floor of the shape ratios plus the computed vector's own error estimated from
     its residual (`vibupdate.modal.refinement.shape_ratio_floor`, one factorization per
-    measured mode); ``f`` holds the model's modes there."""
+    measured mode); ``f`` holds the model's modes there. A mode of a repeated frequency
+    (`vibupdate.inverse.repeated.cluster`) is taken with its whole eigenspace, whose change
+    stays bounded as the repeated frequencies' gap closes; ``vectors`` maps a mode's position
+    in ``cfg.natural`` to the vector checked for it (by default `paired_vector`'s)."""
     from vibupdate.modal.refinement import shape_ratio_floor
 
     M, K = cfg.model.matrices(xbar)
     floor = 0.0
-    for nat in cfg.natural:
+    for k, nat in enumerate(cfg.natural):
         if nat.shape is None or len(nat.shape.bounds) < 2:
             continue
         m = nat.mode - 1
+        phi, near = paired_vector(cfg, f.Phi_all, f.omega_all, k)
+        phi = (vectors or {}).get(k, phi)
         idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
         w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
-        rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
-                                          cfg.model.dof(nat.shape.reference))
+        rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, phi, idx, cfg.model.dof(nat.shape.reference),
+                                          basis=f.Phi_all[:, near] if near.size > 1 else None)
         floor = max(floor, ROUNDING_SAFETY * rounding + own)
     return floor
 
@@ -247,6 +257,8 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
     bad_mac, bad_box, worst_mac, by_model = [], [], 1.0, []
     rounding = None   # computed when a ratio lies outside its widened interval
     tol = options.shape_tolerance
+    vectors = {k: paired_vector(cfg, f.Phi_all, f.omega_all, k, options.shape_slack)
+               for k, nat in enumerate(cfg.natural) if nat.shape is not None}
     for k, nat in enumerate(cfg.natural):
         if nat.shape is None:
             continue
@@ -255,63 +267,72 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
         mid = np.array([nat.shape.midpoint[d] for d in dofs])
         macs = mac(mid, f.Phi_all[idx])[0]
         m = nat.mode - 1
-        worst_mac = min(worst_mac, float(macs[m]))
+        phi, near = vectors[k]
+        own = subspace_mac(mid, f.Phi_all[np.ix_(idx, near)]) if near.size > 1 else float(macs[m])
+        macs[near] = -np.inf   # the other modes of a repeated frequency are this one's
+        worst_mac = min(worst_mac, own)
         label = f"configuration {cfg.name!r}, mode {nat.mode} ({nat.freq_hz:.5g} Hz)"
-        if macs[m] < options.mac_min:
-            bad_mac.append(f"{label}: MAC {macs[m]:.3f} with the measured shape, below {options.mac_min}")
+        of = "" if near.size == 1 else f" (best combination of the repeated modes {near[0] + 1}-{near[-1] + 1})"
+        if own < options.mac_min:
+            bad_mac.append(f"{label}: MAC {own:.3f} with the measured shape{of}, below {options.mac_min}")
         other = int(np.argmax(macs))
-        if other != m and macs[other] > macs[m] + 1e-9:
+        if macs[other] > own + 1e-9:
             bad_mac.append(f"{label}: the measured shape matches model mode {other + 1} better "
-                           f"(MAC {macs[other]:.3f} vs {macs[m]:.3f})")
+                           f"(MAC {macs[other]:.3f} vs {own:.3f}{of})")
         if len(dofs) < 2:
             continue
         ref = nat.shape.reference
-        phi_ref = f.Phi_all[cfg.model.dof(ref), m]
+        phi_ref = phi[cfg.model.dof(ref)]
         if phi_ref == 0:
-            bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}")
+            bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}"
+                           + ("" if near.size == 1 else ", and so is every mode that repeats its frequency"))
             continue
         before, model_form = len(bad_box), 0.0
         for d, (lo, hi) in nat.shape.ratio_bounds().items():
-            ratio = f.Phi_all[cfg.model.dof(d), m] / phi_ref
+            ratio = phi[cfg.model.dof(d)] / phi_ref
             slack = options.shape_slack * 0.5 * (hi - lo)
             out = max(lo - slack - ratio, ratio - hi - slack, 0.0)
             if out == 0.0:
                 continue
             if rounding is None:
-                rounding = rounding_allowance(cfg, xbar, f)
+                rounding = rounding_allowance(cfg, xbar, f, {j: v for j, (v, _) in vectors.items()})
             if out <= rounding:
                 continue
             if out <= tol + rounding:
                 model_form = max(model_form, out)
                 continue
-            bad_box.append(f"{label}, DOF {d!r}: model shape ratio {ratio:.10g} outside the measured "
+            bad_box.append(f"{label}, DOF {d!r}: model shape ratio {ratio:.10g}{of} outside the measured "
                                f"interval [{lo:.10g}, {hi:.10g}] (normalized at {ref!r}) by "
                                f"{max(lo - ratio, ratio - hi):.2g}, more than the {slack:.2g} allowed, the "
                                f"{tol:g} model-form tolerance and {rounding:.2g} for rounding")
         widen = tol * abs(nat.shape.midpoint[ref])
+        shape = phi[idx] if near.size == 1 else f.Phi_all[np.ix_(idx, near)]
         if len(bad_box) == before:   # said only where no ratio of the mode was already out
-            miss = _common_scaling_miss(f.Phi_all[idx, m], nat.shape, widen)
+            miss = _common_scaling_miss(shape, nat.shape, widen)
             if miss > SCALING_SLACK:
                 bad_box.append(f"{label}: no common scaling puts the model shape inside every measured interval "
                                f"widened by the {tol:g} model-form tolerance; at the best one it is {miss:.2g} "
                                f"half-widths outside (allowed {SCALING_SLACK:g})")
-            elif model_form > 0 or (tol > 0 and _common_scaling_miss(f.Phi_all[idx, m], nat.shape) > SCALING_SLACK):
+            elif model_form > 0 or (tol > 0 and _common_scaling_miss(shape, nat.shape) > SCALING_SLACK):
                 by_model.append(f"mode {nat.mode} by {model_form:.2g}" if model_form > 0 else f"mode {nat.mode}")
     return bad_mac, bad_box, worst_mac, by_model
 
 
-def _modal_mass_check(configurations, updated, options: VerifyOptions) -> Check:
-    """The ``modal_mass`` check (module docstring): each measured modal mass against the model's."""
+def _modal_mass_check(configurations, updated, options: VerifyOptions, xbar) -> Check:
+    """The ``modal_mass`` check (module docstring): each measured modal mass against the model's
+    (of the paired vector: the best combination of a repeated frequency's modes)."""
+    from vibupdate.inverse.repeated import paired_modal_mass
+
     bad, by_model, worst = [], [], 0.0
     tol = options.modal_mass_tolerance
     for cfg, f in zip(configurations, updated):
-        for nat in cfg.natural:
+        M = cfg.model.matrices(xbar)[0]
+        for k, nat in enumerate(cfg.natural):
             if nat.shape is None or not nat.shape.mass_normalized:
                 continue
             lo, hi = nat.shape.modal_mass_bounds()
             mid = 0.5 * (lo + hi)
-            phi_p = f.Phi_all[cfg.model.dof(nat.shape.reference), nat.mode - 1]
-            mass = 1.0 / phi_p**2 if phi_p != 0 else math.inf
+            mass = paired_modal_mass(cfg, M, f.Phi_all, f.omega_all, k)
             out = max(lo - mass, mass - hi, 0.0) / mid
             worst = max(worst, abs(mass / mid - 1))
             label = (f"configuration {cfg.name!r}, mode {nat.mode} ({nat.freq_hz:.5g} Hz), modal mass at "
@@ -349,13 +370,17 @@ def _common_scaling_miss(phi: np.ndarray, shape, widen: float = 0.0) -> float:
     widths), which the ratio check covers with its rounding allowance.
 
     Bisection on ``t``: for a given ``t`` the admissible scalings of each entry form one
-    interval, and they intersect or not."""
+    interval, and they intersect or not. For the modes of a repeated frequency ``phi`` is
+    their vectors, shape (n_s, k), and ``s`` any combination of them (a linear program,
+    `vibupdate.inverse.repeated.combination_miss`)."""
     bounds = np.array(list(shape.bounds.values()), dtype=float)
     lo, hi = bounds[:, 0], bounds[:, 1]
     half = 0.5 * (hi - lo)
     if np.any(half <= 0) or not np.all(np.isfinite(phi)):
         return 0.0
     lo, hi = lo - widen, hi + widen
+    if phi.ndim == 2:
+        return combination_miss(phi, lo, hi, half)
 
     def feasible(t: float) -> bool:
         a, b = lo - t * half, hi + t * half
@@ -533,7 +558,7 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
         checks.append(Check("shape_intervals", not bad_box, "error", text, float(len(bad_box)), 0.0,
                             limited_by=None if bad_box else ("model_form" if by_model else "measurement")))
     if any(n.shape is not None and n.shape.mass_normalized for c in configurations for n in c.natural):
-        checks.append(_modal_mass_check(configurations, updated, options))
+        checks.append(_modal_mass_check(configurations, updated, options, xbar))
     fits = [_fit(c, f, options) for c, f in zip(configurations, updated)]
     bad_fit = [m for b, _, _ in fits for m in b]
     by_model = [m for _, _, b in fits for m in b]

@@ -11,7 +11,8 @@ beforehand, so that ``check`` accepts exactly the cases ``run`` accepts:
   warning naming the bound and the solver's narrower bound, `physical_box`), rigid-body
   modes and massless DOFs counted and reported;
 * measured data: damping ratios in (0, 1) (a warning above `HIGH_DAMPING`), frequencies
-  ascending in mode order, a warning when the frequencies look like rad/s written as Hz;
+  not falling in mode order (equal ones, the modes of a repeated frequency, with a warning in
+  case one was given twice), a warning when the frequencies look like rad/s written as Hz;
 * the problem itself, built as the run builds it (with the model reduction when the
   formulation asks for one).
 
@@ -119,9 +120,9 @@ def _check_order(cfg, error) -> None:
     for (m1, w1), (m2, w2) in zip(modes, modes[1:]):
         if m1 == m2:
             raise error(f"configuration '{cfg.name}'", f"mode {m1} is measured twice")
-        if w2 <= w1:
+        if w2 < w1:   # equal: a repeated frequency, one measured value per mode
             raise error(f"configuration '{cfg.name}'",
-                        f"mode {m2} at {w2 / TWO_PI:.6g} Hz is not above mode {m1} at {w1 / TWO_PI:.6g} Hz")
+                        f"mode {m2} at {w2 / TWO_PI:.6g} Hz is below mode {m1} at {w1 / TWO_PI:.6g} Hz")
 
 
 def _check_data(cfg, error) -> None:
@@ -211,6 +212,18 @@ def _rad_s_warning(cfg) -> str | None:
         return (f"configuration '{cfg.name}': the measured natural frequencies are {typical:.2f} times the "
                 "nominal model's, close to 2 pi: are they in rad/s? The case file takes Hz")
     return None
+
+
+def _repeated_warnings(cfg) -> list[str]:
+    """A note per pair of equal measured natural frequencies: they are read as the two modes of
+    a repeated frequency, which a frequency typed twice also looks like."""
+    out = []
+    for a, b in zip(cfg.natural, cfg.natural[1:]):
+        if a.omega == b.omega:
+            out.append(f"configuration '{cfg.name}': modes {a.mode} and {b.mode} are both measured at "
+                       f"{a.freq_hz:.6g} Hz, equal frequencies taken as the modes of a repeated frequency; "
+                       "if one value was given twice, remove it")
+    return out
 
 
 def _physical(case, error) -> tuple[list[str], list[str], int, object]:
@@ -316,6 +329,7 @@ def validate_case(case) -> CaseCheck:
     notes, physical_warnings, rigid, case = _physical(case, error)
     warnings = physical_warnings + _check_damping(case, rigid, error)
     warnings += [w for w in (_rad_s_warning(c) for c in case.configurations) if w]
+    warnings += [w for c in case.configurations for w in _repeated_warnings(c)]
     warnings += [f"configuration '{name}' FRFs: {note}" for name, notes in case.frf_notes.items()
                  for note in notes]
     try:

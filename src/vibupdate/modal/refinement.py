@@ -107,7 +107,7 @@ def refine_modes(M, K, solve, sigma: float, X: np.ndarray):
 
 
 def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: int,
-                      seed: int = 0) -> tuple[float, float]:
+                      seed: int = 0, basis: np.ndarray | None = None) -> tuple[float, float]:
     """How far rounding alone moves the shape ratios ``phi[entries] / phi[reference]`` of one
     mode: the first-order change when every stored entry of ``K`` and ``M`` moves by one unit
     of rounding (relative `numpy.finfo` eps, signs drawn from a generator seeded with ``seed``).
@@ -130,7 +130,13 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
         DOF indices of the ratios' numerators.
     reference : int
         DOF index of the denominator (``phi[reference] != 0``).
-
+    basis : ndarray, shape (n, k), optional
+        For a mode of a repeated frequency (`vibupdate.inverse.repeated`): the vectors of its
+        eigenspace, ``phi`` a combination of them. The change is then the eigenspace's, out of
+        it: the right-hand sides and the solution are cleared of the eigenspace (a turn within
+        it is another combination, which the caller's check is free to take), and ``k`` rows
+        and columns are removed instead of one. Without it, the change grows as the inverse of
+        the gap to the nearest other mode, without bound for an exactly repeated one.
 
     Returns
     -------
@@ -158,11 +164,16 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
     # another dense solver then missed by 1.4 times the allowance (acceptance runs r142, r254).
     size = abs(Ks) @ np.abs(phi) + abs(eigval) * (abs(Ms) @ np.abs(phi))
     b = eps * size * rng.choice([-1.0, 1.0], size=n)
-    Mphi = Ms @ phi
-    rhs = (b, -(Ks @ phi - eigval * Mphi))
-    B = np.column_stack([c - Mphi * (phi @ c) / (phi @ Mphi) for c in rhs])   # the eigenvalue's own change
-    p = int(np.argmax(np.abs(phi)))
-    keep = np.delete(np.arange(n), p)
+    U = phi[:, None] if basis is None else np.asarray(basis, dtype=float)
+    MU = Ms @ U
+    G = U.T @ MU
+    rhs = np.column_stack([b, -(Ks @ phi - eigval * (Ms @ phi))])
+    B = rhs - MU @ np.linalg.solve(G, U.T @ rhs)   # the eigenvalue's own change (and the eigenspace's turn)
+    if U.shape[1] == 1:
+        removed = [int(np.argmax(np.abs(phi)))]
+    else:   # rows where the eigenspace's vectors are most independent (Nelson's method for a repeated root)
+        removed = sorted(sla.qr(U.T, mode="r", pivoting=True)[1][:U.shape[1]].tolist())
+    keep = np.delete(np.arange(n), removed)
     A = (Ks - eigval * Ms)[keep][:, keep]
     V = np.zeros((n, B.shape[1]))
     if n > 400:
@@ -171,6 +182,8 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
         V[keep] = sparse_lu(A).solve(B[keep])
     else:
         V[keep] = sla.solve(A.toarray(), B[keep], assume_a="sym")
+    if U.shape[1] > 1:
+        V = V - U @ np.linalg.solve(G, MU.T @ V)
     entries = np.asarray(entries, dtype=int)
     ref = phi[reference]
     D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2

@@ -88,7 +88,7 @@ def _factor(A):
 
 
 def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: int, *,
-                            vectors: bool = False):
+                            vectors: bool = False, basis: np.ndarray | None = None):
     """Exact derivative of the shape ratios ``phi[entries] / phi[reference]`` of one mode.
 
     Parameters
@@ -107,6 +107,13 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     vectors : bool
         Also return the solutions ``V`` of the module docstring (one per parameter): the
         derivatives of ``phi`` up to multiples of ``phi``.
+    basis : ndarray, shape (n, k), optional
+        For a mode of a repeated frequency (`vibupdate.inverse.repeated`): the modes of that
+        frequency, ``phi`` (any scaling) a combination of them. The derivative is then that of
+        the ratios of the same combination as the eigenspace moves: the right-hand sides and
+        ``V`` are cleared of the eigenspace, ``k`` rows and columns removed instead of one (a
+        turn within the eigenspace is left to whoever chose the combination; where it was chosen
+        to fit the data best, it does not change the fit's gradient).
 
     Returns
     -------
@@ -119,10 +126,11 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     n = phi.size
     key = V = None
     if n > eigen.DENSE_LIMIT:   # one sparse LU each: re-used by the stages that ask at the same point
-        key = (model.fingerprint, np.asarray(xbar, dtype=float).tobytes(), float(omega), phi.tobytes())
+        key = (model.fingerprint, np.asarray(xbar, dtype=float).tobytes(), float(omega), phi.tobytes(),
+               None if basis is None else np.asarray(basis, dtype=float).tobytes())
         V = _RATIO_SOLUTIONS.get(key)
     if V is None:
-        V = _ratio_solutions(model, xbar, omega, phi)
+        V = _ratio_solutions(model, xbar, omega, phi, basis)
         if key is not None:
             _RATIO_SOLUTIONS.put(key, V, V.nbytes)
     entries = np.asarray(entries, dtype=int)
@@ -151,23 +159,34 @@ def modal_mass_derivatives(model, xbar, phi, reference: int, V) -> tuple[float, 
 _RATIO_SOLUTIONS = Kept(64, 256 * 2**20)
 
 
-def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray) -> np.ndarray:
+def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarray | None = None) -> np.ndarray:
     """The solutions ``V`` (n, n_x) of the module docstring: one factorization of
     ``K - eigval M`` without the row and column of the largest ``|phi|``, every parameter in one
-    solve."""
+    solve. With a ``basis`` of a repeated frequency's modes (`shape_ratio_derivatives`): without
+    the rows and columns where they are most independent, the eigenspace cleared."""
     M, K = model.matrices(xbar)
     eigval = omega**2
     n = phi.size
-    p = int(np.argmax(np.abs(phi)))
-    keep = np.delete(np.arange(n), p)
+    F = np.column_stack([Ki @ phi - eigval * (Mi @ phi) for Mi, Ki in zip(model.M_par, model.K_par)])
+    V = np.zeros((n, model.n_parameters))
+    if basis is None:
+        p = int(np.argmax(np.abs(phi)))
+        keep = np.delete(np.arange(n), p)
+        A = (K - eigval * M).tocsr()[keep][:, keep]
+        solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
+        Mphi = M @ phi
+        d_eigval = phi @ F
+        V[keep] = solve((-F + np.outer(Mphi, d_eigval))[keep])   # every parameter in one solve
+        return V
+    U = np.asarray(basis, dtype=float)
+    MU = M @ U
+    G = U.T @ MU
+    removed = sorted(sla.qr(U.T, mode="r", pivoting=True)[1][:U.shape[1]].tolist())
+    keep = np.delete(np.arange(n), removed)
     A = (K - eigval * M).tocsr()[keep][:, keep]
     solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
-    Mphi = M @ phi
-    F = np.column_stack([Ki @ phi - eigval * (Mi @ phi) for Mi, Ki in zip(model.M_par, model.K_par)])
-    d_eigval = phi @ F
-    V = np.zeros((n, model.n_parameters))
-    V[keep] = solve((-F + np.outer(Mphi, d_eigval))[keep])   # every parameter in one solve
-    return V
+    V[keep] = solve((-F + MU @ np.linalg.solve(G, U.T @ F))[keep])
+    return V - U @ np.linalg.solve(G, MU.T @ V)
 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):

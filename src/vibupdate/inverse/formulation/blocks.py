@@ -18,6 +18,7 @@ from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.scaling import Scaling, scaling_of
+from vibupdate.inverse.repeated import paired_vector
 from vibupdate.modal.analysis import antiresonances
 
 __all__ = ["VectorBlock", "natural_block", "adjunct_block", "build_blocks"]
@@ -166,8 +167,9 @@ def build_blocks(configurations, options: FormulationOptions, nominal=None):
     for i, cfg in enumerate(configurations):
         scaling = scaling_of(cfg.model, options)
         modes = nominal[i] if nominal is not None else model_frequencies(cfg, zeros=False)
-        for k in range(len(cfg.natural)):
-            blocks.append(natural_block(cfg, k, modes.Phi[:, k], scaling, options))
+        for k in range(len(cfg.natural)):   # a repeated frequency's mode: the combination nearest its shape
+            v0 = paired_vector(cfg, modes.Phi_all, modes.omega_all, k)[0] if modes.Phi_all.size else modes.Phi[:, k]
+            blocks.append(natural_block(cfg, k, v0, scaling, options))
         for k in range(len(cfg.antiresonances)):
             blocks.append(adjunct_block(cfg, k, k + 1, scaling, options))
         owners.extend([i] * (len(cfg.natural) + len(cfg.antiresonances)))

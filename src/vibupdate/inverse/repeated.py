@@ -1,0 +1,211 @@
+"""Repeated natural frequencies: model modes that share one eigenspace.
+
+A structure with a symmetry has natural frequencies that repeat: the x and y sway of a frame
+with square bays, the two bending planes of a round shaft. Every combination of the modes of a
+repeated frequency is a mode of it, and which combination an eigen-solver returns is decided
+by rounding (the square frame's pair, stored by an export to ten digits, is split by 1.7e-10 of
+its frequency). So the model's shape of such a mode is the eigenspace, not the vector computed:
+a measured shape of a mode of the pair fits the model when *some* combination of the pair's
+vectors fits it, and the measured frequency of the pair's second mode is as near to the
+model's first mode as to its second.
+
+`cluster` groups the model's modes whose frequencies agree to `REPEATED_GAP`;
+`paired_vector` is the vector a measured mode is compared with: its declared mode, or for a
+repeated frequency the combination of the group's vectors whose shape ratios lie deepest in
+the measured intervals (`best_combination`). The verification checks that vector as it checks
+a single mode's, with a rounding allowance that clears the whole eigenspace
+(`vibupdate.modal.refinement.shape_ratio_floor`); the data map of the polish takes its ratios
+and their derivative as the eigenspace moves (`vibupdate.modal.sensitivities`), and the first
+stage starts from it. `subspace_mac` is the MAC of a measured shape with its best combination,
+`combination_miss` the distance of the best combination at any scaling from the intervals.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+__all__ = ["REPEATED_GAP", "cluster", "paired_vector", "paired_modes", "paired_modal_mass", "best_combination", "combination_miss",
+           "subspace_mac"]
+
+#: Largest relative difference of two model frequencies that are taken as one repeated frequency
+#: (`cluster`). Far below any measurement of a frequency, and far above the split that rounding
+#: leaves in an exactly repeated pair (1.7e-10 on the square frame exported to ten digits, 5e-14
+#: exported in full). A split this small is below what a measured frequency resolves, and a
+#: change of the parameters as small (one that breaks the symmetry) turns the pair's vectors
+#: anywhere in their plane: the model does not say which combination the structure shows.
+REPEATED_GAP = 1e-8
+
+
+def cluster(omega: np.ndarray, m: int) -> np.ndarray:
+    """Indices of the model modes that repeat mode ``m`` (0-based, itself included): the
+    consecutive modes whose frequencies each lie within `REPEATED_GAP` of the next.
+
+    Parameters
+    ----------
+    omega : ndarray, shape (n_m,)
+        Model frequencies, rad/s, ascending.
+    m : int
+        The mode, 0-based.
+
+    Returns
+    -------
+    ndarray of int, ascending
+    """
+    omega = np.asarray(omega, dtype=float)
+    lo = hi = m
+
+    def close(a: int, b: int) -> bool:
+        return bool(abs(omega[b] - omega[a]) <= REPEATED_GAP * max(abs(omega[a]), abs(omega[b])))
+
+    while lo > 0 and close(lo - 1, lo):
+        lo -= 1
+    while hi + 1 < omega.size and close(hi, hi + 1):
+        hi += 1
+    return np.arange(lo, hi + 1)
+
+
+def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int,
+                  shape_slack: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The model vector paired with the ``k``-th (0-based) measured natural frequency of
+    ``cfg``, shape (n,), and the modes of its frequency (`cluster`): the declared mode itself,
+    or for a repeated frequency with a measured shape the combination of its modes whose ratios
+    lie deepest in the measured intervals, each widened by ``shape_slack`` half-widths
+    (`best_combination`; normalized to ratio 1 at the shape's reference DOF).
+
+    Parameters
+    ----------
+    cfg : Configuration
+    Phi_all : ndarray, shape (n, n_m)
+        The model's modes.
+    omega_all : ndarray, shape (n_m,)
+        Their frequencies, rad/s, ascending.
+    """
+    nat = cfg.natural[k]
+    m = nat.mode - 1
+    near = cluster(omega_all, m)
+    if near.size == 1 or nat.shape is None or len(nat.shape.bounds) < 2:
+        return Phi_all[:, m], near
+    bounds = nat.shape.ratio_bounds()
+    lo, hi = np.array(list(bounds.values()), dtype=float).T
+    slack = shape_slack * 0.5 * (hi - lo)
+    U = Phi_all[:, near]
+    c = best_combination(U[[cfg.model.dof(d) for d in bounds]], U[cfg.model.dof(nat.shape.reference)],
+                         lo - slack, hi + slack)
+    return (Phi_all[:, m] if c is None else U @ c), near
+
+
+def paired_modes(cfg, f) -> np.ndarray:
+    """`paired_vector` of every measured natural frequency of ``cfg``, shape (n, n_p): ``f.Phi``
+    (a `vibupdate.inverse.correlation.ModelFrequencies`) with each mode of a repeated frequency
+    that has a measured shape replaced by its best combination."""
+    if not f.Phi_all.size:
+        return f.Phi
+    return np.column_stack([paired_vector(cfg, f.Phi_all, f.omega_all, k)[0] for k in range(len(cfg.natural))]
+                           or [np.zeros((f.Phi.shape[0], 0))])
+
+
+def best_combination(U_entries: np.ndarray, u_reference: np.ndarray, lower: np.ndarray,
+                     upper: np.ndarray) -> np.ndarray | None:
+    """The combination ``c`` of a cluster's vectors whose shape ratios lie deepest in their
+    intervals: ``U_entries c`` are the ratios when ``u_reference c = 1``, and ``c`` minimizes
+    the largest distance of a ratio outside ``[lower, upper]``.
+
+    Found in two steps, both checked by the caller on the vector itself: the least-squares fit
+    of the ratios to the intervals' midpoints (exact to rounding, enough for point data), then
+    the linear program of the largest distance, solved for the correction to that fit scaled by
+    the fit's own miss (so that the LP solver's absolute tolerances act relative to the miss);
+    the better of the two is returned.
+
+    Parameters
+    ----------
+    U_entries : ndarray, shape (n_e, k)
+        The cluster's vectors at the ratios' DOFs.
+    u_reference : ndarray, shape (k,)
+        The cluster's vectors at the reference DOF.
+    lower, upper : ndarray, shape (n_e,)
+        The ratio intervals (any widening already applied).
+
+    Returns
+    -------
+    ndarray, shape (k,), or None
+        None when every vector of the cluster is zero at the reference DOF.
+    """
+    from scipy.optimize import linprog
+
+    U = np.asarray(U_entries, dtype=float)
+    u = np.asarray(u_reference, dtype=float)
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    norm = float(u @ u)
+    if norm == 0.0 or not np.all(np.isfinite(U)):
+        return None
+    c0 = u / norm                                   # u_reference c0 = 1
+    N = sla.null_space(u[None, :])                  # k x (k - 1): directions keeping u_reference c = 1
+    mid = 0.5 * (lower + upper)
+    z = np.linalg.lstsq(U @ N, mid - U @ c0, rcond=None)[0] if N.shape[1] else np.zeros(0)
+    c_ls = c0 + N @ z
+
+    def miss(c: np.ndarray) -> float:
+        r = U @ c
+        return float(np.max(np.maximum(np.maximum(lower - r, r - upper), 0.0), initial=0.0))
+
+    best = miss(c_ls)
+    scale = float(np.max(np.abs(U @ c_ls - mid), initial=0.0) + np.max(0.5 * (upper - lower), initial=0.0))
+    if best == 0.0 or N.shape[1] == 0 or scale == 0.0:
+        return c_ls
+    # c = c_ls + scale N y; distance t scale: lower <= U c_ls + scale U N y + t scale, and above
+    A = U @ N
+    n_e, q = A.shape
+    A_ub = np.vstack([np.column_stack([A, -np.ones(n_e)]), np.column_stack([-A, -np.ones(n_e)])])
+    r0 = U @ c_ls
+    b_ub = np.concatenate([(upper - r0) / scale, (r0 - lower) / scale])
+    cost = np.zeros(q + 1)
+    cost[-1] = 1.0
+    sol = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * q + [(0.0, None)], method="highs")
+    if sol.status == 0:
+        c_lp = c_ls + scale * (N @ sol.x[:q])
+        if miss(c_lp) < best:
+            return c_lp
+    return c_ls
+
+
+def subspace_mac(shape: np.ndarray, U: np.ndarray) -> float:
+    """MAC of a measured ``shape``, shape (n_s,), with the best combination of the columns of
+    ``U``, shape (n_s, k): the squared cosine of its angle with their span."""
+    shape = np.asarray(shape, dtype=float)
+    denom = float(shape @ shape)
+    if denom == 0.0:
+        return 0.0
+    Q = sla.orth(np.asarray(U, dtype=float))
+    p = Q.T @ shape
+    return float(p @ p) / denom
+
+
+def combination_miss(U: np.ndarray, lower: np.ndarray, upper: np.ndarray, half: np.ndarray) -> float:
+    """How far the best combination of the columns of ``U``, shape (n_s, k), lies outside the
+    intervals ``[lower, upper]``, shape (n_s,), in units of ``half`` (positive): the least
+    ``t`` such that some ``c`` puts every ``(U c)_j`` within ``t half_j`` of interval ``j``. A
+    linear program in ``(c, t)``; ``inf`` when the solver fails."""
+    from scipy.optimize import linprog
+
+    U = np.asarray(U, dtype=float)
+    n_s, k = U.shape
+    # U c - t half <= upper,  -U c - t half <= -lower
+    A_ub = np.vstack([np.column_stack([U, -half]), np.column_stack([-U, -half])])
+    b_ub = np.concatenate([upper, -lower])
+    cost = np.zeros(k + 1)
+    cost[-1] = 1.0
+    sol = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * k + [(0.0, None)], method="highs")
+    return float(sol.x[-1]) if sol.status == 0 else float("inf")
+
+
+def paired_modal_mass(cfg, M, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> float:
+    """The modal mass (kg) at the reference DOF of the ``k``-th measured shape of ``cfg`` of
+    the model vector paired with it (`paired_vector`): ``q^T M q``, ``q`` that vector scaled to
+    1 at the reference (``1 / phi_p^2`` of a mass-normalized mode); inf where it is 0 there."""
+    phi = paired_vector(cfg, Phi_all, omega_all, k)[0]
+    ref = phi[cfg.model.dof(cfg.natural[k].shape.reference)]
+    if ref == 0:
+        return float("inf")
+    q = phi / ref
+    return float(q @ (M @ q))
