@@ -212,6 +212,21 @@ def test_a_kind_one_order_off_exits_2_through_the_cli_naming_the_files(tmp_path,
     assert main(args + ["--kind", "mobility"]) == 0
 
 
+def test_southampton_accelerances_read_as_receptances_exit_2_after_the_fit(tmp_path, capsys):
+    """Read as receptances (the raw check can only warn: slopes in range, `check_kind`), the
+    real accelerances' driving points fit negative modal constants (two orders off, or a sign
+    flipped): exit 2 naming the three files, nothing written. As accelerances: exit 0."""
+    files = _realdata_files()
+    out = tmp_path / "ex"
+    args = ["extract", *files, "--responses", "x1", "x2", "x3", "--excitations", "x1", "x2", "x3", "--band", "3",
+            "28", "--modes", "3", "--no-plot", "--out", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "declared receptance, but the driving point's fitted modal constants are negative" in err
+    assert all(f in err for f in files) and "accelerance" in err and "Traceback" not in err and not out.exists()
+    assert main(args + ["--kind", "accelerance"]) == 0
+
+
 def _realdata_files():
     from test_extraction import REALDATA, SOTON_FILES
 

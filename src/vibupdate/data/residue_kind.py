@@ -16,6 +16,13 @@ dominant constant within 5 degrees of 0 or 180; one order off, within 10 degrees
 (a mode of 1 % of the largest weight at 41). The Southampton accelerances, right: the
 dominant constants within 4 degrees. `KIND_TURN` sits halfway.
 
+Two orders off (an accelerance read as a receptance, or back) turns every constant by 180
+degrees, which the doubled angle cannot see, and neither can it tell from transfer FRFs'
+arbitrary signs; but a driving point's constants are ``phi_p^2 > 0``, so driving-point
+constants turned past 135 degrees are refused too: two orders off, or the driving point's sign
+flipped (the response measured against the force's direction), which the data cannot tell
+apart and which both make the shapes wrong.
+
 This replaces no check of the raw FRFs (`vibupdate.data.frf.check_kind`): their slope and
 phase share catch two orders off, and whether a kind one order off reads plausibly there
 depends on which lines and peaks count; after the fit, every mode counts by its constant.
@@ -67,18 +74,26 @@ def constant_turn(pairs, coefficients: np.ndarray, fitted_poles: np.ndarray) -> 
 
 def check_fitted_kind(result, kinds, sources) -> None:
     """Raise ValueError naming the files when the fitted modal constants of ``result`` (an
-    `Extraction`) turn by more than `KIND_TURN` from real: the kind declared is one order off.
-    Nothing is said of data of mixed kinds."""
+    `Extraction`) turn by more than `KIND_TURN` from real (the kind declared is one order off),
+    or when a driving point's turn by more than ``180 - KIND_TURN`` (two orders off, or its sign
+    flipped). Nothing is said of data of mixed kinds."""
     if result.measured not in kinds:
         return
     turn, drive = constant_turn(result.pairs, result.coefficients, result.fitted_poles)
+    where = f"FRF file {', '.join(sources)}" if sources else "FRFs"
+    order = kinds.index(result.measured)
+    if turn <= KIND_TURN and drive is not None and abs(drive) >= 180.0 - KIND_TURN:
+        two = [kinds[order + k] for k in (2, -2) if 0 <= order + k < len(kinds)]
+        raise ValueError(f"{where}: declared {result.measured}, but the driving point's fitted modal constants are "
+                         f"negative (at {drive:+.0f} degrees; a driving point's are phi^2 > 0): the data are two orders "
+                         f"off the kind declared ({' or '.join(two)}?) or the driving point's sign is flipped (the "
+                         "response measured against the force's direction). Is the kind (--kind, kind =) or the sign "
+                         "right?")
     if turn <= KIND_TURN:
         return
-    order = kinds.index(result.measured)
     steps = [1] if drive is not None and drive > 0 else [-1] if drive is not None else [1, -1]
     likely = [kinds[order + k] for k in steps if 0 <= order + k < len(kinds)]
     which = " or ".join(likely) if likely else "a kind one order off"
-    where = f"FRF file {', '.join(sources)}" if sources else "FRFs"
     raise ValueError(f"{where}: declared {result.measured}, but the fitted modal constants turn by "
                      f"{turn:.0f} degrees from real (a receptance's are real; the weighted mean over every FRF and "
                      f"mode" + (f", the driving point's at {drive:+.0f} degrees" if drive is not None else "")
