@@ -17,9 +17,10 @@ against the data it was given:
     the model's shape ratios ``phi_j / phi_p`` lie in the measured intervals, widened by
     ``shape_slack`` half-widths (a model that fits the frequencies with a shape outside its
     interval has not used the data), by the model-form tolerance ``shape_tolerance`` and by
-    what the model's double-precision pencil can resolve: `ROUNDING_SAFETY` times the largest
-    change of the measured modes' ratios under one unit of rounding in every entry of ``K``
-    and ``M`` (`vibupdate.modal.refinement.shape_ratio_floor`), computed only where a ratio
+    what the model's pencil can resolve: `ROUNDING_SAFETY` times the largest change of the
+    measured modes' ratios under one unit of rounding in every entry of ``K`` and ``M``
+    (`vibupdate.modal.refinement.shape_ratio_floor`; double precision, or the model's
+    ``matrix_precision`` when its matrices were written with fewer digits), computed only where a ratio
     lies outside the widened interval. It matters for point data (intervals of zero width): on
     the frame refined to 2,996 DOFs the estimate is 4e-10 to 1.1e-8 per mode, and the polished
     answer misses its point data by up to 1.5e-9, above the fixed 1e-9 that was allowed
@@ -227,7 +228,8 @@ def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies) -> float:
         idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
         w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
         rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
-                                          cfg.model.dof(nat.shape.reference))
+                                          cfg.model.dof(nat.shape.reference),
+                                          precision=cfg.model.matrix_precision)
         floor = max(floor, ROUNDING_SAFETY * rounding + own)
     return floor
 

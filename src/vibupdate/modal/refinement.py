@@ -107,10 +107,11 @@ def refine_modes(M, K, solve, sigma: float, X: np.ndarray):
 
 
 def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: int,
-                      seed: int = 0) -> tuple[float, float]:
+                      seed: int = 0, precision: float | None = None) -> tuple[float, float]:
     """How far rounding alone moves the shape ratios ``phi[entries] / phi[reference]`` of one
     mode: the first-order change when every stored entry of ``K`` and ``M`` moves by one unit
-    of rounding (relative `numpy.finfo` eps, signs drawn from a generator seeded with ``seed``).
+    of rounding (relative `numpy.finfo` eps, or the entries' own ``precision`` when coarser:
+    `vibupdate.modal.rigid.unit`; signs drawn from a generator seeded with ``seed``).
 
     The double-precision pencil fixes its modes only to this level (module docstring): a
     solver of any accuracy returns ratios that differ from those of the same model assembled
@@ -130,6 +131,11 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
         DOF indices of the ratios' numerators.
     reference : int
         DOF index of the denominator (``phi[reference] != 0``).
+    seed : int
+        Seed of the signs.
+    precision : float, optional
+        Relative precision of the entries of ``K`` and ``M`` (a model's ``matrix_precision``);
+        None: double precision.
 
 
     Returns
@@ -149,7 +155,9 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
     phi = np.asarray(phi, dtype=float)
     n = phi.size
     rng = np.random.default_rng(seed)
-    eps = np.finfo(float).eps
+    from vibupdate.modal.rigid import unit
+
+    eps = unit(precision)
 
     # one rounding unit per stored entry, the signs within a row aligned (the componentwise
     # backward error of a stable solver), the rows' signs drawn: b_i = +-eps ((|K| + w^2 |M|) |phi|)_i.
