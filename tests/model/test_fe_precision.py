@@ -93,6 +93,10 @@ def test_a_free_free_frame_in_large_field_imports_and_updates_to_the_truth(frame
     # that alone moves E_col by 1.2e-7, E_beam by 8e-10, rho_col by 1e-8. Measured 1.7e-7,
     # 1.5e-9 and 3.7e-8 (the free-field export of the same frame: 4e-12 at most).
     assert max(err.values()) <= 1e-6, err
+    # the reported ranges hold the truth: their windows carry what the model's 10 digits allow
+    # (without that allowance E_col's range was [2.2679994e11, 2.2679999e11], the truth 2.268e11)
+    ranges = doc["identifiability"]["ranges"]
+    assert all(ranges[n]["lower"] <= truth[n] <= ranges[n]["upper"] for n in NAMES), ranges
 
 
 def test_a_negative_spring_is_refused_at_the_export_precision(frame, tmp_path, capsys):
