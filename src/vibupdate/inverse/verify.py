@@ -19,15 +19,18 @@ against the data it was given:
     interval has not used the data), by the model-form tolerance ``shape_tolerance`` and by
     what the model's pencil can resolve: `ROUNDING_SAFETY` times the largest change of the
     measured modes' ratios under one unit of rounding in every entry of ``K`` and ``M``
-    (`vibupdate.modal.refinement.shape_ratio_floor`; double precision, or the model's
-    ``matrix_precision`` when its matrices were written with fewer digits: a bound on each
-    entry's rounding, so a generous allowance, 3.1e-5 on a free-free frame from 10 digits whose
-    exact point shapes missed the imported model by 2.9e-9, and 1.4e-11 at double precision,
-    which called that model not verified), computed only where a ratio
+    (`vibupdate.modal.refinement.shape_ratio_floor`, the largest over the configuration's
+    measured modes), computed only where a ratio
     lies outside the widened interval. It matters for point data (intervals of zero width): on
     the frame refined to 2,996 DOFs the estimate is 4e-10 to 1.1e-8 per mode, and the polished
     answer misses its point data by up to 1.5e-9, above the fixed 1e-9 that was allowed
-    before; on the 2,940-DOF building frame it is 1.5e-12;
+    before; on the 2,940-DOF building frame it is 1.5e-12. A model whose matrices were written
+    with fewer digits (``matrix_precision``) allows each mode besides what those digits do to
+    its own ratios (`mode_rounding_allowance`: the entries rounded once more to the digits):
+    the exact point shapes of a free-free frame missed its 10-digit model by 2.9e-9, where
+    double precision allowed 1.4e-11; taken over every mode, as at double precision, the
+    allowance of the worst-conditioned mode (2.4e-6) let noisy frequencies with point shapes
+    verify, with a linearized range that missed the truth (explorer, nonaffine seed 21);
 ``fit``
     every measured frequency is matched by its declared mode or zero within its measurement
     interval (its own, else ``measurement_tolerance``, else the value) widened by the
@@ -71,7 +74,8 @@ from vibupdate.modal.analysis import mac
 from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration
 
-__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance", "tolerance_weights",
+__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance",
+           "mode_rounding_allowance", "tolerance_weights",
            "tolerance_shape_weight", "fit_data", "ROUNDING_SAFETY"]
 
 #: Multiple of the estimated rounding floor of the shape ratios allowed outside an interval
@@ -218,23 +222,28 @@ def _zero_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
 def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies) -> float:
     """The largest, over the measured modes of ``cfg`` at ``xbar``, of `ROUNDING_SAFETY` times
     the rounding floor of the shape ratios plus the computed vector's own error estimated from
-    its residual (`vibupdate.modal.refinement.shape_ratio_floor`, one factorization per
-    measured mode); ``f`` holds the model's modes there."""
+    its residual (`vibupdate.modal.refinement.shape_ratio_floor` at double precision, one
+    factorization per measured mode); ``f`` holds the model's modes there."""
+    floor = 0.0
+    for nat in cfg.natural:
+        if nat.shape is not None and len(nat.shape.bounds) >= 2:
+            floor = max(floor, mode_rounding_allowance(cfg, xbar, f, nat, None))
+    return floor
+
+
+def mode_rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies, nat, precision: float | None) -> float:
+    """`ROUNDING_SAFETY` times the rounding floor of the shape ratios of the one measured mode
+    ``nat`` plus its vector's own error (`vibupdate.modal.refinement.shape_ratio_floor`), the
+    entries of ``K`` and ``M`` known to the relative ``precision`` (None: double precision)."""
     from vibupdate.modal.refinement import shape_ratio_floor
 
     M, K = cfg.model.matrices(xbar)
-    floor = 0.0
-    for nat in cfg.natural:
-        if nat.shape is None or len(nat.shape.bounds) < 2:
-            continue
-        m = nat.mode - 1
-        idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
-        w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
-        rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
-                                          cfg.model.dof(nat.shape.reference),
-                                          precision=cfg.model.matrix_precision)
-        floor = max(floor, ROUNDING_SAFETY * rounding + own)
-    return floor
+    m = nat.mode - 1
+    idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
+    w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
+    rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, f.Phi_all[:, m], idx,
+                                      cfg.model.dof(nat.shape.reference), precision=precision)
+    return ROUNDING_SAFETY * rounding + own
 
 
 def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xbar):
@@ -267,7 +276,7 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
         if phi_ref == 0:
             bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}")
             continue
-        before, model_form = len(bad_box), 0.0
+        before, model_form, allowed = len(bad_box), 0.0, None
         for d, (lo, hi) in nat.shape.ratio_bounds().items():
             ratio = f.Phi_all[cfg.model.dof(d), m] / phi_ref
             slack = options.shape_slack * 0.5 * (hi - lo)
@@ -276,15 +285,18 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
                 continue
             if rounding is None:
                 rounding = rounding_allowance(cfg, xbar, f)
-            if out <= rounding:
+            if allowed is None:   # this mode's own floor at the model's precision, where it has one
+                allowed = rounding if cfg.model.matrix_precision is None else max(
+                    rounding, mode_rounding_allowance(cfg, xbar, f, nat, cfg.model.matrix_precision))
+            if out <= allowed:
                 continue
-            if out <= tol + rounding:
+            if out <= tol + allowed:
                 model_form = max(model_form, out)
                 continue
             bad_box.append(f"{label}, DOF {d!r}: model shape ratio {ratio:.10g} outside the measured "
                                f"interval [{lo:.10g}, {hi:.10g}] (normalized at {ref!r}) by "
                                f"{max(lo - ratio, ratio - hi):.2g}, more than the {slack:.2g} allowed, the "
-                               f"{tol:g} model-form tolerance and {rounding:.2g} for rounding")
+                               f"{tol:g} model-form tolerance and {allowed:.2g} for rounding")
         widen = tol * abs(nat.shape.midpoint[ref])
         if len(bad_box) == before:   # said only where no ratio of the mode was already out
             miss = _common_scaling_miss(f.Phi_all[idx, m], nat.shape, widen)

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["refine_modes", "block_size", "shape_ratio_floor", "EXTENDED"]
+__all__ = ["refine_modes", "block_size", "shape_ratio_floor", "export_rounding", "EXTENDED"]
 
 #: Whether ``numpy.longdouble`` carries more digits than ``double`` on this platform.
 EXTENDED = bool(np.finfo(np.longdouble).eps < np.finfo(np.float64).eps)
@@ -110,12 +110,15 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
                       seed: int = 0, precision: float | None = None) -> tuple[float, float]:
     """How far rounding alone moves the shape ratios ``phi[entries] / phi[reference]`` of one
     mode: the first-order change when every stored entry of ``K`` and ``M`` moves by one unit
-    of rounding (relative `numpy.finfo` eps, or the entries' own ``precision`` when coarser,
-    `vibupdate.modal.rigid.unit`; signs drawn from a generator seeded with ``seed``). With a
-    precision it is a generous estimate: the precision bounds every entry's rounding, and the
-    entries of a 10-digit export are rounded by 6.5e-12 (median) to 2.8e-10 of their magnitude
-    against the bound 5e-10; a free-free frame's point shapes moved by 2.9e-9 where this
-    estimate is 3.1e-6 (``benchmarks/RESULTS.md``).
+    of rounding (relative `numpy.finfo` eps, signs drawn from a generator seeded with ``seed``).
+    For matrices known only to a coarser ``precision`` (an export written with fewer digits),
+    the larger of that and the change when every entry of ``K`` and ``M`` is rounded once more
+    to the digits the precision stands for (`export_rounding`): what the export's rounding does,
+    entry by entry. One rounding unit of ``precision`` per entry with the signs of a row aligned
+    instead bounds rather than estimates it: on a free-free frame from 10 digits (``precision``
+    5e-10; its entries rounded by 6.5e-12 of their magnitude, median, 2.8e-10 at most) that
+    put the floor at 3.1e-6, where the exact frame's point shapes missed the imported model
+    by 2.9e-9.
 
     The double-precision pencil fixes its modes only to this level (module docstring): a
     solver of any accuracy returns ratios that differ from those of the same model assembled
@@ -161,7 +164,7 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
     rng = np.random.default_rng(seed)
     from vibupdate.modal.rigid import unit
 
-    eps = unit(precision)
+    eps = unit()
 
     # one rounding unit per stored entry, the signs within a row aligned (the componentwise
     # backward error of a stable solver), the rows' signs drawn: b_i = +-eps ((|K| + w^2 |M|) |phi|)_i.
@@ -172,6 +175,9 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
     b = eps * size * rng.choice([-1.0, 1.0], size=n)
     Mphi = Ms @ phi
     rhs = (b, -(Ks @ phi - eigval * Mphi))
+    if unit(precision) > eps:
+        rhs = rhs + ((export_rounding(Ks, precision) - Ks) @ phi
+                     - eigval * ((export_rounding(Ms, precision) - Ms) @ phi),)
     B = np.column_stack([c - Mphi * (phi @ c) / (phi @ Mphi) for c in rhs])   # the eigenvalue's own change
     p = int(np.argmax(np.abs(phi)))
     keep = np.delete(np.arange(n), p)
@@ -188,5 +194,21 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
     D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
     if not D.size:
         return 0.0, 0.0
-    rounding, own = np.max(np.abs(D), axis=0)
-    return float(rounding), float(own)
+    worst = np.max(np.abs(D), axis=0)
+    rounding = max(worst[0], worst[2]) if worst.size > 2 else worst[0]
+    return float(rounding), float(worst[1])
+
+
+def export_rounding(A, precision: float):
+    """``A`` (sparse) with every entry rounded to the significant digits a relative
+    ``precision`` stands for, ``floor(1 - log10(2 precision))`` (10 for 5e-10): the rounding a
+    text export of that precision applies, drawn afresh."""
+    import scipy.sparse as sp
+
+    digits = max(1, int(np.floor(1.0 - np.log10(2.0 * precision) + 1e-9)))
+    out = sp.csr_matrix(A, dtype=float, copy=True)
+    x = out.data
+    nonzero = x != 0
+    scale = 10.0 ** (digits - 1 - np.floor(np.log10(np.abs(x[nonzero]))))
+    x[nonzero] = np.round(x[nonzero] * scale) / scale
+    return out

@@ -124,9 +124,9 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
     """How far the rounding of matrices known only to their ``matrix_precision`` moves each
     datum of the data map at ``xbar`` (`vibupdate.inverse.data_map` order): a frequency by
     the first-order bound of its eigenvalue under entries moved by up to ``delta`` of their
-    magnitude (`_eigenvalue_rounding`, rad/s), a shape ratio by the shape check's own rounding
-    allowance (`vibupdate.inverse.verify.rounding_allowance` with that precision). None when
-    every model is exact to double precision.
+    magnitude (`_eigenvalue_rounding`, rad/s), a shape ratio by the shape check's own
+    allowance for that mode (`vibupdate.inverse.verify.mode_rounding_allowance` at that
+    precision). None when every model is exact to double precision.
 
     Returns
     -------
@@ -135,7 +135,7 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
     if all(cfg.model.matrix_precision is None for cfg in configurations):
         return None
     from vibupdate.inverse.correlation import declared_zeros, model_frequencies
-    from vibupdate.inverse.verify import rounding_allowance
+    from vibupdate.inverse.verify import mode_rounding_allowance
     from vibupdate.modal.rigid import unit
     from vibupdate.modal.zeros import adjunct
 
@@ -159,9 +159,10 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
                 lam = float(eigval[j])
                 out.append(0.5 * _eigenvalue_rounding(adjunct(M, r, c), adjunct(K, r, c), lam, right[:, j],
                                                       left[:, j], delta) / np.sqrt(lam))
-        shapes = measured_shapes(cfg)
-        allowance = rounding_allowance(cfg, xbar, f) if shapes else 0.0
-        out += [allowance] * sum(s.entries.size for s in shapes)
+        for shape in measured_shapes(cfg):
+            allowance = mode_rounding_allowance(cfg, xbar, f, cfg.natural[shape.position],
+                                                cfg.model.matrix_precision)
+            out += [allowance] * shape.entries.size
     return np.asarray(out, dtype=float)
 
 
