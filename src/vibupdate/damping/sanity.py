@@ -83,7 +83,9 @@ def _checked_frequencies(configurations, xbar, freqs=None) -> list[np.ndarray]:
             continue
         M, K = cfg.model.matrices(xbar)
         n = M.shape[0]
-        out.append(modes(M, K)[0] if n <= DENSE_LIMIT else modes(M, K, min(n - 1, LARGE_MODEL_CHECKED_MODES))[0])
+        precision = cfg.model.matrix_precision
+        out.append(modes(M, K, precision=precision)[0] if n <= DENSE_LIMIT else
+                   modes(M, K, min(n - 1, LARGE_MODEL_CHECKED_MODES), precision=precision)[0])
     return out
 
 

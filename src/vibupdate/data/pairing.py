@@ -95,10 +95,11 @@ def declare(cfg):
     if todo:
         M0, K0 = cfg.model.matrices()
         n_modes = min(cfg.model.n_dofs, max(mode_list, default=0) + 1)
-        nominal_omega = flexible_modes(M0, K0, n_modes)[0] if mode_list else np.array([])
+        precision = cfg.model.matrix_precision
+        nominal_omega = flexible_modes(M0, K0, n_modes, precision=precision)[0] if mode_list else np.array([])
         for rc in todo:
             mine = [i for i, a in enumerate(zeros) if a.receptance == rc]
-            nominal_z = antiresonances(M0, K0, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]))
+            nominal_z = antiresonances(M0, K0, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), precision=precision)
             found = zero_indices(poles, mode_list, [zeros[i].omega for i in mine], nominal_omega, nominal_z)
             for i, idx in zip(mine, found):
                 if zeros[i].index is None:

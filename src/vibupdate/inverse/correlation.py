@@ -118,12 +118,13 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     from vibupdate.modal.analysis import DENSE_LIMIT
 
     M, K = cfg.model.matrices(xbar)
+    precision = cfg.model.matrix_precision
     mode_index = np.array([f.mode for f in cfg.natural], dtype=int) - 1
     top = int(mode_index.max()) + 1 if mode_index.size else 0
     n_modes = min(cfg.model.n_dofs, max(top + 1, 2))
     spectrum = None
     if cfg.model.n_dofs <= DENSE_LIMIT:    # the dense solve gives every mode: keep them
-        spectrum = modes(M, K)
+        spectrum = modes(M, K, precision=precision)
         flexible = spectrum[0] != 0        # rigid-body modes are exactly 0 (`vibupdate.modal.rigid`)
         rigid = spectrum[1][:, ~flexible]
         if top > np.count_nonzero(flexible):
@@ -132,7 +133,7 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
                              f"mode(s) ({cfg.model.n_dofs} DOFs, some perhaps without mass)")
         omega, Phi = spectrum[0][flexible][:n_modes], spectrum[1][:, flexible][:, :n_modes]
     else:
-        omega, Phi, rigid = flexible_modes(M, K, n_modes)
+        omega, Phi, rigid = flexible_modes(M, K, n_modes, precision=precision)
     paired = np.full(len(cfg.antiresonances), np.nan)
     slopes = None
     zeros_all = {}
@@ -143,7 +144,8 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
         if (rc[1], rc[0]) in zeros_all and wanted == zeros_wanted(cfg, (rc[1], rc[0])):
             model_z = zeros_all[(rc[1], rc[0])]   # h_cr = h_rc: the same zeros (`declared_zeros`)
         else:
-            model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), n_zeros=wanted)
+            model_z = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), n_zeros=wanted,
+                                     precision=precision)
         zeros_all[rc] = model_z
         for i, a in enumerate(cfg.antiresonances):
             if a.receptance == rc and a.index <= model_z.size:
@@ -260,7 +262,7 @@ def declared_zeros(cfg: Configuration, xbar, M, K):
             (eigval, right, left), z, D = mirror[1:]
             pairs.append((eigval, left, right))
         else:
-            pairs.append(adjunct_eigenpairs(M, K, r, c, wanted))
+            pairs.append(adjunct_eigenpairs(M, K, r, c, wanted, model.matrix_precision))
             z, D = antiresonance_derivatives(model, xbar, r, c, pairs=pairs[-1])
         done[rc] = (wanted, pairs[-1], z, D)
         zeros_all[rc] = z

@@ -70,7 +70,7 @@ def craig_bampton(model: AffineModel, keep: Sequence[str], n_interior: int) -> t
     T[b, np.arange(b.size)] = 1.0
     T[np.ix_(i, np.arange(b.size))] = -lu.solve(Kib)
     if n_interior:
-        _, Phi = modes(sp.csr_matrix(model.M0)[i][:, i], Kii, n_interior)
+        _, Phi = modes(sp.csr_matrix(model.M0)[i][:, i], Kii, n_interior, precision=model.matrix_precision)
         T[np.ix_(i, b.size + np.arange(n_interior))] = Phi
 
     names = tuple(keep) + tuple(f"cb{k + 1}" for k in range(n_interior))

@@ -18,16 +18,23 @@ against the data it was given:
     the model's shape ratios ``phi_j / phi_p`` lie in the measured intervals, widened by
     ``shape_slack`` half-widths (a model that fits the frequencies with a shape outside its
     interval has not used the data), by the model-form tolerance ``shape_tolerance`` and by
-    what the model's double-precision pencil can resolve: `ROUNDING_SAFETY` times the largest
-    change of the measured modes' ratios under one unit of rounding in every entry of ``K``
-    and ``M`` (`vibupdate.modal.refinement.shape_ratio_floor`), computed only where a ratio
+    what the model's pencil can resolve: `ROUNDING_SAFETY` times the largest change of the
+    measured modes' ratios under one unit of rounding in every entry of ``K`` and ``M``
+    (`vibupdate.modal.refinement.shape_ratio_floor`, the largest over the configuration's
+    measured modes), computed only where a ratio
     lies outside the widened interval. It matters for point data (intervals of zero width): on
     the frame refined to 2,996 DOFs the estimate is 4e-10 to 1.1e-8 per mode, and the polished
     answer misses its point data by up to 1.5e-9, above the fixed 1e-9 that was allowed
-    before; on the 2,940-DOF building frame it is 1.5e-12. A mode of a repeated frequency is
-    checked as its eigenspace (`vibupdate.inverse.repeated`): the MAC and the ratios are
-    those of the best combination of the modes that share the frequency, and the rounding
-    allowance that of the eigenspace;
+    before; on the 2,940-DOF building frame it is 1.5e-12. A model whose matrices were written
+    with fewer digits (``matrix_precision``) allows each mode besides what those digits do to
+    its own ratios (`mode_rounding_allowance`: the entries rounded once more to the digits):
+    the exact point shapes of a free-free frame missed its 10-digit model by 2.9e-9, where
+    double precision allowed 1.4e-11; taken over every mode, as at double precision, the
+    allowance of the worst-conditioned mode (2.4e-6) let noisy frequencies with point shapes
+    verify, with a linearized range that missed the truth (explorer, nonaffine seed 21). A
+    mode of a repeated frequency is checked as its eigenspace (`vibupdate.inverse.repeated`):
+    the MAC and the ratios are those of the best combination of the modes that share the
+    frequency, and the rounding allowance that of the eigenspace;
 ``modal_mass``
     where a shape was measured mass-normalized, the model's modal mass at its reference entry
     (``1 / phi_p^2``) lies in the measured interval widened by the model-form tolerance
@@ -76,7 +83,8 @@ from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.inverse.repeated import cluster, combination_miss, paired_vector, subspace_mac
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration
 
-__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance", "tolerance_weights",
+__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance",
+           "mode_rounding_allowance", "tolerance_weights",
            "tolerance_shape_weight", "fit_data", "ROUNDING_SAFETY"]
 
 #: Multiple of the estimated rounding floor of the shape ratios allowed outside an interval
@@ -227,27 +235,37 @@ def _zero_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
 def rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies, vectors: dict | None = None) -> float:
     """The largest, over the measured modes of ``cfg`` at ``xbar``, of `ROUNDING_SAFETY` times
     the rounding floor of the shape ratios plus the computed vector's own error estimated from
-    its residual (`vibupdate.modal.refinement.shape_ratio_floor`, one factorization per
-    measured mode); ``f`` holds the model's modes there. A mode of a repeated frequency
-    (`vibupdate.inverse.repeated.cluster`) is taken with its whole eigenspace, whose change
-    stays bounded as the repeated frequencies' gap closes; ``vectors`` maps a mode's position
-    in ``cfg.natural`` to the vector checked for it (by default `paired_vector`'s)."""
-    from vibupdate.modal.refinement import shape_ratio_floor
-
-    M, K = cfg.model.matrices(xbar)
+    its residual (`vibupdate.modal.refinement.shape_ratio_floor` at double precision, one
+    factorization per measured mode); ``f`` holds the model's modes there. A mode of a repeated
+    frequency (`vibupdate.inverse.repeated.cluster`) is taken with its whole eigenspace, whose
+    change stays bounded as the repeated frequencies' gap closes; ``vectors`` maps a mode's
+    position in ``cfg.natural`` to the vector checked for it (by default `paired_vector`'s)."""
     floor = 0.0
     for k, nat in enumerate(cfg.natural):
-        if nat.shape is None or len(nat.shape.bounds) < 2:
-            continue
-        m = nat.mode - 1
-        phi, near = paired_vector(cfg, f.Phi_all, f.omega_all, k)
-        phi = (vectors or {}).get(k, phi)
-        idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
-        w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
-        rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, phi, idx, cfg.model.dof(nat.shape.reference),
-                                          basis=f.Phi_all[:, near] if near.size > 1 else None)
-        floor = max(floor, ROUNDING_SAFETY * rounding + own)
+        if nat.shape is not None and len(nat.shape.bounds) >= 2:
+            floor = max(floor, mode_rounding_allowance(cfg, xbar, f, k, None, vectors))
     return floor
+
+
+def mode_rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies, k: int, precision: float | None,
+                            vectors: dict | None = None) -> float:
+    """`ROUNDING_SAFETY` times the rounding floor of the shape ratios of the ``k``-th measured
+    mode of ``cfg`` (0-based) plus its vector's own error
+    (`vibupdate.modal.refinement.shape_ratio_floor`), the entries of ``K`` and ``M`` known to
+    the relative ``precision`` (None: double precision); a repeated frequency's with its
+    eigenspace (`rounding_allowance`)."""
+    from vibupdate.modal.refinement import shape_ratio_floor
+
+    nat = cfg.natural[k]
+    M, K = cfg.model.matrices(xbar)
+    m = nat.mode - 1
+    phi, near = paired_vector(cfg, f.Phi_all, f.omega_all, k)
+    phi = (vectors or {}).get(k, phi)
+    idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
+    w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
+    rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, phi, idx, cfg.model.dof(nat.shape.reference),
+                                      basis=f.Phi_all[:, near] if near.size > 1 else None, precision=precision)
+    return ROUNDING_SAFETY * rounding + own
 
 
 def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xbar):
@@ -287,7 +305,7 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
             bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}"
                            + ("" if near.size == 1 else ", and so is every mode that repeats its frequency"))
             continue
-        before, model_form = len(bad_box), 0.0
+        before, model_form, allowed = len(bad_box), 0.0, None
         for d, (lo, hi) in nat.shape.ratio_bounds().items():
             ratio = phi[cfg.model.dof(d)] / phi_ref
             slack = options.shape_slack * 0.5 * (hi - lo)
@@ -296,15 +314,19 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
                 continue
             if rounding is None:
                 rounding = rounding_allowance(cfg, xbar, f, {j: v for j, (v, _) in vectors.items()})
-            if out <= rounding:
+            if allowed is None:   # this mode's own floor at the model's precision, where it has one
+                allowed = rounding if cfg.model.matrix_precision is None else max(
+                    rounding, mode_rounding_allowance(cfg, xbar, f, k, cfg.model.matrix_precision,
+                                                      {j: v for j, (v, _) in vectors.items()}))
+            if out <= allowed:
                 continue
-            if out <= tol + rounding:
+            if out <= tol + allowed:
                 model_form = max(model_form, out)
                 continue
             bad_box.append(f"{label}, DOF {d!r}: model shape ratio {ratio:.10g}{of} outside the measured "
                                f"interval [{lo:.10g}, {hi:.10g}] (normalized at {ref!r}) by "
                                f"{max(lo - ratio, ratio - hi):.2g}, more than the {slack:.2g} allowed, the "
-                               f"{tol:g} model-form tolerance and {rounding:.2g} for rounding")
+                               f"{tol:g} model-form tolerance and {allowed:.2g} for rounding")
         widen = tol * abs(nat.shape.midpoint[ref])
         shape = phi[idx] if near.size == 1 else f.Phi_all[np.ix_(idx, near)]
         if len(bad_box) == before:   # said only where no ratio of the mode was already out

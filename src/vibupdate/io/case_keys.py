@@ -100,6 +100,7 @@ FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, 
              "window_tau": float, "keep_noisy_zeros": bool}
 
 #: Keys of a ``[model]`` table of ``type = "matrices"``.
-MATRICES_KEYS = {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict, "sensors": str}
+MATRICES_KEYS = {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict, "sensors": str,
+                 "matrix_precision": float}
 ELEMENTS_KEYS = {"type": str, "kind": str, "nodes": list, "line": dict, "clamp": list, "pin": list,
                   "fix": list, "beam": list, "frame": list, "mass": list, "spring": list}

@@ -232,12 +232,31 @@ def base_model(spec: dict, options: dict, parameters, base: Path, where: Where) 
             return from_files(base / spec["M0"], base / spec["K0"], parameters,
                               dM={n: base / f for n, f in spec.get("dM", {}).items()},
                               dK={n: base / f for n, f in spec.get("dK", {}).items()},
-                              dofs=spec.get("dofs"))
+                              dofs=spec.get("dofs"), matrix_precision=matrix_precision(spec, where))
     except ValueError as exc:
         if str(exc).startswith(str(where.path)):
             raise
         raise where.error("model.builder" if kind == "builder" else "model", str(exc)) from None
     raise where.error("model.type", f"must be 'elements', 'builder' or 'matrices', got {kind!r}")
+
+
+#: Coarsest ``matrix_precision`` accepted: matrices known to fewer than about 2 significant
+#: digits cannot tell a rigid-body mode from a flexible one.
+COARSEST_PRECISION = 1e-2
+
+
+def matrix_precision(spec: dict, where: Where) -> float | None:
+    """``matrix_precision`` of a ``[model]`` of matrices: the relative precision of the entries
+    of the matrix files, a number in ``[eps, COARSEST_PRECISION)``; None (double precision) when
+    the key is absent."""
+    if "matrix_precision" not in spec:
+        return None
+    value = float(spec["matrix_precision"])
+    eps = float(np.finfo(float).eps)
+    if not eps <= value < COARSEST_PRECISION:
+        raise where.error("model.matrix_precision", f"must be a relative precision from {eps:.3g} (double precision) "
+                                                    f"to below {COARSEST_PRECISION:g}, got {spec['matrix_precision']!r}")
+    return value
 
 
 def configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: Where, key: str,

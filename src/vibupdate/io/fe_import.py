@@ -6,7 +6,8 @@ sensors. `import_model` reads them (`vibupdate.model.fe`), forms the affine mode
 (`vibupdate.model.fe.perturbed`) and writes, into a new folder, ``model.toml`` (the
 ``[model]`` of ``type = "matrices"`` and the ``[[parameter]]`` tables), ``M0.npz``,
 ``K0.npz``, ``dM_<name>.npz``, ``dK_<name>.npz``, and ``nodes.csv`` / ``sensors.csv`` when
-known. An oblique sensor's reading becomes a DOF of the written model
+known; ``matrix_precision`` in ``[model]`` when the exports were written with fewer digits
+than a double holds (`vibupdate.model.fe.export`). An oblique sensor's reading becomes a DOF of the written model
 (`vibupdate.model.fe.oblique`: the matrices are those of the export in the new coordinates).
 Everything is written to a temporary folder beside the target and moved at the end, so a
 bad export leaves nothing behind.
@@ -229,7 +230,9 @@ def _model_toml(imported: ImportedModel, source: str) -> str:
     m = imported.model
     lines = [f"# [model] and [[parameter]] written by `vibupdate import {source}`; add `case = ...` above and the",
              "# [[configuration]] tables below (docs/case-file.md)", "[model]", 'type = "matrices"',
-             'M0 = "M0.npz"', 'K0 = "K0.npz"'] + (['sensors = "sensors.csv"'] if imported.sensors else []) + [
+             'M0 = "M0.npz"', 'K0 = "K0.npz"'] + (['sensors = "sensors.csv"'] if imported.sensors else []) + (
+             [f"matrix_precision = {m.matrix_precision!r}   # relative precision of the numbers the exports wrote"]
+             if m.matrix_precision is not None else []) + [
              f"dofs = {json.dumps(list(m.dofs))}", "", "[model.dM]"]
     lines += [f'{d.name} = "dM_{d.name}.npz"' for d in imported.derivatives if d.dM.nnz]
     lines += ["", "[model.dK]"] + [f'{d.name} = "dK_{d.name}.npz"' for d in imported.derivatives if d.dK.nnz]
@@ -315,9 +318,12 @@ def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
     lines = [f"model: {m.n_dofs} DOFs, {len(massless_dofs(M))} without mass; {len(m.parameters)} parameter(s)"]
     for axis, mass in translation_masses(M, m.dofs, imported.directions).items():
         lines.append(f"mass moving with a unit {axis} translation: {mass or 0.0:.6g} kg")
-    state = definiteness(M, K)
+    if m.matrix_precision is not None:
+        lines.append(f"matrix precision: {m.matrix_precision:.3g} (relative; the digits the exports were written with)")
+    state = definiteness(M, K, m.matrix_precision)
     lines.append(f"rigid-body modes: {state.rigid_body_modes}" + (f" ({state.problem})" if state.problem else ""))
-    omega = modes(M, K, min(n_modes + state.rigid_body_modes, m.n_dofs - len(massless_dofs(M))))[0]
+    omega = modes(M, K, min(n_modes + state.rigid_body_modes, m.n_dofs - len(massless_dofs(M))),
+                  precision=m.matrix_precision)[0]
     lines.append("first frequencies (Hz): " + ", ".join(f"{w / (2 * np.pi):.6g}" for w in omega))
     for d in imported.derivatives:
         how = "one step, affinity not checked" if d.departure is None else \

@@ -168,7 +168,7 @@ def _nominal_figures(cfg, directions: dict, n_modes: int = 6) -> str:
         # one above the highest mode the data name, as `model_frequencies` asks of the nominal
         # model later in the run: its sparse solve then reuses this one (`vibupdate.modal.eigen`)
         top = max([len(cfg.natural)] + [f.mode or 0 for f in cfg.natural])
-        omega = flexible_modes(M, K, max(n_modes, top + 1))[0][:n_modes]
+        omega = flexible_modes(M, K, max(n_modes, top + 1), precision=cfg.model.matrix_precision)[0][:n_modes]
         text = (f"{cfg.name}: nominal model's first flexible frequencies "
                 + ", ".join(f"{w / TWO_PI:.6g}" for w in omega) + " Hz")
     except (ValueError, np.linalg.LinAlgError) as exc:
@@ -240,7 +240,7 @@ def _physical(case, error) -> tuple[list[str], list[str], int, object]:
     for cfg in case.configurations:
         model = cfg.model
         key = f"configuration '{cfg.name}'" if len(case.configurations) > 1 else "model"
-        found = definiteness(*model.matrices())
+        found = definiteness(*model.matrices(), model.matrix_precision)
         if found.problem:
             raise error(key, f"the nominal model is not physical: {found.problem}")
         box = physical_box(model, found.rigid_body_modes, lambda up, m=model: _describe(m, up))

@@ -90,8 +90,9 @@ def massless_dofs(M) -> np.ndarray:
 
 
 # -- dense eigen-solver -------------------------------------------------------------------
-def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
-    """All eigenpairs of ``K phi = eigval M phi`` (M positive definite).
+def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = None):
+    """All eigenpairs of ``K phi = eigval M phi`` (M positive definite); ``precision``: the
+    relative precision of the entries (`vibupdate.modal.rigid`), None for double precision.
 
     The reciprocal pencil ``M phi = mu (K - sigma M) phi`` resolves the low modes to about
     ``n eps eigval_k / eigval_1``; the direct pencil resolves the high ones to
@@ -107,7 +108,7 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
         mu, V = sla.eigh(M, K)
     except (sla.LinAlgError, ValueError):
         mu = None
-    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, [1.0 / mu[-1]], V[:, -1:])[0]:
+    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, [1.0 / mu[-1]], V[:, -1:], precision)[0]:
         # A singular K whose Cholesky factor completed on rounding-level pivots: its largest
         # mu is rounding, and the error n eps mu_max it puts on every mu swamps the flexible
         # modes (measured: frequencies jumping by 1e-5 between neighbouring points).
@@ -126,7 +127,7 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
         # within rounding and cost the flexible modes 5e-6 to 2.5e-3. The shift goes below the
         # first eigenvalue `SINGULAR_SHIFT` rounding units clear of zero; the rigid-body modes
         # are told apart afterwards, from the reciprocal pencil's own vectors (`modes`).
-        near = np.abs(eigval_direct) <= SINGULAR_SHIFT * rigid.rounding_scale(M, K, V_direct)
+        near = np.abs(eigval_direct) <= SINGULAR_SHIFT * rigid.rounding_scale(M, K, V_direct, precision)
         mu = None
         if near[0] and not near.all():
             sigma = min(eigval_direct[0], 0.0) - eigval_direct[np.argmin(near)]
@@ -142,7 +143,7 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
     if mu[-1] < 1e-6 * mu[0]:
         if eigval_direct is None:
             eigval_direct, V_direct = _direct_eigh(K, M)
-        split = np.sqrt(_lowest_flexible(K, M, sigma, mu, V, eigval_direct[-1]) * eigval_direct[-1])
+        split = np.sqrt(_lowest_flexible(K, M, sigma, mu, V, eigval_direct[-1], precision) * eigval_direct[-1])
         with np.errstate(divide="ignore"):
             n_low = int(np.sum((mu > 0) & (sigma + 1.0 / mu < split)))
         eigval = np.concatenate([sigma + 1.0 / mu[:n_low], eigval_direct[n_low:]])
@@ -153,7 +154,8 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray):
     return eigval, V
 
 
-def _lowest_flexible(K, M, sigma: float, mu: np.ndarray, V: np.ndarray, top: float) -> float:
+def _lowest_flexible(K, M, sigma: float, mu: np.ndarray, V: np.ndarray, top: float,
+                     precision: float | None = None) -> float:
     """Lowest eigenvalue of the reciprocal pencil that is not zero within rounding
     (`vibupdate.modal.rigid`), or ``top`` when there is none: the low end of the splice, so that
     a free-free model's flexible modes still come from the reciprocal pencil."""
@@ -162,7 +164,7 @@ def _lowest_flexible(K, M, sigma: float, mu: np.ndarray, V: np.ndarray, top: flo
         eigval = np.where(positive, sigma + 1.0 / np.where(positive, mu, 1.0), np.inf)
     candidates = np.flatnonzero(positive & (eigval > 0))
     if candidates.size:
-        zero = rigid.is_zero(M, K, eigval[candidates], V[:, candidates])
+        zero = rigid.is_zero(M, K, eigval[candidates], V[:, candidates], precision)
         candidates = candidates[~zero]
     return float(eigval[candidates[0]]) if candidates.size else float(top)
 
@@ -185,8 +187,9 @@ def _condensation(K: np.ndarray, s: np.ndarray, m: np.ndarray):
     return cho, sla.cho_solve(cho, K[np.ix_(s, m)])
 
 
-def _dense_modes(M, K):
-    """All finite eigenpairs of a dense pencil, massless DOFs condensed exactly.
+def _dense_modes(M, K, precision: float | None = None):
+    """All finite eigenpairs of a dense pencil, massless DOFs condensed exactly; ``precision``:
+    the relative precision of the entries (`vibupdate.modal.rigid`).
 
     Returns ``eigval`` (n_f,) ascending and ``Phi`` (n, n_f), mass-normalized, full length.
     """
@@ -194,13 +197,13 @@ def _dense_modes(M, K):
     n = Md.shape[0]
     s = massless_dofs(Md)
     if s.size == 0:
-        return _reciprocal_eigh(Kd, Md)
+        return _reciprocal_eigh(Kd, Md, precision)
     if s.size == n:
         raise ValueError("the mass matrix is zero: no DOF carries mass")
     m = np.setdiff1d(np.arange(n), s)
     _, G = _condensation(Kd, s, m)
     Kc = Kd[np.ix_(m, m)] - Kd[np.ix_(m, s)] @ G
-    eigval, V = _reciprocal_eigh(0.5 * (Kc + Kc.T), Md[np.ix_(m, m)])
+    eigval, V = _reciprocal_eigh(0.5 * (Kc + Kc.T), Md[np.ix_(m, m)], precision)
     Phi = np.empty((n, V.shape[1]))
     Phi[m] = V
     Phi[s] = -G @ V
@@ -219,10 +222,11 @@ def _norm1(A) -> float:
 SINGULAR_SHIFT = 1e3
 
 
-def _null_level(K, M, lu) -> float | None:
+def _null_level(K, M, lu, precision: float | None = None) -> float | None:
     """Rounding level (rad/s)^2 of the null vector of ``K`` when ``K`` is singular within
     rounding, else None: three steps of inverse iteration from a fixed start with the LU of
-    ``K``, then ``||K x|| <= RIGID_FACTOR eps || |K| |x| ||`` (symmetric or not)."""
+    ``K``, then ``||K x|| <= RIGID_FACTOR delta || |K| |x| ||`` (symmetric or not), ``delta``
+    the rounding unit of the entries (`vibupdate.modal.rigid.unit` of ``precision``)."""
     x = np.random.default_rng(1).standard_normal(K.shape[0])
     for _ in range(3):
         with np.errstate(all="ignore"):
@@ -233,8 +237,7 @@ def _null_level(K, M, lu) -> float | None:
         x = x / size
     if not np.all(np.isfinite(x)) or not np.any(x):
         return float(abs(_diagonal(K)).max() / max(abs(_diagonal(M)).max(), 1e-300)) * 1e-9
-    eps = np.finfo(float).eps
-    rounding = eps * np.linalg.norm(abs(K) @ np.abs(x))
+    rounding = rigid.unit(precision) * np.linalg.norm(abs(K) @ np.abs(x))
     if np.linalg.norm(K @ x) > rigid.RIGID_FACTOR * rounding:
         return None
     return float(rounding / max(np.linalg.norm(M @ x), 1e-300))
@@ -254,15 +257,15 @@ def sparse_lu(A):
     return spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1)
 
 
-def _shifted_lu(K, M):
+def _shifted_lu(K, M, precision: float | None = None):
     """Sparse LU of ``K - sigma M`` with ``sigma = 0`` when K is nonsingular, else below zero:
-    ``-SINGULAR_SHIFT`` rounding levels of its null vector (`_null_level`) when the LU of a
-    singular ``K`` completes on rounding-level pivots, a millionth of ``max K_ii / max M_ii``
-    when it stops on an exactly zero one."""
+    ``-SINGULAR_SHIFT`` rounding levels of its null vector (`_null_level`, entries known to the
+    relative ``precision``) when the LU of a singular ``K`` completes on rounding-level pivots,
+    a millionth of ``max K_ii / max M_ii`` when it stops on an exactly zero one."""
     K, M = sp.csc_matrix(K), sp.csc_matrix(M)
     try:
         lu = sparse_lu(K)
-        level = _null_level(K, M, lu)
+        level = _null_level(K, M, lu, precision)
         if level is None:
             return 0.0, lu
         sigma = -SINGULAR_SHIFT * level
@@ -309,22 +312,22 @@ _SOLVED_KEPT = 4
 _SOLVED = Kept(_SOLVED_KEPT, 256 * 2**20)
 
 
-def _sparse_modes(M, K, k: int, rtol: float, factor=None):
+def _sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | None = None):
     """The ``k`` lowest eigenpairs by shift-invert (module docstring), from `_SOLVED` when the
     same matrices were solved for at least ``k`` modes before; ``factor``: `_shifted_lu` of
     ``(K, M)`` when the caller has it."""
-    key = content_key(M, K, extra=np.float64(rtol).tobytes())
+    key = content_key(M, K, extra=np.array([rtol, rigid.unit(precision)]).tobytes())
     kept = _SOLVED.get(key)
     if kept is not None and kept[0].size >= k:
         return kept[0][:k].copy(), kept[1][:, :k].copy()
-    eigval, V = _solve_sparse_modes(M, K, k, rtol, factor)
+    eigval, V = _solve_sparse_modes(M, K, k, rtol, factor, precision)
     _SOLVED.put(key, (eigval, V), V.nbytes)
     return eigval.copy(), V.copy()
 
 
-def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None):
+def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | None = None):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
-    sigma, lu = _shifted_lu(Ks, Ms) if factor is None else factor
+    sigma, lu = _shifted_lu(Ks, Ms, precision) if factor is None else factor
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
     q = block_size(k, Ks.shape[0] - massless_dofs(Ms).size - 1)
     _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0, **repeatable(Ks.shape[0]))
@@ -366,7 +369,7 @@ def require_accuracy(M, K, omega, V, rtol: float, what: str) -> None:
 
 
 def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL,
-          factor=None):
+          factor=None, precision: float | None = None):
     """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0).
 
     Accuracy (see the module docstring): the dense path solves the reciprocal pencil with the
@@ -389,6 +392,10 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     factor : (float, SuperLU), optional
         The shift and sparse LU of ``K - sigma M`` (`_shifted_lu`) when the caller already
         has them (the sparse path does not factorize again).
+    precision : float, optional
+        Relative precision of the entries of ``K`` and ``M``, the rounding unit of the
+        rigid-body test (`vibupdate.modal.rigid`): a model's ``matrix_precision``; None for
+        matrices exact to double precision.
 
     Returns
     -------
@@ -415,15 +422,15 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
             raise ValueError(f"a dense eigen-solve of all modes of a {n}-DOF model would need about "
                              f"{5 * 8 * n * n / 2**30:.0f} GB; ask for the lowest n_modes instead (at most "
                              f"{DENSE_MAX} DOFs are solved densely)")
-        eigval, Phi = _dense_modes(M, K)
+        eigval, Phi = _dense_modes(M, K, precision)
         if n_modes is not None:
             eigval, Phi = eigval[:n_modes], Phi[:, :n_modes]
     else:
         k = n_modes if n_modes is not None else min(n_finite - 1, 20)
-        eigval, Phi = _sparse_modes(M, K, k, rtol, factor)
+        eigval, Phi = _sparse_modes(M, K, k, rtol, factor, precision)
     # rigid-body modes (zero within the rounding of their own Rayleigh quotient,
     # `vibupdate.modal.rigid`) are exactly 0 rad/s, whatever sign rounding gave them
-    eigval = np.where(rigid.is_zero(M, K, eigval, Phi), 0.0, eigval)
+    eigval = np.where(rigid.is_zero(M, K, eigval, Phi, precision), 0.0, eigval)
     omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
     idx = np.argmax(np.abs(Phi), axis=0)
     Phi = Phi * np.sign(Phi[idx, np.arange(Phi.shape[1])])

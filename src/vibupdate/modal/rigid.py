@@ -30,6 +30,21 @@ and each is an eigenvalue 0 of every adjunct pencil. It is no antiresonance: the
 Computed, it lands at +-1e-4 Hz and was reported as a zero when rounding made it positive.
 The same test applies to it, with ``u`` the right vector embedded in the full space (entry
 ``r`` set to 0): for a structural zero ``u`` is a rigid-body mode, ``u^T K u = 0``.
+
+**Matrices known to fewer digits.** ``eps`` is the rounding unit of matrices exact to double
+precision. A model read from a text export carries the rounding of the export instead: every
+entry within ``delta |K_ij|`` of the exact one, ``delta`` the export's relative precision (5e-10
+for the 10 significant digits of a Nastran large-field DMIG). The bound is the same with
+``max(eps, delta)`` in place of ``eps`` (`unit`), and every function here takes that
+``precision`` (``vibupdate.model.affine.AffineModel.matrix_precision``). One ``delta`` unit is
+the most the export's rounding moves a zero eigenvalue at the nominal point (``u^T E u``); the
+factor `RIGID_FACTOR` leaves room for the difference quotients of an imported model, whose
+rounding grows away from the nominal point. Measured on free-free 3-D frames of 96-168 DOFs
+exported in large field (``delta`` = 5e-10): the six rigid-body eigenvalues at 3e2-7e3 ``eps``
+units, one or two of them negative, which the ``eps`` test refused as "not positive
+semidefinite"; in ``delta`` units at most 3e-3 at the nominal point and 0.07 at the corners of
+a +-50 % box of three parameters imported with 10 % steps, the first flexible mode at least
+2.1e5.
 """
 
 from __future__ import annotations
@@ -37,26 +52,37 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["RIGID_FACTOR", "rounding_scale", "is_zero", "embed"]
+__all__ = ["RIGID_FACTOR", "EPS", "unit", "rounding_scale", "is_zero", "embed"]
 
 #: An eigenvalue within this many rounding units of its vector's Rayleigh quotient is zero.
 RIGID_FACTOR = 50.0
 
-_EPS = float(np.finfo(float).eps)
+#: Relative rounding unit of double precision, the precision of matrices exact to double.
+EPS = float(np.finfo(float).eps)
+
+
+def unit(precision: float | None = None) -> float:
+    """Rounding unit of matrices whose entries are known to the relative ``precision``:
+    ``max(eps, precision)``; None is double precision."""
+    return EPS if precision is None else max(EPS, float(precision))
 
 
 def _abs(A):
     return abs(A) if sp.issparse(A) else np.abs(np.asarray(A))
 
 
-def rounding_scale(M, K, U) -> np.ndarray:
-    """``eps (|u|^T |K| |u|) / (u^T M u)`` of each column ``u`` of ``U``, (rad/s)^2.
+def rounding_scale(M, K, U, precision: float | None = None) -> np.ndarray:
+    """``delta (|u|^T |K| |u|) / (u^T M u)`` of each column ``u`` of ``U``, (rad/s)^2, with
+    ``delta = unit(precision)``.
 
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
     U : ndarray, shape (n, k)
         Real vectors, any scaling.
+    precision : float, optional
+        Relative precision of the entries of ``K`` and ``M`` (module docstring); None for
+        matrices exact to double precision.
 
     Returns
     -------
@@ -69,11 +95,11 @@ def rounding_scale(M, K, U) -> np.ndarray:
     mass = np.einsum("ij,ij->j", U, np.asarray(M @ U))
     out = np.full(U.shape[1], np.inf)
     ok = mass > 0
-    out[ok] = _EPS * top[ok] / mass[ok]
+    out[ok] = unit(precision) * top[ok] / mass[ok]
     return out
 
 
-def is_zero(M, K, eigval, U) -> np.ndarray:
+def is_zero(M, K, eigval, U, precision: float | None = None) -> np.ndarray:
     """Which eigenvalues are zero within rounding (module docstring).
 
     Parameters
@@ -83,13 +109,15 @@ def is_zero(M, K, eigval, U) -> np.ndarray:
         Eigenvalues, (rad/s)^2 (real parts are used).
     U : ndarray, shape (n, k)
         Their vectors in the full space.
+    precision : float, optional
+        Relative precision of the entries of ``K`` and ``M``; None: double precision.
 
     Returns
     -------
     ndarray of bool, shape (k,)
     """
     eigval = np.real(np.asarray(eigval))
-    return np.abs(eigval) <= RIGID_FACTOR * rounding_scale(M, K, U)
+    return np.abs(eigval) <= RIGID_FACTOR * rounding_scale(M, K, U, precision)
 
 
 def embed(V, n: int, r: int) -> np.ndarray:

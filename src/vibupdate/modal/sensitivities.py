@@ -189,12 +189,13 @@ def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarr
     return V - U @ np.linalg.solve(G, MU.T @ V)
 
 
-def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
+def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precision: float | None = None):
     """Finite, real, positive eigenvalues of the adjunct pencil of ``h_rc`` with right and left
     vectors, without the structural zeros of a model with rigid-body modes
     (`vibupdate.modal.zeros.structural`): dense up to `vibupdate.modal.eigen.DENSE_LIMIT` DOFs, shift-invert above (the
     lowest ``n_zeros``; the left vectors are the right vectors of the transposed pencil, the
-    adjunct of ``h_cr``).
+    adjunct of ``h_cr``). ``precision``: the relative precision of the entries of ``K`` and
+    ``M`` (`vibupdate.modal.rigid`), None for double precision.
 
     Returns
     -------
@@ -206,10 +207,10 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     """
     if M.shape[0] > eigen.DENSE_LIMIT:
         k = n_zeros or 20
-        wz, V_right = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k)
+        wz, V_right = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k, precision=precision)
         if r == c:
             return wz**2, V_right, V_right
-        wy, V_left = antiresonances(M, K, c, r, with_vectors=True, n_zeros=k)
+        wy, V_left = antiresonances(M, K, c, r, with_vectors=True, n_zeros=k, precision=precision)
         if wy.size != wz.size or np.any(np.abs(wy - wz) > 1e-6 * np.maximum(wz, 1e-300)):
             raise ValueError(f"the zeros of h_{r},{c} and h_{c},{r} of a symmetric model differ: the sparse "
                              "eigen-solve did not converge to the same set")
@@ -219,8 +220,8 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     Mr = Mr.toarray() if sp.issparse(Mr) else np.asarray(Mr)
     Kr = Kr.toarray() if sp.issparse(Kr) else np.asarray(Kr)
     if r == c:   # symmetric: the solver of `antiresonances` (reciprocal pencil, massless DOFs condensed)
-        eigval_z, V_right = _dense_modes(Mr, Kr)
-        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right)
+        eigval_z, V_right = _dense_modes(Mr, Kr, precision)
+        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right, precision)
         eigval_z, V_right = eigval_z[keep][:n_zeros], V_right[:, keep][:, :n_zeros]
         return eigval_z, V_right, V_right
     (num, den), V_left, V_right = sla.eig(Kr, Mr, left=True, right=True, homogeneous_eigvals=True)
@@ -229,7 +230,7 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None):
     eigval_z = np.full(num.shape, np.nan, dtype=complex)
     eigval_z[finite] = num[finite] / den[finite]
     real = finite & (np.abs(eigval_z.imag) <= 1e-8 * np.abs(eigval_z.real)) & (eigval_z.real > 0)
-    real[real] = ~structural(M, K, r, eigval_z[real].real, V_right[:, real])
+    real[real] = ~structural(M, K, r, eigval_z[real].real, V_right[:, real], precision)
     eigval_z, V_right, V_left = eigval_z[real].real, V_right[:, real].real, V_left[:, real].real
     order = np.argsort(eigval_z)[:n_zeros]
     return eigval_z[order], V_right[:, order], V_left[:, order]
@@ -257,7 +258,8 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zero
         ``d omega_z / d xbar``, rad/s per unit of normalized parameter.
     """
     M, K = model.matrices(xbar)
-    eigval_z, V_right, V_left = pairs if pairs is not None else adjunct_eigenpairs(M, K, r, c, n_zeros)
+    eigval_z, V_right, V_left = (pairs if pairs is not None else
+                                 adjunct_eigenpairs(M, K, r, c, n_zeros, model.matrix_precision))
     # Embed the vectors in the full space (zero at the removed column r / row c), so that the
     # adjunct products become products with the full sparse matrices.
     n = M.shape[0]

@@ -48,7 +48,7 @@ def adjunct(A, r: int, c: int):
     return np.asarray(A)[np.ix_(rows, cols)]
 
 
-def structural(M, K, r: int, eigval_z, V) -> np.ndarray:
+def structural(M, K, r: int, eigval_z, V, precision: float | None = None) -> np.ndarray:
     """Which eigenvalues of the adjunct pencil of ``h_rc`` are its structural zeros, the
     rigid-body combinations with no motion at ``r`` (`vibupdate.modal.rigid`), no
     antiresonances.
@@ -63,19 +63,22 @@ def structural(M, K, r: int, eigval_z, V) -> np.ndarray:
         Eigenvalues of the adjunct pencil, (rad/s)^2.
     V : ndarray, shape (n - 1, k)
         Their right vectors.
+    precision : float, optional
+        Relative precision of the entries of ``K`` and ``M`` (`vibupdate.modal.rigid`); None:
+        double precision.
 
     Returns
     -------
     ndarray of bool, shape (k,)
     """
-    return rigid.is_zero(M, K, eigval_z, rigid.embed(_real_vectors(V), M.shape[0], r))
+    return rigid.is_zero(M, K, eigval_z, rigid.embed(_real_vectors(V), M.shape[0], r), precision)
 
 
-def _dense_zeros(M, K, r: int, c: int, rtol: float):
+def _dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = None):
     Mr, Kr = _dense(adjunct(M, r, c)), _dense(adjunct(K, r, c))
     if r == c:
-        eigval_z, V = _dense_modes(Mr, Kr)
-        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V)
+        eigval_z, V = _dense_modes(Mr, Kr, precision)
+        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
         return eigval_z[keep], V[:, keep]
     (num, den), V = sla.eig(Kr, Mr, homogeneous_eigvals=True)
     scale = np.abs(num) + np.abs(den)
@@ -84,7 +87,7 @@ def _dense_zeros(M, K, r: int, c: int, rtol: float):
     eigval_z[finite] = num[finite] / den[finite]
     real = finite & (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real))
     keep = real & (eigval_z.real > 0)
-    keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V[:, keep])
+    keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V[:, keep], precision)
     return eigval_z[keep].real, _real_vectors(V[:, keep])
 
 
@@ -97,11 +100,11 @@ def _real_vectors(V: np.ndarray) -> np.ndarray:
     return (V * (np.abs(phase) / phase)).real
 
 
-def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
+def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: float | None = None):
     """The lowest ``n_zeros`` real positive eigenvalues of the adjunct pencil by shift-invert."""
     Mr, Kr = sp.csc_matrix(adjunct(M, r, c)), sp.csc_matrix(adjunct(K, r, c))
     m = Mr.shape[0]
-    sigma, lu = _shifted_lu(Kr, Mr)
+    sigma, lu = _shifted_lu(Kr, Mr, precision)
     k = min(m - 2, 2 * n_zeros + 8)
     while True:
         if r == c:
@@ -115,7 +118,7 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
         real = (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real) if np.iscomplexobj(eigval_z)
                 else np.ones(eigval_z.size, bool))
         keep = real & (eigval_z.real > 0)
-        keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V[:, keep])
+        keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V[:, keep], precision)
         if keep.sum() >= n_zeros or k >= m - 2:
             break
         k = min(m - 2, 2 * k)
@@ -128,7 +131,7 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float):
 
 
 def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: float = 1e-8,
-                   n_zeros: int | None = None, dense: bool | None = None):
+                   n_zeros: int | None = None, dense: bool | None = None, precision: float | None = None):
     """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8).
 
     They are the finite, real, positive eigenvalues ``omega^2`` of the adjunct pencil
@@ -151,6 +154,9 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
         How many of the lowest zeros; all of them (dense) or 20 (sparse) by default.
     dense : bool, optional
         Force a path; by default dense up to `DENSE_LIMIT` DOFs.
+    precision : float, optional
+        Relative precision of the entries of ``K`` and ``M``, the rounding unit that tells the
+        structural zeros apart (`vibupdate.modal.rigid`): a model's ``matrix_precision``.
 
     Returns
     -------
@@ -171,10 +177,10 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
         raise ValueError(f"n_zeros must be between 1 and {n - 1}, got {n_zeros!r}")
     use_dense = n <= eigen.DENSE_LIMIT if dense is None else dense
     if use_dense:
-        eigval_z, V = _dense_zeros(M, K, r, c, rtol)
+        eigval_z, V = _dense_zeros(M, K, r, c, rtol, precision)
         order = np.argsort(eigval_z)[:n_zeros]
     else:
-        eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol)
+        eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol, precision)
         order = np.arange(eigval_z.size)
     omega_z = np.sqrt(eigval_z[order])
     if not with_vectors:

@@ -44,6 +44,12 @@ class AffineModel:
         Nominal mass and stiffness matrices (SI units).
     M_par, K_par : tuple of csr_matrix, each shape (n, n), length n_x
         Derivatives of ``M`` and ``K`` with respect to the normalized parameters.
+    matrix_precision : float, optional
+        Relative precision of the matrix entries: each is known to within this fraction of its
+        magnitude (5e-10 for a model read from 10 significant digits). None: exact to double
+        precision. The rounding unit of the tests that tell a zero eigenvalue from rounding
+        (`vibupdate.modal.rigid`) and of the shape ratios' rounding floor
+        (`vibupdate.inverse.verify`).
     """
 
     parameters: tuple[Parameter, ...]
@@ -52,6 +58,7 @@ class AffineModel:
     K0: sp.csr_matrix
     M_par: tuple[sp.csr_matrix, ...]
     K_par: tuple[sp.csr_matrix, ...]
+    matrix_precision: float | None = None
 
     @property
     def n_dofs(self) -> int:
@@ -107,10 +114,11 @@ class AffineModel:
     def fingerprint(self) -> str:
         """A hash of the matrices ``M0``, ``K0``, ``M_i``, ``K_i`` (`vibupdate.modal.kept.content_key`):
         two models with the same fingerprint have the same ``M(xbar)``, ``K(xbar)`` at every
-        ``xbar``; the key of caches of results computed from them."""
+        ``xbar`` (and the same `matrix_precision`); the key of caches of results computed from them."""
         from vibupdate.modal.kept import content_key
 
-        return content_key(self.M0, self.K0, *self.M_par, *self.K_par)
+        extra = b"" if self.matrix_precision is None else np.float64(self.matrix_precision).tobytes()
+        return content_key(self.M0, self.K0, *self.M_par, *self.K_par, extra=extra)
 
     def matrices_at(self, values) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """``M``, ``K`` at physical parameter values, shape (n_x,)."""
@@ -235,10 +243,11 @@ def symmetric_error(A: sp.spmatrix) -> float:
     return float(abs(A - A.T).max() / scale) if scale > 0 else 0.0
 
 
-def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
+def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model", precision: float | None = None) -> None:
     """Raise ValueError unless ``M``, ``K`` are square, equal in size, finite, symmetric and
     physically admissible (`vibupdate.model.physical.definiteness`: ``M`` positive definite or
-    semidefinite with massless DOFs held by ``K``, ``K`` positive semidefinite); ``dofs`` must
+    semidefinite with massless DOFs held by ``K``, ``K`` positive semidefinite, zero
+    eigenvalues told from rounding at the entries' relative ``precision``); ``dofs`` must
     name every row."""
     from vibupdate.model.physical import definiteness
 
@@ -257,7 +266,7 @@ def check_matrices(M, K, dofs: Sequence[str], *, what: str = "model") -> None:
         err = symmetric_error(A)
         if err > 1e-9:
             raise ValueError(f"{what}: {name} matrix is not symmetric (relative asymmetry {err:.2e})")
-    problem = definiteness(M, K).problem
+    problem = definiteness(M, K, precision).problem
     if problem:
         raise ValueError(f"{what}: {problem}")
 

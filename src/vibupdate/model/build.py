@@ -62,7 +62,8 @@ def _load_npz(path: Path) -> sp.csr_matrix:
 
 
 def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = None,
-               dK: Mapping | None = None, dofs: Sequence[str] | None = None) -> AffineModel:
+               dK: Mapping | None = None, dofs: Sequence[str] | None = None,
+               matrix_precision: float | None = None) -> AffineModel:
     """Affine model from matrix files (or matrices) exported by an FE package.
 
     Parameters
@@ -75,6 +76,9 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
         least one of the two; a missing one counts as zero.
     dofs : sequence of str, optional
         DOF names in matrix order; default ``q1 ... qn``.
+    matrix_precision : float, optional
+        Relative precision of the matrix entries (`AffineModel.matrix_precision`), e.g. 5e-10
+        for matrices written with 10 significant digits; None: exact to double precision.
     """
     parameters = tuple(parameters)
     _check_unique_names(parameters)
@@ -92,7 +96,7 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
     M, _ = read(M0, "M0")
     K, _ = read(K0, "K0")
     names = tuple(dofs) if dofs is not None else tuple(f"q{i + 1}" for i in range(M.shape[0]))
-    check_matrices(M, K, names, what="matrix files M0/K0")
+    check_matrices(M, K, names, what="matrix files M0/K0", precision=matrix_precision)
     n = M.shape[0]
     M_par, K_par = [], []
     for p in parameters:
@@ -113,4 +117,4 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
                 pair.append(sp.csr_matrix((n, n)))
         M_par.append(pair[0])
         K_par.append(pair[1])
-    return AffineModel(parameters, names, M, K, tuple(M_par), tuple(K_par))
+    return AffineModel(parameters, names, M, K, tuple(M_par), tuple(K_par), matrix_precision)

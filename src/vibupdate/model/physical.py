@@ -43,6 +43,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from vibupdate.modal.analysis import DENSE_LIMIT, MASSLESS_TOL, massless_dofs, modes
+from vibupdate.modal import rigid as rigid_test
 from vibupdate.modal.eigen import repeatable
 
 __all__ = ["DENSE_LIMIT", "RIGID_TOL", "Definiteness", "definiteness", "box_corners", "count_below", "PhysicalBox",
@@ -130,13 +131,16 @@ def _lowest(A, B) -> float | None:
     return float(sla.eigh(_dense(A), _dense(B), eigvals_only=True, subset_by_index=[0, 0])[0])
 
 
-def definiteness(M, K) -> Definiteness:
+def definiteness(M, K, precision: float | None = None) -> Definiteness:
     """Check ``M`` and ``K`` of one model (module docstring).
 
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
         Symmetric mass and stiffness matrices (SI units).
+    precision : float, optional
+        Relative precision of their entries (a model's ``matrix_precision``), the rounding
+        unit that tells a rigid-body mode from a negative eigenvalue; None: double precision.
 
     Returns
     -------
@@ -188,22 +192,51 @@ def definiteness(M, K) -> Definiteness:
     lam_ref = float(np.max(np.abs(kd[mass]) / dm))
     if not lam_ref > 0:
         return Definiteness(tuple(massless), 0, "the stiffness matrix K is zero on every DOF that carries mass")
-    below = count_below(K, M, RIGID_TOL * lam_ref)      # candidates: rigid-body modes and any negative ones
-    negative = count_below(K, M, -RIGID_TOL * lam_ref) if below else 0
-    rigid = 0
+    # the candidates' threshold grows with the entries' rounding unit, as the test below does
+    tol = RIGID_TOL * rigid_test.unit(precision) / rigid_test.EPS
+    below = count_below(K, M, tol * lam_ref)      # candidates: rigid-body modes and any negative ones
+    negative = count_below(K, M, -tol * lam_ref) if below else 0
+    rigid, rounding_note = 0, ""
     if below and not negative:
         # told apart by the rounding of each mode's own Rayleigh quotient (`vibupdate.modal.rigid`):
         # the threshold above, relative to the largest K_ii / M_ii, takes flexible modes of
         # finely meshed models for rigid ones (4 on the 3,893-DOF refined frame)
-        omega = modes(M, K, min(below, M.shape[0] - massless.size))[0]
+        omega, Phi = modes(M, K, min(below, M.shape[0] - massless.size), precision=precision)
         rigid = int(np.count_nonzero(omega == 0))
         negative = int(np.count_nonzero(omega < 0))
+        if negative:
+            rounding_note = _rounding_note(M, K, omega, Phi, precision)
     if negative:
         low = _lowest(K, M) if not massless.size else None
         shown = (f"; lowest eigenvalue of (K, M) {low:.6g} (rad/s)^2" if low is not None else "")
         return Definiteness(tuple(massless), 0, f"the stiffness matrix K is not positive semidefinite: {negative} "
-                                                f"negative eigenvalue(s){shown}")
+                                                f"negative eigenvalue(s){shown}{rounding_note}")
     return Definiteness(tuple(int(i) for i in massless), rigid, None)
+
+
+#: A negative eigenvalue that entries rounded to this relative precision or finer would explain
+#: is reported as possibly the rounding of an export written with fewer digits
+#: (`_rounding_note`): 1e-5 is about the 5 to 6 significant digits of an 8-character field.
+ROUNDING_NOTE_PRECISION = 1e-5
+
+
+def _rounding_note(M, K, omega, Phi, precision) -> str:
+    """What to say of the negative eigenvalues (``omega < 0``) of matrices whose precision was
+    not stated (``precision`` None): the relative precision of the entries at which the
+    rigid-body test (`vibupdate.modal.rigid`) would count the most negative one as zero, and
+    the key that states it, when that is `ROUNDING_NOTE_PRECISION` or finer. With a stated
+    precision, that they lie beyond its rounding."""
+    neg = omega < 0
+    if precision is not None:
+        return f" (beyond the rounding of entries known to the stated relative precision {precision:.3g})"
+    scale = rigid_test.rounding_scale(M, K, Phi[:, neg]) / rigid_test.EPS     # |u|^T |K| |u| / u^T M u
+    needed = float(np.max(omega[neg] ** 2 / (rigid_test.RIGID_FACTOR * scale)))
+    if not needed <= ROUNDING_NOTE_PRECISION:
+        return ""
+    return (f" ({'it is' if neg.sum() == 1 else 'they are'} as small as rounding of the entries to a relative "
+            f"precision of {needed:.2g} would make {'it' if neg.sum() == 1 else 'them'}; double precision is "
+            "assumed: if the matrices were written with fewer significant digits, state their precision with "
+            "matrix_precision in [model], docs/case-file.md)")
 
 
 def box_corners(lower, upper, *, seed: int = 0) -> list[tuple[str, np.ndarray]]:
@@ -266,7 +299,7 @@ class PhysicalBox:
 
 def _admissible(model, xbar, rigid: int) -> str | None:
     """None where ``M``, ``K`` at ``xbar`` are admissible with ``rigid`` rigid-body modes, else why."""
-    found = definiteness(*model.matrices(xbar))
+    found = definiteness(*model.matrices(xbar), model.matrix_precision)
     if found.problem:
         return found.problem
     if found.rigid_body_modes != rigid:

@@ -29,6 +29,11 @@ Jacobian) gets its whole box: the linearization cannot bound a curved valley. On
 to `VALLEY_DOFS` DOFs the ranges also hold the points of that valley that keep the answer's
 data exactly (`vibupdate.inverse.minimum_change.valley_points`): the other parameters move
 along it at second order.
+
+A model whose matrices are known only to a relative ``matrix_precision`` (read from an export
+written with fewer digits than a double) widens every window by what that rounding can do to
+the datum at the answer (`precision_allowance`): the true structure's data then lie within the
+windows of the model that stands for it, as its rounding allows.
 """
 
 from __future__ import annotations
@@ -44,7 +49,7 @@ from vibupdate.inverse.minimum_change import numerical_rank, valley_points
 from vibupdate.modal.analysis import DENSE_LIMIT
 from vibupdate.data.measured import Configuration
 
-__all__ = ["ParameterRanges", "parameter_ranges", "NULL_COMPONENT"]
+__all__ = ["ParameterRanges", "parameter_ranges", "precision_allowance", "NULL_COMPONENT"]
 
 #: Models up to this many DOFs (those solved densely) have their ranges widened by the points
 #: of the valley of answers with the same data (`vibupdate.inverse.minimum_change.valley_points`,
@@ -110,6 +115,63 @@ def _measured(configurations, frequency_tolerance):
     return np.concatenate(values), np.concatenate(half), np.concatenate(is_freq)
 
 
+def _eigenvalue_rounding(M, K, lam: float, right: np.ndarray, left: np.ndarray, delta: float) -> float:
+    """Largest first-order change of the eigenvalue ``lam`` of the pencil ``(K, M)`` with right
+    and left vectors ``right``, ``left`` when every entry of ``K`` and ``M`` moves by up to
+    ``delta`` of its magnitude: ``delta (|y|^T |K| |x| + |lam| |y|^T |M| |x|) / |y^T M x|``,
+    (rad/s)^2."""
+    x, y = np.abs(right), np.abs(left)
+    top = y @ (abs(K) @ x) + abs(lam) * (y @ (abs(M) @ x))
+    return float(delta * top / max(abs(left @ (M @ right)), 1e-300))
+
+
+def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.ndarray | None:
+    """How far the rounding of matrices known only to their ``matrix_precision`` moves each
+    datum of the data map at ``xbar`` (`vibupdate.inverse.data_map` order): a frequency by
+    the first-order bound of its eigenvalue under entries moved by up to ``delta`` of their
+    magnitude (`_eigenvalue_rounding`, rad/s), a shape ratio by the shape check's own
+    allowance for that mode (`vibupdate.inverse.verify.mode_rounding_allowance` at that
+    precision). None when every model is exact to double precision.
+
+    Returns
+    -------
+    ndarray, shape (n_d,) or None
+    """
+    if all(cfg.model.matrix_precision is None for cfg in configurations):
+        return None
+    from vibupdate.inverse.correlation import declared_zeros, model_frequencies
+    from vibupdate.inverse.verify import mode_rounding_allowance
+    from vibupdate.modal.rigid import unit
+    from vibupdate.modal.zeros import adjunct
+
+    out = []
+    for cfg in configurations:
+        delta = unit(cfg.model.matrix_precision)
+        M, K = cfg.model.matrices(xbar)
+        f = model_frequencies(cfg, xbar, zeros=False)
+        for k in range(len(cfg.natural)):
+            w, phi = float(f.natural[k]), f.Phi[:, k]
+            out.append(0.5 * _eigenvalue_rounding(M, K, w * w, phi, phi, delta) / max(abs(w), 1e-300))
+        if cfg.antiresonances:
+            pairs = dict(zip(cfg.receptances(), declared_zeros(cfg, xbar, M, K)[3]))
+            for a in cfg.antiresonances:
+                eigval, right, left = pairs[a.receptance]
+                if a.index > eigval.size:
+                    out.append(0.0)
+                    continue
+                r, c = cfg.model.dof(a.response), cfg.model.dof(a.excitation)
+                j = a.index - 1
+                lam = float(eigval[j])
+                out.append(0.5 * _eigenvalue_rounding(adjunct(M, r, c), adjunct(K, r, c), lam, right[:, j],
+                                                      left[:, j], delta) / np.sqrt(lam))
+        shapes = measured_shapes(cfg)
+        for shape in shapes:
+            allowance = mode_rounding_allowance(cfg, xbar, f, shape.position, cfg.model.matrix_precision)
+            out += [allowance] * shape.entries.size
+        out += [0.0] * sum(shape.mass is not None for shape in shapes)   # modal masses: relative, not rounding-sized
+    return np.asarray(out, dtype=float)
+
+
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                      frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0):
     """Consistent range of every parameter around the answer ``xbar`` (module docstring).
@@ -157,6 +219,9 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     # (dimensionless, of order 1 at its reference; a ratio near a node would otherwise get a
     # width of 1e-16).
     half = half * (1 + 1e-9) + 1e-12 * np.maximum(np.abs(d_meas), np.where(is_freq, 0.0, 1.0))
+    rounding = precision_allowance(configurations, xbar)
+    if rounding is not None:
+        half = half + rounding
     lo, hi = model.bounds()
     xbar = np.asarray(xbar, dtype=float)
     # Each row divided by its half-width: |offset + G dx| <= half as |offset / half + (G / half) dx|

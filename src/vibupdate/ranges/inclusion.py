@@ -151,7 +151,7 @@ def paired_vectors(cfg: Configuration, blocks: Sequence[VectorBlock], xbar) -> l
         M, K = cfg.model.matrices(xbar)
         for rc in rcs:
             adjunct[rc] = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), with_vectors=True,
-                                         n_zeros=zeros_wanted(cfg, rc))
+                                         n_zeros=zeros_wanted(cfg, rc), precision=cfg.model.matrix_precision)
     out = []
     for blk in blocks:
         if blk.kind == "natural":

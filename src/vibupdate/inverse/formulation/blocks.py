@@ -134,7 +134,7 @@ def adjunct_block(cfg: Configuration, k: int, index: int, scaling: Scaling,
     r, c = model.dof(a.response), model.dof(a.excitation)
     n = model.n_dofs
     rows, cols = np.delete(np.arange(n), c), np.delete(np.arange(n), r)
-    zs, V = antiresonances(model.M0, model.K0, r, c, with_vectors=True)
+    zs, V = antiresonances(model.M0, model.K0, r, c, with_vectors=True, precision=model.matrix_precision)
     if zs.size == 0:
         raise ValueError(
             f"configuration {cfg.name!r}: the nominal model has no antiresonance of "

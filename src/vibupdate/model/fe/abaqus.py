@@ -10,22 +10,26 @@ triangle of the symmetric matrix (both triangles are accepted if they agree). No
 non-positive number are Abaqus's internal nodes (Lagrange multipliers of constraints); they
 are refused with a message, as the model they belong to is not a plain K, M pair. Abaqus writes
 the matrices before boundary conditions: the DOFs they fix are removed by naming them
-(`vibupdate.model.fe.export.without_dofs`, ``fix`` of ``vibupdate import``).
+(`vibupdate.model.fe.export.without_dofs`, ``fix`` of ``vibupdate import``). The significant
+digits of the values give the export's relative precision
+(`vibupdate.model.fe.export.precision_of_digits`).
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, dof_name, symmetric_from_entries
+from vibupdate.model.fe.export import FEExport, dof_name, precision_of_digits, significant_digits, symmetric_from_entries
 
 __all__ = ["read_abaqus", "read_mtx_terms"]
 
 
-def read_mtx_terms(path):
-    """``(row DOF names, column DOF names, values)`` of an Abaqus ``.mtx`` file."""
+def read_mtx_terms(path, digits: Counter | None = None):
+    """``(row DOF names, column DOF names, values)`` of an Abaqus ``.mtx`` file; the significant
+    digits of the values as written are counted into ``digits`` when given."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"Abaqus matrix file {str(path)!r} does not exist")
@@ -49,6 +53,8 @@ def read_mtx_terms(path):
         rows.append(dof_name(n1, d1))
         cols.append(dof_name(n2, d2))
         values.append(value)
+        if digits is not None:
+            digits[significant_digits(parts[4])] += 1
     if not values:
         raise ValueError(f"{path}: no matrix terms; is it a *MATRIX OUTPUT file?")
     return rows, cols, values
@@ -56,7 +62,8 @@ def read_mtx_terms(path):
 
 def read_abaqus(stiffness, mass) -> FEExport:
     """K and M from the ``_STIF`` and ``_MASS`` ``.mtx`` files of one Abaqus job."""
-    k_terms, m_terms = read_mtx_terms(stiffness), read_mtx_terms(mass)
+    digits = Counter()
+    k_terms, m_terms = read_mtx_terms(stiffness, digits), read_mtx_terms(mass, digits)
     names = set(k_terms[0]) | set(k_terms[1]) | set(m_terms[0]) | set(m_terms[1])
     order = sorted(names, key=lambda d: (int(d.split(":")[0]), ("s", "x", "y", "z", "rx", "ry", "rz").index(
         d.split(":")[1])))
@@ -65,4 +72,4 @@ def read_abaqus(stiffness, mass) -> FEExport:
     for path, (r, c, v) in ((stiffness, k_terms), (mass, m_terms)):
         mats.append(symmetric_from_entries(np.array([pos[d] for d in r]), np.array([pos[d] for d in c]), v,
                                            len(order), str(path), "the matrix"))
-    return FEExport(mats[0], mats[1], tuple(order), f"{stiffness}, {mass}")
+    return FEExport(mats[0], mats[1], tuple(order), f"{stiffness}, {mass}", precision=precision_of_digits(digits))

@@ -8,7 +8,9 @@ HBMAT
 equation: the equation number, the node and the DOF label (``UX, UY, UZ, ROTX, ROTY, ROTZ``).
 The matrices are read with `scipy.io.hb_read`, which takes unsymmetric assembled real
 matrices (``RUA``); a symmetric file (``RSA``, one triangle) is read the same way and mirrored.
-The equations are those ANSYS solved: constrained DOFs are not written.
+The equations are those ANSYS solved: constrained DOFs are not written. The significant digits
+of the values as written give the export's relative precision
+(`vibupdate.model.fe.export.precision_of_digits`); the binary ``.full`` file holds doubles.
 
 ``.full``
 ---------
@@ -22,12 +24,15 @@ DOFs without stiffness, a singular model.
 from __future__ import annotations
 
 import io
+import re
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.model.fe.export import DIRECTIONS, FEExport, dof_name, symmetric_from_entries
+from vibupdate.model.fe.export import (DIRECTIONS, FEExport, dof_name, precision_of_digits, significant_digits,
+                                       symmetric_from_entries)
 
 __all__ = ["read_hbmat", "read_mapping", "read_full", "ANSYS_LABELS"]
 
@@ -60,7 +65,25 @@ def read_mapping(path) -> tuple[str, ...]:
     return tuple(names[k] for k in range(1, len(names) + 1))
 
 
-def _read_hb(path: Path) -> sp.csr_matrix:
+#: A real in a Harwell-Boeing value line (Fortran E, D or F format; fields may touch).
+_REAL = re.compile(r"[+-]?(?:[0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)(?:[EeDd][+-]?[0-9]+|[+-][0-9]+)?")
+
+
+def _value_digits(lines: list[str], digits: Counter) -> None:
+    """Count the significant digits of the values of a Harwell-Boeing file (its ``VALCRD``
+    value lines, after the header and the pointer and index lines) into ``digits``."""
+    try:
+        _, ptrcrd, indcrd, valcrd = (int(lines[1][14 * k:14 * (k + 1)]) for k in range(4))
+        rhscrd = int(lines[1][56:70] or 0)
+    except ValueError:
+        return
+    start = 4 + (rhscrd > 0) + ptrcrd + indcrd
+    for line in lines[start:start + valcrd]:
+        for number in _REAL.findall(line):
+            digits[significant_digits(number)] += 1
+
+
+def _read_hb(path: Path, digits: Counter | None = None) -> sp.csr_matrix:
     import scipy.io
 
     if not path.is_file():
@@ -72,6 +95,8 @@ def _read_hb(path: Path) -> sp.csr_matrix:
     if kind not in ("RUA", "RSA"):
         raise ValueError(f"{path}: Harwell-Boeing type {kind!r}; a real assembled matrix (RUA or RSA) is expected")
     lines[2] = "RUA" + lines[2][3:]
+    if digits is not None:
+        _value_digits(lines, digits)
     try:
         A = sp.csr_matrix(scipy.io.hb_read(io.StringIO("".join(lines))), dtype=float)
     except (ValueError, IndexError, TypeError) as exc:
@@ -95,11 +120,12 @@ def read_hbmat(stiffness, mass, mapping) -> FEExport:
         The ``.mapping`` file (both matrices share the equations of the ``.full`` file).
     """
     dofs = read_mapping(mapping)
-    K, M = _read_hb(Path(stiffness)), _read_hb(Path(mass))
+    digits = Counter()
+    K, M = _read_hb(Path(stiffness), digits), _read_hb(Path(mass), digits)
     for path, A in ((stiffness, K), (mass, M)):
         if A.shape[0] != len(dofs):
             raise ValueError(f"{path}: {A.shape[0]} equations, but the mapping {str(mapping)!r} lists {len(dofs)}")
-    return FEExport(K, M, dofs, f"{stiffness}, {mass}")
+    return FEExport(K, M, dofs, f"{stiffness}, {mass}", precision=precision_of_digits(digits))
 
 
 def read_full(path) -> FEExport:

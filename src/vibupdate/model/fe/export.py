@@ -3,8 +3,21 @@
 `FEExport` holds the stiffness and mass matrices of one export as the code wrote them (after
 the constrained DOFs are removed), the name of each DOF, ``"<node>:<dir>"`` with ``dir`` in
 ``x, y, z, rx, ry, rz`` (`DIRECTIONS`; a scalar point is ``"<id>:s"``), and the node
-coordinates when the export holds them. The helpers here turn the entries a code writes (one
-triangle or both) into symmetric CSR matrices and check what every reader must check.
+coordinates when the export holds them, and the relative precision of the numbers as written
+(`precision_of_digits`). The helpers here turn the entries a code writes (one triangle or both)
+into symmetric CSR matrices and check what every reader must check.
+
+**Precision of a text export.** A code writes its matrices with a fixed number of significant
+digits (10 or 11 in a 16-character Nastran field, 17 where it writes every digit of a double),
+so every entry of the matrices read is within ``delta |A_ij|`` of the code's own, ``delta`` half a
+unit in the last digit. The text readers count the significant digits of each number they parse
+(`significant_digits`) and `precision_of_digits` turns the counts into ``delta``: the widest
+number sets the writer's width, numbers with up to `DIGIT_SPREAD` digits fewer are taken as
+written to that width (a minus sign or a longer exponent takes a character of a fixed-width
+field) and the fewest of them sets ``delta = 0.5 * 10^(1 - digits)``; numbers with fewer digits
+still are taken as trailing zeros the writer dropped (``1.5+3``). 17 digits or more are a
+double written in full: no rounding beyond double precision (None). The import carries
+``delta`` into the model (``matrix_precision``, `vibupdate.modal.rigid`).
 """
 
 from __future__ import annotations
@@ -13,15 +26,60 @@ from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+import re
+
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["FEExport", "DIRECTIONS", "dof_name", "symmetric_from_entries", "without_dofs"]
+__all__ = ["FEExport", "DIRECTIONS", "dof_name", "symmetric_from_entries", "without_dofs", "significant_digits",
+           "precision_of_digits", "coarser"]
 
 #: The directions of a node's six DOFs, in the order FE codes number them (1..6).
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 #: Relative asymmetry above which a matrix is refused as not symmetric.
 SYMMETRY_TOL = 1e-10
+#: Numbers with up to this many significant digits fewer than the widest of an export are taken
+#: as written to the same width (module docstring).
+DIGIT_SPREAD = 2
+#: Significant digits from which a number is a double written in full.
+DOUBLE_DIGITS = 17
+
+_EXPONENT_START = re.compile(r"[EeDd]|(?<=[0-9.])[+-]")
+
+
+def significant_digits(text: str) -> int:
+    """Significant digits of a real as written: ``"-1.234567890D+05"`` 10, ``"1.5+3"`` 2,
+    ``"0.00120"`` 3 (trailing zeros count, leading ones do not), ``"0."`` 0."""
+    mantissa = _EXPONENT_START.split(text.strip().lstrip("+-"), maxsplit=1)[0]
+    return len(mantissa.replace(".", "").lstrip("0"))
+
+
+def precision_of_digits(counts) -> float | None:
+    """Relative precision of the numbers of an export from their significant digits (module
+    docstring).
+
+    Parameters
+    ----------
+    counts : mapping of int to int
+        Significant digits -> how many numbers were written with them (zeros, 0 digits, are
+        ignored).
+
+    Returns
+    -------
+    float or None
+        ``0.5 * 10^(1 - digits)``; None for doubles written in full or no number at all.
+    """
+    written = [d for d, k in counts.items() if d > 0 and k > 0]
+    if not written or max(written) >= DOUBLE_DIGITS:
+        return None
+    fewest = min(d for d in written if d >= max(written) - DIGIT_SPREAD)
+    return 0.5 * 10.0 ** (1 - fewest)
+
+
+def coarser(*precisions) -> float | None:
+    """The coarsest of several relative precisions (None: double precision)."""
+    given = [float(p) for p in precisions if p is not None]
+    return max(given) if given else None
 
 
 def dof_name(node, component: int) -> str:
@@ -47,6 +105,9 @@ class FEExport:
         The file(s) read, for messages.
     nodes : mapping of str to ndarray of shape (3,), optional
         Node label -> coordinates, m, when the export holds them.
+    precision : float, optional
+        Relative precision of the entries as written (module docstring); None: exact to double
+        precision (a binary export, a model built in memory, doubles written in full).
     """
 
     K: sp.csr_matrix
@@ -54,6 +115,7 @@ class FEExport:
     dofs: tuple
     source: str
     nodes: Mapping = field(default_factory=dict)
+    precision: float | None = None
 
     def __post_init__(self):
         n = len(self.dofs)
@@ -106,4 +168,4 @@ def without_dofs(export: FEExport, fixed: Sequence[str]) -> FEExport:
     drop = {where[d] for d in fixed}
     keep = np.array([k for k in range(len(export.dofs)) if k not in drop], dtype=int)
     return FEExport(sp.csr_matrix(export.K[keep][:, keep]), sp.csr_matrix(export.M[keep][:, keep]),
-                    tuple(export.dofs[k] for k in keep), export.source, export.nodes)
+                    tuple(export.dofs[k] for k in keep), export.source, export.nodes, export.precision)

@@ -18,7 +18,9 @@ point and component, then (grid, component, value) of each row term. ``IFO = 6``
 holds one triangle, which is mirrored (a term given in both triangles must agree); ``IFO = 1``
 (square) must be symmetric. Reals are Nastran numbers (``1.5+3``, ``-2.D-4``, ``7.E5``).
 Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards in the file (basic coordinate
-system) give the node coordinates. Component 1..6 of a grid point is
+system) give the node coordinates. The significant digits of every real read give the export's
+relative precision (`vibupdate.model.fe.export.precision_of_digits`: 5e-10 for the 10 digits a
+16-character large field holds). Component 1..6 of a grid point is
 ``"<grid>:x"`` ... ``"<grid>:rz"``; component 0 (a scalar point) is ``"<id>:s"``. The DMIG
 punch holds the analysis set: the constrained DOFs are already gone.
 """
@@ -26,11 +28,12 @@ punch holds the analysis set: the constrained DOFs are already gone.
 from __future__ import annotations
 
 import re
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, dof_name, symmetric_from_entries
+from vibupdate.model.fe.export import FEExport, dof_name, precision_of_digits, significant_digits, symmetric_from_entries
 
 __all__ = ["read_dmig", "read_dmig_matrices", "nastran_float"]
 
@@ -73,12 +76,13 @@ def _cards(path: Path):
 
 
 def read_dmig_matrices(path) -> dict:
-    """Every DMIG matrix of a bulk-data file: name -> ``(rows, cols, values, dofs)`` with the
-    DOF names in the order met and the entries in that numbering (0-based)."""
+    """Every DMIG matrix of a bulk-data file: name -> ``(rows, cols, values, dofs, ifo,
+    digits)`` with the DOF names in the order met, the entries in that numbering (0-based), the
+    matrix form and a `collections.Counter` of the significant digits of the values as written."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"Nastran file {str(path)!r} does not exist")
-    out, forms = {}, {}
+    out, forms, digits = {}, {}, {}
     for number, head, data in _cards(path):
         if head != "DMIG":
             continue
@@ -93,6 +97,7 @@ def read_dmig_matrices(path) -> dict:
                     raise ValueError(f"{where}: DMIG {name} has IFO = {ifo}; a symmetric matrix (6) or a square "
                                      "one (1) is expected")
                 forms[name] = ifo
+                digits[name] = Counter()
                 out[name] = ([], [], [], {})
                 continue
             if name not in out:
@@ -108,13 +113,15 @@ def read_dmig_matrices(path) -> dict:
                 rows.append(row)
                 cols.append(col)
                 values.append(nastran_float(a))
+                digits[name][significant_digits(a)] += 1
         except (ValueError, IndexError) as exc:
             if str(exc).startswith(str(path)):
                 raise
             raise ValueError(f"{where}: cannot read DMIG {name}: {exc}") from None
     if not out:
         raise ValueError(f"Nastran file {str(path)!r} holds no DMIG matrix")
-    return {name: (rows, cols, values, tuple(index), forms[name]) for name, (rows, cols, values, index) in out.items()}
+    return {name: (rows, cols, values, tuple(index), forms[name], digits[name])
+            for name, (rows, cols, values, index) in out.items()}
 
 
 def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
@@ -132,8 +139,8 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     for name in (stiffness, mass):
         if name.upper() not in found:
             raise ValueError(f"{path}: no DMIG matrix {name!r}; the file holds {', '.join(sorted(found))}")
-    kr, kc, kv, kdofs, _ = found[stiffness.upper()]
-    mr, mc, mv, mdofs, _ = found[mass.upper()]
+    kr, kc, kv, kdofs, _, kdigits = found[stiffness.upper()]
+    mr, mc, mv, mdofs, _, mdigits = found[mass.upper()]
     # a DOF with terms in one matrix only still belongs to both: the union, by grid then direction
     order = sorted(set(kdofs) | set(mdofs), key=_dof_key)
     pos = {d: k for k, d in enumerate(order)}
@@ -145,7 +152,7 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
 
     K = symmetric_from_entries(*remap(kr, kc, kdofs), kv, n, str(path), f"DMIG {stiffness}")
     M = symmetric_from_entries(*remap(mr, mc, mdofs), mv, n, str(path), f"DMIG {mass}")
-    return FEExport(K, M, tuple(order), str(path), _grids(path))
+    return FEExport(K, M, tuple(order), str(path), _grids(path), precision_of_digits(kdigits + mdigits))
 
 
 def _grids(path: Path) -> dict:

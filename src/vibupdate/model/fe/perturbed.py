@@ -17,6 +17,9 @@ affine parameter, first-order for another.
 
 Each parameter also names the property group it moves: the DOFs (and their nodes) whose rows of
 ``D`` are not zero.
+
+The model's ``matrix_precision`` is the coarsest precision of the exports
+(`vibupdate.model.fe.export`): the entries of ``K0``, ``M0`` are known to it.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ import scipy.sparse as sp
 
 from vibupdate.model.affine import AffineModel
 from vibupdate.model.build import from_files
-from vibupdate.model.fe.export import FEExport
+from vibupdate.model.fe.export import FEExport, coarser
 from vibupdate.model.parameters import Parameter
 
 __all__ = ["Perturbation", "Derivative", "derivatives", "affine_from_exports", "AFFINE_TOL"]
@@ -176,9 +179,11 @@ def derivatives(nominal: FEExport, perturbations: Sequence[Perturbation]) -> tup
 
 
 def affine_from_exports(nominal: FEExport, perturbations: Sequence[Perturbation]) -> tuple[AffineModel, tuple]:
-    """The affine model linearized at the nominal export, and the `Derivative` of each parameter."""
+    """The affine model linearized at the nominal export, and the `Derivative` of each parameter;
+    its ``matrix_precision`` is the coarsest of the exports'."""
     ders = derivatives(nominal, perturbations)
+    exports = [nominal] + [e for p in perturbations for e in (p.export, p.export2) if e is not None]
     model = from_files(nominal.M, nominal.K, [p.parameter for p in perturbations],
                        dM={d.name: d.dM for d in ders if d.dM.nnz}, dK={d.name: d.dK for d in ders if d.dK.nnz},
-                       dofs=nominal.dofs)
+                       dofs=nominal.dofs, matrix_precision=coarser(*(e.precision for e in exports)))
     return model, ders
