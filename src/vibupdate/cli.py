@@ -436,10 +436,35 @@ def _extract(args) -> int:
     return EXIT["success"]
 
 
+def _load_library() -> None:
+    """Import the pipeline (numpy, scipy and the library: most of a short run's start) with the
+    cyclic garbage collector paused, then move every object alive to its permanent generation
+    (`gc.freeze`), for the program itself only (`main` without arguments).
+
+    Nothing the imports build is garbage: the collections they would trigger, and those of
+    the run and of the interpreter's exit, walked the hundreds of thousands of objects of the
+    imported modules for nothing (0.07-0.1 s of ``vibupdate example cantilever``,
+    benchmarks/RESULTS.md). A process that calls `main` itself (tests, notebooks) keeps its
+    collector as it was.
+    """
+    import gc
+
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        import vibupdate.pipeline  # noqa: F401  (the imports of every command)
+    finally:
+        gc.freeze()
+        if enabled:
+            gc.enable()
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit code (module docstring)."""
     args = _parser().parse_args(argv)
     try:
+        if argv is None:
+            _load_library()
         return _command(args)
     except KeyboardInterrupt:
         print("\nvibupdate: interrupted; nothing written (earlier results are untouched)", file=sys.stderr)
