@@ -51,19 +51,55 @@ def test_every_public_name_resolves_from_the_package():
 def test_the_core_example_run_imports_only_what_it_uses_and_freezes_its_imports(tmp_path):
     """The README's first command on a core install (matplotlib hidden), as the console script
     runs it: ``main()`` with the command in ``sys.argv``."""
-    script = ("import contextlib, gc, io, json, sys\n"
+    script = ("import atexit, contextlib, gc, io, json, sys\n"
               "sys.modules['matplotlib'] = None\n"
               "sys.argv = ['vibupdate', 'example', 'cantilever']\n"
               "from vibupdate.cli import main\n"
-              "with contextlib.redirect_stdout(io.StringIO()):\n    code = main()\n"
-              "print(json.dumps({'code': code, 'modules': sorted(m for m, v in sys.modules.items() if v is not None),\n"
-              "                  'frozen': gc.get_freeze_count(), 'enabled': gc.isenabled()}))\n")
+              "atexit.register(lambda: print(json.dumps({\n"
+              "    'modules': sorted(m for m, v in sys.modules.items() if v is not None),\n"
+              "    'frozen': gc.get_freeze_count(), 'enabled': gc.isenabled()}), file=sys.__stdout__))\n"
+              "with contextlib.redirect_stdout(io.StringIO()):\n    main()\n")
     found = _child(script, tmp_path)
-    assert found["code"] == 0
     loaded = [m for m in found["modules"] if m.startswith(NOT_ON_THE_EXAMPLE_PATH)]
     assert not loaded, loaded
     assert found["enabled"] and found["frozen"] > 10_000    # numpy's and scipy's objects, at least
     assert (tmp_path / "cantilever-results" / "results.json").exists()
+
+
+def test_the_program_ends_with_its_exit_code_its_output_and_its_exit_handlers(tmp_path):
+    """`vibupdate.cli._end`: the process ends without the interpreter's teardown, yet every
+    line is out, the exit handlers ran and the exit code is the command's."""
+    script = ("import atexit, sys\n"
+              "sys.argv = ['vibupdate'] + sys.argv[1:]\n"
+              "from vibupdate.cli import main\n"
+              "atexit.register(lambda: print('handler ran'))\n"
+              "sys.exit(main())\n")
+    for argv, code in (["example", "cantilever"], 0), (["check", "missing.toml"], 2):
+        done = subprocess.run([sys.executable, "-c", script, *argv], cwd=tmp_path, capture_output=True, text=True,
+                              timeout=300)
+        assert done.returncode == code, done.stderr[-2000:]
+        lines = done.stdout.splitlines()
+        assert lines[-1] == "handler ran"
+        if code == 0:
+            assert any(line.startswith("wrote cantilever-results/") for line in lines)
+            assert (tmp_path / "cantilever-results" / "results.json").exists()
+        else:
+            assert "does not exist" in done.stderr
+
+
+def test_the_program_with_another_thread_alive_ends_as_usual():
+    import threading
+
+    from vibupdate.cli import _end
+
+    release = threading.Event()
+    waiting = threading.Thread(target=release.wait, daemon=False)
+    waiting.start()
+    try:
+        assert _end(3) == 3     # returned: the interpreter's exit joins the thread
+    finally:
+        release.set()
+        waiting.join()
 
 
 @pytest.mark.parametrize("enabled", [True, False])
