@@ -17,10 +17,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import scipy.io
-import scipy.sparse as sp
 
 from vibupdate.io.case import Case, DampingOptions
+from vibupdate.io.matrix_market import write_matrix
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
 from vibupdate.examples import EXAMPLES
 from vibupdate.io.outputs import (MANIFEST, file_names, matrix_file, matrix_files_planned, prepare_output,
@@ -241,23 +240,7 @@ def _write_matrices(folder: Path, part: str, matrices: dict, files: dict | None,
         else:
             matrix = matrices[name]
             what = f"{run.status} updated model"
-        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix), **_symmetry(matrix),
-                         comment=f"vibupdate: {name} of configuration {part}, {what} (SI units)")
-
-
-#: Below this many rows `scipy.io.mmwrite` finds a matrix's symmetry itself (its default), one
-#: entry at a time in Python: about half of the time of each small file.
-MM_SYMMETRY_ROWS = 100
-
-
-def _symmetry(matrix) -> dict:
-    """Keywords of `scipy.io.mmwrite` for ``matrix``: ``symmetry="symmetric"`` for a small matrix
-    equal to its transpose entry by entry, which is what scipy's default finds there (only the
-    lower triangle is written); otherwise none (scipy's own choice, as before)."""
-    A = sp.csr_matrix(matrix)
-    if max(A.shape) < MM_SYMMETRY_ROWS and A.shape[0] == A.shape[1] and (A != A.T).nnz == 0:
-        return {"symmetry": "symmetric"}
-    return {}
+        write_matrix(folder / file, matrix, f"vibupdate: {name} of configuration {part}, {what} (SI units)")
 
 
 def _receptance_plot(folder: Path, case: Case, run: RunResult) -> list[tuple[str, str]]:

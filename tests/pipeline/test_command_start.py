@@ -17,7 +17,7 @@ import vibupdate
 #: Modules the example run on a core install does not need (they serve other commands,
 #: failed runs, or optional extras).
 NOT_ON_THE_EXAMPLE_PATH = ("vibupdate.inverse.diagnosis", "vibupdate.ranges.candidates", "vibupdate.report.plots",
-                           "vibupdate.study", "tomllib", "matplotlib", "dask", "distributed")
+                           "vibupdate.study", "scipy.io", "tomllib", "matplotlib", "dask", "distributed")
 
 
 def _child(script: str, cwd) -> dict:
@@ -119,28 +119,61 @@ def test_loading_the_library_leaves_the_collector_as_it_was(enabled):
 def _small(symmetric: bool, n: int = 12, seed: int = 0) -> sp.csr_matrix:
     rng = np.random.default_rng(seed)
     A = sp.random(n, n, density=0.4, random_state=rng, format="csr") + sp.identity(n, format="csr")
+    A.data *= 10.0 ** rng.integers(-12, 12, A.data.size)
     return sp.csr_matrix(A + A.T) if symmetric else A
 
 
-@pytest.mark.parametrize("case", ["symmetric", "general", "nan", "explicit_zero", "dense", "large"])
-def test_matrix_files_are_those_of_scipys_own_symmetry_choice(tmp_path, case):
-    from vibupdate.pipeline import _symmetry
+@pytest.mark.parametrize("case", ["symmetric", "general", "skew", "nan", "explicit_zero", "dense", "large", "integer",
+                                  "unicode"])
+def test_matrix_files_are_byte_for_byte_those_of_scipy(tmp_path, case):
+    from vibupdate.io.matrix_market import _own, write_matrix
 
     A = {"symmetric": lambda: _small(True), "general": lambda: _small(False),
          "large": lambda: _small(True, n=120)}.get(case, lambda: _small(True))()
+    if case == "skew":
+        A = sp.csr_matrix(_small(False) - _small(False).T)
     if case == "nan":
         A = A.tolil()
         A[3, 3] = np.nan
         A = A.tocsr()
-    if case == "explicit_zero":
-        A.data[0] = 0.0
+    if case == "explicit_zero":   # stored zeros, one of them -0, in mirrored places
+        coo = A.tocoo()
+        k = int(np.flatnonzero(coo.row > coo.col)[0])
+        mirror = int(np.flatnonzero((coo.row == coo.col[k]) & (coo.col == coo.row[k]))[0])
+        coo.data[k], coo.data[mirror] = 0.0, -0.0
+        A = coo.tocsr()
+        assert A.nnz == coo.nnz
     if case == "dense":
         A = A.toarray()
+    if case == "integer":
+        A = sp.csr_matrix(np.array([[2, 1], [1, 3]]))
+    comment = "vibupdate: M of configuration é, two\nlines" if case == "unicode" else "vibupdate: K of A"
     mine, theirs = tmp_path / "mine.mtx", tmp_path / "theirs.mtx"
-    scipy.io.mmwrite(str(mine), sp.coo_matrix(A), comment="c", **_symmetry(A))
-    scipy.io.mmwrite(str(theirs), sp.coo_matrix(A), comment="c")
+    write_matrix(mine, A, comment)
+    scipy.io.mmwrite(str(theirs), sp.coo_matrix(A), comment=comment)
     assert mine.read_bytes() == theirs.read_bytes()
-    assert bool(_symmetry(A)) == (case in ("symmetric", "explicit_zero", "dense"))
+    assert _own(sp.coo_matrix(A)) == (case in ("symmetric", "explicit_zero", "dense", "unicode"))
+
+
+def test_matrix_values_are_written_as_scipy_writes_them():
+    """Shortest digits, ``E`` exponent left out at 0: against scipy on 400,000 doubles, random
+    bit patterns among them (subnormals, extremes)."""
+    import io
+
+    from vibupdate.io.matrix_market import format_value
+
+    rng = np.random.default_rng(7)
+    bits = rng.integers(0, 2**63 - 1, 200_000, dtype=np.int64).view(np.float64)
+    values = np.concatenate([bits[np.isfinite(bits)], rng.standard_normal(200_000) * 10.0 ** rng.integers(-30, 30, 200_000),
+                             [0.0, -0.0, 1.0, -2.5, 0.5, 1e5, 9.99, 5e-324, 1.7976931348623157e308, np.inf, -np.inf,
+                              np.nan]])
+    n = values.size
+    target = io.BytesIO()
+    scipy.io.mmwrite(target, sp.coo_matrix((values, (np.arange(n), np.zeros(n, int))), shape=(n, 1)),
+                     symmetry="general")
+    theirs = [line.split(" ", 2)[2] for line in target.getvalue().decode().splitlines()[3:]]
+    mismatches = [(v, t) for v, t in zip(values.tolist(), theirs) if format_value(v) != t]
+    assert not mismatches, mismatches[:5]
 
 
 def test_linearized_ranges_from_the_answers_modal_data_are_those_it_computes_itself():
