@@ -479,7 +479,7 @@ def _end(code: int) -> int:
         return code
     if threading.active_count() > 1:
         return code
-    atexit._run_exitfuncs()
+    atexit._run_exitfuncs()   # what the interpreter's exit runs first
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()

@@ -148,10 +148,9 @@ def test_matrix_files_are_byte_for_byte_those_of_scipy(tmp_path, case):
     if case == "integer":
         A = sp.csr_matrix(np.array([[2, 1], [1, 3]]))
     comment = "vibupdate: M of configuration é, two\nlines" if case == "unicode" else "vibupdate: K of A"
-    mine, theirs = tmp_path / "mine.mtx", tmp_path / "theirs.mtx"
-    write_matrix(mine, A, comment)
-    scipy.io.mmwrite(str(theirs), sp.coo_matrix(A), comment=comment)
-    assert mine.read_bytes() == theirs.read_bytes()
+    write_matrix(tmp_path / "mine", A, comment)     # a name without .mtx gets it, as in scipy
+    scipy.io.mmwrite(str(tmp_path / "theirs"), sp.coo_matrix(A), comment=comment)
+    assert (tmp_path / "mine.mtx").read_bytes() == (tmp_path / "theirs.mtx").read_bytes()
     assert _own(sp.coo_matrix(A)) == (case in ("symmetric", "explicit_zero", "dense", "unicode"))
 
 
@@ -164,9 +163,9 @@ def test_matrix_values_are_written_as_scipy_writes_them():
 
     rng = np.random.default_rng(7)
     bits = rng.integers(0, 2**63 - 1, 200_000, dtype=np.int64).view(np.float64)
-    values = np.concatenate([bits[np.isfinite(bits)], rng.standard_normal(200_000) * 10.0 ** rng.integers(-30, 30, 200_000),
-                             [0.0, -0.0, 1.0, -2.5, 0.5, 1e5, 9.99, 5e-324, 1.7976931348623157e308, np.inf, -np.inf,
-                              np.nan]])
+    spread = rng.standard_normal(200_000) * 10.0 ** rng.integers(-30, 30, 200_000)
+    values = np.concatenate([bits[np.isfinite(bits)], spread, [0.0, -0.0, 1.0, -2.5, 0.5, 1e5, 9.99, 5e-324,
+                                                               1.7976931348623157e308, np.inf, -np.inf, np.nan]])
     n = values.size
     target = io.BytesIO()
     scipy.io.mmwrite(target, sp.coo_matrix((values, (np.arange(n), np.zeros(n, int))), shape=(n, 1)),

@@ -55,13 +55,17 @@ def _own(A: sp.coo_matrix) -> bool:
 
 def write_matrix(path, matrix, comment: str) -> None:
     """Write ``matrix`` (sparse or dense) to the Matrix Market file ``path`` with ``comment``,
-    as ``scipy.io.mmwrite(path, scipy.sparse.coo_matrix(matrix), comment=comment)`` does."""
+    as ``scipy.io.mmwrite(path, scipy.sparse.coo_matrix(matrix), comment=comment)`` does (which
+    adds ``.mtx`` to a name without it)."""
     A = sp.coo_matrix(matrix)
+    path = str(path)
     if not _own(A):
         import scipy.io
 
-        scipy.io.mmwrite(str(path), A, comment=comment)
+        scipy.io.mmwrite(path, A, comment=comment)
         return
+    if not path.endswith(".mtx"):
+        path += ".mtx"
     lower = A.row >= A.col
     rows, cols, values = A.row[lower] + 1, A.col[lower] + 1, A.data[lower]
     lines = ["%%MatrixMarket matrix coordinate real symmetric"]
