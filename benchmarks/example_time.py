@@ -3,11 +3,15 @@
 
 Run:  python benchmarks/example_time.py [--repeats 5] [--in-process]
 
-Each repeat is a fresh child process (``python -c``) that records the time of its imports and
-wraps `vibupdate.update` and the plot writer in timers, then runs the CLI's ``main(["example",
-"cantilever"])`` in an empty temporary folder; the child's wall time is measured by the parent
-from spawn to exit. The median over the repeats of each share is printed, with the load average
-(other work on the machine inflates every stage alike). ``--in-process``: the plots drawn by
+Each repeat is a fresh child process (``python -c``) that runs the CLI's ``main()`` with the
+command's ``sys.argv`` in an empty temporary folder, as the console script does (the program's
+own imports, `vibupdate.cli._load_library`), records the time until the command starts (the
+imports) and wraps `vibupdate.update` and the plot writer in timers; the child's wall time is
+measured by the parent from spawn to exit. The median over the repeats of each share is
+printed, with the load average (other work on the machine inflates every stage alike).
+``--command``: the console script itself, uninstrumented (``vibupdate example cantilever``
+beside the interpreter, else ``python -m vibupdate``), its wall time against the seconds of
+the ``solver:`` line it prints (the update's own clock). ``--in-process``: the plots drawn by
 the run's own process, as before the plotting process (`vibupdate.io.plot_process`); without
 it, ``plots`` is the time the run waits for the child's drawings.
 """
@@ -17,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -25,13 +30,10 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 CHILD = r"""
-import contextlib, io, json, sys, time
+import atexit, contextlib, io, json, sys, time
 t0 = time.perf_counter()
-import vibupdate.io.outputs as outputs
-import vibupdate.pipeline as pipeline
-from vibupdate.cli import main
-times = {"imports": time.perf_counter() - t0, "plots": 0.0, "update": 0.0}
-drawn, update = outputs.drawn, pipeline.update
+import vibupdate.cli as cli
+times = {"plots": 0.0, "update": 0.0, "exit": None}
 
 def timed(key, fn):
     def wrapper(*args, **kwargs):
@@ -42,18 +44,34 @@ def timed(key, fn):
             times[key] += time.perf_counter() - t
     return wrapper
 
-if IN_PROCESS:   # the plots drawn by the run's own process, as before the plotting process
-    import vibupdate.io.plot_process as plot_process
-    plot_process.plot_process = lambda wanted=True: contextlib.nullcontext()
-outputs.drawn = timed("plots", drawn)
-pipeline.update = timed("update", update)
-t = time.perf_counter()
+command = cli._command
+
+def instrumented(args):   # entered after the command's imports (`vibupdate.cli._load_library`)
+    import vibupdate.io.outputs as outputs
+    import vibupdate.pipeline as pipeline
+    times["imports"] = time.perf_counter() - t0
+    if IN_PROCESS:   # the plots drawn by the run's own process, as before the plotting process
+        import vibupdate.io.plot_process as plot_process
+        plot_process.plot_process = lambda wanted=True: contextlib.nullcontext()
+    outputs.drawn = timed("plots", outputs.drawn)
+    pipeline.update = timed("update", pipeline.update)
+    t = time.perf_counter()
+    try:
+        times["exit"] = command(args)
+        return times["exit"]
+    finally:
+        times["main"] = time.perf_counter() - t
+
+def report():   # main() ends the process itself (`vibupdate.cli._end`), after the exit handlers
+    times["in_process"] = time.perf_counter() - t0
+    sys.__stdout__.write(json.dumps(times) + "\n")
+    sys.__stdout__.flush()
+
+cli._command = instrumented
+atexit.register(report)
+sys.argv = ["vibupdate", "example", "cantilever"]   # main() as the console script calls it
 with contextlib.redirect_stdout(io.StringIO()):
-    code = main(["example", "cantilever"])
-times["main"] = time.perf_counter() - t
-times["in_process"] = time.perf_counter() - t0
-times["exit"] = code
-print(json.dumps(times))
+    cli.main()
 """
 
 
@@ -72,14 +90,30 @@ def one(in_process: bool) -> dict:
     return row
 
 
+def command() -> dict:
+    """One uninstrumented run of the console script: wall time and the update's seconds."""
+    script = os.path.join(os.path.dirname(sys.executable), "vibupdate")
+    argv = [script] if os.path.exists(script) else [sys.executable, "-m", "vibupdate"]
+    with tempfile.TemporaryDirectory() as folder:
+        t0 = time.perf_counter()
+        done = subprocess.run(argv + ["example", "cantilever"], capture_output=True, text=True, cwd=folder)
+        wall = time.perf_counter() - t0
+    found = re.search(r"^solver: .*, ([0-9.]+) s$", done.stdout, re.M)
+    if done.returncode != 0 or not found:
+        raise RuntimeError(done.stdout[-1000:] + done.stderr[-2000:])
+    return {"wall": wall, "update": float(found.group(1)), "exit": done.returncode}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--in-process", action="store_true",
                         help="draw the plots in the run's own process (no plotting process), for comparison")
+    parser.add_argument("--command", action="store_true",
+                        help="time the console script itself: wall and the seconds of its solver line")
     args = parser.parse_args()
-    rows = [one(args.in_process) for _ in range(args.repeats)]
-    keys = ("wall", "interpreter", "imports", "update", "plots", "rest")
+    rows = [command() if args.command else one(args.in_process) for _ in range(args.repeats)]
+    keys = ("wall", "update") if args.command else ("wall", "interpreter", "imports", "update", "plots", "rest")
     median = {k: sorted(r[k] for r in rows)[len(rows) // 2] for k in keys}
     share = {k: median[k] / median["wall"] for k in keys[1:]}
     print(json.dumps({"median_s": median, "share_of_wall": share,

@@ -17,8 +17,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import scipy.io
-import scipy.sparse as sp
 
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
@@ -184,13 +182,16 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     the report, and only a failure there is an error. A plot, the study's files or the report
     that cannot be written costs a note (`vibupdate.io.outputs.OutputWarning`): it is added
     to the run's warnings, ``results.json`` is written again with it, and a report that
-    failed is replaced by a short one saying what failed. Returns the run as written (with
-    those notes).
+    failed is replaced by a short one saying what failed. The note that the plots were skipped
+    (no matplotlib) is known before anything is written and is in the first ``results.json``.
+    Returns the run as written (with those notes).
     """
     from vibupdate._extras import installed, skipped
     from vibupdate.io.outputs import OutputWarning, drawn
-    from vibupdate.report.plots import plot_homotopy
 
+    plots = installed("plots")
+    if not plots:      # without matplotlib: one note and no plots
+        run = replace(run, warnings=run.warnings + (skipped("plots", "plots"),))
     parts = file_names([c.name for c in case.configurations])
     for cfg in case.configurations:
         _write_matrices(folder, parts[cfg.name], run.matrices[cfg.name], run.matrix_files.get(cfg.name), run)
@@ -198,9 +199,9 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     images = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutputWarning)
-        if not installed("plots"):      # without matplotlib: one note and no plots
-            warnings.warn(OutputWarning(skipped("plots", "plots")))
-        else:
+        if plots:
+            from vibupdate.report.plots import plot_homotopy
+
             images += _receptance_plot(folder, case, run)
             for cfg in case.configurations:
                 images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
@@ -228,6 +229,9 @@ def _write_matrices(folder: Path, part: str, matrices: dict, files: dict | None,
     """The Matrix Market files of one configuration, under the names of ``run.matrix_files``
     (``files``; None: the run's own matrices, named from its status): a model that is not
     verified says so in its name and its comment line."""
+    import scipy.io   # here: its many readers are not needed before the first matrix is written
+    import scipy.sparse as sp
+
     for role, file in (files or {m: matrix_file(m, part, verified=run.success) for m in ("M", "K", "C")
                                  if m in matrices}).items():
         name, _, variant = role.partition("_")
@@ -238,8 +242,25 @@ def _write_matrices(folder: Path, part: str, matrices: dict, files: dict | None,
         else:
             matrix = matrices[name]
             what = f"{run.status} updated model"
-        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix),
+        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix), **_symmetry(matrix),
                          comment=f"vibupdate: {name} of configuration {part}, {what} (SI units)")
+
+
+#: Below this many rows `scipy.io.mmwrite` finds a matrix's symmetry itself (its default), one
+#: entry at a time in Python: about half of the time of each small file.
+MM_SYMMETRY_ROWS = 100
+
+
+def _symmetry(matrix) -> dict:
+    """Keywords of `scipy.io.mmwrite` for ``matrix``: ``symmetry="symmetric"`` for a small matrix
+    equal to its transpose entry by entry, which is what scipy's default finds there (only the
+    lower triangle is written); otherwise none (scipy's own choice, as before)."""
+    import scipy.sparse as sp
+
+    A = sp.csr_matrix(matrix)
+    if max(A.shape) < MM_SYMMETRY_ROWS and A.shape[0] == A.shape[1] and (A != A.T).nnz == 0:
+        return {"symmetry": "symmetric"}
+    return {}
 
 
 def _receptance_plot(folder: Path, case: Case, run: RunResult) -> list[tuple[str, str]]:
@@ -375,7 +396,8 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     else:   # at any size: the Jacobian is the exact sparse one (0.18 s at 2,940 DOFs, 1.0 s at 30,315)
         from vibupdate.ranges.identifiability import parameter_ranges
 
-        ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance)
+        ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
+                                  freqs=[result.modal.get(c.name) for c in case.configurations])
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
         identifiability["frequency_windows"] = _frequency_windows(case)
@@ -404,10 +426,12 @@ def _diagnosis(case: Case, result: UpdateResult, verification, say, wanted: bool
     """Which data conflict (`vibupdate.inverse.diagnosis`), when ``wanted`` and the answer
     failed a check of its fit to the data; None otherwise. Returns it and the run's notes: a
     diagnosis that fails costs a note, never the run's results."""
+    if not wanted or result.success:   # nothing to diagnose: the diagnosis module is not imported
+        return None, []
     from vibupdate.inverse.diagnosis import diagnose, wants_diagnosis
 
     failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
-    if not (wanted and wants_diagnosis(result.status, failed)):
+    if not wants_diagnosis(result.status, failed):
         return None, []
     try:
         return diagnose(case.configurations, result, formulation=case.formulation, solver=case.solver,
@@ -427,10 +451,10 @@ def _suggestion(case: Case, result: UpdateResult, verification, say):
     suggest``): each single candidate screened from the answer, no full update
     (`vibupdate.ranges.candidates`). Returns its record (None otherwise) and the run's notes:
     a screening that fails costs a note, never the run's results."""
-    from vibupdate.ranges.candidates import suggest_sets
-
     if result.success or not case.candidates or not verification.suggest or result.status.value != "not_verified":
         return None, []
+    from vibupdate.ranges.candidates import suggest_sets
+
     own = [p.name for p in result.parameters]
     try:
         found = suggest_sets(case.pool, own, [p.name for p in case.candidates], max_size=1, checked=0,

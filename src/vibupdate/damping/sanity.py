@@ -50,17 +50,17 @@ def negative_bands(exponents, beta, top: float, *, n_grid: int = 4000) -> list[t
     bands, start = [], (0.0 if low_sign < 0 else None)
     if start is None and values[0] < 0:
         start = float(grid[0])
-    for k in range(1, grid.size):
-        if (values[k - 1] < 0) != (values[k] < 0):
-            if values[k - 1] * values[k] < 0:
-                root = brentq(g, grid[k - 1], grid[k], xtol=1e-12 * top)
-            else:   # g is exactly 0 at one end of the bracket: that grid point is the root
-                root = grid[k - 1] if values[k - 1] == 0 else grid[k]
-            if values[k] < 0:
-                start = float(root)
-            else:
-                bands.append((start, float(root)))
-                start = None
+    negative = values < 0
+    for k in np.flatnonzero(negative[1:] != negative[:-1]) + 1:   # the grid points where the sign changes
+        if values[k - 1] * values[k] < 0:
+            root = brentq(g, grid[k - 1], grid[k], xtol=1e-12 * top)
+        else:   # g is exactly 0 at one end of the bracket: that grid point is the root
+            root = grid[k - 1] if values[k - 1] == 0 else grid[k]
+        if values[k] < 0:
+            start = float(root)
+        else:
+            bands.append((start, float(root)))
+            start = None
     if start is not None:
         bands.append((start, float(top)))
     return bands

@@ -233,8 +233,12 @@ def _refitted(D: np.ndarray, U_entries: np.ndarray, u_reference: np.ndarray) -> 
     return D - Q @ (Q.T @ D)
 
 
-def data_jacobian(configurations: Sequence[Configuration], xbar):
+def data_jacobian(configurations: Sequence[Configuration], xbar, *,
+                  freqs: Sequence[ModelFrequencies | None] | None = None):
     """The data map of every configuration at ``xbar`` and its exact Jacobian, stacked.
+
+    ``freqs``: `model_frequencies` of each configuration at ``xbar`` with ``derivatives=True``
+    when the caller has them (`UpdateResult.modal`): no eigen-solve is repeated.
 
     Returns
     -------
@@ -243,7 +247,8 @@ def data_jacobian(configurations: Sequence[Configuration], xbar):
     G : ndarray, shape (n_data, n_x)
         ``d d / d xbar``.
     """
-    maps = [data_map(c, xbar) for c in configurations]
+    freqs = list(freqs) if freqs is not None else [None] * len(configurations)
+    maps = [data_map(c, xbar, freqs=f) for c, f in zip(configurations, freqs)]
     return np.concatenate([m.values() for m in maps]), np.vstack([m.jacobian() for m in maps])
 
 

@@ -13,7 +13,6 @@ linear expressions of parameters (`LinearExpression`, re-exported here).
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -322,6 +321,8 @@ def _damping(table: dict, where: Where) -> DampingOptions:
 
 def load_case(path) -> Case:
     """Read and validate a case file; raises ValueError naming the file and the key."""
+    import tomllib   # here: a bundled example builds its case without TOML
+
     path = Path(path)
     where = Where(path)
     try:

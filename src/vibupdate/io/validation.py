@@ -198,7 +198,7 @@ def _rad_s_warning(cfg) -> str | None:
     if not cfg.natural:
         return None
     try:
-        nominal = model_frequencies(cfg).natural
+        nominal = model_frequencies(cfg, zeros=False).natural   # the natural frequencies only
     except (ValueError, np.linalg.LinAlgError):
         return None
     measured = np.array([f.omega for f in cfg.natural])

@@ -18,7 +18,6 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
-import scipy.io
 import scipy.sparse as sp
 
 from vibupdate.model.affine import (AffineModel, _check_unique_names, affine_from_assembly, affine_from_builder,
@@ -36,6 +35,8 @@ def load_matrix(path) -> sp.csr_matrix:
 
     ``.npz`` files may hold a `scipy.sparse.save_npz` matrix or a single dense array.
     """
+    import scipy.io   # here: a model built in Python reads no file (scipy.io loads many readers)
+
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"matrix file {str(path)!r} does not exist")

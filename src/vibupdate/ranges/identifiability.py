@@ -173,7 +173,8 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
-                     frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0):
+                     frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0,
+                     freqs=None):
     """Consistent range of every parameter around the answer ``xbar`` (module docstring).
 
     ``method="certified"`` returns instead the certified outer ranges over the consistent
@@ -192,6 +193,10 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     method : {"linearized", "certified"}
     seconds : float
         Time budget of the certified method's bound tightening.
+    freqs : sequence of ModelFrequencies, optional
+        `vibupdate.inverse.correlation.model_frequencies` of each configuration at ``xbar``
+        with ``derivatives=True`` (`UpdateResult.modal`), when already computed: the
+        linearized method then repeats no eigen-solve.
     """
     if method == "certified":
         from vibupdate.ranges.certify import certified_ranges
@@ -201,7 +206,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         raise ValueError(f"method must be 'linearized' or 'certified', got {method!r}")
     configurations = list(configurations)
     model = configurations[0].model
-    d_hat, G = data_jacobian(configurations, xbar)
+    d_hat, G = data_jacobian(configurations, xbar, freqs=freqs)
     d_meas, half, is_freq = _measured(configurations, frequency_tolerance)
     misfit = d_hat - d_meas
     # Frequencies: a window centred on the answer; shapes: the measured intervals, and where the
