@@ -137,3 +137,19 @@ def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tm
     a = np.array([p["updated"] for p in frf["parameters"]])
     b = np.array([p["updated"] for p in csv["parameters"]])
     np.testing.assert_allclose(b, a, rtol=1e-6)
+
+
+def test_mass_normalized_shapes_without_a_driving_point_exit_2_naming_the_key(tmp_path, capsys):
+    """Transfer FRFs alone give shapes scaled to their largest entry, not mass-normalized: a
+    case that says they are is refused, naming the key and the FRFs, and nothing is written."""
+    from vibupdate.cli import main
+
+    from frf_synthetic import cantilever_frf_case, measured, write_uff
+
+    head, frf_case = cantilever_frf_case(tmp_path)
+    write_uff(tmp_path / "hits.uff", measured(9, repeats=3, pairs=(("y1", "y3"), ("y2", "y3")))[0])
+    (tmp_path / "case.toml").write_text(head + "mass_normalized_shapes = true\n" + frf_case[len(head):])
+    assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "mass_normalized_shapes: the extracted shapes are not mass-normalized" in err
+    assert "h_y1,y3, h_y2,y3" in err and not (tmp_path / "out").exists()
