@@ -1,10 +1,12 @@
 """Craig-Bampton reduction of affine models (large models, docs/method.md)."""
 
 import numpy as np
+import pytest
 
 from helpers import uniform_cantilever
 from vibupdate import FormulationOptions, Parameter, from_builder, modes, update
 from vibupdate.examples import frame
+from vibupdate.inverse.polish import PolishOptions
 from vibupdate.inverse.reduction import craig_bampton, reduce_configurations, ritz_reduction, wants_reduction
 from vibupdate.inverse.status import Status
 
@@ -91,13 +93,20 @@ def test_kept_dofs_keep_their_physical_meaning():
     np.testing.assert_allclose(full[model.dof("y20")], Phi_r[1])
 
 
-def test_auto_reduction_solves_a_refined_frame():
-    """305 DOFs: above the threshold, solved on the reduced model, checked on the full one."""
+@pytest.mark.parametrize("budget", [pytest.param(None, marks=pytest.mark.slow), 40])
+def test_auto_reduction_solves_a_refined_frame(budget):
+    """305 DOFs: above the threshold, solved on the reduced model, checked on the full one.
+    With the default polish it takes 33 s, 32 of them in a polish that fits the example's noise
+    for 779 evaluations after it has passed below the truth's objective in 5
+    (benchmarks/RESULTS.md, "why the refined frame's polish takes 779 evaluations"): slow. The
+    reduction is what is tested here, so CI caps the polish at 40 evaluations (2 s), which ends
+    verified as well."""
     frequencies, shapes = frame.generate(subdivisions=8)
     configurations = frame.configurations(frequencies, shapes, 8)
     assert wants_reduction(configurations, FormulationOptions())
     assert not wants_reduction(configurations, FormulationOptions(reduction="none"))
-    result = update(configurations)
+    result = update(configurations) if budget is None else update(configurations,
+                                                                 polish=PolishOptions(max_evaluations=budget))
     assert result.status == Status.SUCCESS, result.message
     assert result.problem_size["reduced_dofs"] == 20 + 20
     assert result.mean_error() <= 1.5
