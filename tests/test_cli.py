@@ -358,3 +358,22 @@ def test_an_under_determined_chain_writes_its_results_and_names_the_undetermined
     assert combo in report and "condition inf" in report
     tables = printed.out[printed.out.index("\nFrequencies\n"):]   # the tables printed after the run
     assert combo in tables and "condition inf" in tables
+
+
+def test_a_reader_that_stops_reading_leaves_the_run_its_exit_code_and_files(tmp_path):
+    """``vibupdate example cantilever | head -1``: the pipe closes after one line; the run goes
+    on, writes its results and exits 0 (a broken pipe was an internal error, exit 3); a bad
+    input read that way still exits 2."""
+    import subprocess
+    import sys
+
+    run = subprocess.Popen([sys.executable, "-m", "vibupdate", "example", "cantilever", "--out", str(tmp_path / "r")],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=tmp_path)
+    first = run.stdout.readline()
+    run.stdout.close()   # the reader is gone
+    assert run.wait(timeout=300) == 0 and first.startswith(b"example cantilever")
+    assert (tmp_path / "r" / "results.json").is_file()
+    bad = subprocess.Popen([sys.executable, "-m", "vibupdate", "run", str(tmp_path / "none.toml")],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=tmp_path)
+    bad.stdout.close()
+    assert bad.wait(timeout=120) == 2

@@ -488,10 +488,49 @@ def _end(code: int) -> int:
     os._exit(code)
 
 
+class _ReaderGone:
+    """The program's standard output and error, for a reader that stops reading: ``vibupdate
+    run CASE | head`` closes the pipe after its lines. The command goes on to its end and its own exit
+    code (its files are written as usual); what it prints after that is dropped, where a bare
+    stream would end the run with a broken pipe as an internal error."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.gone = False
+
+    def write(self, text):
+        if not self.gone:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._drop()
+        return len(text)
+
+    def flush(self):
+        if not self.gone:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._drop()
+
+    def _drop(self):
+        self.gone = True
+        try:   # the descriptor onto the null device: no later flush, the interpreter's own included, can fail
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self._stream.fileno())
+        except (OSError, ValueError):
+            pass
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit code (module docstring). Called without
-    arguments, as the program itself, it ends the process when the command is done (`_end`)."""
+    arguments, as the program itself, it ends the process when the command is done (`_end`)
+    and keeps going when the reader of its output stops reading (`_ReaderGone`)."""
     args = _parser().parse_args(argv)
+    if argv is None and not isinstance(sys.stdout, _ReaderGone):
+        sys.stdout, sys.stderr = _ReaderGone(sys.stdout), _ReaderGone(sys.stderr)
     code = _main(args, program=argv is None)
     return _end(code) if argv is None else code
 
