@@ -107,3 +107,15 @@ def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
     assert found.worst.key == "A/dof/y3"
     with pytest.raises(ValueError, match="max_groups >= 1"):
         diagnose([cfg], result, max_groups=0)
+
+
+def test_a_mass_normalized_shape_left_without_a_dof_stays_mass_normalized():
+    """Leaving a shape DOF out keeps the other entries' scale: the modal mass stays a datum."""
+    from vibupdate.inverse.diagnosis import _drop_dof
+
+    shape = ShapeInterval({"y1": (0.9, 1.0), "y2": (0.4, 0.5), "y3": (-0.01, 0.02)}, mass_normalized=True)
+    kept = _drop_dof(shape, "y2")
+    assert kept.mass_normalized and kept.modal_mass_bounds() == shape.modal_mass_bounds()
+    assert _drop_dof(shape, "y1").mass_normalized          # y2 becomes the reference
+    assert not _drop_dof(ShapeInterval({"y1": (0.9, 1.0), "y3": (-0.01, 0.02)}, mass_normalized=True),
+                         "y1").mass_normalized             # y3's interval holds zero: no modal mass

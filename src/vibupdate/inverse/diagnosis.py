@@ -120,7 +120,12 @@ def _drop_dof(shape: ShapeInterval | None, dof: str) -> ShapeInterval | None:
     if shape is None or dof not in shape.bounds:
         return shape
     rest = {d: b for d, b in shape.bounds.items() if d != dof}
-    return ShapeInterval(rest) if rest else None
+    if not rest:
+        return None
+    try:   # a mass-normalized shape stays so: its other entries keep their scale
+        return ShapeInterval(rest, shape.mass_normalized)
+    except ValueError:   # its new largest entry may be zero: no modal mass left to measure
+        return ShapeInterval(rest)
 
 
 def _without_in(cfg: Configuration, group: DataGroup) -> Configuration | None:

@@ -175,7 +175,7 @@ def _draw_shape(draw: _Drawer, shape: ShapeInterval, width: float) -> ShapeInter
     for dof, (lo, hi) in shape.bounds.items():
         v, h = draw(lo, hi), width * 0.5 * (hi - lo)
         bounds[dof] = (max(lo, v - h), min(hi, v + h))
-    return ShapeInterval(bounds)
+    return ShapeInterval(bounds, shape.mass_normalized)
 
 
 def draw_configurations(configurations: Sequence[Configuration], frequency_tolerance: float, seed: int,
