@@ -600,14 +600,20 @@ def _edit(path: Path, old: str, new: str, count=1):
     path.write_text(text.replace(old, new, count))
 
 
+def _edit_shapes(case: Path, edit) -> None:
+    """Rewrite the case's ``shapes_case.csv`` with ``edit(lines)`` applied to its lines (header
+    first) in place."""
+    csv = case.parent / "shapes_case.csv"
+    lines = csv.read_text().splitlines()
+    edit(lines)
+    csv.write_text("\n".join(lines) + "\n")
+
+
 def mistakes():
     """(name, kind, spoil(root, case, spec) -> (command args, expected substrings)). ``kind``:
     ``bad`` must exit 2; ``valid`` must not crash (exit 0 or 1, or 2 with a named reason)."""
     def shape_dof(root, case, spec):
-        csv = case.parent / "shapes_case.csv"
-        lines = csv.read_text().splitlines()
-        lines.append(lines[1].split(",")[0] + ",9999:x,0.1,0.2")
-        csv.write_text("\n".join(lines) + "\n")
+        _edit_shapes(case, lambda lines: lines.append(lines[1].split(",")[0] + ",9999:x,0.1,0.2"))
         return ["run", str(case)], ["9999:x"]
 
     def rad_s(root, case, spec):
@@ -657,10 +663,12 @@ def mistakes():
         csv.write_text(csv.read_text().replace("\n4,", "\n5000,"))
         return ["run", str(case)], ["5000"]
 
+    def modes_without_shapes(case, modes) -> None:
+        """The case's shapes file replaced by declared ``natural_modes``."""
+        case.write_text(case.read_text().replace('mode_shapes_csv = "shapes_case.csv"', f"natural_modes = {modes}"))
+
     def mode_beyond_no_shapes(root, case, spec):
-        text = case.read_text()
-        text = text.replace('mode_shapes_csv = "shapes_case.csv"', 'natural_modes = [1, 2, 3, 5000]')
-        case.write_text(text)
+        modes_without_shapes(case, [1, 2, 3, 5000])
         return ["run", str(case)], ["5000"]
 
     def shape_mode_undeclared(root, case, spec):
@@ -669,27 +677,21 @@ def mistakes():
         return ["run", str(case)], ["7", "shapes_case.csv"]
 
     def shape_at_massless(root, case, spec):
-        csv = case.parent / "shapes_case.csv"
-        lines = csv.read_text().splitlines()
         massless = F.frame3d(1, 1, 1).massless[0]
-        lines.append(f"1,{massless},-0.5,0.5")
-        csv.write_text("\n".join(lines) + "\n")
+        _edit_shapes(case, lambda lines: lines.append(f"1,{massless},-0.5,0.5"))
         return ["run", str(case)], []
 
+    def first_row_bounds(lower: str, upper: str):
+        def edit(lines):
+            lines[1] = ",".join(lines[1].split(",")[:2] + [lower, upper])
+        return edit
+
     def shape_nan(root, case, spec):
-        csv = case.parent / "shapes_case.csv"
-        lines = csv.read_text().splitlines()
-        parts = lines[1].split(",")
-        lines[1] = ",".join(parts[:2] + ["nan", "nan"])
-        csv.write_text("\n".join(lines) + "\n")
+        _edit_shapes(case, first_row_bounds("nan", "nan"))
         return ["run", str(case)], ["shapes_case.csv"]
 
     def shape_lower_above_upper(root, case, spec):
-        csv = case.parent / "shapes_case.csv"
-        lines = csv.read_text().splitlines()
-        parts = lines[1].split(",")
-        lines[1] = ",".join(parts[:2] + ["0.5", "0.1"])
-        csv.write_text("\n".join(lines) + "\n")
+        _edit_shapes(case, first_row_bounds("0.5", "0.1"))
         return ["run", str(case)], ["shapes_case.csv"]
 
     def negative_frequency(root, case, spec):
@@ -710,20 +712,20 @@ def mistakes():
         _edit(spec, "step = 40.0", "step = 0.0")
         return ["import", str(spec), "--out", str(root / "model2")], ["step"]
 
-    def import_sensor_far(root, case, spec):
+    def with_sensor_by_position(spec, name: str, position, direction) -> None:
+        """The import file given the mesh's nodes and, first, a sensor placed by position."""
         text = spec.read_text()
         (spec.parent / "nodes.csv").write_text("node,x,y,z\n" + "".join(
             f"{k},{float(v[0])!r},{float(v[1])!r},{float(v[2])!r}\n" for k, v in F.frame3d(1, 1, 1).nodes.items()))
         spec.write_text('nodes = "nodes.csv"\n' + text.replace(
-            "[[sensor]]", '[[sensor]]\nname = "far"\nposition = [100.0, 100.0, 100.0]\ndirection = [1.0, 0.0, 0.0]\n\n[[sensor]]', 1))
+            "[[sensor]]", f'[[sensor]]\nname = "{name}"\nposition = {position}\ndirection = {direction}\n\n[[sensor]]', 1))
+
+    def import_sensor_far(root, case, spec):
+        with_sensor_by_position(spec, "far", [100.0, 100.0, 100.0], [1.0, 0.0, 0.0])
         return ["import", str(spec), "--out", str(root / "model2")], []
 
     def import_direction_zero(root, case, spec):
-        text = spec.read_text()
-        (spec.parent / "nodes.csv").write_text("node,x,y,z\n" + "".join(
-            f"{k},{float(v[0])!r},{float(v[1])!r},{float(v[2])!r}\n" for k, v in F.frame3d(1, 1, 1).nodes.items()))
-        spec.write_text('nodes = "nodes.csv"\n' + text.replace(
-            "[[sensor]]", '[[sensor]]\nname = "zero"\nposition = [0.0, 0.0, 3.5]\ndirection = [0.0, 0.0, 0.0]\n\n[[sensor]]', 1))
+        with_sensor_by_position(spec, "zero", [0.0, 0.0, 3.5], [0.0, 0.0, 0.0])
         return ["import", str(spec), "--out", str(root / "model2")], ["zero"]
 
     def more_modes_than_dofs(root, case, spec):
@@ -736,9 +738,7 @@ def mistakes():
         return ["run", str(case)], ["400"]
 
     def mode_among_massless(root, case, spec):
-        text = case.read_text()
-        text = text.replace('mode_shapes_csv = "shapes_case.csv"', 'natural_modes = [1, 2, 3, 80]')
-        case.write_text(text)
+        modes_without_shapes(case, [1, 2, 3, 80])
         return ["run", str(case)], ["80"]
 
     return [("shape at a DOF the model lacks", "bad", shape_dof),

@@ -197,7 +197,8 @@ OPTIONS = (
     Option("verification", "modal_mass_tolerance", "number", 0.05, "model-form tolerance of the modal masses that "
            "mass-normalized shapes measure: the largest relative miss beyond a modal mass's measurement interval",
            lower=0, upper=1, open_upper=True,
-           default_text="0.05: a modal constant carries the calibration of two transducers and the fit of a peak"),
+           default_text="0.05, chosen, not measured: a modal constant carries the calibration of two transducers and "
+           "the fit of a peak, each a few per cent"),
     Option("verification", "diagnose", "boolean", True, "when the answer does not fit the data, rank the groups of "
            "the data (each frequency, each shape, each shape DOF across modes) by how well the model fits without "
            "each, and update again without the worst (docs/method.md, section 7.8)"),

@@ -309,6 +309,11 @@ class Extraction:
                        f"bias; the estimate's window, when named, is modelled (window)")
         return out
 
+    @property
+    def mass_normalized(self) -> bool:
+        """Whether every extracted shape is mass-normalized (a driving point was measured)."""
+        return bool(self.modes) and all(m.normalization == "mass" for m in self.modes)
+
     def to_measured(self, first_mode: int | None = None, weight: float = 1.0, mass_normalized: bool = False):
         """Measured data for a `Configuration`: ``(naturals, antiresonances)``.
 
@@ -322,7 +327,7 @@ class Extraction:
         """
         from vibupdate.data.measured import Antiresonance, NaturalFrequency, ShapeInterval
 
-        if mass_normalized and any(m.normalization != "mass" for m in self.modes):
+        if mass_normalized and not self.mass_normalized:
             raise ValueError("the extracted shapes are not mass-normalized: that needs a driving-point FRF")
         naturals = [NaturalFrequency(m.omega, weight=weight, damping_ratio=m.damping_ratio,
                                      interval=m.omega_interval, damping_interval=m.damping_interval,

@@ -195,12 +195,13 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
                 found += [np.insert(right, model.dof(r), 0.0, axis=0), np.insert(left, model.dof(c), 0.0, axis=0)]
     measured = tuple(measured_shapes(cfg)) if shapes else ()
     ratios, ratio_jacobians, masses, mass_jacobian = [], [], [], []
+    M = model.matrices(xbar)[0] if any(s.mass is not None for s in measured) else None   # once, for the masses
     for s in measured:
         phi, near = paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position)
         ratios.append(phi[s.entries] / phi[s.reference])
-        if s.mass is not None:   # q^T M q, q = phi / phi_p: 1 / phi_p^2 of a mass-normalized mode
+        if s.mass is not None and not jacobian:   # q^T M q, q = phi / phi_p: 1 / phi_p^2 of a mass-normalized mode
             q = phi / phi[s.reference]
-            masses.append(float(q @ (model.matrices(xbar)[0] @ q)))
+            masses.append(float(q @ (M @ q)))
         if jacobian:
             basis = freqs.Phi_all[:, near] if near.size > 1 else None
             out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
@@ -210,7 +211,9 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
             if vectors:
                 found.append(out[1])
             if s.mass is not None:
-                mass_jacobian.append(modal_mass_derivatives(model, xbar, phi, s.reference, out[1])[1])
+                mass, derivative = modal_mass_derivatives(model, M, phi, s.reference, out[1])
+                masses.append(mass)
+                mass_jacobian.append(derivative)
     n_x = xbar.size
     return DataMap(freqs.natural, zeros, measured, tuple(ratios), freqs, natural_jacobian, zero_jacobian,
                    tuple(ratio_jacobians), tuple(found), np.array(masses, dtype=float),

@@ -277,6 +277,7 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
     tol = options.shape_tolerance
     vectors = {k: paired_vector(cfg, f.Phi_all, f.omega_all, k, options.shape_slack)
                for k, nat in enumerate(cfg.natural) if nat.shape is not None}
+    checked = {j: v for j, (v, _) in vectors.items()}   # the vector checked for each measured mode
     for k, nat in enumerate(cfg.natural):
         if nat.shape is None:
             continue
@@ -313,11 +314,10 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
             if out == 0.0:
                 continue
             if rounding is None:
-                rounding = rounding_allowance(cfg, xbar, f, {j: v for j, (v, _) in vectors.items()})
+                rounding = rounding_allowance(cfg, xbar, f, checked)
             if allowed is None:   # this mode's own floor at the model's precision, where it has one
                 allowed = rounding if cfg.model.matrix_precision is None else max(
-                    rounding, mode_rounding_allowance(cfg, xbar, f, k, cfg.model.matrix_precision,
-                                                      {j: v for j, (v, _) in vectors.items()}))
+                    rounding, mode_rounding_allowance(cfg, xbar, f, k, cfg.model.matrix_precision, checked))
             if out <= allowed:
                 continue
             if out <= tol + allowed:

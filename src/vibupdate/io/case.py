@@ -158,7 +158,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
               "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
-    if mass_normalized and any(m.normalization != "mass" for m in result.modes):
+    if mass_normalized and not result.mass_normalized:
         raise where.error(f"{key}.mass_normalized_shapes", "the extracted shapes are not mass-normalized: that needs "
                                                            "a driving-point FRF (a response equal to its excitation) "
                                                            f"among {', '.join(f'h_{r},{c}' for r, c in frfs.pairs)}")

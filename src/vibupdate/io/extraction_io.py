@@ -153,7 +153,7 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
                [[first_mode + k, f"{m.omega / TWO_PI:.8g}", f"{m.damping_ratio:.6g}",
                  f"{m.damping_interval[0]:.6g}", f"{m.damping_interval[1]:.6g}"] for k, m in enumerate(result.modes)])
     block = configuration_block(name)
-    if result.modes and all(m.normalization == "mass" for m in result.modes):
+    if result.mass_normalized:
         drive = next(f"h_{r},{c}" for r, c in result.pairs if r == c)
         block += (f"# the shapes are mass-normalized (driving point {drive}); when the FRFs are calibrated in SI "
                   "units (N; m, m/s or m/s^2), uncomment the next line to use their modal masses as data\n"

@@ -139,15 +139,15 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     return (D, V.copy()) if vectors else D
 
 
-def modal_mass_derivatives(model, xbar, phi, reference: int, V) -> tuple[float, np.ndarray]:
-    """The modal mass ``1 / phi_p^2`` (kg) of a mass-normalized mode ``phi`` at ``xbar``, scaled
-    to 1 at DOF ``reference``, and its exact derivative, shape (n_x,), from the solutions ``V``
-    of `shape_ratio_derivatives` (``vectors=True``) of the same mode (module docstring)."""
+def modal_mass_derivatives(model, M, phi, reference: int, V) -> tuple[float, np.ndarray]:
+    """The modal mass ``q^T M q`` (kg) of the mode ``phi`` scaled to 1 at DOF ``reference``
+    (``1 / phi_p^2`` of a mass-normalized mode), ``M`` the model's mass matrix at the mode's
+    point, and its exact derivative, shape (n_x,), from the solutions ``V`` of
+    `shape_ratio_derivatives` (``vectors=True``) of the same mode (module docstring)."""
     phi = np.asarray(phi, dtype=float)
     ref = phi[reference]
     q = phi / ref
     dQ = (V * ref - np.outer(phi, V[reference])) / ref**2
-    M = model.matrices(xbar)[0]
     Mq = M @ q
     direct = np.array([q @ (Mi @ q) for Mi in model.M_par])
     return float(q @ Mq), direct + 2.0 * (Mq @ dQ)
