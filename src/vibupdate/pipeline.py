@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.io.case import Case, DampingOptions
-from vibupdate.damping import DampingStage, DampingWarning, damping_data, identify_damping
+from vibupdate.damping import DampingStage, DampingWarning, damping_data, damping_weights, identify_damping
 from vibupdate.examples import EXAMPLES
 from vibupdate.io.outputs import (MANIFEST, file_names, matrix_file, matrix_files_planned, prepare_output,
                                   write_published)
@@ -79,14 +79,9 @@ def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | No
     if not any(f.damping_ratio is not None for c in case.configurations for f in c.natural):
         return None, [], {}
     _, ratios, labels = damping_data(case.configurations, xbar, freqs)
-    factors = dict(options.mode_weights)
-    weights = np.array([factors.get(mode, 1.0) for _, mode in labels])
-    half = _damping_half_widths(case, labels)
-    from_intervals = half is not None
-    if from_intervals:
-        weights = weights / half**2
-    elif options.relative:
-        weights = weights / ratios**2
+    rule = damping_weights(labels, ratios, options.mode_weights, relative=options.relative,
+                           half_widths=_damping_half_widths(case, labels))
+    weights = rule.weights
     notes = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DampingWarning)
@@ -95,13 +90,7 @@ def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | No
     notes += list(stage.warnings)
     for n in notes:
         say(f"warning: {n}")
-    if from_intervals:
-        text = ("W_ii = w_mode / h_i^2, h_i the half-width of the measured ratio's interval ("
-                + ", ".join(f"mode {mode}: {h:.3g}" for (_, mode), h in zip(labels, half)) + ")"
-                + ("; the case's relative = true is superseded by the intervals" if options.relative else ""))
-    else:
-        text = "W_ii = " + ("w_mode / xi_i^2 (relative errors)" if options.relative else "w_mode")
-    text += f" with w_mode = {factors}" if factors else " with w_mode = 1"
+    text = rule.rule
     if options.rationale:
         text += f". {options.rationale}"
     info = {"exponents": list(options.exponents), "beta": stage.caughey.beta.tolist(),

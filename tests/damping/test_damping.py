@@ -7,7 +7,8 @@ import pytest
 
 from helpers import random_spd
 from vibupdate import modes
-from vibupdate.damping import (DampingWarning, caughey_matrix, damping_data, fit_caughey, identify_damping,
+from vibupdate.damping import (DampingWarning, caughey_matrix, damping_data, damping_weights, fit_caughey,
+                               identify_damping,
                                modal_damping)
 from vibupdate.examples import cantilever
 from vibupdate.inverse.update import update
@@ -57,6 +58,21 @@ def test_under_determined_and_ill_conditioned_fits_warn():
         fit_caughey([100.0, 100.1, 100.2, 100.3], [0.01, 0.011, 0.012, 0.013], [0.0, 0.001, 0.002], condition_limit=1e6)
 
 
+def test_damping_weights_follow_the_stated_rule():
+    labels = (("A", 1), ("A", 2), ("B", 1))
+    ratios = np.array([0.01, 0.02, 0.04])
+    plain = damping_weights(labels, ratios, ((1, 2.0),))
+    assert plain.weights.tolist() == [2.0, 1.0, 2.0]
+    assert plain.rule == "W_ii = w_mode with w_mode = {1: 2.0}"
+    relative = damping_weights(labels, ratios, ((1, 2.0),), relative=True)
+    np.testing.assert_allclose(relative.weights, [2.0 / 1e-4, 1.0 / 4e-4, 2.0 / 16e-4])
+    # intervals win over relative errors, and the rule says so
+    half = np.array([0.001, 0.002, 0.004])
+    framed = damping_weights(labels, ratios, (), relative=True, half_widths=half)
+    np.testing.assert_allclose(framed.weights, 1.0 / half**2)
+    assert "superseded by the intervals" in framed.rule and "w_mode = 1" in framed.rule
+
+
 def test_bad_damping_input_is_named():
     with pytest.raises(ValueError, match="damping ratios must be positive and finite, got -0.01"):
         fit_caughey([100.0, 200.0], [0.01, -0.01], [0.0, 1.0])
@@ -71,13 +87,15 @@ def test_cantilever_damping_meets_the_paper_figure():
     result = update(configurations)
     _, ratios, labels = damping_data(configurations, result.xbar)
     options = cantilever.DAMPING
-    factors = dict(options.mode_weights)
-    weights = np.array([factors.get(m, 1.0) for _, m in labels]) / ratios**2
+    weights = damping_weights(labels, ratios, options.mode_weights, relative=options.relative).weights
     with warnings.catch_warnings():
         warnings.simplefilter("error", DampingWarning)
         stage = identify_damping(configurations, result.xbar, options.exponents, weights)
     assert len(stage.caughey.measured) == 12
-    assert stage.caughey.mean_error_pct <= 16.6, f"{stage.caughey.mean_error_pct:.1f} % (paper: 16.6 %)"
+    # the paper's Table 7 gives 16.6 %; this implementation's figure is 12.3 % (benchmarks/RESULTS.md,
+    # the cantilever example), held here to its printed digit so that a change of the fit shows
+    mean = stage.caughey.mean_error_pct
+    assert mean == pytest.approx(12.35, abs=0.05), f"{mean:.2f} % (12.3 % expected; paper: 16.6 %)"
     assert stage.rayleigh.mean_error_pct > stage.caughey.mean_error_pct
     rows = stage.rows()
     assert {"configuration", "mode", "measured", "identified", "error_pct"} <= set(rows[0])

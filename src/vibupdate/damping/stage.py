@@ -14,7 +14,7 @@ import numpy as np
 from vibupdate.damping.sanity import _checked_frequencies, damping_sanity
 from vibupdate.damping.series import DampingFit, DampingWarning, fit_caughey
 
-__all__ = ["DampingStage", "damping_data", "identify_damping"]
+__all__ = ["DampingStage", "DampingWeights", "damping_data", "damping_weights", "identify_damping"]
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,56 @@ def damping_data(configurations, xbar=None, freqs=None):
     if not ratios:
         raise ValueError("no measured damping ratio in any configuration: nothing to identify")
     return np.array(omega), np.array(ratios), tuple(labels)
+
+
+@dataclass(frozen=True)
+class DampingWeights:
+    """The diagonal of ``W`` in Eq. 24, one entry per measured ratio, and the rule that made it.
+
+    Attributes
+    ----------
+    weights : ndarray, shape (n_ratios,)
+        ``W_ii`` in the order of the ratios' labels.
+    rule : str
+        The rule as the report states it (``"W_ii = w_mode / h_i^2 ..."``).
+    """
+
+    weights: np.ndarray
+    rule: str
+
+
+def damping_weights(labels, ratios, mode_weights=(), *, relative: bool = False,
+                    half_widths=None) -> DampingWeights:
+    """The weights of the damping fit of a case: ``W_ii = w_mode / h_i^2`` when every ratio has
+    an interval (``h_i`` its half-width), else ``w_mode / xi_i^2`` when ``relative`` (relative
+    errors), else ``w_mode``.
+
+    Parameters
+    ----------
+    labels : sequence of (configuration, mode) pairs, one per measured ratio (`damping_data`).
+    ratios : array_like, shape (n_ratios,)
+        The measured damping ratios (dimensionless).
+    mode_weights : sequence of (mode, factor) pairs
+        ``w_mode`` by mode number, applied in every configuration; 1 for modes not named.
+    relative : bool
+        Weigh relative rather than absolute errors when the ratios have no intervals.
+    half_widths : array_like, shape (n_ratios,), or None
+        The half-widths of the ratios' intervals, or None when some ratio has none.
+    """
+    factors = dict(mode_weights)
+    weights = np.array([float(factors.get(mode, 1.0)) for _, mode in labels])
+    if half_widths is not None:
+        half = np.asarray(half_widths, dtype=float)
+        weights = weights / half**2
+        rule = ("W_ii = w_mode / h_i^2, h_i the half-width of the measured ratio's interval ("
+                + ", ".join(f"mode {mode}: {h:.3g}" for (_, mode), h in zip(labels, half)) + ")"
+                + ("; the case's relative = true is superseded by the intervals" if relative else ""))
+    else:
+        if relative:
+            weights = weights / np.asarray(ratios, dtype=float) ** 2
+        rule = "W_ii = " + ("w_mode / xi_i^2 (relative errors)" if relative else "w_mode")
+    rule += f" with w_mode = {factors}" if factors else " with w_mode = 1"
+    return DampingWeights(weights, rule)
 
 
 def _expand_weights(weights, labels):
