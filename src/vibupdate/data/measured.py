@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from vibupdate.data.pairing import declare, declared_modes
 from vibupdate.model.affine import AffineModel
 
 __all__ = [
@@ -279,8 +280,6 @@ class Configuration:
         object.__setattr__(self, "natural", tuple(self.natural))
         object.__setattr__(self, "antiresonances", tuple(self.antiresonances))
         validate_configuration(self)
-        from vibupdate.data.pairing import declare
-
         natural, zeros = declare(self)
         object.__setattr__(self, "natural", natural)
         object.__setattr__(self, "antiresonances", zeros)
@@ -331,16 +330,6 @@ def validate_configuration(cfg: Configuration) -> None:
         if s not in (1, -1):
             raise ValueError(f"{where}: first_sign of {rc} must be +1 or -1, got {s!r}")
     _check_modes(cfg, where)
-
-
-def declared_modes(natural: Sequence[NaturalFrequency]) -> list[int]:
-    """Model mode of each measured natural frequency (1-based): its ``mode``, or the mode
-    after the previous one (1 for the first)."""
-    out, prev = [], 0
-    for f in natural:
-        prev = f.mode if f.mode is not None else prev + 1
-        out.append(prev)
-    return out
 
 
 def _check_modes(cfg: Configuration, where: str) -> None:

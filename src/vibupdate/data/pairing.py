@@ -27,7 +27,7 @@ from dataclasses import replace
 
 import numpy as np
 
-__all__ = ["declare", "zero_indices"]
+__all__ = ["declare", "declared_modes", "zero_indices"]
 
 
 def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]:
@@ -75,6 +75,16 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]
     return out
 
 
+def declared_modes(natural: Sequence[NaturalFrequency]) -> list[int]:
+    """Model mode of each measured natural frequency (1-based): its ``mode``, or the mode
+    after the previous one (1 for the first)."""
+    out, prev = [], 0
+    for f in natural:
+        prev = f.mode if f.mode is not None else prev + 1
+        out.append(prev)
+    return out
+
+
 def declare(cfg):
     """Natural frequencies and antiresonances of ``cfg`` with every mode and index explicit.
 
@@ -84,7 +94,6 @@ def declare(cfg):
     antiresonances : tuple of Antiresonance
     """
     from vibupdate.modal.analysis import antiresonances, flexible_modes
-    from vibupdate.data.measured import declared_modes
 
     where = f"configuration {cfg.name!r}"
     mode_list = declared_modes(cfg.natural)

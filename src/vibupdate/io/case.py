@@ -247,7 +247,7 @@ def _first_signs(cfg: dict, where: Where, key: str) -> dict:
 def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, where: Where,
                    models: dict):
     """The configuration of one ``[[configuration]]`` table, and its measured FRFs (or None)."""
-    from vibupdate.data.measured import declared_modes
+    from vibupdate.data.pairing import declared_modes
 
     key = f"configuration[{index}]"
     check_table(cfg, CFG_KEYS, key, where, required=("name",))
