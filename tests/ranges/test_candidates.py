@@ -182,7 +182,7 @@ def test_suggest_bad_input_is_named(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_free_free_bar_known_truth_suggests_the_rotary_inertia_factor_with_E(tmp_path, capsys):
-    """The known-truth bar of `bar_synthetic`: a Timoshenko truth (shear and rotary inertia)
+    """The known-truth bar of `vibupdate.examples.bar`: a Timoshenko truth (shear and rotary inertia)
     modelled as an Euler-Bernoulli beam, one accelerometer, nine hammer points, 1 % noise.
     `extract` gives shapes at all nine points whose 95 % intervals hold the truth at a rate of
     0.90-1.00 over 10 seeds, and so do the modal masses of the mass-normalized shapes;
@@ -192,7 +192,7 @@ def test_free_free_bar_known_truth_suggests_the_rotary_inertia_factor_with_E(tmp
     their intervals, within the 5 % model-form tolerance). The update with E and r is `success`
     with every natural frequency within 0.1 % and E within 0.5 % of its truth; no single
     candidate verifies. Figures over 20 seeds: benchmarks/suggest_bar.py, benchmarks/RESULTS.md."""
-    import bar_synthetic as bar
+    from vibupdate.examples import bar
     from frf_synthetic import write_uff
     from vibupdate.data.extraction import extract
 
