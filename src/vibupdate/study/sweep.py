@@ -70,10 +70,8 @@ ENDS_KEY = "_line_ends"
 #: Proximal weight of the random-start solve (`vibupdate.study.multistart.random_start_solve`).
 START_PROXIMAL = 1e-3
 
-#: Worker-side cache of cases loaded from files: (path, digest) -> Case.
+#: Worker-side cache of cases loaded from files: (path, digest) -> Case; one entry per load.
 _CASES: dict[tuple[str, str], Case] = {}
-#: How many times this process loaded a case file (read by the tests through ``Client.run``).
-CASE_LOADS = {"count": 0}
 
 
 @dataclass(frozen=True)
@@ -108,7 +106,6 @@ def _resolve(case) -> Case:
         if case_source(case.path).digest != case.digest:
             raise ValueError(f"case file {case.path!r} changed since the sweep started")
         _CASES[key] = load_case(case.path)
-        CASE_LOADS["count"] += 1
     return _CASES[key]
 
 
