@@ -338,14 +338,15 @@ def load_case(path) -> Case:
     # a case whose parameters are all still to be chosen among its candidates (`vibupdate suggest`)
     check_table(data, TOP_KEYS, "", where,
                 required=("model", "configuration") + (() if "candidate" in data else ("parameter",)))
-    parameters = _parameters(data.get("parameter", []), "parameter", where)
-    candidates = _parameters(data.get("candidate", []), "candidate", where)
+    base = path.parent
+    source, items = _element_groups(data, base, where)
+    parameters = _parameters(items["parameter"], "parameter", where)
+    candidates = _parameters(items["candidate"], "candidate", where)
     twice = sorted({p.name for p in parameters} & {p.name for p in candidates})
     if twice:
         raise where.error("candidate", f"{', '.join(map(repr, twice))} is declared both as a [[parameter]] and as a "
                                        f"[[candidate]]; declare each name once")
-    base = path.parent
-    models: dict = {}
+    models = _element_models(source, items, parameters + candidates, where)
     loaded = [_configuration(cfg, i, data["model"], parameters + candidates, base, where, models)
               for i, cfg in enumerate(data["configuration"], start=1)]
     configurations = tuple(c for c, _ in loaded)
@@ -372,6 +373,32 @@ def load_case(path) -> Case:
         candidates=tuple(candidates),
         pool=pool,
     )
+
+
+def _element_groups(data: dict, base: Path, where: Where):
+    """The elements of a ``[model]`` of ``type = "element_matrices"`` (None for another model)
+    and the ``[[parameter]]`` and ``[[candidate]]`` tables with their ``each_group`` tables
+    expanded, one per group (`vibupdate.io.case_elements`)."""
+    from vibupdate.io.case_elements import expand_group_parameters, read_element_source
+
+    spec = data["model"]
+    source = read_element_source(spec, base, where) \
+        if isinstance(spec, dict) and spec.get("type") == "element_matrices" else None
+    items = {table: expand_group_parameters(data.get(table, []), table, source, where)
+             for table in ("parameter", "candidate")}
+    return source, items
+
+
+def _element_models(source, items: dict, parameters, where: Where) -> dict:
+    """The cache of models of `configuration_model`, holding the element-matrices model when
+    there is one (it needs the parameters' element groups, which the cache's builder does not see)."""
+    from vibupdate.io.case_elements import element_model
+    from vibupdate.io.case_model import model_tag
+
+    if source is None:
+        return {}
+    tables = [t for t in (*items["parameter"], *items["candidate"])]
+    return {model_tag({}): element_model(source, tables, parameters, where)}
 
 
 def _parameters(items, table: str, where: Where) -> list[Parameter]:
