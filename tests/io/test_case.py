@@ -351,3 +351,74 @@ def test_the_documented_sixteen_brace_groups_make_sixteen_parameters():
     items = expand_group_parameters(spec["parameter"], "parameter", ElementSource(None, groups, ()), Where(Path("x")))
     assert [item["name"] for item in items] == [f"E_{g}" for g in names]
     assert all(item["elements"] == g and item["nominal"] == 210e9 for item, g in zip(items, names))
+
+
+# -- damped or natural frequencies --------------------------------------------------------------
+
+#: Damping ratios of the chain's three modes: the first makes natural and damped differ by 0.18 %.
+CHAIN_ZETA = [0.06, 0.01, 0.01]
+
+
+def _damped_chain_case(tmp_path, statement="", tolerance=0.001):
+    """The chain of `CHAIN_CASE` at k = 1200 with its three frequencies measured as damped
+    ones, ``omega_d = omega_n sqrt(1 - zeta^2)``, within +-``tolerance``; returns the case file
+    and the natural frequencies (Hz), the truth."""
+    hz = write_chain_matrices(tmp_path)
+    damped = [h * np.sqrt(1 - z**2) for h, z in zip(hz, CHAIN_ZETA)]
+    text = (f"frequency_tolerance = {tolerance}\n" + CHAIN_CASE
+            + f"natural_hz = {[float(h) for h in damped]}\ndamping_ratios = {CHAIN_ZETA}\n" + statement)
+    return write(tmp_path, text), hz
+
+
+def test_damped_frequencies_are_made_natural_with_their_damping_ratios(tmp_path, capsys):
+    path, natural = _damped_chain_case(tmp_path, 'frequency_type = "damped"\n')
+    case = load_case(path)
+    got = [f.freq_hz for f in case.configurations[0].natural]
+    np.testing.assert_allclose(got, natural, rtol=1e-14)
+    assert [f.damping_ratio for f in case.configurations[0].natural] == CHAIN_ZETA
+    # the conversion moved mode 1 beyond its interval (0.18 % > 0.1 %), and the run says so
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "warning: configuration 'only': the damped frequencies were made natural" in out
+    assert "frequency 1" in out and "0.18 % > 0.1 %" in out and "frequency 2" not in out
+    doc = __import__("json").loads((tmp_path / "out" / "results.json").read_text())
+    assert abs(doc["parameters"][0]["updated"] / 1200.0 - 1) <= 1e-6
+
+
+def test_damped_frequencies_not_declared_are_taken_as_natural_with_a_note(tmp_path):
+    from vibupdate.pipeline import check_case
+
+    path, natural = _damped_chain_case(tmp_path)
+    case = load_case(path)
+    assert case.configurations[0].natural[0].freq_hz < natural[0] * (1 - 1e-3)     # taken as given
+    said = [w for w in check_case(case).warnings if "damping ratios make natural frequencies higher" in w]
+    assert len(said) == 1 and said[0].startswith("configuration 'only': ")
+    assert "frequency 1 at " in said[0] and "frequency_type = \"damped\"" in said[0]
+    # stated natural: the user has said, no note; a wider interval than the shift: no note
+    for statement, tolerance in (('frequency_type = "natural"\n', 0.001), ("", 0.01)):
+        path, _ = _damped_chain_case(tmp_path, statement, tolerance)
+        assert not [w for w in check_case(load_case(path)).warnings if "damped" in w]
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("damping_ratios = [0.06, 0.01, 0.01]\n", ""), r"configuration 'only'\.frequency_type: 'damped' converts each "
+                                                   r"frequency with its damping ratio; frequency 1 .* has none"),
+    (('frequency_type = "damped"', 'frequency_type = "undamped"'), r"frequency_type: must be 'natural' or 'damped'"),
+])
+def test_damped_frequency_mistakes_name_the_key(tmp_path, edit, message):
+    path, _ = _damped_chain_case(tmp_path, 'frequency_type = "damped"\n')
+    path.write_text(path.read_text().replace(*edit))
+    with pytest.raises(ValueError, match=message):
+        load_case(path)
+
+
+def test_a_damped_interval_becomes_the_natural_one_with_the_ratios_that_move_it_farthest():
+    from vibupdate.data.measured import NaturalFrequency, damped_shift, natural_from_damped
+
+    f = NaturalFrequency(100.0, damping_ratio=0.05, interval=(99.0, 101.0), damping_interval=(0.02, 0.08))
+    n = natural_from_damped(f)
+    assert n.omega == pytest.approx(100.0 / np.sqrt(1 - 0.05**2), rel=1e-15)
+    assert n.interval == pytest.approx((99.0 / np.sqrt(1 - 0.02**2), 101.0 / np.sqrt(1 - 0.08**2)), rel=1e-15)
+    assert damped_shift(0.06) == pytest.approx(0.0018, rel=0.01)
+    with pytest.raises(ValueError, match="has no damping ratio"):
+        natural_from_damped(NaturalFrequency(100.0))

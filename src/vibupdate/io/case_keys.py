@@ -82,7 +82,7 @@ def numbers(values, key, where) -> list[float]:
 
 TOP_KEYS = {"case": str, "model": dict, "parameter": list, "candidate": list, "configuration": list, "solver": dict,
              "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
-             "verification": dict}
+             "verification": dict, "frequency_type": str}
 # The option tables: their keys from the declarations, each value checked there (vibupdate.options).
 POLISH_KEYS = {o.name: None for o in declared("polish", case_file=True)}
 VERIFICATION_KEYS = {o.name: None for o in declared("verification", case_file=True)}
@@ -94,7 +94,7 @@ PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "u
 CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_modes": list, "damping_ratios": list,
              "antiresonances": list, "frequencies_csv": str, "mode_shapes_csv": str, "mode_shapes_uff": str,
              "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list,
-             "frf": dict, "mass_normalized_shapes": bool}
+             "frf": dict, "mass_normalized_shapes": bool, "frequency_type": str}
 FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
              "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float,
              "window": str, "reciprocal": bool, "keep_outer_zeros": bool, "window_decay": float,
