@@ -142,3 +142,17 @@ def test_a_case_of_element_groups_recovers_the_damaged_braces_through_run(tmp_pa
     updated = {p["name"]: p["updated"] for p in doc["parameters"]}
     assert set(updated) == {"brace_1", "brace_2", "columns"}
     assert max(abs(updated[g] - TRUTH[g]) for g in updated) <= 1e-6, updated
+
+
+def test_suggest_names_the_damaged_group_among_element_group_candidates(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(TRUTH, "brace_2", 1.0)          # only the first storey's braces damaged
+    ef.write_abaqus_elements(tmp_path / "frame.mtx")
+    groups = "[model.groups]\n" + "\n".join(
+        f"{g} = {[e for e, item in ef.ELEMENTS.items() if item[2] == g]}" for g in ("brace_1", "brace_2", "columns"))
+    text = (GROUP_CASE.format(elements="frame.mtx", groups=groups).replace("[[parameter]]", "[[candidate]]")
+            .replace('each_group = "brace_*"', 'each_group = ["brace_*", "columns"]'))
+    text = text[:text.index('[[candidate]]\nname = "columns"')]
+    (tmp_path / "case.toml").write_text(text + _exact_data(tmp_path))
+    assert main(["suggest", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 0, \
+        capsys.readouterr().err
+    assert "suggested: add brace_1 (verified" in capsys.readouterr().out

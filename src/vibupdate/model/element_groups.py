@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.model.affine import AffineModel, _check_unique_names, check_matrices, symmetric_error
+from vibupdate.model.affine import AffineModel, _check_unique_names, check_matrices
 from vibupdate.model.parameters import Parameter
 
 __all__ = ["ElementMatrices", "element_matrices", "affine_from_elements", "ElementScaling"]
@@ -124,37 +124,43 @@ def element_matrices(elements: Sequence[tuple], *, dofs: Sequence[str] | None = 
     index = {d: k for k, d in enumerate(order)}
     by_size: dict[int, list] = {}
     for position, (label, names, K, M) in enumerate(elements):
-        names = list(names)
+        try:
+            where = [index[d] for d in names]
+        except KeyError as exc:
+            raise ValueError(f"{source}: element {label!r} names DOF {exc.args[0]!r}, which is not in the DOF list") \
+                from None
         K = np.asarray(K, dtype=float)
         M = np.zeros_like(K) if M is None else np.asarray(M, dtype=float)
-        n = len(names)
         for what, A in (("stiffness", K), ("mass", M)):
-            if A.shape != (n, n):
-                raise ValueError(f"{source}: element {label!r}: {what} matrix has shape {A.shape} for {n} DOFs")
-            if not np.all(np.isfinite(A)):
-                raise ValueError(f"{source}: element {label!r}: {what} matrix has non-finite entries")
-            if symmetric_error(sp.csr_matrix(A)) > 1e-9:
-                raise ValueError(f"{source}: element {label!r}: {what} matrix is not symmetric")
-        unknown = [d for d in names if d not in index]
-        if unknown:
-            raise ValueError(f"{source}: element {label!r} names DOF {unknown[0]!r}, which is not in the DOF list")
-        by_size.setdefault(n, []).append((position, [index[d] for d in names], K, M))
-    parts = [_triplets(batch) for batch in by_size.values()]
-    rows, cols, owner, K, M = (np.concatenate([p[k] for p in parts]) for k in range(5))
+            if A.shape != (len(where), len(where)):
+                raise ValueError(f"{source}: element {label!r}: {what} matrix has shape {A.shape} for {len(where)} DOFs")
+        by_size.setdefault(len(where), []).append((position, where, K, M))
+    parts = [_triplets(batch, labels, source) for batch in by_size.values()]
+    rows, cols, owner, K, M = (parts[0][k] if len(parts) == 1 else np.concatenate([p[k] for p in parts])
+                               for k in range(5))
     return ElementMatrices(tuple(labels), tuple(order), rows, cols, owner, K, M, precision, source)
 
 
-def _triplets(batch):
-    """Triplets of elements of one size: ``(position, dof indices, K, M)`` each."""
+def _triplets(batch, labels, source: str):
+    """Triplets of elements of one size: ``(position, dof indices, K, M)`` each; the matrices
+    checked finite and symmetric all at once."""
     position = np.array([b[0] for b in batch], dtype=np.int64)
     index = np.array([b[1] for b in batch], dtype=np.int64)            # (n_el, n_e)
     n_el, n_e = index.shape
-    rows = np.broadcast_to(index[:, :, None], (n_el, n_e, n_e)).ravel()
-    cols = np.broadcast_to(index[:, None, :], (n_el, n_e, n_e)).ravel()
+    stacked = {"stiffness": np.stack([b[2] for b in batch]), "mass": np.stack([b[3] for b in batch])}
+    for what, A in stacked.items():
+        bad = ~np.isfinite(A).all(axis=(1, 2))
+        if bad.any():
+            raise ValueError(f"{source}: element {labels[position[bad.argmax()]]!r}: {what} matrix has non-finite "
+                             "entries")
+        asymmetry = np.abs(A - A.swapaxes(1, 2)).max(axis=(1, 2), initial=0.0)
+        bad = asymmetry > 1e-9 * np.abs(A).max(axis=(1, 2), initial=0.0)
+        if bad.any():
+            raise ValueError(f"{source}: element {labels[position[bad.argmax()]]!r}: {what} matrix is not symmetric")
+    rows = np.repeat(index, n_e, axis=1).ravel()           # (element, row, column) order of the matrices
+    cols = np.tile(index, (1, n_e)).ravel()
     owner = np.repeat(position, n_e * n_e)
-    K = np.stack([b[2] for b in batch]).ravel()
-    M = np.stack([b[3] for b in batch]).ravel()
-    return rows, cols, owner, K, M
+    return rows, cols, owner, stacked["stiffness"].ravel(), stacked["mass"].ravel()
 
 
 @dataclass(frozen=True)
