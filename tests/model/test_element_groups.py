@@ -12,9 +12,10 @@ import element_frames as ef
 from vibupdate import Parameter
 from vibupdate.cli import main
 from vibupdate.model.element_groups import ElementScaling, affine_from_elements, element_matrices
-from vibupdate.model.fe.abaqus_elements import read_abaqus_elements
+from vibupdate.model.fe.abaqus_elements import read_abaqus_element_sets, read_abaqus_elements
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "abaqus_element_matrices.mtx"
+SETS = Path(__file__).resolve().parents[1] / "fixtures" / "abaqus_element_sets.inp"
 #: The truth of the recovery test: the first storey's braces lost 30 % of their stiffness.
 TRUTH = {"brace_1": 0.7, "brace_2": 0.95, "columns": 1.0}
 
@@ -56,6 +57,18 @@ def test_the_reader_follows_the_layout_abaqus_writes():
     assert np.array_equal(K, truss + spring)
     assert np.array_equal(elements.assemble("M").toarray(), np.diag([0.5, 0.5, 0.5, 0.5]))
     assert elements.precision == pytest.approx(5e-15)
+
+
+def test_the_element_sets_of_an_abaqus_input_file_are_the_groups(tmp_path):
+    sets = read_abaqus_element_sets(SETS)
+    assert sets == {"columns": [1, 2, 3, 4], "beams": [5, 6], "brace_1": [7, 8], "brace_2": [9, 10],
+                    "Braces": [7, 8, 9, 10]}
+    assert {g: [e for e, item in ef.ELEMENTS.items() if item[2] == g] for g in ("columns", "beams", "brace_1",
+                                                                                "brace_2")} == {
+        g: sets[g] for g in ("columns", "beams", "brace_1", "brace_2")}
+    (tmp_path / "parts.inp").write_text("*Part, name=frame\n*Element, type=B21, elset=a\n1, 1, 2\n*End Part\n")
+    with pytest.raises(ValueError, match="parts.inp: line 1: [*]Part: the element sets of parts and instances"):
+        read_abaqus_element_sets(tmp_path / "parts.inp")
 
 
 def test_an_element_matrix_with_the_wrong_count_is_named(tmp_path):
@@ -127,11 +140,10 @@ upper = 1.5
 
 @pytest.mark.parametrize("route", ["abaqus", "npz-table"])
 def test_a_case_of_element_groups_recovers_the_damaged_braces_through_run(tmp_path, route, capsys):
-    if route == "abaqus":
+    if route == "abaqus":      # the groups are the element sets of the input file
         ef.write_abaqus_elements(tmp_path / "frame.mtx")
-        groups = "[model.groups]\n" + "\n".join(
-            f"{g} = {[e for e, item in ef.ELEMENTS.items() if item[2] == g]}" for g in ("brace_1", "brace_2", "columns"))
-        text = GROUP_CASE.format(elements="frame.mtx", groups=groups)
+        (tmp_path / "frame.inp").write_text(SETS.read_text())
+        text = GROUP_CASE.format(elements="frame.mtx", groups='groups = "frame.inp"')
     else:
         ef.write_element_table(tmp_path / "elements")
         text = GROUP_CASE.format(elements="elements/elements.csv", groups="")

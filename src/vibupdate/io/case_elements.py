@@ -132,10 +132,17 @@ def read_element_source(spec: dict, base: Path, where: Where) -> ElementSource:
 
 
 def _groups(value, base: Path, where: Where) -> dict:
-    """``[model] groups``: a table of group name -> element labels, or a CSV file with columns
-    ``element``, ``group``."""
+    """``[model] groups``: a table of group name -> element labels, a CSV file with columns
+    ``element``, ``group``, or an Abaqus input file (``.inp``) whose element sets are the groups."""
     from vibupdate.io.measured_io import _rows
 
+    if isinstance(value, str) and value.lower().endswith(".inp"):
+        from vibupdate.model.fe.abaqus_elements import read_abaqus_element_sets
+
+        try:
+            return read_abaqus_element_sets(base / value)
+        except ValueError as exc:
+            raise where.error("model.groups", str(exc)) from None
     if isinstance(value, str):
         path = base / value
         try:

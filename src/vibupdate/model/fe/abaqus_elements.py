@@ -27,6 +27,9 @@ file stores it), each row starting a new line and wrapped at four entries per li
 matrices are in the global directions, before the boundary conditions: the supports are fixed
 by naming their DOFs. The significant digits of the values give the export's relative
 precision (`vibupdate.model.fe.export.precision_of_digits`).
+
+The element sets of the input file (``*ELSET``, and the ``ELSET=`` of ``*ELEMENT``) give the
+groups the parameters follow (`read_abaqus_element_sets`).
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ import numpy as np
 from vibupdate.model.element_groups import ElementMatrices, element_matrices
 from vibupdate.model.fe.export import DIRECTIONS, dof_name, precision_of_digits, significant_digits
 
-__all__ = ["read_abaqus_elements"]
+__all__ = ["read_abaqus_elements", "read_abaqus_element_sets"]
 
 _ELEMENT = re.compile(r"\*\*\s*ELEMENT NUMBER\s+(-?\d+)(?:\s+STEP NUMBER\s+(\d+))?", re.I)
 _NODES = re.compile(r"NODES\s*=\s*(\d+)", re.I)
@@ -180,3 +183,70 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
                    key=lambda d: (int(d.split(":")[0]), DIRECTIONS.index(d.split(":")[1])))
     return element_matrices(elements, dofs=order, precision=precision_of_digits(digits),
                             source=", ".join(map(str, paths)))
+
+
+_PARAMETER = re.compile(r"(\w+)\s*(?:=\s*(\"[^\"]*\"|[^,]*))?")
+
+
+def _keyword(text: str) -> tuple[str, dict]:
+    """``("*ELSET", {"ELSET": "brace_1x", "GENERATE": ""})`` of a keyword line (parameter names
+    upper case, values as written, quotes removed)."""
+    name, _, rest = text.partition(",")
+    params = {}
+    for item in rest.split(","):
+        m = _PARAMETER.match(item.strip())
+        if m:
+            params[m.group(1).upper()] = (m.group(2) or "").strip().strip('"')
+    return name.strip().upper(), params
+
+
+def read_abaqus_element_sets(path) -> dict[str, list[int]]:
+    """Element sets of an Abaqus input file: ``*ELSET, ELSET=name`` (element numbers, ``GENERATE``
+    ranges ``first, last, step``, or names of other sets) and ``*ELEMENT, ELSET=name`` (the
+    elements it defines). Set names are kept as written and matched regardless of case, as
+    Abaqus does. Only a flat input file is read: a model of parts and instances numbers its
+    elements per part, and is refused."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"Abaqus input file {str(path)!r} does not exist")
+    sets: dict[str, list[int]] = {}
+    named: dict[str, str] = {}              # upper-case name -> name as first written
+    target, mode = None, None
+    for number, raw in enumerate(path.read_text(errors="replace").splitlines(), start=1):
+        text = raw.strip()
+        if not text or text.startswith("**"):
+            continue
+        if text.startswith("*"):
+            keyword, params = _keyword(text)
+            target, mode = None, None
+            if keyword in ("*PART", "*INSTANCE"):
+                raise ValueError(f"{path}: line {number}: {keyword.title()}: the element sets of parts and instances are "
+                                 "numbered per part; give the groups as a CSV of element and group")
+            if keyword in ("*ELSET", "*ELEMENT") and params.get("ELSET"):
+                name = params["ELSET"]
+                target = named.setdefault(name.upper(), name)
+                sets.setdefault(target, [])
+                mode = "element" if keyword == "*ELEMENT" else ("generate" if "GENERATE" in params else "list")
+            continue
+        if target is None:
+            continue
+        fields = [f.strip() for f in text.split(",") if f.strip()]
+        try:
+            if mode == "element":
+                sets[target].append(int(fields[0]))
+            elif mode == "generate":
+                first, last, step = (int(f) for f in (fields + ["1"])[:3])
+                sets[target] += list(range(first, last + 1, step))
+            else:
+                for f in fields:
+                    if f.lstrip("-").isdigit():
+                        sets[target].append(int(f))
+                    elif f.upper() in named:
+                        sets[target] += sets[named[f.upper()]]
+                    else:
+                        raise ValueError(f"{f!r} is neither an element number nor a set defined above")
+        except ValueError as exc:
+            raise ValueError(f"{path}: line {number}: element set {target!r}: {exc}") from None
+    if not sets:
+        raise ValueError(f"{path}: no element set (*ELSET, or *ELEMENT with ELSET=)")
+    return {name: list(dict.fromkeys(labels)) for name, labels in sets.items()}
