@@ -42,6 +42,20 @@ def test_the_group_matrices_equal_the_hand_assembled_ones(tmp_path):
     assert np.abs(K.toarray() - ef.hand_assembled({"brace_1": 0.7, "brace_2": 0.95})).max() <= 1e-14 * scale
 
 
+def test_a_density_parameter_scales_its_group_mass(tmp_path):
+    elements = read_abaqus_elements([ef.write_abaqus_elements(tmp_path / "frame.mtx")])
+    fixed = [d for d in elements.dofs if int(d.split(":")[0]) in ef.BASE]
+    rho = Parameter("rho_beams", 7850.0, 7000.0, 8500.0, reference=785.0)
+    model = affine_from_elements(elements, [rho], {"rho_beams": ElementScaling((5, 6), "M")}, fixed=fixed)
+    beams = ef.hand_assembled(groups={"beams"}, which="M")
+    # dM/dxbar = (group mass / nominal) * reference
+    assert np.abs(model.M_par[0].toarray() - beams * 785.0 / 7850.0).max() <= 1e-14 * np.abs(beams).max()
+    assert model.K_par[0].nnz == 0
+    M, _ = model.matrices_at([8000.0])
+    assert np.abs(M.toarray() - (ef.hand_assembled(which="M") + beams * (8000.0 / 7850.0 - 1))).max() \
+        <= 1e-13 * np.abs(beams).max()
+
+
 def test_the_reader_follows_the_layout_abaqus_writes():
     # tests/fixtures/abaqus_element_matrices.mtx, written by hand in the layout of the Abaqus
     # Keywords Reference Guide (*ELEMENT MATRIX OUTPUT, OUTPUT FILE=USER DEFINED: the *USER ELEMENT,
