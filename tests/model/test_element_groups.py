@@ -182,3 +182,8 @@ def test_suggest_names_the_damaged_group_among_element_group_candidates(tmp_path
     assert main(["suggest", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 0, \
         capsys.readouterr().err
     assert "suggested: add brace_1 (verified" in capsys.readouterr().out
+
+
+def test_an_element_written_twice_is_refused_naming_it():
+    with pytest.raises(ValueError, match="element 12 is written twice .*one step and increment"):
+        read_abaqus_elements([FIXTURE, FIXTURE])

@@ -83,7 +83,11 @@ def _blocks(path: Path) -> list[_Block]:
             if "ELEMENT NODES" in upper:
                 reading_nodes = True
             elif reading_nodes and current.n_nodes is not None and len(current.nodes) < current.n_nodes:
-                current.nodes += [int(t) for t in re.split(r"[,\s]+", text[2:].strip()) if t]
+                try:
+                    current.nodes += [int(t) for t in re.split(r"[,\s]+", text[2:].strip()) if t]
+                except ValueError:
+                    raise ValueError(f"{path}: line {number}: expected the node numbers of element {current.label}, "
+                                     f"got {text!r}") from None
             continue
         if upper.startswith("*"):
             reading_nodes = False
@@ -179,6 +183,12 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
             M = (_matrix(block.matrices["MASS"], len(names), block.label, "mass", path, digits)
                  if "MASS" in block.matrices else None)
             elements.append((block.label, names, K, M))
+    seen: dict = {}
+    for label, *_ in elements:
+        if label in seen:
+            raise ValueError(f"element {label} is written twice ({seen[label]} and again): export the element matrices "
+                             "of one step and increment (FREQUENCY) from one request per element")
+        seen[label] = ", ".join(map(str, paths))
     order = sorted(dict.fromkeys(d for e in elements for d in e[1]),
                    key=lambda d: (int(d.split(":")[0]), DIRECTIONS.index(d.split(":")[1])))
     return element_matrices(elements, dofs=order, precision=precision_of_digits(digits),
