@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-import element_frames as ef
+from element_frames import SMALL as ef, storey_frame
 from vibupdate import Parameter
 from vibupdate.cli import main
 from vibupdate.model.element_groups import ElementScaling, affine_from_elements, element_matrices
@@ -23,8 +23,8 @@ TRUTH = {"brace_1": 0.7, "brace_2": 0.95, "columns": 1.0}
 def _frame_model(tmp_path, factors_of=("brace_1", "brace_2")):
     elements = read_abaqus_elements([ef.write_abaqus_elements(tmp_path / "frame.mtx")])
     params = [Parameter(g, 1.0, 0.3, 1.5) for g in factors_of]
-    scaling = {g: ElementScaling(tuple(e for e, item in ef.ELEMENTS.items() if item[2] == g)) for g in factors_of}
-    fixed = [d for d in elements.dofs if int(d.split(":")[0]) in ef.BASE]
+    scaling = {g: ElementScaling(tuple(e for e, item in ef.elements.items() if item[2] == g)) for g in factors_of}
+    fixed = [d for d in elements.dofs if int(d.split(":")[0]) in ef.base]
     return affine_from_elements(elements, params, scaling, fixed=fixed)
 
 
@@ -44,7 +44,7 @@ def test_the_group_matrices_equal_the_hand_assembled_ones(tmp_path):
 
 def test_a_density_parameter_scales_its_group_mass(tmp_path):
     elements = read_abaqus_elements([ef.write_abaqus_elements(tmp_path / "frame.mtx")])
-    fixed = [d for d in elements.dofs if int(d.split(":")[0]) in ef.BASE]
+    fixed = [d for d in elements.dofs if int(d.split(":")[0]) in ef.base]
     rho = Parameter("rho_beams", 7850.0, 7000.0, 8500.0, reference=785.0)
     model = affine_from_elements(elements, [rho], {"rho_beams": ElementScaling((5, 6), "M")}, fixed=fixed)
     beams = ef.hand_assembled(groups={"beams"}, which="M")
@@ -77,7 +77,7 @@ def test_the_element_sets_of_an_abaqus_input_file_are_the_groups(tmp_path):
     sets = read_abaqus_element_sets(SETS)
     assert sets == {"columns": [1, 2, 3, 4], "beams": [5, 6], "brace_1": [7, 8], "brace_2": [9, 10],
                     "Braces": [7, 8, 9, 10]}
-    assert {g: [e for e, item in ef.ELEMENTS.items() if item[2] == g] for g in ("columns", "beams", "brace_1",
+    assert {g: [e for e, item in ef.elements.items() if item[2] == g] for g in ("columns", "beams", "brace_1",
                                                                                 "brace_2")} == {
         g: sets[g] for g in ("columns", "beams", "brace_1", "brace_2")}
     (tmp_path / "parts.inp").write_text("*Part, name=frame\n*Element, type=B21, elset=a\n1, 1, 2\n*End Part\n")
@@ -174,7 +174,7 @@ def test_suggest_names_the_damaged_group_among_element_group_candidates(tmp_path
     monkeypatch.setitem(TRUTH, "brace_2", 1.0)          # only the first storey's braces damaged
     ef.write_abaqus_elements(tmp_path / "frame.mtx")
     groups = "[model.groups]\n" + "\n".join(
-        f"{g} = {[e for e, item in ef.ELEMENTS.items() if item[2] == g]}" for g in ("brace_1", "brace_2", "columns"))
+        f"{g} = {[e for e, item in ef.elements.items() if item[2] == g]}" for g in ("brace_1", "brace_2", "columns"))
     text = (GROUP_CASE.format(elements="frame.mtx", groups=groups).replace("[[parameter]]", "[[candidate]]")
             .replace('each_group = "brace_*"', 'each_group = ["brace_*", "columns"]'))
     text = text[:text.index('[[candidate]]\nname = "columns"')]
@@ -187,3 +187,41 @@ def test_suggest_names_the_damaged_group_among_element_group_candidates(tmp_path
 def test_an_element_written_twice_is_refused_naming_it():
     with pytest.raises(ValueError, match="element 12 is written twice .*one step and increment"):
         read_abaqus_elements([FIXTURE, FIXTURE])
+
+
+def test_sixteen_brace_groups_of_a_four_storey_frame_in_a_few_lines_recover_the_damage(tmp_path, capsys):
+    frame = storey_frame()              # 4 storeys x 2 bays, an X of braces per bay: 16 brace groups
+    truth = {g: 1.0 for g in frame.groups} | {"brace_11a": 0.6, "brace_32b": 0.8}
+    frame.write_abaqus_elements(tmp_path / "frame.mtx")
+    frame.write_groups_csv(tmp_path / "groups.csv")
+    K, M = frame.hand_assembled(truth), frame.hand_assembled(which="M")
+    lam, phi = scipy.linalg.eigh(K, M)
+    dofs = frame.free_dofs()
+    measured = [d for d in dofs if not d.endswith(":rz")]
+    rows = ["mode,dof,value,tolerance"] + [f"{k + 1},{d},{float(phi[dofs.index(d), k])!r},0"
+                                           for k in range(8) for d in measured]
+    (tmp_path / "shapes.csv").write_text("\n".join(rows) + "\n")
+    hz = ", ".join(repr(float(w)) for w in np.sqrt(lam[:8]) / (2 * np.pi))
+    (tmp_path / "case.toml").write_text(f"""
+[model]
+type = "element_matrices"
+elements = "frame.mtx"
+groups = "groups.csv"
+clamp = [0, 1, 2]
+
+[[parameter]]
+name = "{{group}}"
+each_group = "brace_*"
+nominal = 1.0
+lower = 0.3
+upper = 1.5
+
+[[configuration]]
+name = "test"
+natural_hz = [{hz}]
+mode_shapes_csv = "shapes.csv"
+""")
+    assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 0, capsys.readouterr().err
+    updated = {p["name"]: p["updated"] for p in json.loads((tmp_path / "out" / "results.json").read_text())["parameters"]}
+    assert len(updated) == 16 and all(name.startswith("brace_") for name in updated)
+    assert max(abs(updated[g] - truth[g]) for g in updated) <= 1e-6, updated
