@@ -416,9 +416,10 @@ def _frequency_types(data: dict, configurations, where: Where):
     their damping ratios (`vibupdate.data.measured.natural_from_damped`). A frequency's natural
     value is higher than its damped one by `damped_shift`; when that lifts it above its
     measurement interval (its own, else the case's ``frequency_tolerance``), the distinction
-    matters and the configuration gets a note: unless the case stated ``"natural"``, saying
-    which frequencies, by how much, and what was done. A frequency without an interval, or
-    without a damping ratio, has no such note."""
+    matters and the configuration gets a note: unless the case stated ``"natural"`` or the
+    frequencies were extracted from FRFs here (natural by construction), saying which
+    frequencies, by how much, and what was done. A frequency without an interval, or without a
+    damping ratio, has no such note."""
     from vibupdate.data.measured import damped_shift, natural_from_damped
 
     default = data.get("frequency_type")
@@ -458,7 +459,7 @@ def _frequency_types(data: dict, configurations, where: Where):
             notes[configuration.name] = (
                 "the damped frequencies were made natural, omega_n = omega_d / sqrt(1 - zeta^2), which moves "
                 "them by more than their measured interval (" + "; ".join(beyond) + ")",)
-        elif beyond and stated is None:
+        elif beyond and stated is None and "frf" not in cfg:     # extracted from FRFs: natural by construction
             notes[configuration.name] = (
                 "its damping ratios make natural frequencies higher than damped ones by more than the measured "
                 "interval (" + "; ".join(beyond) + "); the frequencies are taken as natural: if they are damped ones "
