@@ -313,9 +313,11 @@ def test_each_group_makes_one_parameter_per_group_in_a_few_lines(tmp_path):
     (('fix = ["q0"]', 'fix = ["q99"]'), r"model\.fix\[1\]: must be a DOF of the elements"),
     (('fix = ["q0"]', 'clamp = [3]'), r"model\.clamp\[1\]: must be a node of the elements"),
     (('elements = "elements.csv"', 'elements = "missing.mtx"'), r"model\.elements: .*missing\.mtx' does not exist"),
+    (('fix = ["q0"]', 'fix = ["q0"]\ngroups = "header_only.csv"'), r"model\.groups: .*header_only\.csv: lists no element"),
 ])
 def test_element_group_mistakes_name_the_key(tmp_path, edit, message):
     _spring_chain_table(tmp_path)
+    (tmp_path / "header_only.csv").write_text("element,group\n")
     with pytest.raises(ValueError, match=message) as info:
         load_case(write(tmp_path, ELEMENT_GROUP_CASE.replace(*edit)))
     assert str(info.value).startswith(str(tmp_path / "case.toml"))

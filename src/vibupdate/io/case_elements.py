@@ -58,6 +58,8 @@ def _element_table(path: Path) -> tuple[list, dict]:
     from vibupdate.model.build import load_matrix
 
     rows = _rows(path)
+    if not rows:
+        raise ValueError(f"{path}: the element table lists no element")
     missing = [c for c in ("element", "K") if c not in rows[0][1]]
     if missing:
         raise ValueError(f"{path}: an element table needs columns element, K (and optionally M, dofs, group); "
@@ -149,6 +151,8 @@ def _groups(value, base: Path, where: Where) -> dict:
             rows = _rows(path)
         except ValueError as exc:
             raise where.error("model.groups", str(exc)) from None
+        if not rows:
+            raise where.error("model.groups", f"{path}: lists no element")
         if any(c not in rows[0][1] for c in ("element", "group")):
             raise where.error("model.groups", f"{path}: needs columns element, group; has {list(rows[0][1])}")
         out: dict = {}
