@@ -50,7 +50,7 @@ def test_every_documented_key_is_read_by_the_loader():
     accepted = (set(module.TOP_KEYS) | set(module.ELEMENTS_KEYS) | set(module.CFG_KEYS) | set(module.SOLVER_KEYS)
                 | set(module.FORMULATION_KEYS) | set(module.DAMPING_KEYS) | set(module.PARAMETER_KEYS)
                 | set(module.POLISH_KEYS) | set(module.VERIFICATION_KEYS)
-                | set(module.MATRICES_KEYS) | {"builder"})
+                | set(module.MATRICES_KEYS) | set(module.ELEMENT_MATRICES_KEYS) | {"builder"})
     assert names <= accepted, names - accepted
     assert accepted - {"type"} <= names, (accepted - {"type"}) - names
 
@@ -249,3 +249,178 @@ def test_natural_modes_that_do_not_rise_are_named(tmp_path, capsys, modes, said)
     assert main(["check", str(path)]) == 2
     err = capsys.readouterr().err
     assert "natural_modes: " + said in err and err.count("error:") == 1
+
+
+# -- models given element by element: groups and the parameters that scale them -----------------
+
+def _spring_chain_table(folder: Path, n: int = 17) -> None:
+    """``elements.csv``: ``n`` springs in a chain from ground, one Matrix Market file each (its
+    DOFs in the table), unit masses on the nodes as elements of their own; groups ``brace_1``
+    ... ``brace_16`` of one spring each (the 17th, the ground spring, in none)."""
+    import scipy.io
+    import scipy.sparse as sp
+
+    k = np.array([[1.0, -1.0], [-1.0, 1.0]]) * 1000.0
+    scipy.io.mmwrite(str(folder / "spring.mtx"), sp.coo_matrix(k))
+    scipy.io.mmwrite(str(folder / "mass.mtx"), sp.coo_matrix(np.eye(1)))
+    scipy.io.mmwrite(str(folder / "none.mtx"), sp.coo_matrix(np.zeros((1, 1))))
+    rows = ["element,K,M,dofs,group"]
+    rows += [f"s{e},spring.mtx,,q{e} q{e + 1},{f'brace_{e}' if e else ''}" for e in range(n)]
+    rows += [f"m{e},none.mtx,mass.mtx,q{e}," for e in range(1, n + 1)]
+    (folder / "elements.csv").write_text("\n".join(rows) + "\n")
+
+
+ELEMENT_GROUP_CASE = """
+[model]
+type = "element_matrices"
+elements = "elements.csv"
+fix = ["q0"]
+
+[[parameter]]
+name = "k_{group}"
+each_group = "brace_*"
+nominal = 1000.0
+lower = 500.0
+upper = 1500.0
+
+[[configuration]]
+name = "only"
+natural_hz = [1.0]
+"""
+
+
+def test_each_group_makes_one_parameter_per_group_in_a_few_lines(tmp_path):
+    _spring_chain_table(tmp_path)
+    case = load_case(write(tmp_path, ELEMENT_GROUP_CASE))
+    model = case.configurations[0].model
+    assert model.parameter_names == tuple(f"k_brace_{g}" for g in range(1, 17))
+    # each parameter's dK/dp is its spring's matrix per N/m (normalized: times the nominal)
+    k = model.K_par[model.parameter_names.index("k_brace_3")].toarray()
+    i, j = model.dof("q3"), model.dof("q4")
+    assert k[np.ix_([i, j], [i, j])].tolist() == [[1000.0, -1000.0], [-1000.0, 1000.0]]
+    assert np.count_nonzero(k) == 4
+    assert model.dofs[0] == "q1" and model.n_dofs == 17      # q0 fixed
+
+
+@pytest.mark.parametrize("edit, message", [
+    (('name = "k_{group}"', 'name = "k"'), r"parameter\[1\]\.name: must hold \{group\}"),
+    (('each_group = "brace_*"', 'each_group = "beam_*"'), r"'beam_\*' matches no group"),
+    (('each_group = "brace_*"', 'elements = ["brace_1", "s99"]'), r"'s99' is neither a group"),
+    (('each_group = "brace_*"', 'each_group = "brace_*"\nscales = "C"'), r"scales: must be 'K' \(stiffness\) or 'M'"),
+    (('each_group = "brace_*"', 'each_group = "brace_*"\nelements = ["s1"]'), "give either each_group"),
+    (('[[configuration]]', '[[parameter]]\nname = "extra"\nelements = ["s3"]\nnominal = 1.0\nlower = 0.5\nupper = 2.0\n'
+                           '[[configuration]]'), r"model: element 's3' has its K scaled by both 'k_brace_3' and 'extra'"),
+    (('fix = ["q0"]', 'fix = ["q99"]'), r"model\.fix\[1\]: must be a DOF of the elements"),
+    (('fix = ["q0"]', 'clamp = [3]'), r"model\.clamp\[1\]: must be a node of the elements"),
+    (('elements = "elements.csv"', 'elements = "missing.mtx"'), r"model\.elements: .*missing\.mtx' does not exist"),
+    (('fix = ["q0"]', 'fix = ["q0"]\ngroups = "header_only.csv"'), r"model\.groups: .*header_only\.csv: lists no element"),
+])
+def test_element_group_mistakes_name_the_key(tmp_path, edit, message):
+    _spring_chain_table(tmp_path)
+    (tmp_path / "header_only.csv").write_text("element,group\n")
+    with pytest.raises(ValueError, match=message) as info:
+        load_case(write(tmp_path, ELEMENT_GROUP_CASE.replace(*edit)))
+    assert str(info.value).startswith(str(tmp_path / "case.toml"))
+
+
+def test_element_groups_need_an_element_matrices_model(tmp_path):
+    write_chain_matrices(tmp_path)
+    text = CHAIN_CASE.replace('upper = 2000.0', 'upper = 2000.0\nelements = ["a"]')
+    with pytest.raises(ValueError, match=r"parameter\[1\]\.elements: element groups are read by a model of type "
+                                         "'element_matrices'"):
+        load_case(write(tmp_path, text))
+
+
+def test_element_group_candidates_are_freed_by_suggest(tmp_path):
+    _spring_chain_table(tmp_path, n=5)
+    text = ELEMENT_GROUP_CASE.replace("[[parameter]]", "[[candidate]]")
+    case = load_case(write(tmp_path, text))
+    assert [p.name for p in case.candidates] == [f"k_brace_{g}" for g in range(1, 5)]
+    freed = case.with_candidates(["k_brace_2"]).configurations[0].model
+    assert freed.parameter_names == ("k_brace_2",)
+
+
+def test_the_documented_sixteen_brace_groups_make_sixteen_parameters():
+    import tomllib
+
+    from vibupdate.io.case_elements import ElementSource, expand_group_parameters
+    from vibupdate.io.case_keys import Where
+
+    block = next(b for b in re.findall(r"```toml\n(.*?)```", DOC, re.S) if "each_group" in b)
+    spec = tomllib.loads(block)
+    names = [f"brace_{storey}{side}" for storey in range(1, 5) for side in ("x", "y", "X", "Y")]
+    groups = {"columns": (1,), **{g: (1001 + 2 * k, 1002 + 2 * k) for k, g in enumerate(names)}}
+    items = expand_group_parameters(spec["parameter"], "parameter", ElementSource(None, groups, ()), Where(Path("x")))
+    assert [item["name"] for item in items] == [f"E_{g}" for g in names]
+    assert all(item["elements"] == g and item["nominal"] == 210e9 for item, g in zip(items, names))
+
+
+# -- damped or natural frequencies --------------------------------------------------------------
+
+#: Damping ratios of the chain's three modes: the first makes natural and damped differ by 0.18 %.
+CHAIN_ZETA = [0.06, 0.01, 0.01]
+
+
+def _damped_chain_case(tmp_path, statement="", tolerance=0.001):
+    """The chain of `CHAIN_CASE` at k = 1200 with its three frequencies measured as damped
+    ones, ``omega_d = omega_n sqrt(1 - zeta^2)``, within +-``tolerance``; returns the case file
+    and the natural frequencies (Hz), the truth."""
+    hz = write_chain_matrices(tmp_path)
+    damped = [h * np.sqrt(1 - z**2) for h, z in zip(hz, CHAIN_ZETA)]
+    text = (f"frequency_tolerance = {tolerance}\n" + CHAIN_CASE
+            + f"natural_hz = {[float(h) for h in damped]}\ndamping_ratios = {CHAIN_ZETA}\n" + statement)
+    return write(tmp_path, text), hz
+
+
+def test_damped_frequencies_are_made_natural_with_their_damping_ratios(tmp_path, capsys):
+    path, natural = _damped_chain_case(tmp_path, 'frequency_type = "damped"\n')
+    case = load_case(path)
+    got = [f.freq_hz for f in case.configurations[0].natural]
+    np.testing.assert_allclose(got, natural, rtol=1e-14)
+    assert [f.damping_ratio for f in case.configurations[0].natural] == CHAIN_ZETA
+    # the conversion moved mode 1 beyond its interval (0.18 % > 0.1 %), and the run says so
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "warning: configuration 'only': the damped frequencies were made natural" in out
+    assert "frequency 1" in out and "0.18 % > 0.1 %" in out and "frequency 2" not in out
+    doc = __import__("json").loads((tmp_path / "out" / "results.json").read_text())
+    assert abs(doc["parameters"][0]["updated"] / 1200.0 - 1) <= 1e-6
+
+
+def test_damped_frequencies_not_declared_are_taken_as_natural_with_a_note(tmp_path):
+    from vibupdate.pipeline import check_case
+
+    path, natural = _damped_chain_case(tmp_path)
+    case = load_case(path)
+    assert case.configurations[0].natural[0].freq_hz < natural[0] * (1 - 1e-3)     # taken as given
+    said = [w for w in check_case(case).warnings if "damping ratios make natural frequencies higher" in w]
+    assert len(said) == 1 and said[0].startswith("configuration 'only': ")
+    assert "frequency 1 at " in said[0] and "frequency_type = \"damped\"" in said[0]
+    # stated natural: the user has said, no note; a wider interval than the shift: no note
+    for statement, tolerance in (('frequency_type = "natural"\n', 0.001), ("", 0.01)):
+        path, _ = _damped_chain_case(tmp_path, statement, tolerance)
+        assert not [w for w in check_case(load_case(path)).warnings if "damped" in w]
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("damping_ratios = [0.06, 0.01, 0.01]\n", ""), r"configuration 'only'\.frequency_type: 'damped' converts each "
+                                                   r"frequency with its damping ratio; frequency 1 .* has none"),
+    (('frequency_type = "damped"', 'frequency_type = "undamped"'), r"frequency_type: must be 'natural' or 'damped'"),
+])
+def test_damped_frequency_mistakes_name_the_key(tmp_path, edit, message):
+    path, _ = _damped_chain_case(tmp_path, 'frequency_type = "damped"\n')
+    path.write_text(path.read_text().replace(*edit))
+    with pytest.raises(ValueError, match=message):
+        load_case(path)
+
+
+def test_a_damped_interval_becomes_the_natural_one_with_the_ratios_that_move_it_farthest():
+    from vibupdate.data.measured import NaturalFrequency, damped_shift, natural_from_damped
+
+    f = NaturalFrequency(100.0, damping_ratio=0.05, interval=(99.0, 101.0), damping_interval=(0.02, 0.08))
+    n = natural_from_damped(f)
+    assert n.omega == pytest.approx(100.0 / np.sqrt(1 - 0.05**2), rel=1e-15)
+    assert n.interval == pytest.approx((99.0 / np.sqrt(1 - 0.02**2), 101.0 / np.sqrt(1 - 0.08**2)), rel=1e-15)
+    assert damped_shift(0.06) == pytest.approx(0.0018, rel=0.01)
+    with pytest.raises(ValueError, match="has no damping ratio"):
+        natural_from_damped(NaturalFrequency(100.0))

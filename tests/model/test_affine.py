@@ -80,6 +80,53 @@ def test_product_of_parameters_is_reported():
     assert from_builder(build, params, check=False).n_parameters == 2
 
 
+def _brace_builder(cast):
+    """Two storeys on springs; the brace stiffness ``b1`` is affine, and ``cast`` is applied to
+    each spring value before it goes into the matrix."""
+    def build(p):
+        k = np.zeros((2, 2), dtype=np.result_type(*p.values()))
+        for i, value in enumerate((p["b1"], 2.0e6)):
+            value = cast(value)
+            k[i, i] += value
+            if i:
+                k[i - 1, i - 1] += value
+                k[i - 1, i] -= value
+                k[i, i - 1] -= value
+        return np.diag([1000.0, 800.0]), k
+    return build
+
+
+@pytest.mark.parametrize("cast", [lambda v: np.real(v), lambda v: v.real], ids=["np.real", ".real"])
+def test_builder_dropping_the_complex_step_is_named(cast):
+    params = [Parameter("b1", 1.0e6, 0.5e6, 2.0e6)]
+    with pytest.raises(ValueError, match="the builder drops the complex step of parameter 'b1': a complex b1 gives "
+                                         "a real K") as info:
+        from_builder(_brace_builder(cast), params)
+    assert "non-affinely" not in str(info.value)
+    # The same builder without the cast is affine.
+    assert from_builder(_brace_builder(lambda v: v), params).n_parameters == 1
+
+
+def test_builder_refusing_a_complex_value_is_named():
+    def build(p):
+        value = float(p["b1"])      # TypeError on the complex step
+        return np.eye(2), np.array([[2 * value, -value], [-value, value]])
+
+    with pytest.raises(ValueError, match="the builder fails when parameter 'b1' is complex .*complex-safe"):
+        from_builder(build, [Parameter("b1", 1.0e6, 0.5e6, 2.0e6)])
+
+
+def test_non_affine_parameter_with_zero_slope_is_not_called_a_dropped_step():
+    # K depends on (b1 - 1)^2: its complex step is real (zero derivative) but no cast is involved;
+    # the builder keeps complex output, so the message stays the non-affine one.
+    def build(p):
+        k = 1.0e6 * (1.0 + (p["b1"] - 1.0) ** 2) + 0j * p["b1"]
+        return np.eye(1), np.array([[k]])
+
+    with pytest.raises(ValueError, match="enters K non-affinely"):
+        from_builder(build, [Parameter("b1", 1.0, 0.5, 2.0)])
+
+
 @pytest.mark.parametrize("fmt", ["mtx", "npz"])
 def test_matrix_files_reproduce_builder(tmp_path, fmt):
     builder = chain_builder(4)

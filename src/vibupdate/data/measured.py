@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -23,6 +23,8 @@ __all__ = [
     "Antiresonance",
     "Configuration",
     "validate_configurations",
+    "natural_from_damped",
+    "damped_shift",
 ]
 
 TWO_PI = 2.0 * math.pi
@@ -193,6 +195,36 @@ class NaturalFrequency:
     @property
     def freq_hz(self) -> float:
         return self.omega / TWO_PI
+
+
+def damped_shift(damping_ratio: float) -> float:
+    """``omega_n / omega_d - 1 = 1 / sqrt(1 - zeta^2) - 1``: how much higher a mode's natural
+    frequency is than its damped one, for viscous modal damping ``zeta`` in [0, 1) (about
+    ``zeta^2 / 2``: 0.18 % at ``zeta = 0.06``)."""
+    if not 0 <= damping_ratio < 1:
+        raise ValueError(f"a damped frequency needs a damping ratio in [0, 1) to give its natural frequency, "
+                         f"got {damping_ratio!r}")
+    return 1.0 / math.sqrt(1.0 - damping_ratio**2) - 1.0
+
+
+def natural_from_damped(frequency: "NaturalFrequency") -> "NaturalFrequency":
+    """A measured damped frequency ``omega_d`` made the natural frequency the model computes:
+    ``omega_n = omega_d / sqrt(1 - zeta^2)`` with its damping ratio ``zeta`` (a mode of viscous
+    modal damping, pole ``-zeta omega_n +- j omega_d``).
+
+    An interval of ``omega_d`` becomes the interval of ``omega_n``: each end converted with the
+    damping ratio that moves it farthest (the ends of the ratio's own interval, when it has one).
+    The shape, weight and mode stay.
+    """
+    zeta = frequency.damping_ratio
+    if zeta is None:
+        raise ValueError(f"the damped frequency {frequency.freq_hz:.6g} Hz has no damping ratio to give its natural "
+                         "frequency")
+    interval = frequency.interval
+    if interval is not None:
+        low, high = frequency.damping_interval or (zeta, zeta)
+        interval = (interval[0] * (1 + damped_shift(low)), interval[1] * (1 + damped_shift(high)))
+    return replace(frequency, omega=frequency.omega * (1 + damped_shift(zeta)), interval=interval)
 
 
 @dataclass(frozen=True)

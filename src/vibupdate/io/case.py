@@ -76,6 +76,10 @@ class Case:
     frf_notes: Mapping = field(default_factory=dict)
     """Per such configuration, the extraction's notes (`vibupdate.data.extraction.Extraction.notes`):
     `check` and `run` report them as warnings."""
+    frequency_notes: Mapping = field(default_factory=dict)
+    """Per configuration whose damping ratios make its natural and damped frequencies differ by
+    more than their measured intervals, what that means for the data (`_frequency_types`):
+    `check` and `run` report them as warnings."""
     inputs: tuple[Path, ...] = ()
     """The files the case reads: the case file and every file a value of it names (matrices,
     builder module, data files); a run never replaces or removes them."""
@@ -338,17 +342,18 @@ def load_case(path) -> Case:
     # a case whose parameters are all still to be chosen among its candidates (`vibupdate suggest`)
     check_table(data, TOP_KEYS, "", where,
                 required=("model", "configuration") + (() if "candidate" in data else ("parameter",)))
-    parameters = _parameters(data.get("parameter", []), "parameter", where)
-    candidates = _parameters(data.get("candidate", []), "candidate", where)
+    base = path.parent
+    source, items = _element_groups(data, base, where)
+    parameters = _parameters(items["parameter"], "parameter", where)
+    candidates = _parameters(items["candidate"], "candidate", where)
     twice = sorted({p.name for p in parameters} & {p.name for p in candidates})
     if twice:
         raise where.error("candidate", f"{', '.join(map(repr, twice))} is declared both as a [[parameter]] and as a "
                                        f"[[candidate]]; declare each name once")
-    base = path.parent
-    models: dict = {}
+    models = _element_models(source, items, parameters + candidates, where)
     loaded = [_configuration(cfg, i, data["model"], parameters + candidates, base, where, models)
               for i, cfg in enumerate(data["configuration"], start=1)]
-    configurations = tuple(c for c, _ in loaded)
+    configurations, frequency_notes = _frequency_types(data, tuple(c for c, _ in loaded), where)
     pool = ()
     if candidates:   # held at their nominal values: exact, see vibupdate.model.affine.restricted
         from vibupdate.model.affine import restricted
@@ -367,11 +372,100 @@ def load_case(path) -> Case:
         verification=_options(VerifyOptions, data.get("verification", {}), VERIFICATION_KEYS, "verification", where),
         frfs={c.name: f for c, (f, _) in loaded if f is not None},
         frf_notes={c.name: n for c, (_, n) in loaded if n},
+        frequency_notes=frequency_notes,
         inputs=(path, *_named_files(data, base)),
         sensors=_sensors(data["model"], configurations, base, where),
         candidates=tuple(candidates),
         pool=pool,
     )
+
+
+def _element_groups(data: dict, base: Path, where: Where):
+    """The elements of a ``[model]`` of ``type = "element_matrices"`` (None for another model)
+    and the ``[[parameter]]`` and ``[[candidate]]`` tables with their ``each_group`` tables
+    expanded, one per group (`vibupdate.io.case_elements`)."""
+    from vibupdate.io.case_elements import expand_group_parameters, read_element_source
+
+    spec = data["model"]
+    source = read_element_source(spec, base, where) \
+        if isinstance(spec, dict) and spec.get("type") == "element_matrices" else None
+    items = {table: expand_group_parameters(data.get(table, []), table, source, where)
+             for table in ("parameter", "candidate")}
+    return source, items
+
+
+def _element_models(source, items: dict, parameters, where: Where) -> dict:
+    """The cache of models of `configuration_model`, holding the element-matrices model when
+    there is one (it needs the parameters' element groups, which the cache's builder does not see)."""
+    from vibupdate.io.case_elements import element_model
+    from vibupdate.io.case_model import model_tag
+
+    if source is None:
+        return {}
+    tables = [t for t in (*items["parameter"], *items["candidate"])]
+    return {model_tag({}): element_model(source, tables, parameters, where)}
+
+
+def _frequency_types(data: dict, configurations, where: Where):
+    """The configurations with their measured frequencies made natural, and the notes of the
+    configurations where damped and natural differ by more than the measured intervals.
+
+    ``frequency_type`` (a configuration's, else the top level's) says what the measured
+    natural frequencies are: ``"natural"`` (the default: the undamped frequencies the model
+    computes) or ``"damped"`` (peaks of the FRFs, imaginary parts of the poles), converted with
+    their damping ratios (`vibupdate.data.measured.natural_from_damped`). A frequency's natural
+    value is higher than its damped one by `damped_shift`; when that lifts it above its
+    measurement interval (its own, else the case's ``frequency_tolerance``), the distinction
+    matters and the configuration gets a note: unless the case stated ``"natural"`` or the
+    frequencies were extracted from FRFs here (natural by construction), saying which
+    frequencies, by how much, and what was done. A frequency without an interval, or without a
+    damping ratio, has no such note."""
+    from vibupdate.data.measured import damped_shift, natural_from_damped
+
+    default = data.get("frequency_type")
+    if default is not None and default not in ("natural", "damped"):
+        raise where.error("frequency_type", f"must be 'natural' or 'damped', got {default!r}")
+    tolerance = data.get("frequency_tolerance", 0.0)
+    tolerance = tolerance if isinstance(tolerance, (int, float)) and 0 < tolerance < 1 else None
+    converted, notes = [], {}
+    for cfg, configuration in zip(data["configuration"], configurations):
+        key = f"configuration '{configuration.name}'"
+        stated = cfg.get("frequency_type", default)
+        if stated not in (None, "natural", "damped"):
+            raise where.error(f"{key}.frequency_type", f"must be 'natural' or 'damped', got {stated!r}")
+        if stated == "damped" and "frf" in cfg:
+            raise where.error(f"{key}.frequency_type", "frequencies extracted from FRFs are natural ones (the poles' "
+                                                       "magnitudes); 'damped' is for typed or tabled data")
+        beyond = []
+        for k, f in enumerate(configuration.natural, start=1):
+            if f.damping_ratio is None:
+                if stated == "damped":
+                    raise where.error(f"{key}.frequency_type", f"'damped' converts each frequency with its damping "
+                                                               f"ratio; frequency {k} ({f.freq_hz:.6g} Hz) has none")
+                continue
+            if not f.damping_ratio < 1:    # refused by check and run (vibupdate.io.validation)
+                if stated == "damped":
+                    raise where.error(f"{key}.damping_ratios", f"frequency {k} at {f.freq_hz:.6g} Hz: "
+                                                               f"{f.damping_ratio!r} is not a damping ratio below 1")
+                continue
+            shift = damped_shift(f.damping_ratio)
+            top = f.interval[1] if f.interval is not None else (f.omega * (1 + tolerance) if tolerance else None)
+            if top is not None and f.omega * (1 + shift) > top:
+                beyond.append(f"frequency {k} at {f.freq_hz:.6g} Hz: {100 * shift:.2g} % > {100 * (top / f.omega - 1):.2g} %")
+        if stated == "damped":
+            configuration = replace(configuration, natural=tuple(natural_from_damped(f) for f in configuration.natural))
+        converted.append(configuration)
+        if beyond and stated == "damped":
+            notes[configuration.name] = (
+                "the damped frequencies were made natural, omega_n = omega_d / sqrt(1 - zeta^2), which moves "
+                "them by more than their measured interval (" + "; ".join(beyond) + ")",)
+        elif beyond and stated is None and "frf" not in cfg:     # extracted from FRFs: natural by construction
+            notes[configuration.name] = (
+                "its damping ratios make natural frequencies higher than damped ones by more than the measured "
+                "interval (" + "; ".join(beyond) + "); the frequencies are taken as natural: if they are damped ones "
+                "(FRF peaks, imaginary parts of the poles), state frequency_type = \"damped\", else "
+                "frequency_type = \"natural\"",)
+    return tuple(converted), notes
 
 
 def _parameters(items, table: str, where: Where) -> list[Parameter]:

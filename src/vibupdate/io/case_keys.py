@@ -14,7 +14,7 @@ from pathlib import Path
 
 from vibupdate.options import declared
 
-__all__ = ["Where", "check_table", "numbers", "TOP_KEYS", "CFG_KEYS", "FRF_KEYS", "ELEMENTS_KEYS", "MATRICES_KEYS", "POLISH_KEYS",
+__all__ = ["Where", "check_table", "numbers", "TOP_KEYS", "CFG_KEYS", "FRF_KEYS", "ELEMENTS_KEYS", "ELEMENT_MATRICES_KEYS", "MATRICES_KEYS", "POLISH_KEYS",
            "VERIFICATION_KEYS", "SOLVER_KEYS", "FORMULATION_KEYS", "DAMPING_KEYS", "PARAMETER_KEYS"]
 
 class Where:
@@ -82,18 +82,19 @@ def numbers(values, key, where) -> list[float]:
 
 TOP_KEYS = {"case": str, "model": dict, "parameter": list, "candidate": list, "configuration": list, "solver": dict,
              "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
-             "verification": dict}
+             "verification": dict, "frequency_type": str}
 # The option tables: their keys from the declarations, each value checked there (vibupdate.options).
 POLISH_KEYS = {o.name: None for o in declared("polish", case_file=True)}
 VERIFICATION_KEYS = {o.name: None for o in declared("verification", case_file=True)}
 SOLVER_KEYS = {o.name: None for o in declared("solver", case_file=True)}
 FORMULATION_KEYS = {o.name: None for o in declared("formulation", case_file=True)}
 DAMPING_KEYS = {"exponents": list, "mode_weights": dict, "relative": bool, "rationale": str}
-PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float}
+PARAMETER_KEYS = {"name": str, "unit": str, "nominal": float, "lower": float, "upper": float, "reference": float,
+                  "elements": None, "scales": str, "each_group": None}
 CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_modes": list, "damping_ratios": list,
              "antiresonances": list, "frequencies_csv": str, "mode_shapes_csv": str, "mode_shapes_uff": str,
              "uff_tolerance": float, "interlacing": bool, "first_sign": list, "options": dict, "mass": list,
-             "frf": dict, "mass_normalized_shapes": bool}
+             "frf": dict, "mass_normalized_shapes": bool, "frequency_type": str}
 FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
              "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "confidence": float,
              "window": str, "reciprocal": bool, "keep_outer_zeros": bool, "window_decay": float,
@@ -102,5 +103,7 @@ FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, 
 #: Keys of a ``[model]`` table of ``type = "matrices"``.
 MATRICES_KEYS = {"type": str, "M0": str, "K0": str, "dofs": list, "dM": dict, "dK": dict, "sensors": str,
                  "matrix_precision": float}
+#: Keys of a ``[model]`` table of ``type = "element_matrices"`` (`vibupdate.io.case_elements`).
+ELEMENT_MATRICES_KEYS = {"type": str, "elements": None, "groups": None, "fix": list, "clamp": list}
 ELEMENTS_KEYS = {"type": str, "kind": str, "nodes": list, "line": dict, "clamp": list, "pin": list,
                   "fix": list, "beam": list, "frame": list, "mass": list, "spring": list}

@@ -237,7 +237,7 @@ def base_model(spec: dict, options: dict, parameters, base: Path, where: Where) 
         if str(exc).startswith(str(where.path)):
             raise
         raise where.error("model.builder" if kind == "builder" else "model", str(exc)) from None
-    raise where.error("model.type", f"must be 'elements', 'builder' or 'matrices', got {kind!r}")
+    raise where.error("model.type", f"must be 'elements', 'builder', 'matrices' or 'element_matrices', got {kind!r}")
 
 
 #: Coarsest ``matrix_precision`` accepted: matrices known to fewer than about 2 significant
@@ -259,6 +259,13 @@ def matrix_precision(spec: dict, where: Where) -> float | None:
     return value
 
 
+def model_tag(options: dict) -> str:
+    """The key of a case's model built with the builder ``options`` in the cache of models
+    (`configuration_model`); an element-matrices model, built by `vibupdate.io.case.load_case`
+    with its parameters' groups, is stored under ``model_tag({})``."""
+    return repr(sorted(options.items()))
+
+
 def configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: Where, key: str,
                          models: dict) -> AffineModel:
     """The model of one configuration: the case's model (built once per set of builder options,
@@ -269,7 +276,7 @@ def configuration_model(spec: dict, cfg: dict, parameters, base: Path, where: Wh
     options = cfg.get("options", {})
     if options and spec.get("type") != "builder":
         raise where.error(f"{key}.options", "builder options are only read by a model of type 'builder'")
-    tag = repr(sorted(options.items()))
+    tag = model_tag(options)
     if tag not in models:
         models[tag] = base_model(spec, options, parameters, base, where)
     additions = []

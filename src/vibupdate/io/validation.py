@@ -332,6 +332,8 @@ def validate_case(case) -> CaseCheck:
     warnings += [w for c in case.configurations for w in _repeated_warnings(c)]
     warnings += [f"configuration '{name}' FRFs: {note}" for name, notes in case.frf_notes.items()
                  for note in notes]
+    warnings += [f"configuration '{name}': {note}" for name, notes in case.frequency_notes.items()
+                 for note in notes]
     try:
         prepared = prepare_first_stage(case.configurations, case.formulation, case.verify_options())
     except ValueError as exc:

@@ -281,17 +281,14 @@ def complex_step_jacobians(builder: Builder, parameters: Sequence[Parameter], do
     M_par, K_par : list of csr_matrix
         ``dM/dxbar_i = Im(M(p0 + j h e_i)) / h * p_ref,i`` and likewise for ``K``.
     """
-    names = [p.name for p in parameters]
     nominal_values = {p.name: p.nominal for p in parameters}
     nominal = _as_system(builder(dict(nominal_values)), dofs)
     if np.iscomplexobj(nominal.M.data) or np.iscomplexobj(nominal.K.data):
         nominal = System(sp.csr_matrix(nominal.M.real), sp.csr_matrix(nominal.K.real), nominal.dofs)
     M_par, K_par = [], []
     for p in parameters:
-        h = 1e-20 * abs(p.reference)
-        values = {n: complex(nominal_values[n]) for n in names}
-        values[p.name] += 1j * h
-        out = _as_system(builder(values), dofs)
+        h = _complex_step(p)
+        out = _as_system(_call_complex(builder, nominal_values, p, h), dofs)
         if out.M.shape != nominal.M.shape or out.K.shape != nominal.K.shape:
             raise ValueError(f"the builder changed the matrix size when parameter '{p.name}' moved")
         M_par.append(sp.csr_matrix(out.M.imag / h * p.reference))
@@ -299,6 +296,36 @@ def complex_step_jacobians(builder: Builder, parameters: Sequence[Parameter], do
     for A in M_par + K_par:
         A.eliminate_zeros()
     return nominal, M_par, K_par
+
+
+def _complex_step(p: Parameter) -> float:
+    """The step ``h`` of Eq. 15 for ``p``: far below rounding of the value, exact derivative."""
+    return 1e-20 * abs(p.reference)
+
+
+def _call_complex(builder: Builder, values: dict, p: Parameter, h: float):
+    """The builder at ``values`` with ``p`` moved by ``j h`` (Eq. 15); a builder that refuses a
+    complex value (``float()``, ``math.sqrt`` of a parameter) is named as such."""
+    values = {n: complex(v) for n, v in values.items()}
+    values[p.name] += 1j * h
+    try:
+        return builder(values)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"the builder fails when parameter '{p.name}' is complex ({type(exc).__name__}: {exc}): the derivatives "
+            "come from the complex step (Eq. 15), so a builder must be complex-safe: keep the parameter values as they "
+            "come (no float(), math.* or abs() on them) and let the matrices take their type") from None
+
+
+def _drops_complex_step(builder: Builder, model: "AffineModel", p: Parameter, value: float, which: str) -> bool:
+    """Whether the builder turns a complex ``p`` into a real ``which`` (``"M"`` or ``"K"``) at
+    ``p = value``, a point where that matrix is known to change with ``p``: the imaginary part,
+    the complex step of Eq. 15, is lost (a cast to float: a float array assigned into, ``.real``,
+    ``np.real``), so the derivative reads 0. Tested away from the nominal value so that a
+    matrix stationary in ``p`` there is not mistaken for a cast."""
+    values = {q.name: q.nominal for q in model.parameters} | {p.name: value}
+    out = _as_system(_call_complex(builder, values, p, _complex_step(p)), model.dofs)
+    return not np.any(np.imag((out.M if which == "M" else out.K).data))
 
 
 def _second_point(p: Parameter) -> float | None:
@@ -337,6 +364,13 @@ def check_affine(builder: Builder, model: AffineModel) -> None:
         if value is None:
             continue
         ratio, which = _affine_mismatch(builder, model, {**nominal, p.name: value})
+        if ratio > 1.0 and _drops_complex_step(builder, model, p, value, which):
+            raise ValueError(
+                f"the builder drops the complex step of parameter '{p.name}': a complex {p.name} gives a real "
+                f"{which}, yet {which} changes when {p.name} moves to {value:g}. The derivatives come from the "
+                "imaginary part (Eq. 15), which a cast to float loses (float(), a float array assigned into, "
+                "np.real, .real): build the matrices in the parameters' own type, e.g. "
+                "np.zeros((n, n), dtype=np.result_type(*p.values()))")
         if ratio > 1.0:
             raise ValueError(
                 f"parameter '{p.name}' enters {which} non-affinely: at {p.name} = {value:g} the "

@@ -9,7 +9,10 @@ Three ways lead to the same `AffineModel`:
   case file), assembled directly into the affine form, each element once per parameter it
   depends on;
 * `from_files` — nominal ``M0``, ``K0`` and per-parameter ``dM/dp``, ``dK/dp`` in Matrix Market
-  (``.mtx``) or ``.npz`` files, the form exported by ANSYS, Abaqus or Nastran DMAP.
+  (``.mtx``) or ``.npz`` files, the form exported by ANSYS, Abaqus or Nastran DMAP;
+* `from_elements` — every element's matrices (`vibupdate.model.element_groups.element_matrices`,
+  or Abaqus element matrix output read by `vibupdate.model.fe.abaqus_elements`), each parameter
+  scaling a group of elements, its parameter matrices the group's assembled matrices.
 """
 
 from __future__ import annotations
@@ -22,9 +25,10 @@ import scipy.sparse as sp
 
 from vibupdate.model.affine import (AffineModel, _check_unique_names, affine_from_assembly, affine_from_builder,
                                    check_matrices, symmetric_error)
+from vibupdate.model.element_groups import affine_from_elements as from_elements
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["from_assembly", "from_builder", "from_files", "load_matrix"]
+__all__ = ["from_assembly", "from_builder", "from_elements", "from_files", "load_matrix"]
 
 from_builder = affine_from_builder
 from_assembly = affine_from_assembly
