@@ -303,7 +303,9 @@ def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
     assert len(zero_rows) == len(doc["antiresonances"])
     shapes = read_shape_csv(out / "shapes.csv")
     assert set(shapes) == {1, 2, 3} and set(shapes[1]) == {"y1", "y2", "y3"}
-    assert "frequencies_csv" in (out / "configuration.toml").read_text()
+    block = (out / "configuration.toml").read_text()
+    # the poles' magnitudes are natural frequencies: stated, so their damping raises no note
+    assert "frequencies_csv" in block and 'frequency_type = "natural"' in block
     assert [r["mode"] for r in natural_rows] == [1, 2, 3]
     # --first-mode: the frequencies declare the modes the shapes are numbered by (the two files
     # read together: before, the frequencies had no mode column and counted from 1)

@@ -97,9 +97,12 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
 
 def configuration_block(name: str = "measured", frequencies: str = "frequencies.csv",
                         shapes: str = "shapes.csv") -> str:
-    """A ``[[configuration]]`` block of a case file that reads the written CSV files."""
+    """A ``[[configuration]]`` block of a case file that reads the written CSV files; it states
+    the frequencies natural (the extraction gives the poles' magnitudes), so that their damping
+    ratios raise no damped-or-natural note."""
     return (f'[[configuration]]\nname = "{name}"\nfrequencies_csv = "{frequencies}"\n'
-            f'mode_shapes_csv = "{shapes}"\n')
+            f'mode_shapes_csv = "{shapes}"\n'
+            'frequency_type = "natural"   # the poles\' magnitudes, not the damped peaks\n')
 
 
 def _write_csv(path: Path, header, rows) -> None:
