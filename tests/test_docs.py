@@ -98,7 +98,8 @@ def broken_links(path: Path, root: Path = ROOT) -> list[str]:
 
 
 def _markdown_documents() -> list[Path]:
-    return [ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md")) + sorted((ROOT / "docs" / "fe").glob("*.md"))
+    return ([ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md")) + sorted((ROOT / "docs" / "fe").glob("*.md"))
+            + sorted((ROOT / "docs" / "notes").glob("*.md")))
 
 
 def test_docs_readme_and_examples_cite_nothing_outside_the_repository():
