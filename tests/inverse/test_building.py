@@ -88,7 +88,7 @@ def test_polish_rounds_on_noisy_data_end_no_higher_than_the_full_model_polish(se
     an objective no higher than the full-model polish's (measured on seeds 0-5: equal within
     1.2e-12, or lower where the full-model polish used its 50 evaluations, seed 5: 41.35
     against 49.71), in at most 6 full evaluations against 37-50 (5 with SuperLU's partial
-    pivoting; with pivots kept near the diagonal, `vibupdate.modal.eigen.sparse_lu`, seed 5
+    pivoting; with pivots kept near the diagonal, `vibupdate.modal.factor.sparse_lu`, seed 5
     takes a sixth round to the same objective)."""
     from dataclasses import replace
 

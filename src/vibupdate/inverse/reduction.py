@@ -26,7 +26,7 @@ import scipy.sparse as sp
 
 from vibupdate.model.affine import AffineModel
 from vibupdate.modal.analysis import modes
-from vibupdate.modal.eigen import sparse_lu
+from vibupdate.modal.factor import sparse_lu
 from vibupdate.data.measured import Configuration
 
 __all__ = ["craig_bampton", "ritz_reduction", "reduce_configurations", "kept_dofs", "wants_reduction"]

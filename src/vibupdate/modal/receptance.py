@@ -30,6 +30,7 @@ import scipy.sparse as sp
 
 from vibupdate.modal import eigen
 from vibupdate.modal.eigen import _dense, _dense_modes, check_dof_pair, massless_dofs
+from vibupdate.modal.factor import sparse_lu
 
 __all__ = ["receptance", "receptances", "modal_sum", "classical_terms"]
 
@@ -267,7 +268,7 @@ def receptances(M, K, pairs, omega, C=None) -> np.ndarray:
     out = np.empty((rows.size, omega.size), dtype=complex)
     for i, w in enumerate(omega):
         A = Ks + 1j * w * Cs - w**2 * Ms
-        X = eigen.sparse_lu(A).solve(E.astype(A.dtype))
+        X = sparse_lu(A).solve(E.astype(A.dtype))
         out[:, i] = X[rows, which]
     return out
 

@@ -43,6 +43,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from vibupdate.modal.factor import sparse_lu
+
 __all__ = ["refine_modes", "block_size", "shape_ratio_floor", "export_rounding", "EXTENDED"]
 
 #: Whether ``numpy.longdouble`` carries more digits than ``double`` on this platform.
@@ -198,8 +200,6 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
     A = (Ks - eigval * Ms)[keep][:, keep]
     V = np.zeros((n, B.shape[1]))
     if n > 400:
-        from vibupdate.modal.eigen import sparse_lu   # eigen imports this module
-
         V[keep] = sparse_lu(A).solve(B[keep])
     else:
         V[keep] = sla.solve(A.toarray(), B[keep], assume_a="sym")

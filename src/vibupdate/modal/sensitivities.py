@@ -33,7 +33,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from vibupdate.modal import eigen
-from vibupdate.modal.eigen import _dense_modes, sparse_lu
+from vibupdate.modal.eigen import _dense_modes
+from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.zeros import adjunct, antiresonances, structural
 
