@@ -22,11 +22,20 @@ MAPDL_LAYOUTS = {"ansys-mapdl": {}, "ansys-mapdl-rhs": {"rhs": True},
                  "ansys-mapdl-e4": {"exponent": "E", "per_line": 4, "triangle": "upper"}}
 
 
+#: The *MATRIX INPUT layouts of the ``abaqus-*`` routes (``abaqus``: the lower triangle, no zeros).
+ABAQUS_LAYOUTS = {"abaqus-square-zeros": {"layout": "square", "zeros": True},
+                  "abaqus-upper-zeros": {"layout": "upper", "zeros": True}}
+
+
 def write_export(route: str, folder: Path, frame, values) -> str:
     """One export of ``frame`` at ``values`` as ``route`` writes it; returns its path in the import file."""
     if route == "abaqus":
         K, M = frame.matrices(values, constrained=True)
         fe_writers.write_abaqus(folder, K, M, frame.all_dofs)
+        return folder.name
+    if route in ABAQUS_LAYOUTS:
+        K, M = frame.matrices(values, constrained=True)
+        fe_writers.write_abaqus_layout(folder, K, M, frame.all_dofs, **ABAQUS_LAYOUTS[route])
         return folder.name
     K, M = frame.matrices(values)
     if route.startswith("nastran"):
@@ -47,7 +56,7 @@ def write_export_set(route: str, root: Path, frame, names=AFFINE, two_steps=(), 
     nominal = write_export(route, root / "nominal", frame, {})
     fmt = route.split("-")[0]
     lines = [f'format = "{fmt}"', f'nominal = "{nominal}"']
-    if route == "abaqus":
+    if fmt == "abaqus":
         fixed = sorted(set(frame.all_dofs) - set(frame.dofs))
         lines.append("fix = [" + ", ".join(f'"{d}"' for d in fixed) + "]")
     lines.append(sensors)

@@ -63,3 +63,36 @@ def write_mapdl_hbmat(folder, K, M, dofs, rhs: bool = False, exponent: str = "D"
                                         for k, d in enumerate(dofs)]
     (folder / "K.mapping").write_text("\n".join(rows) + "\n")
     return folder
+
+
+def write_abaqus_layout(folder, K, M, dofs, layout: str = "lower", zeros: bool = False, job: str = "job"):
+    """``JOB_STIF1.mtx`` and ``JOB_MASS1.mtx`` in one of the layouts ``*MATRIX INPUT`` allows (the
+    Abaqus Keywords Reference): the ``lower`` or ``upper`` triangle or the ``square`` matrix, every
+    double in full; with ``zeros``, the zeros of the sparsity pattern too (every term of the 6 x 6
+    blocks of node pairs that share an element, as an assembled pattern holds them)."""
+    import numpy as np
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    nodes = np.array([int(d.split(":")[0]) for d in dofs])
+    comps = np.array([COMPONENT[d.split(":")[1]] for d in dofs])
+    for label, A in (("STIF", K), ("MASS", M)):
+        A = sp.csr_matrix(A)
+        if zeros:
+            # the node pairs coupled in K or M, expanded to all their DOF pairs
+            coupled = sp.csr_matrix((abs(sp.csr_matrix(K)) + abs(sp.csr_matrix(M))) != 0).tocoo()
+            _, node_index = np.unique(nodes, return_inverse=True)
+            pairs = np.unique(np.c_[node_index[coupled.row], node_index[coupled.col]], axis=0)
+            per_node = [np.flatnonzero(node_index == k) for k in range(node_index.max() + 1)]
+            rows = np.concatenate([np.repeat(per_node[a], len(per_node[b])) for a, b in pairs])
+            cols = np.concatenate([np.tile(per_node[b], len(per_node[a])) for a, b in pairs])
+            values = np.asarray(A[rows, cols]).ravel()
+        else:
+            coo = A.tocoo()
+            rows, cols, values = coo.row, coo.col, coo.data
+        keep = {"lower": rows >= cols, "upper": rows <= cols, "square": np.ones(rows.size, bool)}[layout]
+        order = np.lexsort((cols[keep], rows[keep]))
+        r, c, v = rows[keep][order], cols[keep][order], values[keep][order]
+        lines = [f"{nodes[i]},{comps[i]}, {nodes[j]},{comps[j]}, {x:.16E}" for i, j, x in zip(r, c, v)]
+        (folder / f"{job}_{label}1.mtx").write_text("\n".join(lines) + "\n")
+    return folder

@@ -84,7 +84,7 @@ def test_a_punch_cut_at_a_line_boundary_exits_2_naming_it(tmp_path, capsys, fiel
     target.write_text("".join(lines[:-cut]))
     assert main(["import", str(spec), "--out", str(tmp_path / "model")]) == 2
     err = capsys.readouterr().err
-    assert str(target) in err and "cut short" in err and "Traceback" not in err, err
+    assert str(target) in err and "cut short" in err.replace(str(tmp_path), "") and "Traceback" not in err, err
     assert not (tmp_path / "model").exists()
 
 
