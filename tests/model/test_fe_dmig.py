@@ -112,3 +112,18 @@ def test_an_extra_matrix_is_named_in_the_import_summary(tmp_path, capsys):
     assert main(["import", str(spec), "--out", str(tmp_path / "model")]) == 0
     out = capsys.readouterr().out
     assert f"note: {nominal}: DMIG matrices not read: K4AX (only KAAX and MAAX are)" in out, out
+
+
+def test_a_dof_without_mass_passes_and_a_coupling_without_its_diagonal_does_not():
+    """The completeness rule of every reader on constructed entries: a positive semidefinite
+    matrix has no term in a row whose diagonal is zero."""
+    from vibupdate.model.fe.export import symmetric_from_entries
+
+    names = ("1:x", "1:rz", "2:x")
+    # 1:rz carries no mass at all: accepted
+    M = symmetric_from_entries([0, 2, 2], [0, 0, 2], [2.0, 0.5, 2.0], 3, "m.pch", "DMIG MAAX", names, [4, 5, 6])
+    assert M[1].nnz == 0 and M[0, 2] == 0.5
+    # 2:x coupled to 1:x (line 5) without its own diagonal term: refused naming the DOF and the line
+    with pytest.raises(ValueError, match=r"m.pch: DMIG MAAX has off-diagonal terms at DOF '2:x' \(its first term at "
+                                         r"line 5\) but no diagonal term there"):
+        symmetric_from_entries([0, 2], [0, 0], [2.0, 0.5], 3, "m.pch", "DMIG MAAX", names, [4, 5])

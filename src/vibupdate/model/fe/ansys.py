@@ -229,7 +229,7 @@ def _read_hb(path: Path, digits: Counter | None = None) -> sp.csr_matrix:
                          "declares; the header is inconsistent with the data")
     pointers, where = _section(lines, start, ptrcrd, ptrfmt, ncol + 1, path, "pointers")
     rows, rwhere = _section(lines, start + ptrcrd, indcrd, indfmt, nnz, path, "row indices")
-    values, _ = _section(lines, start + ptrcrd + indcrd, valcrd, valfmt, nnz, path, "values",
+    values, vwhere = _section(lines, start + ptrcrd + indcrd, valcrd, valfmt, nnz, path, "values",
                          Counter() if digits is None else digits)
     if rhscrd > 0:
         _section(lines, start + ptrcrd + indcrd + valcrd, rhscrd, rhsfmt, nrow * nrhs, path, "right-hand side",
@@ -244,7 +244,7 @@ def _read_hb(path: Path, digits: Counter | None = None) -> sp.csr_matrix:
         raise ValueError(f"{path}: line {rwhere[bad[0]]}: row index {rows[bad[0]]} outside 1 to {nrow}")
     cols = np.repeat(np.arange(ncol), steps)
     # RSA holds one triangle, RUA both (which must agree): the same symmetric matrix either way
-    return symmetric_from_entries(rows - 1, cols, values, nrow, str(path), "the matrix")
+    return symmetric_from_entries(rows - 1, cols, values, nrow, str(path), "the matrix", lines=vwhere)
 
 
 def read_hbmat(stiffness, mass, mapping) -> FEExport:
