@@ -28,23 +28,30 @@ def test_every_layout_of_a_2000_dof_frame_updates_to_the_truth(tmp_path, capsys)
     assert 2000 <= len(frame.dofs) <= 5000
     truth = {k: NOMINAL[k] * fe_cases.TRUTH[k] for k in fe_cases.AFFINE}
     K, M = frame.matrices(truth)
-    found, errors = {}, {}
+    found, errors, said = {}, {}, []
     for route in ROUTES:
         root = tmp_path / route
         spec = fe_cases.write_export_set(route, root / "exports", frame)
-        assert main(["import", str(spec), "--out", str(root / "model")]) == 0, (route, capsys.readouterr().err)
+        code = main(["import", str(spec), "--out", str(root / "model")])
+        err = capsys.readouterr().err
+        if route == "nastran-small":
+            # 3 significant digits (5e-3): the rigid-body test cannot tell this frame's lowest modes
+            # from zero at that precision, and the import says so (before: exit 3, an ARPACK error)
+            assert code == 2 and "cannot tell its lowest modes from zero" in err, err
+            continue
+        assert code == 0, (route, err)
         case = fe_cases.exact_case(root / "model", K, M, frame.dofs, fe_cases.measured_dofs(frame, SIZE[2]), 8)
         code = main(["run", str(case), "--out", str(root / "out")])
+        capsys.readouterr()
         doc = json.loads((root / "out" / "results.json").read_text())
         found[route] = {p["name"]: p["updated"] for p in doc["parameters"]}
         errors[route] = max(abs(found[route][n] / truth[n] - 1) for n in truth)
-        print(f"{route}: exit {code}, {doc['solver']['status']}, largest error {errors[route]:.3g}")
-        capsys.readouterr()
-        if route != "nastran-small":
-            assert code == 0 and errors[route] <= 1e-6, (route, errors[route])
+        said.append(f"{route}: exit {code}, {doc['solver']['status']}, largest error {errors[route]:.3g}")
+        assert code == 0 and errors[route] <= 1e-6, said
     spread = max(abs(found[a][n] / found[b][n] - 1) for a in FULL for b in FULL for n in truth)
-    print(f"largest relative difference between the full-precision layouts: {spread:.3g}")
-    assert spread <= 1e-9
     mapdl = max(abs(found[a][n] / found["ansys-mapdl"][n] - 1) for a in ("ansys-mapdl-rhs", "ansys-mapdl-e4")
                 for n in truth)
-    assert mapdl <= 1e-9
+    with capsys.disabled():
+        print("\n" + "\n".join(said) + f"\nfull-precision layouts agree within {spread:.3g}; MAPDL layouts within "
+              f"{mapdl:.3g}")
+    assert spread <= 1e-9 and mapdl <= 1e-9

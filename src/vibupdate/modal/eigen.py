@@ -334,7 +334,14 @@ def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float
         if shift is not None:
             sigma, lu = shift, sparse_lu(Ks - shift * Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
-    _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0, **repeatable(Ks.shape[0]))
+    try:
+        _, V = spla.eigsh(Ks, k=q, M=Ms, sigma=sigma, which="LM", OPinv=op, tol=0, **repeatable(Ks.shape[0]))
+    except spla.ArpackError as exc:
+        singular = (f"; K counts as singular at the matrices' relative precision {precision:g}, which cannot tell "
+                    "its lowest modes from zero: matrices written with more digits are needed"
+                    if sigma < 0 and precision is not None and precision > rigid.EPS else "")
+        raise ModalAccuracyError(f"shift-invert eigen-solve at shift {sigma:.4g} (rad/s)^2 failed: {exc}"
+                                 f"{singular}") from None
     # One refined step of inverse iteration on the block and a Rayleigh-Ritz projection
     # (`vibupdate.modal.refinement`): removes any component along the infinite modes of a
     # singular M and recovers the digits the solves lose on fine meshes.
