@@ -16,17 +16,35 @@ TRUTH = {"E_col": 1.08, "E_beam": 0.93, "rho_col": 1.05, "m_floor": 0.96, "k_bas
 UNITS = {"E_col": "Pa", "E_beam": "Pa", "rho_col": "kg/m^3", "m_floor": "kg/m^2", "k_base": "N m/rad", "d_beam": "m"}
 
 
+#: The HBMAT layouts of the ``ansys-*`` routes: MAPDL's own (one number a line, D exponents), with a
+#: right-hand side, and with repeat counts, E exponents and the upper triangle.
+MAPDL_LAYOUTS = {"ansys-mapdl": {}, "ansys-mapdl-rhs": {"rhs": True},
+                 "ansys-mapdl-e4": {"exponent": "E", "per_line": 4, "triangle": "upper"}}
+
+
+#: The *MATRIX INPUT layouts of the ``abaqus-*`` routes (``abaqus``: the lower triangle, no zeros).
+ABAQUS_LAYOUTS = {"abaqus-square-zeros": {"layout": "square", "zeros": True},
+                  "abaqus-upper-zeros": {"layout": "upper", "zeros": True}}
+
+
 def write_export(route: str, folder: Path, frame, values) -> str:
     """One export of ``frame`` at ``values`` as ``route`` writes it; returns its path in the import file."""
     if route == "abaqus":
         K, M = frame.matrices(values, constrained=True)
         fe_writers.write_abaqus(folder, K, M, frame.all_dofs)
         return folder.name
+    if route in ABAQUS_LAYOUTS:
+        K, M = frame.matrices(values, constrained=True)
+        fe_writers.write_abaqus_layout(folder, K, M, frame.all_dofs, **ABAQUS_LAYOUTS[route])
+        return folder.name
     K, M = frame.matrices(values)
     if route.startswith("nastran"):
         field = route.split("-")[1] if "-" in route else "free"
         fe_writers.write_dmig(folder.with_suffix(".pch"), K, M, frame.dofs, field)
         return folder.with_suffix(".pch").name
+    if route in MAPDL_LAYOUTS:
+        fe_writers.write_mapdl_hbmat(folder, K, M, frame.dofs, **MAPDL_LAYOUTS[route])
+        return folder.name
     fe_writers.write_hbmat(folder, K, M, frame.dofs)
     return folder.name
 
@@ -36,9 +54,9 @@ def write_export_set(route: str, root: Path, frame, names=AFFINE, two_steps=(), 
     sign for ``two_steps``) and the import file."""
     root.mkdir(parents=True, exist_ok=True)
     nominal = write_export(route, root / "nominal", frame, {})
-    fmt = "nastran" if route.startswith("nastran") else route
+    fmt = route.split("-")[0]
     lines = [f'format = "{fmt}"', f'nominal = "{nominal}"']
-    if route == "abaqus":
+    if fmt == "abaqus":
         fixed = sorted(set(frame.all_dofs) - set(frame.dofs))
         lines.append("fix = [" + ", ".join(f'"{d}"' for d in fixed) + "]")
     lines.append(sensors)

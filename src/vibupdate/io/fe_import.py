@@ -316,6 +316,7 @@ def summary_lines(imported: ImportedModel, n_modes: int = 6) -> list[str]:
     m = imported.model
     M, K = sp.csr_matrix(m.M0), sp.csr_matrix(m.K0)
     lines = [f"model: {m.n_dofs} DOFs, {len(massless_dofs(M))} without mass; {len(m.parameters)} parameter(s)"]
+    lines += [f"note: {note}" for note in imported.nominal.notes]
     for axis, mass in translation_masses(M, m.dofs, imported.directions).items():
         lines.append(f"mass moving with a unit {axis} translation: {mass or 0.0:.6g} kg")
     if m.matrix_precision is not None:

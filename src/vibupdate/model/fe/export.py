@@ -108,6 +108,8 @@ class FEExport:
     precision : float, optional
         Relative precision of the entries as written (module docstring); None: exact to double
         precision (a binary export, a model built in memory, doubles written in full).
+    notes : tuple of str
+        What the reader left out of the file (e.g. further DMIG matrices), for the import's summary.
     """
 
     K: sp.csr_matrix
@@ -116,6 +118,7 @@ class FEExport:
     source: str
     nodes: Mapping = field(default_factory=dict)
     precision: float | None = None
+    notes: tuple = ()
 
     def __post_init__(self):
         n = len(self.dofs)
@@ -133,11 +136,25 @@ class FEExport:
             raise ValueError(f"{self.source}: DOF {twice!r} appears twice in the DOF map")
 
 
-def symmetric_from_entries(rows, cols, values, n: int, source: str, what: str) -> sp.csr_matrix:
+#: An off-diagonal term larger than this fraction of a matrix's largest entry, in a row whose
+#: diagonal term is zero or missing, marks an incomplete file (`symmetric_from_entries`).
+MISSING_DIAGONAL_TOL = 1e-12
+
+
+def symmetric_from_entries(rows, cols, values, n: int, source: str, what: str, names=None,
+                           lines=None) -> sp.csr_matrix:
     """Symmetric matrix from entries of one triangle or of both, shape (n, n).
 
     An entry given in both triangles must agree to `SYMMETRY_TOL`; one given in one triangle is
     mirrored. Repeated entries at one position are refused (FE codes write each term once).
+
+    Completeness: a stiffness or mass matrix is positive semidefinite, so a row whose diagonal
+    term is zero holds no other term (``A_ij^2 <= A_ii A_jj``). A row with a zero or missing
+    diagonal term and an off-diagonal term above `MISSING_DIAGONAL_TOL` times the largest entry
+    is the mark of lines missing from the file (a cut file loses the diagonal terms of its last
+    columns, whose couplings to earlier DOFs are still there): refused, naming the DOF
+    (``names``, the DOF of each index) and the line of its first term (``lines``, the line
+    number of each entry) when given.
     """
     rows, cols = np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64)
     values = np.asarray(values, dtype=float)
@@ -155,7 +172,32 @@ def symmetric_from_entries(rows, cols, values, n: int, source: str, what: str) -
             raise ValueError(f"{source}: {what} is not symmetric: its two triangles differ by up to {gap:.3g} "
                              f"(largest entry {scale:.3g}); a symmetric matrix is expected")
         upper = sp.csr_matrix(upper - upper.multiply(both))   # keep the lower copy of terms given twice
-    return sp.csr_matrix(lower + lower.T + upper + upper.T + sp.diags(A.diagonal()))
+    out = sp.csr_matrix(lower + lower.T + upper + upper.T + sp.diags(A.diagonal()))
+    _check_diagonal(out, rows, cols, source, what, names, lines)
+    return out
+
+
+def _check_diagonal(A: sp.csr_matrix, rows, cols, source: str, what: str, names, lines) -> None:
+    """Refuse a row with off-diagonal terms and no diagonal term (`symmetric_from_entries`)."""
+    if not A.nnz:
+        return
+    off = abs(A - sp.diags(A.diagonal())).tocsr()
+    largest = np.zeros(A.shape[0])
+    counts = np.diff(off.indptr)
+    if off.nnz:
+        largest[counts > 0] = np.maximum.reduceat(off.data, off.indptr[:-1][counts > 0])
+    bad = np.flatnonzero((A.diagonal() == 0) & (largest > MISSING_DIAGONAL_TOL * abs(A).max()))
+    if not bad.size:
+        return
+    i = int(bad[0])
+    dof = f"DOF {names[i]!r}" if names is not None else f"row {i + 1}"
+    where = ""
+    if lines is not None:
+        mine = np.flatnonzero((np.asarray(rows) == i) | (np.asarray(cols) == i))
+        where = f" (its first term at line {int(np.min(np.asarray(lines)[mine]))})"
+    raise ValueError(f"{source}: {what} has off-diagonal terms at {dof}{where} but no diagonal term there, which a "
+                     f"stiffness or mass matrix cannot have ({bad.size} such DOF(s)): lines are missing from the "
+                     "file; is it cut short?")
 
 
 def without_dofs(export: FEExport, fixed: Sequence[str]) -> FEExport:
@@ -168,4 +210,4 @@ def without_dofs(export: FEExport, fixed: Sequence[str]) -> FEExport:
     drop = {where[d] for d in fixed}
     keep = np.array([k for k in range(len(export.dofs)) if k not in drop], dtype=int)
     return FEExport(sp.csr_matrix(export.K[keep][:, keep]), sp.csr_matrix(export.M[keep][:, keep]),
-                    tuple(export.dofs[k] for k in keep), export.source, export.nodes, export.precision)
+                    tuple(export.dofs[k] for k in keep), export.source, export.nodes, export.precision, export.notes)

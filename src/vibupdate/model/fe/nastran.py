@@ -50,7 +50,8 @@ def nastran_float(text: str) -> float:
 
 
 def _cards(path: Path):
-    """``(line number, data fields)`` of each card, data fields being fields 2-9 of each line."""
+    """``[line number, name, data fields, line of each data field]`` of each card, data fields
+    being fields 2-9 of each line."""
     cards = []
     text = path.read_text(errors="replace").splitlines()
     for number, raw in enumerate(text, start=1):
@@ -67,9 +68,10 @@ def _cards(path: Path):
             head = line[:8].strip()
             data = [line[8 + 8 * k:16 + 8 * k].strip() for k in range(8)]
         if head and not head.startswith(("+", "*")):
-            cards.append([number, head.rstrip("*").upper(), data])
+            cards.append([number, head.rstrip("*").upper(), data, [number] * len(data)])
         elif cards:
             cards[-1][2] = cards[-1][2] + data
+            cards[-1][3] = cards[-1][3] + [number] * len(data)
         else:
             raise ValueError(f"{path}: line {number} continues a card but no card starts before it")
     return cards
@@ -77,13 +79,18 @@ def _cards(path: Path):
 
 def read_dmig_matrices(path) -> dict:
     """Every DMIG matrix of a bulk-data file: name -> ``(rows, cols, values, dofs, ifo,
-    digits)`` with the DOF names in the order met, the entries in that numbering (0-based), the
-    matrix form and a `collections.Counter` of the significant digits of the values as written."""
+    digits, lines, ncol)`` with the DOF names in the order met, the entries in that numbering
+    (0-based), the matrix form, a `collections.Counter` of the significant digits of the values
+    as written, the line of each entry and the header's NCOL (None when blank).
+
+    Checked card by card: a column card without a term (a large-field card cut after its first
+    line), a term without its value, and more DOFs than the header's NCOL are refused naming the
+    line."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"Nastran file {str(path)!r} does not exist")
-    out, forms, digits = {}, {}, {}
-    for number, head, data in _cards(path):
+    out, forms, digits, ncols, headers = {}, {}, {}, {}, {}
+    for number, head, data, lines in _cards(path):
         if head != "DMIG":
             continue
         where = f"{path}: line {number}"
@@ -96,36 +103,55 @@ def read_dmig_matrices(path) -> dict:
                 if ifo not in (1, 6):
                     raise ValueError(f"{where}: DMIG {name} has IFO = {ifo}; a symmetric matrix (6) or a square "
                                      "one (1) is expected")
-                forms[name] = ifo
+                if name in out:
+                    raise ValueError(f"{where}: a second header card of DMIG {name} (the first at line "
+                                     f"{headers[name]})")
+                forms[name], headers[name] = ifo, number
+                ncols[name] = int(data[7]) if len(data) > 7 and data[7] else None
                 digits[name] = Counter()
-                out[name] = ([], [], [], {})
+                out[name] = ([], [], [], {}, [])
                 continue
             if name not in out:
                 raise ValueError(f"{where}: column of DMIG {name} before its header card")
-            rows, cols, values, index = out[name]
+            rows, cols, values, index, at = out[name]
             col = index.setdefault(dof_name(int(data[1]), int(data[2] or 0)), len(index))
-            terms = data[4:]
+            terms, term_lines = data[4:], lines[4:]
+            found = 0
             for k in range(0, len(terms) - 2, 4):
                 g, c, a = terms[k:k + 3]
                 if not g:
                     continue
+                if not a:
+                    raise ValueError(f"{path}: line {term_lines[k]}: DMIG {name} term at grid {g} component "
+                                     f"{c or 0} has no value; is the card cut short?")
                 row = index.setdefault(dof_name(int(g), int(c or 0)), len(index))
                 rows.append(row)
                 cols.append(col)
                 values.append(nastran_float(a))
+                at.append(term_lines[k])
                 digits[name][significant_digits(a)] += 1
+                found += 1
+            if not found:
+                raise ValueError(f"{where}: the column card of DMIG {name} at grid {data[1]} component "
+                                 f"{data[2] or 0} holds no term (a column card lists at least one); is the file "
+                                 "cut short?")
         except (ValueError, IndexError) as exc:
             if str(exc).startswith(str(path)):
                 raise
             raise ValueError(f"{where}: cannot read DMIG {name}: {exc}") from None
     if not out:
         raise ValueError(f"Nastran file {str(path)!r} holds no DMIG matrix")
-    return {name: (rows, cols, values, tuple(index), forms[name], digits[name])
-            for name, (rows, cols, values, index) in out.items()}
+    for name, (_, _, _, index, _) in out.items():
+        if ncols[name] is not None and len(index) > ncols[name]:
+            raise ValueError(f"{path}: line {headers[name]}: the header of DMIG {name} declares NCOL = {ncols[name]} "
+                             f"columns, but its cards name {len(index)} DOFs")
+    return {name: (rows, cols, values, tuple(index), forms[name], digits[name], at, ncols[name])
+            for name, (rows, cols, values, index, at) in out.items()}
 
 
 def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
-    """Stiffness and mass DMIG matrices of a Nastran file as an `FEExport`.
+    """Stiffness and mass DMIG matrices of a Nastran file as an `FEExport`; other DMIG
+    matrices of the file are left out, said in the export's ``notes``.
 
     Parameters
     ----------
@@ -139,10 +165,14 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     for name in (stiffness, mass):
         if name.upper() not in found:
             raise ValueError(f"{path}: no DMIG matrix {name!r}; the file holds {', '.join(sorted(found))}")
-    kr, kc, kv, kdofs, _, kdigits = found[stiffness.upper()]
-    mr, mc, mv, mdofs, _, mdigits = found[mass.upper()]
+    kr, kc, kv, kdofs, _, kdigits, klines, kncol = found[stiffness.upper()]
+    mr, mc, mv, mdofs, _, mdigits, mlines, mncol = found[mass.upper()]
     # a DOF with terms in one matrix only still belongs to both: the union, by grid then direction
     order = sorted(set(kdofs) | set(mdofs), key=_dof_key)
+    for name, ncol in ((stiffness, kncol), (mass, mncol)):
+        if ncol is not None and ncol != len(order):
+            raise ValueError(f"{path}: the header of DMIG {name.upper()} declares NCOL = {ncol} columns, but "
+                             f"{stiffness.upper()} and {mass.upper()} name {len(order)} DOFs; is the file cut short?")
     pos = {d: k for k, d in enumerate(order)}
     n = len(order)
 
@@ -150,15 +180,18 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
         table = np.array([pos[d] for d in dofs], dtype=np.int64)
         return table[np.asarray(rows, dtype=np.int64)], table[np.asarray(cols, dtype=np.int64)]
 
-    K = symmetric_from_entries(*remap(kr, kc, kdofs), kv, n, str(path), f"DMIG {stiffness}")
-    M = symmetric_from_entries(*remap(mr, mc, mdofs), mv, n, str(path), f"DMIG {mass}")
-    return FEExport(K, M, tuple(order), str(path), _grids(path), precision_of_digits(kdigits + mdigits))
+    K = symmetric_from_entries(*remap(kr, kc, kdofs), kv, n, str(path), f"DMIG {stiffness}", order, klines)
+    M = symmetric_from_entries(*remap(mr, mc, mdofs), mv, n, str(path), f"DMIG {mass}", order, mlines)
+    others = sorted(set(found) - {stiffness.upper(), mass.upper()})
+    notes = (f"{path}: DMIG matrices not read: {', '.join(others)} (only {stiffness.upper()} and {mass.upper()} "
+             "are)",) if others else ()
+    return FEExport(K, M, tuple(order), str(path), _grids(path), precision_of_digits(kdigits + mdigits), notes)
 
 
 def _grids(path: Path) -> dict:
     """Coordinates (m) of the GRID cards of the file in the basic system (``CP`` blank or 0)."""
     nodes = {}
-    for number, head, data in _cards(path):
+    for number, head, data, _ in _cards(path):
         if head != "GRID":
             continue
         if data[1] not in ("", "0"):

@@ -112,16 +112,54 @@ def _check_same_dofs(nominal: FEExport, other: FEExport, name: str) -> None:
         return
     if len(other.dofs) != len(nominal.dofs):
         raise ValueError(f"{other.source}: the export of parameter '{name}' has {len(other.dofs)} DOFs, expected "
-                         f"{len(nominal.dofs)} like the nominal export {nominal.source}")
+                         f"{len(nominal.dofs)} like the nominal export {nominal.source} (is one of them cut short, or of another "
+                         "model?)")
     k = next(i for i, (a, b) in enumerate(zip(other.dofs, nominal.dofs)) if a != b)
     raise ValueError(f"{other.source}: the DOF map of parameter '{name}' does not match the nominal export "
                      f"{nominal.source}: DOF {k + 1} is {other.dofs[k]!r}, expected {nominal.dofs[k]!r}")
 
 
-def _change(nominal: FEExport, other: FEExport, name: str, step: float):
+#: A term larger than this fraction of its matrix's largest entry is one whose absence from
+#: another export of the set is refused (`_check_same_terms`).
+TERM_TOL = 1e-12
+
+
+def _check_same_terms(nominal: FEExport, other: FEExport, name: str, p0: float, p1: float) -> None:
+    """Refuse a term that one export of the pair gives and the other lacks (exactly zero).
+
+    Assumption: a finite step of a parameter changes the value of a term of K or M but does not
+    make it exactly zero, nor make one appear where the nominal has exactly zero, unless the
+    parameter itself is zero in one of the two exports (a spring stepped from or to zero); such
+    a term would need an exact cancellation. A term of one export missing from the other is then
+    a line missing from a file: its difference, divided by the step, would be taken as a
+    derivative. Terms below `TERM_TOL` times the matrix's largest entry (rounding noise of an
+    assembly) are not compared."""
+    if p0 == 0 or p1 == 0:
+        return
+    for label, A0, A1 in (("K", nominal.K, other.K), ("M", nominal.M, other.M)):
+        scale = max(abs(A0).max() if A0.nnz else 0.0, abs(A1).max() if A1.nnz else 0.0)
+        if not scale:
+            continue
+        for has, lacks, A, source, lacking in ((A0, A1, A0, nominal.source, other.source),
+                                              (A1, A0, A1, other.source, nominal.source)):
+            big = sp.csr_matrix(abs(has) > TERM_TOL * scale)
+            missing = sp.csr_matrix(big - big.multiply(sp.csr_matrix(lacks != 0)))
+            missing.eliminate_zeros()
+            if missing.nnz:
+                coo = missing.tocoo()
+                i, j = int(coo.row[0]), int(coo.col[0])
+                raise ValueError(f"{lacking}: {label} has no term at ({nominal.dofs[i]}, {nominal.dofs[j]}), which "
+                                 f"{source} gives ({A[i, j]:.6g}); {coo.nnz} entries missing in all. "
+                                 f"A step of '{name}' cannot make a term vanish or appear: lines are missing from "
+                                 f"{lacking}; is it cut short?")
+
+
+def _change(nominal: FEExport, other: FEExport, name: str, step: float, p0: float | None = None):
     if not np.isfinite(step) or step == 0:
         raise ValueError(f"parameter '{name}': step must be a finite non-zero number, got {step!r}")
     _check_same_dofs(nominal, other, name)
+    if p0 is not None:
+        _check_same_terms(nominal, other, name, p0, p0 + step)
     dK, dM = sp.csr_matrix(other.K - nominal.K), sp.csr_matrix(other.M - nominal.M)
     size = max(abs(dK).max() / max(abs(nominal.K).max(), 1e-300), abs(dM).max() / max(abs(nominal.M).max(), 1e-300))
     if size <= ZERO_TOL:
@@ -160,12 +198,13 @@ def derivatives(nominal: FEExport, perturbations: Sequence[Perturbation]) -> tup
     out = []
     for pert in perturbations:
         name, h1 = pert.parameter.name, float(pert.step)
-        dK1, dM1 = _change(nominal, pert.export, name, h1)
+        p0 = float(pert.parameter.nominal)
+        dK1, dM1 = _change(nominal, pert.export, name, h1, p0)
         if pert.export2 is None:
             dK, dM, scheme, departure = dK1 / h1, dM1 / h1, "forward", None
         else:
             h2 = float(pert.step2) if pert.step2 is not None else float("nan")
-            dK2, dM2 = _change(nominal, pert.export2, name, h2)
+            dK2, dM2 = _change(nominal, pert.export2, name, h2, p0)
             if h2 == h1:
                 raise ValueError(f"parameter '{name}': the two steps are equal ({h1:g}); a second, different step "
                                  "is expected")
