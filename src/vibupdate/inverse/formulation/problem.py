@@ -42,6 +42,9 @@ class BilinearProblem:
     row_weight : ndarray, shape (n_R,)
         ``alpha`` of the block of each residual row.
     row_offsets : ndarray of int, shape (n_blocks + 1,)
+    notes : tuple
+        What the transformations set aside, as typed records with a ``message`` (e.g.
+        `vibupdate.inverse.interlacing.SignConflict`): the run reports them and goes on.
     """
 
     parameters: tuple[Parameter, ...]
@@ -61,6 +64,7 @@ class BilinearProblem:
     row_weight: np.ndarray
     row_offsets: np.ndarray
     options: FormulationOptions = field(default_factory=FormulationOptions)
+    notes: tuple = ()
 
     @property
     def n_x(self) -> int:
