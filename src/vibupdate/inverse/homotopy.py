@@ -19,9 +19,12 @@ by a backend chosen by name (`SolverOptions.backend`, `vibupdate.inverse.backend
 
 from __future__ import annotations
 
+import threading
 import time
+import weakref
+from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -31,7 +34,7 @@ from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["SolverOptions", "StepRecord", "HomotopyResult", "solve_homotopy"]
+__all__ = ["SolverOptions", "StepRecord", "HomotopyResult", "RelaxationCache", "RELAXATIONS", "solve_homotopy"]
 
 
 @dataclass(frozen=True)
@@ -85,7 +88,9 @@ class SolverOptions:
 @dataclass(frozen=True)
 class StepRecord:
     """One solve on the path: ``lam``, objective (weighted residual, no proximal term),
-    IPOPT iterations, status, wall seconds, and whether it was a cold retry."""
+    IPOPT iterations, status, wall seconds, whether it was a cold retry, and whether it is the
+    outcome of the identical relaxation solved before in this process (``reused``: no solve,
+    0 s; `RELAXATIONS`)."""
 
     lam: float
     objective: float
@@ -94,11 +99,54 @@ class StepRecord:
     seconds: float
     cold: bool
     accepted: bool
+    reused: bool = False
 
     def as_dict(self) -> dict:
         return {"lambda": self.lam, "objective": self.objective, "iterations": self.iterations,
                 "status": self.status.value, "seconds": self.seconds, "cold": self.cold,
-                "accepted": self.accepted}
+                "accepted": self.accepted, "reused": self.reused}
+
+
+class RelaxationCache:
+    """The ``lam = 0`` outcomes solved in this process, by the problem's identity
+    (`BilinearProblem.identity`) and the solver settings that shape the outcome, so that an
+    identical relaxation (the stepped path's restart, a widening that changed nothing) is
+    never solved twice in one run. An entry is re-used only while a problem it was solved for
+    is alive (the run that holds it; a new run builds new problems and solves them afresh). At
+    most ``maxsize`` kept (least recently used dropped); ``solves`` counts the relaxations
+    solved and ``hits`` those re-used."""
+
+    def __init__(self, maxsize: int = 4):
+        self.maxsize = maxsize
+        self.solves = 0
+        self.hits = 0
+        self._entries: OrderedDict[tuple, tuple[weakref.ref, StepOutcome]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, problem, key: tuple, solve: Callable[[], StepOutcome]) -> tuple[StepOutcome, bool]:
+        """The outcome of ``key`` and True when it was re-used, else ``solve()`` and False."""
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is not None and entry[0]() is not None:
+                self._entries.move_to_end(key)
+                self.hits += 1
+                return entry[1], True
+        outcome = solve()
+        with self._lock:
+            self.solves += 1
+            self._entries[key] = (weakref.ref(problem), outcome)
+            while len(self._entries) > self.maxsize:
+                self._entries.popitem(last=False)
+        return outcome, False
+
+    def clear(self) -> None:
+        with self._lock:
+            self._entries.clear()
+            self.solves = self.hits = 0
+
+
+#: The cache `solve_homotopy` uses.
+RELAXATIONS = RelaxationCache()
 
 
 @dataclass(frozen=True)
@@ -158,13 +206,18 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     prox_weight = options.proximal * max(f_nominal, 1e-12)
     steps: list[StepRecord] = []
 
-    def record(lam, out: StepOutcome, cold: bool, accepted: bool):
-        steps.append(StepRecord(lam, out.objective, out.iterations, out.status, out.seconds, cold, accepted))
+    def record(lam, out: StepOutcome, cold: bool, accepted: bool, reused: bool = False):
+        steps.append(StepRecord(lam, out.objective, out.iterations, out.status, out.seconds, cold, accepted, reused))
         say(f"  lambda = {lam:6.4f}  objective = {out.objective:.4e}  iterations = {out.iterations:4d}  "
-            f"{out.status.value}{' (cold retry)' if cold and lam > 0 else ''}  {out.seconds:.2f} s")
+            f"{out.status.value}{' (cold retry)' if cold and lam > 0 else ''}"
+            + ("  (the identical relaxation solved before: re-used)" if reused else f"  {out.seconds:.2f} s"))
 
-    first = backend.solve(z, 0.0)
-    record(0.0, first, True, first.status.ok)
+    key = (problem.identity(), options.backend, options.relaxation_solver, options.tol, options.max_iter,
+           options.max_cpu_time)
+    first, reused = RELAXATIONS.get(problem, key, lambda: backend.solve(z, 0.0))
+    if reused:
+        first = replace(first, seconds=0.0)
+    record(0.0, first, True, first.status.ok, reused)
     if not first.status.ok:
         x, u, t, _ = backend.split(z)
         return HomotopyResult(x, u, t, 0.0, first.status, problem.objective(x, u), None,
