@@ -12,6 +12,11 @@
    step is retried cold, then halved (the step as tried, clipped at ``lam = 1``), down to
    ``min_step``; after a halved step succeeds the step returns to at least ``1 / n_lambda``.
 3. The last step is ``lam = 1`` without the proximal term: the original problem.
+4. The path has a time budget (``SolverOptions.time_budget``): a backend that can watch its
+   iterations (``watch(deadline, say)``) stops a solve when it is spent and prints a progress
+   line (iteration, objective, time left) every few seconds of a long solve; a step stopped
+   so, or a step not started because the budget is spent, ends the path at its last accepted
+   point with status ``time_limit`` (no retry, no halving: neither could finish either).
 
 Every solve is recorded; a failed path is a status, never an exception. The steps are solved
 by a backend chosen by name (`SolverOptions.backend`, `vibupdate.inverse.backends`).
@@ -61,6 +66,11 @@ class SolverOptions:
         Seconds per solve.
     tol : float
         The backend's convergence tolerance (IPOPT's ``tol``).
+    time_budget : float
+        Seconds the whole path may take, the relaxation included. When it is spent (checked
+        between solves, and by the backend between its iterations) the path stops at its last
+        accepted point with status ``time_limit``, said in the progress and the result, and
+        the caller goes on with what it has (module docstring, item 4).
     backend : str
         Name of the step solver (`vibupdate.inverse.backends.BACKENDS`).
     relaxation_solver : {"piqp", "nlp"}
@@ -76,6 +86,7 @@ class SolverOptions:
     max_iter: int = default("solver", "max_iter")
     max_cpu_time: float = default("solver", "max_cpu_time")
     tol: float = default("solver", "tol")
+    time_budget: float = default("solver", "time_budget")
     backend: str = "casadi-ipopt"
     relaxation_solver: str = default("solver", "relaxation_solver")
 
@@ -202,6 +213,10 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     x0 = np.clip(np.zeros(problem.n_x), problem.x_lower, problem.x_upper)
     u0 = problem.u_start
     z = backend.join(x0, u0, lifted_values(problem, x0, u0), problem.residual(x0, u0))
+    deadline = start + options.time_budget
+    watch = getattr(backend, "watch", None)
+    if watch is not None:
+        watch(deadline, say)
     f_nominal = problem.objective(x0, u0)
     prox_weight = options.proximal * max(f_nominal, 1e-12)
     steps: list[StepRecord] = []
@@ -213,7 +228,7 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
             + ("  (the identical relaxation solved before: re-used)" if reused else f"  {out.seconds:.2f} s"))
 
     key = (problem.identity(), options.backend, options.relaxation_solver, options.tol, options.max_iter,
-           options.max_cpu_time)
+           options.max_cpu_time, options.time_budget)
     first, reused = RELAXATIONS.get(problem, key, lambda: backend.solve(z, 0.0))
     if reused:
         first = replace(first, seconds=0.0)
@@ -227,6 +242,10 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     current, lam, base = first, 0.0, 1.0 / options.n_lambda
     step, status = base, Status.SUCCESS
     while lam < 1.0:
+        if time.perf_counter() >= deadline:
+            status = Status.TIME_LIMIT
+            say(f"  time budget of {options.time_budget:g} s spent: the path stops at lambda = {lam:.4f}")
+            break
         target = min(1.0, lam + step)
         if 1.0 - target < 1e-12:
             target = 1.0
@@ -234,9 +253,14 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
         out = backend.solve(current.z, target, prox_weight=weight, z_prev=current.z, warm=True,
                             mult_x=current.mult_x, mult_g=current.mult_g)
         record(target, out, False, out.status.ok)
-        if not out.status.ok:
+        if not out.status.ok and out.status != Status.TIME_LIMIT:
             out = backend.solve(current.z, target, prox_weight=weight, z_prev=current.z)
             record(target, out, True, out.status.ok)
+        if out.status == Status.TIME_LIMIT:
+            status = Status.TIME_LIMIT
+            say(f"  time budget of {options.time_budget:g} s spent in the step to lambda = {target:.4f}: the path "
+                f"stops at lambda = {lam:.4f}")
+            break
         if out.status.ok:
             current, lam = out, target
             step = max(base, step * options.step_growth)
