@@ -125,12 +125,6 @@ class SignConflict:
                 f" entry {self.entry}, whose bounds are [{self.bounds[0]:.4g}, {self.bounds[1]:.4g}]; likely cause: "
                 f"{self.cause}. The run goes on without the sign relations of this FRF")
 
-    def as_dict(self) -> dict:
-        return {"kind": "sign_conflict", "configuration": self.configuration, "receptance": list(self.receptance),
-                "mode": self.mode, "freq_hz": self.freq_hz, "previous_mode": self.previous_mode,
-                "zeros_between": self.zeros_between, "entry": self.entry, "asked": self.asked,
-                "bounds": list(self.bounds), "cause": self.cause, "message": self.message}
-
 
 def _likely_cause(blocks, modes, r: int, c: int, rc, k: int, zeros_between) -> str:
     """Name the likely cause of a conflict at pole ``k`` (index among the configuration's
