@@ -120,10 +120,11 @@ class SignConflict:
         r, c = self.receptance
         between = ("" if self.previous_mode is None else
                    f" ({self.zeros_between} measured zero(s) between modes {self.previous_mode} and {self.mode})")
+        sign = "positive" if self.asked > 0 else "negative"
         return (f"interlacing signs of h_{r},{c} in configuration {self.configuration!r} dropped: mode "
-                f"{self.mode} ({self.freq_hz:.4g} Hz){between} asks for a {'positive' if self.asked > 0 else 'negative'}"
-                f" entry {self.entry}, whose bounds are [{self.bounds[0]:.4g}, {self.bounds[1]:.4g}]; likely cause: "
-                f"{self.cause}. The run goes on without the sign relations of this FRF")
+                f"{self.mode} ({self.freq_hz:.4g} Hz){between} asks for a {sign} entry {self.entry}, whose bounds "
+                f"are [{self.bounds[0]:.4g}, {self.bounds[1]:.4g}]; likely cause: {self.cause}. "
+                "The run goes on without the sign relations of this FRF")
 
 
 def _likely_cause(blocks, modes, r: int, c: int, rc, k: int, zeros_between) -> str:
