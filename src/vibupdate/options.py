@@ -135,6 +135,9 @@ OPTIONS = (
     Option("solver", "max_iter", "integer", 3000, "IPOPT iterations per solve", lower=1, upper=1_000_000),
     Option("solver", "max_cpu_time", "number", 600.0, "seconds per solve", lower=0, open_lower=True),
     Option("solver", "tol", "number", 1e-10, "IPOPT tolerance", lower=0, upper=1, open_lower=True, open_upper=True),
+    Option("solver", "time_budget", "number", 300.0, "seconds the homotopy path may take (the relaxation and every "
+           "step); a path that cannot finish in it stops at its last accepted point and the run goes on to the further "
+           "starts", lower=0, open_lower=True),
     # -- [formulation]: the first-stage problem (vibupdate.inverse.formulation.options.FormulationOptions)
     # The margins: the first stage itself widens them tenfold, at most twice, when the relaxation
     # proves the boxes exclude every fit (vibupdate.inverse.update.MAX_WIDENINGS), so the range

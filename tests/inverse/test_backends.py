@@ -328,3 +328,27 @@ def test_a_piqp_exception_is_a_status_and_ipopt_takes_over(monkeypatch):
     assert relaxed.status == Status.NUMERICAL_ERROR and relaxed.raw_status == "PIQP error: P must be square"
     out = backend.solve(z0, 0.0)
     assert out.status.ok and out.raw_status.endswith("(after PIQP: PIQP error: P must be square)")
+
+
+def test_the_identical_relaxation_is_solved_once(monkeypatch):
+    """The stepped path's restart walks from the same lambda = 0 problem as the direct jump:
+    its relaxation is re-used, not solved again (counted at the QP solver)."""
+    from vibupdate.inverse.backends.piqp_relaxation import RelaxationQP
+
+    solves = []
+    original = RelaxationQP.solve
+
+    def counted(self):
+        solves.append(self)
+        return original(self)
+
+    monkeypatch.setattr(RelaxationQP, "solve", counted)
+    problem = prepare([chain_configuration(TRUTH, noise=0.01, seed=3)])
+    direct = solve_homotopy(problem, SolverOptions())
+    stepped = solve_homotopy(problem, SolverOptions(n_lambda=10))   # what the restart does
+    assert len(solves) == 1
+    assert [s.reused for s in direct.steps[:1] + stepped.steps[:1]] == [False, True]
+    assert stepped.lower_bound == direct.lower_bound and stepped.steps[0].seconds == 0.0
+    other = prepare([chain_configuration(TRUTH, noise=0.01, seed=4)])   # another problem: solved
+    solve_homotopy(other, SolverOptions())
+    assert len(solves) == 2

@@ -9,6 +9,10 @@ from vibupdate.inverse.backends import StepOutcome
 from vibupdate.inverse.status import Status
 
 
+class Problem(SimpleNamespace):
+    """What the homotopy reads of a problem (a class, so that the relaxation cache can refer to it)."""
+
+
 class Scripted:
     """A backend whose steps no longer than ``reach`` succeed and longer ones fail (deterministic,
     as a solve from the same point to the same lambda is)."""
@@ -36,8 +40,8 @@ def test_a_failed_jump_to_one_is_halved_as_tried_not_repeated(monkeypatch):
     monkeypatch.setattr(homotopy, "mccormick", lambda problem: None)
     monkeypatch.setattr(homotopy, "build", lambda problem, envelope, options: backend)
     monkeypatch.setattr(homotopy, "lifted_values", lambda problem, x, u: np.zeros(0))
-    problem = SimpleNamespace(n_x=1, x_lower=np.array([-1.0]), x_upper=np.array([1.0]), u_start=np.zeros(0),
-                              objective=lambda x, u: 1.0, residual=lambda x, u: np.zeros(0))
+    problem = Problem(n_x=1, x_lower=np.array([-1.0]), x_upper=np.array([1.0]), u_start=np.zeros(0),
+                      objective=lambda x, u: 1.0, residual=lambda x, u: np.zeros(0), identity=lambda: "scripted")
     result = homotopy.solve_homotopy(problem, homotopy.SolverOptions())
     assert result.status == Status.SUCCESS and result.lam == 1.0
     # the default direct jump, grown back to 1 after each success and clipped at lambda = 1:

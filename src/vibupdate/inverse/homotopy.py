@@ -12,6 +12,11 @@
    step is retried cold, then halved (the step as tried, clipped at ``lam = 1``), down to
    ``min_step``; after a halved step succeeds the step returns to at least ``1 / n_lambda``.
 3. The last step is ``lam = 1`` without the proximal term: the original problem.
+4. The path has a time budget (``SolverOptions.time_budget``): a backend that can watch its
+   iterations (``watch(deadline, say)``) stops a solve when it is spent and prints a progress
+   line (iteration, objective, time left) every few seconds of a long solve; a step stopped
+   so, or a step not started because the budget is spent, ends the path at its last accepted
+   point with status ``time_limit`` (no retry, no halving: neither could finish either).
 
 Every solve is recorded; a failed path is a status, never an exception. The steps are solved
 by a backend chosen by name (`SolverOptions.backend`, `vibupdate.inverse.backends`).
@@ -19,9 +24,12 @@ by a backend chosen by name (`SolverOptions.backend`, `vibupdate.inverse.backend
 
 from __future__ import annotations
 
+import threading
 import time
+import weakref
+from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -31,7 +39,7 @@ from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["SolverOptions", "StepRecord", "HomotopyResult", "solve_homotopy"]
+__all__ = ["SolverOptions", "StepRecord", "HomotopyResult", "RelaxationCache", "RELAXATIONS", "solve_homotopy"]
 
 
 @dataclass(frozen=True)
@@ -58,6 +66,11 @@ class SolverOptions:
         Seconds per solve.
     tol : float
         The backend's convergence tolerance (IPOPT's ``tol``).
+    time_budget : float
+        Seconds the whole path may take, the relaxation included. When it is spent (checked
+        between solves, and by the backend between its iterations) the path stops at its last
+        accepted point with status ``time_limit``, said in the progress and the result, and
+        the caller goes on with what it has (module docstring, item 4).
     backend : str
         Name of the step solver (`vibupdate.inverse.backends.BACKENDS`).
     relaxation_solver : {"piqp", "nlp"}
@@ -73,6 +86,7 @@ class SolverOptions:
     max_iter: int = default("solver", "max_iter")
     max_cpu_time: float = default("solver", "max_cpu_time")
     tol: float = default("solver", "tol")
+    time_budget: float = default("solver", "time_budget")
     backend: str = "casadi-ipopt"
     relaxation_solver: str = default("solver", "relaxation_solver")
 
@@ -85,7 +99,9 @@ class SolverOptions:
 @dataclass(frozen=True)
 class StepRecord:
     """One solve on the path: ``lam``, objective (weighted residual, no proximal term),
-    IPOPT iterations, status, wall seconds, and whether it was a cold retry."""
+    IPOPT iterations, status, wall seconds, whether it was a cold retry, and whether it is the
+    outcome of the identical relaxation solved before in this process (``reused``: no solve,
+    0 s; `RELAXATIONS`)."""
 
     lam: float
     objective: float
@@ -94,11 +110,54 @@ class StepRecord:
     seconds: float
     cold: bool
     accepted: bool
+    reused: bool = False
 
     def as_dict(self) -> dict:
         return {"lambda": self.lam, "objective": self.objective, "iterations": self.iterations,
                 "status": self.status.value, "seconds": self.seconds, "cold": self.cold,
-                "accepted": self.accepted}
+                "accepted": self.accepted, "reused": self.reused}
+
+
+class RelaxationCache:
+    """The ``lam = 0`` outcomes solved in this process, by the problem's identity
+    (`BilinearProblem.identity`) and the solver settings that shape the outcome, so that an
+    identical relaxation (the stepped path's restart, a widening that changed nothing) is
+    never solved twice in one run. An entry is re-used only while a problem it was solved for
+    is alive (the run that holds it; a new run builds new problems and solves them afresh). At
+    most ``maxsize`` kept (least recently used dropped); ``solves`` counts the relaxations
+    solved and ``hits`` those re-used."""
+
+    def __init__(self, maxsize: int = 4):
+        self.maxsize = maxsize
+        self.solves = 0
+        self.hits = 0
+        self._entries: OrderedDict[tuple, tuple[weakref.ref, StepOutcome]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, problem, key: tuple, solve: Callable[[], StepOutcome]) -> tuple[StepOutcome, bool]:
+        """The outcome of ``key`` and True when it was re-used, else ``solve()`` and False."""
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is not None and entry[0]() is not None:
+                self._entries.move_to_end(key)
+                self.hits += 1
+                return entry[1], True
+        outcome = solve()
+        with self._lock:
+            self.solves += 1
+            self._entries[key] = (weakref.ref(problem), outcome)
+            while len(self._entries) > self.maxsize:
+                self._entries.popitem(last=False)
+        return outcome, False
+
+    def clear(self) -> None:
+        with self._lock:
+            self._entries.clear()
+            self.solves = self.hits = 0
+
+
+#: The cache `solve_homotopy` uses.
+RELAXATIONS = RelaxationCache()
 
 
 @dataclass(frozen=True)
@@ -154,17 +213,26 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     x0 = np.clip(np.zeros(problem.n_x), problem.x_lower, problem.x_upper)
     u0 = problem.u_start
     z = backend.join(x0, u0, lifted_values(problem, x0, u0), problem.residual(x0, u0))
+    deadline = start + options.time_budget
+    watch = getattr(backend, "watch", None)
+    if watch is not None:
+        watch(deadline, say)
     f_nominal = problem.objective(x0, u0)
     prox_weight = options.proximal * max(f_nominal, 1e-12)
     steps: list[StepRecord] = []
 
-    def record(lam, out: StepOutcome, cold: bool, accepted: bool):
-        steps.append(StepRecord(lam, out.objective, out.iterations, out.status, out.seconds, cold, accepted))
+    def record(lam, out: StepOutcome, cold: bool, accepted: bool, reused: bool = False):
+        steps.append(StepRecord(lam, out.objective, out.iterations, out.status, out.seconds, cold, accepted, reused))
         say(f"  lambda = {lam:6.4f}  objective = {out.objective:.4e}  iterations = {out.iterations:4d}  "
-            f"{out.status.value}{' (cold retry)' if cold and lam > 0 else ''}  {out.seconds:.2f} s")
+            f"{out.status.value}{' (cold retry)' if cold and lam > 0 else ''}"
+            + ("  (the identical relaxation solved before: re-used)" if reused else f"  {out.seconds:.2f} s"))
 
-    first = backend.solve(z, 0.0)
-    record(0.0, first, True, first.status.ok)
+    key = (problem.identity(), options.backend, options.relaxation_solver, options.tol, options.max_iter,
+           options.max_cpu_time, options.time_budget)
+    first, reused = RELAXATIONS.get(problem, key, lambda: backend.solve(z, 0.0))
+    if reused:
+        first = replace(first, seconds=0.0)
+    record(0.0, first, True, first.status.ok, reused)
     if not first.status.ok:
         x, u, t, _ = backend.split(z)
         return HomotopyResult(x, u, t, 0.0, first.status, problem.objective(x, u), None,
@@ -174,6 +242,10 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     current, lam, base = first, 0.0, 1.0 / options.n_lambda
     step, status = base, Status.SUCCESS
     while lam < 1.0:
+        if time.perf_counter() >= deadline:
+            status = Status.TIME_LIMIT
+            say(f"  time budget of {options.time_budget:g} s spent: the path stops at lambda = {lam:.4f}")
+            break
         target = min(1.0, lam + step)
         if 1.0 - target < 1e-12:
             target = 1.0
@@ -181,9 +253,14 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
         out = backend.solve(current.z, target, prox_weight=weight, z_prev=current.z, warm=True,
                             mult_x=current.mult_x, mult_g=current.mult_g)
         record(target, out, False, out.status.ok)
-        if not out.status.ok:
+        if not out.status.ok and out.status != Status.TIME_LIMIT:
             out = backend.solve(current.z, target, prox_weight=weight, z_prev=current.z)
             record(target, out, True, out.status.ok)
+        if out.status == Status.TIME_LIMIT:
+            status = Status.TIME_LIMIT
+            say(f"  time budget of {options.time_budget:g} s spent in the step to lambda = {target:.4f}: the path "
+                f"stops at lambda = {lam:.4f}")
+            break
         if out.status.ok:
             current, lam = out, target
             step = max(base, step * options.step_growth)

@@ -752,7 +752,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         best = _Finish("homotopy", first_xbar, first_xbar, None, None, updated,
                        sensitivity(configurations, first_xbar, freqs=updated), (), status)
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
-    warnings = tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
+    warnings = tuple(note.message for note in problem.notes)   # what the formulation set aside
+    warnings += tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
     records = _alternative_records(model, best, alternatives)
     if records:
         warnings += ("uniqueness: " + _alternatives_text(records, dict(zip(model.parameter_names,

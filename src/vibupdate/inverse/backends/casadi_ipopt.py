@@ -30,6 +30,12 @@ IPOPT on the lifted NLP as the fallback when the QP solver does not report succe
 Each NLP has a cold IPOPT instance (IPOPT's default start) and a warm one that re-uses the
 previous primal point and multipliers with small bound pushes, each built on first use.
 
+**Watched iterations.** Every IPOPT instance calls back after each iteration (CasADi's
+``iteration_callback``) into the `Monitor` of its compiled NLPs, which the step solver of the
+solve sets (`CasadiIpopt.watch`): past the deadline of the path's time budget it stops the
+solve (reported as ``time_limit``), and in a solve that has run `PROGRESS_AFTER` seconds it
+says the iteration, the objective and the time left every `PROGRESS_EVERY` seconds.
+
 IPOPT's return codes map to `Status` by `IPOPT_STATUS`.
 """
 
@@ -50,7 +56,8 @@ from vibupdate.inverse.interrupt import watch_sigint
 from vibupdate.inverse.relaxation import McCormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "RELAXATION_SOLVERS", "from_ipopt", "build"]
+__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "RELAXATION_SOLVERS", "Monitor", "from_ipopt",
+           "build"]
 
 #: What may solve the cold ``lam = 0`` step (module docstring).
 RELAXATION_SOLVERS = ("piqp", "nlp")
@@ -92,6 +99,76 @@ def _pattern(A) -> sp.csc_matrix:
     return A
 
 
+#: Seconds a solve runs before its progress is said, and between two progress lines.
+PROGRESS_AFTER, PROGRESS_EVERY = 3.0, 5.0
+
+
+class Monitor:
+    """What the iteration callback of a compiled NLP does in the current solve (module
+    docstring, "Watched iterations"): set by `start` before each solve, under the compiled
+    NLP's lock."""
+
+    def __init__(self):
+        self.start(None, None, "")
+
+    def start(self, deadline: float | None, say, stage: str) -> None:
+        self.deadline, self.say, self.stage = deadline, say, stage
+        self.iterations, self.expired = 0, False
+        self.began = self.said = time.perf_counter()
+
+    def iteration(self, objective: float) -> bool:
+        """Called after each IPOPT iteration; True stops the solve."""
+        self.iterations += 1
+        now = time.perf_counter()
+        if self.say is not None and now - self.began >= PROGRESS_AFTER and now - self.said >= PROGRESS_EVERY:
+            self.said = now
+            left = "" if self.deadline is None else f", {max(self.deadline - now, 0.0):.0f} s left of the time budget"
+            self.say(f"    {self.stage}: iteration {self.iterations}, objective {objective:.4e}, "
+                     f"{now - self.began:.0f} s in this solve{left}")
+        if self.deadline is not None and now >= self.deadline:
+            self.expired = True
+            return True
+        return False
+
+
+def _iteration_callback(name: str, nx: int, ng: int, monitor: Monitor):
+    """A CasADi callback with the inputs of an NLP solver's outputs that hands the objective to
+    ``monitor`` and returns 1 (stop) when it says so."""
+    import casadi as ca
+
+    class IterationCallback(ca.Callback):
+        def __init__(self):
+            ca.Callback.__init__(self)
+            self.construct(name, {})
+
+        def get_n_in(self):
+            return ca.nlpsol_n_out()
+
+        def get_n_out(self):
+            return 1
+
+        def get_name_in(self, i):
+            return ca.nlpsol_out(i)
+
+        def get_name_out(self, i):
+            return "ret"
+
+        def get_sparsity_in(self, i):
+            which = ca.nlpsol_out(i)
+            if which == "f":
+                return ca.Sparsity.scalar()
+            if which in ("x", "lam_x"):
+                return ca.Sparsity.dense(nx)
+            if which in ("g", "lam_g"):
+                return ca.Sparsity.dense(ng)
+            return ca.Sparsity(0, 0)
+
+        def eval(self, arg):
+            return [1 if monitor.iteration(float(arg[1])) else 0]
+
+    return IterationCallback()
+
+
 @dataclass
 class _Compiled:
     """The compiled step NLPs of one structure: the lifted one (any ``lam``) and the exact one
@@ -101,6 +178,8 @@ class _Compiled:
     nlps: dict
     options: dict
     solvers: dict = field(default_factory=dict)
+    monitor: Monitor = field(default_factory=Monitor)
+    callbacks: dict = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
     build_lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -111,9 +190,13 @@ class _Compiled:
             if key not in self.solvers:
                 import casadi as ca
 
+                if nlp not in self.callbacks:
+                    sizes = self.nlps[nlp]
+                    self.callbacks[nlp] = _iteration_callback(f"vibupdate_{nlp}_iterations", sizes["x"].numel(),
+                                                              sizes["g"].numel(), self.monitor)
+                options = {**self.options[start], "iteration_callback": self.callbacks[nlp]}
                 with watch_sigint():  # CasADi would turn a Ctrl-C while building into a RuntimeError
-                    self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp],
-                                                  self.options[start])
+                    self.solvers[key] = ca.nlpsol(f"vibupdate_{nlp}_{start}", "ipopt", self.nlps[nlp], options)
             return self.solvers[key]
 
 
@@ -280,12 +363,18 @@ class CasadiIpopt:
         self._ubg = np.concatenate([np.zeros(n_r), envelope.upper])
         self._exact_entries = np.r_[0:n_x + n_u, n_x + n_u + n_b:n_x + n_u + n_b + n_r]
         self._qp = None
+        self._deadline, self._say = None, None
         if relaxation_solver == "piqp":
             from vibupdate.inverse.backends.piqp_relaxation import RelaxationQP
 
             self._qp = RelaxationQP(problem, envelope, self._lbx, self._ubx, max_iter=max_iter, tol=tol)
         else:
             self._cold = self._compiled.solver("lifted", "cold")
+
+    def watch(self, deadline: float | None, say=None) -> None:
+        """Stop every later solve at ``deadline`` (``time.perf_counter()`` seconds) and say the
+        progress of long ones through ``say`` (module docstring, "Watched iterations")."""
+        self._deadline, self._say = deadline, say
 
     def split(self, z):
         """``z`` -> (xbar, u, t, R)."""
@@ -348,8 +437,12 @@ class CasadiIpopt:
                 # CasADi's names for the multipliers
                 args.update(lam_x0=mult_x[keep], lam_g0=mult_g[:n_r] if exact else mult_g)
             with self._compiled.lock, watch_sigint():
+                monitor = self._compiled.monitor
+                monitor.start(self._deadline, self._say, f"lambda = {lam:.4f}")
                 sol = solver(**args)
                 stats = solver.stats()
+                expired = monitor.expired
+                monitor.start(None, None, "")
         except RuntimeError as exc:  # CasADi raises on evaluation errors: a status, not an exception
             return StepOutcome(z=z0, objective=self.fit(z0), iterations=0, status=Status.NUMERICAL_ERROR,
                                raw_status=f"CasADi error: {str(exc).splitlines()[0][:200]}",
@@ -357,12 +450,15 @@ class CasadiIpopt:
                                mult_g=np.zeros(self._lbg.size))
         seconds = time.perf_counter() - start
         raw = str(stats.get("return_status", "unknown"))
+        status = Status.TIME_LIMIT if expired else from_ipopt(raw)
+        if expired:
+            raw = f"{raw} (the time budget was spent)"
         z = np.asarray(sol["x"]).ravel()
         m_x, m_g = np.asarray(sol["lam_x"]).ravel(), np.asarray(sol["lam_g"]).ravel()
         if exact:
             z, m_x, m_g = self._expand(z, m_x, m_g)
         return StepOutcome(z=z, objective=self.fit(z), iterations=int(stats.get("iter_count", -1)),
-                           status=from_ipopt(raw), raw_status=raw, seconds=seconds, mult_x=m_x, mult_g=m_g)
+                           status=status, raw_status=raw, seconds=seconds, mult_x=m_x, mult_g=m_g)
 
     def _expand(self, z, m_x, m_g):
         """An exact NLP's point and multipliers in the lifted NLP's layout (``t = xbar u``)."""

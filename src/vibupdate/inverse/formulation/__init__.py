@@ -36,6 +36,7 @@ One module per job; `formulate` below runs them in order:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 from vibupdate.data.measured import Configuration, validate_configurations
 from vibupdate.inverse.formulation.blocks import build_blocks
@@ -58,9 +59,10 @@ def formulate(configurations: Sequence[Configuration], options: FormulationOptio
     configurations : sequence of Configuration
         Sharing one parameter vector.
     options : FormulationOptions, optional
-    transforms : sequence of callables ``(blocks, configurations, options) -> blocks``
+    transforms : sequence of callables ``(blocks, configurations, options) -> (blocks, notes)``
         Bound transformations applied to the blocks before stacking, e.g.
-        `vibupdate.inverse.interlacing.sign_bounds`.
+        `vibupdate.inverse.interlacing.sign_bounds`; what each sets aside and says (typed
+        records with a ``message``) becomes the problem's ``notes``.
     nominal : sequence of ModelFrequencies, optional
         The nominal models' modes (`vibupdate.inverse.correlation.model_frequencies` at
         ``xbar = None``), one per configuration, when the caller has them already.
@@ -69,11 +71,14 @@ def formulate(configurations: Sequence[Configuration], options: FormulationOptio
     configurations = list(configurations)
     validate_configurations(configurations)
     blocks, owners, scalings = build_blocks(configurations, options, nominal)
+    notes = ()
     for transform in transforms:
-        blocks = transform(blocks, configurations, options)
+        blocks, said = transform(blocks, configurations, options)
+        notes += tuple(said)
     terms = {}
     for k, scaling in zip(owners, scalings):
         if k not in terms:   # one scaled copy of each configuration's matrices, shared by its blocks
             terms[k] = scaled_terms(configurations[k].model, scaling)
-    return stack(configurations[0].model.parameters, configurations[0].model.bounds(),
-                 blocks, [terms[k] for k in owners], options)
+    problem = stack(configurations[0].model.parameters, configurations[0].model.bounds(),
+                    blocks, [terms[k] for k in owners], options)
+    return replace(problem, notes=notes) if notes else problem

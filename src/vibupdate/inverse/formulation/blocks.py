@@ -105,7 +105,14 @@ def natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: Scal
     if v0[j] == 0:
         raise ValueError(f"configuration {cfg.name!r}, mode {k + 1}: the nominal mode is zero at its normalization entry")
     v0n = v0 / v0[j]
-    bound = options.shape_margin * max(1.0, np.max(np.abs(v0n)))
+    # Unmeasured entries within shape_margin times the nominal mode's largest entry, relative to
+    # the entry its normalization refers to: the normalization entry itself, or, with a measured
+    # shape (normalized at its largest measured entry), the nominal mode's largest measured
+    # entry. Relative to v0[j] alone, a nominal mode near a node at j (its modes swapped or
+    # reshaped by the update) gave boxes of 1e13 and a relaxation no QP solver could finish
+    # (`benchmarks/RESULTS.md`, "The first stage on the braced frame").
+    ref_size = np.max(np.abs(v0[idx])) if f.shape is not None else abs(v0[j])
+    bound = options.shape_margin * max(1.0, np.max(np.abs(v0)) / ref_size)
     lower = np.where(np.isfinite(lower), lower, -bound)
     upper = np.where(np.isfinite(upper), upper, bound)
     lower[j] = upper[j] = 1.0

@@ -8,6 +8,7 @@ how it was built.
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,6 +43,9 @@ class BilinearProblem:
     row_weight : ndarray, shape (n_R,)
         ``alpha`` of the block of each residual row.
     row_offsets : ndarray of int, shape (n_blocks + 1,)
+    notes : tuple
+        What the transformations set aside, as typed records with a ``message`` (e.g.
+        `vibupdate.inverse.interlacing.SignConflict`): the run reports them and goes on.
     """
 
     parameters: tuple[Parameter, ...]
@@ -61,6 +65,7 @@ class BilinearProblem:
     row_weight: np.ndarray
     row_offsets: np.ndarray
     options: FormulationOptions = field(default_factory=FormulationOptions)
+    notes: tuple = ()
 
     @property
     def n_x(self) -> int:
@@ -86,6 +91,25 @@ class BilinearProblem:
         """``sum_k w_k R_k^2`` at the exact products."""
         R = self.residual(x, u)
         return float(np.sum(self.row_weight * R**2))
+
+    def identity(self) -> str:
+        """A digest of everything a solver reads (bounds, start, matrices, products, weights):
+        two problems with the same identity are the same problem (`vibupdate.inverse.homotopy`
+        solves its relaxation once)."""
+        digest = hashlib.blake2b(digest_size=20)
+        for a in (self.x_lower, self.x_upper, self.u_lower, self.u_upper, self.u_start, self.r0, self.row_weight):
+            digest.update(np.ascontiguousarray(a, dtype=float).tobytes())
+            digest.update(b"|")
+        for a in (self.prod_x, self.prod_u):
+            digest.update(np.ascontiguousarray(a, dtype=np.int64).tobytes())
+            digest.update(b"|")
+        for A in (self.A_u, self.A_x, self.A_b):
+            A = sp.csr_matrix(A)
+            digest.update(repr(A.shape).encode())
+            for a in (A.indptr, A.indices):
+                digest.update(np.ascontiguousarray(a, dtype=np.int64).tobytes())
+            digest.update(np.ascontiguousarray(A.data, dtype=float).tobytes())
+        return digest.hexdigest()
 
     def block_vector(self, b: int, u) -> np.ndarray:
         """Physical vector of block ``b`` (fixed entries included) from the free unknowns."""

@@ -1,0 +1,163 @@
+"""vibupdate's update against the classical fit a user would write, on problems it was not
+built around, in one process: time ratios and accuracy, medians over seeds.
+
+Run:  python benchmarks/speed_peers.py [--seeds 5] [--problems cantilever frame12 frame120]
+
+Problems:
+
+* ``cantilever``: paper test case 2 (`vibupdate.examples.cantilever`, measured frequencies and
+  antiresonances of 4 configurations, 7 parameters); its data do not depend on the seed, so
+  the seeds are repetitions of the same timing.
+* ``frame12`` / ``frame120``: the braced frame of the IASC-ASCE benchmark class
+  (`benchmarks/braced_frame.py`: 12- and 120-DOF models, 8 stiffness factors, the 6 lowest
+  modes with noisy frequencies and shapes at the 12 floor DOFs; truth and noise drawn per seed).
+
+Peer (the classical fit, as a user with scipy writes it): `scipy.optimize.least_squares`
+(``trf``, the default tolerances, forward-difference Jacobian) from the nominal parameters,
+scaled by their nominal values, inside their bounds; each evaluation solves the model's modes
+(`vibupdate.modes`) and, for the cantilever, the antiresonances (`vibupdate.antiresonances`).
+Residuals: relative errors of the natural frequencies (and antiresonances), each measured
+mode paired with the model mode of largest MAC at the measured DOFs when shapes are measured
+(in order otherwise), and the measured shapes' misfits (the model's shape scaled to the
+measured one by least squares).
+
+vibupdate: ``update([configuration])`` with its defaults (the whole update: first stage,
+polish, verification and the uniqueness probe); "first stage": building the problem and the
+homotopy path alone (`prepare_first_stage`, `solve_homotopy`). Accuracy: the largest relative
+parameter error against the truth (frames), the mean frequency error in per cent (cantilever).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+from scipy.optimize import least_squares  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import braced_frame  # noqa: E402
+
+import vibupdate as vu  # noqa: E402
+from vibupdate.inverse.homotopy import solve_homotopy  # noqa: E402
+from vibupdate.inverse.update import prepare_first_stage  # noqa: E402
+
+
+def _mac(a, b):
+    return float(np.dot(a, b) ** 2 / (np.dot(a, a) * np.dot(b, b)))
+
+
+def classical_fit(configurations):
+    """The peer (module docstring); returns (physical values, seconds, evaluations)."""
+    model = configurations[0].model
+    nominal = np.array([p.nominal for p in model.parameters])
+    lower = np.array([p.lower for p in model.parameters]) / nominal
+    upper = np.array([p.upper for p in model.parameters]) / nominal
+    measured = []
+    for cfg in configurations:
+        shapes = [n.shape for n in cfg.natural]
+        dofs = list(shapes[0].bounds) if shapes[0] is not None else []
+        idx = [cfg.model.dof(d) for d in dofs]
+        phis = [np.array([np.mean(s.bounds[d]) for d in dofs]) if s is not None else None for s in shapes]
+        zeros = {}
+        for a in cfg.antiresonances:
+            zeros.setdefault(a.receptance, []).append(a.omega)
+        measured.append((cfg, idx, phis, zeros))
+
+    def residual(scaled):
+        values = scaled * nominal
+        out = []
+        for cfg, idx, phis, zeros in measured:
+            M, K = cfg.model.matrices_at(values)
+            n = len(cfg.natural)
+            w, Phi = vu.modes(M, K, n + 2 if idx else n)
+            for k, f in enumerate(cfg.natural):
+                if idx:
+                    j = int(np.argmax([_mac(Phi[idx, q], phis[k]) for q in range(w.size)]))
+                    model_shape = Phi[idx, j]
+                    scale = np.dot(model_shape, phis[k]) / np.dot(model_shape, model_shape)
+                    out.append((w[j] - f.omega) / f.omega)
+                    out.extend(scale * model_shape - phis[k])
+                else:
+                    out.append((w[k] - f.omega) / f.omega)
+            for (r, c), measured_zeros in zeros.items():
+                z = vu.antiresonances(M, K, cfg.model.dof(r), cfg.model.dof(c))
+                for zm in measured_zeros:
+                    out.append((z[np.argmin(np.abs(z - zm))] - zm) / zm)
+        return np.asarray(out)
+
+    t0 = time.perf_counter()
+    fit = least_squares(residual, np.ones(nominal.size), bounds=(lower, upper), method="trf")
+    return fit.x * nominal, time.perf_counter() - t0, fit.nfev
+
+
+def problems(names, seeds):
+    """(problem name, seed, configurations, truth or None) of every run."""
+    from vibupdate.examples import cantilever
+
+    for name in names:
+        if name == "cantilever":
+            cfgs = cantilever.configurations()
+            for seed in seeds:
+                yield name, seed, cfgs, None
+            continue
+        model = braced_frame.model(12 if name == "frame12" else 120)
+        for seed in seeds:
+            truth = braced_frame.truth(seed)
+            yield name, seed, [braced_frame.configuration(model, truth, seed)], truth
+
+
+def accuracy(configurations, values, truth):
+    if truth is not None:
+        return float(np.max(np.abs(values / truth - 1)))
+    errors = []
+    for cfg in configurations:
+        M, K = cfg.model.matrices_at(values)
+        w = vu.modes(M, K, len(cfg.natural))[0]
+        errors += [abs(wk / f.omega - 1) for wk, f in zip(w, cfg.natural)]
+    return 100 * float(np.mean(errors))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--problems", nargs="+", default=["cantilever", "frame12", "frame120"])
+    args = parser.parse_args()
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+          f"OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']}")
+    vu.update(__import__("vibupdate.examples.cantilever", fromlist=["x"]).configurations())  # warm-up: imports, builds
+    rows = {}
+    print("problem    seed  update_s  first_stage_s  classical_s  ratio_update  ratio_first  status         "
+          "acc_update  acc_classical")
+    for name, seed, cfgs, truth in problems(args.problems, range(args.seeds)):
+        t0 = time.perf_counter()
+        result = vu.update(cfgs)
+        t_update = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        path = solve_homotopy(prepare_first_stage(cfgs).problem)
+        t_first = time.perf_counter() - t0
+        values, t_classical, nfev = classical_fit(cfgs)
+        row = (t_update, t_first, t_classical, t_update / t_classical, t_first / t_classical,
+               accuracy(cfgs, np.asarray(result.values), truth), accuracy(cfgs, values, truth))
+        rows.setdefault(name, []).append(row)
+        print(f"{name:10s} {seed:4d}  {t_update:8.2f}  {t_first:13.2f}  {t_classical:11.2f}  {row[3]:12.2f}  "
+              f"{row[4]:11.2f}  {result.status.value:13s}  {row[5]:10.3g}  {row[6]:13.3g}  "
+              f"(path {path.status.value}, {nfev} fit evaluations)", flush=True)
+    print("\nmedians (accuracy: largest relative parameter error for the frames, mean frequency error % for the "
+          "cantilever)")
+    for name, rs in rows.items():
+        med = np.median(np.array(rs), axis=0)
+        print(f"{name:10s} update {med[0]:.2f} s, first stage {med[1]:.2f} s, classical {med[2]:.2f} s; "
+              f"ratio update/classical {med[3]:.2f}x, first stage/classical {med[4]:.2f}x; "
+              f"accuracy update {med[5]:.3g}, classical {med[6]:.3g}")
+
+
+if __name__ == "__main__":
+    main()
