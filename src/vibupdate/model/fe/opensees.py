@@ -154,7 +154,7 @@ def _model(ops, name: str):
 
 
 def _responses(ops, tag_list: str, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray,
-               kind: str) -> tuple:
+               kind: str, name: str) -> tuple:
     """Forces at every node DOF for each probe, at ``PROBE`` and ``2 PROBE``: two arrays of
     shape (c nd, N nd), row ``colour * nd + d``."""
     c = int(colour.max()) + 1
@@ -171,8 +171,10 @@ def _responses(ops, tag_list: str, nd: int, colour: np.ndarray, tags: np.ndarray
                     ops.eval("reactions -dynamic")
                 else:
                     ops.eval(f"vu_set setNodeDisp {moved_list} {d + 1} {s!r} -commit")
-                    ops.eval("domainChange")
-                    ops.eval("analyze 1 0.0")
+                    if int(ops.eval("domainChange; analyze 1 0.0")) != 0:
+                        raise ValueError(f"{name}: OpenSees could not update the model to a probe displacement (DOF "
+                                         f"{d + 1} of node(s) {', '.join(map(str, moved[:5]))} ...): a DOF with "
+                                         "neither stiffness nor mass?")
                     ops.eval("reactions")
                 out[k, col * nd + d] = _floats(ops.eval(f"vu_flat nodeReaction {tag_list}")) / s
             if kind == "M":
@@ -216,12 +218,12 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
     nd = len(directions)
     colour = probe_colours(adjacency)
     tag_list = "{" + " ".join(map(str, tags)) + "}"
-    ops.eval("wipeAnalysis; constraints Plain; numberer Plain; system Diagonal; algorithm Linear; "
-             "analysis Transient; integrator GimmeMCK 0.0 0.0 1.0")
+    ops.eval("wipeAnalysis; constraints Plain; numberer Plain; system Diagonal; algorithm Linear -factorOnce; "
+             "analysis Transient; integrator GimmeMCK 1.0 0.0 1.0")
     keep = free.ravel()
     matrices = {}
     for kind in ("M", "K"):   # mass first: the elements are at rest until the first stiffness probe
-        once, twice = _responses(ops, tag_list, nd, colour, tags, free, kind)
+        once, twice = _responses(ops, tag_list, nd, colour, tags, free, kind, name)
         _check_linear(once, twice, kind, tags, nd, elements, incidence, name)
         matrices[kind] = _assemble(once, adjacency, colour, keep, nd)
     ops.wipe()
