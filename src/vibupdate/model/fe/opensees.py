@@ -18,29 +18,34 @@ the elements (``K u``) and, with ``-dynamic``, their inertia and the nodal masse
 have non-zero blocks only between neighbours. The nodes are coloured so that two nodes of one
 colour are neither neighbours nor share a neighbour (greedy colouring of the square of the
 neighbour graph). A probe moves DOF ``d`` of every node of one colour by ``s`` and nothing else:
-each element then sees at most one moving DOF, and the force read at DOF ``i`` is ``s`` times
-``K[i, j]`` for the one probed DOF ``j`` next to it. ``ndf`` probes per colour give every
-column; ``s`` is a power of two, so dividing by it is exact. Mass probes set trial
-accelerations (``setNodeAccel``) with the model at rest and read ``reactions -dynamic``.
-Stiffness probes set and commit displacements; an analysis with the ``GimmeMCK`` integrator
-and a ``Diagonal`` system (one per model; ``domainChange`` before each probe) makes the
-elements update to them, as ``GimmeMCK`` sets the committed response as trial and updates the
-domain. The matrices are what ``printA`` gives, to the last bits of the summation order (the
-tests compare them at 1e-13).
+each element then sees at most one moving DOF, and the force read at DOF ``i`` (at the moved
+nodes' neighbours; elsewhere no element carries a force) is ``s`` times ``K[i, j]`` for the
+one probed DOF ``j`` next to it. ``ndf`` probes per colour give every column; ``s`` is a power
+of two, so dividing by it is exact. Mass probes set trial accelerations (``setNodeAccel``)
+with the model at rest and read ``reactions -dynamic``. Stiffness probes set and commit
+displacements, and one step of an analysis with the ``GimmeMCK`` integrator on a ``Diagonal``
+system (set up once; ``domainChange`` before each probe) updates the elements to them:
+``GimmeMCK`` takes the committed response as its trial response and updates the domain, which
+``setNodeDisp`` alone does not (the elements keep the forces of their last update). The
+matrices are ``printA``'s to the last bits of the summation order (bitwise equal on the
+example frame; the tests compare them at 1e-13).
 
-**What a probe cannot read, refused.** Each probe runs twice, at ``s`` and ``2 s``; a model
-whose forces are not exactly twice as large at twice the motion is not linear about rest
-(a ``Corotational`` geometric transformation, ``PDelta`` on an inclined member, a material that
-is not linear from zero strain), and its tangent is not what the probes measure: the import
-stops and names the elements. Multi-point constraints (``equalDOF``, ``rigidLink``,
-``rigidDiaphragm``) tie DOFs that the export would have to eliminate: refused, naming the
-constrained nodes (the former ``Plain`` handler ignored them with a warning, leaving the nodes
-free). Fixed DOFs (``fix``) have no equation, as before.
+**What a probe cannot read, refused.** Each probe runs twice, at ``s`` and at ``-2 s``. For a
+model linear about rest the forces at ``-2 s`` are exactly ``-2`` times those at ``s``
+(multiplying by ``-2`` is exact in floating point); a term of second order (a ``Corotational``
+geometric transformation, ``PDelta`` on an inclined member), a kink at rest (a material
+stiffer in tension than in compression) or a yield before ``2 s`` breaks the equality, and the
+import stops naming the nodes and elements: the tangent at rest of such a model is not what
+probes measure. Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``)
+tie DOFs that the export would have to eliminate: refused, naming the constrained and retained
+nodes (the former route's ``Plain`` handler applied no tie and dropped a DOF of the retained
+node). Fixed DOFs (``fix``) have no equation, as before.
 
 Models of ``-ndf 6`` (3-D frames) and ``-ndf 3`` with ``-ndm 2`` (planar frames:
-``x, y, rz``) are named; other DOFs are refused. The cost is about ``2 ndf c`` element passes,
-``c`` the number of colours (8 to 30 for frames), instead of one dense assembly and a dense
-solve: `benchmarks/RESULTS.md`, heading "OpenSees import".
+``x, y, rz``) are named; other DOFs are refused. The cost is ``2 ndf c`` element updates and
+reaction sums, ``c`` the number of colours (8 for the example frame), where the dense route
+formed, factored and printed two n x n systems: `benchmarks/RESULTS.md`, heading "OpenSees
+import: probes against the dense printA".
 """
 
 from __future__ import annotations
@@ -61,7 +66,21 @@ _TCL = r"""
 proc vu_flat {cmd tags} {set o {}; foreach t $tags {lappend o {*}[$cmd $t]}; return $o}
 proc vu_count {cmd tags} {set o {}; foreach t $tags {lappend o [llength [$cmd $t]]}; return $o}
 proc vu_fixed {} {set o {}; foreach t [fixedNodes] {foreach d [fixedDOFs $t] {lappend o $t $d}}; return $o}
-proc vu_set {cmd tags d v args} {foreach t $tags {$cmd $t $d $v {*}$args}}
+proc vu_probe_M {moved d s rows} {
+    foreach t $moved {setNodeAccel $t $d $s}
+    reactions -dynamic
+    set o [vu_flat nodeReaction $rows]
+    foreach t $moved {setNodeAccel $t $d 0.0}
+    return $o
+}
+proc vu_probe_K {moved d s rows} {
+    foreach t $moved {setNodeDisp $t $d $s -commit}
+    domainChange
+    set ok [analyze 1 0.0]
+    if {$ok == 0} {reactions; set o [vu_flat nodeReaction $rows]} else {set o "failed $ok"}
+    foreach t $moved {setNodeDisp $t $d 0.0 -commit}
+    return $o
+}
 """
 
 
@@ -138,8 +157,12 @@ def _model(ops, name: str):
     index = {int(t): k for k, t in enumerate(tags)}
     nd = len(directions)
     free = np.ones((tags.size, nd), dtype=bool)
-    fixed = _ints(ops.eval("vu_fixed")).reshape(-1, 2)
+    text = ops.eval("vu_fixed")
+    fixed = _ints(text).reshape(-1, 2)
     if fixed.size:
+        if not (np.all(np.isin(fixed[:, 0], tags)) and np.all((fixed[:, 1] >= 1) & (fixed[:, 1] <= nd))):
+            raise ValueError(f"{name}: OpenSees reported fixed DOFs (node, DOF) {text.strip()[:200]!r}, expected "
+                             f"nodes of the model and DOFs 1 to {nd}")
         free[[index[int(t)] for t in fixed[:, 0]], fixed[:, 1] - 1] = False
     elements = _ints(ops.eval("getEleTags"))
     ele_list = "{" + " ".join(map(str, elements)) + "}"
@@ -153,34 +176,30 @@ def _model(ops, name: str):
     return tags, directions, coords, free, elements, incidence, adjacency
 
 
-def _responses(ops, tag_list: str, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray,
+def _responses(ops, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray, adjacency: sp.csr_matrix,
                kind: str, name: str) -> tuple:
-    """Forces at every node DOF for each probe, at ``PROBE`` and ``2 PROBE``: two arrays of
-    shape (c nd, N nd), row ``colour * nd + d``."""
+    """Forces per unit probe at the node DOFs next to the moved nodes, at ``PROBE`` and at
+    ``-2 PROBE``: two arrays of shape (c nd, N nd), row ``colour * nd + d`` (zero away from the
+    moved nodes' neighbours, where no element carries a force)."""
     c = int(colour.max()) + 1
     out = np.zeros((2, c * nd, tags.size * nd))
+    near = sp.csr_matrix(adjacency, dtype=bool)
     for col in range(c):
         for d in range(nd):
-            moved = tags[(colour == col) & free[:, d]]
-            if moved.size == 0:
+            moved = (colour == col) & free[:, d]
+            if not moved.any():
                 continue
-            moved_list = "{" + " ".join(map(str, moved)) + "}"
-            for k, s in enumerate((PROBE, 2.0 * PROBE)):
-                if kind == "M":
-                    ops.eval(f"vu_set setNodeAccel {moved_list} {d + 1} {s!r}")
-                    ops.eval("reactions -dynamic")
-                else:
-                    ops.eval(f"vu_set setNodeDisp {moved_list} {d + 1} {s!r} -commit")
-                    if int(ops.eval("domainChange; analyze 1 0.0")) != 0:
-                        raise ValueError(f"{name}: OpenSees could not update the model to a probe displacement (DOF "
-                                         f"{d + 1} of node(s) {', '.join(map(str, moved[:5]))} ...): a DOF with "
-                                         "neither stiffness nor mass?")
-                    ops.eval("reactions")
-                out[k, col * nd + d] = _floats(ops.eval(f"vu_flat nodeReaction {tag_list}")) / s
-            if kind == "M":
-                ops.eval(f"vu_set setNodeAccel {moved_list} {d + 1} 0.0")
-            else:
-                ops.eval(f"vu_set setNodeDisp {moved_list} {d + 1} 0.0 -commit")
+            rows = np.flatnonzero(near @ moved)
+            moved_list = "{" + " ".join(map(str, tags[moved])) + "}"
+            rows_list = "{" + " ".join(map(str, tags[rows])) + "}"
+            columns = (rows[:, None] * nd + np.arange(nd)).ravel()
+            for k, s in enumerate((PROBE, -2.0 * PROBE)):
+                got = ops.eval(f"vu_probe_{kind} {moved_list} {d + 1} {s!r} {rows_list}")
+                if got.startswith("failed"):
+                    raise ValueError(f"{name}: OpenSees could not update the model to a probe displacement (DOF "
+                                     f"{d + 1} of node(s) {', '.join(map(str, tags[moved][:5]))} ...; analyze "
+                                     f"returned {got.split()[1]}): a DOF with neither stiffness nor mass?")
+                out[k, col * nd + d, columns] = _floats(got) / s
     return out[0], out[1]
 
 
@@ -217,13 +236,12 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
     tags, directions, coords, free, elements, incidence, adjacency = _model(ops, name)
     nd = len(directions)
     colour = probe_colours(adjacency)
-    tag_list = "{" + " ".join(map(str, tags)) + "}"
     ops.eval("wipeAnalysis; constraints Plain; numberer Plain; system Diagonal; algorithm Linear -factorOnce; "
              "analysis Transient; integrator GimmeMCK 1.0 0.0 1.0")
     keep = free.ravel()
     matrices = {}
     for kind in ("M", "K"):   # mass first: the elements are at rest until the first stiffness probe
-        once, twice = _responses(ops, tag_list, nd, colour, tags, free, kind, name)
+        once, twice = _responses(ops, nd, colour, tags, free, adjacency, kind, name)
         _check_linear(once, twice, kind, tags, nd, elements, incidence, name)
         matrices[kind] = _assemble(once, adjacency, colour, keep, nd)
     ops.wipe()
@@ -241,7 +259,7 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
 
 
 def _check_linear(once, twice, kind, tags, nd, elements, incidence, name) -> None:
-    """Refuse a model whose probe forces at ``2 s`` are not exactly those at ``s`` (per unit)."""
+    """Refuse a model whose probe forces at ``-2 s`` are not exactly -2 times those at ``s``."""
     bad = np.any((once != twice).reshape(once.shape[0], tags.size, nd), axis=(0, 2))
     if not bad.any():
         return
