@@ -9,6 +9,9 @@ storeys``:
 
     3,3,4: 1,392 DOFs;  6,6,10: 11,067 DOFs;  10,10,18: 50,259 DOFs.
 
+Times are wall (``s``) and the process's CPU time (``CPU s``, OpenSees runs in the process):
+on a shared machine the wall time grows with the load, which the output gives.
+
 Each size runs in its own process (its peak resident memory, ``ru_maxrss``, is its own; it
 includes OpenSees's C++ memory, which tracemalloc does not see):
 
@@ -88,9 +91,10 @@ def one_size(size: tuple, dense_up_to: int) -> dict:
     frame3d(*size)
     out["builder warm-up s"] = time.perf_counter() - t
     build = lambda p: build_frame(p, size)   # noqa: E731
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     probe = export_from_builder(build, {})
     out["probe, one build s"] = time.perf_counter() - t
+    out["probe, one build CPU s"] = time.process_time() - cpu
     out["dofs"] = len(probe.dofs)
     out["K nnz"] = int(probe.K.nnz)
     with tempfile.TemporaryDirectory() as folder:
@@ -104,19 +108,22 @@ def one_size(size: tuple, dense_up_to: int) -> dict:
             if second:
                 lines.append(f"step2 = {-step * nominal!r}")
         (folder / "import.toml").write_text("\n".join(lines) + "\n")
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), time.process_time()
         read_import(folder / "import.toml")
         out["import, 8 builds s"] = time.perf_counter() - t
+        out["import, 8 builds CPU s"] = time.process_time() - cpu
     if len(probe.dofs) <= dense_up_to:
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), time.process_time()
         K, M, dofs = dense_export(build, {})
         out["dense, one build s"] = time.perf_counter() - t
+        out["dense, one build CPU s"] = time.process_time() - cpu
         order = [probe.dofs.index(d) for d in dofs]
         for label, mine, theirs in (("K", probe.K, K), ("M", probe.M, M)):
             gap = abs(mine[order][:, order] - theirs).max()
             out[f"{label} difference (relative)"] = float(gap / abs(theirs).max())
         out["dense / probe, one build"] = out["dense, one build s"] / out["probe, one build s"]
     out["peak RSS MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    out["load average (1 min) at the end"] = os.getloadavg()[0]
     return out
 
 

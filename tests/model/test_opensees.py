@@ -184,3 +184,27 @@ def test_probe_colours_separate_nodes_within_two_elements():
     reach = ((A @ A) != 0).tocoo()
     off = reach.row != reach.col
     assert not np.any(colour[reach.row[off]] == colour[reach.col[off]])
+
+
+def test_the_import_of_a_refused_model_exits_2_with_the_reason_and_writes_nothing(tmp_path, capsys):
+    from vibupdate.cli import main
+
+    (tmp_path / "model.py").write_text(
+        "from opensees import openseespy as ops\n"
+        "def build(p):\n"
+        "    ops.model('basic', '-ndm', 3, '-ndf', 6)\n"
+        "    for k, (x, y) in enumerate(((0, 0), (4, 0), (4, 3), (0, 3)), start=1):\n"
+        "        ops.node(k, x, y, 0.0); ops.fix(k, 1, 1, 1, 1, 1, 1)\n"
+        "        ops.node(10 + k, x, y, 3.0)\n"
+        "        ops.mass(10 + k, 500.0, 500.0, 500.0, 0.0, 0.0, 0.0)\n"
+        "    ops.geomTransf('Linear', 1, 1, 0, 0)\n"
+        "    for k in range(1, 5):\n"
+        "        ops.element('elasticBeamColumn', k, k, 10 + k, 0.01, p['E'], 8e10, 2e-4, 1e-4, 1e-4, 1)\n"
+        "    ops.rigidDiaphragm(3, 11, 12, 13, 14)\n")
+    (tmp_path / "import.toml").write_text(
+        'format = "opensees"\nbuilder = "model.py:build"\n[[parameter]]\nname = "E"\nnominal = 2e11\n'
+        "lower = 1e11\nupper = 3e11\nstep = 2e10\n")
+    assert main(["import", str(tmp_path / "import.toml"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "model.py:build" in err and "12, 13, 14 are tied to node(s) 11" in err and "rigidDiaphragm" in err, err
+    assert "Traceback" not in err and not (tmp_path / "out").exists()
