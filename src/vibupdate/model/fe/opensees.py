@@ -30,13 +30,17 @@ system (set up once; ``domainChange`` before each probe) updates the elements to
 matrices are ``printA``'s to the last bits of the summation order (bitwise equal on the
 example frame; the tests compare them at 1e-13).
 
-**What a probe cannot read, refused.** Each probe runs twice, at ``s`` and at ``-2 s``. For a
-model linear about rest the forces at ``-2 s`` are exactly ``-2`` times those at ``s``
-(multiplying by ``-2`` is exact in floating point); a term of second order (a ``Corotational``
-geometric transformation, ``PDelta`` on an inclined member), a kink at rest (a material
-stiffer in tension than in compression) or a yield before ``2 s`` breaks the equality, and the
-import stops naming the nodes and elements: the tangent at rest of such a model is not what
-probes measure. Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``)
+**What a probe cannot read, refused.** Probes give the tangent at rest only if the forces are
+linear in the motion. Before the probes of K (and of M), each direction ``d`` is checked once:
+DOF ``d`` of every node moves by ``(1 + 2 colour) s`` (neighbours differ by at least ``2 s``,
+so every element deforms, more than under a probe) and then by ``-2`` times that. For a model
+linear about rest the forces are exactly ``-2`` times as large (multiplying by ``-2`` is exact
+in floating point); a term of second order (a ``Corotational`` geometric transformation,
+``PDelta`` on an inclined member), a kink at rest (a material stiffer in tension than in
+compression) or a yield within that motion breaks the equality, and the import stops naming the
+nodes and elements. A probe moves one direction at a time, as the check does: ``PDelta`` on
+plumb columns (axial and transverse motion never together) is linear for both and is read.
+Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``)
 tie DOFs that the export would have to eliminate: refused, naming the constrained and retained
 nodes (the former route's ``Plain`` handler applied no tie and dropped a DOF of the retained
 node). Fixed DOFs (``fix``) have no equation, as before.
@@ -55,7 +59,7 @@ import scipy.sparse as sp
 
 from vibupdate.model.fe.export import SYMMETRY_TOL, FEExport
 
-__all__ = ["export_from_builder", "openseespy", "probe_colours", "PROBE"]
+__all__ = ["export_from_builder", "openseespy"]
 
 #: Probe motion (m or rad; m/s^2 or rad/s^2): a power of two, so dividing by it is exact, small
 #: enough that a material linear from rest up to a strain of 1e-6 is probed in its linear range.
@@ -66,15 +70,15 @@ _TCL = r"""
 proc vu_flat {cmd tags} {set o {}; foreach t $tags {lappend o {*}[$cmd $t]}; return $o}
 proc vu_count {cmd tags} {set o {}; foreach t $tags {lappend o [llength [$cmd $t]]}; return $o}
 proc vu_fixed {} {set o {}; foreach t [fixedNodes] {foreach d [fixedDOFs $t] {lappend o $t $d}}; return $o}
-proc vu_probe_M {moved d s rows} {
-    foreach t $moved {setNodeAccel $t $d $s}
+proc vu_probe_M {moved values d rows} {
+    foreach t $moved v $values {setNodeAccel $t $d $v}
     reactions -dynamic
     set o [vu_flat nodeReaction $rows]
     foreach t $moved {setNodeAccel $t $d 0.0}
     return $o
 }
-proc vu_probe_K {moved d s rows} {
-    foreach t $moved {setNodeDisp $t $d $s -commit}
+proc vu_probe_K {moved values d rows} {
+    foreach t $moved v $values {setNodeDisp $t $d $v -commit}
     domainChange
     set ok [analyze 1 0.0]
     if {$ok == 0} {reactions; set o [vu_flat nodeReaction $rows]} else {set o "failed $ok"}
@@ -176,31 +180,67 @@ def _model(ops, name: str):
     return tags, directions, coords, free, elements, incidence, adjacency
 
 
+def _forces(ops, kind: str, tags: np.ndarray, moved: np.ndarray, values: np.ndarray, d: int, rows: np.ndarray,
+            name: str) -> np.ndarray:
+    """Forces at the DOFs of the nodes ``rows`` when DOF ``d`` of the nodes ``moved`` moves by
+    ``values`` (accelerations for M, displacements for K), shape (len(rows) nd,)."""
+    moved_list = "{" + " ".join(map(str, tags[moved])) + "}"
+    value_list = "{" + " ".join(map(repr, values.tolist())) + "}"
+    rows_list = "{" + " ".join(map(str, tags[rows])) + "}"
+    got = ops.eval(f"vu_probe_{kind} {moved_list} {value_list} {d + 1} {rows_list}")
+    if got.startswith("failed"):
+        raise ValueError(f"{name}: OpenSees could not update the model to a probe displacement (DOF {d + 1} of "
+                         f"node(s) {', '.join(map(str, tags[moved][:5]))} ...; analyze returned {got.split()[1]}): "
+                         "a DOF with neither stiffness nor mass?")
+    return _floats(got)
+
+
 def _responses(ops, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray, adjacency: sp.csr_matrix,
-               kind: str, name: str) -> tuple:
-    """Forces per unit probe at the node DOFs next to the moved nodes, at ``PROBE`` and at
-    ``-2 PROBE``: two arrays of shape (c nd, N nd), row ``colour * nd + d`` (zero away from the
-    moved nodes' neighbours, where no element carries a force)."""
+               kind: str, name: str) -> np.ndarray:
+    """Forces per unit probe at the node DOFs next to the moved nodes, shape (c nd, N nd), row
+    ``colour * nd + d`` (zero away from the moved nodes' neighbours, where no element carries a
+    force)."""
     c = int(colour.max()) + 1
-    out = np.zeros((2, c * nd, tags.size * nd))
+    out = np.zeros((c * nd, tags.size * nd))
     near = sp.csr_matrix(adjacency, dtype=bool)
     for col in range(c):
         for d in range(nd):
-            moved = (colour == col) & free[:, d]
-            if not moved.any():
+            moved = np.flatnonzero((colour == col) & free[:, d])
+            if moved.size == 0:
                 continue
-            rows = np.flatnonzero(near @ moved)
-            moved_list = "{" + " ".join(map(str, tags[moved])) + "}"
-            rows_list = "{" + " ".join(map(str, tags[rows])) + "}"
+            rows = np.flatnonzero(near @ ((colour == col) & free[:, d]))
             columns = (rows[:, None] * nd + np.arange(nd)).ravel()
-            for k, s in enumerate((PROBE, -2.0 * PROBE)):
-                got = ops.eval(f"vu_probe_{kind} {moved_list} {d + 1} {s!r} {rows_list}")
-                if got.startswith("failed"):
-                    raise ValueError(f"{name}: OpenSees could not update the model to a probe displacement (DOF "
-                                     f"{d + 1} of node(s) {', '.join(map(str, tags[moved][:5]))} ...; analyze "
-                                     f"returned {got.split()[1]}): a DOF with neither stiffness nor mass?")
-                out[k, col * nd + d, columns] = _floats(got) / s
-    return out[0], out[1]
+            out[col * nd + d, columns] = _forces(ops, kind, tags, moved, np.full(moved.size, PROBE), d, rows,
+                                                 name) / PROBE
+    return out
+
+
+def _check_linear(ops, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray, elements: np.ndarray,
+                  incidence: sp.csr_matrix, kind: str, name: str) -> None:
+    """Refuse a model not linear about rest along each direction (module docstring): DOF ``d``
+    of every node moves by ``(1 + 2 colour) s`` and then by ``-2`` times that; the forces must
+    be exactly ``-2`` times as large."""
+    everywhere = np.arange(tags.size)
+    bad = np.zeros(tags.size, dtype=bool)
+    for d in range(nd):
+        moved = np.flatnonzero(free[:, d])
+        if moved.size == 0:
+            continue
+        values = PROBE * (1.0 + 2.0 * colour[moved])
+        once = _forces(ops, kind, tags, moved, values, d, everywhere, name)
+        twice = _forces(ops, kind, tags, moved, -2.0 * values, d, everywhere, name)
+        bad |= np.any((twice != -2.0 * once).reshape(tags.size, nd), axis=1)
+    if not bad.any():
+        return
+    nodes = tags[bad].tolist()
+    hit = elements[(incidence @ bad.astype(float)) > 0].tolist()
+    what = "displacements" if kind == "K" else "accelerations"
+    raise ValueError(f"{name}: OpenSees forces are not linear in the probe {what} at node(s) "
+                     f"{', '.join(map(str, nodes[:5]))}{' ...' if len(nodes) > 5 else ''} (elements "
+                     f"{', '.join(map(str, hit[:5]))}{' ...' if len(hit) > 5 else ''}): a Corotational geometric "
+                     "transformation, a PDelta transformation on an inclined member or a material that is not "
+                     "linear from rest has a tangent the probes cannot read exactly; use Linear transformations "
+                     "and elastic materials for the modal model")
 
 
 def _assemble(R: np.ndarray, adjacency: sp.csr_matrix, colour: np.ndarray, keep: np.ndarray, nd: int) -> sp.csr_matrix:
@@ -241,9 +281,9 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
     keep = free.ravel()
     matrices = {}
     for kind in ("M", "K"):   # mass first: the elements are at rest until the first stiffness probe
-        once, twice = _responses(ops, nd, colour, tags, free, adjacency, kind, name)
-        _check_linear(once, twice, kind, tags, nd, elements, incidence, name)
-        matrices[kind] = _assemble(once, adjacency, colour, keep, nd)
+        _check_linear(ops, nd, colour, tags, free, elements, incidence, kind, name)
+        matrices[kind] = _assemble(_responses(ops, nd, colour, tags, free, adjacency, kind, name), adjacency,
+                                   colour, keep, nd)
     ops.wipe()
     for kind, A in matrices.items():
         scale = abs(A).max() if A.nnz else 0.0
@@ -256,19 +296,3 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
     kept = tuple(dof for dof, k in zip(dofs, keep) if k)
     nodes = {str(t): np.asarray(xyz, dtype=float) for t, xyz in zip(tags, coords)}
     return FEExport(matrices["K"], matrices["M"], kept, name, nodes)
-
-
-def _check_linear(once, twice, kind, tags, nd, elements, incidence, name) -> None:
-    """Refuse a model whose probe forces at ``-2 s`` are not exactly -2 times those at ``s``."""
-    bad = np.any((once != twice).reshape(once.shape[0], tags.size, nd), axis=(0, 2))
-    if not bad.any():
-        return
-    nodes = sorted(tags[bad].tolist())
-    hit = elements[(incidence @ bad.astype(float)) > 0].tolist()
-    what = "displacements" if kind == "K" else "accelerations"
-    raise ValueError(f"{name}: OpenSees forces are not linear in the probe {what} at node(s) "
-                     f"{', '.join(map(str, sorted(nodes)[:5]))}{' ...' if len(nodes) > 5 else ''} (elements "
-                     f"{', '.join(map(str, hit[:5]))}{' ...' if len(hit) > 5 else ''}): a Corotational geometric "
-                     "transformation, a PDelta transformation on an inclined member or a material that is not "
-                     "linear from rest has a tangent the probes cannot read exactly; use Linear transformations "
-                     "and elastic materials for the modal model")
