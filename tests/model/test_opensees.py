@@ -208,3 +208,26 @@ def test_the_import_of_a_refused_model_exits_2_with_the_reason_and_writes_nothin
     err = capsys.readouterr().err
     assert "model.py:build" in err and "12, 13, 14 are tied to node(s) 11" in err and "rigidDiaphragm" in err, err
     assert "Traceback" not in err and not (tmp_path / "out").exists()
+
+
+def test_load_patterns_of_the_builder_do_not_enter_the_matrices():
+    """Gravity loads (nodal and on elements) as a builder for an eigen analysis defines them."""
+    def build(p):
+        from vibupdate.model.fe.opensees import openseespy
+
+        _portal(p)
+        ops = openseespy()
+        ops.timeSeries("Constant", 1)
+        ops.pattern("Plain", 7, 1)
+        ops.load(21, 0.0, -1e4, 0.0)
+        ops.load(22, 5e3, -1e4, 0.0)
+        ops.eleLoad("-ele", 5, "-type", "-beamUniform", -2e3)
+        ops.timeSeries("Linear", 2)
+        ops.pattern("Plain", 9, 2)
+        ops.load(12, 1e3, 0.0, 0.0)
+
+    K, M, dofs = _dense(build, {})
+    got = export_from_builder(build, {})
+    order = [got.dofs.index(d) for d in dofs]
+    for mine, theirs in ((got.K, K), (got.M, M)):
+        assert np.abs(mine[order][:, order].toarray() - 0.5 * (theirs + theirs.T)).max() <= 1e-13 * np.abs(theirs).max()

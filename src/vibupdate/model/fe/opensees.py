@@ -54,6 +54,10 @@ import: probes against the dense printA".
 
 from __future__ import annotations
 
+import json
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -62,7 +66,8 @@ from vibupdate.model.fe.export import SYMMETRY_TOL, FEExport
 __all__ = ["export_from_builder", "openseespy"]
 
 #: Probe motion (m or rad; m/s^2 or rad/s^2): a power of two, so dividing by it is exact, small
-#: enough that a material linear from rest up to a strain of 1e-6 is probed in its linear range.
+#: enough that a material linear up to a strain of a few 1e-5 is probed and checked (up to 30
+#: probes' motion) in its linear range.
 PROBE = 2.0 ** -20
 
 # Tcl procedures: one interpreter call per node list or per probe instead of one per node.
@@ -133,12 +138,29 @@ def probe_colours(adjacency: sp.spmatrix) -> np.ndarray:
     return colour
 
 
+def _remove_load_patterns(ops) -> None:
+    """Remove the builder's load patterns (gravity, ground motions): their loads would add to
+    every probe's forces. Their tags come from the model's JSON print (the interpreter has no
+    command listing them); only the ``patterns`` array is parsed."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "model.json"
+        ops.eval(f"print -JSON -file {{{path}}}")
+        text = path.read_text()
+    at = text.find('"patterns"')
+    if at < 0:
+        return
+    patterns, _ = json.JSONDecoder().raw_decode(text, text.index("[", at))
+    for pattern in patterns:
+        ops.eval(f"remove loadPattern {int(pattern['name'])}")
+
+
 def _model(ops, name: str):
     """Nodes, their directions, the fixed DOFs and the neighbour graph of the built model."""
     tags = _ints(ops.eval("getNodeTags"))
     if tags.size == 0:
         raise ValueError(f"{name}: the OpenSees builder made no nodes")
     ops.eval(_TCL)
+    _remove_load_patterns(ops)
     tag_list = "{" + " ".join(map(str, tags)) + "}"
     ndf = set(_ints(ops.eval(f"vu_count nodeDisp {tag_list}")).tolist())
     ndm = set(_ints(ops.eval(f"vu_count nodeCoord {tag_list}")).tolist())
