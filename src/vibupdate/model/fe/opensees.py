@@ -40,15 +40,18 @@ in floating point); a term of second order (a ``Corotational`` geometric transfo
 compression) or a yield within that motion breaks the equality, and the import stops naming the
 nodes and elements. A probe moves one direction at a time, as the check does: ``PDelta`` on
 plumb columns (axial and transverse motion never together) is linear for both and is read.
-Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``)
-tie DOFs that the export would have to eliminate: refused, naming the constrained and retained
-nodes (the former route's ``Plain`` handler applied no tie and dropped a DOF of the retained
-node). Fixed DOFs (``fix``) have no equation, as before.
+
+Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``) tie DOFs that the
+export would have to eliminate: refused, naming the constrained and retained nodes (the former
+route's ``Plain`` handler applied no tie and dropped a DOF of the retained node). Fixed DOFs
+(``fix``) have no equation, as before. The builder's load patterns (gravity loads for an
+eigen analysis) are removed first: their loads would add to every probe's forces.
 
 Models of ``-ndf 6`` (3-D frames) and ``-ndf 3`` with ``-ndm 2`` (planar frames:
-``x, y, rz``) are named; other DOFs are refused. The cost is ``2 ndf c`` element updates and
-reaction sums, ``c`` the number of colours (8 for the example frame), where the dense route
-formed, factored and printed two n x n systems: `benchmarks/RESULTS.md`, heading "OpenSees
+``x, y, rz``) are named; other DOFs are refused. The cost is ``ndf (c + 2)`` element updates
+(each one ``domainChange`` and analysis step) and twice as many reaction sums, ``c`` the number
+of colours (8 for the example frame), where the dense route formed, factored and printed two
+n x n systems: `benchmarks/RESULTS.md`, heading "OpenSees
 import: probes against the dense printA".
 """
 
@@ -177,8 +180,7 @@ def _model(ops, name: str):
         raise ValueError(f"{name}: node(s) {', '.join(map(str, tied[:5]))}{' ...' if tied.size > 5 else ''} are "
                          f"tied to node(s) {', '.join(map(str, retained[:5]))} by a multi-point constraint "
                          "(equalDOF, rigidLink or rigidDiaphragm), which this import does not eliminate; model the "
-                         "tie with stiff elements, or export K and M from OpenSees with a Transformation "
-                         "constraint handler through another route")
+                         "tie with stiff elements instead")
     coords = _floats(ops.eval(f"vu_flat nodeCoord {tag_list}")).reshape(tags.size, next(iter(ndm)))
     index = {int(t): k for k, t in enumerate(tags)}
     nd = len(directions)
