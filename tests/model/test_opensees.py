@@ -76,7 +76,28 @@ def _frame(p):
     build_frame(p, (1, 1, 1))
 
 
-@pytest.mark.parametrize("builder", [_portal, _frame], ids=["planar", "space"])
+def _plate(p):
+    """A warped 3 x 3 plate of ShellMITC4 elements clamped along one edge, a truss to a corner."""
+    from vibupdate.model.fe.opensees import openseespy
+
+    ops = openseespy()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    for i in range(4):
+        for j in range(4):
+            ops.node(10 * i + j + 1, 1.0 * i, 0.8 * j, 0.1 * i * j)
+    for j in range(4):
+        ops.fix(j + 1, 1, 1, 1, 1, 1, 1)
+    ops.section("ElasticMembranePlateSection", 1, p.get("E", 2e11), 0.3, 0.01, 7850.0)
+    for k, (i, j) in enumerate([(i, j) for i in range(3) for j in range(3)], start=1):
+        a = 10 * i + j + 1
+        ops.element("ShellMITC4", k, a, a + 10, a + 11, a + 1, 1)
+    ops.node(100, 3.0, 0.0, 1.0)
+    ops.fix(100, 1, 1, 1, 1, 1, 1)
+    ops.uniaxialMaterial("Elastic", 5, 2e11)
+    ops.element("truss", 50, 100, 31, 1e-4, 5)
+
+
+@pytest.mark.parametrize("builder", [_portal, _frame, _plate], ids=["planar", "space", "shells"])
 def test_probed_matrices_are_the_dense_routes(builder):
     K, M, dofs = _dense(builder, {})
     got = export_from_builder(builder, {})
