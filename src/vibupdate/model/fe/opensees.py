@@ -1,58 +1,286 @@
-"""OpenSees models: K and M of a model built by the user's openseespy code.
+"""OpenSees models: K and M of a model built by the user's openseespy code, sparse.
 
 The user writes ``builder(p)``, a function of a dict of parameter values that builds the model
 with the openseespy API (``model``, ``node``, ``fix``, ``element``, ``mass`` ...), as they would
-before an eigen analysis. `export_from_builder` wipes the domain, calls it, and takes K and M
-from the analysis system: a ``FullGeneral`` system, a ``Plain`` numberer and constraint handler,
-and the ``GimmeMCK`` integrator with factors (0, 0, 1) for K and (1, 0, 0) for M; each
-equation's node and DOF come from ``nodeDOFs`` (a constrained DOF has no equation, so it is not
-in the export), the coordinates from ``nodeCoord``. Models of ``-ndf 6`` (3-D frames) and
-``-ndf 3`` with ``-ndm 2`` (planar frames: ``x, y, rz``) are named; other DOFs are refused.
+before an eigen analysis. `export_from_builder` wipes the domain, calls it, and reads K and M
+column by column from the model's own response to probe motions.
 
-The API comes from the ``opensees`` package (``opensees.openseespy``), which ships its own
-numerical libraries, or from ``openseespy`` where that wheel runs (it needs a system
-``libblas.so.3``). Both are optional: ``pip install "vibupdate[fe]"``.
+**Why probes, not ``printA``.** The ``opensees`` package (the ``[fe]`` extra; OpenSees built
+as a Tcl interpreter) offers no sparse access to the assembled system: ``printA`` forms a
+dense n x n matrix whatever ``system`` is chosen (``FullGeneral``, ``UmfPack``, ``BandGeneral``
+all print n^2 numbers), ``applyA`` works on ``FullGeneral`` only, and element responses carry
+no element matrix. A dense matrix is 20 GB at 50,000 DOFs, and the Python side parses n^2
+numbers as text (about 16 s per matrix at 1,920 DOFs). What OpenSees does give exactly is the
+force of every element on its nodes: ``reactions`` sums, at each node, the resisting force of
+the elements (``K u``) and, with ``-dynamic``, their inertia and the nodal masses (``M a``).
+
+**The probes.** Two nodes are *neighbours* when an element joins them (``eleNodes``); K and M
+have non-zero blocks only between neighbours. The nodes are coloured so that two nodes of one
+colour are neither neighbours nor share a neighbour (greedy colouring of the square of the
+neighbour graph). A probe moves DOF ``d`` of every node of one colour by ``s`` and nothing else:
+each element then sees at most one moving DOF, and the force read at DOF ``i`` (at the moved
+nodes' neighbours; elsewhere no element carries a force) is ``s`` times ``K[i, j]`` for the
+one probed DOF ``j`` next to it. ``ndf`` probes per colour give every column; ``s`` is a power
+of two, so dividing by it is exact. Mass probes set trial accelerations (``setNodeAccel``)
+with the model at rest and read ``reactions -dynamic``. Stiffness probes set and commit
+displacements, and one step of an analysis with the ``GimmeMCK`` integrator on a ``Diagonal``
+system (set up once; ``domainChange`` before each probe) updates the elements to them:
+``GimmeMCK`` takes the committed response as its trial response and updates the domain, which
+``setNodeDisp`` alone does not (the elements keep the forces of their last update). The
+matrices are ``printA``'s to the last bits of the summation order (bitwise equal on the
+example frame; the tests compare them at 1e-13).
+
+**What a probe cannot read, refused.** Probes give the tangent at rest only if the forces are
+linear in the motion. Before the probes of K (and of M), each direction ``d`` is checked once:
+DOF ``d`` of every node moves by ``(1 + 2 colour) s`` (neighbours differ by at least ``2 s``,
+so every element deforms, more than under a probe) and then by ``-2`` times that. For a model
+linear about rest the forces are exactly ``-2`` times as large (multiplying by ``-2`` is exact
+in floating point); a term of second order (a ``Corotational`` geometric transformation,
+``PDelta`` on an inclined member), a kink at rest (a material stiffer in tension than in
+compression) or a yield within that motion breaks the equality, and the import stops naming the
+nodes and elements. A probe moves one direction at a time, as the check does: ``PDelta`` on
+plumb columns (axial and transverse motion never together) is linear for both and is read.
+
+Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``) tie DOFs that the
+export would have to eliminate: refused, naming the constrained and retained nodes (the former
+route's ``Plain`` handler applied no tie and dropped a DOF of the retained node). Fixed DOFs
+(``fix``) have no equation, as before. The builder's load patterns (gravity loads for an
+eigen analysis) are removed first: their loads would add to every probe's forces.
+
+Models of ``-ndf 6`` (3-D frames) and ``-ndf 3`` with ``-ndm 2`` (planar frames:
+``x, y, rz``) are named; other DOFs are refused. The cost is ``ndf (c + 2)`` element updates
+(each one ``domainChange`` and analysis step) and twice as many reaction sums, ``c`` the number
+of colours (8 for the example frame), where the dense route formed, factored and printed two
+n x n systems: `benchmarks/RESULTS.md`, heading "OpenSees
+import: probes against the dense printA".
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
+import json
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.model.fe.export import FEExport
+from vibupdate.model.fe.export import SYMMETRY_TOL, FEExport
 
 __all__ = ["export_from_builder", "openseespy"]
 
+#: Probe motion (m or rad; m/s^2 or rad/s^2): a power of two, so dividing by it is exact, small
+#: enough that a material linear up to a strain of a few 1e-5 is probed and checked (up to 30
+#: probes' motion) in its linear range.
+PROBE = 2.0 ** -20
+
+# Tcl procedures: one interpreter call per node list or per probe instead of one per node.
+_TCL = r"""
+proc vu_flat {cmd tags} {set o {}; foreach t $tags {lappend o {*}[$cmd $t]}; return $o}
+proc vu_count {cmd tags} {set o {}; foreach t $tags {lappend o [llength [$cmd $t]]}; return $o}
+proc vu_fixed {} {set o {}; foreach t [fixedNodes] {foreach d [fixedDOFs $t] {lappend o $t $d}}; return $o}
+proc vu_probe_M {moved values d rows} {
+    foreach t $moved v $values {setNodeAccel $t $d $v}
+    reactions -dynamic
+    set o [vu_flat nodeReaction $rows]
+    foreach t $moved {setNodeAccel $t $d 0.0}
+    return $o
+}
+proc vu_probe_K {moved values d rows} {
+    foreach t $moved v $values {setNodeDisp $t $d $v -commit}
+    domainChange
+    set ok [analyze 1 0.0]
+    if {$ok == 0} {reactions; set o [vu_flat nodeReaction $rows]} else {set o "failed $ok"}
+    foreach t $moved {setNodeDisp $t $d 0.0 -commit}
+    return $o
+}
+"""
+
 
 def openseespy():
-    """The openseespy module: ``opensees.openseespy`` (the ``[fe]`` extra), else the
-    ``openseespy`` package when it loads; `MissingExtra` naming ``[fe]`` otherwise."""
-    from vibupdate._extras import MissingExtra, require
+    """The openseespy API of the ``opensees`` package (the ``[fe]`` extra); `MissingExtra`
+    naming ``[fe]`` otherwise. The route needs its Tcl interpreter (``eval``), which the
+    ``openseespy`` wheel does not have."""
+    from vibupdate._extras import require
 
-    try:
-        require("fe", "an OpenSees model", modules=("opensees",))
-        from opensees import openseespy as ops
-        return ops
-    except MissingExtra as missing:
-        try:
-            import openseespy.opensees as ops
-            return ops
-        except (ImportError, OSError):   # its wheel needs a system BLAS some machines lack
-            raise missing from None
+    require("fe", "an OpenSees model", modules=("opensees",))
+    from opensees import openseespy as ops
+    return ops
 
 
-def _system_matrix(ops, factors) -> np.ndarray:
-    ops.integrator("GimmeMCK", *factors)
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        ops.analyze(1, 0.0)   # assembles the system; the (singular) M solve may complain: ignored
-    A = np.asarray(ops.printA("-ret"), dtype=float)
-    n = int(round(np.sqrt(A.size)))
-    if n * n != A.size:
-        raise ValueError(f"OpenSees returned a system of {A.size} terms, not a square matrix")
-    return A.reshape(n, n)
+def _ints(text) -> np.ndarray:
+    return np.array(str(text).split(), dtype=np.int64)
+
+
+def _floats(text) -> np.ndarray:
+    return np.array(str(text).split(), dtype=float)
+
+
+def probe_colours(adjacency: sp.spmatrix) -> np.ndarray:
+    """Colours of the nodes such that two nodes of one colour are neither neighbours nor share
+    a neighbour: greedy, in node order, on the square of the neighbour graph.
+
+    Parameters
+    ----------
+    adjacency : sparse matrix, shape (N, N)
+        Non-zero where two nodes share an element (the diagonal need not be set).
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+        Colour of each node, 0 .. c - 1.
+    """
+    N = adjacency.shape[0]
+    A = (sp.csr_matrix(adjacency, dtype=bool) + sp.identity(N, dtype=bool, format="csr")).astype(np.int8)
+    reach = sp.csr_matrix((A @ A) != 0)
+    colour = np.full(N, -1, dtype=np.int64)
+    for k in range(N):   # one pass over the nodes; the test of a colour is vectorized
+        taken = colour[reach.indices[reach.indptr[k]:reach.indptr[k + 1]]]
+        free = np.ones(taken.max() + 2, dtype=bool)
+        free[taken[taken >= 0]] = False
+        colour[k] = int(np.argmax(free))
+    return colour
+
+
+def _remove_load_patterns(ops) -> None:
+    """Remove the builder's load patterns (gravity, ground motions): their loads would add to
+    every probe's forces. Their tags come from the model's JSON print (the interpreter has no
+    command listing them); only the ``patterns`` array is parsed."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "model.json"
+        ops.eval(f"print -JSON -file {{{path}}}")
+        text = path.read_text()
+    at = text.find('"patterns"')
+    if at < 0:
+        return
+    patterns, _ = json.JSONDecoder().raw_decode(text, text.index("[", at))
+    for pattern in patterns:
+        ops.eval(f"remove loadPattern {int(pattern['name'])}")
+
+
+def _model(ops, name: str):
+    """Nodes, their directions, the fixed DOFs and the neighbour graph of the built model."""
+    tags = _ints(ops.eval("getNodeTags"))
+    if tags.size == 0:
+        raise ValueError(f"{name}: the OpenSees builder made no nodes")
+    ops.eval(_TCL)
+    _remove_load_patterns(ops)
+    tag_list = "{" + " ".join(map(str, tags)) + "}"
+    ndf = set(_ints(ops.eval(f"vu_count nodeDisp {tag_list}")).tolist())
+    ndm = set(_ints(ops.eval(f"vu_count nodeCoord {tag_list}")).tolist())
+    if ndf == {6} and ndm == {3}:
+        directions = ("x", "y", "z", "rx", "ry", "rz")
+    elif ndf == {3} and ndm == {2}:
+        directions = ("x", "y", "rz")
+    else:
+        raise ValueError(f"{name}: nodes with {sorted(ndf)} DOFs in {sorted(ndm)} dimensions; -ndf 6 in 3-D or "
+                         "-ndf 3 in 2-D is expected")
+    tied = _ints(ops.eval("constrainedNodes"))
+    if tied.size:
+        retained = _ints(ops.eval("retainedNodes"))
+        raise ValueError(f"{name}: node(s) {', '.join(map(str, tied[:5]))}{' ...' if tied.size > 5 else ''} are "
+                         f"tied to node(s) {', '.join(map(str, retained[:5]))} by a multi-point constraint "
+                         "(equalDOF, rigidLink or rigidDiaphragm), which this import does not eliminate; model the "
+                         "tie with stiff elements instead")
+    coords = _floats(ops.eval(f"vu_flat nodeCoord {tag_list}")).reshape(tags.size, next(iter(ndm)))
+    index = {int(t): k for k, t in enumerate(tags)}
+    nd = len(directions)
+    free = np.ones((tags.size, nd), dtype=bool)
+    text = ops.eval("vu_fixed")
+    fixed = _ints(text).reshape(-1, 2)
+    if fixed.size:
+        if not (np.all(np.isin(fixed[:, 0], tags)) and np.all((fixed[:, 1] >= 1) & (fixed[:, 1] <= nd))):
+            raise ValueError(f"{name}: OpenSees reported fixed DOFs (node, DOF) {text.strip()[:200]!r}, expected "
+                             f"nodes of the model and DOFs 1 to {nd}")
+        free[[index[int(t)] for t in fixed[:, 0]], fixed[:, 1] - 1] = False
+    elements = _ints(ops.eval("getEleTags"))
+    ele_list = "{" + " ".join(map(str, elements)) + "}"
+    counts = _ints(ops.eval(f"vu_count eleNodes {ele_list}")) if elements.size else np.zeros(0, np.int64)
+    ends = _ints(ops.eval(f"vu_flat eleNodes {ele_list}")) if elements.size else np.zeros(0, np.int64)
+    lookup = np.searchsorted(np.sort(tags), ends)
+    order = np.argsort(tags)
+    incidence = sp.csr_matrix((np.ones(ends.size), (np.repeat(np.arange(elements.size), counts), order[lookup])),
+                              shape=(elements.size, tags.size))
+    adjacency = sp.csr_matrix(incidence.T @ incidence + sp.identity(tags.size, format="csr"))
+    return tags, directions, coords, free, elements, incidence, adjacency
+
+
+def _forces(ops, kind: str, tags: np.ndarray, moved: np.ndarray, values: np.ndarray, d: int, rows: np.ndarray,
+            name: str) -> np.ndarray:
+    """Forces at the DOFs of the nodes ``rows`` when DOF ``d`` of the nodes ``moved`` moves by
+    ``values`` (accelerations for M, displacements for K), shape (len(rows) nd,)."""
+    moved_list = "{" + " ".join(map(str, tags[moved])) + "}"
+    value_list = "{" + " ".join(map(repr, values.tolist())) + "}"
+    rows_list = "{" + " ".join(map(str, tags[rows])) + "}"
+    got = ops.eval(f"vu_probe_{kind} {moved_list} {value_list} {d + 1} {rows_list}")
+    if got.startswith("failed"):
+        raise ValueError(f"{name}: OpenSees could not update the model to a probe displacement (DOF {d + 1} of "
+                         f"node(s) {', '.join(map(str, tags[moved][:5]))} ...; analyze returned {got.split()[1]}): "
+                         "a DOF with neither stiffness nor mass?")
+    return _floats(got)
+
+
+def _responses(ops, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray, adjacency: sp.csr_matrix,
+               kind: str, name: str) -> np.ndarray:
+    """Forces per unit probe at the node DOFs next to the moved nodes, shape (c nd, N nd), row
+    ``colour * nd + d`` (zero away from the moved nodes' neighbours, where no element carries a
+    force)."""
+    c = int(colour.max()) + 1
+    out = np.zeros((c * nd, tags.size * nd))
+    near = sp.csr_matrix(adjacency, dtype=bool)
+    for col in range(c):
+        for d in range(nd):
+            moved = np.flatnonzero((colour == col) & free[:, d])
+            if moved.size == 0:
+                continue
+            rows = np.flatnonzero(near @ ((colour == col) & free[:, d]))
+            columns = (rows[:, None] * nd + np.arange(nd)).ravel()
+            out[col * nd + d, columns] = _forces(ops, kind, tags, moved, np.full(moved.size, PROBE), d, rows,
+                                                 name) / PROBE
+    return out
+
+
+def _check_linear(ops, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray, elements: np.ndarray,
+                  incidence: sp.csr_matrix, kind: str, name: str) -> None:
+    """Refuse a model not linear about rest along each direction (module docstring): DOF ``d``
+    of every node moves by ``(1 + 2 colour) s`` and then by ``-2`` times that; the forces must
+    be exactly ``-2`` times as large."""
+    everywhere = np.arange(tags.size)
+    bad = np.zeros(tags.size, dtype=bool)
+    for d in range(nd):
+        moved = np.flatnonzero(free[:, d])
+        if moved.size == 0:
+            continue
+        values = PROBE * (1.0 + 2.0 * colour[moved])
+        once = _forces(ops, kind, tags, moved, values, d, everywhere, name)
+        twice = _forces(ops, kind, tags, moved, -2.0 * values, d, everywhere, name)
+        bad |= np.any((twice != -2.0 * once).reshape(tags.size, nd), axis=1)
+    if not bad.any():
+        return
+    nodes = tags[bad].tolist()
+    hit = elements[(incidence @ bad.astype(float)) > 0].tolist()
+    what = "displacements" if kind == "K" else "accelerations"
+    raise ValueError(f"{name}: OpenSees forces are not linear in the probe {what} at node(s) "
+                     f"{', '.join(map(str, nodes[:5]))}{' ...' if len(nodes) > 5 else ''} (elements "
+                     f"{', '.join(map(str, hit[:5]))}{' ...' if len(hit) > 5 else ''}): a Corotational geometric "
+                     "transformation, a PDelta transformation on an inclined member or a material that is not "
+                     "linear from rest has a tangent the probes cannot read exactly; use Linear transformations "
+                     "and elastic materials for the modal model")
+
+
+def _assemble(R: np.ndarray, adjacency: sp.csr_matrix, colour: np.ndarray, keep: np.ndarray, nd: int) -> sp.csr_matrix:
+    """The matrix from the probe forces ``R`` (shape (c nd, N nd)): entry (i, j) for node i next to
+    node j is the force at i of the probe of j's colour and direction."""
+    A = adjacency.tocoo()
+    a, b = np.repeat(A.row, nd * nd), np.repeat(A.col, nd * nd)
+    e = np.tile(np.repeat(np.arange(nd), nd), A.nnz)
+    d = np.tile(np.arange(nd), nd * A.nnz)
+    rows, cols = a * nd + e, b * nd + d
+    values = R[colour[b] * nd + d, rows]
+    position = np.full(keep.size, -1, dtype=np.int64)
+    position[keep] = np.arange(int(keep.sum()))
+    ok = keep[rows] & keep[cols] & (values != 0.0)
+    n = int(keep.sum())
+    return sp.csr_matrix((values[ok], (position[rows[ok]], position[cols[ok]])), shape=(n, n))
 
 
 def export_from_builder(builder, values: dict, name: str = "builder") -> FEExport:
@@ -69,36 +297,26 @@ def export_from_builder(builder, values: dict, name: str = "builder") -> FEExpor
     ops = openseespy()
     ops.wipe()
     builder(dict(values))
-    tags = [int(t) for t in ops.getNodeTags()]
-    if not tags:
-        raise ValueError(f"{name}: the OpenSees builder made no nodes")
-    ops.wipeAnalysis()
-    ops.constraints("Plain")
-    ops.numberer("Plain")
-    ops.system("FullGeneral")
-    ops.algorithm("Linear")
-    ops.analysis("Transient")
-    K = _system_matrix(ops, (0.0, 0.0, 1.0))
-    M = _system_matrix(ops, (1.0, 0.0, 0.0))
-    n = K.shape[0]
-    ndf = {len(ops.nodeDOFs(t)) for t in tags}
-    ndm = len(ops.nodeCoord(tags[0]))
-    if ndf == {6}:
-        directions = ("x", "y", "z", "rx", "ry", "rz")
-    elif ndf == {3} and ndm == 2:
-        directions = ("x", "y", "rz")
-    else:
-        raise ValueError(f"{name}: nodes with {sorted(ndf)} DOFs in {ndm} dimensions; -ndf 6 in 3-D or -ndf 3 in "
-                         "2-D is expected")
-    equations = {}
-    for t in tags:
-        for d, eq in zip(directions, ops.nodeDOFs(t)):
-            if eq >= 0:
-                equations[int(eq)] = f"{t}:{d}"
-    if sorted(equations) != list(range(n)):
-        raise ValueError(f"{name}: OpenSees equation numbers are not 0..{n - 1}")
-    nodes = {str(t): np.asarray(ops.nodeCoord(t), dtype=float) for t in tags}
+    tags, directions, coords, free, elements, incidence, adjacency = _model(ops, name)
+    nd = len(directions)
+    colour = probe_colours(adjacency)
+    ops.eval("wipeAnalysis; constraints Plain; numberer Plain; system Diagonal; algorithm Linear -factorOnce; "
+             "analysis Transient; integrator GimmeMCK 1.0 0.0 1.0")
+    keep = free.ravel()
+    matrices = {}
+    for kind in ("M", "K"):   # mass first: the elements are at rest until the first stiffness probe
+        _check_linear(ops, nd, colour, tags, free, elements, incidence, kind, name)
+        matrices[kind] = _assemble(_responses(ops, nd, colour, tags, free, adjacency, kind, name), adjacency,
+                                   colour, keep, nd)
     ops.wipe()
-    # FullGeneral assembles in floating point: symmetrize the last bits
-    K, M = 0.5 * (K + K.T), 0.5 * (M + M.T)
-    return FEExport(sp.csr_matrix(K), sp.csr_matrix(M), tuple(equations[k] for k in range(n)), name, nodes)
+    for kind, A in matrices.items():
+        scale = abs(A).max() if A.nnz else 0.0
+        gap = abs(A - A.T).max() if A.nnz else 0.0
+        if gap > SYMMETRY_TOL * scale:
+            raise ValueError(f"{name}: the {kind} read from OpenSees is not symmetric (largest |A - A^T| {gap:.3g} "
+                             f"against largest entry {scale:.3g}); a symmetric matrix is expected")
+        matrices[kind] = sp.csr_matrix(0.5 * (A + A.T))   # the two triangles differ in the last bits
+    dofs = tuple(f"{t}:{d}" for t in tags for d in directions)
+    kept = tuple(dof for dof, k in zip(dofs, keep) if k)
+    nodes = {str(t): np.asarray(xyz, dtype=float) for t, xyz in zip(tags, coords)}
+    return FEExport(matrices["K"], matrices["M"], kept, name, nodes)
