@@ -103,3 +103,53 @@ def test_case_file_and_python_objects_are_the_same_problem(tmp_path, family):
 def test_every_family_states_what_a_right_answer_is():
     for family in C.FAMILIES.values():
         assert "right answer" in family.meaning, family.name
+
+
+# -- each family over a few seeds, judged by its criteria (slow) -----------------------------------
+
+#: Seeds of each family in the slow step.
+SLOW_SEEDS = range(6)
+#: Criteria today's code fails, with the measured reason: (family, "defects" or "budgets") -> reason.
+KNOWN_FAILURES = {
+    ("mass_normalized", "defects"):
+        "measured 2026-12-06: seed 5 ends success on both routes with mode 3's mass-normalized entries at y1, "
+        "y2, y4 0.98 half-widths outside their intervals (the verification holds the ratios to the reference "
+        "entry and the reference's modal mass, not each entry); seed 8 (dev profile) likewise, 0.57 "
+        "half-widths, and misses the determined rA1",
+    ("sensor_masses", "budgets"):
+        "measured 2026-12-06: seed 5 (unmodelled sensor masses on a chain) ends not_verified on both routes "
+        "15.7 half-widths outside the data in all, the nominal model 5.2: worse than nominal",
+}
+_RUNS: dict = {}
+
+
+def _runs(family, folder):
+    if family not in _RUNS:
+        _RUNS[family] = [v for s in SLOW_SEEDS for v in R.run_problem(C.FAMILIES[family].make(s), workdir=folder)]
+    return _RUNS[family]
+
+
+def _cases(which):
+    return [pytest.param(f, marks=pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[(f, which)]))
+            if (f, which) in KNOWN_FAILURES else f for f in C.NEW_FAMILIES]
+
+
+def _failed(family, folder, defects: bool):
+    verdicts = _runs(family, folder)
+    findings = [f for f in C.check(verdicts, C.FAMILIES) if f.criterion.startswith("defect") == defects]
+    print("\n" + C.summary(verdicts) + "\n" + "\n".join(f.line() for f in findings))
+    return [f.line() for f in findings if not f.ok]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", _cases("defects"))
+def test_each_family_has_no_defect(family, tmp_path_factory):
+    bad = _failed(family, tmp_path_factory.mktemp(family), defects=True)
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", _cases("budgets"))
+def test_each_family_keeps_its_budgets(family, tmp_path_factory):
+    bad = _failed(family, tmp_path_factory.mktemp(family), defects=False)
+    assert not bad, "\n".join(bad)
