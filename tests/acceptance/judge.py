@@ -254,13 +254,13 @@ def judge(problem, route: str, outcome: Outcome, ref: Reference) -> Verdict:
     values = outcome.values
     if values is None:
         return v
-    missed, freqs, _ = misses(problem, values)
+    missed, freqs, distance = misses(problem, values)
     if v.success and missed:
         v.failures.append("outside")
         v.details += ["outside: " + m for m in missed[:4]]
     if not v.success and missed:
         v.details.append(f"{v.failures[-1]}: {len(missed)} data outside their intervals, e.g. {missed[0]}")
-    answer_excess = excess(problem, values)
+    answer_excess = float(np.sum(distance))   # `excess` of the answer
     if answer_excess > ref.nominal_excess * (1 + FLOOR) + FLOOR:
         v.failures.append("worse_than_nominal")
         v.details.append(f"worse_than_nominal: data {answer_excess:.4g} half-widths outside their intervals in all, "
