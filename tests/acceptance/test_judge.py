@@ -155,3 +155,34 @@ def test_statuses_are_read_in_the_judges_words_whatever_their_type():
 
     assert [status_word(s) for s in Verdict] == ["success", "not_unique", "not_verified"]
     assert status_word("acceptable") == "success" and status_word("path_failed") == "path_failed"
+
+
+def _verdicts(family, statuses, extra=(), diagnosis=(), expected=None):
+    from acceptance.judge import Verdict
+
+    out = []
+    for i, status in enumerate(statuses):
+        failures = [] if status == "success" else [status]
+        out.append(Verdict(f"c{i}", "cli", {"family": family, "expected_first": expected}, status, 0, 0.0,
+                           failures + (list(extra) if i == 0 else []), diagnosis=diagnosis))
+    return out
+
+
+def _failed(verdicts):
+    from acceptance import criteria as C
+
+    return {f.criterion for f in C.check(verdicts, C.FAMILIES) if not f.ok}
+
+
+def test_each_budget_of_a_family_can_fail_on_its_own():
+    assert not _failed(_verdicts("random", ["success"] * 97 + ["not_verified"] * 3))
+    assert _failed(_verdicts("random", ["success"] * 96 + ["not_verified"] * 4)) == {"verified runs",
+                                                                                     "not_verified runs"}
+    # a path failure spends the verified share, not the not_verified budget
+    assert _failed(_verdicts("random", ["success"] * 96 + ["path_failed"] * 4)) == {"verified runs"}
+    assert _failed(_verdicts("coarse_mesh", ["not_verified"] * 5, extra=["worse_than_nominal"])) == {
+        "answers worse than nominal"}
+    assert _failed(_verdicts("random", ["success"] * 10, extra=["outside"])) == {"defect outside"}
+    right = _verdicts("biased_channel", ["not_verified"] * 4, diagnosis=("A/dof/y2",), expected="A/dof/y2")
+    wrong = _verdicts("biased_channel", ["not_verified"] * 4, diagnosis=("A/natural/1",), expected="A/dof/y2")
+    assert not _failed(right) and _failed(wrong) == {"wrong group ranked first (share right)"}
