@@ -1,16 +1,19 @@
-"""Known-truth acceptance over many random problems: what fails today, by class.
+"""Known-truth acceptance over many problems of every family: what fails today, by class.
 
-Run: ``PYTHONPATH=src python benchmarks/acceptance.py [--cases 500] [--seed 0] [--workers 1]
-[--routes cli api] [--json FILE]``.
+Run: ``PYTHONPATH=src python benchmarks/acceptance.py --profile ci|dev|full|held-out
+[--family NAME ...] [--workers 1] [--routes cli api] [--json FILE]``, or, for the random family
+alone, ``--cases 500 [--seed 0] [--named]``.
 
-Draws problems ``seed .. seed + cases - 1`` of `acceptance.generator.random_problem` (plus the
-named problems with ``--named``), runs each through ``vibupdate run`` (in-process) and
-``vibupdate.update`` and judges them (`acceptance.runner`). Prints markdown tables per class
-(structure, problem kind, exact or noisy data, determinacy at the truth, route): runs, the share
-ending ``success`` and ``not_verified``, and the counts of each defect (crash or internal error,
-valid input refused, success with a datum outside its interval, determined parameter outside
-its consistent range, truth outside a reported range), with the median time per run; then the
-case ids of every defect class. ``--json`` writes every verdict.
+A profile (`acceptance.criteria.PROFILES`) is a set of seeds per family: ``ci`` the test suite's,
+``dev`` the development profile, ``full`` over 2,000 runs, ``held-out`` seeds kept out of
+development and run only at the end of a change. Each problem runs through ``vibupdate run``
+(in-process) and ``vibupdate.update`` and is judged (`acceptance.runner`, `acceptance.judge`).
+Prints the per-family summary with the judge's excused classes, every criterion of
+`acceptance.criteria` with its measured value and limit, markdown tables per class (family,
+structure, problem kind, exact or noisy data, determinacy at the truth, route): runs, the share
+ending ``success`` and ``not_verified``, the counts of each defect, the median time per run; then
+the case ids of every failure class. ``--json`` writes every verdict. The exit code is 1 when a
+criterion fails.
 """
 
 from __future__ import annotations
@@ -28,26 +31,27 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 COLUMNS = ("runs", "success %", "not_verified %", "path failed %", "crash", "refused", "outside",
-           "determined miss (other solution)", "truth outside reported", "median s")
+           "determined miss (other solution)", "truth outside reported", "worse than nominal", "median s")
 
 
 def _one(args) -> list[dict]:
-    index, routes, named = args
+    family, index, routes = args
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    from acceptance import generator as G
+    from acceptance import criteria as C
     from acceptance import runner as R
 
     try:
-        problem = G.named_problems()[index]() if named else G.random_problem(index)
+        problem = C.FAMILIES[family].make(index)
     except Exception as exc:   # a generator failure is reported, not hidden
-        return [{"case": f"r{index}", "route": "engine", "status": "engine_error", "exit_code": None,
-                 "seconds": 0.0, "failures": ["engine_error"], "details": [f"{type(exc).__name__}: {exc}"]}]
+        return [{"case": f"{family}{index}", "route": "engine", "family": family, "status": "engine_error",
+                 "exit_code": None, "seconds": 0.0, "failures": ["engine_error"], "excused": [],
+                 "details": [f"{type(exc).__name__}: {exc}"]}]
     try:
         return [v.as_dict() for v in R.run_problem(problem, routes=routes)]
     except Exception as exc:   # a judge failure likewise
         return [{"case": problem.case_id, "route": "engine", **problem.classes(), "determinacy": "?",
                  "status": "engine_error", "exit_code": None, "seconds": 0.0, "failures": ["engine_error"],
-                 "details": [f"{type(exc).__name__}: {exc}"]}]
+                 "excused": [], "details": [f"{type(exc).__name__}: {exc}"]}]
 
 
 def _row(rows: list[dict]) -> list[str]:
@@ -56,18 +60,18 @@ def _row(rows: list[dict]) -> list[str]:
     def count(code):
         return sum(code in r["failures"] for r in rows)
 
-    ok = sum(r["status"] in ("success", "acceptable") for r in rows)
+    ok = sum(r["status"] in ("success", "not_unique") for r in rows)
     nv = sum(r["status"] == "not_verified" for r in rows)
     return [str(n), f"{100 * ok / n:.1f}", f"{100 * nv / n:.1f}", f"{100 * count('path_failed') / n:.1f}",
             str(count("crash")), str(count("refused") + count("exit_code")), str(count("outside") + count("report")),
             f"{count('determined_miss')} ({count('other_solution')})", str(count("truth_outside_reported")),
-            f"{np.median([r['seconds'] for r in rows]):.2f}"]
+            str(count("worse_than_nominal")), f"{np.median([r['seconds'] for r in rows]):.2f}"]
 
 
 def tables(rows: list[dict]) -> str:
     """Markdown tables per class dimension (module docstring)."""
     out = []
-    for dim in ("structure", "kind", "data", "determinacy", "route"):
+    for dim in ("family", "structure", "kind", "data", "determinacy", "route"):
         groups = defaultdict(list)
         for r in rows:
             groups[str(r.get(dim))].append(r)
@@ -101,20 +105,38 @@ def defects(rows: list[dict], limit: int = 12) -> str:
     return "\n".join(lines)
 
 
+def _verdicts(rows: list[dict]):
+    """The rows as `acceptance.judge.Verdict` s, for `acceptance.criteria`."""
+    from acceptance.judge import Verdict
+
+    keys = ("case", "route", "status", "exit_code", "seconds", "failures", "excused", "details", "diagnosis")
+    return [Verdict(r["case"], r["route"], {k: v for k, v in r.items() if k not in keys}, r["status"],
+                    r["exit_code"], r["seconds"], list(r["failures"]), list(r.get("excused", [])),
+                    list(r["details"]), tuple(r.get("diagnosis") or ())) for r in rows]
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", type=int, default=500)
-    parser.add_argument("--seed", type=int, default=0, help="first seed")
+    parser.add_argument("--profile", choices=["ci", "dev", "full", "held-out"], default=None)
+    parser.add_argument("--family", nargs="+", default=None, help="only these families of the profile")
+    parser.add_argument("--cases", type=int, default=None, help="random problems seed .. seed + cases - 1")
+    parser.add_argument("--seed", type=int, default=0, help="first seed (with --cases)")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--routes", nargs="+", default=["cli", "api"], choices=["cli", "api"])
-    parser.add_argument("--named", action="store_true", help="also the named problems")
+    parser.add_argument("--named", action="store_true", help="also the named problems (with --cases)")
     parser.add_argument("--json", default=None, help="write every verdict to this file")
     args = parser.parse_args(argv)
-    from acceptance import generator as G
+    from acceptance import criteria as C
 
-    jobs = [(s, tuple(args.routes), False) for s in range(args.seed, args.seed + args.cases)]
-    if args.named:
-        jobs += [(name, tuple(args.routes), True) for name in G.named_problems()]
+    routes = tuple(args.routes)
+    if args.profile is not None:
+        jobs = [(f, s, routes) for f, s in C.profile_jobs(args.profile) if not args.family or f in args.family]
+        title = f"profile {args.profile}"
+    else:
+        cases = 500 if args.cases is None else args.cases
+        jobs = [("random", s, routes) for s in range(args.seed, args.seed + cases)]
+        jobs += [("named", i, routes) for i in range(9)] if args.named else []
+        title = f"random seeds {args.seed}..{args.seed + cases - 1}" + (", named" if args.named else "")
     start = time.perf_counter()
     results = []
 
@@ -133,13 +155,18 @@ def main(argv=None) -> int:
             done(_one(job))
     rows = [r for rs in results for r in rs]
     wall = time.perf_counter() - start
-    print(f"{len(jobs)} problems (seeds {args.seed}..{args.seed + args.cases - 1}"
-          + (", named" if args.named else "") + f"), {len(rows)} runs, {wall:.0f} s wall, {args.workers} worker(s)\n")
+    print(f"{title}: {len(jobs)} problems, {len(rows)} runs, {wall:.0f} s wall, {args.workers} worker(s)\n")
+    verdicts = _verdicts([r for r in rows if r["route"] != "engine"])
+    print(C.summary(verdicts) + "\n")
+    findings = C.check(verdicts, C.FAMILIES)
+    engine = [r for r in rows if r["route"] == "engine"]
+    print("\n".join("- " + f.line() for f in findings if not (f.ok and f.criterion.startswith("defect"))))
+    print(f"- engine errors: {len(engine)}" + (f" ({', '.join(r['case'] for r in engine[:8])})" if engine else "") + "\n")
     print(tables(rows))
     print(defects(rows))
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1, default=str))
-    return 0
+    return 1 if engine or not all(f.ok for f in findings) else 0
 
 
 if __name__ == "__main__":

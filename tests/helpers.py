@@ -117,13 +117,26 @@ def biased_chain(bias_dof="y3", bias=0.10, half_width=0.005, modes=4):
     return model, freqs, shapes
 
 
+#: The environment variable naming the folder of the real data sets (not part of the repository).
+REALDATA_ENV = "VIBUPDATE_REALDATA"
+
+
 def realdata(name: str) -> Path:
-    """A real data set's folder (never part of the repository): ``$VIBUPDATE_REALDATA/name``,
-    else ``shared/realdata/name`` beside the checkout or beside any folder above it, else the
-    machines' ``/work/shared/realdata/name`` (a clean checkout for CI may live elsewhere)."""
+    """Where a real data set is looked for (never part of the repository, never an absolute path
+    written here): ``$VIBUPDATE_REALDATA/name`` when that variable is set, else
+    ``<checkout>/../shared/realdata/name``. The folder may not exist: a test that needs it is
+    marked ``@pytest.mark.realdata(name)`` and skipped by ``conftest.py`` naming this path."""
     import os
 
-    here = Path(__file__).resolve().parents[1]
-    candidates = [Path(os.environ["VIBUPDATE_REALDATA"])] if os.environ.get("VIBUPDATE_REALDATA") else []
-    candidates += [p / "shared" / "realdata" for p in here.parents] + [Path("/work/shared/realdata")]
-    return next((c / name for c in candidates if (c / name).is_dir()), here.parent / "shared" / "realdata" / name)
+    root = os.environ.get(REALDATA_ENV)
+    base = Path(root) if root else Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
+    return base / name
+
+
+def realdata_skip_reason(name: str) -> str | None:
+    """Why a test of the real data set ``name`` is skipped (None when the data are there)."""
+    folder = realdata(name)
+    if folder.is_dir():
+        return None
+    return (f"real data set {name!r} not found at {folder} (not part of the repository; set "
+            f"{REALDATA_ENV} to the folder that holds it)")

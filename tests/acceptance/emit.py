@@ -78,6 +78,8 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
         rows += [f"{flexible_mode(problem, n)},{dof},{lo!r},{hi!r}" for n in shaped for dof, (lo, hi) in n.shape.items()]
         (folder / f"shapes_{cfg.name}.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
         table["mode_shapes_csv"] = f"shapes_{cfg.name}.csv"
+        if problem.mass_normalized:
+            table["mass_normalized_shapes"] = True
     if not cfg.interlacing:
         table["interlacing"] = False
     return table
@@ -111,6 +113,8 @@ def model_form(problem) -> dict:
     frequencies keep the default (a wrong answer within it is what the judge's
     ``outside`` and ``determined_miss`` classes find)."""
     tolerances = {"shape_tolerance": 0.0}
+    if problem.mass_normalized:
+        tolerances["modal_mass_tolerance"] = 0.0
     if problem.tolerance > 0:
         tolerances.update(natural_tolerance=0.0, antiresonance_tolerance=0.0)
     return tolerances
@@ -140,7 +144,8 @@ def configurations(problem, judge: bool = False) -> tuple:
             shape = None
             if n.shape:
                 widen = EXACT_SLACK if judge and problem.shape_noise == 0 else 0.0
-                shape = ShapeInterval({d: (lo - widen, hi + widen) for d, (lo, hi) in n.shape.items()})
+                shape = ShapeInterval({d: (lo - widen, hi + widen) for d, (lo, hi) in n.shape.items()},
+                                      mass_normalized=problem.mass_normalized)
             w = TWO_PI * n.hz
             natural.append(NaturalFrequency(w, shape=shape, mode=flexible_mode(problem, n) if declare else None,
                                             interval=_interval(w, rel * w)))

@@ -143,7 +143,7 @@ def _mass_scale(spec) -> float:
 
 
 def _named(case_id, spec, params, truth, data, note, **kwargs) -> Problem:
-    return Problem(case_id, spec, tuple(params), truth, tuple(data), note=note, **kwargs)
+    return Problem(case_id, spec, tuple(params), truth, tuple(data), note=note, family="named", **kwargs)
 
 
 def _scaled(params, factors: dict) -> dict:

@@ -81,6 +81,16 @@ class Problem:
     csv : bool
         Frequencies in a CSV file of the case folder (else typed in the TOML).
     note : str
+    family : str
+        The family that drew it (`acceptance.criteria` says what a right answer is for each).
+    in_family : bool
+        The model family holds the truth and the truth satisfies every datum (False for data of
+        another model, or with a measurement error that excludes the truth).
+    mass_normalized : bool
+        The shapes are mass-normalized entries (up to a common sign), not ratios.
+    expected_first : str or None
+        The data group (a diagnosis key, ``"CFG/dof/DOF"`` ...) that is wrong by construction,
+        which the diagnosis should rank first.
     """
 
     case_id: str
@@ -94,6 +104,10 @@ class Problem:
     symmetries: tuple = ()
     csv: bool = False
     note: str = ""
+    family: str = "random"
+    in_family: bool = True
+    mass_normalized: bool = False
+    expected_first: str | None = None
 
     @property
     def kind(self) -> str:
@@ -134,8 +148,8 @@ class Problem:
 
     def classes(self) -> dict:
         """The class labels of the tables (determinacy is judged by the runner)."""
-        return {"structure": self.structure_class, "kind": self.kind, "data": "exact" if self.exact else "noisy",
-                "fewer_data": self.n_data < len(self.parameters)}
+        return {"family": self.family, "structure": self.structure_class, "kind": self.kind, "data": "exact" if self.exact else "noisy",
+                "fewer_data": self.n_data < len(self.parameters), "expected_first": self.expected_first}
 
     def configurations(self, judge: bool = False):
         """The Python route's `vibupdate.Configuration` s (`acceptance.emit.configurations`)."""

@@ -262,6 +262,8 @@ def test_bad_arguments_are_clear_errors():
 # ----------------------------------------------------------------------------- CLI
 
 REALDATA = realdata("soton3storey")
+#: The marker of the tests that read it (skipped, naming the path, when it is not there).
+SOTON = pytest.mark.realdata("soton3storey")
 SOTON_FILES = ("Experimental.csv", "test_2.csv", "test_3.csv")  # force at floor 1, 2, 3
 #: Reference values of an independent analysis, Hz.
 SOTON_MODES_HZ = (6.5126, 17.4608, 26.5003)
@@ -356,8 +358,6 @@ def test_cli_extract_bad_input_is_a_clear_error(tmp_path, capsys):
 
 
 def _soton(out, files, excitations):
-    if not REALDATA.is_dir():
-        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     args = ["extract", *(str(REALDATA / f) for f in files), "--responses", "x1", "x2", "x3",
             "--excitations", *excitations, "--kind", "accelerance", "--band", "3", "28", "--modes", "3",
             "--out", str(out), "--no-plot"]
@@ -371,6 +371,7 @@ def soton_all(tmp_path_factory):
     return _soton(tmp_path_factory.mktemp("soton"), SOTON_FILES, ["x1", "x2", "x3"])
 
 
+@SOTON
 def test_southampton_modes_within_0p1_percent_and_tests_consistent(tmp_path):
     docs = [_soton(tmp_path / f"t{k + 1}", [f], [f"x{k + 1}"]) for k, f in enumerate(SOTON_FILES)]
     for doc in docs:
@@ -393,6 +394,7 @@ def _soton_zero_errors(doc):
     return errors
 
 
+@SOTON
 def test_southampton_quality_shows_the_misfit_at_the_peaks(tmp_path, capsys):
     """One record per pair: the modal model misses the measured peak lines by 6-14 % of |H|,
     while between the peaks the residual is at the line-to-line noise, so the quality figure
@@ -406,6 +408,7 @@ def test_southampton_quality_shows_the_misfit_at_the_peaks(tmp_path, capsys):
     assert "note: half-power bandwidths of fewer than 4 lines (mode 1: 0.7, mode 2: 2.7, mode 3: 3.8)" in printed
 
 
+@SOTON
 def test_southampton_modes_within_0p05_percent_of_the_reference_and_inside_their_intervals(soton_all):
     """All nine FRFs in one extraction: measured -0.015, -0.0038 and +0.0095 % from the
     reference values, each reference inside its 95 % interval."""
@@ -415,6 +418,7 @@ def test_southampton_modes_within_0p05_percent_of_the_reference_and_inside_their
         assert lo <= ref <= hi
 
 
+@SOTON
 def test_southampton_antiresonances_found_and_references_within_intervals(soton_all):
     errors = _soton_zero_errors(soton_all)
     assert set(errors) == {(r, c, ref) for (r, c), refs in SOTON_ZEROS_HZ.items() for ref in refs}
@@ -425,6 +429,7 @@ def test_southampton_antiresonances_found_and_references_within_intervals(soton_
         assert n["freq_hz"] == pytest.approx(ref, rel=1e-3)
 
 
+@SOTON
 def test_southampton_reciprocal_zeros_agree_within_their_intervals(soton_all):
     """h21 / h12 and h32 / h23 are one physical zero each (symmetric M, K) measured in two
     tests: their intervals overlap (measured 14.416 / 14.487 Hz, 0.49 % apart, and 19.407 /
@@ -440,6 +445,7 @@ def test_southampton_reciprocal_zeros_agree_within_their_intervals(soton_all):
                                        "its interval; the reference agrees with the sign change of the measured real "
                                        "part (mean 0.04 %), an estimator 5-7x less accurate on known truth, and the "
                                        "data's reciprocal pair h21/h12 differs by 0.5 %: docs/frf-extraction.md")
+@SOTON
 def test_southampton_antiresonances_within_0p1_percent(soton_all):
     worst = max(e for e, _ in _soton_zero_errors(soton_all).values())
     assert worst <= 1e-3
@@ -521,13 +527,12 @@ def test_measured_frf_overlay_plot(tmp_path):
         plot_measured_frf(tmp_path / "x.png", frfs, ["x1", "x2"], (M, K, None), (M, K, C), "A", "n", "u")
 
 
+@SOTON
 @pytest.mark.parametrize("case_file", ["soton-frame.toml", "soton-frame-masses.toml"])
 def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, case_file):
     """docs/soton-frame.toml (and its variant with the masses of floors 2 and 3 free):
     extraction and updating in one ``vibupdate run``; compared with the classical frequency
     fit (vibupdate.inverse.baseline) on the same model and data."""
-    if not REALDATA.is_dir():
-        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     import shutil
 
     from vibupdate.inverse.baseline import frequency_fit
@@ -572,12 +577,11 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, c
     assert (tmp_path / "out" / "frf_frame.png").stat().st_size > 20_000
 
 
+@SOTON
 def test_southampton_frame_element_model_updated_from_frfs_in_one_run(tmp_path):
     """docs/soton-frame-elements.toml: the planar frame-element model (legs as frame elements,
     floors as stiff plates, base rotational spring) updated from the FRFs in one run. It does
     not verify: the fit check fails (docs/frf-extraction.md)."""
-    if not REALDATA.is_dir():
-        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     import shutil
 
     from vibupdate.inverse.baseline import frequency_fit
@@ -683,14 +687,13 @@ def test_zeros_above_the_highest_fitted_pole_are_left_out_unless_kept(tmp_path):
     assert not wide.outer_zeros and wide.fitted_poles[:, 0].max() > 2 * math.pi * 200
 
 
+@SOTON
 def test_the_docs_extract_command_names_the_files_of_the_southampton_data_set(tmp_path):
     """docs/frf-extraction.md opens with the Southampton command; it names files the data set
     has, and runs as written."""
     import re
     import shlex
 
-    if not REALDATA.is_dir():
-        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     text = (Path(__file__).resolve().parents[2] / "docs" / "frf-extraction.md").read_text()
     line = re.search(r"^vibupdate extract Experimental\.csv .*?(?<!\\)$", text.replace("\\\n", " "), re.M).group(0)
     args = shlex.split(line)[1:]

@@ -212,6 +212,7 @@ def test_a_kind_one_order_off_exits_2_through_the_cli_naming_the_files(tmp_path,
     assert main(args + ["--kind", "mobility"]) == 0
 
 
+@pytest.mark.realdata("soton3storey")
 def test_southampton_accelerances_read_as_receptances_exit_2_after_the_fit(tmp_path, capsys):
     """Read as receptances (the raw check can only warn: slopes in range, `check_kind`), the
     real accelerances' driving points fit negative modal constants (two orders off, or a sign
@@ -230,11 +231,10 @@ def test_southampton_accelerances_read_as_receptances_exit_2_after_the_fit(tmp_p
 def _realdata_files():
     from test_extraction import REALDATA, SOTON_FILES
 
-    if not REALDATA.is_dir():
-        pytest.skip(f"real data not found at {REALDATA} (not part of the repository)")
     return [str(REALDATA / f) for f in SOTON_FILES]
 
 
+@pytest.mark.realdata("soton3storey")
 def test_southampton_accelerances_pass_and_read_as_receptances_are_warned(tmp_path, capsys):
     """The real accelerances: as accelerances, slopes -2.05, -2.01, -2.08 and driving-point
     shares 0.94, 0.92, 0.89, no warning; read as receptances (a table's default kind) a warning
@@ -313,6 +313,7 @@ def _soton_args(tmp_path, files, responses, excitations, *extra):
     # a mapping that puts two different responses under one name
     (["x1", "x2", "x3"], ["x1", "x2", "x3"], ["--map", "x2=x1"], "h_x1,x1"),
 ])
+@pytest.mark.realdata("soton3storey")
 def test_contradictory_labels_are_errors_through_the_cli(tmp_path, capsys, responses, excitations, extra, message):
     files = _realdata_files()
     out, args = _soton_args(tmp_path, files, responses, excitations, *extra)

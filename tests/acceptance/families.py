@@ -1,0 +1,290 @@
+"""Families of known-truth problems beyond the random draw: the problems users bring.
+
+Each maker draws one problem from a seed alone; its docstring says what a right answer is (the
+budgets are in `acceptance.criteria`). Two kinds:
+
+* out of family (``in_family=False``): the data come from another model than the one updated
+  (model-form error) or carry an error that excludes the truth (measurement error). The truth
+  is then not an answer; what is judged is that no answer claims to fit data it misses, that
+  the answer is no further from the data than the nominal model, and, where one group of data
+  is wrong by construction, that the diagnosis ranks it first;
+* in family, on data the random draw never makes: modes spaced down to 0.1 %, antiresonances
+  of cross receptances, mass-normalized shapes. The truth satisfies every datum; the budgets of
+  an in-family problem hold.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from acceptance import structures as S
+from acceptance import truth as T
+from acceptance.measure import draw_truth, measure
+from acceptance.problem import ConfigData, Natural, Problem
+
+__all__ = ["coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "close_modes",
+           "cross_receptance", "mass_normalized", "MAKERS"]
+
+TWO_PI = 2.0 * np.pi
+
+
+def _rng(family: str, seed: int) -> np.random.Generator:
+    return np.random.default_rng([20261206, sum(map(ord, family)), seed])
+
+
+def _noise(rng) -> float:
+    return float(10 ** rng.uniform(-3, -2.3))   # 0.1 % to 0.5 %
+
+
+def _refined(spec: S.StructureSpec, factor: int) -> tuple[S.StructureSpec, dict]:
+    """The beam ``spec`` with each element split in ``factor`` (same properties), and the map of
+    its DOF names to the fine mesh's."""
+    n_el = len(spec.elements)
+    x = [xx for _, xx, _ in spec.nodes]
+    nodes = []
+    for i in range(n_el):
+        nodes += [(i * factor + k, x[i] + (x[i + 1] - x[i]) * k / factor, 0.0) for k in range(factor)]
+    nodes.append((n_el * factor, x[-1], 0.0))
+    elements = []
+    for fam, n1, n2, props in spec.elements:
+        elements += [(fam, n1 * factor + k, n1 * factor + k + 1, props) for k in range(factor)]
+    names = {f"{d}{i}": f"{d}{i * factor}" for i in range(n_el + 1) for d in ("y", "phi")}
+    lumped = tuple((fam, names[dof], v, names.get(other) if other else None) for fam, dof, v, other in spec.lumped)
+    supports = {k: [lab * factor for lab in v] if k != "fix" else [names[d] for d in v]
+                for k, v in spec.supports.items()}
+    fine = replace(spec, nodes=tuple(nodes), elements=tuple(elements), lumped=lumped, supports=supports,
+                   measurable=tuple(names[d] for d in spec.measurable))
+    return fine, names
+
+
+def _rename(data: ConfigData, back: dict) -> ConfigData:
+    """Data measured on another mesh under the model's DOF names."""
+    natural = tuple(replace(n, shape={back[d]: v for d, v in n.shape.items()}) if n.shape else n for n in data.natural)
+    zeros = tuple(replace(z, response=back[z.response], excitation=back[z.excitation]) for z in data.zeros)
+    return replace(data, natural=natural, zeros=zeros)
+
+
+def _beam_case(rng, n_el: int):
+    spec, params = S.beam(rng, n_el, support="clamped", ei_groups=int(rng.integers(1, 3)), m_groups=1)
+    return spec, params, draw_truth(rng, params)
+
+
+def coarse_mesh(seed: int) -> Problem:
+    """Model-form error: a clamped beam of 3-6 elements updated from the frequencies (and the tip
+    driving point's antiresonances) of the same beam meshed 8 times finer, measured with 0.1-0.5 %
+    noise. A right answer: ``success`` only when every datum is admissible for the coarse model;
+    never further from the data than the nominal model."""
+    rng = _rng("coarse_mesh", seed)
+    spec, params, truth = _beam_case(rng, int(rng.integers(3, 7)))
+    fine, names = _refined(spec, 8)
+    noise = _noise(rng)
+    n_el = len(spec.elements)
+    kind = "P4" if rng.random() < 0.5 else "P2"
+    data = measure(fine, params, truth, kind=kind, rng=rng, noise=noise, n_modes=int(rng.integers(3, 5)),
+                   receptances=[(names[f"y{n_el}"],) * 2] if kind == "P4" else None, avoid_poles=True)
+    back = {v: k for k, v in names.items()}
+    return Problem(f"coarse{seed}", spec, tuple(params), truth, (_rename(data, back),), noise, 0.0, seed,
+                   family="coarse_mesh", in_family=False, note="8x finer mesh's data")
+
+
+def root_spring(seed: int) -> Problem:
+    """Model-form error: a clamped beam model; the data (frequencies with 0.1-0.5 % noise, shapes
+    at a few translations) come from the same beam whose root turns on a rotational spring of
+    5-50 EI/L, which the model lacks. A right answer: ``success`` only when every datum is
+    admissible; never further from the data than the nominal model."""
+    rng = _rng("root_spring", seed)
+    spec, params, truth = _beam_case(rng, int(rng.integers(4, 9)))
+    kr = float(rng.uniform(5.0, 50.0) * S.STRIP_EI)
+    actual = replace(spec, supports={"fix": ["y0"]}, lumped=spec.lumped + (("spring", "phi0", S.Lin(kr), None),))
+    noise = _noise(rng)
+    meas = list(spec.measurable)
+    sensors = [meas[i] for i in sorted(rng.choice(len(meas), size=min(4, len(meas)), replace=False))]
+    kind = "P1" if rng.random() < 0.5 else "P2"
+    data = measure(actual, params, truth, kind=kind, rng=rng, noise=noise, shape_noise=noise,
+                   n_modes=int(rng.integers(3, 5)), sensors=sensors)
+    return Problem(f"root{seed}", spec, tuple(params), truth, (data,), noise, noise if kind == "P1" else 0.0, seed,
+                   family="root_spring", in_family=False, note=f"unmodelled root spring {kr:.4g} N m/rad")
+
+
+def sensor_masses(seed: int) -> Problem:
+    """Model-form error: a chain or beam whose data (frequencies and shapes, 0.1-0.5 % noise) were
+    measured with an accelerometer of 2-6 % of the structure's mass per DOF at every sensor, which
+    the model lacks. A right answer: ``success`` only when every datum is admissible; never
+    further from the data than the nominal model."""
+    rng = _rng("sensor_masses", seed)
+    if rng.random() < 0.5:
+        spec, params = S.chain(rng, int(rng.integers(4, 9)), k_groups=int(rng.integers(1, 4)), m_groups=1)
+        per_dof = 1.0
+    else:
+        spec, params = S.beam(rng, int(rng.integers(4, 9)), support="clamped", ei_groups=2, m_groups=1)
+        per_dof = S.STRIP_RHO_A / len(spec.elements)
+    truth = draw_truth(rng, params)
+    meas = list(spec.measurable)
+    sensors = [meas[i] for i in sorted(rng.choice(len(meas), size=min(int(rng.integers(3, 6)), len(meas)),
+                                                  replace=False))]
+    actual = spec
+    for dof in sensors:
+        actual = actual.with_mass(dof, float(rng.uniform(0.02, 0.06) * per_dof))
+    noise = _noise(rng)
+    data = measure(actual, params, truth, kind="P1", rng=rng, noise=noise, shape_noise=noise,
+                   n_modes=int(rng.integers(3, 5)), sensors=sensors)
+    return Problem(f"sensors{seed}", spec, tuple(params), truth, (data,), noise, noise, seed, family="sensor_masses",
+                   in_family=False, note="unmodelled sensor masses")
+
+
+def biased_channel(seed: int) -> Problem:
+    """Measurement error excluding the truth: frequencies and shapes (0.1-0.3 % noise) of a chain
+    or beam, one sensor's entry scaled by 1 +- (8-20 %) in every mode (a wrong calibration). A
+    right answer: never ``success`` for a model that misses an interval; the diagnosis ranks
+    that sensor (group ``A/dof/DOF``) first."""
+    rng = _rng("biased_channel", seed)
+    if rng.random() < 0.5:
+        spec, params = S.chain(rng, int(rng.integers(4, 8)), k_groups=int(rng.integers(1, 4)), m_groups=0)
+    else:
+        spec, params = S.beam(rng, int(rng.integers(4, 8)), support="clamped", ei_groups=2, m_groups=1)
+    truth = draw_truth(rng, params)
+    noise = float(10 ** rng.uniform(-3, -2.5))
+    meas = list(spec.measurable)
+    sensors = [meas[i] for i in sorted(rng.choice(len(meas), size=min(int(rng.integers(4, 7)), len(meas)),
+                                                  replace=False))]
+    data = measure(spec, params, truth, kind="P1", rng=rng, noise=noise, shape_noise=noise, n_modes=4,
+                   sensors=sensors)
+    shaped = [n for n in data.natural if n.shape]
+    common = [d for d in sensors if all(d in n.shape for n in shaped)]
+    pick = common[int(rng.integers(len(common)))]
+    bias = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.08, 0.2))
+    natural = tuple(replace(n, shape={d: (lo * (1 + bias), hi * (1 + bias)) if d == pick else (lo, hi)
+                                      for d, (lo, hi) in n.shape.items()}) if n.shape else n for n in data.natural)
+    data = replace(data, natural=natural)
+    return Problem(f"biased{seed}", spec, tuple(params), truth, (data,), noise, noise, seed, family="biased_channel",
+                   in_family=False, expected_first=f"A/dof/{pick}", note=f"sensor {pick} biased by {bias:+.3f}")
+
+
+def frequency_shift(seed: int) -> Problem:
+    """Measurement error excluding the truth: every frequency (natural and antiresonance) of a
+    random problem's data shifted by the same 0.5-2 % (a temperature change), its intervals with
+    it. A right answer: never ``success`` for a model that misses an interval."""
+    rng = _rng("frequency_shift", seed)
+    from acceptance.generator import random_problem
+
+    base = random_problem(int(rng.integers(0, 10 ** 6)))
+    while base.exact:   # a noisy random problem: its intervals are what the shift moves
+        base = random_problem(int(rng.integers(0, 10 ** 6)))
+    shift = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.005, 0.02))
+    data = tuple(replace(c, natural=tuple(replace(n, hz=n.hz * (1 + shift)) for n in c.natural),
+                         zeros=tuple(replace(z, hz=z.hz * (1 + shift)) for z in c.zeros)) for c in base.data)
+    return replace(base, case_id=f"shift{seed}", data=data, seed=seed, family="frequency_shift", in_family=False,
+                   note=f"every frequency shifted by {100 * shift:+.2f} % (from {base.case_id})")
+
+
+def _twin_chains(rng, n: int, coupling: float):
+    """Two chains of ``n`` unit masses, each grounded at its first mass, their tips joined by a
+    spring ``kc``: parameters ``kA``, ``kB`` (the springs of each chain) and ``kc``."""
+    lumped = []
+    for side, first in (("A", 1), ("B", n + 1)):
+        lumped += [("mass", f"y{first + i}", S.Lin(1.0), None) for i in range(n)]
+        lumped.append(("spring", f"y{first}", S.Lin.of(1.0, f"k{side}"), None))
+        lumped += [("spring", f"y{first + i}", S.Lin.of(1.0, f"k{side}"), f"y{first + i - 1}") for i in range(1, n)]
+    lumped.append(("spring", f"y{n}", S.Lin.of(1.0, "kc"), f"y{2 * n}"))
+    nodes = tuple((i, float(i), 0.0) for i in range(1, 2 * n + 1))
+    spec = S.StructureSpec("twin-chains", "beam", nodes, {"fix": [f"phi{i}" for i in range(1, 2 * n + 1)]}, (),
+                           tuple(lumped), tuple(f"y{i}" for i in range(1, 2 * n + 1)))
+    params = [S._parameter("kA", 1000.0, 0.3, "N/m"), S._parameter("kB", 1000.0, 0.3, "N/m"),
+              S._parameter("kc", 1000.0 * coupling, 0.5, "N/m")]
+    return spec, params
+
+
+def close_modes(seed: int) -> Problem:
+    """In family: two nearly equal chains joined at their tips by a weak spring, so their modes
+    come in pairs, the closest pair spaced from under 0.1 % to a few %; frequencies (exact, or with noise under a tenth of the closest
+    spacing) and, half of the time, shapes at a few masses of both chains. A right answer: as
+    for any in-family problem (verified, the determined parameters at the truth or its mirror
+    image ``kA <-> kB``)."""
+    rng = _rng("close_modes", seed)
+    n = int(rng.integers(2, 5))
+    spec, params = _twin_chains(rng, n, coupling=float(10 ** rng.uniform(-3, -1.5)))
+    k = 1000.0 * float(rng.uniform(0.8, 1.2))
+    truth = {"kA": k, "kB": k * (1 + float(rng.uniform(-0.004, 0.004))),
+             "kc": params[2].nominal * float(rng.uniform(0.7, 1.4))}
+    M, K, _ = S.matrices_at(spec, truth)
+    w = T.modes(M, K)[0]
+    n_modes = int(rng.integers(2, min(6, w.size) + 1))
+    spacing = float(np.min(np.diff(w[:n_modes]) / w[1:n_modes]))
+    exact = rng.random() < 0.5
+    noise = 0.0 if exact else min(0.1 * spacing / 3, 0.002)
+    kind = "P1" if rng.random() < 0.5 else "P2"
+    sensors = [f"y{n}", f"y{2 * n}", "y1", f"y{n + 1}"]
+    data = measure(spec, params, truth, kind=kind, rng=rng, noise=noise, shape_noise=noise, n_modes=n_modes,
+                   sensors=sensors)
+    symmetric = abs(truth["kA"] - truth["kB"]) <= 1e-12
+    return Problem(f"close{seed}", spec, tuple(params), truth, (data,), noise, noise if kind == "P1" else 0.0, seed,
+                   symmetries=((("kA", "kB"),),), family="close_modes",
+                   note=f"closest spacing {100 * spacing:.3g} %" + (" symmetric" if symmetric else ""))
+
+
+def cross_receptance(seed: int) -> Problem:
+    """In family: a chain or beam with the frequencies and the antiresonances of a cross
+    receptance ``h_rc`` (r != c) between them, or the antiresonances alone, exact or with 0.1-0.5 %
+    noise. A right answer: as for any in-family problem."""
+    rng = _rng("cross_receptance", seed)
+    if rng.random() < 0.5:
+        spec, params = S.chain(rng, int(rng.integers(4, 9)), k_groups=int(rng.integers(1, 4)), m_groups=1)
+    else:
+        spec, params = S.beam(rng, int(rng.integers(4, 9)), support="clamped", ei_groups=2, m_groups=1)
+    truth = draw_truth(rng, params)
+    meas = list(spec.measurable)
+    noise = 0.0 if rng.random() < 0.5 else _noise(rng)
+    M, K, dofs = S.matrices_at(spec, truth)
+    for _ in range(20):
+        r, c = (meas[i] for i in rng.choice(len(meas), size=2, replace=False))
+        z = T.zeros(M, K, dofs.index(r), dofs.index(c))[0]
+        if z.size >= 2:
+            break
+    kind = "P4" if rng.random() < 0.6 else "P3"
+    n_modes = min(int(rng.integers(3, 6)), int(np.count_nonzero(T.modes(M, K)[0] > 0)))
+    data = measure(spec, params, truth, kind=kind, rng=rng, noise=noise, n_modes=n_modes, receptances=[(r, c)],
+                   zero_indices=list(range(1, min(z.size, 3) + 1)), avoid_poles=True)
+    if not data.zeros:   # no zero between the measured poles: the first zeros alone
+        kind = "P3"
+        data = measure(spec, params, truth, kind=kind, rng=rng, noise=noise, receptances=[(r, c)],
+                       zero_indices=list(range(1, min(z.size, 3) + 1)), avoid_poles=True)
+    return Problem(f"cross{seed}", spec, tuple(params), truth, (data,), noise, 0.0, seed, family="cross_receptance",
+                   note=f"zeros of h_{r},{c}")
+
+
+def mass_normalized(seed: int) -> Problem:
+    """In family: a chain or beam whose shapes are mass-normalized (``phi^T M phi = 1``, entries
+    in 1/sqrt(kg) times the DOF's unit, a common sign free), with their frequencies, exact or with
+    0.1-0.5 % noise on frequencies and relative noise of the same size on the shape entries; the
+    masses are parameters too (mass-normalized shapes separate them from the stiffnesses). A
+    right answer: as for any in-family problem."""
+    rng = _rng("mass_normalized", seed)
+    if rng.random() < 0.5:
+        spec, params = S.chain(rng, int(rng.integers(3, 8)), k_groups=int(rng.integers(1, 3)), m_groups=1)
+    else:
+        spec, params = S.beam(rng, int(rng.integers(3, 8)), support="clamped", ei_groups=2, m_groups=1)
+    truth = draw_truth(rng, params)
+    noise = 0.0 if rng.random() < 0.5 else _noise(rng)
+    meas = list(spec.measurable)
+    sensors = [meas[i] for i in sorted(rng.choice(len(meas), size=min(int(rng.integers(2, 5)), len(meas)),
+                                                  replace=False))]
+    base = measure(spec, params, truth, kind="P2", rng=rng, noise=noise, n_modes=int(rng.integers(2, 5)))
+    M, K, dofs = S.matrices_at(spec, truth)
+    w, Phi = T.modes(M, K)
+    natural = []
+    for n in base.natural:
+        phi = Phi[[dofs.index(d) for d in sensors], n.mode - 1]
+        phi = phi * np.sign(phi[np.argmax(np.abs(phi))])
+        half = np.maximum(3 * noise * np.abs(phi), 1e-9 * np.max(np.abs(phi)))
+        mid = phi + (noise * np.abs(phi) * rng.standard_normal(phi.size).clip(-3, 3) if noise else 0.0)
+        natural.append(Natural(n.hz, n.mode, {d: (float(m - h), float(m + h)) for d, m, h in zip(sensors, mid, half)}))
+    data = replace(base, natural=tuple(natural))
+    return Problem(f"massnorm{seed}", spec, tuple(params), truth, (data,), noise, noise, seed,
+                   family="mass_normalized", mass_normalized=True, note="mass-normalized shapes")
+
+
+#: Every family maker by family name.
+MAKERS = {f.__name__: f for f in (coarse_mesh, root_spring, sensor_masses, biased_channel, frequency_shift,
+                                  close_modes, cross_receptance, mass_normalized)}

@@ -1,0 +1,326 @@
+"""The judge of the acceptance engine: one verdict per run, from what it computed itself.
+
+Everything the judge compares an answer with is computed here from the problem alone: the data
+of the returned model by the dense kernels of `acceptance.truth`, and what the data determine
+by the finite-difference Jacobian and linear programs of `acceptance.determinacy` (never by the
+library's ranges). The answer is read through `acceptance.adapter` only.
+
+Failure codes of one run (`Verdict.failures`):
+
+* ``crash``: an internal error (exit 3, an exception that is not a ValueError);
+* ``refused``: exit 2 or a ValueError on a valid problem;
+* ``exit_code``: an exit code that does not match the status (0 success, 1 otherwise);
+* ``outside``: an answer claiming to fit (``success``, or the tool's ``not_unique``) whose model
+  has a datum outside its interval, recomputed from the returned parameters (exact data:
+  intervals of relative half-width `acceptance.emit.EXACT_SLACK`); a shape is inside when some
+  common scaling puts every measured entry in its interval (`scale_miss`), a mass-normalized
+  shape when the model's mass-normalized entries, or their negatives, are;
+* ``determined_miss``: such an answer with a parameter the data determine (its consistent
+  range at the truth narrower than `determinacy.DETERMINED_PCT`) outside that range (plus
+  `determinacy.MARGIN` of its width and `EXACT_SLACK` of its reference value), at the truth and
+  at every mirror image of it under the problem's exact symmetries; ``other_solution`` marks a
+  miss whose model fits every datum (the data admit another isolated solution);
+* ``truth_outside_reported``: the truth (or a mirror image) outside a consistent range the run
+  reports, for a problem whose model family holds the truth;
+* ``report``: ``results.json`` frequencies that differ from the recomputed ones;
+* ``worse_than_nominal``: an answer whose data lie further outside their intervals than the
+  nominal model's (`excess`, summed over the data in half-widths);
+* outcomes, not defects: ``not_verified`` and the path statuses (``path_failed``).
+
+What the judge excuses is counted as its own class (`Verdict.excused`), never dropped:
+
+* ``not_unique``: a determined parameter outside its range at the truth, where the run reports
+  other answers that fit as well, one of them at the truth, and that parameter differs between
+  the answers; every parameter on which the answers agree is still checked, against the
+  determined range and against the reported range;
+* ``undetermined_far``: an answer claiming to fit with a parameter the data do not determine
+  further than `FAR_PCT` of its reference value from the truth (and from every mirror image).
+
+Which failure codes are defects, and how many outcomes of each kind a family may have, is said
+by `acceptance.criteria`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linprog
+
+from acceptance import determinacy as D
+from acceptance import structures as S
+from acceptance import truth as T
+from acceptance.adapter import Outcome
+from acceptance.emit import EXACT_SLACK, flexible_mode
+
+__all__ = ["Reference", "Verdict", "reference", "judge", "misses", "excess", "scale_miss", "FLOOR", "FAR_PCT"]
+
+#: Numerical floor of the interval checks, in half-widths: an answer on a bound to 0.1 % of
+#: its half-width is inside (the polish ends on the bounds of the intervals it reaches).
+FLOOR = 1e-3
+#: An undetermined parameter further than this from the truth (% of its reference) is counted
+#: as ``undetermined_far``.
+FAR_PCT = D.DETERMINED_PCT
+TWO_PI = 2.0 * np.pi
+
+
+@dataclass(frozen=True)
+class Reference:
+    """What the judge computed from the problem, independently of any answer.
+
+    Attributes
+    ----------
+    ranges : list of determinacy.Ranges
+        Consistent ranges at the truth and at each mirror image of it (empty when the model
+        family does not hold the truth).
+    truths : list of ndarray
+        The truth and its mirror images, physical values in parameter order.
+    width_pct : ndarray or None
+    determined : tuple of str
+    determinacy : {"determined", "partial", "undetermined", "out_of_family"}
+    nominal_excess : float
+        `excess` of the nominal model.
+    """
+
+    ranges: list
+    truths: list
+    width_pct: np.ndarray | None
+    determined: tuple
+    determinacy: str
+    nominal_excess: float
+
+
+@dataclass
+class Verdict:
+    """The judged outcome of one problem on one route."""
+
+    case_id: str
+    route: str
+    classes: dict
+    status: str
+    exit_code: int | None
+    seconds: float
+    failures: list = field(default_factory=list)
+    excused: list = field(default_factory=list)
+    details: list = field(default_factory=list)
+    diagnosis: tuple = ()
+
+    @property
+    def success(self) -> bool:
+        """The run ended with an answer that claims to fit every datum."""
+        return self.status in ("success", "not_unique")
+
+    def as_dict(self) -> dict:
+        return {"case": self.case_id, "route": self.route, **self.classes, "status": self.status,
+                "exit_code": self.exit_code, "seconds": round(self.seconds, 3), "failures": self.failures,
+                "excused": self.excused, "details": self.details, "diagnosis": list(self.diagnosis[:3])}
+
+
+def _mirror(problem, swap) -> dict:
+    out = dict(problem.truth)
+    for a, b in swap:
+        out[a], out[b] = problem.truth[b], problem.truth[a]
+    return out
+
+
+def _vector(problem, values: dict) -> np.ndarray:
+    return np.array([values[p.name] for p in problem.parameters])
+
+
+def reference(problem) -> Reference:
+    """Determinacy at the truth and its mirror images (`acceptance.determinacy`), and the
+    nominal model's excess."""
+    nominal = np.array([p.nominal for p in problem.parameters])
+    nominal_excess = excess(problem, nominal)
+    truths = [problem.truth] + [_mirror(problem, s) for s in problem.symmetries]
+    if not problem.in_family:
+        return Reference([], [_vector(problem, t) for t in truths], None, (), "out_of_family", nominal_excess)
+    ranges = [D.at_truth(problem, t) for t in truths]
+    widths = ranges[0].width_pct
+    names = [p.name for p in problem.parameters]
+    determined = tuple(n for n, w in zip(names, widths) if np.isfinite(w) and w <= D.DETERMINED_PCT)
+    label = "determined" if len(determined) == len(names) else "undetermined" if not determined else "partial"
+    return Reference(ranges, [_vector(problem, t) for t in truths], widths, determined, label, nominal_excess)
+
+
+# -- the data of a model -------------------------------------------------------------------------
+
+
+def misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple], list[float]]:
+    """Data of the model at physical ``values`` outside their intervals (in words), every
+    recomputed frequency ``(configuration, kind, index, hz)``, and each datum's distance outside
+    its interval in half-widths (a shape counted once, at its best scaling)."""
+    tol = problem.tolerance if problem.tolerance > 0 else EXACT_SLACK
+    given = dict(zip([p.name for p in problem.parameters], values))
+    out, freqs, distance = [], [], []
+    for cfg in problem.data:
+        spec = problem.structure.with_mass(*cfg.extra_mass) if cfg.extra_mass else problem.structure
+        M, K, dofs = S.matrices_at(spec, given)
+        w, Phi = T.modes(M, K)
+        checks = []
+        for n in cfg.natural:
+            model = w[n.mode - 1] / TWO_PI if n.mode <= w.size else np.nan
+            checks.append((f"{cfg.name} mode {n.mode}", n.hz, model))
+            freqs.append((cfg.name, "natural", flexible_mode(problem, n), model))
+            if n.shape:
+                slack = EXACT_SLACK if problem.shape_noise == 0 else 0.0
+                names = list(n.shape)
+                phi = np.array([Phi[dofs.index(d), n.mode - 1] for d in names]) if n.mode <= w.size else None
+                lo, hi = (np.array([n.shape[d][i] for d in names]) + sign * slack for i, sign in ((0, -1), (1, 1)))
+                if phi is None:
+                    miss = np.inf
+                elif problem.mass_normalized:   # the entries themselves, up to a common sign
+                    miss = min(_entry_miss(phi, lo, hi), _entry_miss(-phi, lo, hi))
+                else:
+                    miss = scale_miss(phi, lo, hi)
+                distance.append(miss)
+                if miss > FLOOR:
+                    out.append(f"{cfg.name} mode {n.mode}: shape at {', '.join(names)} outside its intervals at "
+                               f"every scaling ({miss:.3g} half-widths)")
+        zeros: dict = {}
+        for z in cfg.zeros:
+            if z.receptance not in zeros:
+                zeros[z.receptance] = T.zeros(M, K, dofs.index(z.response), dofs.index(z.excitation))[0]
+            zz = zeros[z.receptance]
+            model = zz[z.index - 1] / TWO_PI if z.index <= zz.size else np.nan
+            checks.append((f"{cfg.name} zero {z.index} of h_{z.response},{z.excitation}", z.hz, model))
+            freqs.append((cfg.name, f"h_{z.response},{z.excitation}", z.index, model))
+        for label, hz, model in checks:
+            d = abs(model - hz) / (tol * hz) - 1.0 if np.isfinite(model) else np.inf
+            distance.append(max(d, 0.0))
+            if d > FLOOR:
+                out.append(f"{label}: {model:.7g} Hz vs {hz:.7g} Hz +- {100 * tol:.3g} % "
+                           f"({100 * (model - hz) / hz:+.3g} %)")
+    return out, freqs, distance
+
+
+def excess(problem, values: np.ndarray) -> float:
+    """How far the model at physical ``values`` is from admitting its data: the distances of the
+    data outside their intervals, in half-widths, summed (0: every datum admissible). A datum the
+    model does not have (a mode or zero beyond its count) counts as infinitely far."""
+    return float(np.sum(misses(problem, values)[2]))
+
+
+def _entry_miss(phi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """The largest distance of an entry of ``phi`` outside ``[lo, hi]``, in half-widths."""
+    half = np.maximum(0.5 * (hi - lo), 1e-12)
+    return float(np.max(np.maximum(np.maximum(lo - phi, phi - hi), 0.0) / half))
+
+
+def scale_miss(phi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """How far a model shape ``phi`` (at the measured DOFs) is from its entry intervals
+    ``[lo, hi]`` at the best common scaling: ``min over c, max over j`` of the distance of
+    ``c phi_j`` outside ``[lo_j, hi_j]`` in half-widths (0 when some scaling fits every entry; the
+    normalization of a measured shape is free, `vibupdate.ShapeInterval`). A linear program in
+    ``(c, t)``."""
+    half = np.maximum(0.5 * (hi - lo), 1e-12)
+    # c phi_j - t half_j <= hi_j  and  -c phi_j - t half_j <= -lo_j
+    A = np.vstack([np.column_stack([phi, -half]), np.column_stack([-phi, -half])])
+    b = np.concatenate([hi, -lo])
+    sol = linprog([0.0, 1.0], A_ub=A, b_ub=b, bounds=[(None, None), (0.0, None)], method="highs")
+    return float(sol.x[1]) if sol.status == 0 else np.inf
+
+
+# -- the verdict -----------------------------------------------------------------------------------
+
+
+def _margin(problem, lo, hi) -> np.ndarray:
+    refs = np.abs([p.reference for p in problem.parameters])
+    return D.MARGIN * (hi - lo) + EXACT_SLACK * refs
+
+
+def _outside(values, lo, hi, margin, mask) -> np.ndarray:
+    """Indices (within ``mask``) of ``values`` outside ``[lo - margin, hi + margin]``."""
+    bad = ~(np.isfinite(lo) & (lo - margin <= values) & (values <= hi + margin))
+    return np.flatnonzero(bad & mask)
+
+
+def judge(problem, route: str, outcome: Outcome, ref: Reference) -> Verdict:
+    """The verdict on one outcome (module docstring)."""
+    v = Verdict(problem.case_id, route, {**problem.classes(), "determinacy": ref.determinacy},
+                outcome.status, outcome.exit_code, outcome.seconds, diagnosis=outcome.diagnosis)
+    names = [p.name for p in problem.parameters]
+    if outcome.status == "crash" or outcome.exit_code == 3:
+        v.failures.append("crash")
+        v.details.append("crash: " + outcome.error)
+    elif outcome.status == "refused":
+        v.failures.append("refused")
+        v.details.append("refused: " + outcome.error)
+    elif not v.success:
+        v.failures.append("not_verified" if v.status == "not_verified" else "path_failed")
+    if route == "cli" and outcome.exit_code not in (2, 3) and outcome.exit_code != (0 if v.success else 1):
+        v.failures.append("exit_code")
+        v.details.append(f"exit_code: exit {outcome.exit_code} with status {v.status}")
+    values = outcome.values
+    if values is None:
+        return v
+    missed, freqs, distance = misses(problem, values)
+    if v.success and missed:
+        v.failures.append("outside")
+        v.details += ["outside: " + m for m in missed[:4]]
+    if not v.success and missed:
+        v.details.append(f"{v.failures[-1]}: {len(missed)} data outside their intervals, e.g. {missed[0]}")
+    answer_excess = float(np.sum(distance))   # `excess` of the answer
+    if answer_excess > ref.nominal_excess * (1 + FLOOR) + FLOOR:
+        v.failures.append("worse_than_nominal")
+        v.details.append(f"worse_than_nominal: data {answer_excess:.4g} half-widths outside their intervals in all, "
+                         f"the nominal model's {ref.nominal_excess:.4g}")
+    _check_parameters(problem, v, outcome, ref, names, bool(missed))
+    lookup = {(c, k, i): hz for c, k, i, hz in freqs}
+    for row in outcome.rows:
+        key = (row["configuration"], row.get("receptance") or row["kind"], row.get("model_index", row["index"]))
+        hz, got = lookup.get(key), row.get("updated_hz")
+        if hz is not None and got is not None and np.isfinite(hz) and abs(got - hz) > 1e-6 * hz:
+            v.failures.append("report")
+            v.details.append(f"report: {row['kind']} {key[2]} of {key[0]} reported at {got:.7g} Hz, recomputed "
+                             f"{hz:.7g} Hz")
+            break
+    return v
+
+
+def _check_parameters(problem, v: Verdict, outcome: Outcome, ref: Reference, names, missed: bool) -> None:
+    """``determined_miss``, ``truth_outside_reported`` and the excused classes (module docstring)."""
+    if not ref.ranges:
+        return
+    values = outcome.values
+    n = len(names)
+    determined = np.array([name in ref.determined for name in names])
+    # parameters that differ between the answer and some other answer the run reports
+    differ = np.zeros(n, dtype=bool)
+    for alt in outcome.alternatives:
+        r = ref.ranges[0]
+        differ |= np.abs(alt - values) > _margin(problem, r.lower, r.upper)
+    if v.success:
+        found = [_outside(values, r.lower, r.upper, _margin(problem, r.lower, r.upper), determined)
+                 for r in ref.ranges]
+        if all(f.size for f in found):
+            best = min(found, key=lambda f: f.size)
+            named = any(_outside(alt, r.lower, r.upper, _margin(problem, r.lower, r.upper), determined).size == 0
+                        for alt in outcome.alternatives for r in ref.ranges)
+            if named and all(differ[best]):
+                v.excused.append("not_unique")
+                v.details.append("not_unique: the truth is one of the answers the run reports as fitting the data "
+                                 "as well; " + ", ".join(names[i] for i in best) + " differ between them")
+            else:
+                v.failures.append("determined_miss")
+                if not missed:   # every datum fits: the data admit another, isolated solution
+                    v.failures.append("other_solution")
+                r = ref.ranges[0]
+                v.details += [f"determined_miss: {names[i]} = {values[i]:.6g} outside its consistent range "
+                              f"[{r.lower[i]:.6g}, {r.upper[i]:.6g}] at the truth" for i in found[0][:4]]
+        far = np.min([np.abs(values - t) / np.abs([p.reference for p in problem.parameters]) for t in ref.truths],
+                     axis=0) * 100.0 > FAR_PCT
+        if np.any(far & ~determined):
+            v.excused.append("undetermined_far")
+            v.details.append("undetermined_far: " + ", ".join(
+                f"{names[i]} = {values[i]:.6g} (truth {ref.truths[0][i]:.6g})" for i in np.flatnonzero(far & ~determined)[:4]))
+    if outcome.ranges:
+        lo = np.array([outcome.ranges[name][0] if outcome.ranges[name][0] is not None else np.nan for name in names],
+                      dtype=float)
+        hi = np.array([outcome.ranges[name][1] if outcome.ranges[name][1] is not None else np.nan for name in names],
+                      dtype=float)
+        found = [_outside(t, lo, hi, _margin(problem, lo, hi), ~differ) for t in ref.truths]
+        if all(f.size for f in found):
+            v.failures.append("truth_outside_reported")
+            v.details += [f"truth_outside_reported: true {names[i]} = {ref.truths[0][i]:.6g} outside the reported "
+                          f"range [{lo[i]:.6g}, {hi[i]:.6g}]" for i in found[0][:4]]

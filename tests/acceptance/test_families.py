@@ -1,0 +1,155 @@
+"""The further families of known-truth problems (`acceptance.families`): each draws what it
+says, and, over a few seeds (slow), meets the criteria of `acceptance.criteria`."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acceptance import criteria as C
+from acceptance import families as F
+from acceptance import runner as R
+from acceptance import structures as S
+from acceptance import truth as T
+from vibupdate.io.case import load_case
+
+SEEDS = range(4)
+
+
+def _truth(problem):
+    return np.array([problem.truth[p.name] for p in problem.parameters])
+
+
+@pytest.mark.parametrize("family", ["close_modes", "cross_receptance", "mass_normalized"])
+@pytest.mark.parametrize("seed", SEEDS)
+def test_in_family_data_admit_the_truth(family, seed):
+    problem = F.MAKERS[family](seed)
+    assert problem.in_family
+    assert not R.misses(problem, _truth(problem))[0]
+
+
+@pytest.mark.parametrize("family", ["biased_channel", "frequency_shift"])
+@pytest.mark.parametrize("seed", SEEDS)
+def test_measurement_errors_exclude_the_truth(family, seed):
+    problem = F.MAKERS[family](seed)
+    assert not problem.in_family
+    assert R.misses(problem, _truth(problem))[0], "the error left the truth admissible"
+
+
+@pytest.mark.parametrize("family", ["coarse_mesh", "root_spring", "sensor_masses"])
+@pytest.mark.parametrize("seed", SEEDS)
+def test_model_form_data_come_from_another_model(family, seed):
+    """The data are not the updated model's at the truth: some natural frequency differs by more
+    than rounding."""
+    problem = F.MAKERS[family](seed)
+    assert not problem.in_family
+    M, K, _ = S.matrices_at(problem.structure, problem.truth)
+    w = T.modes(M, K)[0] / (2 * np.pi)
+    measured = [(n.hz, w[n.mode - 1]) for n in problem.data[0].natural]
+    if problem.noise == 0:
+        assert max(abs(a - b) / a for a, b in measured) > 1e-6
+    assert any(abs(a - b) / a > 1e-6 for a, b in measured)
+
+
+def test_close_modes_reach_a_tenth_of_a_percent():
+    spacings = []
+    for seed in range(12):
+        problem = F.close_modes(seed)
+        hz = np.array([n.hz for n in problem.data[0].natural])
+        spacings.append(np.min(np.diff(hz) / hz[1:]))
+    assert min(spacings) < 0.001 and max(spacings) < 0.05
+
+
+def test_cross_receptances_are_cross():
+    for seed in SEEDS:
+        zeros = F.cross_receptance(seed).data[0].zeros
+        assert zeros and all(z.response != z.excitation for z in zeros)
+
+
+def test_the_biased_sensor_is_a_diagnosis_group_of_the_data():
+    problem = F.biased_channel(0)
+    cfg, kind, dof = problem.expected_first.split("/")
+    assert kind == "dof" and cfg == problem.data[0].name
+    assert all(dof in n.shape for n in problem.data[0].natural if n.shape)
+
+
+def test_a_mass_normalized_shape_is_judged_without_a_free_scaling():
+    """Its entries scaled by 2 are the same shape to a ratio check, not to a mass-normalized one."""
+    problem = F.mass_normalized(1)
+    assert problem.mass_normalized and not R.misses(problem, _truth(problem))[0]
+    from dataclasses import replace
+
+    doubled = replace(problem, data=tuple(replace(c, natural=tuple(
+        replace(n, shape={d: (2 * lo, 2 * hi) for d, (lo, hi) in n.shape.items()}) for n in c.natural))
+        for c in problem.data))
+    assert R.misses(doubled, _truth(doubled))[0]
+    assert not R.misses(replace(doubled, mass_normalized=False), _truth(doubled))[0]
+
+
+@pytest.mark.parametrize("family", C.NEW_FAMILIES)
+def test_case_file_and_python_objects_are_the_same_problem(tmp_path, family):
+    problem = F.MAKERS[family](1)
+    case = load_case(problem.write_case(tmp_path))
+    python = problem.configurations()
+    x = problem.xbar_true
+    for a, b in zip(case.configurations, python):
+        for A, B in zip(a.model.matrices(x), b.model.matrices(x)):
+            assert abs(A - B).max() <= 1e-9 * abs(B).max()
+        assert [n.omega for n in a.natural] == pytest.approx([n.omega for n in b.natural], rel=1e-14)
+        assert [z.index for z in a.antiresonances] == [z.index for z in b.antiresonances]
+        assert [n.shape for n in a.natural] == [n.shape for n in b.natural]
+
+
+def test_every_family_states_what_a_right_answer_is():
+    for family in C.FAMILIES.values():
+        assert "right answer" in family.meaning, family.name
+
+
+# -- each family over a few seeds, judged by its criteria (slow) -----------------------------------
+
+#: Seeds of each family in the slow step.
+SLOW_SEEDS = range(6)
+#: Criteria today's code fails, with the measured reason: (family, "defects" or "budgets") -> reason.
+KNOWN_FAILURES = {
+    ("mass_normalized", "defects"):
+        "measured 2026-12-06: seed 5 ends success on both routes with mode 3's mass-normalized entries at y1, "
+        "y2, y4 0.98 half-widths outside their intervals (the verification holds the ratios to the reference "
+        "entry and the reference's modal mass, not each entry); seed 8 (dev profile) likewise, 0.57 "
+        "half-widths, and misses the determined rA1",
+    ("sensor_masses", "budgets"):
+        "measured 2026-12-06: seed 5 (unmodelled sensor masses on a chain) ends not_verified on both routes "
+        "15.7 half-widths outside the data in all, the nominal model 5.2: worse than nominal",
+}
+_RUNS: dict = {}
+
+
+def _runs(family, folder):
+    if family not in _RUNS:
+        _RUNS[family] = [v for s in SLOW_SEEDS for v in R.run_problem(C.FAMILIES[family].make(s), workdir=folder)]
+    return _RUNS[family]
+
+
+def _cases(which):
+    return [pytest.param(f, marks=pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[(f, which)]))
+            if (f, which) in KNOWN_FAILURES else f for f in C.NEW_FAMILIES]
+
+
+def _failed(family, folder, defects: bool):
+    verdicts = _runs(family, folder)
+    findings = [f for f in C.check(verdicts, C.FAMILIES) if f.criterion.startswith("defect") == defects]
+    print("\n" + C.summary(verdicts) + "\n" + "\n".join(f.line() for f in findings))
+    return [f.line() for f in findings if not f.ok]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", _cases("defects"))
+def test_each_family_has_no_defect(family, tmp_path_factory):
+    bad = _failed(family, tmp_path_factory.mktemp(family), defects=True)
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", _cases("budgets"))
+def test_each_family_keeps_its_budgets(family, tmp_path_factory):
+    bad = _failed(family, tmp_path_factory.mktemp(family), defects=False)
+    assert not bad, "\n".join(bad)
