@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import re
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -26,9 +25,7 @@ def test_the_bar_example_runs_extract_run_suggest_and_the_run_with_r(tmp_path, c
     the run with E and r succeeds with E within 0.5 % of its truth."""
     pytest.importorskip("pyuff")
     out = tmp_path / "bar"
-    t0 = time.perf_counter()
     assert main(["example", "bar", "--out", str(out)]) == 0, capsys.readouterr().err
-    seconds = time.perf_counter() - t0
     said = capsys.readouterr().out
     shown = [said.index("$ vibupdate " + " ".join(command)) for command in bar.commands(out)]
     assert shown == sorted(shown)      # printed in the order they ran
@@ -45,7 +42,6 @@ def test_the_bar_example_runs_extract_run_suggest_and_the_run_with_r(tmp_path, c
     E = next(p["updated"] for p in freed["parameters"] if p["name"] == "E")
     assert abs(E / bar.E_TRUE - 1) < 0.005, E
     assert "relative error" in said
-    assert seconds < 240, seconds    # about 65 s alone; the bound leaves room for a busy machine
 
 
 def test_the_bar_example_without_the_frf_extra_exits_2_naming_it_and_writes_nothing(tmp_path, monkeypatch,
