@@ -381,8 +381,8 @@ def _extract(args) -> int:
     import math
     import warnings
 
-    from vibupdate.io.outputs import OutputWarning
     from vibupdate.data.extraction import extract
+    from vibupdate.io.outputs import OutputWarning, kept_note
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import FRFWarning, read_frfs
 
@@ -404,7 +404,7 @@ def _extract(args) -> int:
         frfs = frfs.reciprocal()
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
     fit_band = None if args.fit_band is None else (2 * math.pi * args.fit_band[0], 2 * math.pi * args.fit_band[1])
-    check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
+    target = check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
                      window=args.window, keep_outer_zeros=args.keep_outer_zeros, window_decay=args.window_decay,
                      window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros)
@@ -431,6 +431,8 @@ def _extract(args) -> int:
     for note in result.notes(args.first_mode):
         print(f"note: {note}")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    if kept_note(target):
+        print(kept_note(target))
     print("paste into a case file (paths relative to it):")
     print(configuration_block())
     return EXIT["success"]

@@ -21,8 +21,8 @@ import numpy as np
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, damping_weights, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.io.outputs import (MANIFEST, file_names, matrix_file, matrix_files_planned, prepare_output,
-                                  write_published)
+from vibupdate.io.outputs import (MANIFEST, file_names, kept_note, matrix_file, matrix_files_planned,
+                                  prepare_output, write_published)
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
@@ -360,7 +360,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     if study is not None:
         study.check(case)
     target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()),
-                            command="run", inputs=case.inputs)
+                            command="run", inputs=case.inputs, case=case.name)
     verification = case.verify_options()
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say, prepared=checked.prepared)
@@ -408,6 +408,9 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     plotted = any(name.endswith(".png") for name in read_manifest(target.path) or ())
     kinds = "results.json, report.md, " + ("plots, " if plotted else "") + "matrices"
     say(f"wrote {target.path}/ ({kinds}; {MANIFEST} lists them)")
+    kept = kept_note(target)
+    if kept:
+        say(kept)
     return written
 
 
