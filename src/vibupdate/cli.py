@@ -5,8 +5,9 @@ or the homotopy path failed (results are written, their status says which); 2 ba
 (one message naming the file, key or folder; nothing written); for ``sweep``, 1 means no
 verified sample, for ``batch`` a case that did not succeed; 3 internal error (one line
 naming what failed, ``--debug`` prints the traceback; nothing written); for ``suggest``, 0
-means some set of candidates verified, 1 none; 130 interrupted
-(nothing written, earlier results intact; a sweep keeps the rows it wrote, ``--resume``).
+means some set of candidates verified, 1 none; 130 interrupted: one line saying what was kept
+(nothing, earlier results intact; the rows a sweep wrote, ``--resume``; the case folders a
+batch finished).
 
 A command or option whose optional extra is not installed (`NEEDS`, `vibupdate._extras`)
 exits 2 with one line naming the extra, before any work.
@@ -22,6 +23,7 @@ from pathlib import Path
 
 from vibupdate import __version__
 from vibupdate._extras import MissingExtra, install_hint, require
+from vibupdate.io.interrupted import Interrupted
 
 __all__ = ["main", "EXIT"]
 
@@ -276,9 +278,9 @@ def _command(args) -> int:
             return _fe_example(args)
         if args.name == "bar":
             return _bar_example(args)
-        return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
-                                   force=args.force, certify=args.certify, study=_study(args),
-                                   diagnose=args.diagnose))
+        out = args.out or f"{safe_name(args.name)}-results"
+        return _finished(run_example(args.name, out, progress=print, force=args.force, certify=args.certify,
+                                     study=_study(args), diagnose=args.diagnose), out)
     case = _load(args.case)
     if args.command == "suggest":
         return _suggest(args, case)
@@ -292,8 +294,16 @@ def _command(args) -> int:
         print("problem size: " + ", ".join(f"{k} {v}" for k, v in checked.sizes.items()))
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
-    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
-                            diagnose=args.diagnose))
+    return _finished(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
+                              diagnose=args.diagnose), out)
+
+
+def _finished(run, out) -> int:
+    """`_finish` of a run whose results are in ``out``: Ctrl-C while its tables print keeps them."""
+    try:
+        return _finish(run)
+    except KeyboardInterrupt:
+        raise Interrupted(f"the results were written to {out}/ before it") from None
 
 
 def _suggest(args, case) -> int:
@@ -438,73 +448,23 @@ def _extract(args) -> int:
     return EXIT["success"]
 
 
-def _load_library() -> None:
-    """Import the pipeline (numpy, scipy and the library: most of a short run's start) with the
-    cyclic garbage collector paused, then move every object alive to its permanent generation
-    (`gc.freeze`), for the program itself only (`main` without arguments).
-
-    Nothing the imports build is garbage: the collections they would trigger, and those of
-    the run and of the interpreter's exit, walked the hundreds of thousands of objects of the
-    imported modules for nothing (0.07-0.1 s of ``vibupdate example cantilever``,
-    benchmarks/RESULTS.md). A process that calls `main` itself (tests, notebooks) keeps its
-    collector as it was.
-    """
-    import gc
-
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        import vibupdate.pipeline  # noqa: F401  (the imports of every command)
-    finally:
-        gc.freeze()
-        if enabled:
-            gc.enable()
-
-
-def _end(code: int) -> int:
-    """End the program itself once its command is done, without the interpreter's teardown.
-
-    The outputs are written, closed and moved into place before the command returns
-    (`vibupdate.io.outputs.write_published`); what is left is freeing every module and object
-    one by one (0.03-0.06 s after ``vibupdate example cantilever``, benchmarks/RESULTS.md).
-    The standard streams are flushed and the exit handlers registered with `atexit` run as at
-    any exit; then the process ends with ``code``. With any other thread still alive (a Dask
-    client of a study), the interpreter ends as usual, joining them: returns ``code``.
-    """
-    import atexit
-    import threading
-
-    try:
-        sys.stdout.flush()
-        sys.stderr.flush()
-    except (OSError, ValueError):   # a closed pipe or stream: the interpreter's own exit reports it
-        return code
-    if threading.active_count() > 1:
-        return code
-    atexit._run_exitfuncs()   # what the interpreter's exit runs first
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass   # what an exit handler printed to a stream that closed: nothing left to do
-    os._exit(code)
-
-
 class _ReaderGone:
-    """The program's standard output and error, for a reader that stops reading: ``vibupdate
-    run CASE | head`` closes the pipe after its lines. The command goes on to its end and its own exit
-    code (its files are written as usual); what it prints after that is dropped, where a bare
-    stream would end the run with a broken pipe as an internal error."""
+    """The program's standard output or error, for a reader that stops reading (``vibupdate
+    run CASE | head`` closes the pipe after its lines) or a stream that cannot be written (closed
+    at the start, a full disk). The command goes on to its end and its own exit code (its files
+    are written as usual); what it prints after that is dropped, where a bare stream would end
+    the run with an internal error and the interpreter's exit with code 120."""
 
-    def __init__(self, stream):
+    def __init__(self, stream, fd: int):
         self._stream = stream
-        self.gone = False
+        self._fd = fd
+        self.gone = stream is None
 
     def write(self, text):
         if not self.gone:
             try:
                 return self._stream.write(text)
-            except BrokenPipeError:
+            except (OSError, ValueError):
                 self._drop()
         return len(text)
 
@@ -512,42 +472,53 @@ class _ReaderGone:
         if not self.gone:
             try:
                 self._stream.flush()
-            except BrokenPipeError:
+            except (OSError, ValueError):
                 self._drop()
 
     def _drop(self):
         self.gone = True
         try:   # the descriptor onto the null device: no later flush, the interpreter's own included, can fail
-            os.dup2(os.open(os.devnull, os.O_WRONLY), self._stream.fileno())
-        except (OSError, ValueError):
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, self._fd)
+            os.close(null)
+        except OSError:
             pass
 
     def __getattr__(self, name):
         return getattr(self._stream, name)
 
 
+def _guard_streams() -> None:
+    """Standard output and error as `_ReaderGone`; a descriptor closed at the start is opened on
+    the null device first, so that no file the command opens takes its number."""
+    for fd in (1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_WRONLY)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+    if not isinstance(sys.stdout, _ReaderGone):
+        sys.stdout, sys.stderr = _ReaderGone(sys.stdout, 1), _ReaderGone(sys.stderr, 2)
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit code (module docstring). Called without
-    arguments, as the program itself, it ends the process when the command is done (`_end`)
-    and keeps going when the reader of its output stops reading (`_ReaderGone`)."""
+    arguments, as the program itself, it keeps going when the reader of its output stops
+    reading or its output cannot be written (`_ReaderGone`)."""
+    if argv is None:
+        _guard_streams()
     args = _parser().parse_args(argv)
-    if argv is None and not isinstance(sys.stdout, _ReaderGone):
-        sys.stdout, sys.stderr = _ReaderGone(sys.stdout), _ReaderGone(sys.stderr)
-    code = _main(args, program=argv is None)
-    return _end(code) if argv is None else code
+    return _main(args)
 
 
-def _main(args, program: bool) -> int:
+def _main(args) -> int:
     try:
-        if program:
-            _load_library()
         return _command(args)
-    except KeyboardInterrupt:
-        print("\nvibupdate: interrupted; nothing written (earlier results are untouched)", file=sys.stderr)
-        if program:  # the program itself: end now, without the ~0.5 s teardown of the solver objects
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(EXIT["interrupted"])
+    except KeyboardInterrupt as exc:
+        kept = exc.kept if isinstance(exc, Interrupted) else "nothing written (earlier results are untouched)"
+        print(f"vibupdate: interrupted; {kept}", file=sys.stderr)
         return EXIT["interrupted"]
     except MissingExtra as exc:
         line = str(exc) if exc.feature.startswith("vibupdate ") else (

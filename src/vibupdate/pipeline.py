@@ -341,12 +341,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     which data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
     ``[verification] diagnose``.
     """
-    from vibupdate.io.plot_process import plot_process
-
     if certify is not None and not certify >= 0:
         raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
-    with plot_process():   # matplotlib warms up on the second core while the run solves
-        return _run_case(case, out_dir, progress or (lambda message: None), paper, force, certify, study, diagnose)
+    return _run_case(case, out_dir, progress or (lambda message: None), paper, force, certify, study, diagnose)
 
 
 def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) -> RunResult:

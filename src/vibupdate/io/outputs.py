@@ -82,9 +82,6 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     """Call ``plot(path, *args, **kwargs)``; a plot (or another optional file) that fails costs
     a warning, not the run.
 
-    The plot is drawn by the run's plotting process when one is up
-    (`vibupdate.io.plot_process`), else here.
-
     Returns True when the file was written. On any exception of ``plot`` (a degenerate
     figure, a font or backend problem, matplotlib not installed: `vibupdate._extras`) the
     partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
@@ -92,11 +89,8 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     """
     import warnings
 
-    from vibupdate.io.plot_process import draw
-
     path = Path(path)
-    done = draw(path, plot, args, kwargs)   # by the run's plotting process, when one is up
-    ok, why = done if done is not None else draw_here(path, plot, args, kwargs)
+    ok, why = draw_here(path, plot, args, kwargs)
     if not ok:
         warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
     return ok
@@ -104,8 +98,7 @@ def drawn(path, plot, *args, **kwargs) -> bool:
 
 def draw_here(path: Path, plot, args, kwargs) -> tuple[bool, str | None]:
     """``plot(path, *args, **kwargs)`` in this process: ``(True, None)``, or ``(False, reason)``
-    with the partial file and the figures it opened removed (`drawn`; the plotting process
-    draws with it too)."""
+    with the partial file and the figures it opened removed (`drawn`)."""
     import sys
 
     plt = sys.modules.get("matplotlib.pyplot")
