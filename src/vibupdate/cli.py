@@ -16,6 +16,7 @@ exits 2 with one line naming the extra, before any work.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import traceback
@@ -165,6 +166,7 @@ def _sweep(args) -> int:
     from pathlib import Path
 
     from vibupdate.io.case import load_case
+    from vibupdate.io.outputs import safe_name
     from vibupdate.report.numbers import fmt
     from vibupdate.study.sampling import SamplingOptions
     from vibupdate.study.sweep import run_sweep
@@ -172,7 +174,7 @@ def _sweep(args) -> int:
     sampling = SamplingOptions(args.distribution, args.confidence, args.frequency_tolerance,
                                random_start=not args.no_random_start, walk=not args.no_walk)
     case = load_case(args.case)
-    out = Path(args.out or f"{case.name}-sweep")
+    out = Path(args.out or f"{safe_name(case.name)}-sweep")
     if args.multistart < 0:
         raise ValueError(f"--multistart must be >= 0, got {args.multistart}")
     summary = run_sweep(args.case, out, args.samples, seed=args.seed, sampling=sampling, workers=args.workers,
@@ -336,19 +338,49 @@ def _fe_example(args) -> int:
     if args.force:
         raise ValueError(f"example {args.name} writes into a new folder (--out); --force does not apply to it")
     out = args.out or f"{safe_name(args.name)}-results"
-    fe.write_inputs(args.name, out)
-    print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
-    imp, run = fe.commands(out)
-    print("$ vibupdate " + " ".join(imp))
-    _import(_parser().parse_args(imp))
-    print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
-    run += _run_options(args)
-    print("$ vibupdate " + " ".join(run))
-    code = _command(_parser().parse_args(run))
+    with _example_folder(out, ["results"]):
+        fe.write_inputs(args.name, out)
+        print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
+        imp, run = fe.commands(out)
+        print("$ vibupdate " + " ".join(imp))
+        _import(_parser().parse_args(imp))
+        print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
+        run += _run_options(args)
+        print("$ vibupdate " + " ".join(run))
+        code = _command(_parser().parse_args(run))
     if (Path(out) / "results" / "results.json").is_file():
         print()
         print("\n".join(fe.truth_lines(out)))
     return code
+
+
+@contextlib.contextmanager
+def _example_folder(out, results: list[str]):
+    """An example that writes its inputs into the new (or empty) folder ``out`` and its commands'
+    results into its sub-folders ``results``. Stopped (Ctrl-C or an error) before any of those
+    results was written, it removes what it wrote (the folder too when it made it), so that
+    the same command runs again; Ctrl-C then says what was kept."""
+    import shutil
+
+    out = Path(out)
+    existed = out.exists()
+    fresh = not existed or (out.is_dir() and not any(out.iterdir()))   # else the example refuses the folder
+    try:
+        yield
+    except BaseException as exc:
+        written = [r for r in results if (out / r / "results.json").is_file()]
+        if written:
+            kept = f"kept {out}/ with the results of the commands that finished ({', '.join(written)})"
+        elif fresh and out.is_dir():
+            shutil.rmtree(out)
+            if existed:
+                out.mkdir()
+            kept = f"nothing of value was written ({out}/ {'emptied' if existed else 'removed'}; run it again)"
+        else:
+            kept = "nothing written"
+        if isinstance(exc, KeyboardInterrupt):
+            raise Interrupted(kept) from None
+        raise
 
 
 def _bar_example(args) -> int:
@@ -364,13 +396,14 @@ def _bar_example(args) -> int:
         raise ValueError(f"example bar runs its commands as shown; {' '.join(ignored)} does not apply to it "
                          "(expected only --out)")
     out = args.out or "bar-results"
-    bar.write_inputs(out)
-    print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
-          f"{out}/{bar.CASE_R} (E and r)")
-    codes = []
-    for command in bar.commands(out):
-        print("$ vibupdate " + " ".join(command))
-        codes.append(_command(_parser().parse_args(command)))
+    with _example_folder(out, ["results-E", "results-E-r"]):
+        bar.write_inputs(out)
+        print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
+              f"{out}/{bar.CASE_R} (E and r)")
+        codes = []
+        for command in bar.commands(out):
+            print("$ vibupdate " + " ".join(command))
+            codes.append(_command(_parser().parse_args(command)))
     print()
     print("\n".join(bar.truth_lines(out)))
     # the example did what it shows when the run with E alone is not verified and the others succeed

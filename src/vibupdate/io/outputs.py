@@ -64,13 +64,18 @@ _T = TypeVar("_T")
 
 __all__ = ["MANIFEST", "LEGACY_MANIFEST", "COMMANDS", "manifest_name", "OutputTarget", "safe_name", "file_names",
            "prepare_output", "staging_folder", "publish", "write_published", "read_manifest", "read_manifests",
-           "add_to_manifest", "kept_note", "OutputWarning", "drawn", "matrix_file", "matrix_files_planned", "NOT_VERIFIED"]
+           "add_to_manifest", "kept_note", "is_partial", "OutputWarning", "drawn", "matrix_file", "matrix_files_planned", "NOT_VERIFIED"]
 
 #: Name of the manifest of a run's results folder.
 MANIFEST = manifest_name("run")
 #: Longest name derived from user text (characters).
 MAX_NAME = 64
 _PARTIAL = ".vibupdate-partial-"
+
+
+def is_partial(name: str) -> bool:
+    """Whether ``name`` is a staging folder's (`staging_folder`), in a folder or beside it."""
+    return _PARTIAL in name and name.startswith(".")
 
 
 class OutputWarning(UserWarning):
