@@ -410,6 +410,29 @@ def _bar_example(args) -> int:
     return EXIT["success"] if codes == [0, 1, 0, 0] else EXIT["not_verified"]
 
 
+def _check_extract_options(args) -> None:
+    """The numbers of ``extract``'s options, checked before any file is read: a ValueError
+    naming the option and the value expected."""
+    import math
+
+    for option in ("band", "fit_band"):
+        pair = getattr(args, option)
+        name = "--" + option.replace("_", "-")
+        if pair is not None and not (all(math.isfinite(f) for f in pair) and 0 < pair[0] < pair[1]):
+            raise ValueError(f"{name} {pair[0]:g} {pair[1]:g}: expected two frequencies in Hz, 0 < F1 < F2")
+    if args.modes is not None and args.modes < 1:
+        raise ValueError(f"--modes must be an integer >= 1 (how many modes to keep), got {args.modes}")
+    if args.first_mode < 1:
+        raise ValueError(f"--first-mode must be an integer >= 1 (the model mode number of the lowest extracted "
+                         f"mode; modes count from 1), got {args.first_mode}")
+    if not 0 < args.confidence < 1:
+        raise ValueError(f"--confidence must be between 0 and 1 (e.g. 0.95), got {args.confidence:g}")
+    for option in ("window_decay", "window_tau"):
+        value = getattr(args, option)
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise ValueError(f"--{option.replace('_', '-')} must be a finite number > 0, got {value:g}")
+
+
 def _import(args) -> int:
     from vibupdate.io.fe_import import import_model, summary_lines
 
@@ -429,12 +452,16 @@ def _extract(args) -> int:
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import FRFWarning, read_frfs
 
+    _check_extract_options(args)
     mapping = {}
     for item in args.map:
-        if "=" not in item:
-            raise ValueError(f"--map entries are FROM=TO, got {item!r}")
-        key, value = item.split("=", 1)
-        mapping[key.strip()] = value.strip()
+        key, _, value = (part.strip() for part in item.partition("="))
+        if "=" not in item or not key or value.lstrip("-") == "":
+            raise ValueError(f"--map entries are FROM=TO with two DOF names (a '-' before TO flips the sign), "
+                             f"got {item!r}")
+        if key in mapping:
+            raise ValueError(f"--map renames {key!r} twice ({key}={mapping[key]} and {item})")
+        mapping[key] = value
     with warnings.catch_warnings(record=True) as doubts:
         warnings.simplefilter("always", FRFWarning)
         frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)

@@ -271,6 +271,20 @@ def _described(names, others: dict[str, str]) -> str:
     return "; ".join(parts)
 
 
+def _check_name_lengths(path: Path) -> None:
+    """A ValueError naming a part of ``path`` longer than its file system allows (255 bytes on
+    most), before any call that would fail on it."""
+    limit = 255
+    try:
+        limit = os.pathconf(next((p for p in (path, *path.parents) if p.exists()), Path(".")), "PC_NAME_MAX")
+    except (OSError, ValueError):
+        pass
+    for part in path.parts:
+        if len(os.fsencode(part)) > limit:
+            raise ValueError(f"output path: the name {part[:40]!r}... is {len(os.fsencode(part))} bytes long; the "
+                             f"file system allows at most {limit}")
+
+
 def _check_writable(folder: Path) -> None:
     try:
         fd, name = tempfile.mkstemp(prefix=".vibupdate-write-test-", dir=folder)
@@ -312,6 +326,7 @@ def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), co
     """
     manifest_name(command)  # a known command
     path = Path(path)
+    _check_name_lengths(path)
     if path.is_symlink() and not path.exists():
         raise ValueError(f"output path {str(path)!r} is a symbolic link to {os.readlink(path)!r}, which does not "
                          "exist; expected a folder or a new name")

@@ -36,6 +36,7 @@ def prepare_sweep_folder(out: Path, settings: dict, resume: bool) -> list[str]:
     from vibupdate.io.manifests import manifest_name
     from vibupdate.io.outputs import prepare_output
 
+    prepare_output(out, command="sweep", force=True)   # a folder or a new name, writable: before anything is made
     file = out / SETTINGS_FILE
     if resume:
         if not file.exists():
@@ -50,7 +51,6 @@ def prepare_sweep_folder(out: Path, settings: dict, resume: bool) -> list[str]:
     if out.is_dir() and any(out.iterdir()):
         raise ValueError(f"output directory {str(out)!r} exists and is not empty; use --resume to finish "
                          "a sweep there, or another --out")
-    prepare_output(out, command="sweep")   # a folder or a new name, writable: checked before anything is made
     made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     file.write_text(json.dumps(settings, indent=2), encoding="utf-8")
