@@ -373,3 +373,25 @@ def test_a_second_case_needs_force_and_then_keeps_edited_and_foreign_files(tmp_p
     assert not (out / "M_left.mtx").exists()         # unchanged since the first run wrote it: removed
     assert set(read_manifest(out)) >= {"M_A.mtx", "results.json"} and "K_left.mtx" not in read_manifest(out)
     assert json.loads((out / "results.json").read_text())["case"] == "other"
+
+
+def test_an_extraction_of_other_files_into_the_same_folder_needs_force(tmp_path, capsys):
+    import numpy as np
+    from frf_synthetic import measured
+
+    frfs, *_ = measured(8, repeats=1)
+    for name in ("first.npz", "second.npz"):
+        np.savez(tmp_path / name, freq_hz=frfs.freq_hz, H=np.stack([h[0] for h in frfs.H], axis=1))
+
+    def extract(table, *extra):
+        return main(["extract", str(tmp_path / table), "--responses", "y1", "y2", "y3", "--excitations", "y3",
+                     "--band", "20", "300", "--no-plot", "--out", str(tmp_path / "ex"), *extra])
+
+    assert extract("first.npz") == 0
+    assert extract("first.npz") == 0                     # the same extraction again: replaced, no --force
+    before = snapshot(tmp_path / "ex")
+    capsys.readouterr()
+    assert extract("second.npz") == 2
+    assert "results of case 'extraction of first.npz'" in capsys.readouterr().err
+    assert snapshot(tmp_path / "ex") == before
+    assert extract("second.npz", "--force") == 0
