@@ -109,6 +109,14 @@ def test_ctrl_c_while_a_run_draws_its_plots_keeps_the_folder_and_the_rerun_needs
     assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "new")]) == 0
 
 
+def test_ctrl_c_while_the_results_move_into_place_says_they_were_written(tmp_path):
+    write_case(tmp_path)
+    line = _one_line(_interrupted(tmp_path, "vibupdate.io.outputs:_move_into_place", "run", "case.toml",
+                                  "--out", "res"))
+    assert line == "vibupdate: interrupted; the results were written to res/ before it"
+    assert (tmp_path / "res" / "results.json").is_file() and (tmp_path / "res" / "vibupdate-manifest-run.json").is_file()
+
+
 def test_ctrl_c_in_an_fe_example_removes_its_inputs_so_that_it_runs_again(tmp_path):
     line = _one_line(_interrupted(tmp_path, "vibupdate.io.fe_import:import_model", "example", "fe-nastran",
                                   "--out", "fe"))

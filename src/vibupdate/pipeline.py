@@ -21,6 +21,7 @@ import numpy as np
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, damping_weights, identify_damping
 from vibupdate.examples import EXAMPLES
+from vibupdate.io.interrupted import Interrupted
 from vibupdate.io.outputs import (MANIFEST, file_names, kept_note, matrix_file, matrix_files_planned,
                                   prepare_output, write_published)
 from vibupdate.io.results import RunResult, run_result, write_results
@@ -398,17 +399,25 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
                      warnings=notes, paper=paper, diagnosis=diagnosis, suggestion=suggestion)
     written = write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
                               version=__version__)
-    for note in written.warnings[len(run.warnings):]:
-        say(f"warning: {note}")
+    try:
+        _say_written(target, written, run, say)
+    except KeyboardInterrupt:
+        raise Interrupted(f"the results were written to {target.path}/ before it") from None
+    return written
+
+
+def _say_written(target, written: RunResult, run: RunResult, say) -> None:
+    """The lines after the results are in place: new warnings, what was written, what was kept."""
     from vibupdate.io.manifests import read_manifest
 
+    for note in written.warnings[len(run.warnings):]:
+        say(f"warning: {note}")
     plotted = any(name.endswith(".png") for name in read_manifest(target.path) or ())
     kinds = "results.json, report.md, " + ("plots, " if plotted else "") + "matrices"
     say(f"wrote {target.path}/ ({kinds}; {MANIFEST} lists them)")
     kept = kept_note(target)
     if kept:
         say(kept)
-    return written
 
 
 def _diagnosis(case: Case, result: UpdateResult, verification, say, wanted: bool):

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from vibupdate._extras import MissingExtra
+from vibupdate.io.interrupted import Interrupted
 from vibupdate.io.manifests import (
     COMMANDS,
     LEGACY_MANIFEST,
@@ -415,36 +416,50 @@ def publish(staged: Path, target: OutputTarget, *, case: str, version: str) -> l
     """
     files = sorted(p.name for p in staged.iterdir() if p.is_file() and not is_manifest(p.name))
     hashes = {f: file_hash(staged / f) for f in files}
-    final, command = target.path, target.command
-    with _sigint_held():
-        if not target.exists:
-            if final.exists() or final.is_symlink():
-                raise ValueError(f"output folder {str(final)!r} appeared while vibupdate was running; "
-                                 "nothing was written, run again")
-            write_manifest(staged, command, files, case, version, hashes)
-            os.rename(staged, final)
-            return files
-        owned, others = ownership(final, command)
-        owned -= set(target.protected)
-        owned -= changed_files(final, command, owned)
-        clash = [f for f in files if ((final / f).exists() or (final / f).is_symlink())
-                 and (f not in owned or f in target.protected)]
-        if clash:
-            raise ValueError(f"output folder {str(final)!r} now holds {', '.join(clash)}, which `vibupdate {command}` "
-                             f"did not write or which changed since ({_described(clash, others)}); nothing was "
-                             "replaced")
-        for f in files:
-            os.replace(staged / f, final / f)
-        for f in sorted(owned - set(files)):
-            stale = final / f
-            if stale.is_file() or stale.is_symlink():
-                stale.unlink()
-        write_manifest(final, command, files, case, version, hashes)
-        legacy = manifest_files(final / LEGACY_MANIFEST)
-        if legacy is not None and legacy_owner(*legacy) == command:
-            (final / LEGACY_MANIFEST).unlink()   # its files are now in this command's manifest, or removed
-        shutil.rmtree(staged, ignore_errors=True)
+    moved = False
+    try:
+        with _sigint_held():
+            _move_into_place(staged, target, files, hashes, case, version)
+            moved = True
+    except KeyboardInterrupt:
+        if not moved:
+            raise
+        # Ctrl-C held back while the files moved: delivered now, with the results in place
+        raise Interrupted(f"the results were written to {target.path}/ before it") from None
     return files
+
+
+def _move_into_place(staged: Path, target: OutputTarget, files: list[str], hashes: dict, case: str,
+                     version: str) -> None:
+    """`publish`'s moves, with SIGINT held back."""
+    final, command = target.path, target.command
+    if not target.exists:
+        if final.exists() or final.is_symlink():
+            raise ValueError(f"output folder {str(final)!r} appeared while vibupdate was running; "
+                             "nothing was written, run again")
+        write_manifest(staged, command, files, case, version, hashes)
+        os.rename(staged, final)
+        return
+    owned, others = ownership(final, command)
+    owned -= set(target.protected)
+    owned -= changed_files(final, command, owned)
+    clash = [f for f in files if ((final / f).exists() or (final / f).is_symlink())
+             and (f not in owned or f in target.protected)]
+    if clash:
+        raise ValueError(f"output folder {str(final)!r} now holds {', '.join(clash)}, which `vibupdate {command}` "
+                         f"did not write or which changed since ({_described(clash, others)}); nothing was "
+                         "replaced")
+    for f in files:
+        os.replace(staged / f, final / f)
+    for f in sorted(owned - set(files)):
+        stale = final / f
+        if stale.is_file() or stale.is_symlink():
+            stale.unlink()
+    write_manifest(final, command, files, case, version, hashes)
+    legacy = manifest_files(final / LEGACY_MANIFEST)
+    if legacy is not None and legacy_owner(*legacy) == command:
+        (final / LEGACY_MANIFEST).unlink()   # its files are now in this command's manifest, or removed
+    shutil.rmtree(staged, ignore_errors=True)
 
 
 def write_published(target: OutputTarget, write: Callable[[Path], _T], *, case: str, version: str) -> _T:
