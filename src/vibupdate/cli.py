@@ -518,7 +518,7 @@ class _ReaderGone:
     def __init__(self, stream, fd: int):
         self._stream = stream
         self._fd = fd
-        self.gone = stream is None
+        self.gone = False
 
     def write(self, text):
         if not self.gone:
@@ -560,7 +560,9 @@ def _guard_streams() -> None:
                 os.dup2(null, fd)
                 os.close(null)
     if not isinstance(sys.stdout, _ReaderGone):
-        sys.stdout, sys.stderr = _ReaderGone(sys.stdout, 1), _ReaderGone(sys.stderr, 2)
+        streams = [stream if stream is not None else open(os.devnull, "w", encoding="utf-8")   # closed at the start
+                   for stream in (sys.stdout, sys.stderr)]
+        sys.stdout, sys.stderr = _ReaderGone(streams[0], 1), _ReaderGone(streams[1], 2)
 
 
 def main(argv=None) -> int:
