@@ -236,8 +236,8 @@ EXPECTED = {
     "vibupdate example cantilever": (0, r"^wrote cantilever-results/ \(results\.json", False),
     "vibupdate example --list": (0, r"^cantilever$", False),
     "vibupdate check examples/cantilever/case.toml": (0, r"^examples/cantilever/case\.toml: OK; case ", False),
-    "vibupdate run examples/cantilever/case.toml --out cantilever-results":
-        (0, r"^wrote cantilever-results/ \(results\.json", False),
+    "vibupdate run examples/cantilever/case.toml --out case-results":
+        (0, r"^wrote case-results/ \(results\.json", False),
     "vibupdate run examples/cantilever/case.toml --certify 60 --out cantilever-certified":
         (0, r"^wrote cantilever-certified/ ", True),
     "vibupdate sweep examples/cantilever/case.toml --samples 200 --frequency-tolerance 0.005 --out sweep":
@@ -271,17 +271,20 @@ def test_the_command_reader_joins_lines_and_leaves_installs_out():
     assert doc_commands(text) == ["vibupdate example cantilever", "vibupdate run a.toml --out b"]
 
 
-def _page_runs(page: str) -> list[str]:
-    return [c for c in doc_commands((ROOT / page).read_text(encoding="utf-8")) if EXPECTED[c][0] is not None]
+def _page_runs(page: str, slow: bool) -> list[str]:
+    """The commands of ``page`` that run, in order; without ``slow`` only those fast enough for CI."""
+    return [c for c in doc_commands((ROOT / page).read_text(encoding="utf-8"))
+            if EXPECTED[c][0] is not None and (slow or not EXPECTED[c][2])]
 
 
-def _page_is_slow(page: str) -> bool:
-    return any(EXPECTED[c][2] for c in _page_runs(page))
+#: Each page twice: its fast commands in CI, all of them on demand (``-m slow``).
+RUNS = [pytest.param(p, False, id=f"{p}-fast") for p in COMMAND_PAGES if _page_runs(p, False)] + [
+    pytest.param(p, True, id=f"{p}-all", marks=pytest.mark.slow) for p in COMMAND_PAGES
+    if len(_page_runs(p, True)) > len(_page_runs(p, False))]
 
 
-@pytest.mark.parametrize("page", [pytest.param(p, marks=pytest.mark.slow) if _page_is_slow(p) else p
-                                  for p in COMMAND_PAGES if _page_runs(p)])
-def test_the_commands_of_a_page_run_as_written(page, tmp_path):
+@pytest.mark.parametrize("page, slow", RUNS)
+def test_the_commands_of_a_page_run_as_written(page, slow, tmp_path):
     import os
     import shlex
     import shutil
@@ -289,7 +292,7 @@ def test_the_commands_of_a_page_run_as_written(page, tmp_path):
     import sys
 
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
-    commands = _page_runs(page)
+    commands = _page_runs(page, slow)
     if any("Experimental.csv" in c for c in commands):
         from helpers import realdata
 
@@ -308,3 +311,25 @@ def test_the_commands_of_a_page_run_as_written(page, tmp_path):
         assert done.returncode == code, f"{page}: {command}\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
         assert "Traceback" not in done.stderr, done.stderr[-3000:]
         assert re.search(line, done.stdout, re.MULTILINE), f"{page}: {command}: no line {line!r} in\n{done.stdout}"
+
+
+def test_reading_results_back_runs_on_the_readme_s_results(tmp_path, monkeypatch):
+    """docs/outputs.md's "Reading results back" reads the folder the README's `run` writes."""
+    import contextlib
+    import io
+
+    from vibupdate.cli import main
+
+    import shutil
+
+    run = next(c for c in doc_commands((ROOT / "README.md").read_text(encoding="utf-8"))
+               if c.startswith("vibupdate run ") and "--certify" not in c)
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(run.split()[1:]) == 0
+    block = re.search(r"```python\n(from vibupdate\.io\.results import load_results\n.*?)```",
+                      (ROOT / "docs" / "outputs.md").read_text(encoding="utf-8"), re.DOTALL).group(1)
+    with contextlib.redirect_stdout(io.StringIO()) as printed:
+        exec(compile(block, "docs/outputs.md", "exec"), {})
+    assert printed.getvalue().startswith("cantilever-case-file success True")
