@@ -54,8 +54,9 @@ def _parser() -> argparse.ArgumentParser:
                      help="also compute certified outer parameter ranges within this time budget (needs the "
                           "extra [certify])")
     run.add_argument("--force", action="store_true",
-                     help="write into a folder that holds other files (they are kept; only vibupdate's own "
-                          "files are replaced)")
+                     help="write into a folder that holds other files or another case's results (only this "
+                          "command's own files, unchanged since written, are replaced or removed; every other file "
+                          "is kept and named)")
     run.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None,
                      help="when the answer does not fit the data, do not rank which data conflict (the case's "
                           "[verification] diagnose, default true)")
