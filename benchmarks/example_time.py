@@ -5,15 +5,13 @@ Run:  python benchmarks/example_time.py [--repeats 5] [--in-process]
 
 Each repeat is a fresh child process (``python -c``) that runs the CLI's ``main()`` with the
 command's ``sys.argv`` in an empty temporary folder, as the console script does (the program's
-own imports, `vibupdate.cli._load_library`), records the time until the command starts (the
-imports) and wraps `vibupdate.update` and the plot writer in timers; the child's wall time is
+own imports), records the time until the command starts (the imports) and wraps `vibupdate.update` and the plot writer in timers; the child's wall time is
 measured by the parent from spawn to exit. The median over the repeats of each share is
 printed, with the load average (other work on the machine inflates every stage alike).
 ``--command``: the console script itself, uninstrumented (``vibupdate example cantilever``
 beside the interpreter, else ``python -m vibupdate``), its wall time against the seconds of
-the ``solver:`` line it prints (the update's own clock). ``--in-process``: the plots drawn by
-the run's own process, as before the plotting process (`vibupdate.io.plot_process`); without
-it, ``plots`` is the time the run waits for the child's drawings.
+the ``solver:`` line it prints (the update's own clock). The start against an earlier
+version of the code: benchmarks/start_time.py.
 """
 
 from __future__ import annotations
@@ -46,13 +44,10 @@ def timed(key, fn):
 
 command = cli._command
 
-def instrumented(args):   # entered after the command's imports (`vibupdate.cli._load_library`)
+def instrumented(args):   # entered before the command's imports
     import vibupdate.io.outputs as outputs
     import vibupdate.pipeline as pipeline
     times["imports"] = time.perf_counter() - t0
-    if IN_PROCESS:   # the plots drawn by the run's own process, as before the plotting process
-        import vibupdate.io.plot_process as plot_process
-        plot_process.plot_process = lambda wanted=True: contextlib.nullcontext()
     outputs.drawn = timed("plots", outputs.drawn)
     pipeline.update = timed("update", pipeline.update)
     t = time.perf_counter()
@@ -62,7 +57,7 @@ def instrumented(args):   # entered after the command's imports (`vibupdate.cli.
     finally:
         times["main"] = time.perf_counter() - t
 
-def report():   # main() ends the process itself (`vibupdate.cli._end`), after the exit handlers
+def report():
     times["in_process"] = time.perf_counter() - t0
     sys.__stdout__.write(json.dumps(times) + "\n")
     sys.__stdout__.flush()
@@ -75,10 +70,10 @@ with contextlib.redirect_stdout(io.StringIO()):
 """
 
 
-def one(in_process: bool) -> dict:
+def one() -> dict:
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
-        done = subprocess.run([sys.executable, "-c", f"IN_PROCESS = {in_process}\n" + CHILD], capture_output=True,
+        done = subprocess.run([sys.executable, "-c", CHILD], capture_output=True,
                               text=True, cwd=folder)
         wall = time.perf_counter() - t0
     if done.returncode != 0:
@@ -107,12 +102,10 @@ def command() -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--in-process", action="store_true",
-                        help="draw the plots in the run's own process (no plotting process), for comparison")
     parser.add_argument("--command", action="store_true",
                         help="time the console script itself: wall and the seconds of its solver line")
     args = parser.parse_args()
-    rows = [command() if args.command else one(args.in_process) for _ in range(args.repeats)]
+    rows = [command() if args.command else one() for _ in range(args.repeats)]
     keys = ("wall", "update") if args.command else ("wall", "interpreter", "imports", "update", "plots", "rest")
     median = {k: sorted(r[k] for r in rows)[len(rows) // 2] for k in keys}
     share = {k: median[k] / median["wall"] for k in keys[1:]}

@@ -206,3 +206,133 @@ def test_the_citation_scan_finds_a_citation(tmp_path):
     cited = tmp_path / "note.md"
     cited.write_text("See DESIGN.md, item 4.\nNothing here.\nAnd ../shared/paper.\n", encoding="utf-8")
     assert _citations([cited], root=tmp_path) == ["note.md:1: cites 'DESIGN.md'", "note.md:3: cites '../shared'"]
+
+
+# -- the commands of the docs run as written -----------------------------------------------------
+
+#: Pages whose command blocks a reader types (the notes are measurement narratives).
+COMMAND_PAGES = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md")
+                                      if "notes" not in p.relative_to(ROOT / "docs").parts)]
+BLOCK = re.compile(r"^```(bash|sh|shell)\n(.*?)^```", re.MULTILINE | re.DOTALL)
+
+
+def doc_commands(text: str) -> list[str]:
+    """The commands of a page's shell blocks, in order: continuation lines joined, comments
+    dropped, ``a && b`` split, installs and the test run (``pip``, ``pytest``) left out."""
+    out = []
+    for _, body in BLOCK.findall(text):
+        for line in body.replace("\\\n", " ").splitlines():
+            line = line.split(" #", 1)[0].strip()
+            for part in (p.strip() for p in line.split("&&")):
+                if part and not part.startswith(("pip ", "pytest", "#")):
+                    out.append(" ".join(part.split()))
+    return out
+
+
+#: What each command of the docs gives, run in order per page in a fresh folder holding a copy
+#: of ``examples/`` (the real Southampton files linked in where the page reads them): exit
+#: code, a line of its standard output (a regular expression), and whether it is too long
+#: for CI (``slow``). ``None`` as the code: not run, with the reason instead of the line.
+EXPECTED = {
+    "vibupdate example cantilever": (0, r"^wrote cantilever-results/ \(results\.json", False),
+    "vibupdate example --list": (0, r"^cantilever$", False),
+    "vibupdate check examples/cantilever/case.toml": (0, r"^examples/cantilever/case\.toml: OK; case ", False),
+    "vibupdate run examples/cantilever/case.toml --out case-results":
+        (0, r"^wrote case-results/ \(results\.json", False),
+    "vibupdate run examples/cantilever/case.toml --certify 60 --out cantilever-certified":
+        (0, r"^wrote cantilever-certified/ ", True),
+    "vibupdate sweep examples/cantilever/case.toml --samples 200 --frequency-tolerance 0.005 --out sweep":
+        (0, r" of 200 samples; wrote sweep/$", True),
+    "vibupdate sweep examples/cantilever/case.toml --samples 200 --frequency-tolerance 0.005 --scheduler "
+    "tcp://10.0.0.5:8786": (None, "needs a Dask scheduler running at that address", True),
+    "vibupdate run examples/cantilever/case.toml --samples 100 --frequency-tolerance 0.005 --out cantilever-results":
+        (0, r"^wrote cantilever-results/ ", True),
+    **{f"vibupdate example fe-{code} --out fe-{code}":
+       (0, rf"^wrote fe-{code}/model/case\.toml: the model with the measured data$", True)
+       for code in ("abaqus", "ansys", "nastran", "opensees")},
+    **{f"vibupdate import fe-{code}/exports/import.toml --out my-model":
+       (0, r"^wrote my-model/model\.toml and its matrix files", True) for code in ("abaqus", "ansys", "nastran",
+                                                                                  "opensees")},
+    "vibupdate example bar --out bar": (0, r"^example bar: wrote the test in bar/hammer\.uff", True),
+    "vibupdate extract bar/hammer.uff --reciprocal --band 100 1600 --first-mode 3 --out extraction":
+        (0, r"^  mode 3: ", True),
+    "vibupdate extract Experimental.csv test_2.csv test_3.csv --responses x1 x2 x3 --excitations x1 x2 x3 --kind "
+    "accelerance --band 3 28 --modes 3 --out soton-extraction": (0, r"^3 mode\(s\), ", True),
+}
+
+
+def test_every_command_of_the_docs_has_an_expected_outcome():
+    found = {c for page in COMMAND_PAGES for c in doc_commands((ROOT / page).read_text(encoding="utf-8"))}
+    assert found == set(EXPECTED), (sorted(found - set(EXPECTED)), sorted(set(EXPECTED) - found))
+
+
+def test_the_command_reader_joins_lines_and_leaves_installs_out():
+    text = "```bash\npip install . && vibupdate example cantilever  # first\nvibupdate run a.toml \\\n" \
+           "    --out b\n```\n```text\nvibupdate not this\n```\n"
+    assert doc_commands(text) == ["vibupdate example cantilever", "vibupdate run a.toml --out b"]
+
+
+def _page_runs(page: str, slow: bool) -> list[str]:
+    """The commands of ``page`` that run, in order; without ``slow`` only those fast enough for CI."""
+    return [c for c in doc_commands((ROOT / page).read_text(encoding="utf-8"))
+            if EXPECTED[c][0] is not None and (slow or not EXPECTED[c][2])]
+
+
+#: Each page twice: its fast commands in CI, all of them on demand (``-m slow``).
+RUNS = [pytest.param(p, False, id=f"{p}-fast") for p in COMMAND_PAGES if _page_runs(p, False)] + [
+    pytest.param(p, True, id=f"{p}-all", marks=pytest.mark.slow) for p in COMMAND_PAGES
+    if len(_page_runs(p, True)) > len(_page_runs(p, False))]
+
+
+@pytest.mark.parametrize("page, slow", RUNS)
+def test_the_commands_of_a_page_run_as_written(page, slow, tmp_path):
+    import os
+    import shlex
+    import shutil
+    import subprocess
+    import sys
+
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    commands = _page_runs(page, slow)
+    if any("fe-opensees" in c for c in commands):   # the extra [fe]: OpenSeesPy writes the example's exports
+        pytest.importorskip("openseespy.opensees", reason="example fe-opensees needs the extra [fe] (openseespy)")
+    if any("Experimental.csv" in c for c in commands):
+        from helpers import realdata
+
+        soton = realdata("soton3storey")
+        if not soton.is_dir():
+            pytest.skip("the Southampton frame's files are not on this machine (helpers.realdata)")
+        for name in ("Experimental.csv", "test_2.csv", "test_3.csv"):
+            (tmp_path / name).symlink_to(soton / name)
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=os.pathsep.join(
+        [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    for command in commands:
+        code, line, _ = EXPECTED[command]
+        argv = shlex.split(command)
+        done = subprocess.run([sys.executable, "-m", "vibupdate", *argv[1:]], cwd=tmp_path, capture_output=True,
+                              text=True, env=env, timeout=1800)
+        assert done.returncode == code, f"{page}: {command}\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
+        assert "Traceback" not in done.stderr, done.stderr[-3000:]
+        assert re.search(line, done.stdout, re.MULTILINE), f"{page}: {command}: no line {line!r} in\n{done.stdout}"
+
+
+def test_reading_results_back_runs_on_the_readme_s_results(tmp_path, monkeypatch):
+    """docs/outputs.md's "Reading results back" reads the folder the README's `run` writes."""
+    import contextlib
+    import io
+
+    from vibupdate.cli import main
+
+    import shutil
+
+    run = next(c for c in doc_commands((ROOT / "README.md").read_text(encoding="utf-8"))
+               if c.startswith("vibupdate run ") and "--certify" not in c)
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(run.split()[1:]) == 0
+    block = re.search(r"```python\n(from vibupdate\.io\.results import load_results\n.*?)```",
+                      (ROOT / "docs" / "outputs.md").read_text(encoding="utf-8"), re.DOTALL).group(1)
+    with contextlib.redirect_stdout(io.StringIO()) as printed:
+        exec(compile(block, "docs/outputs.md", "exec"), {})
+    assert printed.getvalue().startswith("cantilever-case-file success True")

@@ -359,3 +359,92 @@ def test_long_mutated_data_files(mutation):
 @given(case_mutation(CHEAP))
 def test_long_mutated_runs(mutation):
     _run_body(mutation)
+
+
+# -- command-line options -------------------------------------------------------------------------
+
+#: Values tried for options and positional arguments: odd numbers, empty and unicode text, long
+#: names, paths that are files, links to nothing, folders that are not writable.
+ODD_ARGS = ("0", "-1", "1", "2", "3", "15", "300", "1e308", "nan", "inf", "-inf", "0.5", "", " ", "x", "ü-名",
+            "a" * 300, "y1=", "=x1", "y1=x2", "y1=-x2", "--", "-", ".", "..", "notes.txt", "notes.txt/out",
+            "dangling", "/proc/vibupdate", "case.toml", "frf.npz", "missing.toml", "results")
+FUZZED = ("run", "check", "extract", "sweep")
+
+
+def _options(command: str) -> list:
+    """The optional arguments of a sub-command of the parser: ``(flag, nargs)``."""
+    from vibupdate.cli import _parser
+
+    sub = next(a for a in _parser()._actions if a.dest == "command").choices[command]
+    return [(a.option_strings[-1], a.nargs) for a in sub._actions if a.option_strings and a.dest != "help"]
+
+
+def _user_files(folder: Path) -> dict:
+    """Every regular file under ``folder`` with the SHA-1 of its content (links left out)."""
+    import hashlib
+
+    return {str(p.relative_to(folder)): hashlib.sha1(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*"))
+            if p.is_file() and not p.is_symlink()}
+
+
+def _fuzzed_argv(rng) -> list[str]:
+    command = FUZZED[rng.integers(len(FUZZED))]
+    argv = [command]
+    if command == "extract":
+        argv += ["frf.npz", "--responses", "y1", "y2", "y3", "--excitations", "y3"][: rng.integers(2, 8)]
+    else:
+        argv.append(str(rng.choice(["case.toml", "case.toml", "missing.toml", "notes.txt", "frf.npz", ""])))
+    for flag, nargs in _options(command):
+        if rng.random() < 0.15:
+            count = 0 if nargs == 0 else (2 if nargs == 2 else rng.integers(1, 3) if nargs in ("+", "*") else 1)
+            argv += [flag, *(str(rng.choice(ODD_ARGS)) for _ in range(count))]
+    return argv
+
+
+def test_fuzzed_command_lines_end_in_a_known_code_without_a_traceback_or_a_lost_file(tmp_path, monkeypatch):
+    """300 command lines from a seeded generator over the options of run, check, extract and
+    sweep, in a folder holding the user's files (a case, FRFs, notes, an earlier run's results
+    with an edited file, a link to nothing). The work itself (the solve, the fit, the sweep's
+    tasks) is replaced by Ctrl-C, so a line that gets past every check ends with 130: what is
+    fuzzed is the checking. Every exit is 0, 1, 2 or 130, nothing escapes, no traceback is
+    printed, and every file of the user's is still there, unchanged."""
+    import os
+
+    import numpy as np
+    from frf_synthetic import measured
+    from outputs_helpers import TINY_CASE
+
+    import vibupdate.data.extraction as extraction
+    import vibupdate.pipeline as pipeline
+    import vibupdate.study.sweep as sweep
+
+    def stop(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    (tmp_path / "case.toml").write_text(TINY_CASE.replace('case = "tiny"', 'case = "tiny"\nfrequency_tolerance = 0.01'))
+    (tmp_path / "notes.txt").write_text("mine")
+    frfs, *_ = measured(8, repeats=1)
+    np.savez(tmp_path / "frf.npz", freq_hz=frfs.freq_hz, H=np.stack([h[0] for h in frfs.H], axis=1))
+    os.symlink("nowhere", tmp_path / "dangling")
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "case.toml", "--out", "results"]) == 0   # an earlier run, then edited by the user
+    with open(tmp_path / "results" / "report.md", "a") as f:
+        f.write("\nmy note\n")
+    monkeypatch.setattr(pipeline, "update", stop)
+    monkeypatch.setattr(extraction, "extract", stop)
+    monkeypatch.setattr(sweep, "_sweep", stop)
+    before = _user_files(tmp_path)
+    rng = np.random.default_rng(20261206)
+    codes = {}
+    for _ in range(300):
+        argv = _fuzzed_argv(rng)
+        try:
+            code, out, err = _cli(argv)
+        except SystemExit as exc:   # argparse: an unknown choice or a missing value, its usage line
+            code, err = exc.code, ""
+        assert code in (0, 1, 2, 130), (argv, err[-2000:])
+        assert "Traceback" not in err, (argv, err[-2000:])
+        now = _user_files(tmp_path)
+        assert {k: now.get(k) for k in before} == before, argv
+        codes[code] = codes.get(code, 0) + 1
+    assert {0, 2, 130} <= set(codes), codes   # not degenerate: lines were refused, checked, and reached the work

@@ -5,8 +5,9 @@ or the homotopy path failed (results are written, their status says which); 2 ba
 (one message naming the file, key or folder; nothing written); for ``sweep``, 1 means no
 verified sample, for ``batch`` a case that did not succeed; 3 internal error (one line
 naming what failed, ``--debug`` prints the traceback; nothing written); for ``suggest``, 0
-means some set of candidates verified, 1 none; 130 interrupted
-(nothing written, earlier results intact; a sweep keeps the rows it wrote, ``--resume``).
+means some set of candidates verified, 1 none; 130 interrupted: one line saying what was kept
+(nothing, earlier results intact; the rows a sweep wrote, ``--resume``; the case folders a
+batch finished).
 
 A command or option whose optional extra is not installed (`NEEDS`, `vibupdate._extras`)
 exits 2 with one line naming the extra, before any work.
@@ -15,6 +16,7 @@ exits 2 with one line naming the extra, before any work.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import traceback
@@ -22,6 +24,7 @@ from pathlib import Path
 
 from vibupdate import __version__
 from vibupdate._extras import MissingExtra, install_hint, require
+from vibupdate.io.interrupted import Interrupted
 
 __all__ = ["main", "EXIT"]
 
@@ -51,8 +54,9 @@ def _parser() -> argparse.ArgumentParser:
                      help="also compute certified outer parameter ranges within this time budget (needs the "
                           "extra [certify])")
     run.add_argument("--force", action="store_true",
-                     help="write into a folder that holds other files (they are kept; only vibupdate's own "
-                          "files are replaced)")
+                     help="write into a folder that holds other files or another case's results (only this "
+                          "command's own files, unchanged since written, are replaced or removed; every other file "
+                          "is kept and named)")
     run.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None,
                      help="when the answer does not fit the data, do not rank which data conflict (the case's "
                           "[verification] diagnose, default true)")
@@ -163,6 +167,7 @@ def _sweep(args) -> int:
     from pathlib import Path
 
     from vibupdate.io.case import load_case
+    from vibupdate.io.outputs import safe_name
     from vibupdate.report.numbers import fmt
     from vibupdate.study.sampling import SamplingOptions
     from vibupdate.study.sweep import run_sweep
@@ -170,7 +175,7 @@ def _sweep(args) -> int:
     sampling = SamplingOptions(args.distribution, args.confidence, args.frequency_tolerance,
                                random_start=not args.no_random_start, walk=not args.no_walk)
     case = load_case(args.case)
-    out = Path(args.out or f"{case.name}-sweep")
+    out = Path(args.out or f"{safe_name(case.name)}-sweep")
     if args.multistart < 0:
         raise ValueError(f"--multistart must be >= 0, got {args.multistart}")
     summary = run_sweep(args.case, out, args.samples, seed=args.seed, sampling=sampling, workers=args.workers,
@@ -276,9 +281,9 @@ def _command(args) -> int:
             return _fe_example(args)
         if args.name == "bar":
             return _bar_example(args)
-        return _finish(run_example(args.name, args.out or f"{safe_name(args.name)}-results", progress=print,
-                                   force=args.force, certify=args.certify, study=_study(args),
-                                   diagnose=args.diagnose))
+        out = args.out or f"{safe_name(args.name)}-results"
+        return _finished(run_example(args.name, out, progress=print, force=args.force, certify=args.certify,
+                                     study=_study(args), diagnose=args.diagnose), out)
     case = _load(args.case)
     if args.command == "suggest":
         return _suggest(args, case)
@@ -292,8 +297,16 @@ def _command(args) -> int:
         print("problem size: " + ", ".join(f"{k} {v}" for k, v in checked.sizes.items()))
         return EXIT["success"]
     out = args.out or f"{safe_name(case.name)}-results"
-    return _finish(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
-                            diagnose=args.diagnose))
+    return _finished(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
+                              diagnose=args.diagnose), out)
+
+
+def _finished(run, out) -> int:
+    """`_finish` of a run whose results are in ``out``: Ctrl-C while its tables print keeps them."""
+    try:
+        return _finish(run)
+    except KeyboardInterrupt:
+        raise Interrupted(f"the results were written to {out}/ before it") from None
 
 
 def _suggest(args, case) -> int:
@@ -326,19 +339,49 @@ def _fe_example(args) -> int:
     if args.force:
         raise ValueError(f"example {args.name} writes into a new folder (--out); --force does not apply to it")
     out = args.out or f"{safe_name(args.name)}-results"
-    fe.write_inputs(args.name, out)
-    print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
-    imp, run = fe.commands(out)
-    print("$ vibupdate " + " ".join(imp))
-    _import(_parser().parse_args(imp))
-    print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
-    run += _run_options(args)
-    print("$ vibupdate " + " ".join(run))
-    code = _command(_parser().parse_args(run))
+    with _example_folder(out, ["results"]):
+        fe.write_inputs(args.name, out)
+        print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
+        imp, run = fe.commands(out)
+        print("$ vibupdate " + " ".join(imp))
+        _import(_parser().parse_args(imp))
+        print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
+        run += _run_options(args)
+        print("$ vibupdate " + " ".join(run))
+        code = _command(_parser().parse_args(run))
     if (Path(out) / "results" / "results.json").is_file():
         print()
         print("\n".join(fe.truth_lines(out)))
     return code
+
+
+@contextlib.contextmanager
+def _example_folder(out, results: list[str]):
+    """An example that writes its inputs into the new (or empty) folder ``out`` and its commands'
+    results into its sub-folders ``results``. Stopped (Ctrl-C or an error) before any of those
+    results was written, it removes what it wrote (the folder too when it made it), so that
+    the same command runs again; Ctrl-C then says what was kept."""
+    import shutil
+
+    out = Path(out)
+    existed = out.exists()
+    fresh = not existed or (out.is_dir() and not any(out.iterdir()))   # else the example refuses the folder
+    try:
+        yield
+    except BaseException as exc:
+        written = [r for r in results if (out / r / "results.json").is_file()]
+        if written:
+            kept = f"kept {out}/ with the results of the commands that finished ({', '.join(written)})"
+        elif fresh and out.is_dir():
+            shutil.rmtree(out)
+            if existed:
+                out.mkdir()
+            kept = f"nothing of value was written ({out}/ {'emptied' if existed else 'removed'}; run it again)"
+        else:
+            kept = "nothing written"
+        if isinstance(exc, KeyboardInterrupt):
+            raise Interrupted(kept) from None
+        raise
 
 
 def _bar_example(args) -> int:
@@ -354,17 +397,41 @@ def _bar_example(args) -> int:
         raise ValueError(f"example bar runs its commands as shown; {' '.join(ignored)} does not apply to it "
                          "(expected only --out)")
     out = args.out or "bar-results"
-    bar.write_inputs(out)
-    print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
-          f"{out}/{bar.CASE_R} (E and r)")
-    codes = []
-    for command in bar.commands(out):
-        print("$ vibupdate " + " ".join(command))
-        codes.append(_command(_parser().parse_args(command)))
+    with _example_folder(out, ["results-E", "results-E-r"]):
+        bar.write_inputs(out)
+        print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
+              f"{out}/{bar.CASE_R} (E and r)")
+        codes = []
+        for command in bar.commands(out):
+            print("$ vibupdate " + " ".join(command))
+            codes.append(_command(_parser().parse_args(command)))
     print()
     print("\n".join(bar.truth_lines(out)))
     # the example did what it shows when the run with E alone is not verified and the others succeed
     return EXIT["success"] if codes == [0, 1, 0, 0] else EXIT["not_verified"]
+
+
+def _check_extract_options(args) -> None:
+    """The numbers of ``extract``'s options, checked before any file is read: a ValueError
+    naming the option and the value expected."""
+    import math
+
+    for option in ("band", "fit_band"):
+        pair = getattr(args, option)
+        name = "--" + option.replace("_", "-")
+        if pair is not None and not (all(math.isfinite(f) for f in pair) and 0 < pair[0] < pair[1]):
+            raise ValueError(f"{name} {pair[0]:g} {pair[1]:g}: expected two frequencies in Hz, 0 < F1 < F2")
+    if args.modes is not None and args.modes < 1:
+        raise ValueError(f"--modes must be an integer >= 1 (how many modes to keep), got {args.modes}")
+    if args.first_mode < 1:
+        raise ValueError(f"--first-mode must be an integer >= 1 (the model mode number of the lowest extracted "
+                         f"mode; modes count from 1), got {args.first_mode}")
+    if not 0 < args.confidence < 1:
+        raise ValueError(f"--confidence must be between 0 and 1 (e.g. 0.95), got {args.confidence:g}")
+    for option in ("window_decay", "window_tau"):
+        value = getattr(args, option)
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise ValueError(f"--{option.replace('_', '-')} must be a finite number > 0, got {value:g}")
 
 
 def _import(args) -> int:
@@ -381,17 +448,21 @@ def _extract(args) -> int:
     import math
     import warnings
 
-    from vibupdate.io.outputs import OutputWarning
     from vibupdate.data.extraction import extract
+    from vibupdate.io.outputs import OutputWarning, kept_note
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import FRFWarning, read_frfs
 
+    _check_extract_options(args)
     mapping = {}
     for item in args.map:
-        if "=" not in item:
-            raise ValueError(f"--map entries are FROM=TO, got {item!r}")
-        key, value = item.split("=", 1)
-        mapping[key.strip()] = value.strip()
+        key, _, value = (part.strip() for part in item.partition("="))
+        if "=" not in item or not key or value.lstrip("-") == "":
+            raise ValueError(f"--map entries are FROM=TO with two DOF names (a '-' before TO flips the sign), "
+                             f"got {item!r}")
+        if key in mapping:
+            raise ValueError(f"--map renames {key!r} twice ({key}={mapping[key]} and {item})")
+        mapping[key] = value
     with warnings.catch_warnings(record=True) as doubts:
         warnings.simplefilter("always", FRFWarning)
         frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
@@ -404,7 +475,7 @@ def _extract(args) -> int:
         frfs = frfs.reciprocal()
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
     fit_band = None if args.fit_band is None else (2 * math.pi * args.fit_band[0], 2 * math.pi * args.fit_band[1])
-    check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
+    target = check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
                      window=args.window, keep_outer_zeros=args.keep_outer_zeros, window_decay=args.window_decay,
                      window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros)
@@ -431,78 +502,30 @@ def _extract(args) -> int:
     for note in result.notes(args.first_mode):
         print(f"note: {note}")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    if kept_note(target):
+        print(kept_note(target))
     print("paste into a case file (paths relative to it):")
     print(configuration_block())
     return EXIT["success"]
 
 
-def _load_library() -> None:
-    """Import the pipeline (numpy, scipy and the library: most of a short run's start) with the
-    cyclic garbage collector paused, then move every object alive to its permanent generation
-    (`gc.freeze`), for the program itself only (`main` without arguments).
-
-    Nothing the imports build is garbage: the collections they would trigger, and those of
-    the run and of the interpreter's exit, walked the hundreds of thousands of objects of the
-    imported modules for nothing (0.07-0.1 s of ``vibupdate example cantilever``,
-    benchmarks/RESULTS.md). A process that calls `main` itself (tests, notebooks) keeps its
-    collector as it was.
-    """
-    import gc
-
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        import vibupdate.pipeline  # noqa: F401  (the imports of every command)
-    finally:
-        gc.freeze()
-        if enabled:
-            gc.enable()
-
-
-def _end(code: int) -> int:
-    """End the program itself once its command is done, without the interpreter's teardown.
-
-    The outputs are written, closed and moved into place before the command returns
-    (`vibupdate.io.outputs.write_published`); what is left is freeing every module and object
-    one by one (0.03-0.06 s after ``vibupdate example cantilever``, benchmarks/RESULTS.md).
-    The standard streams are flushed and the exit handlers registered with `atexit` run as at
-    any exit; then the process ends with ``code``. With any other thread still alive (a Dask
-    client of a study), the interpreter ends as usual, joining them: returns ``code``.
-    """
-    import atexit
-    import threading
-
-    try:
-        sys.stdout.flush()
-        sys.stderr.flush()
-    except (OSError, ValueError):   # a closed pipe or stream: the interpreter's own exit reports it
-        return code
-    if threading.active_count() > 1:
-        return code
-    atexit._run_exitfuncs()   # what the interpreter's exit runs first
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass   # what an exit handler printed to a stream that closed: nothing left to do
-    os._exit(code)
-
-
 class _ReaderGone:
-    """The program's standard output and error, for a reader that stops reading: ``vibupdate
-    run CASE | head`` closes the pipe after its lines. The command goes on to its end and its own exit
-    code (its files are written as usual); what it prints after that is dropped, where a bare
-    stream would end the run with a broken pipe as an internal error."""
+    """The program's standard output or error, for a reader that stops reading (``vibupdate
+    run CASE | head`` closes the pipe after its lines) or a stream that cannot be written (closed
+    at the start, a full disk). The command goes on to its end and its own exit code (its files
+    are written as usual); what it prints after that is dropped, where a bare stream would end
+    the run with an internal error and the interpreter's exit with code 120."""
 
-    def __init__(self, stream):
+    def __init__(self, stream, fd: int):
         self._stream = stream
+        self._fd = fd
         self.gone = False
 
     def write(self, text):
         if not self.gone:
             try:
                 return self._stream.write(text)
-            except BrokenPipeError:
+            except (OSError, ValueError):
                 self._drop()
         return len(text)
 
@@ -510,42 +533,55 @@ class _ReaderGone:
         if not self.gone:
             try:
                 self._stream.flush()
-            except BrokenPipeError:
+            except (OSError, ValueError):
                 self._drop()
 
     def _drop(self):
         self.gone = True
         try:   # the descriptor onto the null device: no later flush, the interpreter's own included, can fail
-            os.dup2(os.open(os.devnull, os.O_WRONLY), self._stream.fileno())
-        except (OSError, ValueError):
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, self._fd)
+            os.close(null)
+        except OSError:
             pass
 
     def __getattr__(self, name):
         return getattr(self._stream, name)
 
 
+def _guard_streams() -> None:
+    """Standard output and error as `_ReaderGone`; a descriptor closed at the start is opened on
+    the null device first, so that no file the command opens takes its number."""
+    for fd in (1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_WRONLY)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+    if not isinstance(sys.stdout, _ReaderGone):
+        streams = [stream if stream is not None else open(os.devnull, "w", encoding="utf-8")   # closed at the start
+                   for stream in (sys.stdout, sys.stderr)]
+        sys.stdout, sys.stderr = _ReaderGone(streams[0], 1), _ReaderGone(streams[1], 2)
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit code (module docstring). Called without
-    arguments, as the program itself, it ends the process when the command is done (`_end`)
-    and keeps going when the reader of its output stops reading (`_ReaderGone`)."""
+    arguments, as the program itself, it keeps going when the reader of its output stops
+    reading or its output cannot be written (`_ReaderGone`)."""
+    if argv is None:
+        _guard_streams()
     args = _parser().parse_args(argv)
-    if argv is None and not isinstance(sys.stdout, _ReaderGone):
-        sys.stdout, sys.stderr = _ReaderGone(sys.stdout), _ReaderGone(sys.stderr)
-    code = _main(args, program=argv is None)
-    return _end(code) if argv is None else code
+    return _main(args)
 
 
-def _main(args, program: bool) -> int:
+def _main(args) -> int:
     try:
-        if program:
-            _load_library()
         return _command(args)
-    except KeyboardInterrupt:
-        print("\nvibupdate: interrupted; nothing written (earlier results are untouched)", file=sys.stderr)
-        if program:  # the program itself: end now, without the ~0.5 s teardown of the solver objects
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(EXIT["interrupted"])
+    except KeyboardInterrupt as exc:
+        kept = exc.kept if isinstance(exc, Interrupted) else "nothing written (earlier results are untouched)"
+        print(f"vibupdate: interrupted; {kept}", file=sys.stderr)
         return EXIT["interrupted"]
     except MissingExtra as exc:
         line = str(exc) if exc.feature.startswith("vibupdate ") else (

@@ -21,8 +21,9 @@ import numpy as np
 from vibupdate.io.case import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, damping_weights, identify_damping
 from vibupdate.examples import EXAMPLES
-from vibupdate.io.outputs import (MANIFEST, file_names, matrix_file, matrix_files_planned, prepare_output,
-                                  write_published)
+from vibupdate.io.interrupted import Interrupted
+from vibupdate.io.outputs import (MANIFEST, file_names, kept_note, matrix_file, matrix_files_planned,
+                                  prepare_output, write_published)
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
@@ -341,12 +342,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     which data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
     ``[verification] diagnose``.
     """
-    from vibupdate.io.plot_process import plot_process
-
     if certify is not None and not certify >= 0:
         raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
-    with plot_process():   # matplotlib warms up on the second core while the run solves
-        return _run_case(case, out_dir, progress or (lambda message: None), paper, force, certify, study, diagnose)
+    return _run_case(case, out_dir, progress or (lambda message: None), paper, force, certify, study, diagnose)
 
 
 def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) -> RunResult:
@@ -360,7 +358,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     if study is not None:
         study.check(case)
     target = prepare_output(out_dir, force=force, planned=planned_files(case) + list(study.files if study else ()),
-                            command="run", inputs=case.inputs)
+                            command="run", inputs=case.inputs, case=case.name)
     verification = case.verify_options()
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say, prepared=checked.prepared)
@@ -401,14 +399,25 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
                      warnings=notes, paper=paper, diagnosis=diagnosis, suggestion=suggestion)
     written = write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
                               version=__version__)
-    for note in written.warnings[len(run.warnings):]:
-        say(f"warning: {note}")
+    try:
+        _say_written(target, written, run, say)
+    except KeyboardInterrupt:
+        raise Interrupted(f"the results were written to {target.path}/ before it") from None
+    return written
+
+
+def _say_written(target, written: RunResult, run: RunResult, say) -> None:
+    """The lines after the results are in place: new warnings, what was written, what was kept."""
     from vibupdate.io.manifests import read_manifest
 
+    for note in written.warnings[len(run.warnings):]:
+        say(f"warning: {note}")
     plotted = any(name.endswith(".png") for name in read_manifest(target.path) or ())
     kinds = "results.json, report.md, " + ("plots, " if plotted else "") + "matrices"
     say(f"wrote {target.path}/ ({kinds}; {MANIFEST} lists them)")
-    return written
+    kept = kept_note(target)
+    if kept:
+        say(kept)
 
 
 def _diagnosis(case: Case, result: UpdateResult, verification, say, wanted: bool):

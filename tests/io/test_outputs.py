@@ -69,8 +69,14 @@ def test_rerun_replaces_only_vibupdates_files_and_needs_force_beside_foreign_one
     err = capsys.readouterr().err
     assert "notes.txt" in err and "--force" in err
     assert (out / "results.json").read_text() == "{}"  # refused before anything was replaced
+    # results.json was edited since the run wrote it: kept, and --force does not overwrite it
+    assert main(["run", str(case), "--out", str(out), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "results.json, changed since `vibupdate run` wrote it" in err
+    assert (out / "results.json").read_text() == "{}"
+    (out / "results.json").rename(out / "my-results.json")
     assert main(["run", str(case), "--out", str(out), "--force"]) == 0
-    assert (out / "notes.txt").read_text() == "my notes"
+    assert (out / "notes.txt").read_text() == "my notes" and (out / "my-results.json").read_text() == "{}"
     assert not (out / "mac_A.png").exists()  # vibupdate's stale file is removed
     assert json.loads((out / "results.json").read_text())["case"] == "tiny"
     assert "notes.txt" not in read_manifest(out)
@@ -336,3 +342,56 @@ def test_ctrl_c_while_plotting_still_exits_130_with_nothing_written(earlier_resu
     assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 130
     assert "interrupted" in capsys.readouterr().err
     assert snapshot(tmp_path) == before
+
+
+def test_a_second_case_needs_force_and_then_keeps_edited_and_foreign_files(tmp_path, capsys):
+    """`run first --out res` then `run second --out res`: refused without --force, every file
+    kept; with --force the first case's unchanged files are removed, a file the user edited
+    and one the user added survive, and the run names both."""
+    first = write_case(tmp_path / "first", TINY_CASE.replace('name = "A"', 'name = "left"'))
+    second = write_case(tmp_path / "second", TINY_CASE.replace('case = "tiny"', 'case = "other"'))
+    out = tmp_path / "res"
+    assert main(["run", str(first), "--out", str(out)]) == 0
+    written = read_manifest(out)
+    assert {"M_left.mtx", "K_left.mtx", "results.json"} <= set(written)
+    hashes = json.loads((out / MANIFEST).read_text())["sha256"]
+    assert sorted(hashes) == sorted(written) and all(len(h) == 64 for h in hashes.values())
+    before = snapshot(out)
+    capsys.readouterr()
+    assert main(["run", str(second), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "results of case 'tiny'" in err and "--force" in err
+    assert snapshot(out) == before
+    with open(out / "K_left.mtx", "a") as f:
+        f.write("% checked by hand\n")
+    (out / "thesis.tex").write_text("\\chapter{Results}\n")
+    assert main(["run", str(second), "--out", str(out), "--force"]) == 0
+    printed = capsys.readouterr().out
+    assert "kept in" in printed and "thesis.tex" in printed and "K_left.mtx" in printed
+    assert (out / "K_left.mtx").read_text().endswith("% checked by hand\n")
+    assert (out / "thesis.tex").exists()
+    assert not (out / "M_left.mtx").exists()         # unchanged since the first run wrote it: removed
+    assert set(read_manifest(out)) >= {"M_A.mtx", "results.json"} and "K_left.mtx" not in read_manifest(out)
+    assert json.loads((out / "results.json").read_text())["case"] == "other"
+
+
+def test_an_extraction_of_other_files_into_the_same_folder_needs_force(tmp_path, capsys):
+    import numpy as np
+    from frf_synthetic import measured
+
+    frfs, *_ = measured(8, repeats=1)
+    for name in ("first.npz", "second.npz"):
+        np.savez(tmp_path / name, freq_hz=frfs.freq_hz, H=np.stack([h[0] for h in frfs.H], axis=1))
+
+    def extract(table, *extra):
+        return main(["extract", str(tmp_path / table), "--responses", "y1", "y2", "y3", "--excitations", "y3",
+                     "--band", "20", "300", "--no-plot", "--out", str(tmp_path / "ex"), *extra])
+
+    assert extract("first.npz") == 0
+    assert extract("first.npz") == 0                     # the same extraction again: replaced, no --force
+    before = snapshot(tmp_path / "ex")
+    capsys.readouterr()
+    assert extract("second.npz") == 2
+    assert "results of case 'extraction of first.npz'" in capsys.readouterr().err
+    assert snapshot(tmp_path / "ex") == before
+    assert extract("second.npz", "--force") == 0

@@ -484,6 +484,8 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
              window_name, keep_outer_zeros=False, decay_rate=0.0, keep_noisy_zeros=False) -> Extraction:
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    if n_modes is not None and (isinstance(n_modes, bool) or not isinstance(n_modes, int) or n_modes < 1):
+        raise ValueError(f"n_modes must be an integer >= 1 (how many modes to keep), got {n_modes!r}")
     report = _check_band(band, "band") if band is not None else (float(frfs.omega[0]), float(frfs.omega[-1]))
     if fit_band is None:
         fit = (report[0], max(min(FIT_BAND_FACTOR * report[1], float(frfs.omega[-1])), report[1]))
@@ -502,6 +504,11 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     x_report = (float(x[inside][0]), float(x[inside][-1]))
     Hbar = frfs.mean()
     scales = np.sqrt(np.mean(np.abs(Hbar[:, inside]) ** 2, axis=1))
+    flat = [f"h({r},{c})" for (r, c), scale in zip(frfs.pairs, scales) if not (np.isfinite(scale) and scale > 0)]
+    if flat:
+        raise ValueError(f"{', '.join(flat)}: zero (or not a finite number) at every line of the band "
+                         f"{report[0] / 2 / math.pi:.6g}-{report[1] / 2 / math.pi:.6g} Hz; expected a measured FRF "
+                         "(is it the right column or file?)")
     F = Hbar / scales[:, None]
     orders = list(orders) if orders is not None else list(range(2, 11))
     if len(orders) < min_stable:

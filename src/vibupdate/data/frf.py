@@ -288,6 +288,7 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"UFF file {str(path)!r} does not exist")
+    _check_uff_end(path)
     try:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]
@@ -326,6 +327,24 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
         records.append(((names[0], names[1]), sign * h))
         kinds.add(rec_kind)
     return _group(omega, records, path, kinds.pop() if len(kinds) == 1 else "mixed")
+
+
+def _check_uff_end(path: Path) -> None:
+    """A ValueError when the file does not end with the ``-1`` line that closes a dataset: a
+    file cut short (a copy or a download that stopped), whose last dataset a reader would
+    drop without a word."""
+    with open(path, "rb") as f:
+        f.seek(0, 2)
+        f.seek(max(0, f.tell() - 512))
+        tail = f.read()
+    last = tail.rstrip().rsplit(b"\n", 1)[-1].strip()
+    if last == b"-1":
+        return
+    with open(path, "rb") as f:
+        lines = sum(block.count(b"\n") for block in iter(lambda: f.read(1 << 20), b"")) + (not tail.endswith(b"\n"))
+    raise ValueError(f"UFF file {str(path)!r} ends at line {lines} inside a dataset (its last line is "
+                     f"{last[:40].decode('latin-1')!r}, not the '-1' that closes a dataset): the file is cut short; "
+                     "export or copy it again")
 
 
 def _uff_node_direction(name: str) -> tuple[int, int]:

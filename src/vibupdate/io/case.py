@@ -92,6 +92,9 @@ class Case:
     pool: tuple[Configuration, ...] = ()
     """The configurations with the case's parameters and every candidate free, in that order
     (empty without candidates); `with_candidates` frees a subset."""
+    undeclared_modes: tuple[str, ...] = ()
+    """The configurations whose measured natural frequencies declare no model mode (read as
+    modes 1, 2, ...): `check` and `run` test that pairing against the nominal model."""
 
     def with_candidates(self, names) -> "Case":
         """The case with the candidates ``names`` free beside its own parameters (in the order
@@ -129,6 +132,12 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
     from vibupdate.data.frf import read_frfs
 
     check_table(spec, FRF_KEYS, f"{key}.frf", where, required=("files",))
+    for name, what in (("modes", "how many modes to keep"), ("first_mode", "the model mode of the lowest "
+                                                                              "extracted mode; modes count from 1")):
+        if name in spec and spec[name] < 1:
+            raise where.error(f"{key}.frf.{name}", f"must be an integer >= 1 ({what}), got {spec[name]!r}")
+    if "confidence" in spec and not 0 < spec["confidence"] < 1:
+        raise where.error(f"{key}.frf.confidence", f"must be between 0 and 1 (e.g. 0.95), got {spec['confidence']!r}")
     band = spec.get("band_hz")
     if band is not None:
         band = tuple(2 * math.pi * b for b in numbers(band, f"{key}.frf.band_hz", where))
@@ -260,6 +269,10 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
         raise where.error(f"{key}.uff_tolerance", f"must be a finite number >= 0, got {cfg['uff_tolerance']!r}")
     model = configuration_model(spec, cfg, parameters, base, where, key, models)
     natural, zeros, shapes, frfs, notes = [], [], {}, None, ()
+    given = [k for k in ("natural_hz", "frequencies_csv") if k in cfg]
+    if len(given) == 2:
+        raise where.error(f"{key}.natural_hz", "natural_hz and frequencies_csv both give the natural frequencies; "
+                                               "keep one of them")
     if "frf" in cfg:
         mixed = [k for k in ("natural_hz", "antiresonances", "frequencies_csv", "mode_shapes_csv", "mode_shapes_uff")
                  if k in cfg]
@@ -292,7 +305,8 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
         zs = tuple(Antiresonance.from_hz(z["hz"], z["response"], z["excitation"], weight=z["weight"],
                                          index=z.get("index"), interval=rad(z.get("interval"))) for z in zeros)
         return Configuration(cfg["name"], model, nat, zs, interlacing=cfg.get("interlacing", True),
-                             first_sign=first_sign), (frfs, notes)
+                             first_sign=first_sign), (frfs, notes, bool(natural) and all(
+                                                 f.get("mode") is None for f in natural))
     except ValueError as exc:
         raise where.error(key, str(exc)) from None
 
@@ -370,8 +384,9 @@ def load_case(path) -> Case:
         frequency_tolerance=float(data.get("frequency_tolerance", 0.0)),
         polish=_options(PolishOptions, data.get("polish", {}), POLISH_KEYS, "polish", where),
         verification=_options(VerifyOptions, data.get("verification", {}), VERIFICATION_KEYS, "verification", where),
-        frfs={c.name: f for c, (f, _) in loaded if f is not None},
-        frf_notes={c.name: n for c, (_, n) in loaded if n},
+        frfs={c.name: f for c, (f, _, _) in loaded if f is not None},
+        frf_notes={c.name: n for c, (_, n, _) in loaded if n},
+        undeclared_modes=tuple(c.name for c, (_, _, u) in loaded if u),
         frequency_notes=frequency_notes,
         inputs=(path, *_named_files(data, base)),
         sensors=_sensors(data["model"], configurations, base, where),
@@ -468,14 +483,34 @@ def _frequency_types(data: dict, configurations, where: Where):
     return tuple(converted), notes
 
 
+def _check_name(name: str, scales_elements: bool, key: str, where: Where) -> None:
+    """A parameter's name: one the model's expressions can use (a Python identifier: letters,
+    digits and ``_``, not starting with a digit, not a keyword), or, for a parameter that
+    scales element groups (never written in an expression), any text without blanks."""
+    import keyword
+
+    if scales_elements:
+        if not name or any(c.isspace() for c in name):
+            raise where.error(key, f"{name!r}: a parameter name must be non-empty and hold no blanks")
+        return
+    if not name.isidentifier() or keyword.iskeyword(name):
+        raise where.error(key, f"{name!r} is not a name the model's expressions can use: expected letters, digits "
+                               "and underscores, not starting with a digit (e.g. 'k_lc')")
+
+
 def _parameters(items, table: str, where: Where) -> list[Parameter]:
     """The ``[[parameter]]`` or ``[[candidate]]`` tables as `Parameter` s."""
     if not isinstance(items, list):
         raise where.error(table, f"must be an array of tables ([[{table}]]), got {items!r}")
-    out = []
+    out, seen = [], {}
     for i, item in enumerate(items, start=1):
         key = f"{table}[{i}]"
         check_table(item, PARAMETER_KEYS, key, where, required=("name", "nominal", "lower", "upper"))
+        _check_name(item["name"], "elements" in item, f"{key}.name", where)
+        if item["name"] in seen:
+            raise where.error(f"{key}.name", f"{item['name']!r} is declared twice ({table}[{seen[item['name']]}] and "
+                                             f"{key}); declare each name once")
+        seen[item["name"]] = i
         try:
             out.append(Parameter(item["name"], item["nominal"], item["lower"], item["upper"],
                                  unit=item.get("unit", ""), reference=item.get("reference")))

@@ -160,6 +160,9 @@ def _elements_assembly(spec: dict, names, where: Where) -> Assembly:
         for i, item in enumerate(spec.get(family, [])):
             key = f"model.{family}[{i + 1}]"
             check_table(item, {"dof": str, "value": None, "other": str}, key, where, required=("dof", "value"))
+            if family == "spring" and item.get("other") == item["dof"]:
+                raise where.error(f"{key}.other", f"is the spring's own DOF {item['dof']!r}: a spring joins two "
+                                                  "different DOFs (leave 'other' out for a spring to ground)")
             lumped.append((family, item["dof"], expr(item["value"], f"{key}.value"), item.get("other")))
 
     asm = Assembly(kind)
@@ -198,6 +201,9 @@ def _load_callable(ref: str, base: Path, where: Where):
             module = importlib.import_module(target)
     except (ImportError, TypeError) as exc:   # TypeError: a relative name such as '..x'
         raise where.error("model.builder", f"cannot import {target!r}: {exc}") from None
+    except SystemExit as exc:   # a module that ends the program when imported
+        raise where.error("model.builder", f"importing {target!r} called sys.exit({exc.code!r}); a builder module "
+                                           "must define its function without ending the program") from None
     except ValueError as exc:
         if str(exc).startswith(str(where.path)):
             raise
@@ -221,6 +227,9 @@ def base_model(spec: dict, options: dict, parameters, base: Path, where: Where) 
             def build(p):
                 try:
                     return func(p, **options)
+                except SystemExit as exc:
+                    raise ValueError(f"{spec['builder']} called sys.exit({exc.code!r}); a builder must return the "
+                                     "model's matrices") from None
                 except Exception as exc:  # the user's code: whatever it raises is bad input, named
                     hint = " (does the builder read a parameter the case does not define?)" \
                         if isinstance(exc, KeyError) else ""

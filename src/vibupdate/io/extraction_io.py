@@ -50,7 +50,15 @@ def check_extraction_folder(out_dir, force: bool = False, inputs=()):
     """
     from vibupdate.io.outputs import prepare_output
 
-    return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES, command="extract", inputs=inputs)
+    return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES, command="extract", inputs=inputs,
+                          case=_extraction_case(inputs))
+
+
+def _extraction_case(inputs) -> str:
+    """What the manifest records as the case of an extraction: the FRF files it read (an
+    extraction of other files in the same folder needs ``--force``)."""
+    names = [Path(f).name for f in inputs]
+    return "extraction of " + ", ".join(names) if names else "extraction"
 
 
 def _num(value) -> str:
@@ -127,7 +135,7 @@ def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int 
 
     target = check_extraction_folder(out_dir, force, inputs)
     paths = write_published(target, lambda staged: _write_files(result, frfs, staged, first_mode, name, plot),
-                            case="extraction", version=__version__)
+                            case=_extraction_case(inputs), version=__version__)
     return {kind: target.path / path.name for kind, path in paths.items()}
 
 

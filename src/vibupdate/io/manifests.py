@@ -3,8 +3,11 @@
 Every command that writes a folder (`COMMANDS`: ``run``, which ``example`` also is,
 ``extract``, ``sweep``, ``batch``) lists the files it wrote there in its own manifest,
 ``vibupdate-manifest-COMMAND.json`` (`manifest_name`): a JSON object with ``files`` (plain
-names in the folder), ``command``, ``case`` and the ``vibupdate`` version. A command owns
-exactly the files of its manifest (`vibupdate.io.outputs` replaces or removes nothing else).
+names in the folder), ``sha256`` (the SHA-256 of each file's content as written), ``command``,
+``case`` and the ``vibupdate`` version. A command owns the files of its manifest that are
+unchanged since it wrote them (`changed_files`); `vibupdate.io.outputs` replaces or removes
+nothing else. A file listed without a hash (a manifest of an earlier version) counts as
+unchanged.
 
 Folders written before the manifests were per command hold one shared manifest,
 ``vibupdate-manifest.json`` (`LEGACY_MANIFEST`). Its files belong to the command that wrote
@@ -16,13 +19,15 @@ legacy one.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from collections.abc import Iterable
 from pathlib import Path
 
 __all__ = ["COMMANDS", "LEGACY_MANIFEST", "manifest_name", "read_manifests", "read_manifest", "ownership",
-           "is_manifest", "write_manifest", "add_to_manifest", "legacy_owner", "manifest_files"]
+           "is_manifest", "write_manifest", "add_to_manifest", "legacy_owner", "manifest_files", "file_hash",
+           "changed_files", "manifest_case"]
 
 #: The commands that write folders, each with its own manifest (``example`` writes as ``run``).
 COMMANDS = ("run", "extract", "sweep", "batch", "suggest")
@@ -103,9 +108,56 @@ def ownership(folder: Path, command: str) -> tuple[set[str], dict[str, str]]:
     return owned, others
 
 
-def write_manifest(folder: Path, command: str, files: list[str], case: str, version: str) -> None:
-    text = json.dumps({"vibupdate": version, "command": command, "case": case, "files": sorted(files)},
-                      indent=2) + "\n"
+def file_hash(path: Path) -> str | None:
+    """SHA-256 of the content of the file ``path`` (hex); None when it is not a readable file."""
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                digest.update(block)
+    except OSError:
+        return None
+    return digest.hexdigest()
+
+
+def _hashes(data: dict) -> dict[str, str]:
+    hashes = data.get("sha256")
+    return {k: v for k, v in hashes.items() if isinstance(v, str)} if isinstance(hashes, dict) else {}
+
+
+def changed_files(folder, command: str, files) -> set[str]:
+    """Those of ``files`` (listed by ``command``'s manifest in ``folder``) whose content is not
+    what the command wrote: another hash than the recorded one, or no longer a plain file.
+    A file without a recorded hash (an earlier version's manifest) counts as unchanged."""
+    folder = Path(folder)
+    read = manifest_files(folder / manifest_name(command))
+    hashes = _hashes(read[1]) if read is not None else {}
+    changed = set()
+    for f in files:
+        path = folder / f
+        if path.is_symlink() or (path.exists() and not path.is_file()):
+            changed.add(f)
+        elif f in hashes and path.exists() and file_hash(path) != hashes[f]:
+            changed.add(f)
+    return changed
+
+
+def manifest_case(folder, command: str) -> str | None:
+    """The case recorded in ``command``'s manifest in ``folder``; None without one."""
+    read = manifest_files(Path(folder) / manifest_name(command))
+    case = read[1].get("case") if read is not None else None
+    return case if isinstance(case, str) else None
+
+
+def write_manifest(folder: Path, command: str, files: list[str], case: str, version: str,
+                   hashes: dict[str, str] | None = None) -> None:
+    """Write ``command``'s manifest in ``folder``: ``files`` with their SHA-256 (``hashes``,
+    or read from the files in ``folder`` when not given)."""
+    if hashes is None:
+        hashes = {f: file_hash(folder / f) for f in files}
+    hashes = {f: hashes[f] for f in sorted(files) if hashes.get(f) is not None}
+    text = json.dumps({"vibupdate": version, "command": command, "case": case, "files": sorted(files),
+                       "sha256": hashes}, indent=2) + "\n"
     name = manifest_name(command)
     tmp = folder / f"{name}.tmp"
     tmp.write_text(text, encoding="utf-8")
@@ -114,7 +166,11 @@ def write_manifest(folder: Path, command: str, files: list[str], case: str, vers
 
 def add_to_manifest(folder, command: str, files: Iterable[str], *, case: str, version: str) -> None:
     """List ``files`` (written into ``folder`` by ``command`` outside `publish`, e.g. rows
-    appended as a sweep runs) in the command's manifest, beside those already listed."""
+    appended as a sweep runs) in the command's manifest, beside those already listed, with the
+    hash of their content now (call it again after a file grows)."""
     folder = Path(folder)
     listed = read_manifests(folder).get(command, [])
-    write_manifest(folder, command, sorted(set(listed) | set(files)), case, version)
+    read = manifest_files(folder / manifest_name(command))
+    hashes = _hashes(read[1]) if read is not None else {}
+    hashes.update({f: file_hash(folder / f) for f in files})
+    write_manifest(folder, command, sorted(set(listed) | set(files)), case, version, hashes)

@@ -79,6 +79,26 @@ def _rows(path: Path) -> list[tuple[int, dict]]:
     return rows
 
 
+#: The columns a frequency table may have (module docstring).
+FREQUENCY_COLUMNS = ("kind", "hz", "weight", "damping_ratio", "response", "excitation", "mode", "index", "lower_hz",
+                     "upper_hz", "damping_lower", "damping_upper")
+#: The columns a mode-shape table may have.
+SHAPE_COLUMNS = ("mode", "dof", "lower", "upper", "value", "tolerance")
+
+
+def _known_columns(rows, known, path: Path) -> None:
+    """A ValueError naming a column that is none of ``known`` (a misspelt one would be ignored),
+    with the closest known name."""
+    import difflib
+
+    for column in rows[0][1] if rows else ():
+        if column not in known:
+            close = difflib.get_close_matches(column, known, n=1)
+            raise ValueError(f"CSV file {str(path)!r}: unknown column {column!r}"
+                             + (f" (did you mean {close[0]!r}?)" if close else "")
+                             + f"; expected columns among {', '.join(known)}")
+
+
 def _number(text: str, what: str, path: Path, line: int) -> float:
     try:
         value = float(text)
@@ -115,6 +135,7 @@ def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
     for column in ("kind", "hz"):
         if rows and column not in rows[0][1]:
             raise ValueError(f"CSV file {str(path)!r} needs a column {column!r}; it has {list(rows[0][1])}")
+    _known_columns(rows, FREQUENCY_COLUMNS, path)
     natural, zeros = [], []
     seen: dict[tuple, int] = {}
     for i, row in rows:
@@ -169,6 +190,7 @@ def read_shape_csv(path, dofs=None) -> dict[int, dict[str, tuple[float, float]]]
     path = Path(path)
     known = None if dofs is None else set(dofs)
     rows = _rows(path)
+    _known_columns(rows, SHAPE_COLUMNS, path)
     columns = set(rows[0][1]) if rows else set()
     bounds_form = {"lower", "upper"} <= columns
     value_form = {"value", "tolerance"} <= columns

@@ -6,16 +6,19 @@ files it wrote. A command replaces or removes only files of its own manifest: th
 another command, and anything else in the folder, are kept. The protocol of a command:
 
 1. `prepare_output` (before any work): the folder is a directory or does not exist yet, it
-   is writable, and it holds no file this command did not write, unless ``force`` is given
-   (then those files are kept, and a command that would overwrite one of them is refused).
-   A file the command reads (``inputs``: the case file and its data, the FRF files) is never
-   replaced or removed: a command that would is refused.
+   is writable, and it holds nothing but this command's own results of the same case, all
+   unchanged since written (their SHA-256 in the manifest), unless ``force`` is given. With
+   ``force`` every other file (another command's, the user's, a file of this command's changed
+   since, the results of another case) is kept, named, and never overwritten: a command that
+   would overwrite one is refused. A file the command reads (``inputs``: the case file and its
+   data, the FRF files) is never replaced or removed: a command that would is refused.
 2. The writers fill a staging folder (`staging_folder`): a hidden sibling when the folder
    does not exist yet, a hidden folder inside it otherwise (same file system, so the final
    moves are renames).
 3. `publish` moves the new files into place with SIGINT held back, removes the files of the
-   command's previous run that this run did not write, and writes its manifest last. A run
-   that fails or is interrupted before `publish` leaves the folder as it was.
+   command's previous run that this run did not write and that are unchanged since, and
+   writes its manifest (with the hash of every file) last. A run that fails or is
+   interrupted before `publish` leaves the folder as it was.
 
 The manifests, and how the older shared one is read, are in `vibupdate.io.manifests`.
 
@@ -40,12 +43,16 @@ from pathlib import Path
 from typing import TypeVar
 
 from vibupdate._extras import MissingExtra
+from vibupdate.io.interrupted import Interrupted
 from vibupdate.io.manifests import (
     COMMANDS,
     LEGACY_MANIFEST,
     add_to_manifest,
+    changed_files,
+    file_hash,
     is_manifest,
     legacy_owner,
+    manifest_case,
     manifest_files,
     manifest_name,
     ownership,
@@ -58,13 +65,19 @@ _T = TypeVar("_T")
 
 __all__ = ["MANIFEST", "LEGACY_MANIFEST", "COMMANDS", "manifest_name", "OutputTarget", "safe_name", "file_names",
            "prepare_output", "staging_folder", "publish", "write_published", "read_manifest", "read_manifests",
-           "add_to_manifest", "OutputWarning", "drawn", "matrix_file", "matrix_files_planned", "NOT_VERIFIED"]
+           "add_to_manifest", "kept_note", "is_partial", "OutputWarning", "drawn", "matrix_file",
+           "matrix_files_planned", "NOT_VERIFIED"]
 
 #: Name of the manifest of a run's results folder.
 MANIFEST = manifest_name("run")
 #: Longest name derived from user text (characters).
 MAX_NAME = 64
 _PARTIAL = ".vibupdate-partial-"
+
+
+def is_partial(name: str) -> bool:
+    """Whether ``name`` is a staging folder's (`staging_folder`), in a folder or beside it."""
+    return _PARTIAL in name and name.startswith(".")
 
 
 class OutputWarning(UserWarning):
@@ -76,9 +89,6 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     """Call ``plot(path, *args, **kwargs)``; a plot (or another optional file) that fails costs
     a warning, not the run.
 
-    The plot is drawn by the run's plotting process when one is up
-    (`vibupdate.io.plot_process`), else here.
-
     Returns True when the file was written. On any exception of ``plot`` (a degenerate
     figure, a font or backend problem, matplotlib not installed: `vibupdate._extras`) the
     partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
@@ -86,11 +96,8 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     """
     import warnings
 
-    from vibupdate.io.plot_process import draw
-
     path = Path(path)
-    done = draw(path, plot, args, kwargs)   # by the run's plotting process, when one is up
-    ok, why = done if done is not None else draw_here(path, plot, args, kwargs)
+    ok, why = draw_here(path, plot, args, kwargs)
     if not ok:
         warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
     return ok
@@ -98,8 +105,7 @@ def drawn(path, plot, *args, **kwargs) -> bool:
 
 def draw_here(path: Path, plot, args, kwargs) -> tuple[bool, str | None]:
     """``plot(path, *args, **kwargs)`` in this process: ``(True, None)``, or ``(False, reason)``
-    with the partial file and the figures it opened removed (`drawn`; the plotting process
-    draws with it too)."""
+    with the partial file and the figures it opened removed (`drawn`)."""
     import sys
 
     plt = sys.modules.get("matplotlib.pyplot")
@@ -203,6 +209,12 @@ class OutputTarget:
         The command writing the folder (`COMMANDS`).
     protected : tuple of str
         Files in the folder that the command reads (its ``inputs``); kept, never replaced.
+    changed : tuple of str
+        Files of this command's manifest whose content changed since it wrote them; kept,
+        never replaced.
+    other_case : str or None
+        The case of the results of this command already in the folder, when another than
+        the one being written.
     """
 
     path: Path
@@ -211,6 +223,20 @@ class OutputTarget:
     foreign: tuple[str, ...]
     command: str = "run"
     protected: tuple[str, ...] = ()
+    changed: tuple[str, ...] = ()
+    other_case: str | None = None
+
+
+def kept_note(target: OutputTarget) -> str | None:
+    """One line naming the files of the folder the command kept (not its own, or changed
+    since it wrote them); None when there are none."""
+    parts = []
+    if target.foreign:
+        parts.append(f"{len(target.foreign)} file(s) `vibupdate {target.command}` did not write "
+                     f"({_shown(target.foreign)})")
+    if target.changed:
+        parts.append(f"{len(target.changed)} file(s) changed since it wrote them ({_shown(target.changed)})")
+    return f"kept in {target.path}/: " + "; ".join(parts) if parts else None
 
 
 def _inputs_in(folder: Path, inputs: Iterable) -> set[str]:
@@ -247,6 +273,20 @@ def _described(names, others: dict[str, str]) -> str:
     return "; ".join(parts)
 
 
+def _check_name_lengths(path: Path) -> None:
+    """A ValueError naming a part of ``path`` longer than its file system allows (255 bytes on
+    most), before any call that would fail on it."""
+    limit = 255
+    try:
+        limit = os.pathconf(next((p for p in (path, *path.parents) if p.exists()), Path(".")), "PC_NAME_MAX")
+    except (OSError, ValueError):
+        pass
+    for part in path.parts:
+        if len(os.fsencode(part)) > limit:
+            raise ValueError(f"output path: the name {part[:40]!r}... is {len(os.fsencode(part))} bytes long; the "
+                             f"file system allows at most {limit}")
+
+
 def _check_writable(folder: Path) -> None:
     try:
         fd, name = tempfile.mkstemp(prefix=".vibupdate-write-test-", dir=folder)
@@ -257,7 +297,7 @@ def _check_writable(folder: Path) -> None:
 
 
 def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), command: str = "run",
-                   inputs: Iterable = ()) -> OutputTarget:
+                   inputs: Iterable = (), case: str | None = None) -> OutputTarget:
     """Check the output folder before any work; nothing is created or changed.
 
     Parameters
@@ -265,31 +305,38 @@ def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), co
     path : str or Path
         The folder.
     force : bool
-        Accept a folder that holds files this command did not write (they are kept).
+        Accept a folder that holds files other than this command's unchanged results of
+        ``case`` (they are kept).
     planned : iterable of str
         Names of the files the command will write, to refuse overwriting a file it did not
-        write.
+        write or that changed since it wrote it.
     command : str
         The command writing the folder (`COMMANDS`): its manifest says which files it owns.
     inputs : iterable of str or Path
         Files the command reads (the case file and its data); those in the folder are never
         replaced or removed.
+    case : str, optional
+        The case being written: results of the same command for another case need ``force``.
 
     Raises
     ------
     ValueError
         The path is not a folder, the folder (or the parent that would hold it) is not
-        writable, it holds files this command did not write and ``force`` is false, a
-        planned file would overwrite one of them, or the command would replace or remove a
-        file it reads.
+        writable, it holds anything but this command's unchanged results of ``case`` and
+        ``force`` is false, a planned file would overwrite a file kept, or the command would
+        replace or remove a file it reads.
     """
     manifest_name(command)  # a known command
     path = Path(path)
+    _check_name_lengths(path)
+    if path.is_symlink() and not path.exists():
+        raise ValueError(f"output path {str(path)!r} is a symbolic link to {os.readlink(path)!r}, which does not "
+                         "exist; expected a folder or a new name")
     if path.exists() and not path.is_dir():
         raise ValueError(f"output path {str(path)!r} exists and is not a folder")
     if not path.exists():
         parent = path.parent
-        while not parent.exists():
+        while not parent.exists() and not parent.is_symlink():
             parent = parent.parent
         if not parent.is_dir():
             raise ValueError(f"output path {str(path)!r} cannot be created: {str(parent)!r} is not a folder")
@@ -297,6 +344,11 @@ def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), co
         return OutputTarget(path, False, (), (), command)
     _check_writable(path)
     owned, others = ownership(path, command)
+    owned = {f for f in owned if (path / f).exists() or (path / f).is_symlink()}
+    changed = changed_files(path, command, owned)
+    owned -= changed
+    previous = manifest_case(path, command)
+    other_case = previous if case is not None and owned and previous is not None and previous != case else None
     protected = _inputs_in(path, inputs)
     planned = set(planned)
     touched = sorted(protected & (owned | planned))
@@ -304,17 +356,29 @@ def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), co
         raise ValueError(f"output folder {str(path)!r} holds {', '.join(touched)}, which this case reads and "
                          f"`vibupdate {command}` would replace or remove; choose another --out")
     foreign = sorted(e.name for e in path.iterdir()
-                     if not is_manifest(e.name) and e.name not in owned and not e.name.startswith(_PARTIAL))
-    if foreign and not force:
-        raise ValueError(f"output folder {str(path)!r} holds files `vibupdate {command}` did not write "
-                         f"({_described(foreign, others)}); choose a new or empty folder with "
-                         "--out, or pass --force to write beside them (they are kept; only this command's own "
-                         "files are then replaced)")
+                     if not is_manifest(e.name) and e.name not in owned and e.name not in changed
+                     and not e.name.startswith(_PARTIAL))
+    if not force and (foreign or changed or other_case):
+        held = []
+        if other_case:
+            held.append(f"the results of case {other_case!r} written by `vibupdate {command}` ({_shown(owned)})")
+        if changed:
+            held.append(f"files changed since `vibupdate {command}` wrote them ({_shown(changed)})")
+        if foreign:
+            held.append(f"files `vibupdate {command}` did not write ({_described(foreign, others)})")
+        raise ValueError(f"output folder {str(path)!r} holds " + "; and ".join(held) + "; choose a new or empty "
+                         "folder with --out, or pass --force to write beside them (files this command wrote and "
+                         "that are unchanged are then replaced or removed; every other file is kept)")
     clash = sorted(planned & set(foreign))
     if clash:
         raise ValueError(f"output folder {str(path)!r} holds {', '.join(clash)}, which `vibupdate {command}` did not "
                          f"write and would overwrite ({_described(clash, others)}); move it or choose another --out")
-    return OutputTarget(path, True, tuple(sorted(owned)), tuple(foreign), command, tuple(sorted(protected)))
+    clash = sorted(planned & changed)
+    if clash:
+        raise ValueError(f"output folder {str(path)!r} holds {', '.join(clash)}, changed since `vibupdate {command}` "
+                         "wrote it, which this command would overwrite; move it or choose another --out")
+    return OutputTarget(path, True, tuple(sorted(owned)), tuple(foreign), command, tuple(sorted(protected)),
+                        tuple(sorted(changed)), other_case)
 
 
 def staging_folder(target: OutputTarget) -> Path:
@@ -345,37 +409,58 @@ def _sigint_held():
 def publish(staged: Path, target: OutputTarget, *, case: str, version: str) -> list[str]:
     """Move the files of ``staged`` into the folder; returns their names.
 
+    The files of the command's earlier manifest that this run did not write are removed when
+    their content is what the command wrote (their hash); a file changed since is kept.
     Raises ValueError, before anything is moved, when a staged file would replace a file
-    this command did not write or one it reads (the folder changed since `prepare_output`).
+    this command did not write, one changed since, or one it reads (the folder changed since
+    `prepare_output`).
     """
     files = sorted(p.name for p in staged.iterdir() if p.is_file() and not is_manifest(p.name))
-    final, command = target.path, target.command
-    with _sigint_held():
-        if not target.exists:
-            if final.exists():
-                raise ValueError(f"output folder {str(final)!r} appeared while vibupdate was running; "
-                                 "nothing was written, run again")
-            write_manifest(staged, command, files, case, version)
-            os.rename(staged, final)
-            return files
-        owned, others = ownership(final, command)
-        owned -= set(target.protected)
-        clash = [f for f in files if (final / f).exists() and (f not in owned or f in target.protected)]
-        if clash:
-            raise ValueError(f"output folder {str(final)!r} now holds {', '.join(clash)}, which `vibupdate {command}` "
-                             f"did not write ({_described(clash, others)}); nothing was replaced")
-        for f in files:
-            os.replace(staged / f, final / f)
-        for f in sorted(owned - set(files)):
-            stale = final / f
-            if stale.is_file() or stale.is_symlink():
-                stale.unlink()
-        write_manifest(final, command, files, case, version)
-        legacy = manifest_files(final / LEGACY_MANIFEST)
-        if legacy is not None and legacy_owner(*legacy) == command:
-            (final / LEGACY_MANIFEST).unlink()   # its files are now in this command's manifest, or removed
-        shutil.rmtree(staged, ignore_errors=True)
+    hashes = {f: file_hash(staged / f) for f in files}
+    moved = False
+    try:
+        with _sigint_held():
+            _move_into_place(staged, target, files, hashes, case, version)
+            moved = True
+    except KeyboardInterrupt:
+        if not moved:
+            raise
+        # Ctrl-C held back while the files moved: delivered now, with the results in place
+        raise Interrupted(f"the results were written to {target.path}/ before it") from None
     return files
+
+
+def _move_into_place(staged: Path, target: OutputTarget, files: list[str], hashes: dict, case: str,
+                     version: str) -> None:
+    """`publish`'s moves, with SIGINT held back."""
+    final, command = target.path, target.command
+    if not target.exists:
+        if final.exists() or final.is_symlink():
+            raise ValueError(f"output folder {str(final)!r} appeared while vibupdate was running; "
+                             "nothing was written, run again")
+        write_manifest(staged, command, files, case, version, hashes)
+        os.rename(staged, final)
+        return
+    owned, others = ownership(final, command)
+    owned -= set(target.protected)
+    owned -= changed_files(final, command, owned)
+    clash = [f for f in files if ((final / f).exists() or (final / f).is_symlink())
+             and (f not in owned or f in target.protected)]
+    if clash:
+        raise ValueError(f"output folder {str(final)!r} now holds {', '.join(clash)}, which `vibupdate {command}` "
+                         f"did not write or which changed since ({_described(clash, others)}); nothing was "
+                         "replaced")
+    for f in files:
+        os.replace(staged / f, final / f)
+    for f in sorted(owned - set(files)):
+        stale = final / f
+        if stale.is_file() or stale.is_symlink():
+            stale.unlink()
+    write_manifest(final, command, files, case, version, hashes)
+    legacy = manifest_files(final / LEGACY_MANIFEST)
+    if legacy is not None and legacy_owner(*legacy) == command:
+        (final / LEGACY_MANIFEST).unlink()   # its files are now in this command's manifest, or removed
+    shutil.rmtree(staged, ignore_errors=True)
 
 
 def write_published(target: OutputTarget, write: Callable[[Path], _T], *, case: str, version: str) -> _T:

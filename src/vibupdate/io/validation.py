@@ -40,6 +40,11 @@ MAX_NORMALIZED_BOUND = 1e6
 MAX_WEIGHT = 1e6
 #: Measured / nominal frequency ratios within this factor of 2 pi look like rad/s given as Hz.
 RAD_S_FACTOR = 1.3
+#: With no mode declared, a measured natural frequency this many times the nominal frequency of
+#: the model mode it is paired with (the k-th measured with mode k) is taken as a pairing
+#: mistake, not a model to update: a near-rigid or suspension mode counted first. It assumes a
+#: nominal model within a factor of 10 of the data in frequency (100 in stiffness over mass).
+PAIRING_FACTOR = 10.0
 
 
 @dataclass(frozen=True)
@@ -191,15 +196,23 @@ def _oblique_directions(sensors) -> dict:
             if OBLIQUE_DOF.match(s["dof"]) and s.get("direction") is not None}
 
 
-def _rad_s_warning(cfg) -> str | None:
-    """A warning when the measured frequencies are ~2 pi times the nominal model's."""
+def _nominal_natural(cfg):
+    """The nominal model's frequencies (rad/s) of the modes ``cfg``'s natural frequencies are
+    paired with; None without data or when they cannot be computed."""
     from vibupdate.inverse.correlation import model_frequencies
 
     if not cfg.natural:
         return None
     try:
-        nominal = model_frequencies(cfg, zeros=False).natural   # the natural frequencies only
+        return model_frequencies(cfg, zeros=False).natural   # the natural frequencies only
     except (ValueError, np.linalg.LinAlgError):
+        return None
+
+
+def _rad_s_warning(cfg, nominal) -> str | None:
+    """A warning when the measured frequencies are ~2 pi times the nominal model's (``nominal``:
+    `_nominal_natural`)."""
+    if nominal is None:
         return None
     measured = np.array([f.omega for f in cfg.natural])
     n = min(len(measured), len(nominal))
@@ -212,6 +225,18 @@ def _rad_s_warning(cfg) -> str | None:
         return (f"configuration '{cfg.name}': the measured natural frequencies are {typical:.2f} times the "
                 "nominal model's, close to 2 pi: are they in rad/s? The case file takes Hz")
     return None
+
+
+def _check_pairing(cfg, nominal, error) -> None:
+    """Natural frequencies that declare no mode (read as modes 1, 2, ...) paired with model
+    modes far below them (`PAIRING_FACTOR`; ``nominal``: `_nominal_natural`)."""
+    for k, (f, w) in enumerate(zip(cfg.natural, nominal), start=1):
+        if w > 0 and f.omega > PAIRING_FACTOR * w:
+            raise error(f"configuration '{cfg.name}'",
+                        f"natural frequency {k} ({f.freq_hz:.6g} Hz) declares no model mode, so it is read as mode "
+                        f"{k}, which the nominal model has at {w / TWO_PI:.3g} Hz ({f.omega / w:.0f} times lower: a "
+                        "near-rigid or suspension mode?); say which model mode each frequency is (natural_modes, or "
+                        "a mode column in the CSV table)")
 
 
 def _repeated_warnings(cfg) -> list[str]:
@@ -327,8 +352,12 @@ def validate_case(case) -> CaseCheck:
         _check_order(cfg, error)
         _check_data(cfg, error)
     notes, physical_warnings, rigid, case = _physical(case, error)
+    nominal = {cfg.name: _nominal_natural(cfg) for cfg in case.configurations}
+    for cfg in case.configurations:
+        if cfg.name in getattr(case, "undeclared_modes", ()) and nominal[cfg.name] is not None:
+            _check_pairing(cfg, nominal[cfg.name], error)
     warnings = physical_warnings + _check_damping(case, rigid, error)
-    warnings += [w for w in (_rad_s_warning(c) for c in case.configurations) if w]
+    warnings += [w for w in (_rad_s_warning(c, nominal[c.name]) for c in case.configurations) if w]
     warnings += [w for c in case.configurations for w in _repeated_warnings(c)]
     warnings += [f"configuration '{name}' FRFs: {note}" for name, notes in case.frf_notes.items()
                  for note in notes]

@@ -89,6 +89,7 @@ def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler
     from distributed import as_completed
 
     from vibupdate import __version__
+    from vibupdate.io.interrupted import Interrupted
     from vibupdate.io.outputs import write_published
     from vibupdate.study.engine import Progress, open_client
 
@@ -108,17 +109,21 @@ def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler
     target = prepare_output(out, force=True, planned=SUMMARY_FILES, command="batch")
     folders = _folders(files, out)
     rows: list[dict | None] = [None] * len(files)
-    with open_client(workers, scheduler, client=client) as c:
-        futures = {c.submit(run_one, f, str(d), pure=False, retries=2): k for k, (f, d) in enumerate(zip(files, folders))}
-        tick = Progress(len(files), say, every=0.0)
-        for fut in as_completed(list(futures)):
-            k = futures[fut]
-            try:
-                rows[k] = fut.result()
-            except Exception as exc:  # a task lost for good, or an unexpected error in a case: its row says so
-                rows[k] = {"case_file": files[k], "case": Path(files[k]).stem, "results": str(folders[k]),
-                           "status": "task_error", "message": f"{type(exc).__name__}: {exc}"}
-            tick.tick(failed=rows[k]["status"] not in ("success", "acceptable"))
+    try:
+        with open_client(workers, scheduler, client=client) as c:
+            futures = {c.submit(run_one, f, str(d), pure=False, retries=2): k
+                       for k, (f, d) in enumerate(zip(files, folders))}
+            tick = Progress(len(files), say, every=0.0)
+            for fut in as_completed(list(futures)):
+                k = futures[fut]
+                try:
+                    rows[k] = fut.result()
+                except Exception as exc:  # a task lost for good, or an unexpected error in a case: its row says so
+                    rows[k] = {"case_file": files[k], "case": Path(files[k]).stem, "results": str(folders[k]),
+                               "status": "task_error", "message": f"{type(exc).__name__}: {exc}"}
+                tick.tick(failed=rows[k]["status"] not in ("success", "acceptable"))
+    except KeyboardInterrupt:
+        raise Interrupted(_kept(out, folders)) from None
     fields = ["case", "status", "objective", "mean_error_updated_pct", "seconds"]
     for r in rows:
         fields += [k for k in r if k not in fields and k not in ("message", "case_file", "results")]
@@ -126,6 +131,24 @@ def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler
     write_published(target, lambda staged: _write_summary(staged, rows, fields), case="batch", version=__version__)
     say(f"wrote {out}/ ({len(rows)} case folders, summary.csv, summary.md)")
     return rows
+
+
+def _kept(out: Path, folders: list[Path]) -> str:
+    """The line of an interrupted batch: the case folders its finished runs wrote (each a
+    complete results folder); the staging folders of the runs it stopped are removed (the
+    cluster is closed by then, so no run writes any more)."""
+    import shutil
+
+    from vibupdate.io.outputs import is_partial
+
+    for entry in out.iterdir() if out.is_dir() else ():
+        if is_partial(entry.name) and entry.is_dir():
+            shutil.rmtree(entry, ignore_errors=True)
+    done = [d.name for d in folders if (d / "results.json").is_file()]   # each published whole by its run
+    if not done:
+        return f"no case finished; nothing written in {out}/"
+    return (f"kept the results of {len(done)} of {len(folders)} case(s) in {out}/ ({', '.join(done[:5])}"
+            + (f" and {len(done) - 5} more" if len(done) > 5 else "") + "); no summary written")
 
 
 def _write_summary(folder: Path, rows: list[dict], fields: list[str]) -> None:

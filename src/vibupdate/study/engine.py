@@ -64,14 +64,39 @@ def open_client(workers: int | None = None, scheduler: str | None = None, *,
     n = default_workers() if workers is None else workers
     if not isinstance(n, int) or n < 1:
         raise ValueError(f"the number of workers must be an integer >= 1, got {workers!r}")
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=40)
+    with _sigint_ignored():
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=40)
     c = Client(cluster)
     try:
         yield c
     finally:
         c.close()
         cluster.close()
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while the local cluster starts its worker processes, which inherit it.
+
+    Ctrl-C at a terminal signals the whole process group: without this, each worker process
+    would end with a traceback of its own. With it only this process is interrupted; it stops
+    waiting and closes the cluster, which ends the workers. A Python process started with
+    SIGINT ignored keeps it ignored (no KeyboardInterrupt handler is installed). A Ctrl-C during
+    the cluster's start (a second or two) is dropped. Outside the main thread (where signal
+    handlers cannot be set) nothing changes.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 class Progress:

@@ -119,8 +119,11 @@ class SampledRanges:
         sections = {}
         with tempfile.TemporaryDirectory(prefix="vibupdate-sampled-") as tmp, \
                 open_client(self.workers, self.scheduler, client=self.client) as c:
-            summary = run_sweep(case, Path(tmp) / "sweep", self.samples, seed=self.seed, sampling=self.sampling,
-                                client=c, plots=False, progress=say)
+            try:
+                summary = run_sweep(case, Path(tmp) / "sweep", self.samples, seed=self.seed, sampling=self.sampling,
+                                    client=c, plots=False, progress=say)
+            except KeyboardInterrupt:   # the rows were the run's scratch, removed with it: nothing is kept
+                raise KeyboardInterrupt from None
             rows = read_rows(Path(tmp) / "sweep" / SAMPLES_FILE)[1]
             ends = read_rows(Path(tmp) / "sweep" / ENDS_FILE)[1]
             sections["sampled"] = sampled_section(summary.document)

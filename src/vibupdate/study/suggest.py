@@ -83,7 +83,7 @@ def suggest_case(case: Case, out_dir=None, *, max_size: int = 3, checked: int = 
         raise ValueError(f"--checked must be an integer >= 0, got {checked!r}")
     names = [p.name for p in case.candidates]
     target = None if out_dir is None else prepare_output(out_dir, force=force, planned=FILES, command="suggest",
-                                                         inputs=case.inputs)
+                                                         inputs=case.inputs, case=case.name)
     # every candidate free: the bounds are checked (and narrowed where they reach models that are
     # not physical) once, for every set
     full = validate_case(case.with_candidates(names))

@@ -44,6 +44,7 @@ import numpy as np
 
 from vibupdate._extras import require
 from vibupdate.io.case import Case, load_case
+from vibupdate.io.interrupted import Interrupted
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
 from vibupdate.inverse.reduction import wants_reduction
@@ -52,6 +53,7 @@ from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_confi
 from vibupdate.study.sweep_files import (
     ENDS_FILE,
     SAMPLES_FILE,
+    list_files,
     prepare_sweep_folder,
     settings_of,
     write_multistart,
@@ -290,8 +292,6 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     progress : callable, optional
         Receives progress lines.
     """
-    from vibupdate.study.engine import Progress, open_client
-
     say = progress or (lambda message: None)
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise ValueError(f"the number of samples must be an integer >= 1, got {samples!r}")
@@ -308,7 +308,40 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     data_intervals(loaded.configurations, loaded.frequency_tolerance, sampling)  # bad data: error before any work
     out = Path(out_dir)
     settings = settings_of(seed, sampling, digest, loaded)
-    prepare_sweep_folder(out, settings, resume)
+    created = prepare_sweep_folder(out, settings, resume)
+    try:
+        return _sweep(loaded, source, digest, out, settings, samples, seed, sampling, resume, workers, scheduler,
+                      client, retries, plots, say)
+    except BaseException as exc:
+        kept = _after_stop(out, settings, created)
+        if isinstance(exc, KeyboardInterrupt):
+            raise Interrupted(kept) from None
+        raise
+
+
+def _after_stop(out: Path, settings: dict, created: list[str]) -> str:
+    """What a sweep stopped before its end keeps: its rows, listed in its manifest with their
+    hashes now, or, when no sample finished, nothing: the files this run ``created`` are removed
+    (and the folder, when it made it and it is left empty), so that the same command runs
+    again without a word. Returns the interrupted command's line."""
+    rows = read_rows(out / SAMPLES_FILE)[1] if (out / SAMPLES_FILE).is_file() else []
+    if rows:
+        list_files(out, settings, SAMPLES_FILE, ENDS_FILE)
+        return (f"kept {len(rows)} sample row(s) in {out}/{SAMPLES_FILE}; finish the sweep with the same command "
+                "and --resume")
+    for name in created:
+        if name and (out / name).is_file():
+            (out / name).unlink()
+    if "" in created and out.is_dir() and not any(out.iterdir()):
+        out.rmdir()
+    return "no sample finished; nothing kept" + (f" ({out}/ removed)" if "" in created and not out.exists() else "")
+
+
+def _sweep(loaded: Case, source, digest, out: Path, settings, samples, seed, sampling, resume, workers, scheduler,
+           client, retries, plots, say) -> SweepSummary:
+    """`run_sweep` in its checked folder."""
+    from vibupdate.study.engine import Progress, open_client
+
     fields, end_fields = columns(loaded, sampling), end_columns(loaded)
     rows: list[dict] = []
     ends: list[dict] = []

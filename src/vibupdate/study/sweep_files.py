@@ -28,9 +28,15 @@ def settings_of(seed: int, sampling: SamplingOptions, digest: str, case: Case) -
             "frequency_tolerance": case.frequency_tolerance}
 
 
-def prepare_sweep_folder(out: Path, settings: dict, resume: bool) -> None:
-    """A new sweep needs an empty or new folder (settings written, files listed); a resumed
-    one the same settings as the folder's. Raises ValueError naming the folder otherwise."""
+def prepare_sweep_folder(out: Path, settings: dict, resume: bool) -> list[str]:
+    """A new sweep needs an empty or new, writable folder (settings written, files listed); a
+    resumed one the same settings as the folder's. Raises ValueError naming the folder
+    otherwise. Returns the files this call created (with the folder itself as ``""`` first
+    when it made it)."""
+    from vibupdate.io.manifests import manifest_name
+    from vibupdate.io.outputs import prepare_output
+
+    prepare_output(out, command="sweep", force=True)   # a folder or a new name, writable: before anything is made
     file = out / SETTINGS_FILE
     if resume:
         if not file.exists():
@@ -41,13 +47,16 @@ def prepare_sweep_folder(out: Path, settings: dict, resume: bool) -> None:
                 raise ValueError(f"cannot resume {str(out)!r}: its {key} is {old.get(key)!r}, this run's is "
                                  f"{settings.get(key)!r}")
         list_files(out, settings, SETTINGS_FILE, SAMPLES_FILE, ENDS_FILE)
-        return
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        return []
+    if out.is_dir() and any(out.iterdir()):
         raise ValueError(f"output directory {str(out)!r} exists and is not empty; use --resume to finish "
                          "a sweep there, or another --out")
+    made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     file.write_text(json.dumps(settings, indent=2), encoding="utf-8")
     list_files(out, settings, SETTINGS_FILE, SAMPLES_FILE, ENDS_FILE)
+    created = [SETTINGS_FILE, SAMPLES_FILE, ENDS_FILE, manifest_name("sweep")]
+    return ([""] if made else []) + created
 
 
 def list_files(out: Path, settings: dict, *names: str) -> None:

@@ -1,0 +1,137 @@
+"""Ctrl-C and unwritable output: one line, exit 130 (or the command's own code), no traceback
+from any process, a line that says what was kept, and a rerun that works.
+
+Ctrl-C is sent at a deterministic point: the child process wraps a library function so that,
+once it returns, the whole process group gets SIGINT, as a terminal does (the Dask workers
+included); no test waits on a clock or polls a file."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+from outputs_helpers import TINY_CASE, snapshot, write_case
+
+from vibupdate.cli import main
+
+#: A child that runs the command line with SIGINT sent to its process group after ``argv[1]``
+#: (``module:function`` or ``module:Class.method``) first returns.
+CHILD = r"""
+import functools, importlib, os, signal, sys
+target, argv = sys.argv[1], sys.argv[2:]
+module, _, name = target.partition(":")
+owner_name, _, attribute = name.rpartition(".")
+owner = importlib.import_module(module)
+if owner_name:
+    owner = getattr(owner, owner_name)
+real = getattr(owner, attribute)
+
+@functools.wraps(real)
+def interrupting(*args, **kwargs):
+    out = real(*args, **kwargs)
+    os.killpg(0, signal.SIGINT)
+    return out
+
+setattr(owner, attribute, interrupting)
+from vibupdate.cli import main
+sys.argv = ["vibupdate", *argv]
+sys.exit(main())
+"""
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process groups and signals of Linux")
+
+
+def _interrupted(cwd, after: str, *argv) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", CHILD, after, *map(str, argv)], cwd=cwd, capture_output=True,
+                          text=True, start_new_session=True, timeout=600,
+                          env=dict(os.environ, OMP_NUM_THREADS="1"))
+
+
+def _one_line(done) -> str:
+    assert done.returncode == 130, done.stderr[-3000:]
+    assert "Traceback" not in done.stderr and "Traceback" not in done.stdout, done.stderr[-3000:]
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("vibupdate: interrupted; "), done.stderr[-3000:]
+    return lines[0]
+
+
+SWEPT = TINY_CASE.replace('case = "tiny"', 'case = "tiny"\nfrequency_tolerance = 0.01')
+
+
+def test_ctrl_c_in_a_sweep_says_which_rows_it_kept_and_a_rerun_needs_no_cleanup(tmp_path):
+    write_case(tmp_path, SWEPT)
+    sweep = ["sweep", "case.toml", "--samples", "4", "--workers", "2", "--out", "sw", "--no-walk"]
+    # before any sample finished: nothing kept, the folder it made is gone
+    line = _one_line(_interrupted(tmp_path, "vibupdate.study.engine:open_client", *sweep))
+    assert line.endswith("no sample finished; nothing kept (sw/ removed)") and not (tmp_path / "sw").exists()
+    # the same command again, stopped after its first row: the row is kept and named
+    line = _one_line(_interrupted(tmp_path, "vibupdate.study.engine:Progress.tick", *sweep))
+    assert "kept 1 sample row(s) in sw/samples.csv" in line and "--resume" in line
+    assert len((tmp_path / "sw" / "samples.csv").read_text().splitlines()) == 2
+    assert "samples.csv" in json.loads((tmp_path / "sw" / "vibupdate-manifest-sweep.json").read_text())["sha256"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_in_a_batch_names_the_case_folders_it_kept(tmp_path):
+    for name in ("one", "two", "three"):
+        write_case(tmp_path / name, TINY_CASE.replace('case = "tiny"', f'case = "{name}"'))
+    args = ["batch", "one/case.toml", "two/case.toml", "three/case.toml", "--workers", "1", "--out", "b"]
+    line = _one_line(_interrupted(tmp_path, "vibupdate.study.engine:Progress.tick", *args))
+    kept = sorted(p.name for p in (tmp_path / "b").iterdir())
+    assert line.endswith("no summary written") and all(name in line for name in kept) and kept
+    assert not [p for p in (tmp_path / "b").rglob("*") if ".vibupdate-partial-" in p.name]
+    assert all((tmp_path / "b" / name / "results.json").is_file() for name in kept)
+
+
+def test_ctrl_c_while_a_run_draws_its_plots_keeps_the_folder_and_the_rerun_needs_no_force(tmp_path, monkeypatch,
+                                                                                           capsys):
+    write_case(tmp_path)
+    out = tmp_path / "res"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    before = snapshot(out)
+    line = _one_line(_interrupted(tmp_path, "vibupdate.report.plots:plot_receptances", "run", "case.toml",
+                                  "--out", "res", "--force"))
+    assert line == "vibupdate: interrupted; nothing written (earlier results are untouched)"
+    assert snapshot(out) == before and sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+
+    def stop(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    import vibupdate.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "update", stop)
+    assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "new")]) == 130
+    assert capsys.readouterr().err == "vibupdate: interrupted; nothing written (earlier results are untouched)\n"
+    assert not (tmp_path / "new").exists()
+    monkeypatch.undo()
+    assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "new")]) == 0
+
+
+def test_ctrl_c_while_the_results_move_into_place_says_they_were_written(tmp_path):
+    write_case(tmp_path)
+    line = _one_line(_interrupted(tmp_path, "vibupdate.io.outputs:_move_into_place", "run", "case.toml",
+                                  "--out", "res"))
+    assert line == "vibupdate: interrupted; the results were written to res/ before it"
+    assert (tmp_path / "res" / "results.json").is_file() and (tmp_path / "res" / "vibupdate-manifest-run.json").is_file()
+
+
+def test_ctrl_c_in_an_fe_example_removes_its_inputs_so_that_it_runs_again(tmp_path):
+    line = _one_line(_interrupted(tmp_path, "vibupdate.io.fe_import:import_model", "example", "fe-nastran",
+                                  "--out", "fe"))
+    assert line.endswith("nothing of value was written (fe/ removed; run it again)")
+    assert not (tmp_path / "fe").exists()
+
+
+@pytest.mark.parametrize("stream", ["closed", "full"])
+def test_an_unwritable_standard_output_costs_no_exit_code_and_no_traceback(tmp_path, stream):
+    write_case(tmp_path)
+    if stream == "closed":
+        done = subprocess.run([sys.executable, "-m", "vibupdate", "check", "case.toml"], cwd=tmp_path,
+                              stderr=subprocess.PIPE, text=True, timeout=300, preexec_fn=lambda: os.close(1))
+    else:
+        with open("/dev/full", "w") as full:
+            done = subprocess.run([sys.executable, "-m", "vibupdate", "check", "case.toml"], cwd=tmp_path,
+                                  stdout=full, stderr=subprocess.PIPE, text=True, timeout=300)
+    assert done.returncode == 0 and done.stderr == "", done.stderr[-3000:]
