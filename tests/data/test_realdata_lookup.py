@@ -8,7 +8,7 @@ import pytest
 
 import helpers
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_without_the_variable_the_data_are_looked_for_beside_the_checkout(monkeypatch):
