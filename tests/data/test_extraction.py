@@ -528,6 +528,7 @@ def test_measured_frf_overlay_plot(tmp_path):
 
 
 @SOTON
+@pytest.mark.slow   # a whole run on the real FRFs, 25-35 s each: in CI's second step (pytest -m slow)
 @pytest.mark.parametrize("case_file", ["soton-frame.toml", "soton-frame-masses.toml"])
 def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, case_file):
     """docs/soton-frame.toml (and its variant with the masses of floors 2 and 3 free):
@@ -578,6 +579,7 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, c
 
 
 @SOTON
+@pytest.mark.slow   # a whole run on the real FRFs, about 35 s: in CI's second step (pytest -m slow)
 def test_southampton_frame_element_model_updated_from_frfs_in_one_run(tmp_path):
     """docs/soton-frame-elements.toml: the planar frame-element model (legs as frame elements,
     floors as stiff plates, base rotational spring) updated from the FRFs in one run. It does
