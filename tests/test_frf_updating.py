@@ -83,6 +83,7 @@ def test_frequency_windows_text_names_the_source():
     assert _frequency_windows(case) == "1 % of each frequency"
 
 
+@pytest.mark.slow   # four whole runs, about 26 s: in CI's second step (pytest -m slow)
 @pytest.mark.parametrize("weighed", [False, True], ids=["shapes", "mass-normalized shapes"])
 def test_the_csv_route_and_the_frf_route_give_the_same_verdict_and_parameters(tmp_path, capsys, weighed):
     """The tables `extract` writes carry every interval the FRF route gives (frequency, damping

@@ -31,6 +31,7 @@ def _check(code: int, doc: dict) -> None:
     assert not doc["solver"]["warnings"]
 
 
+@pytest.mark.slow   # a whole run of a 315-DOF building, about 27 s: in CI's second step (pytest -m slow)
 def test_exact_data_of_a_315_dof_building_through_vibupdate_run(tmp_path):
     """7 storeys x 1 bay (measured: largest parameter error 3.9e-12, 21 polish evaluations, 4.8 s)."""
     code, doc = _run_building(tmp_path, 7, 1)

@@ -92,6 +92,7 @@ def _errors(out, truth):
     return doc, {p["name"]: abs(p["updated"] / truth[p["name"]] - 1) for p in doc["parameters"]}
 
 
+@pytest.mark.slow   # two whole runs through import, about 11 s: in CI's second step (pytest -m slow)
 def test_oblique_sensors_placed_by_position_recover_the_truth_like_aligned_ones(small, tmp_path, capsys):
     text, directions = _oblique_tables(small)
     assert main(["import", str(_import(small, tmp_path / "oblique", text)), "--out", str(tmp_path / "model")]) == 0
