@@ -134,16 +134,23 @@ def sensor_masses(seed: int) -> Problem:
                    in_family=False, note="unmodelled sensor masses")
 
 
+
+def _chain_or_beam(rng, sizes: tuple[int, int], k_groups_top: int, chain_masses: int):
+    """Half the time a chain of ``sizes`` masses (1 to ``k_groups_top - 1`` stiffness groups,
+    ``chain_masses`` mass groups), else a clamped beam of ``sizes`` elements (2 EI groups, 1
+    mass group): the structures most families draw, in the draw order they always used."""
+    if rng.random() < 0.5:
+        return S.chain(rng, int(rng.integers(*sizes)), k_groups=int(rng.integers(1, k_groups_top)),
+                       m_groups=chain_masses)
+    return S.beam(rng, int(rng.integers(*sizes)), support="clamped", ei_groups=2, m_groups=1)
+
 def biased_channel(seed: int) -> Problem:
     """Measurement error excluding the truth: frequencies and shapes (0.1-0.3 % noise) of a chain
     or beam, one sensor's entry scaled by 1 +- (8-20 %) in every mode (a wrong calibration). A
     right answer: never ``success`` for a model that misses an interval; the diagnosis ranks
     that sensor (group ``A/dof/DOF``) first."""
     rng = _rng("biased_channel", seed)
-    if rng.random() < 0.5:
-        spec, params = S.chain(rng, int(rng.integers(4, 8)), k_groups=int(rng.integers(1, 4)), m_groups=0)
-    else:
-        spec, params = S.beam(rng, int(rng.integers(4, 8)), support="clamped", ei_groups=2, m_groups=1)
+    spec, params = _chain_or_beam(rng, (4, 8), k_groups_top=4, chain_masses=0)
     truth = draw_truth(rng, params)
     noise = float(10 ** rng.uniform(-3, -2.5))
     meas = list(spec.measurable)
@@ -229,10 +236,7 @@ def cross_receptance(seed: int) -> Problem:
     receptance ``h_rc`` (r != c) between them, or the antiresonances alone, exact or with 0.1-0.5 %
     noise. A right answer: as for any in-family problem."""
     rng = _rng("cross_receptance", seed)
-    if rng.random() < 0.5:
-        spec, params = S.chain(rng, int(rng.integers(4, 9)), k_groups=int(rng.integers(1, 4)), m_groups=1)
-    else:
-        spec, params = S.beam(rng, int(rng.integers(4, 9)), support="clamped", ei_groups=2, m_groups=1)
+    spec, params = _chain_or_beam(rng, (4, 9), k_groups_top=4, chain_masses=1)
     truth = draw_truth(rng, params)
     meas = list(spec.measurable)
     noise = 0.0 if rng.random() < 0.5 else _noise(rng)
@@ -261,10 +265,7 @@ def mass_normalized(seed: int) -> Problem:
     masses are parameters too (mass-normalized shapes separate them from the stiffnesses). A
     right answer: as for any in-family problem."""
     rng = _rng("mass_normalized", seed)
-    if rng.random() < 0.5:
-        spec, params = S.chain(rng, int(rng.integers(3, 8)), k_groups=int(rng.integers(1, 3)), m_groups=1)
-    else:
-        spec, params = S.beam(rng, int(rng.integers(3, 8)), support="clamped", ei_groups=2, m_groups=1)
+    spec, params = _chain_or_beam(rng, (3, 8), k_groups_top=3, chain_masses=1)
     truth = draw_truth(rng, params)
     noise = 0.0 if rng.random() < 0.5 else _noise(rng)
     meas = list(spec.measurable)
