@@ -126,7 +126,7 @@ def exact_case(size: int):
     from vibupdate.examples import building
     from vibupdate.inverse.formulation.options import FormulationOptions
     from vibupdate.inverse.homotopy import SolverOptions
-    from vibupdate.io.case import Case, DampingOptions
+    from vibupdate.io.case_types import Case, DampingOptions
 
     storeys, bays = SIZES[size]
     configurations = building.configurations(storeys, bays)

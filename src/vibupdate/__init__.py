@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import importlib
 
-#: Where each public name is defined. They are imported on first use (PEP 562), so that
-#: ``import vibupdate`` (and the command line's start) does not load numpy, scipy and the
-#: solver until something asks for them; ``from vibupdate import update`` works as before.
+#: Where each public name is defined: the names listed here (and ``__version__``) are the
+#: library's public surface; the modules behind them are internal. They are imported on first
+#: use (PEP 562), so that ``import vibupdate`` (and the command line's start) does not load
+#: numpy, scipy and the solver until something asks for them.
 _WHERE = {
     "AffineModel": "vibupdate.model.affine",
     "antiresonances": "vibupdate.modal.analysis",
@@ -36,9 +37,25 @@ _WHERE = {
     "UpdateResult": "vibupdate.inverse.update",
     "update": "vibupdate.inverse.update",
     "VerifyOptions": "vibupdate.inverse.verify",
+    "Case": "vibupdate.io.case_types",
+    "DampingOptions": "vibupdate.io.case_types",
+    "load_case": "vibupdate.io.case",
+    "run_case": "vibupdate.pipeline",
+    "RunResult": "vibupdate.io.results",
+    "load_results": "vibupdate.io.results",
+    "FRFSet": "vibupdate.data.frf",
+    "read_frfs": "vibupdate.data.frf",
+    "Extraction": "vibupdate.data.extraction",
+    "extract": "vibupdate.data.extraction",
+    "DampingStage": "vibupdate.damping.stage",
+    "identify_damping": "vibupdate.damping.stage",
+    "caughey_matrix": "vibupdate.damping.models",
+    "parameter_ranges": "vibupdate.ranges.identifiability",
+    "certified_ranges": "vibupdate.ranges.certify",
+    "suggest_case": "vibupdate.study.suggest",
+    "ImportedModel": "vibupdate.io.fe_import",
+    "import_model": "vibupdate.io.fe_import",
 }
-
-__version__ = "0.1.0"
 
 __all__ = [
     "AffineModel",
@@ -63,6 +80,24 @@ __all__ = [
     "flexible_modes",
     "receptance",
     "update",
+    "Case",
+    "DampingOptions",
+    "load_case",
+    "run_case",
+    "RunResult",
+    "load_results",
+    "FRFSet",
+    "read_frfs",
+    "Extraction",
+    "extract",
+    "DampingStage",
+    "identify_damping",
+    "caughey_matrix",
+    "parameter_ranges",
+    "certified_ranges",
+    "suggest_case",
+    "ImportedModel",
+    "import_model",
 ]
 
 
@@ -70,9 +105,14 @@ def __getattr__(name: str):
     """A public name, imported from its module on first use (and then kept in the package)."""
     if name in _WHERE:
         value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'vibupdate' has no attribute {name!r}")
+    elif name == "__version__":     # the installed distribution's, as pyproject.toml states it
+        from importlib.metadata import version
+
+        value = version("vibupdate")
+    else:
+        raise AttributeError(f"module 'vibupdate' has no attribute {name!r}")
+    globals()[name] = value
+    return value
 
 
 def __dir__() -> list[str]:

@@ -14,8 +14,6 @@ import importlib.util
 import sys
 from dataclasses import dataclass
 
-__all__ = ["Extra", "EXTRAS", "MissingExtra", "available", "installed", "require", "install_hint", "skipped"]
-
 
 @dataclass(frozen=True)
 class Extra:

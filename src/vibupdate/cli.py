@@ -26,7 +26,6 @@ from vibupdate import __version__
 from vibupdate._extras import MissingExtra, install_hint, require
 from vibupdate.io.interrupted import Interrupted
 
-__all__ = ["main", "EXIT"]
 
 #: Exit codes of the command line.
 EXIT = {"success": 0, "not_verified": 1, "bad_input": 2, "internal": 3, "interrupted": 130}

@@ -18,7 +18,6 @@ import math
 import numbers
 from dataclasses import dataclass
 
-__all__ = ["Option", "OPTIONS", "TABLES", "declared", "default", "problem", "check", "markdown_table"]
 
 #: The option tables, in the order of the case file's documentation.
 TABLES = ("solver", "formulation", "polish", "verification")

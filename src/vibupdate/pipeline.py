@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.io.case import Case, DampingOptions
+from vibupdate.io.case_types import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, damping_weights, identify_damping
 from vibupdate.examples import EXAMPLES
 from vibupdate.io.interrupted import Interrupted
@@ -27,10 +27,6 @@ from vibupdate.io.outputs import (MANIFEST, file_names, kept_note, matrix_file, 
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
-
-__all__ = ["run_case", "run_example", "example_names", "example_module", "check_case", "write_outputs",
-           "planned_files"]
-
 
 
 def example_names() -> list[str]:

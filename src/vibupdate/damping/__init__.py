@@ -23,8 +23,3 @@ from vibupdate.damping.models import CaugheyLaw, caughey_damping, caughey_matrix
 from vibupdate.damping.sanity import LARGE_MODEL_CHECKED_MODES, damping_sanity, negative_bands
 from vibupdate.damping.series import DampingFit, DampingWarning, fit_caughey, modal_damping
 from vibupdate.damping.stage import DampingStage, damping_data, damping_weights, identify_damping
-
-__all__ = ["DampingFit", "fit_caughey", "caughey_matrix", "caughey_damping", "CaugheyLaw", "modal_damping",
-           "DampingWarning", "negative_bands", "damping_sanity", "DampingStage", "damping_data", "damping_weights",
-           "identify_damping",
-           "LARGE_MODEL_CHECKED_MODES"]

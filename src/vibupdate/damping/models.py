@@ -14,8 +14,6 @@ from vibupdate.damping.series import _check_exponents, modal_damping
 from vibupdate.modal.analysis import DENSE_LIMIT, modes
 from vibupdate.modal.eigen import massless_dofs
 
-__all__ = ["CaugheyLaw", "caughey_damping", "caughey_matrix"]
-
 
 @dataclass(frozen=True)
 class CaugheyLaw:

@@ -10,7 +10,6 @@ import numpy as np
 from vibupdate.damping.series import DampingFit
 from vibupdate.modal.analysis import DENSE_LIMIT, modes
 
-__all__ = ["negative_bands", "damping_sanity", "LARGE_MODEL_CHECKED_MODES"]
 
 #: Modes whose Caughey damping is checked on models above DENSE_LIMIT DOFs.
 LARGE_MODEL_CHECKED_MODES = 50

@@ -14,8 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["DampingWarning", "DampingFit", "fit_caughey", "modal_damping"]
-
 
 class DampingWarning(UserWarning):
     """The damping least squares is ill-conditioned or under-determined."""

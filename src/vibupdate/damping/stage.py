@@ -14,8 +14,6 @@ import numpy as np
 from vibupdate.damping.sanity import _checked_frequencies, damping_sanity
 from vibupdate.damping.series import DampingFit, DampingWarning, fit_caughey
 
-__all__ = ["DampingStage", "DampingWeights", "damping_data", "damping_weights", "identify_damping"]
-
 
 @dataclass(frozen=True)
 class DampingStage:

@@ -113,7 +113,6 @@ from vibupdate.data._zeros import _local_zero, _zero_se, _zero_snr, _zeros_of_al
 from vibupdate.data.frf import KINDS, FRFSet
 from vibupdate.data.residue_kind import check_fitted_kind
 
-__all__ = ["ExtractedMode", "ExtractedZero", "FRFQuality", "Extraction", "extract"]
 
 FREQUENCY_FLOOR = 1e-5      # relative half-width floor of frequency and antiresonance intervals
 FIT_BAND_FACTOR = 2.0       # default fit band: up to this times the band's top

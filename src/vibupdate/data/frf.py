@@ -30,8 +30,6 @@ import numpy as np
 
 from vibupdate._extras import require
 
-__all__ = ["FRFSet", "read_frfs", "read_uff58", "write_uff58", "read_frf_table", "to_receptance", "combine", "G",
-           "FRFWarning", "check_kind", "kind_evidence"]
 
 G = 9.80665  # m/s^2, standard gravity
 TWO_PI = 2.0 * math.pi

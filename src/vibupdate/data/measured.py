@@ -17,15 +17,6 @@ import numpy as np
 from vibupdate.data.pairing import declare, declared_modes
 from vibupdate.model.affine import AffineModel
 
-__all__ = [
-    "ShapeInterval",
-    "NaturalFrequency",
-    "Antiresonance",
-    "Configuration",
-    "validate_configurations",
-    "natural_from_damped",
-    "damped_shift",
-]
 
 TWO_PI = 2.0 * math.pi
 

@@ -27,8 +27,6 @@ from dataclasses import replace
 
 import numpy as np
 
-__all__ = ["declare", "declared_modes", "zero_indices"]
-
 
 def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]:
     """Default zero indices of one receptance's measured antiresonances (module docstring).

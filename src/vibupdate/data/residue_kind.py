@@ -34,7 +34,6 @@ import math
 
 import numpy as np
 
-__all__ = ["KIND_TURN", "constant_turn", "check_fitted_kind"]
 
 #: Degrees by which the weighted modal constants may turn from real before the declared kind
 #: is refused: halfway between right (0) and one order off (90).

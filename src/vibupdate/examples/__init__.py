@@ -10,7 +10,6 @@ import csv
 from importlib import resources
 from pathlib import Path
 
-__all__ = ["EXAMPLES", "read_table", "new_folder"]
 
 #: Example name -> module name inside this package.
 EXAMPLES = {

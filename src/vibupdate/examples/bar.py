@@ -38,8 +38,6 @@ from pathlib import Path
 from vibupdate.data.frf import FRFSet
 from vibupdate.model.elements import beam_matrices
 
-__all__ = ["E_TRUE", "HAMMER", "BAND_HZ", "CANDIDATES", "PARAMETERS", "CASE", "CASE_R", "measured", "true_shapes",
-           "case_text", "write_inputs", "commands", "truth_lines"]
 
 #: The bar: length, width, height (m), true Young's modulus (Pa), density (kg/m^3), Poisson's
 #: ratio and shear coefficient of a rectangular section.

@@ -38,8 +38,6 @@ import numpy as np
 from vibupdate.model.assembly import Assembly, System
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["parameters", "truth", "build", "model", "measured_dofs", "exact_data", "configurations",
-           "n_dofs", "size_for"]
 
 STOREY = 3.0                 # m, storey height
 BAY = 6.0                    # m, bay width

@@ -15,7 +15,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 from vibupdate.model.assembly import Assembly, System
-from vibupdate.io.case import Case, DampingOptions
+from vibupdate.io.case_types import Case, DampingOptions
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.examples import read_table
@@ -23,7 +23,6 @@ from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequen
 from vibupdate.model.build import from_builder
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["parameters", "build", "configurations", "case", "reference_columns", "CONFIGURATIONS", "DAMPING"]
 
 LENGTH = 0.493          # m
 WIDTH = 0.040           # m

@@ -30,8 +30,6 @@ import numpy as np
 from vibupdate.examples import new_folder
 from vibupdate.examples.frame3d import NOMINAL, STOREY, frame3d
 
-__all__ = ["CODES", "SIZE", "PARAMETERS", "TRUTH_FACTOR", "N_MODES", "truth", "sensors", "write_inputs",
-           "write_case", "commands", "truth_lines"]
 
 #: Example name -> the import file's ``format``.
 CODES = {"fe-nastran": "nastran", "fe-ansys": "ansys", "fe-abaqus": "abaqus", "fe-opensees": "opensees"}

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import scipy.sparse as sp
 
-__all__ = ["dmig_text", "grid_text", "write_dmig", "write_hbmat", "write_abaqus", "ANSYS", "COMPONENT"]
 
 #: vibupdate direction -> ANSYS DOF label, Nastran/Abaqus component.
 ANSYS = {"x": "UX", "y": "UY", "z": "UZ", "rx": "ROTX", "ry": "ROTY", "rz": "ROTZ"}

@@ -30,7 +30,7 @@ from functools import lru_cache
 import numpy as np
 
 from vibupdate.model.assembly import Assembly, System
-from vibupdate.io.case import Case, DampingOptions
+from vibupdate.io.case_types import Case, DampingOptions
 from vibupdate.examples import read_table
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
@@ -38,7 +38,6 @@ from vibupdate.data.measured import Configuration, NaturalFrequency, ShapeInterv
 from vibupdate.model.build import from_builder
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["parameters", "build", "truth", "generate", "configurations", "case", "N_MODES", "MEASURED_DOFS"]
 
 NODES = {
     1: (0.0, 0.0), 2: (1.2, 0.0),

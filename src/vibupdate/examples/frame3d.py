@@ -40,7 +40,6 @@ from functools import lru_cache
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["FrameModel", "frame3d", "NOMINAL", "DIRECTIONS", "BEAM_WIDTH", "element_stiffness", "element_mass"]
 
 #: Directions of the six DOFs of a node, in order.
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")

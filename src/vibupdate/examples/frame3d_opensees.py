@@ -13,8 +13,6 @@ from __future__ import annotations
 
 from vibupdate.examples.frame3d import COLUMN, NOMINAL, PAYLOAD, POISSON, _beam_section, frame3d
 
-__all__ = ["build_frame"]
-
 
 def build_frame(p: dict, size=(3, 2, 4)) -> None:
     """Build the frame at parameter values ``p`` (missing names: nominal) in the OpenSees domain."""

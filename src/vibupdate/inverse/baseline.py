@@ -30,7 +30,6 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration
 
-__all__ = ["FrequencyFit", "frequency_fit", "eigenvector_fit"]
 
 #: Residual evaluations at most (each one eigen-solve per configuration).
 MAX_EVALUATIONS = 200

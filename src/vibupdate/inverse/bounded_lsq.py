@@ -18,7 +18,6 @@ import time
 import numpy as np
 from scipy.optimize import least_squares
 
-__all__ = ["bounded_least_squares", "inside", "Monitor", "Stop", "STALL_DECREASE", "SAME_ANSWER", "stall_window"]
 
 #: A run has stalled when its best objective fell by less than this fraction over the last
 #: `stall_window` evaluations; it then stops with the best point. (The crawl of the polish

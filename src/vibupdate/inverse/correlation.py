@@ -20,9 +20,6 @@ import numpy as np
 from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes
 from vibupdate.data.measured import TWO_PI, Configuration
 
-__all__ = ["ModelFrequencies", "model_frequencies", "declared_zeros", "frequency_rows", "modal_mass_rows",
-           "percent_error", "shape_mac"]
-
 
 @dataclass(frozen=True)
 class ModelFrequencies:

@@ -34,9 +34,6 @@ from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, mode
 from vibupdate.inverse.repeated import paired_vector
 from vibupdate.modal.sensitivities import frequency_derivatives, modal_mass_derivatives, shape_ratio_derivatives
 
-__all__ = ["MeasuredShape", "measured_shapes", "DataMap", "data_map", "data_jacobian", "sensitivity",
-           "describe_direction"]
-
 
 @dataclass(frozen=True)
 class MeasuredShape:

@@ -43,8 +43,6 @@ from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.inverse.verify import VerifyOptions, fit_data, verify
 
-__all__ = ["MISFIT_CHECKS", "MAX_GROUPS", "MAX_SECONDS", "DataGroup", "GroupTrial", "Diagnosis", "data_groups",
-           "without", "wants_diagnosis", "diagnose"]
 
 #: Failed checks that say the model does not fit the data: only these start a diagnosis. A
 #: failure of ``mode_order``, ``zero_order`` or ``correspondence`` alone is a question of which

@@ -39,8 +39,6 @@ from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["SolverOptions", "StepRecord", "HomotopyResult", "RelaxationCache", "RELAXATIONS", "solve_homotopy"]
-
 
 @dataclass(frozen=True)
 class SolverOptions:

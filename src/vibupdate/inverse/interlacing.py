@@ -23,8 +23,6 @@ import numpy as np
 
 from vibupdate.data.measured import TWO_PI, Configuration
 
-__all__ = ["modal_constant_signs", "sign_bounds", "SignConflict", "NODE_FRACTION"]
-
 
 def modal_constant_signs(poles: Sequence[float], zeros: Sequence[float], first: int,
                          modes: Sequence[int] | None = None) -> list[int | None]:

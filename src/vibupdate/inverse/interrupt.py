@@ -17,8 +17,6 @@ import signal
 import threading
 from contextlib import contextmanager
 
-__all__ = ["SigintWatch", "watch_sigint"]
-
 
 class SigintWatch:
     """Whether SIGINT arrived while the watch was active."""

@@ -47,8 +47,6 @@ import numpy as np
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.data_map import measured_shapes
 
-__all__ = ["MinimumChange", "minimum_change", "valley_points", "numerical_rank", "RANK_RTOL", "DATA_TOL",
-           "VALLEY_STEPS"]
 
 #: Singular values of the data Jacobian below this fraction of the largest count as zero (the
 #: derivatives are exact: an exact symmetry gives ~1e-15); the reported sensitivity uses the same.

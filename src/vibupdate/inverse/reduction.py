@@ -29,8 +29,6 @@ from vibupdate.modal.analysis import modes
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.data.measured import Configuration
 
-__all__ = ["craig_bampton", "ritz_reduction", "reduce_configurations", "kept_dofs", "wants_reduction"]
-
 
 def kept_dofs(cfg: Configuration) -> list[str]:
     """The DOFs a reduction must keep physical: measured shape entries and receptance DOFs."""

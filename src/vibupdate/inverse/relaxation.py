@@ -16,8 +16,6 @@ import scipy.sparse as sp
 
 from vibupdate.inverse.formulation.problem import BilinearProblem
 
-__all__ = ["McCormick", "mccormick", "homotopy_residual", "lifted_values"]
-
 
 @dataclass(frozen=True)
 class McCormick:

@@ -16,7 +16,6 @@ from vibupdate.io.case_keys import ELEMENT_MATRICES_KEYS, Where, check_table
 from vibupdate.model.affine import AffineModel
 from vibupdate.model.element_groups import ElementMatrices, ElementScaling, affine_from_elements, element_matrices
 
-__all__ = ["ElementSource", "read_element_source", "expand_group_parameters", "element_model"]
 
 #: The keys a ``[[parameter]]`` or ``[[candidate]]`` table may add in an element-matrices model.
 GROUP_KEYS = ("elements", "scales", "each_group")

@@ -14,8 +14,6 @@ from pathlib import Path
 
 from vibupdate.options import declared
 
-__all__ = ["Where", "check_table", "numbers", "TOP_KEYS", "CFG_KEYS", "FRF_KEYS", "ELEMENTS_KEYS", "ELEMENT_MATRICES_KEYS", "MATRICES_KEYS", "POLISH_KEYS",
-           "VERIFICATION_KEYS", "SOLVER_KEYS", "FORMULATION_KEYS", "DAMPING_KEYS", "PARAMETER_KEYS"]
 
 class Where:
     """Error messages that name the file and the key."""

@@ -21,8 +21,6 @@ from vibupdate.model.assembly import Assembly
 from vibupdate.model.build import from_files
 from vibupdate.model.expressions import LinearExpression
 
-__all__ = ["LinearExpression", "linear_expression", "base_model", "configuration_model", "MAX_NODES", "read_sensors"]
-
 
 # -- linear expressions of parameters ---------------------------------------------------------
 

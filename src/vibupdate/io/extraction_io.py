@@ -30,8 +30,6 @@ from vibupdate._extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
 
-__all__ = ["extraction_document", "write_extraction", "plot_extraction", "configuration_block",
-           "EXTRACTION_FILES", "check_extraction_folder"]
 
 TWO_PI = 2.0 * math.pi
 

@@ -32,7 +32,6 @@ from vibupdate.model.fe.oblique import coordinate_change, congruent, direction_t
 from vibupdate.model.fe.sensors import place
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["ImportedModel", "check_import", "import_model", "read_import", "summary_lines", "FORMATS"]
 
 FORMATS = ("nastran", "ansys", "abaqus", "opensees")
 _TOP = {"format": str, "nominal": None, "builder": str, "fix": list, "stiffness": str, "mass": str,

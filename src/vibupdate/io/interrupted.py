@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ["Interrupted"]
-
 
 class Interrupted(KeyboardInterrupt):
     """A KeyboardInterrupt that says what the interrupted command kept (``kept``: the rest of

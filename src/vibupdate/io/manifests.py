@@ -25,9 +25,6 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["COMMANDS", "LEGACY_MANIFEST", "manifest_name", "read_manifests", "read_manifest", "ownership",
-           "is_manifest", "write_manifest", "add_to_manifest", "legacy_owner", "manifest_files", "file_hash",
-           "changed_files", "manifest_case"]
 
 #: The commands that write folders, each with its own manifest (``example`` writes as ``run``).
 COMMANDS = ("run", "extract", "sweep", "batch", "suggest")

@@ -34,7 +34,6 @@ import numpy as np
 
 from vibupdate._extras import require
 
-__all__ = ["read_frequency_csv", "read_shape_csv", "read_uff_modes", "UffMode"]
 
 _UFF_DIRECTIONS = {"r1": "x", "r2": "y", "r3": "z", "r4": "rx", "r5": "ry", "r6": "phi"}
 

@@ -63,10 +63,6 @@ from vibupdate.io.manifests import (
 
 _T = TypeVar("_T")
 
-__all__ = ["MANIFEST", "LEGACY_MANIFEST", "COMMANDS", "manifest_name", "OutputTarget", "safe_name", "file_names",
-           "prepare_output", "staging_folder", "publish", "write_published", "read_manifest", "read_manifests",
-           "add_to_manifest", "kept_note", "is_partial", "OutputWarning", "drawn", "matrix_file",
-           "matrix_files_planned", "NOT_VERIFIED"]
 
 #: Name of the manifest of a run's results folder.
 MANIFEST = manifest_name("run")

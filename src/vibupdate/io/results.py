@@ -25,9 +25,6 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["FORMAT_VERSION", "ParameterRow", "FrequencyRow", "ModalMassRow", "DampingRow", "Summary", "SampledRange", "Sampled",
-           "Multistart", "GroupTrialRow", "DiagnosisBest", "DiagnosisRecord", "RunResult", "run_result", "write_results", "load_results", "schema", "validate_document",
-           "json_text"]
 
 #: Version of the layout of ``results.json`` (raised when a key is added).
 FORMAT_VERSION = 2

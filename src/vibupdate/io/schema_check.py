@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Mapping
 
-__all__ = ["first_error"]
 
 _ANNOTATIONS = {"$schema", "$id", "title", "description", "$defs"}
 _KEYWORDS = {"type", "enum", "minimum", "maximum", "required", "properties", "additionalProperties", "items",

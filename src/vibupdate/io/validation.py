@@ -28,7 +28,6 @@ import numpy as np
 
 from vibupdate.data.measured import TWO_PI
 
-__all__ = ["CaseCheck", "validate_case", "HIGH_DAMPING"]
 
 #: Damping ratios above this get a warning.
 HIGH_DAMPING = 0.2

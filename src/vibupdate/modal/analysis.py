@@ -24,9 +24,6 @@ from vibupdate.modal.eigen import (
 from vibupdate.modal.receptance import receptance, receptances
 from vibupdate.modal.zeros import adjunct, antiresonances
 
-__all__ = ["modes", "flexible_modes", "mode_residuals", "receptance", "receptances", "adjunct", "antiresonances", "mac", "massless_dofs",
-           "MASSLESS_TOL", "DENSE_LIMIT", "DENSE_MAX", "RESIDUAL_TOL", "ModalAccuracyError"]
-
 
 def flexible_modes(M, K, n_modes: int | None = None, **options):
     """The lowest flexible modes: `modes` without the rigid-body modes (those `modes` returns

@@ -41,8 +41,6 @@ from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept, content_key
 from vibupdate.modal.refinement import block_size, refine_modes
 
-__all__ = ["modes", "mode_residuals", "massless_dofs", "check_dof_pair", "MASSLESS_TOL", "DENSE_LIMIT", "DENSE_MAX",
-           "RESIDUAL_TOL", "ModalAccuracyError"]
 
 #: Models up to this many DOFs use dense LAPACK; larger ones sparse shift-invert.
 DENSE_LIMIT = 400

@@ -16,8 +16,6 @@ from collections import OrderedDict
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Kept", "content_key"]
-
 
 def content_key(*matrices, extra: bytes = b"") -> str:
     """A hash of the values of ``matrices`` (dense or sparse, any storage order, explicit zeros

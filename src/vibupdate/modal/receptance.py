@@ -32,7 +32,6 @@ from vibupdate.modal import eigen
 from vibupdate.modal.eigen import _dense, _dense_modes, check_dof_pair, massless_dofs
 from vibupdate.modal.factor import sparse_lu
 
-__all__ = ["receptance", "receptances", "modal_sum", "classical_terms"]
 
 #: Bytes a dense damped receptance may hold in its stack of dynamic stiffness matrices.
 _CHUNK_BYTES = 32 * 2**20
@@ -45,8 +44,6 @@ MODAL_SUM_REACH = 1.2
 #: 2,940-DOF building with 40 modes the worst error relative to the peak was 1.4e-2, 1.6e-4,
 #: 4.9e-5 and 7.9e-7 with 1, 2, 3 and 4 vectors.
 KRYLOV_DEPTH = 4
-
-
 
 
 def _pair_arrays(n: int, pairs) -> tuple[np.ndarray, np.ndarray]:

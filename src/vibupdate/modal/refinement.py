@@ -45,7 +45,6 @@ import scipy.linalg as sla
 
 from vibupdate.modal.factor import sparse_lu
 
-__all__ = ["refine_modes", "block_size", "shape_ratio_floor", "export_rounding", "EXTENDED"]
 
 #: Whether ``numpy.longdouble`` carries more digits than ``double`` on this platform.
 EXTENDED = bool(np.finfo(np.longdouble).eps < np.finfo(np.float64).eps)

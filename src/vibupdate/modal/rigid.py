@@ -52,7 +52,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["RIGID_FACTOR", "EPS", "unit", "rounding_scale", "is_zero", "embed"]
 
 #: An eigenvalue within this many rounding units of its vector's Rayleigh quotient is zero.
 RIGID_FACTOR = 50.0

@@ -38,15 +38,6 @@ from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.zeros import adjunct, antiresonances, structural
 
-__all__ = [
-    "eigenvalue_derivatives",
-    "frequency_derivatives",
-    "shape_ratio_derivatives",
-    "modal_mass_derivatives",
-    "antiresonance_derivatives",
-    "adjunct_eigenpairs",
-]
-
 
 def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
     """``d(w^2)/d xbar`` of the given modes.

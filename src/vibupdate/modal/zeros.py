@@ -25,8 +25,6 @@ from vibupdate.modal.eigen import (
     check_dof_pair,
 )
 
-__all__ = ["adjunct", "antiresonances", "structural"]
-
 
 def adjunct(A, r: int, c: int):
     """Adjunct matrix of Eq. 2 and 8: ``A`` with row ``c`` and column ``r`` removed.

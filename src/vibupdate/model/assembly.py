@@ -31,7 +31,6 @@ from vibupdate.model import elements
 from vibupdate.model.expressions import LinearExpression
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["Assembly", "System", "dof_index"]
 
 _KINDS = {"beam": ("y", "phi"), "frame": ("x", "y", "phi")}
 

@@ -28,7 +28,6 @@ from vibupdate.model.affine import (AffineModel, _check_unique_names, affine_fro
 from vibupdate.model.element_groups import affine_from_elements as from_elements
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["from_assembly", "from_builder", "from_elements", "from_files", "load_matrix"]
 
 from_builder = affine_from_builder
 from_assembly = affine_from_assembly

@@ -29,8 +29,6 @@ import scipy.sparse as sp
 from vibupdate.model.affine import AffineModel, _check_unique_names, check_matrices
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["ElementMatrices", "element_matrices", "affine_from_elements", "ElementScaling"]
-
 
 @dataclass(frozen=True)
 class ElementMatrices:

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["beam_stiffness", "beam_mass", "frame_stiffness", "frame_mass", "beam_matrices", "frame_matrices"]
 
 # Beam element matrices as polynomials in the length L: k = EI / L^3 (K0 + L K1 + L^2 K2) and
 # m = rho A L / 420 (M0 + L M1 + L^2 M2), DOFs [v1, theta1, v2, theta2].

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["LinearExpression"]
-
 
 @dataclass(frozen=True)
 class LinearExpression:

@@ -17,8 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Parameter", "to_normalized", "to_physical", "normalized_bounds"]
-
 
 @dataclass(frozen=True)
 class Parameter:

@@ -46,8 +46,6 @@ from vibupdate.modal.analysis import DENSE_LIMIT, MASSLESS_TOL, massless_dofs, m
 from vibupdate.modal import rigid as rigid_test
 from vibupdate.modal.eigen import repeatable
 
-__all__ = ["DENSE_LIMIT", "RIGID_TOL", "Definiteness", "definiteness", "box_corners", "count_below", "PhysicalBox",
-           "physical_box"]
 
 #: Relative threshold (to ``lam_ref``) of a zero eigenvalue of the pencil ``(K, M)``.
 RIGID_TOL = 1e-10

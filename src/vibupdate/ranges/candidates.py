@@ -49,8 +49,6 @@ from vibupdate.inverse.update import update
 from vibupdate.inverse.verify import VerifyOptions, fit_data, verify
 from vibupdate.model.affine import restricted
 
-__all__ = ["MAX_SETS", "MAX_SECONDS", "CHECKED", "TIE_RTOL", "SetTrial", "Suggestion", "suggest_sets",
-           "configurations_with"]
 
 #: Sets screened at most (the rest are counted as untried).
 MAX_SETS = 200

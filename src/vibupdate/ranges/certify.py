@@ -51,7 +51,6 @@ from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consis
 from vibupdate.ranges.inclusion import Inclusion
 from vibupdate.ranges.tightening import GAP, Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
 
-__all__ = ["CertifiedRanges", "certified_ranges", "enclosure", "range_disagreements", "GAP"]
 
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
 STALL = 1e-3

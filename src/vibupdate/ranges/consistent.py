@@ -50,8 +50,6 @@ from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.data.measured import Configuration
 from vibupdate.ranges.inclusion import Inclusion, widen
 
-__all__ = ["ConsistentSet", "InnerRanges", "consistent_set", "is_consistent", "witness", "inner_ranges",
-           "RESIDUAL_FLOOR"]
 
 #: Relative eigen-residual allowed in S: ``|((K - s M) v)_k| <= RESIDUAL_FLOOR * (|K| |v| + s |M| |v|)_k``
 #: row by row, so that rounding in building the operators cannot exclude an exact eigenpair.

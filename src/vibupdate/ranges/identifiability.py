@@ -49,7 +49,6 @@ from vibupdate.inverse.minimum_change import numerical_rank, valley_points
 from vibupdate.modal.analysis import DENSE_LIMIT
 from vibupdate.data.measured import Configuration
 
-__all__ = ["ParameterRanges", "parameter_ranges", "precision_allowance", "NULL_COMPONENT"]
 
 #: Models up to this many DOFs (those solved densely) have their ranges widened by the points
 #: of the valley of answers with the same data (`vibupdate.inverse.minimum_change.valley_points`,

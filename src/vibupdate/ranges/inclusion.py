@@ -49,8 +49,6 @@ from vibupdate.inverse.correlation import model_frequencies, zeros_wanted
 from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.update import MAX_WIDENINGS
 
-__all__ = ["Inclusion", "widen", "paired_vectors", "WINDOW_MARGIN", "BOX_MARGIN", "GROWTH_LIMIT", "NODE_FRACTION",
-           "BOUND_ROUNDING"]
 
 #: Relative margin by which a widened window reaches past an included point's frequency.
 WINDOW_MARGIN = 1e-6

@@ -37,9 +37,6 @@ import scipy.sparse as sp
 from vibupdate._extras import require
 from vibupdate.ranges.consistent import RESIDUAL_FLOOR, ConsistentSet
 
-__all__ = ["Lifted", "RelaxedLP", "ClarabelModel", "lift", "relax", "safe_bound", "solve", "solve_clarabel",
-           "clarabel_model", "highs_model",
-           "lifted_point", "phase1_bound"]
 
 _EPS = np.finfo(float).eps
 

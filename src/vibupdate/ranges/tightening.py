@@ -39,8 +39,6 @@ from vibupdate.ranges.consistent import ConsistentSet
 from vibupdate.ranges.lp_relaxation import (Lifted, clarabel_model, highs_model, lift, phase1_bound, relax, solve,
                                              solve_clarabel)
 
-__all__ = ["Lifts", "Box", "Tactics", "BEFORE", "lifts", "root_box", "tighten_block", "tighten_parameters", "tighten",
-           "GAP"]
 
 #: Largest gap (normalized units) between the safe bound and the LP optimum for which the
 #: solver's answer counts as confirmed.

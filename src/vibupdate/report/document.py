@@ -13,8 +13,6 @@ from vibupdate.report.numbers import finite, fmt
 from vibupdate.report.ranges_text import ranges_markdown, ranges_table, sampled_disagreements
 from vibupdate.report.table import Column, Table, error_pct, markdown, text, with_reference
 
-__all__ = ["tables", "terminal_text", "markdown_report", "failed_report", "verification_markdown", "limited_text",
-           "diagnosis_markdown", "matrix_files_markdown", "sampled_disagreements", "LOWER_BOUND_NOTE"]
 
 #: What the lambda = 0 optimum says: the lifted variables absorb every mismatch, so
 #: it is ~0 on every example.

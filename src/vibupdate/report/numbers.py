@@ -14,7 +14,6 @@ import math
 import numbers
 import re
 
-__all__ = ["fmt", "finite", "MISSING", "NOT_A_NUMBER"]
 
 #: Text of a figure that was not computed (``None``).
 MISSING = "-"

@@ -13,8 +13,6 @@ from vibupdate._extras import require
 from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
-__all__ = ["plot_frf", "plot_receptances", "plot_measured_frf", "plot_homotopy", "plot_mac", "model_receptance", "model_receptances"]
-
 
 def _pyplot():
     require("plots", "drawing plots")

@@ -8,8 +8,6 @@ from __future__ import annotations
 from vibupdate.report.numbers import finite, fmt
 from vibupdate.report.table import Column, Table
 
-__all__ = ["ranges_table", "ranges_markdown", "sampled_disagreements", "range_notes", "multistart_text"]
-
 
 def _other_ranges(ident: dict) -> dict:
     """The ranges beside the certified ones: ``{label: {name: {...}}}``, sampled first."""

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 from vibupdate.report.numbers import fmt
 
-__all__ = ["SHOWN", "suggestion_text", "suggestion_markdown", "run_section_markdown"]
 
 #: Sets shown in the tables (every set is in the record).
 SHOWN = 10

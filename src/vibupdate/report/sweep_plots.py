@@ -21,8 +21,6 @@ from vibupdate.io.outputs import OutputWarning, drawn, file_names
 from vibupdate.report.numbers import finite
 from vibupdate.report.plots import _pyplot
 
-__all__ = ["write_sweep_plots", "plot_histograms", "plot_pairs", "plot_frequency_bands", "plot_frf_band",
-           "least_determined", "histogram_bins"]
 
 #: Samples used for an FRF band (the first verified ones by index).
 FRF_SAMPLES = 100

@@ -11,8 +11,6 @@ from dataclasses import dataclass, replace
 
 from vibupdate.report.numbers import MISSING, finite, fmt
 
-__all__ = ["Column", "Table", "text", "markdown", "with_reference", "error_pct"]
-
 
 @dataclass(frozen=True)
 class Column:

@@ -20,7 +20,6 @@ from pathlib import Path
 
 from vibupdate._extras import require
 
-__all__ = ["run_batch", "run_one", "summary_markdown", "SUMMARY_FILES"]
 
 #: The files a batch writes into its output directory beside the case folders.
 SUMMARY_FILES = ("summary.csv", "summary.md")

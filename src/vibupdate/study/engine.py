@@ -19,8 +19,6 @@ from collections.abc import Callable, Iterator
 
 from vibupdate._extras import require
 
-__all__ = ["open_client", "Progress", "default_workers"]
-
 
 def default_workers() -> int:
     """One worker per core available to this process."""

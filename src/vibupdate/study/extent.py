@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Acceptance", "LineEnd", "walk_null_directions", "BISECTIONS", "ACCEPT_FRACTION"]
 
 #: Halvings of the bisection for the last acceptable point of a direction.
 BISECTIONS = 12

@@ -21,9 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from vibupdate._extras import require
-from vibupdate.io.case import Case
+from vibupdate.io.case_types import Case
 
-__all__ = ["LocalMinimum", "MultistartResult", "multistart", "solve_start", "random_start_solve", "build_solver"]
 
 #: Worker-side cache: case digest -> (problem, backend).
 _SOLVERS: dict[str, tuple] = {}

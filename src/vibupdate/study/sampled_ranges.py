@@ -29,7 +29,6 @@ from pathlib import Path
 
 from vibupdate.study.sampling import SamplingOptions
 
-__all__ = ["SampledRanges", "sampled_section", "reported_answers"]
 
 #: What the study adds to a results folder.
 FILES = ("samples.csv", "line_ends.csv", "sampled_hist.png", "sampled_pairs.png")

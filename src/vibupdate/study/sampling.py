@@ -38,7 +38,6 @@ import numpy as np
 
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 
-__all__ = ["SamplingOptions", "sample_rng", "data_intervals", "draw_configurations"]
 
 DISTRIBUTIONS = ("uniform", "gaussian")
 
@@ -234,4 +233,3 @@ def draw_configurations(configurations: Sequence[Configuration], frequency_toler
         except ValueError as exc:
             raise ValueError(f"sample {index}: drawn data are inconsistent: {exc}") from None
     return tuple(out), drawn
-

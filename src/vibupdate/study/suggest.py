@@ -10,13 +10,12 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
-from vibupdate.io.case import Case
+from vibupdate.io.case_types import Case
 from vibupdate.io.outputs import prepare_output, write_published
 from vibupdate.io.validation import validate_case
 from vibupdate.ranges.candidates import CHECKED, Suggestion, suggest_sets
 from vibupdate.report.suggestion import suggestion_markdown
 
-__all__ = ["FILES", "suggest_case"]
 
 #: The files ``--out`` receives.
 FILES = ("suggestion.json", "suggestion.md")

@@ -43,7 +43,8 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate._extras import require
-from vibupdate.io.case import Case, load_case
+from vibupdate.io.case import load_case
+from vibupdate.io.case_types import Case
 from vibupdate.io.interrupted import Interrupted
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
@@ -62,8 +63,6 @@ from vibupdate.study.sweep_files import (
 from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
 from vibupdate.study.sweep_summary import SweepSummary, summarize
 
-__all__ = ["ACCEPT_FRACTION", "CaseSource", "SweepSummary", "case_source", "run_sample", "run_sweep", "summarize",
-           "read_rows", "write_multistart"]
 
 #: Columns whose values depend on the run (timing, worker), not on the sample.
 RUN_COLUMNS = ("seconds", "cpu_seconds", "worker")

@@ -7,12 +7,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from vibupdate.io.case import Case
+from vibupdate.io.case_types import Case
 from vibupdate.io.results import json_text
 from vibupdate.study.sampling import SamplingOptions
 
-__all__ = ["SAMPLES_FILE", "SETTINGS_FILE", "SUMMARY_FILE", "MULTISTART_FILE", "ENDS_FILE", "write_multistart",
-           "write_summary"]
 
 SAMPLES_FILE = "samples.csv"
 SETTINGS_FILE = "sweep-settings.json"

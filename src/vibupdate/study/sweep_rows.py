@@ -10,8 +10,6 @@ import io
 import os
 from pathlib import Path
 
-__all__ = ["RowWriter", "read_rows", "write_sorted"]
-
 
 class RowWriter:
     """Appends rows to ``samples.csv`` and forces them to disk, one at a time."""

@@ -9,10 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.io.case import Case
+from vibupdate.io.case_types import Case
 from vibupdate.study.sampling import SamplingOptions, data_intervals
-
-__all__ = ["SweepSummary", "summarize"]
 
 
 @dataclass(frozen=True)

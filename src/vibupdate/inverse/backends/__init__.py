@@ -26,7 +26,6 @@ import numpy as np
 
 from vibupdate.inverse.status import Status
 
-__all__ = ["BACKENDS", "StepOutcome", "StepSolver", "build"]
 
 #: Backend name -> module that provides ``build(problem, envelope, options) -> StepSolver``.
 BACKENDS = {"casadi-ipopt": "vibupdate.inverse.backends.casadi_ipopt"}

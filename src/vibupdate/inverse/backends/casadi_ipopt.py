@@ -56,8 +56,6 @@ from vibupdate.inverse.interrupt import watch_sigint
 from vibupdate.inverse.relaxation import McCormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["CasadiIpopt", "SolverCache", "CACHE", "IPOPT_STATUS", "RELAXATION_SOLVERS", "Monitor", "from_ipopt",
-           "build"]
 
 #: What may solve the cold ``lam = 0`` step (module docstring).
 RELAXATION_SOLVERS = ("piqp", "nlp")

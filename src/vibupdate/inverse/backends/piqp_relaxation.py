@@ -33,7 +33,6 @@ from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.relaxation import McCormick
 from vibupdate.inverse.status import Status
 
-__all__ = ["PIQP_STATUS", "RelaxationQP"]
 
 #: PIQP's status names -> Status.
 PIQP_STATUS = {

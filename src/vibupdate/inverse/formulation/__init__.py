@@ -45,10 +45,6 @@ from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.formulation.scaling import scaled_terms
 from vibupdate.inverse.formulation.stacking import stack
 
-#: ``FormulationOptions`` is also read from here by the case reader; it is public as
-#: ``vibupdate.FormulationOptions`` (docs/python-api.md).
-__all__ = ["formulate", "FormulationOptions"]
-
 
 def formulate(configurations: Sequence[Configuration], options: FormulationOptions | None = None,
               transforms: Sequence = (), nominal: Sequence | None = None) -> BilinearProblem:

@@ -21,8 +21,6 @@ from vibupdate.inverse.formulation.scaling import Scaling, scaling_of
 from vibupdate.inverse.repeated import paired_vector
 from vibupdate.modal.analysis import antiresonances
 
-__all__ = ["VectorBlock", "natural_block", "adjunct_block", "build_blocks"]
-
 
 @dataclass(frozen=True)
 class VectorBlock:

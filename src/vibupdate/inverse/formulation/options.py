@@ -11,7 +11,6 @@ from dataclasses import dataclass
 
 from vibupdate.options import check, default
 
-__all__ = ["FormulationOptions", "ROTATION_PREFIXES"]
 
 #: DOF-name prefixes that mark rotations (scaled by the characteristic length).
 ROTATION_PREFIXES = ("phi", "rx", "ry", "rz", "theta")

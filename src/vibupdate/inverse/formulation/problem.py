@@ -18,8 +18,6 @@ from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["BilinearProblem"]
-
 
 @dataclass(frozen=True)
 class BilinearProblem:

@@ -16,8 +16,6 @@ import scipy.sparse as sp
 
 from vibupdate.inverse.formulation.options import ROTATION_PREFIXES, FormulationOptions
 
-__all__ = ["length_scale", "Scaling", "scaling_of", "ScaledTerms", "scaled_terms"]
-
 
 def length_scale(model, prefixes: Sequence[str] = ROTATION_PREFIXES) -> float:
     """Characteristic length from the stiffness diagonal: ``sqrt(3 median(K_rot) / median(K_tr))``.

@@ -18,8 +18,6 @@ from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.formulation.scaling import ScaledTerms
 from vibupdate.inverse.formulation.weights import block_weight
 
-__all__ = ["block_entries", "stack"]
-
 
 def block_entries(blk: VectorBlock, terms: ScaledTerms) -> dict:
     """The block's entries of every term, in block-local indices: rows, columns, value of

@@ -12,8 +12,6 @@ import numpy as np
 from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.formulation.options import FormulationOptions
 
-__all__ = ["block_weight"]
-
 
 def block_weight(blk: VectorBlock, entries: dict, options: FormulationOptions) -> float:
     """Weight of a block's squared residual: ``alpha / (w^2 ||D M0 S v0||)^2``, so that the

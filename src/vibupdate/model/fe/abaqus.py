@@ -27,8 +27,6 @@ import numpy as np
 
 from vibupdate.model.fe.export import FEExport, dof_name, precision_of_digits, significant_digits, symmetric_from_entries
 
-__all__ = ["read_abaqus", "read_mtx_terms"]
-
 
 def read_mtx_terms(path, digits: Counter | None = None):
     """``(row DOF names, column DOF names, values, line numbers)`` of an Abaqus ``.mtx`` file;

@@ -44,7 +44,6 @@ import numpy as np
 from vibupdate.model.element_groups import ElementMatrices, element_matrices
 from vibupdate.model.fe.export import DIRECTIONS, dof_name, precision_of_digits, significant_digits
 
-__all__ = ["read_abaqus_elements", "read_abaqus_element_sets"]
 
 _ELEMENT = re.compile(r"\*\*\s*ELEMENT NUMBER\s+(-?\d+)(?:\s+STEP NUMBER\s+(\d+))?", re.I)
 _NODES = re.compile(r"NODES\s*=\s*(\d+)", re.I)

@@ -45,7 +45,6 @@ import scipy.sparse as sp
 from vibupdate.model.fe.export import (DIRECTIONS, FEExport, dof_name, precision_of_digits, significant_digits,
                                        symmetric_from_entries)
 
-__all__ = ["read_hbmat", "read_mapping", "read_full", "ANSYS_LABELS"]
 
 #: ANSYS DOF labels -> component 1..6.
 ANSYS_LABELS = {"UX": 1, "UY": 2, "UZ": 3, "ROTX": 4, "ROTY": 5, "ROTZ": 6}

@@ -31,8 +31,6 @@ import re
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["FEExport", "DIRECTIONS", "dof_name", "symmetric_from_entries", "without_dofs", "significant_digits",
-           "precision_of_digits", "coarser"]
 
 #: The directions of a node's six DOFs, in the order FE codes number them (1..6).
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")

@@ -35,7 +35,6 @@ import numpy as np
 
 from vibupdate.model.fe.export import FEExport, dof_name, precision_of_digits, significant_digits, symmetric_from_entries
 
-__all__ = ["read_dmig", "read_dmig_matrices", "nastran_float"]
 
 _EXPONENT = re.compile(r"^([+-]?[0-9.]+)([+-][0-9]+)$")
 

@@ -31,8 +31,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Oblique", "OBLIQUE_DOF", "coordinate_change", "congruent", "rigid_translations", "translation_masses",
-           "direction_text"]
 
 #: An oblique DOF's name: ``"<node>:n1"``, ``n2`` or ``n3``.
 OBLIQUE_DOF = re.compile(r"^(.+):n([123])$")

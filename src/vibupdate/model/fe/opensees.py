@@ -66,7 +66,6 @@ import scipy.sparse as sp
 
 from vibupdate.model.fe.export import SYMMETRY_TOL, FEExport
 
-__all__ = ["export_from_builder", "openseespy"]
 
 #: Probe motion (m or rad; m/s^2 or rad/s^2): a power of two, so dividing by it is exact, small
 #: enough that a material linear up to a strain of a few 1e-5 is probed and checked (up to 30

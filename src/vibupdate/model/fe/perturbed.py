@@ -35,7 +35,6 @@ from vibupdate.model.build import from_files
 from vibupdate.model.fe.export import FEExport, coarser
 from vibupdate.model.parameters import Parameter
 
-__all__ = ["Perturbation", "Derivative", "derivatives", "affine_from_exports", "AFFINE_TOL"]
 
 #: Departure below which a parameter is reported affine (rounding of text exports is far below).
 AFFINE_TOL = 1e-6

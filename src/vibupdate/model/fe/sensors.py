@@ -31,7 +31,6 @@ import numpy as np
 
 from vibupdate.model.fe.oblique import AXES, Oblique
 
-__all__ = ["Sensor", "place", "ALIGN_TOL"]
 
 #: Angle (rad): a sensor within it of a node axis reads that axis's DOF; within it of an
 #: oblique direction on its node, that direction's DOF; within it of the span of the node's
