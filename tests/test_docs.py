@@ -112,6 +112,37 @@ def test_code_cites_nothing_outside_the_repository():
     assert not found, "\n".join(found)
 
 
+#: A pointer from the code to a heading of the benchmarks' record: ``benchmarks/RESULTS.md``,
+#: then (optionally ``heading``) the heading's text in double quotes, across line breaks.
+RESULTS_POINTER = re.compile(r'RESULTS\.md`?,?\s*(?:heading\s*)?"([^"]+)"')
+
+
+def results_pointers(source: str) -> list[str]:
+    """The headings a module's text points to in ``benchmarks/RESULTS.md``, each with its line
+    breaks, comment marks and indentation folded into single spaces."""
+    flat = re.sub(r"\s*\n\s*(?:#:?\s*)?", " ", source)
+    return [" ".join(quoted.split()) for quoted in RESULTS_POINTER.findall(flat)]
+
+
+def test_the_pointer_reader_folds_comments_and_docstrings():
+    source = ('#: the figures (`benchmarks/RESULTS.md`, "Figures behind\n#: src/: FRF kinds").\n'
+              '"""See `benchmarks/RESULTS.md`, heading "OpenSees\n    import: probes".\n"""')
+    assert results_pointers(source) == ["Figures behind src/: FRF kinds", "OpenSees import: probes"]
+
+
+def test_every_results_heading_the_code_points_to_exists():
+    """A docstring that states a rule and points to its figures names a heading of
+    ``benchmarks/RESULTS.md`` that exists (a heading may carry a date or branch after it)."""
+    headings = [line.lstrip("#").strip() for line in (ROOT / "benchmarks" / "RESULTS.md").read_text(
+        encoding="utf-8").splitlines() if line.startswith("#")]
+    pointed = [(str(path.relative_to(ROOT)), quoted) for path in _text_files("src") if path.suffix == ".py"
+               for quoted in results_pointers(path.read_text(encoding="utf-8"))]
+    assert len(pointed) >= 10
+    missing = [f"{where}: {quoted!r}" for where, quoted in pointed
+               if not any(h == quoted or h.startswith(quoted + " (") for h in headings)]
+    assert not missing, "\n".join(missing)
+
+
 def test_the_method_and_vocabulary_pages_exist_and_are_linked_from_the_readme():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     for page in ("docs/method.md", "docs/vocabulary.md", "docs/case-file.md"):

@@ -122,12 +122,10 @@ SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the
 MISFIT_QUALITY = 2.0        # notes: an FRF fitted to a worse quality figure misses its data
 NARROW_LINES = 4.0          # notes: a mode whose half-power bandwidth spans fewer lines
 #: A zero whose local signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`) is under this
-#: is left out unless kept. Measured (benchmarks/noisy_zeros.py, 12 seeds per set): spurious
-#: zeros appeared only with the frame's floor raised to 5e-2, at SNR 0.04-0.07; true zeros of
-#: the project's test settings had 1.75-43 (cantilever) and 0.47-6.0 (frame), 0.25-3.0 on the
-#: Southampton data, but with raised floors true zeros sank to 0.04, 93 % of them still inside
-#: their intervals: the ratio does not separate the two there, and this threshold drops every
-#: spurious zero measured and 78 of 536 true ones, all at raised floors.
+#: is left out unless kept. Spurious zeros appear only at raised noise floors, at low ratios;
+#: true zeros at raised floors sink as low, so the threshold drops every spurious zero found by
+#: ``benchmarks/noisy_zeros.py`` at the cost of some true ones (the counts:
+#: `benchmarks/RESULTS.md`, "Figures behind src/: zeros at the noise floor").
 NOISY_ZERO_SNR = 0.1
 
 

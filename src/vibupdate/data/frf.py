@@ -144,18 +144,18 @@ class FRFWarning(UserWarning):
 
 
 #: Slope of ``log |H|`` over ``log omega`` of a receptance (`kind_evidence`), averaged over a
-#: file's FRFs: measured -2.08 to +0.20 on the project's known-truth sets (grounded cantilever
-#: and chain, free-free chain, the frame, hammer tests of it: -2.61 to +0.31 FRF by FRF) and on
-#: the Southampton accelerances read as such; a kind one or two orders off moves it by 1 or 2.
+#: file's FRFs: receptances fall about as ``omega^-2`` over a band holding modes, or stay
+#: level; a kind one or two orders off moves the slope by 1 or 2. The range holds every
+#: receptance of the project's known-truth sets and of the Southampton data with a margin
+#: (the slopes found: `benchmarks/RESULTS.md`, "Figures behind src/: FRF kinds").
 RECEPTANCE_SLOPE = (-2.7, 0.8)
-#: Above this slope no receptance of a passive structure runs in a band (measured at most +0.31;
-#: an accelerance read as one rises as omega^2 below its first mode and is flat above it: the
-#: cantilever's transfer accelerances read as receptances gave +1.85): an error, not a warning.
+#: Above this slope no receptance of a passive structure runs in a band, while an accelerance
+#: read as one rises as omega^2 below its first mode: an error, not a warning.
 RISING = 1.5
 #: A driving point's receptance has ``Im H <= 0`` at every line (passivity); the weighted share
-#: of its lines that do (`kind_evidence`) was 0.87-1.00 on the sets above (0.89-0.94 on the
-#: Southampton data, 0.87 on a band below the first mode, where ``Im H`` is small), 0.00-0.13
-#: for a kind two orders off (or a flipped sign), 0.14-1.00 for one order off.
+#: of its lines that do (`kind_evidence`) is near 1 for a receptance, near 0 for a kind two
+#: orders off or a flipped sign, anywhere for one order off (the shares found:
+#: `benchmarks/RESULTS.md`, "Figures behind src/: FRF kinds").
 PASSIVE_SHARE = 0.5
 TWO_ORDERS = 0.2
 SLOPE_BINS = 12
@@ -501,8 +501,8 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
 
 
 #: Repeats of one FRF whose median difference from their mean, relative to its magnitude, is
-#: above this are not repeats (`check_repeats`): measured repeats with 3 % noise differ by about
-#: 0.03, two different FRFs by about 1.
+#: above this are not repeats (`check_repeats`): repeats differ by about their noise level, two
+#: different FRFs by about 1.
 CONTRADICTORY = 0.5
 
 

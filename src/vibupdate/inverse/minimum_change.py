@@ -2,11 +2,11 @@
 
 Where the measured data do not determine every parameter (fewer independent data than
 parameters, an exact symmetry), the fitted parameters form a set, not a point, and the point
-the homotopy and the polish return is an accident of the path: on an 18-storey shear building
-with 4 measured frequencies and 18 storey stiffnesses two solver schedules returned answers
-73 % and 15 % from the truth, both fitting the data exactly. A user expects the answer
-closest to the nominal model along the undetermined directions, as a regularized or
-minimum-norm fit gives. This module takes the polished answer ``x*`` there.
+the homotopy and the polish return is an accident of the path: two solver schedules can
+return answers far apart, both fitting the data exactly (`benchmarks/RESULTS.md`, "Figures
+behind src/: minimum change"). A user expects the answer closest to the nominal model along
+the undetermined directions, as a regularized or minimum-norm fit gives. This module takes
+the polished answer ``x*`` there.
 
 Let ``g(x)`` be the measured data as the model gives them: every declared natural frequency
 and zero relative to its measured value, and every measured shape ratio (the residuals of

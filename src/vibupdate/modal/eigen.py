@@ -9,8 +9,8 @@ Two paths, chosen by size (`DENSE_LIMIT`):
   ``n eps mu_max``, so the relative error of mode ``k`` is about ``n eps eigval_k / eigval_1``:
   machine precision for the lowest modes, which are the measured ones. The direct pencil
   ``K phi = eigval M phi`` has absolute error about ``n eps eigval_max`` instead, i.e. a relative
-  error ``n eps eigval_max / eigval_k`` that reaches 1e-9..1e-8 on the refined frames of the
-  benchmarks (``eigval_max / eigval_1`` ~ 1e8); the subset driver measured 1.1e-8 at 305 DOFs.
+  error ``n eps eigval_max / eigval_k``, large on refined meshes where ``eigval_max / eigval_1``
+  is large (`benchmarks/RESULTS.md`, "Figures behind src/: eigen-solver paths and shifts").
 * **sparse** (large models): shift-invert Lanczos / Arnoldi (ARPACK) with a sparse LU of
   ``K - sigma M``, one step of inverse iteration on every returned vector and a residual
   check per mode (`mode_residuals`); a mode whose backward error exceeds the tolerance raises
@@ -110,22 +110,22 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
     if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, [1.0 / mu[-1]], V[:, -1:], precision)[0]:
         # A singular K whose Cholesky factor completed on rounding-level pivots: its largest
         # mu is rounding, and the error n eps mu_max it puts on every mu swamps the flexible
-        # modes (measured: frequencies jumping by 1e-5 between neighbouring points).
+        # modes.
         mu = None
     if mu is None:
         # K is not positive definite (rigid-body modes or an unstable parameter point): shift
         # below the lowest eigenvalue, estimated by the direct pencil.
         # With rigid-body modes the shift goes one first flexible eigenvalue below zero: the
-        # error n eps mu_max then stays at n eps of the flexible modes (a millionth of the
-        # largest eigenvalue, the former shift, cost 1.8e-8 on a free-free 602-DOF beam, a
-        # shift at rounding level 5e-7 on a 22-DOF one). An unstable point: at its own size.
+        # error n eps mu_max then stays at n eps of the flexible modes (a shift at a fixed
+        # fraction of the largest eigenvalue, or at rounding level, costs digits). An unstable
+        # point: at its own size.
         eigval_direct, V_direct = _direct_eigh(K, M)
-        # the direct pencil puts a rigid-body mode at up to n eps |eigval_max| (measured: 5.1e-9
-        # (rad/s)^2, 51 rounding units, on a 10-DOF free-free beam, where the test of
-        # `vibupdate.modal.rigid` allows 50): a shift to that mode left K - sigma M singular
-        # within rounding and cost the flexible modes 5e-6 to 2.5e-3. The shift goes below the
-        # first eigenvalue `SINGULAR_SHIFT` rounding units clear of zero; the rigid-body modes
-        # are told apart afterwards, from the reciprocal pencil's own vectors (`modes`).
+        # the direct pencil puts a rigid-body mode at up to n eps |eigval_max|, which can exceed
+        # the allowance of `vibupdate.modal.rigid`: a shift to that mode would leave
+        # K - sigma M singular within rounding. The shift goes below the first eigenvalue
+        # `SINGULAR_SHIFT` rounding units clear of zero; the rigid-body modes are told apart
+        # afterwards, from the reciprocal pencil's own vectors (`modes`). The figures:
+        # `benchmarks/RESULTS.md`, "Figures behind src/: eigen-solver paths and shifts".
         near = np.abs(eigval_direct) <= SINGULAR_SHIFT * rigid.rounding_scale(M, K, V_direct, precision)
         mu = None
         if near[0] and not near.all():

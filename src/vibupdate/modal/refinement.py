@@ -6,27 +6,14 @@ bending mesh their low modes can still be far from the exact eigenpairs of the g
 matrices: the stiffness entries (``EI / h^3``) dwarf ``K phi = w^2 M phi`` of a smooth mode, so
 every solve with ``K`` and every product ``K phi`` in double precision loses about
 ``log10(|K| |phi| / |K phi|)`` digits to cancellation, and the residual check cannot see it (it
-is computed with the same cancellation). Measured on the refined frame of
-``benchmarks/scaling.py`` (true model, 7 modes, shape ratios at the 20 measured DOFs, against
-a converged reference of this module's iteration):
+is computed with the same cancellation). The loss grows with the mesh's refinement, and
+errors of that size in "exact" data and in the model's shapes move the updated parameters
+(the figures: `benchmarks/RESULTS.md`, "Figures behind src/: accurate low modes").
 
-=========  ==================================  ================================
-DOFs       shift-invert Lanczos alone          after `refine_modes`
-=========  ==================================  ================================
-2,996      ratios 3.0e-8, eigenvalues 8.2e-9   ratios ~1e-12
-30,023     ratios 1.4e-4, eigenvalues 5.1e-5   ratios 1.8e-8, eigenvalues 9e-9
-=========  ==================================  ================================
-
-(two Lanczos runs of the same matrices differed by 1.4e-5 in the ratios at 30,023 DOFs,
-through the random start vector). Errors of that size in "exact" data and in the model's
-shapes left the updated parameters 1e-2 away from the truth.
-
-What it cannot do: make the matrices mean more than they do. On that 30,023-DOF mesh (elements
-0.52 mm long on a 12 mm deep section) perturbing every entry of ``K`` by one rounding unit
-changes the frequencies by up to 7.6e-5 and the ratios by 1e-4 (6e-8 at 2,996 DOFs, 1.5e-10 at
-305): the model's low modes are fixed by its parameters only to that level in double
-precision, so that a different point ``xbar`` (a different rounding of ``K0 + sum xbar_i K_i``)
-moves them by as much.
+What it cannot do: make the matrices mean more than they do. Perturbing every entry of ``K``
+by one rounding unit moves the low modes of a fine mesh by a measurable amount: they are fixed
+by the model's parameters only to that level in double precision, so that a different point
+``xbar`` (a different rounding of ``K0 + sum xbar_i K_i``) moves them by as much.
 
 What is done. Given Lanczos vectors ``X`` (n, q) of a block a few modes wider than wanted,
 one step of subspace (inverse) iteration ``Y = (K - sigma M)^-1 M X`` is taken with each solve
@@ -48,15 +35,15 @@ from vibupdate.modal.factor import sparse_lu
 
 #: Whether ``numpy.longdouble`` carries more digits than ``double`` on this platform.
 EXTENDED = bool(np.finfo(np.longdouble).eps < np.finfo(np.float64).eps)
-#: Refinement sweeps per solve (on the 30,023-DOF frame a second sweep changed the modes by
-#: less than the converged reference's own scatter, 2e-9, and cost a third more).
+#: Refinement sweeps per solve: a second sweep changes the modes by less than a converged
+#: reference's own scatter (`benchmarks/RESULTS.md`, "Figures behind src/: accurate low modes").
 _SWEEPS = 1
 
 
 def block_size(n_wanted: int, n_available: int) -> int:
     """Lanczos block for ``n_wanted`` modes: half as many again, at least 4 more (the
-    Rayleigh-Ritz step cleans a mode of its neighbours inside the block; 12 vectors for 7
-    wanted modes took the 30,023-DOF frame's ratio error from 2.8e-6, with 8, to 1.8e-8)."""
+    Rayleigh-Ritz step cleans a mode of its neighbours inside the block: `benchmarks/RESULTS.md`,
+    "Figures behind src/: accurate low modes")."""
     return int(max(n_wanted, min(n_available, n_wanted + max(4, n_wanted // 2))))
 
 
@@ -177,9 +164,8 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
 
     # one rounding unit per stored entry, the signs within a row aligned (the componentwise
     # backward error of a stable solver), the rows' signs drawn: b_i = +-eps ((|K| + w^2 |M|) |phi|)_i.
-    # Independent signs per entry (what this estimate drew before) cancel within a row and put the
-    # floor a factor sqrt(entries per row) lower: exact point data of 10-DOF beams computed by
-    # another dense solver then missed by 1.4 times the allowance (acceptance runs r142, r254).
+    # Independent signs per entry cancel within a row and put the floor a factor
+    # sqrt(entries per row) too low (`benchmarks/RESULTS.md`, "Figures behind src/: accurate low modes").
     size = abs(Ks) @ np.abs(phi) + abs(eigval) * (abs(Ms) @ np.abs(phi))
     b = eps * size * rng.choice([-1.0, 1.0], size=n)
     U = phi[:, None] if basis is None else np.asarray(basis, dtype=float)

@@ -12,14 +12,11 @@ quotient ``u^T K u / u^T M u`` of that very vector: the products of ``K`` with `
 down to the true value, and each cancels from ``|K| |u|``. It follows the scale of the mode,
 not of the matrix: a relative threshold on the largest ``K_ii / M_ii`` (what
 `vibupdate.model.physical` used) grows with the fourth power of the inverse element length on
-bending meshes, and counted four flexible modes of the 3,893-DOF refined frame
-(``examples/frame.py``, 100 subdivisions; first mode 26 rad/s) as rigid because the threshold
-had reached 5e4 (rad/s)^2. Measured with vibupdate's own solvers (``|eigval|`` over
-``eps |u|^T |K| |u| / u^T M u``; free-free 1 m beams and portal frames of 42 to 2,002 DOFs):
-rigid-body modes 0.02-0.21 (dense reciprocal pencil), up to 0.17 (shift-invert), the structural
-zeros of the adjunct pencils up to 1.9 (QZ); flexible modes at least 4.6e4 (the free-free beam
-cut into 1,000 elements); the two suspension modes of that beam on two 50 N/m springs 159 and
-478 (shift-invert), the closest a real mode came. `RIGID_FACTOR` = 50 sits between.
+bending meshes, and counts flexible modes of a refined mesh as rigid. The ratio ``|eigval|``
+over ``eps |u|^T |K| |u| / u^T M u`` stays of order 1 for rigid-body modes and structural
+zeros and is orders larger for flexible modes, soft suspension modes included; `RIGID_FACTOR`
+sits between the two (the ratios found with vibupdate's own solvers: `benchmarks/RESULTS.md`,
+"Figures behind src/: rigid-body modes").
 
 **Adjunct pencils.** The zeros of ``h_rc`` are the eigenvalues of ``(K_rc, M_rc)``, ``K`` and
 ``M`` without row ``c`` and column ``r`` (paper Eq. 8). A rigid-body mode ``rho`` with
@@ -39,12 +36,10 @@ for the 10 significant digits of a Nastran large-field DMIG). The bound is the s
 ``precision`` (``vibupdate.model.affine.AffineModel.matrix_precision``). One ``delta`` unit is
 the most the export's rounding moves a zero eigenvalue at the nominal point (``u^T E u``); the
 factor `RIGID_FACTOR` leaves room for the difference quotients of an imported model, whose
-rounding grows away from the nominal point. Measured on free-free 3-D frames of 96-168 DOFs
-exported in large field (``delta`` = 5e-10): the six rigid-body eigenvalues at 3e2-7e3 ``eps``
-units, one or two of them negative, which the ``eps`` test refused as "not positive
-semidefinite"; in ``delta`` units at most 3e-3 at the nominal point and 0.07 at the corners of
-a +-50 % box of three parameters imported with 10 % steps, the first flexible mode at least
-2.1e5.
+rounding grows away from the nominal point. Counted in ``eps`` units, the rigid-body
+eigenvalues of an exported model lie far above the bound (some negative); in ``delta`` units
+they stay well under it, and the flexible modes far above (`benchmarks/RESULTS.md`, "Figures
+behind src/: rigid-body modes").
 """
 
 from __future__ import annotations

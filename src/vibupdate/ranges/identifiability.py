@@ -253,7 +253,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     # Along a direction the data do not see at all (a null direction of the Jacobian), the
     # linear program follows the tangent line to the box, but the set of parameters that fit
     # bends away from that line: on the known-truth acceptance problems the truth lay outside
-    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance"). A parameter that moves
+    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
     # along a null direction is bounded by the box alone.
     _, sv, Vt = np.linalg.svd(Gs)   # null directions: singular values below RANK_RTOL of the largest
     rank = numerical_rank(sv)

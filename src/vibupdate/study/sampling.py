@@ -15,11 +15,8 @@ What is drawn, per configuration:
   the formulation takes intervals, so a sample needs no point inside them, and a point
   drawn independently per entry is a shape no model has. With ``shape_width < 1``, a centre
   ``v`` inside each entry's bounds and the interval ``v +- shape_width * h`` (``h`` the
-  entry's half-width, clipped to the bounds). *Measured:* on a 50-element beam with 6 modes
-  measured at 10 points (+-1 % intervals, `benchmarks/sweep_beam.py`) the drawn centres with
-  ``shape_width = 0.1`` left no model that fits: 0 of the first 5 samples verified, every
-  start ending at objective 1.2e3 with the first frequency 5 % off; with the intervals kept,
-  the first sample verified.
+  entry's half-width, clipped to the bounds). Narrow drawn centres can leave no model that
+  fits at all (`benchmarks/RESULTS.md`, "Figures behind src/: shape width of sampled sweeps").
 
 Distributions: ``"uniform"`` over each interval, or ``"gaussian"``: a normal centred on the
 interval's midpoint with ``sigma = h / z`` where ``z`` is the two-sided normal quantile of
