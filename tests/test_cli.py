@@ -29,13 +29,32 @@ def test_readme_opens_with_the_two_commands():
     assert 'pip install ".[test]" && pytest' in first_block
 
 
-def test_readme_python_examples_run(tmp_path, monkeypatch):
+def test_readme_python_example_prints_what_the_readme_claims(tmp_path, monkeypatch, capsys):
+    """The README's Python block runs and prints an update that succeeded and reduced the mean
+    frequency error, the seven parameters within their bounds, and a Caughey fit of the damping
+    better than Rayleigh's (figures as measured: benchmarks/RESULTS.md, "Cantilever and frame:
+    first stage, polish, verification and the competent classical fit")."""
+    import vibupdate as vu
+    from vibupdate.examples import cantilever
+
     monkeypatch.chdir(tmp_path)
     text = (ROOT / "README.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
-    assert blocks, "README has no python example"
-    for block in blocks:
-        exec(compile(block, "README.md", "exec"), {})
+    assert len(blocks) == 1, "the README has one Python example"
+    exec(compile(blocks[0], "README.md", "exec"), {})
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 + 7 + 1, lines
+    status, nominal, updated = re.fullmatch(r"(\S+) mean error ([\d.]+) % -> ([\d.]+) %", lines[0]).groups()
+    assert status == str(vu.Status.SUCCESS)
+    assert float(nominal) == pytest.approx(4.82, abs=0.005)    # measured 4.82 %
+    assert float(updated) == pytest.approx(0.48, abs=0.005)    # measured 0.4766 %, printed 0.48
+    parameters = cantilever.configurations()[0].model.parameters
+    for line, p in zip(lines[1:8], parameters):
+        name, value, unit = line.split()
+        low, high = (float(f"{bound:.4g}") for bound in (p.lower, p.upper))   # as printed
+        assert (name, unit) == (p.name, p.unit) and low <= float(value) <= high, line
+    caughey, rayleigh = map(float, re.fullmatch(r"Caughey ([\d.]+) %, Rayleigh ([\d.]+) %", lines[8]).groups())
+    assert caughey < rayleigh
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +90,10 @@ def test_example_cantilever_writes_results_json(cantilever_run):
     assert "\nFrequencies\n" in out and "paper updated (Table 5) [Hz]" in out and "lambda = 1.0000" in out
     assert "Damping ratios" in out
     assert doc["solver"]["status"] == "success"
-    assert doc["summary"]["mean_error_updated_pct"] <= 0.6
+    # measured 0.4766 %, the classical least-squares optimum of these data (benchmarks/RESULTS.md,
+    # "Cantilever and frame: first stage, polish, verification and the competent classical fit";
+    # the paper's Table 5 reports 0.6 % for its own solve), held to its printed digits
+    assert doc["summary"]["mean_error_updated_pct"] == pytest.approx(0.4766, abs=5e-4)
     # the default path: the relaxation, then the direct jump to lambda = 1, every solve recorded.
     assert [s["lambda"] for s in doc["solver"]["steps"]] == pytest.approx([0.0, 1.0])
     assert set(doc["solver"]["steps"][0]) >= {"lambda", "objective", "iterations", "status", "seconds"}
@@ -83,8 +105,10 @@ def test_example_cantilever_writes_results_json(cantilever_run):
 def test_damping_section_of_the_cantilever(cantilever_run):
     doc = json.loads((cantilever_run[1] / "results.json").read_text())
     assert len(doc["damping"]) == 12
-    assert doc["summary"]["mean_damping_error_pct"] <= 16.6
-    assert doc["summary"]["mean_damping_error_rayleigh_pct"] is not None
+    # measured 12.35 % (Caughey) and 21.46 % (Rayleigh), the figures of tests/damping/test_damping.py
+    # (the paper's Table 7: 16.6 % for its Caughey fit), held to their printed digits
+    assert doc["summary"]["mean_damping_error_pct"] == pytest.approx(12.35, abs=0.05)
+    assert doc["summary"]["mean_damping_error_rayleigh_pct"] == pytest.approx(21.46, abs=0.05)
     assert doc["damping_model"]["exponents"] == [-1.5, -0.75, 0.0]
 
 

@@ -143,6 +143,17 @@ def test_every_results_heading_the_code_points_to_exists():
     assert not missing, "\n".join(missing)
 
 
+def test_the_api_page_lists_every_public_name_and_no_other():
+    """The table under "What is public" in docs/python-api.md names exactly the facade's names."""
+    import vibupdate
+
+    text = (ROOT / "docs" / "python-api.md").read_text(encoding="utf-8")
+    section = text.split("## What is public", 1)[1].split("\n## ", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("| ") and line != "| what | names |"]
+    listed = [name for row in rows for name in re.findall(r"`(\w+)`", row.split("|")[2])]
+    assert sorted(listed) == sorted(vibupdate.__all__)
+
+
 def test_the_method_and_vocabulary_pages_exist_and_are_linked_from_the_readme():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     for page in ("docs/method.md", "docs/vocabulary.md", "docs/case-file.md"):

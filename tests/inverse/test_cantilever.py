@@ -8,7 +8,7 @@ from vibupdate.inverse.correlation import model_frequencies, percent_error
 from vibupdate.examples import cantilever, read_table
 
 
-def test_nominal_frequencies_within_two_percent_of_the_paper_nominal_column():
+def test_nominal_frequencies_close_to_the_paper_nominal_column():
     configurations = cantilever.configurations()
     table = read_table("cantilever_frequencies.csv")
     ours, paper = [], []
@@ -20,7 +20,9 @@ def test_nominal_frequencies_within_two_percent_of_the_paper_nominal_column():
         ours += list(freqs.natural / 2 / np.pi) + list(freqs.antiresonances / 2 / np.pi)
     assert len(ours) == 16
     errors = percent_error(ours, paper)
-    assert errors.mean() <= 2.0, f"mean {errors.mean():.2f} % against the paper's nominal model"
+    # measured 1.04 % (largest 2.87 %): the rebuilt model is deterministic, the margin is the
+    # printed digit
+    assert errors.mean() <= 1.05, f"mean {errors.mean():.2f} % against the paper's nominal model"
 
 
 def test_proof_mass_at_y1_or_y3_leaves_the_antiresonance_unchanged():

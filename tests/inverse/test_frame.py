@@ -41,8 +41,12 @@ def test_size_matches_test_case_1():
 def test_problem_1_fits_the_frequencies_and_shapes(noisy):
     configurations, r = noisy
     assert r.status == Status.SUCCESS, r.message
-    assert r.mean_error("nominal") > 3.0               # the nominal model is ~5 % off
-    assert r.mean_error("updated") <= 1.5             # paper test case 1: 1.5 %
+    assert r.mean_error("nominal") > 3.0               # the nominal model is 4.1 % off
+    # measured 0.0285 % on these noisy data (0.0345 % before the polish's later changes:
+    # benchmarks/RESULTS.md, "Cantilever and frame: first stage, polish, verification and the
+    # competent classical fit"); the ceiling allows 1.75 times the measured figure for where the
+    # polish stops. The paper's test case 1 reports 1.5 % for its own data.
+    assert r.mean_error("updated") <= 0.05
     assert np.all(r.mac["frame"] >= 0.95)
     assert r.relaxation_lower_bound <= r.objective
 
@@ -97,8 +101,9 @@ def test_damping_with_the_paper_test_case_1_exponents(noisy):
     configurations, r = noisy
     stage = identify_damping(configurations, r.xbar, frame.DAMPING.exponents)
     # The generating law (Y = 0, 0.5, 1) lies in the span of Y = 0, 0.25, ..., 1; what is left
-    # is the frequency error of the updated model.
-    assert stage.caughey.mean_error_pct < 1.0
+    # is the frequency error of the updated model: measured 0.0079 % (Rayleigh 3.97 %), the
+    # ceiling 2.5 times that, as the updated frequencies move with where the polish stops.
+    assert stage.caughey.mean_error_pct < 0.02
     assert stage.rayleigh.mean_error_pct > stage.caughey.mean_error_pct
 
 

@@ -137,6 +137,8 @@ def _no_solve(*args, **kwargs):
 
 
 def test_unwritable_output_folder_is_refused_before_solving(tmp_path, monkeypatch, capsys):
+    """The folder's write test is made to fail as a read-only folder makes it fail: a real
+    read-only folder does not stop root, who runs CI here."""
     import tempfile
 
     import vibupdate.pipeline
@@ -152,22 +154,6 @@ def test_unwritable_output_folder_is_refused_before_solving(tmp_path, monkeypatc
     err = capsys.readouterr().err
     assert "is not writable" in err and "Permission denied" in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
-
-
-@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root writes into read-only folders")
-def test_read_only_output_folder_is_refused_before_solving(tmp_path, monkeypatch, capsys):
-    import vibupdate.pipeline
-
-    case = write_case(tmp_path)
-    out = tmp_path / "out"
-    out.mkdir()
-    out.chmod(0o555)
-    monkeypatch.setattr(vibupdate.pipeline, "update", _no_solve)
-    try:
-        assert main(["run", str(case), "--out", str(out)]) == 2
-    finally:
-        out.chmod(0o755)
-    assert "is not writable" in capsys.readouterr().err
 
 
 def test_output_path_that_is_a_file_is_refused(tmp_path, capsys):
