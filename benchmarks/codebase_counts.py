@@ -26,6 +26,9 @@ Printed as one table, each count with its limit where the project states one:
   and, of those, the lines where "measured" reports a measurement ("measured on the frame",
   "(measured: 5e-9") rather than names measured data ("the measured frequency of mode 2");
 * lines of ``src/`` (``*.py``);
+* imports of private names by the tests: ``from vibupdate... import _name`` or an import of a
+  private module (a dotted part starting with one underscore), at any depth of ``tests/``
+  (reported, no limit stated);
 * lines of each docs page (``README.md``, ``docs/*.md``, ``docs/fe/*.md``; limit 700), and,
   listed apart and without a limit, the notes under ``docs/notes/``.
 
@@ -315,6 +318,26 @@ def prose_counts(src: Path) -> dict[str, list[str]]:
     return hits
 
 
+# --- private names imported by the tests -------------------------------------------------
+
+def _private(dotted: str) -> bool:
+    return any(part.startswith("_") and not part.startswith("__") for part in dotted.split("."))
+
+
+def private_imports(tests: Path) -> list[str]:
+    """``file:line: name`` of every import of a private ``vibupdate`` name or module in ``tests/``."""
+    found = []
+    for path in sorted(tests.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("vibupdate"):
+                names = [f"{node.module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names if a.name.startswith("vibupdate")]
+            found += [f"{path.relative_to(tests.parent)}:{node.lineno}: {n}" for n in names if _private(n)]
+    return found
+
+
 # --- line counts --------------------------------------------------------------------------
 
 def line_count(path: Path) -> int:
@@ -353,6 +376,7 @@ def main(argv: list[str] | None = None) -> int:
     cycles = circles(import_graph(src))
     hits = prose_counts(src)
     src_lines = sum(line_count(p) for p in python_files(src))
+    private = private_imports(root / "tests") if (root / "tests").is_dir() else []
     pages, notes = docs_pages(root)
 
     rows = [
@@ -372,6 +396,8 @@ def main(argv: list[str] | None = None) -> int:
          f"comment or docstring lines; {len(hits['reports'])} of them report a measurement "
          "(\"measured on ...\", \"(measured: ...\"), the rest say \"measured data\" next to a number"),
         ("src/ lines", src_lines, f"{len(python_files(src))} files"),
+        ("private names imported by tests", len(private),
+         f"in {len({h.split(':')[0] for h in private})} test files"),
     ]
     over = [(name, n) for name, n in pages if n > DOCS_PAGE_LIMIT]
     rows.append((f"docs pages over {DOCS_PAGE_LIMIT} lines", len(over),
@@ -396,7 +422,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.list:
         for title, items in (("__all__ lists", list_rows), ("process tricks", hits["tricks"]),
                              ("seed ids", hits["seeds"]), ("'measured' beside a figure", hits["measured"]),
-                             ("of which measurement reports", hits["reports"])):
+                             ("of which measurement reports", hits["reports"]),
+                             ("private names imported by tests", private)):
             print(f"\n{title}:")
             for item in items:
                 print(f"  {item}")

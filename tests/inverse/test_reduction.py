@@ -109,7 +109,9 @@ def test_auto_reduction_solves_a_refined_frame(budget):
                                                                  polish=PolishOptions(max_evaluations=budget))
     assert result.status == Status.SUCCESS, result.message
     assert result.problem_size["reduced_dofs"] == 20 + 20
-    assert result.mean_error() <= 1.5
+    # measured 0.0724 % with the default polish and 0.126 % with 40 evaluations (2026-12-06);
+    # the ceilings allow twice that, for where the polish stops
+    assert result.mean_error() <= {None: 0.15, 40: 0.25}[budget]
     assert np.all(result.mac["frame"] >= 0.95)
     assert result.vectors[0].shape == (configurations[0].model.n_dofs,)
     reduced, _ = reduce_configurations(configurations, 20)
