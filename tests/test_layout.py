@@ -140,3 +140,44 @@ def test_the_version_is_stated_once_in_the_project_metadata():
                 if isinstance(t, ast.Name)]
     assert "__version__" not in assigned
     assert vibupdate.__version__ == importlib.metadata.version("vibupdate")
+
+
+def _counts_script():
+    import importlib.util
+
+    path = PACKAGE.parents[1] / "benchmarks" / "codebase_counts.py"
+    spec = importlib.util.spec_from_file_location("codebase_counts", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_count_script_finds_what_it_counts_on_a_constructed_tree(tmp_path):
+    """benchmarks/codebase_counts.py (its output is in benchmarks/RESULTS.md) on a tree made
+    for it: each count sees its case and passes over its look-alike."""
+    counts = _counts_script()
+    src = tmp_path / "src" / "vibupdate"
+    (src / "inner").mkdir(parents=True)
+    (src / "__init__.py").write_text('__all__ = ["a", "b"]\n')
+    (src / "inner" / "__init__.py").write_text("")
+    (src / "inner" / "one.py").write_text(
+        '"""Rule X (measured on the frame: 1.5e-9).\nSee Eq. 12 of the measured data.\n\n'
+        'Acceptance runs r142 and r254; seeds 8-11.\n"""\n'
+        "import os\n"
+        "from vibupdate.inner import two\n"
+        '__all__ = ["b", "c"]\n'
+        "# os._exit in a comment is no trick\n"
+        "def f():\n    os._exit(0)\n")
+    (src / "inner" / "two.py").write_text("def g():\n    from vibupdate.inner import one\n")
+    tests = tmp_path / "tests"
+    tests.mkdir()
+    (tests / "test_x.py").write_text("from vibupdate.inner.one import _hidden, shown\nimport vibupdate._extras\n")
+
+    assert counts.public_names(tmp_path / "src")[:4] == (3, 4, 2, 2)
+    assert counts.circles(counts.import_graph(tmp_path / "src")) == [["vibupdate.inner.one", "vibupdate.inner.two"]]
+    hits = counts.prose_counts(tmp_path / "src")
+    assert [h.rsplit(": ", 1)[1] for h in hits["tricks"]] == ["os._exit"]
+    assert len(hits["seeds"]) == 1 and "r142" in hits["seeds"][0]
+    assert len(hits["measured"]) == 1 and "1.5e-9" in hits["measured"][0]
+    assert [h.split(": ")[1] for h in counts.private_imports(tests)] == ["vibupdate.inner.one._hidden",
+                                                                         "vibupdate._extras"]
