@@ -110,16 +110,36 @@ def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_pa
     from vibupdate.modal.eigen import DENSE_LIMIT
     from vibupdate.report import plots
 
+    import matplotlib.figure
+
+    def chain(n):
+        k = np.full(n, 1e4)
+        return (sp.identity(n, format="csc"),
+                sp.diags([np.r_[k[:-1] + k[1:], k[-1]], -k[1:], -k[1:]], [0, 1, -1], format="csc"))
+
+    legends = []
+    real_save = matplotlib.figure.Figure.savefig
+
+    def save(fig, *args, **kwargs):      # the legend the figure is written with
+        legends.append([text.get_text() for legend in fig.legends for text in legend.get_texts()])
+        return real_save(fig, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", save)
+
+    class Cfg:
+        name = "c"
+        natural = [NaturalFrequency(1.0)]
+        antiresonances = []
+
+    M, K = chain(30)                     # no damping law: each curve is its own undamped model
+    plots.plot_frf(tmp_path / "small.png", Cfg, (M, 1.1 * K, None), (M, K, None), 29, 29, "h")
+    assert legends.pop()[:2] == ["nominal model (undamped)", "updated model (undamped)"]
+
     n = DENSE_LIMIT + 50
-    k = np.full(n, 1e4)
-    K = sp.diags([np.r_[k[:-1] + k[1:], k[-1]], -k[1:], -k[1:]], [0, 1, -1], format="csc")
-    M = sp.identity(n, format="csc")
+    M, K = chain(n)
     law = CaugheyLaw((0.0, 1.0), (0.5, 1e-5), 40)
     nominal, updated = (M, 1.1 * K, None), (M, K, law)
-    curve = plots._nominal_curve(nominal, updated)
-    assert isinstance(curve[2], CaugheyLaw) and curve[2].beta == () and curve[2].n_modes == 40
-    assert plots._nominal_curve(nominal, (M, K, None)) is nominal   # no law: exact path kept
-    assert plots._damping_note(curve[2]) == " (undamped, 40 modes)"
+    curve = (M, 1.1 * K, CaugheyLaw((), (), 40))   # the nominal curve the legend below names
 
     from vibupdate.modal.eigen import modes
 
@@ -136,14 +156,11 @@ def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_pa
     real_splu = scipy.sparse.linalg.splu
     monkeypatch.setattr(scipy.sparse.linalg, "splu", lambda A, *a, **kw: lus.append(1) or real_splu(A, *a, **kw))
 
-    class Cfg:
-        name = "c"
-        natural = [NaturalFrequency(float(w[2]))]
-        antiresonances = []
-
+    Cfg.natural = [NaturalFrequency(float(w[2]))]
     plots.plot_frf(tmp_path / "f.png", Cfg, nominal, updated, n - 1, n - 1, "h")
     # one shift-invert factorization per model's eigen-solve, not one per plotted line (2,000)
     assert len(lus) <= 2 and (tmp_path / "f.png").stat().st_size > 5000
+    assert legends.pop()[:2] == ["nominal model (undamped, 40 modes)", "updated model (damping law, 40 modes)"]
 
 
 def test_report_range_widths_below_one_percent_keep_two_digits():
