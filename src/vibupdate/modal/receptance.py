@@ -18,8 +18,8 @@ unless ``K`` is singular). Adding the vectors ``F e_c, (F M) F e_c, ...`` (`KRYL
 excitation) to the modes and solving the model projected on them (Rayleigh-Ritz) matches
 those terms and keeps the included modes exact: the static part of massless DOFs, the modes'
 resonances and the residual are all in one small dense solve (the static correction alone
-against `KRYLOV_DEPTH` vectors: `benchmarks/RESULTS.md`, "Figures behind src/: receptances"); held against direct
-solves in `tests/modal/test_receptance.py`."""
+against `KRYLOV_DEPTH` vectors: `benchmarks/RESULTS.md`, "Figures behind src/: receptances");
+held against direct solves in `tests/modal/test_receptance.py`."""
 
 from __future__ import annotations
 
@@ -102,8 +102,9 @@ def _state_space_receptances(M, K, C, rows, cols, omega: np.ndarray):
     """Damped ``h_rc`` of every pair from one eigen-decomposition of the first-order form
     ``A = [[0, I], [-M^-1 K, -M^-1 C]]`` (M positive definite): one ``2n`` eigen-solve, then
     ``h(w) = sum_k V_rk (V^-1 b_c)_k / (j w - s_k)``. Checked against direct solves at three
-    lines to 1e-7 of the largest |h| of each pair (`benchmarks/RESULTS.md`, "Figures behind src/: receptances");
-    returns None when they disagree (ill-conditioned eigenvectors). Shape (n_pairs, n_f)."""
+    lines to 1e-7 of the largest |h| of each pair (`benchmarks/RESULTS.md`, "Figures behind
+    src/: receptances"); returns None when they disagree (ill-conditioned eigenvectors).
+    Shape (n_pairs, n_f)."""
     Md, Kd, Cd = _dense(M), _dense(K), _dense(C)
     n = Md.shape[0]
     try:
