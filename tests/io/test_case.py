@@ -424,3 +424,22 @@ def test_a_damped_interval_becomes_the_natural_one_with_the_ratios_that_move_it_
     assert damped_shift(0.06) == pytest.approx(0.0018, rel=0.01)
     with pytest.raises(ValueError, match="has no damping ratio"):
         natural_from_damped(NaturalFrequency(100.0))
+
+
+def test_the_case_types_are_named_without_the_file_reader():
+    """`Case` and `DampingOptions` live in their own module: the examples and the pipeline name
+    them without loading the TOML reader, which still gives them (and so does the package)."""
+    import subprocess
+    import sys
+
+    import vibupdate
+    import vibupdate.io.case as reader
+    from vibupdate.io import case_types
+
+    assert reader.Case is case_types.Case is vibupdate.Case
+    assert reader.DampingOptions is case_types.DampingOptions is vibupdate.DampingOptions
+    probe = ("import sys\nimport vibupdate.io.case_types, vibupdate.examples.cantilever, vibupdate.pipeline\n"
+             "print('vibupdate.io.case' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "False"
