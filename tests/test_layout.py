@@ -103,9 +103,10 @@ def test_the_parts_of_the_formulation_do_not_import_its_entry_point():
     assert not offenders, offenders
 
 
-#: Modules rewritten on another branch that still declare ``__all__``; each is to drop it.
+#: Modules being rewritten on another branch (two of them new there) that may still declare
+#: ``__all__``; each is to drop it, and this set with it.
 PENDING_ALL = {"inverse/update.py", "inverse/verify.py", "inverse/polish.py", "inverse/status.py",
-               "inverse/repeated.py"}
+               "inverse/repeated.py", "inverse/admissible.py", "inverse/search.py"}
 
 
 def declares_all(path: Path) -> bool:
