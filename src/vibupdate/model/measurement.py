@@ -1,0 +1,206 @@
+"""Sensors that read linear combinations of a model's DOFs, and the measurement map.
+
+A sensor reads ``y = w^T u``: a weight ``w_d`` on each DOF ``d`` it sees (units of the DOF
+per unit of reading; 1 for a sensor on a DOF). An accelerometer on a rigid floor at the offset
+``r`` from the floor's reference point, pointing along the unit vector ``n``, reads
+``n . (u + theta x r) = n . u + (r x n) . theta``, ``u`` and ``theta`` the reference point's
+translation and rotation: weights ``n`` on the translations and ``r x n`` on the rotations
+(`rigid_weights`). Four such sensors on a floor of three DOFs are four data, one of them a
+combination of the other three: a sensor is data, not a DOF, so the model is not transformed.
+
+The measurement map of a list of names is the sparse matrix ``S`` (one row per name, one
+column per DOF) whose row is the sensor's weights, or the unit row of a plain DOF
+(`measurement_rows`): a measured shape entry is ``S phi``. Everything that compares a model
+vector with measured entries goes through it; a DOF is the case of one weight 1.
+
+The first stage's formulation bounds DOF entries, not combinations: `dof_box` gives the box
+on DOFs that sensor intervals imply (an outer bound, exact for plain DOFs).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Sensor", "rigid_weights", "check_sensors", "measurement_rows", "readings", "dof_box", "RIGID_DOFS"]
+
+#: The reference DOFs a rigid body can name: translations x, y, z and rotations rx, ry, rz.
+RIGID_DOFS = ("x", "y", "z", "rx", "ry", "rz")
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """A named reading ``sum_d weight_d * u_d`` of a model's DOFs.
+
+    Attributes
+    ----------
+    name : str
+    weights : tuple of (str, float)
+        DOF name and weight of each DOF the sensor reads; at least one non-zero weight, each
+        DOF once.
+    """
+
+    name: str
+    weights: tuple[tuple[str, float], ...]
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ValueError(f"a sensor needs a non-empty name, got {self.name!r}")
+        pairs = tuple(self.weights.items()) if isinstance(self.weights, Mapping) else tuple(self.weights)
+        if not pairs:
+            raise ValueError(f"sensor {self.name!r} has no DOF weights; expected at least one DOF and its weight")
+        clean, seen = [], set()
+        for pair in pairs:
+            try:
+                dof, w = pair
+            except (TypeError, ValueError):
+                raise ValueError(f"sensor {self.name!r}: a weight is (DOF, number), got {pair!r}") from None
+            if isinstance(w, bool) or not isinstance(w, (int, float, np.integer, np.floating)) \
+                    or not math.isfinite(float(w)):
+                raise ValueError(f"sensor {self.name!r}: the weight of {dof!r} must be a finite number, got {w!r}")
+            if dof in seen:
+                raise ValueError(f"sensor {self.name!r} names DOF {dof!r} twice; give each DOF one weight")
+            seen.add(dof)
+            clean.append((str(dof), float(w)))
+        if not any(w != 0 for _, w in clean):
+            raise ValueError(f"sensor {self.name!r} has only zero weights: it reads nothing")
+        object.__setattr__(self, "weights", tuple(clean))
+
+
+def rigid_weights(reference: Mapping[str, str], offset, direction) -> dict[str, float]:
+    """The DOF weights of a sensor on a rigid body (module docstring).
+
+    Parameters
+    ----------
+    reference : mapping of str to str
+        The body's reference DOFs by kind: keys among `RIGID_DOFS` (e.g. ``{"x": "f1:x",
+        "y": "f1:y", "rz": "f1:rz"}`` for a floor moving in its plane), values DOF names.
+    offset : sequence of 2 or 3 float
+        Position of the sensor from the reference point, m (``z`` 0 when two are given).
+    direction : sequence of 2 or 3 float
+        Direction the sensor reads, normalized here.
+
+    Returns
+    -------
+    dict
+        DOF name to weight, the zero weights left out. A reading that needs a DOF the body does
+        not name (a rotation about x of a sensor off the plane, say) raises ValueError.
+    """
+    unknown = [k for k in reference if k not in RIGID_DOFS]
+    if unknown:
+        raise ValueError(f"a rigid body's reference DOFs are named by {', '.join(RIGID_DOFS)}; got {unknown}")
+    r, n = (_vector3(v, what) for v, what in ((offset, "offset"), (direction, "direction")))
+    if not np.linalg.norm(n) > 0:
+        raise ValueError(f"a sensor's direction must not be zero, got {list(direction)!r}")
+    n = n / np.linalg.norm(n)
+    w = np.concatenate([n, np.cross(r, n)])
+    scale = max(1.0, float(np.max(np.abs(r))))
+    out = {}
+    for kind, value in zip(RIGID_DOFS, w):
+        if abs(value) <= 1e-12 * scale:
+            continue
+        if kind not in reference:
+            raise ValueError(f"a sensor at offset {r.tolist()} along {n.tolist()} reads the body's {kind!r} "
+                             f"(weight {value:.6g}), which its reference DOFs ({', '.join(reference)}) do not name")
+        out[reference[kind]] = float(value)
+    return out
+
+
+def _vector3(values, what: str) -> np.ndarray:
+    try:
+        v = np.array([float(x) for x in values])
+    except (TypeError, ValueError):
+        raise ValueError(f"a sensor's {what} is 2 or 3 numbers, got {values!r}") from None
+    if v.size not in (2, 3) or not np.all(np.isfinite(v)):
+        raise ValueError(f"a sensor's {what} is 2 or 3 finite numbers, got {values!r}")
+    return np.append(v, 0.0) if v.size == 2 else v
+
+
+def check_sensors(dofs: Sequence[str], sensors: Sequence[Sensor]) -> tuple[Sensor, ...]:
+    """``sensors`` checked against a model's ``dofs``: each name once and not a DOF's, each
+    DOF a weight names one of the model's; raises ValueError naming the bad value."""
+    known = set(dofs)
+    seen = set()
+    for s in sensors:
+        if s.name in seen:
+            raise ValueError(f"sensor {s.name!r} is declared twice; give each sensor one name")
+        if s.name in known:
+            raise ValueError(f"sensor {s.name!r} has the name of a DOF of the model; a DOF is measured by its own "
+                             "name, so give the sensor another")
+        seen.add(s.name)
+        for d, _ in s.weights:
+            if d not in known:
+                shown = ", ".join(list(dofs)[:12]) + (", ..." if len(dofs) > 12 else "")
+                raise ValueError(f"sensor {s.name!r} reads DOF {d!r}, which does not exist; the model's DOFs are "
+                                 f"{shown}")
+    return tuple(sensors)
+
+
+def measurement_rows(dofs: Sequence[str], sensors: Sequence[Sensor], names: Sequence[str]) -> sp.csr_matrix:
+    """The measurement map ``S``, shape (len(names), len(dofs)): the row of a DOF name is its
+    unit row, the row of a sensor its weights; a name that is neither raises ValueError."""
+    index = {d: i for i, d in enumerate(dofs)}
+    by_name = {s.name: s for s in sensors}
+    rows, cols, vals = [], [], []
+    for k, name in enumerate(names):
+        if name in by_name:
+            pairs = by_name[name].weights
+        elif name in index:
+            pairs = ((name, 1.0),)
+        else:
+            shown = ", ".join(list(dofs)[:12]) + (", ..." if len(dofs) > 12 else "")
+            extra = f"; its sensors are {', '.join(list(by_name)[:12])}" if by_name else ""
+            raise ValueError(f"{name!r} is neither a DOF nor a sensor of the model; the model's DOFs are "
+                             f"{shown}{extra}")
+        rows += [k] * len(pairs)
+        cols += [index[d] for d, _ in pairs]
+        vals += [w for _, w in pairs]
+    return sp.csr_matrix((vals, (rows, cols)), shape=(len(names), len(dofs)))
+
+
+def readings(X, where):
+    """The readings of ``X`` (a vector, shape (n,), or vectors, shape (n, k)) at ``where``: DOF
+    indices (an int or a sequence of them: ``X[where]``) or a measurement map (sparse, shape
+    (n_r, n): ``where @ X``). One entry point for the code that reads model vectors at measured
+    points, so a DOF index and a sensor's weights are read alike."""
+    if sp.issparse(where):
+        return where @ X
+    return X[where] if isinstance(where, (int, np.integer)) else X[np.asarray(where, dtype=int)]
+
+
+def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The box on DOF entries that intervals on the readings ``S u`` imply.
+
+    A DOF ``i`` is bounded where some combination ``c`` of the readings gives it exactly,
+    ``c^T S = e_i^T``; then ``u_i = c^T y`` lies in ``c^T y_mid +- |c|^T y_half``. The
+    combination taken is the least-squares one, ``c = (S^+)^T e_i`` (a valid bound, not always
+    the tightest). A plain DOF's reading is its own entry (``c = e``, the interval itself);
+    DOFs no combination of the readings gives are not bounded. The work is dense only over the
+    DOFs the readings touch.
+
+    Parameters
+    ----------
+    S : csr_matrix, shape (n_s, n)
+    lower, upper : ndarray, shape (n_s,)
+
+    Returns
+    -------
+    idx : ndarray of int, shape (n_b,)
+        The DOFs bounded.
+    lo, hi : ndarray, shape (n_b,)
+    """
+    S = sp.csr_matrix(S)
+    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    first = np.unique(S.indices, return_index=True)[1]
+    touched = S.indices[np.sort(first)]                            # in the order the readings name them
+    A = S[:, touched].toarray()
+    P = np.linalg.pinv(A)                                         # (n_t, n_s)
+    exact = np.linalg.norm(P @ A - np.eye(touched.size), axis=1) <= 1e-10 * max(1.0, np.linalg.norm(P @ A))
+    P = P[exact]
+    mid, half = 0.5 * (lower + upper), 0.5 * (upper - lower)
+    centre, spread = P @ mid, np.abs(P) @ half
+    return touched[exact], centre - spread, centre + spread
