@@ -1,0 +1,102 @@
+"""The sensors of a case file: ``[[sensor]]`` tables and a ``sensors`` CSV file, each sensor a
+name and DOF weights, or a point of a rigid body (its reference DOFs, the sensor's offset and
+direction), read into `vibupdate.model.measurement.Sensor` s (``docs/sensors.md``). Errors
+name the file and the key (`vibupdate.io.case_keys`); the DOFs are checked against the model
+where the sensors are attached to it (`vibupdate.model.affine.with_sensors`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vibupdate.io.case_keys import Where, check_table
+from vibupdate.model.measurement import RIGID_DOFS, Sensor, rigid_weights
+
+__all__ = ["SENSOR_KEYS", "case_sensors", "read_sensor_csv"]
+
+SENSOR_KEYS = {"name": str, "dofs": dict, "rigid": dict, "offset": list, "direction": None}
+
+#: A direction given by its axis name, as a layout sheet writes it.
+_AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+def case_sensors(data: dict, base: Path, where: Where) -> tuple[Sensor, ...]:
+    """The sensors of a case file: its ``[[sensor]]`` tables, then the rows of its ``sensors``
+    CSV file; a name given twice (in either or across both) is an error."""
+    tables = data.get("sensor", [])
+    if not isinstance(tables, list):
+        raise where.error("sensor", f"must be an array of tables ([[sensor]]), got {tables!r}")
+    out = [_table(item, i, where) for i, item in enumerate(tables, start=1)]
+    if "sensors" in data:
+        try:
+            out += read_sensor_csv(base / data["sensors"])
+        except ValueError as exc:
+            raise where.error("sensors", str(exc)) from None
+    seen = set()
+    for s in out:
+        if s.name in seen:
+            raise where.error("sensor", f"sensor {s.name!r} is declared twice; give each sensor one name")
+        seen.add(s.name)
+    return tuple(out)
+
+
+def _table(item, i: int, where: Where) -> Sensor:
+    key = f"sensor[{i}]"
+    if not isinstance(item, dict):
+        raise where.error(key, f"must be a table, got {item!r}")
+    check_table(item, SENSOR_KEYS, key, where, required=("name",))
+    given = [k for k in ("dofs", "rigid") if k in item]
+    if len(given) != 1:
+        raise where.error(key, "needs either dofs = {\"<dof>\" = <weight>, ...} or rigid = {x = \"<dof>\", ...} "
+                               "with offset and direction" + (" (not both)" if given else ""))
+    try:
+        if "dofs" in item:
+            extra = [k for k in ("offset", "direction") if k in item]
+            if extra:
+                raise ValueError(f"{', '.join(extra)} belong to a rigid-body sensor (rigid = {{...}}), not to one "
+                                 "given by DOF weights")
+            return Sensor(item["name"], tuple(item["dofs"].items()))
+        missing = [k for k in ("offset", "direction") if k not in item]
+        if missing:
+            raise ValueError(f"a rigid-body sensor needs offset (m from the reference point) and direction; "
+                             f"missing {', '.join(missing)}")
+        bad = [v for v in item["rigid"].values() if not isinstance(v, str)]
+        if bad:
+            raise ValueError(f"rigid maps {', '.join(RIGID_DOFS)} to DOF names, got {bad[0]!r}")
+        return Sensor(item["name"], tuple(rigid_weights(item["rigid"], item["offset"],
+                                                        _direction(item["direction"])).items()))
+    except ValueError as exc:
+        raise where.error(f"{key} ({item['name']!r})", str(exc)) from None
+
+
+def _direction(value):
+    """A direction: 2 or 3 numbers, or an axis name with an optional sign (``"x"``, ``"-y"``)."""
+    if isinstance(value, str):
+        axis = value.strip().lower()
+        sign = -1.0 if axis.startswith("-") else 1.0
+        axis = axis.lstrip("+-")
+        if axis not in _AXES:
+            raise ValueError(f"direction is an axis (x, y, z, -x, -y, -z) or 2 or 3 numbers, got {value!r}")
+        return [sign * c for c in _AXES[axis]]
+    return value
+
+
+def read_sensor_csv(path: Path) -> list[Sensor]:
+    """Sensors from a CSV file of rows ``sensor, dof, weight``: one row per DOF a sensor reads,
+    its rows together; a sensor's name in two separate runs of rows is an error."""
+    from vibupdate.io.measured_io import _number, _rows
+
+    weights: dict[str, list] = {}
+    last = None
+    for line, row in _rows(path):
+        missing = [c for c in ("sensor", "dof", "weight") if not row.get(c)]
+        if missing:
+            raise ValueError(f"{path}: row {line}: needs columns sensor, dof, weight; missing or empty "
+                             f"{', '.join(missing)}")
+        name = row["sensor"]
+        if name in weights and name != last:
+            raise ValueError(f"{path}: row {line}: sensor {name!r} is declared twice (its rows are not together); "
+                             "give each sensor one name")
+        weights.setdefault(name, []).append((row["dof"], _number(row["weight"], "weight", path, line)))
+        last = name
+    return [Sensor(name, tuple(pairs)) for name, pairs in weights.items()]
