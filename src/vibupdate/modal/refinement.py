@@ -139,7 +139,7 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
         The mode (any scaling).
     entries : sequence of int, or sparse matrix, shape (n_e, n)
         DOF indices of the ratios' numerators, or their measurement map
-        (`vibupdate.model.measurement.readings`).
+        (`vibupdate.modal.sensitivities.readings`).
     reference : int or sparse matrix, shape (1, n)
         DOF index (or measurement map) of the denominator, where ``phi`` must not vanish.
     basis : ndarray, shape (n, k), optional

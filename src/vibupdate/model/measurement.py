@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Sensor", "rigid_weights", "check_sensors", "measurement_rows", "readings", "dof_box", "RIGID_DOFS"]
+__all__ = ["Sensor", "rigid_weights", "check_sensors", "measurement_rows", "dof_box", "RIGID_DOFS"]
 
 #: The reference DOFs a rigid body can name: translations x, y, z and rotations rx, ry, rz.
 RIGID_DOFS = ("x", "y", "z", "rx", "ry", "rz")
@@ -160,16 +160,6 @@ def measurement_rows(dofs: Sequence[str], sensors: Sequence[Sensor], names: Sequ
         cols += [index[d] for d, _ in pairs]
         vals += [w for _, w in pairs]
     return sp.csr_matrix((vals, (rows, cols)), shape=(len(names), len(dofs)))
-
-
-def readings(X, where):
-    """The readings of ``X`` (a vector, shape (n,), or vectors, shape (n, k)) at ``where``: DOF
-    indices (an int or a sequence of them: ``X[where]``) or a measurement map (sparse, shape
-    (n_r, n): ``where @ X``). One entry point for the code that reads model vectors at measured
-    points, so a DOF index and a sensor's weights are read alike."""
-    if sp.issparse(where):
-        return where @ X
-    return X[where] if isinstance(where, (int, np.integer)) else X[np.asarray(where, dtype=int)]
 
 
 def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
