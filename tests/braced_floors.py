@@ -42,20 +42,23 @@ def _groups(elements) -> list:
     return out
 
 
-def floor_dofs() -> list[str]:
-    return [f"f{f}:{q}" for f in range(1, bf.N_STOREYS + 1) for q in ("x", "y", "rz")]
+def floor_dofs(full: bool = False) -> list[str]:
+    """The model's DOFs: the floors' (12); with ``full``, then each floor node's ``z``, ``rx``,
+    ``ry`` (120, the benchmark's larger model)."""
+    own = [f"{node}:{q}" for node in range(9, 9 * (bf.N_STOREYS + 1)) for q in ("z", "rx", "ry")] if full else []
+    return [f"f{f}:{q}" for f in range(1, bf.N_STOREYS + 1) for q in ("x", "y", "rz")] + own
 
 
-def elements():
-    """``(label, dofs, K, M, group)`` of every member and floor mass on the floor DOFs."""
+def elements(full: bool = False):
+    """``(label, dofs, K, M, group)`` of every member and floor mass on `floor_dofs`."""
     xyz = bf._nodes()
     members = bf._elements()
     Ke, Me, i, j = bf._member_matrices(xyz, members)
-    T = bf._rigid_floors(xyz, False).toarray()   # node DOFs of floors 1-4 -> floor DOFs, (216, 12)
-    names = floor_dofs()
+    T = bf._rigid_floors(xyz, full).toarray()   # node DOFs of floors 1-4 -> model DOFs, (216, 12 or 120)
+    names = floor_dofs(full)
     out = []
     for e, (group, a, b) in enumerate(zip(_groups(members), i, j)):
-        rows = np.zeros((12, 12))
+        rows = np.zeros((12, T.shape[1]))
         for q, node in enumerate((a, b)):
             if node >= 9:   # the base nodes (0-8) are clamped
                 rows[6 * q:6 * q + 6] = T[6 * (node - 9):6 * (node - 9) + 6]
@@ -69,12 +72,12 @@ def elements():
     return out
 
 
-def matrices(truth: dict):
-    """``K`` at the brace factors ``truth`` (1 for a group not named) and ``M``, dense (12, 12),
-    on `floor_dofs`, summed from `elements` by loops (the reference)."""
-    names = floor_dofs()
-    K, M = np.zeros((12, 12)), np.zeros((12, 12))
-    for _, dofs, k, m, group in elements():
+def matrices(truth: dict, full: bool = False):
+    """``K`` at the brace factors ``truth`` (1 for a group not named) and ``M``, dense, on
+    `floor_dofs`, summed from `elements` by loops (the reference)."""
+    names = floor_dofs(full)
+    K, M = np.zeros((len(names), len(names))), np.zeros((len(names), len(names)))
+    for _, dofs, k, m, group in elements(full):
         at = [names.index(d) for d in dofs]
         K[np.ix_(at, at)] += truth.get(group, 1.0) * k
         M[np.ix_(at, at)] += m
@@ -91,11 +94,11 @@ def sensor_weights() -> dict[str, dict[str, float]]:
     return out
 
 
-def write_elements(folder: Path) -> Path:
+def write_elements(folder: Path, full: bool = False) -> Path:
     """One ``.npz`` per element and ``elements.csv`` listing them with their groups."""
     folder.mkdir(parents=True, exist_ok=True)
     rows = ["element,K,group"]
-    for label, dofs, k, m, group in elements():
+    for label, dofs, k, m, group in elements(full):
         np.savez(folder / f"e{label}.npz", K=k, M=m, dofs=np.array(dofs))
         rows.append(f"{label},e{label}.npz,{group or ''}")
     (folder / "elements.csv").write_text("\n".join(rows) + "\n")

@@ -38,19 +38,20 @@ mode_shapes_csv = "shapes.csv"
 """
 
 
-def write_case(folder, table="parameter", sensors=None, values=TRUTH, top="") -> str:
+def write_case(folder, table="parameter", sensors=None, values=TRUTH, top="", full=False) -> str:
     """The case of the frame at the brace factors ``values``: element files, the sensors as
     ``[[sensor]]`` tables (rigid body, offset, direction), exact frequencies and shapes at the
-    16 sensors (each reading computed from the DOF weights of `braced_floors.sensor_weights`)."""
-    K, M = bf.matrices(values)
+    16 sensors (each reading computed from the DOF weights of `braced_floors.sensor_weights`).
+    ``full``: the 120-DOF model (each floor node's z, rx, ry beside the floor DOFs)."""
+    K, M = bf.matrices(values, full)
     lam, phi = scipy.linalg.eigh(K, M)
-    names = bf.floor_dofs()
+    names = bf.floor_dofs(full)
     rows = ["mode,dof,value,tolerance"]
     for k in range(N_MODES):
         for s, w in bf.sensor_weights().items():
             rows.append(f"{k + 1},{s},{float(sum(c * phi[names.index(d), k] for d, c in w.items()))!r},0")
     (folder / "shapes.csv").write_text("\n".join(rows) + "\n")
-    bf.write_elements(folder / "elements")
+    bf.write_elements(folder / "elements", full)
     hz = ", ".join(repr(float(x)) for x in np.sqrt(lam[:N_MODES]) / (2 * np.pi))
     path = folder / "case.toml"
     path.write_text(CASE.format(table=table, sensors=bf.sensor_tables() if sensors is None else sensors, hz=hz,
@@ -58,8 +59,9 @@ def write_case(folder, table="parameter", sensors=None, values=TRUTH, top="") ->
     return str(path)
 
 
-def test_sixteen_floor_sensors_and_sixteen_brace_groups_recover_the_damage_through_run(tmp_path, capsys):
-    code = main(["run", write_case(tmp_path), "--out", str(tmp_path / "out")])
+@pytest.mark.parametrize("full", [False, pytest.param(True, marks=pytest.mark.slow)])   # 12 DOFs: 5 s; 120: 10 s
+def test_sixteen_floor_sensors_and_sixteen_brace_groups_recover_the_damage_through_run(tmp_path, capsys, full):
+    code = main(["run", write_case(tmp_path, full=full), "--out", str(tmp_path / "out")])
     assert code == 0, capsys.readouterr().err
     doc = json.loads((tmp_path / "out" / "results.json").read_text())
     updated = {p["name"]: p["updated"] for p in doc["parameters"]}
