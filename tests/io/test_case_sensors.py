@@ -79,13 +79,40 @@ def test_suggest_names_the_damaged_brace_groups_of_the_sixteen_sensor_frame(tmp_
     assert "suggested: add brace_1s + brace_2e + brace_4n (verified" in capsys.readouterr().out
 
 
-def test_a_sensors_csv_of_weights_declares_the_same_sensors_as_the_rigid_body_tables(tmp_path):
-    rows = ["sensor,dof,weight"] + [f"{s},{d},{w!r}" for s, ws in bf.sensor_weights().items() for d, w in ws.items()]
-    (tmp_path / "sensors.csv").write_text("\n".join(rows) + "\n")
+def _layout_sheet() -> str:
+    """The sensors as a layout sheet lists them: one row per sensor, floor DOFs, offset, direction."""
+    rows = ["sensor,x,y,rz,offset_x,offset_y,direction"]
+    for f in range(1, 5):
+        rows += [f"f{f}{name},f{f}:x,f{f}:y,f{f}:rz,{dx!r},{dy!r},{axis}" for name, (dx, dy), axis in bf.LAYOUT]
+    return "\n".join(rows) + "\n"
+
+
+@pytest.mark.parametrize("layout", ["weights", "rigid"])
+def test_a_sensors_csv_declares_the_same_sensors_as_the_rigid_body_tables(tmp_path, layout):
+    if layout == "weights":
+        rows = ["sensor,dof,weight"] + [f"{s},{d},{w!r}" for s, ws in bf.sensor_weights().items()
+                                        for d, w in ws.items()]
+        (tmp_path / "sensors.csv").write_text("\n".join(rows) + "\n")
+    else:
+        (tmp_path / "sensors.csv").write_text(_layout_sheet())
     by_tables = load_case(write_case(tmp_path)).configurations[0].model
     by_csv = load_case(write_case(tmp_path, sensors="", top='sensors = "sensors.csv"')).configurations[0].model
     names = list(bf.sensor_weights())
+    assert [s.name for s in by_csv.sensors] == names
     assert abs(by_tables.measurement(names) - by_csv.measurement(names)).max() <= 1e-15
+
+
+@pytest.mark.parametrize("text, message", [
+    ("sensor,dof,weight\na,f1:x,1\nb,f1:y,1\na,f1:rz,2\n", "sensor 'a' is declared twice (its rows are not together)"),
+    ("sensor,dof,wieght\na,f1:x,1\n", "unknown column 'wieght' (did you mean 'weight'?)"),
+    ("sensor,x,y,rz,offset_x,offset_y\na,f1:x,f1:y,f1:rz,0,1\n", "sensor 'a' needs its direction"),
+    ("sensor,x,rz,offset_x,offset_y,direction\na,f1:x,f1:rz,1,0,y\n", "reads the body's 'y'"),
+])
+def test_a_bad_sensors_csv_exits_2_naming_the_row(tmp_path, capsys, text, message):
+    (tmp_path / "sensors.csv").write_text(text)
+    assert main(["check", write_case(tmp_path, sensors="", top='sensors = "sensors.csv"')]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "sensors.csv" in err and "Traceback" not in err
 
 
 @pytest.mark.parametrize("sensors, message", [

@@ -81,18 +81,35 @@ def _direction(value):
     return value
 
 
+#: The columns of a sensors CSV of rigid-body sensors: the body's reference DOFs by kind, the
+#: offset (m) and the direction (an axis name, or nx, ny and optionally nz).
+RIGID_COLUMNS = ("sensor", *RIGID_DOFS, "offset_x", "offset_y", "offset_z", "direction", "nx", "ny", "nz")
+WEIGHT_COLUMNS = ("sensor", "dof", "weight")
+
+
 def read_sensor_csv(path: Path) -> list[Sensor]:
-    """Sensors from a CSV file of rows ``sensor, dof, weight``: one row per DOF a sensor reads,
-    its rows together; a sensor's name in two separate runs of rows is an error."""
-    from vibupdate.io.measured_io import _number, _rows
+    """Sensors from a CSV file in one of two layouts (``docs/sensors.md``): rows ``sensor,
+    dof, weight``, one per DOF a sensor reads, a sensor's rows together; or one row per
+    rigid-body sensor, columns `RIGID_COLUMNS` (the reference DOFs it needs, ``offset_x``,
+    ``offset_y``, and ``direction`` or ``nx``, ``ny``), as a layout sheet lists them."""
+    from vibupdate.io.measured_io import _known_columns, _rows
+
+    rows = _rows(path)
+    rigid = bool(rows) and "offset_x" in rows[0][1]
+    _known_columns(rows, RIGID_COLUMNS if rigid else WEIGHT_COLUMNS, path)
+    return _rigid_rows(rows, path) if rigid else _weight_rows(rows, path)
+
+
+def _weight_rows(rows, path: Path) -> list[Sensor]:
+    from vibupdate.io.measured_io import _number
 
     weights: dict[str, list] = {}
     last = None
-    for line, row in _rows(path):
-        missing = [c for c in ("sensor", "dof", "weight") if not row.get(c)]
+    for line, row in rows:
+        missing = [c for c in WEIGHT_COLUMNS if not row.get(c)]
         if missing:
-            raise ValueError(f"{path}: row {line}: needs columns sensor, dof, weight; missing or empty "
-                             f"{', '.join(missing)}")
+            raise ValueError(f"{path}: row {line}: needs columns sensor, dof, weight (or a rigid body's, with "
+                             f"offset_x); missing or empty {', '.join(missing)}")
         name = row["sensor"]
         if name in weights and name != last:
             raise ValueError(f"{path}: row {line}: sensor {name!r} is declared twice (its rows are not together); "
@@ -100,3 +117,28 @@ def read_sensor_csv(path: Path) -> list[Sensor]:
         weights.setdefault(name, []).append((row["dof"], _number(row["weight"], "weight", path, line)))
         last = name
     return [Sensor(name, tuple(pairs)) for name, pairs in weights.items()]
+
+
+def _rigid_rows(rows, path: Path) -> list[Sensor]:
+    from vibupdate.io.measured_io import _number
+
+    out = []
+    for line, row in rows:
+        missing = [c for c in ("sensor", "offset_x", "offset_y") if not row.get(c)]
+        if missing:
+            raise ValueError(f"{path}: row {line}: a rigid-body sensor needs sensor, offset_x, offset_y; missing or "
+                             f"empty {', '.join(missing)}")
+        offset = [_number(row[c], c, path, line) for c in ("offset_x", "offset_y", "offset_z") if row.get(c)]
+        if row.get("direction"):
+            direction = _direction(row["direction"])
+        elif row.get("nx") and row.get("ny"):
+            direction = [_number(row[c], c, path, line) for c in ("nx", "ny", "nz") if row.get(c)]
+        else:
+            raise ValueError(f"{path}: row {line}: sensor {row['sensor']!r} needs its direction (column direction, "
+                             "or nx, ny and optionally nz)")
+        reference = {k: row[k] for k in RIGID_DOFS if row.get(k)}
+        try:
+            out.append(Sensor(row["sensor"], tuple(rigid_weights(reference, offset, direction).items())))
+        except ValueError as exc:
+            raise ValueError(f"{path}: row {line}: sensor {row['sensor']!r}: {exc}") from None
+    return out
