@@ -105,6 +105,14 @@ def test_the_box_on_dofs_is_the_intervals_of_plain_dofs_and_holds_the_dofs_four_
     # two x sensors alone give x and rz, never y
     idx, _, _ = dof_box(model.measurement(names[:2]), y[:2] - 0.01, y[:2] + 0.01)
     assert sorted(idx.tolist()) == [0, 2]
+    # a DOF and a sensor that share it: rz = (reading - x) / L; a DOF of floor 2 apart
+    mixed = ["f1:x", "f1xs", "f2:y"]
+    u[model.dof("f2:y")] = 0.7
+    y = model.measurement(mixed) @ u
+    idx, lo, hi = dof_box(model.measurement(mixed), y - 0.01, y + 0.01)
+    assert idx.tolist() == [model.dof("f1:x"), model.dof("f1:rz"), model.dof("f2:y")]
+    assert np.all(lo <= u[idx]) and np.all(u[idx] <= hi)
+    assert hi[1] - lo[1] == pytest.approx(2 * 0.01 * 2 / L) and hi[2] - lo[2] == pytest.approx(0.02)
 
 
 def test_shape_ratios_at_sensors_and_their_exact_jacobian():

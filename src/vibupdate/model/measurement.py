@@ -168,9 +168,10 @@ def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.
     A DOF ``i`` is bounded where some combination ``c`` of the readings gives it exactly,
     ``c^T S = e_i^T``; then ``u_i = c^T y`` lies in ``c^T y_mid +- |c|^T y_half``. The
     combination taken is the least-squares one, ``c = (S^+)^T e_i`` (a valid bound, not always
-    the tightest). A plain DOF's reading is its own entry (``c = e``, the interval itself);
-    DOFs no combination of the readings gives are not bounded. The work is dense only over the
-    DOFs the readings touch.
+    the tightest), group by group of readings that share DOFs: a plain DOF's reading is a group
+    of one (``c = 1 / w``, the interval itself), a rigid floor's four sensors one of four
+    readings on three DOFs. DOFs no combination of the readings gives are not bounded. Dense
+    work only within a group.
 
     Parameters
     ----------
@@ -183,14 +184,40 @@ def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.
         The DOFs bounded.
     lo, hi : ndarray, shape (n_b,)
     """
-    S = sp.csr_matrix(S)
+    from scipy.sparse.csgraph import connected_components
+
+    S = sp.csr_matrix(S, dtype=float, copy=True)
+    S.eliminate_zeros()
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     first = np.unique(S.indices, return_index=True)[1]
     touched = S.indices[np.sort(first)]                            # in the order the readings name them
-    A = S[:, touched].toarray()
-    P = np.linalg.pinv(A)                                         # (n_t, n_s)
-    exact = np.linalg.norm(P @ A - np.eye(touched.size), axis=1) <= 1e-10 * max(1.0, np.linalg.norm(P @ A))
-    P = P[exact]
+    A = S[:, touched].tocsr()
+    n_s, n_t = A.shape
+    # readings and DOFs that share no weight are independent: the least-squares inverse is
+    # that of each connected group of them (a plain DOF's reading is a group of one)
+    pattern = sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
+    _, label = connected_components(sp.bmat([[None, pattern], [pattern.T, None]]), directed=False)
+    row_label, col_label = label[:n_s], label[n_s:]
+    n_rows = np.bincount(row_label, minlength=label.max() + 1)
+    n_cols = np.bincount(col_label, minlength=label.max() + 1)
+    single = np.flatnonzero((n_rows[row_label] == 1) & (n_cols[row_label] == 1))   # one reading of one DOF
+    at = A.indptr[single]
+    pi, pj, pv = [A.indices[at]], [single], [1.0 / A.data[at]]
+    exact = np.zeros(n_t, dtype=bool)
+    exact[A.indices[at]] = True
+    rows_of = np.split(np.argsort(row_label, kind="stable"), np.cumsum(n_rows)[:-1])
+    cols_of = np.split(np.argsort(col_label, kind="stable"), np.cumsum(n_cols)[:-1])
+    for c in np.flatnonzero((n_rows > 0) & (n_cols > 0) & ~((n_rows == 1) & (n_cols == 1))):   # the coupled groups, each small
+        r, t = rows_of[c], cols_of[c]
+        block = A[r][:, t].toarray()
+        P = np.linalg.pinv(block)                                 # (len(t), len(r))
+        PA = P @ block
+        ok = np.linalg.norm(PA - np.eye(t.size), axis=1) <= 1e-10 * max(1.0, np.linalg.norm(PA))
+        exact[t[ok]] = True
+        pi.append(np.repeat(t[ok], r.size))
+        pj.append(np.tile(r, int(ok.sum())))
+        pv.append(P[ok].ravel())
+    P = sp.csr_matrix((np.concatenate(pv), (np.concatenate(pi), np.concatenate(pj))), shape=(n_t, n_s))[exact]
     mid, half = 0.5 * (lower + upper), 0.5 * (upper - lower)
-    centre, spread = P @ mid, np.abs(P) @ half
+    centre, spread = P @ mid, abs(P) @ half
     return touched[exact], centre - spread, centre + spread
