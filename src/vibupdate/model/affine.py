@@ -94,7 +94,11 @@ class AffineModel:
         (`vibupdate.model.measurement.measurement_rows`)."""
         from vibupdate.model.measurement import measurement_rows
 
-        return measurement_rows(self.dofs, self.sensors, list(names))
+        return measurement_rows(self._positions, self.sensors, list(names))
+
+    @cached_property
+    def _positions(self) -> dict:
+        return {d: i for i, d in enumerate(self.dofs)}
 
     def normalized(self, values) -> np.ndarray:
         """Physical parameter values, shape (n_x,), to ``xbar``."""

@@ -142,8 +142,9 @@ def check_sensors(dofs: Sequence[str], sensors: Sequence[Sensor]) -> tuple[Senso
 
 def measurement_rows(dofs: Sequence[str], sensors: Sequence[Sensor], names: Sequence[str]) -> sp.csr_matrix:
     """The measurement map ``S``, shape (len(names), len(dofs)): the row of a DOF name is its
-    unit row, the row of a sensor its weights; a name that is neither raises ValueError."""
-    index = {d: i for i, d in enumerate(dofs)}
+    unit row, the row of a sensor its weights; a name that is neither raises ValueError.
+    ``dofs``: the model's DOF names in order, or a mapping of each to its position."""
+    index = dofs if isinstance(dofs, Mapping) else {d: i for i, d in enumerate(dofs)}
     by_name = {s.name: s for s in sensors}
     rows, cols, vals = [], [], []
     for k, name in enumerate(names):
@@ -152,14 +153,14 @@ def measurement_rows(dofs: Sequence[str], sensors: Sequence[Sensor], names: Sequ
         elif name in index:
             pairs = ((name, 1.0),)
         else:
-            shown = ", ".join(list(dofs)[:12]) + (", ..." if len(dofs) > 12 else "")
+            shown = ", ".join(list(index)[:12]) + (", ..." if len(index) > 12 else "")
             extra = f"; its sensors are {', '.join(list(by_name)[:12])}" if by_name else ""
             raise ValueError(f"{name!r} is neither a DOF nor a sensor of the model; the model's DOFs are "
                              f"{shown}{extra}")
         rows += [k] * len(pairs)
         cols += [index[d] for d, _ in pairs]
         vals += [w for _, w in pairs]
-    return sp.csr_matrix((vals, (rows, cols)), shape=(len(names), len(dofs)))
+    return sp.csr_matrix((vals, (rows, cols)), shape=(len(names), len(index)))
 
 
 def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -205,10 +206,10 @@ def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.
     pi, pj, pv = [A.indices[at]], [single], [1.0 / A.data[at]]
     exact = np.zeros(n_t, dtype=bool)
     exact[A.indices[at]] = True
-    rows_of = np.split(np.argsort(row_label, kind="stable"), np.cumsum(n_rows)[:-1])
-    cols_of = np.split(np.argsort(col_label, kind="stable"), np.cumsum(n_cols)[:-1])
-    for c in np.flatnonzero((n_rows > 0) & (n_cols > 0) & ~((n_rows == 1) & (n_cols == 1))):   # the coupled groups, each small
-        r, t = rows_of[c], cols_of[c]
+    row_order, col_order = np.argsort(row_label, kind="stable"), np.argsort(col_label, kind="stable")
+    row_start, col_start = np.concatenate([[0], np.cumsum(n_rows)]), np.concatenate([[0], np.cumsum(n_cols)])
+    for c in np.flatnonzero((n_rows > 0) & (n_cols > 0) & ~((n_rows == 1) & (n_cols == 1))):   # coupled groups
+        r, t = row_order[row_start[c]:row_start[c + 1]], col_order[col_start[c]:col_start[c + 1]]
         block = A[r][:, t].toarray()
         P = np.linalg.pinv(block)                                 # (len(t), len(r))
         PA = P @ block
