@@ -64,7 +64,8 @@ def test_the_measurement_map_is_a_unit_row_for_a_dof_and_the_weights_for_a_senso
     expected[1, [model.dof("f1:x"), model.dof("f1:rz")]] = 1.0, L
     expected[2, [model.dof("f3:y"), model.dof("f3:rz")]] = 1.0, L
     assert np.array_equal(S, expected)
-    with pytest.raises(ValueError, match="'f9xs' is neither a DOF nor a sensor of the model"):
+    with pytest.raises(ValueError, match="DOF 'f9xs' does not exist; the model's DOFs are f1:x, .*; its sensors are "
+                                         "f1xs, f1xn"):
         model.measurement(["f9xs"])
 
 

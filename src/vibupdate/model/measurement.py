@@ -154,9 +154,9 @@ def measurement_rows(dofs: Sequence[str], sensors: Sequence[Sensor], names: Sequ
             pairs = ((name, 1.0),)
         else:
             shown = ", ".join(list(index)[:12]) + (", ..." if len(index) > 12 else "")
-            extra = f"; its sensors are {', '.join(list(by_name)[:12])}" if by_name else ""
-            raise ValueError(f"{name!r} is neither a DOF nor a sensor of the model; the model's DOFs are "
-                             f"{shown}{extra}")
+            extra = (f"; its sensors are {', '.join(list(by_name)[:12])}" + (", ..." if len(by_name) > 12 else "")
+                     if by_name else "")
+            raise ValueError(f"DOF {name!r} does not exist; the model's DOFs are {shown}{extra}")
         rows += [k] * len(pairs)
         cols += [index[d] for d, _ in pairs]
         vals += [w for _, w in pairs]
