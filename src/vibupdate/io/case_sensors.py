@@ -12,7 +12,7 @@ from pathlib import Path
 from vibupdate.io.case_keys import Where, check_table
 from vibupdate.model.measurement import RIGID_DOFS, Sensor, rigid_weights
 
-__all__ = ["SENSOR_KEYS", "case_sensors", "read_sensor_csv"]
+__all__ = ["case_sensors"]
 
 SENSOR_KEYS = {"name": str, "dofs": dict, "rigid": dict, "offset": list, "direction": None}
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Sensor", "rigid_weights", "check_sensors", "measurement_rows", "dof_box", "RIGID_DOFS"]
+__all__ = ["Sensor", "rigid_weights", "dof_box"]
 
 #: The reference DOFs a rigid body can name: translations x, y, z and rotations rx, ry, rz.
 RIGID_DOFS = ("x", "y", "z", "rx", "ry", "rz")
