@@ -92,9 +92,9 @@ def test_sensors_are_checked_against_the_model():
 
 def test_the_box_on_dofs_is_the_intervals_of_plain_dofs_and_holds_the_dofs_four_sensors_give():
     model = _frame_model()
-    idx, lo, hi = dof_box(model.measurement(["f2:y", "f1:x"]), np.array([-1.0, 0.5]), np.array([2.0, 0.75]))
+    idx, lo, hi = dof_box(model.measurement(["f2:y", "f1:x"]), np.array([-1.0, 0.1]), np.array([2.0, 0.3]))
     assert idx.tolist() == [model.dof("f2:y"), model.dof("f1:x")]
-    assert lo.tolist() == [-1.0, 0.5] and hi.tolist() == [2.0, 0.75]
+    assert lo.tolist() == [-1.0, 0.1] and hi.tolist() == [2.0, 0.3]     # to the bit
     # four sensors on floor 1 give its three DOFs; readings of a known motion within +-0.01
     names = ["f1xs", "f1xn", "f1yw", "f1ye"]
     u = np.zeros(12)

@@ -119,7 +119,8 @@ class ShapeInterval:
         (`vibupdate.model.measurement.dof_box`): the intervals themselves, in their order, where
         every name is a DOF; an outer box where sensors give DOFs in combination; None when no
         DOF is implied. What the first stage's formulation bounds: its unknowns are DOF
-        entries. The box bounds entries, not the modal mass: it is not mass-normalized."""
+        entries. The box bounds entries, not the modal mass (it may hold zero at its largest
+        entry): it is not marked mass-normalized."""
         from vibupdate.model.measurement import dof_box
 
         names = list(self.bounds)
@@ -127,8 +128,7 @@ class ShapeInterval:
         idx, lo, hi = dof_box(model.measurement(names), lower, upper)
         if not idx.size:
             return None
-        return ShapeInterval({model.dofs[i]: (a, b) for i, a, b in zip(idx, lo, hi)},
-                             self.mass_normalized and all(model.dofs[i] == d for i, d in zip(idx, names)))
+        return ShapeInterval({model.dofs[i]: (a, b) for i, a, b in zip(idx, lo, hi)})
 
     @property
     def midpoint(self) -> dict[str, float]:

@@ -203,9 +203,13 @@ def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.
     n_cols = np.bincount(col_label, minlength=label.max() + 1)
     single = np.flatnonzero((n_rows[row_label] == 1) & (n_cols[row_label] == 1))   # one reading of one DOF
     at = A.indptr[single]
-    pi, pj, pv = [A.indices[at]], [single], [1.0 / A.data[at]]
+    w = A.data[at]
+    box_lo, box_hi = np.full(n_t, np.nan), np.full(n_t, np.nan)
+    ends = np.sort(np.stack([lower[single] / w, upper[single] / w]), axis=0)   # exact: a DOF's own interval
+    box_lo[A.indices[at]], box_hi[A.indices[at]] = ends
     exact = np.zeros(n_t, dtype=bool)
     exact[A.indices[at]] = True
+    pi, pj, pv = [np.zeros(0, int)], [np.zeros(0, int)], [np.zeros(0)]
     row_order, col_order = np.argsort(row_label, kind="stable"), np.argsort(col_label, kind="stable")
     row_start, col_start = np.concatenate([[0], np.cumsum(n_rows)]), np.concatenate([[0], np.cumsum(n_cols)])
     for c in np.flatnonzero((n_rows > 0) & (n_cols > 0) & ~((n_rows == 1) & (n_cols == 1))):   # coupled groups
@@ -218,7 +222,9 @@ def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.
         pi.append(np.repeat(t[ok], r.size))
         pj.append(np.tile(r, int(ok.sum())))
         pv.append(P[ok].ravel())
-    P = sp.csr_matrix((np.concatenate(pv), (np.concatenate(pi), np.concatenate(pj))), shape=(n_t, n_s))[exact]
+    P = sp.csr_matrix((np.concatenate(pv), (np.concatenate(pi), np.concatenate(pj))), shape=(n_t, n_s))
+    coupled = np.unique(np.concatenate(pi))
     mid, half = 0.5 * (lower + upper), 0.5 * (upper - lower)
-    centre, spread = P @ mid, abs(P) @ half
-    return touched[exact], centre - spread, centre + spread
+    centre, spread = P[coupled] @ mid, abs(P[coupled]) @ half
+    box_lo[coupled], box_hi[coupled] = centre - spread, centre + spread
+    return touched[exact], box_lo[exact], box_hi[exact]
