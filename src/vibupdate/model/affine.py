@@ -26,8 +26,8 @@ import scipy.sparse.linalg as spla
 from vibupdate.model.assembly import Assembly, System, dof_index
 from vibupdate.model.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
-__all__ = ["AffineModel", "Lumped", "with_lumped", "with_sensors", "restricted", "complex_step_jacobians", "affine_from_builder",
-           "affine_from_assembly", "check_matrices"]
+__all__ = ["AffineModel", "Lumped", "with_lumped", "with_sensors", "restricted", "complex_step_jacobians",
+           "affine_from_builder", "affine_from_assembly", "check_matrices"]
 
 Builder = Callable[[dict], "System | tuple"]
 
