@@ -133,6 +133,12 @@ def test_a_bad_sensor_declaration_exits_2_naming_it(tmp_path, capsys, sensors, m
     assert message in err and "Traceback" not in err
 
 
+def test_check_counts_the_sensors(tmp_path, capsys):
+    assert main(["check", write_case(tmp_path)]) == 0
+    assert "model test: 12 DOFs and 16 sensor(s) reading combinations of them, 0 rigid-body mode(s)" \
+        in capsys.readouterr().out
+
+
 def test_a_shape_at_a_name_that_is_neither_a_dof_nor_a_sensor_is_refused(tmp_path, capsys):
     sensors = "\n".join(t for t in bf.sensor_tables().split("\n\n") if 'name = "f1xs"' not in t)
     assert main(["check", write_case(tmp_path, sensors=sensors)]) == 2
