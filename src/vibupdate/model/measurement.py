@@ -1,7 +1,7 @@
 """Sensors that read linear combinations of a model's DOFs, and the measurement map.
 
-A sensor reads ``y = w^T u``: a weight ``w_d`` on each DOF ``d`` it sees (units of the DOF
-per unit of reading; 1 for a sensor on a DOF). An accelerometer on a rigid floor at the offset
+A sensor reads ``y = w^T u``: a weight ``w_d`` on each DOF ``d`` it sees (the reading's unit
+per unit of the DOF: m/rad on a rotation read by an accelerometer; 1 for a sensor on a DOF). An accelerometer on a rigid floor at the offset
 ``r`` from the floor's reference point, pointing along the unit vector ``n``, reads
 ``n . (u + theta x r) = n . u + (r x n) . theta``, ``u`` and ``theta`` the reference point's
 translation and rotation: weights ``n`` on the translations and ``r x n`` on the rotations
@@ -87,7 +87,8 @@ def rigid_weights(reference: Mapping[str, str], offset, direction) -> dict[str, 
     Returns
     -------
     dict
-        DOF name to weight, the zero weights left out. A reading that needs a DOF the body does
+        DOF name to weight, the zero weights (below 1e-12 of the offset's largest component,
+        or of 1 m) left out. A reading that needs a DOF the body does
         not name (a rotation about x of a sensor off the plane, say) raises ValueError.
     """
     unknown = [k for k in reference if k not in RIGID_DOFS]
