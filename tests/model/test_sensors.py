@@ -60,6 +60,10 @@ def test_a_rigid_floor_sensor_reads_the_translation_plus_the_offset_times_the_ro
     w = rigid_weights(floor, [0.3, 0.4], [4.0, -3.0])
     assert w == pytest.approx({"f:x": 0.8, "f:y": -0.6, "f:rz": 0.3 * -0.6 - 0.4 * 0.8})
     assert rigid_weights(floor, [0.3, 0.4], [3.0, 4.0]) == pytest.approx({"f:x": 0.6, "f:y": 0.8})   # radial
+    # a direction off the x axis by rounding (1e-14) reads no y: a floor that names only x and rz
+    assert rigid_weights({"x": "f:x", "rz": "f:rz"}, [0.0, -L], [1.0, 1e-14]) == {"f:x": 1.0, "f:rz": L}
+    with pytest.raises(ValueError, match="reads the body's 'y' \\(weight 1e-06\\)"):
+        rigid_weights({"x": "f:x", "rz": "f:rz"}, [0.0, -L], [1.0, 1e-6])
     with pytest.raises(ValueError, match="reads the body's 'ry'.*do not name"):
         rigid_weights(floor, [0.0, 0.0, 0.5], [1.0, 0.0, 0.0])   # 0.5 m above the floor's plane it sees ry
 
