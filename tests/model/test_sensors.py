@@ -172,3 +172,34 @@ def test_a_dependent_sensor_is_data_its_value_moves_the_residual():
     names = [n for n in sensors if n != f.shape.reference]
     off = np.flatnonzero(np.abs(res_bad) > 1e-8)
     assert [names[k] for k in off] == ["f2ye"]
+
+
+def test_the_first_stage_bounds_the_dofs_the_sensor_intervals_give():
+    # the block of a shape given at the 16 sensors: the 12 floor DOFs measured (the box the
+    # readings imply), normalized at the largest, and the truth's mode within the box
+    from vibupdate.inverse.formulation.blocks import natural_block
+    from vibupdate.inverse.formulation.options import FormulationOptions
+    from vibupdate.inverse.formulation.scaling import scaling_of
+
+    model = _frame_model()
+    sensors = list(bf.sensor_weights())
+    K, M = bf.matrices(TRUTH)
+    lam, phi = scipy.linalg.eigh(K, M)
+    read = model.measurement(sensors) @ phi[:, 0]
+    half = 0.02 * np.max(np.abs(read))
+    shape = ShapeInterval({s: (v - half, v + half) for s, v in zip(sensors, read)})
+    cfg = Configuration("test", model, (NaturalFrequency(float(np.sqrt(lam[0])), shape=shape),))
+    options = FormulationOptions()
+    scaling = scaling_of(model, options)
+    blk = natural_block(cfg, 0, phi[:, 0], scaling, options)
+    assert blk.measured.all() and np.count_nonzero(blk.fixed) == 1
+    j = int(np.flatnonzero(blk.fixed)[0])
+    box = shape.on_dofs(model)
+    ref_mid = 0.5 * sum(box.bounds[model.dofs[j]]) / scaling.s[j]
+    # the box holds the truth's mode; the block's entries are the box over its reference's midpoint
+    lo, hi = (np.array([box.bounds[d][e] for d in model.dofs]) for e in (0, 1))
+    assert np.all(lo <= phi[:, 0]) and np.all(phi[:, 0] <= hi)
+    scaled = np.sort(np.stack([lo, hi]) / scaling.s / ref_mid, axis=0)
+    free = ~blk.fixed
+    np.testing.assert_allclose(blk.lower[free], scaled[0][free], rtol=1e-12)
+    np.testing.assert_allclose(blk.upper[free], scaled[1][free], rtol=1e-12)
