@@ -152,3 +152,22 @@ def test_an_antiresonance_at_a_sensor_is_refused_saying_receptances_are_between_
     assert main(["check", path]) == 2
     assert "'f1xs' is a sensor (a combination of DOFs); antiresonances are measured between DOFs" \
         in capsys.readouterr().err
+
+
+def test_a_sensor_on_a_model_of_matrix_files_is_read_as_on_an_element_model(tmp_path, capsys):
+    # the chain of matrix files (the route `vibupdate import` writes), a sensor reading the
+    # relative motion a - b: exact data at it and at c recover the stiffness through run
+    from helpers import CHAIN_CASE, CHAIN_K, write_chain_matrices
+
+    hz = write_chain_matrices(tmp_path)
+    lam, phi = scipy.linalg.eigh(CHAIN_K * 1.2)
+    rows = ["mode,dof,value,tolerance"] + [f"{k + 1},{d},{float(v)!r},0" for k in range(3)
+                                           for d, v in (("ab", phi[0, k] - phi[1, k]), ("c", phi[2, k]))]
+    (tmp_path / "s.csv").write_text("\n".join(rows) + "\n")
+    text = (CHAIN_CASE + f"natural_hz = [{', '.join(repr(float(h)) for h in hz)}]\nmode_shapes_csv = \"s.csv\"\n"
+            + '[[sensor]]\nname = "ab"\ndofs = {a = 1.0, b = -1.0}\n')
+    (tmp_path / "case.toml").write_text(text)
+    assert main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")]) == 0, capsys.readouterr().err
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert doc["parameters"][0]["updated"] == pytest.approx(1200.0, rel=1e-9)
+    assert doc["mac_matrix"]["only"]["dofs"] == ["c", "ab"]
