@@ -105,6 +105,22 @@ class ShapeInterval:
                 raise ValueError(f"mode-shape tolerance for {d!r} must be >= 0, got {t!r}")
         return cls({d: (v - tol[d], v + tol[d]) for d, v in values.items()})
 
+    def on_dofs(self, model) -> "ShapeInterval | None":
+        """The intervals these imply on ``model``'s DOFs, for a shape given (partly) at sensors
+        (`vibupdate.model.measurement.dof_box`): the intervals themselves, in their order, where
+        every name is a DOF; an outer box where sensors give DOFs in combination; None when no
+        DOF is implied. What the first stage's formulation bounds: its unknowns are DOF
+        entries. The box bounds entries, not the modal mass (it may hold zero at its largest
+        entry): it is not marked mass-normalized."""
+        from vibupdate.model.measurement import dof_box
+
+        names = list(self.bounds)
+        lower, upper = np.array(list(self.bounds.values()), dtype=float).T
+        idx, lo, hi = dof_box(model.measurement(names), lower, upper)
+        if not idx.size:
+            return None
+        return ShapeInterval({model.dofs[i]: (a, b) for i, a, b in zip(idx, lo, hi)})
+
     @property
     def midpoint(self) -> dict[str, float]:
         return {d: 0.5 * (lo + hi) for d, (lo, hi) in self.bounds.items()}
@@ -333,8 +349,12 @@ def validate_configuration(cfg: Configuration) -> None:
                          "modes of a repeated frequency)")
     for i, f in enumerate(cfg.natural, start=1):
         if f.shape is not None:
-            for dof in f.shape.bounds:
-                _check_dof(cfg.model, dof, f"{where}, mode {i}")
+            unknown = [d for d in f.shape.bounds if not cfg.model.measures(d)]
+            if unknown:   # the measurement map names DOFs and sensors
+                try:
+                    cfg.model.measurement(unknown[:1])
+                except ValueError as exc:
+                    raise ValueError(f"{where}, mode {i}: {exc}") from None
     for rc in cfg.receptances():
         for dof in rc:
             _check_dof(cfg.model, dof, f"{where}, antiresonance of h_{rc[0]},{rc[1]}")
@@ -368,6 +388,9 @@ def _check_modes(cfg: Configuration, where: str) -> None:
 
 
 def _check_dof(model: AffineModel, dof: str, where: str) -> None:
+    if dof not in model.dofs and model.measures(dof):
+        raise ValueError(f"{where}: {dof!r} is a sensor (a combination of DOFs); antiresonances are measured "
+                         "between DOFs of the model, shapes at DOFs or sensors")
     try:
         model.dof(dof)
     except ValueError as exc:

@@ -152,15 +152,14 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
 
 
 def shape_mac(cfg: Configuration, Phi: np.ndarray) -> np.ndarray:
-    """MAC of each measured mode shape (interval midpoints on measured DOFs) with its paired
+    """MAC of each measured mode shape (interval midpoints on measured DOFs or sensors) with its paired
     model mode; NaN where no shape was measured. Shape (n_p,)."""
     out = np.full(len(cfg.natural), np.nan)
     for k, f in enumerate(cfg.natural):
         if f.shape is None or k >= Phi.shape[1]:
             continue
         mid = f.shape.midpoint
-        idx = [cfg.model.dof(d) for d in mid]
-        out[k] = mac(np.array(list(mid.values())), Phi[idx, k])[0, 0]
+        out[k] = mac(np.array(list(mid.values())), cfg.model.measurement(list(mid)) @ Phi[:, k])[0, 0]
     return out
 
 

@@ -2,7 +2,8 @@
 
 A configuration measures four kinds of quantity: the natural frequencies of its declared
 modes, the declared antiresonances of its receptances (`vibupdate.data.pairing`), the shape
-ratios ``phi_j / phi_p`` of each measured mode at its measured DOFs, ``p`` the entry of largest
+ratios ``phi_j / phi_p`` of each measured mode at its measured DOFs or sensors (a sensor's
+reading is a combination ``w^T phi``, `vibupdate.model.measurement`), ``p`` the entry of largest
 measured magnitude (`vibupdate.data.measured.ShapeInterval.reference`), and, of a
 mass-normalized measured shape, the modal mass ``1 / phi_p^2`` at that entry (kg). As functions of the
 normalized parameters they are the data map ``d(xbar)``; with its exact Jacobian
@@ -28,11 +29,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, model_frequencies
 from vibupdate.inverse.repeated import paired_vector
-from vibupdate.modal.sensitivities import frequency_derivatives, modal_mass_derivatives, shape_ratio_derivatives
+from vibupdate.modal.sensitivities import (frequency_derivatives, modal_mass_derivatives, readings,
+                                          shape_ratio_derivatives)
 
 
 @dataclass(frozen=True)
@@ -43,10 +46,11 @@ class MeasuredShape:
     ----------
     position : int
         Of the mode in ``Configuration.natural`` (0-based).
-    reference : int
-        DOF index ``p`` of the denominator.
-    entries : ndarray of int, shape (n_e,)
-        DOF indices ``j`` of the ratios: the other measured DOFs, in their measured order.
+    reference : csr_matrix, shape (1, n)
+        Measurement map of the denominator ``p`` (a unit row for a DOF, a sensor's weights).
+    entries : csr_matrix, shape (n_e, n)
+        Measurement map of the ratios' numerators ``j``: the other measured DOFs or sensors, in
+        their measured order (`vibupdate.model.AffineModel.measurement`).
     lower, upper : ndarray, shape (n_e,)
         Measured interval of each ratio (`vibupdate.data.measured.ShapeInterval.ratio_bounds`).
     mass : (float, float) or None
@@ -55,8 +59,8 @@ class MeasuredShape:
     """
 
     position: int
-    reference: int
-    entries: np.ndarray
+    reference: sp.csr_matrix
+    entries: sp.csr_matrix
     lower: np.ndarray
     upper: np.ndarray
     mass: tuple[float, float] | None = None
@@ -79,9 +83,8 @@ def measured_shapes(cfg: Configuration) -> list[MeasuredShape]:
             continue
         ratios = f.shape.ratio_bounds()
         lower, upper = np.array(list(ratios.values())).reshape(-1, 2).T
-        out.append(MeasuredShape(k, cfg.model.dof(f.shape.reference),
-                                 np.array([cfg.model.dof(d) for d in ratios], dtype=int), lower, upper,
-                                 f.shape.modal_mass_bounds()))
+        out.append(MeasuredShape(k, cfg.model.measurement([f.shape.reference]), cfg.model.measurement(list(ratios)),
+                                 lower, upper, f.shape.modal_mass_bounds()))
     return out
 
 
@@ -99,7 +102,7 @@ class DataMap:
     shapes : tuple of MeasuredShape
         The measured shapes the ratios belong to (`measured_shapes`); empty when not asked for.
     ratios : tuple of ndarray
-        Per shape, ``phi[entries] / phi[reference]`` of the paired model mode, shape (n_e,);
+        Per shape, ``(entries @ phi) / (reference @ phi)`` of the paired model mode, shape (n_e,);
         for a mode of a repeated frequency, of the combination of its modes that fits the
         measured shape best (`vibupdate.inverse.repeated.paired_vector`).
     frequencies : ModelFrequencies
@@ -195,16 +198,18 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
     M = model.matrices(xbar)[0] if any(s.mass is not None for s in measured) else None   # once, for the masses
     for s in measured:
         phi, near = paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position)
-        ratios.append(phi[s.entries] / phi[s.reference])
+        ref = readings(phi, s.reference)
+        ratios.append(readings(phi, s.entries) / ref)
         if s.mass is not None and not jacobian:   # q^T M q, q = phi / phi_p: 1 / phi_p^2 of a mass-normalized mode
-            q = phi / phi[s.reference]
+            q = phi / ref
             masses.append(float(q @ (M @ q)))
         if jacobian:
             basis = freqs.Phi_all[:, near] if near.size > 1 else None
             out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
                                           vectors=vectors or s.mass is not None, basis=basis)
             D = out[0] if isinstance(out, tuple) else out
-            ratio_jacobians.append(D if basis is None else _refitted(D, basis[s.entries], basis[s.reference]))
+            ratio_jacobians.append(D if basis is None else _refitted(D, readings(basis, s.entries),
+                                                                       readings(basis, s.reference)[0]))
             if vectors:
                 found.append(out[1])
             if s.mass is not None:

@@ -106,7 +106,8 @@ def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
                                         f"shape of mode {f.mode} ({len(f.shape.bounds)} entries), {where}",
                                         len(f.shape.bounds)))
         shaped = [f for f in cfg.natural if f.shape is not None]
-        for dof in sorted({d for f in shaped for d in f.shape.bounds}, key=cfg.model.dof):
+        order = {d: i for i, d in enumerate((*cfg.model.dofs, *(s.name for s in cfg.model.sensors)))}
+        for dof in sorted({d for f in shaped for d in f.shape.bounds}, key=order.__getitem__):
             modes = [f.mode for f in shaped if dof in f.shape.bounds]
             groups.append(DataGroup(f"{cfg.name}/dof/{dof}", "dof", cfg.name,
                                     f"shape entry of DOF {dof!r} in every mode (modes "

@@ -114,7 +114,7 @@ def _weights(configurations: Sequence[Configuration], shape_weight: float) -> np
     for cfg in configurations:
         out += [1 / np.sqrt(d.weight) for d in (*cfg.natural, *cfg.antiresonances)]
         if shape_weight > 0:
-            out += [1 / shape_weight] * sum(s.entries.size + (s.mass is not None) for s in measured_shapes(cfg))
+            out += [1 / shape_weight] * sum(s.lower.size + (s.mass is not None) for s in measured_shapes(cfg))
     return np.array(out)
 
 

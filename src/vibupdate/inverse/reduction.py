@@ -31,11 +31,14 @@ from vibupdate.data.measured import Configuration
 
 
 def kept_dofs(cfg: Configuration) -> list[str]:
-    """The DOFs a reduction must keep physical: measured shape entries and receptance DOFs."""
+    """The DOFs a reduction must keep physical: measured shape entries (the DOFs a sensor reads)
+    and receptance DOFs."""
     keep = []
+    sensors = {s.name: s for s in cfg.model.sensors}
     for f in cfg.natural:
-        if f.shape is not None:
-            keep += list(f.shape.bounds)
+        if f.shape is not None:   # a sensor's DOFs, so that it reads the reduced model alike
+            keep += [d for name in f.shape.bounds
+                     for d in ([d for d, _ in sensors[name].weights] if name in sensors else [name])]
     for a in cfg.antiresonances:
         keep += [a.response, a.excitation]
     return list(dict.fromkeys(keep))

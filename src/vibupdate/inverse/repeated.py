@@ -90,7 +90,7 @@ def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int,
     lo, hi = np.array(list(bounds.values()), dtype=float).T
     slack = shape_slack * 0.5 * (hi - lo)
     U = Phi_all[:, near]
-    c = best_combination(U[[cfg.model.dof(d) for d in bounds]], U[cfg.model.dof(nat.shape.reference)],
+    c = best_combination(cfg.model.measurement(list(bounds)) @ U, (cfg.model.measurement([nat.shape.reference]) @ U)[0],
                          lo - slack, hi + slack)
     return (Phi_all[:, m] if c is None else U @ c), near
 
@@ -204,7 +204,7 @@ def paired_modal_mass(cfg, M, Phi_all: np.ndarray, omega_all: np.ndarray, k: int
     the model vector paired with it (`paired_vector`): ``q^T M q``, ``q`` that vector scaled to
     1 at the reference (``1 / phi_p^2`` of a mass-normalized mode); inf where it is 0 there."""
     phi = paired_vector(cfg, Phi_all, omega_all, k)[0]
-    ref = phi[cfg.model.dof(cfg.natural[k].shape.reference)]
+    ref = float((cfg.model.measurement([cfg.natural[k].shape.reference]) @ phi)[0])
     if ref == 0:
         return float("inf")
     q = phi / ref

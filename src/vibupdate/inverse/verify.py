@@ -261,9 +261,9 @@ def mode_rounding_allowance(cfg: Configuration, xbar, f: ModelFrequencies, k: in
     m = nat.mode - 1
     phi, near = paired_vector(cfg, f.Phi_all, f.omega_all, k)
     phi = (vectors or {}).get(k, phi)
-    idx = [cfg.model.dof(d) for d in nat.shape.ratio_bounds()]
+    idx = cfg.model.measurement(list(nat.shape.ratio_bounds()))
     w = float(f.omega_all[m])   # negative for a negative eigenvalue (`modes`)
-    rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, phi, idx, cfg.model.dof(nat.shape.reference),
+    rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, phi, idx, cfg.model.measurement([nat.shape.reference]),
                                       basis=f.Phi_all[:, near] if near.size > 1 else None, precision=precision)
     return ROUNDING_SAFETY * rounding + own
 
@@ -282,12 +282,12 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
         if nat.shape is None:
             continue
         dofs = list(nat.shape.bounds)
-        idx = [cfg.model.dof(d) for d in dofs]
+        idx = cfg.model.measurement(dofs)   # the readings of DOFs and sensors (`vibupdate.model.measurement`)
         mid = np.array([nat.shape.midpoint[d] for d in dofs])
-        macs = mac(mid, f.Phi_all[idx])[0]
+        macs = mac(mid, idx @ f.Phi_all)[0]
         m = nat.mode - 1
         phi, near = vectors[k]
-        own = subspace_mac(mid, f.Phi_all[np.ix_(idx, near)]) if near.size > 1 else float(macs[m])
+        own = subspace_mac(mid, idx @ f.Phi_all[:, near]) if near.size > 1 else float(macs[m])
         macs[near] = -np.inf   # the other modes of a repeated frequency are this one's
         worst_mac = min(worst_mac, own)
         label = f"configuration {cfg.name!r}, mode {nat.mode} ({nat.freq_hz:.5g} Hz)"
@@ -301,14 +301,15 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
         if len(dofs) < 2:
             continue
         ref = nat.shape.reference
-        phi_ref = phi[cfg.model.dof(ref)]
+        phi_ref = float((cfg.model.measurement([ref]) @ phi)[0])
+        at = dict(zip(dofs, idx @ phi))
         if phi_ref == 0:
             bad_box.append(f"{label}: the model mode is zero at the reference DOF {ref!r}"
                            + ("" if near.size == 1 else ", and so is every mode that repeats its frequency"))
             continue
         before, model_form, allowed = len(bad_box), 0.0, None
         for d, (lo, hi) in nat.shape.ratio_bounds().items():
-            ratio = phi[cfg.model.dof(d)] / phi_ref
+            ratio = at[d] / phi_ref
             slack = options.shape_slack * 0.5 * (hi - lo)
             out = max(lo - slack - ratio, ratio - hi - slack, 0.0)
             if out == 0.0:
@@ -328,7 +329,7 @@ def _shapes(cfg: Configuration, f: ModelFrequencies, options: VerifyOptions, xba
                                f"{max(lo - ratio, ratio - hi):.2g}, more than the {slack:.2g} allowed, the "
                                f"{tol:g} model-form tolerance and {allowed:.2g} for rounding")
         widen = tol * abs(nat.shape.midpoint[ref])
-        shape = phi[idx] if near.size == 1 else f.Phi_all[np.ix_(idx, near)]
+        shape = idx @ phi if near.size == 1 else idx @ f.Phi_all[:, near]
         if len(bad_box) == before:   # said only where no ratio of the mode was already out
             miss = _common_scaling_miss(shape, nat.shape, widen)
             if miss > SCALING_SLACK:

@@ -41,6 +41,7 @@ from vibupdate.io.case_keys import (
 )
 from vibupdate.io.case_model import LinearExpression, configuration_model, linear_expression
 from vibupdate.io.case_types import Case, DampingOptions  # noqa: F401  (importable from here too)
+from vibupdate.io.case_sensors import case_sensors
 from vibupdate.model.parameters import Parameter
 from vibupdate.options import problem as option_problem
 
@@ -111,7 +112,7 @@ def _file_data(cfg: dict, model, base: Path, where: Where, key: str, natural, ze
         if "frequencies_csv" in cfg:
             natural, zeros = read_frequency_csv(base / cfg["frequencies_csv"])
         if "mode_shapes_csv" in cfg:
-            shapes = read_shape_csv(base / cfg["mode_shapes_csv"], model.dofs)
+            shapes = read_shape_csv(base / cfg["mode_shapes_csv"], (*model.dofs, *(s.name for s in model.sensors)))
         if "mode_shapes_uff" in cfg:
             tol = float(cfg.get("uff_tolerance", 0.05))
             uff = read_uff_modes(base / cfg["mode_shapes_uff"])
@@ -183,7 +184,7 @@ def _first_signs(cfg: dict, where: Where, key: str) -> dict:
 
 
 def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, where: Where,
-                   models: dict):
+                   models: dict, sensors=()):
     """The configuration of one ``[[configuration]]`` table, and its measured FRFs (or None)."""
     from vibupdate.data.pairing import declared_modes
 
@@ -193,6 +194,13 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
     if not 0 <= cfg.get("uff_tolerance", 0.05) < math.inf:
         raise where.error(f"{key}.uff_tolerance", f"must be a finite number >= 0, got {cfg['uff_tolerance']!r}")
     model = configuration_model(spec, cfg, parameters, base, where, key, models)
+    if sensors:
+        from vibupdate.model.affine import with_sensors
+
+        try:
+            model = with_sensors(model, sensors)
+        except ValueError as exc:
+            raise where.error("sensor", str(exc)) from None
     natural, zeros, shapes, frfs, notes = [], [], {}, None, ()
     given = [k for k in ("natural_hz", "frequencies_csv") if k in cfg]
     if len(given) == 2:
@@ -290,7 +298,8 @@ def load_case(path) -> Case:
         raise where.error("candidate", f"{', '.join(map(repr, twice))} is declared both as a [[parameter]] and as a "
                                        f"[[candidate]]; declare each name once")
     models = _element_models(source, items, parameters + candidates, where)
-    loaded = [_configuration(cfg, i, data["model"], parameters + candidates, base, where, models)
+    sensors = case_sensors(data, base, where)
+    loaded = [_configuration(cfg, i, data["model"], parameters + candidates, base, where, models, sensors)
               for i, cfg in enumerate(data["configuration"], start=1)]
     configurations, frequency_notes = _frequency_types(data, tuple(c for c, _ in loaded), where)
     pool = ()

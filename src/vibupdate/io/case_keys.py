@@ -80,7 +80,7 @@ def numbers(values, key, where) -> list[float]:
 
 TOP_KEYS = {"case": str, "model": dict, "parameter": list, "candidate": list, "configuration": list, "solver": dict,
              "formulation": dict, "damping": dict, "frequency_tolerance": float, "polish": dict,
-             "verification": dict, "frequency_type": str}
+             "verification": dict, "frequency_type": str, "sensor": list, "sensors": str}
 # The option tables: their keys from the declarations, each value checked there (vibupdate.options).
 POLISH_KEYS = {o.name: None for o in declared("polish", case_file=True)}
 VERIFICATION_KEYS = {o.name: None for o in declared("verification", case_file=True)}

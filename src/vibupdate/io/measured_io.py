@@ -184,8 +184,8 @@ def _pair(row: dict, columns: tuple[str, str], value, what: str, path: Path, lin
 
 def read_shape_csv(path, dofs=None) -> dict[int, dict[str, tuple[float, float]]]:
     """Mode-shape intervals from a CSV table: ``{mode (1-based): {dof: (lower, upper)}}``.
-    ``dofs``, when given, are the model's DOF names: a row naming another is an error naming
-    the file, the row and the closest names."""
+    ``dofs``, when given, are the model's DOF and sensor names: a row naming another is an error
+    naming the file, the row and the closest names."""
     path = Path(path)
     known = None if dofs is None else set(dofs)
     rows = _rows(path)
@@ -213,7 +213,7 @@ def read_shape_csv(path, dofs=None) -> dict[int, dict[str, tuple[float, float]]]
             near = difflib.get_close_matches(row["dof"], sorted(known), n=3)
             raise ValueError(f"{path}: row {i}: DOF {row['dof']!r} is not in the model"
                              + (f" (closest: {', '.join(near)})" if near else "")
-                             + "; shapes name DOFs as the model does")
+                             + "; shapes name DOFs as the model does, or declared sensors")
         if (mode, row["dof"]) in seen:
             raise ValueError(f"{path}: row {i}: mode {mode}, dof {row['dof']!r} is also given in row "
                              f"{seen[(mode, row['dof'])]}")

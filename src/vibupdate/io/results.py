@@ -484,9 +484,10 @@ def _mac_matrix(cfg, Phi: np.ndarray) -> dict:
     from vibupdate.modal.analysis import mac
 
     measured = [f for f in cfg.natural if f.shape is not None]
-    names = sorted({d for f in measured for d in f.shape.bounds}, key=cfg.model.dof)
+    order = {d: i for i, d in enumerate((*cfg.model.dofs, *(s.name for s in cfg.model.sensors)))}
+    names = sorted({d for f in measured for d in f.shape.bounds}, key=order.__getitem__)
     X = np.array([[f.shape.midpoint.get(d, 0.0) for d in names] for f in measured]).T
-    return {"dofs": names, "values": mac(X, Phi[[cfg.model.dof(d) for d in names]])}
+    return {"dofs": names, "values": mac(X, cfg.model.measurement(names) @ Phi)}
 
 
 def run_result(case, result, stage=None, *, identifiability: dict | None = None,

@@ -273,7 +273,9 @@ def _physical(case, error) -> tuple[list[str], list[str], int, object]:
                             + "; ".join(box.findings))
             lower, upper = np.maximum(lower, box.lower), np.minimum(upper, box.upper)
         rigid_all = max(rigid_all, found.rigid_body_modes)
-        text = (f"{cfg.name}: {model.n_dofs} DOFs, {found.rigid_body_modes} rigid-body mode(s)"
+        text = (f"{cfg.name}: {model.n_dofs} DOFs"
+                + (f" and {len(model.sensors)} sensor(s) reading combinations of them" if model.sensors else "")
+                + f", {found.rigid_body_modes} rigid-body mode(s)"
                 + (f", {len(found.massless)} DOF(s) without mass ({_massless_path(model.n_dofs)})"
                    if found.massless else ", M positive definite")
                 + f"; M, K checked at the nominal point and {len(box_corners(*model.bounds()))} corners of the "

@@ -94,7 +94,7 @@ def refine_modes(M, K, solve, sigma: float, X: np.ndarray):
     return np.asarray(eigval, dtype=float)[order], np.asarray(Phi, dtype=float)[:, order]
 
 
-def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: int,
+def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
                       seed: int = 0, basis: np.ndarray | None = None,
                       precision: float | None = None) -> tuple[float, float]:
     """How far rounding alone moves the shape ratios ``phi[entries] / phi[reference]`` of one
@@ -123,10 +123,11 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
         ``w^2`` of the mode, (rad/s)^2.
     phi : ndarray, shape (n,)
         The mode (any scaling).
-    entries : sequence of int
-        DOF indices of the ratios' numerators.
-    reference : int
-        DOF index of the denominator (``phi[reference] != 0``).
+    entries : sequence of int, or sparse matrix, shape (n_e, n)
+        DOF indices of the ratios' numerators, or their measurement map
+        (`vibupdate.modal.sensitivities.readings`).
+    reference : int or sparse matrix, shape (1, n)
+        DOF index (or measurement map) of the denominator, where ``phi`` must not vanish.
     basis : ndarray, shape (n, k), optional
         For a mode of a repeated frequency (`vibupdate.inverse.repeated`): the vectors of its
         eigenspace, ``phi`` a combination of them. The change is then the eigenspace's, out of
@@ -190,9 +191,9 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference: 
         V[keep] = sla.solve(A.toarray(), B[keep], assume_a="sym")
     if U.shape[1] > 1:
         V = V - U @ np.linalg.solve(G, MU.T @ V)
-    entries = np.asarray(entries, dtype=int)
-    ref = phi[reference]
-    D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
+    from vibupdate.modal.sensitivities import ratio_derivatives
+
+    D = ratio_derivatives(V, phi, entries, reference)
     if not D.size:
         return 0.0, 0.0
     worst = np.max(np.abs(D), axis=0)

@@ -92,10 +92,12 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
         Natural frequency, rad/s (a simple eigenvalue).
     phi : ndarray, shape (n,)
         Mass-normalized mode at ``xbar``.
-    entries : sequence of int, length n_e
-        DOF indices of the ratios.
-    reference : int
-        DOF index of the denominator; ``phi[reference]`` must not vanish.
+    entries : sequence of int, length n_e, or sparse matrix, shape (n_e, n)
+        DOF indices of the ratios' numerators, or their measurement map (sensor weights,
+        `vibupdate.model.measurement`).
+    reference : int or sparse matrix, shape (1, n)
+        DOF index of the denominator, or its measurement map; the reading of ``phi`` there must
+        not vanish.
     vectors : bool
         Also return the solutions ``V`` of the module docstring (one per parameter): the
         derivatives of ``phi`` up to multiples of ``phi``.
@@ -125,21 +127,39 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
         V = _ratio_solutions(model, xbar, omega, phi, basis)
         if key is not None:
             _RATIO_SOLUTIONS.put(key, V, V.nbytes)
-    entries = np.asarray(entries, dtype=int)
-    ref = phi[reference]
-    D = (V[entries] * ref - np.outer(phi[entries], V[reference])) / ref**2
+    D = ratio_derivatives(V, phi, entries, reference)
     return (D, V.copy()) if vectors else D
 
 
-def modal_mass_derivatives(model, M, phi, reference: int, V) -> tuple[float, np.ndarray]:
+def readings(X, where):
+    """The readings of ``X`` (a vector, shape (n,), or vectors, shape (n, k)) at ``where``: DOF
+    indices (an int or a sequence of them: ``X[where]``) or a measurement map (sparse, shape
+    (n_r, n): ``where @ X``, `vibupdate.model.AffineModel.measurement`). One entry point for the
+    code that reads model vectors at measured points, so a DOF index and a sensor's weights are
+    read alike."""
+    if sp.issparse(where):
+        return where @ X
+    return X[where] if isinstance(where, (int, np.integer)) else X[np.asarray(where, dtype=int)]
+
+
+def ratio_derivatives(V, phi, entries, reference) -> np.ndarray:
+    """The derivatives ``(V_e * phi_p - phi_e V_p) / phi_p^2``, shape (n_e, n_x), of the
+    ratios of the readings ``e`` of ``phi`` to its reading ``p``, from solutions ``V`` (n, n_x)
+    of the module docstring (any multiple of ``phi`` in them cancels). ``entries`` and
+    ``reference`` are DOF indices or measurement maps (`readings`)."""
+    ref = readings(phi, reference)
+    return (readings(V, entries) * ref - np.outer(readings(phi, entries), readings(V, reference))) / ref**2
+
+
+def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarray]:
     """The modal mass ``q^T M q`` (kg) of the mode ``phi`` scaled to 1 at DOF ``reference``
     (``1 / phi_p^2`` of a mass-normalized mode), ``M`` the model's mass matrix at the mode's
     point, and its exact derivative, shape (n_x,), from the solutions ``V`` of
     `shape_ratio_derivatives` (``vectors=True``) of the same mode (module docstring)."""
     phi = np.asarray(phi, dtype=float)
-    ref = phi[reference]
+    ref = readings(phi, reference)
     q = phi / ref
-    dQ = (V * ref - np.outer(phi, V[reference])) / ref**2
+    dQ = (V * ref - np.outer(phi, readings(V, reference))) / ref**2
     Mq = M @ q
     direct = np.array([q @ (Mi @ q) for Mi in model.M_par])
     return float(q @ Mq), direct + 2.0 * (Mq @ dQ)

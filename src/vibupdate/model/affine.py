@@ -48,6 +48,9 @@ class AffineModel:
         precision. The rounding unit of the tests that tell a zero eigenvalue from rounding
         (`vibupdate.modal.rigid`) and of the shape ratios' rounding floor
         (`vibupdate.inverse.verify`).
+    sensors : tuple of Sensor
+        Readings that are linear combinations of DOFs (`vibupdate.model.measurement`): measured
+        shapes may be given at their names as well as at DOFs (`measurement`).
     """
 
     parameters: tuple[Parameter, ...]
@@ -57,6 +60,7 @@ class AffineModel:
     M_par: tuple[sp.csr_matrix, ...]
     K_par: tuple[sp.csr_matrix, ...]
     matrix_precision: float | None = None
+    sensors: tuple = ()
 
     @property
     def n_dofs(self) -> int:
@@ -73,6 +77,26 @@ class AffineModel:
     def dof(self, name: str) -> int:
         """Index of a named DOF."""
         return dof_index(self.dofs, name)
+
+    def measures(self, name: str) -> bool:
+        """Whether ``name`` is a DOF or a sensor of the model."""
+        return name in self._measured_names
+
+    @cached_property
+    def _measured_names(self) -> frozenset:
+        return frozenset(self.dofs) | {s.name for s in self.sensors}
+
+    def measurement(self, names) -> sp.csr_matrix:
+        """The measurement map of ``names`` (DOFs or sensors), shape (len(names), n): a model
+        vector's readings there are ``measurement(names) @ phi``
+        (`vibupdate.model.measurement.measurement_rows`)."""
+        from vibupdate.model.measurement import measurement_rows
+
+        return measurement_rows(self._positions, self.sensors, list(names))
+
+    @cached_property
+    def _positions(self) -> dict:
+        return {d: i for i, d in enumerate(self.dofs)}
 
     def normalized(self, values) -> np.ndarray:
         """Physical parameter values, shape (n_x,), to ``xbar``."""
@@ -176,6 +200,14 @@ def with_lumped(model: "AffineModel", additions: Sequence[Lumped]) -> "AffineMod
     return replace(model, M0=sp.csr_matrix(mats["M"][0]), K0=sp.csr_matrix(mats["K"][0]),
                    M_par=tuple(sp.csr_matrix(A) for A in mats["M"][1]),
                    K_par=tuple(sp.csr_matrix(A) for A in mats["K"][1]))
+
+
+def with_sensors(model: "AffineModel", sensors) -> "AffineModel":
+    """``model`` with the readings ``sensors`` (`vibupdate.model.measurement.Sensor`), checked
+    against its DOFs (`vibupdate.model.measurement.check_sensors`); the matrices are unchanged."""
+    from vibupdate.model.measurement import check_sensors
+
+    return replace(model, sensors=check_sensors(model.dofs, tuple(sensors)))
 
 
 def restricted(model: "AffineModel", names: Sequence[str]) -> "AffineModel":

@@ -140,7 +140,7 @@ def _scale_free(blk: VectorBlock, cfg: Configuration) -> VectorBlock:
     exclude the trivial vector, and the entry stays fixed."""
     if blk.kind != "natural" or blk.measured is None or not blk.measured.any():
         return blk
-    shape = cfg.natural[blk.index - 1].shape
+    shape = cfg.natural[blk.index - 1].shape.on_dofs(cfg.model)   # the DOF box the block was built from
     ref = shape.reference
     j = int(np.flatnonzero(blk.cols == cfg.model.dof(ref))[0])
     if not blk.fixed[j]:

@@ -106,7 +106,7 @@ def _measured(configurations, frequency_tolerance):
         for shape in shapes:
             values.append(shape.midpoint)
             half.append(shape.half_width)
-            is_freq.append(np.zeros(shape.entries.size, dtype=bool))
+            is_freq.append(np.zeros(shape.lower.size, dtype=bool))
         masses = np.array([shape.mass for shape in shapes if shape.mass is not None]).reshape(-1, 2)
         values.append(masses.mean(axis=1))
         half.append(0.5 * (masses[:, 1] - masses[:, 0]))
@@ -166,7 +166,7 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
         shapes = measured_shapes(cfg)
         for shape in shapes:
             allowance = mode_rounding_allowance(cfg, xbar, f, shape.position, cfg.model.matrix_precision)
-            out += [allowance] * shape.entries.size
+            out += [allowance] * shape.lower.size
         out += [0.0] * sum(shape.mass is not None for shape in shapes)   # modal masses: relative, not rounding-sized
     return np.asarray(out, dtype=float)
 

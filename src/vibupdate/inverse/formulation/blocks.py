@@ -85,10 +85,11 @@ def natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: Scal
     lower = np.full(n, -np.inf)
     upper = np.full(n, np.inf)
     measured = np.zeros(n, dtype=bool)
-    if f.shape is not None:
-        idx = np.array([model.dof(d) for d in f.shape.bounds])
-        lo = np.array([b[0] for b in f.shape.bounds.values()]) / scaling.s[idx]
-        hi = np.array([b[1] for b in f.shape.bounds.values()]) / scaling.s[idx]
+    shape = f.shape.on_dofs(model) if f.shape is not None else None   # sensors: the box they imply on DOFs
+    if shape is not None:
+        idx = np.array([model.dof(d) for d in shape.bounds])
+        lo = np.array([b[0] for b in shape.bounds.values()]) / scaling.s[idx]
+        hi = np.array([b[1] for b in shape.bounds.values()]) / scaling.s[idx]
         mid = 0.5 * (lo + hi)
         j_local = int(np.argmax(np.abs(mid)))
         ref = mid[j_local]
@@ -109,7 +110,7 @@ def natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: Scal
     # entry. Relative to v0[j] alone, a nominal mode near a node at j (its modes swapped or
     # reshaped by the update) gave boxes of 1e13 and a relaxation no QP solver could finish
     # (`benchmarks/RESULTS.md`, "The first stage on the braced frame").
-    ref_size = np.max(np.abs(v0[idx])) if f.shape is not None else abs(v0[j])
+    ref_size = np.max(np.abs(v0[idx])) if shape is not None else abs(v0[j])
     bound = options.shape_margin * max(1.0, np.max(np.abs(v0)) / ref_size)
     lower = np.where(np.isfinite(lower), lower, -bound)
     upper = np.where(np.isfinite(upper), upper, bound)
