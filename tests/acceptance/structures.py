@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from vibupdate import Assembly, Parameter, from_builder, from_files
 
 __all__ = ["Lin", "StructureSpec", "chain", "beam", "frame", "affine_model", "model_table", "matrices_at",
-           "parameter_matrices"]
+           "parameter_matrices", "DENSE_MAX"]
 
 
 @dataclass(frozen=True)
@@ -133,17 +133,27 @@ def _assembly(spec: StructureSpec, value) -> Assembly:
     return asm
 
 
-def matrices_at(spec: StructureSpec, values: dict) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """Dense ``M``, ``K`` (SI) and DOF names at physical parameter values."""
+#: Models of more DOFs than this are handed to the truth kernels as sparse matrices
+#: (`acceptance.truth.modes` then solves for the lowest modes alone); smaller ones dense.
+DENSE_MAX = 400
+
+
+def matrices_at(spec: StructureSpec, values: dict, dense: bool | None = None):
+    """``M``, ``K`` (SI) and DOF names at physical parameter values: dense arrays, or, for a
+    model of more than `DENSE_MAX` DOFs (``dense=None``) or with ``dense=False``, sparse CSC."""
     system = _assembly(spec, lambda v: v.value(values)).system()
-    return system.M.toarray(), system.K.toarray(), tuple(system.dofs)
+    if dense is None:
+        dense = len(system.dofs) <= DENSE_MAX
+    if dense:
+        return system.M.toarray(), system.K.toarray(), tuple(system.dofs)
+    return sp.csc_matrix(system.M), sp.csc_matrix(system.K), tuple(system.dofs)
 
 
 def parameter_matrices(spec: StructureSpec, parameters) -> tuple[np.ndarray, np.ndarray, dict, dict, tuple]:
     """``M0``, ``K0`` at the nominal values and ``dM/dp``, ``dK/dp`` per parameter (physical
     units), as an FE package exports them."""
     nominal = {p.name: p.nominal for p in parameters}
-    M0, K0, dofs = matrices_at(spec, nominal)
+    M0, K0, dofs = matrices_at(spec, nominal, dense=True)
     dM, dK = {}, {}
     for p in parameters:
         system = _assembly(spec, lambda v, name=p.name: v.part(name).const).system()

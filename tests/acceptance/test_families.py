@@ -20,7 +20,8 @@ def _truth(problem):
     return np.array([problem.truth[p.name] for p in problem.parameters])
 
 
-@pytest.mark.parametrize("family", ["close_modes", "cross_receptance", "mass_normalized"])
+@pytest.mark.parametrize("family", ["close_modes", "cross_receptance", "mass_normalized", "many_dofs",
+                                    "many_parameters"])
 @pytest.mark.parametrize("seed", SEEDS)
 def test_in_family_data_admit_the_truth(family, seed):
     problem = F.MAKERS[family](seed)
@@ -64,6 +65,26 @@ def test_cross_receptances_are_cross():
     for seed in SEEDS:
         zeros = F.cross_receptance(seed).data[0].zeros
         assert zeros and all(z.response != z.excitation for z in zeros)
+
+
+def test_the_size_families_span_what_they_say():
+    """50-5,000 DOFs (both ends reached over 40 seeds, their springs in contiguous zones) and
+    20-40 parameters; above `structures.DENSE_MAX` DOFs the judge's matrices are sparse."""
+    import scipy.sparse as sp
+
+    dofs = []
+    for seed in range(40):
+        problem = F.many_dofs(seed)
+        n = len(problem.structure.measurable)
+        dofs.append(n)
+        zones = [v.names[0] for f, _, v, _ in problem.structure.lumped if f == "spring"]
+        assert zones == sorted(zones, key=lambda z: int(z[1:])), "zones not contiguous from the ground"
+        assert {p.name for p in problem.parameters} == set(zones) | {"m1"}
+    assert 50 <= min(dofs) < 80 and 3000 < max(dofs) <= 5000
+    big = F.many_dofs(int(np.argmax(dofs)))
+    assert sp.issparse(S.matrices_at(big.structure, big.truth)[0])
+    counts = [len(F.many_parameters(seed).parameters) for seed in range(12)]
+    assert min(counts) >= 20 and max(counts) <= 40 and len(set(counts)) > 3
 
 
 def test_the_biased_sensor_is_a_diagnosis_group_of_the_data():

@@ -186,3 +186,40 @@ def test_each_budget_of_a_family_can_fail_on_its_own():
     right = _verdicts("biased_channel", ["not_verified"] * 4, diagnosis=("A/dof/y2",), expected="A/dof/y2")
     wrong = _verdicts("biased_channel", ["not_verified"] * 4, diagnosis=("A/natural/1",), expected="A/dof/y2")
     assert not _failed(right) and _failed(wrong) == {"wrong group ranked first (share right)"}
+
+
+def test_the_sparse_truth_kernel_agrees_with_the_dense_one():
+    """A 600-DOF chain (above `structures.DENSE_MAX`): the shift-invert Lanczos kernel gives the
+    dense kernel's lowest frequencies to 1e-10 and mass-normalized modes (MAC 1 with the dense
+    ones); below the limit the matrices stay dense."""
+    import scipy.sparse as sp
+
+    from acceptance import structures as S
+
+    spec, params = S.chain(np.random.default_rng(3), 600, k_groups=3, m_groups=1)
+    values = {p.name: p.nominal for p in params}
+    Ms, Ks, _ = S.matrices_at(spec, values)
+    assert sp.issparse(Ms) and sp.issparse(Ks)
+    Md, Kd, _ = S.matrices_at(spec, values, dense=True)
+    ws, Ps = T.modes(Ms, Ks)
+    wd, Pd = T.modes(Md, Kd)
+    assert ws.size == T.SPARSE_MODES
+    assert np.max(np.abs(ws / wd[: ws.size] - 1)) < 1e-10
+    assert np.allclose(np.einsum("ij,ij->j", Ps, Md @ Ps), 1.0, rtol=1e-12)
+    assert all(T.mac(Ps[:, k], Pd[:, k]) > 1 - 1e-10 for k in range(6))
+    small, _ = S.chain(np.random.default_rng(3), 20)
+    assert not sp.issparse(S.matrices_at(small, {p.name: p.nominal for p in _})[0])
+
+
+def test_the_sparse_truth_kernel_refuses_rigid_body_modes():
+    """A free chain (no ground spring) has a singular stiffness: the sparse kernel says it
+    handles no rigid-body mode instead of guessing a floor; antiresonances are dense only."""
+    import scipy.sparse as sp
+
+    n = 500
+    K = sp.diags([np.full(n - 1, -1.0), np.r_[1.0, np.full(n - 2, 2.0), 1.0], np.full(n - 1, -1.0)], [-1, 0, 1])
+    M = sp.identity(n)
+    with pytest.raises(ValueError, match="rigid-body"):
+        T.modes(sp.csc_matrix(M), sp.csc_matrix(K))
+    with pytest.raises(ValueError, match="dense models only"):
+        T.zeros(sp.csc_matrix(M), sp.csc_matrix(K), 0, 0)
