@@ -23,9 +23,11 @@ from acceptance import structures as S
 from acceptance import truth as T
 from acceptance.measure import draw_truth, measure
 from acceptance.problem import ConfigData, Natural, Problem
+from vibupdate import Parameter
 
 __all__ = ["coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "close_modes",
-           "cross_receptance", "mass_normalized", "many_dofs", "many_parameters", "MAKERS"]
+           "cross_receptance", "mass_normalized", "many_dofs", "many_parameters", "shear_building",
+           "MAKERS"]
 
 TWO_PI = 2.0 * np.pi
 
@@ -363,6 +365,46 @@ def many_parameters(seed: int) -> Problem:
                    family="many_parameters", note=f"{len(params)} parameters, {len(spec.measurable)} sensors")
 
 
+def _braced_frame():
+    """`benchmarks/braced_frame.py` (the 4-storey 2x2-bay braced frame), loaded from its file."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "braced_frame.py"
+    spec = importlib.util.spec_from_file_location("acceptance_braced_frame", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def shear_building(seed: int) -> Problem:
+    """Model-form error: the 12-DOF rigid-floor (shear-building) model of a 4-storey, 2x2-bay
+    braced steel frame (`benchmarks/braced_frame.py`), 8 stiffness factors (braces and columns
+    per storey, nominal 1 in [0.2, 1.5]), updated from the 6 lowest modes of the frame's 120-DOF
+    model at a drawn truth (brace factors 0.5-1, column factors 0.9-1.1): frequencies with
+    0.5-1 % noise and shapes at the 12 floor DOFs with the same absolute noise on the ratios. A
+    right answer: ``success`` only when every datum is admissible for the 12-DOF model; never
+    further from the data than the nominal model; the judge reports the answer's distance to
+    its own weighted least-squares compromise (`acceptance.judge.compromise`)."""
+    rng = _rng("shear_building", seed)
+    bf = _braced_frame()
+    params = [Parameter(name, 1.0, 0.2, 1.5) for name in bf.parameter_names()]
+    specs = {}
+    for n in (12, 120):
+        M, K_fixed, groups, names = bf.matrices(n)
+        specs[n] = S.given_matrices(f"shear-building-{n}", M, K_fixed, dict(zip(bf.parameter_names(), groups)), names,
+                                    bf.MEASURED_DOFS)
+    values = np.concatenate([rng.uniform(0.5, 1.0, bf.N_STOREYS), rng.uniform(0.9, 1.1, bf.N_STOREYS)])
+    truth = dict(zip(bf.parameter_names(), map(float, values)))
+    noise = float(rng.uniform(0.005, 0.01))
+    data = measure(specs[120], params, truth, kind="P1", rng=rng, noise=noise, shape_noise=noise, n_modes=6,
+                   sensors=list(bf.MEASURED_DOFS))
+    return Problem(f"shear{seed}", specs[12], tuple(params), truth, (data,), noise, noise, seed,
+                   family="shear_building", in_family=False, compromise=True,
+                   note="12-DOF shear-building model, 120-DOF frame's data")
+
+
 #: Every family maker by family name.
 MAKERS = {f.__name__: f for f in (coarse_mesh, root_spring, sensor_masses, biased_channel, frequency_shift,
-                                  close_modes, cross_receptance, mass_normalized, many_dofs, many_parameters)}
+                                  close_modes, cross_receptance, mass_normalized, many_dofs, many_parameters,
+                                  shear_building)}

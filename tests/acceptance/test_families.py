@@ -37,7 +37,7 @@ def test_measurement_errors_exclude_the_truth(family, seed):
     assert R.misses(problem, _truth(problem))[0], "the error left the truth admissible"
 
 
-@pytest.mark.parametrize("family", ["coarse_mesh", "root_spring", "sensor_masses"])
+@pytest.mark.parametrize("family", ["coarse_mesh", "root_spring", "sensor_masses", "shear_building"])
 @pytest.mark.parametrize("seed", SEEDS)
 def test_model_form_data_come_from_another_model(family, seed):
     """The data are not the updated model's at the truth: some natural frequency differs by more
@@ -107,7 +107,7 @@ def test_a_mass_normalized_shape_is_judged_without_a_free_scaling():
     assert not R.misses(replace(doubled, mass_normalized=False), _truth(doubled))[0]
 
 
-@pytest.mark.parametrize("family", C.NEW_FAMILIES)
+@pytest.mark.parametrize("family", (*C.NEW_FAMILIES, "shear_building"))
 def test_case_file_and_python_objects_are_the_same_problem(tmp_path, family):
     problem = F.MAKERS[family](1)
     case = load_case(problem.write_case(tmp_path))

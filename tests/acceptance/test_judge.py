@@ -223,3 +223,33 @@ def test_the_sparse_truth_kernel_refuses_rigid_body_modes():
         T.modes(sp.csc_matrix(M), sp.csc_matrix(K))
     with pytest.raises(ValueError, match="dense models only"):
         T.zeros(sp.csc_matrix(M), sp.csc_matrix(K), 0, 0)
+
+
+def test_the_judges_compromise_is_the_truth_on_exact_in_family_data():
+    """On exact frequencies that determine every parameter (random problem 8, a clamped beam),
+    the judge's own weighted least squares lands on the truth and fits every datum."""
+    problem = replace(G.random_problem(8), compromise=True)
+    assert problem.exact and problem.in_family
+    found = J.compromise(problem)
+    truth = np.array([problem.truth[p.name] for p in problem.parameters])
+    refs = np.array([p.reference for p in problem.parameters])
+    assert np.max(np.abs(found.values - truth) / refs) < 1e-4
+    assert found.excess == 0.0 and found.seconds > 0
+
+
+def test_the_compromise_distance_is_reported_on_every_run():
+    """A shear-building model on a 3-D frame's data: the compromise fits better than the
+    nominal model and than the truth (model-form error: the truth is no answer), and a verdict
+    on the nominal model carries its distance to the compromise."""
+    from acceptance import families as F
+
+    problem = F.shear_building(0)
+    ref = J.reference(problem)
+    nominal = np.array([p.nominal for p in problem.parameters])
+    truth = np.array([problem.truth[p.name] for p in problem.parameters])
+    assert ref.compromise.excess < min(ref.nominal_excess, J.excess(problem, truth))
+    verdict = J.judge(problem, "api", Outcome("not_verified", None, 1.0, nominal), ref)
+    expected = 100 * np.max(np.abs(nominal - ref.compromise.values))
+    assert verdict.compromise["distance_pct"] == pytest.approx(expected)
+    assert verdict.compromise["time_ratio"] == pytest.approx(1.0 / ref.compromise.seconds)
+    assert "worse_than_nominal" not in verdict.failures
