@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from acceptance.judge import Verdict
 
 __all__ = ["Family", "Finding", "FAMILIES", "IN_FAMILY", "PROFILES", "REGRESSION_SEEDS", "NEW_FAMILIES", "check",
-           "summary", "profile_jobs", "EXCUSED", "DEFECTS", "SIZE", "SIZE_FAMILIES"]
+           "summary", "profile_jobs", "EXCUSED", "DEFECTS", "SIZE", "SIZE_FAMILIES", "CI_RANDOM"]
 
 #: Failure codes that are defects in every family.
 DEFECTS = ("crash", "refused", "exit_code", "outside", "determined_miss", "truth_outside_reported", "report")
@@ -181,12 +181,20 @@ NEW_FAMILIES = ("coarse_mesh", "root_spring", "sensor_masses", "biased_channel",
 #: `benchmarks/acceptance.py` on 2026-11-25 and -26; each is described in `tests/acceptance/test_acceptance.py`).
 REGRESSION_SEEDS = (51, 142, 167, 204, 236, 266, 358, 368, 574)
 
+#: The random seeds of the CI profile: one seed per class (structure, problem kind, exact or
+#: noisy data) that seeds 0-30 draw, and the regression seeds. Left out of 0-30: 5, 19 and 26,
+#: whose class seed 22, 28 and the regression seed 266 already draw; 24, 25, 27 and 30, the four
+#: costliest (5.9-7.3 s of CPU each on both routes), each replaced by a seed of the same class that
+#: costs 0.8-2.6 s (306, 144, 199, 123; every one verified on both routes when chosen, 2026-12-06).
+#: Seeds 0-119 all run in the ``dev`` profile. The trade is in docs/testing.md.
+CI_RANDOM = (*sorted(set(range(31)) - {5, 19, 24, 25, 26, 27, 30}), 123, 144, 199, 306)
+
 #: Seeds per family of each profile of `benchmarks/acceptance.py`. ``ci``: the test suite's
 #: profile (`tests/acceptance/test_acceptance.py`); ``dev``: the development profile; ``full``:
 #: the full profile (over 2,000 runs); ``held-out``: seeds never run during development, run only
 #: at the end of a change, to compare their rates with the development seeds'.
 PROFILES = {
-    "ci": {"named": range(9), "random": (*range(31), *REGRESSION_SEEDS),
+    "ci": {"named": range(9), "random": (*CI_RANDOM, *REGRESSION_SEEDS),
            **{f: range(1) for f in NEW_FAMILIES if f != "many_parameters"}},
     "dev": {"named": range(9), "random": range(120), **{f: range(15) for f in NEW_FAMILIES},
             "shear_building": range(3)},
