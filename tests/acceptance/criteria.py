@@ -138,7 +138,8 @@ def summary(verdicts: list[Verdict]) -> str:
             ratio = sorted(c["time_ratio"] for c in near)
             lines.append(f"\n{name}: answer to the judge's least-squares compromise, largest parameter distance "
                          f"median {dist[len(dist) // 2]:.3g} % (max {dist[-1]:.3g} %) of the reference; run time "
-                         f"median {ratio[len(ratio) // 2]:.3g}x the compromise's (max {ratio[-1]:.3g}x), {len(near)} runs")
+                         f"median {ratio[len(ratio) // 2]:.3g}x the compromise's (max {ratio[-1]:.3g}x), "
+                         f"{len(near)} runs")
     return "\n".join(lines)
 
 
