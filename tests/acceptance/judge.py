@@ -144,20 +144,20 @@ def _vector(problem, values: dict) -> np.ndarray:
 
 
 def reference(problem) -> Reference:
-    """Determinacy at the truth and its mirror images (`acceptance.determinacy`), and the
-    nominal model's excess."""
+    """Determinacy at the truth and its mirror images (`acceptance.determinacy`), the nominal
+    model's excess, and, for a problem that asks for it, the judge's own compromise."""
     nominal = np.array([p.nominal for p in problem.parameters])
     nominal_excess = excess(problem, nominal)
     truths = [problem.truth] + [_mirror(problem, s) for s in problem.symmetries]
+    fit = compromise(problem) if problem.compromise else None
     if not problem.in_family:
-        return Reference([], [_vector(problem, t) for t in truths], None, (), "out_of_family", nominal_excess,
-                         compromise(problem) if problem.compromise else None)
+        return Reference([], [_vector(problem, t) for t in truths], None, (), "out_of_family", nominal_excess, fit)
     ranges = [D.at_truth(problem, t) for t in truths]
     widths = ranges[0].width_pct
     names = [p.name for p in problem.parameters]
     determined = tuple(n for n, w in zip(names, widths) if np.isfinite(w) and w <= D.DETERMINED_PCT)
     label = "determined" if len(determined) == len(names) else "undetermined" if not determined else "partial"
-    return Reference(ranges, [_vector(problem, t) for t in truths], widths, determined, label, nominal_excess)
+    return Reference(ranges, [_vector(problem, t) for t in truths], widths, determined, label, nominal_excess, fit)
 
 
 def compromise(problem) -> Compromise:

@@ -235,6 +235,8 @@ def test_the_judges_compromise_is_the_truth_on_exact_in_family_data():
     refs = np.array([p.reference for p in problem.parameters])
     assert np.max(np.abs(found.values - truth) / refs) < 1e-4
     assert found.excess == 0.0 and found.seconds > 0
+    assert np.allclose(J.reference(problem).compromise.values, found.values)
+    assert J.reference(replace(problem, compromise=False)).compromise is None
 
 
 def test_the_compromise_distance_is_reported_on_every_run():
