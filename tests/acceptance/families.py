@@ -324,6 +324,11 @@ def _zoned_chain(rng, n: int, zones: int) -> tuple[S.StructureSpec, list]:
     return spec, list(zone_params.values()) + [p for p in params if p.name.startswith("m")]
 
 
+def _chain_size(rng) -> int:
+    """A chain's mass count, 50 to 5,000, log-uniform: the first draw of `many_dofs`."""
+    return int(np.round(10 ** rng.uniform(np.log10(50), np.log10(5000))))
+
+
 def many_dofs(seed: int) -> Problem:
     """In family, size: a spring-mass chain of 50-5,000 masses (the count drawn log-uniformly;
     one DOF each), its springs in 2-3 contiguous zones and one mass parameter; the first 3-5
@@ -334,7 +339,7 @@ def many_dofs(seed: int) -> Problem:
     eigen-solvers gave its first frequency 2e-5 to 6e-5 apart, which no exact datum can be held
     to. A right answer: as for any in-family problem."""
     rng = _rng("many_dofs", seed)
-    n = int(np.round(10 ** rng.uniform(np.log10(50), np.log10(5000))))
+    n = _chain_size(rng)
     spec, params = _zoned_chain(rng, n, int(rng.integers(2, 4)))
     truth = draw_truth(rng, params)
     noise = 0.0 if rng.random() < 0.5 else _noise(rng)

@@ -68,21 +68,21 @@ def test_cross_receptances_are_cross():
 
 
 def test_the_size_families_span_what_they_say():
-    """50-5,000 DOFs (both ends reached over 40 seeds, their springs in contiguous zones) and
-    20-40 parameters; above `structures.DENSE_MAX` DOFs the judge's matrices are sparse."""
+    """50-5,000 DOFs (both ends reached over 40 seeds; sizes from the maker's own first draw),
+    springs in contiguous zones from the ground, and 20-40 parameters; above
+    `structures.DENSE_MAX` DOFs the judge's matrices are sparse."""
     import scipy.sparse as sp
 
-    dofs = []
-    for seed in range(40):
+    sizes = [F._chain_size(F._rng("many_dofs", seed)) for seed in range(40)]
+    assert 50 <= min(sizes) < 80 and 3000 < max(sizes) <= 5000
+    for seed in (0, 8):
         problem = F.many_dofs(seed)
-        n = len(problem.structure.measurable)
-        dofs.append(n)
+        assert len(problem.structure.measurable) == sizes[seed]
         zones = [v.names[0] for f, _, v, _ in problem.structure.lumped if f == "spring"]
         assert zones == sorted(zones, key=lambda z: int(z[1:])), "zones not contiguous from the ground"
         assert {p.name for p in problem.parameters} == set(zones) | {"m1"}
-    assert 50 <= min(dofs) < 80 and 3000 < max(dofs) <= 5000
-    big = F.many_dofs(int(np.argmax(dofs)))
-    assert sp.issparse(S.matrices_at(big.structure, big.truth)[0])
+    spec, params = F._zoned_chain(np.random.default_rng(0), max(sizes), 3)
+    assert sp.issparse(S.matrices_at(spec, {p.name: p.nominal for p in params})[0])
     counts = [len(F.many_parameters(seed).parameters) for seed in range(12)]
     assert min(counts) >= 20 and max(counts) <= 40 and len(set(counts)) > 3
 
