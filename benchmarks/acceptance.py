@@ -109,10 +109,11 @@ def _verdicts(rows: list[dict]):
     """The rows as `acceptance.judge.Verdict` s, for `acceptance.criteria`."""
     from acceptance.judge import Verdict
 
-    keys = ("case", "route", "status", "exit_code", "seconds", "failures", "excused", "details", "diagnosis")
+    keys = ("case", "route", "status", "exit_code", "seconds", "failures", "excused", "details", "diagnosis",
+            "compromise")
     return [Verdict(r["case"], r["route"], {k: v for k, v in r.items() if k not in keys}, r["status"],
                     r["exit_code"], r["seconds"], list(r["failures"]), list(r.get("excused", [])),
-                    list(r["details"]), tuple(r.get("diagnosis") or ())) for r in rows]
+                    list(r["details"]), tuple(r.get("diagnosis") or ()), r.get("compromise")) for r in rows]
 
 
 def main(argv=None) -> int:

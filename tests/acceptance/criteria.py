@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from acceptance.judge import Verdict
 
 __all__ = ["Family", "Finding", "FAMILIES", "IN_FAMILY", "PROFILES", "REGRESSION_SEEDS", "NEW_FAMILIES", "check",
-           "summary", "profile_jobs", "EXCUSED", "DEFECTS"]
+           "summary", "profile_jobs", "EXCUSED", "DEFECTS", "SIZE", "SIZE_FAMILIES", "CI_RANDOM"]
 
 #: Failure codes that are defects in every family.
 DEFECTS = ("crash", "refused", "exit_code", "outside", "determined_miss", "truth_outside_reported", "report")
@@ -37,6 +37,9 @@ EXCUSED = ("not_unique", "undetermined_far")
 #: the runs verified, at most 3 % not verified (the rate the engine held on its held-out seeds
 #: 1000-1199: 398 of 400 verified), no answer worse than the nominal model.
 IN_FAMILY = dict(success_min=0.97, not_verified_max=0.03, worse_max=0)
+#: Budgets of the size families (50-5,000 DOFs, 20-40 parameters): at least 95 % of the runs
+#: verified, at most 5 % not verified, no answer worse than the nominal model.
+SIZE = dict(success_min=0.95, not_verified_max=0.05, worse_max=0)
 #: Least share of the diagnosed runs of the biased-channel family that rank the biased sensor
 #: first.
 BIASED_FIRST = 0.9
@@ -128,6 +131,15 @@ def summary(verdicts: list[Verdict]) -> str:
                   sum("path_failed" in v.failures for v in runs), sum("worse_than_nominal" in v.failures for v in runs)]
         counts += [sum(e in v.excused for v in runs) for e in EXCUSED]
         lines.append(f"| {name} | {len(runs)} | " + " | ".join(str(c) for c in counts) + " |")
+    for name, runs in sorted(by.items()):
+        near = [v.compromise for v in runs if v.compromise]
+        if near:
+            dist = sorted(c["distance_pct"] for c in near)
+            ratio = sorted(c["time_ratio"] for c in near)
+            lines.append(f"\n{name}: answer to the judge's least-squares compromise, largest parameter distance "
+                         f"median {dist[len(dist) // 2]:.3g} % (max {dist[-1]:.3g} %) of the reference; run time "
+                         f"median {ratio[len(ratio) // 2]:.3g}x the compromise's (max {ratio[-1]:.3g}x), "
+                         f"{len(near)} runs")
     return "\n".join(lines)
 
 
@@ -152,29 +164,47 @@ def _families() -> dict:
     fams += [Family("biased_channel", F.biased_channel, first_min=BIASED_FIRST),
              Family("frequency_shift", F.frequency_shift)]
     fams += [Family(name, F.MAKERS[name], **IN_FAMILY) for name in ("close_modes", "cross_receptance", "mass_normalized")]
+    fams += [Family(name, F.MAKERS[name], **SIZE) for name in SIZE_FAMILIES]
+    fams += [Family("shear_building", F.shear_building, worse_max=0)]
     return {f.name: f for f in fams}
 
 
+#: The size families (`acceptance.families.many_dofs`, `many_parameters`).
+SIZE_FAMILIES = ("many_dofs", "many_parameters")
 #: Every family by name.
 FAMILIES = _families()
 
 #: The families drawn beyond the random problems and the named ones.
 NEW_FAMILIES = ("coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "close_modes",
-                "cross_receptance", "mass_normalized")
+                "cross_receptance", "mass_normalized", *SIZE_FAMILIES)
 
 #: Seeds of the random family whose failure class the first 31 do not show (found by
 #: `benchmarks/acceptance.py` on 2026-11-25 and -26; each is described in `tests/acceptance/test_acceptance.py`).
 REGRESSION_SEEDS = (51, 142, 167, 204, 236, 266, 358, 368, 574)
+
+#: The random seeds of the CI profile: one seed per class (structure, problem kind, exact or
+#: noisy data) that seeds 0-30 draw, and the regression seeds. Left out of 0-30: 5, 19 and 26,
+#: whose class seed 22, 28 and the regression seed 266 already draw. Nine of 0-30 are replaced by
+#: a seed of the same class that cost less CPU on both routes when measured (2026-12-06, each
+#: verified then): 7 -> 356, 9 -> 396, 10 -> 473, 11 -> 154, 13 -> 223, 24 -> 306, 25 -> 144,
+#: 27 -> 199, 30 -> 123 (3.5-7.3 s each before, 0.8-3.6 s after). Seeds 0-119 all run in the
+#: ``dev`` profile. The trade is in docs/testing.md.
+CI_RANDOM = (*sorted(set(range(31)) - {5, 7, 9, 10, 11, 13, 19, 24, 25, 26, 27, 30}),
+             123, 144, 154, 199, 223, 306, 356, 396, 473)
 
 #: Seeds per family of each profile of `benchmarks/acceptance.py`. ``ci``: the test suite's
 #: profile (`tests/acceptance/test_acceptance.py`); ``dev``: the development profile; ``full``:
 #: the full profile (over 2,000 runs); ``held-out``: seeds never run during development, run only
 #: at the end of a change, to compare their rates with the development seeds'.
 PROFILES = {
-    "ci": {"named": range(9), "random": (*range(31), *REGRESSION_SEEDS), **{f: range(1) for f in NEW_FAMILIES}},
-    "dev": {"named": range(9), "random": range(120), **{f: range(15) for f in NEW_FAMILIES}},
-    "full": {"named": range(9), "random": range(1200), **{f: range(100) for f in NEW_FAMILIES}},
-    "held-out": {"random": range(100000, 100400), **{f: range(100000, 100050) for f in NEW_FAMILIES}},
+    "ci": {"named": range(9), "random": (*CI_RANDOM, *REGRESSION_SEEDS),
+           **{f: range(1) for f in NEW_FAMILIES if f != "many_parameters"}},
+    "dev": {"named": range(9), "random": range(120), **{f: range(15) for f in NEW_FAMILIES},
+            "shear_building": range(3)},
+    "full": {"named": range(9), "random": range(1200), **{f: range(100) for f in NEW_FAMILIES},
+             "shear_building": range(20)},
+    "held-out": {"random": range(100000, 100400), **{f: range(100000, 100050) for f in NEW_FAMILIES},
+                 "shear_building": range(100000, 100010)},
 }
 
 

@@ -105,6 +105,15 @@ def evaluate(problem, data: list[Datum], x: np.ndarray, scale: np.ndarray | None
         spec = problem.structure.with_mass(*cfg.extra_mass) if cfg.extra_mass else problem.structure
         cache[c] = S.matrices_at(spec, values)
     solved: dict = {}
+    refs: dict = {}   # each shape's reference entry
+    for d in data:
+        if d.kind == "massnorm":   # the largest measured entry
+            best = refs.get(d.shape)
+            refs[d.shape] = d if best is None or abs(d.lower + d.upper) > abs(best.lower + best.upper) else best
+        elif d.kind == "shape":    # the one whose interval is nearest 1
+            best = refs.get(d.shape)
+            key = abs(0.5 * (d.lower + d.upper) - 1.0)
+            refs[d.shape] = d if best is None or key < abs(0.5 * (best.lower + best.upper) - 1.0) else best
     for i, d in enumerate(data):
         M, K, dofs = cache[d.config]
         if d.kind == "zero":
@@ -122,14 +131,12 @@ def evaluate(problem, data: list[Datum], x: np.ndarray, scale: np.ndarray | None
         if d.kind == "natural":
             out[i] = w[d.mode - 1] / TWO_PI
         elif d.kind == "massnorm":   # the sign that puts the largest measured entry positive
-            peers = [e for e in data if e.shape == d.shape]
-            ref = max(peers, key=lambda e: abs(e.lower + e.upper))
+            ref = refs[d.shape]
             phi = Phi[:, d.mode - 1]
             sign = np.sign(phi[dofs.index(ref.dof)]) * np.sign(ref.lower + ref.upper)
             out[i] = sign * phi[dofs.index(d.dof)]
         else:
-            peers = [e for e in data if e.shape == d.shape]
-            ref = min(peers, key=lambda e: abs(0.5 * (e.lower + e.upper) - 1.0))
+            ref = refs[d.shape]
             phi = Phi[:, d.mode - 1]
             out[i] = phi[dofs.index(d.dof)] / phi[dofs.index(ref.dof)] * (1.0 if scale is None else scale[d.shape])
     return out

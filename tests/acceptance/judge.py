@@ -53,7 +53,8 @@ from acceptance import truth as T
 from acceptance.adapter import Outcome
 from acceptance.emit import EXACT_SLACK, flexible_mode
 
-__all__ = ["Reference", "Verdict", "reference", "judge", "misses", "excess", "scale_miss", "FLOOR", "FAR_PCT"]
+__all__ = ["Reference", "Compromise", "Verdict", "reference", "compromise", "judge", "misses", "excess", "scale_miss",
+           "FLOOR", "FAR_PCT"]
 
 #: Numerical floor of the interval checks, in half-widths: an answer on a bound to 0.1 % of
 #: its half-width is inside (the polish ends on the bounds of the intervals it reaches).
@@ -80,6 +81,8 @@ class Reference:
     determinacy : {"determined", "partial", "undetermined", "out_of_family"}
     nominal_excess : float
         `excess` of the nominal model.
+    compromise : Compromise or None
+        The judge's own weighted least-squares compromise, for a problem that asks for it.
     """
 
     ranges: list
@@ -88,6 +91,17 @@ class Reference:
     determined: tuple
     determinacy: str
     nominal_excess: float
+    compromise: "Compromise | None" = None
+
+
+@dataclass(frozen=True)
+class Compromise:
+    """The judge's weighted least-squares compromise (`compromise`): physical ``values``, its
+    `excess`, and the ``seconds`` it took in this process (the time a classical fit takes)."""
+
+    values: np.ndarray
+    excess: float
+    seconds: float
 
 
 @dataclass
@@ -104,6 +118,7 @@ class Verdict:
     excused: list = field(default_factory=list)
     details: list = field(default_factory=list)
     diagnosis: tuple = ()
+    compromise: dict | None = None
 
     @property
     def success(self) -> bool:
@@ -113,7 +128,8 @@ class Verdict:
     def as_dict(self) -> dict:
         return {"case": self.case_id, "route": self.route, **self.classes, "status": self.status,
                 "exit_code": self.exit_code, "seconds": round(self.seconds, 3), "failures": self.failures,
-                "excused": self.excused, "details": self.details, "diagnosis": list(self.diagnosis[:3])}
+                "excused": self.excused, "details": self.details, "diagnosis": list(self.diagnosis[:3]),
+                "compromise": self.compromise}
 
 
 def _mirror(problem, swap) -> dict:
@@ -128,19 +144,49 @@ def _vector(problem, values: dict) -> np.ndarray:
 
 
 def reference(problem) -> Reference:
-    """Determinacy at the truth and its mirror images (`acceptance.determinacy`), and the
-    nominal model's excess."""
+    """Determinacy at the truth and its mirror images (`acceptance.determinacy`), the nominal
+    model's excess, and, for a problem that asks for it, the judge's own compromise."""
     nominal = np.array([p.nominal for p in problem.parameters])
     nominal_excess = excess(problem, nominal)
     truths = [problem.truth] + [_mirror(problem, s) for s in problem.symmetries]
+    fit = compromise(problem) if problem.compromise else None
     if not problem.in_family:
-        return Reference([], [_vector(problem, t) for t in truths], None, (), "out_of_family", nominal_excess)
+        return Reference([], [_vector(problem, t) for t in truths], None, (), "out_of_family", nominal_excess, fit)
     ranges = [D.at_truth(problem, t) for t in truths]
     widths = ranges[0].width_pct
     names = [p.name for p in problem.parameters]
     determined = tuple(n for n, w in zip(names, widths) if np.isfinite(w) and w <= D.DETERMINED_PCT)
     label = "determined" if len(determined) == len(names) else "undetermined" if not determined else "partial"
-    return Reference(ranges, [_vector(problem, t) for t in truths], widths, determined, label, nominal_excess)
+    return Reference(ranges, [_vector(problem, t) for t in truths], widths, determined, label, nominal_excess, fit)
+
+
+def compromise(problem) -> Compromise:
+    """The weighted least-squares compromise of the problem's data, computed by the judge alone:
+    `scipy.optimize.least_squares` (trust region within the parameter box, finite-difference
+    Jacobian) on the truth kernels, from the nominal model. Each datum's residual is its distance
+    from its interval's midpoint in half-widths (`determinacy.evaluate`; each shape with its free
+    scaling as one more unknown), so the weights are the data's own intervals. This is the
+    classical fit a user would run; its time is measured here."""
+    import time
+
+    from scipy.optimize import least_squares
+
+    start = time.perf_counter()
+    data, n_shapes = D.data_map(problem)
+    mid = np.array([0.5 * (d.lower + d.upper) for d in data])
+    half = np.array([max(0.5 * (d.upper - d.lower), 1e-15) for d in data])
+    n = len(problem.parameters)
+
+    def residual(z):
+        f = D.evaluate(problem, data, z[:n], z[n:])
+        return np.where(np.isfinite(f), (f - mid) / half, 1e6)
+
+    lo = [(p.lower - p.nominal) / p.reference for p in problem.parameters] + [-np.inf] * n_shapes
+    hi = [(p.upper - p.nominal) / p.reference for p in problem.parameters] + [np.inf] * n_shapes
+    sol = least_squares(residual, np.r_[np.zeros(n), np.ones(n_shapes)], bounds=(lo, hi), method="trf")
+    values = np.array([p.nominal + p.reference * x for p, x in zip(problem.parameters, sol.x[:n])])
+    seconds = time.perf_counter() - start
+    return Compromise(values, excess(problem, values), seconds)
 
 
 # -- the data of a model -------------------------------------------------------------------------
@@ -266,6 +312,15 @@ def judge(problem, route: str, outcome: Outcome, ref: Reference) -> Verdict:
         v.details.append(f"worse_than_nominal: data {answer_excess:.4g} half-widths outside their intervals in all, "
                          f"the nominal model's {ref.nominal_excess:.4g}")
     _check_parameters(problem, v, outcome, ref, names, bool(missed))
+    if ref.compromise is not None:
+        refs = np.abs([p.reference for p in problem.parameters])
+        gap = np.abs(values - ref.compromise.values) / refs * 100.0
+        v.compromise = {"distance_pct": float(np.max(gap)), "parameter": names[int(np.argmax(gap))],
+                        "excess": answer_excess, "compromise_excess": ref.compromise.excess,
+                        "time_ratio": outcome.seconds / ref.compromise.seconds}
+        v.details.append(f"compromise: largest distance {np.max(gap):.3g} % ({names[int(np.argmax(gap))]}) from the "
+                         f"judge's least-squares compromise (excess {ref.compromise.excess:.4g} half-widths, the "
+                         f"answer's {answer_excess:.4g}); run time {v.compromise['time_ratio']:.3g}x the compromise's")
     lookup = {(c, k, i): hz for c, k, i, hz in freqs}
     for row in outcome.rows:
         key = (row["configuration"], row.get("receptance") or row["kind"], row.get("model_index", row["index"]))

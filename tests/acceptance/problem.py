@@ -91,6 +91,9 @@ class Problem:
     expected_first : str or None
         The data group (a diagnosis key, ``"CFG/dof/DOF"`` ...) that is wrong by construction,
         which the diagnosis should rank first.
+    compromise : bool
+        The judge computes its own weighted least-squares compromise and reports each answer's
+        distance to it (`acceptance.judge.compromise`).
     """
 
     case_id: str
@@ -108,6 +111,7 @@ class Problem:
     in_family: bool = True
     mass_normalized: bool = False
     expected_first: str | None = None
+    compromise: bool = False
 
     @property
     def kind(self) -> str:

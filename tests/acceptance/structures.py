@@ -22,7 +22,7 @@ its `vibupdate.Parameter` s, grouped as described):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from vibupdate import Assembly, Parameter, from_builder, from_files
 
 __all__ = ["Lin", "StructureSpec", "chain", "beam", "frame", "affine_model", "model_table", "matrices_at",
-           "parameter_matrices"]
+           "parameter_matrices", "given_matrices", "DENSE_MAX"]
 
 
 @dataclass(frozen=True)
@@ -91,6 +91,10 @@ class StructureSpec:
         None: an elements model; else exported as matrix files of that format.
     massless : bool
         Rotations without mass (element mass lumped on the translations).
+    given : tuple or None
+        A model given as matrices, not built from elements: ``(M, K_fixed, {name: K_name}, dofs)``
+        (sparse), its stiffness ``K_fixed + sum(p[name] K_name)`` and its mass ``M`` known
+        (`given_matrices`); exported as matrix files (``export``).
     """
 
     label: str
@@ -103,9 +107,12 @@ class StructureSpec:
     rigid_modes: int = 0
     export: str | None = None
     massless: bool = False
+    given: tuple | None = field(default=None, compare=False, repr=False)
 
     def with_mass(self, dof: str, value: float) -> "StructureSpec":
         """The spec with one more (known) lumped mass: another configuration."""
+        if self.given is not None:
+            raise ValueError(f"{self.label}: a structure given as matrices takes no added mass")
         return replace(self, lumped=self.lumped + (("mass", dof, Lin(float(value)), None),))
 
 
@@ -133,19 +140,44 @@ def _assembly(spec: StructureSpec, value) -> Assembly:
     return asm
 
 
-def matrices_at(spec: StructureSpec, values: dict) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """Dense ``M``, ``K`` (SI) and DOF names at physical parameter values."""
-    system = _assembly(spec, lambda v: v.value(values)).system()
-    return system.M.toarray(), system.K.toarray(), tuple(system.dofs)
+#: Models of more DOFs than this are handed to the truth kernels as sparse matrices
+#: (`acceptance.truth.modes` then solves for the lowest modes alone); smaller ones dense.
+DENSE_MAX = 400
+
+
+def matrices_at(spec: StructureSpec, values: dict, dense: bool | None = None):
+    """``M``, ``K`` (SI) and DOF names at physical parameter values: dense arrays, or, for a
+    model of more than `DENSE_MAX` DOFs (``dense=None``) or with ``dense=False``, sparse CSC."""
+    if spec.given is not None:
+        M, K_fixed, parts, dofs = spec.given
+        K = K_fixed + sum(values[name] * A for name, A in parts.items())
+    else:
+        system = _assembly(spec, lambda v: v.value(values)).system()
+        M, K, dofs = system.M, system.K, system.dofs
+    if dense is None:
+        dense = len(dofs) <= DENSE_MAX
+    if dense:
+        return M.toarray(), K.toarray(), tuple(dofs)
+    return sp.csc_matrix(M), sp.csc_matrix(K), tuple(dofs)
+
+
+def given_matrices(label: str, M, K_fixed, parts: dict, dofs, measurable) -> StructureSpec:
+    """A structure given as matrices (`StructureSpec.given`), written as ``.npz`` files."""
+    given = (sp.csr_matrix(M), sp.csr_matrix(K_fixed), {n: sp.csr_matrix(A) for n, A in parts.items()}, tuple(dofs))
+    return StructureSpec(label, "frame", (), {}, (), (), tuple(measurable), export="npz", given=given)
 
 
 def parameter_matrices(spec: StructureSpec, parameters) -> tuple[np.ndarray, np.ndarray, dict, dict, tuple]:
     """``M0``, ``K0`` at the nominal values and ``dM/dp``, ``dK/dp`` per parameter (physical
     units), as an FE package exports them."""
     nominal = {p.name: p.nominal for p in parameters}
-    M0, K0, dofs = matrices_at(spec, nominal)
+    M0, K0, dofs = matrices_at(spec, nominal, dense=True)
     dM, dK = {}, {}
     for p in parameters:
+        if spec.given is not None:
+            dM[p.name] = np.zeros_like(M0)
+            dK[p.name] = spec.given[2][p.name].toarray() if p.name in spec.given[2] else np.zeros_like(K0)
+            continue
         system = _assembly(spec, lambda v, name=p.name: v.part(name).const).system()
         dM[p.name], dK[p.name] = system.M.toarray(), system.K.toarray()
     return M0, K0, dM, dK, dofs

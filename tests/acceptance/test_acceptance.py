@@ -1,10 +1,11 @@
 """Acceptance on known-truth problems (the CI profile of `acceptance.runner`).
 
 The profile ``ci`` of `acceptance.criteria.PROFILES`: the named problems of
-`acceptance.generator` (each a known failure class), 31 seeded random problems (small models, at
-most ~60 DOFs), the `REGRESSION_SEEDS`, and one problem of each further family of
+`acceptance.generator` (each a known failure class), 28 seeded random problems, one per class
+(structure, kind, exact or noisy) that seeds 0-30 draw (`acceptance.criteria.CI_RANDOM`; small
+models, at most ~60 DOFs), the `REGRESSION_SEEDS`, and one problem of each further family of
 `acceptance.families` (model-form and measurement errors, close modes, cross receptances,
-mass-normalized shapes), each run through
+mass-normalized shapes, a 52-DOF instance of the size family), each run through
 ``vibupdate run`` (in-process) and ``vibupdate.update``. What must hold, on both routes:
 
 * no crash or internal error, and no valid problem refused;
@@ -51,7 +52,8 @@ REGRESSION_SEEDS = C.REGRESSION_SEEDS
 
 def _problems():
     """The CI profile (`acceptance.criteria.PROFILES`): the named problems, the random seeds
-    0-30 and the regression seeds, and one problem of each further family."""
+    of `acceptance.criteria.CI_RANDOM` and the regression seeds, and one problem of each further
+    family."""
     return [C.FAMILIES[family].make(seed) for family, seed in C.profile_jobs("ci")]
 
 
@@ -81,6 +83,17 @@ def test_the_truth_satisfies_its_data(seed):
     lo, hi = zip(*[(p.lower, p.upper) for p in problem.parameters])
     assert np.all(values >= lo) and np.all(values <= hi)
     assert not np.allclose(problem.xbar_true, 0.0)
+
+
+def test_the_ci_seeds_draw_every_class_of_the_first_31():
+    """The CI profile's random seeds leave out seeds of 0-30 only where another CI seed draws the
+    same structure, problem kind and data (exact or noisy)."""
+    def classes(seeds):
+        return {(c["structure"], c["kind"], c["data"]) for c in (G.random_problem(s).classes() for s in seeds)}
+
+    ci = [s for f, s in C.profile_jobs("ci") if f == "random"]
+    assert classes(range(31)) <= classes(ci)
+    assert len(ci) < 31 + len(REGRESSION_SEEDS)
 
 
 @pytest.mark.parametrize("seed", [1, 4, 13, 14, 19, 25])

@@ -7,6 +7,10 @@ returned models, with these few lines of `scipy.linalg` instead of `vibupdate.mo
 * `modes`: ``(K - w^2 M) phi = 0``, mass-normalized, every mode (rigid-body modes first, set
   to exactly 0 rad/s when below the model's rounding floor `rigid_floor`). Massless DOFs (zero
   rows of ``M``) are condensed statically.
+* a large model, given as sparse matrices (`acceptance.structures.DENSE_MAX`): its lowest
+  `SPARSE_MODES` modes by shift-invert Lanczos at 0 (`scipy.sparse.linalg.eigsh`), then
+  mass-normalized. Its stiffness must be nonsingular (no rigid-body mode): a free structure of
+  that size is refused by a clear error rather than given a guessed rigid floor.
 * `zeros`: the antiresonances of the receptance ``h_rc``: the eigenvalues of the pencil with
   row ``r`` and column ``c`` removed, real and positive (a zero at 0 rad/s of a free structure
   cancels against its rigid-body poles and is not a zero of ``h_rc``); infinite eigenvalues of
@@ -19,8 +23,13 @@ import warnings
 
 import numpy as np
 import scipy.linalg as la
+import scipy.sparse as sp
+from scipy.sparse.linalg import eigsh
 
-__all__ = ["modes", "zeros", "mac", "rigid_floor"]
+__all__ = ["modes", "zeros", "mac", "rigid_floor", "SPARSE_MODES"]
+
+#: Modes a sparse model's `modes` returns: more than any problem measures.
+SPARSE_MODES = 16
 
 #: Safety factor of `rigid_floor` over the rounding of a dense symmetric eigen-solve.
 RIGID_FACTOR = 10.0
@@ -48,7 +57,10 @@ def _massless(M: np.ndarray) -> np.ndarray:
 
 def modes(M: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Every natural frequency (rad/s, ascending, shape (n_m,)) and the mass-normalized modes
-    (shape (n, n_m)); ``n_m = n`` less the massless DOFs."""
+    (shape (n, n_m)); ``n_m = n`` less the massless DOFs. Sparse ``M``, ``K``: the lowest
+    `SPARSE_MODES` alone (`_sparse_modes`)."""
+    if sp.issparse(M) or sp.issparse(K):
+        return _sparse_modes(sp.csc_matrix(M), sp.csc_matrix(K))
     n = M.shape[0]
     zero = _massless(M)
     keep = np.setdiff1d(np.arange(n), zero)
@@ -66,6 +78,24 @@ def modes(M: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         floor = rigid_floor(M, K)
     lam = np.where(lam < floor, 0.0, lam)
     _refine(M, K, lam, Phi, keep)
+    return np.sqrt(lam), Phi
+
+
+def _sparse_modes(M, K) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest `SPARSE_MODES` modes of a large model: shift-invert Lanczos at 0 to full
+    precision (``tol=0``), each vector mass-normalized. A singular ``K`` (rigid-body modes) is
+    refused: the shift at 0 needs its factorization."""
+    k = min(SPARSE_MODES, M.shape[0] - 1)
+    try:
+        lam, Phi = eigsh(K, k=k, M=M, sigma=0.0, which="LM", tol=0.0)
+    except RuntimeError as exc:   # splu of a singular K
+        raise ValueError(f"the sparse truth kernel needs a nonsingular stiffness (no rigid-body mode): {exc}") from exc
+    order = np.argsort(lam)
+    lam, Phi = lam[order], Phi[:, order]
+    if np.any(lam <= 0):
+        raise ValueError(f"the sparse truth kernel found a non-positive eigenvalue {lam.min():.3g}: "
+                         "a rigid-body mode, which it does not handle")
+    Phi = Phi / np.sqrt(np.einsum("ij,ij->j", Phi, M @ Phi))
     return np.sqrt(lam), Phi
 
 
@@ -104,7 +134,11 @@ def _refine(M, K, lam, Phi, keep) -> None:
 
 
 def zeros(M: np.ndarray, K: np.ndarray, r: int, c: int) -> tuple[np.ndarray, int]:
-    """Real positive zeros of ``h_rc`` (rad/s, ascending) and the number of complex ones."""
+    """Real positive zeros of ``h_rc`` (rad/s, ascending) and the number of complex ones
+    (dense models only)."""
+    if sp.issparse(M) or sp.issparse(K):
+        raise ValueError("the truth kernels compute antiresonances of dense models only "
+                         "(at most acceptance.structures.DENSE_MAX DOFs)")
     rows = np.delete(np.arange(M.shape[0]), r)
     cols = np.delete(np.arange(M.shape[0]), c)
     A, B = K[np.ix_(rows, cols)], M[np.ix_(rows, cols)]
@@ -125,5 +159,7 @@ def _finite(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
 
 
 def mac(a: np.ndarray, b: np.ndarray) -> float:
-    """Modal assurance criterion of two real vectors."""
-    return float((a @ b) ** 2 / ((a @ a) * (b @ b)))
+    """Modal assurance criterion of two real vectors; 0 when one is zero (a high mode of a long
+    irregular chain localized away from every sensor, its entries there underflowing to 0)."""
+    norm = (a @ a) * (b @ b)
+    return float((a @ b) ** 2 / norm) if norm > 0 else 0.0
