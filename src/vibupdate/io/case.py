@@ -168,7 +168,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
                 "interval": tuple(v * to_hz for v in m.omega_interval), "damping_interval": m.damping_interval}
                for k, m in enumerate(result.modes)]
     zeros = [{"hz": z.omega * to_hz, "weight": 1.0, "response": z.response, "excitation": z.excitation,
-              "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
+              "index": z.declared_index(first), "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
     if mass_normalized and not result.mass_normalized:

@@ -89,8 +89,8 @@ def _finite(value) -> bool:
 def _check_damping(case, rigid: int, error) -> list[str]:
     """Damping options and ratios; returns warnings."""
     warnings = []
-    ratios = [(c.name, k, f.damping_ratio) for c in case.configurations for k, f in enumerate(c.natural, start=1)
-              if f.damping_ratio is not None]
+    ratios = [(c.name, f.mode, f.damping_ratio) for c in case.configurations for f in c.natural
+              if f.damping_ratio is not None]   # by model mode, as the damping stage labels them
     for cfg, mode, xi in ratios:
         key = f"configuration '{cfg}'.damping_ratios"
         if not 0 < xi < 1:
