@@ -50,10 +50,6 @@ def zero_name(response: str, excitation: str, index: int | None) -> str:
 def frequency_name(row: Mapping) -> str:
     """The name of one row of the ``frequencies`` table of ``results.json`` (a mapping with
     ``kind``, ``index``, ``model_index`` and, for an antiresonance, ``receptance``)."""
-    model_index = row.get("model_index")
     if row["kind"] == "natural":
-        return mode_name(model_index if model_index is not None else row["index"], row["index"])
-    receptance = row.get("receptance")
-    if not receptance or model_index is None:   # a document written before the receptance was recorded
-        return f"antiresonance {row['index']}"
-    return f"zero {model_index} of {receptance}"
+        return mode_name(row["model_index"], row["index"])
+    return f"zero {row['model_index']} of {row['receptance']}"

@@ -73,7 +73,7 @@ def frequency_table(run: RunResult) -> Table:
 def _mode_names(run: RunResult) -> dict:
     """(configuration, model mode) -> the name of that measured mode (`frequency_name`)."""
     docs = (r.as_dict() for r in run.frequencies if r.kind == "natural")
-    return {(d["configuration"], d.get("model_index", d["index"])): frequency_name(d) for d in docs}
+    return {(d["configuration"], d["model_index"]): frequency_name(d) for d in docs}
 
 
 def modal_mass_table(run: RunResult) -> Table | None:
