@@ -58,7 +58,7 @@ def test_the_frequency_table_names_the_model_mode_the_measured_position_and_the_
     cells = table.cells()
     assert [c[1] for c in cells] == [r["name"] for r in rows]
     lo, hi = (v / (2 * np.pi) for v in cfg.antiresonances[0].interval)
-    assert cells[2][3] == f"[{lo:.2f}, {hi:.2f}]" and cells[0][3] == "-"
+    assert cells[2][3] == f"[{lo:.6g}, {hi:.6g}]" and cells[0][3] == "-"
     assert frequency_name(rows[2]) == rows[2]["name"]   # the table and results.json say the same
 
 

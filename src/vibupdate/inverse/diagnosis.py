@@ -97,12 +97,12 @@ def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
         for k, f in enumerate(cfg.natural, start=1):
             extra = len(f.shape.bounds) if f.shape is not None else 0
             groups.append(DataGroup(f"{cfg.name}/natural/{f.mode}", "natural", cfg.name,
-                                    f"natural frequency of {mode_name(f.mode, k)} ({f.freq_hz:.5g} Hz"
-                                    + (", with its shape" if extra else "") + f"), {where}", 1 + extra))
+                                    f"natural frequency of {mode_name(f.mode, k)} at {f.freq_hz:.5g} Hz"
+                                    + (" with its shape" if extra else "") + f", {where}", 1 + extra))
         for a in cfg.antiresonances:
             groups.append(DataGroup(f"{cfg.name}/antiresonance/{a.response},{a.excitation}/{a.index}",
                                     "antiresonance", cfg.name, f"{zero_name(a.response, a.excitation, a.index)} "
-                                    f"({a.freq_hz:.5g} Hz), {where}", 1))
+                                    f"at {a.freq_hz:.5g} Hz, {where}", 1))
         for f in cfg.natural:
             if f.shape is not None:
                 groups.append(DataGroup(f"{cfg.name}/shape/{f.mode}", "shape", cfg.name,

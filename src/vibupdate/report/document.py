@@ -53,7 +53,7 @@ def _condition(ident: dict, n_parameters: int) -> str:
 def _interval_hz(row: dict) -> str:
     """The measured value's interval, ``"[lo, hi]"`` Hz; ``"-"`` where the data give none."""
     lo, hi = row.get("measured_lower_hz"), row.get("measured_upper_hz")
-    return "-" if lo is None or hi is None else f"[{fmt(lo, '.2f')}, {fmt(hi, '.2f')}]"
+    return "-" if lo is None or hi is None else f"[{fmt(lo, '.6g')}, {fmt(hi, '.6g')}]"
 
 
 def frequency_table(run: RunResult) -> Table:
