@@ -97,7 +97,7 @@ def test_the_examples_reference_columns_join_their_tables(example_run):
     headers = {key: [c.name for c in t.columns] for key, t in shown.items()}
     if name == "conflicting":
         assert run.paper is None   # no reference: the tables have their own columns only
-        assert len(shown["frequencies"].columns) == 8 and len(shown["parameters"].columns) == 6
+        assert len(shown["frequencies"].columns) == 7 and len(shown["parameters"].columns) == 6
         return
     if name == "cantilever":
         assert headers["frequencies"][-2:] == ["paper updated (Table 5) [Hz]", "paper err %"]

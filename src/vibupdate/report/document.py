@@ -62,11 +62,14 @@ def frequency_table(run: RunResult) -> Table:
     its receptance) with its measurement interval."""
     hz, pct = (lambda name: Column(name, "Hz", ".2f")), Column("err %", spec=".2f")
     docs = [r.as_dict() for r in run.frequencies]
-    rows = tuple((r.configuration, frequency_name(d), r.measured_hz, _interval_hz(d), r.nominal_hz,
-                  r.error_nominal_pct, r.updated_hz, r.error_updated_pct) for r, d in zip(run.frequencies, docs))
-    table = Table("Frequencies", (Column("cfg"), Column("datum"), hz("measured"), Column("interval", "Hz"),
-                                  hz("nominal"), pct, hz("updated"), pct), rows,
-                  keys=tuple(f"{r.configuration}/{r.kind}/{r.index}" for r in run.frequencies))
+    intervals = [_interval_hz(d) for d in docs]
+    shown = any(i != "-" for i in intervals)   # the column only where some datum has an interval
+    rows = tuple((r.configuration, frequency_name(d), r.measured_hz, *([i] if shown else []), r.nominal_hz,
+                  r.error_nominal_pct, r.updated_hz, r.error_updated_pct)
+                 for r, d, i in zip(run.frequencies, docs, intervals))
+    table = Table("Frequencies", (Column("cfg"), Column("datum"), hz("measured"),
+                                  *([Column("interval", "Hz")] if shown else []), hz("nominal"), pct, hz("updated"),
+                                  pct), rows, keys=tuple(f"{r.configuration}/{r.kind}/{r.index}" for r in run.frequencies))
     return with_reference(table, run.paper, "frequencies")
 
 
