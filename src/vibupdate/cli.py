@@ -448,6 +448,7 @@ def _extract(args) -> int:
     import warnings
 
     from vibupdate.data.extraction import extract
+    from vibupdate.data.names import mode_name, receptance_name
     from vibupdate.io.outputs import OutputWarning, kept_note
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import FRFWarning, read_frfs
@@ -491,13 +492,16 @@ def _extract(args) -> int:
           f"intervals at {100 * args.confidence:g} %")
     for k, m in enumerate(result.modes):
         lo, hi = (v / 2 / math.pi for v in m.omega_interval)
-        print(f"  mode {args.first_mode + k}: {m.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}], "
+        print(f"  {mode_name(args.first_mode + k)}: {m.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}], "
               f"damping {100 * m.damping_ratio:.3f} %")
     for z in result.zeros:
         lo, hi = (v / 2 / math.pi for v in z.interval)
-        print(f"  zero {z.index} of h({z.response},{z.excitation}): {z.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}]")
+        print(f"  {z.name(args.first_mode)}: {z.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}]")
+    if result.zeros and args.first_mode != 1:
+        print(f"  (the zeros are numbered by the run, from the nominal model: the lowest mode here is mode "
+              f"{args.first_mode})")
     for q in result.quality:
-        print(f"  fit of h({q.response},{q.excitation}): quality {q.quality:.2f}, residual {100 * q.relative_residual:.2f} %")
+        print(f"  fit of {receptance_name(q.response, q.excitation)}: quality {q.quality:.2f}, residual {100 * q.relative_residual:.2f} %")
     for note in result.notes(args.first_mode):
         print(f"note: {note}")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")

@@ -100,12 +100,12 @@ def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | No
 
 def _damping_half_widths(case: Case, labels) -> np.ndarray | None:
     """Half-widths of the measured damping-ratio intervals, one per ratio in the order of
-    ``labels`` ((configuration, mode) pairs of `damping_data`); None unless every ratio has an
-    interval of positive width (then the damping fit weighs each ratio by ``1 / h^2``)."""
-    by_name = {c.name: c for c in case.configurations}
+    ``labels`` ((configuration, model mode) pairs of `damping_data`); None unless every ratio has
+    an interval of positive width (then the damping fit weighs each ratio by ``1 / h^2``)."""
+    by_mode = {(c.name, f.mode): f for c in case.configurations for f in c.natural}
     half = []
-    for name, k in labels:
-        pair = by_name[name].natural[k - 1].damping_interval
+    for label in labels:
+        pair = by_mode[label].damping_interval
         if pair is None or not pair[1] > pair[0]:
             return None
         half.append(0.5 * (pair[1] - pair[0]))

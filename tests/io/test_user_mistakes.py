@@ -131,6 +131,17 @@ MISTAKES = [
      _with_file("f.csv", "kind,hz\nnatural,37.3397\nnatural,234.7489\n",
                 _edit("natural_hz =", 'frequencies_csv = "f.csv"\nnatural_hz =')),
      ["check", "edited.toml"], r"natural_hz: natural_hz and frequencies_csv both give the natural frequencies"),
+    ("damping_ratios beside frequencies_csv",
+     _with_file("f.csv", "kind,hz\nnatural,37.3397\nnatural,234.7489\n",
+                _edit('natural_hz = [37.3397, 234.7489]\n', 'frequencies_csv = "f.csv"\n')),
+     ["check", "edited.toml"], r"configuration 'A'\.damping_ratios: damping_ratios goes with natural_hz, but the "
+                               r"natural frequencies come from frequencies_csv \(f\.csv\); give them in its "
+                               r"'damping_ratio' column"),
+    ("natural_modes beside FRF files",
+     _edit(TYPED, 'natural_modes = [1, 2]\nfrf = { files = ["frf.npz"], responses = ["y1", "y2", "y3"], '
+                  'excitations = ["y3"] }'),
+     ["check", "edited.toml"], r"configuration 'A'\.natural_modes: natural_modes goes with natural_hz, which this "
+                               r"configuration does not give \(its natural frequencies come from frf\)"),
     ("a misspelt CSV column",
      _with_file("f.csv", "kind,hz,dampign_ratio\nnatural,37.3397,0.02\nnatural,234.7489,0.01\n",
                 _edit(NO_MODES, 'frequencies_csv = "f.csv"')),

@@ -239,3 +239,48 @@ def test_a_run_plots_the_nominal_frf_undamped_and_carries_its_warnings(folder, m
     assert "warning: configuration 'only', mode 1: damping ratio 0.25 is above 0.2" in capsys.readouterr().out
     doc = json.loads((out / "results.json").read_text())
     assert any("damping ratio 0.25" in w for w in doc["warnings"])
+
+
+def _with_density(folder, m0_scale: float, unit: str = "kg/m^3"):
+    """BASE with a density parameter: 1e-4 m^3 of material at 8000 kg/m^3 on each DOF (0.8 kg)
+    beside 0.2 kg of other mass, with M0 written ``m0_scale`` times its value in kg."""
+    scipy.io.mmwrite(str(folder / "M0.mtx"), sp.coo_matrix(np.eye(3) * m0_scale))
+    scipy.io.mmwrite(str(folder / "dM.mtx"), sp.coo_matrix(np.eye(3) * 1e-4))
+    text = BASE.replace("[model.dK]", '[model.dM]\nrho = "dM.mtx"\n[model.dK]', 1).replace(
+        "[[configuration]]", f'[[parameter]]\nname = "rho"\nunit = "{unit}"\nnominal = 8000.0\nlower = 7000.0\n'
+                             'upper = 9000.0\n[[configuration]]', 1)
+    return _write(folder, text)
+
+
+def test_a_mass_matrix_in_tonnes_against_a_density_in_kg_per_m3_is_refused_by_check_and_run(folder, capsys):
+    """The density's material alone would carry 0.8 kg on a DOF whose whole mass M0 says is
+    0.001: M0 is in tonnes. In kg it passes; the units are told by the parameter's ``unit``."""
+    assert main(["check", str(_with_density(folder, 1.0))]) == 0, capsys.readouterr().err
+    capsys.readouterr()
+    path = _with_density(folder, 1e-3)
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == [
+        f"vibupdate: error: {path}: configuration 'only': at DOF a the mass-like parameters (rho = 8000 kg/m^3) carry "
+        "0.8 at the nominal point, 800 times the model's own mass there (0.001); is the mass matrix in other units "
+        "than the parameters (tonnes or grams for kg)? Give M and its derivatives in SI units"]
+    assert main(["run", str(path), "--out", str(folder / "out")]) == 2 and not (folder / "out").exists()
+    assert "800 times the model's own mass" in capsys.readouterr().err
+    # the heuristic reads the units the case states: a density without one is not judged
+    assert main(["check", str(_with_density(folder, 1e-3, unit=""))]) == 0
+
+
+def test_the_mass_scale_check_holds_a_model_whose_mass_is_all_its_parameters():
+    """The elements route builds M from its parameters: the mass they carry equals M0 on every
+    DOF (the check's equality case), so the bundled cantilever is not refused."""
+    from pathlib import Path
+
+    from vibupdate.io.case import load_case
+    from vibupdate.io.validation import _check_mass_scale
+
+    cfg = load_case(Path(__file__).parents[2] / "examples" / "cantilever" / "case.toml").configurations[0]
+    model = cfg.model
+    carried = sum(p.nominal * d.diagonal() / p.reference for p, d in zip(model.parameters, model.M_par)
+                  if p.unit.startswith("kg"))
+    np.testing.assert_allclose(carried, model.M0.diagonal(), rtol=1e-12)   # all of M is in kg-unit parameters
+    _check_mass_scale(cfg, lambda key, message: AssertionError(f"{key}: {message}"))

@@ -4,7 +4,6 @@ element, and the screening, ranking and checking of sets of candidates
 
 import json
 import math
-import time
 
 import numpy as np
 import pytest
@@ -144,9 +143,7 @@ def test_suggest_finds_the_missing_spring_and_the_run_names_it(tmp_path, capsys)
     verified and its report names kt; `suggest` ranks kt first, its full update is `success`
     with E and kt at their truth."""
     path = _write(tmp_path, _truth_hz(tmp_path))
-    t0 = time.perf_counter()
     code = main(["suggest", str(path), "--out", str(tmp_path / "sg")])
-    seconds = time.perf_counter() - t0
     out = capsys.readouterr().out
     assert code == 0, out
     record = json.loads((tmp_path / "sg" / "suggestion.json").read_text())
@@ -156,7 +153,9 @@ def test_suggest_finds_the_missing_spring_and_the_run_names_it(tmp_path, capsys)
     assert top["update"]["values"]["E"] == pytest.approx(TRUTH["E"], rel=1e-6)
     assert top["update"]["values"]["kt"] == pytest.approx(TRUTH["kt"], rel=1e-5)
     assert "suggested: add kt" in out and "suggested: add kt" in (tmp_path / "sg" / "suggestion.md").read_text()
-    assert seconds < 60
+    # the work, not the wall time: one set per candidate of size 1 (4, measured), none left to the
+    # limits, and no larger set once a single candidate fits
+    assert len(record["trials"]) == 4 and record["untried"] == 0
     assert main(["run", str(path), "--out", str(tmp_path / "run"), "--no-diagnose"]) == 1
     report = (tmp_path / "run" / "report.md").read_text()
     assert "## Which parameters might be missing" in report and "Adding kt lets the data fit" in report

@@ -97,14 +97,14 @@ def test_the_examples_reference_columns_join_their_tables(example_run):
     headers = {key: [c.name for c in t.columns] for key, t in shown.items()}
     if name == "conflicting":
         assert run.paper is None   # no reference: the tables have their own columns only
-        assert len(shown["frequencies"].columns) == 8 and len(shown["parameters"].columns) == 6
+        assert len(shown["frequencies"].columns) == 7 and len(shown["parameters"].columns) == 6
         return
     if name == "cantilever":
         assert headers["frequencies"][-2:] == ["paper updated (Table 5) [Hz]", "paper err %"]
         assert headers["parameters"][-1] == "paper (Table 6)"
         assert headers["damping"][-3:] == ["paper Rayleigh (Table 7)", "paper Caughey (Table 7)", "paper Caughey err %"]
         first = shown["frequencies"].cells()[0]
-        assert first[:3] == ["A", "natural", "1"] and first[-2:] == ["73.4", "0.00"]
+        assert first[:3] == ["A", "mode 1", "73.40"] and first[-2:] == ["73.4", "0.00"]
         assert shown["summary"].cells()[0][-1] == "5.6" and "paper updated (Table 5) [Hz]" in printed
     else:
         assert headers["parameters"][-2:] == ["true", "error %"] and headers["summary"][-1] == "paper (Tables 1, 3)"

@@ -74,7 +74,7 @@ def test_zero_tolerance_without_intervals_is_a_clear_error(tmp_path, capsys):
     path = write_chain_case(tmp_path / "c.toml", tolerance=0.0)
     assert main(["sweep", str(path), "--samples", "3", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert "natural frequency 1 of configuration 'A'" in err and "frequency tolerance is 0" in err
+    assert "the natural frequency of mode 1 of configuration 'A'" in err and "frequency tolerance is 0" in err
     assert not (tmp_path / "out").exists()
 
 

@@ -67,7 +67,7 @@ def damping_data(configurations, xbar=None, freqs=None):
             paired = paired or model_frequencies(cfg, xbar, zeros=False)
             omega.append(paired.natural[k])
             ratios.append(f.damping_ratio)
-            labels.append((cfg.name, k + 1))
+            labels.append((cfg.name, f.mode))   # the model mode (`vibupdate.data.names`)
     if not ratios:
         raise ValueError("no measured damping ratio in any configuration: nothing to identify")
     return np.array(omega), np.array(ratios), tuple(labels)

@@ -170,6 +170,19 @@ class ExtractedZero:
     interval: tuple
     snr: float = math.nan
 
+    def declared_index(self, first_mode: int | None) -> int | None:
+        """The zero's index as a run reads it: the count in the band is the count from the
+        lowest zero of the receptance only when the band starts below the model's first mode
+        (``first_mode == 1``); None otherwise, and the run assigns it from the nominal model
+        (`vibupdate.data.pairing`)."""
+        return self.index if first_mode == 1 and self.index else None
+
+    def name(self, first_mode: int | None) -> str:
+        """``"zero 4 of h_y1,y1"`` (`vibupdate.data.names.zero_name`), as the run names it."""
+        from vibupdate.data.names import zero_name
+
+        return zero_name(self.response, self.excitation, self.declared_index(first_mode))
+
 
 @dataclass(frozen=True)
 class FRFQuality:
@@ -333,7 +346,7 @@ class Extraction:
                                      mode=None if first_mode is None else first_mode + k)
                     for k, m in enumerate(self.modes)]
         zeros = [Antiresonance(z.omega, z.response, z.excitation, weight=weight, interval=z.interval,
-                               index=z.index if first_mode == 1 else None) for z in self.zeros]
+                               index=z.declared_index(first_mode)) for z in self.zeros]
         return naturals, zeros
 
 

@@ -27,6 +27,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from vibupdate.data.names import zero_name
+
 
 def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]:
     """Default zero indices of one receptance's measured antiresonances (module docstring).
@@ -119,6 +121,6 @@ def declare(cfg):
                 raise ValueError(f"{where}: antiresonance indices of h_{rc[0]},{rc[1]} must rise with frequency, "
                                  f"got {shown}")
         if idx and idx[-1] > cfg.model.n_dofs - 1:
-            raise ValueError(f"{where}: antiresonance {idx[-1]} of h_{rc[0]},{rc[1]} is declared, but the "
+            raise ValueError(f"{where}: {zero_name(rc[0], rc[1], idx[-1])} is declared, but the "
                              f"adjunct system has only {cfg.model.n_dofs - 1} DOFs")
     return natural, tuple(zeros)

@@ -19,6 +19,7 @@ import numpy as np
 
 from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes
 from vibupdate.data.measured import TWO_PI, Configuration
+from vibupdate.data.names import frequency_name, receptance_name
 
 
 @dataclass(frozen=True)
@@ -168,28 +169,27 @@ def frequency_rows(configurations: Sequence[Configuration], nominal: Sequence[Mo
     """Rows of the ``frequencies`` table of ``results.json`` (docs/outputs.md), Hz at the edge."""
     rows = []
     for i, cfg in enumerate(configurations):
-        groups = (("natural", [f.omega for f in cfg.natural], "natural"),
-                  ("antiresonance", [a.omega for a in cfg.antiresonances], "antiresonances"))
-        for kind, measured, attr in groups:
+        for kind, data, attr in (("natural", cfg.natural, "natural"),
+                                 ("antiresonance", cfg.antiresonances, "antiresonances")):
             nom = getattr(nominal[i], attr)
             upd = getattr(updated[i], attr) if updated is not None else None
-            declared = ([f.mode for f in cfg.natural] if kind == "natural"
-                        else [a.index for a in cfg.antiresonances])
-            for k, w in enumerate(measured):
+            for k, d in enumerate(data):
+                w = d.omega
                 row = {
                     "configuration": cfg.name,
                     "kind": kind,
                     "index": k + 1,
-                    "model_index": declared[k],
-                    "receptance": (None if kind == "natural" else
-                                   "h_{},{}".format(*cfg.antiresonances[k].receptance)),
+                    "model_index": d.mode if kind == "natural" else d.index,
+                    "receptance": None if kind == "natural" else receptance_name(*d.receptance),
+                    "measured_lower_hz": None if d.interval is None else d.interval[0] / TWO_PI,
+                    "measured_upper_hz": None if d.interval is None else d.interval[1] / TWO_PI,
                     "measured_hz": w / TWO_PI,
                     "nominal_hz": float(nom[k]) / TWO_PI,
                     "updated_hz": None if upd is None else float(upd[k]) / TWO_PI,
                     "error_nominal_pct": float(percent_error(nom[k], w)),
                     "error_updated_pct": None if upd is None else float(percent_error(upd[k], w)),
                 }
-                rows.append(row)
+                rows.append({**row, "name": frequency_name(row)})
     return rows
 
 

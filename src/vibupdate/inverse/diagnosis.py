@@ -35,6 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from vibupdate.data.measured import Configuration, ShapeInterval
+from vibupdate.data.names import mode_name, zero_name
 from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies, row_errors
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.formulation.options import FormulationOptions
@@ -91,15 +92,15 @@ def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
     groups = []
     for cfg in configurations:
         where = f"configuration {cfg.name!r}"
-        for f in cfg.natural:
+        for k, f in enumerate(cfg.natural, start=1):
             extra = len(f.shape.bounds) if f.shape is not None else 0
             groups.append(DataGroup(f"{cfg.name}/natural/{f.mode}", "natural", cfg.name,
-                                    f"natural frequency of mode {f.mode} ({f.freq_hz:.5g} Hz"
-                                    + (", with its shape" if extra else "") + f"), {where}", 1 + extra))
+                                    f"natural frequency of {mode_name(f.mode, k)} at {f.freq_hz:.5g} Hz"
+                                    + (" with its shape" if extra else "") + f", {where}", 1 + extra))
         for a in cfg.antiresonances:
             groups.append(DataGroup(f"{cfg.name}/antiresonance/{a.response},{a.excitation}/{a.index}",
-                                    "antiresonance", cfg.name, f"antiresonance {a.index} of h_{a.response},"
-                                    f"{a.excitation} ({a.freq_hz:.5g} Hz), {where}", 1))
+                                    "antiresonance", cfg.name, f"{zero_name(a.response, a.excitation, a.index)} "
+                                    f"at {a.freq_hz:.5g} Hz, {where}", 1))
         for f in cfg.natural:
             if f.shape is not None:
                 groups.append(DataGroup(f"{cfg.name}/shape/{f.mode}", "shape", cfg.name,

@@ -94,7 +94,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
                 "interval": tuple(v * to_hz for v in m.omega_interval), "damping_interval": m.damping_interval}
                for k, m in enumerate(result.modes)]
     zeros = [{"hz": z.omega * to_hz, "weight": 1.0, "response": z.response, "excitation": z.excitation,
-              "index": z.index if first == 1 else None, "interval": tuple(v * to_hz for v in z.interval)}
+              "index": z.declared_index(first), "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
     shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
     if mass_normalized and not result.mass_normalized:
@@ -158,6 +158,30 @@ def _typed_natural(cfg: dict, where: Where, key: str) -> list[dict]:
             for i, (h, w) in enumerate(zip(hz, weights))]
 
 
+#: Keys that qualify ``natural_hz`` entry by entry, and the column of the frequency CSV that
+#: carries the same datum.
+TYPED_COMPANIONS = {"damping_ratios": "damping_ratio", "natural_weights": "weight", "natural_modes": "mode"}
+
+
+def _check_typed_companions(cfg: dict, where: Where, key: str) -> None:
+    """Refuse a key that qualifies ``natural_hz`` (`TYPED_COMPANIONS`) in a configuration whose
+    natural frequencies come from elsewhere (a CSV table, FRF files, a UFF file): it would be
+    ignored, so the data it gives would silently not be used."""
+    if "natural_hz" in cfg:
+        return
+    source = next((k for k in ("frequencies_csv", "frf", "mode_shapes_uff") if k in cfg), None)
+    for companion, column in TYPED_COMPANIONS.items():
+        if companion not in cfg:
+            continue
+        if source == "frequencies_csv":
+            raise where.error(f"{key}.{companion}", f"{companion} goes with natural_hz, but the natural frequencies "
+                                                    f"come from frequencies_csv ({cfg['frequencies_csv']}); give "
+                                                    f"them in its '{column}' column and remove {companion}")
+        raise where.error(f"{key}.{companion}", f"{companion} goes with natural_hz, which this configuration does not "
+                                                "give" + (f" (its natural frequencies come from {source})" if source
+                                                          else "") + f"; remove {companion}")
+
+
 def _typed_zeros(cfg: dict, where: Where, key: str) -> list[dict]:
     """The antiresonances typed in the case file (``[[configuration.antiresonances]]``)."""
     zeros = []
@@ -206,6 +230,7 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
     if len(given) == 2:
         raise where.error(f"{key}.natural_hz", "natural_hz and frequencies_csv both give the natural frequencies; "
                                                "keep one of them")
+    _check_typed_companions(cfg, where, key)
     if "frf" in cfg:
         mixed = [k for k in ("natural_hz", "antiresonances", "frequencies_csv", "mode_shapes_csv", "mode_shapes_uff")
                  if k in cfg]

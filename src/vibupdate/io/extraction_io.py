@@ -151,7 +151,7 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
              *map(_num, _hz(m.omega_interval)), *map(_num, m.damping_interval)]
             for k, m in enumerate(result.modes)]
     rows += [["antiresonance", _num(z.omega / TWO_PI), 1, "", z.response, z.excitation, "",
-              z.index if first_mode == 1 and z.index else "", *map(_num, _hz(z.interval)), "", ""]
+              z.declared_index(first_mode) or "", *map(_num, _hz(z.interval)), "", ""]
              for z in result.zeros]
     _write_csv(paths["frequencies"], ["kind", "hz", "weight", "damping_ratio", "response", "excitation", "mode",
                                       "index", "lower_hz", "upper_hz", "damping_lower", "damping_upper"], rows)

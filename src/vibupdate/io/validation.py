@@ -6,7 +6,8 @@ beforehand, so that ``check`` accepts exactly the cases ``run`` accepts:
 * options: the solver, formulation, polish and verification options are checked where they
   are made, against their declarations (`vibupdate.options`), so a case holds only valid ones;
   here the top-level ``frequency_tolerance`` and the damping options;
-* physics: ``M`` and ``K`` of every configuration admissible (`vibupdate.model.physical`) at the
+* physics: the unit scale of ``M`` against the case's mass-like parameters
+  (`_check_mass_scale`), ``M`` and ``K`` of every configuration admissible (`vibupdate.model.physical`) at the
   nominal point (an error otherwise) and at corners of the parameter box (where not, a
   warning naming the bound and the solver's narrower bound, `physical_box`), rigid-body
   modes and massless DOFs counted and reported;
@@ -39,6 +40,13 @@ MAX_NORMALIZED_BOUND = 1e6
 MAX_WEIGHT = 1e6
 #: Measured / nominal frequency ratios within this factor of 2 pi look like rad/s given as Hz.
 RAD_S_FACTOR = 1.3
+#: A parameter whose unit starts with this (kg, kg/m, kg/m^3, kg m^2) is a mass, a mass per
+#: length or volume, or an inertia: `_check_mass_scale` takes the model's mass as linear in it.
+MASS_UNIT = "kg"
+#: The mass the mass-like parameters carry at the nominal point may exceed the model's own mass
+#: on a DOF by at most this factor (`_check_mass_scale`): more than rounding and linearization,
+#: less than a unit mistake (1000 for tonnes or grams against kilograms, 14.6 for slugs).
+MASS_SHARE_FACTOR = 2.0
 #: With no mode declared, a measured natural frequency this many times the nominal frequency of
 #: the model mode it is paired with (the k-th measured with mode k) is taken as a pairing
 #: mistake, not a model to update: a near-rigid or suspension mode counted first. It assumes a
@@ -80,8 +88,8 @@ def _finite(value) -> bool:
 def _check_damping(case, rigid: int, error) -> list[str]:
     """Damping options and ratios; returns warnings."""
     warnings = []
-    ratios = [(c.name, k, f.damping_ratio) for c in case.configurations for k, f in enumerate(c.natural, start=1)
-              if f.damping_ratio is not None]
+    ratios = [(c.name, f.mode, f.damping_ratio) for c in case.configurations for f in c.natural
+              if f.damping_ratio is not None]   # by model mode, as the damping stage labels them
     for cfg, mode, xi in ratios:
         key = f"configuration '{cfg}'.damping_ratios"
         if not 0 < xi < 1:
@@ -148,6 +156,37 @@ def _check_data(cfg, error) -> None:
         if rc not in cfg.receptances():
             raise error(f"{key}.first_sign", f"h_{rc[0]},{rc[1]} has no measured antiresonance, so its sign is "
                                               "not used")
+
+
+def _check_mass_scale(cfg, error) -> None:
+    """The mass matrix's unit scale against the values of the case's mass-like parameters.
+
+    Assumption: the mass matrix is linear in every parameter whose unit is a mass, a mass per
+    length or volume, or an inertia (`MASS_UNIT`), with a non-negative rest, ``M = M_rest +
+    sum_p p dM/dp`` (a density times a volume, a lumped mass on its DOF), so the mass those
+    parameters carry at the nominal point, ``sum_p p0 diag(dM/dp)``, cannot exceed ``diag(M0)``.
+    Where it does by more than `MASS_SHARE_FACTOR` on some DOF, ``M0`` (a matrix file) is in
+    other units than the parameters, e.g. tonnes against kg/m^3: an error naming the DOF, the
+    parameters and both masses. A model whose mass comes from its parameters alone (the
+    elements route) meets it with equality. Only diagonals are used: no solve, O(nnz)."""
+    model = cfg.model
+    carried = np.zeros(model.n_dofs)
+    names = []
+    for p, dM in zip(model.parameters, model.M_par):
+        if p.unit.strip().startswith(MASS_UNIT) and dM.nnz:
+            carried += p.nominal * dM.diagonal() / p.reference   # p0 dM/dp: M_par is per normalized unit
+            names.append(f"{p.name} = {p.nominal:g} {p.unit.strip()}")
+    if not names:
+        return
+    own = model.M0.diagonal()
+    excess = carried - MASS_SHARE_FACTOR * np.abs(own)
+    k = int(np.argmax(excess))
+    if excess[k] > 0:
+        key = f"configuration '{cfg.name}'"
+        raise error(key, f"at DOF {model.dofs[k]} the mass-like parameters ({', '.join(names)}) carry "
+                         f"{carried[k]:.4g} at the nominal point, {carried[k] / max(abs(own[k]), 1e-300):.3g} times "
+                         f"the model's own mass there ({own[k]:.4g}); is the mass matrix in other units than the "
+                         "parameters (tonnes or grams for kg)? Give M and its derivatives in SI units")
 
 
 def _check_bounds(model, error) -> None:
@@ -352,6 +391,7 @@ def validate_case(case) -> CaseCheck:
     for cfg in case.configurations:
         _check_order(cfg, error)
         _check_data(cfg, error)
+        _check_mass_scale(cfg, error)
     notes, physical_warnings, rigid, case = _physical(case, error)
     nominal = {cfg.name: _nominal_natural(cfg) for cfg in case.configurations}
     for cfg in case.configurations:

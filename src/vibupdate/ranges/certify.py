@@ -392,6 +392,7 @@ def _result(cs, B, root, root_seconds, seconds, passes, history, empty, message,
 
 def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, include=(),
                      frequency_tolerance: float = 0.0, seconds: float = 30.0,
+                     max_passes: int | None = None, max_splits: int | None = None,
                      options: FormulationOptions | None = None,
                      progress: Callable[[str], None] | None = None) -> CertifiedRanges:
     """Certified outer ranges of every parameter over the consistent set of the data.
@@ -408,6 +409,9 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
         Relative half-width of the frequency windows where the data carry no interval.
     seconds : float
         Time budget of the bound tightening (the root ranges are always computed).
+    max_passes, max_splits : int, optional
+        Work limits of the tightening and the branching (`enclosure`); with ``seconds=np.inf``
+        they make the outcome independent of the machine's speed.
     options : FormulationOptions, optional
         The vector boxes, as in the first stage.
     progress : callable, optional
@@ -423,7 +427,8 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
                                                                             for _, p in include]
     cs = consistent_set(configurations, frequency_tolerance=frequency_tolerance, include=points or None,
                         include_labels=labels if points else None, options=options)
-    cert = enclosure(cs, seconds=seconds, known=points or None, progress=progress)
+    cert = enclosure(cs, seconds=seconds, max_passes=max_passes, max_splits=max_splits, known=points or None,
+                     progress=progress)
     return _check_included(cs, cert, points, labels)
 
 

@@ -279,7 +279,9 @@ def widen(configurations: Sequence[Configuration], blocks: Sequence[VectorBlock]
 
 def _where(cfg: Configuration, blk: VectorBlock) -> str:
     """The datum of a block, for messages."""
-    if blk.kind == "natural":
-        return f"configuration {cfg.name!r} mode {blk.index}"
+    from vibupdate.data.names import mode_name, zero_name
+
+    if blk.kind == "natural":   # the block's index is the position among the measured frequencies
+        return f"configuration {cfg.name!r} {mode_name(cfg.natural[blk.index - 1].mode, blk.index)}"
     a = cfg.antiresonances[blk.index - 1]
-    return f"configuration {cfg.name!r} zero {a.index} of h_{a.response},{a.excitation}"
+    return f"configuration {cfg.name!r} {zero_name(a.response, a.excitation, a.index)}"

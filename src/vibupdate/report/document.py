@@ -7,6 +7,7 @@ infinite, huge) can stop a table or the report."""
 
 from __future__ import annotations
 
+from vibupdate.data.names import frequency_name, mode_name
 from vibupdate.io.results import RunResult
 from vibupdate.report.suggestion import run_section_markdown
 from vibupdate.report.numbers import finite, fmt
@@ -47,15 +48,33 @@ def _condition(ident: dict, n_parameters: int) -> str:
     return fmt(value, ".3g", missing="not computed")
 
 
+def _interval_hz(row: dict) -> str:
+    """The measured value's interval, ``"[lo, hi]"`` Hz; ``"-"`` where the data give none."""
+    lo, hi = row.get("measured_lower_hz"), row.get("measured_upper_hz")
+    return "-" if lo is None or hi is None else f"[{fmt(lo, '.6g')}, {fmt(hi, '.6g')}]"
+
+
 def frequency_table(run: RunResult) -> Table:
-    """Measured / nominal / updated frequencies with their errors, and any reference columns."""
+    """Measured / nominal / updated frequencies with their errors, and any reference columns;
+    each datum named by `vibupdate.data.names.frequency_name` (the model mode, or the zero and
+    its receptance) with its measurement interval."""
     hz, pct = (lambda name: Column(name, "Hz", ".2f")), Column("err %", spec=".2f")
-    rows = tuple((r.configuration, r.kind, r.index, r.measured_hz, r.nominal_hz, r.error_nominal_pct, r.updated_hz,
-                  r.error_updated_pct) for r in run.frequencies)
-    table = Table("Frequencies", (Column("cfg"), Column("kind"), Column("#", spec="d"), hz("measured"),
-                                  hz("nominal"), pct, hz("updated"), pct), rows,
-                  keys=tuple(f"{r.configuration}/{r.kind}/{r.index}" for r in run.frequencies))
+    docs = [r.as_dict() for r in run.frequencies]
+    intervals = [_interval_hz(d) for d in docs]
+    shown = any(i != "-" for i in intervals)   # the column only where some datum has an interval
+    rows = tuple((r.configuration, frequency_name(d), r.measured_hz, *([i] if shown else []), r.nominal_hz,
+                  r.error_nominal_pct, r.updated_hz, r.error_updated_pct)
+                 for r, d, i in zip(run.frequencies, docs, intervals))
+    table = Table("Frequencies", (Column("cfg"), Column("datum"), hz("measured"),
+                                  *([Column("interval", "Hz")] if shown else []), hz("nominal"), pct, hz("updated"),
+                                  pct), rows, keys=tuple(f"{r.configuration}/{r.kind}/{r.index}" for r in run.frequencies))
     return with_reference(table, run.paper, "frequencies")
+
+
+def _mode_names(run: RunResult) -> dict:
+    """(configuration, model mode) -> the name of that measured mode (`frequency_name`)."""
+    docs = (r.as_dict() for r in run.frequencies if r.kind == "natural")
+    return {(d["configuration"], d["model_index"]): frequency_name(d) for d in docs}
 
 
 def modal_mass_table(run: RunResult) -> Table | None:
@@ -63,9 +82,11 @@ def modal_mass_table(run: RunResult) -> Table | None:
     if not run.modal_masses:
         return None
     kg, pct = (lambda name: Column(name, "kg", ".4g")), Column("err %", spec=".2f")
-    rows = tuple((r.configuration, r.mode, r.dof, r.measured_lower_kg, r.measured_upper_kg, r.nominal_kg,
-                  r.error_nominal_pct, r.updated_kg, r.error_updated_pct) for r in run.modal_masses)
-    return Table("Modal masses", (Column("cfg"), Column("mode", spec="d"), Column("at"), kg("measured from"),
+    names = _mode_names(run)
+    rows = tuple((r.configuration, names.get((r.configuration, r.mode), mode_name(r.mode)), r.dof,
+                  r.measured_lower_kg, r.measured_upper_kg, r.nominal_kg, r.error_nominal_pct, r.updated_kg,
+                  r.error_updated_pct) for r in run.modal_masses)
+    return Table("Modal masses", (Column("cfg"), Column("mode"), Column("at"), kg("measured from"),
                                   kg("to"), kg("nominal"), pct, kg("updated"), pct), rows,
                  keys=tuple(f"{r.configuration}/{r.mode}" for r in run.modal_masses),
                  notes=("The mass of each mode scaled to 1 at the DOF named, 1 / phi^2 of the mass-normalized mode "
@@ -100,13 +121,14 @@ def damping_table(run: RunResult) -> Table | None:
     if not run.damping:
         return None
     pct = Column("err %", spec=".1f")
-    rows = tuple((d.configuration, d.mode, d.measured, d.rayleigh, d.error_rayleigh_pct, d.identified, d.error_pct)
-                 for d in run.damping)
+    names = _mode_names(run)
+    rows = tuple((d.configuration, names.get((d.configuration, d.mode), mode_name(d.mode)), d.measured, d.rayleigh,
+                  d.error_rayleigh_pct, d.identified, d.error_pct) for d in run.damping)
     info = run.damping_model or {}
     law = (f"Caughey exponents Y = [{', '.join(fmt(y, 'g') for y in info.get('exponents') or [])}], coefficients "
            f"beta = [{', '.join(fmt(b) for b in info.get('beta') or [])}]; Rayleigh baseline Y = [0, 1]. "
            f"Weights: {info.get('weights_text', 'unweighted')}.")
-    table = Table("Damping ratios", (Column("cfg"), Column("mode", spec="d"), Column("measured"), Column("Rayleigh"),
+    table = Table("Damping ratios", (Column("cfg"), Column("mode"), Column("measured"), Column("Rayleigh"),
                                      pct, Column("Caughey"), pct), rows,
                   keys=tuple(f"{d.configuration}/{d.mode}" for d in run.damping), notes=(law,) if info else ())
     return with_reference(table, run.paper, "damping")

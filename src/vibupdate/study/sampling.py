@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration, NaturalFrequency, ShapeInterval
+from vibupdate.data.names import mode_name, zero_name
 
 
 DISTRIBUTIONS = ("uniform", "gaussian")
@@ -128,11 +129,12 @@ def data_intervals(configurations: Sequence[Configuration], frequency_tolerance:
     rows = []
     for cfg in configurations:
         for k, f in enumerate(cfg.natural, start=1):
-            lo, hi = _frequency_interval(f.omega, f.interval, tol,
-                                         f"natural frequency {k} of configuration {cfg.name!r}")
+            lo, hi = _frequency_interval(f.omega, f.interval, tol, f"the natural frequency of "
+                                         f"{mode_name(f.mode, k)} of configuration {cfg.name!r}")
             rows.append((f"{cfg.name}:f{k}_hz", f.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI))
         for k, a in enumerate(cfg.antiresonances, start=1):
-            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"antiresonance {k} of configuration {cfg.name!r}")
+            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"{zero_name(a.response, a.excitation, a.index)} "
+                                                                   f"of configuration {cfg.name!r}")
             rows.append((f"{cfg.name}:z{k}_hz", a.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI))
         for k, f in enumerate(cfg.natural, start=1):
             if f.damping_ratio is not None:
@@ -211,7 +213,8 @@ def draw_configurations(configurations: Sequence[Configuration], frequency_toler
     for cfg in configurations:
         natural, zeros = [], []
         for k, f in enumerate(cfg.natural, start=1):
-            lo, hi = _frequency_interval(f.omega, f.interval, tol, f"natural frequency {k} of configuration {cfg.name!r}")
+            lo, hi = _frequency_interval(f.omega, f.interval, tol, f"the natural frequency of "
+                                         f"{mode_name(f.mode, k)} of configuration {cfg.name!r}")
             omega = draw(lo, hi)
             xi = None
             if f.damping_ratio is not None:
@@ -221,7 +224,8 @@ def draw_configurations(configurations: Sequence[Configuration], frequency_toler
             natural.append(NaturalFrequency(omega, weight=f.weight, shape=shape, damping_ratio=xi, mode=f.mode))
             drawn[f"{cfg.name}:f{k}_hz"] = omega / TWO_PI
         for k, a in enumerate(cfg.antiresonances, start=1):
-            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"antiresonance {k} of configuration {cfg.name!r}")
+            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"{zero_name(a.response, a.excitation, a.index)} "
+                                                                   f"of configuration {cfg.name!r}")
             omega = draw(lo, hi)
             zeros.append(Antiresonance(omega, a.response, a.excitation, weight=a.weight, index=a.index))
             drawn[f"{cfg.name}:z{k}_hz"] = omega / TWO_PI
