@@ -38,10 +38,11 @@ from vibupdate.data.measured import Configuration, ShapeInterval
 from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies, row_errors
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.formulation.options import FormulationOptions
-from vibupdate.inverse.polish import PolishOptions, polish as run_polish, polish_residuals
+from vibupdate.inverse.polish import PolishOptions, polish as run_polish
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update
-from vibupdate.inverse.verify import VerifyOptions, fit_data, verify
+from vibupdate.inverse.admissible import Admissible, evaluate
+from vibupdate.inverse.verify import VerifyOptions, verify
 
 __all__ = ["MISFIT_CHECKS", "MAX_GROUPS", "MAX_SECONDS", "DataGroup", "GroupTrial", "Diagnosis", "data_groups",
            "without", "wants_diagnosis", "diagnose"]
@@ -284,8 +285,7 @@ class Diagnosis:
 
 def _objective(configurations, xbar, polish: PolishOptions, verification: VerifyOptions) -> float:
     """The polish's objective at ``xbar``, the data weighed as the update weighs them."""
-    weighted, options = fit_data(configurations, verification, polish)
-    r, _ = polish_residuals(weighted, xbar, options.shape_weight, jacobian=False)
+    r, _ = evaluate(configurations, Admissible.of(configurations, verification), xbar, jacobian=False)
     return 0.5 * float(r @ r)
 
 
@@ -294,11 +294,12 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
     """Polish the data ``kept`` from ``xbar`` and verify the answer on them."""
     t0 = time.perf_counter()
     nominal = [model_frequencies(c) for c in kept]
-    weighted, options = fit_data(kept, verification, replace(polish, enabled=True))   # as update
-    polished = run_polish(weighted, xbar, options)
+    contract = Admissible.of(kept, verification)
+    polished = run_polish(kept, xbar, replace(polish, enabled=True), contract=contract)   # as update
     x = polished.xbar
     updated = [model_frequencies(c, x, derivatives=True) for c in kept]
-    checks = verify(kept, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0, options=verification)
+    checks = verify(kept, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0, options=verification,
+                    contract=contract)
     failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
     shape = next((c for c in checks if c.name == "shape_intervals"), None)
     mean, worst = mean_max(np.concatenate(list(declared_errors(kept, updated).values())))
