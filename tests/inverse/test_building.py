@@ -61,10 +61,6 @@ def test_exact_data_determine_every_parameter():
     assert found["matrix"].shape == (building.N_MODES * len(building.measured_dofs(7, 1)), 12)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "admissible-data objective, exact point shapes held with a shape pull of 1e-3: measured, the full-model "
-    "polish stops on its 1,300-evaluation limit at objective 8.3e3 (from 1.5e12), the reduced rounds stall "
-    "after 591 full evaluations (old objective: 4 full evaluations and 46 reduced against 35 full)"))
 def test_polish_by_reduced_rounds_reaches_the_truth_with_fewer_full_evaluations():
     """546 DOFs (sparse path): the reduced rounds of the polish end where the full-model polish
     ends, the truth, with fewer eigen-solves of the full model (measured, one BLAS thread: 4
@@ -85,10 +81,7 @@ def test_polish_by_reduced_rounds_reaches_the_truth_with_fewer_full_evaluations(
         assert np.abs(m.physical(result.xbar) / m.physical(truth) - 1).max() < 1e-8
 
 
-@pytest.mark.parametrize("seed", [0, pytest.param(5, marks=pytest.mark.xfail(strict=True, reason=(
-    "admissible-data objective on the reduced-round path, measured: the rounds end at objective 0.172 "
-    "against the full-model polish's 0.0057 (the old objective of ratio-box penalties: equal within "
-    "1.2e-12 in at most 6 full evaluations)")))])
+@pytest.mark.parametrize("seed", [0, 5])
 def test_polish_rounds_on_noisy_data_end_no_higher_than_the_full_model_polish(seed):
     """Noisy data (frequencies 0.1 %, shape entries 2 % with +-1 % intervals: a nonzero
     optimum with active interval penalties) from a start 10 % off: the reduced rounds end at

@@ -45,7 +45,7 @@ import numpy as np
 from vibupdate.data.measured import Antiresonance, Configuration
 from vibupdate.inverse.repeated import cluster
 
-__all__ = ["Admissible", "Datum", "Miss", "FLOOR", "PULL", "residuals", "evaluate", "misses", "scaling_miss", "weighted"]
+__all__ = ["Admissible", "Datum", "Miss", "FLOOR", "PULL", "SMOOTH", "SOFT_PULL", "residuals", "evaluate", "misses", "scaling_miss", "weighted"]
 
 #: Relative numerical floor added to every admissible interval: the rounding of a
 #: double-precision eigen-solve (about 1e-12 relative on the acceptance models) with room for
@@ -56,15 +56,20 @@ FLOOR = 1e-8
 #: point, and outside it trades a datum out of its target by about ``PULL^2`` half-widths at
 #: most, which `MARGIN` keeps inside the admissible interval. Not smaller: the distance's slope
 #: jumps by ``1 / PULL`` at an interval's end, where the trust region crawls: the polish
-#: starts with `SOFT_PULL` (`vibupdate.inverse.polish`).
+#: starts with `SMOOTH`, then `SOFT_PULL` (`vibupdate.inverse.polish.PHASES`).
 PULL = 1e-2
 #: The polish aims at each interval shrunk by this many half-widths (and by the floor): more
 #: than the pull's trade-off (``PULL^2``) and than where the least squares stops on an
 #: interval's end (noisy beam of the tests, tight intervals: up to 4e-6 half-widths outside).
 MARGIN = 1e-3
-#: The pull of the polish's soft start: outside an interval a datum costs twice its slope
-#: inside, so that the first least squares meets the data nearly as the weighted classical fit
-#: does, without kinks to crawl along; the polish then goes on with `PULL` from there.
+#: The pull of the polish's first phase (`vibupdate.inverse.polish.PHASES`): no distance
+#: outside, a smooth weighted least squares of every datum's distance from its midpoint in
+#: half-widths, a shape's entries weighed as the frequencies (not by `SHAPE_PULL`); a lost zero
+#: costs nothing there. Its minimum is only the start of the second phase.
+SMOOTH = np.inf
+#: The pull of the polish's second phase: outside an interval a datum costs twice its slope
+#: inside, so that the least squares meets tight intervals nearly as the weighted classical fit
+#: does, without kinks to crawl along; the third phase goes on with `PULL` from there.
 SOFT_PULL = 1.0
 #: The pull of a shape's entries, relative to that of a frequency: a measured shape's intervals
 #: act as constraints, as in the paper's Problem 1 (natural frequencies fitted, the shapes kept
@@ -215,10 +220,13 @@ def _targets(lower, upper, floor):
     return lower + inset, upper - inset
 
 
-def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float) -> float:
+def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float,
+           inside: float = None) -> float:
     """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`): a convex piecewise quadratic in
     ``s`` whose pieces end where an entry ``s q_j`` crosses an interval end; each piece's
-    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact)."""
+    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact). ``inside``:
+    the entries' pull (`SHAPE_PULL` by default)."""
+    inside = SHAPE_PULL if inside is None else inside
     nz = q != 0
     breaks = np.unique(np.concatenate([lo[nz] / q[nz], hi[nz] / q[nz]]))
     edges = np.concatenate([[-np.inf], breaks, [np.inf]])
@@ -229,22 +237,24 @@ def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np
         a, b = np.array([-np.inf]), np.array([np.inf])
     V = probe[:, None] * q[None, :]
     below, above = V < lo, V > hi
-    c = (SHAPE_PULL + np.where(below | above, 1.0 / pull, 0.0)) / h          # slope of each row in s q_j
-    target = (SHAPE_PULL * mid + np.where(below, lo, np.where(above, hi, 0.0)) / pull) / h
+    c = (inside + np.where(below | above, 1.0 / pull, 0.0)) / h          # slope of each row in s q_j
+    target = (inside * mid + np.where(below, lo, np.where(above, hi, 0.0)) / pull) / h
     A = (c * q) ** 2
     s = np.sum(c * q * target, axis=1) / np.maximum(A.sum(axis=1), 1e-300)
     s = np.clip(s, a, b)
-    cost = np.sum(_rows(s[:, None] * q[None, :], lo, hi, mid, h, pull, SHAPE_PULL)[0] ** 2, axis=1)
+    cost = np.sum(_rows(s[:, None] * q[None, :], lo, hi, mid, h, pull, inside)[0] ** 2, axis=1)
     return float(s[int(np.argmin(cost))])
 
 
 def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: float):
-    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale)."""
+    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale); the
+    entries' pull is `SHAPE_PULL`, one in the `SMOOTH` phase (every datum alike)."""
     q = np.concatenate([[1.0], ratios])
     lo, hi = _targets(shape.lower, shape.upper, shape.floor)
     mid, h = 0.5 * (lo + hi), shape.half_width
-    s = _scale(q, lo, hi, mid, h, pull)
-    r, slope = _rows(s * q, lo, hi, mid, h, pull, SHAPE_PULL)
+    inside = 1.0 if pull == SMOOTH else SHAPE_PULL
+    s = _scale(q, lo, hi, mid, h, pull, inside)
+    r, slope = _rows(s * q, lo, hi, mid, h, pull, inside)
     if jac is None:
         return r, None
     dq = np.vstack([np.zeros((1, jac.shape[1])), jac])
@@ -256,18 +266,22 @@ def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: 
 
 
 def evaluate(configurations: Sequence[Configuration], contract: Admissible, xbar, jacobian: bool = True,
-             basis: list | None = None, pull: float = PULL):
+             basis: list | None = None, pull: float = PULL, maps: list | None = None):
     """`residuals` at ``xbar`` from one data map per configuration; ``basis``, a list (with
     ``jacobian``), receives per configuration the vectors the evaluation computed
-    (`vibupdate.inverse.data_map.DataMap.vectors`): the basis of the polish's reduced rounds."""
+    (`vibupdate.inverse.data_map.DataMap.vectors`): the basis of the polish's reduced rounds;
+    ``maps``, a list, receives the data maps (the same point at another ``pull`` is then
+    `residuals` of them, with no eigen-solve)."""
     from vibupdate.inverse.data_map import data_map
 
     want = basis is not None and jacobian
-    maps = [data_map(c, xbar, jacobian=jacobian, shapes=bool(s or m), vectors=want)
-            for c, s, m in zip(configurations, contract.shapes, contract.masses)]
+    found = [data_map(c, xbar, jacobian=jacobian, shapes=bool(s or m), vectors=want)
+             for c, s, m in zip(configurations, contract.shapes, contract.masses)]
     if want:
-        basis.extend(np.hstack(m.vectors) for m in maps)
-    return residuals(contract, maps, jacobian, pull)
+        basis.extend(np.hstack(m.vectors) for m in found)
+    if maps is not None:
+        maps.extend(found)
+    return residuals(contract, found, jacobian, pull)
 
 
 def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull: float = PULL):
@@ -276,8 +290,8 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
     Jacobian, shape (n_r, n_x) (None without ``jacobian``). A shape's entries carry the pull
     weighed by `SHAPE_PULL`. Order per configuration:
     frequencies, shapes (reference entry first), modal masses. A zero the model lost costs a
-    constant row of ``1 / pull`` with no direction. ``pull``: `PULL`, or larger for the polish's
-    soft start."""
+    constant row of ``1 / pull`` with no direction. ``pull``: `PULL`, or `SMOOTH` and `SOFT_PULL` for the
+    polish's first phases."""
     res, jac = [], []
     for data, shapes, masses, m in zip(contract.frequencies, contract.shapes, contract.masses, maps):
         for items, values, J in ((data, m.frequency_values, m.frequency_jacobian if jacobian else None),
