@@ -72,12 +72,12 @@ def test_the_scale_of_a_shape_minimizes_its_rows_exactly():
     lo = np.array([0.9, 0.5, -0.35, -0.01])
     hi = lo + np.array([0.2, 0.05, 0.1, 0.04])
     mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    from vibupdate.inverse.admissible import PULL, SHAPE_PULL, _rows
+    from vibupdate.inverse.admissible import PULL, _rows
 
     s = _scale(q, lo, hi, mid, h, PULL)
     grid = np.linspace(s - 0.2, s + 0.2, 40001)
-    cost = np.sum(_rows(grid[:, None] * q[None, :], lo, hi, mid, h, PULL, SHAPE_PULL)[0] ** 2, axis=1)
-    assert float(np.sum(_rows(s * q, lo, hi, mid, h, PULL, SHAPE_PULL)[0] ** 2)) <= cost.min() * (1 + 1e-9)
+    cost = np.sum(_rows(grid[:, None] * q[None, :], lo, hi, mid, h, PULL)[0] ** 2, axis=1)
+    assert float(np.sum(_rows(s * q, lo, hi, mid, h, PULL)[0] ** 2)) <= cost.min() * (1 + 1e-9)
     assert scaling_miss(mid * rng.uniform(0.2, 0.5), lo, hi) == 0.0     # inside at some scale, whatever its own
     assert scaling_miss(-mid, lo, hi) == 0.0                            # the sign is free
 

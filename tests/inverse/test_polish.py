@@ -64,11 +64,12 @@ def _poor_start(model):
 
 
 def test_noisy_interval_shapes_converge_from_a_poor_start():
-    """From a start with the shapes far outside their intervals (objective 1.5e10) the polish
+    """From a start with the shapes far outside their intervals (objective 1.5e6) the polish
     ends with every datum inside its admissible interval, at the same objective as from the
-    nominal point (9.264e-7, the frequencies' pull), below the truth's (0.0342): the
-    least-squares fit of the frequencies inside the shapes' intervals. Measured: 102
-    evaluations (the objective of ratio-box penalties took 37 with its soft start)."""
+    nominal point (0.8623, the pull of frequencies and shape entries alike), below the
+    truth's (1.085): the weighted least-squares fit inside the intervals. Measured: 34
+    evaluations, converged (102 with a shape pull of 1e-3 and a soft start; the objective of
+    ratio-box penalties took 37)."""
     from vibupdate.inverse.admissible import Admissible, evaluate, misses
     from vibupdate.inverse.data_map import data_map
 
@@ -77,7 +78,7 @@ def test_noisy_interval_shapes_converge_from_a_poor_start():
     out = polish([cfg], _poor_start(model))
     assert out.cost_start > 1e3
     assert out.stopped_on in ("convergence", "stall") and not out.on_limit, out.message
-    assert out.evaluations <= 120 and out.budget == 100 * (model.n_parameters + 1)
+    assert out.evaluations <= 60 and out.budget == 100 * (model.n_parameters + 1)
     assert all(m.miss == 0 for m in misses(contract, [data_map(cfg, out.xbar, jacobian=False)]))
     r_true, _ = evaluate([cfg], contract, x_true, jacobian=False)
     assert out.cost <= 0.5 * float(r_true @ r_true)
@@ -174,13 +175,13 @@ def test_identical_inputs_give_identical_answers_in_fresh_processes():
     assert runs[0] == runs[1]
 
 
-def test_soft_start_on_tight_intervals():
+def test_tight_intervals_end_inside_from_both_starts():
     """1 % frequency noise held to 0.2 % intervals, no model-form tolerance: the admissible set
-    is small. With the soft start the polish from the nominal point and from the poor start
-    ends inside every admissible interval (measured: 73 evaluations each, objective 0.74,
-    stopped on a stall along the intervals' ends); without it (the outside
-    distance's full weight from the start) the nominal start crawled 572 evaluations and
-    stopped 1.3e-3 half-widths outside."""
+    is small, and at the answer several frequencies sit at their intervals' ends, held there by
+    the distance rows against the pull. From the nominal point and from the poor start the
+    polish ends inside every admissible interval, on a stall along those ends (measured: 247 and
+    254 evaluations, objectives 6.656 and 6.708; the one-row objective with a soft start took 73
+    each, its separate shape pull of 1e-3 made the building's reduced rounds stall)."""
     from vibupdate import VerifyOptions
     from vibupdate.inverse.admissible import Admissible, misses
     from vibupdate.inverse.data_map import data_map
@@ -190,5 +191,5 @@ def test_soft_start_on_tight_intervals():
                                                   measurement_tolerance=0.002))
     ends = [polish([cfg], x0, contract=contract) for x0 in (np.zeros(model.n_parameters), _poor_start(model))]
     for out in ends:
-        assert not out.on_limit and out.evaluations < 100, out.message
+        assert not out.on_limit and out.evaluations < 300, out.message
         assert all(m.miss == 0 for m in misses(contract, [data_map(cfg, out.xbar, jacobian=False)]))

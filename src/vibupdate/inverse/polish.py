@@ -61,7 +61,7 @@ import numpy as np
 
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
-from vibupdate.inverse.admissible import PULL, SMOOTH, SOFT_PULL, Admissible, evaluate, residuals
+from vibupdate.inverse.admissible import Admissible, evaluate
 from vibupdate.inverse.data_map import data_map
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -81,21 +81,6 @@ ROUND_XTOL = 1e-10
 #: to 491 from a poor start, most of them crawling along one interval edge; the budget is a
 #: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
-#: The polish's three phases, by their pull (`vibupdate.inverse.admissible.residuals`), each
-#: from the previous one's answer: the smooth residual in half-widths (a weighted least squares,
-#: shapes weighed as frequencies, no kink: Gauss-Newton steps converge on exact and noisy data
-#: alike), the soft objective (outside an interval a datum costs twice its slope inside), then
-#: the polish's objective, the distance outside plus the pull. Measured: without the smooth phase,
-#: exact data (intervals of 1e-6 relative) put every datum on a kink and the trust region
-#: crawled (the 546-DOF building stopped on its 1,300-evaluation limit at objective 8.3e3);
-#: without the soft one, tight intervals (the noisy beam of the tests, 1 % noise in 0.2 %
-#: intervals) stalled 3 data outside after 612 evaluations, where all three meet every interval
-#: in 83-90.
-PHASES = (SMOOTH, SOFT_PULL, PULL)
-#: ``ftol`` of the first two phases, starts of the third: they end when a step gains less than
-#: this fraction of their objective, not on the stall test's window. Measured on the diagnosis of
-#: the biased chain (13 polishes): 824 evaluations with ``tol`` there, NNN with this.
-START_FTOL = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
@@ -235,12 +220,12 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
 
 
 def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Admissible, known=None,
-                      monitor=None, pull: float = PULL, **options):
+                      monitor=None, **options):
     """`bounded_least_squares` of the admissible-data residuals
     (`vibupdate.inverse.admissible.evaluate`) from ``x0``, shape (n_x,), in the box of the
     normalized parameters."""
     lo, hi = configurations[0].model.bounds()
-    return bounded_least_squares(lambda x: evaluate(configurations, contract, x, pull=pull), x0, lo, hi,
+    return bounded_least_squares(lambda x: evaluate(configurations, contract, x), x0, lo, hi,
                                  known=known, monitor=monitor, **options)
 
 
@@ -254,12 +239,10 @@ class _Converged:
     message: str
 
 
-def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None,
-                    pull: float = PULL, known=None):
-    """The reduced rounds (module docstring) from ``x0`` (``known``: its data maps and basis,
-    from the previous phase, when evaluated there).
+def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None):
+    """The reduced rounds (module docstring) from ``x0``.
 
-    Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged, known)``: the best
+    Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best
     point found, its full-model residual and Jacobian, the counts, why the rounds converged ("" when
     they did not, and the full-model finish is needed). They converge when a round's step moves
     no normalized parameter by more than `ROUND_XTOL`; when the reduced model, at least as
@@ -270,28 +253,23 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
     the full model refutes a step at an objective below ``tol`` times that at ``x0`` (rounding
     noise). They stop unconverged where the reduced model's best lies further above the full
     objective (its projection's rounding floor), where the full model refutes a larger predicted
-    gain, or at the round limit; ``known``, the data maps and basis at that point."""
+    gain, or at the round limit."""
     from threadpoolctl import threadpool_limits
 
     from vibupdate.inverse.reduction import kept_dofs, ritz_reduction
 
     lo, hi = configurations[0].model.bounds()
     x = inside(x0, lo, hi)
-    if known is not None and np.array_equal(known[0], x):
-        maps, basis = known[1], known[2]
-        value, evaluations = residuals(contract, maps, True, pull), 0
-    else:
-        maps, basis = [], []
-        value, evaluations = evaluate(configurations, contract, x, basis=basis, pull=pull, maps=maps), 1
+    basis: list = []
+    value = evaluate(configurations, contract, x, basis=basis)
     cost = 0.5 * float(value[0] @ value[0])
-    rounds, reduced_evaluations, converged = 0, 0, ""
-    ftol = tols["ftol"]
-    floor = ftol * cost
+    evaluations, rounds, reduced_evaluations, converged = 1, 0, 0, ""
+    floor = options.tol * cost
     while rounds < options.reduced_rounds and evaluations < budget and cost > 0:
         reduced = [replace(cfg, model=ritz_reduction(cfg.model, kept_dofs(cfg), V)[0])
                    for cfg, V in zip(configurations, basis)]
         with threadpool_limits(limits=1, user_api="blas"):   # ~100-DOF dense solves: threads only contend
-            sol = fit_least_squares(reduced, x, contract, pull=pull, max_nfev=REDUCED_EVALUATIONS, **tols)
+            sol = fit_least_squares(reduced, x, contract, max_nfev=REDUCED_EVALUATIONS, **tols)
         rounds += 1
         reduced_evaluations += int(sol.nfev)
         x_new = inside(sol.x, lo, hi)
@@ -303,25 +281,25 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
                 converged = (f"the reduced model, within {ROUND_SETTLED:g} of the full objective here, "
                              f"sees no gain")
             break              # else its own rounding floor is above the objective: finish on the full model
-        if cost - float(sol.cost) <= ftol * cost:
-            converged = "the reduced model, exact to first order here, predicts a gain below ftol x the objective"
+        if cost - float(sol.cost) <= options.tol * cost:
+            converged = "the reduced model, exact to first order here, predicts a gain below tol x the objective"
             break
-        basis_new, maps_new = [], []
-        value_new = evaluate(configurations, contract, x_new, basis=basis_new, pull=pull, maps=maps_new)
+        basis_new: list = []
+        value_new = evaluate(configurations, contract, x_new, basis=basis_new)
         evaluations += 1
         cost_new = 0.5 * float(value_new[0] @ value_new[0])
         if not cost_new < cost:
             if cost <= floor:   # a step refuted at a negligible objective: the evaluations' noise
-                converged = "the full model refuted a further step at an objective below ftol x the starting one"
+                converged = "the full model refuted a further step at an objective below tol x the starting one"
             elif cost - float(sol.cost) <= ROUND_SETTLED * cost:
                 converged = (f"the full model refuted a further step whose predicted gain was below "
                              f"{ROUND_SETTLED:g} of the objective")
             break
-        x, value, cost, basis, maps = x_new, value_new, cost_new, basis_new, maps_new
+        x, value, cost, basis = x_new, value_new, cost_new, basis_new
         if say is not None:
             say(f"  polish round {rounds}: objective {cost:.4e} on the full model ({int(sol.nfev)} evaluations "
                 f"of a {reduced[0].model.n_dofs}-DOF reduced model)")
-    return x, value, evaluations, rounds, reduced_evaluations, converged, (x, maps, basis)
+    return x, value, evaluations, rounds, reduced_evaluations, converged
 
 
 def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None,
@@ -330,16 +308,11 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     docstring; by default `Admissible.of` the configurations with the default verification
     options). ``progress(message)``, when given, hears of each reduced round (large models).
 
-    Three phases (`PHASES`), each from the previous one's answer: the smooth residual, every
-    datum's distance from its midpoint in half-widths (a weighted least squares, no kinks); the
-    soft objective; the polish's objective (distance outside plus the pull), whose minimum is the
-    answer.
-
-    Each phase ends on scipy's convergence tests (``ftol``, ``xtol``, ``gtol`` = ``tol``), on a
-    stall (`STALL_DECREASE`); the polish ends on a limit (`PolishOptions.budget` evaluations
-    over both phases, ``max_seconds``), or, given ``answers`` (known answers, shape (n_a, n_x)),
-    on reaching one of them again (`SAME_ANSWER`, stopped on "known answer");
-    ``PolishResult.stopped_on`` and ``message`` say which."""
+    It ends on scipy's convergence tests (``ftol``, ``xtol``, ``gtol`` = ``tol``), on a stall
+    (`STALL_DECREASE`), on a limit (`PolishOptions.budget` evaluations, ``max_seconds``), or,
+    given ``answers`` (known answers, shape (n_a, n_x)), on reaching one of them again
+    (`SAME_ANSWER`, stopped on "known answer"); ``PolishResult.stopped_on`` and ``message`` say
+    which."""
     options = options or PolishOptions()
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
@@ -349,24 +322,13 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     contract = contract or Admissible.of(configurations)
     cost0 = _cost(configurations, contract, x0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}
-    rounds = reduced_evaluations = evaluations = 0
-    x, messages, carried = x0, [], None
     try:
-        for pull in PHASES:
-            x, cost, evaluations, n_rounds, n_reduced, stopped_on, message, carried = _phase(
-                configurations, x, contract, options, tols if pull == PULL else {**tols, "ftol": max(options.tol, START_FTOL)},
-                budget, evaluations, start, answers, pull, progress, carried)
-            rounds, reduced_evaluations = rounds + n_rounds, reduced_evaluations + n_reduced
-            messages.append(message)
-            if stopped_on not in ("convergence", "stall"):
-                break
-        if pull != PULL:   # stopped in a first phase: its point, at the polish's objective
-            cost = _cost(configurations, contract, x)
+        x, cost, evaluations, rounds, reduced_evaluations, stopped_on, message = _minimize(
+            configurations, x0, contract, options, tols, budget, start, answers, progress)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
     kept = bool(cost < cost0)
-    message = "; ".join(messages)
     if not kept:
         message = f"not kept: the polish did not lower the objective ({message})"
     return PolishResult(x0, x if kept else x0, cost0, cost if kept else cost0, kept, evaluations, message,
@@ -379,39 +341,35 @@ def _cost(configurations: list, contract: Admissible, x) -> float:
     return 0.5 * float(r @ r)
 
 
-def _phase(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, evaluations: int,
-           started: float, answers, pull: float, progress, carried=None):
-    """One phase of the polish with ``pull``: the reduced rounds on a large model (``carried``:
-    the data maps and basis at ``x0`` from the previous phase's rounds), the full-model least
-    squares where they did not converge. Returns ``(x, cost, evaluations, rounds,
-    reduced_evaluations, stopped_on, message, carried)``, ``cost`` the phase's objective at
-    ``x``, evaluations counted from the polish's start."""
-    x, known, rounds, reduced, converged = x0, None, 0, 0, ""
+def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, started: float,
+              answers, progress):
+    """The reduced rounds on a large model, the full-model least squares where they did not
+    converge. Returns ``(x, cost, evaluations, rounds, reduced_evaluations, stopped_on,
+    message)``, ``cost`` the objective at ``x``."""
+    x, known, rounds, reduced, converged, evaluations = x0, None, 0, 0, "", 0
     if options.reduced_rounds and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT:
         try:
-            x, value, used, rounds, reduced, converged, carried = _reduced_rounds(
-                configurations, x0, contract, options, tols, budget - evaluations, progress, pull, carried)
-            evaluations += used
+            x, value, evaluations, rounds, reduced, converged = _reduced_rounds(
+                configurations, x0, contract, options, tols, budget, progress)
             known = (x, value)
         except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model least squares alone, from x0
-            x, carried = x0, None
+            x, evaluations = x0, 0
             if progress is not None:
                 progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
     if converged or evaluations >= budget:
         cost = 0.5 * float(known[1][0] @ known[1][0])
         if converged:
-            return (x, cost, evaluations, rounds, reduced, "convergence",
-                    f"converged in {rounds} reduced rounds: {converged}", carried)
+            return x, cost, evaluations, rounds, reduced, "convergence", f"converged in {rounds} reduced rounds: {converged}"
         return (x, cost, evaluations, rounds, reduced, "evaluations",
                 f"stopped on the limit of {budget} evaluations of the full model in {rounds} reduced rounds "
-                f"(set polish.max_evaluations to allow more)", carried)
+                f"(set polish.max_evaluations to allow more)")
     sol, evaluations, stopped_on = _full_model(configurations, x, known, contract, tols, budget, evaluations,
-                                               started, options.max_seconds, answers, pull)
-    return sol.x, float(sol.cost), evaluations, rounds, reduced, stopped_on, sol.message, None
+                                               started, options.max_seconds, answers)
+    return sol.x, float(sol.cost), evaluations, rounds, reduced, stopped_on, sol.message
 
 
 def _full_model(configurations: list, x, known, contract, tols: dict, budget: int, evaluations: int,
-                started: float, max_seconds=None, answers=None, pull: float = PULL):
+                started: float, max_seconds=None, answers=None):
     """The full-model least squares from ``x`` (``known``: its residual and Jacobian when
     evaluated) after ``evaluations`` of the ``budget``; restarted while scipy's step or cost
     test stopped it and a restart still lowers the objective: trf's trust radius collapses on
@@ -426,16 +384,16 @@ def _full_model(configurations: list, x, known, contract, tols: dict, budget: in
     lo, hi = configurations[0].model.bounds()
     if known is None:
         x = inside(x, lo, hi)
-        known = (x, evaluate(configurations, contract, x, pull=pull))
+        known = (x, evaluate(configurations, contract, x))
         evaluations += 1
     monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
                        max_seconds, answers)
     stopped_on = "convergence"
     try:
-        sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor, pull=pull,
+        sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
                                 max_nfev=budget + 1, **tols)
-        while pull == PULL and sol.status in (2, 3, 4):
-            again = fit_least_squares(configurations, sol.x, contract, monitor=monitor, pull=pull,
+        while sol.status in (2, 3, 4):
+            again = fit_least_squares(configurations, sol.x, contract, monitor=monitor,
                                       max_nfev=budget + 1, **tols)
             if not again.cost < sol.cost:
                 break
