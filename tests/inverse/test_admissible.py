@@ -151,3 +151,23 @@ def test_old_case_keys_are_refused_naming_what_replaced_them(tmp_path):
                         f'[{table}]\n{key} = 1.0\n', encoding="utf-8")
         with pytest.raises(ValueError, match=rf"{table}\.{key}: unknown key \(removed: .*shape_tolerance"):
             load_case(path)
+
+
+def test_the_polish_objective_has_a_continuous_gradient_at_an_interval_end():
+    """The pull and the distance outside are separate rows (`_rows`): the gradient of half their
+    squared sum is continuous where a value leaves its interval, so Gauss-Newton steps do not
+    meet a kink there. (One combined row ``((v - mid) + out / PULL) / h`` jumps by about
+    ``1 / PULL`` half-widths there.) Inside, only the pull toward the midpoint is left."""
+    from vibupdate.inverse.admissible import PULL, _rows
+
+    lo, hi = np.array([0.9]), np.array([1.1])
+    mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+    def gradient(v):
+        r, slope = _rows(np.array([v]), lo, hi, mid, h, PULL)
+        return float(r @ slope)
+
+    eps = 1e-12
+    assert gradient(hi[0] + eps) == pytest.approx(gradient(hi[0] - eps), abs=1e-4)
+    assert gradient(hi[0] - eps) == pytest.approx((hi[0] - mid[0]) / h[0] ** 2, rel=1e-6)
+    assert gradient(hi[0] + 0.01) > 2 * gradient(hi[0] - eps)   # the distance dominates outside

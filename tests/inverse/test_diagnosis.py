@@ -1,7 +1,6 @@
 """Which data conflict (`vibupdate.inverse.diagnosis`): the groups of the data, what leaving
 one out keeps, when a diagnosis runs, and a known truth with one biased driving point."""
 
-import time
 
 import numpy as np
 import pytest
@@ -80,10 +79,8 @@ def test_a_biased_driving_point_is_named_first_and_the_model_without_it_is_the_t
     result = update([cfg])
     failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
     assert result.status == Status.NOT_VERIFIED and "shape_intervals" in failed, result.message
-    t0 = time.perf_counter()
     lines = []
     found = diagnose([cfg], result, progress=lines.append)
-    seconds = time.perf_counter() - t0
     assert found.worst.key == "A/dof/y3", [(t.group.key, t.objective) for t in found.trials]
     top, second = found.trials[:2]
     assert top.passed and not second.passed and top.objective < 1e-6 * second.objective
@@ -95,7 +92,7 @@ def test_a_biased_driving_point_is_named_first_and_the_model_without_it_is_the_t
     assert np.max(error) < 1e-3, dict(zip(BIASED_CHAIN_TRUTH, error))
     record = found.record()
     assert record["best"]["without"] == "A/dof/y3" and record["trials"][0]["key"] == "A/dof/y3"
-    assert seconds < 10.0
+    assert sum(t.evaluations for t in found.trials) <= 350
 
 
 def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():

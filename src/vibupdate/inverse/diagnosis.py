@@ -191,6 +191,8 @@ class GroupTrial:
         Shape-interval misses on the data kept (the value of the ``shape_intervals`` check).
     xbar : ndarray
     seconds : float
+    evaluations : int
+        Full-model evaluations of the polish (one eigen-solve per configuration each).
     """
 
     group: DataGroup
@@ -203,12 +205,13 @@ class GroupTrial:
     shape_misses: int
     xbar: np.ndarray
     seconds: float
+    evaluations: int = 0
 
     def as_dict(self) -> dict:
         return {**self.group.as_dict(), "share": self.share, "objective": self.objective,
                 "passed": self.passed, "failed": list(self.failed), "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "shape_misses": self.shape_misses,
-                "xbar": self.xbar.tolist(), "seconds": self.seconds}
+                "xbar": self.xbar.tolist(), "seconds": self.seconds, "evaluations": self.evaluations}
 
 
 @dataclass(frozen=True)
@@ -305,7 +308,7 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
     mean, worst = mean_max(np.concatenate(list(declared_errors(kept, updated).values())))
     return GroupTrial(group, share, float(polished.cost), not failed, failed, mean, worst,
                       int(shape.value) if shape is not None else 0, np.asarray(x, dtype=float),
-                      time.perf_counter() - t0)
+                      time.perf_counter() - t0, polished.evaluations)
 
 
 def _rank(trial: GroupTrial) -> tuple:
