@@ -192,19 +192,19 @@ class Admissible:
         return np.array([d.half_width / d.value for row in self.frequencies for d in row])
 
 
-def _rows(v, lo, hi, mid, h, pull=PULL, inside=1.0):
+def _rows(v, lo, hi, mid, h, pull=PULL):
     """The polish's rows (module docstring) of values ``v`` (last axis: the data) against
     ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
-    per datum two rows, stacked on the last axis, the pull ``inside (v - mid) / h`` then the
-    distance outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
+    per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
+    outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
     zero, so their sum of squares has a continuous gradient. (One row
     ``((v - mid) + out / pull) / h`` jumps in slope by ``1 / pull`` at an interval's end, where
     it is about one: its square's gradient jumps there, and trust-region steps crawl along the
     ends: `vibupdate.inverse.polish`.)"""
     out = v - np.clip(v, lo, hi)
-    slope_in = np.broadcast_to(inside / h, np.shape(out))
+    slope_in = np.broadcast_to(1.0 / h, np.shape(out))
     slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)
-    return (np.concatenate([inside * (v - mid) / h, out / (pull * h)], axis=-1),
+    return (np.concatenate([(v - mid) / h, out / (pull * h)], axis=-1),
             np.concatenate([slope_in, slope_out], axis=-1))
 
 
@@ -214,8 +214,7 @@ def _targets(lower, upper, floor):
     return lower + inset, upper - inset
 
 
-def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float,
-           inside: float = 1.0) -> float:
+def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float) -> float:
     """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`): a convex piecewise quadratic in
     ``s`` whose pieces end where an entry ``s q_j`` crosses an interval end; each piece's
     minimizer, clipped to the piece, is tried and the best kept (vectorized, exact)."""
@@ -229,25 +228,22 @@ def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np
         a, b = np.array([-np.inf]), np.array([np.inf])
     V = probe[:, None] * q[None, :]
     below, above = V < lo, V > hi
-    w_in = (inside / h) ** 2                                                  # per piece: weights of the rows
+    w_in = (1.0 / h) ** 2                                                  # per piece: weights of the rows
     w_out = np.where(below | above, 1.0 / (pull * h), 0.0) ** 2               # squared, in s q_j
     edge = np.where(below, lo, np.where(above, hi, 0.0))
     s = np.sum(q * (w_in * mid + w_out * edge), axis=1) / np.maximum(np.sum(q * q * (w_in + w_out), axis=1), 1e-300)
     s = np.clip(s, a, b)
-    cost = np.sum(_rows(s[:, None] * q[None, :], lo, hi, mid, h, pull, inside)[0] ** 2, axis=1)
+    cost = np.sum(_rows(s[:, None] * q[None, :], lo, hi, mid, h, pull)[0] ** 2, axis=1)
     return float(s[int(np.argmin(cost))])
 
 
 def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: float):
-    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale); the
-    pull of its ``n`` entries is weighed by ``1 / sqrt(n)`` (`_rows`' ``inside``), so that one
-    measured shape pulls as much as one frequency, however many entries it has."""
+    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale)."""
     q = np.concatenate([[1.0], ratios])
     lo, hi = _targets(shape.lower, shape.upper, shape.floor)
     mid, h = 0.5 * (lo + hi), shape.half_width
-    inside = 1.0 / np.sqrt(q.size)
-    s = _scale(q, lo, hi, mid, h, pull, inside)
-    r, slope = _rows(s * q, lo, hi, mid, h, pull, inside)
+    s = _scale(q, lo, hi, mid, h, pull)
+    r, slope = _rows(s * q, lo, hi, mid, h, pull)
     if jac is None:
         return r, None
     dq = np.vstack([np.zeros((1, jac.shape[1])), jac])

@@ -61,7 +61,7 @@ import numpy as np
 
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
-from vibupdate.inverse.admissible import PULL, Admissible, evaluate
+from vibupdate.inverse.admissible import Admissible, evaluate
 from vibupdate.inverse.data_map import data_map
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -81,15 +81,6 @@ ROUND_XTOL = 1e-10
 #: to 491 from a poor start, most of them crawling along one interval edge; the budget is a
 #: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
-#: The distance rows' weight ``1 / pull`` rises in stages, each from the previous stage's answer
-#: (penalty continuation), the last the objective's `vibupdate.inverse.admissible.PULL`. At an
-#: interval's end a datum's distance row switches on with slope ``1 / pull``: with 0.01 from the
-#: start, trust-region steps crawl along the ends that hold the answer. Measured on the noisy
-#: beam of the tests, 1 % frequency noise in 0.2 % intervals: 274 and 300 evaluations from the
-#: two starts with 0.01 alone, 74 and 68 with 0.1 first; the same objective.
-PULLS = (0.1, PULL)
-#: ``ftol`` of every stage but the last: a start, ended when a step gains less than this fraction.
-STAGE_FTOL = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
@@ -229,12 +220,12 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
 
 
 def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Admissible, known=None,
-                      monitor=None, pull: float = PULL, **options):
+                      monitor=None, **options):
     """`bounded_least_squares` of the admissible-data residuals
     (`vibupdate.inverse.admissible.evaluate`) from ``x0``, shape (n_x,), in the box of the
     normalized parameters."""
     lo, hi = configurations[0].model.bounds()
-    return bounded_least_squares(lambda x: evaluate(configurations, contract, x, pull=pull), x0, lo, hi,
+    return bounded_least_squares(lambda x: evaluate(configurations, contract, x), x0, lo, hi,
                                  known=known, monitor=monitor, **options)
 
 
@@ -248,8 +239,7 @@ class _Converged:
     message: str
 
 
-def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None,
-                    pull: float = PULL):
+def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None):
     """The reduced rounds (module docstring) from ``x0``.
 
     Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best
@@ -271,16 +261,15 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
     lo, hi = configurations[0].model.bounds()
     x = inside(x0, lo, hi)
     basis: list = []
-    value = evaluate(configurations, contract, x, basis=basis, pull=pull)
+    value = evaluate(configurations, contract, x, basis=basis)
     cost = 0.5 * float(value[0] @ value[0])
     evaluations, rounds, reduced_evaluations, converged = 1, 0, 0, ""
-    ftol = tols["ftol"]
-    floor = ftol * cost
+    floor = options.tol * cost
     while rounds < options.reduced_rounds and evaluations < budget and cost > 0:
         reduced = [replace(cfg, model=ritz_reduction(cfg.model, kept_dofs(cfg), V)[0])
                    for cfg, V in zip(configurations, basis)]
         with threadpool_limits(limits=1, user_api="blas"):   # ~100-DOF dense solves: threads only contend
-            sol = fit_least_squares(reduced, x, contract, pull=pull, max_nfev=REDUCED_EVALUATIONS, **tols)
+            sol = fit_least_squares(reduced, x, contract, max_nfev=REDUCED_EVALUATIONS, **tols)
         rounds += 1
         reduced_evaluations += int(sol.nfev)
         x_new = inside(sol.x, lo, hi)
@@ -292,16 +281,16 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
                 converged = (f"the reduced model, within {ROUND_SETTLED:g} of the full objective here, "
                              f"sees no gain")
             break              # else its own rounding floor is above the objective: finish on the full model
-        if cost - float(sol.cost) <= ftol * cost:
-            converged = "the reduced model, exact to first order here, predicts a gain below ftol x the objective"
+        if cost - float(sol.cost) <= options.tol * cost:
+            converged = "the reduced model, exact to first order here, predicts a gain below tol x the objective"
             break
         basis_new: list = []
-        value_new = evaluate(configurations, contract, x_new, basis=basis_new, pull=pull)
+        value_new = evaluate(configurations, contract, x_new, basis=basis_new)
         evaluations += 1
         cost_new = 0.5 * float(value_new[0] @ value_new[0])
         if not cost_new < cost:
             if cost <= floor:   # a step refuted at a negligible objective: the evaluations' noise
-                converged = "the full model refuted a further step at an objective below ftol x the starting one"
+                converged = "the full model refuted a further step at an objective below tol x the starting one"
             elif cost - float(sol.cost) <= ROUND_SETTLED * cost:
                 converged = (f"the full model refuted a further step whose predicted gain was below "
                              f"{ROUND_SETTLED:g} of the objective")
@@ -333,18 +322,9 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     contract = contract or Admissible.of(configurations)
     cost0 = _cost(configurations, contract, x0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}
-    x, evaluations, rounds, reduced_evaluations = x0, 0, 0, 0
     try:
-        for k, pull in enumerate(PULLS):
-            last = k == len(PULLS) - 1
-            x, cost, evaluations, n_rounds, n_reduced, stopped_on, message = _minimize(
-                configurations, x, contract, options, tols if last else {**tols, "ftol": max(options.tol, STAGE_FTOL)},
-                budget, evaluations, start, answers, progress, pull)
-            rounds, reduced_evaluations = rounds + n_rounds, reduced_evaluations + n_reduced
-            if stopped_on not in ("convergence", "stall"):
-                break
-        if not last:   # stopped on a limit in a first stage: its point, at the objective
-            cost = _cost(configurations, contract, x)
+        x, cost, evaluations, rounds, reduced_evaluations, stopped_on, message = _minimize(
+            configurations, x0, contract, options, tols, budget, start, answers, progress)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
@@ -361,23 +341,22 @@ def _cost(configurations: list, contract: Admissible, x) -> float:
     return 0.5 * float(r @ r)
 
 
-def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, spent: int,
-              started: float, answers, progress, pull: float = PULL):
-    """One stage (`PULLS`) after ``spent`` of the ``budget`` evaluations: the reduced rounds on a
-    large model, the full-model least squares where they did not converge. Returns ``(x, cost,
-    evaluations, rounds, reduced_evaluations, stopped_on, message)``, ``cost`` the stage's
-    objective at ``x``, ``evaluations`` counted from the polish's start."""
-    x, known, rounds, reduced, converged, evaluations = x0, None, 0, 0, "", spent
+def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, started: float,
+              answers, progress):
+    """The reduced rounds on a large model, the full-model least squares where they did not
+    converge. Returns ``(x, cost, evaluations, rounds, reduced_evaluations, stopped_on,
+    message)``, ``cost`` the objective at ``x``."""
+    x, known, rounds, reduced, converged, evaluations = x0, None, 0, 0, "", 0
     if options.reduced_rounds and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT:
         try:
-            x, value, used, rounds, reduced, converged = _reduced_rounds(
-                configurations, x0, contract, options, tols, budget - spent, progress, pull)
-            evaluations, known = spent + used, (x, value)
+            x, value, evaluations, rounds, reduced, converged = _reduced_rounds(
+                configurations, x0, contract, options, tols, budget, progress)
+            known = (x, value)
         except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model least squares alone, from x0
-            x = x0
+            x, evaluations = x0, 0
             if progress is not None:
                 progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
-    if converged or (known is not None and evaluations >= budget):
+    if converged or evaluations >= budget:
         cost = 0.5 * float(known[1][0] @ known[1][0])
         if converged:
             return x, cost, evaluations, rounds, reduced, "convergence", f"converged in {rounds} reduced rounds: {converged}"
@@ -385,19 +364,19 @@ def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: 
                 f"stopped on the limit of {budget} evaluations of the full model in {rounds} reduced rounds "
                 f"(set polish.max_evaluations to allow more)")
     sol, evaluations, stopped_on = _full_model(configurations, x, known, contract, tols, budget, evaluations,
-                                               started, options.max_seconds, answers, pull, pull == PULL)
+                                               started, options.max_seconds, answers)
     return sol.x, float(sol.cost), evaluations, rounds, reduced, stopped_on, sol.message
 
 
 def _full_model(configurations: list, x, known, contract, tols: dict, budget: int, evaluations: int,
-                started: float, max_seconds=None, answers=None, pull: float = PULL, restart: bool = True):
+                started: float, max_seconds=None, answers=None):
     """The full-model least squares from ``x`` (``known``: its residual and Jacobian when
     evaluated) after ``evaluations`` of the ``budget``; restarted while scipy's step or cost
     test stopped it and a restart still lowers the objective: trf's trust radius collapses on
     the way to a minimum on a bound (the refined frame's J12, true value 0 = its lower bound)
     and its step test then stops it with the objective still falling (2,996 DOFs, exact data:
     1.4e-14 after 32 evaluations, 8.8e-16 after one restart, largest parameter error 2.5e-5 ->
-    1.5e-5). Only with ``restart`` (the last stage of `PULLS`; the others are starts).
+    1.5e-5).
 
     Returns ``(sol, evaluations, stopped_on)``: the best point in the shape of a
     `least_squares` result, the evaluations counted from the polish's start, and what ended it.
@@ -405,16 +384,16 @@ def _full_model(configurations: list, x, known, contract, tols: dict, budget: in
     lo, hi = configurations[0].model.bounds()
     if known is None:
         x = inside(x, lo, hi)
-        known = (x, evaluate(configurations, contract, x, pull=pull))
+        known = (x, evaluate(configurations, contract, x))
         evaluations += 1
     monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
                        max_seconds, answers)
     stopped_on = "convergence"
     try:
-        sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor, pull=pull,
+        sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
                                 max_nfev=budget + 1, **tols)
-        while restart and sol.status in (2, 3, 4):
-            again = fit_least_squares(configurations, sol.x, contract, monitor=monitor, pull=pull,
+        while sol.status in (2, 3, 4):
+            again = fit_least_squares(configurations, sol.x, contract, monitor=monitor,
                                       max_nfev=budget + 1, **tols)
             if not again.cost < sol.cost:
                 break
