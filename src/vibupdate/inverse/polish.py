@@ -64,7 +64,7 @@ import numpy as np
 
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
-from vibupdate.inverse.admissible import Admissible, evaluate
+from vibupdate.inverse.admissible import PULL, Admissible, evaluate
 from vibupdate.inverse.data_map import data_map
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -84,6 +84,13 @@ ROUND_XTOL = 1e-10
 #: to 491 from a poor start, most of them crawling along one interval edge; the budget is a
 #: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
+#: Every least squares of the polish (full or reduced model) starts with this weight of the
+#: distance rows, ``1 / START_PULL``, to ``ftol`` `START_FTOL`, then goes on from there with
+#: `vibupdate.inverse.admissible.PULL` (penalty continuation): at an interval's end a datum's
+#: distance row switches on with slope ``1 / pull``, and with 0.01 from the start trust-region
+#: steps crawl along the ends that hold the answer.
+START_PULL = 0.1
+START_FTOL = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
@@ -223,12 +230,12 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
 
 
 def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Admissible, known=None,
-                      monitor=None, **options):
+                      monitor=None, pull: float = PULL, **options):
     """`bounded_least_squares` of the admissible-data residuals
-    (`vibupdate.inverse.admissible.evaluate`) from ``x0``, shape (n_x,), in the box of the
-    normalized parameters."""
+    (`vibupdate.inverse.admissible.evaluate`, with ``pull``) from ``x0``, shape (n_x,), in the
+    box of the normalized parameters."""
     lo, hi = configurations[0].model.bounds()
-    return bounded_least_squares(lambda x: evaluate(configurations, contract, x), x0, lo, hi,
+    return bounded_least_squares(lambda x: evaluate(configurations, contract, x, pull=pull), x0, lo, hi,
                                  known=known, monitor=monitor, **options)
 
 
@@ -272,9 +279,11 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
         reduced = [replace(cfg, model=ritz_reduction(cfg.model, kept_dofs(cfg), V)[0])
                    for cfg, V in zip(configurations, basis)]
         with threadpool_limits(limits=1, user_api="blas"):   # ~100-DOF dense solves: threads only contend
-            sol = fit_least_squares(reduced, x, contract, max_nfev=REDUCED_EVALUATIONS, **tols)
+            first = fit_least_squares(reduced, x, contract, pull=START_PULL, max_nfev=REDUCED_EVALUATIONS,
+                                      **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
+            sol = fit_least_squares(reduced, first.x, contract, max_nfev=REDUCED_EVALUATIONS, **tols)
         rounds += 1
-        reduced_evaluations += int(sol.nfev)
+        reduced_evaluations += int(first.nfev) + int(sol.nfev)
         x_new = inside(sol.x, lo, hi)
         if np.max(np.abs(x_new - x)) <= ROUND_XTOL:
             converged = f"the next step moves no parameter by more than {ROUND_XTOL:g} of its reference value"
@@ -356,7 +365,7 @@ def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: 
                 configurations, x0, contract, options, tols, budget, progress)
             known = (x, value)
         except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model least squares alone, from x0
-            x, evaluations = x0, 0
+            x, evaluations, known = x0, 0, None
             if progress is not None:
                 progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
     if converged or evaluations >= budget:
@@ -366,15 +375,15 @@ def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: 
         return (x, cost, evaluations, rounds, reduced, "evaluations",
                 f"stopped on the limit of {budget} evaluations of the full model in {rounds} reduced rounds "
                 f"(set polish.max_evaluations to allow more)")
-    sol, evaluations, stopped_on = _full_model(configurations, x, known, contract, tols, budget, evaluations,
+    sol, evaluations, stopped_on = _full_model(configurations, x, contract, tols, budget, evaluations,
                                                started, options.max_seconds, answers)
     return sol.x, float(sol.cost), evaluations, rounds, reduced, stopped_on, sol.message
 
 
-def _full_model(configurations: list, x, known, contract, tols: dict, budget: int, evaluations: int,
+def _full_model(configurations: list, x, contract, tols: dict, budget: int, evaluations: int,
                 started: float, max_seconds=None, answers=None):
-    """The full-model least squares from ``x`` (``known``: its residual and Jacobian when
-    evaluated) after ``evaluations`` of the ``budget``; restarted while scipy's step or cost
+    """The full-model least squares from ``x`` after ``evaluations`` of the ``budget``, its start
+    with `START_PULL` first; restarted while scipy's step or cost
     test stopped it and a restart still lowers the objective: trf's trust radius collapses on
     the way to a minimum on a bound (the refined frame's J12, true value 0 = its lower bound)
     and its step test then stops it with the objective still falling (2,996 DOFs, exact data:
@@ -385,10 +394,23 @@ def _full_model(configurations: list, x, known, contract, tols: dict, budget: in
     `least_squares` result, the evaluations counted from the polish's start, and what ended it.
     """
     lo, hi = configurations[0].model.bounds()
-    if known is None:
-        x = inside(x, lo, hi)
-        known = (x, evaluate(configurations, contract, x))
-        evaluations += 1
+    x = inside(x, lo, hi)
+    start = (x, evaluate(configurations, contract, x, pull=START_PULL))
+    monitor = Monitor(x, start[1], max(budget - evaluations - 1, 1), budget, stall_window(lo.size), started,
+                      max_seconds, answers)
+    try:   # the start (`START_PULL`), then the objective from its answer
+        first = fit_least_squares(configurations, x, contract, known=start, monitor=monitor, pull=START_PULL,
+                                  max_nfev=budget + 1, **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
+        x = first.x
+    except Stop as stop:
+        if stop.reason != "stall":   # a limit, or a known answer reached again
+            x_best = monitor.best[0]
+            return (_Converged(x_best, _cost(configurations, contract, x_best), -2, stop.args[0]),
+                    evaluations + 2 + monitor.count, stop.reason)
+        x = monitor.best[0]
+    evaluations += 1 + monitor.count
+    known = (x, evaluate(configurations, contract, x))
+    evaluations += 1
     monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
                        max_seconds, answers)
     stopped_on = "convergence"
