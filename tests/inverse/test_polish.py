@@ -67,7 +67,7 @@ def test_noisy_interval_shapes_converge_from_a_poor_start():
     """From a start with the shapes far outside their intervals (objective 1.5e6) the polish
     ends with every datum inside its admissible interval, at the same objective as from the
     nominal point (0.8623, the pull of frequencies and shape entries alike), below the
-    truth's (1.085): the weighted least-squares fit inside the intervals. Measured: 34
+    truth's (1.085): the weighted least-squares fit inside the intervals. Measured: 33
     evaluations (102 with a shape pull of 1e-3 and a soft start; the objective of ratio-box
     penalties took 37)."""
     from vibupdate.inverse.admissible import Admissible, evaluate, misses
@@ -179,7 +179,7 @@ def test_tight_intervals_end_inside_at_one_objective_from_both_starts():
     """1 % frequency noise held to 0.2 % intervals, no model-form tolerance: the admissible set
     is small, and at the answer several frequencies sit at their intervals' ends, held there by
     the distance rows against the pull. From the nominal point and from the poor start the
-    polish ends inside every admissible interval at the same objective (measured: 41 and 59
+    polish ends inside every admissible interval at the same objective (measured: 40 and 58
     evaluations, 6.656; without the start at `START_PULL` 247 and 254 evaluations, stalled at
     6.656 and 6.708)."""
     from vibupdate import VerifyOptions

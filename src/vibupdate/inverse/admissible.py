@@ -256,18 +256,22 @@ def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: 
 
 
 def evaluate(configurations: Sequence[Configuration], contract: Admissible, xbar, jacobian: bool = True,
-             basis: list | None = None, pull: float = PULL):
+             basis: list | None = None, pull: float = PULL, maps: list | None = None):
     """`residuals` at ``xbar`` from one data map per configuration; ``basis``, a list (with
     ``jacobian``), receives per configuration the vectors the evaluation computed
-    (`vibupdate.inverse.data_map.DataMap.vectors`): the basis of the polish's reduced rounds."""
+    (`vibupdate.inverse.data_map.DataMap.vectors`): the basis of the polish's reduced rounds;
+    ``maps``, a list, receives the data maps (`residuals` of them is the same point at another
+    ``pull``, with no eigen-solve)."""
     from vibupdate.inverse.data_map import data_map
 
     want = basis is not None and jacobian
-    maps = [data_map(c, xbar, jacobian=jacobian, shapes=bool(s or m), vectors=want)
-            for c, s, m in zip(configurations, contract.shapes, contract.masses)]
+    found = [data_map(c, xbar, jacobian=jacobian, shapes=bool(s or m), vectors=want)
+             for c, s, m in zip(configurations, contract.shapes, contract.masses)]
     if want:
-        basis.extend(np.hstack(m.vectors) for m in maps)
-    return residuals(contract, maps, jacobian, pull)
+        basis.extend(np.hstack(m.vectors) for m in found)
+    if maps is not None:
+        maps.extend(found)
+    return residuals(contract, found, jacobian, pull)
 
 
 def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull: float = PULL):

@@ -64,7 +64,7 @@ import numpy as np
 
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
-from vibupdate.inverse.admissible import PULL, Admissible, evaluate
+from vibupdate.inverse.admissible import PULL, Admissible, evaluate, residuals
 from vibupdate.inverse.data_map import data_map
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -230,13 +230,25 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
 
 
 def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Admissible, known=None,
-                      monitor=None, pull: float = PULL, **options):
+                      monitor=None, pull: float = PULL, memo: dict | None = None, **options):
     """`bounded_least_squares` of the admissible-data residuals
     (`vibupdate.inverse.admissible.evaluate`, with ``pull``) from ``x0``, shape (n_x,), in the
-    box of the normalized parameters."""
+    box of the normalized parameters; ``memo``, a dict, keeps the data maps of the last four
+    points evaluated (scipy's answer is among them: the next stage starts there at another
+    ``pull`` with no eigen-solve)."""
     lo, hi = configurations[0].model.bounds()
-    return bounded_least_squares(lambda x: evaluate(configurations, contract, x, pull=pull), x0, lo, hi,
-                                 known=known, monitor=monitor, **options)
+
+    def at(x):
+        if memo is None:
+            return evaluate(configurations, contract, x, pull=pull)
+        maps: list = []
+        value = evaluate(configurations, contract, x, pull=pull, maps=maps)
+        if len(memo) >= 4:
+            memo.pop(next(iter(memo)))
+        memo[np.asarray(x, dtype=float).tobytes()] = maps
+        return value
+
+    return bounded_least_squares(at, x0, lo, hi, known=known, monitor=monitor, **options)
 
 
 @dataclass(frozen=True)
@@ -398,9 +410,10 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     start = (x, evaluate(configurations, contract, x, pull=START_PULL))
     monitor = Monitor(x, start[1], max(budget - evaluations - 1, 1), budget, stall_window(lo.size), started,
                       max_seconds, answers)
+    memo: dict = {}
     try:   # the start (`START_PULL`), then the objective from its answer
         first = fit_least_squares(configurations, x, contract, known=start, monitor=monitor, pull=START_PULL,
-                                  max_nfev=budget + 1, **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
+                                  memo=memo, max_nfev=budget + 1, **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
         x = first.x
     except Stop as stop:
         if stop.reason != "stall":   # a limit, or a known answer reached again
@@ -409,8 +422,12 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
                     evaluations + 2 + monitor.count, stop.reason)
         x = monitor.best[0]
     evaluations += 1 + monitor.count
-    known = (x, evaluate(configurations, contract, x))
-    evaluations += 1
+    maps = memo.get(np.asarray(x, dtype=float).tobytes())
+    if maps is not None:   # the start's last evaluation was its answer: the same eigen-solve
+        known = (x, residuals(contract, maps, True, PULL))
+    else:
+        known = (x, evaluate(configurations, contract, x))
+        evaluations += 1
     monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
                        max_seconds, answers)
     stopped_on = "convergence"
