@@ -34,8 +34,8 @@ import scipy.sparse as sp
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, model_frequencies
 from vibupdate.inverse.repeated import paired_vector
-from vibupdate.modal.sensitivities import (frequency_derivatives, modal_mass_derivatives, readings,
-                                          shape_ratio_derivatives)
+from vibupdate.modal.readings import readings
+from vibupdate.modal.sensitivities import frequency_derivatives, modal_mass_derivatives, shape_ratio_derivatives
 
 
 @dataclass(frozen=True)

@@ -102,9 +102,6 @@ SOFT_START = 0.1
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
-__all__ = ["PolishOptions", "PolishResult", "polish", "polish_residuals", "fit_least_squares",
-           "bounded_least_squares"]
-
 
 @dataclass(frozen=True)
 class PolishOptions:

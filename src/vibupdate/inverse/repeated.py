@@ -25,8 +25,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["REPEATED_GAP", "cluster", "paired_vector", "paired_modes", "paired_modal_mass", "best_combination",
-           "combination_miss", "subspace_mac"]
 
 #: Largest relative difference of two model frequencies that are taken as one repeated frequency
 #: (`cluster`). Far below any measurement of a frequency, and far above the split that rounding

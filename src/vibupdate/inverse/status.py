@@ -8,8 +8,6 @@ from __future__ import annotations
 
 from enum import Enum
 
-__all__ = ["Status"]
-
 
 class Status(str, Enum):
     """Outcome of a solve or of the whole homotopy."""

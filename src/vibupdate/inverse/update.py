@@ -51,7 +51,6 @@ from vibupdate.inverse.verify import (Check, VerifyOptions, consistency_allowanc
                                      tolerance_weights, verify)
 from vibupdate.modal.analysis import DENSE_LIMIT
 
-__all__ = ["UpdateResult", "update", "prepare", "Prepared", "prepare_first_stage"]
 
 #: Tenfold widenings of the vector boxes at most, when the relaxation proves they exclude every fit.
 MAX_WIDENINGS = 2
@@ -447,7 +446,7 @@ PROBE_DOFS = DENSE_LIMIT
 #: costs hundreds of evaluations (the bundled 29-parameter frame: 36 s for four starts, its
 #: answer unchanged).
 PROBE_PARAMETERS = 12
-#: Random starts of the probe (`_probe`). On the acceptance engine's r204 (4 parameters, 4
+#: Random starts of the probe (`_probe`). On one acceptance problem (4 parameters, 4
 #: exact frequencies) 5 of 12 random starts found the exact fit, the others a point on a bound
 #: that misses the data by 3e-5; 2 starts found none of it.
 PROBE_RANDOM_STARTS = 6
@@ -576,7 +575,7 @@ def _refit_intervals(configurations, best: _Finish, finish, tried: list, polish:
     polish is rerun from the answer with the weight of every frequency outside its band
     multiplied by `REFIT_FACTOR`, at most `REFIT_ROUNDS` times, until every frequency is inside;
     that point is verified against the data as given. Returns the verified candidate, or
-    ``best``. (Acceptance run r358: one frequency 1.78 % off against a 1.66 % interval at the
+    ``best``. (One acceptance problem: one frequency 1.78 % off against a 1.66 % interval at the
     optimum; inside after one round.)"""
     t0 = time.perf_counter()
     weights = [(np.ones(len(c.natural)), np.ones(len(c.antiresonances))) for c in configurations]

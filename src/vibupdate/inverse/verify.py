@@ -31,7 +31,7 @@ against the data it was given:
     the exact point shapes of a free-free frame missed its 10-digit model by 2.9e-9, where
     double precision allowed 1.4e-11; taken over every mode, as at double precision, the
     allowance of the worst-conditioned mode (2.4e-6) let noisy frequencies with point shapes
-    verify, with a linearized range that missed the truth (explorer, nonaffine seed 21). A
+    verify, with a linearized range that missed the truth (a nonaffine problem of the explorer). A
     mode of a repeated frequency is checked as its eigenspace (`vibupdate.inverse.repeated`):
     the MAC and the ratios are those of the best combination of the modes that share the
     frequency, and the rounding allowance that of the eigenspace;
@@ -83,9 +83,6 @@ from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.inverse.repeated import cluster, combination_miss, paired_vector, subspace_mac
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration
 
-__all__ = ["Check", "VerifyOptions", "verify", "consistency_allowance", "rounding_allowance",
-           "mode_rounding_allowance", "tolerance_weights",
-           "tolerance_shape_weight", "fit_data", "ROUNDING_SAFETY"]
 
 #: Multiple of the estimated rounding floor of the shape ratios allowed outside an interval
 #: (module docstring): the estimate draws one rounding unit per entry with random signs, a

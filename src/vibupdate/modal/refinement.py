@@ -31,6 +31,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from vibupdate.modal.factor import sparse_lu
+from vibupdate.modal.readings import ratio_derivatives
 
 
 #: Whether ``numpy.longdouble`` carries more digits than ``double`` on this platform.
@@ -125,7 +126,7 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
         The mode (any scaling).
     entries : sequence of int, or sparse matrix, shape (n_e, n)
         DOF indices of the ratios' numerators, or their measurement map
-        (`vibupdate.modal.sensitivities.readings`).
+        (`vibupdate.modal.readings.readings`).
     reference : int or sparse matrix, shape (1, n)
         DOF index (or measurement map) of the denominator, where ``phi`` must not vanish.
     basis : ndarray, shape (n, k), optional
@@ -191,8 +192,6 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
         V[keep] = sla.solve(A.toarray(), B[keep], assume_a="sym")
     if U.shape[1] > 1:
         V = V - U @ np.linalg.solve(G, MU.T @ V)
-    from vibupdate.modal.sensitivities import ratio_derivatives
-
     D = ratio_derivatives(V, phi, entries, reference)
     if not D.size:
         return 0.0, 0.0

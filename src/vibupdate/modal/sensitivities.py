@@ -36,6 +36,7 @@ from vibupdate.modal import eigen
 from vibupdate.modal.eigen import _dense_modes
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
+from vibupdate.modal.readings import ratio_derivatives, readings
 from vibupdate.modal.zeros import adjunct, antiresonances, structural
 
 
@@ -129,26 +130,6 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
             _RATIO_SOLUTIONS.put(key, V, V.nbytes)
     D = ratio_derivatives(V, phi, entries, reference)
     return (D, V.copy()) if vectors else D
-
-
-def readings(X, where):
-    """The readings of ``X`` (a vector, shape (n,), or vectors, shape (n, k)) at ``where``: DOF
-    indices (an int or a sequence of them: ``X[where]``) or a measurement map (sparse, shape
-    (n_r, n): ``where @ X``, `vibupdate.model.AffineModel.measurement`). One entry point for the
-    code that reads model vectors at measured points, so a DOF index and a sensor's weights are
-    read alike."""
-    if sp.issparse(where):
-        return where @ X
-    return X[where] if isinstance(where, (int, np.integer)) else X[np.asarray(where, dtype=int)]
-
-
-def ratio_derivatives(V, phi, entries, reference) -> np.ndarray:
-    """The derivatives ``(V_e * phi_p - phi_e V_p) / phi_p^2``, shape (n_e, n_x), of the
-    ratios of the readings ``e`` of ``phi`` to its reading ``p``, from solutions ``V`` (n, n_x)
-    of the module docstring (any multiple of ``phi`` in them cancels). ``entries`` and
-    ``reference`` are DOF indices or measurement maps (`readings`)."""
-    ref = readings(phi, reference)
-    return (readings(V, entries) * ref - np.outer(readings(phi, entries), readings(V, reference))) / ref**2
 
 
 def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarray]:
