@@ -19,6 +19,7 @@ from vibupdate.cli import main
 #: (``module:function`` or ``module:Class.method``) first returns.
 CHILD = r"""
 import functools, importlib, os, signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)   # as at a terminal, even when started in the background
 target, argv = sys.argv[1], sys.argv[2:]
 module, _, name = target.partition(":")
 owner_name, _, attribute = name.rpartition(".")
