@@ -39,6 +39,7 @@ def impact():
     return [impact_measured(seed, decay=0.02, repeats=1, noise=0.02)[0] for seed in range(3)]
 
 
+@pytest.mark.slow
 def test_exponential_window_is_modelled_and_the_damping_ratios_are_the_structures(impact):
     """Known truth in the time domain (response windowed, FFT, over the force's): modelled, the
     damping ratios are within their intervals (measured on 20 seeds: coverage 0.98, errors
@@ -64,6 +65,7 @@ def test_exponential_window_is_modelled_and_the_damping_ratios_are_the_structure
     assert sum(hits) >= 8, hits   # 95 % intervals: one miss in nine is expected now and then (seed 2, mode 2)
 
 
+@pytest.mark.slow
 def test_force_window_is_declared_and_not_modelled(impact):
     plain = extract(impact[0], band=BAND, n_modes=3)
     force = extract(impact[0], band=BAND, n_modes=3, window="force")

@@ -81,6 +81,7 @@ def test_polish_by_reduced_rounds_reaches_the_truth_with_fewer_full_evaluations(
         assert np.abs(m.physical(result.xbar) / m.physical(truth) - 1).max() < 1e-8
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 5])
 def test_polish_rounds_on_noisy_data_end_no_higher_than_the_full_model_polish(seed):
     """Noisy data (frequencies 0.1 %, shape entries 2 % with +-1 % intervals: a nonzero

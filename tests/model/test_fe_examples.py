@@ -25,6 +25,7 @@ def _needs(name):
         pytest.importorskip("opensees")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(fe.CODES))
 def test_the_worked_example_updates_to_the_truth_through_import_and_run(name, tmp_path, capsys):
     _needs(name)

@@ -130,6 +130,7 @@ def test_every_route_imports_the_same_model_as_the_free_field_dmig(small, tmp_pa
         assert fe_writers.relative_difference(a, b) <= tol
 
 
+@pytest.mark.slow
 def test_import_then_run_recovers_the_truth_from_exact_data(small, tmp_path, capsys):
     spec = fe_cases.write_export_set("nastran", tmp_path / "exports", small,
                                      sensors='[[sensor]]\nname = "roof"\ndof = "2001:x"\n')

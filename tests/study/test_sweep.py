@@ -417,6 +417,7 @@ def certified_run(client, chain_file, tmp_path_factory):
     return case, run, read_rows(out / "samples.csv")[1], (out / "report.md").read_text()
 
 
+@pytest.mark.slow
 def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(certified_run):
     """Exact data (the answer is the truth): the sampled range holds the run's answer, and every
     sampled answer that lies in the consistent set S (certify's own membership test) lies in
@@ -440,6 +441,7 @@ def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(
     assert "Certified outer range:" in report and "Sampled range: 10 data sets" in report
 
 
+@pytest.mark.slow
 def test_certified_range_contains_every_sampled_answer(certified_run):
     _, run, rows, _ = certified_run
     cert = run.identifiability["certified"]["ranges"]
@@ -448,6 +450,7 @@ def test_certified_range_contains_every_sampled_answer(certified_run):
         assert cert[p.name]["lower"] <= min(values) and max(values) <= cert[p.name]["upper"], (p.name, values)
 
 
+@pytest.mark.slow
 def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run):
     """The certification ran after the sweep and widened S for the answer, every verified
     sampled answer and every line end; results.json, the report and the definition say so."""
