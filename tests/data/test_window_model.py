@@ -75,6 +75,7 @@ def test_window_errors_name_the_value():
     assert window_for("none", x) is None and window_for(None, x) is None
 
 
+@pytest.mark.slow
 def test_extraction_models_the_hann_window_of_the_estimate():
     """Known truth through a Hann-windowed H1 (one record, 32 s): the plain fit reads the
     damping ratios high (measured +55, +13, +5 %) and misses the peaks (quality 1.7-2.3); with

@@ -60,6 +60,7 @@ def two_groups(monkeypatch):
     clear()
 
 
+@pytest.mark.slow
 def test_a_reduced_first_stage_does_not_call_exact_data_inconsistent(two_groups):
     """A 2,880-DOF building (20 storeys x 4 bays, 6 parameters, 6 exact frequencies, point
     shapes) is solved on its Craig-Bampton reduction, whose frequencies differ from the full
@@ -82,6 +83,7 @@ def test_a_reduced_first_stage_does_not_call_exact_data_inconsistent(two_groups)
     assert len(result.attempts) == 1   # no widening of the boxes
 
 
+@pytest.mark.slow
 def test_a_run_above_2000_dofs_reports_what_the_data_determine(tmp_path):
     """The linearized ranges were computed up to 2,000 DOFs only: a 2,940-DOF building whose
     noisy +-1 % interval shapes allow every parameter 30 % off its truth ended "success" with

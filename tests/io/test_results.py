@@ -162,6 +162,7 @@ def _replaced(doc, path, new):
 _DELETE = object()
 
 
+@pytest.mark.slow
 def test_the_schema_checker_agrees_with_jsonschema_on_valid_and_broken_documents(tiny_run):
     """`vibupdate.io.schema_check` (no schema library at run time) against the reference
     implementation: every place of a written document replaced by a string, a negative

@@ -60,6 +60,7 @@ def _one_line(done) -> str:
 SWEPT = TINY_CASE.replace('case = "tiny"', 'case = "tiny"\nfrequency_tolerance = 0.01')
 
 
+@pytest.mark.slow
 def test_ctrl_c_in_a_sweep_says_which_rows_it_kept_and_a_rerun_needs_no_cleanup(tmp_path):
     write_case(tmp_path, SWEPT)
     sweep = ["sweep", "case.toml", "--samples", "4", "--workers", "2", "--out", "sw", "--no-walk"]

@@ -361,6 +361,7 @@ def _example_check(case, result, passes, inner, tolerance, splits=0):
     return r
 
 
+@pytest.mark.slow
 def test_cantilever_certified_range_contains_the_answer_and_nearby_points_of_s(cantilever_answer):
     case, result = cantilever_answer
     r = _example_check(case, result, passes=1, inner=False, tolerance=0.02)

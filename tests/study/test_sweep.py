@@ -271,6 +271,7 @@ def _free_port():
         return s.getsockname()[1]
 
 
+@pytest.mark.slow
 def test_sweep_through_a_real_scheduler_and_worker(chain_file, tmp_path, capsys):
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
