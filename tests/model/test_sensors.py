@@ -129,12 +129,16 @@ def test_the_box_on_dofs_is_the_intervals_of_plain_dofs_and_holds_the_dofs_four_
     assert hi[1] - lo[1] == pytest.approx(2 * 0.01 * 2 / L) and hi[2] - lo[2] == pytest.approx(0.02)
 
 
-def test_shape_ratios_at_sensors_and_their_exact_jacobian():
+def _exact_at_truth():
+    """The frame's exact data at every sensor, and the truth's ``xbar``."""
     model = _frame_model()
-    sensors = list(bf.sensor_weights())
     values = {g: TRUTH.get(g, 1.0) for g in GROUPS}
-    cfg = _exact_configuration(model, values, sensors)
-    x = model.normalized([values[g] for g in GROUPS])
+    cfg = _exact_configuration(model, values, list(bf.sensor_weights()))
+    return cfg, model.normalized([values[g] for g in GROUPS])
+
+
+def test_shape_ratios_at_sensors_and_their_exact_jacobian():
+    cfg, x = _exact_at_truth()
     dm = data_map(cfg, x)
     # exact data: every ratio of every sensor, the dependent fourth of each floor among them
     for s, ratios in zip(dm.shapes, dm.ratios):
@@ -153,23 +157,19 @@ def test_shape_ratios_at_sensors_and_their_exact_jacobian():
 def test_a_dependent_sensor_is_data_its_value_moves_the_residual():
     # the fourth sensor of floor 2 is a combination of the other three's DOFs: a wrong value
     # there (and nowhere else) shows in the data map's residual, at its own entry
-    model = _frame_model()
-    sensors = list(bf.sensor_weights())
-    values = {g: TRUTH.get(g, 1.0) for g in GROUPS}
-    cfg = _exact_configuration(model, values, sensors)
-    x = model.normalized([values[g] for g in GROUPS])
+    cfg, x = _exact_at_truth()
     f = cfg.natural[0]
     bounds = dict(f.shape.bounds)
     moved = bounds["f2ye"][0] * 1.1
     bounds["f2ye"] = (moved, moved)
-    wrong = Configuration("test", model, (NaturalFrequency(f.omega, mode=1, shape=ShapeInterval(bounds)),
+    wrong = Configuration("test", cfg.model, (NaturalFrequency(f.omega, mode=1, shape=ShapeInterval(bounds)),
                                           *cfg.natural[1:]))
     good = data_map(cfg, x, jacobian=False)
     bad = data_map(wrong, x, jacobian=False)
     res_good = good.ratios[0] - good.shapes[0].midpoint
     res_bad = bad.ratios[0] - bad.shapes[0].midpoint
     assert np.max(np.abs(res_good)) <= 1e-10
-    names = [n for n in sensors if n != f.shape.reference]
+    names = [n for n in bf.sensor_weights() if n != f.shape.reference]
     off = np.flatnonzero(np.abs(res_bad) > 1e-8)
     assert [names[k] for k in off] == ["f2ye"]
 
