@@ -38,7 +38,8 @@ def _higher_modes_case(path):
     text += ("[[configuration]]\nname = \"A\"\n"
              f"natural_hz = [{', '.join(repr(float(hz[m - 1])) for m in MODES)}]\n"
              f"natural_modes = {list(MODES)}\ndamping_ratios = {list(DAMPING)}\n"
-             f"antiresonances = [{{ hz = {float(zero / (2 * np.pi))!r}, response = \"y1\", excitation = \"y3\", index = 1 }}]\n")
+             f"antiresonances = [{{ hz = {float(zero / (2 * np.pi))!r}, response = \"y1\", excitation = \"y3\", "
+             "index = 1 }]\n")
     path.write_text(text, encoding="utf-8")
     return path
 
@@ -120,7 +121,7 @@ def _data_rows(rows):
     return [{k: v for k, v in r.items() if k not in RUN_COLUMNS} for r in sorted(rows, key=lambda r: r["index"])]
 
 
-def test_a_sweep_with_positional_columns_resumes_under_the_data_s_names(client, case_file, sweep, tmp_path, capsys):
+def test_a_sweep_with_positional_columns_resumes_under_the_data_s_names(client, case_file, sweep, tmp_path):
     old = tmp_path / "old"
     header = _positional_copy(sweep, old, keep=2)
     assert "pred:A:f1_hz" in (old / "samples.csv").read_text().splitlines()[0]
@@ -144,3 +145,22 @@ def test_a_samples_file_of_other_columns_is_refused_naming_it(case_file, sweep, 
     assert str(other / "samples.csv") in err and "'data:A:mode9_hz'" in err and "'data:A:mode3_hz'" in err
     assert "run the sweep again with another --out" in err and "Traceback" not in err
     assert (other / "samples.csv").read_text(encoding="utf-8") == text.replace("data:A:mode3_hz", "data:A:mode9_hz", 1)
+
+
+def test_data_whose_columns_would_read_alike_are_refused_before_any_work():
+    """A column joins response and excitation with '/'; DOF names that hold '/' could make two
+    receptances' zeros one column, and one of them would be lost from samples.csv."""
+    import scipy.sparse as sp
+
+    from vibupdate import Configuration, NaturalFrequency, Parameter
+    from vibupdate.data.measured import Antiresonance
+    from vibupdate.model.build import from_files
+
+    K = sp.csr_matrix(np.array([[2.0, -1, 0, 0], [-1, 2, -1, 0], [0, -1, 2, -1], [0, 0, -1, 1]]) * 1000)
+    model = from_files(sp.identity(4, format="csr"), K, [Parameter("k", 1.0, 0.5, 1.5)], dK={"k": K},
+                       dofs=["a/b", "c", "a", "b/c"])
+    zeros = (Antiresonance(2 * np.pi * 3.1, "a/b", "c", index=1), Antiresonance(2 * np.pi * 3.3, "a", "b/c", index=1))
+    cfg = Configuration("A", model, (NaturalFrequency(2 * np.pi * 1.4),), zeros)
+    with pytest.raises(ValueError, match=r"zero 1 of h_a/b,c and zero 1 of h_a,b/c of configuration 'A' would "
+                                         r"share the column 'A:zero1_h_a/b/c_hz'"):
+        data_intervals((cfg,), 0.01)

@@ -149,7 +149,8 @@ def data_intervals(configurations: Sequence[Configuration], frequency_tolerance:
     """Every sampled scalar datum with its interval, per configuration: the natural
     frequencies, the antiresonances, then the damping ratios (the columns of ``samples.csv``
     in their order). Raises ValueError naming a frequency that has neither an interval nor a
-    tolerance.
+    tolerance, or two data whose columns read alike (DOF names holding ``/``: ``h_a/b,c`` and
+    ``h_a,b/c`` both give ``zero1_h_a/b/c_hz``).
     """
     options = options or SamplingOptions()
     tol = frequency_tolerance if options.frequency_tolerance is None else options.frequency_tolerance
@@ -171,6 +172,12 @@ def data_intervals(configurations: Sequence[Configuration], frequency_tolerance:
                 lo, hi = _damping_interval(f, options)
                 rows.append(SampledDatum(mode_column(cfg.name, f.mode, "xi"), f.damping_ratio, lo, hi, "damping",
                                          cfg.name, mode_name(f.mode, k)))
+    seen: dict[str, SampledDatum] = {}
+    for d in rows:
+        if d.label in seen:
+            raise ValueError(f"{seen[d.label].name} and {d.name} of configuration {d.configuration!r} would share "
+                             f"the column {d.label!r} of samples.csv: rename a DOF so that no name holds '/'")
+        seen[d.label] = d
     return rows
 
 

@@ -61,7 +61,7 @@ from vibupdate.study.sweep_files import (
     write_multistart,
     write_summary,
 )
-from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
+from vibupdate.study.sweep_rows import RowWriter, read_rows, resumed_rows, write_sorted
 from vibupdate.study.sweep_summary import SweepSummary, summarize
 
 
@@ -349,7 +349,9 @@ def _sweep(loaded: Case, source, digest, out: Path, settings, samples, seed, sam
     rows: list[dict] = []
     ends: list[dict] = []
     if resume and (out / SAMPLES_FILE).exists():
-        rows = _resumed_rows(out / SAMPLES_FILE, fields, loaded, say)
+        earlier = {f"{side}:{old}": f"{side}:{new}" for old, new in positional_labels(loaded.configurations).items()
+                   for side in ("pred", "data")}
+        rows = resumed_rows(out / SAMPLES_FILE, fields, earlier, say)
         rows = [r for r in rows if isinstance(r["index"], int) and r["index"] < samples]
     done = {r["index"] for r in rows}
     if resume and (out / ENDS_FILE).exists():
@@ -394,29 +396,6 @@ def _sweep(loaded: Case, source, digest, out: Path, settings, samples, seed, sam
     say(f"{document['verified']} verified, {document['unverified']} unverified, {document['failed']} failed "
         f"of {document['samples']} samples; wrote {out}/")
     return SweepSummary(document, out)
-
-
-def _resumed_rows(path: Path, fields: list[str], case: Case, say) -> list[dict]:
-    """The rows of the ``samples.csv`` a sweep resumes. A file of an earlier version, whose
-    data columns are named by position (``A:f1_hz``, `vibupdate.study.sampling.positional_labels`),
-    is rewritten at once under today's header (``A:mode3_hz``), its values unchanged. Raises
-    ValueError naming the file and the first differing column when the header is neither."""
-    header, rows = read_rows(path)
-    if not header or header == fields:
-        return rows
-    renamed = {f"{side}:{old}": f"{side}:{new}" for old, new in positional_labels(case.configurations).items()
-               for side in ("pred", "data")}
-    if [renamed.get(c, c) for c in header] != fields:
-        k = next((i for i, (a, b) in enumerate(zip(header, fields)) if a != b), min(len(header), len(fields)))
-        got, expected = (header[k] if k < len(header) else "(none)"), (fields[k] if k < len(fields) else "(none)")
-        raise ValueError(f"cannot resume from {str(path)!r}: its column {k + 1} is {got!r}, this case gives "
-                         f"{expected!r} ({len(header)} columns, this case {len(fields)}); resume with the version "
-                         "that wrote it, or run the sweep again with another --out")
-    rows = [{renamed.get(k, k): v for k, v in r.items()} for r in rows]
-    write_sorted(path, fields, rows)
-    say(f"{path.name}: columns named by position (an earlier version's) renamed to the data's names: "
-        + ", ".join(f"{a} -> {renamed[a]}" for a in header if a in renamed and a.startswith("data:")))
-    return rows
 
 
 def _run_tasks(c, payload, todo, seed, sampling, digest, retries, writers, progress) -> tuple[list[dict], list[dict]]:
