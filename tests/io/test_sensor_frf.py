@@ -1,0 +1,145 @@
+"""FRFs measured at a sensor (a combination of DOFs) through the case file's FRF route: the
+shapes the modal fit gives at the sensor are data like the DOFs' shapes, the natural frequencies
+as usual, and the antiresonances of an FRF whose response or excitation is a sensor are left
+out with a note naming the FRF. A three-mass chain, its FRFs computed exactly; the known truth
+and the dense reference of the sensor's zeros (the bordered pencil) written here."""
+
+import json
+
+import numpy as np
+import pytest
+import scipy.io
+import scipy.linalg
+import scipy.sparse as sp
+
+from vibupdate.cli import main
+from vibupdate.io.case import load_case
+
+MASS = np.array([2.0, 1.5, 1.0])            # kg
+SPRING = np.array([4e4, 3e4, 2e4])          # N/m, nominal; k1 ties x1 to the ground
+TRUTH = {"k1": 0.9, "k2": 1.1, "k3": 0.95}  # factors on the nominal springs
+SENSOR = {"x1": 1.0, "x2": 0.5}             # the sensor s12 reads x1 + 0.5 x2
+DOFS = ["x1", "x2", "x3"]
+
+
+def _spring(i: int) -> np.ndarray:
+    K = np.zeros((3, 3))
+    K[i, i] = 1.0
+    if i > 0:
+        K[i - 1, i - 1] = 1.0
+        K[i, i - 1] = K[i - 1, i] = -1.0
+    return SPRING[i] * K
+
+
+def _truth():
+    return np.diag(MASS), sum(TRUTH[f"k{i + 1}"] * _spring(i) for i in range(3))
+
+
+def bordered_zeros_hz(w, c) -> np.ndarray:
+    """The dense reference: the zeros of ``w^T H(s) c`` (response weights ``w``, excitation
+    weights ``c``) are the finite eigenvalues of the bordered pencil
+    ``([[K, c], [w^T, 0]], [[M, 0], [0, 0]])``; Hz, ascending."""
+    M, K = _truth()
+    A, B = np.zeros((4, 4)), np.zeros((4, 4))
+    A[:3, :3], A[:3, 3], A[3, :3], B[:3, :3] = K, c, w, M
+    ev = scipy.linalg.eigvals(A, B)
+    ev = ev[np.isfinite(ev)]
+    return np.sort(np.sqrt(ev.real[ev.real > 0])) / (2 * np.pi)
+
+
+def _weights(name: str) -> np.ndarray:
+    return np.array([SENSOR.get(d, 0.0) for d in DOFS]) if name == "s12" else np.eye(3)[DOFS.index(name)]
+
+
+def write_case(folder, sensor_is="response") -> str:
+    """Matrices of the chain (nominal springs, one dK per spring), the exact receptances of the
+    truth (damping 0.5 M + 2e-5 K) in one table file, and the case reading them. ``sensor_is``
+    ``"response"``: columns s12, x2, x3 excited at x1; ``"excitation"``: columns x1, x2, x3
+    excited at s12 (a force spread with the sensor's weights)."""
+    scipy.io.mmwrite(str(folder / "M0.mtx"), sp.coo_matrix(np.diag(MASS)))
+    scipy.io.mmwrite(str(folder / "K0.mtx"), sp.coo_matrix(sum(_spring(i) for i in range(3))))
+    for i in range(3):
+        scipy.io.mmwrite(str(folder / f"dK{i + 1}.mtx"), sp.coo_matrix(_spring(i)))
+    M, K = _truth()
+    C = 0.5 * M + 2e-5 * K
+    f_hz = np.arange(2.0, 120.0, 0.05)
+    w = 2 * np.pi * f_hz
+    H = np.linalg.inv(K[None] - w[:, None, None] ** 2 * M[None] + 1j * w[:, None, None] * C[None])
+    weights = np.array([SENSOR.get(d, 0.0) for d in DOFS])
+    if sensor_is == "response":
+        responses, excitation = ["s12", "x2", "x3"], "x1"
+        columns = [H[:, :, 0] @ weights, H[:, 1, 0], H[:, 2, 0]]
+    else:
+        responses, excitation = ["x1", "x2", "x3"], "s12"
+        columns = [H[:, i, :] @ weights for i in range(3)]
+    np.savez(folder / "hits.npz", freq_hz=f_hz, H=np.array(columns).T)
+    params = "".join(f'[[parameter]]\nname = "{name}"\nnominal = 1.0\nlower = 0.5\nupper = 1.5\n' for name in TRUTH)
+    sensor = ", ".join(f"{d} = {v!r}" for d, v in SENSOR.items())
+    path = folder / "case.toml"
+    path.write_text(f"""case = "sensor-frf"
+[model]
+type = "matrices"
+M0 = "M0.mtx"
+K0 = "K0.mtx"
+dofs = ["x1", "x2", "x3"]
+[model.dK]
+k1 = "dK1.mtx"
+k2 = "dK2.mtx"
+k3 = "dK3.mtx"
+{params}
+[[sensor]]
+name = "s12"
+dofs = {{ {sensor} }}
+
+[[configuration]]
+name = "test"
+[configuration.frf]
+files = ["hits.npz"]
+responses = {json.dumps(responses)}
+excitations = ["{excitation}"]
+band_hz = [3.0, 60.0]
+""")
+    return str(path)
+
+
+@pytest.mark.parametrize("sensor_is", ["response", "excitation"])
+def test_an_frf_at_a_sensor_gives_its_shapes_and_frequencies_and_its_zeros_are_left_out_with_a_note(tmp_path,
+                                                                                                     sensor_is):
+    case = load_case(write_case(tmp_path, sensor_is))
+    cfg = case.configurations[0]
+    M, K = _truth()
+    np.testing.assert_allclose([f.freq_hz for f in cfg.natural],
+                               np.sqrt(scipy.linalg.eigvalsh(K, M)) / (2 * np.pi), rtol=1e-6)
+    measured = {"response": ["s12", "x2", "x3"], "excitation": ["x1", "x2", "x3"]}[sensor_is]
+    assert all(sorted(f.shape.bounds) == sorted(measured) for f in cfg.natural)
+    # only the zeros between DOFs are data: h_x2,x1 (h_x3,x1 of the chain has none)
+    assert all("s12" not in a.receptance for a in cfg.antiresonances)
+    notes = [n for n in case.frf_notes["test"] if "are not used" in n]
+    # one note per FRF at the sensor with zeros between the fitted poles (the extraction keeps
+    # those), naming them: the zeros of the dense reference, to the note's 6 digits
+    poles = [f.freq_hz for f in cfg.natural]
+    expected = {}
+    for r in measured:
+        pair = (r, "x1") if sensor_is == "response" else (r, "s12")
+        z = bordered_zeros_hz(_weights(pair[0]), _weights(pair[1]))
+        z = z[(z > poles[0]) & (z < poles[-1])]
+        if "s12" in pair and z.size:
+            expected[f"h_{pair[0]},{pair[1]}"] = z
+    assert len(notes) == len(expected) == {"response": 1, "excitation": 2}[sensor_is], notes
+    for label, z in expected.items():
+        note = next(n for n in notes if n.startswith(f"the antiresonances of {label} ({z.size}, at "))
+        assert f"its {sensor_is} 's12' is a sensor" in note
+        stated = [float(v) for v in note.split(" at ")[1].split(" Hz")[0].split(", ")]
+        np.testing.assert_allclose(stated, z, rtol=2e-5)
+
+def test_the_run_recovers_the_truth_from_frfs_at_a_sensor_and_lists_the_sensor(tmp_path, capsys):
+    code = main(["run", write_case(tmp_path), "--out", str(tmp_path / "out")])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    updated = {p["name"]: p["updated"] for p in doc["parameters"]}
+    assert max(abs(updated[k] - TRUTH[k]) for k in TRUTH) <= 1e-6, updated
+    assert any("the antiresonances of h_s12,x1 (2, at" in w for w in doc["warnings"])
+    assert "the antiresonances of h_s12,x1" in out + err
+    assert doc["mac_matrix"]["test"]["dofs"] == ["x2", "x3", "s12"]   # the sensor's shape entries are data
+    assert min(doc["mac"]["test"]) >= 1 - 1e-9
