@@ -51,11 +51,16 @@ def _weights(name: str) -> np.ndarray:
     return np.array([SENSOR.get(d, 0.0) for d in DOFS]) if name == "s12" else np.eye(3)[DOFS.index(name)]
 
 
+#: Where the sensor is: response and excitation names of the FRFs (one excitation, three responses).
+VARIANTS = {"response": (["s12", "x2", "x3"], "x1"), "excitation": (["x1", "x2", "x3"], "s12"),
+            "driving point": (["s12", "x2", "x3"], "s12")}
+
+
 def write_case(folder, sensor_is="response") -> str:
     """Matrices of the chain (nominal springs, one dK per spring), the exact receptances of the
-    truth (damping 0.5 M + 2e-5 K) in one table file, and the case reading them. ``sensor_is``
-    ``"response"``: columns s12, x2, x3 excited at x1; ``"excitation"``: columns x1, x2, x3
-    excited at s12 (a force spread with the sensor's weights)."""
+    truth (damping 0.5 M + 2e-5 K) in one table file, and the case reading them; the sensor at
+    the place `VARIANTS` names (as excitation: a force spread with the sensor's weights). The
+    driving point at the sensor gives mass-normalized shapes."""
     scipy.io.mmwrite(str(folder / "M0.mtx"), sp.coo_matrix(np.diag(MASS)))
     scipy.io.mmwrite(str(folder / "K0.mtx"), sp.coo_matrix(sum(_spring(i) for i in range(3))))
     for i in range(3):
@@ -65,13 +70,8 @@ def write_case(folder, sensor_is="response") -> str:
     f_hz = np.arange(2.0, 120.0, 0.05)
     w = 2 * np.pi * f_hz
     H = np.linalg.inv(K[None] - w[:, None, None] ** 2 * M[None] + 1j * w[:, None, None] * C[None])
-    weights = np.array([SENSOR.get(d, 0.0) for d in DOFS])
-    if sensor_is == "response":
-        responses, excitation = ["s12", "x2", "x3"], "x1"
-        columns = [H[:, :, 0] @ weights, H[:, 1, 0], H[:, 2, 0]]
-    else:
-        responses, excitation = ["x1", "x2", "x3"], "s12"
-        columns = [H[:, i, :] @ weights for i in range(3)]
+    responses, excitation = VARIANTS[sensor_is]
+    columns = [np.einsum("i,fij,j->f", _weights(r), H, _weights(excitation)) for r in responses]
     np.savez(folder / "hits.npz", freq_hz=f_hz, H=np.array(columns).T)
     params = "".join(f'[[parameter]]\nname = "{name}"\nnominal = 1.0\nlower = 0.5\nupper = 1.5\n' for name in TRUTH)
     sensor = ", ".join(f"{d} = {v!r}" for d, v in SENSOR.items())
@@ -93,6 +93,7 @@ dofs = {{ {sensor} }}
 
 [[configuration]]
 name = "test"
+mass_normalized_shapes = {str(sensor_is == "driving point").lower()}
 [configuration.frf]
 files = ["hits.npz"]
 responses = {json.dumps(responses)}
@@ -102,35 +103,42 @@ band_hz = [3.0, 60.0]
     return str(path)
 
 
-@pytest.mark.parametrize("sensor_is", ["response", "excitation"])
+@pytest.mark.parametrize("sensor_is", list(VARIANTS))
 def test_an_frf_at_a_sensor_gives_its_shapes_and_frequencies_and_its_zeros_are_left_out_with_a_note(tmp_path,
                                                                                                      sensor_is):
     case = load_case(write_case(tmp_path, sensor_is))
     cfg = case.configurations[0]
     M, K = _truth()
-    np.testing.assert_allclose([f.freq_hz for f in cfg.natural],
-                               np.sqrt(scipy.linalg.eigvalsh(K, M)) / (2 * np.pi), rtol=1e-6)
-    measured = {"response": ["s12", "x2", "x3"], "excitation": ["x1", "x2", "x3"]}[sensor_is]
-    assert all(sorted(f.shape.bounds) == sorted(measured) for f in cfg.natural)
-    # only the zeros between DOFs are data: h_x2,x1 (h_x3,x1 of the chain has none)
+    omega2, Phi = scipy.linalg.eigh(K, M)
+    np.testing.assert_allclose([f.freq_hz for f in cfg.natural], np.sqrt(omega2) / (2 * np.pi), rtol=1e-6)
+    responses, excitation = VARIANTS[sensor_is]
+    assert all(sorted(f.shape.bounds) == sorted(responses) for f in cfg.natural)
+    if sensor_is == "driving point":   # mass-normalized through the driving point at the sensor
+        S = cfg.model.measurement(responses)
+        for f, phi in zip(cfg.natural, Phi.T):
+            mid = np.array([f.shape.midpoint[r] for r in responses])
+            np.testing.assert_allclose(np.abs(mid), np.abs(S @ phi), rtol=1e-4)
+    # only the zeros between DOFs are data (h_x2,x1 of the sensor as response)
     assert all("s12" not in a.receptance for a in cfg.antiresonances)
+    assert [a.receptance for a in cfg.antiresonances] == ([("x2", "x1")] if sensor_is == "response" else [])
     notes = [n for n in case.frf_notes["test"] if "are not used" in n]
     # one note per FRF at the sensor with zeros between the fitted poles (the extraction keeps
     # those), naming them: the zeros of the dense reference, to the note's 6 digits
     poles = [f.freq_hz for f in cfg.natural]
     expected = {}
-    for r in measured:
-        pair = (r, "x1") if sensor_is == "response" else (r, "s12")
-        z = bordered_zeros_hz(_weights(pair[0]), _weights(pair[1]))
+    for r in responses:
+        z = bordered_zeros_hz(_weights(r), _weights(excitation))
         z = z[(z > poles[0]) & (z < poles[-1])]
-        if "s12" in pair and z.size:
-            expected[f"h_{pair[0]},{pair[1]}"] = z
-    assert len(notes) == len(expected) == {"response": 1, "excitation": 2}[sensor_is], notes
+        if "s12" in (r, excitation) and z.size:
+            expected[f"h_{r},{excitation}"] = z
+    assert len(notes) == len(expected) == {"response": 1, "excitation": 2, "driving point": 2}[sensor_is], notes
     for label, z in expected.items():
         note = next(n for n in notes if n.startswith(f"the antiresonances of {label} ({z.size}, at "))
-        assert f"its {sensor_is} 's12' is a sensor" in note
+        assert ("its response and its excitation are the sensor 's12'" if label == "h_s12,s12" else
+                f"its {'response' if label.startswith('h_s12') else 'excitation'} 's12' is a sensor") in note
         stated = [float(v) for v in note.split(" at ")[1].split(" Hz")[0].split(", ")]
         np.testing.assert_allclose(stated, z, rtol=2e-5)
+
 
 def test_the_run_recovers_the_truth_from_frfs_at_a_sensor_and_lists_the_sensor(tmp_path, capsys):
     code = main(["run", write_case(tmp_path), "--out", str(tmp_path / "out")])

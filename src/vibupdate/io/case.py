@@ -122,11 +122,15 @@ def _zeros_between_dofs(zeros: list[dict], model) -> tuple[list[dict], tuple[str
             kept.append(z)
     notes = []
     for (r, c), hz in dropped.items():
-        which = " and ".join(f"{role} {name!r}" for role, name in (("response", r), ("excitation", c))
-                             if sensor(name))
+        if sensor(r) and sensor(c):
+            which = (f"response and its excitation are the sensor {r!r} (a combination of DOFs)" if r == c else
+                     f"response {r!r} and its excitation {c!r} are sensors (combinations of DOFs)")
+        else:
+            which = f"{'response' if sensor(r) else 'excitation'} {r if sensor(r) else c!r} is a sensor (a " \
+                    "combination of DOFs)"
         notes.append(f"the antiresonances of h_{r},{c} ({len(hz)}, at {', '.join(f'{h:.6g}' for h in hz)} Hz) "
-                     f"are not used: its {which} is a sensor (a combination of DOFs), and antiresonances are "
-                     "fitted between DOFs of the model only; its natural frequencies and shapes are used")
+                     f"are not used: its {which}, and antiresonances are fitted between DOFs of the model only; "
+                     "its natural frequencies and shapes are used")
     return kept, tuple(notes)
 
 
