@@ -158,3 +158,26 @@ def test_the_run_recovers_the_truth_from_frfs_at_a_sensor_and_lists_the_sensor(t
     assert load_results(tmp_path / "out" / "results.json").declared_sensors == ({"sensor": "s12", "weights": SENSOR},)
     report = (tmp_path / "out" / "report.md").read_text()
     assert "## Sensors" in report and "| s12 | 1 x1 + 0.5 x2 |" in report
+
+
+def test_a_uff_channel_mapped_to_a_sensor_is_data_at_the_sensor(tmp_path):
+    """A UFF file names nodes and directions: ``map = { y9 = "s12" }`` makes its channel the
+    sensor's, as a table file's ``responses`` does."""
+    pytest.importorskip("pyuff")
+    from vibupdate.data.frf import FRFSet, write_uff58
+
+    by_table = load_case(write_case(tmp_path)).configurations[0]
+    frfs = np.load(tmp_path / "hits.npz")
+    pairs = (("y9", "x1"), ("x2", "x1"), ("x3", "x1"))
+    write_uff58(tmp_path / "hits.uff", FRFSet(2 * np.pi * frfs["freq_hz"], pairs, tuple(h[None] for h in frfs["H"].T)))
+    text = (tmp_path / "case.toml").read_text()
+    head = text[:text.index("files = ")]
+    (tmp_path / "uff.toml").write_text(head + 'files = ["hits.uff"]\nband_hz = [3.0, 60.0]\nmap = { y9 = "s12" }\n')
+    case = load_case(tmp_path / "uff.toml")
+    by_uff = case.configurations[0]
+    for a, b in zip(by_table.natural, by_uff.natural, strict=True):   # the same to the UFF's 12 digits
+        assert sorted(b.shape.bounds) == ["s12", "x2", "x3"]
+        np.testing.assert_allclose(b.omega, a.omega, rtol=1e-9)
+        np.testing.assert_allclose([b.shape.midpoint[d] for d in ("s12", "x2", "x3")],
+                                   [a.shape.midpoint[d] for d in ("s12", "x2", "x3")], rtol=1e-9)
+    assert any(n.startswith("the antiresonances of h_s12,x1 (2, at ") for n in case.frf_notes["test"])
