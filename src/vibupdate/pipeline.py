@@ -145,7 +145,7 @@ def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> None:
     nominal_damping, damped = _damping_labels(nominal, updated)
     title = f"configuration {cfg.name}: measured and model receptances (m/N)"
     plot_measured_frf(path, frfs, cfg.model.dofs, nominal, updated, title,
-                      f"nominal model ({nominal_damping})", f"updated model ({damped})")
+                      f"nominal model ({nominal_damping})", f"updated model ({damped})", cfg.model.sensors)
 
 
 def _measured_frf_caption(cfg, frfs, nominal, updated) -> str:

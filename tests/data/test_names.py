@@ -13,7 +13,7 @@ from outputs_helpers import TINY_CASE
 
 from vibupdate import Configuration, NaturalFrequency, modes
 from vibupdate.data.measured import Antiresonance
-from vibupdate.data.names import frequency_name, mode_name, receptance_name, zero_name
+from vibupdate.data.names import frequency_name, mode_column, mode_name, receptance_name, zero_column, zero_name
 from vibupdate.inverse.correlation import frequency_rows, model_frequencies
 from vibupdate.io.results import FrequencyRow
 
@@ -23,6 +23,11 @@ def test_the_names():
     assert mode_name(3, 1) == "mode 3 (measured 1)"
     assert receptance_name("y1", "y3") == "h_y1,y3"
     assert zero_name("y1", "y1", 4) == "zero 4 of h_y1,y1" and zero_name("y1", "y1", None) == "a zero of h_y1,y1"
+
+
+def test_the_column_names_hold_no_blank_and_no_comma():
+    assert mode_column("A", 3) == "A:mode3_hz" and mode_column("A", 3, "xi") == "A:mode3_xi"
+    assert zero_column("A", "y1", "y3", 4) == "A:zero4_h_y1/y3_hz"
 
 
 def _higher_modes():

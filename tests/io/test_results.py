@@ -180,3 +180,26 @@ def test_the_schema_checker_agrees_with_jsonschema_on_valid_and_broken_documents
     disagree = [k for k, case in enumerate(cases)
                 if (first_error(case, schema()) is None) != reference.is_valid(case)]
     assert len(cases) > 500 and not disagree, disagree[:5]
+
+
+
+def test_the_measured_points_of_an_imported_mesh_reload_with_their_directions(tiny_run, tmp_path):
+    """`read_sensors` gives each measured point the direction it reads (null for a rotational
+    DOF), the run writes it: the schema must take it so that the file reads back."""
+    from vibupdate.io.results import write_results
+
+    run, _, _ = tiny_run
+    mesh = ({"sensor": "acc1", "dof": "12:x", "sign": -1.0, "distance_m": 0.004, "direction": [-1.0, 0.0, 0.0]},
+            {"sensor": "gyro", "dof": "12:rz", "sign": 1.0, "distance_m": 0.0, "direction": None})
+    loaded = load_results(write_results(tmp_path / "results.json", dataclasses.replace(run, sensors=mesh)))
+    assert loaded.sensors == mesh
+
+
+def test_declared_sensors_reload_with_their_weights(tiny_run, tmp_path):
+    from vibupdate.io.results import write_results
+
+    run, _, _ = tiny_run
+    declared = ({"sensor": "f1_a", "weights": {"f1:x": 1.0, "f1:rz": -2.5}}, {"sensor": "b", "weights": {"y": 2.0}})
+    loaded = load_results(write_results(tmp_path / "results.json", dataclasses.replace(run, declared_sensors=declared)))
+    assert loaded.declared_sensors == declared
+    assert run.declared_sensors == ()   # a case without [[sensor]] lists none

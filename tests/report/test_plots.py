@@ -172,3 +172,42 @@ def test_report_range_widths_below_one_percent_keep_two_digits():
     table = ranges_table(ident, list(widths))
     column = [c.name for c in table.columns].index("width %")
     assert [row[column] for row in table.rows] == ["0.042", "134.5", "1e-07", "-"]
+
+
+@pytest.mark.parametrize("kind", ["undamped", "matrix", "law"])
+def test_the_receptance_of_a_sensor_is_its_weighted_sum_of_dof_receptances(kind):
+    """A sensor reading ``w^T u`` as response, or a force spread with its weights as
+    excitation: ``w^T H c``, against a direct solve per line (the damping law: against the
+    weighted single-pair receptances it is built from)."""
+    from vibupdate.report.plots import reading_receptances
+
+    M, K, C, dofs = cantilever_system()
+    omega = np.linspace(10.0, 2500.0, 60)
+    model = (M, K, _damping(kind, M, K, C))
+    w = np.zeros(len(dofs))
+    w[[0, 2, 3]] = [1.0, -0.5, 0.25]                       # y1 - 0.5 y2 + 0.25 phi2
+    reads = {"s": tuple((i, w[i]) for i in np.flatnonzero(w)), "y3": ((4, 1.0),)}
+    got = reading_receptances(model, [("s", "y3"), ("y3", "s"), ("s", "s"), ("y3", "y3")], reads, omega)
+    e = np.eye(len(dofs))[4]
+    for h, (a, b) in zip(got, [(w, e), (e, w), (w, w), (e, e)]):
+        if kind == "law":
+            singles = {(i, j): model_receptance(model, i, j, omega) for i in np.flatnonzero(a) for j in np.flatnonzero(b)}
+            expected = sum(a[i] * b[j] * singles[i, j] for i, j in singles)
+        else:
+            Cd = np.zeros_like(M) if model[2] is None else model[2]
+            expected = np.array([a @ np.linalg.solve(K + 1j * x * Cd - x**2 * M, b) for x in omega])
+        assert np.abs(h - expected).max() < 1e-7 * np.abs(expected).max()
+
+
+def test_the_measured_frf_plot_draws_an_frf_measured_at_a_sensor(tmp_path):
+    from vibupdate.data.frf import FRFSet
+    from vibupdate.model.measurement import Sensor
+
+    M, K, C, dofs = cantilever_system()
+    omega = 2 * math.pi * np.arange(20.0, 300.0, 0.5)
+    H = np.linalg.inv(K[None] - omega[:, None, None] ** 2 * M[None] + 1j * omega[:, None, None] * C[None])
+    frfs = FRFSet(omega, (("tip", "y3"),), ((H[:, 0, 4] + 0.5 * H[:, 2, 4])[None],))
+    sensor = Sensor("tip", (("y1", 1.0), ("y2", 0.5)))
+    path = plot_measured_frf(tmp_path / "frf.png", frfs, dofs, (M, K, None), (M, K, C), "A", "nominal", "updated",
+                             (sensor,))
+    assert path.is_file() and path.stat().st_size > 0

@@ -51,7 +51,7 @@ def _data_rows(rows):
 
 def test_draws_are_reproducible_per_sample_and_inside_the_intervals(chain_file):
     case = load_case(chain_file)
-    intervals = {label: (lo, hi) for label, _, lo, hi in data_intervals(case.configurations, 0.005)}
+    intervals = {d.label: (d.lower, d.upper) for d in data_intervals(case.configurations, 0.005)}
     for distribution in ("uniform", "gaussian"):
         options = SamplingOptions(distribution)
         draws = [draw_configurations(case.configurations, 0.005, 7, i, options)[1] for i in range(20)]
@@ -64,7 +64,7 @@ def test_draws_are_reproducible_per_sample_and_inside_the_intervals(chain_file):
     # the Gaussian concentrates near the midpoint: smaller spread than the uniform over 400 draws
     spread = {}
     for distribution in ("uniform", "gaussian"):
-        v = [draw_configurations(case.configurations, 0.005, 1, i, SamplingOptions(distribution))[1]["A:f1_hz"]
+        v = [draw_configurations(case.configurations, 0.005, 1, i, SamplingOptions(distribution))[1]["A:mode1_hz"]
              for i in range(400)]
         spread[distribution] = np.std(v)
     assert spread["gaussian"] < 0.8 * spread["uniform"]
@@ -85,8 +85,8 @@ def test_stated_intervals_are_used_instead_of_the_tolerance(chain_file):
     wide = (f.omega * 0.9, f.omega * 1.02)
     natural = (NaturalFrequency(f.omega, interval=wide),) + cfg.natural[1:]
     cfgs = (Configuration("A", cfg.model, natural),)
-    rows = {label: (lo, hi) for label, _, lo, hi in data_intervals(cfgs, 0.005)}
-    assert rows["A:f1_hz"] == pytest.approx((wide[0] / (2 * np.pi), wide[1] / (2 * np.pi)))
+    rows = {d.label: (d.lower, d.upper) for d in data_intervals(cfgs, 0.005)}
+    assert rows["A:mode1_hz"] == pytest.approx((wide[0] / (2 * np.pi), wide[1] / (2 * np.pi)))
 
 
 # -- sweeps ---------------------------------------------------------------------------------------
@@ -171,7 +171,7 @@ def test_line_ends_are_answers_of_their_sample(scale_sweep):
         row = by_index[e["index"]]
         M, K = model.matrices(model.normalized([e["p:sk"], e["p:sm"]]))
         omega, _ = modes(M, K, 1)
-        assert omega[0] / (2 * np.pi) == pytest.approx(row["pred:A:f1_hz"], rel=1e-8)
+        assert omega[0] / (2 * np.pi) == pytest.approx(row["pred:A:mode1_hz"], rel=1e-8)
         assert e["p:sk"] / e["p:sm"] == pytest.approx(row["p:sk"] / row["p:sm"], rel=1e-9)
         assert e["stop"] == "bound" and min(abs(e[f"p:{n}"] - b) for n in ("sk", "sm") for b in (0.7, 1.3)) < 1e-9
 

@@ -9,6 +9,13 @@
   list mixes receptances and is never shown.
 * A receptance is ``"h_<response>,<excitation>"``.
 
+In the columns of a file (a sweep's ``samples.csv``, the labels of its ``sweep.json``) the same
+names take a form without blanks or commas, after the configuration's name: ``"A:mode3_hz"``
+(the natural frequency of model mode 3, Hz), ``"A:mode3_xi"`` (its damping ratio),
+``"A:zero4_h_y1/y1_hz"`` (zero 4 of ``h_y1,y1``, Hz: response ``/`` excitation, as the
+receptance is the response over the force). A column names the model mode alone: the modes of
+a configuration are distinct and rising, and a column keeps its name whatever else is measured.
+
 `vibupdate extract` names what it finds with the same functions, so an extracted zero and the
 same zero in a run's report read alike.
 """
@@ -43,6 +50,18 @@ def zero_name(response: str, excitation: str, index: int | None) -> str:
     ``"a zero of h_y1,y1"`` before an index is declared."""
     where = receptance_name(response, excitation)
     return f"a zero of {where}" if index is None else f"zero {index} of {where}"
+
+
+def mode_column(configuration: str, mode: int, quantity: str = "hz") -> str:
+    """``"A:mode3_hz"``: the column of model mode ``mode``'s natural frequency (Hz) in
+    ``configuration``; ``quantity="xi"`` for its damping ratio (``"A:mode3_xi"``)."""
+    return f"{configuration}:mode{mode}_{quantity}"
+
+
+def zero_column(configuration: str, response: str, excitation: str, index: int) -> str:
+    """``"A:zero4_h_y1/y1_hz"``: the column of zero ``index`` of ``h_<response>,<excitation>``
+    (Hz) in ``configuration``."""
+    return f"{configuration}:zero{index}_h_{response}/{excitation}_hz"
 
 
 def frequency_name(row: Mapping) -> str:

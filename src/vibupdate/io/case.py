@@ -105,6 +105,35 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
     return natural, zeros, shapes, frfs.band(*result.band), notes
 
 
+def _zeros_between_dofs(zeros: list[dict], model) -> tuple[list[dict], tuple[str, ...]]:
+    """The extracted antiresonances of receptances between two DOFs of ``model``, and one note
+    per FRF whose response or excitation is a sensor (a combination of DOFs): its zeros are not
+    used. An antiresonance is fitted as an eigenvalue of the adjunct pencil of a response DOF
+    and an excitation DOF (``docs/method.md``), which a sensor's receptance ``w^T H c`` is not;
+    the FRF's poles and its shapes at the sensor are used as any other."""
+    def sensor(name):
+        return name not in model.dofs and model.measures(name)
+
+    kept, dropped = [], {}
+    for z in zeros:
+        if sensor(z["response"]) or sensor(z["excitation"]):
+            dropped.setdefault((z["response"], z["excitation"]), []).append(z["hz"])
+        else:
+            kept.append(z)
+    notes = []
+    for (r, c), hz in dropped.items():
+        if sensor(r) and sensor(c):
+            which = (f"response and its excitation are the sensor {r!r} (a combination of DOFs)" if r == c else
+                     f"response {r!r} and its excitation {c!r} are sensors (combinations of DOFs)")
+        else:
+            which = f"{'response' if sensor(r) else 'excitation'} {r if sensor(r) else c!r} is a sensor (a " \
+                    "combination of DOFs)"
+        notes.append(f"the antiresonances of h_{r},{c} ({len(hz)}, at {', '.join(f'{h:.6g}' for h in hz)} Hz) "
+                     f"are not used: its {which}, and antiresonances are fitted between DOFs of the model only; "
+                     "its natural frequencies and shapes are used")
+    return kept, tuple(notes)
+
+
 def _file_data(cfg: dict, model, base: Path, where: Where, key: str, natural, zeros, shapes):
     """Natural frequencies, antiresonances and shape intervals read from the CSV and UFF files
     a configuration names (``frequencies_csv``, ``mode_shapes_csv``, ``mode_shapes_uff``)."""
@@ -238,6 +267,8 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
             raise where.error(f"{key}.frf", f"FRF files take the place of typed data; remove {', '.join(mixed)}")
         natural, zeros, shapes, frfs, notes = _frf_data(cfg["frf"], base, where, key,
                                                         cfg.get("mass_normalized_shapes", False))
+        zeros, dropped = _zeros_between_dofs(zeros, model)
+        notes = notes + dropped
     natural, zeros, shapes = _file_data(cfg, model, base, where, key, natural, zeros, shapes)
     if "natural_hz" in cfg:
         natural = _typed_natural(cfg, where, key)

@@ -341,7 +341,12 @@ class RunResult:
         published values, a synthetic example's truth; `vibupdate.report.table.with_reference`).
     sensors : tuple of dict
         Measured points on an imported FE mesh (``[model] sensors``, `vibupdate import`):
-        ``sensor``, ``dof`` (``"<node>:<dir>"``), ``sign``, ``distance_m``; empty otherwise.
+        ``sensor``, ``dof`` (``"<node>:<dir>"``), ``sign``, ``distance_m``, ``direction``;
+        empty otherwise.
+    declared_sensors : tuple of dict
+        Sensors declared in the case file (``[[sensor]]``, a ``sensors`` CSV; ``docs/sensors.md``):
+        ``sensor`` (its name) and ``weights`` (DOF name to weight, the reading being
+        ``sum_d weight_d u_d``); empty otherwise.
     diagnosis : DiagnosisRecord or None
         Which data conflict with the model, when the answer did not fit them
         (`vibupdate.inverse.diagnosis`); None otherwise.
@@ -377,6 +382,7 @@ class RunResult:
     checks: tuple[dict, ...] = ()
     paper: dict | None = None
     sensors: tuple[dict, ...] = ()
+    declared_sensors: tuple[dict, ...] = ()
     diagnosis: DiagnosisRecord | None = None
     matrix_files: dict = field(default_factory=dict)
     suggestion: dict | None = None
@@ -430,6 +436,8 @@ class RunResult:
             identifiability=doc.get("identifiability"), damping_model=doc.get("damping_model"),
             warnings=tuple(doc.get("warnings", ())), checks=tuple(doc.get("checks", ())), paper=doc.get("paper"),
             sensors=tuple(dict(s) for s in doc.get("sensors", ())),
+            declared_sensors=tuple({"sensor": s["sensor"], "weights": dict(s["weights"])}
+                                   for s in doc.get("declared_sensors", ())),
             diagnosis=DiagnosisRecord.from_dict(doc["diagnosis"]) if doc.get("diagnosis") else None,
             matrix_files={k: dict(v) for k, v in doc.get("matrix_files", {}).items()},
             suggestion=doc.get("suggestion"),
@@ -451,6 +459,16 @@ def _check_dict(check) -> dict:
     if dataclasses.is_dataclass(check):
         return _plain(dataclasses.asdict(check))
     return {"text": str(check)}
+
+
+def _declared_sensors(configurations) -> tuple[dict, ...]:
+    """The sensors of the configurations' models (each model carries the case's ``[[sensor]]``
+    declarations), once each, in their order: ``{"sensor": name, "weights": {dof: weight}}``."""
+    seen = {}
+    for cfg in configurations:
+        for s in getattr(cfg.model, "sensors", ()):
+            seen.setdefault(s.name, {"sensor": s.name, "weights": {d: float(w) for d, w in s.weights}})
+    return tuple(seen.values())
 
 
 def _receptance_dofs(cfg, M) -> tuple[str, str]:
@@ -559,6 +577,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         damping_model=_plain(damping_model) if damping_model else None,
         warnings=run_warnings, checks=tuple(_check_dict(c) for c in getattr(result, "checks", ())),
         paper=_plain(paper) if paper else None, sensors=tuple(dict(s) for s in getattr(case, "sensors", ())),
+        declared_sensors=_declared_sensors(configurations),
         diagnosis=DiagnosisRecord.from_dict(_plain(diagnosis.record())) if diagnosis is not None else None,
         matrix_files=_matrix_files(configurations, matrices, bool(result.success), best),
         suggestion=_plain(suggestion) if suggestion else None,

@@ -167,6 +167,21 @@ def steps_table(solver: dict) -> Table:
                             Column("seconds", spec=".3f")), rows)
 
 
+def declared_sensors_table(run: RunResult) -> Table | None:
+    """The sensors the case declared (``docs/sensors.md``), each with the combination of DOFs
+    it reads; None without them."""
+    if not run.declared_sensors:
+        return None
+
+    def reading(weights: dict) -> str:
+        terms = [f"{'-' if w < 0 else '+'} {abs(w):.6g} {d}" for d, w in weights.items()]
+        text = " ".join(terms)
+        return text[2:] if text.startswith("+ ") else "-" + text[2:]
+
+    rows = tuple((s["sensor"], reading(s["weights"])) for s in run.declared_sensors)
+    return Table("Sensors", (Column("sensor"), Column("reads (weight x DOF)")), rows)
+
+
 def sensors_table(run: RunResult) -> Table | None:
     """Where the measured points sit on an imported FE mesh; None without sensors."""
     if not run.sensors:
@@ -224,7 +239,8 @@ def tables(results) -> dict[str, Table]:
     built = {"summary": summary_table(run), "checks": checks_table(solver) if solver.get("checks") else None,
              "trials": trials_table(run), "best": best_table(run), "parameters": parameter_table(run),
              "ranges": ranges_table(run.identifiability or {}, [p.name for p in run.parameters]),
-             "frequencies": frequency_table(run), "modal_masses": modal_mass_table(run), "sensors": sensors_table(run), "damping": damping_table(run),
+             "frequencies": frequency_table(run), "modal_masses": modal_mass_table(run), "sensors": sensors_table(run),
+             "declared_sensors": declared_sensors_table(run), "damping": damping_table(run),
              "steps": steps_table(solver) if solver else None}
     return {name: t for name, t in built.items() if t is not None}
 
@@ -370,6 +386,10 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
                 "import. A sensor pointing against its DOF's direction reads it with sign -; distance from "
                 "the sensor's given position to the node.",
                 ""] + markdown(shown["sensors"])
+    if "declared_sensors" in shown:
+        out += ["## Sensors", "", "The sensors the case declares: each reads the weighted sum of the model's DOFs "
+                "shown (units of the reading per unit of the DOF). Shapes given at a sensor were compared with the "
+                "model through these weights.", ""] + markdown(shown["declared_sensors"])
     out += section("Damping", "damping")
     if solver:
         out += ["## Solver", "", f"{solver.get('message', '')}; objective {fmt(solver.get('objective'), '.4e')}, "

@@ -77,6 +77,38 @@ def model_receptances(model, pairs, omega) -> np.ndarray:
     return receptances(M, K, pairs, omega, C)
 
 
+def reading_receptances(model, pairs, reads, omega) -> np.ndarray:
+    """Receptances between readings of ``model = (M, K, C)``: of a response reading ``w`` and an
+    excitation ``c`` (a DOF, or a sensor's weights: a force spread as the sensor reads),
+    ``w^T H(omega) c = sum_ij w_i c_j h_ij``, from the DOF pairs they need, solved together
+    (`model_receptances`).
+
+    Parameters
+    ----------
+    pairs : sequence of (str, str), length n_pairs
+        Response and excitation names, each a key of ``reads``.
+    reads : mapping of str to sequence of (int, float)
+        The DOF indices (0-based) and weights each name reads: ``((i, 1.0),)`` for a DOF.
+    omega : ndarray, shape (n_f,)
+        rad/s.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_pairs, n_f)
+        m/N.
+    """
+    import scipy.sparse as sp
+
+    terms = [[(i, j, w * v) for i, w in reads[r] for j, v in reads[c]] for r, c in pairs]
+    dof_pairs = list(dict.fromkeys((i, j) for pair in terms for i, j, _ in pair))
+    at = {p: k for k, p in enumerate(dof_pairs)}
+    rows = [n for n, pair in enumerate(terms) for _ in pair]
+    cols = [at[i, j] for pair in terms for i, j, _ in pair]
+    weights = [w for pair in terms for _, _, w in pair]
+    combine = sp.csr_matrix((weights, (rows, cols)), shape=(len(pairs), len(dof_pairs)))
+    return combine @ model_receptances(model, dof_pairs, omega)
+
+
 def model_receptance(model, r: int, c: int, omega) -> np.ndarray:
     """Receptance of one pair of ``model = (M, K, C)`` (`model_receptances`); shape (n_f,), m/N."""
     return model_receptances(model, [(r, c)], omega)[0]
@@ -175,11 +207,12 @@ def plot_receptances(path, panels) -> Path:
 
 
 def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nominal_label: str,
-                      updated_label: str) -> Path:
+                      updated_label: str, sensors=()) -> Path:
     """Measured FRFs overlaid on the nominal and updated model FRFs (the paper's Fig. 11).
 
-    One panel per measured pair ``(response, excitation)`` whose DOFs are in the model (a
-    grid of responses by excitations when the pairs form one).
+    One panel per measured pair ``(response, excitation)`` whose names are DOFs or sensors of
+    the model (a grid of responses by excitations when the pairs form one); a sensor's model
+    FRF is the combination of DOF receptances its weights give (`reading_receptances`).
 
     Parameters
     ----------
@@ -192,12 +225,18 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     title : str
     nominal_label, updated_label : str
         Legend entries of the two models (their damping stated).
+    sensors : sequence of vibupdate.model.measurement.Sensor
+        The model's sensors (``docs/sensors.md``).
     """
     plt = _pyplot()
-    position = {d: i for i, d in enumerate(model_dofs)}
+    index = {d: i for i, d in enumerate(model_dofs)}
+    reads = {d: ((i, 1.0),) for d, i in index.items()}
+    reads.update({s.name: tuple((index[d], w) for d, w in s.weights) for s in sensors})
+    position = {name: k for k, name in enumerate(reads)}
     pairs = [(k, p) for k, p in enumerate(frfs.pairs) if p[0] in position and p[1] in position]
     if not pairs:
-        raise ValueError(f"no measured FRF pair {list(frfs.pairs)} has both DOFs in the model")
+        raise ValueError(f"no measured FRF pair {list(frfs.pairs)} has both its response and excitation among the "
+                         "model's DOFs and sensors")
     rows = sorted({p[0] for _, p in pairs}, key=position.get)
     cols = sorted({p[1] for _, p in pairs}, key=position.get)
     grid = len(rows) * len(cols) <= 16 and len(rows) * len(cols) < 2 * len(pairs)
@@ -207,8 +246,8 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
                              squeeze=False, sharex=True)
     measured = frfs.mean()
     omega, f_hz = frfs.omega, frfs.freq_hz
-    at = [(position[r], position[c]) for _, (r, c) in pairs]
-    curves = [(np.abs(model_receptances(model, at, omega)), name, style)   # one solve per model
+    at = [p for _, p in pairs]
+    curves = [(np.abs(reading_receptances(model, at, reads, omega)), name, style)   # one solve per model
               for model, name, style in ((_nominal_curve(nominal, updated), nominal_label, "--"),
                                          (updated, updated_label, "-"))]
     for n, (k, (r, c)) in enumerate(pairs):

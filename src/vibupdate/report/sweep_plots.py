@@ -147,7 +147,7 @@ def plot_frequency_bands(path, document: dict) -> Path:
         ax.plot([i + 0.15, i + 0.15], [100 * (p["q05"] - m) / m, 100 * (p["q95"] - m) / m], color="tab:blue",
                 lw=4, label="prediction 5-95 %" if i == 0 else None)
         ax.plot(i + 0.15, 100 * (p["q50"] - m) / m, "k_", ms=10)
-    ax.set_xticks(x, [p["label"].replace("_hz", "") for p in preds], rotation=60, fontsize=7)
+    ax.set_xticks(x, [f"{p['configuration']}: {p['name']}" for p in preds], rotation=60, ha="right", fontsize=7)
     ax.set_ylabel("relative to measured [%]")
     ax.set_title(f"frequency prediction bands; {_counts(document)}", fontsize=9)
     ax.grid(True, alpha=0.3)

@@ -30,11 +30,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI, Antiresonance, Configuration, NaturalFrequency, ShapeInterval
-from vibupdate.data.names import mode_name, zero_name
+from vibupdate.data.names import mode_column, mode_name, zero_column, zero_name
 
 
 DISTRIBUTIONS = ("uniform", "gaussian")
@@ -117,30 +118,82 @@ def _damping_interval(f: NaturalFrequency, options: SamplingOptions) -> tuple[fl
                                   f.damping_ratio * (1 + options.damping_tolerance))
 
 
-def data_intervals(configurations: Sequence[Configuration], frequency_tolerance: float,
-                   options: SamplingOptions | None = None) -> list[tuple[str, float, float, float]]:
-    """Every sampled scalar datum with its interval: ``(label, value, lower, upper)``.
+class SampledDatum(NamedTuple):
+    """One sampled scalar datum (`data_intervals`).
 
-    Frequencies in Hz (labels ``CFG:fK_hz``, ``CFG:zK_hz``), damping ratios (``CFG:xiK``).
-    Raises ValueError naming a frequency that has neither an interval nor a tolerance.
+    Attributes
+    ----------
+    label : str
+        Its column (`vibupdate.data.names`): ``"A:mode3_hz"``, ``"A:zero4_h_y1/y1_hz"``,
+        ``"A:mode3_xi"``.
+    value, lower, upper : float
+        The measured value and its interval: Hz for a frequency, - for a damping ratio.
+    kind : {"natural", "antiresonance", "damping"}
+    configuration : str
+    name : str
+        The datum's one name: ``"mode 3 (measured 1)"``, ``"zero 4 of h_y1,y1"`` (for a damping
+        ratio, the name of its mode).
+    """
+
+    label: str
+    value: float
+    lower: float
+    upper: float
+    kind: str
+    configuration: str
+    name: str
+
+
+def data_intervals(configurations: Sequence[Configuration], frequency_tolerance: float,
+                   options: SamplingOptions | None = None) -> list[SampledDatum]:
+    """Every sampled scalar datum with its interval, per configuration: the natural
+    frequencies, the antiresonances, then the damping ratios (the columns of ``samples.csv``
+    in their order). Raises ValueError naming a frequency that has neither an interval nor a
+    tolerance, or two data whose columns read alike (DOF names holding ``/``: ``h_a/b,c`` and
+    ``h_a,b/c`` both give ``zero1_h_a/b/c_hz``).
     """
     options = options or SamplingOptions()
     tol = frequency_tolerance if options.frequency_tolerance is None else options.frequency_tolerance
     rows = []
     for cfg in configurations:
         for k, f in enumerate(cfg.natural, start=1):
+            name = mode_name(f.mode, k)
             lo, hi = _frequency_interval(f.omega, f.interval, tol, f"the natural frequency of "
-                                         f"{mode_name(f.mode, k)} of configuration {cfg.name!r}")
-            rows.append((f"{cfg.name}:f{k}_hz", f.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI))
-        for k, a in enumerate(cfg.antiresonances, start=1):
-            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"{zero_name(a.response, a.excitation, a.index)} "
-                                                                   f"of configuration {cfg.name!r}")
-            rows.append((f"{cfg.name}:z{k}_hz", a.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI))
+                                         f"{name} of configuration {cfg.name!r}")
+            rows.append(SampledDatum(mode_column(cfg.name, f.mode), f.omega / TWO_PI, lo / TWO_PI, hi / TWO_PI,
+                                     "natural", cfg.name, name))
+        for a in cfg.antiresonances:
+            name = zero_name(a.response, a.excitation, a.index)
+            lo, hi = _frequency_interval(a.omega, a.interval, tol, f"{name} of configuration {cfg.name!r}")
+            rows.append(SampledDatum(zero_column(cfg.name, a.response, a.excitation, a.index), a.omega / TWO_PI,
+                                     lo / TWO_PI, hi / TWO_PI, "antiresonance", cfg.name, name))
         for k, f in enumerate(cfg.natural, start=1):
             if f.damping_ratio is not None:
                 lo, hi = _damping_interval(f, options)
-                rows.append((f"{cfg.name}:xi{k}", f.damping_ratio, lo, hi))
+                rows.append(SampledDatum(mode_column(cfg.name, f.mode, "xi"), f.damping_ratio, lo, hi, "damping",
+                                         cfg.name, mode_name(f.mode, k)))
+    seen: dict[str, SampledDatum] = {}
+    for d in rows:
+        if d.label in seen:
+            raise ValueError(f"{seen[d.label].name} and {d.name} of configuration {d.configuration!r} would share "
+                             f"the column {d.label!r} of samples.csv: rename a DOF so that no name holds '/'")
+        seen[d.label] = d
     return rows
+
+
+def positional_labels(configurations: Sequence[Configuration]) -> dict[str, str]:
+    """The labels of `data_intervals` as earlier versions wrote them, by position in the
+    configuration (``"A:f1_hz"``, ``"A:z1_hz"``, ``"A:xi1"``), mapped to the labels of today
+    (``"A:mode3_hz"``, ...): how a sweep resumes from a ``samples.csv`` of such a version."""
+    out = {}
+    for cfg in configurations:
+        for k, f in enumerate(cfg.natural, start=1):
+            out[f"{cfg.name}:f{k}_hz"] = mode_column(cfg.name, f.mode)
+            if f.damping_ratio is not None:
+                out[f"{cfg.name}:xi{k}"] = mode_column(cfg.name, f.mode, "xi")
+        for k, a in enumerate(cfg.antiresonances, start=1):
+            out[f"{cfg.name}:z{k}_hz"] = zero_column(cfg.name, a.response, a.excitation, a.index)
+    return out
 
 
 class _Drawer:
@@ -219,16 +272,16 @@ def draw_configurations(configurations: Sequence[Configuration], frequency_toler
             xi = None
             if f.damping_ratio is not None:
                 xi = draw(*_damping_interval(f, options))
-                drawn[f"{cfg.name}:xi{k}"] = xi
+                drawn[mode_column(cfg.name, f.mode, "xi")] = xi
             shape = None if f.shape is None else _draw_shape(draw, f.shape, options.shape_width)
             natural.append(NaturalFrequency(omega, weight=f.weight, shape=shape, damping_ratio=xi, mode=f.mode))
-            drawn[f"{cfg.name}:f{k}_hz"] = omega / TWO_PI
-        for k, a in enumerate(cfg.antiresonances, start=1):
+            drawn[mode_column(cfg.name, f.mode)] = omega / TWO_PI
+        for a in cfg.antiresonances:
             lo, hi = _frequency_interval(a.omega, a.interval, tol, f"{zero_name(a.response, a.excitation, a.index)} "
                                                                    f"of configuration {cfg.name!r}")
             omega = draw(lo, hi)
             zeros.append(Antiresonance(omega, a.response, a.excitation, weight=a.weight, index=a.index))
-            drawn[f"{cfg.name}:z{k}_hz"] = omega / TWO_PI
+            drawn[zero_column(cfg.name, a.response, a.excitation, a.index)] = omega / TWO_PI
         try:
             out.append(replace(cfg, natural=tuple(natural), antiresonances=tuple(zeros)))
         except ValueError as exc:

@@ -48,9 +48,10 @@ from vibupdate.io.case_types import Case
 from vibupdate.io.interrupted import Interrupted
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
+from vibupdate.data.names import mode_column, zero_column
 from vibupdate.inverse.reduction import wants_reduction
 from vibupdate.study.extent import ACCEPT_FRACTION
-from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
+from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations, positional_labels
 from vibupdate.study.sweep_files import (
     ENDS_FILE,
     SAMPLES_FILE,
@@ -60,7 +61,7 @@ from vibupdate.study.sweep_files import (
     write_multistart,
     write_summary,
 )
-from vibupdate.study.sweep_rows import RowWriter, read_rows, write_sorted
+from vibupdate.study.sweep_rows import RowWriter, read_rows, resumed_rows, write_sorted
 from vibupdate.study.sweep_summary import SweepSummary, summarize
 
 
@@ -114,13 +115,15 @@ def _resolve(case) -> Case:
 
 def columns(case: Case, sampling: SamplingOptions) -> list[str]:
     """Header of ``samples.csv``: index, outcome, status, start (the answer kept: "homotopy"
-    or "random"), objective, parameters (their unit),
-    predicted frequencies (Hz), drawn data (Hz and -), Caughey coefficients, timing, message."""
+    or "random"), objective, parameters (their unit), predicted frequencies (Hz), drawn data
+    (Hz and -), Caughey coefficients, timing, message. Data are named as
+    `vibupdate.data.names` names columns: ``pred:A:mode3_hz``, ``data:A:zero4_h_y1/y1_hz``,
+    ``data:A:mode3_xi``."""
     cfgs = case.configurations
     names = [f"p:{p.name}" for p in cfgs[0].model.parameters]
-    predicted = [f"pred:{label}" for label, *_ in data_intervals(cfgs, case.frequency_tolerance, sampling)
-                 if not label.split(":")[1].startswith("xi")]
-    data = [f"data:{label}" for label, *_ in data_intervals(cfgs, case.frequency_tolerance, sampling)]
+    sampled = data_intervals(cfgs, case.frequency_tolerance, sampling)
+    predicted = [f"pred:{d.label}" for d in sampled if d.kind != "damping"]
+    data = [f"data:{d.label}" for d in sampled]
     damping = []
     if any(f.damping_ratio is not None for c in cfgs for f in c.natural):
         exponents = (case.damping.exponents if case.damping else (0.0, 1.0))
@@ -189,9 +192,10 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     row[ENDS_KEY] = ends
     row.update({f"p:{p.name}": float(v) for p, v in zip(model.parameters, model.physical(xbar))})
     for cfg, freqs in zip(cfgs, frequencies or [model_frequencies(c, xbar) for c in cfgs]):
-        row.update({f"pred:{cfg.name}:f{k}_hz": float(w) / TWO_PI for k, w in enumerate(freqs.natural, start=1)})
-        row.update({f"pred:{cfg.name}:z{k}_hz": float(w) / TWO_PI
-                    for k, w in enumerate(freqs.antiresonances, start=1)})
+        row.update({f"pred:{mode_column(cfg.name, f.mode)}": float(w) / TWO_PI
+                    for f, w in zip(cfg.natural, freqs.natural)})
+        row.update({f"pred:{zero_column(cfg.name, a.response, a.excitation, a.index)}": float(w) / TWO_PI
+                    for a, w in zip(cfg.antiresonances, freqs.antiresonances)})
     if row["outcome"] != "failed" and any(f.damping_ratio is not None for c in cfgs for f in c.natural):
         try:
             stage, _, _ = _damping_stage(replace(case, configurations=cfgs), xbar, lambda message: None)
@@ -232,8 +236,8 @@ def _acceptance(case: Case, cfgs, result, sampling: SamplingOptions, verificatio
     its verified homotopy answer ``result``."""
     from vibupdate.study.extent import Acceptance
 
-    half = np.array([0.5 * (hi - lo) / value for label, value, lo, hi
-                     in data_intervals(case.configurations, case.frequency_tolerance, sampling) if ":xi" not in label])
+    half = np.array([0.5 * (d.upper - d.lower) / d.value for d
+                     in data_intervals(case.configurations, case.frequency_tolerance, sampling) if d.kind != "damping"])
     return Acceptance(cfgs, result, half, verification)
 
 
@@ -345,9 +349,9 @@ def _sweep(loaded: Case, source, digest, out: Path, settings, samples, seed, sam
     rows: list[dict] = []
     ends: list[dict] = []
     if resume and (out / SAMPLES_FILE).exists():
-        header, rows = read_rows(out / SAMPLES_FILE)
-        if header and header != fields:
-            raise ValueError(f"cannot resume {str(out)!r}: {SAMPLES_FILE} has other columns than this case gives")
+        earlier = {f"{side}:{old}": f"{side}:{new}" for old, new in positional_labels(loaded.configurations).items()
+                   for side in ("pred", "data")}
+        rows = resumed_rows(out / SAMPLES_FILE, fields, earlier, say)
         rows = [r for r in rows if isinstance(r["index"], int) and r["index"] < samples]
     done = {r["index"] for r in rows}
     if resume and (out / ENDS_FILE).exists():

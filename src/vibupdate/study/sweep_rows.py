@@ -1,13 +1,15 @@
 """The rows file of a sweep (``samples.csv``): appended row by row and forced to disk as
 tasks complete, read back on resume (a last line cut short by a stopped run is dropped),
 rewritten sorted by sample index at the end. Floats are written with ``repr`` and so read
-back exactly."""
+back exactly. A file whose data columns an earlier version named by position is renamed when
+a sweep resumes it (`resumed_rows`)."""
 
 from __future__ import annotations
 
 import csv
 import io
 import os
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 
@@ -75,3 +77,28 @@ def write_sorted(path: Path, fields: list[str], rows: list[dict]) -> None:
         f.flush()
         os.fsync(f.fileno())
     tmp.replace(path)
+
+
+def resumed_rows(path: Path, fields: list[str], earlier: Mapping[str, str], say: Callable[[str], None]) -> list[dict]:
+    """The rows of the ``samples.csv`` a sweep resumes, whose header must be ``fields``.
+
+    A header that is ``fields`` once the columns of ``earlier`` (an earlier version's names,
+    ``"data:A:f1_hz"``, to today's, ``"data:A:mode3_hz"``) are renamed is the file of that
+    version: it is rewritten at once under ``fields``, its values unchanged, and ``say`` names
+    the renamed columns. Raises ValueError naming the file and the first differing column when
+    the header is neither.
+    """
+    header, rows = read_rows(path)
+    if not header or header == fields:
+        return rows
+    if [earlier.get(c, c) for c in header] != fields:
+        k = next((i for i, (a, b) in enumerate(zip(header, fields)) if a != b), min(len(header), len(fields)))
+        got, expected = (header[k] if k < len(header) else "(none)"), (fields[k] if k < len(fields) else "(none)")
+        raise ValueError(f"cannot resume from {str(path)!r}: its column {k + 1} is {got!r}, this case gives "
+                         f"{expected!r} ({len(header)} columns, this case {len(fields)}); resume with the version "
+                         "that wrote it, or run the sweep again with another --out")
+    rows = [{earlier.get(k, k): v for k, v in r.items()} for r in rows]
+    write_sorted(path, fields, rows)
+    say(f"{path.name}: columns named by position (an earlier version's) renamed to the data's names: "
+        + ", ".join(f"{a} -> {earlier[a]}" for a in header if a in earlier and a.startswith("data:")))
+    return rows

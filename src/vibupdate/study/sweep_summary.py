@@ -56,7 +56,10 @@ def summarize(case: Case, rows: list[dict], settings: dict, ends: list[dict] = (
 
     A parameter's ``min`` and ``max`` are over the verified answers and the line ``ends`` of
     verified samples (rows of ``line_ends.csv``); ``answers_min``, ``answers_max`` and the
-    quantiles over the answers alone."""
+    quantiles over the answers alone. A predicted frequency is named as the data are
+    (`vibupdate.data.names`): ``label`` (its column of ``samples.csv`` after ``pred:``,
+    ``"A:mode3_hz"``), ``configuration``, ``kind`` and ``name`` (``"mode 3 (measured 1)"``,
+    ``"zero 4 of h_y1,y1"``)."""
     outcomes = [r["outcome"] for r in rows]
     ok = [r for r in rows if r["outcome"] == "verified"]
     verified = {r["index"] for r in ok}
@@ -72,12 +75,12 @@ def summarize(case: Case, rows: list[dict], settings: dict, ends: list[dict] = (
                        "answers_max": s["max"], "nominal": p.nominal, "lower": p.lower,
                        "upper": p.upper, "spread_of_bounds": spread})
     predictions = []
-    for label, value, lo, hi in data_intervals(case.configurations, case.frequency_tolerance,
-                                               SamplingOptions(**settings["sampling"])):
-        if ":xi" in label:
+    for d in data_intervals(case.configurations, case.frequency_tolerance, SamplingOptions(**settings["sampling"])):
+        if d.kind == "damping":
             continue
-        predictions.append({"label": label, "measured_hz": value, "interval_hz": [lo, hi],
-                            **_stats(r.get(f"pred:{label}") for r in ok)})
+        predictions.append({"label": d.label, "configuration": d.configuration, "kind": d.kind, "name": d.name,
+                            "measured_hz": d.value, "interval_hz": [d.lower, d.upper],
+                            **_stats(r.get(f"pred:{d.label}") for r in ok)})
     failures: dict[str, int] = {}
     for r in rows:
         if r["outcome"] == "failed":
