@@ -130,6 +130,58 @@ def test_under_model_form_error_the_answer_is_the_least_misfit_and_no_worse_than
     assert not fit.passed and "half-widths outside" in fit.message and "mode" in fit.message
 
 
+def test_of_answers_that_do_not_verify_the_lower_misfit_wins_over_the_lower_objective():
+    """The polish's objective carries the pull toward the midpoints; an answer that misses the
+    admissible intervals less is the better answer even when its objective is higher."""
+    from vibupdate.inverse.status import Status
+    from vibupdate.inverse.update import _better, _Finish
+
+    def candidate(cost, misfit, ok=False):
+        polished = type("P", (), {"cost": cost})()
+        return _Finish("s", np.zeros(1), np.zeros(1), polished, None, [], {}, (),
+                       Status.SUCCESS if ok else Status.NOT_VERIFIED, misfit)
+
+    near_mid, less_outside = candidate(cost=1.0, misfit=9.0), candidate(cost=5.0, misfit=2.0)
+    assert _better(near_mid, less_outside) and not _better(less_outside, near_mid)
+    assert _better(less_outside, candidate(cost=50.0, misfit=0.0, ok=True))   # verified first
+
+
+def test_a_best_answer_that_misses_more_than_the_nominal_model_gives_way_to_it():
+    """The guard of the search: when no answer verifies and the best one lies further outside the
+    admissible intervals than the nominal model, the nominal model is returned, verified as it
+    is, and its misfit is the nominal one."""
+    from dataclasses import replace as copy
+
+    from vibupdate.inverse.polish import PolishOptions
+    from vibupdate.inverse.status import Status
+    from vibupdate.inverse.update import _Finish, _no_worse_than_nominal, misfit
+
+    model, x, _, _ = _chain()
+    M, K = model.matrices(x)
+    K = K.tolil()
+    K[model.dof("y3"), model.dof("y3")] += 300.0           # an unmodelled spring: no k1..k3 fits
+    omega, _ = modes(M, K.tocsr(), 3)
+    cfg = Configuration("c", model, tuple(NaturalFrequency(w) for w in omega))
+    contract = Admissible.of([cfg], VerifyOptions(natural_tolerance=0.0, measurement_tolerance=0.001))
+    far = np.array([0.9, -0.5, 0.9])
+    nominal = misfit([cfg], contract, np.zeros(3))
+    assert misfit([cfg], contract, far) > nominal > 0
+    worse = _Finish("random start 1", far, far, None, None, [], {}, (), Status.NOT_VERIFIED,
+                    misfit([cfg], contract, far))
+    seen = []
+
+    def finish(start, label, options=None, answers=None):
+        seen.append((label, options))
+        return _Finish(label, start, start, None, None, [], {}, (), Status.NOT_VERIFIED,
+                       misfit([cfg], contract, start))
+
+    chosen = _no_worse_than_nominal([cfg], contract, worse, finish, PolishOptions(), lambda m: None)
+    assert chosen.label == "nominal model" and np.array_equal(chosen.xbar, np.zeros(3))
+    assert chosen.misfit == nominal and seen[0][1] == copy(PolishOptions(), enabled=False)
+    better = copy(worse, misfit=0.5 * nominal)
+    assert _no_worse_than_nominal([cfg], contract, better, finish, PolishOptions(), lambda m: None) is better
+
+
 def test_old_case_keys_are_refused_naming_what_replaced_them(tmp_path):
     from vibupdate.io.case import load_case
 

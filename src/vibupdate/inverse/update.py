@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.inverse.correlation import frequency_rows, modal_mass_rows, model_frequencies, shape_mac
-from vibupdate.inverse.data_map import sensitivity
+from vibupdate.inverse.data_map import data_map, sensitivity
 from vibupdate.inverse.formulation import formulate
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
@@ -48,7 +48,7 @@ from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
 from vibupdate.inverse.repeated import paired_modes
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.admissible import Admissible, weighted
+from vibupdate.inverse.admissible import Admissible, misses, weighted
 from vibupdate.inverse.search import Alternative, Search, Sought, Start
 from vibupdate.inverse.status import Verdict
 from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
@@ -365,6 +365,7 @@ class _Finish:
     sensitivity: dict
     checks: tuple
     status: Status
+    misfit: float = 0.0
 
     @property
     def failed(self) -> list[str]:
@@ -416,13 +417,25 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
                                   message=f"not kept: the moved answer failed {failed} where the polished one passes")
                 say(f"minimum change: {minimum.message}")
     status = (path.status if path.status.ok else Status.SUCCESS) if ok else Status.NOT_VERIFIED
-    return _Finish(label, start, xbar, polished, minimum, updated, sens, tuple(checks), status)
+    return _Finish(label, start, xbar, polished, minimum, updated, sens, tuple(checks), status,
+                   0.0 if ok else misfit(configurations, contract, xbar))
+
+
+def misfit(configurations, contract: Admissible, xbar) -> float:
+    """The contract's misfit of the model at ``xbar``: the sum of squares of every datum's
+    distance outside its admissible interval, in its half-widths (`vibupdate.inverse.admissible.misses`;
+    0 when every datum is admissible, inf when a declared zero is lost)."""
+    maps = [data_map(c, xbar, jacobian=False, shapes=bool(s or m))
+            for c, s, m in zip(configurations, contract.shapes, contract.masses)]
+    return float(sum(m.miss ** 2 for m in misses(contract, maps)))
 
 
 def _better(a: _Finish | None, b: _Finish) -> bool:
-    """Whether ``b`` is a better answer than ``a``: verified over not, then the lower objective
-    (the contract's misfit when neither is verified)."""
-    return a is None or (b.status.ok, -b.cost) > (a.status.ok, -a.cost)
+    """Whether ``b`` is a better answer than ``a``: verified over not; of two answers that do
+    not verify, the lower misfit (`misfit`: the distance outside the admissible intervals, not
+    the polish's objective, whose pull toward the midpoints may favour a model that misses
+    more), then the lower objective."""
+    return a is None or (b.status.ok, -b.misfit, -b.cost) > (a.status.ok, -a.misfit, -a.cost)
 
 
 def _search(configurations, problem, solver, best, finish, search: Search, starts: list, say):
@@ -461,6 +474,26 @@ def _search(configurations, problem, solver, best, finish, search: Search, start
         if best.status.ok:
             break
     return best, steps
+
+
+def _no_worse_than_nominal(configurations, contract: Admissible, best: _Finish | None, finish, polish: PolishOptions,
+                           say) -> _Finish | None:
+    """When no answer verifies, the returned model is never further outside the admissible
+    intervals than the nominal model (`misfit`): a best answer that misses more is replaced by
+    the nominal model, verified as it is. (The nominal point is one of the search's starts, but
+    its polish weighs the pull toward the midpoints besides the misfit.)"""
+    if best is None or best.status.ok:
+        return best
+    lo, hi = configurations[0].model.bounds()
+    at = np.clip(np.zeros(lo.size), lo, hi)
+    own = misfit(configurations, contract, at)
+    if best.misfit <= own:
+        say(f"no answer verified; the best misses the admissible intervals by {best.misfit:.4g} (sum of squared "
+            f"half-widths) against the nominal model's {own:.4g}")
+        return best
+    say(f"no answer verified, and the best ({best.misfit:.4g}) misses more than the nominal model ({own:.4g}): "
+        "the nominal model is returned")
+    return finish(at, "nominal model", replace(polish, enabled=False))
 
 
 def _verdict_word(candidate: _Finish) -> str:
@@ -615,6 +648,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     if polish.enabled and (best is None or not best.status.ok):
         best, more_steps = _search(configurations, problem, solver, best, finish, search, starts, say)
         steps = steps + more_steps
+        best = _no_worse_than_nominal(configurations, contract, best, finish, polish, say)
     unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
     alternatives: tuple[Alternative, ...] = ()
     if best is not None and best.status.ok and unique:
@@ -652,6 +686,9 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
             head = f"homotopy stopped at lambda = {path.lam:.4f} ({path.status.value})"
         message = (f"{head}; the answer polished from the {best.label} "
                    + ("passed every verification check" if status.ok else "failed " + ", ".join(best.failed)))
+        if best.label == "nominal model":
+            message = (f"{head}; every polished answer missed the data by more than the nominal model, which is "
+                       "returned unchanged (failed " + ", ".join(best.failed) + ")")
     return UpdateResult(
         status=status,
         message=message,
