@@ -523,7 +523,7 @@ def test_measured_frf_overlay_plot(tmp_path):
     path = plot_measured_frf(tmp_path / "frf_A.png", frfs.band(2 * math.pi * 20, 2 * math.pi * 300), dofs,
                              (M, 1.05 * K, None), (M, K, C), "A", "nominal (undamped)", "updated (damped)")
     assert path.stat().st_size > 10_000
-    with pytest.raises(ValueError, match=r"no measured FRF pair .*\('y1', 'y3'\).* has both DOFs in the model"):
+    with pytest.raises(ValueError, match=r"no measured FRF pair .*\('y1', 'y3'\).* has both its response and excitation among the model's DOFs and sensors"):
         plot_measured_frf(tmp_path / "x.png", frfs, ["x1", "x2"], (M, K, None), (M, K, C), "A", "n", "u")
 
 
