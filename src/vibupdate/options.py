@@ -161,11 +161,7 @@ OPTIONS = (
            lower=0),
     # -- [polish]: the refinement after the homotopy (vibupdate.inverse.polish.PolishOptions) --
     Option("polish", "enabled", "boolean", True, "refine the homotopy's answer by bounded least squares of the "
-           "declared modes' relative frequency errors and the shape-interval penalties"),
-    Option("polish", "shape_weight", "number", 100.0, "weight of a shape ratio's distance outside its interval "
-           "(an answer that fails the fit check is refitted with the ratio of the frequencies' tolerance to "
-           "`shape_tolerance` when smaller)",
-           lower=0),
+           "distances outside the admissible intervals of the data (docs/polish-and-verification.md)"),
     Option("polish", "max_evaluations", "integer", None, "full-model evaluations of the refinement at most", lower=1,
            optional=True, default_text="100 per parameter plus 100; it normally ends on convergence or a stall long "
                                        "before, and a stop on this limit is a warning"),
@@ -178,8 +174,9 @@ OPTIONS = (
     # -- [verification]: the checks of the returned model (vibupdate.inverse.verify.VerifyOptions)
     Option("verification", "mac_min", "number", 0.8, "smallest MAC of a measured shape with its declared mode",
            lower=0, upper=1),
-    Option("verification", "shape_slack", "number", 0.5, "allowed distance outside a shape interval, in half-widths",
-           lower=0),
+    Option("verification", "exact_half_width", "number", 1e-6, "relative half-width of the measurement interval of "
+           "a datum known exactly (an interval of zero width): exact data are met to this, not to the last digit "
+           "(docs/polish-and-verification.md)", lower=0, upper=1, open_upper=True),
     Option("verification", "frequency_tolerance", "number", 0.01, "relative frequency uncertainty of the "
            "consistency allowance (a case file states it at the top level)", lower=0, upper=1, open_upper=True,
            in_case_file=False),

@@ -358,7 +358,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     verification = case.verify_options()
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say, prepared=checked.prepared)
-    say(f"{result.status.value}: {result.message} ({result.seconds:.2f} s)")
+    say(f"{result.status.value} ({result.verdict.value}): {result.message} ({result.seconds:.2f} s)")
     if result.success:
         from vibupdate.report.document import limited_text
 

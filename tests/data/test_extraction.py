@@ -543,7 +543,6 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, c
     for name in SOTON_FILES:
         (tmp_path / name).symlink_to(REALDATA / name)
     code = main(["run", str(tmp_path / "case.toml"), "--out", str(tmp_path / "out")])
-    assert code in (0, 1)  # 1: solved but not verified (a shear model cannot fit every zero)
     doc = json.loads((tmp_path / "out" / "results.json").read_text())
     rows = doc["frequencies"]
     assert len(rows) == 13  # 3 natural frequencies and the 10 antiresonances, all from the FRFs
@@ -552,29 +551,32 @@ def test_southampton_case_updates_a_frame_model_from_frfs_in_one_run(tmp_path, c
     # the classical frequency fit on the same model and the same 13 frequencies (its mean error
     # is over all of them)
     classical = frequency_fit(load_case(tmp_path / "case.toml").configurations).mean_error_pct
-    # measured (docs/frf-extraction.md): nominal 11.47 %; updated 1.80 % (shear frame), 1.67 %
-    # (free masses); classical 1.77 %, 1.22 %. Neither verifies: the fit check fails.
     assert updated < nominal / 4 and classical < nominal / 4
-    if code == 1:
-        failed = [c["name"] for c in doc["checks"] if not c.get("passed", True)]
-        assert "fit" in failed, failed
     report = (tmp_path / "out" / "report.md").read_text()
     assert "FRFs of configuration frame: measured receptance (m/N" in report  # the overlay (Fig. 11)
-    # which data conflict with a planar model: every group of the 13 frequencies and the shapes
-    # left out in turn (measured, 19 groups: the low end of the frame; with free masses, left
-    # without the first zero of h_x1,x1 (8.78 Hz) it verifies at 1.25 % mean, 2.16 % max, and
-    # without mode 1 (6.51 Hz) it fits best (objective 9.7e-4 against 1.3e-3) but misses by
-    # 2.45 %; the shear frame ranks mode 1 first and verifies without no single group)
-    diagnosis = doc["diagnosis"]
-    assert code == 1 and diagnosis["groups"] == 19 and "## Which data conflict" in report
-    top = [t["key"] for t in diagnosis["trials"][:2]]
+    # benchmarks/RESULTS.md, "The Southampton frame under one admissible-data contract": each
+    # verdict below was checked by an eigen-solve of the written matrices, independent of the
+    # library's checks
     if case_file == "soton-frame-masses.toml":
-        assert set(top) == {"frame/antiresonance/x1,x1/1", "frame/natural/1"}, top
-        assert diagnosis["trials"][0]["passed"] and diagnosis["best"]["status"] == "success"
-        assert (tmp_path / "out" / "without_worst_K_frame.mtx").is_file()
+        # with the masses of floors 2 and 3 free, a model fits all 13 data within their
+        # measurement intervals plus the 2 % model-form tolerance (mean 1.44 %)
+        assert code == 0 and doc["status"] == "success", doc["message"]
+        for r in rows:
+            widened = (r["measured_lower_hz"] - 0.02 * r["measured_hz"], r["measured_upper_hz"] + 0.02 * r["measured_hz"])
+            assert widened[0] <= r["updated_hz"] <= widened[1], r
+        assert (tmp_path / "out" / "K_frame.mtx").is_file()
     else:
-        assert top[0] == "frame/natural/1" and not diagnosis["trials"][0]["passed"]
-    assert (tmp_path / "out" / "not_verified_K_frame.mtx").is_file()
+        # the shear frame cannot fit every datum; the diagnosis leaves each of its 19 groups out
+        # in turn and finds that without mode 1 (6.51 Hz) the rest verify
+        assert code == 1
+        failed = [c["name"] for c in doc["checks"] if not c.get("passed", True)]
+        assert "fit" in failed, failed
+        diagnosis = doc["diagnosis"]
+        assert diagnosis["groups"] == 19 and "## Which data conflict" in report
+        assert diagnosis["trials"][0]["key"] == "frame/natural/1" and diagnosis["trials"][0]["passed"]
+        assert diagnosis["best"]["status"] == "success"
+        assert (tmp_path / "out" / "without_worst_K_frame.mtx").is_file()
+        assert (tmp_path / "out" / "not_verified_K_frame.mtx").is_file()
     assert (tmp_path / "out" / "frf_frame.png").stat().st_size > 20_000
 
 

@@ -1,6 +1,7 @@
 """Which data conflict (`vibupdate.inverse.diagnosis`): the groups of the data, what leaving
 one out keeps, when a diagnosis runs, and a known truth with one biased driving point."""
 
+
 import numpy as np
 import pytest
 
@@ -74,21 +75,15 @@ def test_a_diagnosis_runs_only_when_the_answer_does_not_fit_the_data(status, fai
 def test_a_biased_driving_point_is_named_first_and_the_model_without_it_is_the_truth(monkeypatch):
     """The driving point's entry (y3) is 10 % off in every mode: no parameter set fits every
     shape interval, the run is not verified, and the diagnosis names that DOF; updated again
-    without it the model is the truth within 0.1 %."""
+    without it the model is the truth within 0.1 %. Its cost is counted, not timed: the 13
+    screening polishes take 317 full-model evaluations (426 with the ratio-box objective of an
+    earlier version, 535 with a one-row admissible objective and a soft start)."""
     cfg = biased_configuration("y3", 0.10)
     result = update([cfg])
     failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
     assert result.status == Status.NOT_VERIFIED and "shape_intervals" in failed, result.message
-    lines, evaluations = [], []
-    screen = diagnosis.run_polish
-
-    def counted(*args, **kwargs):   # the screening's work, counted instead of timed
-        polished = screen(*args, **kwargs)
-        evaluations.append(polished.evaluations)
-        return polished
-
-    monkeypatch.setattr(diagnosis, "run_polish", counted)
-    found = diagnose([cfg], result, progress=lines.append, max_seconds=np.inf)   # no time limit: load-independent
+    lines = []
+    found = diagnose([cfg], result, progress=lines.append)
     assert found.worst.key == "A/dof/y3", [(t.group.key, t.objective) for t in found.trials]
     top, second = found.trials[:2]
     assert top.passed and not second.passed and top.objective < 1e-6 * second.objective
@@ -100,8 +95,7 @@ def test_a_biased_driving_point_is_named_first_and_the_model_without_it_is_the_t
     assert np.max(error) < 1e-3, dict(zip(BIASED_CHAIN_TRUTH, error))
     record = found.record()
     assert record["best"]["without"] == "A/dof/y3" and record["trials"][0]["key"] == "A/dof/y3"
-    # one polish per group, 426 evaluations in all when measured (7 to 47 a group)
-    assert len(evaluations) == 13 and sum(evaluations) <= 500, evaluations
+    assert sum(t.evaluations for t in found.trials) <= 350
 
 
 def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():

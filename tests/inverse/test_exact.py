@@ -209,14 +209,14 @@ def test_eigenvector_difference_peer_recovers_the_truth_from_the_nominal_model(p
                     for w, s in zip(omega, shapes.T))
     configurations = [Configuration("portal", portal_model, natural)]
     x_true = portal_model.normalized(portal_truth())
-    r, J = polish_residuals(configurations, x_true, 1.0, shape_target="midpoint")
+    r, J = polish_residuals(configurations, x_true, 1.0)
     assert np.abs(r).max() < 1e-10
     h = 1e-4   # central differences: truncation ~h^2, rounding ~1e-12 / h
     for i in range(x_true.size):
         e = np.zeros(x_true.size)
         e[i] = h
-        fd = (polish_residuals(configurations, x_true + e, 1.0, False, "midpoint")[0]
-              - polish_residuals(configurations, x_true - e, 1.0, False, "midpoint")[0]) / (2 * h)
+        fd = (polish_residuals(configurations, x_true + e, 1.0, False)[0]
+              - polish_residuals(configurations, x_true - e, 1.0, False)[0]) / (2 * h)
         np.testing.assert_allclose(J[:, i], fd, atol=1e-6 * np.abs(J).max())
     fit = eigenvector_fit(configurations, tol=1e-12)
     assert np.abs(fit.values / portal_truth() - 1).max() <= 1e-6

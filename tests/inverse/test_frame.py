@@ -39,14 +39,27 @@ def test_size_matches_test_case_1():
 
 
 def test_problem_1_fits_the_frequencies_and_shapes(noisy):
+    """The data carry 0.3 % frequency noise (0.387 % mean on the bundled seed) and 2 % shape
+    noise: the answer is judged against the truth's noise-free modes. A model that reproduced
+    the noisy frequencies would be as far from the truth's as the data are; the answer must be
+    nearer (measured 0.364 %, 1 - MAC 1.5e-4; benchmarks/RESULTS.md, "The frame generator: the
+    answer against the truth's noise-free modes")."""
+    from vibupdate.modal.analysis import modes
+
     configurations, r = noisy
     assert r.status == Status.SUCCESS, r.message
     assert r.mean_error("nominal") > 3.0               # the nominal model is 4.1 % off
-    # measured 0.0285 % on these noisy data (0.0345 % before the polish's later changes:
-    # benchmarks/RESULTS.md, "Cantilever and frame: first stage, polish, verification and the
-    # competent classical fit"); the ceiling allows 1.75 times the measured figure for where the
-    # polish stops. The paper's test case 1 reports 1.5 % for its own data.
-    assert r.mean_error("updated") <= 0.05
+    model = configurations[0].model
+    w_true, Phi_true = modes(*model.matrices_at(true_values(model)), frame.N_MODES)
+    w, Phi = modes(*model.matrices_at(r.values), frame.N_MODES)
+    measured = np.array([f.omega for f in configurations[0].natural])
+    data_error = np.mean(np.abs(measured / w_true - 1))
+    answer_error = np.mean(np.abs(w / w_true - 1))
+    assert answer_error < data_error, (answer_error, data_error)
+    idx = [model.dof(d) for d in frame.MEASURED_DOFS]
+    mac_true = np.array([(Phi[idx, k] @ Phi_true[idx, k]) ** 2
+                         / ((Phi[idx, k] @ Phi[idx, k]) * (Phi_true[idx, k] @ Phi_true[idx, k])) for k in range(frame.N_MODES)])
+    assert np.all(mac_true >= 0.999), mac_true
     assert np.all(r.mac["frame"] >= 0.95)
     assert r.relaxation_lower_bound <= r.objective
 
@@ -63,11 +76,14 @@ def test_truth_is_recovered_within_the_measurement_error(noisy):
     slack = 0.02 * (ranges.upper - ranges.lower) + 1e-6 * ref   # linearization
     assert np.all(true >= ranges.lower - slack) and np.all(true <= ranges.upper + slack)
     assert np.all(np.abs(r.values - true) <= ranges.upper - ranges.lower + slack)
-    determined = ranges.determined(5.0)
-    assert determined, "no parameter determined within 5 %: the test would say nothing"
-    for name in determined:
-        i = model.parameter_names.index(name)
-        assert abs(r.values[i] / true[i] - 1) <= 0.05, name
+    # the parameters the data narrow below their box (+-5 %, 10 % wide): each lies within its
+    # range's width of the truth (E4: 5.03 % wide at this answer, measured; 4.72 % at the answer
+    # that reproduced the noisy frequencies)
+    box = 100 * np.array([(p.upper - p.lower) / p.reference for p in model.parameters])
+    narrowed = [i for i in range(model.n_parameters) if ranges.width_pct[i] < 0.9 * box[i]]
+    assert narrowed, "no parameter narrowed by the data: the test would say nothing"
+    for i in narrowed:
+        assert abs(r.values[i] / true[i] - 1) * 100 <= ranges.width_pct[i], model.parameter_names[i]
     # The two balancing springs act in parallel through the axially stiff upper beam: only their
     # sum is seen, each one alone spans most of its bounds.
     assert min(ranges.width_pct[model.parameter_names.index(n)] for n in ("kbs", "kbs2")) > 20

@@ -96,11 +96,9 @@ def test_kept_dofs_keep_their_physical_meaning():
 @pytest.mark.parametrize("budget", [pytest.param(None, marks=pytest.mark.slow), 40])
 def test_auto_reduction_solves_a_refined_frame(budget):
     """305 DOFs: above the threshold, solved on the reduced model, checked on the full one.
-    With the default polish it takes 33 s, 32 of them in a polish that fits the example's noise
-    for 779 evaluations after it has passed below the truth's objective in 5
-    (benchmarks/RESULTS.md, "why the refined frame's polish takes 779 evaluations"): slow. The
-    reduction is what is tested here, so CI caps the polish at 40 evaluations (2 s), which ends
-    verified as well."""
+    With the default polish it takes about 6 s (33 s before the admissible-data polish, which
+    fitted the example's noise for 779 evaluations: benchmarks/RESULTS.md, "why the refined
+    frame's polish takes 779 evaluations"); CI's fast step caps the polish at 40 evaluations."""
     frequencies, shapes = frame.generate(subdivisions=8)
     configurations = frame.configurations(frequencies, shapes, 8)
     assert wants_reduction(configurations, FormulationOptions())
@@ -109,9 +107,16 @@ def test_auto_reduction_solves_a_refined_frame(budget):
                                                                  polish=PolishOptions(max_evaluations=budget))
     assert result.status == Status.SUCCESS, result.message
     assert result.problem_size["reduced_dofs"] == 20 + 20
-    # measured 0.0724 % with the default polish and 0.126 % with 40 evaluations (2026-12-06);
-    # the ceilings allow twice that, for where the polish stops
-    assert result.mean_error() <= {None: 0.15, 40: 0.25}[budget]
+    # judged against the truth's noise-free frequencies, not the noisy data (0.3 % noise): the
+    # answer is nearer them than the data are (measured: 0.379 % against the data's 0.387 %, both
+    # budgets; benchmarks/RESULTS.md, "The frame generator: the answer against the truth's
+    # noise-free modes")
+    model = configurations[0].model
+    truth = frame.truth()
+    w_true, _ = modes(*model.matrices_at([truth[p.name] for p in model.parameters]), frame.N_MODES)
+    w, _ = modes(*model.matrices_at(result.values), frame.N_MODES)
+    measured = np.array([f.omega for f in configurations[0].natural])
+    assert np.mean(np.abs(w / w_true - 1)) < np.mean(np.abs(measured / w_true - 1))
     assert np.all(result.mac["frame"] >= 0.95)
     assert result.vectors[0].shape == (configurations[0].model.n_dofs,)
     reduced, _ = reduce_configurations(configurations, 20)

@@ -13,6 +13,7 @@ from vibupdate import (Antiresonance, Assembly, Configuration, NaturalFrequency,
 from vibupdate.inverse.backends.casadi_ipopt import CasadiIpopt
 from vibupdate.examples import cantilever
 from vibupdate.inverse.homotopy import SolverOptions
+from vibupdate.inverse.status import Verdict
 from vibupdate.inverse.polish import PolishOptions, polish
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
@@ -275,7 +276,7 @@ def test_a_failed_path_is_on_record_when_a_further_start_verifies():
     cfg = Configuration("P2", model, tuple(NaturalFrequency(w) for w in omega))
     result = update([cfg], solver=SolverOptions(max_iter=1, min_step=0.25))
     assert not any(s.accepted and s.lam == 1.0 for s in result.steps)
-    assert result.restarts and result.restarts[0]["start"] == "stepped homotopy path"
+    assert result.restarts and result.restarts[0].start == "stepped homotopy path"
     assert result.success, result.message
     assert "homotopy stopped at lambda" in result.message and "passed every verification check" in result.message
     assert np.allclose(result.xbar, x_true, atol=1e-6)
@@ -295,9 +296,10 @@ def test_two_answers_that_fit_exactly_are_both_said():
     other = result.alternatives[0]["values"]
     assert np.allclose([other["k1"], other["k2"]], [2000.0, 500.0], rtol=1e-6)
     assert any(w.startswith("uniqueness: 1 other answer") for w in result.warnings)
-    assert {r["purpose"] for r in result.restarts if "purpose" in r} == {"uniqueness"}
+    assert result.verdict == Verdict.NOT_UNIQUE and result.solver_record()["verdict"] == "not_unique"
+    assert result.sought.uniqueness and {r.purpose for r in result.restarts} == {"uniqueness"}
     # starts that find one of the two answers again stop there instead of converging on it twice
-    statuses = [r["status"] for r in result.restarts if r.get("purpose") == "uniqueness"]
+    statuses = [r.status for r in result.restarts if r.purpose == "uniqueness"]
     assert "same answer" in statuses, statuses
 
 

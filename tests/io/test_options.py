@@ -64,7 +64,7 @@ REFUSED = [("solver", "step_growth", 1000.0, "in [1, 100]"), ("solver", "step_gr
            ("formulation", "shape_margin", 1e300, "in [1, 10000]"), ("formulation", "sign_delta", 1.0, "in (0, 1)"),
            ("formulation", "length_scale", -1.0, "> 0"), ("formulation", "reduction", "guyan", "'craig-bampton'"),
            ("formulation", "interlacing", 1, "true or false"),
-           ("polish", "shape_weight", -1.0, ">= 0"), ("polish", "max_evaluations", 0, ">= 1"),
+           ("verification", "exact_half_width", -1.0, "in [0, 1)"), ("polish", "max_evaluations", 0, ">= 1"),
            ("polish", "reduced_rounds", -1, ">= 0"), ("polish", "enabled", "yes", "true or false"),
            ("verification", "mac_min", 1.5, "in [0, 1]"), ("verification", "natural_tolerance", 1.0, "in [0, 1)")]
 

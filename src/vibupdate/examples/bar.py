@@ -149,19 +149,14 @@ def _parameter_tables(parameters) -> str:
     return text
 
 
-def case_text(uff: str = "hammer.uff", shape_weight: float | None = None, parameters=(),
+def case_text(uff: str = "hammer.uff", parameters=(),
               mass_normalized: bool = True) -> str:
     """The case file: the Euler-Bernoulli model of the bar, the names in ``parameters`` its
     ``[[parameter]]``s (default none), the others of `CANDIDATES` (E, rho, the rotary-inertia
     factor r, the two suspension springs, the tip mass) its ``[[candidate]]``s, and the
     roving-hammer FRFs of ``uff`` read reciprocally; with ``mass_normalized`` their shapes are
     taken as mass-normalized (the test is calibrated in SI units and has its driving point
-    ``h_y1,y1``), so that their modal masses see the density apart from E.
-
-    ``shape_weight`` (``[polish]``; None: the default, which the fit scales to the ratio of
-    the frequencies' tolerance to the shapes' (0.107 here: 0.1 % for the natural frequencies and
-    2 % for the zeros, against 0.02), so that each misses in units of what the verification
-    allows it: `vibupdate.inverse.verify.tolerance_shape_weight`)."""
+    ``h_y1,y1``), so that their modal masses see the density apart from E."""
     beams = (f'[[model.beam]]\nnodes = {list(range(1, MODEL_ELEMENTS + 2))}\nEI = "{INERTIA!r}*E"\n'
              f'mass_per_length = "{AREA!r}*rho"\nrotary_inertia = "{RHO_NOMINAL * INERTIA!r}*r"\n')
     springs = "".join(f'[[model.spring]]\ndof = "y{n}"\nvalue = "ks{i}"\n' for i, n in enumerate(SUPPORTS, 1))
@@ -173,7 +168,6 @@ def case_text(uff: str = "hammer.uff", shape_weight: float | None = None, parame
             f'[[configuration]]\nname = "bar"\nmass_normalized_shapes = {str(mass_normalized).lower()}\n'
             f'[configuration.frf]\nfiles = ["{uff}"]\n'
             f'band_hz = [{BAND_HZ[0]!r}, {BAND_HZ[1]!r}]\nfirst_mode = {FIRST_MODE}\nreciprocal = true\n\n'
-            + ("" if shape_weight is None else f'[polish]\nshape_weight = {shape_weight!r}\n\n')
             + f'[verification]\nnatural_tolerance = {NATURAL_TOLERANCE!r}\nshape_tolerance = {SHAPE_TOLERANCE!r}\n'
             f'# hammer points: {pairs}\n')
 

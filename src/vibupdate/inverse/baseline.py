@@ -61,7 +61,7 @@ class FrequencyFit:
     n_evaluations: int
 
 
-def _fit(configurations, shape_weight: float, shape_target: str, x0=None, tol=None) -> FrequencyFit:
+def _fit(configurations, shape_weight: float, x0=None, tol=None) -> FrequencyFit:
     from vibupdate.inverse.polish import bounded_least_squares, polish_residuals
 
     configurations = list(configurations)
@@ -69,7 +69,7 @@ def _fit(configurations, shape_weight: float, shape_target: str, x0=None, tol=No
     lo, hi = model.bounds()
     x0 = np.zeros(model.n_parameters) if x0 is None else np.asarray(x0, dtype=float)
     start = time.perf_counter()
-    sol = bounded_least_squares(lambda x: polish_residuals(configurations, x, shape_weight, shape_target=shape_target),
+    sol = bounded_least_squares(lambda x: polish_residuals(configurations, x, shape_weight),
                                 x0, lo, hi, max_nfev=MAX_EVALUATIONS,
                                 **({} if tol is None else {"ftol": tol, "xtol": tol, "gtol": tol}))
     seconds = time.perf_counter() - start
@@ -88,7 +88,7 @@ def frequency_fit(configurations: Sequence[Configuration], *, tol: float | None 
     ``tol`` sets ``ftol``, ``xtol`` and ``gtol`` of `scipy.optimize.least_squares` (its
     defaults, 1e-8, when None: what a user would write; exact-data benchmarks pass the
     polish's 1e-12)."""
-    return _fit(configurations, 0.0, "interval", tol=tol)
+    return _fit(configurations, 0.0, tol=tol)
 
 
 def eigenvector_fit(configurations: Sequence[Configuration], x0=None, *, tol: float | None = None) -> FrequencyFit:
@@ -96,4 +96,4 @@ def eigenvector_fit(configurations: Sequence[Configuration], x0=None, *, tol: fl
     ratios (interval midpoints), from the nominal model or from ``x0`` (shape (n_x,)),
     unit weight on each relative frequency and each shape ratio (module docstring); ``tol``
     as in `frequency_fit`."""
-    return _fit(configurations, 1.0, "midpoint", x0, tol=tol)
+    return _fit(configurations, 1.0, x0, tol=tol)

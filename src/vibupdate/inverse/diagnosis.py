@@ -39,10 +39,11 @@ from vibupdate.data.names import mode_name, zero_name
 from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies, row_errors
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.formulation.options import FormulationOptions
-from vibupdate.inverse.polish import PolishOptions, polish as run_polish, polish_residuals
+from vibupdate.inverse.polish import PolishOptions, polish as run_polish
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update
-from vibupdate.inverse.verify import VerifyOptions, fit_data, verify
+from vibupdate.inverse.admissible import Admissible, evaluate
+from vibupdate.inverse.verify import VerifyOptions, verify
 
 
 #: Failed checks that say the model does not fit the data: only these start a diagnosis. A
@@ -190,6 +191,8 @@ class GroupTrial:
         Shape-interval misses on the data kept (the value of the ``shape_intervals`` check).
     xbar : ndarray
     seconds : float
+    evaluations : int
+        Full-model evaluations of the polish (one eigen-solve per configuration each).
     """
 
     group: DataGroup
@@ -202,12 +205,13 @@ class GroupTrial:
     shape_misses: int
     xbar: np.ndarray
     seconds: float
+    evaluations: int = 0
 
     def as_dict(self) -> dict:
         return {**self.group.as_dict(), "share": self.share, "objective": self.objective,
                 "passed": self.passed, "failed": list(self.failed), "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "shape_misses": self.shape_misses,
-                "xbar": self.xbar.tolist(), "seconds": self.seconds}
+                "xbar": self.xbar.tolist(), "seconds": self.seconds, "evaluations": self.evaluations}
 
 
 @dataclass(frozen=True)
@@ -284,8 +288,7 @@ class Diagnosis:
 
 def _objective(configurations, xbar, polish: PolishOptions, verification: VerifyOptions) -> float:
     """The polish's objective at ``xbar``, the data weighed as the update weighs them."""
-    weighted, options = fit_data(configurations, verification, polish)
-    r, _ = polish_residuals(weighted, xbar, options.shape_weight, jacobian=False)
+    r, _ = evaluate(configurations, Admissible.of(configurations, verification), xbar, jacobian=False)
     return 0.5 * float(r @ r)
 
 
@@ -294,17 +297,18 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
     """Polish the data ``kept`` from ``xbar`` and verify the answer on them."""
     t0 = time.perf_counter()
     nominal = [model_frequencies(c) for c in kept]
-    weighted, options = fit_data(kept, verification, replace(polish, enabled=True))   # as update
-    polished = run_polish(weighted, xbar, options)
+    contract = Admissible.of(kept, verification)
+    polished = run_polish(kept, xbar, replace(polish, enabled=True), contract=contract)   # as update
     x = polished.xbar
     updated = [model_frequencies(c, x, derivatives=True) for c in kept]
-    checks = verify(kept, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0, options=verification)
+    checks = verify(kept, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0, options=verification,
+                    contract=contract)
     failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
     shape = next((c for c in checks if c.name == "shape_intervals"), None)
     mean, worst = mean_max(np.concatenate(list(declared_errors(kept, updated).values())))
     return GroupTrial(group, share, float(polished.cost), not failed, failed, mean, worst,
                       int(shape.value) if shape is not None else 0, np.asarray(x, dtype=float),
-                      time.perf_counter() - t0)
+                      time.perf_counter() - t0, polished.evaluations)
 
 
 def _rank(trial: GroupTrial) -> tuple:

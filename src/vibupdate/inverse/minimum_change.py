@@ -10,7 +10,7 @@ the polished answer ``x*`` there.
 
 Let ``g(x)`` be the measured data as the model gives them: every declared natural frequency
 and zero relative to its measured value, and every measured shape ratio (the residuals of
-`vibupdate.inverse.polish.polish_residuals` with ``shape_target="midpoint"``, which differ
+`vibupdate.inverse.polish.polish_residuals`, which differ
 from ``g`` by constants and fixed weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
 (singular values above ``RANK_RTOL`` of the largest, the threshold of the reported
 sensitivity, `vibupdate.inverse.data_map.sensitivity`), below the number of parameters.
@@ -102,7 +102,7 @@ def _data(configurations, x, shape_weight):
     """``g(x)`` up to fixed weights and constants, and its exact Jacobian."""
     from vibupdate.inverse.polish import polish_residuals
 
-    return polish_residuals(configurations, x, shape_weight, shape_target="midpoint")
+    return polish_residuals(configurations, x, shape_weight)
 
 
 def _weights(configurations: Sequence[Configuration], shape_weight: float) -> np.ndarray:

@@ -3,16 +3,12 @@
 The homotopy minimizes the weighted eigen-residual of Eqs. 7 and 9 over parameters *and*
 vectors; each measured frequency there need only be *some* eigenvalue of the model, and a
 reduced model (Craig-Bampton) leaves its own small error. The polish starts from that answer
-and minimizes, over the normalized parameters in their box,
-
-    sum_k  w_k ((w_model,k(xbar) - w_k) / w_k)^2                 (declared modes and zeros)
-  + sum_s  (gamma * d_s(xbar))^2                                  (shape intervals)
-
-where ``w_model,k`` is the model's *declared* mode or zero (`vibupdate.data.pairing`), so the
-correspondence is enforced rather than hoped for, and ``d_s`` is how far the model's shape
-ratio ``phi_j / phi_p`` (``p`` the entry of largest measured magnitude) lies outside its
-measured interval (zero inside): the intervals act as penalties of weight ``gamma``.
-The model's values and their exact Jacobian come from the data map
+and minimizes, over the normalized parameters in their box, the distance of every model value
+outside its admissible interval plus a small pull toward the midpoints, both in half-widths of
+those intervals (`vibupdate.inverse.admissible`: the intervals the verification holds the
+answer to). The model's value of a frequency is its *declared* mode or zero
+(`vibupdate.data.pairing`), so the correspondence is enforced rather than hoped for; a shape
+is taken at its best scale. The model's values and their exact Jacobian come from the data map
 (`vibupdate.inverse.data_map`); one eigen-solve per evaluation serves residual and Jacobian. The refined point is kept only where it lowers this objective; both
 points are recorded.
 
@@ -28,17 +24,9 @@ on the evaluation limit (`benchmarks/RESULTS.md`).
 stall (`vibupdate.inverse.bounded_lsq.STALL_DECREASE`); the evaluation budget (`EVALUATIONS_PER_UNKNOWN`) and the optional
 time limit are backstops, and a stop on either is reported (`PolishResult.stopped_on`) and
 made a warning of the update. On noisy interval shapes from a poor start the polish may need
-hundreds of evaluations: the interval penalty is a hinge, and trust-region steps zig-zag
-across one interval edge while the frequencies creep down (docs/method.md, section 7.2).
-
-**Soft start.** On noisy interval shapes that hinge dominates the cost of the polish: with
-``gamma = 100`` a Gauss-Newton step that leaves an interval by 1e-3 is priced like a 10 %
-frequency miss, so the trust region stays small. Where some interval has a nonzero width,
-the full-model polish therefore first runs with ``gamma`` times `SOFT_START` (0.1), where the
-frequencies and the intervals are met together in a few dozen evaluations, and then with the
-full ``gamma`` from that point (the same objective and tests as before; only the path
-changes). Measured on the noisy-shape beam of the tests, 12 runs from nominal and poor
-starts: 2,140 evaluations -> 310.
+hundreds of evaluations: where several data are held at their intervals' ends, trust-region
+steps zig-zag across those ends while the objective creeps down (docs/method.md, section 7.2;
+docs/polish-and-verification.md).
 
 **Reduced rounds on large models.** Above `vibupdate.modal.eigen.DENSE_LIMIT` DOFs one full
 evaluation is one shift-invert eigen-solve and one sparse LU per measured shape (its
@@ -60,8 +48,10 @@ above the full objective). Otherwise (the reduced model's rounding floor far abo
 objective, a refuted step with a large predicted gain, the round limit) the usual full-model
 least squares finishes from the best point.
 Building frame, exact data: 30,315 DOFs 36 full evaluations (80 s) -> 4 full evaluations and
-4 rounds (10.9 s); 2,940 DOFs 18 -> 3. Noisy data on 546 DOFs (6 seeds): the same objective
-within 1.2e-12 in 4-5 full evaluations, where the full-model polish took 37-50.
+4 rounds (10.9 s); 2,940 DOFs 18 -> 3 (with the ratio-box objective of an earlier version).
+With the admissible-data objective on 546 DOFs: exact data 3 full evaluations (58 reduced)
+against 38 on the full model; noisy data, two draws, 4 and 3 full evaluations to the
+full-model polish's objective (188 and 78 there).
 """
 
 from __future__ import annotations
@@ -74,7 +64,8 @@ import numpy as np
 
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
-from vibupdate.inverse.data_map import data_map, measured_shapes
+from vibupdate.inverse.admissible import PULL, Admissible, evaluate, residuals
+from vibupdate.inverse.data_map import data_map
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
 
@@ -93,12 +84,13 @@ ROUND_XTOL = 1e-10
 #: to 491 from a poor start, most of them crawling along one interval edge; the budget is a
 #: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
-#: The soft start (module docstring): on the full-model path, with shape intervals of nonzero
-#: width, the polish first runs with the shape weight times this, then with the full weight
-#: from there. Noisy-shape beam, 12 runs: 2,140 evaluations -> 310 (0.2 % frequency noise,
-#: every run at a zero objective either way); 9,698 with 8 runs on the limit -> 1,325, none
-#: (1 % noise, intervals that the frequencies cannot all meet).
-SOFT_START = 0.1
+#: Every least squares of the polish (full or reduced model) starts with this weight of the
+#: distance rows, ``1 / START_PULL``, to ``ftol`` `START_FTOL`, then goes on from there with
+#: `vibupdate.inverse.admissible.PULL` (penalty continuation): at an interval's end a datum's
+#: distance row switches on with slope ``1 / pull``, and with 0.01 from the start trust-region
+#: steps crawl along the ends that hold the answer.
+START_PULL = 0.1
+START_FTOL = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
@@ -111,11 +103,6 @@ class PolishOptions:
     ----------
     enabled : bool
         Run the polish after the homotopy (default on).
-    shape_weight : float
-        ``gamma``: weight of a shape ratio's distance outside its interval, against relative
-        frequency errors. The default 100 prices a ratio 1e-3 outside its interval like a 10 %
-        frequency miss, so the intervals act almost as constraints (on the frame example the
-        polish takes the interval penalty from 0.107 to 1e-6 and keeps 0.035 % frequency error).
     max_evaluations : int or None
         Residual evaluations on the full model at most (each one eigen-solve per
         configuration); None (default) scales it with the problem,
@@ -134,7 +121,6 @@ class PolishOptions:
     """
 
     enabled: bool = default("polish", "enabled")
-    shape_weight: float = default("polish", "shape_weight")
     max_evaluations: int | None = default("polish", "max_evaluations")
     tol: float = default("polish", "tol")
     reduced_rounds: int = default("polish", "reduced_rounds")
@@ -202,33 +188,24 @@ class PolishResult:
                 "stopped_on": self.stopped_on, "budget": self.budget}
 
 
-def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight: float = 100.0,
-                     jacobian: bool = True, shape_target: str = "interval", basis: list | None = None):
-    """Residuals of the polish objective (module docstring) and their exact Jacobian.
-
-    ``shape_target="midpoint"`` replaces the distance outside each ratio interval by the
-    signed difference from the interval's midpoint: the residual of the classical
-    eigenvector-difference fit (`vibupdate.inverse.baseline.eigenvector_fit`).
-    ``basis``, a list (with ``jacobian``), receives per configuration the vectors the
-    evaluation computed, shape (n, n_v): the modes, the adjunct vectors of the zeros (right and
-    left, zero at the removed entry) and the shape-ratio derivative solutions
-    (`vibupdate.inverse.data_map.DataMap.vectors`): the basis of the reduced rounds (module
-    docstring).
+def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight: float = 1.0,
+                     jacobian: bool = True):
+    """Residuals of the classical fit and their exact Jacobian: each declared frequency's
+    relative error times ``sqrt(weight)``, then ``shape_weight`` times each shape ratio's and
+    each modal mass's signed difference from its interval's midpoint (the mass relative to it):
+    the eigenvector-difference fit of `vibupdate.inverse.baseline` and the data the minimum
+    change keeps (`vibupdate.inverse.minimum_change`). The polish fits the admissible data
+    instead (`vibupdate.inverse.admissible.residuals`).
 
     Returns
     -------
     r : ndarray, shape (n_r,)
-        Per configuration, in the order of the data map (`vibupdate.inverse.data_map`): the
-        weighted relative errors of the natural frequencies and zeros, then the shape terms
-        (ratios, then the modal masses' relative distances).
+        Per configuration, in the order of the data map (`vibupdate.inverse.data_map`).
     J : ndarray, shape (n_r, n_x), or None without ``jacobian``
     """
-    if shape_target not in ("interval", "midpoint"):
-        raise ValueError(f"shape_target must be 'interval' or 'midpoint', got {shape_target!r}")
     res, jac = [], []
     for cfg in configurations:
-        want_vectors = basis is not None and jacobian
-        d = data_map(cfg, xbar, jacobian=jacobian, shapes=shape_weight > 0, vectors=want_vectors)
+        d = data_map(cfg, xbar, jacobian=jacobian, shapes=shape_weight > 0)
         measured = (*cfg.natural, *cfg.antiresonances)
         w = np.array([m.omega for m in measured])
         s = np.sqrt([m.weight for m in measured])
@@ -237,41 +214,38 @@ def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight
         if jacobian:
             jac.append(np.where(lost[:, None], 0.0, s[:, None] * d.frequency_jacobian / w[:, None]))
         for k, (shape, ratio) in enumerate(zip(d.shapes, d.ratios)):
-            if shape_target == "midpoint":
-                res.append(shape_weight * (ratio - shape.midpoint))
-                sign = np.ones(ratio.size)
-            else:
-                below, above = np.maximum(shape.lower - ratio, 0), np.maximum(ratio - shape.upper, 0)
-                res.append(shape_weight * (below + above))
-                sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
+            res.append(shape_weight * (ratio - shape.midpoint))
             if jacobian:
-                jac.append(shape_weight * sign[:, None] * d.ratio_jacobians[k])
-        weighed = [shape for shape in d.shapes if shape.mass is not None]
-        if weighed:   # modal masses: as a shape ratio, in units of the measured value
-            lower, upper = np.array([shape.mass for shape in weighed]).T
-            mid = 0.5 * (lower + upper)
-            if shape_target == "midpoint":
-                res.append(shape_weight * (d.masses - mid) / mid)
-                sign = np.ones(mid.size)
-            else:
-                below, above = np.maximum(lower - d.masses, 0), np.maximum(d.masses - upper, 0)
-                res.append(shape_weight * (below + above) / mid)
-                sign = np.where(above > 0, 1.0, np.where(below > 0, -1.0, 0.0))
+                jac.append(shape_weight * d.ratio_jacobians[k])
+        mid = np.array([0.5 * sum(shape.mass) for shape in d.shapes if shape.mass is not None])
+        if mid.size:
+            res.append(shape_weight * (d.masses - mid) / mid)
             if jacobian:
-                jac.append(shape_weight * (sign / mid)[:, None] * d.mass_jacobian)
-        if want_vectors:
-            basis.append(np.hstack(d.vectors))
+                jac.append(shape_weight * d.mass_jacobian / mid[:, None])
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
 
 
-def fit_least_squares(configurations: Sequence[Configuration], x0, shape_weight: float, known=None,
-                      monitor=None, **options):
-    """`bounded_least_squares` of `polish_residuals` from ``x0``, shape (n_x,), in the box of
-    the normalized parameters."""
+def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Admissible, known=None,
+                      monitor=None, pull: float = PULL, memo: dict | None = None, **options):
+    """`bounded_least_squares` of the admissible-data residuals
+    (`vibupdate.inverse.admissible.evaluate`, with ``pull``) from ``x0``, shape (n_x,), in the
+    box of the normalized parameters; ``memo``, a dict, keeps the data maps of the last four
+    points evaluated (scipy's answer is among them: the next stage starts there at another
+    ``pull`` with no eigen-solve)."""
     lo, hi = configurations[0].model.bounds()
-    return bounded_least_squares(lambda x: polish_residuals(configurations, x, shape_weight), x0, lo, hi,
-                                 known=known, monitor=monitor, **options)
+
+    def at(x):
+        if memo is None:
+            return evaluate(configurations, contract, x, pull=pull)
+        maps: list = []
+        value = evaluate(configurations, contract, x, pull=pull, maps=maps)
+        if len(memo) >= 4:
+            memo.pop(next(iter(memo)))
+        memo[np.asarray(x, dtype=float).tobytes()] = maps
+        return value
+
+    return bounded_least_squares(at, x0, lo, hi, known=known, monitor=monitor, **options)
 
 
 @dataclass(frozen=True)
@@ -284,11 +258,11 @@ class _Converged:
     message: str
 
 
-def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict, budget: int, say=None):
+def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None):
     """The reduced rounds (module docstring) from ``x0``.
 
-    Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best point
-    found, its full-model residual and Jacobian, the counts, and why the rounds converged ("" when
+    Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best
+    point found, its full-model residual and Jacobian, the counts, why the rounds converged ("" when
     they did not, and the full-model finish is needed). They converge when a round's step moves
     no normalized parameter by more than `ROUND_XTOL`; when the reduced model, at least as
     accurate as the full model at ``x``, predicts a gain below ``tol`` times the objective
@@ -306,7 +280,7 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
     lo, hi = configurations[0].model.bounds()
     x = inside(x0, lo, hi)
     basis: list = []
-    value = polish_residuals(configurations, x, options.shape_weight, basis=basis)
+    value = evaluate(configurations, contract, x, basis=basis)
     cost = 0.5 * float(value[0] @ value[0])
     evaluations, rounds, reduced_evaluations, converged = 1, 0, 0, ""
     floor = options.tol * cost
@@ -314,9 +288,11 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
         reduced = [replace(cfg, model=ritz_reduction(cfg.model, kept_dofs(cfg), V)[0])
                    for cfg, V in zip(configurations, basis)]
         with threadpool_limits(limits=1, user_api="blas"):   # ~100-DOF dense solves: threads only contend
-            sol = fit_least_squares(reduced, x, options.shape_weight, max_nfev=REDUCED_EVALUATIONS, **tols)
+            first = fit_least_squares(reduced, x, contract, pull=START_PULL, max_nfev=REDUCED_EVALUATIONS,
+                                      **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
+            sol = fit_least_squares(reduced, first.x, contract, max_nfev=REDUCED_EVALUATIONS, **tols)
         rounds += 1
-        reduced_evaluations += int(sol.nfev)
+        reduced_evaluations += int(first.nfev) + int(sol.nfev)
         x_new = inside(sol.x, lo, hi)
         if np.max(np.abs(x_new - x)) <= ROUND_XTOL:
             converged = f"the next step moves no parameter by more than {ROUND_XTOL:g} of its reference value"
@@ -330,7 +306,7 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
             converged = "the reduced model, exact to first order here, predicts a gain below tol x the objective"
             break
         basis_new: list = []
-        value_new = polish_residuals(configurations, x_new, options.shape_weight, basis=basis_new)
+        value_new = evaluate(configurations, contract, x_new, basis=basis_new)
         evaluations += 1
         cost_new = 0.5 * float(value_new[0] @ value_new[0])
         if not cost_new < cost:
@@ -348,9 +324,10 @@ def _reduced_rounds(configurations: list, x0, options: PolishOptions, tols: dict
 
 
 def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None,
-           progress=None, answers=None) -> PolishResult:
-    """Refine ``xbar0`` by bounded least squares (module docstring). ``progress(message)``, when
-    given, hears of each reduced round (large models).
+           progress=None, answers=None, contract: Admissible | None = None) -> PolishResult:
+    """Refine ``xbar0`` by bounded least squares of the admissible data ``contract`` (module
+    docstring; by default `Admissible.of` the configurations with the default verification
+    options). ``progress(message)``, when given, hears of each reduced round (large models).
 
     It ends on scipy's convergence tests (``ftol``, ``xtol``, ``gtol`` = ``tol``), on a stall
     (`STALL_DECREASE`), on a limit (`PolishOptions.budget` evaluations, ``max_seconds``), or,
@@ -363,64 +340,59 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     budget = options.budget(lo.size)
     start = time.perf_counter()
     x0 = np.clip(np.asarray(xbar0, dtype=float), lo, hi)
-    r0, _ = polish_residuals(configurations, x0, options.shape_weight, jacobian=False)
-    cost0 = 0.5 * float(r0 @ r0)
+    contract = contract or Admissible.of(configurations)
+    cost0 = _cost(configurations, contract, x0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}
-    rounds = reduced_evaluations = 0
-    stopped_on = "convergence"
     try:
-        start_x, known, evaluations, converged = x0, None, 0, ""
-        if options.reduced_rounds and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT:
-            try:
-                start_x, value, evaluations, rounds, reduced_evaluations, converged = _reduced_rounds(
-                    configurations, x0, options, tols, budget, progress)
-                known = (start_x, value)
-            except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model polish alone, from x0
-                if progress is not None:
-                    progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
-        if converged:
-            cost = 0.5 * float(known[1][0] @ known[1][0])
-            sol = _Converged(start_x, cost, 0, f"converged in {rounds} reduced rounds: {converged}")
-        elif evaluations >= budget:
-            cost = 0.5 * float(known[1][0] @ known[1][0])
-            sol = _Converged(start_x, cost, 0, f"stopped on the limit of {budget} evaluations of the full model "
-                                               f"in {rounds} reduced rounds (set polish.max_evaluations to allow more)")
-            stopped_on = "evaluations"
-        else:
-            if known is None and options.shape_weight > 0 and _has_intervals(configurations):
-                # the soft start (module docstring): the same fit with the intervals priced lower
-                soft = replace(options, shape_weight=SOFT_START * options.shape_weight)
-                first, evaluations, stopped_on = _full_model(configurations, start_x, None, soft, tols, budget,
-                                                             evaluations, start, answers)
-                start_x = first.x
-            if stopped_on == "known answer":
-                sol = first
-            elif stopped_on in LIMITS:
-                r, _ = polish_residuals(configurations, start_x, options.shape_weight, jacobian=False)
-                sol = _Converged(start_x, 0.5 * float(r @ r), -2, f"{first.message}, in the soft start "
-                                                                  f"(shape weight {soft.shape_weight:g})")
-            else:
-                sol, evaluations, stopped_on = _full_model(configurations, start_x, known, options, tols, budget,
-                                                           evaluations, start, answers)
+        x, cost, evaluations, rounds, reduced_evaluations, stopped_on, message = _minimize(
+            configurations, x0, contract, options, tols, budget, start, answers, progress)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
-    kept = bool(sol.cost < cost0)
-    x = sol.x if kept else x0
-    message = sol.message if kept else f"not kept: the polish did not lower the objective ({sol.message})"
-    return PolishResult(x0, x, cost0, float(sol.cost) if kept else cost0, kept, evaluations, message,
+    kept = bool(cost < cost0)
+    if not kept:
+        message = f"not kept: the polish did not lower the objective ({message})"
+    return PolishResult(x0, x if kept else x0, cost0, cost if kept else cost0, kept, evaluations, message,
                         time.perf_counter() - start, rounds, reduced_evaluations, stopped_on, budget)
 
 
-def _has_intervals(configurations) -> bool:
-    """Whether any measured shape ratio has an interval of nonzero width."""
-    return any(np.any(s.upper > s.lower) for cfg in configurations for s in measured_shapes(cfg))
+def _cost(configurations: list, contract: Admissible, x) -> float:
+    """The polish's objective at ``x``."""
+    r, _ = evaluate(configurations, contract, x, jacobian=False)
+    return 0.5 * float(r @ r)
 
 
-def _full_model(configurations: list, x, known, options: PolishOptions, tols: dict, budget: int, evaluations: int,
-                started: float, answers=None):
-    """The full-model least squares from ``x`` (``known``: its residual and Jacobian when
-    evaluated) after ``evaluations`` of the ``budget``; restarted while scipy's step or cost
+def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, started: float,
+              answers, progress):
+    """The reduced rounds on a large model, the full-model least squares where they did not
+    converge. Returns ``(x, cost, evaluations, rounds, reduced_evaluations, stopped_on,
+    message)``, ``cost`` the objective at ``x``."""
+    x, known, rounds, reduced, converged, evaluations = x0, None, 0, 0, "", 0
+    if options.reduced_rounds and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT:
+        try:
+            x, value, evaluations, rounds, reduced, converged = _reduced_rounds(
+                configurations, x0, contract, options, tols, budget, progress)
+            known = (x, value)
+        except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model least squares alone, from x0
+            x, evaluations, known = x0, 0, None
+            if progress is not None:
+                progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
+    if converged or evaluations >= budget:
+        cost = 0.5 * float(known[1][0] @ known[1][0])
+        if converged:
+            return x, cost, evaluations, rounds, reduced, "convergence", f"converged in {rounds} reduced rounds: {converged}"
+        return (x, cost, evaluations, rounds, reduced, "evaluations",
+                f"stopped on the limit of {budget} evaluations of the full model in {rounds} reduced rounds "
+                f"(set polish.max_evaluations to allow more)")
+    sol, evaluations, stopped_on = _full_model(configurations, x, contract, tols, budget, evaluations,
+                                               started, options.max_seconds, answers)
+    return sol.x, float(sol.cost), evaluations, rounds, reduced, stopped_on, sol.message
+
+
+def _full_model(configurations: list, x, contract, tols: dict, budget: int, evaluations: int,
+                started: float, max_seconds=None, answers=None):
+    """The full-model least squares from ``x`` after ``evaluations`` of the ``budget``, its start
+    with `START_PULL` first; restarted while scipy's step or cost
     test stopped it and a restart still lowers the objective: trf's trust radius collapses on
     the way to a minimum on a bound (the refined frame's J12, true value 0 = its lower bound)
     and its step test then stops it with the objective still falling (2,996 DOFs, exact data:
@@ -431,18 +403,36 @@ def _full_model(configurations: list, x, known, options: PolishOptions, tols: di
     `least_squares` result, the evaluations counted from the polish's start, and what ended it.
     """
     lo, hi = configurations[0].model.bounds()
-    if known is None:
-        x = inside(x, lo, hi)
-        known = (x, polish_residuals(configurations, x, options.shape_weight))
+    x = inside(x, lo, hi)
+    start = (x, evaluate(configurations, contract, x, pull=START_PULL))
+    monitor = Monitor(x, start[1], max(budget - evaluations - 1, 1), budget, stall_window(lo.size), started,
+                      max_seconds, answers)
+    memo: dict = {}
+    try:   # the start (`START_PULL`), then the objective from its answer
+        first = fit_least_squares(configurations, x, contract, known=start, monitor=monitor, pull=START_PULL,
+                                  memo=memo, max_nfev=budget + 1, **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
+        x = first.x
+    except Stop as stop:
+        if stop.reason != "stall":   # a limit, or a known answer reached again
+            x_best = monitor.best[0]
+            return (_Converged(x_best, _cost(configurations, contract, x_best), -2, stop.args[0]),
+                    evaluations + 2 + monitor.count, stop.reason)
+        x = monitor.best[0]
+    evaluations += 1 + monitor.count
+    maps = memo.get(np.asarray(x, dtype=float).tobytes())
+    if maps is not None:   # the start's last evaluation was its answer: the same eigen-solve
+        known = (x, residuals(contract, maps, True, PULL))
+    else:
+        known = (x, evaluate(configurations, contract, x))
         evaluations += 1
     monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
-                       options.max_seconds, answers)
+                       max_seconds, answers)
     stopped_on = "convergence"
     try:
-        sol = fit_least_squares(configurations, known[0], options.shape_weight, known=known, monitor=monitor,
+        sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
                                 max_nfev=budget + 1, **tols)
         while sol.status in (2, 3, 4):
-            again = fit_least_squares(configurations, sol.x, options.shape_weight, monitor=monitor,
+            again = fit_least_squares(configurations, sol.x, contract, monitor=monitor,
                                       max_nfev=budget + 1, **tols)
             if not again.cost < sol.cost:
                 break

@@ -13,18 +13,15 @@ model's first mode as to its second.
 `paired_vector` is the vector a measured mode is compared with: its declared mode, or for a
 repeated frequency the combination of the group's vectors whose shape ratios lie deepest in
 the measured intervals (`best_combination`). The verification checks that vector as it checks
-a single mode's, with a rounding allowance that clears the whole eigenspace
-(`vibupdate.modal.refinement.shape_ratio_floor`); the data map of the polish takes its ratios
+a single mode's; the data map of the polish takes its ratios
 and their derivative as the eigenspace moves (`vibupdate.modal.sensitivities`), and the first
-stage starts from it. `subspace_mac` is the MAC of a measured shape with its best combination,
-`combination_miss` the distance of the best combination at any scaling from the intervals.
+stage starts from it. `subspace_mac` is the MAC of a measured shape with its best combination.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
-
 
 #: Largest relative difference of two model frequencies that are taken as one repeated frequency
 #: (`cluster`). Far below any measurement of a frequency, and far above the split that rounding
@@ -63,12 +60,11 @@ def cluster(omega: np.ndarray, m: int) -> np.ndarray:
     return np.arange(lo, hi + 1)
 
 
-def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int,
-                  shape_slack: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """The model vector paired with the ``k``-th (0-based) measured natural frequency of
     ``cfg``, shape (n,), and the modes of its frequency (`cluster`): the declared mode itself,
     or for a repeated frequency with a measured shape the combination of its modes whose ratios
-    lie deepest in the measured intervals, each widened by ``shape_slack`` half-widths
+    lie deepest in the measured intervals
     (`best_combination`; normalized to ratio 1 at the shape's reference DOF).
 
     Parameters
@@ -86,10 +82,9 @@ def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int,
         return Phi_all[:, m], near
     bounds = nat.shape.ratio_bounds()
     lo, hi = np.array(list(bounds.values()), dtype=float).T
-    slack = shape_slack * 0.5 * (hi - lo)
     U = Phi_all[:, near]
     c = best_combination(cfg.model.measurement(list(bounds)) @ U, (cfg.model.measurement([nat.shape.reference]) @ U)[0],
-                         lo - slack, hi + slack)
+                         lo, hi)
     return (Phi_all[:, m] if c is None else U @ c), near
 
 
@@ -177,24 +172,6 @@ def subspace_mac(shape: np.ndarray, U: np.ndarray) -> float:
     Q = sla.orth(np.asarray(U, dtype=float))
     p = Q.T @ shape
     return float(p @ p) / denom
-
-
-def combination_miss(U: np.ndarray, lower: np.ndarray, upper: np.ndarray, half: np.ndarray) -> float:
-    """How far the best combination of the columns of ``U``, shape (n_s, k), lies outside the
-    intervals ``[lower, upper]``, shape (n_s,), in units of ``half`` (positive): the least
-    ``t`` such that some ``c`` puts every ``(U c)_j`` within ``t half_j`` of interval ``j``. A
-    linear program in ``(c, t)``; ``inf`` when the solver fails."""
-    from scipy.optimize import linprog
-
-    U = np.asarray(U, dtype=float)
-    n_s, k = U.shape
-    # U c - t half <= upper,  -U c - t half <= -lower
-    A_ub = np.vstack([np.column_stack([U, -half]), np.column_stack([-U, -half])])
-    b_ub = np.concatenate([upper, -lower])
-    cost = np.zeros(k + 1)
-    cost[-1] = 1.0
-    sol = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * k + [(0.0, None)], method="highs")
-    return float(sol.x[-1]) if sol.status == 0 else float("inf")
 
 
 def paired_modal_mass(cfg, M, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> float:

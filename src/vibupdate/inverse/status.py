@@ -25,3 +25,22 @@ class Status(str, Enum):
     @property
     def ok(self) -> bool:
         return self in (Status.SUCCESS, Status.ACCEPTABLE)
+
+
+class Verdict(str, Enum):
+    """What the update proved about its answer, apart from how the solver ended (`Status`).
+
+    ``verified``: every datum lies in its admissible interval and every check passed, and no
+    other answer that does was found (`vibupdate.inverse.search.Sought` says whether one was
+    sought); ``not_unique``: verified, and a different answer fits as well (both reported);
+    ``not_verified``: a check failed, or the path failed; ``refused``: the input was refused
+    before any solve."""
+
+    VERIFIED = "verified"
+    NOT_UNIQUE = "not_unique"
+    NOT_VERIFIED = "not_verified"
+    REFUSED = "refused"
+
+    @property
+    def ok(self) -> bool:
+        return self in (Verdict.VERIFIED, Verdict.NOT_UNIQUE)

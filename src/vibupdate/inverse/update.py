@@ -12,14 +12,15 @@
 4. Where the data leave parameter combinations undetermined, the answer is moved along them
    to the point nearest the nominal model with the same data
    (`vibupdate.inverse.minimum_change`).
-5. Verification (`vibupdate.inverse.verify`): the status is ``success`` only when every check of the
-   returned model against the data passes, ``not_verified`` when the path reached
-   ``lam = 1`` but a check failed.
-6. When the answer does not verify (for a reason other than the data contradicting the
-   bounds) or the path failed, further starts are tried (`_restart`): the stepped homotopy
-   path, then the polish from the nominal point and from two seeded random points of the box.
-   The first verified answer is returned; otherwise the one of lowest polish objective, still
-   ``not_verified``. Every start is recorded.
+5. Verification (`vibupdate.inverse.verify`) against the admissible data
+   (`vibupdate.inverse.admissible`), the intervals the polish fitted: the status is
+   ``success`` only when every check of the returned model passes, ``not_verified`` when the
+   path reached ``lam = 1`` but a check failed.
+6. The search (`vibupdate.inverse.search`): when the answer does not verify or the path failed,
+   further starts in a stated order; a verified answer is tested for uniqueness, and another
+   verified answer makes the verdict ``not_unique``. When nothing verifies, the answer of
+   lowest misfit of the admissible data is returned (never above the nominal model's: the
+   nominal point is one of the starts, and the polish keeps only a lower objective).
 
 The result is a frozen record of the updated model and of how it was found.
 """
@@ -34,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.inverse.correlation import frequency_rows, modal_mass_rows, model_frequencies, shape_mac
-from vibupdate.inverse.data_map import sensitivity
+from vibupdate.inverse.data_map import data_map, sensitivity
 from vibupdate.inverse.formulation import formulate
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
@@ -47,9 +48,10 @@ from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
 from vibupdate.inverse.repeated import paired_modes
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.verify import (Check, VerifyOptions, consistency_allowance, tolerance_shape_weight,
-                                     tolerance_weights, verify)
-from vibupdate.modal.analysis import DENSE_LIMIT
+from vibupdate.inverse.admissible import Admissible, misses, weighted
+from vibupdate.inverse.search import Alternative, Search, Sought, Start
+from vibupdate.inverse.status import Verdict
+from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
 
 
 #: Tenfold widenings of the vector boxes at most, when the relaxation proves they exclude every fit.
@@ -95,20 +97,18 @@ class UpdateResult:
         Every failed check and warning, in words, with its figures.
     first_stage_xbar : ndarray, shape (n_x,)
         The homotopy's answer before the polish (``polish.xbar_start`` is the start of the
-        returned answer, which differs when a further start gave it: ``restarts``).
+        returned answer, which differs when a further start gave it: ``sought``).
     polish : PolishResult or None
         What the polish did (None when it was off or the path failed).
     attempts : tuple of dict
         One entry per first-stage attempt: margins of the vector boxes, lower bound,
         objective and status (more than one when the boxes were widened).
-    restarts : tuple of dict
-        Further starts tried when the direct path's answer did not verify or the path failed
-        (`_restart`): ``start``, ``status``, failed checks, polish objective, seconds.
-    alternatives : tuple of dict
-        Other verified answers that fit the data about as well (`_choose`): ``start``,
-        ``objective``, ``values`` (physical, by parameter name), ``xbar`` and ``differs`` (the
-        parameters that differ from the returned answer). Not empty means the data do not
-        single out those parameters.
+    sought : Sought or None
+        What was sought (`vibupdate.inverse.search.Sought`): every start tried, in order, and
+        whether the uniqueness of a verified answer was searched, and why.
+    alternatives : tuple of Alternative
+        Other verified answers (`vibupdate.inverse.search.Alternative`); not empty makes the
+        verdict ``not_unique``.
     minimum_change : MinimumChange or None
         Where the data leave directions undetermined, the move of the answer along them to the
         point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
@@ -142,9 +142,9 @@ class UpdateResult:
     first_stage_xbar: np.ndarray | None = None
     polish: PolishResult | None = None
     attempts: tuple[dict, ...] = ()
-    restarts: tuple[dict, ...] = ()
+    sought: Sought | None = None
     minimum_change: MinimumChange | None = None
-    alternatives: tuple[dict, ...] = ()
+    alternatives: tuple[Alternative, ...] = ()
     modal_masses: tuple[dict, ...] = ()
     modal: dict = field(default_factory=dict, compare=False, repr=False)
 
@@ -156,6 +156,18 @@ class UpdateResult:
     @property
     def verified(self) -> bool:
         return self.status.ok and all(c.passed for c in self.checks if c.severity == "error")
+
+    @property
+    def verdict(self) -> Verdict:
+        """What was proved (`vibupdate.inverse.status.Verdict`), apart from how the solver ended."""
+        if not self.verified:
+            return Verdict.NOT_VERIFIED
+        return Verdict.NOT_UNIQUE if self.alternatives else Verdict.VERIFIED
+
+    @property
+    def restarts(self) -> tuple[Start, ...]:
+        """The starts tried after the homotopy's (`sought`)."""
+        return () if self.sought is None else tuple(s for s in self.sought.starts if s.start != "homotopy")
 
     def mean_error(self, which: str = "updated") -> float:
         """Mean absolute frequency error in per cent over all measured frequencies."""
@@ -177,9 +189,10 @@ class UpdateResult:
             "first_stage_xbar": None if self.first_stage_xbar is None else self.first_stage_xbar.tolist(),
             "polish": None if self.polish is None else self.polish.as_dict(),
             "attempts": list(self.attempts),
-            "restarts": list(self.restarts),
+            "verdict": self.verdict.value,
+            "sought": None if self.sought is None else self.sought.as_dict(),
             "minimum_change": None if self.minimum_change is None else self.minimum_change.as_dict(),
-            "alternatives": list(self.alternatives),
+            "alternatives": [a.as_dict() for a in self.alternatives],
         }
 
 
@@ -223,12 +236,12 @@ class Prepared:
 
 def prepare_first_stage(configurations: Sequence[Configuration], formulation: FormulationOptions | None = None,
                         verification: VerifyOptions | None = None) -> Prepared:
-    """Weigh the data by their tolerances (`vibupdate.inverse.verify.tolerance_weights`),
+    """Weigh the data as the admissible data do (`vibupdate.inverse.admissible.weighted`),
     reduce where wanted and build the problem; no solve (raises ValueError on bad data)."""
     configurations = tuple(configurations)
     formulation = formulation or FormulationOptions()
     verification = verification or VerifyOptions()
-    solved, bases = tuple(tolerance_weights(configurations, verification)), None
+    solved, bases = tuple(weighted(configurations, Admissible.of(configurations, verification))), None
     if wants_reduction(list(solved), formulation):
         solved, bases = reduce_configurations(list(solved), formulation.reduction_modes)
         solved, bases = tuple(solved), tuple(bases)
@@ -339,14 +352,6 @@ def _full_vector(problem: BilinearProblem, b: int, u, configurations, bases) -> 
     return bases[k] @ v
 
 
-#: Random starts of the polish tried, after the stepped path and the nominal point, when the
-#: direct path's answer does not verify.
-RANDOM_STARTS = 2
-#: Checks whose failure no other start can repair: the relaxation's lower bound is a property of
-#: the data and the boxes, not of the answer.
-_DATA_CHECKS = frozenset({"consistency"})
-
-
 @dataclass(frozen=True)
 class _Finish:
     """One candidate answer: a start, polished, moved to the minimum change and verified."""
@@ -360,6 +365,7 @@ class _Finish:
     sensitivity: dict
     checks: tuple
     status: Status
+    misfit: float = 0.0
 
     @property
     def failed(self) -> list[str]:
@@ -370,13 +376,13 @@ class _Finish:
         return self.polished.cost if self.polished is not None else float("inf")
 
 
-def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, say,
+def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, contract, say,
             reduction_error: float = 0.0, answers=None) -> _Finish | None:
     """Polish ``start``, take the minimum change along undetermined directions, verify. None
     when the polish reached one of the known ``answers`` again (`polish`)."""
     xbar, polished, minimum = start, None, None
     if polish.enabled:
-        polished = run_polish(configurations, start, polish, progress=say, answers=answers)
+        polished = run_polish(configurations, start, polish, progress=say, answers=answers, contract=contract)
         if polished.stopped_on == "known answer":
             say(f"polish ({label}): {polished.message}")
             return None
@@ -392,233 +398,53 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
     def checked(x, at):
         out = verify(configurations, x, nominal=nominal, updated=at, lower_bound=path.lower_bound,
                      n_blocks=len(problem.blocks), active_bounds=active, first_stage=first, options=verification,
-                     reduction_error=reduction_error)
+                     reduction_error=reduction_error, contract=contract)
         return tuple(out), not any(c.severity == "error" and not c.passed for c in out)
 
-    verdict = None
+    checks, ok = checked(xbar, updated)
     if polish.enabled and sens["rank"] < xbar.size:   # the data leave directions undetermined
         minimum = minimum_change(configurations, xbar)
         if minimum.kept:
             moved = [model_frequencies(c, minimum.xbar, derivatives=True) for c in configurations]
             verdict = checked(minimum.xbar, moved)
-            stay = None if verdict[1] else checked(xbar, updated)
-            if stay is None or not stay[1]:
-                xbar, updated = minimum.xbar, moved
+            if verdict[1] or not ok:
+                xbar, updated, (checks, ok) = minimum.xbar, moved, verdict
                 say(f"minimum change: {minimum.message}")
                 sens = sensitivity(configurations, xbar, freqs=updated)
-            else:   # the data moved within DATA_TOL, but point data allow less: the polished answer stays
+            else:   # the data moved within DATA_TOL, but the admissible intervals allow less
                 failed = ", ".join(c.name for c in verdict[0] if c.severity == "error" and not c.passed)
                 minimum = replace(minimum, kept=False,
                                   message=f"not kept: the moved answer failed {failed} where the polished one passes")
                 say(f"minimum change: {minimum.message}")
-                verdict = stay
-    checks, ok = verdict if verdict is not None else checked(xbar, updated)
     status = (path.status if path.status.ok else Status.SUCCESS) if ok else Status.NOT_VERIFIED
-    return _Finish(label, start, xbar, polished, minimum, updated, sens, tuple(checks), status)
+    return _Finish(label, start, xbar, polished, minimum, updated, sens, tuple(checks), status,
+                   0.0 if ok else misfit(configurations, contract, xbar))
 
 
-def _worth_restarting(candidate: _Finish) -> bool:
-    """True when the answer failed a check that another start may pass."""
-    return bool(set(candidate.failed) - _DATA_CHECKS)
+def misfit(configurations, contract: Admissible, xbar) -> float:
+    """The contract's misfit of the model at ``xbar``: the sum of squares of every datum's
+    distance outside its admissible interval, in its half-widths (`vibupdate.inverse.admissible.misses`;
+    0 when every datum is admissible, inf when a declared zero is lost)."""
+    maps = [data_map(c, xbar, jacobian=False, shapes=bool(s or m))
+            for c, s, m in zip(configurations, contract.shapes, contract.masses)]
+    return float(sum(m.miss ** 2 for m in misses(contract, maps)))
 
 
-#: A polish objective below this is an exact fit (every datum within about 1e-6): exact fits
-#: tie whatever their objectives (`_choose`).
-EXACT_FIT = 1e-12
-#: An answer fits "about as well" as the best when its objective is below the best's over this.
-IMPROVEMENT = 0.5
+def _better(a: _Finish | None, b: _Finish) -> bool:
+    """Whether ``b`` is a better answer than ``a``: verified over not; of two answers that do
+    not verify, the lower misfit (`misfit`: the distance outside the admissible intervals, not
+    the polish's objective, whose pull toward the midpoints may favour a model that misses
+    more), then the lower objective."""
+    return a is None or (b.status.ok, -b.misfit, -b.cost) > (a.status.ok, -a.misfit, -a.cost)
 
 
-def _box_starts(lo: np.ndarray, hi: np.ndarray, n_random: int = RANDOM_STARTS) -> list[tuple[str, np.ndarray]]:
-    """The nominal point and ``n_random`` points of the box drawn with a fixed seed (the same
-    input gives the same answer; the first points are the same whatever ``n_random``)."""
-    rng = np.random.default_rng(0)
-    return [("nominal point", np.clip(np.zeros(lo.size), lo, hi))] + [
-        (f"random start {k + 1}", rng.uniform(lo, hi)) for k in range(n_random)]
-
-
-#: Models up to this many DOFs are probed for other answers (`_probe`): those solved densely,
-#: where a polish costs a fraction of a second. The size is the full model's: a reduced first
-#: stage does not make the polish cheaper (a 2,940-DOF building, reduced to 50 DOFs: 60 s of
-#: probing after a 1.5 s update).
-PROBE_DOFS = DENSE_LIMIT
-#: ... and up to this many parameters: with more, a polish from a random point of the box
-#: costs hundreds of evaluations (the bundled 29-parameter frame: 36 s for four starts, its
-#: answer unchanged).
-PROBE_PARAMETERS = 12
-#: Random starts of the probe (`_probe`). On one acceptance problem (4 parameters, 4
-#: exact frequencies) 5 of 12 random starts found the exact fit, the others a point on a bound
-#: that misses the data by 3e-5; 2 starts found none of it.
-PROBE_RANDOM_STARTS = 6
-#: Evaluations allowed to each probing polish, per unknown plus one (a start that has not
-#: converged by then is not an answer that fits as well).
-PROBE_EVALUATIONS = 20
-#: Two answers are distinct when a normalized parameter differs by more than this.
-DISTINCT = 1e-3
-#: Objectives within this relative margin of the lowest tie: the nearest the nominal model wins.
-TIE = 1e-3
-
-
-def _choose(tried: list[_Finish], fallback: _Finish) -> tuple[_Finish, tuple[_Finish, ...]]:
-    """The verified answer of lowest polish objective (objectives within `TIE` of it, or all
-    below `EXACT_FIT`, an exact fit, tie: the one nearest the nominal model wins), and
-    the distinct verified answers that fit about as well (objective below the lowest over
-    `IMPROVEMENT`, or an exact fit)."""
-    verified = [c for c in tried if c.status.ok]
-    if not verified:
-        return fallback, ()
-    low = min(c.cost for c in verified)
-    ties = [c for c in verified if c.cost <= max(low * (1.0 + TIE), EXACT_FIT)]
-    nearest = min(ties, key=lambda c: float(np.linalg.norm(c.xbar)))
-    chosen = next(c for c in ties if np.max(np.abs(c.xbar - nearest.xbar)) <= DISTINCT)  # the first found
-    close = sorted((c for c in verified if c.cost <= max(low / IMPROVEMENT, EXACT_FIT)),
-                   key=lambda c: float(np.linalg.norm(c.xbar)))
-    others: list[_Finish] = []
-    for c in close:
-        if all(np.max(np.abs(c.xbar - d.xbar)) > DISTINCT for d in [chosen, *others]):
-            others.append(c)
-    return chosen, tuple(others)
-
-
-def _probe(configurations, finish, tried: list[_Finish], restarts: list, say, options: PolishOptions) -> None:
-    """Polish from the starts of `_box_starts` not tried yet, so that an answer that is not the
-    only one fitting the data is found and said (`_choose`). A start whose polish reaches a
-    verified answer again stops there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`): it is that
-    answer, found again, and is neither verified nor compared a second time. Each start is
-    recorded in ``restarts`` with ``purpose`` "uniqueness" (``status`` "same answer" for those)."""
-    lo, hi = configurations[0].model.bounds()
-    done = {c.label for c in tried}
-    todo = [(label, x) for label, x in _box_starts(lo, hi, PROBE_RANDOM_STARTS) if label not in done]
-    if todo:
-        say(f"uniqueness: polishing from {len(todo)} further starts")
-    for label, x0 in todo:
-        t0 = time.perf_counter()
-        answers = [c.xbar for c in tried if c.status.ok]
-        candidate = finish(x0, label, options, answers)
-        record = {"start": label, "purpose": "uniqueness", "seconds": time.perf_counter() - t0}
-        if candidate is None:
-            record.update(status="same answer", failed=[], cost=None)
-        else:
-            record.update(status=candidate.status.value, failed=candidate.failed, cost=candidate.cost)
-        restarts.append(record)
-
-
-def _alternative_records(model, best: _Finish, alternatives: tuple[_Finish, ...]) -> tuple[dict, ...]:
-    """``UpdateResult.alternatives``: each other answer's start, objective, ``xbar``, physical
-    ``values`` and the parameters that differ from the returned answer (``differs``, by more
-    than `DISTINCT` normalized)."""
-    names = model.parameter_names
-    return tuple({"start": c.label, "objective": c.cost, "xbar": c.xbar.tolist(),
-                  "values": dict(zip(names, model.physical(c.xbar).tolist())),
-                  "differs": [n for n, a, b in zip(names, c.xbar, best.xbar) if abs(a - b) > DISTINCT]}
-                 for c in alternatives)
-
-
-def _alternatives_text(records: tuple[dict, ...], mine: dict) -> str:
-    """The other answers in words: which parameters differ, in their units (``mine``: the
-    returned answer's physical values by name)."""
-    parts = []
-    for a in records:
-        differ = a["differs"]
-        parts.append(f"from the {a['start']} (objective {a['objective']:.3g}): "
-                     + ", ".join(f"{n} = {a['values'][n]:.5g} (here {mine[n]:.5g})" for n in differ[:6])
-                     + (f" and {len(differ) - 6} more" if len(differ) > 6 else ""))
-    return (f"{len(records)} other answer(s) fit the data about as well and pass every check, so the data do "
-            "not single out the parameters that differ; " + "; ".join(parts))
-
-
-#: Rounds of the interval refit (`_refit_intervals`), each multiplying the weight of every
-#: frequency outside its band by `REFIT_FACTOR`.
-REFIT_ROUNDS = 6
-REFIT_FACTOR = 4.0
-
-
-def _outside_bands(cfg: Configuration, f, verification: VerifyOptions) -> tuple[np.ndarray, np.ndarray]:
-    """Masks of the natural frequencies and zeros of ``cfg`` that the model ``f`` puts outside
-    their band (`vibupdate.inverse.verify.VerifyOptions.band`, as the fit check)."""
-    def out(data, model):
-        bands = np.array([verification.band(d) for d in data]).reshape(-1, 2)
-        model = np.asarray(model, dtype=float)
-        return ~(np.isfinite(model) & (bands[:, 0] <= model) & (model <= bands[:, 1]))
-    return out(cfg.natural, f.natural), out(cfg.antiresonances, f.antiresonances)
-
-
-def _refit_shapes(configurations, best: _Finish, finish, polish: PolishOptions, verification: VerifyOptions,
-                  restarts: list, say) -> _Finish:
-    """When the answer fails the fit check and the shapes weigh more than their model-form
-    tolerance says (`vibupdate.inverse.verify.tolerance_shape_weight`), the polish may have
-    given up frequencies the verification holds tightly for shape misses it allows: the
-    answer is polished again with each shape miss in units of its tolerance, and that point
-    verified. Returns it when it passes, else ``best``. (The known-truth bar of
-    `vibupdate.examples.bar`: frequencies to 0.1 %, shapes to 0.02; at the shapes' weight 100 no
-    set verified, the frequencies off by up to 0.42 %.) Exact and consistent data keep the
-    stronger weight, which ends nearer the exact answer (30,315 DOFs: 2.6e-11 against 2.3e-9)."""
-    weight = tolerance_shape_weight(configurations, verification, polish.shape_weight)
-    if weight >= polish.shape_weight or not any(n.shape for c in configurations for n in c.natural):
-        return best
-    weighed = replace(polish, shape_weight=weight)
-    t0 = time.perf_counter()
-    candidate = finish(best.xbar, "shapes weighed by their tolerance", weighed)
-    restarts.append({"start": "shapes weighed by their tolerance", "purpose": "fit", "status": candidate.status.value,
-                     "failed": candidate.failed, "cost": candidate.cost, "shape_weight": weighed.shape_weight,
-                     "seconds": time.perf_counter() - t0})
-    say(f"shapes weighed by their tolerance (shape weight {weighed.shape_weight:.3g}): {candidate.status.value}"
-        + (f" (failed {', '.join(candidate.failed)})" if candidate.failed else ""))
-    return candidate if candidate.status.ok else best
-
-
-def _refit_intervals(configurations, best: _Finish, finish, tried: list, polish: PolishOptions,
-                     verification: VerifyOptions, restarts: list, say) -> _Finish:
-    """When the answer fails only the fit check, the least-squares optimum has left some
-    frequencies outside their bands although the data may allow a model inside all of them
-    (noisy data: the truth is inside its 3-sigma intervals, the optimum need not be). The
-    polish is rerun from the answer with the weight of every frequency outside its band
-    multiplied by `REFIT_FACTOR`, at most `REFIT_ROUNDS` times, until every frequency is inside;
-    that point is verified against the data as given. Returns the verified candidate, or
-    ``best``. (One acceptance problem: one frequency 1.78 % off against a 1.66 % interval at the
-    optimum; inside after one round.)"""
-    t0 = time.perf_counter()
-    weights = [(np.ones(len(c.natural)), np.ones(len(c.antiresonances))) for c in configurations]
-    x, freqs, result, rounds = best.xbar, best.updated, None, 0
-    for _ in range(REFIT_ROUNDS):
-        masks = [_outside_bands(c, f, verification) for c, f in zip(configurations, freqs)]
-        if not any(m.any() for pair in masks for m in pair):
-            break
-        for (wn, wa), (mn, ma) in zip(weights, masks):
-            wn[mn] *= REFIT_FACTOR
-            wa[ma] *= REFIT_FACTOR
-        weighted = [replace(c, natural=tuple(replace(n, weight=n.weight * w) for n, w in zip(c.natural, wn)),
-                            antiresonances=tuple(replace(a, weight=a.weight * w)
-                                                 for a, w in zip(c.antiresonances, wa)))
-                    for c, (wn, wa) in zip(configurations, weights)]
-        result = run_polish(weighted, x, polish)
-        x, rounds = result.xbar, rounds + 1
-        freqs = [model_frequencies(c, x) for c in configurations]
-    if result is None:
-        return best
-    raw = finish(x, "interval refit", replace(polish, enabled=False))
-    candidate = replace(raw, polished=result)   # its polish on record (the objective of the weighted data)
-    tried[next(i for i, c in enumerate(tried) if c is raw)] = candidate
-    restarts.append({"start": "interval refit", "purpose": "fit", "status": candidate.status.value,
-                     "failed": candidate.failed, "cost": result.cost, "rounds": rounds,
-                     "seconds": time.perf_counter() - t0})
-    say(f"interval refit ({rounds} weighted polish round(s)): {candidate.status.value}"
-        + (f" (failed {', '.join(candidate.failed)})" if candidate.failed else ""))
-    return candidate if candidate.status.ok else best
-
-
-def _restart(configurations, problem, solver, best, finish, restarts: list, say):
-    """Further starts when the direct path's answer did not verify or the path failed: the
-    stepped homotopy path (when the direct jump was taken), then the polish from the nominal
-    point and from `RANDOM_STARTS` points of the box drawn with a fixed seed (the same input
-    gives the same answer). The first verified answer ends the search; otherwise the answer of
-    lowest polish objective is kept. Each start is recorded in ``restarts``.
-
-    Returns the chosen candidate (None when none could be polished) and the homotopy steps of
-    the stepped path."""
+def _search(configurations, problem, solver, best, finish, search: Search, starts: list, say):
+    """The starts tried when the direct path's answer did not verify or the path failed
+    (`vibupdate.inverse.search`, in its order), until one verifies. Returns the best candidate
+    (None when none could be polished) and the homotopy steps of the stepped path."""
     steps: tuple = ()
     lo, hi = configurations[0].model.bounds()
-    starts: list[tuple[str, Callable[[], np.ndarray | None]]] = []
+    todo: list[tuple[str, Callable[[], np.ndarray | None]]] = []
     solver = solver or SolverOptions()
     if solver.n_lambda == 1:
         def stepped():
@@ -627,36 +453,121 @@ def _restart(configurations, problem, solver, best, finish, restarts: list, say)
             path = solve_homotopy(problem, replace(solver, n_lambda=10), progress=say)
             steps = path.steps
             return np.clip(path.x, problem.x_lower, problem.x_upper) if path.status.ok else None
-        starts.append(("stepped homotopy path", stepped))
-    starts += [(label, lambda point=point: point) for label, point in _box_starts(lo, hi)]
+        todo.append(("stepped homotopy path", stepped))
+    todo += [(label, lambda point=point: point) for label, point in search.box_starts(lo, hi, search.random_starts)]
     if best is not None:
-        say(f"the answer did not verify (failed {', '.join(best.failed)}): trying {len(starts)} further starts")
-    for label, start in starts:
+        say(f"the answer did not verify (failed {', '.join(best.failed)}): trying {len(todo)} further starts")
+    for label, start in todo:
         t0 = time.perf_counter()
         x0 = start()
         if x0 is None:
-            restarts.append({"start": label, "status": "path failed", "failed": [], "cost": None,
-                             "seconds": time.perf_counter() - t0})
+            starts.append(Start(label, "fit", "path failed", seconds=time.perf_counter() - t0))
             continue
         candidate = finish(x0, label)
-        restarts.append({"start": label, "status": candidate.status.value, "failed": candidate.failed,
-                         "cost": candidate.cost, "seconds": time.perf_counter() - t0
-                         - (sum(s.seconds for s in steps) if label.startswith("stepped") else 0.0)})
+        starts.append(Start(label, "fit", _verdict_word(candidate), tuple(candidate.failed), candidate.cost,
+                            time.perf_counter() - t0 - (sum(s.seconds for s in steps) if label.startswith("stepped")
+                                                        else 0.0)))
         say(f"restart from the {label}: {candidate.status.value}"
             + (f" (failed {', '.join(candidate.failed)})" if candidate.failed else ""))
-        if best is None or (candidate.status.ok and not best.status.ok) or (
-                candidate.status.ok == best.status.ok and candidate.cost < best.cost):
+        if _better(best, candidate):
             best = candidate
         if best.status.ok:
             break
     return best, steps
 
 
+def _no_worse_than_nominal(configurations, contract: Admissible, best: _Finish | None, finish, polish: PolishOptions,
+                           say) -> _Finish | None:
+    """When no answer verifies, the returned model is never further outside the admissible
+    intervals than the nominal model (`misfit`): a best answer that misses more is replaced by
+    the nominal model, verified as it is. (The nominal point is one of the search's starts, but
+    its polish weighs the pull toward the midpoints besides the misfit.)"""
+    if best is None or best.status.ok:
+        return best
+    lo, hi = configurations[0].model.bounds()
+    at = np.clip(np.zeros(lo.size), lo, hi)
+    own = misfit(configurations, contract, at)
+    if best.misfit <= own:
+        say(f"no answer verified; the best misses the admissible intervals by {best.misfit:.4g} (sum of squared "
+            f"half-widths) against the nominal model's {own:.4g}")
+        return best
+    say(f"no answer verified, and the best ({best.misfit:.4g}) misses more than the nominal model ({own:.4g}): "
+        "the nominal model is returned")
+    return finish(at, "nominal model", replace(polish, enabled=False))
+
+
+def _verdict_word(candidate: _Finish) -> str:
+    return "verified" if candidate.status.ok else "not_verified"
+
+
+def _uniqueness(configurations, finish, tried: list[_Finish], search: Search, starts: list, say,
+                options: PolishOptions) -> None:
+    """Polish from the box starts not tried yet (`vibupdate.inverse.search`); a start whose
+    polish reaches a verified answer again stops there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`)."""
+    lo, hi = configurations[0].model.bounds()
+    done = {c.label for c in tried}
+    todo = [(label, x) for label, x in search.box_starts(lo, hi, search.probe_random_starts) if label not in done]
+    if todo:
+        say(f"uniqueness: polishing from {len(todo)} further starts")
+    for label, x0 in todo:
+        t0 = time.perf_counter()
+        candidate = finish(x0, label, options, [c.xbar for c in tried if c.status.ok])
+        if candidate is None:
+            starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0))
+        else:
+            starts.append(Start(label, "uniqueness", _verdict_word(candidate), tuple(candidate.failed),
+                                candidate.cost, time.perf_counter() - t0))
+
+
+def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
+            exact: float) -> tuple[_Finish, tuple[Alternative, ...]]:
+    """The verified answer of lowest objective (objectives within ``search.tie`` of it, or
+    below ``exact``, the objective of missing every datum by its exact half-width, tie: the one
+    nearest the nominal model wins), and every other verified answer that differs from it and
+    fits about as well (``search.as_well``; `vibupdate.inverse.search.Alternative`)."""
+    verified = [c for c in tried if c.status.ok]
+    if not verified:
+        return best, ()
+    low = min(c.cost for c in verified)
+    ties = [c for c in verified if c.cost <= max(low * (1.0 + search.tie), exact)]
+    nearest = min(ties, key=lambda c: float(np.linalg.norm(c.xbar)))
+    chosen = next(c for c in ties if np.max(np.abs(c.xbar - nearest.xbar)) <= search.distinct)  # the first found
+    others: list[_Finish] = []
+    close = [c for c in verified if c.cost <= max(low * search.as_well, exact)]
+    for c in sorted(close, key=lambda c: float(np.linalg.norm(c.xbar))):
+        if all(np.max(np.abs(c.xbar - d.xbar)) > search.distinct for d in [chosen, *others]):
+            others.append(c)
+    names = model.parameter_names
+    return chosen, tuple(Alternative(c.label, c.cost, tuple(c.xbar.tolist()),
+                                     dict(zip(names, model.physical(c.xbar).tolist())),
+                                     tuple(n for n, a, b in zip(names, c.xbar, chosen.xbar)
+                                           if abs(a - b) > search.distinct)) for c in others)
+
+
+def _exact_cost(contract: Admissible, verification: VerifyOptions) -> float:
+    """The polish's objective of missing every frequency by its exact half-width (an exact fit)."""
+    h = contract.relative_half_widths()
+    return 0.5 * float(np.sum((verification.exact_half_width / h) ** 2)) if h.size else 0.0
+
+
+def _alternatives_text(records: tuple[Alternative, ...], mine: dict) -> str:
+    """The other answers in words: which parameters differ, in their units (``mine``: the
+    returned answer's physical values by name)."""
+    parts = []
+    for a in records:
+        parts.append(f"from the {a.start} (objective {a.objective:.3g}): "
+                     + ", ".join(f"{n} = {a.values[n]:.5g} (here {mine[n]:.5g})" for n in a.differs[:6])
+                     + (f" and {len(a.differs) - 6} more" if len(a.differs) > 6 else ""))
+    return (f"uniqueness: {len(records)} other answer(s) fit every datum within its admissible interval and pass "
+            "every check (not unique), so the data do not single out the parameters that differ; "
+            + "; ".join(parts))
+
+
 def update(configurations: Sequence[Configuration], *, formulation: FormulationOptions | None = None,
            solver: SolverOptions | None = None, polish: PolishOptions | None = None,
            verification: VerifyOptions | None = None,
            progress: Callable[[str], None] | None = None, prepared: Prepared | None = None,
-           probe: bool = True) -> UpdateResult:
+           probe: bool = True, search: Search | None = None) -> UpdateResult:
     """Update the shared parameters of ``configurations`` (Problems 1-4 and their mixes).
 
     Which Problem is solved follows from the data: natural frequencies with mode-shape
@@ -678,9 +589,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         The problem of these configurations and this formulation, already built
         (`prepare_first_stage`); ignored when it was built from other ones.
     probe : bool
-        On small models, polish a verified answer from further starts to find other answers
-        that fit as well (`_probe`); a sampling sweep, which starts each sample at a random
-        point of its own, turns it off.
+        Test a verified answer for uniqueness (`vibupdate.inverse.search`); a sampling sweep,
+        which starts each sample at a random point of its own, turns it off.
+    search : Search, optional
+        The starts and budgets of the search (`vibupdate.inverse.search.Search`).
 
     Returns
     -------
@@ -694,17 +606,16 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     formulation = formulation or FormulationOptions()
     polish = polish or PolishOptions()
     verification = verification or VerifyOptions()
+    search = search or Search()
     say = progress or (lambda message: None)
+    contract = Admissible.of(configurations, verification)
     first_problem = None
-    reused = prepared is not None and prepared.matches(configurations, formulation, verification)
-    # the fit weighs each datum in units of its tolerance; the checks do not read weights
-    configurations = tolerance_weights(configurations, verification)
-    if reused:
+    if prepared is not None and prepared.matches(configurations, formulation, verification):
         solved, bases, first_problem = list(prepared.solved), prepared.bases, prepared.problem
-    else:
-        solved, bases = configurations, None
-        if wants_reduction(configurations, formulation):
-            solved, bases = reduce_configurations(configurations, formulation.reduction_modes)
+    else:   # the first stage weighs each datum as the contract does
+        solved, bases = weighted(configurations, contract), None
+        if wants_reduction(solved, formulation):
+            solved, bases = reduce_configurations(solved, formulation.reduction_modes)
     if bases is not None:
         say(f"Craig-Bampton reduction: {configurations[0].model.n_dofs} -> {solved[0].model.n_dofs} DOFs "
             f"(measured DOFs kept, {formulation.reduction_modes} fixed-interface modes)")
@@ -722,7 +633,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
 
     def finish(start: np.ndarray, label: str, options: PolishOptions | None = None, answers=None) -> _Finish | None:
         candidate = _finish(configurations, start, label, path, problem, active, nominal, options or polish,
-                            verification, say, reduction_error, answers)
+                            verification, contract, say, reduction_error, answers)
         if candidate is not None:
             tried.append(candidate)
         return candidate
@@ -730,21 +641,25 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     first_xbar = np.clip(path.x, problem.x_lower, problem.x_upper)
     best = finish(first_xbar, "homotopy") if path.status.ok else None
     direct = best
-    restarts: list[dict] = []
-    if polish.enabled and (best is None or _worth_restarting(best)):
-        best, more_steps = _restart(configurations, problem, solver, best, finish, restarts, say)
+    starts: list[Start] = []
+    if best is not None:
+        starts.append(Start("homotopy", "fit", _verdict_word(best), tuple(best.failed), best.cost,
+                            best.polished.seconds if best.polished else 0.0))
+    if polish.enabled and (best is None or not best.status.ok):
+        best, more_steps = _search(configurations, problem, solver, best, finish, search, starts, say)
         steps = steps + more_steps
-    if polish.enabled and best is not None and not best.status.ok and "fit" in best.failed:
-        best = _refit_shapes(configurations, best, finish, polish, verification, restarts, say)
-    if polish.enabled and best is not None and not best.status.ok and set(best.failed) == {"fit"}:
-        best = _refit_intervals(configurations, best, finish, tried, polish, verification, restarts, say)
-    alternatives: tuple[_Finish, ...] = ()
-    if (probe and polish.enabled and best is not None and best.status.ok and model.n_dofs <= PROBE_DOFS
-            and model.n_parameters <= PROBE_PARAMETERS):
-        _probe(configurations, finish, tried, restarts, say,
-               replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
-                                                   PROBE_EVALUATIONS * (model.n_parameters + 1))))
-        best, alternatives = _choose(tried, best)
+        best = _no_worse_than_nominal(configurations, contract, best, finish, polish, say)
+    unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
+    alternatives: tuple[Alternative, ...] = ()
+    if best is not None and best.status.ok and unique:
+        _uniqueness(configurations, finish, tried, search, starts, say,
+                    replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
+                                                        search.probe_evaluations * (model.n_parameters + 1))))
+        best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
+    elif best is not None and best.status.ok:
+        reason = f"uniqueness not searched: {reason}"
+    else:
+        unique, reason = False, "uniqueness not searched: no answer verified"
     status = best.status if best is not None else path.status
     if best is None:   # the path failed and no start verified: the first stage's point, unpolished
         updated = [model_frequencies(c, first_xbar, derivatives=True) for c in configurations]
@@ -753,10 +668,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
     warnings = tuple(note.message for note in problem.notes)   # what the formulation set aside
     warnings += tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
-    records = _alternative_records(model, best, alternatives)
-    if records:
-        warnings += ("uniqueness: " + _alternatives_text(records, dict(zip(model.parameter_names,
-                                                                           model.physical(xbar)))),)
+    if alternatives:
+        warnings += (_alternatives_text(alternatives, dict(zip(model.parameter_names, model.physical(xbar)))),)
     if polished is not None and polished.on_limit:   # short of the optimum, maybe: said where checks are said
         warnings += (f"polish: {polished.message}",)
     for w in warnings:
@@ -765,18 +678,17 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     if best.label != "homotopy":
         if direct is not None and direct.status.ok:
             head = (f"the homotopy's answer verified with objective {direct.cost:.3e}; "
-                    + (f"a lower one, {best.cost:.3e}, was found" if best.cost < (1 - TIE) * direct.cost else
+                    + (f"a lower one, {best.cost:.3e}, was found" if best.cost < (1 - search.tie) * direct.cost else
                        f"an answer that fits as well ({best.cost:.3e}) lies nearer the nominal model"))
         elif path.status.ok:
             head = "homotopy reached lambda = 1 but its answer did not verify"
         else:
             head = f"homotopy stopped at lambda = {path.lam:.4f} ({path.status.value})"
-        if best.label == "interval refit":
-            message = (f"{head}; its least-squares optimum left frequencies outside their bands, and reweighted "
-                       "toward them the answer passed every verification check")
-        else:
-            message = (f"{head}; the answer polished from the {best.label} "
-                       + ("passed every verification check" if status.ok else "failed " + ", ".join(best.failed)))
+        message = (f"{head}; the answer polished from the {best.label} "
+                   + ("passed every verification check" if status.ok else "failed " + ", ".join(best.failed)))
+        if best.label == "nominal model":
+            message = (f"{head}; every polished answer missed the data by more than the nominal model, which is "
+                       "returned unchanged (failed " + ", ".join(best.failed) + ")")
     return UpdateResult(
         status=status,
         message=message,
@@ -792,16 +704,15 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         steps=steps,
         objective=path.objective,
         relaxation_lower_bound=path.lower_bound,
-        seconds=sum(st.seconds for st in steps) + (polished.seconds if polished else 0.0)
-        + sum(r["seconds"] for r in restarts),
+        seconds=sum(st.seconds for st in steps) + sum(r.seconds for r in starts),
         sensitivity=best.sensitivity,
         checks=checks,
         warnings=warnings,
         first_stage_xbar=first_xbar,
         polish=polished,
         attempts=attempts,
-        restarts=tuple(restarts),
+        sought=Sought(search, tuple(starts), unique, reason),
         minimum_change=best.minimum,
-        alternatives=records,
+        alternatives=alternatives,
         modal={c.name: f for c, f in zip(configurations, updated)},
     )

@@ -45,7 +45,11 @@ def _join(key: str, name: str) -> str:
 
 #: Keys of earlier versions and what replaced them, said when a case file uses one.
 RENAMED = {"fit_tolerance": "now natural_tolerance and antiresonance_tolerance, the model-form tolerances beyond "
-                            "each frequency's measurement interval (docs/method.md)"}
+                            "each frequency's measurement interval (docs/method.md)",
+           "shape_weight": "removed: the polish weighs every datum by its admissible interval; set "
+                           "[verification] shape_tolerance (docs/polish-and-verification.md)",
+           "shape_slack": "removed: a shape is admissible within its interval plus [verification] "
+                          "shape_tolerance (docs/polish-and-verification.md)"}
 
 
 def check_table(table, allowed: dict, key: str, where: Where, required=()) -> dict:
@@ -53,7 +57,8 @@ def check_table(table, allowed: dict, key: str, where: Where, required=()) -> di
         raise where.error(key, f"must be a table, got {type(table).__name__}")
     for name in table:
         if name not in allowed:
-            hint = f" ({RENAMED[name]})" if name in RENAMED and RENAMED[name].split()[1] in allowed else ""
+            hint = f" ({RENAMED[name]})" if name in RENAMED and (
+                RENAMED[name].split()[1] in allowed or RENAMED[name].startswith("removed")) else ""
             raise where.error(_join(key, name), f"unknown key{hint}; allowed here: {', '.join(sorted(allowed))}")
     for name in required:
         if name not in table:

@@ -208,10 +208,10 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
             raise ValueError(f"the zeros of h_{r},{c} and h_{c},{r} of a symmetric model differ: the sparse "
                              "eigen-solve did not converge to the same set")
         return wz**2, V_right, V_left
-    Mr = adjunct(M, r, c)
-    Kr = adjunct(K, r, c)
-    Mr = Mr.toarray() if sp.issparse(Mr) else np.asarray(Mr)
-    Kr = Kr.toarray() if sp.issparse(Kr) else np.asarray(Kr)
+    # a dense-limit model is small: one conversion costs less than sparse slicing and products
+    M = M.toarray() if sp.issparse(M) else np.asarray(M)
+    K = K.toarray() if sp.issparse(K) else np.asarray(K)
+    Mr, Kr = adjunct(M, r, c), adjunct(K, r, c)
     if r == c:   # symmetric: the solver of `antiresonances` (reciprocal pencil, massless DOFs condensed)
         eigval_z, V_right = _dense_modes(Mr, Kr, precision)
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right, precision)

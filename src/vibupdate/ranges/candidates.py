@@ -7,9 +7,8 @@ their nominal values in a run); this module tries them:
 
 1. **Screen.** For each set of candidates, smallest first (all sets of one candidate, then
    of two, ...), the model with the case's own parameters and the set free is fitted from
-   the nominal point by the polish (bounded least squares of the frequency errors and shape
-   misses, weighed by the tolerances as the update weighs them:
-   `vibupdate.inverse.verify.tolerance_weights`) and the fitted model verified against the
+   the nominal point by the polish (bounded least squares of the admissible data, as the
+   update fits them: `vibupdate.inverse.admissible`) and the fitted model verified against the
    data (every check but ``consistency``, which needs a relaxation of its own). The search
    stops after the smallest size at which some set passes, or at `MAX_SETS` sets or
    `MAX_SECONDS` (the sets left untried are counted).
@@ -46,7 +45,8 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.polish import PolishOptions, polish as run_polish
 from vibupdate.inverse.update import update
-from vibupdate.inverse.verify import VerifyOptions, fit_data, verify
+from vibupdate.inverse.admissible import Admissible
+from vibupdate.inverse.verify import VerifyOptions, verify
 from vibupdate.model.affine import restricted
 
 
@@ -232,12 +232,12 @@ def _screen(configurations, start, polish: PolishOptions, verification: VerifyOp
     Returns the answer, its objective, the failed checks, the frequency errors, the rank and
     condition of the sensitivity."""
     nominal = [model_frequencies(c) for c in configurations]
-    weighted, options = fit_data(configurations, verification, replace(polish, enabled=True))   # as update
-    polished = run_polish(weighted, start, options)
+    contract = Admissible.of(configurations, verification)
+    polished = run_polish(configurations, start, replace(polish, enabled=True), contract=contract)   # as update
     x = np.asarray(polished.xbar, dtype=float)
     updated = [model_frequencies(c, x, derivatives=True) for c in configurations]
     checks = verify(configurations, x, nominal=nominal, updated=updated, lower_bound=None, n_blocks=0,
-                    options=verification)
+                    options=verification, contract=contract)
     failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
     s = sensitivity(configurations, x, freqs=updated)
     return x, float(polished.cost), failed, _frequency_errors(configurations, updated), int(s["rank"]), \

@@ -8,11 +8,13 @@ entry of each mode: `vibupdate.inverse.data_map`) linearized as
 ``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
 the *consistent set* is the set of ``xbar`` within the bounds such that
 
-* every measured mode-shape entry stays inside its interval,
-  ``|d_s(xbar_hat) + G_s dx - d_s,measured| <= h_s`` (the interval half-width); where the
-  answer lies outside an interval by ``e`` (a model-form error the verification allowed), that
-  interval widened on its side to ``e`` beyond the answer, so that the answer can move by the
-  error it has, as for the frequencies;
+* every measured mode-shape entry stays inside its interval at the shape's own meaning, a free
+  scale per mode (`vibupdate.inverse.admissible`): ``s q_j(x)`` in the entry's interval, ``q``
+  the model's ratios to the reference entry, linearized in ``dx`` and in the scale's step
+  (one more unknown of the linear programs per shape, `_scaled_shapes`); where the answer lies
+  outside an interval by ``e`` (a model-form error the verification allowed), that interval
+  widened on its side to ``e`` beyond the answer, so that the answer can move by the error it
+  has, as for the frequencies;
 * every frequency moves from the answer's by no more than the measurement tolerance plus the
   answer's own misfit, ``|G_f dx| <= h_f + |w(xbar_hat) - w_measured|``, with ``h_f`` the
   half-width of the frequency's measured ``interval`` where it has one (e.g. extracted from
@@ -45,6 +47,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from vibupdate.inverse.data_map import data_jacobian, measured_shapes
+from vibupdate.options import default
 from vibupdate.inverse.minimum_change import numerical_rank, valley_points
 from vibupdate.modal.analysis import DENSE_LIMIT
 from vibupdate.data.measured import Configuration
@@ -128,9 +131,11 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
     """How far the rounding of matrices known only to their ``matrix_precision`` moves each
     datum of the data map at ``xbar`` (`vibupdate.inverse.data_map` order): a frequency by
     the first-order bound of its eigenvalue under entries moved by up to ``delta`` of their
-    magnitude (`_eigenvalue_rounding`, rad/s), a shape ratio by the shape check's own
-    allowance for that mode (`vibupdate.inverse.verify.mode_rounding_allowance` at that
-    precision). None when every model is exact to double precision.
+    magnitude (`_eigenvalue_rounding`, rad/s), a shape ratio by ten times the change of that
+    mode's ratios under one unit of that rounding in every entry, plus its vector's own error
+    (`vibupdate.modal.refinement.shape_ratio_floor`: one rounding unit per entry with random
+    signs, a typical rather than a worst case). None when every model is exact to double
+    precision.
 
     Returns
     -------
@@ -139,7 +144,8 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
     if all(cfg.model.matrix_precision is None for cfg in configurations):
         return None
     from vibupdate.inverse.correlation import declared_zeros, model_frequencies
-    from vibupdate.inverse.verify import mode_rounding_allowance
+    from vibupdate.inverse.repeated import paired_vector
+    from vibupdate.modal.refinement import shape_ratio_floor
     from vibupdate.modal.rigid import unit
     from vibupdate.modal.zeros import adjunct
 
@@ -165,10 +171,63 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
                                                       left[:, j], delta) / np.sqrt(lam))
         shapes = measured_shapes(cfg)
         for shape in shapes:
-            allowance = mode_rounding_allowance(cfg, xbar, f, shape.position, cfg.model.matrix_precision)
+            nat = cfg.natural[shape.position]
+            phi, near = paired_vector(cfg, f.Phi_all, f.omega_all, shape.position)
+            w = float(f.omega_all[nat.mode - 1])
+            rounding, own = shape_ratio_floor(M, K, np.sign(w) * w**2, phi, shape.entries, shape.reference,
+                                              basis=f.Phi_all[:, near] if near.size > 1 else None,
+                                              precision=cfg.model.matrix_precision)
+            allowance = 10.0 * rounding + own
             out += [allowance] * shape.lower.size
         out += [0.0] * sum(shape.mass is not None for shape in shapes)   # modal masses: relative, not rounding-sized
     return np.asarray(out, dtype=float)
+
+
+def _scaled_shapes(configurations, d_hat, G, rounding):
+    """The shape rows of the ranges' linear program at the shapes' own meaning, a free scale
+    per mode (`vibupdate.inverse.admissible`): ``s q_j(x)`` in each entry's measured interval,
+    ``q`` the model's ratios (1 at the reference), linearized in the step ``dx`` and in the
+    scale's step ``ds`` about the answer and its least-squares scale ``s0``; where the answer
+    lies outside an interval by ``e`` (a model-form error the verification allowed), that
+    interval is widened on its side to ``e`` beyond the answer; an entry known exactly has the
+    contract's ``exact_half_width`` of the shape's largest entry. Returns the data-map rows they
+    replace and, per shape, its rows divided by their half-widths (columns ``dx`` then one
+    column per shape's scale) and their offsets."""
+    rows, extra, k, n_x = [], [], 0, G.shape[1]
+    shapes = [(cfg, s) for cfg in configurations for s in measured_shapes(cfg)]
+    n_s = sum(s.lower.size > 0 for _, s in shapes)
+    col = 0
+    for cfg in configurations:
+        k += len(cfg.natural) + len(cfg.antiresonances)
+        mine = measured_shapes(cfg)
+        for shape in mine:
+            idx = np.arange(k, k + shape.lower.size)
+            k += shape.lower.size
+            if not idx.size:
+                continue
+            nat = cfg.natural[shape.position].shape
+            ref = nat.reference
+            order = [ref] + [d for d in nat.bounds if d != ref]
+            lo_m, hi_m = np.array([nat.bounds[d] for d in order], dtype=float).T
+            q = np.concatenate([[1.0], d_hat[idx]])
+            Gq = np.vstack([np.zeros((1, n_x)), G[idx]])
+            mid = 0.5 * (lo_m + hi_m)
+            s0 = float(q @ mid) / float(q @ q)
+            v = s0 * q
+            out = np.maximum(np.maximum(lo_m - v, v - hi_m), 0.0)
+            low, high = np.minimum(lo_m, v - out), np.maximum(hi_m, v + out)
+            exact = np.where(hi_m > lo_m, 0.0, default("verification", "exact_half_width") * abs(mid[0]))
+            half = (0.5 * (high - low) + exact) * (1 + 1e-9) + 1e-12 * abs(mid[0])
+            if rounding is not None:
+                half = half + abs(s0) * np.concatenate([[0.0], rounding[idx]])
+            block = np.zeros((q.size, n_x + n_s))
+            block[:, :n_x] = s0 * Gq / half[:, None]
+            block[:, n_x + col] = q / half
+            extra.append((block, (v - 0.5 * (low + high)) / half))
+            rows += list(idx)
+            col += 1
+        k += sum(s.mass is not None for s in mine)
+    return rows, extra
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
@@ -237,12 +296,19 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     # conditioned problem (the refined frame's exact data at 2,996 DOFs: a "solve error" in 3
     # of 58 programs), the interior-point method solves it.
     Gs, offs = G / half[:, None], offset / half
-    A = np.vstack([Gs, -Gs])
-    b = np.concatenate([1.0 - offs, 1.0 + offs])
-    bounds = list(zip(lo - xbar, hi - xbar))
+    rows, extra = _scaled_shapes(configurations, d_hat, G, rounding)
+    keep = np.ones(d_hat.size, dtype=bool)
+    keep[[r for r in rows]] = False
+    n_s = len(extra)
+    A1 = np.vstack([np.hstack([Gs[keep], np.zeros((int(keep.sum()), n_s))])] + [e[0] for e in extra]
+                   + [np.zeros((0, xbar.size + n_s))])
+    o1 = np.concatenate([offs[keep]] + [e[1] for e in extra])
+    A = np.vstack([A1, -A1])
+    b = np.concatenate([1.0 - o1, 1.0 + o1])
+    bounds = list(zip(lo - xbar, hi - xbar)) + [(None, None)] * n_s
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     for i in range(model.n_parameters):
-        c = np.zeros(model.n_parameters)
+        c = np.zeros(model.n_parameters + n_s)
         c[i] = 1.0
         for sign, target in ((1.0, lower), (-1.0, upper)):
             for method in ("highs", "highs-ipm"):

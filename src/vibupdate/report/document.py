@@ -259,7 +259,8 @@ def terminal_text(results) -> str:
         blocks.append(text(shown[name]))
         if name == "summary" and solver:
             blocks.append("\n".join(
-                [f"solver: {solver.get('status')}, objective {fmt(solver.get('objective'), '.4e')}, relaxation "
+                [f"solver: {solver.get('status')}" + (f", verdict {solver['verdict']}" if solver.get("verdict") else "")
+                 + f", objective {fmt(solver.get('objective'), '.4e')}, relaxation "
                  f"lower bound {fmt(solver.get('relaxation_lower_bound'), '.4e')} ({LOWER_BOUND_NOTE}), "
                  f"{len(solver.get('steps') or [])} solves, {fmt(solver.get('seconds'), '.2f')} s"]
                 + [f"warning: {w}" for w in solver.get("warnings", [])]))
@@ -365,7 +366,12 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
     run = _run(results)
     shown, solver = tables(run), run.solver or {}
     section = (lambda title, name: [f"## {title}", ""] + markdown(shown[name]) if name in shown else [])
-    out = [f"# vibupdate report: {run.case}", "", f"Status: **{solver.get('status', '-')}**.", ""]
+    out = [f"# vibupdate report: {run.case}", "", f"Status: **{solver.get('status', '-')}**"
+           + (f", verdict **{solver['verdict']}**" if solver.get("verdict") else "") + ".", ""]
+    if solver.get("sought"):
+        sought = solver["sought"]
+        out += [f"Starts tried: {len(sought['starts'])}; uniqueness "
+                + ("searched" if sought["uniqueness_searched"] else "not searched") + f" ({sought['reason']}).", ""]
     out += markdown(shown["summary"]) + verification_markdown(solver) + matrix_files_markdown(run)
     out += diagnosis_markdown(run) + run_section_markdown({"suggestion": run.suggestion})
     out += section("Parameters", "parameters")

@@ -63,7 +63,7 @@ def open_client(workers: int | None = None, scheduler: str | None = None, *,
     if not isinstance(n, int) or n < 1:
         raise ValueError(f"the number of workers must be an integer >= 1, got {workers!r}")
     with _sigint_ignored():
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=40)
     c = Client(cluster)
     try:

@@ -1,0 +1,448 @@
+"""The admissible data: one definition of "the model fits the data".
+
+Every datum gets one admissible interval, built once from the configurations and the
+verification options (`Admissible.of`):
+
+    admissible = measurement interval + model-form tolerance + numerical floor
+
+* the **measurement interval** is the datum's own (a frequency's ``interval``, a shape entry's
+  bounds), else ``omega (1 -+ measurement_tolerance)``; a datum known exactly (an interval of
+  zero width) gets the stated half-width ``exact_half_width`` (relative, default 1e-6) instead:
+  exact data are met to that, not to the last digit of one eigen-solve;
+* the **model-form tolerance** widens it on both sides by ``natural_tolerance`` or
+  ``antiresonance_tolerance`` times the value, by ``shape_tolerance`` times the magnitude of the
+  shape's largest measured entry, by ``modal_mass_tolerance`` times the measured modal mass;
+* the **numerical floor** `FLOOR` (1e-8 of the same scale) covers the rounding of a
+  double-precision eigen-solve.
+
+A measured shape keeps its documented meaning: its entries are known up to one free scale per
+mode. The model's shape at the measured DOFs, scaled by the best scale ``s``, is held against
+the entries' intervals; ``s`` is eliminated (variable projection, `_scale`). A mass-normalized
+shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
+the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
+
+Two uses, one set of intervals:
+
+* the **polish** minimizes, in half-widths ``h`` of the admissible intervals, the squared
+  distance of each model value outside its interval, weighted by ``1 / PULL^2``, plus the
+  squared distance from the interval's midpoint (`residuals`, two rows per datum: `_rows`):
+  inside every interval only the pull is left, and its minimum is the least-squares fit
+  weighted by ``1 / h^2``, every datum alike, a shape's entries as a frequency (the classical
+  fit when every frequency has the same relative tolerance: the paper's cantilever); outside,
+  the distance dominates by ``1 / PULL^2``. The polish aims at the intervals without the floor
+  and shrunk by `MARGIN` half-widths, so that the pull's trade-off stays inside them;
+* the **verification** asks whether every model value lies in its admissible interval, a shape
+  at some scale (`misses`): one membership test.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibupdate.options import check, default
+from vibupdate.data.measured import Antiresonance, Configuration
+from vibupdate.inverse.repeated import cluster
+
+#: Relative numerical floor added to every admissible interval: the rounding of a
+#: double-precision eigen-solve (about 1e-12 relative on the acceptance models) with room for
+#: the polish's own stopping test.
+FLOOR = 1e-8
+#: Weight of the pull toward the midpoints against the distance outside the intervals (both in
+#: half-widths, in separate rows: `_rows`): small, so that inside the intervals it only picks the
+#: weighted least-squares point, and outside a datum costs ``1 / PULL^2`` times its squared
+#: distance. A datum held at its interval's end by a pull ``F`` half-widths strong (its own and
+#: the other data's) stays ``F PULL^2`` half-widths outside its target: `MARGIN` covers ``F`` up
+#: to 10. Measured with 0.03: the noisy beam of the tests with 1 % frequency noise in 0.2 %
+#: intervals ended 3 to 8 data outside their intervals.
+PULL = 1e-2
+#: The polish aims at each interval shrunk by this many half-widths (and by the floor): more
+#: than the pull's trade-off (``F PULL^2``) and than where the least squares stops on an
+#: interval's end.
+MARGIN = 1e-3
+
+
+#: Smallest relative half-width the first stage's weights use (`weighted`): a chosen cap, so
+#: that an exact datum among 1 % ones weighs 1e4^2 times more rather than without bound.
+WEIGHT_FLOOR = 1e-4
+
+
+@dataclass(frozen=True)
+class VerifyOptions:
+    """Thresholds of the verification.
+
+    Attributes
+    ----------
+    mac_min : float
+        Smallest MAC of a measured shape with its declared mode (0.8: the usual threshold
+        below which two shapes are not taken as the same mode; the frame example's verified
+        answer has 0.9917 at worst).
+    frequency_tolerance : float
+        Relative frequency uncertainty used for the consistency allowance (a case file's
+        ``frequency_tolerance`` when it states one; 1 % otherwise).
+    measurement_tolerance : float
+        Relative half-width of the measurement interval of a frequency that has no interval of
+        its own (a case file's ``frequency_tolerance``; 0: known exactly).
+    exact_half_width : float
+        Relative half-width given to a datum known exactly (a measurement interval of zero
+        width), against its value (a shape entry: against the shape's largest entry).
+    natural_tolerance, antiresonance_tolerance : float
+        Model-form tolerances: the largest relative miss of a natural frequency or an
+        antiresonance beyond its measurement interval.
+    shape_tolerance : float
+        Model-form tolerance of the shapes: the largest distance of a shape ratio (normalized at
+        the mode's largest measured entry) beyond its measurement interval.
+    modal_mass_tolerance : float
+        Model-form tolerance of the modal masses of mass-normalized shapes: the largest
+        relative miss beyond the measurement interval.
+    diagnose : bool
+        Not a threshold: whether a run whose answer does not fit the data goes on to say which
+        data conflict (`vibupdate.inverse.diagnosis`); the checks ignore it.
+    suggest : bool
+        Not a threshold: whether a run that is not verified screens the case's candidates
+        (`vibupdate.ranges.candidates`); the checks ignore it.
+    """
+
+    mac_min: float = default("verification", "mac_min")
+    frequency_tolerance: float = default("verification", "frequency_tolerance")
+    measurement_tolerance: float = default("verification", "measurement_tolerance")
+    exact_half_width: float = default("verification", "exact_half_width")
+    natural_tolerance: float = default("verification", "natural_tolerance")
+    antiresonance_tolerance: float = default("verification", "antiresonance_tolerance")
+    shape_tolerance: float = default("verification", "shape_tolerance")
+    modal_mass_tolerance: float = default("verification", "modal_mass_tolerance")
+    diagnose: bool = default("verification", "diagnose")
+    suggest: bool = default("verification", "suggest")
+
+    def __post_init__(self):
+        check("verification", self)     # types and ranges: vibupdate.options
+
+
+@dataclass(frozen=True)
+class Datum:
+    """The admissible interval of one frequency or modal mass (rad/s or kg)."""
+
+    label: str
+    kind: str              # "natural", "antiresonance" or "modal_mass"
+    value: float
+    measured: tuple[float, float]
+    lower: float
+    upper: float
+    weight: float = 1.0    # the datum's own weight, on the pull
+
+    @property
+    def half_width(self) -> float:
+        return 0.5 * (self.upper - self.lower)
+
+
+@dataclass(frozen=True)
+class Shape:
+    """The admissible intervals of one measured shape, free scale: entries in the order
+    reference first, then `vibupdate.inverse.data_map.MeasuredShape.entries`."""
+
+    label: str
+    position: int
+    mode: int
+    dofs: tuple
+    measured_lower: np.ndarray
+    measured_upper: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    floor: float
+
+    @property
+    def half_width(self) -> np.ndarray:
+        return 0.5 * (self.upper - self.lower)
+
+
+@dataclass(frozen=True)
+class Miss:
+    """How far one datum lies outside its admissible interval, in its half-widths (0: inside);
+    ``measured``: whether it also lies in its measurement interval."""
+
+    label: str
+    kind: str
+    miss: float
+    measured: bool
+    text: str
+    relative: float = 0.0    # of a frequency: its relative difference from the measured value
+
+
+def _widened(lo: float, hi: float, scale: float, tolerance: float, exact: float) -> tuple[float, float]:
+    extra = (exact * scale if hi - lo <= 0 else 0.0) + (tolerance + FLOOR) * scale
+    return lo - extra, hi + extra
+
+
+@dataclass(frozen=True)
+class Admissible:
+    """The admissible intervals of every datum of every configuration (module docstring).
+
+    Attributes
+    ----------
+    frequencies : tuple of tuple of Datum
+        Per configuration, its natural frequencies then its antiresonances, as declared.
+    shapes : tuple of tuple of Shape
+        Per configuration, its measured shapes with two entries or more, in the order of
+        `vibupdate.inverse.data_map.measured_shapes`.
+    masses : tuple of tuple of Datum
+        Per configuration, the modal masses of its mass-normalized shapes, in that order.
+    """
+
+    frequencies: tuple
+    shapes: tuple
+    masses: tuple
+
+    @classmethod
+    def of(cls, configurations: Sequence[Configuration], options=None) -> "Admissible":
+        """The contract of ``configurations`` under ``options`` (a
+        `VerifyOptions`; its defaults when None)."""
+        o = options or VerifyOptions()
+        freqs, shapes, masses = [], [], []
+        for cfg in configurations:
+            row = []
+            for d in (*cfg.natural, *cfg.antiresonances):
+                anti = isinstance(d, Antiresonance)
+                t = o.antiresonance_tolerance if anti else o.natural_tolerance
+                lo, hi = d.interval or (d.omega * (1 - o.measurement_tolerance), d.omega * (1 + o.measurement_tolerance))
+                label = (f"configuration {cfg.name!r}, "
+                         + (f"zero {d.index} of h_{d.response},{d.excitation}" if anti else f"mode {d.mode}"))
+                row.append(Datum(label, "antiresonance" if anti else "natural", d.omega, (lo, hi),
+                                 *_widened(lo, hi, d.omega, t, o.exact_half_width), d.weight))
+            freqs.append(tuple(row))
+            srow, mrow = [], []
+            for k, nat in enumerate(cfg.natural):
+                if nat.shape is None:
+                    continue
+                label = f"configuration {cfg.name!r}, mode {nat.mode} ({nat.freq_hz:.5g} Hz)"
+                bounds = nat.shape.bounds
+                ref = nat.shape.reference
+                order = [ref] + [d for d in bounds if d != ref]
+                scale = abs(nat.shape.midpoint[ref])
+                if len(order) >= 2:
+                    mlo = np.array([bounds[d][0] for d in order])
+                    mhi = np.array([bounds[d][1] for d in order])
+                    lo, hi = zip(*(_widened(a, b, scale, o.shape_tolerance, o.exact_half_width)
+                                   for a, b in zip(mlo, mhi)))
+                    srow.append(Shape(label, k, nat.mode, tuple(order), mlo, mhi, np.array(lo), np.array(hi), FLOOR * scale))
+                if nat.shape.mass_normalized:
+                    lo, hi = nat.shape.modal_mass_bounds()
+                    mid = 0.5 * (lo + hi)
+                    mrow.append(Datum(f"{label}, modal mass at {ref!r}", "modal_mass", mid, (lo, hi),
+                                      *_widened(lo, hi, mid, o.modal_mass_tolerance, o.exact_half_width)))
+            shapes.append(tuple(srow))
+            masses.append(tuple(mrow))
+        return cls(tuple(freqs), tuple(shapes), tuple(masses))
+
+    def relative_half_widths(self) -> np.ndarray:
+        """Every frequency's admissible half-width over its value, shape (n_f,)."""
+        return np.array([d.half_width / d.value for row in self.frequencies for d in row])
+
+
+def _rows(v, lo, hi, mid, h, pull=PULL):
+    """The polish's rows (module docstring) of values ``v`` (last axis: the data) against
+    ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
+    per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
+    outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
+    zero, so their sum of squares has a continuous gradient. (One row
+    ``((v - mid) + out / pull) / h`` jumps in slope by ``1 / pull`` at an interval's end, where
+    it is about one: its square's gradient jumps there, and trust-region steps crawl along the
+    ends: `vibupdate.inverse.polish`.)"""
+    out = v - np.clip(v, lo, hi)
+    slope_in = np.broadcast_to(1.0 / h, np.shape(out))
+    slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)
+    return (np.concatenate([(v - mid) / h, out / (pull * h)], axis=-1),
+            np.concatenate([slope_in, slope_out], axis=-1))
+
+
+def _targets(lower, upper, floor):
+    """The polish's target interval: the admissible one without its floor, shrunk by `MARGIN`."""
+    inset = floor + MARGIN * 0.5 * (upper - lower - 2 * floor)
+    return lower + inset, upper - inset
+
+
+def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float) -> float:
+    """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`): a convex piecewise quadratic in
+    ``s`` whose pieces end where an entry ``s q_j`` crosses an interval end; each piece's
+    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact)."""
+    nz = q != 0
+    breaks = np.unique(np.concatenate([lo[nz] / q[nz], hi[nz] / q[nz]]))
+    edges = np.concatenate([[-np.inf], breaks, [np.inf]])
+    a, b = edges[:-1], edges[1:]
+    probe = np.where(np.isfinite(a) & np.isfinite(b), 0.5 * (a + b), np.where(np.isfinite(a), a + 1.0, b - 1.0))
+    if not breaks.size:
+        probe = np.array([0.0])
+        a, b = np.array([-np.inf]), np.array([np.inf])
+    V = probe[:, None] * q[None, :]
+    below, above = V < lo, V > hi
+    w_in = (1.0 / h) ** 2                                                  # per piece: weights of the rows
+    w_out = np.where(below | above, 1.0 / (pull * h), 0.0) ** 2               # squared, in s q_j
+    edge = np.where(below, lo, np.where(above, hi, 0.0))
+    s = np.sum(q * (w_in * mid + w_out * edge), axis=1) / np.maximum(np.sum(q * q * (w_in + w_out), axis=1), 1e-300)
+    s = np.clip(s, a, b)
+    cost = np.sum(_rows(s[:, None] * q[None, :], lo, hi, mid, h, pull)[0] ** 2, axis=1)
+    return float(s[int(np.argmin(cost))])
+
+
+def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: float):
+    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale)."""
+    q = np.concatenate([[1.0], ratios])
+    lo, hi = _targets(shape.lower, shape.upper, shape.floor)
+    mid, h = 0.5 * (lo + hi), shape.half_width
+    s = _scale(q, lo, hi, mid, h, pull)
+    r, slope = _rows(s * q, lo, hi, mid, h, pull)
+    if jac is None:
+        return r, None
+    dq = np.vstack([np.zeros((1, jac.shape[1])), jac])
+    dq, q = np.vstack([dq, dq]), np.concatenate([q, q])   # the two rows of each entry
+    J = slope[:, None] * s * dq
+    Js = slope * q                                   # d rows / d s
+    # the scale follows the shape (variable projection): d/dx of sum r dr/ds = 0 at the best scale
+    ds = -(Js @ J + (r * slope) @ dq) / max(float(Js @ Js), 1e-300)
+    return r, J + np.outer(Js, ds)
+
+
+def evaluate(configurations: Sequence[Configuration], contract: Admissible, xbar, jacobian: bool = True,
+             basis: list | None = None, pull: float = PULL, maps: list | None = None):
+    """`residuals` at ``xbar`` from one data map per configuration; ``basis``, a list (with
+    ``jacobian``), receives per configuration the vectors the evaluation computed
+    (`vibupdate.inverse.data_map.DataMap.vectors`): the basis of the polish's reduced rounds;
+    ``maps``, a list, receives the data maps (`residuals` of them is the same point at another
+    ``pull``, with no eigen-solve)."""
+    from vibupdate.inverse.data_map import data_map
+
+    want = basis is not None and jacobian
+    found = [data_map(c, xbar, jacobian=jacobian, shapes=bool(s or m), vectors=want)
+             for c, s, m in zip(configurations, contract.shapes, contract.masses)]
+    if want:
+        basis.extend(np.hstack(m.vectors) for m in found)
+    if maps is not None:
+        maps.extend(found)
+    return residuals(contract, found, jacobian, pull)
+
+
+def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull: float = PULL):
+    """The polish's residual rows (module docstring) from the data maps of each configuration
+    (`vibupdate.inverse.data_map.DataMap`, with ``jacobian`` their Jacobians), and their
+    Jacobian, shape (n_r, n_x) (None without ``jacobian``). Order per configuration:
+    frequencies, modal masses (each: the pull rows, then the distance rows), shapes (reference
+    entry first, the same two blocks). A zero the model lost costs a constant distance row of
+    ``1 / pull`` with no direction."""
+    res, jac = [], []
+    for data, shapes, masses, m in zip(contract.frequencies, contract.shapes, contract.masses, maps):
+        for items, values, J in ((data, m.frequency_values, m.frequency_jacobian if jacobian else None),
+                                 (masses, m.masses, m.mass_jacobian)):
+            if not items:
+                continue
+            lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
+                              FLOOR * np.array([abs(d.value) for d in items]))
+            w = np.tile(np.sqrt([d.weight for d in items]), 2)
+            lost = ~np.isfinite(values)
+            r, slope = _rows(np.where(lost, 0.5 * (lo + hi), values), lo, hi, 0.5 * (lo + hi),
+                             np.array([d.half_width for d in items]), pull)
+            # a lost zero: its pull row 0, its distance row 1 / pull, no direction
+            res.append(np.where(np.concatenate([lost, lost]), np.concatenate([0 * lost, lost / pull]), w * r))
+            if jacobian:
+                dv = np.nan_to_num(J)
+                jac.append(np.where(np.concatenate([lost, lost])[:, None], 0.0,
+                                    (w * slope)[:, None] * np.vstack([dv, dv])))
+        by = {s.position: s for s in shapes}
+        for k, (measured, ratios) in enumerate(zip(m.shapes, m.ratios)):
+            if measured.position in by:
+                r, J = _shape_rows(by[measured.position], ratios, m.ratio_jacobians[k] if jacobian else None, pull)
+                res.append(r)
+                if jacobian:
+                    jac.append(J)
+    r = np.concatenate(res) if res else np.zeros(0)
+    return r, (np.vstack(jac) if jacobian and jac else None)
+
+
+def scaling_miss(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: bool = False):
+    """The least ``t`` such that some scale ``s`` puts every ``s q_j`` within ``t`` half-widths
+    of ``[lower_j, upper_j]`` (0: the shape is admissible); bisection on ``t``, for each ``t``
+    the scales each entry admits form one interval and they intersect or not. With ``scale``,
+    ``(t, s)``."""
+    half = 0.5 * (upper - lower)
+    if not np.all(np.isfinite(q)) or np.any(half <= 0):
+        return (np.inf, np.nan) if scale else np.inf
+
+    def feasible(t: float):
+        a, b = lower - t * half, upper + t * half
+        zero = q == 0
+        if np.any(zero & ((a > 0) | (b < 0))) or zero.all():
+            return None
+        s1, s2 = a[~zero] / q[~zero], b[~zero] / q[~zero]
+        lo, hi = np.max(np.minimum(s1, s2)), np.min(np.maximum(s1, s2))
+        return 0.5 * (lo + hi) if lo <= hi else None
+
+    top, s = 0.0, feasible(0.0)
+    if s is None:
+        top = 1.0
+        while feasible(top) is None and top < 1e12:
+            top *= 2.0
+        low = 0.0
+        for _ in range(50):
+            mid = 0.5 * (low + top)
+            low, top = (low, mid) if feasible(mid) is not None else (mid, top)
+        s = feasible(top)
+    return (top, s) if scale else top
+
+
+def misses(contract: Admissible, maps: Sequence) -> list[Miss]:
+    """Every datum against its admissible interval (the verification's one membership test),
+    from the data maps of each configuration (`vibupdate.inverse.data_map.DataMap`)."""
+    out = []
+    for data, shapes, masses, m in zip(contract.frequencies, contract.shapes, contract.masses, maps):
+        for items, values in ((data, m.frequency_values), (masses, m.masses)):
+            for d, v in zip(items, values):
+                miss = max(d.lower - v, v - d.upper, 0.0) / d.half_width if np.isfinite(v) else np.inf
+                inside = bool(np.isfinite(v) and d.measured[0] - FLOOR * abs(d.value) <= v
+                              <= d.measured[1] + FLOOR * abs(d.value))
+                unit = "kg" if d.kind == "modal_mass" else "rad/s"
+                rel = abs(v - d.value) / abs(d.value) if np.isfinite(v) else np.inf
+                out.append(Miss(d.label, d.kind, float(miss), inside,
+                                f"{d.label}: model {v:.7g} {unit}, measured {d.value:.7g} ({100 * rel:.3g} %), "
+                                f"admissible [{d.lower:.7g}, {d.upper:.7g}]", float(rel)))
+        by = {s.position: s for s in shapes}
+        for measured, ratios in zip(m.shapes, m.ratios):
+            if measured.position not in by:
+                continue
+            shape = by[measured.position]
+            q = np.concatenate([[1.0], ratios])
+            miss, s = scaling_miss(q, shape.lower, shape.upper, scale=True)
+            inside = scaling_miss(q, shape.measured_lower - shape.floor, shape.measured_upper + shape.floor) == 0
+            near = cluster(m.frequencies.omega_all, shape.mode - 1)
+            text = f"{shape.label}: the model shape at its best scale" + (
+                "" if near.size == 1 else f" (best combination of the repeated modes {near[0] + 1}-{near[-1] + 1})")
+            if miss > 0 and np.isfinite(s):
+                v = s * q
+                far = np.maximum(shape.lower - v, v - shape.upper) / shape.half_width
+                worst = np.argsort(-far)[:3]
+                text += " has " + ", ".join(f"{shape.dofs[j]!r} {v[j]:.6g} against [{shape.lower[j]:.6g}, "
+                                            f"{shape.upper[j]:.6g}]" for j in worst if far[j] > 0)
+            out.append(Miss(shape.label, "shape", float(miss), bool(inside), text))
+    return out
+
+
+def weighted(configurations: Sequence[Configuration], contract: Admissible):
+    """The data with each frequency's weight multiplied by ``1 / h^2``, ``h`` its relative
+    admissible half-width, the multipliers normalized to mean 1: the first stage weighs each
+    residual as the contract does (the same objects when every ``h`` is equal)."""
+    from dataclasses import replace
+
+    factor = 1.0 / np.maximum(contract.relative_half_widths(), WEIGHT_FLOOR) ** 2
+    if not factor.size:
+        return list(configurations)
+    factor /= factor.mean()
+    if np.allclose(factor, 1.0, rtol=1e-12, atol=0.0):
+        return list(configurations)
+    out, k = [], 0
+    for c in configurations:
+        n, m = len(c.natural), len(c.antiresonances)
+        fn, fa = factor[k:k + n], factor[k + n:k + n + m]
+        k += n + m
+        out.append(replace(c, natural=tuple(replace(d, weight=d.weight * w) for d, w in zip(c.natural, fn)),
+                           antiresonances=tuple(replace(d, weight=d.weight * w)
+                                                for d, w in zip(c.antiresonances, fa))))
+    return out

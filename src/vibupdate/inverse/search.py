@@ -1,0 +1,144 @@
+"""The search for the answer, as typed records: which starts, in which order, with which budgets.
+
+An update polishes the first stage's answer (`vibupdate.inverse.update`). When that answer
+is not verified, or the path failed, further starts are polished in a fixed order: the stepped
+homotopy path (when the direct jump was taken), the nominal point, then `Search.random_starts`
+points of the parameter box drawn with `Search.seed` (the same input gives the same answer).
+The first verified answer ends that part.
+
+A verified answer is then tested for uniqueness: the starts of the box not tried yet (the
+nominal point and `Search.probe_random_starts` random points) are polished with at most
+`Search.probe_evaluations` evaluations per unknown plus one. An answer that verifies, fits
+about as well (`Search.as_well`) and differs from the returned one by more than
+`Search.distinct` (a normalized parameter) is an `Alternative`: a different answer that fits
+the data as well, and the verdict is
+``not_unique``. Where the uniqueness search is not run (the polish off, a sampling sweep, a
+model above `Search.probe_dofs` DOFs or `Search.probe_parameters` parameters, where a polish
+from a random point costs minutes), the result says so and why (`Sought`).
+
+Every start tried is a `Start` in the result (`vibupdate.inverse.update.UpdateResult.sought`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from vibupdate.modal.analysis import DENSE_LIMIT
+
+
+@dataclass(frozen=True)
+class Search:
+    """The search's starts and budgets (module docstring).
+
+    Attributes
+    ----------
+    random_starts : int
+        Random points of the box polished when the answer does not verify.
+    probe_random_starts : int
+        Random points of the box polished to test a verified answer for uniqueness (on one
+        acceptance problem, 4 parameters and 4 exact frequencies, 5 of 12 random starts
+        found the exact fit; 2 found none of it).
+    probe_evaluations : int
+        Evaluations of each uniqueness polish, per unknown plus one: a start that has not
+        converged by then is not an answer that fits as well.
+    probe_dofs, probe_parameters : int
+        The uniqueness search runs on models up to these sizes (the dense models, where a
+        polish costs a fraction of a second; the bundled 29-parameter frame took 36 s for four
+        starts, its answer unchanged).
+    distinct : float
+        Two answers differ when a normalized parameter differs by more than this.
+    tie : float
+        Verified answers whose objectives lie within this relative margin of the lowest tie:
+        the one nearest the nominal model is returned.
+    as_well : float
+        Another verified answer "fits as well" when its objective is at most this times the
+        lowest (or an exact fit): every verified answer lies in the admissible intervals, and
+        with model-form tolerances of 2 % many do; one whose pull toward the midpoints is far
+        weaker is not an alternative to the answer.
+    seed : int
+        Of the random starts.
+    """
+
+    random_starts: int = 2
+    probe_random_starts: int = 6
+    probe_evaluations: int = 20
+    probe_dofs: int = DENSE_LIMIT
+    probe_parameters: int = 12
+    distinct: float = 1e-3
+    tie: float = 1e-3
+    as_well: float = 2.0
+    seed: int = 0
+
+    def box_starts(self, lo: np.ndarray, hi: np.ndarray, n_random: int) -> list[tuple[str, np.ndarray]]:
+        """The nominal point and ``n_random`` random points of the box ``[lo, hi]``, in this
+        order (the first points are the same whatever ``n_random``)."""
+        rng = np.random.default_rng(self.seed)
+        return [("nominal point", np.clip(np.zeros(lo.size), lo, hi))] + [
+            (f"random start {k + 1}", rng.uniform(lo, hi)) for k in range(n_random)]
+
+    def uniqueness(self, n_dofs: int, n_parameters: int, asked: bool) -> tuple[bool, str]:
+        """Whether a verified answer is tested for uniqueness on a model of this size, and why."""
+        if not asked:
+            return False, "not asked for (polish off or a sampling sweep)"
+        if n_dofs > self.probe_dofs:
+            return False, f"the model has {n_dofs} DOFs, above the {self.probe_dofs} of the uniqueness search"
+        if n_parameters > self.probe_parameters:
+            return False, (f"the model has {n_parameters} parameters, above the {self.probe_parameters} of the "
+                           "uniqueness search")
+        return True, f"{self.probe_random_starts + 1} starts of the box polished"
+
+
+@dataclass(frozen=True)
+class Start:
+    """One start tried: its label, why (``purpose`` "fit" or "uniqueness"), the verdict of its
+    answer ("verified", "not_verified", "path failed", "same answer": it reached a known answer
+    again), the failed checks, its polish objective and seconds."""
+
+    start: str
+    purpose: str
+    status: str
+    failed: tuple[str, ...] = ()
+    cost: float | None = None
+    seconds: float = 0.0
+
+    def as_dict(self) -> dict:
+        return {**asdict(self), "failed": list(self.failed)}
+
+    def __getitem__(self, key):      # read like the dict of ``results.json``
+        return getattr(self, key)
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """Another verified answer: its start, objective, ``xbar``, physical ``values`` by name and
+    the parameters that differ from the returned answer (``differs``)."""
+
+    start: str
+    objective: float
+    xbar: tuple[float, ...]
+    values: dict
+    differs: tuple[str, ...]
+
+    def as_dict(self) -> dict:
+        return {"start": self.start, "objective": self.objective, "xbar": list(self.xbar),
+                "values": dict(self.values), "differs": list(self.differs)}
+
+    def __getitem__(self, key):      # read like the dict of ``results.json``
+        return getattr(self, key)
+
+
+@dataclass(frozen=True)
+class Sought:
+    """What the update sought: the search it ran, every start in order, and whether the
+    uniqueness of a verified answer was searched, and why (or why not)."""
+
+    search: Search
+    starts: tuple[Start, ...]
+    uniqueness: bool
+    reason: str
+
+    def as_dict(self) -> dict:
+        return {"search": asdict(self.search), "starts": [s.as_dict() for s in self.starts],
+                "uniqueness_searched": self.uniqueness, "reason": self.reason}

@@ -1,0 +1,225 @@
+"""The admissible-data contract: one set of intervals for the polish, the verification and the
+ranges; constructed cases for each rule it states."""
+
+import numpy as np
+import pytest
+
+from helpers import chain_model
+from vibupdate import Configuration, NaturalFrequency, VerifyOptions, update
+from vibupdate.data.measured import ShapeInterval
+from vibupdate.inverse.admissible import FLOOR, Admissible, _scale, evaluate, misses, scaling_miss
+from vibupdate.inverse.correlation import model_frequencies
+from vibupdate.inverse.data_map import data_map
+from vibupdate.inverse.status import Verdict
+from vibupdate.inverse.verify import verify
+from vibupdate.modal.analysis import modes
+
+TRUTH = {"k1": 1000.0, "k2": 800.0, "k3": 1200.0}
+
+
+def _chain(**truth):
+    model = chain_model(3, list(TRUTH))
+    x = model.normalized([truth.get(n, TRUTH[n]) for n in model.parameter_names])
+    omega, Phi = modes(*model.matrices(x), 3)
+    return model, x, omega, Phi
+
+
+def test_each_datum_gets_measurement_plus_model_form_plus_floor_and_exact_data_a_stated_width():
+    model, x, omega, _ = _chain()
+    cfg = Configuration("c", model, (NaturalFrequency(omega[0]),
+                                     NaturalFrequency(omega[1], interval=(0.99 * omega[1], 1.01 * omega[1]))))
+    options = VerifyOptions(natural_tolerance=0.02, exact_half_width=1e-6)
+    exact, measured = Admissible.of([cfg], options).frequencies[0]
+    assert exact.half_width == pytest.approx((1e-6 + 0.02 + FLOOR) * omega[0], rel=1e-12)
+    assert measured.half_width == pytest.approx((0.01 + 0.02 + FLOOR) * omega[1], rel=1e-12)
+    assert measured.measured == pytest.approx((0.99 * omega[1], 1.01 * omega[1]))
+
+
+def test_a_shape_is_held_to_its_intervals_at_a_free_scale_not_to_the_ratio_box():
+    """The reference entry's interval (0.8, 1.0) and the other entry's at 0.8 of the model's
+    ratio: the model's shape scaled by 0.8 lies in both, so the shape fits its intervals. The
+    ratio box (every interval divided by the reference midpoint 0.9) put the model's ratio 0.1
+    of itself outside an interval 0.01 of it wide: the old check refused the model that made
+    the data."""
+    model, x, omega, Phi = _chain()
+    idx = [model.dof(d) for d in ("y1", "y2", "y3")]
+    v = Phi[idx, 0] / Phi[idx, 0][np.argmax(np.abs(Phi[idx, 0]))]       # 1 at the largest entry
+    ref = int(np.argmax(np.abs(v)))
+    dofs = ("y1", "y2", "y3")
+    bounds = {d: (0.8 * e - 0.01 * abs(e), 0.8 * e + 0.01 * abs(e)) for d, e in zip(dofs, v)}
+    bounds[dofs[ref]] = (0.8, 1.0)
+    cfg = Configuration("c", model, (NaturalFrequency(omega[0], shape=ShapeInterval(bounds)),))
+    f = model_frequencies(cfg, x, derivatives=True)
+    checks = {c.name: c for c in verify([cfg], x, nominal=[f], updated=[f], lower_bound=None, n_blocks=1,
+                                        options=VerifyOptions(shape_tolerance=0.0))}
+    assert checks["shape_intervals"].passed and checks["shape_intervals"].limited_by == "measurement"
+    ratio_box = {d: (lo / 0.9, hi / 0.9) for d, (lo, hi) in bounds.items()}
+    assert any(not (lo <= e <= hi) for (lo, hi), e in zip(ratio_box.values(), v))   # the old meaning refused it
+    # moved by 5 half-widths, no scale fits it any more
+    other = (ref + 1) % 3
+    lo, hi = bounds[dofs[other]]
+    bounds[dofs[other]] = (lo + 5 * (hi - lo), hi + 5 * (hi - lo))
+    cfg = Configuration("c", model, (NaturalFrequency(omega[0], shape=ShapeInterval(bounds)),))
+    found = [m for m in misses(Admissible.of([cfg], VerifyOptions(shape_tolerance=0.0)),
+                               [data_map(cfg, x, jacobian=False)]) if m.kind == "shape"]
+    assert found[0].miss > 1 and repr(dofs[other]) in found[0].text
+
+
+def test_the_scale_of_a_shape_minimizes_its_rows_exactly():
+    """`_scale` against a brute-force scan of the scale: the rows are piecewise linear in it."""
+    rng = np.random.default_rng(1)
+    q = np.array([1.0, 0.6, -0.3, 0.05])
+    lo = np.array([0.9, 0.5, -0.35, -0.01])
+    hi = lo + np.array([0.2, 0.05, 0.1, 0.04])
+    mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    from vibupdate.inverse.admissible import PULL, _rows
+
+    s = _scale(q, lo, hi, mid, h, PULL)
+    grid = np.linspace(s - 0.2, s + 0.2, 40001)
+    cost = np.sum(_rows(grid[:, None] * q[None, :], lo, hi, mid, h, PULL)[0] ** 2, axis=1)
+    assert float(np.sum(_rows(s * q, lo, hi, mid, h, PULL)[0] ** 2)) <= cost.min() * (1 + 1e-9)
+    assert scaling_miss(mid * rng.uniform(0.2, 0.5), lo, hi) == 0.0     # inside at some scale, whatever its own
+    assert scaling_miss(-mid, lo, hi) == 0.0                            # the sign is free
+
+
+def test_the_polish_residual_jacobian_is_exact_with_the_scale_eliminated():
+    model, x, omega, Phi = _chain()
+    idx = [model.dof(d) for d in ("y1", "y2", "y3")]
+    v = Phi[idx, 1] / np.abs(Phi[idx, 1]).max()
+    shape = ShapeInterval({d: (e + 0.03 - 0.02, e + 0.03 + 0.02) for d, e in zip(("y1", "y2", "y3"), v)})
+    cfg = Configuration("c", model, (NaturalFrequency(omega[0]), NaturalFrequency(omega[1], shape=shape)))
+    contract = Admissible.of([cfg], VerifyOptions(shape_tolerance=0.0, natural_tolerance=0.0,
+                                                  measurement_tolerance=0.001))
+    x0 = x + np.array([0.02, -0.03, 0.01])
+    r, J = evaluate([cfg], contract, x0)
+    e = 1e-6
+    fd = np.column_stack([(evaluate([cfg], contract, x0 + e * u, jacobian=False)[0]
+                           - evaluate([cfg], contract, x0 - e * u, jacobian=False)[0]) / (2 * e) for u in np.eye(3)])
+    np.testing.assert_allclose(J, fd, rtol=1e-4, atol=1e-6 * np.abs(J).max())
+
+
+def test_consistency_above_its_allowance_is_a_warning_naming_both_figures():
+    model, x, omega, _ = _chain()
+    cfg = Configuration("c", model, tuple(NaturalFrequency(w) for w in omega))
+    f = model_frequencies(cfg, x, derivatives=True)
+    checks = {c.name: c for c in verify([cfg], x, nominal=[f], updated=[f], lower_bound=0.5, n_blocks=3)}
+    c = checks["consistency"]
+    assert c.severity == "warning" and not c.passed
+    assert "0.5" in c.message and "0.0012" in c.message and "not a certificate" in c.message
+    assert all(k.passed for k in checks.values() if k.severity == "error")
+
+
+def test_under_model_form_error_the_answer_is_the_least_misfit_and_no_worse_than_nominal():
+    """Frequencies of a chain with a fourth, unmodelled spring to ground at its tip, held to
+    0.1 % (no model-form tolerance): no k1..k3 fits them. The answer is not verified, its
+    misfit of the admissible data is below the nominal model's, and the fit check names the
+    frequencies it cannot meet and by how much."""
+    model, x, _, _ = _chain()
+    M, K = model.matrices(x)
+    K = K.tolil()
+    K[model.dof("y3"), model.dof("y3")] += 300.0
+    omega, _ = modes(M, K.tocsr(), 3)
+    cfg = Configuration("c", model, tuple(NaturalFrequency(w) for w in omega))
+    options = VerifyOptions(natural_tolerance=0.0, measurement_tolerance=0.001)
+    result = update([cfg], verification=options)
+    assert result.verdict is Verdict.NOT_VERIFIED
+    contract = Admissible.of([cfg], options)
+    cost = lambda z: 0.5 * float(np.sum(evaluate([cfg], contract, z, jacobian=False)[0] ** 2))
+    assert cost(result.xbar) < cost(np.zeros(3))
+    fit = next(c for c in result.checks if c.name == "fit")
+    assert not fit.passed and "half-widths outside" in fit.message and "mode" in fit.message
+
+
+def test_of_answers_that_do_not_verify_the_lower_misfit_wins_over_the_lower_objective():
+    """The polish's objective carries the pull toward the midpoints; an answer that misses the
+    admissible intervals less is the better answer even when its objective is higher."""
+    from vibupdate.inverse.status import Status
+    from vibupdate.inverse.update import _better, _Finish
+
+    def candidate(cost, misfit, ok=False):
+        polished = type("P", (), {"cost": cost})()
+        return _Finish("s", np.zeros(1), np.zeros(1), polished, None, [], {}, (),
+                       Status.SUCCESS if ok else Status.NOT_VERIFIED, misfit)
+
+    near_mid, less_outside = candidate(cost=1.0, misfit=9.0), candidate(cost=5.0, misfit=2.0)
+    assert _better(near_mid, less_outside) and not _better(less_outside, near_mid)
+    assert _better(less_outside, candidate(cost=50.0, misfit=0.0, ok=True))   # verified first
+
+
+def test_a_best_answer_that_misses_more_than_the_nominal_model_gives_way_to_it():
+    """The guard of the search: when no answer verifies and the best one lies further outside the
+    admissible intervals than the nominal model, the nominal model is returned, verified as it
+    is, and its misfit is the nominal one."""
+    from dataclasses import replace as copy
+
+    from vibupdate.inverse.polish import PolishOptions
+    from vibupdate.inverse.status import Status
+    from vibupdate.inverse.update import _Finish, _no_worse_than_nominal, misfit
+
+    model, x, _, _ = _chain()
+    M, K = model.matrices(x)
+    K = K.tolil()
+    K[model.dof("y3"), model.dof("y3")] += 300.0           # an unmodelled spring: no k1..k3 fits
+    omega, _ = modes(M, K.tocsr(), 3)
+    cfg = Configuration("c", model, tuple(NaturalFrequency(w) for w in omega))
+    contract = Admissible.of([cfg], VerifyOptions(natural_tolerance=0.0, measurement_tolerance=0.001))
+    far = np.array([0.9, -0.5, 0.9])
+    nominal = misfit([cfg], contract, np.zeros(3))
+    assert misfit([cfg], contract, far) > nominal > 0
+    worse = _Finish("random start 1", far, far, None, None, [], {}, (), Status.NOT_VERIFIED,
+                    misfit([cfg], contract, far))
+    seen = []
+
+    def finish(start, label, options=None, answers=None):
+        seen.append((label, options))
+        return _Finish(label, start, start, None, None, [], {}, (), Status.NOT_VERIFIED,
+                       misfit([cfg], contract, start))
+
+    chosen = _no_worse_than_nominal([cfg], contract, worse, finish, PolishOptions(), lambda m: None)
+    assert chosen.label == "nominal model" and np.array_equal(chosen.xbar, np.zeros(3))
+    assert chosen.misfit == nominal and seen[0][1] == copy(PolishOptions(), enabled=False)
+    better = copy(worse, misfit=0.5 * nominal)
+    assert _no_worse_than_nominal([cfg], contract, better, finish, PolishOptions(), lambda m: None) is better
+
+
+def test_old_case_keys_are_refused_naming_what_replaced_them(tmp_path):
+    from vibupdate.io.case import load_case
+
+    (tmp_path / "model.py").write_text(
+        "import vibupdate as vu\n"
+        "def build(p):\n"
+        "    asm = vu.Assembly('beam')\n"
+        "    for i in range(3):\n"
+        "        asm.node(i, 0.5 * i)\n"
+        "    for i in range(2):\n"
+        "        asm.beam(i, i + 1, EI=p['EI'], mass_per_length=1.0)\n"
+        "    asm.clamp(0)\n"
+        "    return asm.system()\n", encoding="utf-8")
+    for table, key in (("polish", "shape_weight"), ("verification", "shape_slack")):
+        path = tmp_path / f"{key}.toml"
+        path.write_text('[model]\ntype = "builder"\nbuilder = "model.py:build"\n'
+                        '[[parameter]]\nname = "EI"\nnominal = 10.0\nlower = 5.0\nupper = 20.0\n'
+                        '[[configuration]]\nname = "A"\nnatural_hz = [1.0, 5.0]\n'
+                        f'[{table}]\n{key} = 1.0\n', encoding="utf-8")
+        with pytest.raises(ValueError, match=rf"{table}\.{key}: unknown key \(removed: .*shape_tolerance"):
+            load_case(path)
+
+
+def test_the_polish_objective_has_a_continuous_gradient_at_an_interval_end():
+    """The pull and the distance outside are separate rows (`_rows`): the gradient of half their
+    squared sum is continuous where a value leaves its interval, so Gauss-Newton steps do not
+    meet a kink there. (One combined row ``((v - mid) + out / PULL) / h`` jumps by about
+    ``1 / PULL`` half-widths there.) Inside, only the pull toward the midpoint is left."""
+    from vibupdate.inverse.admissible import PULL, _rows
+
+    lo, hi = np.array([0.9]), np.array([1.1])
+    mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+    def gradient(v):
+        r, slope = _rows(np.array([v]), lo, hi, mid, h, PULL)
+        return float(r @ slope)
+
+    eps = 1e-12
+    assert gradient(hi[0] + eps) == pytest.approx(gradient(hi[0] - eps), abs=1e-4)
+    assert gradient(hi[0] - eps) == pytest.approx((hi[0] - mid[0]) / h[0] ** 2, rel=1e-6)
+    assert gradient(hi[0] + 0.01) > 2 * gradient(hi[0] - eps)   # the distance dominates outside
