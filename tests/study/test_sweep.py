@@ -275,19 +275,15 @@ def _listed_with_their_hashes(out):
     return set(manifest["files"])
 
 
-def test_a_finished_sweep_lists_every_file_with_its_hash(client, chain_file, tmp_path):
-    out = tmp_path / "o"
-    run_sweep(str(chain_file), out, 2, client=client)
-    listed = _listed_with_their_hashes(out)
-    assert {"samples.csv", "line_ends.csv", "sweep-settings.json", "sweep.json", "frequency_bands.png"} <= listed
-    assert listed == {p.name for p in out.iterdir()} - {"vibupdate-manifest-sweep.json"}
-
-
-def test_a_forced_sweep_removes_the_earlier_sweeps_unchanged_files_and_keeps_the_edited_ones(client, tmp_path):
+def test_a_finished_sweep_lists_every_file_with_its_hash_and_a_forced_one_keeps_those_edited_since(client,
+                                                                                                     tmp_path):
     first, other = write_chain_case(tmp_path / "a.toml"), tmp_path / "b.toml"
     other.write_text(first.read_text().replace('name = "A"', 'name = "B"'))
     out = tmp_path / "o"
     run_sweep(str(first), out, 2, client=client)
+    listed = _listed_with_their_hashes(out)
+    assert {"samples.csv", "line_ends.csv", "sweep-settings.json", "sweep.json", "frf_band_A.png"} <= listed
+    assert listed == {p.name for p in out.iterdir()} - {"vibupdate-manifest-sweep.json"}
     (out / "frf_band_A.png").write_bytes((out / "frf_band_A.png").read_bytes() + b"annotated")
     (out / "notes.txt").write_text("mine")
     with open(out / "samples.csv", "a") as f:
