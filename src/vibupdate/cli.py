@@ -143,6 +143,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="do not walk a verified answer along exact null directions of the sensitivity to the "
                             "ends of its line of equally good answers")
     sweep.add_argument("--resume", action="store_true", help="finish the sweep already in --out")
+    sweep.add_argument("--force", action="store_true",
+                       help="start a new sweep in a folder that holds other files (the files of an earlier sweep "
+                            "there, unchanged since written, are removed; every other file is kept and named)")
     sweep.add_argument("--out", default=None, help="output directory (default: ./CASE-sweep)")
     batch = sub.add_parser("batch", help="run many case files, one results folder each and a summary table (needs "
                                          "the extra [study])")
@@ -178,7 +181,7 @@ def _sweep(args) -> int:
     if args.multistart < 0:
         raise ValueError(f"--multistart must be >= 0, got {args.multistart}")
     summary = run_sweep(args.case, out, args.samples, seed=args.seed, sampling=sampling, workers=args.workers,
-                        scheduler=args.scheduler, resume=args.resume, progress=_say)
+                        scheduler=args.scheduler, resume=args.resume, force=args.force, progress=_say)
     if args.multistart:
         from vibupdate.study.multistart import multistart
         from vibupdate.study.sweep import write_multistart

@@ -706,3 +706,38 @@ def test_the_docs_extract_command_names_the_files_of_the_southampton_data_set(tm
     args = [str(REALDATA / a) if a in files else a for a in args]
     args[args.index("--out") + 1] = str(tmp_path / "extraction")
     assert main(args + ["--no-plot"]) == 0
+
+
+@pytest.mark.parametrize("omega_by, h_by", [(1e-150, 1.0), (1.0, 1e280), (1.0, 1e-300)])
+def test_the_extraction_holds_at_any_scale_of_the_frequencies_and_the_frf(omega_by, h_by):
+    """Frequencies and FRF values scaled by powers of ten far off their units give the same
+    modes, scaled: the shape fit works in units of each mode's largest modal constant (before:
+    overflow in its least squares below 1e-150, an FRF above 1e280 read as "not a finite number")."""
+    import warnings
+
+    frfs, *_ = measured(8, repeats=1)
+    reference = extract(frfs, n_modes=3)
+    scaled = FRFSet(frfs.omega * omega_by, frfs.pairs, tuple(h * h_by for h in frfs.H))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        found = extract(scaled, n_modes=3)
+    assert len(found.modes) == len(reference.modes) == 3
+    for a, b in zip(found.modes, reference.modes):
+        assert a.omega == pytest.approx(b.omega * omega_by, rel=1e-9)
+        assert a.damping_ratio == pytest.approx(b.damping_ratio, rel=1e-6)
+        unit = math.sqrt(h_by) * omega_by   # a modal constant is |H| omega^2: a mass-normalised shape scales by its root
+        assert [a.shape[d] for d in b.shape] == pytest.approx([b.shape[d] * unit for d in b.shape], rel=1e-6)
+
+
+@pytest.mark.parametrize("omega_by", [1e-200, 1e200])
+def test_frequencies_whose_modal_constants_leave_floating_point_are_refused_naming_the_frf(omega_by):
+    import warnings
+
+    frfs, *_ = measured(8, repeats=1)
+    scaled = FRFSet(frfs.omega * omega_by, frfs.pairs, frfs.H)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(ValueError, match=r"h\(y1,y3\): frequencies up to 3e[+-]\d+ Hz and values of about .*: its "
+                                             r"modal constants .* are beyond the range of floating point; expected "
+                                             r"frequencies in Hz and the FRF in SI units"):
+            extract(scaled)

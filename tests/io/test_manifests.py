@@ -152,3 +152,40 @@ def test_batch_never_overwrites_a_summary_it_did_not_write(tmp_path, capsys):
     assert "summary.md, which `vibupdate batch` did not write" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir()) == ["summary.md"]
     assert (out / "summary.md").read_text() == "my summary"
+
+
+@pytest.mark.parametrize("stop", [None, ValueError, KeyboardInterrupt])
+def test_files_written_in_place_get_the_hash_of_their_final_content_however_the_command_ends(tmp_path, stop):
+    from vibupdate.io.manifests import file_hash
+    from vibupdate.io.outputs import written_in_place
+
+    (tmp_path / "earlier.csv").write_text("an earlier run's rows\n")
+    with written_in_place(tmp_path, "sweep", case="c", version="0.1.0", files=["earlier.csv"]):
+        pass
+    (tmp_path / "earlier.csv").write_text("edited by the user since\n")
+
+    def work():
+        with written_in_place(tmp_path, "sweep", case="c", version="0.1.0", files=["rows.csv", "gone.csv"]) as listed:
+            (tmp_path / "rows.csv").write_text("header\n")
+            (tmp_path / "gone.csv").write_text("x")
+            listed.add("late.json")
+            (tmp_path / "late.json").write_text("{}")
+            with open(tmp_path / "rows.csv", "a") as f:   # grows after it was listed
+                f.write("row 1\n")
+            (tmp_path / "gone.csv").unlink()
+            if stop is not None:
+                raise stop("stopped")
+
+    if stop is None:
+        work()
+    else:
+        with pytest.raises(stop):
+            work()
+    manifest = json.loads((tmp_path / manifest_name("sweep")).read_text())
+    assert manifest["files"] == ["earlier.csv", "late.json", "rows.csv"]
+    # this session's files: their final content; an earlier session's: what that one wrote,
+    # so the user's edit of it is seen
+    assert manifest["sha256"]["rows.csv"] == file_hash(tmp_path / "rows.csv")
+    assert manifest["sha256"]["late.json"] == file_hash(tmp_path / "late.json")
+    assert manifest["sha256"]["earlier.csv"] != file_hash(tmp_path / "earlier.csv")
+    assert prepare_output(tmp_path, command="sweep", force=True).changed == ("earlier.csv",)

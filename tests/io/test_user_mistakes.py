@@ -55,6 +55,11 @@ def _zero_frf(folder):
         np.savez(folder / "zero.npz", freq_hz=data["freq_hz"], H=0 * data["H"])
 
 
+def _huge_frf(folder):
+    with np.load(folder / "frf.npz") as data:
+        np.savez(folder / "huge.npz", freq_hz=data["freq_hz"] * 1e300, H=data["H"])
+
+
 def _cut_uff(folder):
     frfs, *_ = measured(8, repeats=1)
     write_uff(folder / "whole.uff", frfs)
@@ -97,6 +102,8 @@ MISTAKES = [
     ("extract --confidence 95", None, _extract("--confidence", "95"), r"--confidence must be between 0 and 1"),
     ("extract of an all-zero FRF", _zero_frf, _extract(table="zero.npz"),
      r"h\(y1,y3\), h\(y2,y3\), h\(y3,y3\): zero .* at every line of the band 20-300 Hz; expected a measured FRF"),
+    ("extract of frequencies of 1e300 Hz", _huge_frf, _extract(table="huge.npz", band=("2e301", "3e302")),
+     r"h\(y1,y3\): frequencies up to 3e\+302 Hz .* beyond the range of floating point; expected frequencies in Hz"),
     ("extract of a UFF file cut short", _cut_uff, ["extract", "cut.uff", "--band", "20", "300", "--out", "ex"],
      r"UFF file 'cut.uff' ends at line \d+ inside a dataset .*cut short"),
     # case files

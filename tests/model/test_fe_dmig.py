@@ -88,6 +88,26 @@ def test_a_punch_cut_at_a_line_boundary_exits_2_naming_it(tmp_path, capsys, fiel
     assert not (tmp_path / "model").exists()
 
 
+@pytest.mark.parametrize("cut", [1, 5])
+def test_a_punch_cut_in_its_grid_cards_is_refused_naming_the_grids_without_one(tmp_path, cut):
+    # before: read with the last nodes missing, so a sensor placed by position went to another node
+    frame = frame3d(2, 1, 1)
+    nodes = {label: tuple(map(float, xyz)) for label, xyz in frame.nodes.items()}
+    K, M = frame.matrices({})
+    path = tmp_path / "nominal.pch"
+    fe_writers.write_dmig(path, K, M, frame.dofs, "large", nodes)
+    whole = read_dmig(path)
+    assert set(whole.nodes) == {d.split(":")[0] for d in whole.dofs}
+    lines = path.read_text().splitlines(keepends=True)
+    assert all(line.startswith("GRID,") for line in lines[-cut:])
+    path.write_text("".join(lines[:-cut]))
+    last = sorted(whole.nodes, key=int)[-cut:]
+    with pytest.raises(ValueError, match=rf"nominal\.pch: its GRID cards give the coordinates of {len(nodes) - cut} "
+                                         rf"of the {len(nodes)} grid points of its matrices, not of {', '.join(last)}; "
+                                         rf"the file ends at line {len(lines) - cut}: is it cut short\?"):
+        read_dmig(path)
+
+
 def test_a_term_missing_from_one_export_of_the_set_is_refused_unless_the_parameter_is_zero_there():
     """The assumption of the cross-check, on a constructed 2-DOF pair: a step does not make a
     term vanish unless the parameter is zero in one of the two exports."""

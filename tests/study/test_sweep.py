@@ -254,6 +254,7 @@ def test_stopped_sweep_resumes_to_the_same_rows(client, chain_file, tmp_path):
     assert all(_data_rows([first[i]]) == _data_rows([r]) for r in resumed if (i := r["index"]) in first)
     assert json.loads((stopped / "sweep.json").read_text())["parameters"] == \
         json.loads((whole / "sweep.json").read_text())["parameters"]
+    _listed_with_their_hashes(stopped)   # the rows appended by the resume: their final hash
 
 
 def test_existing_output_needs_resume(client, chain_file, tmp_path):
@@ -263,6 +264,48 @@ def test_existing_output_needs_resume(client, chain_file, tmp_path):
         run_sweep(str(chain_file), out, 2, client=client, plots=False)
     with pytest.raises(ValueError, match="seed is 0, this run's is 1"):
         run_sweep(str(chain_file), out, 2, seed=1, client=client, resume=True, plots=False)
+
+
+def _listed_with_their_hashes(out):
+    """The sweep's manifest in ``out``: its files, each with the SHA-256 of its content now."""
+    from vibupdate.io.manifests import file_hash, manifest_name
+
+    manifest = json.loads((out / manifest_name("sweep")).read_text())
+    assert manifest["sha256"] == {f: file_hash(out / f) for f in manifest["files"]}
+    return set(manifest["files"])
+
+
+def test_a_finished_sweep_lists_every_file_with_its_hash_and_a_forced_one_keeps_those_edited_since(client,
+                                                                                                     tmp_path):
+    first, other = write_chain_case(tmp_path / "a.toml"), tmp_path / "b.toml"
+    other.write_text(first.read_text().replace('name = "A"', 'name = "B"'))
+    out = tmp_path / "o"
+    run_sweep(str(first), out, 2, client=client)
+    listed = _listed_with_their_hashes(out)
+    assert {"samples.csv", "line_ends.csv", "sweep-settings.json", "sweep.json", "frf_band_A.png"} <= listed
+    assert listed == {p.name for p in out.iterdir()} - {"vibupdate-manifest-sweep.json"}
+    (out / "frf_band_A.png").write_bytes((out / "frf_band_A.png").read_bytes() + b"annotated")
+    (out / "notes.txt").write_text("mine")
+    with open(out / "samples.csv", "a") as f:
+        f.write("# checked by hand\n")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    # the edited rows would be overwritten: refused before any work, nothing removed
+    with pytest.raises(ValueError, match="holds samples.csv, changed since `vibupdate sweep` wrote it"):
+        run_sweep(str(other), out, 2, client=client, force=True)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    (out / "samples.csv").rename(out / "checked.csv")
+    said = []
+    run_sweep(str(other), out, 2, client=client, force=True, progress=said.append)
+    assert said[0] == (f"kept in {out}/: 2 file(s) `vibupdate sweep` did not write (checked.csv, notes.txt); "
+                       "1 file(s) changed since it wrote them (frf_band_A.png)")
+    for name in ("frf_band_A.png", "notes.txt", "checked.csv"):
+        assert (out / name).read_bytes() == before.get(name, before["samples.csv"])
+    listed = _listed_with_their_hashes(out)
+    assert "frf_band_B.png" in listed and not listed & {"frf_band_A.png", "notes.txt", "checked.csv"}
+    assert {p.name for p in out.iterdir()} == listed | {"frf_band_A.png", "notes.txt", "checked.csv",
+                                                         "vibupdate-manifest-sweep.json"}
+    with pytest.raises(ValueError, match="--resume and --force exclude each other"):
+        run_sweep(str(other), out, 2, client=client, force=True, resume=True)
 
 
 def _free_port():

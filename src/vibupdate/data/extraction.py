@@ -359,7 +359,10 @@ def _shapes(pairs, constants, se, n_modes):
     drive = [k for k, (r, c) in enumerate(pairs) if r == c]
     out = []
     for r in range(n_modes):
-        m, s = constants[:, r], np.maximum(se[:, r], 1e-300)
+        # fitted in units of the mode's largest constant, so that the fit holds at any scale of
+        # the data (the constants are |H| omega^2)
+        unit = float(np.max(np.abs(constants[:, r]))) or 1.0
+        m, s = constants[:, r] / unit, np.maximum(se[:, r] / unit, 1e-300)
         if drive:
             k0 = drive[0]
             exc = pairs[k0][1]
@@ -381,8 +384,8 @@ def _shapes(pairs, constants, se, n_modes):
             dof_count = max(len(pairs) - len(names), 1)
             chi2 = float(sol.fun @ sol.fun) / dof_count if len(pairs) > len(names) else 1.0
             cov = np.linalg.pinv(J.T @ J) * max(1.0, chi2)
-            phi = sol.x * (1.0 if np.sum(sol.x) >= 0 else -1.0)
-            ses = np.sqrt(np.abs(np.diag(cov)))
+            phi = sol.x * (1.0 if np.sum(sol.x) >= 0 else -1.0) * math.sqrt(unit)
+            ses = np.sqrt(np.abs(np.diag(cov)) * unit)
             shape = {d: float(phi[index[d]]) for d in names if d in responses or d == exc}
             sd = {d: float(ses[index[d]]) for d in shape}
             out.append((shape, sd, "mass"))
@@ -513,12 +516,15 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     window = window_for(window_name, x, frfs.measured, decay_rate / scale_w)
     x_report = (float(x[inside][0]), float(x[inside][-1]))
     Hbar = frfs.mean()
-    scales = np.sqrt(np.mean(np.abs(Hbar[:, inside]) ** 2, axis=1))
+    top = np.max(np.abs(Hbar[:, inside]), axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):   # a zero or infinite FRF is named below
+        scales = top * np.sqrt(np.mean(np.abs(Hbar[:, inside] / top[:, None]) ** 2, axis=1))
     flat = [f"h({r},{c})" for (r, c), scale in zip(frfs.pairs, scales) if not (np.isfinite(scale) and scale > 0)]
     if flat:
         raise ValueError(f"{', '.join(flat)}: zero (or not a finite number) at every line of the band "
                          f"{report[0] / 2 / math.pi:.6g}-{report[1] / 2 / math.pi:.6g} Hz; expected a measured FRF "
                          "(is it the right column or file?)")
+    _check_range(frfs.pairs, scales, scale_w)
     F = Hbar / scales[:, None]
     orders = list(orders) if orders is not None else list(range(2, 11))
     if len(orders) < min_stable:
@@ -632,6 +638,21 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
             else:
                 zeros.append(found_zero)
     return zeros, outer, noisy
+
+
+def _check_range(pairs, scales, scale_w: float) -> None:
+    """The modal constants are of the order of |H| omega^2 (omega in rad/s, up to ``scale_w``):
+    a ValueError naming the FRF when that product, or omega^2, is beyond the range of floating
+    point (frequencies or FRF values many orders of magnitude off their units)."""
+    low, high = math.log(np.finfo(float).tiny), math.log(np.finfo(float).max)
+    square = 2.0 * math.log(scale_w)
+    for (r, c), scale in zip(pairs, scales):
+        if not (low < square < high and low < math.log(scale) + square < high):
+            power = (math.log(scale) + square) / math.log(10.0)
+            raise ValueError(f"h({r},{c}): frequencies up to {scale_w / 2 / math.pi:.6g} Hz and values of about "
+                             f"{scale:.3g}: its modal constants (|H| times the angular frequency squared, about "
+                             f"1e{power:+.0f}; angular frequency squared about 1e{square / math.log(10.0):+.0f}) are "
+                             "beyond the range of floating point; expected frequencies in Hz and the FRF in SI units")
 
 
 def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_outer_zeros=False,

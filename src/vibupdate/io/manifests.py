@@ -117,7 +117,8 @@ def file_hash(path: Path) -> str | None:
     return digest.hexdigest()
 
 
-def _hashes(data: dict) -> dict[str, str]:
+def recorded_hashes(data: dict) -> dict[str, str]:
+    """The SHA-256 of each file recorded in a manifest's content ``data`` (`manifest_files`)."""
     hashes = data.get("sha256")
     return {k: v for k, v in hashes.items() if isinstance(v, str)} if isinstance(hashes, dict) else {}
 
@@ -128,7 +129,7 @@ def changed_files(folder, command: str, files) -> set[str]:
     A file without a recorded hash (an earlier version's manifest) counts as unchanged."""
     folder = Path(folder)
     read = manifest_files(folder / manifest_name(command))
-    hashes = _hashes(read[1]) if read is not None else {}
+    hashes = recorded_hashes(read[1]) if read is not None else {}
     changed = set()
     for f in files:
         path = folder / f
@@ -162,12 +163,13 @@ def write_manifest(folder: Path, command: str, files: list[str], case: str, vers
 
 
 def add_to_manifest(folder, command: str, files: Iterable[str], *, case: str, version: str) -> None:
-    """List ``files`` (written into ``folder`` by ``command`` outside `publish`, e.g. rows
-    appended as a sweep runs) in the command's manifest, beside those already listed, with the
-    hash of their content now (call it again after a file grows)."""
+    """List ``files`` (written into ``folder`` by ``command`` outside `publish`) in the
+    command's manifest, beside those already listed, with the hash of their content now (none
+    for a file not written yet). Commands call it through `vibupdate.io.outputs.written_in_place`,
+    which records the final hashes when the command ends."""
     folder = Path(folder)
     listed = read_manifests(folder).get(command, [])
     read = manifest_files(folder / manifest_name(command))
-    hashes = _hashes(read[1]) if read is not None else {}
+    hashes = recorded_hashes(read[1]) if read is not None else {}
     hashes.update({f: file_hash(folder / f) for f in files})
     write_manifest(folder, command, sorted(set(listed) | set(files)), case, version, hashes)

@@ -20,6 +20,11 @@ another command, and anything else in the folder, are kept. The protocol of a co
    writes its manifest (with the hash of every file) last. A run that fails or is
    interrupted before `publish` leaves the folder as it was.
 
+A command that writes straight into its folder instead (a sweep appends its rows as samples
+finish) lists its files in its manifest as it makes them and, when it ends, normally or
+interrupted, records the hash of each one's final content (`written_in_place`). So every
+manifest carries the hash of every file its command wrote, whichever way it wrote them.
+
 The manifests, and how the older shared one is read, are in `vibupdate.io.manifests`.
 
 Files and folders get the permissions of the user's umask (``tempfile`` would make them
@@ -58,6 +63,7 @@ from vibupdate.io.manifests import (
     ownership,
     read_manifest,
     read_manifests,
+    recorded_hashes,
     write_manifest,
 )
 
@@ -457,6 +463,58 @@ def _move_into_place(staged: Path, target: OutputTarget, files: list[str], hashe
     if legacy is not None and legacy_owner(*legacy) == command:
         (final / LEGACY_MANIFEST).unlink()   # its files are now in this command's manifest, or removed
     shutil.rmtree(staged, ignore_errors=True)
+
+
+class InPlace:
+    """The files a command writes straight into its folder rather than through `publish` (a
+    sweep's rows, appended as its samples finish), listed in the command's manifest as they
+    are made. Made by `written_in_place`, which hashes their final content when the command
+    ends."""
+
+    def __init__(self, folder: Path, command: str, case: str, version: str):
+        manifest_name(command)  # a known command
+        self.folder, self.command, self.case, self.version = Path(folder), command, case, version
+        self.names: list[str] = []
+
+    def add(self, *names: str) -> None:
+        """List ``names`` (files of the folder, existing or about to be written) in the
+        manifest now, so that no other command replaces or removes them while this one runs."""
+        add_to_manifest(self.folder, self.command, names, case=self.case, version=self.version)
+        self.names += [n for n in names if n not in self.names]
+
+    def seal(self) -> None:
+        """Record the hash of the content of every file listed through `add`; a listed file
+        that no longer exists leaves the manifest. Nothing when the manifest is gone."""
+        read = manifest_files(self.folder / manifest_name(self.command))
+        if read is None:
+            return
+        listed, data = read
+        hashes = recorded_hashes(data)
+        files = set(listed)
+        for name in self.names:
+            digest = file_hash(self.folder / name)
+            if digest is None:
+                files.discard(name)
+                hashes.pop(name, None)
+            else:
+                hashes[name] = digest
+        write_manifest(self.folder, self.command, sorted(files), self.case, self.version, hashes)
+
+
+@contextmanager
+def written_in_place(folder, command: str, *, case: str, version: str, files: Iterable[str] = ()):
+    """The block of a command that writes files straight into ``folder`` (checked by
+    `prepare_output`): yields an `InPlace` that lists them (``files`` at once, the others by
+    its ``add``). When the block ends, normally or by an exception or Ctrl-C, the manifest gets
+    the hash of the final content of every file listed in it, with SIGINT held back: a file
+    the user edits afterwards is then recognised as changed, and kept, by every command."""
+    listing = InPlace(Path(folder), command, case, version)
+    try:
+        listing.add(*files)
+        yield listing
+    finally:
+        with _sigint_held():
+            listing.seal()
 
 
 def write_published(target: OutputTarget, write: Callable[[Path], _T], *, case: str, version: str) -> _T:

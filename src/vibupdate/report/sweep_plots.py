@@ -207,6 +207,14 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
     return _save(plt, fig, path)
 
 
+def plot_names(case) -> list[str]:
+    """Every file name `write_sweep_plots` may give a plot of ``case`` (before the sweep says
+    which are drawn)."""
+    parts = file_names([cfg.name for cfg in case.configurations])
+    return (["parameters_hist.png", "parameters_pairs.png", "frequency_bands.png"]
+            + [f"frf_band_{parts[cfg.name]}.png" for cfg in case.configurations])
+
+
 def write_sweep_plots(out: Path, case, rows, document: dict, ends=()) -> list[Path]:
     """All plots of a sweep into ``out``; returns the paths of those drawn. A plot that fails
     is left out with an `vibupdate.io.outputs.OutputWarning` naming it and the error; without

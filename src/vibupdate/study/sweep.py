@@ -55,10 +55,13 @@ from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_confi
 from vibupdate.study.sweep_files import (
     ENDS_FILE,
     SAMPLES_FILE,
-    list_files,
+    SETTINGS_FILE,
+    planned_files,
     prepare_sweep_folder,
     settings_of,
+    sweep_listing,
     write_multistart,
+    write_settings,
     write_summary,
 )
 from vibupdate.study.sweep_rows import RowWriter, read_rows, resumed_rows, write_sorted
@@ -266,7 +269,7 @@ def _random_start(case: Case, cfgs, seed: int, index: int, accept) -> tuple | No
 
 def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingOptions | None = None,
               workers: int | None = None, scheduler: str | None = None, client=None, resume: bool = False,
-              retries: int = 3, plots: bool = True,
+              force: bool = False, retries: int = 3, plots: bool = True,
               progress: Callable[[str], None] | None = None) -> SweepSummary:
     """Sweep ``samples`` data sets of ``case`` on Dask; write ``out_dir``; return the summary.
 
@@ -288,6 +291,11 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
         The engine (`vibupdate.study.engine.open_client`).
     resume : bool
         Finish the sweep in ``out_dir`` (same case, seed and sampling; ``samples`` may grow).
+    force : bool
+        Start a new sweep in a folder that holds other files: those of an earlier sweep there
+        that are unchanged since it wrote them (its manifest's hashes) are removed before the
+        work, every other file is kept and named; a file the sweep would overwrite and did not
+        write, or that changed since, is refused (ValueError) before any work.
     retries : int
         Retries of a task whose worker was lost.
     plots : bool
@@ -311,25 +319,30 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     data_intervals(loaded.configurations, loaded.frequency_tolerance, sampling)  # bad data: error before any work
     out = Path(out_dir)
     settings = settings_of(seed, sampling, digest, loaded)
-    created = prepare_sweep_folder(out, settings, resume)
+    created, kept = prepare_sweep_folder(out, settings, resume, force=force, planned=planned_files(loaded),
+                                         inputs=() if source is None else (source.path,))
+    if kept:
+        say(kept)
     try:
-        return _sweep(loaded, source, digest, out, settings, samples, seed, sampling, resume, workers, scheduler,
-                      client, retries, plots, say)
+        with sweep_listing(out, settings, SETTINGS_FILE, SAMPLES_FILE, ENDS_FILE) as listing:
+            if not resume:
+                write_settings(out, settings)
+            return _sweep(loaded, source, digest, out, settings, samples, seed, sampling, resume, workers, scheduler,
+                          client, retries, plots, say, listing)
     except BaseException as exc:
-        kept = _after_stop(out, settings, created)
+        stopped = _after_stop(out, created)
         if isinstance(exc, KeyboardInterrupt):
-            raise Interrupted(kept) from None
+            raise Interrupted(stopped) from None
         raise
 
 
-def _after_stop(out: Path, settings: dict, created: list[str]) -> str:
-    """What a sweep stopped before its end keeps: its rows, listed in its manifest with their
-    hashes now, or, when no sample finished, nothing: the files this run ``created`` are removed
-    (and the folder, when it made it and it is left empty), so that the same command runs
-    again without a word. Returns the interrupted command's line."""
+def _after_stop(out: Path, created: list[str]) -> str:
+    """What a sweep stopped before its end keeps: its rows (listed in its manifest with the
+    hashes of their content, `sweep_listing`), or, when no sample finished, nothing: the files
+    this run ``created`` are removed (and the folder, when it made it and it is left empty), so
+    that the same command runs again without a word. Returns the interrupted command's line."""
     rows = read_rows(out / SAMPLES_FILE)[1] if (out / SAMPLES_FILE).is_file() else []
     if rows:
-        list_files(out, settings, SAMPLES_FILE, ENDS_FILE)
         return (f"kept {len(rows)} sample row(s) in {out}/{SAMPLES_FILE}; finish the sweep with the same command "
                 "and --resume")
     for name in created:
@@ -341,7 +354,7 @@ def _after_stop(out: Path, settings: dict, created: list[str]) -> str:
 
 
 def _sweep(loaded: Case, source, digest, out: Path, settings, samples, seed, sampling, resume, workers, scheduler,
-           client, retries, plots, say) -> SweepSummary:
+           client, retries, plots, say, listing) -> SweepSummary:
     """`run_sweep` in its checked folder."""
     from vibupdate.study.engine import Progress, open_client
 
@@ -392,7 +405,7 @@ def _sweep(loaded: Case, source, digest, out: Path, settings, samples, seed, sam
                                   if new and all(isinstance(r.get("cpu_seconds"), float) for r in new) else None),
         "overhead_per_task_seconds": (wall * n_workers - sum(r["seconds"] for r in new)) / len(new) if new else None,
     }
-    write_summary(out, loaded, rows, document, ends, settings, say, plots)
+    write_summary(out, loaded, rows, document, ends, listing, say, plots)
     say(f"{document['verified']} verified, {document['unverified']} unverified, {document['failed']} failed "
         f"of {document['samples']} samples; wrote {out}/")
     return SweepSummary(document, out)

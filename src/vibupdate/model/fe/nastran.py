@@ -18,8 +18,9 @@ point and component, then (grid, component, value) of each row term. ``IFO = 6``
 holds one triangle, which is mirrored (a term given in both triangles must agree); ``IFO = 1``
 (square) must be symmetric. Reals are Nastran numbers (``1.5+3``, ``-2.D-4``, ``7.E5``).
 Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards in the file (basic coordinate
-system) give the node coordinates. The significant digits of every real read give the export's
-relative precision (`vibupdate.model.fe.export.precision_of_digits`: 5e-10 for the 10 digits a
+system) give the node coordinates; a file with GRID cards must have one for every grid point
+of its matrices (a file cut in its GRID cards is refused). The significant digits of every
+real read give the export's relative precision (`vibupdate.model.fe.export.precision_of_digits`: 5e-10 for the 10 digits a
 16-character large field holds). Component 1..6 of a grid point is
 ``"<grid>:x"`` ... ``"<grid>:rz"``; component 0 (a scalar point) is ``"<id>:s"``. The DMIG
 punch holds the analysis set: the constrained DOFs are already gone.
@@ -184,7 +185,26 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     others = sorted(set(found) - {stiffness.upper(), mass.upper()})
     notes = (f"{path}: DMIG matrices not read: {', '.join(others)} (only {stiffness.upper()} and {mass.upper()} "
              "are)",) if others else ()
-    return FEExport(K, M, tuple(order), str(path), _grids(path), precision_of_digits(kdigits + mdigits), notes)
+    nodes = _grids(path)
+    _check_grids(path, nodes, order)
+    return FEExport(K, M, tuple(order), str(path), nodes, precision_of_digits(kdigits + mdigits), notes)
+
+
+def _check_grids(path: Path, nodes: dict, order) -> None:
+    """A file that gives node coordinates (GRID cards) gives them for every grid point of its
+    matrices (scalar points have none): else it was cut short, or put together from pieces,
+    and a sensor placed by position would be put at another node. A ValueError names the
+    file, its length and the grid points without a GRID card."""
+    if not nodes:
+        return
+    grids = {d.split(":")[0] for d in order if not d.endswith(":s")}
+    missing = sorted(grids - set(nodes), key=int)
+    if missing:
+        shown = ", ".join(missing[:6]) + (f" and {len(missing) - 6} more" if len(missing) > 6 else "")
+        lines = len(path.read_text(errors="replace").splitlines())
+        raise ValueError(f"{path}: its GRID cards give the coordinates of {len(grids) - len(missing)} of the "
+                         f"{len(grids)} grid points of its matrices, not of {shown}; the file ends at line {lines}: "
+                         "is it cut short? (a file with GRID cards needs one for every grid point of its matrices)")
 
 
 def _grids(path: Path) -> dict:
