@@ -103,6 +103,10 @@ def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
     result = update([cfg])
     found = diagnose([cfg], result, max_groups=3)
     assert len(found.trials) == 3 and found.untried == 10 and found.groups == 13
+    # the untried groups are named, not only counted, in the record results.json carries
+    screened = {t.group.label for t in found.trials}
+    assert len(found.untried_groups) == 10 and not screened & set(found.untried_groups)
+    assert found.record()["untried_groups"] == list(found.untried_groups)
     # the groups carrying most of the misfit at the answer come first: the biased DOF among them
     assert found.worst.key == "A/dof/y3"
     with pytest.raises(ValueError, match="max_groups >= 1"):

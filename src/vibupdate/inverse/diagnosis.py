@@ -229,7 +229,7 @@ class Diagnosis:
     trials : tuple of GroupTrial
         Screened groups, ranked: passed first, then by objective.
     untried : int
-        Groups not screened because of `MAX_GROUPS` or `MAX_SECONDS`.
+        Groups not screened because of `MAX_GROUPS` or `MAX_SECONDS` (or whose refit failed).
     groups : int
         Groups of the data in all.
     best : UpdateResult or None
@@ -239,6 +239,8 @@ class Diagnosis:
         Wall-clock seconds of that update (its ``seconds`` count the solves only).
     seconds : float
         The whole diagnosis.
+    untried_groups : tuple of str
+        The labels of the ``untried`` groups, in the order they would have been screened.
     """
 
     failed: tuple[str, ...]
@@ -251,6 +253,7 @@ class Diagnosis:
     best: UpdateResult | None
     seconds: float
     best_seconds: float = 0.0
+    untried_groups: tuple[str, ...] = ()
 
     @property
     def worst(self) -> DataGroup | None:
@@ -282,6 +285,7 @@ class Diagnosis:
                     "checks": [c.as_dict() for c in b.checks], "seconds": self.best_seconds}
         return {"failed": list(self.failed), "objective": self.objective, "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,
+                "untried_groups": list(self.untried_groups),
                 "trials": [t.as_dict() for t in self.trials], "best": best, "seconds": self.seconds,
                 "limits": {"groups": MAX_GROUPS, "seconds": MAX_SECONDS}}
 
@@ -368,7 +372,8 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
     trials = []
     for k, (share, group, kept) in enumerate(candidates[:max_groups], start=1):
         if time.perf_counter() - t0 > max_seconds:
-            say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s")
+            say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s; not screened: "
+                + "; ".join(g.label for _, g, _ in candidates[k - 1:max_groups]))
             break
         try:
             trial = _screen(kept, group, share, xbar, polish, verification)
@@ -386,7 +391,9 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
         say(f"diagnosis: updating again without the {trials[0].group.label} (the same options)")
         best = update(kept, formulation=formulation, solver=solver, polish=polish, verification=verification,
                       probe=False)
-    diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(candidates) - len(trials), len(candidates),
-                          best, time.perf_counter() - t0, time.perf_counter() - t1)
+    screened = {t.group.key for t in trials}
+    untried = tuple(g.label for _, g, _ in candidates if g.key not in screened)
+    diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(untried), len(candidates),
+                          best, time.perf_counter() - t0, time.perf_counter() - t1, untried)
     say(diagnosis.message() + f" ({diagnosis.seconds:.1f} s)")
     return diagnosis

@@ -269,6 +269,7 @@ class DiagnosisRecord(_Row):
     best: DiagnosisBest | None
     seconds: float | None
     limits: dict
+    untried_groups: tuple = ()
     extra: tuple = ()
 
     def as_dict(self) -> dict:
@@ -283,6 +284,7 @@ class DiagnosisRecord(_Row):
         plain["trials"] = tuple(GroupTrialRow.from_dict(t) for t in data["trials"])
         plain["best"] = None if data.get("best") is None else DiagnosisBest.from_dict(data["best"])
         plain["failed"] = tuple(data["failed"])
+        plain["untried_groups"] = tuple(data.get("untried_groups", ()))
         return super().from_dict(plain)
 
     @property
