@@ -167,6 +167,24 @@ def test_suggest_finds_the_missing_spring_and_the_run_names_it(tmp_path, capsys)
     assert json.loads((tmp_path / "off" / "results.json").read_text())["suggestion"] is None
 
 
+def test_sets_left_untried_on_the_limits_are_named(tmp_path):
+    """With room for 2 sets, the other candidates of size 1 are named as untried, in the record
+    and in suggestion.md's sentence, not only counted."""
+    from vibupdate.io.case import load_case
+    from vibupdate.ranges.candidates import suggest_sets
+    from vibupdate.report.suggestion import suggestion_markdown
+
+    case = load_case(_write(tmp_path, _truth_hz(tmp_path)))
+    names = [p.name for p in case.candidates]
+    found = suggest_sets(case.with_candidates(names).configurations, list(case.configurations[0].model.parameter_names),
+                         names, max_size=1, checked=0, max_sets=2)
+    assert len(found.trials) == 2 and found.untried == len(names) - 2
+    assert found.untried_sets == tuple((n,) for n in names[2:])
+    record = found.record()
+    assert record["untried_sets"] == [[n] for n in names[2:]]
+    assert f"left untried on the limits ({', '.join(names[2:])})" in suggestion_markdown(record, "c")
+
+
 def test_suggest_bad_input_is_named(tmp_path, capsys):
     path = _write(tmp_path, [10.0, 60.0])
     assert main(["suggest", str(path), "--max-size", "0"]) == 2

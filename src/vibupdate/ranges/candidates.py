@@ -155,8 +155,10 @@ class Suggestion:
     sizes : tuple of int
         The set sizes screened.
     untried : int
-        Sets of those sizes not screened because of the limits.
+        Sets of those sizes not screened because of the limits (or whose fit failed).
     seconds : float
+    untried_sets : tuple of tuple of str
+        Those sets, each by its candidates' names, in the order they would have been screened.
     """
 
     own: tuple[str, ...]
@@ -166,6 +168,7 @@ class Suggestion:
     sizes: tuple[int, ...]
     untried: int
     seconds: float
+    untried_sets: tuple[tuple[str, ...], ...] = ()
 
     @property
     def best(self) -> SetTrial | None:
@@ -198,6 +201,7 @@ class Suggestion:
         best = self.best
         return {"own": list(self.own), "candidates": list(self.candidates), "nominal": self.nominal,
                 "sizes": list(self.sizes), "untried": self.untried, "seconds": self.seconds,
+                "untried_sets": [list(names) for names in self.untried_sets],
                 "best": list(best.names) if best is not None else None,
                 "screened_best": list(self.screened_best.names) if self.trials else None,
                 "message": self.message(), "trials": [t.as_dict() for t in self.trials],
@@ -362,7 +366,8 @@ def suggest_sets(pool: Sequence[Configuration], own: Sequence[str], candidates: 
             break
         if any(t.passed for t in trials):
             break   # the smallest sets that pass are found: larger ones add nothing the data ask for
-    tried = sum(len(list(itertools.combinations(candidates, k))) for k in screened)
+    done = {tuple(t.names) for t in trials}
+    untried = tuple(names for k in screened for names in itertools.combinations(candidates, k) if names not in done)
     trials = _ranked(trials)
     options = {"formulation": formulation, "solver": solver, "polish": polish, "verification": verification}
     for k, trial in enumerate(trials[:checked]):
@@ -376,8 +381,8 @@ def suggest_sets(pool: Sequence[Configuration], own: Sequence[str], candidates: 
         trials[k] = replace(trial, update=record)
     # checked sets first, verified before the others; then the screening's order
     trials.sort(key=lambda t: (t.update is None, not t.verified, t.order))
-    suggestion = Suggestion(own, candidates, nominal, tuple(trials), tuple(screened), tried - len(trials),
-                            time.perf_counter() - t0)
+    suggestion = Suggestion(own, candidates, nominal, tuple(trials), tuple(screened), len(untried),
+                            time.perf_counter() - t0, untried)
     say(suggestion.message() + f" ({suggestion.seconds:.1f} s)")
     return suggestion
 

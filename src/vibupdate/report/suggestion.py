@@ -79,7 +79,7 @@ def suggestion_markdown(record: dict, case: str) -> str:
            f"{fmt(100 * (record.get('limits') or {}).get('tie_rtol', 0.01), 'g')} % are ties, ordered as the candidates "
            "are declared); the top sets were updated in full. "
            f"{len(trials)} sets screened" + (f", {record['untried']} left untried on the limits" if record.get("untried")
-                                             else "") + f", {fmt(record.get('seconds'), '.1f')} s.", ""]
+                                             else "") + _untried(record) + f", {fmt(record.get('seconds'), '.1f')} s.", ""]
     if nominal:
         out += [f"The case's own parameters alone: objective {fmt(nominal.get('objective'), '.3g')}, natural "
                 f"frequencies within {fmt(nominal.get('natural_max_pct'), '.3g')} %, "
@@ -116,3 +116,12 @@ def run_section_markdown(document: dict) -> list[str]:
     else:
         out += ["No single candidate lets the data fit; `vibupdate suggest CASE.toml --max-size 2` tries pairs.", ""]
     return out
+
+
+def _untried(record: dict) -> str:
+    """The sets left untried, named (the first 8), in brackets; empty when none is listed."""
+    sets = record.get("untried_sets") or []
+    if not sets:
+        return ""
+    names = ["+".join(s) for s in sets[:8]]
+    return f" ({', '.join(names)}" + (f" and {len(sets) - 8} more" if len(sets) > 8 else "") + ")"
