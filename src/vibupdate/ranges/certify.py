@@ -49,7 +49,7 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent
 from vibupdate.ranges.inclusion import Inclusion
-from vibupdate.ranges.tightening import GAP, Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
+from vibupdate.ranges.tightening import Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
 
 
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
