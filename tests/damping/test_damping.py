@@ -158,5 +158,5 @@ def test_frf_plot_draws_the_nominal_model_without_the_updated_damping(tmp_path, 
     cfg = cantilever.configurations()[0]
     M, K = cfg.model.matrices()
     C = caughey_matrix(M, K, [0.0, 1.0], [1.0, 1e-5])
-    plots.plot_frf(tmp_path / "f.png", cfg, (M, K, None), (M, K, C), 0, 0, "h")
+    plots.plot_receptances(tmp_path / "f.png", [(cfg, (M, K, None), (M, K, C), [(0, 0, "h", [])])])
     assert calls[0] is None and calls[1] is C

@@ -10,10 +10,6 @@ def test_dof_count_and_sizes():
     m = building.model(4, 1)
     assert m.n_dofs == building.n_dofs(4, 1) == 180
     assert len(m.parameters) == 3 * building.GROUPS
-    for target in (300, 3000, 30000):
-        storeys, bays = building.size_for(target)
-        assert abs(building.n_dofs(storeys, bays) - target) / target < 0.1
-        assert storeys >= 2 * bays - 2
 
 
 def test_every_group_has_storeys():

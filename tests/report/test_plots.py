@@ -100,7 +100,7 @@ def test_receptances_of_a_large_model_share_one_factorization_per_line(monkeypat
 
 
 def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_path, monkeypatch):
-    """Above DENSE_LIMIT the nominal (undamped) curve of `plot_frf` uses the updated damping
+    """Above DENSE_LIMIT the nominal (undamped) curve of `plot_receptances` uses the updated damping
     law's modal sum with zero damping, not one sparse LU per plotted line, and agrees with the
     direct solve away from the resonances (the modes left out are in the Krylov vectors of the
     sum: 1.3e-12 of the static compliance measured)."""
@@ -132,7 +132,7 @@ def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_pa
         antiresonances = []
 
     M, K = chain(30)                     # no damping law: each curve is its own undamped model
-    plots.plot_frf(tmp_path / "small.png", Cfg, (M, 1.1 * K, None), (M, K, None), 29, 29, "h")
+    plots.plot_receptances(tmp_path / "small.png", [(Cfg, (M, 1.1 * K, None), (M, K, None), [(29, 29, "h", [])])])
     assert legends.pop()[:2] == ["nominal model (undamped)", "updated model (undamped)"]
 
     n = DENSE_LIMIT + 50
@@ -157,7 +157,7 @@ def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_pa
     monkeypatch.setattr(scipy.sparse.linalg, "splu", lambda A, *a, **kw: lus.append(1) or real_splu(A, *a, **kw))
 
     Cfg.natural = [NaturalFrequency(float(w[2]))]
-    plots.plot_frf(tmp_path / "f.png", Cfg, nominal, updated, n - 1, n - 1, "h")
+    plots.plot_receptances(tmp_path / "f.png", [(Cfg, nominal, updated, [(n - 1, n - 1, "h", [])])])
     # one shift-invert factorization per model's eigen-solve, not one per plotted line (2,000)
     assert len(lus) <= 2 and (tmp_path / "f.png").stat().st_size > 5000
     assert legends.pop()[:2] == ["nominal model (undamped, 40 modes)", "updated model (damping law, 40 modes)"]

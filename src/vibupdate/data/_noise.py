@@ -62,18 +62,10 @@ SMOOTH_LINES = 21           # the additive component is locally constant over th
 EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
 
 
-def _pole_columns(x, xn, zeta, coef, window=None):
-    """Exact derivatives of the modal model ``Phi(theta) coef`` with respect to the poles.
-
-    ``x`` (n_freq,), ``xn``, ``zeta`` (n,), ``coef`` (n_pairs, n_cols) the linear
-    coefficients of each FRF; ``window`` that of `_basis`. Returns complex
-    (n_pairs, n_freq, 2 n): the columns for ``w_n`` (first n) and ``zeta`` (last n)."""
-    derivatives = _basis_derivatives(x, xn, zeta, window)
-    return np.array([_combined(derivatives, c) for c in np.atleast_2d(coef)])
-
-
 def _combined(derivatives, c):
-    """One FRF's pole columns (n_freq, 2 n) from `_basis_derivatives` and its coefficients ``c``."""
+    """One FRF's pole columns (n_freq, 2 n): the exact derivatives of its modal model ``Phi(theta) c``
+    with respect to ``w_n`` (first n) and ``zeta`` (last n), from `_basis_derivatives` and its
+    coefficients ``c``."""
     n = derivatives[0].shape[1] // 2
     return np.hstack([d[:, 0::2] * c[0:2 * n:2] + d[:, 1::2] * c[1:2 * n:2] for d in derivatives])
 

@@ -23,12 +23,6 @@ SNR_LINES = 5               # local signal-to-noise ratio of a zero: over this m
 GRID_CHUNK = 65536          # grid points evaluated at once by `_zeros_of_all` (bounds its memory)
 
 
-def _zeros_of(x, coef, xn, zeta):
-    """Real zeros of the undamped fitted receptance in (x[0], x[-1]), shape (n_zeros,): those
-    of `_zeros_of_all` for one FRF."""
-    return _zeros_of_all(x, np.asarray(coef)[None, :], xn, zeta)[0]
-
-
 def _zeros_of_all(x, coefs, xn, zeta):
     """Real zeros of the undamped fitted receptance of each FRF in (x[0], x[-1]): a list of
     arrays, one per row of ``coefs`` (n_fun, n_cols).

@@ -88,20 +88,6 @@ def n_dofs(storeys: int, bays: int) -> int:
     return 3 * nodes
 
 
-def size_for(target_dofs: int) -> tuple[int, int]:
-    """Storeys and bays (about twice as many storeys as bays, at least 4 x 2) whose DOF count is
-    closest to ``target_dofs``."""
-    best = None
-    for bays in range(2, 200):
-        storeys = max(4, round(target_dofs / n_dofs(1, bays)))
-        if storeys < 2 * bays - 2 and best is not None:
-            break
-        gap = abs(n_dofs(storeys, bays) - target_dofs) / target_dofs + 0.05 * abs(storeys / bays - 2.0)
-        if best is None or gap < best[0]:
-            best = (gap, storeys, bays)
-    return best[1], best[2]
-
-
 def _check_size(storeys, bays) -> None:
     if not isinstance(storeys, (int, np.integer)) or storeys < GROUPS:
         raise ValueError(f"a building needs at least {GROUPS} storeys (one per parameter group), got {storeys!r}")

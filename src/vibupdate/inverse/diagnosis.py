@@ -55,8 +55,6 @@ MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "consistency", "impr
 MAX_GROUPS = 60
 #: Seconds of screening at most; the group under way is finished.
 MAX_SECONDS = 120.0
-#: Trials reported in words (terminal, report); every trial is in the record.
-SHOWN = 5
 
 
 @dataclass(frozen=True)

@@ -56,6 +56,9 @@ RANK_RTOL = 1e-8
 DATA_TOL = 1e-9
 #: Gauss-Newton iterations at most.
 MAX_ITERATIONS = 30
+#: Weight of the shape-ratio rows of `_data` against the frequencies' (the constraint is
+#: ``g(x) = g(x*)``, which any positive weight states; the rank's threshold sees it).
+SHAPE_WEIGHT = 100.0
 
 
 @dataclass(frozen=True)
@@ -98,23 +101,22 @@ class MinimumChange:
                 "message": self.message}
 
 
-def _data(configurations, x, shape_weight):
+def _data(configurations, x):
     """``g(x)`` up to fixed weights and constants, and its exact Jacobian."""
     from vibupdate.inverse.polish import polish_residuals
 
-    return polish_residuals(configurations, x, shape_weight)
+    return polish_residuals(configurations, x, SHAPE_WEIGHT)
 
 
-def _weights(configurations: Sequence[Configuration], shape_weight: float) -> np.ndarray:
+def _weights(configurations: Sequence[Configuration]) -> np.ndarray:
     """Per residual row of `_data`, the factor that turns it into a datum change: the inverse
-    of a frequency's ``sqrt(weight)``, of ``shape_weight`` for a shape ratio (the rows of
+    of a frequency's ``sqrt(weight)``, of `SHAPE_WEIGHT` for a shape ratio (the rows of
     `vibupdate.inverse.polish.polish_residuals`, configuration by configuration, in the order of
     `vibupdate.inverse.data_map`)."""
     out = []
     for cfg in configurations:
         out += [1 / np.sqrt(d.weight) for d in (*cfg.natural, *cfg.antiresonances)]
-        if shape_weight > 0:
-            out += [1 / shape_weight] * sum(s.lower.size + (s.mass is not None) for s in measured_shapes(cfg))
+        out += [1 / SHAPE_WEIGHT] * sum(s.lower.size + (s.mass is not None) for s in measured_shapes(cfg))
     return np.array(out)
 
 
@@ -123,29 +125,29 @@ def numerical_rank(sv: np.ndarray, rtol: float = RANK_RTOL) -> int:
     return int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
 
 
-def _undetermined(configurations, x0, shape_weight, rank_rtol):
+def _undetermined(configurations, x0):
     """`_data` at ``x0``, the rows with finite derivatives, the rank of their Jacobian and its
     right singular vectors (rows ``rank:`` span the directions the data leave undetermined);
     None when no datum has derivatives."""
-    g0, J = _data(configurations, x0, shape_weight)
+    g0, J = _data(configurations, x0)
     if J is None:
         return None
     finite = np.all(np.isfinite(J), axis=1) & np.isfinite(g0)
     if not finite.any():
         return None
     _, sv, Vt = np.linalg.svd(J[finite])
-    return g0, J, finite, numerical_rank(sv, rank_rtol), Vt
+    return g0, J, finite, numerical_rank(sv), Vt
 
 
-def _same_data_nearest(configurations, x0, target, g0, finite, rank, shape_weight, lo, hi, at_x0=None):
+def _same_data_nearest(configurations, x0, target, g0, finite, rank, lo, hi, at_x0=None):
     """The point of the box nearest ``target`` with the data ``g0`` of ``x0``, by the
     minimum-norm Gauss-Newton iteration of the module docstring started at ``x0`` (``target``
     0 is the minimum change); ``at_x0``: `_data` at ``x0`` when the caller has it. Returns the
     point, the largest datum change there (relative, as `DATA_TOL`), the iterations, and whether
     the model lost a declared mode or zero."""
-    scale = _weights(configurations, shape_weight)[finite]
+    scale = _weights(configurations)[finite]
     x, iterations = x0.copy(), 0
-    g, J = at_x0 if at_x0 is not None else _data(configurations, x0, shape_weight)
+    g, J = at_x0 if at_x0 is not None else _data(configurations, x0)
     for iterations in range(1, MAX_ITERATIONS + 1):
         U, s, Vt = np.linalg.svd(J[finite], full_matrices=False)
         Uk, sk, Vk = U[:, :rank], s[:rank], Vt[:rank].T
@@ -155,7 +157,7 @@ def _same_data_nearest(configurations, x0, target, g0, finite, rank, shape_weigh
         x_new = np.clip(x + d, lo, hi)
         step = float(np.max(np.abs(x_new - x)))
         x = x_new
-        g, J = _data(configurations, x, shape_weight)
+        g, J = _data(configurations, x)
         if J is None or not np.all(np.isfinite(g[finite])):
             return x, float("inf"), iterations, True
         if step <= 1e-13 * max(1.0, float(np.max(np.abs(x)))):
@@ -167,8 +169,7 @@ def _same_data_nearest(configurations, x0, target, g0, finite, rank, shape_weigh
 VALLEY_STEPS = 6
 
 
-def valley_points(configurations: Sequence[Configuration], xbar, *, shape_weight: float = 100.0,
-                  rank_rtol: float = RANK_RTOL, steps: int = VALLEY_STEPS) -> np.ndarray:
+def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int = VALLEY_STEPS) -> np.ndarray:
     """Points with exactly the data of ``xbar`` along each direction the data leave
     undetermined, out to the box: for each null direction ``v`` of the data Jacobian and each
     sense, the points nearest ``xbar + (k / steps) t v`` (``t`` to the box boundary, ``k = 1 ..
@@ -180,7 +181,7 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, shape_weight
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
     x0 = np.asarray(xbar, dtype=float)
-    found = _undetermined(configurations, x0, shape_weight, rank_rtol)
+    found = _undetermined(configurations, x0)
     if found is None:
         return np.zeros((0, x0.size))
     g0, J, finite, rank, Vt = found
@@ -196,7 +197,7 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, shape_weight
             start, at = x0, (g0, J)
             for k in range(1, steps + 1):
                 x, change, _, lost = _same_data_nearest(configurations, start, x0 + (k / steps) * t_max * d, g0,
-                                                        finite, rank, shape_weight, lo, hi, at_x0=at)
+                                                        finite, rank, lo, hi, at_x0=at)
                 if lost or change > DATA_TOL:
                     break
                 points.append(x)
@@ -204,8 +205,7 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, shape_weight
     return np.array(points).reshape(-1, x0.size)
 
 
-def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weight: float = 100.0,
-                   rank_rtol: float = RANK_RTOL) -> MinimumChange:
+def minimum_change(configurations: Sequence[Configuration], xbar) -> MinimumChange:
     """The answer nearest the nominal point with the same data as ``xbar`` (module docstring).
 
     Parameters
@@ -213,10 +213,6 @@ def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weigh
     configurations : sequence of Configuration
     xbar : ndarray, shape (n_x,)
         The polished answer, normalized parameters.
-    shape_weight : float
-        Weight of the shape-ratio rows (any positive value: the constraint is ``g(x) = g(x*)``).
-    rank_rtol : float
-        Singular values below this fraction of the largest count as zero.
     """
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
@@ -228,7 +224,7 @@ def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weigh
         return MinimumChange(x0, x, applied, kept, rank, norm0, float(np.linalg.norm(x)), change, iterations,
                              message)
 
-    found = _undetermined(configurations, x0, shape_weight, rank_rtol)
+    found = _undetermined(configurations, x0)
     if found is None:
         return outcome(x0, False, False, 0, 0.0, 0, "no data with derivatives")
     g0, J, finite, rank, _ = found
@@ -237,7 +233,7 @@ def minimum_change(configurations: Sequence[Configuration], xbar, *, shape_weigh
     if norm0 == 0.0:
         return outcome(x0, True, False, rank, 0.0, 0, "the answer is the nominal point")
     x, change, iterations, lost = _same_data_nearest(configurations, x0, np.zeros(n_x), g0, finite, rank,
-                                                     shape_weight, lo, hi, at_x0=(g0, J))
+                                                     lo, hi, at_x0=(g0, J))
     if lost:
         return outcome(x0, True, False, rank, float("inf"), iterations,
                        "not kept: the model lost a declared mode or zero on the way")

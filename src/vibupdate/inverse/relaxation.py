@@ -68,9 +68,3 @@ def lifted_values(problem: BilinearProblem, x, u) -> np.ndarray:
     """The products ``xbar[prod_x] * u[prod_u]``: the lifted variables of a point of the
     original problem, shape (n_b,)."""
     return np.asarray(x)[problem.prod_x] * np.asarray(u)[problem.prod_u]
-
-
-def homotopy_residual(problem: BilinearProblem, x, u, t, lam: float) -> np.ndarray:
-    """Residual under the homotopy map of Eq. 18, shape (n_R,)."""
-    blend = lam * lifted_values(problem, x, u) + (1.0 - lam) * np.asarray(t)
-    return problem.A_u @ u + problem.A_x @ x + problem.A_b @ blend + problem.r0

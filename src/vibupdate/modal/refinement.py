@@ -22,7 +22,7 @@ precision (``numpy.longdouble``), followed by a Rayleigh-Ritz projection ``Y^T K
 ``Y^T M Y`` also accumulated in extended precision. The refinement recovers the solve's lost
 digits (the double-precision LU is reused: no new factorization); the projection separates the
 wanted modes from their neighbours in the block. Where ``longdouble`` is no wider than
-``double`` (some platforms), the step still runs but gains little; `EXTENDED` says which.
+``double`` (some platforms), the step still runs but gains little.
 """
 
 from __future__ import annotations
@@ -34,8 +34,6 @@ from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.readings import ratio_derivatives
 
 
-#: Whether ``numpy.longdouble`` carries more digits than ``double`` on this platform.
-EXTENDED = bool(np.finfo(np.longdouble).eps < np.finfo(np.float64).eps)
 #: Refinement sweeps per solve: a second sweep changes the modes by less than a converged
 #: reference's own scatter (`benchmarks/RESULTS.md`, "Figures behind src/: accurate low modes").
 _SWEEPS = 1

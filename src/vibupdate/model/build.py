@@ -25,7 +25,6 @@ import scipy.sparse as sp
 
 from vibupdate.model.affine import (AffineModel, _check_unique_names, affine_from_assembly, affine_from_builder,
                                    check_matrices, symmetric_error)
-from vibupdate.model.element_groups import affine_from_elements as from_elements
 from vibupdate.model.parameters import Parameter
 
 

@@ -78,42 +78,6 @@ def beam_matrices(EI, mass_per_length, length, rotary_inertia=0.0):
     return k, m
 
 
-def beam_stiffness(EI, length):
-    """Bending stiffness of a beam element, DOFs ``[v1, theta1, v2, theta2]``.
-
-    Parameters
-    ----------
-    EI : float or complex
-        Bending stiffness, N m^2.
-    length : float
-        Element length, m.
-
-    Returns
-    -------
-    ndarray, shape (4, 4)
-        Stiffness matrix in N/m, N, N m (translations in m, rotations in rad).
-    """
-    return beam_matrices(EI, 0.0, length)[0][0]
-
-
-def beam_mass(mass_per_length, length):
-    """Consistent mass of a beam element, DOFs ``[v1, theta1, v2, theta2]``.
-
-    Parameters
-    ----------
-    mass_per_length : float or complex
-        rho * A, kg/m.
-    length : float
-        Element length, m.
-
-    Returns
-    -------
-    ndarray, shape (4, 4)
-        Mass matrix in kg, kg m, kg m^2.
-    """
-    return beam_matrices(0.0, mass_per_length, length)[1][0]
-
-
 # Positions of the bending and axial DOFs inside the frame DOF order [u1, v1, th1, u2, v2, th2].
 _BENDING = np.array([1, 2, 4, 5])
 _AXIAL = np.array([0, 3])
@@ -166,39 +130,3 @@ def frame_matrices(EA, EI, mass_per_length, dx, dy, rotary_inertia=0.0):
         local[:, _BENDING[:, None], _BENDING] = bending
         out.append(np.swapaxes(T, 1, 2) @ local @ T)
     return out[0], out[1]
-
-
-def frame_stiffness(EA, EI, dx, dy):
-    """Stiffness of a planar frame element in global axes, DOFs ``[x1, y1, phi1, x2, y2, phi2]``.
-
-    Parameters
-    ----------
-    EA : float or complex
-        Axial stiffness, N.
-    EI : float or complex
-        Bending stiffness, N m^2.
-    dx, dy : float
-        Components of the vector from node 1 to node 2, m.
-
-    Returns
-    -------
-    ndarray, shape (6, 6)
-    """
-    return frame_matrices(EA, EI, 0.0, dx, dy)[0][0]
-
-
-def frame_mass(mass_per_length, dx, dy):
-    """Consistent mass of a planar frame element in global axes, DOFs as `frame_stiffness`.
-
-    Parameters
-    ----------
-    mass_per_length : float or complex
-        rho * A, kg/m.
-    dx, dy : float
-        Components of the vector from node 1 to node 2, m.
-
-    Returns
-    -------
-    ndarray, shape (6, 6)
-    """
-    return frame_matrices(0.0, 0.0, mass_per_length, dx, dy)[1][0]

@@ -49,7 +49,7 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.ranges.consistent import ConsistentSet, consistent_set, is_consistent
 from vibupdate.ranges.inclusion import Inclusion
-from vibupdate.ranges.tightening import GAP, Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
+from vibupdate.ranges.tightening import Box, Lifts, Tactics, lifts, root_box, tighten, tighten_parameters
 
 
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
@@ -264,7 +264,7 @@ class _Branching:
         d = int(np.argmax(np.where(splittable, rel, -1.0)))
         return d, 0.5 * (leaf.lo[d] + leaf.hi[d])
 
-    def split(self, deadline: float, passes: int) -> bool:
+    def split(self, deadline: float) -> bool:
         """One split and the tightening of both halves; False when there is nothing to split."""
         picked = self._pick()
         if picked is None:
@@ -275,7 +275,7 @@ class _Branching:
         low.confirmed[d, 1] = high.confirmed[d, 0] = True   # a branching point is exact
         self.leaves.remove(leaf)
         for child in (low, high):
-            tighten(self.R, child, deadline, max_passes=passes, focus=d, tactics=self.tactics)
+            tighten(self.R, child, deadline, max_passes=1, focus=d, tactics=self.tactics)
             self.n_lps += child.n_lps
             if not child.empty:
                 self.leaves.append(child)
@@ -291,7 +291,7 @@ class _Branching:
 
 
 def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | None = None,
-              max_splits: int | None = None, known=None, node_passes: int = 1,
+              max_splits: int | None = None, known=None,
               progress: Callable[[str], None] | None = None, tactics: Tactics = Tactics()) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
@@ -300,7 +300,7 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
     (`vibupdate.ranges.tightening.tighten`) until one narrows it by less than `STALL`
     (`ROOT_STALL` when branching follows, then using at most half the budget) or
     ``max_passes`` passes; then branching
-    (`_Branching`), each half tightened by at most ``node_passes`` passes, until the budget or
+    (`_Branching`), each half tightened by one pass, until the budget or
     ``max_splits`` splits. Without a finite budget there is no branching unless ``max_splits``
     is given.
 
@@ -311,7 +311,6 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
     max_passes, max_splits : int, optional
     known : sequence of ndarray, shape (n_x,), optional
         Points believed to lie in S (e.g. the answer): they steer the branching only.
-    node_passes : int
     progress : callable, optional
     tactics : Tactics
         How the tightening spends its LPs (`vibupdate.ranges.tightening.Tactics`).
@@ -345,7 +344,7 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
     B = _Branching(cs, R, box, known, tactics)
     if not box.empty:
         while (max_splits is None or B.splits < max_splits) and time.perf_counter() < end:
-            if not B.split(end, node_passes):
+            if not B.split(end):
                 break
             lo, hi = _hull(B.leaves, n_x) if B.leaves else (box.lo[:n_x], box.lo[:n_x])
             history.append((time.perf_counter() - t0, float(np.mean(hi - lo) * 100)))

@@ -48,7 +48,7 @@ from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.data.measured import Configuration
-from vibupdate.ranges.inclusion import Inclusion, widen
+from vibupdate.ranges.inclusion import Inclusion, _anchor, widen
 
 
 #: Relative eigen-residual allowed in S: ``|((K - s M) v)_k| <= RESIDUAL_FLOOR * (|K| |v| + s |M| |v|)_k``
@@ -291,15 +291,6 @@ def _into_box(blk: VectorBlock, v, margin: float):
 def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
     """Whether ``xbar`` lies in S with a margin (`witness`)."""
     return witness(cs, xbar, margin) is not None
-
-
-def _anchor(blk: VectorBlock) -> int:
-    """The entry a block's vector is normalized at: its fixed entry, else the entry whose box
-    keeps farthest from zero (a freed shape reference)."""
-    if blk.fixed.any():
-        return int(np.flatnonzero(blk.fixed)[0])
-    away = np.where(blk.lower * blk.upper > 0, np.minimum(np.abs(blk.lower), np.abs(blk.upper)), 0.0)
-    return int(np.argmax(away))
 
 
 def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:

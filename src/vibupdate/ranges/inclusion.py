@@ -100,11 +100,6 @@ class Inclusion:
     bounds: int = 0
     uncovered: tuple[str, ...] = ()
 
-    @property
-    def window_reach_pct(self) -> float:
-        """Farthest included frequency beyond its datum's window, per cent (0: none)."""
-        return max((r for _, r in self.windows), default=0.0)
-
     def text(self) -> str:
         """What the widening did, in words, for the definition of S."""
         n = len(self.labels)

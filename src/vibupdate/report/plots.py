@@ -137,12 +137,6 @@ def _damping_note(C) -> str:
     return " (undamped)" if C is None else ""
 
 
-def plot_frf(path, cfg, nominal, updated, r: int, c: int, label: str) -> Path:
-    """|h_rc| of the nominal and updated models of one configuration (`plot_receptances` of
-    one pair)."""
-    return plot_receptances(path, [(cfg, nominal, updated, [(r, c, label, [a.omega for a in cfg.antiresonances])])])
-
-
 def plot_receptances(path, panels) -> Path:
     """|h_rc| of the nominal and updated models, one panel per receptance of every
     configuration given, in one figure; measured natural frequencies (solid) and the measured
