@@ -58,10 +58,8 @@ def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
     """
     omega = np.asarray(omega, dtype=float)
     eigval = np.sign(omega) * omega**2
-    out = np.empty((omega.size, model.n_parameters))
-    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        out[:, i] = np.einsum("ij,ij->j", Phi, Ki @ Phi) - eigval * np.einsum("ij,ij->j", Phi, Mi @ Phi)
-    return out
+    forms_M, forms_K = model.parameter_forms(Phi, Phi)
+    return forms_K - eigval[:, None] * forms_M
 
 
 def frequency_derivatives(model, omega, Phi) -> np.ndarray:
@@ -142,7 +140,7 @@ def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarr
     q = phi / ref
     dQ = (V * ref - np.outer(phi, readings(V, reference))) / ref**2
     Mq = M @ q
-    direct = np.array([q @ (Mi @ q) for Mi in model.M_par])
+    direct = model.parameter_forms(q[:, None], q[:, None])[0][0]
     return float(q @ Mq), direct + 2.0 * (Mq @ dQ)
 
 
@@ -157,16 +155,16 @@ def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarr
     ``K - eigval M`` without the row and column of the largest ``|phi|``, every parameter in one
     solve. With a ``basis`` of a repeated frequency's modes (`shape_ratio_derivatives`): without
     the rows and columns where they are most independent, the eigenspace cleared."""
-    M, K = model.matrices(xbar)
+    M, K = model.solver_matrices(xbar)
     eigval = omega**2
     n = phi.size
-    F = np.column_stack([Ki @ phi - eigval * (Mi @ phi) for Mi, Ki in zip(model.M_par, model.K_par)])
+    products_M, products_K = model.parameter_products(phi)
+    F = products_K - eigval * products_M
     V = np.zeros((n, model.n_parameters))
     if basis is None:
         p = int(np.argmax(np.abs(phi)))
         keep = np.delete(np.arange(n), p)
-        A = (K - eigval * M).tocsr()[keep][:, keep]
-        solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
+        solve = _factor(_kept(K - eigval * M, keep))
         Mphi = M @ phi
         d_eigval = phi @ F
         V[keep] = solve((-F + np.outer(Mphi, d_eigval))[keep])   # every parameter in one solve
@@ -176,10 +174,17 @@ def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarr
     G = U.T @ MU
     removed = sorted(sla.qr(U.T, mode="r", pivoting=True)[1][:U.shape[1]].tolist())
     keep = np.delete(np.arange(n), removed)
-    A = (K - eigval * M).tocsr()[keep][:, keep]
-    solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
+    solve = _factor(_kept(K - eigval * M, keep))
     V[keep] = solve((-F + MU @ np.linalg.solve(G, U.T @ F))[keep])
     return V - U @ np.linalg.solve(G, MU.T @ V)
+
+
+def _kept(A, keep):
+    """``A`` without the rows and columns not in ``keep``: dense on the dense path, csr above."""
+    if not sp.issparse(A):
+        return A[np.ix_(keep, keep)]
+    kept = A.tocsr()[keep][:, keep]
+    return kept if A.shape[0] > eigen.DENSE_LIMIT else kept.toarray()
 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precision: float | None = None):
@@ -250,7 +255,7 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zero
     D : ndarray, shape (n_z, n_x)
         ``d omega_z / d xbar``, rad/s per unit of normalized parameter.
     """
-    M, K = model.matrices(xbar)
+    M, K = model.solver_matrices(xbar)
     eigval_z, V_right, V_left = (pairs if pairs is not None else
                                  adjunct_eigenpairs(M, K, r, c, n_zeros, model.matrix_precision))
     # Embed the vectors in the full space (zero at the removed column r / row c), so that the
@@ -261,9 +266,7 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zero
     left_full = np.zeros((n, eigval_z.size))
     left_full[np.delete(np.arange(n), c)] = V_left
     denom = np.einsum("ij,ij->j", left_full, M @ right_full)
-    D = np.empty((eigval_z.size, model.n_parameters))
-    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        D[:, i] = (np.einsum("ij,ij->j", left_full, Ki @ right_full)
-                   - eigval_z * np.einsum("ij,ij->j", left_full, Mi @ right_full)) / denom
+    forms_M, forms_K = model.parameter_forms(left_full, right_full)
+    D = (forms_K - eigval_z[:, None] * forms_M) / denom[:, None]
     omega_z = np.sqrt(eigval_z)
     return omega_z, D / (2.0 * omega_z[:, None])
