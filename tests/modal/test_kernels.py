@@ -316,10 +316,12 @@ def test_the_qz_of_the_adjunct_pencil_is_scipys_eig_without_its_loop():
     from vibupdate.modal.sensitivities import _qz
 
     rng = np.random.default_rng(4)
-    A, B = rng.standard_normal((2, 12, 12))
+    D = sla.block_diag(*np.arange(1.0, 7.0), *[[[a, b], [-b, a]] for a, b in ((2.0, 1.0), (5.0, 0.5), (9.0, 3.0))])
+    P, Q = rng.standard_normal((2, 12, 12))
+    A, B = P @ D @ Q, P @ Q          # eigenvalues 1 to 6 and three complex pairs
     (alpha, beta), left, right = _qz(A, B)
     (alpha_ref, beta_ref), left_ref, right_ref = sla.eig(A, B, left=True, right=True, homogeneous_eigvals=True)
-    assert np.count_nonzero(alpha.imag) >= 2 and np.count_nonzero(alpha.imag == 0) >= 2
+    assert np.count_nonzero(alpha.imag) == 6 and np.count_nonzero(alpha.imag == 0) == 6
     np.testing.assert_allclose(alpha, alpha_ref, rtol=0, atol=1e-14 * np.abs(alpha_ref).max())
     np.testing.assert_allclose(beta, beta_ref, rtol=0, atol=1e-14 * np.abs(beta_ref).max())
     np.testing.assert_allclose(left, left_ref.real, rtol=0, atol=1e-14)
