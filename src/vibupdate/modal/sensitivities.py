@@ -37,7 +37,7 @@ from vibupdate.modal.eigen import _dense_modes
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.readings import ratio_derivatives, readings
-from vibupdate.modal.zeros import adjunct, antiresonances, structural
+from vibupdate.modal.zeros import adjunct, antiresonances, others, structural
 
 
 def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
@@ -290,9 +290,9 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zero
     # adjunct products become products with the full sparse matrices.
     n = M.shape[0]
     right_full = np.zeros((n, eigval_z.size))
-    right_full[np.delete(np.arange(n), r)] = V_right
+    right_full[others(n, r)] = V_right
     left_full = np.zeros((n, eigval_z.size))
-    left_full[np.delete(np.arange(n), c)] = V_left
+    left_full[others(n, c)] = V_left
     denom = np.einsum("ij,ij->j", left_full, M @ right_full)
     forms_M, forms_K = model.parameter_forms(left_full, right_full)
     D = (forms_K - eigval_z[:, None] * forms_M) / denom[:, None]
