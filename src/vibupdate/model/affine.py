@@ -127,8 +127,8 @@ class AffineModel:
 
     def solver_matrices(self, xbar=None) -> tuple:
         """``M(xbar)``, ``K(xbar)`` in the form the solvers take: on a model within the dense
-        stacks' reach (`dense_stacks`) dense read-only arrays, one ``tensordot`` over the stacks
-        and kept for the last point asked (an evaluation asks at one point several times);
+        stacks' reach (`dense_stacks`) dense read-only arrays, one matrix-vector product over
+        the stacks, kept for the last point asked (an evaluation asks at one point several times);
         `matrices` (csr) otherwise. ``xbar=None`` is the nominal model."""
         stacks = self.dense_stacks
         if stacks is None:
@@ -140,7 +140,9 @@ class AffineModel:
         kept = self._last_point.get("point")
         if kept is not None and kept[0] == key:
             return kept[1]
-        pair = tuple(S[0] + np.tensordot(xbar, S[1:], axes=1) for S in stacks)
+        n = self.n_dofs
+        flat = (S.reshape(S.shape[0], n * n) for S in stacks)   # views: the stacks are contiguous
+        pair = tuple((F[0] + xbar @ F[1:]).reshape(n, n) for F in flat)
         for A in pair:
             A.flags.writeable = False
         self._last_point["point"] = (key, pair)   # one assignment: a reader sees a whole pair
