@@ -173,7 +173,7 @@ def _on_the_sparse_path(cfg, monkeypatch):
     path of every product and solve."""
     import dataclasses
 
-    import vibupdate.model.affine as affine
+    from vibupdate.model import affine
 
     monkeypatch.setattr(affine, "DENSE_STACK_BYTES", 0)
     model = dataclasses.replace(cfg.model)
