@@ -166,3 +166,42 @@ def test_a_mass_normalized_shape_whose_largest_entry_may_be_zero_is_refused():
     with pytest.raises(ValueError, match="mass_normalized must be true or false"):
         ShapeInterval({"y1": (0.1, 0.3)}, mass_normalized="yes")
     assert ShapeInterval({"y1": (-0.5, -0.4)}, mass_normalized=True).modal_mass_bounds() == pytest.approx((1 / 0.5**2, 1 / 0.4**2), rel=1e-15)
+
+
+def _on_the_sparse_path(cfg, monkeypatch):
+    """``cfg`` with a copy of its model whose parameter stacks are over the cap: the sparse
+    path of every product and solve."""
+    import dataclasses
+
+    from vibupdate.model import affine
+
+    monkeypatch.setattr(affine, "DENSE_STACK_BYTES", 0)
+    model = dataclasses.replace(cfg.model)
+    assert model.dense_stacks is None
+    return dataclasses.replace(cfg, model=model)
+
+
+@pytest.mark.parametrize("which", ["mixed", "weighed"])
+def test_the_dense_stacks_give_the_sparse_paths_map_to_rounding(which, request, monkeypatch):
+    cfg, x = request.getfixturevalue(which)[:2]
+    dense = data_map(cfg, x, vectors=True)
+    sparse = data_map(_on_the_sparse_path(cfg, monkeypatch), x, vectors=True)
+    for got, exact in ((dense.values(), sparse.values()), (dense.jacobian(), sparse.jacobian())):
+        scale = np.maximum(np.abs(exact), 1.0)
+        assert np.max(np.abs(got - exact) / scale) <= 1e-9
+    assert len(dense.vectors) == len(sparse.vectors)
+
+
+def test_an_evaluation_within_the_dense_limit_builds_no_sparse_matrix(mixed, weighed, monkeypatch):
+    import dataclasses
+
+    from vibupdate.model.affine import AffineModel
+
+    def refused(*args):
+        raise AssertionError("a sparse M(xbar) or K(xbar) was assembled on the dense path")
+
+    monkeypatch.setattr(AffineModel, "_combine", staticmethod(refused))
+    for cfg, x in (mixed, weighed[:2]):
+        cfg = dataclasses.replace(cfg, model=dataclasses.replace(cfg.model))
+        for jacobian in (True, False):
+            assert np.all(np.isfinite(data_map(cfg, x, jacobian=jacobian).values()))

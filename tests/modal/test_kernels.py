@@ -308,3 +308,23 @@ def test_every_mode_of_a_stiff_model_keeps_the_better_pencil():
     assert mode_residuals(s.M, s.K, omega, Phi).max() < 1e-13
     lam_direct = sla.eigh(s.K.toarray(), s.M.toarray(), eigvals_only=True)
     np.testing.assert_allclose(omega[-50:] ** 2, lam_direct[-50:], rtol=1e-12)
+
+
+def test_the_qz_of_the_adjunct_pencil_is_scipys_eig_without_its_loop():
+    """Eigenvalues and the real parts of the unit left and right vectors as
+    ``scipy.linalg.eig`` gives them, on a pencil with real eigenvalues and complex pairs."""
+    from vibupdate.modal.sensitivities import _qz
+
+    rng = np.random.default_rng(4)
+    D = sla.block_diag(*np.arange(1.0, 7.0), *[[[a, b], [-b, a]] for a, b in ((2.0, 1.0), (5.0, 0.5), (9.0, 3.0))])
+    P, Q = rng.standard_normal((2, 12, 12))
+    A, B = P @ D @ Q, P @ Q          # eigenvalues 1 to 6 and three complex pairs
+    (alpha, beta), left, right = _qz(A, B)
+    (alpha_ref, beta_ref), left_ref, right_ref = sla.eig(A, B, left=True, right=True, homogeneous_eigvals=True)
+    assert np.count_nonzero(alpha.imag) == 6 and np.count_nonzero(alpha.imag == 0) == 6
+    np.testing.assert_allclose(alpha, alpha_ref, rtol=0, atol=1e-14 * np.abs(alpha_ref).max())
+    np.testing.assert_allclose(beta, beta_ref, rtol=0, atol=1e-14 * np.abs(beta_ref).max())
+    np.testing.assert_allclose(left, left_ref.real, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(right, right_ref.real, rtol=0, atol=1e-14)
+    with pytest.raises(ValueError, match="infs or NaNs"):
+        _qz(np.full((3, 3), np.nan), B[:3, :3])

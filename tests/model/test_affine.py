@@ -203,3 +203,53 @@ def test_a_builder_may_return_a_system_of_dense_arrays():
     M, K = model.matrices()
     assert K.toarray() == pytest.approx(np.array([[200.0, -100.0], [-100.0, 100.0]]))
     assert model.dofs == ("x1", "x2")
+
+
+def _sparse_products(model, L, R):
+    """The parameter forms and products by one sparse product per parameter matrix."""
+    forms = [np.column_stack([np.einsum("ij,ij->j", L, A @ R) for A in parts]) for parts in (model.M_par, model.K_par)]
+    products = [np.column_stack([A @ L[:, 0] for A in parts]) for parts in (model.M_par, model.K_par)]
+    return forms, products
+
+
+@pytest.mark.parametrize("cap", [None, 0])
+def test_the_solver_matrices_and_parameter_products_are_the_affine_forms(cap, monkeypatch):
+    from vibupdate.model import affine
+
+    if cap is not None:   # a stack over the cap keeps the sparse path
+        monkeypatch.setattr(affine, "DENSE_STACK_BYTES", cap)
+    model = cantilever_model()
+    assert (model.dense_stacks is None) == (cap is not None)
+    x = np.linspace(-0.4, 0.3, model.n_parameters)
+    M, K = model.solver_matrices(x)
+    assert sp.issparse(M) == (cap is not None)
+    for A, exact in zip((M, K), model.matrices(x)):
+        A = A.toarray() if sp.issparse(A) else A
+        np.testing.assert_allclose(A, exact.toarray(), rtol=0, atol=1e-14 * abs(exact).max())
+    rng = np.random.default_rng(3)
+    L, R = rng.standard_normal((2, model.n_dofs, 4))
+    (forms_M, forms_K), (products_M, products_K) = _sparse_products(model, L, R)
+    for got, exact in zip((*model.parameter_forms(L, R), *model.parameter_products(L[:, 0])),
+                          (forms_M, forms_K, products_M, products_K)):
+        assert got.shape == exact.shape
+        np.testing.assert_allclose(got, exact, rtol=1e-12, atol=1e-14 * np.abs(exact).max())
+
+
+def test_the_dense_solver_matrices_are_kept_for_the_last_point_and_read_only():
+    model = cantilever_model()
+    x = np.full(model.n_parameters, 0.2)
+    M = model.solver_matrices(x)[0]
+    assert model.solver_matrices(x.copy())[0] is M          # the same point: no second assembly
+    with pytest.raises(ValueError, match="read-only"):
+        M[0, 0] = 1.0                                        # no caller can change the kept pair
+    M_other = model.solver_matrices(-x)[0]
+    assert M_other is not M and not np.array_equal(M_other, M)
+    np.testing.assert_array_equal(model.solver_matrices()[1], model.K0.toarray())   # None: the nominal model
+
+
+def test_a_model_beyond_the_dense_limit_has_no_dense_stacks(monkeypatch):
+    from vibupdate.modal import eigen
+
+    model = cantilever_model()
+    monkeypatch.setattr(eigen, "DENSE_LIMIT", model.n_dofs - 1)
+    assert model.dense_stacks is None and sp.issparse(model.solver_matrices()[0])

@@ -115,7 +115,7 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     eigen-solve per receptance for both."""
     from vibupdate.modal.analysis import DENSE_LIMIT
 
-    M, K = cfg.model.matrices(xbar)
+    M, K = cfg.model.solver_matrices(xbar)
     precision = cfg.model.matrix_precision
     mode_index = np.array([f.mode for f in cfg.natural], dtype=int) - 1
     top = int(mode_index.max()) + 1 if mode_index.size else 0
@@ -226,8 +226,8 @@ def declared_zeros(cfg: Configuration, xbar, M, K):
 
     Parameters
     ----------
-    M, K : sparse matrix, shape (n, n)
-        ``cfg.model.matrices(xbar)``.
+    M, K : ndarray or sparse matrix, shape (n, n)
+        ``cfg.model.solver_matrices(xbar)``.
 
     Returns
     -------

@@ -190,12 +190,12 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
         if freqs.zero_derivatives is not None and not vectors:
             zero_jacobian = freqs.zero_derivatives
         else:
-            zeros, zero_jacobian, _, pairs = declared_zeros(cfg, xbar, *model.matrices(xbar))
+            zeros, zero_jacobian, _, pairs = declared_zeros(cfg, xbar, *model.solver_matrices(xbar))
             for (r, c), (_, right, left) in zip(cfg.receptances(), pairs if vectors else ()):
                 found += [np.insert(right, model.dof(r), 0.0, axis=0), np.insert(left, model.dof(c), 0.0, axis=0)]
     measured = tuple(measured_shapes(cfg)) if shapes else ()
     ratios, ratio_jacobians, masses, mass_jacobian = [], [], [], []
-    M = model.matrices(xbar)[0] if any(s.mass is not None for s in measured) else None   # once, for the masses
+    M = model.solver_matrices(xbar)[0] if any(s.mass is not None for s in measured) else None   # once, for the masses
     for s in measured:
         phi, near = paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position)
         ref = readings(phi, s.reference)

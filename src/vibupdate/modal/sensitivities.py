@@ -37,7 +37,7 @@ from vibupdate.modal.eigen import _dense_modes
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.readings import ratio_derivatives, readings
-from vibupdate.modal.zeros import adjunct, antiresonances, structural
+from vibupdate.modal.zeros import adjunct, antiresonances, others, structural
 
 
 def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
@@ -58,10 +58,8 @@ def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
     """
     omega = np.asarray(omega, dtype=float)
     eigval = np.sign(omega) * omega**2
-    out = np.empty((omega.size, model.n_parameters))
-    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        out[:, i] = np.einsum("ij,ij->j", Phi, Ki @ Phi) - eigval * np.einsum("ij,ij->j", Phi, Mi @ Phi)
-    return out
+    forms_M, forms_K = model.parameter_forms(Phi, Phi)
+    return forms_K - eigval[:, None] * forms_M
 
 
 def frequency_derivatives(model, omega, Phi) -> np.ndarray:
@@ -142,7 +140,7 @@ def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarr
     q = phi / ref
     dQ = (V * ref - np.outer(phi, readings(V, reference))) / ref**2
     Mq = M @ q
-    direct = np.array([q @ (Mi @ q) for Mi in model.M_par])
+    direct = model.parameter_forms(q[:, None], q[:, None])[0][0]
     return float(q @ Mq), direct + 2.0 * (Mq @ dQ)
 
 
@@ -157,16 +155,16 @@ def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarr
     ``K - eigval M`` without the row and column of the largest ``|phi|``, every parameter in one
     solve. With a ``basis`` of a repeated frequency's modes (`shape_ratio_derivatives`): without
     the rows and columns where they are most independent, the eigenspace cleared."""
-    M, K = model.matrices(xbar)
+    M, K = model.solver_matrices(xbar)
     eigval = omega**2
     n = phi.size
-    F = np.column_stack([Ki @ phi - eigval * (Mi @ phi) for Mi, Ki in zip(model.M_par, model.K_par)])
+    products_M, products_K = model.parameter_products(phi)
+    F = products_K - eigval * products_M
     V = np.zeros((n, model.n_parameters))
     if basis is None:
         p = int(np.argmax(np.abs(phi)))
         keep = np.delete(np.arange(n), p)
-        A = (K - eigval * M).tocsr()[keep][:, keep]
-        solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
+        solve = _factor(_kept(K - eigval * M, keep))
         Mphi = M @ phi
         d_eigval = phi @ F
         V[keep] = solve((-F + np.outer(Mphi, d_eigval))[keep])   # every parameter in one solve
@@ -176,10 +174,17 @@ def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarr
     G = U.T @ MU
     removed = sorted(sla.qr(U.T, mode="r", pivoting=True)[1][:U.shape[1]].tolist())
     keep = np.delete(np.arange(n), removed)
-    A = (K - eigval * M).tocsr()[keep][:, keep]
-    solve = _factor(A if n > eigen.DENSE_LIMIT else A.toarray())
+    solve = _factor(_kept(K - eigval * M, keep))
     V[keep] = solve((-F + MU @ np.linalg.solve(G, U.T @ F))[keep])
     return V - U @ np.linalg.solve(G, MU.T @ V)
+
+
+def _kept(A, keep):
+    """``A`` without the rows and columns not in ``keep``: dense on the dense path, csr above."""
+    if not sp.issparse(A):
+        return A[np.ix_(keep, keep)]
+    kept = A.tocsr()[keep][:, keep]
+    return kept if A.shape[0] > eigen.DENSE_LIMIT else kept.toarray()
 
 
 def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precision: float | None = None):
@@ -217,16 +222,44 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right, precision)
         eigval_z, V_right = eigval_z[keep][:n_zeros], V_right[:, keep][:, :n_zeros]
         return eigval_z, V_right, V_right
-    (num, den), V_left, V_right = sla.eig(Kr, Mr, left=True, right=True, homogeneous_eigvals=True)
+    (num, den), V_left, V_right = _qz(Kr, Mr)
     scale = np.abs(num) + np.abs(den)
     finite = np.abs(den) > 1e-10 * scale
     eigval_z = np.full(num.shape, np.nan, dtype=complex)
     eigval_z[finite] = num[finite] / den[finite]
     real = finite & (np.abs(eigval_z.imag) <= 1e-8 * np.abs(eigval_z.real)) & (eigval_z.real > 0)
     real[real] = ~structural(M, K, r, eigval_z[real].real, V_right[:, real], precision)
-    eigval_z, V_right, V_left = eigval_z[real].real, V_right[:, real].real, V_left[:, real].real
+    eigval_z, V_right, V_left = eigval_z[real].real, V_right[:, real], V_left[:, real]
     order = np.argsort(eigval_z)[:n_zeros]
     return eigval_z[order], V_right[:, order], V_left[:, order]
+
+
+def _qz(A: np.ndarray, B: np.ndarray):
+    """The eigenvalues of the real pencil ``(A, B)`` as ``(alpha, beta)`` (complex ``alpha``)
+    with the real parts of the left and right vectors, each of unit norm as a complex vector:
+    what ``scipy.linalg.eig(A, B, left=True, right=True, homogeneous_eigvals=True)`` gives,
+    taken from LAPACK's ``ggev`` without that function's per-vector normalization loop (most
+    of its time on a small pencil). ``ggev`` stores a complex pair's vectors as the real and
+    imaginary parts in two columns: the real part of both is the first column."""
+    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    if not (np.isfinite(A).all() and np.isfinite(B).all()):
+        raise ValueError("array must not contain infs or NaNs")
+    ggev, = sla.get_lapack_funcs(("ggev",), (A, B))
+    lwork = int(ggev(A, B, lwork=-1)[-2][0])
+    alphar, alphai, beta, vl, vr, _, info = ggev(A, B, 1, 1, lwork)
+    if info != 0:
+        raise sla.LinAlgError(f"generalized eig algorithm (ggev) did not converge (LAPACK info={info})")
+    first = alphai > 0                 # the first column of each complex pair
+    first[:-1] |= alphai[1:] < 0
+    j = np.flatnonzero(first)
+    out = []
+    for V in (vl, vr):
+        norms = np.linalg.norm(V, axis=0)
+        norms[j] = norms[j + 1] = np.hypot(norms[j], norms[j + 1])
+        real = V.copy()
+        real[:, j + 1] = V[:, j]
+        out.append(real / norms)
+    return (alphar + 1j * alphai, beta), out[0], out[1]
 
 
 def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zeros: int | None = None):
@@ -250,20 +283,18 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zero
     D : ndarray, shape (n_z, n_x)
         ``d omega_z / d xbar``, rad/s per unit of normalized parameter.
     """
-    M, K = model.matrices(xbar)
+    M, K = model.solver_matrices(xbar)
     eigval_z, V_right, V_left = (pairs if pairs is not None else
                                  adjunct_eigenpairs(M, K, r, c, n_zeros, model.matrix_precision))
     # Embed the vectors in the full space (zero at the removed column r / row c), so that the
     # adjunct products become products with the full sparse matrices.
     n = M.shape[0]
     right_full = np.zeros((n, eigval_z.size))
-    right_full[np.delete(np.arange(n), r)] = V_right
+    right_full[others(n, r)] = V_right
     left_full = np.zeros((n, eigval_z.size))
-    left_full[np.delete(np.arange(n), c)] = V_left
+    left_full[others(n, c)] = V_left
     denom = np.einsum("ij,ij->j", left_full, M @ right_full)
-    D = np.empty((eigval_z.size, model.n_parameters))
-    for i, (Mi, Ki) in enumerate(zip(model.M_par, model.K_par)):
-        D[:, i] = (np.einsum("ij,ij->j", left_full, Ki @ right_full)
-                   - eigval_z * np.einsum("ij,ij->j", left_full, Mi @ right_full)) / denom
+    forms_M, forms_K = model.parameter_forms(left_full, right_full)
+    D = (forms_K - eigval_z[:, None] * forms_M) / denom[:, None]
     omega_z = np.sqrt(eigval_z)
     return omega_z, D / (2.0 * omega_z[:, None])

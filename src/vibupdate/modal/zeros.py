@@ -39,11 +39,16 @@ def adjunct(A, r: int, c: int):
     """
     n = A.shape[0]
     check_dof_pair(n, r, c)
-    rows = np.delete(np.arange(n), c)
-    cols = np.delete(np.arange(n), r)
+    rows, cols = others(n, c), others(n, r)
     if sp.issparse(A):
         return sp.csr_matrix(A)[rows][:, cols]
-    return np.asarray(A)[np.ix_(rows, cols)]
+    return np.asarray(A)[rows[:, None], cols]
+
+
+def others(n: int, k: int) -> np.ndarray:
+    """The indices ``0 .. n - 1`` without ``k``, shape (n - 1,)."""
+    i = np.arange(n - 1)
+    return i + (i >= k)
 
 
 def structural(M, K, r: int, eigval_z, V, precision: float | None = None) -> np.ndarray:

@@ -29,6 +29,12 @@ from vibupdate.model.parameters import Parameter, normalized_bounds, to_normaliz
 
 Builder = Callable[[dict], "System | tuple"]
 
+#: Largest size of the two dense parameter stacks of `AffineModel.dense_stacks` (bytes): a
+#: chosen cap, so that a small model with very many parameters keeps the sparse path. It
+#: assumes that up to this size the stacks cost less memory than the dense eigen-solves they
+#: serve need anyway (400 DOFs, 48 parameters: 125 MB).
+DENSE_STACK_BYTES = 128 * 2**20
+
 
 @dataclass(frozen=True)
 class AffineModel:
@@ -118,6 +124,70 @@ class AffineModel:
         if xbar.shape != (self.n_parameters,):
             raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
         return self._combine(self._stacked_M, xbar), self._combine(self._stacked_K, xbar)
+
+    def solver_matrices(self, xbar=None) -> tuple:
+        """``M(xbar)``, ``K(xbar)`` in the form the solvers take: on a model within the dense
+        stacks' reach (`dense_stacks`) dense read-only arrays, one matrix-vector product over
+        the stacks, kept for the last point asked (an evaluation asks at one point several times);
+        `matrices` (csr) otherwise. ``xbar=None`` is the nominal model."""
+        stacks = self.dense_stacks
+        if stacks is None:
+            return self.matrices(xbar)
+        xbar = np.zeros(self.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
+        if xbar.shape != (self.n_parameters,):
+            raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
+        key = xbar.tobytes()
+        kept = self._last_point.get("point")
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        n = self.n_dofs
+        flat = (S.reshape(S.shape[0], n * n) for S in stacks)   # views: the stacks are contiguous
+        pair = tuple((F[0] + xbar @ F[1:]).reshape(n, n) for F in flat)
+        for A in pair:
+            A.flags.writeable = False
+        self._last_point["point"] = (key, pair)   # one assignment: a reader sees a whole pair
+        return pair
+
+    @cached_property
+    def _last_point(self) -> dict:
+        return {}
+
+    @cached_property
+    def dense_stacks(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(M0, M_1, ..., M_nx)`` and ``(K0, K_1, ...)`` as dense read-only arrays, each shape
+        (1 + n_x, n, n), for a model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose
+        two stacks fit in `DENSE_STACK_BYTES`; None otherwise (the sparse path). On such a model
+        the solvers work on dense matrices anyway, and a product with every parameter matrix at
+        once is one array operation instead of ``2 n_x`` sparse products."""
+        from vibupdate.modal.eigen import DENSE_LIMIT
+
+        n = self.n_dofs
+        if n > DENSE_LIMIT or 2 * (1 + self.n_parameters) * n * n * 8 > DENSE_STACK_BYTES:
+            return None
+        out = []
+        for A0, parts in ((self.M0, self.M_par), (self.K0, self.K_par)):
+            S = np.stack([sp.csr_matrix(A).toarray() for A in (A0, *parts)])
+            S.flags.writeable = False
+            out.append(S)
+        return tuple(out)
+
+    def parameter_products(self, v) -> tuple[np.ndarray, np.ndarray]:
+        """``[M_1 v, ..., M_nx v]`` and ``[K_1 v, ...]``, each shape (n, n_x), of a vector
+        ``v``, shape (n,)."""
+        v = np.asarray(v, dtype=float)
+        if self.dense_stacks is not None:
+            return tuple(np.ascontiguousarray((S[1:] @ v).T) for S in self.dense_stacks)
+        return tuple(np.column_stack([A @ v for A in parts]) if parts else np.zeros((v.size, 0))
+                     for parts in (self.M_par, self.K_par))
+
+    def parameter_forms(self, L, R) -> tuple[np.ndarray, np.ndarray]:
+        """``L[:, j]^T M_i R[:, j]`` and ``L[:, j]^T K_i R[:, j]``, each shape (k, n_x), of the
+        columns of ``L``, ``R``, shape (n, k): the derivative products of `vibupdate.modal.sensitivities`."""
+        L, R = np.asarray(L, dtype=float), np.asarray(R, dtype=float)
+        if self.dense_stacks is not None:
+            return tuple(np.einsum("nk,pnk->kp", L, S[1:] @ R) for S in self.dense_stacks)
+        return tuple(np.column_stack([np.einsum("ij,ij->j", L, A @ R) for A in parts]) if parts
+                     else np.zeros((L.shape[1], 0)) for parts in (self.M_par, self.K_par))
 
     @staticmethod
     def _combine(stacked, xbar) -> sp.csr_matrix:
