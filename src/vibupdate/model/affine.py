@@ -152,6 +152,11 @@ class AffineModel:
     def _last_point(self) -> dict:
         return {}
 
+    def __getstate__(self) -> dict:
+        """What a pickle carries (a model sent to a Dask worker): the model's fields and small
+        caches, not the dense stacks and the last point's matrices, rebuilt where needed."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("dense_stacks", "_last_point")}
+
     @cached_property
     def dense_stacks(self) -> tuple[np.ndarray, np.ndarray] | None:
         """``(M0, M_1, ..., M_nx)`` and ``(K0, K_1, ...)`` as dense read-only arrays, each shape
