@@ -349,17 +349,14 @@ RUNS = [pytest.param(p, False, id=f"{p}-fast") for p in COMMAND_PAGES if _page_r
     if len(_page_runs(p, True)) > len(_page_runs(p, False))]
 
 
-#: Command sequences that begin more than one page's run (two pages begin with `vibupdate
-#: example bar`), and what such a sequence left in a fresh folder, once run: a later page that
-#: begins with it continues from a copy instead of running it again. The commands read only the
-#: fresh folder and each other's output, so a second run would write the same.
-SHARED = {c[:k] for c in (tuple(_page_runs(*r.values)) for r in RUNS) for k in range(1, len(c) + 1)
-          if sum(tuple(_page_runs(*o.values))[:k] == c[:k] for o in RUNS) > 1}
-_LEFT: dict[tuple[str, ...], list] = {}
+#: Commands that read nothing but their arguments, run once per session for every page and test
+#: file that runs them (`conftest.run_once`): two pages and tests/pipeline/test_bar_example.py
+#: run the bar example, 65 s on one core.
+ONCE = {"vibupdate example bar --out bar"}
 
 
 @pytest.mark.parametrize("page, slow", RUNS)
-def test_the_commands_of_a_page_run_as_written(page, slow, tmp_path):
+def test_the_commands_of_a_page_run_as_written(page, slow, tmp_path, run_once):
     import os
     import shlex
     import shutil
@@ -381,24 +378,19 @@ def test_the_commands_of_a_page_run_as_written(page, slow, tmp_path):
             (tmp_path / name).symlink_to(soton / name)
     env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=os.pathsep.join(
         [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])]))
-    fresh = set(tmp_path.iterdir())
-    start = max((k for k in _LEFT if tuple(commands[:len(k)]) == k), key=len, default=())
-    for entry in _LEFT.get(start, []):
-        (shutil.copytree if entry.is_dir() else shutil.copy2)(entry, tmp_path / entry.name, symlinks=True)
-    for i, command in enumerate(commands[len(start):], start=len(start)):
+    for command in commands:
         code, line, _ = EXPECTED[command]
         argv = shlex.split(command)
-        done = subprocess.run([sys.executable, "-m", "vibupdate", *argv[1:]], cwd=tmp_path, capture_output=True,
-                              text=True, env=env, timeout=1800)
+        if command in ONCE:
+            done = subprocess.CompletedProcess(argv, *run_once(command)[:3])
+            for entry in run_once(command)[3].iterdir():
+                (shutil.copytree if entry.is_dir() else shutil.copy2)(entry, tmp_path / entry.name, symlinks=True)
+        else:
+            done = subprocess.run([sys.executable, "-m", "vibupdate", *argv[1:]], cwd=tmp_path, capture_output=True,
+                                  text=True, env=env, timeout=1800)
         assert done.returncode == code, f"{page}: {command}\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
         assert "Traceback" not in done.stderr, done.stderr[-3000:]
         assert re.search(line, done.stdout, re.MULTILINE), f"{page}: {command}: no line {line!r} in\n{done.stdout}"
-        if tuple(commands[:i + 1]) in SHARED:
-            kept = tmp_path.parent / f"{tmp_path.name}-after-{i + 1}"
-            kept.mkdir()
-            for entry in sorted(set(tmp_path.iterdir()) - fresh):
-                (shutil.copytree if entry.is_dir() else shutil.copy2)(entry, kept / entry.name, symlinks=True)
-            _LEFT[tuple(commands[:i + 1])] = sorted(kept.iterdir())
 
 
 def test_reading_results_back_runs_on_the_readme_s_results(tmp_path, monkeypatch):
