@@ -351,8 +351,10 @@ RUNS = [pytest.param(p, False, id=f"{p}-fast") for p in COMMAND_PAGES if _page_r
 
 #: Commands that read nothing but their arguments, run once per session for every page and test
 #: file that runs them (`conftest.run_once`): two pages and tests/pipeline/test_bar_example.py
-#: run the bar example, 65 s on one core.
-ONCE = {"vibupdate example bar --out bar"}
+#: run the bar example, 65 s on one core; each page of docs/fe/ and tests/model/test_fe_examples.py
+#: run that code's worked example.
+ONCE = {"vibupdate example bar --out bar",
+        *(f"vibupdate example fe-{code} --out fe-{code}" for code in ("abaqus", "ansys", "nastran", "opensees"))}
 
 
 @pytest.mark.parametrize("page, slow", RUNS)

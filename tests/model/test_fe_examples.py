@@ -27,12 +27,14 @@ def _needs(name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(fe.CODES))
-def test_the_worked_example_updates_to_the_truth_through_import_and_run(name, tmp_path, capsys):
+def test_the_worked_example_updates_to_the_truth_through_import_and_run(name, run_once):
+    """The command is also the first of the example's page in docs/fe/: one run for the two
+    (`conftest.run_once`)."""
     _needs(name)
-    out = tmp_path / name
-    assert main(["example", name, "--out", str(out)]) == 0, capsys.readouterr().err
-    said = capsys.readouterr().out
-    imp, run = fe.commands(out)
+    code, said, stderr, folder = run_once(f"vibupdate example {name} --out {name}")
+    assert code == 0, stderr
+    out = folder / name
+    imp, run = fe.commands(name)
     # the two commands are printed, in order, and are what ran
     assert said.index("$ vibupdate " + " ".join(imp)) < said.index("$ vibupdate " + " ".join(run))
     assert (out / "model" / "model.toml").is_file() and (out / "model" / "case.toml").is_file()
