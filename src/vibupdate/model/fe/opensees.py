@@ -186,7 +186,8 @@ def _model(ops, name: str):
     # The fixed DOFs from the print's single-point constraints (``fix``; those of load patterns are
     # not listed), not from ``fixedDOFs``: in opensees 0.1.32 that command scans six entries of a
     # vector sized by the node's DOFs, so on a 2-D node it reads past the end and now and then
-    # reports a DOF 6 (1 run in 20 of the OpenSees tests).
+    # reports a DOF 6 (`benchmarks/RESULTS.md`, heading "The slow step: where its time goes, and
+    # repeated runs removed").
     fixed = np.array([(c["node"], c["dof"]) for c in printed["constraints"]], dtype=np.int64).reshape(-1, 2)
     if fixed.size:
         if not (np.all(np.isin(fixed[:, 0], tags)) and np.all((fixed[:, 1] >= 1) & (fixed[:, 1] <= nd))):
