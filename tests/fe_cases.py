@@ -79,6 +79,14 @@ def measured_dofs(frame, stories: int):
     return [f"{n}:{d}" for n in corners for d in ("x", "y")] + [f"{corners[0]}:z", f"{corners[-1]}:z"]
 
 
+def run_inputs(model_dir: Path) -> dict[str, bytes]:
+    """Every file of an imported model's folder (the model, its matrices, the case and data
+    `exact_case` writes), as bytes: all that a run on the folder reads. Two folders with the same
+    bytes give the same run (one process thread, no randomness), so a test checking several
+    routes runs the update once per distinct folder."""
+    return {p.name: p.read_bytes() for p in sorted(model_dir.iterdir()) if p.is_file()}
+
+
 def exact_case(model_dir: Path, K, M, dofs, measured, n_modes=6) -> Path:
     """Case file: the imported ``model.toml`` plus one configuration of exact data from (K, M)."""
     from vibupdate.modal.analysis import modes

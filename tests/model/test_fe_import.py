@@ -280,14 +280,24 @@ def test_opensees_frame_imports_with_affine_parameters_and_its_own_matrices(tmp_
     assert fe_writers.relative_difference(imported.model.K0[order][:, order], K) < 1e-12
 
 
-def _update(route, root, frame, size, names, truth, two_steps=(), n_modes=8):
+def _update(route, root, frame, size, names, truth, two_steps=(), n_modes=8, ran=None):
+    """Import and run; with ``ran`` (inputs by route, filled here), a route whose model folder is
+    byte for byte one already run returns that run's outcome (`fe_cases.run_inputs`)."""
     spec = _route_exports(route, root / "exports", frame, size, names, two_steps)
     assert main(["import", str(spec), "--out", str(root / "model")]) == 0
     K, M, dofs = _truth_matrices(route, frame, size, truth)
     case = fe_cases.exact_case(root / "model", K, M, dofs, fe_cases.measured_dofs(frame, size[2]), n_modes)
+    if ran is not None:
+        inputs = fe_cases.run_inputs(root / "model")
+        twin = next((other for other, (seen, _) in ran.items() if seen == inputs), None)
+        if twin is not None:
+            return ran[twin][1]
     code = main(["run", str(case), "--out", str(root / "out")])
     doc = json.loads((root / "out" / "results.json").read_text())
-    return code, doc["solver"]["status"], {p["name"]: p["updated"] for p in doc["parameters"]}
+    outcome = code, doc["solver"]["status"], {p["name"]: p["updated"] for p in doc["parameters"]}
+    if ran is not None:
+        ran[route] = inputs, outcome
+    return outcome
 
 
 @pytest.mark.slow
@@ -295,13 +305,16 @@ def test_the_1020_dof_frame_updates_to_the_truth_through_every_route(tmp_path, c
     size = (3, 2, 4)
     frame = frame3d(*size)
     truth = {k: NOMINAL[k] * fe_cases.TRUTH[k] for k in fe_cases.AFFINE}
-    found = {}
+    found, ran = {}, {}
     for route in ("nastran", "ansys", "abaqus", "opensees"):
-        code, status, values = _update(route, tmp_path / route, frame, size, fe_cases.AFFINE, truth)
+        code, status, values = _update(route, tmp_path / route, frame, size, fe_cases.AFFINE, truth, ran=ran)
         err = {n: abs(values[n] / truth[n] - 1) for n in truth}
         print(f"{route}: status {status}, largest error {max(err.values()):.3g}", err)
         assert code == 0 and status == "success" and max(err.values()) <= 1e-6, (route, err)
         found[route] = values
+    # the text routes import the same doubles (one run for the three); OpenSees's probes differ
+    # in the last bits of the summation order
+    assert sorted(ran) == ["nastran", "opensees"], sorted(ran)
     spread = max(abs(found[a][n] / found[b][n] - 1) for a in found for b in found for n in truth)
     print(f"largest relative difference between routes: {spread:.3g}")
     assert spread <= 1e-9

@@ -252,3 +252,28 @@ def test_load_patterns_of_the_builder_do_not_enter_the_matrices():
     order = [got.dofs.index(d) for d in dofs]
     for mine, theirs in ((got.K, K), (got.M, M)):
         assert np.abs(mine[order][:, order].toarray() - 0.5 * (theirs + theirs.T)).max() <= 1e-13 * np.abs(theirs).max()
+
+
+def test_fixed_dofs_are_read_from_the_model_not_from_the_fixedDOFs_command():
+    """``fixedDOFs`` of opensees 0.1.32 sizes its answer by the node's DOFs and scans six entries:
+    on a 2-D node it reads three numbers past the end, and in about 1 run in 20 of this file one
+    of them was 1.0 and the planar frame's fixed nodes came back as '1 2 3 6', which the import
+    refused. Here the command answers as it did in such a run; the import must not depend on it."""
+    from vibupdate.model.fe.opensees import openseespy
+
+    ops = openseespy()
+
+    def build(p):
+        _portal(p)   # `model` registers the interpreter's fixedDOFs anew, so it is replaced after
+        ops.eval("rename fixedDOFs vu_test_fixedDOFs; proc fixedDOFs {t} {concat [vu_test_fixedDOFs $t] 6}")
+
+    try:
+        K, M, dofs = _dense(_portal, {})
+        got = export_from_builder(build, {})
+    finally:
+        if ops.eval("info commands vu_test_fixedDOFs"):
+            ops.eval("rename fixedDOFs {}; rename vu_test_fixedDOFs fixedDOFs")
+    assert sorted(got.dofs) == sorted(dofs)   # node 1: x, y, rz fixed; node 2: x, y; node 100: all three
+    order = [got.dofs.index(d) for d in dofs]
+    for mine, theirs in ((got.K, K), (got.M, M)):
+        assert np.abs(mine[order][:, order].toarray() - 0.5 * (theirs + theirs.T)).max() <= 1e-13 * np.abs(theirs).max()

@@ -76,7 +76,6 @@ PROBE = 2.0 ** -20
 _TCL = r"""
 proc vu_flat {cmd tags} {set o {}; foreach t $tags {lappend o {*}[$cmd $t]}; return $o}
 proc vu_count {cmd tags} {set o {}; foreach t $tags {lappend o [llength [$cmd $t]]}; return $o}
-proc vu_fixed {} {set o {}; foreach t [fixedNodes] {foreach d [fixedDOFs $t] {lappend o $t $d}}; return $o}
 proc vu_probe_M {moved values d rows} {
     foreach t $moved v $values {setNodeAccel $t $d $v}
     reactions -dynamic
@@ -140,20 +139,18 @@ def probe_colours(adjacency: sp.spmatrix) -> np.ndarray:
     return colour
 
 
-def _remove_load_patterns(ops) -> None:
-    """Remove the builder's load patterns (gravity, ground motions): their loads would add to
-    every probe's forces. Their tags come from the model's JSON print (the interpreter has no
-    command listing them); only the ``patterns`` array is parsed."""
+def _printed(ops) -> dict:
+    """The ``patterns`` and ``constraints`` arrays of the model's JSON print (the interpreter has
+    no command listing the load patterns; only these two arrays are parsed)."""
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "model.json"
         ops.eval(f"print -JSON -file {{{path}}}")
         text = path.read_text()
-    at = text.find('"patterns"')
-    if at < 0:
-        return
-    patterns, _ = json.JSONDecoder().raw_decode(text, text.index("[", at))
-    for pattern in patterns:
-        ops.eval(f"remove loadPattern {int(pattern['name'])}")
+    out = {}
+    for key in ("patterns", "constraints"):
+        at = text.find(f'"{key}"')
+        out[key] = json.JSONDecoder().raw_decode(text, text.index("[", at))[0] if at >= 0 else []
+    return out
 
 
 def _model(ops, name: str):
@@ -162,7 +159,9 @@ def _model(ops, name: str):
     if tags.size == 0:
         raise ValueError(f"{name}: the OpenSees builder made no nodes")
     ops.eval(_TCL)
-    _remove_load_patterns(ops)
+    printed = _printed(ops)
+    for pattern in printed["patterns"]:   # their loads would add to every probe's forces
+        ops.eval(f"remove loadPattern {int(pattern['name'])}")
     tag_list = "{" + " ".join(map(str, tags)) + "}"
     ndf = set(_ints(ops.eval(f"vu_count nodeDisp {tag_list}")).tolist())
     ndm = set(_ints(ops.eval(f"vu_count nodeCoord {tag_list}")).tolist())
@@ -184,12 +183,17 @@ def _model(ops, name: str):
     index = {int(t): k for k, t in enumerate(tags)}
     nd = len(directions)
     free = np.ones((tags.size, nd), dtype=bool)
-    text = ops.eval("vu_fixed")
-    fixed = _ints(text).reshape(-1, 2)
+    # The fixed DOFs from the print's single-point constraints (``fix``; those of load patterns are
+    # not listed), not from ``fixedDOFs``: in opensees 0.1.32 that command scans six entries of a
+    # vector sized by the node's DOFs, so on a 2-D node it reads past the end and now and then
+    # reports a DOF 6 (`benchmarks/RESULTS.md`, heading "The slow step: where its time goes, and
+    # repeated runs removed").
+    fixed = np.array([(c["node"], c["dof"]) for c in printed["constraints"]], dtype=np.int64).reshape(-1, 2)
     if fixed.size:
         if not (np.all(np.isin(fixed[:, 0], tags)) and np.all((fixed[:, 1] >= 1) & (fixed[:, 1] <= nd))):
-            raise ValueError(f"{name}: OpenSees reported fixed DOFs (node, DOF) {text.strip()[:200]!r}, expected "
-                             f"nodes of the model and DOFs 1 to {nd}")
+            shown = " ".join(map(str, fixed.ravel()))[:200]
+            raise ValueError(f"{name}: OpenSees printed fixed DOFs (node, DOF) {shown!r}, expected nodes of the model "
+                             f"and DOFs 1 to {nd}")
         free[[index[int(t)] for t in fixed[:, 0]], fixed[:, 1] - 1] = False
     elements = _ints(ops.eval("getEleTags"))
     ele_list = "{" + " ".join(map(str, elements)) + "}"
