@@ -28,14 +28,10 @@ SRC = str(Path(__file__).resolve().parents[2] / "src")
 
 @pytest.fixture(scope="module")
 def client():
-    from distributed import Client, LocalCluster
+    from vibupdate.study.engine import open_client
 
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=40)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
+    with open_client(2) as c:   # the local cluster a sweep starts itself
+        yield c
 
 
 @pytest.fixture(scope="module")

@@ -51,14 +51,10 @@ def case_file(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def client():
-    from distributed import Client, LocalCluster
+    from vibupdate.study.engine import open_client
 
-    cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0",
-                           silence_logs=40)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
+    with open_client(1) as c:   # the local cluster a sweep starts itself
+        yield c
 
 
 @pytest.fixture(scope="module")

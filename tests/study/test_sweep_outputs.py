@@ -68,14 +68,10 @@ def test_a_failing_sweep_plot_is_left_out_with_a_warning(tmp_path, monkeypatch):
 
 @pytest.fixture(scope="module")
 def client():
-    from distributed import Client, LocalCluster
+    from vibupdate.study.engine import open_client
 
-    cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=40)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
+    with open_client(1) as c:   # the local cluster a sweep starts itself
+        yield c
 
 
 def test_a_sweep_whose_plot_fails_keeps_its_rows_and_says_so(client, tmp_path, monkeypatch):
