@@ -38,7 +38,7 @@ Two uses, one set of intervals:
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -150,11 +150,29 @@ class Shape:
     measured_upper: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
-    floor: float
+    scale: float           # the magnitude of the reference entry's midpoint
+    calibration: tuple[float, float] | None = None   # a mass-normalized shape: `Shape.scales`
 
     @property
     def half_width(self) -> np.ndarray:
         return 0.5 * (self.upper - self.lower)
+
+    @property
+    def floor(self) -> float:
+        return FLOOR * self.scale
+
+    def scales(self, modal_mass: float) -> tuple[float, float] | None:
+        """The scales the model's shape (normalized to 1 at the reference entry) may take: any
+        (None) for a free-scale shape; for a mass-normalized one, the mass-normalized mode's own,
+        ``1 / sqrt(m)`` with ``m`` the model's modal mass at the reference entry, signed as the
+        measured reference entry and times a calibration factor within ``calibration``."""
+        if self.calibration is None:
+            return None
+        if not (np.isfinite(modal_mass) and modal_mass > 0):
+            return (np.nan, np.nan)
+        sign = 1.0 if self.measured_lower[0] + self.measured_upper[0] > 0 else -1.0
+        a, b = (sign * c / np.sqrt(modal_mass) for c in self.calibration)
+        return (min(a, b), max(a, b))
 
 
 @dataclass(frozen=True)
@@ -225,7 +243,10 @@ class Admissible:
                     mhi = np.array([bounds[d][1] for d in order])
                     lo, hi = zip(*(_widened(a, b, scale, o.shape_tolerance, o.exact_half_width)
                                    for a, b in zip(mlo, mhi)))
-                    srow.append(Shape(label, k, nat.mode, tuple(order), mlo, mhi, np.array(lo), np.array(hi), FLOOR * scale))
+                    t = o.modal_mass_tolerance   # the modal mass's m (1 -+ t): the scale's 1 / sqrt of it
+                    srow.append(Shape(label, k, nat.mode, tuple(order), mlo, mhi, np.array(lo), np.array(hi), scale,
+                                      (1.0 / np.sqrt(1.0 + t), 1.0 / np.sqrt(1.0 - t))
+                                      if nat.shape.mass_normalized else None))
                 if nat.shape.mass_normalized:
                     lo, hi = nat.shape.modal_mass_bounds()
                     mid = 0.5 * (lo + hi)
@@ -234,6 +255,22 @@ class Admissible:
             shapes.append(tuple(srow))
             masses.append(tuple(mrow))
         return cls(tuple(freqs), tuple(shapes), tuple(masses))
+
+    def floored(self, relative: float) -> "Admissible":
+        """The same data with every admissible half-width at least ``relative`` times the
+        datum's scale (its value; a shape entry: its shape's `Shape.scale`), each interval
+        widened about its midpoint: the softer objective a polish starts on (`vibupdate.inverse.polish.START_FLOOR`)."""
+        def datum(d: Datum) -> Datum:
+            mid, h = 0.5 * (d.lower + d.upper), max(d.half_width, relative * abs(d.value))
+            return replace(d, lower=mid - h, upper=mid + h)
+
+        def shape(s: Shape) -> Shape:
+            mid, h = 0.5 * (s.lower + s.upper), np.maximum(s.half_width, relative * s.scale)
+            return replace(s, lower=mid - h, upper=mid + h)
+
+        return Admissible(tuple(tuple(datum(d) for d in row) for row in self.frequencies),
+                          tuple(tuple(shape(s) for s in row) for row in self.shapes),
+                          tuple(tuple(datum(d) for d in row) for row in self.masses))
 
     def relative_half_widths(self) -> np.ndarray:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
@@ -262,10 +299,14 @@ def _targets(lower, upper, floor):
     return lower + inset, upper - inset
 
 
-def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float) -> float:
+def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float,
+           scales: tuple[float, float] | None = None) -> float:
     """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`): a convex piecewise quadratic in
     ``s`` whose pieces end where an entry ``s q_j`` crosses an interval end; each piece's
-    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact)."""
+    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact). Within
+    ``scales`` (`Shape.scales`), the minimizer of a convex function of one variable clipped to them."""
+    if scales is not None:
+        return float(np.clip(_scale(q, lo, hi, mid, h, pull), *scales))
     nz = q != 0
     breaks = np.unique(np.concatenate([lo[nz] / q[nz], hi[nz] / q[nz]]))
     edges = np.concatenate([[-np.inf], breaks, [np.inf]])
@@ -285,12 +326,19 @@ def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np
     return float(s[int(np.argmin(cost))])
 
 
-def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: float):
-    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale)."""
+def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: float,
+                mass: tuple[float, np.ndarray | None] = (np.nan, None)):
+    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale); a
+    mass-normalized shape's scale within `Shape.scales` of the model's modal mass ``mass``
+    (its value and, with ``jac``, its gradient)."""
     q = np.concatenate([[1.0], ratios])
     lo, hi = _targets(shape.lower, shape.upper, shape.floor)
     mid, h = 0.5 * (lo + hi), shape.half_width
-    s = _scale(q, lo, hi, mid, h, pull)
+    scales = shape.scales(mass[0])
+    if scales is not None and not np.isfinite(scales[0]):   # no modal mass: the model lost the mode
+        r = np.concatenate([np.zeros(q.size), np.full(q.size, 1.0 / pull)])
+        return r, (None if jac is None else np.zeros((r.size, jac.shape[1])))
+    s = _scale(q, lo, hi, mid, h, pull, scales)
     r, slope = _rows(s * q, lo, hi, mid, h, pull)
     if jac is None:
         return r, None
@@ -298,8 +346,10 @@ def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: 
     dq, q = np.vstack([dq, dq]), np.concatenate([q, q])   # the two rows of each entry
     J = slope[:, None] * s * dq
     Js = slope * q                                   # d rows / d s
-    # the scale follows the shape (variable projection): d/dx of sum r dr/ds = 0 at the best scale
-    ds = -(Js @ J + (r * slope) @ dq) / max(float(Js @ Js), 1e-300)
+    if scales is not None and s in scales:           # held at a bound: the scale follows the modal mass
+        ds = -0.5 * s / mass[0] * mass[1]
+    else:   # the scale follows the shape (variable projection): d/dx of sum r dr/ds = 0 at the best scale
+        ds = -(Js @ J + (r * slope) @ dq) / max(float(Js @ Js), 1e-300)
     return r, J + np.outer(Js, ds)
 
 
@@ -348,9 +398,11 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                 jac.append(np.where(np.concatenate([lost, lost])[:, None], 0.0,
                                     (w * slope)[:, None] * np.vstack([dv, dv])))
         by = {s.position: s for s in shapes}
+        mass = _modal_masses(m, jacobian)
         for k, (measured, ratios) in enumerate(zip(m.shapes, m.ratios)):
             if measured.position in by:
-                r, J = _shape_rows(by[measured.position], ratios, m.ratio_jacobians[k] if jacobian else None, pull)
+                r, J = _shape_rows(by[measured.position], ratios, m.ratio_jacobians[k] if jacobian else None, pull,
+                                   mass[k])
                 res.append(r)
                 if jacobian:
                     jac.append(J)
@@ -358,13 +410,27 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
     return r, (np.vstack(jac) if jacobian and jac else None)
 
 
-def scaling_miss(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: bool = False):
-    """The least ``t`` such that some scale ``s`` puts every ``s q_j`` within ``t`` half-widths
-    of ``[lower_j, upper_j]`` (0: the shape is admissible); bisection on ``t``, for each ``t``
-    the scales each entry admits form one interval and they intersect or not. With ``scale``,
-    ``(t, s)``."""
+def _modal_masses(m, jacobian: bool) -> list:
+    """Per measured shape of the data map ``m``: its model modal mass and gradient (a
+    mass-normalized shape), else ``(nan, None)``."""
+    out, k = [], 0
+    for measured in m.shapes:
+        if measured.mass is None:
+            out.append((np.nan, None))
+        else:
+            out.append((float(m.masses[k]), m.mass_jacobian[k] if jacobian else None))
+            k += 1
+    return out
+
+
+def scaling_miss(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: bool = False,
+                 scales: tuple[float, float] | None = None):
+    """The least ``t`` such that some scale ``s`` (within ``scales``, when given:
+    `Shape.scales`) puts every ``s q_j`` within ``t`` half-widths of ``[lower_j, upper_j]``
+    (0: the shape is admissible); bisection on ``t``, for each ``t`` the scales each entry
+    admits form one interval and they intersect or not. With ``scale``, ``(t, s)``."""
     half = 0.5 * (upper - lower)
-    if not np.all(np.isfinite(q)) or np.any(half <= 0):
+    if not np.all(np.isfinite(q)) or np.any(half <= 0) or (scales is not None and not np.isfinite(scales[0])):
         return (np.inf, np.nan) if scale else np.inf
 
     def feasible(t: float):
@@ -374,6 +440,8 @@ def scaling_miss(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: boo
             return None
         s1, s2 = a[~zero] / q[~zero], b[~zero] / q[~zero]
         lo, hi = np.max(np.minimum(s1, s2)), np.min(np.maximum(s1, s2))
+        if scales is not None:
+            lo, hi = max(lo, scales[0]), min(hi, scales[1])
         return 0.5 * (lo + hi) if lo <= hi else None
 
     top, s = 0.0, feasible(0.0)
@@ -405,13 +473,15 @@ def misses(contract: Admissible, maps: Sequence) -> list[Miss]:
                                 f"{d.label}: model {v:.7g} {unit}, measured {d.value:.7g} ({100 * rel:.3g} %), "
                                 f"admissible [{d.lower:.7g}, {d.upper:.7g}]", float(rel)))
         by = {s.position: s for s in shapes}
-        for measured, ratios in zip(m.shapes, m.ratios):
+        for measured, ratios, mass in zip(m.shapes, m.ratios, _modal_masses(m, False)):
             if measured.position not in by:
                 continue
             shape = by[measured.position]
             q = np.concatenate([[1.0], ratios])
-            miss, s = scaling_miss(q, shape.lower, shape.upper, scale=True)
-            inside = scaling_miss(q, shape.measured_lower - shape.floor, shape.measured_upper + shape.floor) == 0
+            scales = shape.scales(mass[0])
+            miss, s = scaling_miss(q, shape.lower, shape.upper, scale=True, scales=scales)
+            inside = scaling_miss(q, shape.measured_lower - shape.floor, shape.measured_upper + shape.floor,
+                                  scales=scales) == 0
             near = cluster(m.frequencies.omega_all, shape.mode - 1)
             text = f"{shape.label}: the model shape at its best scale" + (
                 "" if near.size == 1 else f" (best combination of the repeated modes {near[0] + 1}-{near[-1] + 1})")

@@ -91,6 +91,15 @@ EVALUATIONS_PER_UNKNOWN = 100
 #: steps crawl along the ends that hold the answer.
 START_PULL = 0.1
 START_FTOL = 1e-3
+#: That start also holds every datum to an admissible half-width of at least this fraction of
+#: its value (`vibupdate.inverse.admissible.Admissible.floored`; a shape entry: of its shape's
+#: reference entry), then the finish holds the data to their own intervals (continuation in the
+#: half-widths). Data known exactly beside data with a model-form tolerance weigh up to 1e4
+#: times more per unit of relative change; their narrow intervals bend the least squares' valley
+#: so that trust-region steps crawl along it (800 evaluations without converging, where the
+#: floored start then the finish take 30 and converge: `benchmarks/RESULTS.md`, "The polish's
+#: floored start").
+START_FLOOR = 1e-2
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
@@ -288,7 +297,8 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
         reduced = [replace(cfg, model=ritz_reduction(cfg.model, kept_dofs(cfg), V)[0])
                    for cfg, V in zip(configurations, basis)]
         with threadpool_limits(limits=1, user_api="blas"):   # ~100-DOF dense solves: threads only contend
-            first = fit_least_squares(reduced, x, contract, pull=START_PULL, max_nfev=REDUCED_EVALUATIONS,
+            first = fit_least_squares(reduced, x, contract.floored(START_FLOOR), pull=START_PULL,
+                                      max_nfev=REDUCED_EVALUATIONS,
                                       **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
             sol = fit_least_squares(reduced, first.x, contract, max_nfev=REDUCED_EVALUATIONS, **tols)
         rounds += 1
@@ -404,12 +414,13 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     """
     lo, hi = configurations[0].model.bounds()
     x = inside(x, lo, hi)
-    start = (x, evaluate(configurations, contract, x, pull=START_PULL))
+    soft = contract.floored(START_FLOOR)
+    start = (x, evaluate(configurations, soft, x, pull=START_PULL))
     monitor = Monitor(x, start[1], max(budget - evaluations - 1, 1), budget, stall_window(lo.size), started,
                       max_seconds, answers)
     memo: dict = {}
-    try:   # the start (`START_PULL`), then the objective from its answer
-        first = fit_least_squares(configurations, x, contract, known=start, monitor=monitor, pull=START_PULL,
+    try:   # the start (`START_PULL`, `START_FLOOR`), then the objective from its answer
+        first = fit_least_squares(configurations, x, soft, known=start, monitor=monitor, pull=START_PULL,
                                   memo=memo, max_nfev=budget + 1, **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
         x = first.x
     except Stop as stop:
