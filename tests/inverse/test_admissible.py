@@ -223,3 +223,35 @@ def test_the_polish_objective_has_a_continuous_gradient_at_an_interval_end():
     assert gradient(hi[0] + eps) == pytest.approx(gradient(hi[0] - eps), abs=1e-4)
     assert gradient(hi[0] - eps) == pytest.approx((hi[0] - mid[0]) / h[0] ** 2, rel=1e-6)
     assert gradient(hi[0] + 0.01) > 2 * gradient(hi[0] - eps)   # the distance dominates outside
+
+
+def test_a_mass_normalized_shape_is_held_at_its_own_scale_within_the_modal_mass_calibration():
+    """A mass-normalized shape states the entries themselves, up to sign, not only their ratios.
+    Measured entries at 1.015 times the mass-normalized mode's (narrow intervals), the reference
+    entry's interval +-2 %: some free scale fits every entry and the modal mass lies in its
+    interval, so the ratios-plus-modal-mass reading admitted the model; at its own scale the
+    model misses the entries. A calibration tolerance of 5 % on the modal mass lets the scale
+    move by 1 / sqrt(1 -+ 0.05), which covers 1.015."""
+    model, x, omega, Phi = _chain()
+    dofs = ("y1", "y2", "y3")
+    phi = Phi[[model.dof(d) for d in dofs], 0]
+    ref = int(np.argmax(np.abs(phi)))
+    bounds = {d: (1.015 * e - 1e-4, 1.015 * e + 1e-4) for d, e in zip(dofs, phi)}
+    bounds[dofs[ref]] = tuple(sorted((0.98 * phi[ref], 1.02 * phi[ref])))
+    cfg = Configuration("c", model, (NaturalFrequency(omega[0], shape=ShapeInterval(bounds, mass_normalized=True)),))
+    at = [data_map(cfg, x, jacobian=False, shapes=True)]
+
+    def shape_miss(tolerance):
+        contract = Admissible.of([cfg], VerifyOptions(shape_tolerance=0.0, modal_mass_tolerance=tolerance))
+        return {m.kind: m.miss for m in misses(contract, at)}
+
+    assert shape_miss(0.0)["shape"] > 1.0
+    assert shape_miss(0.0)["modal_mass"] == 0.0        # the modal mass alone does not see it
+    assert shape_miss(0.05)["shape"] == 0.0
+    # the polish's rows hold the scale at the same bound, with its exact derivative
+    contract = Admissible.of([cfg], VerifyOptions(shape_tolerance=0.0, modal_mass_tolerance=0.0))
+    r, J = evaluate([cfg], contract, x)
+    step = 1e-6 * np.eye(x.size)
+    fd = np.column_stack([(evaluate([cfg], contract, x + e, jacobian=False)[0]
+                           - evaluate([cfg], contract, x - e, jacobian=False)[0]) / 2e-6 for e in step])
+    np.testing.assert_allclose(J, fd, rtol=1e-5, atol=1e-6 * np.abs(J).max())

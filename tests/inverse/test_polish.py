@@ -194,3 +194,39 @@ def test_tight_intervals_end_inside_at_one_objective_from_both_starts():
         assert not out.on_limit and out.evaluations < 100, out.message
         assert all(m.miss == 0 for m in misses(contract, [data_map(cfg, out.xbar, jacobian=False)]))
     assert ends[0].cost == pytest.approx(ends[1].cost, rel=1e-6)
+
+
+def _exact_chain(seed: int):
+    """A 5-mass chain, 5 springs and one mass within +-25 % of nominal; data: its first four
+    frequencies known exactly (default model-form tolerance 2 %) and the first mode's shape at
+    four masses known exactly (shape tolerance 0)."""
+    from helpers import chain_model
+
+    from vibupdate import VerifyOptions
+    from vibupdate.inverse.admissible import Admissible
+
+    model = chain_model(5, ["k1", "k2", "k3", "k4", "k5", "m2"])
+    x_true = np.random.default_rng(seed).uniform(-0.25, 0.25, model.n_parameters)
+    omega, Phi = modes(*model.matrices(x_true), 5)
+    dofs = ("y2", "y3", "y4", "y5")
+    v = Phi[[model.dof(d) for d in dofs], 0]
+    v = v / v[np.argmax(np.abs(v))]
+    shape = ShapeInterval({d: (e, e) for d, e in zip(dofs, v)})
+    cfg = Configuration("c", model, tuple(NaturalFrequency(w, shape=shape if k == 0 else None)
+                                          for k, w in enumerate(omega[:4])))
+    return cfg, x_true, Admissible.of([cfg], VerifyOptions(shape_tolerance=0.0))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_exact_data_beside_data_with_a_model_form_tolerance_converge_from_the_nominal_point(seed):
+    """Exact shapes (half-width 1e-6) weigh 2e4 times more per unit of relative change than
+    exact frequencies under the 2 % model-form tolerance; their narrow intervals bend the least
+    squares' valley. Held to a half-width of at least `START_FLOOR` first, the polish converges
+    to the truth (measured on these 12 chains: 18-30 evaluations, every parameter within 3e-14);
+    from the data's own intervals at once it took 189-701 evaluations, 4 of 12 stopped on the
+    evaluation limit and 3 ended 0.008-0.05 from the truth."""
+    cfg, x_true, contract = _exact_chain(seed)
+    out = polish([cfg], np.zeros(x_true.size), contract=contract)
+    assert out.stopped_on == "convergence", out.message
+    assert out.evaluations <= 60
+    np.testing.assert_allclose(out.xbar, x_true, atol=1e-9)

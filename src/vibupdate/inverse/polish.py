@@ -99,7 +99,7 @@ START_FTOL = 1e-3
 #: so that trust-region steps crawl along it (800 evaluations without converging, where the
 #: floored start then the finish take 30 and converge: `benchmarks/RESULTS.md`, "The polish's
 #: floored start").
-START_FLOOR = 1e-2
+START_FLOOR = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
 
