@@ -228,12 +228,14 @@ def _print_tables(run) -> None:
 
 
 def _finish(run) -> int:
+    from vibupdate.inverse.status import Status
+
     _print_tables(run)
     if not run.success:
-        if run.status == "not_verified":
-            print(f"vibupdate: {run.solver.get('message')}; see the warnings above and the report", file=sys.stderr)
+        if run.status == Status.NOT_VERIFIED:
+            print(f"vibupdate: {run.solver.message}; see the warnings above and the report", file=sys.stderr)
         else:
-            print(f"vibupdate: updating failed: {run.solver.get('message')}; results written with the status",
+            print(f"vibupdate: updating failed: {run.solver.message}; results written with the status",
                   file=sys.stderr)
         return EXIT["not_verified"]
     return EXIT["success"]

@@ -16,14 +16,20 @@ are written as ``null``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+import types
+import typing
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from enum import Enum
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
+
+from vibupdate.inverse.status import Status, Verdict
 
 
 #: Version of the layout of ``results.json`` (raised when a key is added).
@@ -39,7 +45,10 @@ def _num(value) -> float | None:
 
 
 def _plain(obj):
-    """JSON-safe copy: numpy to Python, NaN/inf to None, tuples to lists."""
+    """JSON-safe copy: records to their documents, numpy to Python, NaN/inf to None, tuples to
+    lists, enums (`Status`, `Verdict`) to their values."""
+    if isinstance(obj, _Row):
+        return obj.as_dict()
     if isinstance(obj, Mapping):
         return {str(k): _plain(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -52,8 +61,10 @@ def _plain(obj):
         return _num(obj)
     if isinstance(obj, np.integer):
         return int(obj)
-    if hasattr(obj, "value") and isinstance(getattr(obj, "value"), str):  # enums such as Status
+    if isinstance(obj, Enum):
         return obj.value
+    if dataclasses.is_dataclass(obj) and hasattr(obj, "as_dict"):   # a record of the library (`Check`)
+        return _plain(obj.as_dict())
     return obj
 
 
@@ -63,22 +74,69 @@ def json_text(obj) -> str:
     return json.dumps(_plain(obj), indent=2, allow_nan=False)
 
 
+def _optional(**kwargs):
+    """A field written only when it is not None (a section the run may not have computed)."""
+    return field(default=None, metadata={"omit": True, **kwargs})
+
+
+@functools.cache
+def _hints(cls) -> dict:
+    return typing.get_type_hints(cls)
+
+
+def _typed(tp, value):
+    """``value`` of a JSON document as the type ``tp`` of a record's field: records and enums
+    from their documents, tuples from lists, mappings by their values' type; numbers as they
+    are (an integer written stays one, so that a document reads and writes back the same)."""
+    if value is None:
+        return None
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        inner = [a for a in args if a is not type(None)]
+        return _typed(inner[0], value) if len(inner) == 1 else value
+    if origin is tuple:
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_typed(args[0], v) for v in value)
+        return tuple(_typed(a, v) for a, v in zip(args, value)) if args else tuple(value)
+    if origin is dict:
+        return {k: _typed(args[1], v) for k, v in value.items()}
+    if isinstance(tp, type) and issubclass(tp, Enum):
+        return tp(value)
+    if isinstance(tp, type) and issubclass(tp, _Row):
+        return tp.from_dict(value)
+    return value
+
+
 class _Row:
-    """Rows: typed fields plus ``extra``, further keys of the producer, written flat."""
+    """Records of ``results.json``: typed fields (written under their names, or the ``key`` of
+    their metadata) plus ``extra``, further keys of the producer, written flat after them."""
 
     def as_dict(self) -> dict:
-        out = {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "extra"}
+        out = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name != "extra" and not (value is None and f.metadata.get("omit")):
+                out[f.metadata.get("key", f.name)] = _plain(value)
         out.update({k: _plain(v) for k, v in self.extra})
         return out
 
     @classmethod
     def from_dict(cls, data: Mapping):
-        names = [f.name for f in dataclasses.fields(cls) if f.name != "extra"]
-        missing = [n for n in names if n not in data]
+        """The record of a document: each field read as its type; a field without a default
+        must be there."""
+        hints, values, missing, keys = _hints(cls), {}, [], set()
+        for f in dataclasses.fields(cls):
+            key = f.metadata.get("key", f.name)
+            keys.add(key)
+            if f.name == "extra":
+                continue
+            if key in data:
+                values[f.name] = _typed(hints[f.name], data[key])
+            elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                missing.append(key)
         if missing:
             raise ValueError(f"{cls.__name__} lacks {', '.join(missing)}")
-        extra = tuple((k, _plain(v)) for k, v in data.items() if k not in names)
-        return cls(**{n: data[n] for n in names}, extra=extra)
+        return cls(**values, extra=tuple((k, _plain(v)) for k, v in data.items() if k not in keys))
 
 
 @dataclass(frozen=True)
@@ -98,7 +156,9 @@ class ParameterRow(_Row):
 
 @dataclass(frozen=True)
 class FrequencyRow(_Row):
-    """One measured frequency (Hz) against the nominal and updated models."""
+    """One measured frequency (Hz) against the nominal and updated models: which model mode or
+    zero (``model_index``, the ``receptance`` of a zero), the measured interval and the datum's
+    ``name`` (`vibupdate.data.names.frequency_name`)."""
 
     configuration: str
     kind: str
@@ -108,6 +168,11 @@ class FrequencyRow(_Row):
     updated_hz: float | None
     error_nominal_pct: float | None
     error_updated_pct: float | None
+    model_index: int | None = None
+    receptance: str | None = None
+    measured_lower_hz: float | None = None
+    measured_upper_hz: float | None = None
+    name: str | None = None
     extra: tuple = ()
 
 
@@ -154,10 +219,176 @@ class Summary(_Row):
 
 
 @dataclass(frozen=True)
+class MacMatrix(_Row):
+    """MAC of the measured shapes (rows, interval midpoints on ``dofs``) with the updated
+    model's declared modes (columns): the MAC plot."""
+
+    dofs: tuple[str, ...]
+    values: tuple[tuple[float | None, ...], ...]
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class PlottedReceptance(_Row):
+    """The receptance of a configuration's FRF plot: ``response`` and ``excitation`` DOFs."""
+
+    response: str
+    excitation: str
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class CheckRow(_Row):
+    """One verification check as written (`vibupdate.inverse.verify.Check`)."""
+
+    name: str
+    passed: bool
+    severity: str
+    message: str
+    value: float | None = None
+    limit: float | None = None
+    limited_by: str | None = None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class StepRow(_Row):
+    """One solve of the homotopy (`vibupdate.inverse.homotopy.StepRecord`)."""
+
+    lam: float = field(metadata={"key": "lambda"})
+    objective: float | None
+    iterations: int
+    status: Status
+    seconds: float | None
+    cold: bool
+    accepted: bool
+    reused: bool = False
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class PolishRow(_Row):
+    """What the polish did (`vibupdate.inverse.polish.PolishResult`)."""
+
+    cost_start: float | None
+    cost: float | None
+    kept: bool
+    evaluations: int
+    message: str
+    seconds: float | None
+    rounds: int = 0
+    reduced_evaluations: int = 0
+    stopped_on: str | None = None
+    budget: int | None = None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class AttemptRow(_Row):
+    """One first-stage attempt (`vibupdate.inverse.update.Attempt`)."""
+
+    shape_margin: float
+    adjunct_margin: float
+    relaxation_lower_bound: float | None
+    objective: float | None
+    status: Status
+    active_bounds: tuple[str, ...] = ()
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class StartRow(_Row):
+    """One start of the search (`vibupdate.inverse.search.Start`)."""
+
+    start: str
+    purpose: str
+    status: str
+    failed: tuple[str, ...] = ()
+    cost: float | None = None
+    seconds: float | None = 0.0
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class SoughtRow(_Row):
+    """What the update sought (`vibupdate.inverse.search.Sought`): the search's settings, the
+    starts in order, whether uniqueness was searched and why."""
+
+    search: dict[str, int | float]
+    starts: tuple[StartRow, ...]
+    uniqueness_searched: bool
+    reason: str
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class MinimumChangeRow(_Row):
+    """The move along undetermined directions (`vibupdate.inverse.minimum_change.MinimumChange`)."""
+
+    applied: bool
+    kept: bool
+    rank: int
+    norm_start: float | None
+    norm: float | None
+    data_change: float | None
+    iterations: int
+    message: str
+    extra: tuple = ()
+
+
+@dataclass(frozen=True, kw_only=True)
+class AlternativeRow(_Row):
+    """Another verified answer (`vibupdate.inverse.search.Alternative`); ``xbar`` only in
+    ``solver.alternatives``."""
+
+    start: str
+    objective: float | None
+    xbar: tuple[float | None, ...] | None = _optional()
+    values: dict[str, float | None]
+    differs: tuple[str, ...]
+    extra: tuple = ()
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolverRecord(_Row):
+    """``solver`` of ``results.json``: the first stage's status and verdict, message, every
+    solve of the homotopy, objective, relaxation lower bound, seconds, checks, warnings, the
+    polish, the attempts, what was sought, the minimum change and other answers."""
+
+    status: Status
+    message: str
+    steps: tuple[StepRow, ...] = ()
+    objective: float | None = None
+    relaxation_lower_bound: float | None = None
+    seconds: float | None = None
+    verified: bool = False
+    checks: tuple[CheckRow, ...] = ()
+    warnings: tuple[str, ...] = ()
+    first_stage_xbar: tuple[float | None, ...] | None = None
+    polish: PolishRow | None = None
+    attempts: tuple[AttemptRow, ...] = ()
+    verdict: Verdict | None = None
+    sought: SoughtRow | None = None
+    minimum_change: MinimumChangeRow | None = None
+    alternatives: tuple[AlternativeRow, ...] = ()
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class LinearRange(_Row):
+    """One parameter's consistent range linearized at the answer, in its unit."""
+
+    lower: float | None
+    upper: float | None
+    width_pct: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
 class SampledRange(_Row):
     """One parameter over the verified samples of ``run --samples``, in its unit: ``min`` and
-    ``max`` over the answers and the line ends along null directions; the quantiles over the
-    answers (None without a verified sample)."""
+    ``max`` over the answers and the line ends along null directions; the quantiles, and
+    ``answers_min``, ``answers_max``, over the answers (None without a verified sample)."""
 
     unit: str
     min: float | None
@@ -165,11 +396,13 @@ class SampledRange(_Row):
     q05: float | None
     q50: float | None
     q95: float | None
+    answers_min: float | None = None
+    answers_max: float | None = None
     extra: tuple = ()
 
 
 @dataclass(frozen=True)
-class Sampled:
+class Sampled(_Row):
     """``identifiability.sampled``: the counts of the samples and each parameter's range."""
 
     samples: int
@@ -180,30 +413,230 @@ class Sampled:
     seed: int
     distribution: str
     ranges: dict[str, SampledRange]
-
-    @classmethod
-    def from_dict(cls, data: Mapping) -> Sampled:
-        return cls(int(data["samples"]), int(data["verified"]), int(data["unverified"]), int(data["failed"]),
-                   int(data["line_ends"]), int(data["seed"]), str(data["distribution"]),
-                   {n: SampledRange.from_dict(r) for n, r in data["ranges"].items()})
+    extra: tuple = ()
 
 
 @dataclass(frozen=True)
-class Multistart:
+class LocalMinimum(_Row):
+    """One distinct local minimum of the multistart: objective, starts that reached it, the
+    parameters' values in their units."""
+
+    objective: float | None
+    starts: int
+    values: dict[str, float | None]
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class Multistart(_Row):
     """``identifiability.multistart``: random starts of the point estimate grouped into
-    distinct local minima (``minima``: dicts with ``objective``, ``starts``, ``values`` per
-    parameter in its unit), best first."""
+    distinct local minima, best first."""
 
     starts: int
     failed: int
     distinct_minima: int
     x_tol: float
-    minima: tuple[dict, ...]
+    minima: tuple[LocalMinimum, ...]
+    seed: int | None = _optional()
+    extra: tuple = ()
 
-    @classmethod
-    def from_dict(cls, data: Mapping) -> Multistart:
-        return cls(int(data["starts"]), int(data["failed"]), int(data["distinct_minima"]), float(data["x_tol"]),
-                   tuple(dict(m) for m in data["minima"]))
+
+@dataclass(frozen=True)
+class CertifiedRange(_Row):
+    """One parameter's certified outer range over the consistent set, and the root box's."""
+
+    lower: float | None
+    upper: float | None
+    width_pct: float | None
+    certified: bool
+    root_lower: float | None = None
+    root_upper: float | None = None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class WidenedWindow(_Row):
+    """A datum whose window the certification widened to hold a reported answer."""
+
+    datum: str
+    beyond_pct: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class WidenedBox(_Row):
+    """A vector box the certification widened to hold a reported answer."""
+
+    vector: str
+    entries: int
+    bound_ratio: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class Inclusion(_Row):
+    """How the consistent set was widened to hold every answer the run reports."""
+
+    points: int
+    widened_by: tuple[str, ...]
+    windows: tuple[WidenedWindow, ...]
+    vector_boxes: tuple[WidenedBox, ...]
+    bounds_widened: int
+    extra: tuple = ()
+
+
+@dataclass(frozen=True, kw_only=True)
+class CertifiedRecord(_Row):
+    """``identifiability.certified`` (`vibupdate.ranges.certify.CertifiedRanges.record`)."""
+
+    definition: str
+    message: str
+    empty: bool | None = _optional()
+    seconds: float | None = _optional()
+    root_seconds: float | None = _optional()
+    passes: int | None = _optional()
+    splits: int | None = _optional()
+    leaves: int | None = _optional()
+    n_lps: int | None = _optional()
+    history: tuple[tuple[float | None, float | None], ...] | None = _optional()
+    included: Inclusion | None = None
+    uncovered: tuple[str, ...] | None = _optional()
+    ranges: dict[str, CertifiedRange]
+    extra: tuple = ()
+
+
+@dataclass(frozen=True, kw_only=True)
+class Identifiability(_Row):
+    """``identifiability``: what the data determine. The exact sensitivity at the answer
+    (``rank``, ``condition``, singular values, each parameter's column norm, undetermined
+    combinations), the minimum change and other answers in words; at a verified answer the
+    linearized ``ranges`` (else ``ranges_note``), and the sections of further studies
+    (``sampled``, ``multistart``, ``certified``) where they ran."""
+
+    rank: int
+    condition: float | None
+    singular_values: tuple[float | None, ...]
+    column_norm: dict[str, float | None]
+    undetermined_combinations: tuple[str, ...]
+    minimum_change: str | None
+    alternatives: tuple[AlternativeRow, ...]
+    ranges_note: str | None = _optional()
+    ranges: dict[str, LinearRange] | None = _optional()
+    frequency_tolerance: float | None = _optional()
+    frequency_windows: str | None = _optional()
+    sampled: Sampled | None = _optional()
+    multistart: Multistart | None = _optional()
+    certified: CertifiedRecord | None = _optional()
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class DampingModel(_Row):
+    """``damping_model``: the Caughey exponents and coefficients, the Rayleigh baseline's, the
+    fit's condition number and its weighting in words."""
+
+    exponents: tuple[float, ...]
+    beta: tuple[float | None, ...]
+    rayleigh_beta: tuple[float | None, ...]
+    condition: float | None
+    weights_text: str
+    extra: tuple = ()
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReferenceColumns(_Row):
+    """``paper``: reference columns of the report's tables (`vibupdate.report.table.with_reference`):
+    ``columns`` by table, column name and row key; ``errors`` by table, column name and the
+    two columns compared; ``notes`` by table."""
+
+    columns: dict[str, dict[str, dict[str, float | str | None]]] | None = _optional()
+    errors: dict[str, dict[str, tuple[str, str]]] | None = _optional()
+    notes: dict[str, tuple[str, ...]] | None = _optional()
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class MeshSensor(_Row):
+    """A measured point on an imported FE mesh: the DOF it reads (``"<node>:<dir>"``), its sign,
+    the distance to the node and the unit direction read (None for a rotation)."""
+
+    sensor: str
+    dof: str
+    sign: float
+    distance_m: float | None
+    direction: tuple[float, ...] | None = None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class DeclaredSensor(_Row):
+    """A sensor of the case file: its name and the weight of each DOF in its reading."""
+
+    sensor: str
+    weights: dict[str, float]
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class SetUpdate(_Row):
+    """The full update of one set of candidates (`vibupdate.ranges.candidates`)."""
+
+    status: Status
+    success: bool
+    message: str
+    values: dict[str, float | None]
+    units: dict[str, str]
+    natural_mean_pct: float | None
+    natural_max_pct: float | None
+    antiresonance_mean_pct: float | None
+    antiresonance_max_pct: float | None
+    failed: tuple[str, ...]
+    limited_by: str | None
+    range_pct: dict[str, float | None] | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class SetTrialRow(_Row):
+    """One set of candidates screened (`vibupdate.ranges.candidates.SetTrial`)."""
+
+    candidates: tuple[str, ...]
+    objective: float | None
+    passed: bool
+    failed: tuple[str, ...]
+    natural_mean_pct: float | None
+    natural_max_pct: float | None
+    antiresonance_mean_pct: float | None
+    antiresonance_max_pct: float | None
+    rank: int
+    free: int
+    condition: float | None
+    determined: bool
+    values: dict[str, float | None]
+    tied_with: tuple[tuple[str, ...], ...]
+    update: SetUpdate | None
+    seconds: float | None
+    extra: tuple = ()
+
+
+@dataclass(frozen=True)
+class SuggestionRecord(_Row):
+    """``suggestion``: the screening of candidates after a run that did not verify
+    (`vibupdate.ranges.candidates.Suggestion.record`)."""
+
+    own: tuple[str, ...]
+    candidates: tuple[str, ...]
+    nominal: dict[str, float | bool | tuple[str, ...] | None]
+    sizes: tuple[int, ...]
+    untried: int
+    seconds: float | None
+    untried_sets: tuple[tuple[str, ...], ...]
+    best: tuple[str, ...] | None
+    screened_best: tuple[str, ...] | None
+    message: str
+    trials: tuple[SetTrialRow, ...]
+    limits: dict[str, float]
+    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -222,11 +655,11 @@ class GroupTrialRow(_Row):
     share: float | None
     objective: float | None
     passed: bool
-    failed: tuple
+    failed: tuple[str, ...]
     mean_error_pct: float | None
     max_error_pct: float | None
     shape_misses: int
-    xbar: tuple
+    xbar: tuple[float | None, ...]
     seconds: float | None
     extra: tuple = ()
 
@@ -240,14 +673,14 @@ class DiagnosisBest(_Row):
 
     without: str
     without_label: str
-    status: str
+    status: Status
     success: bool
     message: str
-    values: dict
-    xbar: tuple
+    values: dict[str, float | None]
+    xbar: tuple[float | None, ...]
     mean_error_pct: float | None
     max_error_pct: float | None
-    checks: tuple
+    checks: tuple[CheckRow, ...]
     seconds: float | None
     extra: tuple = ()
 
@@ -259,7 +692,7 @@ class DiagnosisRecord(_Row):
     ``groups`` and of those ``untried`` (limits), the ``trials`` ranked (best fit without the
     group first), the ``best`` update without the top group, and ``seconds``."""
 
-    failed: tuple
+    failed: tuple[str, ...]
     objective: float | None
     mean_error_pct: float | None
     max_error_pct: float | None
@@ -268,29 +701,35 @@ class DiagnosisRecord(_Row):
     trials: tuple[GroupTrialRow, ...]
     best: DiagnosisBest | None
     seconds: float | None
-    limits: dict
-    untried_groups: tuple = ()
+    limits: dict[str, float]
+    untried_groups: tuple[str, ...] = ()
     extra: tuple = ()
-
-    def as_dict(self) -> dict:
-        out = super().as_dict()
-        out["trials"] = [t.as_dict() for t in self.trials]
-        out["best"] = None if self.best is None else self.best.as_dict()
-        return out
-
-    @classmethod
-    def from_dict(cls, data: Mapping) -> DiagnosisRecord:
-        plain = dict(data)
-        plain["trials"] = tuple(GroupTrialRow.from_dict(t) for t in data["trials"])
-        plain["best"] = None if data.get("best") is None else DiagnosisBest.from_dict(data["best"])
-        plain["failed"] = tuple(data["failed"])
-        plain["untried_groups"] = tuple(data.get("untried_groups", ()))
-        return super().from_dict(plain)
 
     @property
     def worst(self) -> GroupTrialRow | None:
         """The group whose removal leaves the best fit."""
         return self.trials[0] if self.trials else None
+
+
+@dataclass(frozen=True)
+class ConfigurationMatrices:
+    """Not written to JSON: one configuration's updated matrices (scipy sparse ``M``, ``K``),
+    the identified damping (a dense ``C`` on small models, its modal law ``damping_law`` on
+    large ones; None without damping data), the nominal ``(M0, K0, None)`` (the case has no
+    nominal damping model, so the nominal FRF is drawn undamped, never with the updated
+    ``C``) and, after a diagnosis, ``(M, K)`` of the update without the top group."""
+
+    M: sp.spmatrix
+    K: sp.spmatrix
+    nominal: tuple[sp.spmatrix, sp.spmatrix, None]
+    C: np.ndarray | None = None
+    damping_law: Callable | None = None
+    without_worst: tuple[sp.spmatrix, sp.spmatrix] | None = None
+
+    @property
+    def damping(self):
+        """``C`` or the modal damping law, whichever was identified (None without damping)."""
+        return self.C if self.C is not None else self.damping_law
 
 
 #: Top-level fields of `RunResult` that are not written to ``results.json``.
@@ -317,50 +756,44 @@ class RunResult:
     frequencies : tuple of FrequencyRow
     modal_masses : tuple of ModalMassRow
         The modal masses of mass-normalized measured shapes; empty without them.
-    mac : dict of str to list
+    mac : dict of str to tuple of float or None
         Per configuration, MAC of each measured mode shape with its paired updated mode
         (None where no shape was measured).
-    mac_matrix : dict of str to dict
-        Per configuration with measured shapes, ``{"values": (n_measured, n_model) MAC,
-        "dofs": measured DOF names}``: the MAC plot.
-    dofs : dict of str to list of str
+    mac_matrix : dict of str to MacMatrix
+        Per configuration with measured shapes: the MAC plot.
+    dofs : dict of str to tuple of str
         DOF names of each configuration's model, in matrix order.
-    frf : dict of str to dict
-        Per configuration, the receptance plotted: ``response``, ``excitation`` (DOF names).
+    frf : dict of str to PlottedReceptance
+        Per configuration, the receptance plotted.
     damping : tuple of DampingRow
     summary : Summary
-    problem_size : dict
-    solver : dict
-        Status, message, every solve of the homotopy (``steps``), objective, relaxation lower
-        bound, seconds.
-    identifiability : dict or None
-    damping_model : dict or None
+    problem_size : dict of str to int
+    solver : SolverRecord
+    identifiability : Identifiability or None
+    damping_model : DampingModel or None
     warnings : tuple of str
-    checks : tuple of dict
-        Verification checks of the first stage, as it reports them.
-    paper : dict or None
+    checks : tuple of CheckRow
+        Verification checks of the first stage.
+    paper : ReferenceColumns or None
         Reference columns of the tables (a bundled example's ``reference_columns()``:
         published values, a synthetic example's truth; `vibupdate.report.table.with_reference`).
-    sensors : tuple of dict
-        Measured points on an imported FE mesh (``[model] sensors``, `vibupdate import`):
-        ``sensor``, ``dof`` (``"<node>:<dir>"``), ``sign``, ``distance_m``, ``direction``;
+    sensors : tuple of MeshSensor
+        Measured points on an imported FE mesh (``[model] sensors``, `vibupdate import`);
         empty otherwise.
-    declared_sensors : tuple of dict
-        Sensors declared in the case file (``[[sensor]]``, a ``sensors`` CSV; ``docs/sensors.md``):
-        ``sensor`` (its name) and ``weights`` (DOF name to weight, the reading being
-        ``sum_d weight_d u_d``); empty otherwise.
+    declared_sensors : tuple of DeclaredSensor
+        Sensors declared in the case file (``[[sensor]]``, a ``sensors`` CSV; ``docs/sensors.md``);
+        empty otherwise.
     diagnosis : DiagnosisRecord or None
         Which data conflict with the model, when the answer did not fit them
         (`vibupdate.inverse.diagnosis`); None otherwise.
-    matrix_files : dict of str to dict
+    matrix_files : dict of str to dict of str to str
         Per configuration, the file of each matrix written (``M``, ``K``, ``C`` and, after a
         diagnosis, ``M_without_worst``, ``K_without_worst``): the names say when a model is
         not verified (`vibupdate.io.outputs.matrix_file`).
-    matrices : dict
-        Not written to JSON: per configuration ``{"M", "K", "C"}`` updated matrices (scipy
-        sparse; ``C`` absent without damping data) and ``"nominal"`` ``(M0, K0, None)``: the
-        case has no nominal damping model, so the nominal FRF is drawn undamped, never with
-        the updated ``C``. Empty after `load_results`; the ``.mtx`` files hold them.
+    suggestion : SuggestionRecord or None
+        Which candidates might be missing, after a run that did not verify.
+    matrices : dict of str to ConfigurationMatrices
+        Not written to JSON; empty after `load_results` (the ``.mtx`` files hold them).
     """
 
     version: str
@@ -370,81 +803,52 @@ class RunResult:
     parameters: tuple[ParameterRow, ...]
     xbar: tuple[float, ...]
     frequencies: tuple[FrequencyRow, ...]
-    mac: dict
-    mac_matrix: dict
-    dofs: dict
-    frf: dict
+    mac: dict[str, tuple[float | None, ...]]
+    mac_matrix: dict[str, MacMatrix]
+    dofs: dict[str, tuple[str, ...]]
+    frf: dict[str, PlottedReceptance]
     damping: tuple[DampingRow, ...]
     summary: Summary
-    problem_size: dict
-    solver: dict
-    identifiability: dict | None = None
-    damping_model: dict | None = None
+    problem_size: dict[str, int]
+    solver: SolverRecord
+    identifiability: Identifiability | None = None
+    damping_model: DampingModel | None = None
     warnings: tuple[str, ...] = ()
-    checks: tuple[dict, ...] = ()
-    paper: dict | None = None
-    sensors: tuple[dict, ...] = ()
-    declared_sensors: tuple[dict, ...] = ()
+    checks: tuple[CheckRow, ...] = ()
+    paper: ReferenceColumns | None = None
+    sensors: tuple[MeshSensor, ...] = ()
+    declared_sensors: tuple[DeclaredSensor, ...] = ()
     diagnosis: DiagnosisRecord | None = None
-    matrix_files: dict = field(default_factory=dict)
-    suggestion: dict | None = None
+    matrix_files: dict[str, dict[str, str]] = field(default_factory=dict)
+    suggestion: SuggestionRecord | None = None
     modal_masses: tuple[ModalMassRow, ...] = ()
-    matrices: dict = field(default_factory=dict, compare=False, repr=False)
+    matrices: dict[str, ConfigurationMatrices] = field(default_factory=dict, compare=False, repr=False)
 
     @property
-    def status(self) -> str:
-        """The first stage's status string (``solver["status"]``)."""
-        return str(self.solver.get("status", ""))
+    def status(self) -> Status:
+        """The first stage's status (``solver.status``)."""
+        return self.solver.status
 
     @property
     def sampled(self) -> Sampled | None:
-        """The sampled ranges (``run --samples``), typed; None when not computed."""
-        data = (self.identifiability or {}).get("sampled")
-        return Sampled.from_dict(data) if data else None
+        """The sampled ranges (``run --samples``); None when not computed."""
+        return self.identifiability.sampled if self.identifiability is not None else None
 
     @property
     def multistart(self) -> Multistart | None:
-        """The multistart of the point estimate, typed; None when not run."""
-        data = (self.identifiability or {}).get("multistart")
-        return Multistart.from_dict(data) if data else None
+        """The multistart of the point estimate; None when not run."""
+        return self.identifiability.multistart if self.identifiability is not None else None
 
     def as_document(self) -> dict:
         """The ``results.json`` document (JSON-safe)."""
-        doc = {}
-        for f in dataclasses.fields(self):
-            if f.name in _NOT_WRITTEN:
-                continue
-            value = getattr(self, f.name)
-            if isinstance(value, _Row):
-                value = value.as_dict()
-            elif isinstance(value, tuple) and value and isinstance(value[0], _Row):
-                value = [row.as_dict() for row in value]
-            doc[f.name] = _plain(value)
-        return doc
+        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name not in _NOT_WRITTEN}
 
     @classmethod
     def from_document(cls, doc: Mapping) -> RunResult:
         """The typed object of a ``results.json`` document (`validate_document` first)."""
-        return cls(
-            version=str(doc["version"]), format_version=int(doc["format_version"]), case=doc["case"],
-            success=bool(doc["success"]),
-            parameters=tuple(ParameterRow.from_dict(p) for p in doc["parameters"]),
-            xbar=tuple(doc["xbar"]),
-            frequencies=tuple(FrequencyRow.from_dict(r) for r in doc["frequencies"]),
-            mac=dict(doc["mac"]), mac_matrix=dict(doc["mac_matrix"]), dofs=dict(doc["dofs"]), frf=dict(doc["frf"]),
-            damping=tuple(DampingRow.from_dict(d) for d in doc["damping"]),
-            summary=Summary.from_dict(doc["summary"]),
-            problem_size=dict(doc["problem_size"]), solver=dict(doc["solver"]),
-            identifiability=doc.get("identifiability"), damping_model=doc.get("damping_model"),
-            warnings=tuple(doc.get("warnings", ())), checks=tuple(doc.get("checks", ())), paper=doc.get("paper"),
-            sensors=tuple(dict(s) for s in doc.get("sensors", ())),
-            declared_sensors=tuple({"sensor": s["sensor"], "weights": dict(s["weights"])}
-                                   for s in doc.get("declared_sensors", ())),
-            diagnosis=DiagnosisRecord.from_dict(doc["diagnosis"]) if doc.get("diagnosis") else None,
-            matrix_files={k: dict(v) for k, v in doc.get("matrix_files", {}).items()},
-            suggestion=doc.get("suggestion"),
-            modal_masses=tuple(ModalMassRow.from_dict(r) for r in doc.get("modal_masses", ())),
-        )
+        hints = _hints(cls)
+        return cls(**{f.name: _typed(hints[f.name], doc[f.name]) for f in dataclasses.fields(cls)
+                      if f.name not in _NOT_WRITTEN and f.name in doc})
 
 
 def _mean(values) -> float | None:
@@ -452,62 +856,79 @@ def _mean(values) -> float | None:
     return float(np.mean(values)) if values else None
 
 
-def _check_dict(check) -> dict:
-    """A verification check as a plain dict, whatever form the first stage gives it."""
-    if isinstance(check, Mapping):
-        return _plain(dict(check))
-    if hasattr(check, "as_dict"):
-        return _plain(check.as_dict())
-    if dataclasses.is_dataclass(check):
-        return _plain(dataclasses.asdict(check))
-    return {"text": str(check)}
-
-
-def _declared_sensors(configurations) -> tuple[dict, ...]:
+def _declared_sensors(configurations) -> tuple[DeclaredSensor, ...]:
     """The sensors of the configurations' models (each model carries the case's ``[[sensor]]``
-    declarations), once each, in their order: ``{"sensor": name, "weights": {dof: weight}}``."""
+    declarations), once each, in their order."""
     seen = {}
     for cfg in configurations:
         for s in getattr(cfg.model, "sensors", ()):
-            seen.setdefault(s.name, {"sensor": s.name, "weights": {d: float(w) for d, w in s.weights}})
+            seen.setdefault(s.name, DeclaredSensor(s.name, {d: float(w) for d, w in s.weights}))
     return tuple(seen.values())
 
 
-def _receptance_dofs(cfg, M) -> tuple[str, str]:
+def _receptance_dofs(cfg, M) -> PlottedReceptance:
     receptances = cfg.receptances()
     if receptances:
-        return receptances[0][0], receptances[0][1]
-    dof = int(np.argmax(np.abs(M.diagonal())))
-    return cfg.model.dofs[dof], cfg.model.dofs[dof]
+        return PlottedReceptance(receptances[0][0], receptances[0][1])
+    dof = cfg.model.dofs[int(np.argmax(np.abs(M.diagonal())))]
+    return PlottedReceptance(dof, dof)
 
 
-def _matrices(cfg, updated, stage, modal) -> dict:
-    """The ``matrices`` entry of one configuration: updated ``M``, ``K``, the nominal model
+def _matrices(cfg, updated, stage, modal) -> ConfigurationMatrices:
+    """One configuration's matrices: updated ``M``, ``K``, the nominal model
     undamped, and the identified damping (a dense ``C`` on small models, its modal law on
     large ones) built from the updated spectrum ``modal.spectrum`` when there is one."""
     from vibupdate.damping import caughey_damping
 
     M, K = updated
     M0, K0 = cfg.model.matrices()
-    entry = {"M": M, "K": K, "nominal": (M0, K0, None)}
+    damping = None
     if stage is not None:
-        model_c = caughey_damping(M, K, stage.caughey.exponents, stage.caughey.beta,
+        damping = caughey_damping(M, K, stage.caughey.exponents, stage.caughey.beta,
                                   max((f.mode for f in cfg.natural), default=1),
                                   spectrum=modal.spectrum if modal is not None else None)
-        entry["C" if isinstance(model_c, np.ndarray) else "damping_law"] = model_c
-    return entry
+    dense = isinstance(damping, np.ndarray)
+    return ConfigurationMatrices(M, K, (M0, K0, None), C=damping if dense else None,
+                                 damping_law=None if dense else damping)
 
 
-def _mac_matrix(cfg, Phi: np.ndarray) -> dict:
+def _mac_matrix(cfg, Phi: np.ndarray) -> MacMatrix:
     """MAC of the measured shapes (interval midpoints, rows) with the updated model's declared
-    modes ``Phi`` (shape (n, n_p), columns); ``{"dofs", "values"}``."""
+    modes ``Phi`` (shape (n, n_p), columns)."""
     from vibupdate.modal.analysis import mac
 
     measured = [f for f in cfg.natural if f.shape is not None]
     order = {d: i for i, d in enumerate((*cfg.model.dofs, *(s.name for s in cfg.model.sensors)))}
     names = sorted({d for f in measured for d in f.shape.bounds}, key=order.__getitem__)
     X = np.array([[f.shape.midpoint.get(d, 0.0) for d in names] for f in measured]).T
-    return {"dofs": names, "values": mac(X, cfg.model.measurement(names) @ Phi)}
+    return MacMatrix.from_dict(_plain({"dofs": names, "values": mac(X, cfg.model.measurement(names) @ Phi)}))
+
+
+def frequencies_of(correlation) -> tuple[FrequencyRow, ...]:
+    """The ``frequencies`` table (Hz) of an answer's `vibupdate.inverse.correlation.Correlation`."""
+    from vibupdate.inverse.correlation import frequency_rows
+
+    c = correlation
+    return tuple(FrequencyRow.from_dict(_plain(row)) for row in frequency_rows(c.configurations, c.nominal, c.updated))
+
+
+def modal_masses_of(correlation) -> tuple[ModalMassRow, ...]:
+    """The ``modal_masses`` table (kg) of an answer's correlation; empty without mass-normalized
+    shapes."""
+    from vibupdate.inverse.correlation import modal_mass_rows
+
+    c = correlation
+    return tuple(ModalMassRow.from_dict(_plain(row))
+                 for row in modal_mass_rows(c.configurations, c.nominal, c.updated, c.xbar))
+
+
+def macs_of(correlation) -> dict[str, np.ndarray]:
+    """Per configuration, the MAC of each measured shape with its paired updated mode (NaN
+    where no shape was measured)."""
+    from vibupdate.inverse.correlation import shape_mac
+    from vibupdate.inverse.repeated import paired_modes
+
+    return {c.name: shape_mac(c, paired_modes(c, f)) for c, f in zip(correlation.configurations, correlation.updated)}
 
 
 def run_result(case, result, stage=None, *, identifiability: dict | None = None,
@@ -520,13 +941,13 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
     case : Case
         The case (its configurations give the nominal models and measured data).
     result : UpdateResult
-        First stage. Its ``frequencies`` rows, ``mac`` and updated modal data (``modal``: the
-        modes of the MAC matrix, the spectrum of the Caughey ``C``) are used as they are: no
-        modal analysis is repeated here; ``checks`` and ``warnings`` when it has them.
+        First stage. Its correlation (the nominal and updated modal data: the modes of the
+        MAC, the spectrum of the Caughey ``C``) gives the tables as it is: no modal analysis
+        is repeated here.
     stage : DampingStage, optional
         Second stage; without it no ``C`` and no damping rows.
     identifiability, damping_model : dict, optional
-        Sections computed by the pipeline.
+        Sections computed by the pipeline, read into `Identifiability` and `DampingModel`.
     warnings : sequence of str
         Warnings of the run besides those of ``result``.
     paper : dict, optional
@@ -548,46 +969,45 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         ParameterRow(name=p.name, unit=p.unit, nominal=float(p.nominal), lower=float(p.lower), upper=float(p.upper),
                      reference=float(p.reference), updated=_num(values[i]), xbar=_num(xbar[i]))
         for i, p in enumerate(model.parameters))
-    frequencies = tuple(FrequencyRow.from_dict(_plain(row)) for row in result.frequencies)
+    frequencies = frequencies_of(result.correlation)
     damping = tuple(DampingRow.from_dict(_plain(row)) for row in (stage.rows() if stage else ()))
     summary = Summary(
         mean_error_nominal_pct=_mean(r.error_nominal_pct for r in frequencies),
         mean_error_updated_pct=_mean(r.error_updated_pct for r in frequencies),
         mean_damping_error_pct=_num(stage.caughey.mean_error_pct) if stage else None,
         mean_damping_error_rayleigh_pct=_num(stage.rayleigh.mean_error_pct) if stage else None)
-    matrices, mac_matrix, frf, dofs = {}, {}, {}, {}
-    for cfg in configurations:
-        modal = result.modal.get(cfg.name)   # the updated modes: never solved again here
-        matrices[cfg.name] = _matrices(cfg, result.matrices[cfg.name], stage, modal)
-        dofs[cfg.name] = list(cfg.model.dofs)
-        response, excitation = _receptance_dofs(cfg, matrices[cfg.name]["M"])
-        frf[cfg.name] = {"response": response, "excitation": excitation}
+    matrices, mac_matrix, frf = {}, {}, {}
+    best = diagnosis.best if diagnosis is not None else None
+    updated = result.matrices
+    for cfg, modal in zip(configurations, result.correlation.updated):   # the updated modes: never solved again
+        matrices[cfg.name] = _matrices(cfg, updated[cfg.name], stage, modal)
+        if best is not None:   # every configuration: the parameters are shared, whatever data were left out
+            matrices[cfg.name] = replace(matrices[cfg.name], without_worst=tuple(
+                sp.csr_matrix(A) for A in cfg.model.matrices(best.xbar)))
+        frf[cfg.name] = _receptance_dofs(cfg, matrices[cfg.name].M)
         if any(f.shape is not None for f in cfg.natural):
             mac_matrix[cfg.name] = _mac_matrix(cfg, modal.Phi)
-    best = diagnosis.best if diagnosis is not None else None
-    if best is not None:   # every configuration: the parameters are shared, whatever data were left out
-        for cfg in configurations:
-            matrices[cfg.name]["without_worst"] = tuple(sp.csr_matrix(A) for A in cfg.model.matrices(best.xbar))
-    run_warnings = tuple(str(w) for w in getattr(result, "warnings", ())) + tuple(str(w) for w in warnings)
+    section = (lambda cls, data: cls.from_dict(_plain(data)) if data else None)
     return RunResult(
         version=__version__, format_version=FORMAT_VERSION, case=case.name, success=bool(result.success),
         parameters=parameters, xbar=tuple(float(v) for v in xbar), frequencies=frequencies,
-        mac={name: _plain(np.asarray(v, dtype=float)) for name, v in result.mac.items()},
-        mac_matrix=_plain(mac_matrix), dofs=dofs, frf=frf, damping=damping, summary=summary,
-        problem_size=_plain(dict(result.problem_size)), solver=_plain(result.solver_record()),
-        identifiability=_plain(identifiability) if identifiability else None,
-        damping_model=_plain(damping_model) if damping_model else None,
-        warnings=run_warnings, checks=tuple(_check_dict(c) for c in getattr(result, "checks", ())),
-        paper=_plain(paper) if paper else None, sensors=tuple(dict(s) for s in getattr(case, "sensors", ())),
+        mac={name: tuple(_plain(v)) for name, v in macs_of(result.correlation).items()},
+        mac_matrix=mac_matrix, dofs={c.name: tuple(c.model.dofs) for c in configurations}, frf=frf,
+        damping=damping, summary=summary, problem_size=_plain(dict(result.problem_size)),
+        solver=SolverRecord.from_dict(_plain(result.solver_record())),
+        identifiability=section(Identifiability, identifiability), damping_model=section(DampingModel, damping_model),
+        warnings=tuple(str(w) for w in (*result.warnings, *warnings)),
+        checks=tuple(CheckRow.from_dict(_plain(c)) for c in result.checks),
+        paper=section(ReferenceColumns, paper),
+        sensors=tuple(MeshSensor.from_dict(_plain(s)) for s in getattr(case, "sensors", ())),
         declared_sensors=_declared_sensors(configurations),
-        diagnosis=DiagnosisRecord.from_dict(_plain(diagnosis.record())) if diagnosis is not None else None,
+        diagnosis=section(DiagnosisRecord, diagnosis.record() if diagnosis is not None else None),
         matrix_files=_matrix_files(configurations, matrices, bool(result.success), best),
-        suggestion=_plain(suggestion) if suggestion else None,
-        modal_masses=tuple(ModalMassRow.from_dict(_plain(row)) for row in getattr(result, "modal_masses", ())),
+        suggestion=section(SuggestionRecord, suggestion), modal_masses=modal_masses_of(result.correlation),
         matrices=matrices)
 
 
-def _matrix_files(configurations, matrices: dict, verified: bool, best) -> dict:
+def _matrix_files(configurations, matrices: dict, verified: bool, best) -> dict[str, dict[str, str]]:
     """Per configuration, the file of each matrix written (`vibupdate.io.outputs.matrix_file`):
     a model that is not verified is written under a name that says so."""
     from vibupdate.io.outputs import file_names, matrix_file
@@ -596,8 +1016,9 @@ def _matrix_files(configurations, matrices: dict, verified: bool, best) -> dict:
     files = {}
     for cfg in configurations:
         entry = matrices[cfg.name]
-        names = {m: matrix_file(m, parts[cfg.name], verified=verified) for m in ("M", "K", "C") if m in entry}
-        if "without_worst" in entry:
+        names = {m: matrix_file(m, parts[cfg.name], verified=verified) for m in ("M", "K", "C")
+                 if getattr(entry, m) is not None}
+        if entry.without_worst is not None:
             names.update({f"{m}_without_worst": matrix_file(m, parts[cfg.name], verified=bool(best.success),
                                                              variant="without_worst") for m in ("M", "K")})
         files[cfg.name] = names
