@@ -107,9 +107,12 @@ def _typed(tp, value):
     return value
 
 
+@dataclass(frozen=True, kw_only=True)
 class _Row:
     """Records of ``results.json``: typed fields (written under their names, or the ``key`` of
     their metadata) plus ``extra``, further keys of the producer, written flat after them."""
+
+    extra: tuple = ()
 
     def as_dict(self) -> dict:
         out = {}
@@ -151,7 +154,6 @@ class ParameterRow(_Row):
     reference: float
     updated: float | None
     xbar: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -173,7 +175,6 @@ class FrequencyRow(_Row):
     measured_lower_hz: float | None = None
     measured_upper_hz: float | None = None
     name: str | None = None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -190,7 +191,6 @@ class ModalMassRow(_Row):
     updated_kg: float | None
     error_nominal_pct: float | None
     error_updated_pct: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -204,7 +204,6 @@ class DampingRow(_Row):
     error_pct: float | None
     rayleigh: float | None
     error_rayleigh_pct: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -215,7 +214,6 @@ class Summary(_Row):
     mean_error_updated_pct: float | None
     mean_damping_error_pct: float | None
     mean_damping_error_rayleigh_pct: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -225,7 +223,6 @@ class MacMatrix(_Row):
 
     dofs: tuple[str, ...]
     values: tuple[tuple[float | None, ...], ...]
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -234,7 +231,6 @@ class PlottedReceptance(_Row):
 
     response: str
     excitation: str
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -248,7 +244,6 @@ class CheckRow(_Row):
     value: float | None = None
     limit: float | None = None
     limited_by: str | None = None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -263,7 +258,6 @@ class StepRow(_Row):
     cold: bool
     accepted: bool
     reused: bool = False
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -280,7 +274,6 @@ class PolishRow(_Row):
     reduced_evaluations: int = 0
     stopped_on: str | None = None
     budget: int | None = None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -293,7 +286,6 @@ class AttemptRow(_Row):
     objective: float | None
     status: Status
     active_bounds: tuple[str, ...] = ()
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -306,7 +298,6 @@ class StartRow(_Row):
     failed: tuple[str, ...] = ()
     cost: float | None = None
     seconds: float | None = 0.0
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -318,7 +309,6 @@ class SoughtRow(_Row):
     starts: tuple[StartRow, ...]
     uniqueness_searched: bool
     reason: str
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -333,7 +323,6 @@ class MinimumChangeRow(_Row):
     data_change: float | None
     iterations: int
     message: str
-    extra: tuple = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -346,7 +335,6 @@ class AlternativeRow(_Row):
     xbar: tuple[float | None, ...] | None = _optional()
     values: dict[str, float | None]
     differs: tuple[str, ...]
-    extra: tuple = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -371,7 +359,6 @@ class SolverRecord(_Row):
     sought: SoughtRow | None = None
     minimum_change: MinimumChangeRow | None = None
     alternatives: tuple[AlternativeRow, ...] = ()
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -381,7 +368,6 @@ class LinearRange(_Row):
     lower: float | None
     upper: float | None
     width_pct: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -398,7 +384,6 @@ class SampledRange(_Row):
     q95: float | None
     answers_min: float | None = None
     answers_max: float | None = None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -413,7 +398,6 @@ class Sampled(_Row):
     seed: int
     distribution: str
     ranges: dict[str, SampledRange]
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -424,7 +408,6 @@ class LocalMinimum(_Row):
     objective: float | None
     starts: int
     values: dict[str, float | None]
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -438,7 +421,6 @@ class Multistart(_Row):
     x_tol: float
     minima: tuple[LocalMinimum, ...]
     seed: int | None = _optional()
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -451,7 +433,6 @@ class CertifiedRange(_Row):
     certified: bool
     root_lower: float | None = None
     root_upper: float | None = None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -460,7 +441,6 @@ class WidenedWindow(_Row):
 
     datum: str
     beyond_pct: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -470,7 +450,6 @@ class WidenedBox(_Row):
     vector: str
     entries: int
     bound_ratio: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -482,7 +461,6 @@ class Inclusion(_Row):
     windows: tuple[WidenedWindow, ...]
     vector_boxes: tuple[WidenedBox, ...]
     bounds_widened: int
-    extra: tuple = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -502,7 +480,6 @@ class CertifiedRecord(_Row):
     included: Inclusion | None = None
     uncovered: tuple[str, ...] | None = _optional()
     ranges: dict[str, CertifiedRange]
-    extra: tuple = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -527,7 +504,6 @@ class Identifiability(_Row):
     sampled: Sampled | None = _optional()
     multistart: Multistart | None = _optional()
     certified: CertifiedRecord | None = _optional()
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -540,7 +516,6 @@ class DampingModel(_Row):
     rayleigh_beta: tuple[float | None, ...]
     condition: float | None
     weights_text: str
-    extra: tuple = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -552,7 +527,6 @@ class ReferenceColumns(_Row):
     columns: dict[str, dict[str, dict[str, float | str | None]]] | None = _optional()
     errors: dict[str, dict[str, tuple[str, str]]] | None = _optional()
     notes: dict[str, tuple[str, ...]] | None = _optional()
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -565,7 +539,6 @@ class MeshSensor(_Row):
     sign: float
     distance_m: float | None
     direction: tuple[float, ...] | None = None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -574,7 +547,6 @@ class DeclaredSensor(_Row):
 
     sensor: str
     weights: dict[str, float]
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -593,7 +565,6 @@ class SetUpdate(_Row):
     failed: tuple[str, ...]
     limited_by: str | None
     range_pct: dict[str, float | None] | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -616,7 +587,6 @@ class SetTrialRow(_Row):
     tied_with: tuple[tuple[str, ...], ...]
     update: SetUpdate | None
     seconds: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -636,7 +606,6 @@ class SuggestionRecord(_Row):
     message: str
     trials: tuple[SetTrialRow, ...]
     limits: dict[str, float]
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -661,7 +630,6 @@ class GroupTrialRow(_Row):
     shape_misses: int
     xbar: tuple[float | None, ...]
     seconds: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -682,7 +650,6 @@ class DiagnosisBest(_Row):
     max_error_pct: float | None
     checks: tuple[CheckRow, ...]
     seconds: float | None
-    extra: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -703,7 +670,6 @@ class DiagnosisRecord(_Row):
     seconds: float | None
     limits: dict[str, float]
     untried_groups: tuple[str, ...] = ()
-    extra: tuple = ()
 
     @property
     def worst(self) -> GroupTrialRow | None:
