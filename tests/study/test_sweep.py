@@ -506,11 +506,12 @@ def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run
 
 
 def test_disagreements_between_sampled_and_linearized_ranges():
+    from vibupdate.io.results import LinearRange, SampledRange
     from vibupdate.report.document import sampled_disagreements
 
-    sampled = {"a": {"min": 1.0, "max": 1.0}, "b": {"min": 0.5, "max": 2.5}, "c": {"min": 1.0, "max": 1.1},
-               "d": {"min": 1.0, "max": 2.0}, "e": {"min": None, "max": None}}
-    linearized = {n: {"lower": lo, "upper": hi} for n, lo, hi in
+    sampled = {n: SampledRange("", lo, hi, None, None, None) for n, lo, hi in
+               [("a", 1.0, 1.0), ("b", 0.5, 2.5), ("c", 1.0, 1.1), ("d", 1.0, 2.0), ("e", None, None)]}
+    linearized = {n: LinearRange(lo, hi, None) for n, lo, hi in
                   [("a", 0.9, 1.2), ("b", 1.0, 2.0), ("c", 0.0, 3.0), ("d", 0.8, 2.5), ("e", 0.0, 1.0)]}
     notes = sampled_disagreements(sampled, linearized)
     assert len(notes) == 3     # d agrees (inside, 1.7x), e has no verified sample

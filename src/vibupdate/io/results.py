@@ -385,6 +385,16 @@ class SampledRange(_Row):
     answers_min: float | None = None
     answers_max: float | None = None
 
+    @property
+    def lower(self) -> float | None:
+        """``min``, read as the lower end of a range."""
+        return self.min
+
+    @property
+    def upper(self) -> float | None:
+        """``max``, read as the upper end of a range."""
+        return self.max
+
 
 @dataclass(frozen=True)
 class Sampled(_Row):

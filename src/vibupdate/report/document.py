@@ -28,12 +28,6 @@ def _run(results) -> RunResult:
     return results if isinstance(results, RunResult) else RunResult.from_document(results)
 
 
-def _document(record) -> dict:
-    """A section's document (``{}`` without it), for the views that read ``suggestion.json``
-    and the sections of a sweep as well (`vibupdate.report.ranges_text`, `run_section_markdown`)."""
-    return record.as_dict() if record is not None else {}
-
-
 def _weak(norms: dict) -> list[str]:
     """Parameters whose sensitivity column norm is below 1 % of the largest finite one
     (a norm that is not finite is neither weak nor the largest)."""
@@ -242,7 +236,7 @@ def tables(results) -> dict[str, Table]:
     solver = run.solver
     built = {"summary": summary_table(run), "checks": checks_table(solver) if solver.checks else None,
              "trials": trials_table(run), "best": best_table(run), "parameters": parameter_table(run),
-             "ranges": ranges_table(_document(run.identifiability), [p.name for p in run.parameters]),
+             "ranges": ranges_table(run.identifiability, [p.name for p in run.parameters]),
              "frequencies": frequency_table(run), "modal_masses": modal_mass_table(run), "sensors": sensors_table(run),
              "declared_sensors": declared_sensors_table(run), "damping": damping_table(run),
              "steps": steps_table(solver)}
@@ -379,9 +373,10 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
         out += [f"Starts tried: {len(sought.starts)}; uniqueness "
                 + ("searched" if sought.uniqueness_searched else "not searched") + f" ({sought.reason}).", ""]
     out += markdown(shown["summary"]) + verification_markdown(solver) + matrix_files_markdown(run)
-    out += diagnosis_markdown(run) + run_section_markdown({"suggestion": _document(run.suggestion)})
+    out += diagnosis_markdown(run) + run_section_markdown(
+        {"suggestion": run.suggestion.as_dict() if run.suggestion else None})   # read as suggestion.json is
     out += section("Parameters", "parameters")
-    out += (markdown(shown["ranges"]) if "ranges" in shown else []) + ranges_markdown(_document(run.identifiability))
+    out += (markdown(shown["ranges"]) if "ranges" in shown else []) + ranges_markdown(run.identifiability)
     out += _identifiability_markdown(run.identifiability, {p.name: p.unit for p in run.parameters})
     out += section("Frequencies", "frequencies") + section("Modal masses", "modal_masses")
     if "sensors" in shown:
