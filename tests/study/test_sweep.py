@@ -506,7 +506,7 @@ def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run
 
 
 def test_disagreements_between_sampled_and_linearized_ranges():
-    from vibupdate.io.results import LinearRange, SampledRange
+    from vibupdate.io.records import LinearRange, SampledRange
     from vibupdate.report.document import sampled_disagreements
 
     sampled = {n: SampledRange("", lo, hi, None, None, None) for n, lo, hi in

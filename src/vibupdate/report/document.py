@@ -8,7 +8,8 @@ infinite, huge) can stop a table or the report."""
 from __future__ import annotations
 
 from vibupdate.data.names import frequency_name, mode_name
-from vibupdate.io.results import Identifiability, RunResult, SolverRecord
+from vibupdate.io.records import Identifiability, SolverRecord
+from vibupdate.io.results import RunResult
 from vibupdate.report.suggestion import run_section_markdown
 from vibupdate.report.numbers import finite, fmt
 from vibupdate.report.ranges_text import ranges_markdown, ranges_table, sampled_disagreements
