@@ -410,3 +410,32 @@ def test_a_backend_exception_becomes_a_status(monkeypatch):
     result = update([cfg], solver=SolverOptions(relaxation_solver="nlp"), polish=PolishOptions(enabled=False))
     assert result.status == Status.NUMERICAL_ERROR
     assert not result.success and result.relaxation_lower_bound is None
+
+
+def test_the_correlation_gives_the_frequency_table_s_errors_in_its_order():
+    """`Correlation.errors` (the frequency errors of the diagnosis, the screening of candidates
+    and `UpdateResult.mean_error`): the per-cent error of each declared frequency in the order
+    of the frequency table (a configuration's modes, then its zeros), a zero the model lacks
+    (NaN) left out unless asked for, of one kind or of the nominal model when asked."""
+    from types import SimpleNamespace
+
+    from vibupdate.inverse.correlation import Correlation
+
+    def datum(w):
+        return SimpleNamespace(omega=w)
+
+    cfgs = (SimpleNamespace(natural=(datum(10.0), datum(20.0)), antiresonances=(datum(15.0),)),
+            SimpleNamespace(natural=(datum(30.0),), antiresonances=(datum(40.0),)))
+    updated = (SimpleNamespace(natural=np.array([11.0, 19.0]), antiresonances=np.array([np.nan])),
+               SimpleNamespace(natural=np.array([33.0]), antiresonances=np.array([38.0])))
+    nominal = (SimpleNamespace(natural=np.array([10.0, 22.0]), antiresonances=np.array([15.0])),
+               SimpleNamespace(natural=np.array([30.0]), antiresonances=np.array([40.0])))
+    c = Correlation(cfgs, np.zeros(1), nominal, updated)
+    np.testing.assert_allclose(c.errors(), [10.0, 5.0, 10.0, 5.0])
+    every = c.errors(finite=False)
+    assert every.size == 5 and np.isnan(every[2])
+    np.testing.assert_allclose(c.errors("natural"), [10.0, 5.0, 10.0])
+    np.testing.assert_allclose(c.errors("antiresonance"), [5.0])
+    np.testing.assert_allclose(c.errors(which="nominal"), [0.0, 10.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="'updated' or 'nominal', got 'both'"):
+        c.errors(which="both")
