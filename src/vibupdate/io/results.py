@@ -7,7 +7,8 @@ tables, the plots and the matrix files are all written from it. `load_results` r
 (``results.schema.json``, `schema`) describes the file.
 
 Contract of the file: keys may be added, never renamed. Every key is a field of the typed
-object (rows carry any further keys of their producers in ``extra``, written flat).
+object, each section a record of `vibupdate.io.records` (a record carries any further keys of
+its producer in ``extra``, written flat), read back as its type.
 Frequencies are in Hz, percentages are absolute relative errors times 100 (Eqs. 26-27),
 ``index`` and ``mode`` are 1-based within their kind and configuration; non-finite numbers
 are written as ``null``.
