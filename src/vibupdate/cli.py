@@ -314,13 +314,14 @@ def _finished(run, out) -> int:
 
 
 def _suggest(args, case) -> int:
+    from vibupdate.io.records import SuggestionRecord
     from vibupdate.report.suggestion import suggestion_text
     from vibupdate.study.suggest import suggest_case
 
     found = suggest_case(case, args.out, max_size=args.max_size, checked=args.checked, force=args.force,
                          progress=_say)
     print()
-    print(suggestion_text(found.record()))
+    print(suggestion_text(SuggestionRecord.from_dict(found.record())))
     return EXIT["success"] if found.best is not None else EXIT["not_verified"]
 
 

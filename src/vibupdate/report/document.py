@@ -374,8 +374,7 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
         out += [f"Starts tried: {len(sought.starts)}; uniqueness "
                 + ("searched" if sought.uniqueness_searched else "not searched") + f" ({sought.reason}).", ""]
     out += markdown(shown["summary"]) + verification_markdown(solver) + matrix_files_markdown(run)
-    out += diagnosis_markdown(run) + run_section_markdown(
-        {"suggestion": run.suggestion.as_dict() if run.suggestion else None})   # read as suggestion.json is
+    out += diagnosis_markdown(run) + run_section_markdown(run.suggestion)
     out += section("Parameters", "parameters")
     out += (markdown(shown["ranges"]) if "ranges" in shown else []) + ranges_markdown(run.identifiability)
     out += _identifiability_markdown(run.identifiability, {p.name: p.unit for p in run.parameters})
