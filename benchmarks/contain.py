@@ -64,8 +64,8 @@ def measure(example: str, samples: int, seconds: float, seed: int, tolerance: fl
     sections, _, answers = SampledRanges(samples, starts=0, seed=seed, workers=1)(case, result, lambda m: None)
     print(f"\n## {example}: update ({result.status.value}) and {samples} samples in {time.perf_counter() - t0:.1f} s; "
           f"{len(answers)} reported answers besides the run's (verified samples and line ends)")
-    last = result.attempts[-1] if result.attempts else {}   # the vector boxes the first stage ended with
-    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    last = result.attempts[-1] if result.attempts else None   # the vector boxes the first stage ended with
+    boxes = replace(case.formulation, **{k: getattr(last, k) for k in ("shape_margin", "adjunct_margin") if last is not None})
     xbar = np.asarray(result.xbar)
     found = {}
     for label, include in (("answer only", ()), ("every answer", answers)):

@@ -39,13 +39,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp, counting_solves(STAGES) as solves:
         run = run_example(args.example, os.path.join(tmp, "out"))
     log = [(s.kind, s.key, s.pair, s.stage) for s in solves]
-    updated = {matrices_key(m["M"], m["K"]): name for name, m in run.matrices.items()}
+    updated = {matrices_key(m.M, m.K): name for name, m in run.matrices.items()}
     seen, repeats = set(), Counter()
     for kind, key, pair, stage in log:
         if (kind, key, pair) in seen:
             repeats[stage] += 1
         seen.add((kind, key, pair))
-    print(f"example {args.example}: {run.status}, {len(run.matrices)} configuration(s)")
+    print(f"example {args.example}: {run.status.value}, {len(run.matrices)} configuration(s)")
     print(f"eigen-solves in the whole run: {len(log)} ({sum(k == 'modes' for k, *_ in log)} of a pencil, "
           f"{sum(k == 'zeros' for k, *_ in log)} of an adjunct pencil)")
     print(f"solves of a pencil already solved in the run: {sum(repeats.values())}, by stage: {dict(repeats)}")

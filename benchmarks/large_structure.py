@@ -104,18 +104,18 @@ def check_point(size: int) -> dict:
     truth = building.truth()
     values = np.array([truth[p.name] for p in model.parameters])
     sens_s, found = _timed(lambda: sensitivity(configurations, model.normalized(values)))
-    sv = found["singular_values"]
-    amplification = np.abs(np.linalg.pinv(found["matrix"])).sum(axis=1)
+    sv = found.singular_values
+    amplification = np.abs(np.linalg.pinv(found.matrix)).sum(axis=1)
     names = [p.name for p in model.parameters]
     M, K = model.matrices_at(values)
     idx = [model.dof(d) for d in building.measured_dofs(storeys, bays)]
     floor_s, floor = _timed(lambda: rounding_floor(M, K, idx, building.N_MODES))
     omega = building.exact_data(storeys, bays)[0]
     return {"size": size, "storeys": storeys, "bays": bays, "dofs": model.n_dofs, "parameters": len(names),
-            "measured_dofs": len(idx), "data_rows": int(found["matrix"].shape[0]),
+            "measured_dofs": len(idx), "data_rows": int(found.matrix.shape[0]),
             "frequencies_hz": [round(float(x), 4) for x in omega / (2 * np.pi)],
-            "rank": found["rank"], "singular_values": [float(sv[0]), float(sv[-1])],
-            "condition": float(found["condition"]),
+            "rank": found.rank, "singular_values": [float(sv[0]), float(sv[-1])],
+            "condition": float(found.condition),
             "weakest": names[int(np.argmax(amplification))],
             "amplification_max": float(amplification.max()),
             "rounding": floor, "build_s": build_s, "sensitivity_s": sens_s, "rounding_s": floor_s,

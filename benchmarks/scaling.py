@@ -145,14 +145,14 @@ def determinacy(configurations) -> dict:
     model = configurations[0].model
     true, scale = _scale(model.parameters)
     found = sensitivity(configurations, model.normalized(true))
-    amplification = np.abs(np.linalg.pinv(found["matrix"])).sum(axis=1)
+    amplification = np.abs(np.linalg.pinv(found.matrix)).sum(axis=1)
     p_ref = np.array([p.reference if p.reference else abs(p.nominal) for p in model.parameters])
     needed = TARGET * scale / (p_ref * amplification)
     names = [p.name for p in model.parameters]
     order = np.argsort(needed)
-    sv = found["singular_values"]
+    sv = found.singular_values
     with_intervals = 1e-4 * p_ref * amplification / scale   # worst first-order error, +-1e-4 data
-    return {"rank": found["rank"], "singular_values": [float(sv[0]), float(sv[-1])], "condition": found["condition"],
+    return {"rank": found.rank, "singular_values": [float(sv[0]), float(sv[-1])], "condition": found.condition,
             "data_accuracy_needed": {names[i]: float(needed[i]) for i in order[:8]},
             "error_with_1e-4_intervals": {names[i]: float(with_intervals[i]) for i in order[:8]},
             "undetermined_by_1e-4_intervals": [names[i] for i in order if with_intervals[i] > 1.0]}

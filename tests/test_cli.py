@@ -375,8 +375,8 @@ def test_an_under_determined_chain_writes_its_results_and_names_the_undetermined
     assert "internal error" not in printed.err
     run = load_results(out / "results.json")
     ident = run.identifiability
-    assert ident["rank"] == 2 and ident["condition"] is None  # infinite: written as null
-    (combo,) = ident["undetermined_combinations"]
+    assert ident.rank == 2 and ident.condition is None  # infinite: written as null
+    (combo,) = ident.undetermined_combinations
     assert all(name in combo for name in ("k1", "k2", "k3"))
     report = (out / "report.md").read_text()
     assert combo in report and "condition inf" in report

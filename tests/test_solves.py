@@ -27,12 +27,12 @@ def solves(tmp_path_factory):
 def test_the_updated_matrices_are_solved_once_per_stage_that_needs_them(solves):
     run, log = solves
     assert run.success and set(run.matrices) == {"A", "B", "C", "D"}
-    updated = {_key(m["M"], m["K"]): name for name, m in run.matrices.items()}
+    updated = {_key(m.M, m.K): name for name, m in run.matrices.items()}
     at_answer = Counter((kind, updated[key], stage) for kind, key, stage in log if key in updated)
     for name in run.matrices:
         for kind in ("modes", "zeros"):   # one receptance per configuration: one adjunct pencil
             # the first stage's correlation (rows, verification, sensitivity, and from
-            # UpdateResult.modal the damping, the MAC and the Caughey C): one solve
+            # UpdateResult.correlation the damping, the MAC and the Caughey C): one solve
             assert at_answer[(kind, name, "correlation")] == 1
             # the polish's last evaluation, at the point it returns, and the parameter ranges'
             # Jacobian at the answer: at most one each

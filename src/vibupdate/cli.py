@@ -228,12 +228,14 @@ def _print_tables(run) -> None:
 
 
 def _finish(run) -> int:
+    from vibupdate.inverse.status import Status
+
     _print_tables(run)
     if not run.success:
-        if run.status == "not_verified":
-            print(f"vibupdate: {run.solver.get('message')}; see the warnings above and the report", file=sys.stderr)
+        if run.status == Status.NOT_VERIFIED:
+            print(f"vibupdate: {run.solver.message}; see the warnings above and the report", file=sys.stderr)
         else:
-            print(f"vibupdate: updating failed: {run.solver.get('message')}; results written with the status",
+            print(f"vibupdate: updating failed: {run.solver.message}; results written with the status",
                   file=sys.stderr)
         return EXIT["not_verified"]
     return EXIT["success"]
@@ -312,13 +314,14 @@ def _finished(run, out) -> int:
 
 
 def _suggest(args, case) -> int:
+    from vibupdate.io.records import SuggestionRecord
     from vibupdate.report.suggestion import suggestion_text
     from vibupdate.study.suggest import suggest_case
 
     found = suggest_case(case, args.out, max_size=args.max_size, checked=args.checked, force=args.force,
                          progress=_say)
     print()
-    print(suggestion_text(found.record()))
+    print(suggestion_text(SuggestionRecord.from_dict(found.record())))
     return EXIT["success"] if found.best is not None else EXIT["not_verified"]
 
 

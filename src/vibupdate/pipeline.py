@@ -25,6 +25,7 @@ from vibupdate.io.interrupted import Interrupted
 from vibupdate.io.outputs import (MANIFEST, file_names, kept_note, matrix_file, matrix_files_planned,
                                   prepare_output, write_published)
 from vibupdate.io.results import RunResult, run_result, write_results
+from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update
 from vibupdate.io.validation import CaseCheck, validate_case
 
@@ -60,18 +61,18 @@ def _identifiability(result: UpdateResult) -> dict:
 
     s = result.sensitivity
     names = [p.name for p in result.parameters]
-    return {"rank": s["rank"], "condition": s["condition"], "singular_values": s["singular_values"],
-            "column_norm": {p.name: float(v) for p, v in zip(result.parameters, s["column_norm"])},
-            "undetermined_combinations": [describe_direction(names, v) for v in s["null_directions"]],
+    return {"rank": s.rank, "condition": s.condition, "singular_values": s.singular_values,
+            "column_norm": {p.name: float(v) for p, v in zip(result.parameters, s.column_norm)},
+            "undetermined_combinations": [describe_direction(names, v) for v in s.null_directions],
             "minimum_change": (result.minimum_change.message
                                if result.minimum_change is not None and result.minimum_change.applied else None),
-            "alternatives": [{k: a[k] for k in ("start", "objective", "values", "differs")}
+            "alternatives": [{k: getattr(a, k) for k in ("start", "objective", "values", "differs")}
                              for a in result.alternatives]}
 
 
 def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
     """The second stage at ``xbar``; ``freqs``: the configurations' modal data there when
-    already computed (``UpdateResult.modal``)."""
+    already computed (``UpdateResult.correlation``)."""
     options = case.damping or DampingOptions()
     if not any(f.damping_ratio is not None for c in case.configurations for f in c.natural):
         return None, [], {}
@@ -192,7 +193,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
             for cfg in case.configurations:
                 images += _configuration_plots(folder, case, cfg, parts[cfg.name], run)
             # the path is worth a plot when it has steps between the relaxation and lambda = 1
-            if len(run.solver["steps"]) > 2 and drawn(folder / "homotopy.png", plot_homotopy, run.solver["steps"]):
+            if len(run.solver.steps) > 2 and drawn(folder / "homotopy.png", plot_homotopy, run.solver.steps):
                 images.append(("homotopy objective per step", "homotopy.png"))
         if extra is not None:
             try:
@@ -211,7 +212,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     return run
 
 
-def _write_matrices(folder: Path, part: str, matrices: dict, files: dict | None, run: RunResult) -> None:
+def _write_matrices(folder: Path, part: str, matrices, files: dict | None, run: RunResult) -> None:
     """The Matrix Market files of one configuration, under the names of ``run.matrix_files``
     (``files``; None: the run's own matrices, named from its status): a model that is not
     verified says so in its name and its comment line."""
@@ -219,15 +220,15 @@ def _write_matrices(folder: Path, part: str, matrices: dict, files: dict | None,
     import scipy.sparse as sp
 
     for role, file in (files or {m: matrix_file(m, part, verified=run.success) for m in ("M", "K", "C")
-                                 if m in matrices}).items():
+                                 if getattr(matrices, m) is not None}).items():
         name, _, variant = role.partition("_")
         if variant:   # the diagnosis's model: the update without the group that conflicts most
             best = run.diagnosis.best
-            matrix = matrices["without_worst"][0 if name == "M" else 1]
-            what = f"{best.status} model updated without the {best.without_label}"
+            matrix = matrices.without_worst[0 if name == "M" else 1]
+            what = f"{best.status.value} model updated without the {best.without_label}"
         else:
-            matrix = matrices[name]
-            what = f"{run.status} updated model"
+            matrix = getattr(matrices, name)
+            what = f"{run.status.value} updated model"
         scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix), **_symmetry(matrix),
                          comment=f"vibupdate: {name} of configuration {part}, {what} (SI units)")
 
@@ -262,10 +263,10 @@ def _receptance_plot(folder: Path, case: Case, run: RunResult) -> list[tuple[str
         if cfg.name in case.frfs or not cfg.antiresonances:
             continue
         matrices = run.matrices[cfg.name]
-        updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
+        updated = (matrices.M, matrices.K, matrices.damping)
         pairs = [(cfg.model.dof(r), cfg.model.dof(c), f"h_{r},{c}",
                   [a.omega for a in cfg.antiresonances if a.receptance == (r, c)]) for r, c in cfg.receptances()]
-        panels.append((cfg, matrices["nominal"], updated, pairs))
+        panels.append((cfg, matrices.nominal, updated, pairs))
     if not panels or not drawn(folder / "frf.png", plot_receptances, panels):
         return []
     drawn_pairs = "; ".join(f"{cfg.name} {', '.join(p[2] for p in pairs)}" for cfg, _, _, pairs in panels)
@@ -282,14 +283,14 @@ def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResul
     images = []
     matrices = run.matrices[cfg.name]
     file = f"frf_{part}.png"
-    updated = (matrices["M"], matrices["K"], matrices.get("C", matrices.get("damping_law")))
+    updated = (matrices.M, matrices.K, matrices.damping)
     if cfg.name in case.frfs:
-        if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices["nominal"], updated):
-            images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices["nominal"], updated), file))
+        if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices.nominal, updated):
+            images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices.nominal, updated), file))
     mac = run.mac_matrix.get(cfg.name)
     if mac is not None:
         file = f"mac_{part}.png"
-        values = np.array(mac["values"], dtype=float)  # None (not computed) becomes NaN
+        values = np.array(mac.values, dtype=float)  # None (not computed) becomes NaN
         if drawn(folder / file, plot_mac, values, f"MAC, configuration {cfg.name}"):
             images.append((f"MAC configuration {cfg.name}", file))
     return images
@@ -305,7 +306,7 @@ def _write_report(path: Path, run: RunResult, images) -> list[str]:
         return []
     except Exception as exc:  # the report is a view of results.json, already written: a failure is a note
         note = f"report.md is a short report: the full report failed ({type(exc).__name__}: {exc})"
-        path.write_text(failed_report(run.case, run.status, f"{type(exc).__name__}: {exc}", list(run.warnings)),
+        path.write_text(failed_report(run.case, run.status.value, f"{type(exc).__name__}: {exc}", list(run.warnings)),
                         encoding="utf-8")
         return [note]
 
@@ -362,13 +363,13 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     if result.success:
         from vibupdate.report.document import limited_text
 
-        limited = limited_text([c.as_dict() for c in result.checks])
+        limited = limited_text(result.checks)
         if limited:
             say(limited[2:])
     diagnosis, diagnosis_notes = _diagnosis(case, result, verification, say,
                                             verification.diagnose if diagnose is None else diagnose)
     suggestion, suggestion_notes = _suggestion(case, result, verification, say)
-    stage, notes, info = _damping_stage(case, result.xbar, say, result.modal)
+    stage, notes, info = _damping_stage(case, result.xbar, say, result.correlation.updated)
     notes = list(checked.warnings) + notes + diagnosis_notes + suggestion_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
@@ -380,7 +381,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
         from vibupdate.ranges.identifiability import parameter_ranges
 
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
-                                  freqs=[result.modal.get(c.name) for c in case.configurations])
+                                  freqs=result.correlation.updated)
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
         identifiability["frequency_windows"] = _frequency_windows(case)
@@ -445,7 +446,7 @@ def _suggestion(case: Case, result: UpdateResult, verification, say):
     suggest``): each single candidate screened from the answer, no full update
     (`vibupdate.ranges.candidates`). Returns its record (None otherwise) and the run's notes:
     a screening that fails costs a note, never the run's results."""
-    if result.success or not case.candidates or not verification.suggest or result.status.value != "not_verified":
+    if result.success or not case.candidates or not verification.suggest or result.status != Status.NOT_VERIFIED:
         return None, []
     from vibupdate.ranges.candidates import suggest_sets
 
@@ -467,8 +468,9 @@ def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()
     (the study's, ``(label, xbar)``)."""
     from vibupdate.ranges.certify import certified_ranges
 
-    last = result.attempts[-1] if result.attempts else {}
-    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    last = result.attempts[-1] if result.attempts else None
+    boxes = case.formulation if last is None else replace(case.formulation, shape_margin=last.shape_margin,
+                                                          adjunct_margin=last.adjunct_margin)
     cert = certified_ranges(case.configurations, result.xbar, include=answers,
                             frequency_tolerance=case.frequency_tolerance, seconds=seconds, options=boxes, progress=say)
     say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")

@@ -95,6 +95,8 @@ def from_results_json(doc: dict | None, exit_code: int, seconds: float, error: s
 
 def from_update_result(result, seconds: float) -> Outcome:
     """The outcome of `vibupdate.update`."""
+    from vibupdate.io.results import frequencies_of
+
     alternatives = [np.array(list(a["values"].values()), dtype=float) for a in getattr(result, "alternatives", ())]
     return Outcome(status_word(result.status), None, seconds, np.asarray(result.values, dtype=float), None,
-                   alternatives, list(result.frequencies))
+                   alternatives, [r.as_dict() for r in frequencies_of(result.correlation)])

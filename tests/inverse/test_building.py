@@ -51,10 +51,10 @@ def test_exact_data_determine_every_parameter():
     m = configurations[0].model
     truth = np.array([building.truth()[p.name] for p in m.parameters])
     found = sensitivity(configurations, m.normalized(truth))
-    assert found["rank"] == len(truth) == 12
-    assert found["condition"] < 1e4
+    assert found.rank == len(truth) == 12
+    assert found.condition < 1e4
     # a frequency and the ratios of all but the reference entry, per mode
-    assert found["matrix"].shape == (building.N_MODES * len(building.measured_dofs(7, 1)), 12)
+    assert found.matrix.shape == (building.N_MODES * len(building.measured_dofs(7, 1)), 12)
 
 
 def test_polish_by_reduced_rounds_reaches_the_truth_with_fewer_full_evaluations():

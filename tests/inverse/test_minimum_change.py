@@ -59,7 +59,7 @@ def test_minimum_change_is_nearest_the_nominal_point_with_the_same_data():
     # optimality: x is orthogonal to the null space of the data Jacobian there (first-order
     # condition of min ||x||^2 on the data manifold), and a step along that null space and
     # back onto the data does not get nearer
-    null = sensitivity(cfgs, out.xbar)["null_directions"]
+    null = sensitivity(cfgs, out.xbar).null_directions
     assert null.shape[0] == N_STOREYS - 3
     assert np.max(np.abs(null @ out.xbar)) < 1e-8 * max(1.0, np.linalg.norm(out.xbar))
 
@@ -68,7 +68,7 @@ def _back_to_data(cfgs, x, target):
     """Gauss-Newton in the range of the sensitivity only: returns to the frequencies ``target``
     (rad/s) without moving along the null directions."""
     for _ in range(30):
-        S = sensitivity(cfgs, x)["matrix"]
+        S = sensitivity(cfgs, x).matrix
         x = x - np.linalg.lstsq(S, np.log(_data(cfgs, x) / target), rcond=None)[0]
     return x
 
@@ -76,7 +76,7 @@ def _back_to_data(cfgs, x, target):
 def test_minimum_change_does_not_depend_on_which_fitted_point_it_starts_from():
     cfgs, x_true = building_case(3)
     target = _data(cfgs, x_true)
-    null = sensitivity(cfgs, x_true)["null_directions"]
+    null = sensitivity(cfgs, x_true).null_directions
     answers = []
     for seed in range(3):
         start = _back_to_data(cfgs, x_true + 0.1 * np.random.default_rng(seed).standard_normal(null.shape[0]) @ null,

@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helpers import chain_model
+from vibupdate.io.results import frequencies_of, macs_of
 from vibupdate import (Antiresonance, Assembly, Configuration, NaturalFrequency, Parameter,
                        ShapeInterval, antiresonances, from_builder, modes)
 from vibupdate.inverse.backends.casadi_ipopt import CasadiIpopt
@@ -32,8 +33,8 @@ def assert_recovered(result, model, truth):
     assert result.status == Status.SUCCESS, result.message
     true = np.array([truth[p.name] for p in model.parameters])
     np.testing.assert_allclose(result.values, true, rtol=1e-4)
-    for row in result.frequencies:
-        assert row["updated_hz"] == pytest.approx(row["measured_hz"], rel=1e-6)
+    for row in frequencies_of(result.correlation):
+        assert row.updated_hz == pytest.approx(row.measured_hz, rel=1e-6)
     assert_sound(result)
 
 
@@ -79,7 +80,7 @@ def test_problem_1_interval_mode_shapes():
         natural.append(NaturalFrequency(omega[k], shape=ShapeInterval.from_values(values, tol)))
     result = update([Configuration("P1", model, tuple(natural))])
     assert_recovered(result, model, TRUE_CHAIN)
-    assert np.all(result.mac["P1"] > 0.999)
+    assert np.all(macs_of(result.correlation)["P1"] > 0.999)
 
 
 def test_problem_4_frequencies_antiresonances_and_interlacing():
@@ -123,7 +124,7 @@ def test_problem_1_on_a_beam_with_unmeasured_rotations():
         natural.append(NaturalFrequency(omega[k], shape=ShapeInterval.from_values(values, tol)))
     result = update([Configuration("beam", model, tuple(natural))])
     assert_recovered(result, model, truth)
-    assert result.sensitivity["rank"] == 3
+    assert result.sensitivity.rank == 3
 
 
 def test_several_configurations_share_the_parameters():
@@ -354,8 +355,8 @@ def test_sensitivity_reports_parameters_the_data_cannot_separate():
     model = from_builder(_beam_builder, params)
     _, _, omega, _ = exact(model, {"E": 76e9, "rho": 2550.0, "m_tip": 0.062, "k": 2600.0})
     result = update([Configuration("beam", model, tuple(NaturalFrequency(w) for w in omega[:4]))])
-    assert result.sensitivity["rank"] == 3
-    assert result.sensitivity["condition"] > 1e8
+    assert result.sensitivity.rank == 3
+    assert result.sensitivity.condition > 1e8
 
 
 
@@ -409,3 +410,32 @@ def test_a_backend_exception_becomes_a_status(monkeypatch):
     result = update([cfg], solver=SolverOptions(relaxation_solver="nlp"), polish=PolishOptions(enabled=False))
     assert result.status == Status.NUMERICAL_ERROR
     assert not result.success and result.relaxation_lower_bound is None
+
+
+def test_the_correlation_gives_the_frequency_table_s_errors_in_its_order():
+    """`Correlation.errors` (the frequency errors of the diagnosis, the screening of candidates
+    and `UpdateResult.mean_error`): the per-cent error of each declared frequency in the order
+    of the frequency table (a configuration's modes, then its zeros), a zero the model lacks
+    (NaN) left out unless asked for, of one kind or of the nominal model when asked."""
+    from types import SimpleNamespace
+
+    from vibupdate.inverse.correlation import Correlation
+
+    def datum(w):
+        return SimpleNamespace(omega=w)
+
+    cfgs = (SimpleNamespace(natural=(datum(10.0), datum(20.0)), antiresonances=(datum(15.0),)),
+            SimpleNamespace(natural=(datum(30.0),), antiresonances=(datum(40.0),)))
+    updated = (SimpleNamespace(natural=np.array([11.0, 19.0]), antiresonances=np.array([np.nan])),
+               SimpleNamespace(natural=np.array([33.0]), antiresonances=np.array([38.0])))
+    nominal = (SimpleNamespace(natural=np.array([10.0, 22.0]), antiresonances=np.array([15.0])),
+               SimpleNamespace(natural=np.array([30.0]), antiresonances=np.array([40.0])))
+    c = Correlation(cfgs, np.zeros(1), nominal, updated)
+    np.testing.assert_allclose(c.errors(), [10.0, 5.0, 10.0, 5.0])
+    every = c.errors(finite=False)
+    assert every.size == 5 and np.isnan(every[2])
+    np.testing.assert_allclose(c.errors("natural"), [10.0, 5.0, 10.0])
+    np.testing.assert_allclose(c.errors("antiresonance"), [5.0])
+    np.testing.assert_allclose(c.errors(which="nominal"), [0.0, 10.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="'updated' or 'nominal', got 'both'"):
+        c.errors(which="both")

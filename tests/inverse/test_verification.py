@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from helpers import chain_model
+from vibupdate.io.results import frequencies_of
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval, antiresonances, modes
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.data_map import describe_direction, sensitivity
@@ -58,8 +59,8 @@ def test_exact_scale_symmetry_is_found_and_named():
                 for k, w in enumerate(omega))
     cfg = Configuration("S", model, nat)
     s = sensitivity([cfg], np.zeros(6))
-    assert s["rank"] == 5, s["singular_values"]
-    null = s["null_directions"]
+    assert s.rank == 5, s.singular_values
+    null = s.null_directions
     assert null.shape == (1, 6)
     assert abs(null[0] @ np.ones(6) / np.sqrt(6)) > 1 - 1e-9
     text = describe_direction(names, null[0])
@@ -80,11 +81,11 @@ def test_declared_modes_pair_reports_with_the_right_model_modes():
     nat = (NaturalFrequency(omega[1], mode=2), NaturalFrequency(omega[2], mode=3))
     result = update([Configuration("B", model, nat)])
     assert result.status == Status.SUCCESS, result.message
-    rows = result.frequencies
-    assert [r["model_index"] for r in rows] == [2, 3]
-    assert all(r["error_updated_pct"] < 1e-6 for r in rows)
+    rows = frequencies_of(result.correlation)
+    assert [r.model_index for r in rows] == [2, 3]
+    assert all(r.error_updated_pct < 1e-6 for r in rows)
     nominal, _ = spectrum(model, np.zeros(3))
-    assert [r["nominal_hz"] for r in rows] == pytest.approx(nominal[1:3] / (2 * np.pi))
+    assert [r.nominal_hz for r in rows] == pytest.approx(nominal[1:3] / (2 * np.pi))
 
 
 def test_antiresonance_indices_pair_with_the_declared_zero():
@@ -272,9 +273,9 @@ def test_vector_boxes_that_exclude_the_truth_are_widened():
     assert outside == [2, 4]
     result = update([cfg], formulation=tight, verification=VerifyOptions(frequency_tolerance=1e-3))
     assert len(result.attempts) >= 2
-    assert result.attempts[0]["relaxation_lower_bound"] > 1e-4
-    assert result.attempts[-1]["relaxation_lower_bound"] < 1e-6
-    assert result.attempts[-1]["shape_margin"] >= 10.0
+    assert result.attempts[0].relaxation_lower_bound > 1e-4
+    assert result.attempts[-1].relaxation_lower_bound < 1e-6
+    assert result.attempts[-1].shape_margin >= 10.0
     assert result.status == Status.SUCCESS, result.message
     np.testing.assert_allclose(result.xbar, x_true, atol=5e-3)
 

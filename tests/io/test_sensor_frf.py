@@ -152,10 +152,10 @@ def test_the_run_recovers_the_truth_from_frfs_at_a_sensor_and_lists_the_sensor(t
     assert doc["mac_matrix"]["test"]["dofs"] == ["x2", "x3", "s12"]   # the sensor's shape entries are data
     assert min(doc["mac"]["test"]) >= 1 - 1e-9
     # the declared sensor is listed with its weights, reloaded typed, and shown in the report
-    from vibupdate.io.results import load_results
+    from vibupdate.io.results import DeclaredSensor, load_results
 
     assert doc["declared_sensors"] == [{"sensor": "s12", "weights": SENSOR}]
-    assert load_results(tmp_path / "out" / "results.json").declared_sensors == ({"sensor": "s12", "weights": SENSOR},)
+    assert load_results(tmp_path / "out" / "results.json").declared_sensors == (DeclaredSensor("s12", SENSOR),)
     report = (tmp_path / "out" / "report.md").read_text()
     assert "## Sensors" in report and "| s12 | 1 x1 + 0.5 x2 |" in report
 

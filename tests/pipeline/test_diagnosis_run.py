@@ -101,3 +101,17 @@ def test_a_verified_run_has_no_diagnosis_and_the_usual_matrix_names(tmp_path, ca
     assert doc["diagnosis"] is None and doc["matrix_files"] == {"A": {"M": "M_A.mtx", "K": "K_A.mtx"}}
     assert {"M_A.mtx", "K_A.mtx"} <= set(read_manifest(out))
     assert "Which data conflict" not in (out / "report.md").read_text()
+
+
+def test_a_diagnosed_run_reloads_typed_and_writes_back_the_same_bytes(biased_run, tmp_path):
+    """The diagnosis, its best update's status and checks reload as their types; the loaded
+    object writes the same file."""
+    from vibupdate.inverse.status import Status
+    from vibupdate.io.results import CheckRow, write_results
+
+    _, out = biased_run
+    loaded = load_results(out / "results.json")
+    assert loaded.status is Status.NOT_VERIFIED and isinstance(loaded.diagnosis, DiagnosisRecord)
+    best = loaded.diagnosis.best
+    assert isinstance(best.status, Status) and all(isinstance(c, CheckRow) for c in best.checks)
+    assert write_results(tmp_path / "results.json", loaded).read_bytes() == (out / "results.json").read_bytes()

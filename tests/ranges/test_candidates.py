@@ -172,6 +172,7 @@ def test_sets_left_untried_on_the_limits_are_named(tmp_path):
     and in suggestion.md's sentence, not only counted."""
     from vibupdate.io.case import load_case
     from vibupdate.ranges.candidates import suggest_sets
+    from vibupdate.io.records import SuggestionRecord
     from vibupdate.report.suggestion import suggestion_markdown
 
     case = load_case(_write(tmp_path, _truth_hz(tmp_path)))
@@ -182,7 +183,8 @@ def test_sets_left_untried_on_the_limits_are_named(tmp_path):
     assert found.untried_sets == tuple((n,) for n in names[2:])
     record = found.record()
     assert record["untried_sets"] == [[n] for n in names[2:]]
-    assert f"left untried on the limits ({', '.join(names[2:])})" in suggestion_markdown(record, "c")
+    assert f"left untried on the limits ({', '.join(names[2:])})" in suggestion_markdown(
+        SuggestionRecord.from_dict(record), "c")
 
 
 def test_suggest_bad_input_is_named(tmp_path, capsys):

@@ -341,10 +341,10 @@ def _example_check(case, result, passes, inner, tolerance, splits=0):
     """The answer and points of S near it (random, and the inner estimate's) lie inside;
     ``tolerance`` (at least the case's) leaves room in the windows for such points."""
     model = case.configurations[0].model
-    last = result.attempts[-1] if result.attempts else {}
+    last = result.attempts[-1] if result.attempts else None
     from dataclasses import replace
 
-    boxes = replace(case.formulation, **{k: last[k] for k in ("shape_margin", "adjunct_margin") if k in last})
+    boxes = replace(case.formulation, **{k: getattr(last, k) for k in ("shape_margin", "adjunct_margin") if last is not None})
     cs = consistent_set(case.configurations, frequency_tolerance=max(tolerance, case.frequency_tolerance),
                         include=result.xbar, options=boxes)
     # The answer sits on active bounds of S (vector boxes, parameter bounds) up to the solver's

@@ -1,5 +1,6 @@
 """The report's text (`vibupdate.report.document`)."""
 
+from vibupdate.io.results import MeshSensor, SolverRecord
 from vibupdate.report.document import verification_markdown
 
 
@@ -7,7 +8,8 @@ def _solver(**polish):
     check = {"name": "fit", "passed": True, "severity": "error", "message": "every frequency within 1 %"}
     base = {"cost_start": 3.4381, "cost": 9.45e-20, "kept": True, "evaluations": 4, "message": "converged",
             "seconds": 10.5}
-    return {"checks": [check], "verified": True, "polish": {**base, **polish}}
+    return SolverRecord.from_dict({"status": "success", "message": "", "checks": [check], "verified": True,
+                                   "polish": {**base, **polish}})
 
 
 def test_the_verification_section_says_how_the_polish_worked():
@@ -35,9 +37,9 @@ def test_the_sensor_map_shows_each_direction_and_a_dash_where_a_results_file_has
     from vibupdate.report.document import sensors_table
     from vibupdate.report.table import markdown
 
-    run = SimpleNamespace(sensors=({"sensor": "d", "dof": "7:n1", "sign": -1.0, "distance_m": 0.01,
-                                    "direction": [-0.6, 0.0, -0.8]},
-                                   {"sensor": "old", "dof": "7:x", "sign": 1.0, "distance_m": 0.0}))
+    run = SimpleNamespace(sensors=(MeshSensor.from_dict({"sensor": "d", "dof": "7:n1", "sign": -1.0, "distance_m": 0.01,
+                                                         "direction": [-0.6, 0.0, -0.8]}),
+                                   MeshSensor.from_dict({"sensor": "old", "dof": "7:x", "sign": 1.0, "distance_m": 0.0})))
     text = "\n".join(markdown(sensors_table(run)))
     assert "| sensor | DOF | sign | reads along (x, y, z) | distance [m] |" in text
     assert "| d | 7:n1 | - | (-0.6, 0, -0.8) | 0.01 |" in text and "| old | 7:x | + | - | 0 |" in text

@@ -165,10 +165,14 @@ def test_large_model_nominal_curve_is_the_law_s_modal_sum_without_damping(tmp_pa
 
 def test_report_range_widths_below_one_percent_keep_two_digits():
     """A linearized range 0.042 % wide printed as "0.0" would read as a zero-width range."""
+    from vibupdate.io.results import Identifiability
     from vibupdate.report.ranges_text import ranges_table
 
     widths = {"a": 0.0424, "b": 134.5, "c": 1e-7, "d": None}
-    ident = {"ranges": {name: {"lower": 1.0, "upper": 2.0, "width_pct": w} for name, w in widths.items()}}
+    ident = Identifiability.from_dict({"rank": 4, "condition": 1.0, "singular_values": [], "column_norm": {},
+                                       "undetermined_combinations": [], "minimum_change": None, "alternatives": [],
+                                       "ranges": {name: {"lower": 1.0, "upper": 2.0, "width_pct": w}
+                                                  for name, w in widths.items()}})
     table = ranges_table(ident, list(widths))
     column = [c.name for c in table.columns].index("width %")
     assert [row[column] for row in table.rows] == ["0.042", "134.5", "1e-07", "-"]

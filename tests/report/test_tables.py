@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from vibupdate.cli import main
-from vibupdate.io.results import load_results
+from vibupdate.io.results import ReferenceColumns, load_results
 from vibupdate.report.document import TERMINAL, tables
 from vibupdate.report.table import Column, Table, markdown, text, with_reference
 
@@ -44,14 +44,16 @@ def test_a_table_renders_the_same_cells_as_text_and_markdown():
 
 def test_reference_columns_join_by_row_key_with_their_errors_and_notes():
     table = Table("T", (Column("name"), Column("updated")), (("a", 2.0), ("b", 5.0)), keys=("a", "b"))
-    reference = {"columns": {"T": {"true": {"a": 1.0, "c": 9.0}}}, "errors": {"T": {"error %": ["updated", "true"]}},
-                 "notes": {"T": ["true: the truth"]}}
+    reference = ReferenceColumns.from_dict({"columns": {"T": {"true": {"a": 1.0, "c": 9.0}}},
+                                            "errors": {"T": {"error %": ["updated", "true"]}},
+                                            "notes": {"T": ["true: the truth"]}})
     joined = with_reference(table, reference, "T")
     assert [c.name for c in joined.columns] == ["name", "updated", "true", "error %"]
     assert joined.cells() == [["a", "2", "1", "100.00"], ["b", "5", "-", "-"]]
     assert joined.notes == ("true: the truth",)
     assert with_reference(table, reference, "other") == table
-    older = {"frequencies": [{"configuration": "A", "paper_updated_hz": 1.0}], "summary": {}}   # before the columns
+    older = ReferenceColumns.from_dict({"frequencies": [{"configuration": "A", "paper_updated_hz": 1.0}],
+                                        "summary": {}})   # before the columns
     assert with_reference(table, older, "T") == table and with_reference(table, None, "T") == table
 
 

@@ -428,7 +428,7 @@ def test_run_with_samples_shows_the_ranges_side_by_side(chain_file, tmp_path, ca
         assert r.unit == {"k": "N/m", "m": "kg"}[name[0]]
         assert r.min <= r.q05 <= r.q50 <= r.q95 <= r.max
         assert r.min <= value <= r.max, (name, r)
-        assert ms.minima[0]["values"][name] == pytest.approx(value, rel=1e-4)
+        assert ms.minima[0].values[name] == pytest.approx(value, rel=1e-4)
     report = (out / "report.md").read_text()
     assert "| sampled range |" in report and "Sampled range: 6 data sets" in report
     assert "![sampled parameters" in report and (out / "sampled_hist.png").stat().st_size > 1000
@@ -465,7 +465,7 @@ def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(
     from vibupdate.ranges.consistent import consistent_set, is_consistent
 
     case, run, rows, report = certified_run
-    cert = run.identifiability["certified"]["ranges"]
+    cert = run.identifiability.certified.ranges
     model = case.configurations[0].model
     cs = consistent_set(case.configurations, frequency_tolerance=case.frequency_tolerance,
                         include=np.asarray(run.xbar), options=case.formulation)
@@ -476,18 +476,18 @@ def test_certified_contains_sampled_points_of_s_and_sampled_contains_the_answer(
     for p in run.parameters:
         s, c = run.sampled.ranges[p.name], cert[p.name]
         assert s.min <= p.updated <= s.max, (p.name, s, p.updated)
-        assert c["lower"] <= p.updated <= c["upper"]
-        assert all(c["lower"] <= r[f"p:{p.name}"] <= c["upper"] for r in in_s), (p.name, c)
+        assert c.lower <= p.updated <= c.upper
+        assert all(c.lower <= r[f"p:{p.name}"] <= c.upper for r in in_s), (p.name, c)
     assert "Certified outer range:" in report and "Sampled range: 10 data sets" in report
 
 
 @pytest.mark.slow
 def test_certified_range_contains_every_sampled_answer(certified_run):
     _, run, rows, _ = certified_run
-    cert = run.identifiability["certified"]["ranges"]
+    cert = run.identifiability.certified.ranges
     for p in run.parameters:
         values = [r[f"p:{p.name}"] for r in rows if r["outcome"] == "verified"]
-        assert cert[p.name]["lower"] <= min(values) and max(values) <= cert[p.name]["upper"], (p.name, values)
+        assert cert[p.name].lower <= min(values) and max(values) <= cert[p.name].upper, (p.name, values)
 
 
 @pytest.mark.slow
@@ -495,10 +495,10 @@ def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run
     """The certification ran after the sweep and widened S for the answer, every verified
     sampled answer and every line end; results.json, the report and the definition say so."""
     _, run, rows, report = certified_run
-    c = run.identifiability["certified"]
+    c = run.identifiability.certified
     others = sum(r["outcome"] == "verified" for r in rows) + run.sampled.line_ends
-    assert c["included"]["points"] == 1 + others and c["uncovered"] == []
-    assert f"the answer and {others} verified answer(s) of sampled data sets" in c["definition"]
+    assert c.included.points == 1 + others and c.uncovered == ()
+    assert f"the answer and {others} verified answer(s) of sampled data sets" in c.definition
     assert "S is widened to hold every answer the run reports" in report
     from vibupdate.io.results import validate_document
 
@@ -506,11 +506,12 @@ def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run
 
 
 def test_disagreements_between_sampled_and_linearized_ranges():
+    from vibupdate.io.records import LinearRange, SampledRange
     from vibupdate.report.document import sampled_disagreements
 
-    sampled = {"a": {"min": 1.0, "max": 1.0}, "b": {"min": 0.5, "max": 2.5}, "c": {"min": 1.0, "max": 1.1},
-               "d": {"min": 1.0, "max": 2.0}, "e": {"min": None, "max": None}}
-    linearized = {n: {"lower": lo, "upper": hi} for n, lo, hi in
+    sampled = {n: SampledRange("", lo, hi, None, None, None) for n, lo, hi in
+               [("a", 1.0, 1.0), ("b", 0.5, 2.5), ("c", 1.0, 1.1), ("d", 1.0, 2.0), ("e", None, None)]}
+    linearized = {n: LinearRange(lo, hi, None) for n, lo, hi in
                   [("a", 0.9, 1.2), ("b", 1.0, 2.0), ("c", 0.0, 3.0), ("d", 0.8, 2.5), ("e", 0.0, 1.0)]}
     notes = sampled_disagreements(sampled, linearized)
     assert len(notes) == 3     # d agrees (inside, 1.7x), e has no verified sample

@@ -40,24 +40,14 @@ class DampingStage:
                 "mean_damping_error_rayleigh_pct": self.rayleigh.mean_error_pct}
 
 
-def _modal_data(configurations, freqs):
-    """``freqs`` as a list in the order of ``configurations`` (a mapping is keyed by name)."""
-    if freqs is None:
-        return None
-    if isinstance(freqs, dict):
-        return [freqs[c.name] for c in configurations]
-    return list(freqs)
-
-
 def damping_data(configurations, xbar=None, freqs=None):
     """Measured ratios with the paired updated-model frequencies: (omega, ratios, labels).
 
     ``freqs``: the `vibupdate.inverse.correlation.ModelFrequencies` of each configuration at
-    ``xbar`` (a sequence, or a mapping by configuration name such as ``UpdateResult.modal``)
-    when already computed; solved here otherwise."""
+    ``xbar``, in their order (``UpdateResult.correlation.updated``), when already computed;
+    solved here otherwise."""
     from vibupdate.inverse.correlation import model_frequencies
 
-    freqs = _modal_data(configurations, freqs)
     omega, ratios, labels = [], [], []
     for i, cfg in enumerate(configurations):
         paired = freqs[i] if freqs is not None else None
@@ -142,9 +132,8 @@ def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), 
     ``weights``: None, one weight per measured ratio (in configuration and mode order), a full
     matrix ``W``, or a mapping ``{mode number: weight}`` applied in every configuration.
     ``freqs``: the modal data of the configurations at ``xbar`` when already computed
-    (``UpdateResult.modal``; `damping_data`): then no eigen-solve is repeated on the dense path.
+    (``UpdateResult.correlation.updated``; `damping_data`): then no eigen-solve is repeated on the dense path.
     """
-    freqs = _modal_data(configurations, freqs)
     omega, ratios, labels = damping_data(configurations, xbar, freqs)
     W = _expand_weights(weights, labels)
     caughey = fit_caughey(omega, ratios, exponents, W, labels)

@@ -63,6 +63,47 @@ class ModelFrequencies:
     rigid: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
+@dataclass(frozen=True)
+class Correlation:
+    """An answer's model and the nominal model, each paired with the measured data of every
+    configuration: what the tables of the results (Hz rows, MAC, modal masses) are built from
+    (`vibupdate.io.results`) and what later stages read instead of solving the same matrices
+    again.
+
+    Attributes
+    ----------
+    configurations : tuple of Configuration
+    xbar : ndarray, shape (n_x,)
+        The answer (normalized parameters, Eq. 12).
+    nominal : tuple of ModelFrequencies
+        `model_frequencies` of each configuration at the nominal point, in their order.
+    updated : tuple of ModelFrequencies
+        The same at ``xbar``, with the zeros' derivatives (modes, every mode on the dense path
+        in ``spectrum``).
+    """
+
+    configurations: tuple[Configuration, ...]
+    xbar: np.ndarray
+    nominal: tuple[ModelFrequencies, ...]
+    updated: tuple[ModelFrequencies, ...]
+
+    def errors(self, kind: str | None = None, *, which: str = "updated", finite: bool = True) -> np.ndarray:
+        """`percent_error` of the ``"updated"`` (or ``"nominal"``) model's declared frequencies,
+        of one ``kind`` (``"natural"``, ``"antiresonance"``) when given, in the order of the
+        frequency table; only the finite ones unless ``finite=False`` (then NaN where the model
+        lacks a zero)."""
+        if which not in ("updated", "nominal"):
+            raise ValueError(f"which model's errors: 'updated' or 'nominal', got {which!r}")
+        out = [np.zeros(0)]
+        for cfg, f in zip(self.configurations, getattr(self, which)):
+            for name, data, model in (("natural", cfg.natural, f.natural),
+                                      ("antiresonance", cfg.antiresonances, f.antiresonances)):
+                if kind in (None, name) and data:
+                    out.append(percent_error(model, [d.omega for d in data]))
+        e = np.concatenate(out)
+        return e[np.isfinite(e)] if finite else e
+
+
 def percent_error(model, measured) -> np.ndarray:
     """Absolute relative error in per cent, Eqs. 26-27."""
     model, measured = np.asarray(model, dtype=float), np.asarray(measured, dtype=float)
@@ -79,13 +120,6 @@ def declared_errors(configurations, freqs) -> dict[str, np.ndarray]:
         errors = percent_error(values, measured) if measured.size else measured
         out[kind] = np.where(np.isfinite(errors), errors, np.inf)
     return out
-
-
-def row_errors(rows, kind: str | None = None) -> np.ndarray:
-    """The finite ``error_updated_pct`` of `frequency_rows` (of one ``kind`` when given)."""
-    e = np.array([r["error_updated_pct"] for r in rows
-                  if (kind is None or r["kind"] == kind) and r["error_updated_pct"] is not None], dtype=float)
-    return np.abs(e[np.isfinite(e)])
 
 
 def mean_max(errors) -> tuple[float, float]:

@@ -243,7 +243,7 @@ def data_jacobian(configurations: Sequence[Configuration], xbar, *,
     """The data map of every configuration at ``xbar`` and its exact Jacobian, stacked.
 
     ``freqs``: `model_frequencies` of each configuration at ``xbar`` with ``derivatives=True``
-    when the caller has them (`UpdateResult.modal`): no eigen-solve is repeated.
+    when the caller has them (`UpdateResult.correlation`): no eigen-solve is repeated.
 
     Returns
     -------
@@ -257,8 +257,35 @@ def data_jacobian(configurations: Sequence[Configuration], xbar, *,
     return np.concatenate([m.values() for m in maps]), np.vstack([m.jacobian() for m in maps])
 
 
+@dataclass(frozen=True)
+class Sensitivity:
+    """The exact relative sensitivity of the measured data at one point (`sensitivity`).
+
+    Attributes
+    ----------
+    matrix : ndarray, shape (n_data, n_x)
+        ``S``, rows of NaN (a zero the model lacks) left out.
+    singular_values : ndarray, shape (min(n_data, n_x),)
+    condition : float
+        Largest over smallest singular value (inf when fewer than ``n_x`` or a zero one).
+    rank : int
+    column_norm : ndarray, shape (n_x,)
+        Norm of each parameter's column.
+    null_directions : ndarray, shape (n_x - rank, n_x)
+        Unit combinations of normalized parameters that leave every datum unchanged to first
+        order, each with its largest entry positive.
+    """
+
+    matrix: np.ndarray
+    singular_values: np.ndarray
+    condition: float
+    rank: int
+    column_norm: np.ndarray
+    null_directions: np.ndarray
+
+
 def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 1e-8,
-                freqs: Sequence[ModelFrequencies] | None = None) -> dict:
+                freqs: Sequence[ModelFrequencies] | None = None) -> Sensitivity:
     """Sensitivity of the measured data to the normalized parameters.
 
     ``S[k, i] = d w_k / d xbar_i / w_k`` over every measured natural frequency and
@@ -278,11 +305,7 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
 
     Returns
     -------
-    dict
-        ``matrix`` (n_data, n_x), ``singular_values``, ``condition``, ``rank``,
-        ``column_norm`` per parameter and ``null_directions`` (n_x - rank, n_x), each a unit
-        combination of normalized parameters that leaves every measured frequency unchanged
-        to first order; NaN rows (a zero the model lacks) are left out.
+    Sensitivity
     """
     xbar = np.asarray(xbar, dtype=float)
     n_x = xbar.size
@@ -300,14 +323,8 @@ def sensitivity(configurations: Sequence[Configuration], xbar, *, rtol: float = 
     rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
     null = Vt[rank:]
     null = null * np.sign(null[np.arange(null.shape[0]), np.argmax(np.abs(null), axis=1)])[:, None]
-    return {
-        "matrix": S,
-        "singular_values": sv,
-        "condition": float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and sv.size >= n_x else float("inf"),
-        "rank": rank,
-        "column_norm": np.linalg.norm(S, axis=0),
-        "null_directions": null,
-    }
+    return Sensitivity(S, sv, float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and sv.size >= n_x else float("inf"),
+                       rank, np.linalg.norm(S, axis=0), null)
 
 
 def describe_direction(names, v, *, threshold: float = 0.05) -> str:

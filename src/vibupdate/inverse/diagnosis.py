@@ -36,7 +36,7 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration, ShapeInterval
 from vibupdate.data.names import mode_name, zero_name
-from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies, row_errors
+from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.polish import PolishOptions, polish as run_polish
@@ -278,8 +278,8 @@ class Diagnosis:
                     "success": bool(b.success),
                     "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
                     "xbar": np.asarray(b.xbar, dtype=float).tolist(),
-                    "mean_error_pct": mean_max(row_errors(b.frequencies))[0],
-                    "max_error_pct": mean_max(row_errors(b.frequencies))[1],
+                    "mean_error_pct": mean_max(b.correlation.errors())[0],
+                    "max_error_pct": mean_max(b.correlation.errors())[1],
                     "checks": [c.as_dict() for c in b.checks], "seconds": self.best_seconds}
         return {"failed": list(self.failed), "objective": self.objective, "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,

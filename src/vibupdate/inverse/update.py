@@ -34,8 +34,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.inverse.correlation import frequency_rows, modal_mass_rows, model_frequencies, shape_mac
-from vibupdate.inverse.data_map import data_map, sensitivity
+from vibupdate.inverse.correlation import Correlation, model_frequencies
+from vibupdate.inverse.data_map import Sensitivity, data_map, sensitivity
 from vibupdate.inverse.formulation import formulate
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
@@ -46,7 +46,6 @@ from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
 from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
-from vibupdate.inverse.repeated import paired_modes
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.admissible import Admissible, misses, weighted
 from vibupdate.inverse.search import Alternative, Search, Sought, Start
@@ -71,26 +70,21 @@ class UpdateResult:
         Updated normalized parameters (Eq. 12).
     values : ndarray, shape (n_x,)
         Updated physical parameters, in each parameter's unit.
-    matrices : dict of str to (csr_matrix, csr_matrix)
-        Updated ``(M, K)`` per configuration name.
-    frequencies : tuple of dict
-        Rows measured / nominal / updated with errors (``results.json`` contract, Hz).
-    mac : dict of str to ndarray
-        Per configuration, MAC of each updated mode with its measured shape (NaN where no
-        shape was measured).
     vectors : tuple of ndarray
         Identified mode / adjunct vectors (physical units, normalization of the formulation),
         in the order of ``problem.blocks``.
-    problem_size : dict
+    problem_size : dict of str to int
+        Counts of the first stage's problem (`BilinearProblem.sizes`; ``reduced_dofs`` after a
+        reduction).
     steps : tuple of StepRecord
     objective : float
         Exact objective at the answer.
     relaxation_lower_bound : float or None
         Optimum of the convex ``lam = 0`` relaxation, a lower bound of the global minimum.
     seconds : float
-    sensitivity : dict
-        Singular values, condition number, rank and null directions of the exact relative
-        frequency sensitivity at the answer (`vibupdate.inverse.data_map.sensitivity`).
+    sensitivity : Sensitivity
+        The exact relative sensitivity of the data at the answer
+        (`vibupdate.inverse.data_map.sensitivity`).
     checks : tuple of Check
         Verification of the returned model (`vibupdate.inverse.verify`); empty when the path failed.
     warnings : tuple of str
@@ -100,9 +94,8 @@ class UpdateResult:
         returned answer, which differs when a further start gave it: ``sought``).
     polish : PolishResult or None
         What the polish did (None when it was off or the path failed).
-    attempts : tuple of dict
-        One entry per first-stage attempt: margins of the vector boxes, lower bound,
-        objective and status (more than one when the boxes were widened).
+    attempts : tuple of Attempt
+        One per first-stage attempt (more than one when the boxes were widened).
     sought : Sought or None
         What was sought (`vibupdate.inverse.search.Sought`): every start tried, in order, and
         whether the uniqueness of a verified answer was searched, and why.
@@ -112,14 +105,11 @@ class UpdateResult:
     minimum_change : MinimumChange or None
         Where the data leave directions undetermined, the move of the answer along them to the
         point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
-    modal_masses : tuple of dict
-        Rows measured / nominal / updated of the modal masses of mass-normalized shapes, kg
-        (`vibupdate.inverse.correlation.modal_mass_rows`); empty without them.
-    modal : dict of str to ModelFrequencies
-        Modal data of each configuration's updated model, as correlation, verification and
-        sensitivity used them (modes, every mode on the dense path in ``spectrum``, zeros and
-        their derivatives): later stages (damping, results) read them instead of solving the
-        same matrices again.
+    correlation : Correlation
+        The nominal and updated models' modal data paired with each configuration's data, as
+        verification and sensitivity used them (`vibupdate.inverse.correlation.Correlation`):
+        the results layer builds the Hz rows, MAC, modal-mass rows and matrices from it, and
+        later stages (damping, ranges) read it instead of solving the same matrices again.
     """
 
     status: Status
@@ -127,26 +117,28 @@ class UpdateResult:
     parameters: tuple[Parameter, ...]
     xbar: np.ndarray
     values: np.ndarray
-    matrices: dict
-    frequencies: tuple[dict, ...]
-    mac: dict
     vectors: tuple[np.ndarray, ...]
-    problem_size: dict
+    problem_size: dict[str, int]
     steps: tuple[StepRecord, ...]
     objective: float
     relaxation_lower_bound: float | None
     seconds: float
-    sensitivity: dict
+    sensitivity: Sensitivity
+    correlation: Correlation = field(compare=False, repr=False)
     checks: tuple[Check, ...] = ()
     warnings: tuple[str, ...] = ()
     first_stage_xbar: np.ndarray | None = None
     polish: PolishResult | None = None
-    attempts: tuple[dict, ...] = ()
+    attempts: tuple[Attempt, ...] = ()
     sought: Sought | None = None
     minimum_change: MinimumChange | None = None
     alternatives: tuple[Alternative, ...] = ()
-    modal_masses: tuple[dict, ...] = ()
-    modal: dict = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def matrices(self) -> dict[str, tuple[sp.csr_matrix, sp.csr_matrix]]:
+        """Updated ``(M, K)`` per configuration name, assembled at ``xbar`` on each access."""
+        return {c.name: tuple(sp.csr_matrix(A) for A in c.model.matrices(self.xbar))
+                for c in self.correlation.configurations}
 
     @property
     def success(self) -> bool:
@@ -170,9 +162,9 @@ class UpdateResult:
         return () if self.sought is None else tuple(s for s in self.sought.starts if s.start != "homotopy")
 
     def mean_error(self, which: str = "updated") -> float:
-        """Mean absolute frequency error in per cent over all measured frequencies."""
-        key = f"error_{which}_pct"
-        return float(np.mean([r[key] for r in self.frequencies]))
+        """Mean absolute frequency error in per cent over all measured frequencies of the
+        ``"updated"`` or ``"nominal"`` model."""
+        return float(np.mean(self.correlation.errors(which=which, finite=False)))
 
     def solver_record(self) -> dict:
         """The ``solver`` section of ``results.json``."""
@@ -188,7 +180,7 @@ class UpdateResult:
             "warnings": list(self.warnings),
             "first_stage_xbar": None if self.first_stage_xbar is None else self.first_stage_xbar.tolist(),
             "polish": None if self.polish is None else self.polish.as_dict(),
-            "attempts": list(self.attempts),
+            "attempts": [a.as_dict() for a in self.attempts],
             "verdict": self.verdict.value,
             "sought": None if self.sought is None else self.sought.as_dict(),
             "minimum_change": None if self.minimum_change is None else self.minimum_change.as_dict(),
@@ -307,6 +299,26 @@ def _reduction_error(solved, nominal) -> float:
     return worst
 
 
+@dataclass(frozen=True)
+class Attempt:
+    """One attempt of the first stage (module docstring, item 2): the margins of its vector
+    boxes, the relaxation's lower bound, the path's objective and status, and the bounds the
+    relaxation's optimum sits at, named for the user."""
+
+    shape_margin: float
+    adjunct_margin: float
+    relaxation_lower_bound: float | None
+    objective: float
+    status: Status
+    active_bounds: tuple[str, ...]
+
+    def as_dict(self) -> dict:
+        """The entry of ``solver.attempts`` in ``results.json``."""
+        return {"shape_margin": self.shape_margin, "adjunct_margin": self.adjunct_margin,
+                "relaxation_lower_bound": self.relaxation_lower_bound, "objective": self.objective,
+                "status": self.status.value, "active_bounds": list(self.active_bounds)}
+
+
 def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None, problem=None):
     """The homotopy, repeated with wider vector boxes while the relaxation proves that the
     current boxes exclude every fit (module docstring, item 2). ``problem``: the first
@@ -323,9 +335,8 @@ def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None, 
         steps.extend(path.steps)
         allowance = consistency_allowance(len(problem.blocks), allowance_tol)
         active = _active_bounds(problem, path)
-        attempts.append({"shape_margin": formulation.shape_margin, "adjunct_margin": formulation.adjunct_margin,
-                         "relaxation_lower_bound": path.lower_bound, "objective": path.objective,
-                         "status": path.status.value, "active_bounds": active})
+        attempts.append(Attempt(formulation.shape_margin, formulation.adjunct_margin, path.lower_bound,
+                                path.objective, path.status, tuple(active)))
         inconsistent = path.lower_bound is not None and path.lower_bound > allowance
         margins = any(np.any(_margin_entries(b) & ~b.fixed) for b in problem.blocks)
         if not (inconsistent and margins) or attempt == MAX_WIDENINGS:
@@ -362,7 +373,7 @@ class _Finish:
     polished: PolishResult | None
     minimum: MinimumChange | None
     updated: list
-    sensitivity: dict
+    sensitivity: Sensitivity
     checks: tuple
     status: Status
     misfit: float = 0.0
@@ -402,7 +413,7 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
         return tuple(out), not any(c.severity == "error" and not c.passed for c in out)
 
     checks, ok = checked(xbar, updated)
-    if polish.enabled and sens["rank"] < xbar.size:   # the data leave directions undetermined
+    if polish.enabled and sens.rank < xbar.size:   # the data leave directions undetermined
         minimum = minimum_change(configurations, xbar)
         if minimum.kept:
             moved = [model_frequencies(c, minimum.xbar, derivatives=True) for c in configurations]
@@ -695,10 +706,6 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         parameters=model.parameters,
         xbar=xbar,
         values=model.physical(xbar),
-        matrices={c.name: tuple(sp.csr_matrix(A) for A in c.model.matrices(xbar)) for c in configurations},
-        frequencies=tuple(frequency_rows(configurations, nominal, updated)),
-        modal_masses=tuple(modal_mass_rows(configurations, nominal, updated, xbar)),
-        mac={c.name: shape_mac(c, paired_modes(c, f)) for c, f in zip(configurations, updated)},
         vectors=tuple(_full_vector(problem, b, path.u, solved, bases) for b in range(len(problem.blocks))),
         problem_size=size,
         steps=steps,
@@ -706,6 +713,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         relaxation_lower_bound=path.lower_bound,
         seconds=sum(st.seconds for st in steps) + sum(r.seconds for r in starts),
         sensitivity=best.sensitivity,
+        correlation=Correlation(tuple(configurations), xbar, tuple(nominal), tuple(updated)),
         checks=checks,
         warnings=warnings,
         first_stage_xbar=first_xbar,
@@ -714,5 +722,4 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         sought=Sought(search, tuple(starts), unique, reason),
         minimum_change=best.minimum,
         alternatives=alternatives,
-        modal={c.name: f for c, f in zip(configurations, updated)},
     )

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from vibupdate.data.measured import Configuration
-from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies, row_errors
+from vibupdate.inverse.correlation import declared_errors, mean_max, model_frequencies
 from vibupdate.inverse.data_map import sensitivity
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
@@ -223,11 +223,11 @@ def _frequency_errors(configurations, freqs) -> dict:
     return out
 
 
-def _row_errors(rows) -> dict:
-    """`_frequency_errors` of `UpdateResult.frequencies` rows."""
+def _row_errors(correlation) -> dict:
+    """`_frequency_errors` of an answer's `vibupdate.inverse.correlation.Correlation`."""
     out = {}
     for kind in ("natural", "antiresonance"):
-        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(row_errors(rows, kind))
+        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(correlation.errors(kind))
     return out
 
 
@@ -244,8 +244,8 @@ def _screen(configurations, start, polish: PolishOptions, verification: VerifyOp
                     options=verification, contract=contract)
     failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
     s = sensitivity(configurations, x, freqs=updated)
-    return x, float(polished.cost), failed, _frequency_errors(configurations, updated), int(s["rank"]), \
-        float(s["condition"])
+    return x, float(polished.cost), failed, _frequency_errors(configurations, updated), int(s.rank), \
+        float(s.condition)
 
 
 def _rank_key(trial: SetTrial) -> tuple:
@@ -284,7 +284,7 @@ def _full_update(configurations, names, options: dict, frequency_tolerance: floa
     record = {"status": result.status.value, "success": bool(result.success), "message": result.message,
               "values": {p.name: float(v) for p, v in zip(result.parameters, result.values)},
               "units": {p.name: p.unit for p in result.parameters},
-              **_row_errors(result.frequencies),
+              **_row_errors(result.correlation),
               "failed": failed, "limited_by": fit.as_dict().get("limited_by") if fit is not None else None,
               "range_pct": None}
     if result.success:   # the ranges mean something only at a verified answer

@@ -154,47 +154,6 @@ class CertifiedRanges:
         }
 
 
-def range_disagreements(certified: dict, others: dict, wider: float = 2.0) -> list[str]:
-    """Where other ranges disagree with the certified outer ranges.
-
-    Parameters
-    ----------
-    certified : dict
-        ``{name: {"lower", "upper", ...}}`` (`CertifiedRanges.record` ``["ranges"]``).
-    others : dict
-        ``{label: {name: {"lower", "upper"}}}``, e.g. the linearized and the sampled ranges
-        (``"min"``/``"max"`` are read too).
-    wider : float
-        A certified range wider than ``wider`` times another is reported.
-
-    Returns
-    -------
-    list of str
-        One sentence per disagreement: another range reaching outside the certified one (its
-        values are not consistent with the data as S states them), or a certified range much
-        wider than another (the other misses what the data allow).
-    """
-    notes = []
-    for label, ranges in others.items():
-        for name, c in certified.items():
-            o = ranges.get(name)
-            if not o or c.get("lower") is None or c.get("upper") is None:
-                continue
-            lo, hi = o.get("lower", o.get("min")), o.get("upper", o.get("max"))
-            ends = (lo, hi, c["lower"], c["upper"])
-            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in ends):
-                continue   # a range end that is missing or not finite is no disagreement
-            tol = 1e-9 * max(abs(c["lower"]), abs(c["upper"]), 1e-300)
-            if lo < c["lower"] - tol or hi > c["upper"] + tol:
-                notes.append(f"{name}: the {label} range [{lo:.4g}, {hi:.4g}] reaches outside the certified range "
-                             f"[{c['lower']:.4g}, {c['upper']:.4g}]")
-            elif (c["upper"] - c["lower"]) > wider * (hi - lo):
-                notes.append(f"{name}: the certified range [{c['lower']:.4g}, {c['upper']:.4g}] is "
-                             f"{(c['upper'] - c['lower']) / max(hi - lo, 1e-300):.3g}x the {label} range "
-                             f"[{lo:.4g}, {hi:.4g}]")
-    return notes
-
-
 def _hull(leaves, n_x):
     lo = np.min([leaf.lo[:n_x] for leaf in leaves], axis=0)
     hi = np.max([leaf.hi[:n_x] for leaf in leaves], axis=0)

@@ -253,7 +253,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         Time budget of the certified method's bound tightening.
     freqs : sequence of ModelFrequencies, optional
         `vibupdate.inverse.correlation.model_frequencies` of each configuration at ``xbar``
-        with ``derivatives=True`` (`UpdateResult.modal`), when already computed: the
+        with ``derivatives=True`` (`UpdateResult.correlation`), when already computed: the
         linearized method then repeats no eigen-solve.
     """
     if method == "certified":

@@ -8,6 +8,7 @@ infinite, huge) can stop a table or the report."""
 from __future__ import annotations
 
 from vibupdate.data.names import frequency_name, mode_name
+from vibupdate.io.records import Identifiability, SolverRecord
 from vibupdate.io.results import RunResult
 from vibupdate.report.suggestion import run_section_markdown
 from vibupdate.report.numbers import finite, fmt
@@ -38,14 +39,12 @@ def _weak(norms: dict) -> list[str]:
     return [n for n, v in norms.items() if finite(v) and v < 1e-2 * top]
 
 
-def _condition(ident: dict, n_parameters: int) -> str:
+def _condition(ident, n_parameters: int) -> str:
     """The condition number of the sensitivity as text: ``inf`` where it is not finite
     (``null`` in ``results.json``) and the rank is below the number of parameters."""
-    value = ident.get("condition")
-    rank = ident.get("rank")
-    if value is None and isinstance(rank, int) and rank < n_parameters:
+    if ident.condition is None and ident.rank < n_parameters:
         return "inf (rank deficient)"
-    return fmt(value, ".3g", missing="not computed")
+    return fmt(ident.condition, ".3g", missing="not computed")
 
 
 def _interval_hz(row: dict) -> str:
@@ -98,13 +97,13 @@ def _sensitivity_notes(run: RunResult) -> tuple[str, ...]:
     ident = run.identifiability
     if not ident:
         return ()
-    n, weak = len(run.parameters), _weak(ident.get("column_norm") or {})
-    return ((f"Sensitivity of the measured data (exact derivatives): rank {ident.get('rank')} of {n}, "
+    n, weak = len(run.parameters), _weak(ident.column_norm)
+    return ((f"Sensitivity of the measured data (exact derivatives): rank {ident.rank} of {n}, "
              f"condition {_condition(ident, n)}. "
              + (f"Weakly determined by the data (sensitivity below 1 % of the largest): {', '.join(weak)}."
                 if weak else "Every parameter moves the measured data."),)
             + tuple(f"Not determined by the data (exact null direction, normalized parameters): {c}"
-                    for c in ident.get("undetermined_combinations") or []))
+                    for c in ident.undetermined_combinations))
 
 
 def parameter_table(run: RunResult) -> Table:
@@ -124,10 +123,10 @@ def damping_table(run: RunResult) -> Table | None:
     names = _mode_names(run)
     rows = tuple((d.configuration, names.get((d.configuration, d.mode), mode_name(d.mode)), d.measured, d.rayleigh,
                   d.error_rayleigh_pct, d.identified, d.error_pct) for d in run.damping)
-    info = run.damping_model or {}
-    law = (f"Caughey exponents Y = [{', '.join(fmt(y, 'g') for y in info.get('exponents') or [])}], coefficients "
-           f"beta = [{', '.join(fmt(b) for b in info.get('beta') or [])}]; Rayleigh baseline Y = [0, 1]. "
-           f"Weights: {info.get('weights_text', 'unweighted')}.")
+    info = run.damping_model
+    law = info and (f"Caughey exponents Y = [{', '.join(fmt(y, 'g') for y in info.exponents)}], coefficients "
+                    f"beta = [{', '.join(fmt(b) for b in info.beta)}]; Rayleigh baseline Y = [0, 1]. "
+                    f"Weights: {info.weights_text}.")
     table = Table("Damping ratios", (Column("cfg"), Column("mode"), Column("measured"), Column("Rayleigh"),
                                      pct, Column("Caughey"), pct), rows,
                   keys=tuple(f"{d.configuration}/{d.mode}" for d in run.damping), notes=(law,) if info else ())
@@ -136,7 +135,7 @@ def damping_table(run: RunResult) -> Table | None:
 
 def summary_table(run: RunResult) -> Table:
     """Mean errors and problem size, and any reference columns."""
-    s, size = run.summary, run.problem_size or {}
+    s, size = run.summary, run.problem_size
     rows = [("mean_error_nominal_pct", "mean frequency error, nominal", "%", fmt(s.mean_error_nominal_pct, ".2f")),
             ("mean_error_updated_pct", "mean frequency error, updated", "%", fmt(s.mean_error_updated_pct, ".2f"))]
     if s.mean_damping_error_pct is not None:
@@ -151,17 +150,17 @@ def summary_table(run: RunResult) -> Table:
     return with_reference(table, run.paper, "summary")
 
 
-def checks_table(solver: dict) -> Table:
+def checks_table(solver: SolverRecord) -> Table:
     """The verification checks of the answer with their findings."""
-    rows = tuple((c["name"], "pass" if c["passed"] else ("FAIL" if c["severity"] == "error" else "warning"),
-                  c["message"]) for c in solver.get("checks") or [])
+    rows = tuple((c.name, "pass" if c.passed else ("FAIL" if c.severity == "error" else "warning"), c.message)
+                 for c in solver.checks)
     return Table("Verification", (Column("check"), Column("result"), Column("finding")), rows)
 
 
-def steps_table(solver: dict) -> Table:
+def steps_table(solver: SolverRecord) -> Table:
     """Every solve of the homotopy."""
-    rows = tuple((st.get("lambda"), st.get("objective"), st.get("iterations"), st.get("status"),
-                  "yes" if st.get("cold") else "no", st.get("seconds")) for st in solver.get("steps") or [])
+    rows = tuple((st.lam, st.objective, st.iterations, st.status.value, "yes" if st.cold else "no", st.seconds)
+                 for st in solver.steps)
     return Table("Solves", (Column("lambda", spec=".4f"), Column("objective", spec=".4e"),
                             Column("iterations", spec="d"), Column("status"), Column("cold"),
                             Column("seconds", spec=".3f")), rows)
@@ -173,12 +172,12 @@ def declared_sensors_table(run: RunResult) -> Table | None:
     if not run.declared_sensors:
         return None
 
-    def reading(weights: dict) -> str:
+    def reading(weights: dict[str, float]) -> str:
         terms = [f"{'-' if w < 0 else '+'} {abs(w):.6g} {d}" for d, w in weights.items()]
         text = " ".join(terms)
         return text[2:] if text.startswith("+ ") else "-" + text[2:]
 
-    rows = tuple((s["sensor"], reading(s["weights"])) for s in run.declared_sensors)
+    rows = tuple((s.sensor, reading(s.weights)) for s in run.declared_sensors)
     return Table("Sensors", (Column("sensor"), Column("reads (weight x DOF)")), rows)
 
 
@@ -188,8 +187,8 @@ def sensors_table(run: RunResult) -> Table | None:
         return None
     from vibupdate.model.fe.oblique import direction_text
 
-    rows = tuple((s["sensor"], s["dof"], "+" if s["sign"] > 0 else "-", direction_text(s.get("direction")),
-                  s["distance_m"]) for s in run.sensors)
+    rows = tuple((s.sensor, s.dof, "+" if s.sign > 0 else "-", direction_text(s.direction), s.distance_m)
+                 for s in run.sensors)
     return Table("Measured points on the mesh", (Column("sensor"), Column("DOF"), Column("sign"),
                                                  Column("reads along (x, y, z)"), Column("distance", "m", ".3g")),
                  rows)
@@ -210,7 +209,7 @@ def trials_table(run: RunResult) -> Table | None:
              if more > 0 else ())
     rows = tuple((str(rank), t.label, fmt(t.share, ".2f"), fmt(t.objective, ".3g"), fmt(t.mean_error_pct, ".3g"),
                   fmt(t.max_error_pct, ".3g"), fmt(t.shape_misses, "d"),
-                  "pass" if t.passed else "fail: " + ", ".join(t.failed or []))
+                  "pass" if t.passed else "fail: " + ", ".join(t.failed))
                  for rank, t in enumerate(d.trials[:RANKED_SHOWN], start=1))
     return Table(title, tuple(Column(n) for n in ("rank", "left out", "share of the misfit", "objective",
                                                   "freq. err. mean %", "freq. err. max %", "shape misses",
@@ -227,7 +226,7 @@ def best_table(run: RunResult) -> Table | None:
     units = {p.name: p.unit for p in run.parameters}
     rows = tuple((n, units.get(n, ""), full.get(n), v, fmt(error_pct(v, full.get(n)), ".3g"))
                  for n, v in best.values.items())
-    return Table(f"updated again without the {best.without_label}: {best.status}",
+    return Table(f"updated again without the {best.without_label}: {best.status.value}",
                  (Column("parameter"), Column("unit"), Column("all data (not verified)", spec=".5g"),
                   Column("without the group", spec=".5g"), Column("differ %")), rows)
 
@@ -235,13 +234,13 @@ def best_table(run: RunResult) -> Table | None:
 def tables(results) -> dict[str, Table]:
     """Every table of a run, by name (those that do not apply left out), in report order."""
     run = _run(results)
-    solver = run.solver or {}
-    built = {"summary": summary_table(run), "checks": checks_table(solver) if solver.get("checks") else None,
+    solver = run.solver
+    built = {"summary": summary_table(run), "checks": checks_table(solver) if solver.checks else None,
              "trials": trials_table(run), "best": best_table(run), "parameters": parameter_table(run),
-             "ranges": ranges_table(run.identifiability or {}, [p.name for p in run.parameters]),
+             "ranges": ranges_table(run.identifiability, [p.name for p in run.parameters]),
              "frequencies": frequency_table(run), "modal_masses": modal_mass_table(run), "sensors": sensors_table(run),
              "declared_sensors": declared_sensors_table(run), "damping": damping_table(run),
-             "steps": steps_table(solver) if solver else None}
+             "steps": steps_table(solver)}
     return {name: t for name, t in built.items() if t is not None}
 
 
@@ -253,57 +252,55 @@ def terminal_text(results) -> str:
     """The tables printed after a run, and the solver's status and warnings."""
     run = _run(results)
     shown = tables(run)
-    solver = run.solver or {}
+    solver = run.solver
     blocks = []
     for name in (n for n in TERMINAL if n in shown):
         blocks.append(text(shown[name]))
-        if name == "summary" and solver:
+        if name == "summary":
             blocks.append("\n".join(
-                [f"solver: {solver.get('status')}" + (f", verdict {solver['verdict']}" if solver.get("verdict") else "")
-                 + f", objective {fmt(solver.get('objective'), '.4e')}, relaxation "
-                 f"lower bound {fmt(solver.get('relaxation_lower_bound'), '.4e')} ({LOWER_BOUND_NOTE}), "
-                 f"{len(solver.get('steps') or [])} solves, {fmt(solver.get('seconds'), '.2f')} s"]
-                + [f"warning: {w}" for w in solver.get("warnings", [])]))
+                [f"solver: {solver.status.value}" + (f", verdict {solver.verdict.value}" if solver.verdict else "")
+                 + f", objective {fmt(solver.objective, '.4e')}, relaxation "
+                 f"lower bound {fmt(solver.relaxation_lower_bound, '.4e')} ({LOWER_BOUND_NOTE}), "
+                 f"{len(solver.steps)} solves, {fmt(solver.seconds, '.2f')} s"]
+                + [f"warning: {w}" for w in solver.warnings]))
     return "\n\n".join(blocks)
 
 
-def verification_markdown(solver: dict) -> list[str]:
+def verification_markdown(solver: SolverRecord) -> list[str]:
     """The verification section: what each stage did and every check with its figures."""
-    checks = solver.get("checks") or []
-    if not checks and not solver:
-        return []
     out = ["## Verification", ""]
-    if not checks:
+    if not solver.checks:
         return out + ["The updated model was not checked: the homotopy did not reach lambda = 1.", ""]
-    pol = solver.get("polish")
+    pol = solver.polish
     stages = "The first stage (homotopy) gave an answer"
     if pol:
         stages += (f"; the polish (bounded least squares of the declared modes' relative frequency errors and the "
-                   f"shape-interval penalties) took its objective from {fmt(pol['cost_start'], '.4e')} to "
-                   f"{fmt(pol['cost'], '.4e')} in {pol['evaluations']} evaluations of the full model"
-                   + (f" ({pol['rounds']} rounds on a reduced model, {pol.get('reduced_evaluations', 0)} evaluations "
-                      "there; each round checked on the full model)" if pol.get("rounds") else "")
-                   + " and was " + ("kept" if pol["kept"] else "not kept")
-                   + (f" (stopped on its {pol['stopped_on']} limit: {pol['message']})"
-                      if pol.get("stopped_on") in ("evaluations", "time") else ""))
-    attempts = solver.get("attempts") or []
+                   f"shape-interval penalties) took its objective from {fmt(pol.cost_start, '.4e')} to "
+                   f"{fmt(pol.cost, '.4e')} in {pol.evaluations} evaluations of the full model"
+                   + (f" ({pol.rounds} rounds on a reduced model, {pol.reduced_evaluations} evaluations "
+                      "there; each round checked on the full model)" if pol.rounds else "")
+                   + " and was " + ("kept" if pol.kept else "not kept")
+                   + (f" (stopped on its {pol.stopped_on} limit: {pol.message})"
+                      if pol.stopped_on in ("evaluations", "time") else ""))
+    attempts = solver.attempts
     if len(attempts) > 1:
         stages += (f"; the vector boxes were widened {len(attempts) - 1} time(s) because the relaxation proved that "
                    "they excluded every fit (lower bounds "
-                   + ", ".join(fmt(a["relaxation_lower_bound"], ".3g") for a in attempts) + ")")
+                   + ", ".join(fmt(a.relaxation_lower_bound, ".3g") for a in attempts) + ")")
     verdict = ("**verified**: every check of the returned model against the data passed"
-               + limited_text(checks) if solver.get("verified") else "**not verified**: the failed checks below say why")
+               + limited_text(solver.checks) if solver.verified else "**not verified**: the failed checks below say why")
     return out + [stages + ". The answer is " + verdict + ".", ""] + markdown(checks_table(solver))
 
 
 def limited_text(checks) -> str:
-    """What limited a verified answer, from the checks' ``limited_by``: ``""`` when no check
-    says, else the clause the report and the terminal add to the verdict."""
-    limits = [c.get("limited_by") for c in checks if c.get("limited_by")]
+    """What limited a verified answer, from the checks' ``limited_by`` (`CheckRow` or
+    `vibupdate.inverse.verify.Check`): ``""`` when no check says, else the clause the report
+    and the terminal add to the verdict."""
+    limits = [c.limited_by for c in checks if c.limited_by]
     if not limits:
         return ""
     if "model_form" in limits:
-        names = ", ".join(c["name"] for c in checks if c.get("limited_by") == "model_form")
+        names = ", ".join(c.name for c in checks if c.limited_by == "model_form")
         return (f"; the model's form limits it: some data lie outside their measurement intervals and within the "
                 f"model-form tolerances (check {names})")
     return "; the measurements limit it: every datum lies in its measurement interval"
@@ -330,8 +327,8 @@ def diagnosis_markdown(results) -> list[str]:
     out += markdown(trials_table(run))
     best = d.best
     if best:
-        failed = [c["name"] for c in best.checks or [] if c.get("severity") == "error" and not c.get("passed")]
-        out += [f"Updated again in full (the same options) without the {best.without_label}: **{best.status}**"
+        failed = [c.name for c in best.checks if c.severity == "error" and not c.passed]
+        out += [f"Updated again in full (the same options) without the {best.without_label}: **{best.status.value}**"
                 + (f" (failed {', '.join(failed)})" if failed else ", every check passed on the data kept")
                 + f"; frequency error on the data kept mean {fmt(best.mean_error_pct, '.3g')} %, max "
                 f"{fmt(best.max_error_pct, '.3g')} %; {fmt(best.seconds, '.2f')} s.", ""] + markdown(best_table(run))
@@ -341,7 +338,7 @@ def diagnosis_markdown(results) -> list[str]:
 def matrix_files_markdown(results) -> list[str]:
     """One line naming the matrix files, when a model written is not verified."""
     run = _run(results)
-    names = [f for per in (run.matrix_files or {}).values() for f in per.values()]
+    names = [f for per in run.matrix_files.values() for f in per.values()]
     if run.success or not names:
         return []
     return ["Matrices written: " + ", ".join(f"`{n}`" for n in names) + ". The run's model is not verified, and its "
@@ -349,36 +346,38 @@ def matrix_files_markdown(results) -> list[str]:
             "data that conflicts most (prefixed `not_verified_` too when that one is not verified either).", ""]
 
 
-def _identifiability_markdown(ident: dict, units: dict) -> list[str]:
+def _identifiability_markdown(ident: Identifiability | None, units: dict) -> list[str]:
     """The minimum change, the other answers that fit as well, and why ranges are missing."""
-    out = ["Minimum change: " + ident["minimum_change"] + ".", ""] if ident.get("minimum_change") else []
-    others = ident.get("alternatives") or []
+    if ident is None:
+        return []
+    out = ["Minimum change: " + ident.minimum_change + ".", ""] if ident.minimum_change else []
+    others = ident.alternatives
     if others:
         out += [f"Not unique: {len(others)} other answer(s) fit the data about as well and pass every check; "
                 "the data do not single out the parameters in which they differ:", ""]
-        out += [f"- from the {a['start']} (objective {fmt(a['objective'], '.3g')}): "
-                + ", ".join(f"{n} = {fmt(a['values'][n], '.5g')} {units.get(n, '')}".rstrip()
-                            for n in a.get("differs", a["values"])) for a in others] + [""]
-    return out + ([ident["ranges_note"] + ".", ""] if ident.get("ranges_note") else [])
+        out += [f"- from the {a.start} (objective {fmt(a.objective, '.3g')}): "
+                + ", ".join(f"{n} = {fmt(a.values[n], '.5g')} {units.get(n, '')}".rstrip() for n in a.differs)
+                for a in others] + [""]
+    return out + ([ident.ranges_note + ".", ""] if ident.ranges_note else [])
 
 
 def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str] = ()) -> str:
     """``report.md``: summary, verification, diagnosis, parameters, frequencies, damping and
     solver tables, plots, notes."""
     run = _run(results)
-    shown, solver = tables(run), run.solver or {}
+    shown, solver = tables(run), run.solver
     section = (lambda title, name: [f"## {title}", ""] + markdown(shown[name]) if name in shown else [])
-    out = [f"# vibupdate report: {run.case}", "", f"Status: **{solver.get('status', '-')}**"
-           + (f", verdict **{solver['verdict']}**" if solver.get("verdict") else "") + ".", ""]
-    if solver.get("sought"):
-        sought = solver["sought"]
-        out += [f"Starts tried: {len(sought['starts'])}; uniqueness "
-                + ("searched" if sought["uniqueness_searched"] else "not searched") + f" ({sought['reason']}).", ""]
+    out = [f"# vibupdate report: {run.case}", "", f"Status: **{solver.status.value}**"
+           + (f", verdict **{solver.verdict.value}**" if solver.verdict else "") + ".", ""]
+    if solver.sought:
+        sought = solver.sought
+        out += [f"Starts tried: {len(sought.starts)}; uniqueness "
+                + ("searched" if sought.uniqueness_searched else "not searched") + f" ({sought.reason}).", ""]
     out += markdown(shown["summary"]) + verification_markdown(solver) + matrix_files_markdown(run)
-    out += diagnosis_markdown(run) + run_section_markdown({"suggestion": run.suggestion})
+    out += diagnosis_markdown(run) + run_section_markdown(run.suggestion)
     out += section("Parameters", "parameters")
-    out += (markdown(shown["ranges"]) if "ranges" in shown else []) + ranges_markdown(run.identifiability or {})
-    out += _identifiability_markdown(run.identifiability or {}, {p.name: p.unit for p in run.parameters})
+    out += (markdown(shown["ranges"]) if "ranges" in shown else []) + ranges_markdown(run.identifiability)
+    out += _identifiability_markdown(run.identifiability, {p.name: p.unit for p in run.parameters})
     out += section("Frequencies", "frequencies") + section("Modal masses", "modal_masses")
     if "sensors" in shown:
         out += ["## Measured points on the mesh", "",
@@ -393,11 +392,10 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
                 "shown (units of the reading per unit of the DOF). Shapes given at a sensor were compared with the "
                 "model through these weights.", ""] + markdown(shown["declared_sensors"])
     out += section("Damping", "damping")
-    if solver:
-        out += ["## Solver", "", f"{solver.get('message', '')}; objective {fmt(solver.get('objective'), '.4e')}, "
-                f"lower bound of the global minimum from the lambda = 0 relaxation "
-                f"{fmt(solver.get('relaxation_lower_bound'), '.4e')} ({LOWER_BOUND_NOTE}: the lifted variables can "
-                f"absorb every mismatch); {fmt(solver.get('seconds'), '.2f')} s.", ""] + markdown(shown["steps"])
+    out += ["## Solver", "", f"{solver.message}; objective {fmt(solver.objective, '.4e')}, "
+            f"lower bound of the global minimum from the lambda = 0 relaxation "
+            f"{fmt(solver.relaxation_lower_bound, '.4e')} ({LOWER_BOUND_NOTE}: the lifted variables can "
+            f"absorb every mismatch); {fmt(solver.seconds, '.2f')} s.", ""] + markdown(shown["steps"])
     if notes:
         out += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
     if images:

@@ -267,12 +267,12 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
 
 
 def plot_homotopy(path, steps) -> Path:
-    """Objective of every solve against lambda (log scale)."""
+    """Objective of every solve (``steps``: `vibupdate.io.results.StepRow`) against lambda (log scale)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.8))
-    lam = [s["lambda"] for s in steps]
-    obj = [max(s["objective"], 1e-300) for s in steps]
-    ok = [s["status"] in ("success", "acceptable") for s in steps]
+    lam = [s.lam for s in steps]
+    obj = [max(s.objective, 1e-300) for s in steps]
+    ok = [s.status.ok for s in steps]
     ax.semilogy(lam, obj, "-", color="0.6")
     lam, obj, ok = np.array(lam), np.array(obj), np.array(ok, dtype=bool)
     ax.semilogy(lam[ok], obj[ok], "o", label="converged")

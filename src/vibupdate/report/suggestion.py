@@ -1,9 +1,10 @@
 """Which parameters to update, in words: the terminal table and the markdown of a suggestion
-(the record of `vibupdate.ranges.candidates.Suggestion`), for ``vibupdate suggest`` and the
-section of a run's report."""
+(`vibupdate.io.records.SuggestionRecord`, the record of `vibupdate.ranges.candidates.Suggestion`),
+for ``vibupdate suggest`` and the section of a run's report."""
 
 from __future__ import annotations
 
+from vibupdate.io.records import SuggestionRecord
 from vibupdate.report.numbers import fmt
 
 
@@ -11,51 +12,53 @@ from vibupdate.report.numbers import fmt
 SHOWN = 10
 
 
-def _verdict(t: dict) -> str:
-    """The screening's and the full update's verdicts of one set."""
-    text = "passes" if t["passed"] else "fails " + ", ".join(t["failed"])
-    if not t["determined"]:
+def _verdict(t) -> str:
+    """The screening's and the full update's verdicts of one set (a `SetTrialRow`)."""
+    text = "passes" if t.passed else "fails " + ", ".join(t.failed)
+    if not t.determined:
         text += ", undetermined combination"
-    update = t.get("update")
-    if update:
-        text += f"; update: {update['status']}"
+    if t.update:
+        text += f"; update: {t.update.status.value}"
     return text
 
 
-def _cells(rank: int, t: dict) -> list[str]:
-    update = t.get("update") or {}
-    natural = update.get("natural_max_pct", t.get("natural_max_pct"))
-    return [str(rank), " + ".join(t["candidates"]), fmt(t["objective"], ".3g"), fmt(natural, ".3g"),
-            fmt(t.get("antiresonance_max_pct"), ".3g"), f"{t['rank']}/{t['free']}", fmt(t["condition"], ".3g"),
-            _verdict(t), ", ".join(" + ".join(s) for s in t.get("tied_with") or []) or "-"]
+def _cells(rank: int, t) -> list[str]:
+    natural = t.update.natural_max_pct if t.update else t.natural_max_pct
+    return [str(rank), " + ".join(t.candidates), fmt(t.objective, ".3g"), fmt(natural, ".3g"),
+            fmt(t.antiresonance_max_pct, ".3g"), f"{t.rank}/{t.free}", fmt(t.condition, ".3g"),
+            _verdict(t), ", ".join(" + ".join(s) for s in t.tied_with) or "-"]
 
 
 HEADER = ["rank", "added", "objective", "natural max %", "antires. max %", "rank/free", "condition", "verdict",
           "ties with"]
 
 
-def _values_lines(t: dict) -> list[str]:
+def _values_lines(t) -> list[str]:
     """The values of a checked set's full update, one line each."""
-    update = t.get("update") or {}
-    units, ranges = update.get("units") or {}, update.get("range_pct") or {}
+    units, ranges = t.update.units, t.update.range_pct or {}
     return [f"{name} = {fmt(v, '.6g')} {units.get(name, '')}".rstrip()
             + (f" (linearized range width {fmt(ranges[name], '.3g')} %)" if name in ranges else "")
-            for name, v in (update.get("values") or {}).items()]
+            for name, v in t.update.values.items()]
 
 
-def suggestion_text(record: dict) -> str:
+def _best(record):
+    """The first set whose full update succeeded; None without one."""
+    return next((t for t in record.trials if t.update and t.update.success), None)
+
+
+def suggestion_text(record: SuggestionRecord) -> str:
     """The terminal table of a suggestion."""
-    trials = record.get("trials") or []
-    own = ", ".join(record.get("own") or []) or "none"
-    lines = [f"Which parameters to update ({len(record.get('candidates') or [])} candidates, the case's own: {own}; "
-             f"{len(trials)} sets screened, sizes {', '.join(map(str, record.get('sizes') or []))}; "
-             f"{fmt(record.get('seconds'), '.1f')} s)"]
+    trials = record.trials
+    own = ", ".join(record.own) or "none"
+    lines = [f"Which parameters to update ({len(record.candidates)} candidates, the case's own: {own}; "
+             f"{len(trials)} sets screened, sizes {', '.join(map(str, record.sizes))}; "
+             f"{fmt(record.seconds, '.1f')} s)"]
     widths = [4, 24, 10, 13, 14, 9, 10, 30, 0]
     lines.append(" ".join(f"{h:<{w}}" for h, w in zip(HEADER, widths)).rstrip())
     for k, t in enumerate(trials[:SHOWN], start=1):
         lines.append(" ".join(f"{c:<{w}}" for c, w in zip(_cells(k, t), widths)).rstrip())
-    best = next((t for t in trials if (t.get("update") or {}).get("success")), None)
-    lines.append(record.get("message", ""))
+    best = _best(record)
+    lines.append(record.message)
     if best is not None:
         lines += ["  " + line for line in _values_lines(best)]
     return "\n".join(lines)
@@ -66,20 +69,19 @@ def _table(rows: list[list[str]]) -> list[str]:
     return out + ["| " + " | ".join(cell.replace("|", "/") for cell in row) + " |" for row in rows]
 
 
-def suggestion_markdown(record: dict, case: str) -> str:
+def suggestion_markdown(record: SuggestionRecord, case: str) -> str:
     """``suggestion.md``: the ranking and the suggested set's update."""
-    trials = record.get("trials") or []
-    nominal = record.get("nominal") or {}
+    trials, nominal = record.trials, record.nominal
     out = [f"# vibupdate suggest: {case}", "",
-           f"Candidates: {', '.join(record.get('candidates') or [])}; the case's own parameters, free in every set: "
-           f"{', '.join(record.get('own') or []) or 'none'}. Every set of {', '.join(map(str, record.get('sizes') or []))}"
+           f"Candidates: {', '.join(record.candidates)}; the case's own parameters, free in every set: "
+           f"{', '.join(record.own) or 'none'}. Every set of {', '.join(map(str, record.sizes))}"
            " candidates was fitted from the nominal point (polish, the case's options) and verified against the data "
            "(the consistency check aside); the search stops after the smallest size at which a set passes. Ranked: "
            "passing first, then smaller sets, then sets the data determine, then the objective (objectives within "
-           f"{fmt(100 * (record.get('limits') or {}).get('tie_rtol', 0.01), 'g')} % are ties, ordered as the candidates "
+           f"{fmt(100 * record.limits.get('tie_rtol', 0.01), 'g')} % are ties, ordered as the candidates "
            "are declared); the top sets were updated in full. "
-           f"{len(trials)} sets screened" + (f", {record['untried']} left untried on the limits" if record.get("untried")
-                                             else "") + _untried(record) + f", {fmt(record.get('seconds'), '.1f')} s.", ""]
+           f"{len(trials)} sets screened" + (f", {record.untried} left untried on the limits" if record.untried
+                                             else "") + _untried(record) + f", {fmt(record.seconds, '.1f')} s.", ""]
     if nominal:
         out += [f"The case's own parameters alone: objective {fmt(nominal.get('objective'), '.3g')}, natural "
                 f"frequencies within {fmt(nominal.get('natural_max_pct'), '.3g')} %, "
@@ -87,40 +89,39 @@ def suggestion_markdown(record: dict, case: str) -> str:
     out += _table([_cells(k, t) for k, t in enumerate(trials[:SHOWN], start=1)]) + [""]
     if len(trials) > SHOWN:
         out += [f"The other {len(trials) - SHOWN} sets rank lower (all in `suggestion.json`).", ""]
-    out += [f"**{record.get('message', '')}**", ""]
-    best = next((t for t in trials if (t.get("update") or {}).get("success")), None)
+    out += [f"**{record.message}**", ""]
+    best = _best(record)
     if best is not None:
-        out += [f"The update with {' + '.join(best['candidates'])}:", ""] + [f"* {line}" for line in
-                                                                           _values_lines(best)] + [""]
+        out += [f"The update with {' + '.join(best.candidates)}:", ""] + [f"* {line}" for line in
+                                                                         _values_lines(best)] + [""]
         out += ["To run it, move these `[[candidate]]` tables to `[[parameter]]` in the case file.", ""]
     return "\n".join(out)
 
 
-def run_section_markdown(document: dict) -> list[str]:
+def run_section_markdown(record: SuggestionRecord | None) -> list[str]:
     """The run report's section "Which parameters might be missing": the screening of single
     candidates after a run that did not verify; empty without it."""
-    record = document.get("suggestion")
     if not record:
         return []
-    trials = record.get("trials") or []
+    trials = record.trials
     out = ["## Which parameters might be missing", "",
            f"The answer is not verified and the case declares candidates: each set of "
-           f"{', '.join(map(str, record.get('sizes') or []))} candidate(s) was added to the parameters, fitted from "
+           f"{', '.join(map(str, record.sizes))} candidate(s) was added to the parameters, fitted from "
            "the answer (polish) and verified (the consistency check aside); screened only, not updated in full "
-           f"({fmt(record.get('seconds'), '.1f')} s).", ""]
+           f"({fmt(record.seconds, '.1f')} s).", ""]
     out += _table([_cells(k, t) for k, t in enumerate(trials[:5], start=1)]) + [""]
-    passing = [t for t in trials if t["passed"]]
+    passing = [t for t in trials if t.passed]
     if passing:
-        out += [f"Adding {' + '.join(passing[0]['candidates'])} lets the data fit within their tolerances in the "
+        out += [f"Adding {' + '.join(passing[0].candidates)} lets the data fit within their tolerances in the "
                 "screening. `vibupdate suggest CASE.toml` checks the sets by a full update and tries larger ones.", ""]
     else:
         out += ["No single candidate lets the data fit; `vibupdate suggest CASE.toml --max-size 2` tries pairs.", ""]
     return out
 
 
-def _untried(record: dict) -> str:
+def _untried(record: SuggestionRecord) -> str:
     """The sets left untried, named (the first 8), in brackets; empty when none is listed."""
-    sets = record.get("untried_sets") or []
+    sets = record.untried_sets
     if not sets:
         return ""
     names = ["+".join(s) for s in sets[:8]]

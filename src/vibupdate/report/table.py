@@ -86,25 +86,22 @@ def error_pct(value, reference):
     return 100 * abs(value - reference) / abs(reference)
 
 
-def with_reference(table: Table, reference: dict | None, name: str) -> Table:
+def with_reference(table: Table, reference, name: str) -> Table:
     """``table`` with the reference columns given for it.
 
     Parameters
     ----------
     table : Table
-    reference : dict or None
-        ``{"columns": {table name: {column: {row key: value}}}, "errors": {table name:
-        {column: [value column, reference column]}}, "notes": {table name: [text]}}``: each
-        column is appended with its values by row key, then each error column, ``100 |value
-        - reference| / |reference|`` of two named columns, then the notes. Anything else
-        (a document of an older vibupdate) adds nothing.
+    reference : ReferenceColumns or None
+        `vibupdate.io.results.ReferenceColumns`: each of its ``columns`` for this table is
+        appended with its values by row key, then each error column, ``100 |value -
+        reference| / |reference|`` of two named columns, then the notes.
     name : str
         The table's name in ``reference``.
     """
-    ref = reference if isinstance(reference, dict) else {}
-    columns = (ref.get("columns") or {}).get(name) or {}
-    errors = (ref.get("errors") or {}).get(name) or {}
-    notes = tuple((ref.get("notes") or {}).get(name) or ())
+    columns = ((reference.columns if reference else None) or {}).get(name) or {}
+    errors = ((reference.errors if reference else None) or {}).get(name) or {}
+    notes = tuple(((reference.notes if reference else None) or {}).get(name) or ())
     cols, rows = list(table.columns), [list(r) for r in table.rows]
     for column, values in columns.items():
         cols.append(Column(column))

@@ -160,7 +160,7 @@ def walk_null_directions(configurations, xbar, acceptable: Callable[[np.ndarray]
 
     x = np.asarray(xbar, dtype=float)
     lower, upper = configurations[0].model.bounds()
-    null = sensitivity(configurations, x, rtol=rtol, freqs=freqs)["null_directions"]
+    null = sensitivity(configurations, x, rtol=rtol, freqs=freqs).null_directions
     ends = []
     for j, v in enumerate(null, start=1):
         for side in (1, -1):

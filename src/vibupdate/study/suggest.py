@@ -14,6 +14,7 @@ from vibupdate.io.case_types import Case
 from vibupdate.io.outputs import prepare_output, write_published
 from vibupdate.io.validation import validate_case
 from vibupdate.ranges.candidates import CHECKED, Suggestion, suggest_sets
+from vibupdate.io.records import SuggestionRecord
 from vibupdate.report.suggestion import suggestion_markdown
 
 
@@ -37,7 +38,8 @@ def _write(folder: Path, case: Case, suggestion: Suggestion) -> None:
 
     record = {"version": __version__, "case": case.name, **_json_safe(suggestion.record())}
     (folder / FILES[0]).write_text(json.dumps(record, indent=1, allow_nan=False) + "\n", encoding="utf-8")
-    (folder / FILES[1]).write_text(suggestion_markdown(record, case.name), encoding="utf-8")
+    (folder / FILES[1]).write_text(suggestion_markdown(SuggestionRecord.from_dict(record), case.name),
+                                   encoding="utf-8")
 
 
 def suggest_case(case: Case, out_dir=None, *, max_size: int = 3, checked: int = CHECKED, force: bool = False,

@@ -143,9 +143,11 @@ def end_columns(case: Case) -> list[str]:
 
 
 def _outcome(result) -> str:
+    from vibupdate.inverse.status import Status
+
     if result.success:
         return "verified"
-    return "unverified" if result.status.value == "not_verified" else "failed"
+    return "unverified" if result.status == Status.NOT_VERIFIED else "failed"
 
 
 def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
