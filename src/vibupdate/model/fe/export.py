@@ -52,6 +52,40 @@ def significant_digits(text: str) -> int:
     return len(mantissa.replace(".", "").lstrip("0"))
 
 
+def digit_counts(texts) -> Counter:
+    """`significant_digits` of many reals at once, counted: the mapping `precision_of_digits`
+    takes.
+
+    Parameters
+    ----------
+    texts : array_like of str or bytes, shape (n,)
+        Reals as written, each a number the reader has parsed (a sign, a mantissa, an optional
+        exponent with a letter or only its sign).
+
+    Returns
+    -------
+    collections.Counter
+        Significant digits -> how many of ``texts`` have them.
+
+    Notes
+    -----
+    Vectorised over the array: after the leading sign, the mantissa ends at the first exponent
+    letter (``E``, ``D``) or sign; in a number that parses, a sign after the first character
+    follows a digit, a point or the exponent letter, so this is `significant_digits`'s rule.
+    """
+    s = np.asarray(texts)
+    text = (lambda t: t.encode()) if s.dtype.kind == "S" else (lambda t: t)
+    s = np.strings.lstrip(np.strings.strip(s), text("+-"))
+    end = np.strings.str_len(s)
+    for mark in ("E", "e", "D", "d", "+", "-"):
+        at = np.strings.find(s, text(mark))
+        end = np.where((at >= 0) & (at < end), at, end)
+    mantissa = np.strings.replace(np.strings.slice(s, 0, end), text("."), text(""))
+    lengths = np.strings.str_len(np.strings.lstrip(mantissa, text("0")))
+    found, counts = np.unique(lengths, return_counts=True)
+    return Counter(dict(zip(found.tolist(), counts.tolist())))
+
+
 def precision_of_digits(counts) -> float | None:
     """Relative precision of the numbers of an export from their significant digits (module
     docstring).
