@@ -37,7 +37,7 @@ def read_mtx_terms(path, digits: Counter | None = None):
     arrays of shape (n_terms,), a DOF as the integer ``8 * node + component`` (`dof_key`); the
     significant digits of the values as written are counted into ``digits`` when given.
 
-    Parsed whole by numpy (its C text parser, `numpy.loadtxt`, and its string functions), not
+    Parsed whole by numpy (its C text parser, `numpy.loadtxt`, and `numpy.char`), not
     line by line in Python; a line that does not read as ``node, dof, node, dof, value`` (found
     by reading the lines one by one once the whole-file parse has failed), an internal node and
     a component outside 0..6 are refused naming the line.
@@ -45,8 +45,8 @@ def read_mtx_terms(path, digits: Counter | None = None):
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"Abaqus matrix file {str(path)!r} does not exist")
-    texts = np.strings.strip(np.array(path.read_bytes().splitlines(), dtype=bytes))
-    kept = (np.strings.str_len(texts) > 0) & ~np.strings.startswith(texts, b"*")
+    texts = np.char.strip(np.array(path.read_bytes().splitlines(), dtype=bytes))
+    kept = (np.char.str_len(texts) > 0) & ~np.char.startswith(texts, b"*")
     numbers, data = np.flatnonzero(kept) + 1, texts[kept]
     if not numbers.size:
         raise ValueError(f"{path}: no matrix terms; is it a *MATRIX OUTPUT file?")
@@ -55,7 +55,7 @@ def read_mtx_terms(path, digits: Counter | None = None):
         raise ValueError(f"{path}: line {numbers[k]}: expected 'node, dof, node, dof, value', got "
                          f"{data[k].decode(errors='replace')!r} ({why})")
 
-    fields = np.strings.count(data, b",") + 1
+    fields = np.char.count(data, b",") + 1
     if np.any(fields != 5):
         k = int(np.flatnonzero(fields != 5)[0])
         refuse(k, f"{fields[k]} fields")
@@ -72,7 +72,7 @@ def read_mtx_terms(path, digits: Counter | None = None):
                 refuse(k, why)
         raise ValueError(f"{path}: {exc}") from None
     if digits is not None:
-        digits.update(digit_counts(np.strings.rpartition(data, b",")[2]))
+        digits.update(digit_counts(np.char.rpartition(data, b",")[..., 2]))
     n1, d1, n2, d2, values = (table[name] for name in _TERM.names)
     inner = np.flatnonzero((n1 <= 0) | (n2 <= 0))
     if inner.size:

@@ -69,19 +69,21 @@ def digit_counts(texts) -> Counter:
 
     Notes
     -----
-    Vectorised over the array: after the leading sign, the mantissa ends at the first exponent
-    letter (``E``, ``D``) or sign; in a number that parses, a sign after the first character
-    follows a digit, a point or the exponent letter, so this is `significant_digits`'s rule.
+    Vectorised over the array (`numpy.char`, in numpy 1 and 2 alike): after the leading sign,
+    the mantissa ends at the first exponent letter (``E``, ``D``) or sign; in a number that
+    parses, a sign after the first character follows a digit, a point or the exponent letter,
+    so this is `significant_digits`'s rule.
     """
     s = np.asarray(texts)
-    text = (lambda t: t.encode()) if s.dtype.kind == "S" else (lambda t: t)
-    s = np.strings.lstrip(np.strings.strip(s), text("+-"))
-    end = np.strings.str_len(s)
-    for mark in ("E", "e", "D", "d", "+", "-"):
-        at = np.strings.find(s, text(mark))
-        end = np.where((at >= 0) & (at < end), at, end)
-    mantissa = np.strings.replace(np.strings.slice(s, 0, end), text("."), text(""))
-    lengths = np.strings.str_len(np.strings.lstrip(mantissa, text("0")))
+    if not s.size:
+        return Counter()
+    raw = s.dtype.kind == "S"
+    text = (lambda t: t.encode()) if raw else (lambda t: t)
+    # every exponent letter or sign becomes "E"; the mantissa is what comes before the first
+    marks = (bytes if raw else str).maketrans(text("eEdD+-"), text("EEEEEE"))
+    s = np.char.translate(np.char.lstrip(np.char.strip(s), text("+-")), marks)
+    mantissa = np.char.replace(np.char.partition(s, text("E"))[..., 0], text("."), text(""))
+    lengths = np.char.str_len(np.char.lstrip(mantissa, text("0")))
     found, counts = np.unique(lengths, return_counts=True)
     return Counter(dict(zip(found.tolist(), counts.tolist())))
 
