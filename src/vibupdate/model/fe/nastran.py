@@ -5,8 +5,8 @@ release (1.4.1) requires ``numpy < 2`` and cannot be installed beside this packa
 Given numpy 2, pip resolves the older 1.3.4 instead (it states no upper bound on numpy); it
 predates numpy 2, and asking for pyNastran in a fresh environment makes pip downgrade numpy to
 reach 1.4.1. So it is not a dependency: the DMIG card is small and is read here, and the tests
-compare this reader with pyNastran's when pyNastran is installed (1.3.4 under numpy 2.4 read
-the three field formats to the same matrices).
+compare this reader with pyNastran's (the ``test`` extra installs 1.3.4 beside numpy 2, under
+which it reads the three field formats to the same matrices).
 
 Format read
 -----------
