@@ -115,6 +115,24 @@ def test_single_measurement_uses_the_residual_as_noise():
     assert all(0.8 < q.quality < 1.25 for q in result.quality), [q.quality for q in result.quality]
 
 
+def test_the_noise_is_never_estimated_twice_at_the_same_poles(monkeypatch):
+    # one record: the noise comes from the residual, at the stable poles (to test their
+    # significance) and again at each refit's start; before, the first refit recomputed the
+    # significance test's estimate at the same poles (a quarter of the noise cost)
+    from vibupdate.data import extraction
+
+    inner, seen = extraction._residual_variance, []
+
+    def counted(x, F, wn, zeta, *args, **kwargs):
+        seen.append(np.r_[wn, zeta].tobytes())
+        return inner(x, F, wn, zeta, *args, **kwargs)
+
+    monkeypatch.setattr(extraction, "_residual_variance", counted)
+    frfs, *_ = measured(3, repeats=1)
+    assert extract(frfs).noise == "residual"
+    assert len(seen) == 3 and len(set(seen)) == len(seen)
+
+
 def test_quality_is_near_one_when_the_fit_is_within_the_noise():
     frfs, *_ = measured(1)
     result = extract(frfs)

@@ -87,3 +87,31 @@ def test_every_layout_imports_the_model_of_the_lower_triangle(tmp_path, route):
     assert m.dofs == r.dofs and m.matrix_precision is None
     for a, b in zip(m.K_par + m.M_par + (m.K0, m.M0), r.K_par + r.M_par + (r.K0, r.M0)):
         assert abs(a - b).max() == 0
+
+
+@pytest.mark.parametrize("line, said", [
+    ("1,2, 1,x, 5.0", r"line 4: expected 'node, dof, node, dof, value', got '1,2, 1,x, 5.0' \(invalid literal for "
+                      r"int\(\) with base 10: 'x'\)"),
+    ("1,2, 1,2", r"line 4: expected 'node, dof, node, dof, value', got '1,2, 1,2' \(4 fields\)"),
+    ("1,2, 1,2, 1.5.3", r"line 4: .* got '1,2, 1,2, 1.5.3' \(could not convert string to float: '1.5.3'\)"),
+    ("-3,1, 1,1, 5.", r"line 4: internal node -3 \(a constraint's Lagrange multiplier\)"),
+    ("1,7, 1,1, 5.", r"line 4: DOF component 7 of node 1; 0 to 6 is expected"),
+])
+def test_a_bad_line_is_refused_naming_its_number(tmp_path, line, said):
+    # the whole-file parse fails; the refusal still names the line, as the line-by-line reader did
+    path = _spoiled(tmp_path, "lower_STIF1.mtx", lambda t: t[:3] + [line] + t[3:])
+    with pytest.raises(ValueError, match="lower_STIF1.mtx: " + said):
+        read_abaqus(path, FIXTURES / "job_MASS1.mtx")
+
+
+def test_comments_blank_lines_and_d_exponents_read_as_the_plain_file(tmp_path):
+    def edit(lines):
+        data = [t.replace("2000.", "2.000d+03").replace("-1000.", " -1.000D+03 ") for t in lines[1:]]
+        return ["** a comment", "", lines[0]] + data[:2] + ["   ", "*HEADING-like line"] + data[2:]
+
+    path = _spoiled(tmp_path, "lower_STIF1.mtx", edit)
+    export = read_abaqus(path, FIXTURES / "job_MASS1.mtx")
+    assert export.dofs == ("1:x", "1:y", "2:rz")
+    assert np.abs(export.K.toarray() - K_EXACT).max() <= 1e-12 * 2000
+    # 15 significant digits at most ("666.666666666667"); "2.000d+03" and "2000." are trailing zeros dropped
+    assert export.precision == pytest.approx(5e-15)

@@ -149,6 +149,19 @@ def test_significant_digits_as_written():
     assert precision_of_digits({17: 3, 15: 1}) is None and precision_of_digits({}) is None
 
 
+def test_the_digits_of_a_whole_column_are_those_of_each_number():
+    # digit_counts, vectorised over a reader's column of values, against significant_digits one by one
+    from collections import Counter
+
+    from vibupdate.model.fe.export import digit_counts, significant_digits
+
+    texts = ["-1.234567890D+05", "1.2345678901D+05", "1.5+3", "0.00120", "0.", "7.E5", "1.4285714285714287E+08",
+             " -2.5e-03 ", "+.5-3", "-0.000D0", "nan", "6.666666666666667E+02", "12"]
+    expected = Counter(significant_digits(t) for t in texts)
+    assert digit_counts(texts) == expected
+    assert digit_counts(np.array([t.encode() for t in texts])) == expected
+
+
 @pytest.mark.parametrize("value", ["0.0", "1e-20", "0.5", "nan", '"5e-10"'])
 def test_a_matrix_precision_out_of_range_exits_2_naming_the_key(tmp_path, capsys, value):
     M, K = sp.identity(2, format="csr"), sp.csr_matrix(np.array([[2.0, -1.0], [-1.0, 2.0]]))

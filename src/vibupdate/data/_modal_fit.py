@@ -129,7 +129,13 @@ def _modal_basis(x, xn, zeta, damped: bool = True, window=None) -> np.ndarray:
 
 
 def _real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:
-    return np.vstack([Phi.real * w[:, None], Phi.imag * w[:, None]])
+    """``[Re Phi; Im Phi]`` with each line weighted by ``w``, (2 n_freq, n_cols): written in
+    place (no temporaries: these are the largest arrays of an extraction)."""
+    n = Phi.shape[0]
+    out = np.empty((2 * n,) + Phi.shape[1:])
+    np.multiply(Phi.real, w[:, None], out=out[:n])
+    np.multiply(Phi.imag, w[:, None], out=out[n:])
+    return out
 
 
 def _linear_fit(Phi, h, w):
@@ -248,8 +254,8 @@ def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
     n = theta.size // 2
     xn, zeta = theta[:n], theta[n:]
     Phi = _basis(x, xn, zeta, window)
-    if jacobian:
-        d_wn, d_zeta = _basis_derivatives(x, xn, zeta, window)
+    if jacobian:   # the pole columns' derivatives, (n_freq, 4 n): shared by every FRF
+        d_theta = np.hstack(_basis_derivatives(x, xn, zeta, window))
     for f, w in zip(F, W):
         A = _real_stack(Phi, w)
         b = np.concatenate([f.real * w, f.imag * w])
@@ -257,7 +263,7 @@ def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
         c = np.zeros(A.shape[1])
         c[piv] = scipy.linalg.solve_triangular(R, Q.T @ b, check_finite=False)
         r = b - A @ c
-        yield r, (_projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r, w) if jacobian else None)
+        yield r, (_projection_jacobian(Q, R, piv, d_theta, c, r, w) if jacobian else None)
 
 
 class _CompressedProjection:
@@ -293,13 +299,13 @@ def _triangle(A):
     return scipy.linalg.qr(A, mode="r", overwrite_a=True, check_finite=False)[0][:A.shape[1]]
 
 
-def _projection_jacobian(Q, R, piv, d_wn, d_zeta, c, r, w):
-    """One FRF's block of `_projection`'s Jacobian, (2 n_freq, 2 n): ``d_wn``, ``d_zeta``
-    (n_freq, 2 n) from `_basis_derivatives`; ``Q``, ``R``, ``piv`` from `_weighted_qr`;
-    ``c`` the coefficients, ``r`` the weighted residual, ``w`` the weights."""
-    n = d_wn.shape[1] // 2
-    cols = np.hstack([d_wn, d_zeta])                                   # (n_freq, 4 n)
-    dA = _real_stack(cols, w)                                         # dA/dtheta's nonzero columns
+def _projection_jacobian(Q, R, piv, d_theta, c, r, w):
+    """One FRF's block of `_projection`'s Jacobian, (2 n_freq, 2 n): ``d_theta`` (n_freq, 4 n)
+    the two arrays of `_basis_derivatives` side by side (``w_n``, then ``zeta``); ``Q``, ``R``,
+    ``piv`` from `_weighted_qr`; ``c`` the coefficients, ``r`` the weighted residual, ``w`` the
+    weights."""
+    n = d_theta.shape[1] // 4
+    dA = _real_stack(d_theta, w)                                      # dA/dtheta's nonzero columns
     even = np.r_[c[0:2 * n:2], c[0:2 * n:2]]
     odd = np.r_[c[1:2 * n:2], c[1:2 * n:2]]
     dAc = dA[:, 0::2] * even + dA[:, 1::2] * odd                     # (dA/dtheta_k) c, (2 n_freq, 2 n)

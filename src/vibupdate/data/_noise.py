@@ -140,8 +140,10 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
         v = s + b
         # E-step: expected energy of each component given the line's residual; M-step: the
         # smooth component's running mean, the proportional one's group mean
-        share_s = s - s**2 / v + s**2 * e / v**2
-        share_b = b - b**2 / v + b**2 * e / v**2
+        # (each square formed once: the same operations, so the same bits, as writing it out)
+        v2, s2, b2 = v * v, s * s, b * b
+        share_s = (s - s2 / v) + s2 * e / v2
+        share_b = (b - b2 / v) + b2 * e / v2
         s = np.maximum(_smooth(share_s, width), floor)
         beta = level(share_b)
     return s + beta * g, s, beta

@@ -538,8 +538,9 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
                                    REPEAT_LINES)[0]
     stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
     wn, zeta, counts = _stable_poles(stab, min_stable)
+    residual_variance = _LastResult(lambda wn, zeta: _residual_variance(x, F, wn, zeta, groups, window=window))
     if wn.size:
-        var = var if var is not None else _residual_variance(x, F, wn, zeta, groups, window=window)
+        var = var if var is not None else residual_variance(wn, zeta)
         wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var, window=window)
     in_band = (wn >= x_report[0]) & (wn <= x_report[1])
     if not np.any(in_band):
@@ -555,10 +556,10 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     if noise == "repeats":
         wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
     else:  # feasible weighted least squares: noise from the residual, refit, once more
-        for _ in range(2):
-            var = _residual_variance(x, F, wn, zeta, groups, window=window)
+        for _ in range(2):   # at the poles the significance test kept, its estimate again (not recomputed)
+            var = residual_variance(wn, zeta)
             wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
-        var = _residual_variance(x, F, wn, zeta, groups, window=window)
+        var = residual_variance(wn, zeta)
     order = np.argsort(wn)
     wn, zeta, counts, in_band = wn[order], zeta[order], [counts[k] for k in order], in_band[order]
     cov_poles = cov_poles[np.ix_(np.r_[order, order + wn.size], np.r_[order, order + wn.size])]
@@ -569,6 +570,21 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     if window_name == "force":
         result = dataclasses.replace(result, window="force")
     return dataclasses.replace(result, window_tau=1.0 / decay_rate) if decay_rate else result
+
+
+class _LastResult:
+    """``function(wn, zeta)`` that returns its last result again when called with the same
+    poles (equal arrays), so that one extraction never estimates the noise twice at one set of
+    poles; any other poles are computed and become the last."""
+
+    def __init__(self, function):
+        self.function, self.poles, self.result = function, None, None
+
+    def __call__(self, wn, zeta):
+        poles = (np.array(wn, dtype=float), np.array(zeta, dtype=float))
+        if self.poles is None or not all(np.array_equal(a, b) for a, b in zip(poles, self.poles)):
+            self.poles, self.result = poles, self.function(*poles)
+        return self.result
 
 
 def _check_band(band, name):

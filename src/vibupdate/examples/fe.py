@@ -11,7 +11,9 @@ measuring the structure, then runs the two commands that update it:
 * ``DIR/measured/``: the "measured" data, the first `N_MODES` natural frequencies (Hz) and mode
   shapes at ten sensors named ``"<node>:<dir>"`` of the frame at the known `truth` (for
   OpenSees, of the matrices OpenSees forms at the truth), rounded as a test report would give
-  them (6 significant digits, 4 decimals) and stated with tolerances well above that rounding;
+  them (6 significant digits, 4 decimals) and stated with tolerances of one unit of the last
+  digit (twice the rounding's largest error), the model-form tolerances 0 (the data come
+  from the model family itself);
 * ``vibupdate import DIR/exports/import.toml --out DIR/model``;
 * ``DIR/model/case.toml``: the written ``model.toml`` with a case name above it and the
   ``[[configuration]]`` of the measured data below it, as ``docs/fe-models.md`` says to make a
@@ -41,12 +43,19 @@ PARAMETERS = {"E_col": "Pa", "E_beam": "Pa", "rho_col": "kg/m^3", "m_floor": "kg
 TRUTH_FACTOR = {"E_col": 1.08, "E_beam": 0.93, "rho_col": 1.05, "m_floor": 0.96, "k_base": 1.2}
 #: Measured modes.
 N_MODES = 8
-#: Significant digits of the measured frequencies, and their relative tolerance in the case file.
+#: Significant digits of the measured frequencies, and their relative tolerance in the case file:
+#: one unit of the last digit of the smallest mantissa (1.00000), twice the rounding's largest
+#: relative error.
 FREQUENCY_DIGITS = 6
-FREQUENCY_TOLERANCE = 1e-3
-#: Decimals of the measured mode shapes (scaled to 1 at their largest reading) and their tolerance.
+FREQUENCY_TOLERANCE = 10.0 ** (1 - FREQUENCY_DIGITS)
+#: Decimals of the measured mode shapes (scaled to 1 at their largest reading) and their
+#: tolerance: one unit of the last decimal, twice the rounding's largest error.
 SHAPE_DECIMALS = 4
-SHAPE_TOLERANCE = 1e-3
+SHAPE_TOLERANCE = 10.0 ** -SHAPE_DECIMALS
+#: Model-form tolerances of the case (``[verification]``): 0, since the data are made from the
+#: model family itself (for OpenSees, from the matrices OpenSees forms at the truth), so the
+#: only error in them is the rounding the measurement intervals state.
+MODEL_FORM = {"natural_tolerance": 0.0, "shape_tolerance": 0.0}
 #: Relative step of every export; ``E_col`` gets a second export at minus this step.
 STEP = 0.1
 TWO_STEPS = ("E_col",)
@@ -191,7 +200,8 @@ def write_case(name: str, out) -> Path:
     model = Path(out) / "model"
     text = (f'case = "{name}"\nfrequency_tolerance = {FREQUENCY_TOLERANCE!r}\n\n' + (model / "model.toml").read_text()
             + '\n[[configuration]]\nname = "measured"\nfrequencies_csv = "../measured/frequencies.csv"\n'
-              'mode_shapes_csv = "../measured/shapes.csv"\n')
+              'mode_shapes_csv = "../measured/shapes.csv"\n\n[verification]\n'
+            + "".join(f"{key} = {value!r}\n" for key, value in MODEL_FORM.items()))
     (model / "case.toml").write_text(text)
     return model / "case.toml"
 

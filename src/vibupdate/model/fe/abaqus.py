@@ -20,46 +20,77 @@ digits of the values give the export's relative precision
 
 from __future__ import annotations
 
+import io
 from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, dof_name, precision_of_digits, significant_digits, symmetric_from_entries
+from vibupdate.model.fe.export import FEExport, digit_counts, dof_name, precision_of_digits, symmetric_from_entries
+
+#: One line of a ``.mtx`` file: row node, row DOF, column node, column DOF, value.
+_TERM = np.dtype([("n1", np.int64), ("d1", np.int64), ("n2", np.int64), ("d2", np.int64), ("value", float)])
 
 
 def read_mtx_terms(path, digits: Counter | None = None):
-    """``(row DOF names, column DOF names, values, line numbers)`` of an Abaqus ``.mtx`` file;
-    the significant digits of the values as written are counted into ``digits`` when given."""
+    """The terms of an Abaqus ``.mtx`` file: ``(row DOFs, column DOFs, values, line numbers)``,
+    arrays of shape (n_terms,), a DOF as the integer ``8 * node + component`` (`dof_key`); the
+    significant digits of the values as written are counted into ``digits`` when given.
+
+    Parsed whole by numpy (its C text parser, `numpy.loadtxt`, and `numpy.char`), not
+    line by line in Python; a line that does not read as ``node, dof, node, dof, value`` (found
+    by reading the lines one by one once the whole-file parse has failed), an internal node and
+    a component outside 0..6 are refused naming the line.
+    """
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"Abaqus matrix file {str(path)!r} does not exist")
-    rows, cols, values, lines = [], [], [], []
-    for number, line in enumerate(path.read_text(errors="replace").splitlines(), start=1):
-        text = line.strip()
-        if not text or text.startswith("*"):
-            continue
-        parts = [p.strip() for p in text.split(",")]
-        try:
-            if len(parts) != 5:
-                raise ValueError(f"{len(parts)} fields")
-            n1, d1, n2, d2 = (int(p) for p in parts[:4])
-            value = float(parts[4].upper().replace("D", "E"))
-        except ValueError as exc:
-            raise ValueError(f"{path}: line {number}: expected 'node, dof, node, dof, value', got {text!r} ({exc})") \
-                from None
-        if n1 <= 0 or n2 <= 0:
-            raise ValueError(f"{path}: line {number}: internal node {min(n1, n2)} (a constraint's Lagrange "
-                             "multiplier); export the model without such constraints")
-        rows.append(dof_name(n1, d1))
-        cols.append(dof_name(n2, d2))
-        values.append(value)
-        lines.append(number)
-        if digits is not None:
-            digits[significant_digits(parts[4])] += 1
-    if not values:
+    texts = np.char.strip(np.array(path.read_bytes().splitlines(), dtype=bytes))
+    kept = (np.char.str_len(texts) > 0) & ~np.char.startswith(texts, b"*")
+    numbers, data = np.flatnonzero(kept) + 1, texts[kept]
+    if not numbers.size:
         raise ValueError(f"{path}: no matrix terms; is it a *MATRIX OUTPUT file?")
-    return rows, cols, values, lines
+
+    def refuse(k, why):
+        raise ValueError(f"{path}: line {numbers[k]}: expected 'node, dof, node, dof, value', got "
+                         f"{data[k].decode(errors='replace')!r} ({why})")
+
+    fields = np.char.count(data, b",") + 1
+    if np.any(fields != 5):
+        k = int(np.flatnonzero(fields != 5)[0])
+        refuse(k, f"{fields[k]} fields")
+    # numpy's C text parser over the data lines, D exponents made E (data lines hold no other letter)
+    blob = b"\n".join(data.tolist()).upper().replace(b"D", b"E")
+    try:
+        table = np.loadtxt(io.BytesIO(blob), delimiter=",", comments=None, dtype=_TERM, ndmin=1)
+    except ValueError as exc:   # the first line that does not convert, with Python's own message
+        for k, t in enumerate(data.tolist()):
+            parts = [p.strip() for p in t.decode(errors="replace").split(",")]
+            try:
+                [int(p) for p in parts[:4]], float(parts[4].upper().replace("D", "E"))
+            except ValueError as why:
+                refuse(k, why)
+        raise ValueError(f"{path}: {exc}") from None
+    if digits is not None:
+        digits.update(digit_counts(np.char.rpartition(data, b",")[..., 2]))
+    n1, d1, n2, d2, values = (table[name] for name in _TERM.names)
+    inner = np.flatnonzero((n1 <= 0) | (n2 <= 0))
+    if inner.size:
+        k = int(inner[0])
+        raise ValueError(f"{path}: line {numbers[k]}: internal node {min(n1[k], n2[k])} (a constraint's Lagrange "
+                         "multiplier); export the model without such constraints")
+    wrong = np.flatnonzero((d1 < 0) | (d1 > 6) | (d2 < 0) | (d2 > 6))
+    if wrong.size:
+        k = int(wrong[0])
+        node, component = (n1[k], d1[k]) if not 0 <= d1[k] <= 6 else (n2[k], d2[k])
+        raise ValueError(f"{path}: line {numbers[k]}: DOF component {component} of node {node}; 0 to 6 is expected")
+    return dof_key(n1, d1), dof_key(n2, d2), values, numbers
+
+
+def dof_key(node, component):
+    """``8 * node + component``: a DOF as one integer, ordered by node then component (0, a
+    scalar point, first); `dof_name` of ``(key // 8, key % 8)`` is its name."""
+    return np.asarray(node, dtype=np.int64) * 8 + np.asarray(component, dtype=np.int64)
 
 
 def _check_pattern(path, rows: np.ndarray, cols: np.ndarray, lines, names, n: int) -> None:
@@ -88,19 +119,20 @@ def read_abaqus(stiffness, mass) -> FEExport:
     model has a stiffness term): a file with lines missing is refused naming the line."""
     digits = Counter()
     k_terms, m_terms = read_mtx_terms(stiffness, digits), read_mtx_terms(mass, digits)
-    names = set(k_terms[0]) | set(k_terms[1]) | set(m_terms[0]) | set(m_terms[1])
-    order = sorted(names, key=lambda d: (int(d.split(":")[0]), ("s", "x", "y", "z", "rx", "ry", "rz").index(
-        d.split(":")[1])))
-    missing = (set(m_terms[0]) | set(m_terms[1])) - (set(k_terms[0]) | set(k_terms[1]))
-    if missing:
-        line, dof = min((line, r if r in missing else c) for r, c, line in zip(*m_terms[:2], m_terms[3])
-                        if r in missing or c in missing)
-        raise ValueError(f"{stiffness}: no term of DOF {dof!r}, which the mass file {mass} gives (line {line}); "
-                         "Abaqus writes every DOF's stiffness: lines are missing from the stiffness file")
-    pos = {d: k for k, d in enumerate(order)}
+    keys = np.unique(np.concatenate([k_terms[0], k_terms[1], m_terms[0], m_terms[1]]))
+    order = [dof_name(int(key) // 8, int(key) % 8) for key in keys]
+    stiff = np.unique(np.concatenate([k_terms[0], k_terms[1]]))
+    mr, mc, _, mlines = m_terms
+    row_missing, col_missing = ~np.isin(mr, stiff), ~np.isin(mc, stiff)
+    if np.any(row_missing | col_missing):
+        k = int(np.flatnonzero(row_missing | col_missing)[0])
+        key = int(mr[k] if row_missing[k] else mc[k])
+        raise ValueError(f"{stiffness}: no term of DOF {dof_name(key // 8, key % 8)!r}, which the mass file {mass} "
+                         f"gives (line {mlines[k]}); Abaqus writes every DOF's stiffness: lines are missing from the "
+                         "stiffness file")
     mats = []
     for path, (r, c, v, lines) in ((stiffness, k_terms), (mass, m_terms)):
-        ri, ci = np.array([pos[d] for d in r], dtype=np.int64), np.array([pos[d] for d in c], dtype=np.int64)
+        ri, ci = np.searchsorted(keys, r), np.searchsorted(keys, c)
         _check_pattern(path, ri, ci, lines, order, len(order))
         mats.append(symmetric_from_entries(ri, ci, v, len(order), str(path), "the matrix", order, lines))
     return FEExport(mats[0], mats[1], tuple(order), f"{stiffness}, {mass}", precision=precision_of_digits(digits))

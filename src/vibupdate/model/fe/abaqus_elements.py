@@ -35,14 +35,13 @@ groups the parameters follow (`read_abaqus_element_sets`).
 from __future__ import annotations
 
 import re
-from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from vibupdate.model.element_groups import ElementMatrices, element_matrices
-from vibupdate.model.fe.export import DIRECTIONS, dof_name, precision_of_digits, significant_digits
+from vibupdate.model.fe.export import DIRECTIONS, digit_counts, dof_name, precision_of_digits
 
 
 _ELEMENT = re.compile(r"\*\*\s*ELEMENT NUMBER\s+(-?\d+)(?:\s+STEP NUMBER\s+(\d+))?", re.I)
@@ -142,8 +141,9 @@ def _element_dofs(block: _Block, path: Path) -> list[str]:
     return names
 
 
-def _matrix(values: list[str], n: int, label: int, kind: str, path: Path, digits: Counter) -> np.ndarray:
-    """The symmetric ``n x n`` matrix from its lower triangle row by row."""
+def _matrix(values: list[str], n: int, label: int, kind: str, path: Path, written: list) -> np.ndarray:
+    """The symmetric ``n x n`` matrix from its lower triangle row by row; its values as written
+    are added to ``written`` (their digits are counted once for all elements)."""
     if len(values) != n * (n + 1) // 2:
         raise ValueError(f"{path}: element {label}: the {kind} matrix has {len(values)} entries; a symmetric matrix "
                          f"of {n} DOFs has {n * (n + 1) // 2} (its lower triangle)")
@@ -151,7 +151,7 @@ def _matrix(values: list[str], n: int, label: int, kind: str, path: Path, digits
         numbers = np.array([float(v.upper().replace("D", "E")) for v in values])
     except ValueError as exc:
         raise ValueError(f"{path}: element {label}: {kind} matrix: {exc}") from None
-    digits.update(significant_digits(v) for v in values)
+    written += values
     A = np.zeros((n, n))
     A[np.tril_indices(n)] = numbers
     return A + np.tril(A, -1).T
@@ -165,7 +165,7 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
     increments, or two files) is refused: export one step.
     """
     paths = [Path(p) for p in paths]
-    digits = Counter()
+    written = []
     elements = []
     for path in paths:
         if not path.is_file():
@@ -178,8 +178,8 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
             if "STIFFNESS" not in block.matrices:
                 raise ValueError(f"{path}: element {block.label} has no *MATRIX,TYPE=STIFFNESS (STIFFNESS=YES)")
             names = _element_dofs(block, path)
-            K = _matrix(block.matrices["STIFFNESS"], len(names), block.label, "stiffness", path, digits)
-            M = (_matrix(block.matrices["MASS"], len(names), block.label, "mass", path, digits)
+            K = _matrix(block.matrices["STIFFNESS"], len(names), block.label, "stiffness", path, written)
+            M = (_matrix(block.matrices["MASS"], len(names), block.label, "mass", path, written)
                  if "MASS" in block.matrices else None)
             elements.append((block.label, names, K, M))
     seen: dict = {}
@@ -190,7 +190,7 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
         seen[label] = ", ".join(map(str, paths))
     order = sorted(dict.fromkeys(d for e in elements for d in e[1]),
                    key=lambda d: (int(d.split(":")[0]), DIRECTIONS.index(d.split(":")[1])))
-    return element_matrices(elements, dofs=order, precision=precision_of_digits(digits),
+    return element_matrices(elements, dofs=order, precision=precision_of_digits(digit_counts(written)),
                             source=", ".join(map(str, paths)))
 
 

@@ -52,6 +52,42 @@ def significant_digits(text: str) -> int:
     return len(mantissa.replace(".", "").lstrip("0"))
 
 
+def digit_counts(texts) -> Counter:
+    """`significant_digits` of many reals at once, counted: the mapping `precision_of_digits`
+    takes.
+
+    Parameters
+    ----------
+    texts : array_like of str or bytes, shape (n,)
+        Reals as written, each a number the reader has parsed (a sign, a mantissa, an optional
+        exponent with a letter or only its sign).
+
+    Returns
+    -------
+    collections.Counter
+        Significant digits -> how many of ``texts`` have them.
+
+    Notes
+    -----
+    Vectorised over the array (`numpy.char`, in numpy 1 and 2 alike): after the leading sign,
+    the mantissa ends at the first exponent letter (``E``, ``D``) or sign; in a number that
+    parses, a sign after the first character follows a digit, a point or the exponent letter,
+    so this is `significant_digits`'s rule.
+    """
+    s = np.asarray(texts)
+    if not s.size:
+        return Counter()
+    raw = s.dtype.kind == "S"
+    text = (lambda t: t.encode()) if raw else (lambda t: t)
+    # every exponent letter or sign becomes "E"; the mantissa is what comes before the first
+    marks = (bytes if raw else str).maketrans(text("eEdD+-"), text("EEEEEE"))
+    s = np.char.translate(np.char.lstrip(np.char.strip(s), text("+-")), marks)
+    mantissa = np.char.replace(np.char.partition(s, text("E"))[..., 0], text("."), text(""))
+    lengths = np.char.str_len(np.char.lstrip(mantissa, text("0")))
+    found, counts = np.unique(lengths, return_counts=True)
+    return Counter(dict(zip(found.tolist(), counts.tolist())))
+
+
 def precision_of_digits(counts) -> float | None:
     """Relative precision of the numbers of an export from their significant digits (module
     docstring).

@@ -5,8 +5,8 @@ release (1.4.1) requires ``numpy < 2`` and cannot be installed beside this packa
 Given numpy 2, pip resolves the older 1.3.4 instead (it states no upper bound on numpy); it
 predates numpy 2, and asking for pyNastran in a fresh environment makes pip downgrade numpy to
 reach 1.4.1. So it is not a dependency: the DMIG card is small and is read here, and the tests
-compare this reader with pyNastran's when pyNastran is installed (1.3.4 under numpy 2.4 read
-the three field formats to the same matrices).
+compare this reader with pyNastran's (the ``test`` extra installs 1.3.4 beside numpy 2, under
+which it reads the three field formats to the same matrices).
 
 Format read
 -----------
@@ -29,12 +29,11 @@ punch holds the analysis set: the constrained DOFs are already gone.
 from __future__ import annotations
 
 import re
-from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, dof_name, precision_of_digits, significant_digits, symmetric_from_entries
+from vibupdate.model.fe.export import FEExport, digit_counts, dof_name, precision_of_digits, symmetric_from_entries
 
 
 _EXPONENT = re.compile(r"^([+-]?[0-9.]+)([+-][0-9]+)$")
@@ -77,7 +76,7 @@ def _cards(path: Path):
     return cards
 
 
-def read_dmig_matrices(path) -> dict:
+def read_dmig_matrices(path, cards=None) -> dict:
     """Every DMIG matrix of a bulk-data file: name -> ``(rows, cols, values, dofs, ifo,
     digits, lines, ncol)`` with the DOF names in the order met, the entries in that numbering
     (0-based), the matrix form, a `collections.Counter` of the significant digits of the values
@@ -85,12 +84,13 @@ def read_dmig_matrices(path) -> dict:
 
     Checked card by card: a column card without a term (a large-field card cut after its first
     line), a term without its value, and more DOFs than the header's NCOL are refused naming the
-    line."""
+    line. ``cards``: the file's `_cards` when the caller has them already (the file is then not read
+    again)."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"Nastran file {str(path)!r} does not exist")
     out, forms, digits, ncols, headers = {}, {}, {}, {}, {}
-    for number, head, data, lines in _cards(path):
+    for number, head, data, lines in (_cards(path) if cards is None else cards):
         if head != "DMIG":
             continue
         where = f"{path}: line {number}"
@@ -108,7 +108,7 @@ def read_dmig_matrices(path) -> dict:
                                      f"{headers[name]})")
                 forms[name], headers[name] = ifo, number
                 ncols[name] = int(data[7]) if len(data) > 7 and data[7] else None
-                digits[name] = Counter()
+                digits[name] = []
                 out[name] = ([], [], [], {}, [])
                 continue
             if name not in out:
@@ -129,7 +129,7 @@ def read_dmig_matrices(path) -> dict:
                 cols.append(col)
                 values.append(nastran_float(a))
                 at.append(term_lines[k])
-                digits[name][significant_digits(a)] += 1
+                digits[name].append(a)
                 found += 1
             if not found:
                 raise ValueError(f"{where}: the column card of DMIG {name} at grid {data[1]} component "
@@ -145,7 +145,7 @@ def read_dmig_matrices(path) -> dict:
         if ncols[name] is not None and len(index) > ncols[name]:
             raise ValueError(f"{path}: line {headers[name]}: the header of DMIG {name} declares NCOL = {ncols[name]} "
                              f"columns, but its cards name {len(index)} DOFs")
-    return {name: (rows, cols, values, tuple(index), forms[name], digits[name], at, ncols[name])
+    return {name: (rows, cols, values, tuple(index), forms[name], digit_counts(digits[name]), at, ncols[name])
             for name, (rows, cols, values, index, at) in out.items()}
 
 
@@ -161,7 +161,10 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
         Names of the two DMIG matrices (default ``KAAX``, ``MAAX``, the punch's names).
     """
     path = Path(path)
-    found = read_dmig_matrices(path)
+    if not path.is_file():
+        raise ValueError(f"Nastran file {str(path)!r} does not exist")
+    cards = _cards(path)
+    found = read_dmig_matrices(path, cards)
     for name in (stiffness, mass):
         if name.upper() not in found:
             raise ValueError(f"{path}: no DMIG matrix {name!r}; the file holds {', '.join(sorted(found))}")
@@ -185,7 +188,7 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     others = sorted(set(found) - {stiffness.upper(), mass.upper()})
     notes = (f"{path}: DMIG matrices not read: {', '.join(others)} (only {stiffness.upper()} and {mass.upper()} "
              "are)",) if others else ()
-    nodes = _grids(path)
+    nodes = _grids(path, cards)
     _check_grids(path, nodes, order)
     return FEExport(K, M, tuple(order), str(path), nodes, precision_of_digits(kdigits + mdigits), notes)
 
@@ -207,10 +210,10 @@ def _check_grids(path: Path, nodes: dict, order) -> None:
                          "is it cut short? (a file with GRID cards needs one for every grid point of its matrices)")
 
 
-def _grids(path: Path) -> dict:
-    """Coordinates (m) of the GRID cards of the file in the basic system (``CP`` blank or 0)."""
+def _grids(path: Path, cards) -> dict:
+    """Coordinates (m) of the GRID cards (the file's `_cards`) in the basic system (``CP`` blank or 0)."""
     nodes = {}
-    for number, head, data, _ in _cards(path):
+    for number, head, data, _ in cards:
         if head != "GRID":
             continue
         if data[1] not in ("", "0"):
