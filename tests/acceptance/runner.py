@@ -76,7 +76,11 @@ def run_api(problem) -> Outcome:
     except Exception as exc:   # an internal error is the finding, recorded
         return failed_outcome("crash", time.perf_counter() - start, f"{type(exc).__name__}: {exc}")
     seconds = time.perf_counter() - start
-    return from_update_result(result, seconds, api_ranges(problem, result))
+    try:
+        ranges = api_ranges(problem, result)
+    except Exception as exc:   # the library's ranges failing on a verified answer is a finding too
+        return failed_outcome("crash", seconds, f"parameter_ranges: {type(exc).__name__}: {exc}")
+    return from_update_result(result, seconds, ranges)
 
 
 def api_ranges(problem, result):
