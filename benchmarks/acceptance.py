@@ -1,8 +1,9 @@
 """Known-truth acceptance over many problems of every family: what fails today, by class.
 
 Run: ``PYTHONPATH=src python benchmarks/acceptance.py --profile ci|dev|full|held-out
-[--family NAME ...] [--workers 1] [--routes cli api] [--json FILE]``, or, for the random family
-alone, ``--cases 500 [--seed 0] [--named]``.
+[--family NAME ...] [--cases N] [--workers 1] [--routes cli api] [--json FILE]`` (``--cases``: the
+first N seeds of each family of the profile), or, for the random family alone, ``--cases 500
+[--seed 0] [--named]``.
 
 A profile (`acceptance.criteria.PROFILES`) is a set of seeds per family: ``ci`` the test suite's,
 ``dev`` the development profile, ``full`` over 2,000 runs, ``held-out`` seeds kept out of
@@ -120,7 +121,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--profile", choices=["ci", "dev", "full", "held-out"], default=None)
     parser.add_argument("--family", nargs="+", default=None, help="only these families of the profile")
-    parser.add_argument("--cases", type=int, default=None, help="random problems seed .. seed + cases - 1")
+    parser.add_argument("--cases", type=int, default=None, help="random problems seed .. seed + cases - 1; with "
+                        "--profile, the first CASES seeds of each family")
     parser.add_argument("--seed", type=int, default=0, help="first seed (with --cases)")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--routes", nargs="+", default=["cli", "api"], choices=["cli", "api"])
@@ -131,8 +133,10 @@ def main(argv=None) -> int:
 
     routes = tuple(args.routes)
     if args.profile is not None:
-        jobs = [(f, s, routes) for f, s in C.profile_jobs(args.profile) if not args.family or f in args.family]
-        title = f"profile {args.profile}"
+        seeds = {f: list(s)[:args.cases] for f, s in C.PROFILES[args.profile].items()}
+        jobs = [(f, s, routes) for f, s in C.profile_jobs(args.profile)
+                if (not args.family or f in args.family) and s in seeds[f]]
+        title = f"profile {args.profile}" + (f", first {args.cases} seeds of each family" if args.cases else "")
     else:
         cases = 500 if args.cases is None else args.cases
         jobs = [("random", s, routes) for s in range(args.seed, args.seed + cases)]

@@ -3,9 +3,10 @@
 The judge sees only what a user sees: the status, the parameter values, the consistent ranges
 the run reports, the other answers it reports as fitting the data as well, the frequency rows
 of ``results.json`` and the group the diagnosis ranks first. `from_results_json` reads them from
-``results.json`` (the CLI route), `from_update_result` from a `vibupdate.UpdateResult` (the
-Python route). Whatever the library calls its statuses, they are mapped here to the judge's
-words (`status_word`), so a renamed status touches this file alone.
+``results.json`` (the CLI route), `from_update_result` from a `vibupdate.UpdateResult` and the
+ranges the user computed at its answer (the Python route). Whatever the library calls its
+statuses, they are mapped here to the judge's words (`status_word`), so a renamed status
+touches this file alone.
 """
 
 from __future__ import annotations
@@ -84,8 +85,7 @@ def from_results_json(doc: dict | None, exit_code: int, seconds: float, error: s
         return failed_outcome("refused" if exit_code == 2 else "crash", seconds, error, exit_code)
     names = [p["name"] for p in doc["parameters"]]
     ident = doc.get("identifiability") or {}
-    ranges = ident.get("ranges")
-    ranges = {n: (r["lower"], r["upper"]) for n, r in ranges.items()} if ranges else None
+    ranges = _ranges(ident.get("ranges"))
     alternatives = [np.array([a["values"][n] for n in names], dtype=float) for a in ident.get("alternatives") or []]
     diagnosis = tuple(t["key"] for t in ((doc.get("diagnosis") or {}).get("trials") or []))
     return Outcome(status_word(doc["solver"]["status"]), exit_code, seconds,
@@ -93,10 +93,17 @@ def from_results_json(doc: dict | None, exit_code: int, seconds: float, error: s
                    list(doc.get("frequencies") or []), diagnosis, error)
 
 
-def from_update_result(result, seconds: float) -> Outcome:
-    """The outcome of `vibupdate.update`."""
+def _ranges(ranges: dict | None) -> dict | None:
+    """``{name: (lower, upper)}`` from ranges as ``results.json`` writes them (``{name: {"lower",
+    "upper", ...}}``)."""
+    return {n: (r["lower"], r["upper"]) for n, r in ranges.items()} if ranges else None
+
+
+def from_update_result(result, seconds: float, ranges: dict | None = None) -> Outcome:
+    """The outcome of `vibupdate.update`; ``ranges`` the consistent ranges the user computed at
+    its answer, as ``results.json`` writes them (`acceptance.runner.api_ranges`)."""
     from vibupdate.io.results import frequencies_of
 
     alternatives = [np.array(list(a["values"].values()), dtype=float) for a in getattr(result, "alternatives", ())]
-    return Outcome(status_word(result.status), None, seconds, np.asarray(result.values, dtype=float), None,
-                   alternatives, [r.as_dict() for r in frequencies_of(result.correlation)])
+    return Outcome(status_word(result.status), None, seconds, np.asarray(result.values, dtype=float),
+                   _ranges(ranges), alternatives, [r.as_dict() for r in frequencies_of(result.correlation)])

@@ -9,8 +9,9 @@ Two kinds of criteria:
 * budgets, per family and each on its own: the least share of runs that must end verified
   (``success_min``), the largest share that may end ``not_verified`` (``not_verified_max``:
   strictness is never free, a family that fails to verify spends it), the answers worse than
-  the nominal model (``worse_max``), and, where the data hold a wrong group by construction, the
-  least share of diagnosed runs that rank it first (``first_min``).
+  the nominal model by the contract's misfit (``worse_max``, `acceptance.judge.misfit`), and,
+  where the data hold a wrong group by construction, the least share of diagnosed runs that
+  rank it first (``first_min``).
 
 The judge's excused classes (``not_unique``, ``undetermined_far``) are counted per family and
 printed (`summary`), never spent silently. `check` returns every criterion with its measured

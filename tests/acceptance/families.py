@@ -273,9 +273,10 @@ def mass_normalized(seed: int) -> Problem:
     meas = list(spec.measurable)
     sensors = [meas[i] for i in sorted(rng.choice(len(meas), size=min(int(rng.integers(2, 5)), len(meas)),
                                                   replace=False))]
-    base = measure(spec, params, truth, kind="P2", rng=rng, noise=noise, n_modes=int(rng.integers(2, 5)))
     M, K, dofs = S.matrices_at(spec, truth)
     w, Phi = T.modes(M, K)
+    n_modes = min(int(rng.integers(2, 5)), int(np.count_nonzero(w > 0)))   # a 3-DOF chain has 3 modes
+    base = measure(spec, params, truth, kind="P2", rng=rng, noise=noise, n_modes=n_modes)
     natural = []
     for n in base.natural:
         phi = Phi[[dofs.index(d) for d in sensors], n.mode - 1]

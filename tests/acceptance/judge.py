@@ -23,8 +23,9 @@ Failure codes of one run (`Verdict.failures`):
 * ``truth_outside_reported``: the truth (or a mirror image) outside a consistent range the run
   reports, for a problem whose model family holds the truth;
 * ``report``: ``results.json`` frequencies that differ from the recomputed ones;
-* ``worse_than_nominal``: an answer whose data lie further outside their intervals than the
-  nominal model's (`excess`, summed over the data in half-widths);
+* ``worse_than_nominal``: an answer further from its data than the nominal model by the
+  contract's misfit (`misfit`: the sum of squared distances outside the admissible intervals, in
+  their half-widths, the measure the library's own guard uses, recomputed here);
 * outcomes, not defects: ``not_verified`` and the path statuses (``path_failed``).
 
 What the judge excuses is counted as its own class (`Verdict.excused`), never dropped:
@@ -51,10 +52,11 @@ from acceptance import determinacy as D
 from acceptance import structures as S
 from acceptance import truth as T
 from acceptance.adapter import Outcome
-from acceptance.emit import EXACT_SLACK, flexible_mode
+from acceptance.emit import EXACT_SLACK, flexible_mode, model_form
 
-__all__ = ["Reference", "Compromise", "Verdict", "reference", "compromise", "judge", "misses", "excess", "scale_miss",
-           "FLOOR", "FAR_PCT"]
+__all__ = ["Reference", "Compromise", "Verdict", "reference", "compromise", "judge", "misses", "excess", "misfit",
+           "admissible_misses", "scale_miss", "FLOOR", "FAR_PCT", "ADMISSIBLE_FLOOR", "EXACT_HALF_WIDTH",
+           "MODEL_FORM_DEFAULTS"]
 
 #: Numerical floor of the interval checks, in half-widths: an answer on a bound to 0.1 % of
 #: its half-width is inside (the polish ends on the bounds of the intervals it reaches).
@@ -63,6 +65,19 @@ FLOOR = 1e-3
 #: as ``undetermined_far``.
 FAR_PCT = D.DETERMINED_PCT
 TWO_PI = 2.0 * np.pi
+
+# The admissible intervals of docs/polish-and-verification.md (7.3), as that page states them:
+# measurement interval + model-form tolerance + numerical floor, an exact datum given a stated
+# half-width. The numbers are the documented defaults, written here (not imported) so that the
+# judge's measure is its own code; `tests/acceptance/test_judge.py` holds them equal to the
+# library's option defaults.
+#: Relative numerical floor of every admissible interval (of a shape entry: of its largest entry).
+ADMISSIBLE_FLOOR = 1e-8
+#: Relative half-width of a datum known exactly (a measurement interval of zero width).
+EXACT_HALF_WIDTH = 1e-6
+#: Model-form tolerances a case file does not state (`acceptance.emit.model_form` states the rest).
+MODEL_FORM_DEFAULTS = {"natural_tolerance": 0.02, "antiresonance_tolerance": 0.02, "shape_tolerance": 0.02,
+                       "modal_mass_tolerance": 0.05}
 
 
 @dataclass(frozen=True)
@@ -79,8 +94,10 @@ class Reference:
     width_pct : ndarray or None
     determined : tuple of str
     determinacy : {"determined", "partial", "undetermined", "out_of_family"}
+    nominal_misfit : float
+        `misfit` of the nominal model (what ``worse_than_nominal`` compares with).
     nominal_excess : float
-        `excess` of the nominal model.
+        `excess` of the nominal model (shown beside the misfit, decides nothing).
     compromise : Compromise or None
         The judge's own weighted least-squares compromise, for a problem that asks for it.
     """
@@ -90,6 +107,7 @@ class Reference:
     width_pct: np.ndarray | None
     determined: tuple
     determinacy: str
+    nominal_misfit: float
     nominal_excess: float
     compromise: "Compromise | None" = None
 
@@ -97,10 +115,10 @@ class Reference:
 @dataclass(frozen=True)
 class Compromise:
     """The judge's weighted least-squares compromise (`compromise`): physical ``values``, its
-    `excess`, and the ``seconds`` it took in this process (the time a classical fit takes)."""
+    `misfit`, and the ``seconds`` it took in this process (the time a classical fit takes)."""
 
     values: np.ndarray
-    excess: float
+    misfit: float
     seconds: float
 
 
@@ -145,19 +163,22 @@ def _vector(problem, values: dict) -> np.ndarray:
 
 def reference(problem) -> Reference:
     """Determinacy at the truth and its mirror images (`acceptance.determinacy`), the nominal
-    model's excess, and, for a problem that asks for it, the judge's own compromise."""
+    model's misfit and excess, and, for a problem that asks for it, the judge's own compromise."""
     nominal = np.array([p.nominal for p in problem.parameters])
-    nominal_excess = excess(problem, nominal)
+    _, _, distance, admissible = misses(problem, nominal)
+    nominal_misfit, nominal_excess = float(np.sum(np.square(admissible))), float(np.sum(distance))
     truths = [problem.truth] + [_mirror(problem, s) for s in problem.symmetries]
     fit = compromise(problem) if problem.compromise else None
     if not problem.in_family:
-        return Reference([], [_vector(problem, t) for t in truths], None, (), "out_of_family", nominal_excess, fit)
+        return Reference([], [_vector(problem, t) for t in truths], None, (), "out_of_family", nominal_misfit,
+                         nominal_excess, fit)
     ranges = [D.at_truth(problem, t) for t in truths]
     widths = ranges[0].width_pct
     names = [p.name for p in problem.parameters]
     determined = tuple(n for n, w in zip(names, widths) if np.isfinite(w) and w <= D.DETERMINED_PCT)
     label = "determined" if len(determined) == len(names) else "undetermined" if not determined else "partial"
-    return Reference(ranges, [_vector(problem, t) for t in truths], widths, determined, label, nominal_excess, fit)
+    return Reference(ranges, [_vector(problem, t) for t in truths], widths, determined, label, nominal_misfit,
+                     nominal_excess, fit)
 
 
 def compromise(problem) -> Compromise:
@@ -186,19 +207,21 @@ def compromise(problem) -> Compromise:
     sol = least_squares(residual, np.r_[np.zeros(n), np.ones(n_shapes)], bounds=(lo, hi), method="trf")
     values = np.array([p.nominal + p.reference * x for p, x in zip(problem.parameters, sol.x[:n])])
     seconds = time.perf_counter() - start
-    return Compromise(values, excess(problem, values), seconds)
+    return Compromise(values, misfit(problem, values), seconds)
 
 
 # -- the data of a model -------------------------------------------------------------------------
 
 
-def misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple], list[float]]:
+def misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple], list[float], list[float]]:
     """Data of the model at physical ``values`` outside their intervals (in words), every
-    recomputed frequency ``(configuration, kind, index, hz)``, and each datum's distance outside
-    its interval in half-widths (a shape counted once, at its best scaling)."""
+    recomputed frequency ``(configuration, kind, index, hz)``, each datum's distance outside
+    its interval in half-widths (a shape counted once, at its best scaling), and each datum's
+    distance outside its admissible interval in its half-widths (`admissible_misses`)."""
     tol = problem.tolerance if problem.tolerance > 0 else EXACT_SLACK
     given = dict(zip([p.name for p in problem.parameters], values))
-    out, freqs, distance = [], [], []
+    out, freqs, distance, admissible = [], [], [], []
+    form = {**MODEL_FORM_DEFAULTS, **model_form(problem)}
     for cfg in problem.data:
         spec = problem.structure.with_mass(*cfg.extra_mass) if cfg.extra_mass else problem.structure
         M, K, dofs = S.matrices_at(spec, given)
@@ -206,13 +229,14 @@ def misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple], list[fl
         checks = []
         for n in cfg.natural:
             model = w[n.mode - 1] / TWO_PI if n.mode <= w.size else np.nan
-            checks.append((f"{cfg.name} mode {n.mode}", n.hz, model))
+            checks.append((f"{cfg.name} mode {n.mode}", n.hz, model, form["natural_tolerance"]))
             freqs.append((cfg.name, "natural", flexible_mode(problem, n), model))
             if n.shape:
                 slack = EXACT_SLACK if problem.shape_noise == 0 else 0.0
                 names = list(n.shape)
                 phi = np.array([Phi[dofs.index(d), n.mode - 1] for d in names]) if n.mode <= w.size else None
                 lo, hi = (np.array([n.shape[d][i] for d in names]) + sign * slack for i, sign in ((0, -1), (1, 1)))
+                admissible += _admissible_shape(problem, n.shape, names, phi, form)
                 if phi is None:
                     miss = np.inf
                 elif problem.mass_normalized:   # the entries themselves, up to a common sign
@@ -229,22 +253,75 @@ def misses(problem, values: np.ndarray) -> tuple[list[str], list[tuple], list[fl
                 zeros[z.receptance] = T.zeros(M, K, dofs.index(z.response), dofs.index(z.excitation))[0]
             zz = zeros[z.receptance]
             model = zz[z.index - 1] / TWO_PI if z.index <= zz.size else np.nan
-            checks.append((f"{cfg.name} zero {z.index} of h_{z.response},{z.excitation}", z.hz, model))
+            checks.append((f"{cfg.name} zero {z.index} of h_{z.response},{z.excitation}", z.hz, model,
+                           form["antiresonance_tolerance"]))
             freqs.append((cfg.name, f"h_{z.response},{z.excitation}", z.index, model))
-        for label, hz, model in checks:
+        for label, hz, model, form_tol in checks:
             d = abs(model - hz) / (tol * hz) - 1.0 if np.isfinite(model) else np.inf
             distance.append(max(d, 0.0))
+            measured = problem.tolerance * hz    # the measurement interval's half-width (0: exact)
+            half = (EXACT_HALF_WIDTH * hz if measured == 0 else measured) + (form_tol + ADMISSIBLE_FLOOR) * hz
+            admissible.append(max(abs(model - hz) - half, 0.0) / half if np.isfinite(model) else np.inf)
             if d > FLOOR:
                 out.append(f"{label}: {model:.7g} Hz vs {hz:.7g} Hz +- {100 * tol:.3g} % "
                            f"({100 * (model - hz) / hz:+.3g} %)")
-    return out, freqs, distance
+    return out, freqs, distance, admissible
 
 
 def excess(problem, values: np.ndarray) -> float:
-    """How far the model at physical ``values`` is from admitting its data: the distances of the
-    data outside their intervals, in half-widths, summed (0: every datum admissible). A datum the
-    model does not have (a mode or zero beyond its count) counts as infinitely far."""
+    """The plain sum of the distances of the data outside their measurement intervals (the
+    judge's own, `misses`), in half-widths (0: every datum inside). Shown beside `misfit`; it
+    decides nothing. A datum the model does not have counts as infinitely far."""
     return float(np.sum(misses(problem, values)[2]))
+
+
+def misfit(problem, values: np.ndarray) -> float:
+    """The contract's misfit of the model at physical ``values``: the sum of the squared
+    distances of the data outside their admissible intervals, each in its interval's half-widths
+    (`admissible_misses`; 0: every datum admissible, inf: a datum the model does not have). The
+    definition of docs/polish-and-verification.md (7.3, 7.6), computed here from the truth
+    kernels: an answer with a larger one than the nominal model is ``worse_than_nominal``."""
+    return float(np.sum(np.square(admissible_misses(problem, values))))
+
+
+def admissible_misses(problem, values: np.ndarray) -> np.ndarray:
+    """Each datum's distance outside its admissible interval, in its half-widths, as the
+    documentation defines the interval: the measurement interval (a noisy frequency's 3 sigma; an
+    exact one `EXACT_HALF_WIDTH` of its value), widened on both sides by the case's model-form
+    tolerance (`acceptance.emit.model_form`, else `MODEL_FORM_DEFAULTS`) times the value and by
+    `ADMISSIBLE_FLOOR` of it. A shape of two entries or more is one datum: its entries' intervals
+    (an entry of zero width given `EXACT_HALF_WIDTH`) widened by the shape tolerance and the floor
+    times the magnitude of the entry whose midpoint is largest, at the best common scale
+    (`scale_miss`; its scale free, a mass-normalized shape's too); a mass-normalized shape adds
+    its modal mass at that entry, ``1 / phi_p^2``, against ``[1 / hi_p^2, 1 / lo_p^2]`` widened
+    by the modal-mass tolerance and the floor times its midpoint."""
+    return np.array(misses(problem, values)[3], dtype=float)
+
+
+def _admissible_shape(problem, shape: dict, names: list, phi, form: dict) -> list[float]:
+    """`admissible_misses` of one measured shape (one or two data)."""
+    if len(names) < 2:
+        return []
+    lo = np.array([shape[d][0] for d in names])
+    hi = np.array([shape[d][1] for d in names])
+    mid = 0.5 * (lo + hi)
+    p = int(np.argmax(np.abs(mid)))
+    scale = abs(mid[p])
+    extra = np.where(hi - lo <= 0, EXACT_HALF_WIDTH * scale, 0.0) + (form["shape_tolerance"] + ADMISSIBLE_FLOOR) * scale
+    out = [scale_miss(phi, lo - extra, hi + extra) if phi is not None else np.inf]
+    if problem.mass_normalized:
+        a, b = sorted((abs(lo[p]), abs(hi[p])))
+        mlo, mhi = 1.0 / b**2, 1.0 / a**2
+        mmid = 0.5 * (mlo + mhi)
+        widen = (EXACT_HALF_WIDTH * mmid if mhi - mlo <= 0 else 0.0) + (form["modal_mass_tolerance"]
+                                                                         + ADMISSIBLE_FLOOR) * mmid
+        half = 0.5 * (mhi - mlo) + widen
+        if phi is None or phi[p] == 0:
+            out.append(np.inf)
+        else:
+            mass = 1.0 / phi[p] ** 2
+            out.append(max(mlo - widen - mass, mass - mhi - widen, 0.0) / half)
+    return out
 
 
 def _entry_miss(phi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
@@ -300,27 +377,30 @@ def judge(problem, route: str, outcome: Outcome, ref: Reference) -> Verdict:
     values = outcome.values
     if values is None:
         return v
-    missed, freqs, distance = misses(problem, values)
+    missed, freqs, distance, admissible = misses(problem, values)
     if v.success and missed:
         v.failures.append("outside")
         v.details += ["outside: " + m for m in missed[:4]]
     if not v.success and missed:
         v.details.append(f"{v.failures[-1]}: {len(missed)} data outside their intervals, e.g. {missed[0]}")
-    answer_excess = float(np.sum(distance))   # `excess` of the answer
-    if answer_excess > ref.nominal_excess * (1 + FLOOR) + FLOOR:
+    answer_misfit = float(np.sum(np.square(admissible)))   # `misfit` of the answer
+    answer_excess = float(np.sum(distance))                # `excess` of the answer
+    if answer_misfit > ref.nominal_misfit * (1 + FLOOR) + FLOOR:
         v.failures.append("worse_than_nominal")
-        v.details.append(f"worse_than_nominal: data {answer_excess:.4g} half-widths outside their intervals in all, "
-                         f"the nominal model's {ref.nominal_excess:.4g}")
+        v.details.append(f"worse_than_nominal: misfit {answer_misfit:.4g} (sum of squared distances outside the "
+                         f"admissible intervals, in half-widths), the nominal model's {ref.nominal_misfit:.4g}; "
+                         f"plain sum of misses {answer_excess:.4g} half-widths, the nominal model's "
+                         f"{ref.nominal_excess:.4g}")
     _check_parameters(problem, v, outcome, ref, names, bool(missed))
     if ref.compromise is not None:
         refs = np.abs([p.reference for p in problem.parameters])
         gap = np.abs(values - ref.compromise.values) / refs * 100.0
         v.compromise = {"distance_pct": float(np.max(gap)), "parameter": names[int(np.argmax(gap))],
-                        "excess": answer_excess, "compromise_excess": ref.compromise.excess,
+                        "misfit": answer_misfit, "compromise_misfit": ref.compromise.misfit,
                         "time_ratio": outcome.seconds / ref.compromise.seconds}
         v.details.append(f"compromise: largest distance {np.max(gap):.3g} % ({names[int(np.argmax(gap))]}) from the "
-                         f"judge's least-squares compromise (excess {ref.compromise.excess:.4g} half-widths, the "
-                         f"answer's {answer_excess:.4g}); run time {v.compromise['time_ratio']:.3g}x the compromise's")
+                         f"judge's least-squares compromise (misfit {ref.compromise.misfit:.4g}, the answer's "
+                         f"{answer_misfit:.4g}); run time {v.compromise['time_ratio']:.3g}x the compromise's")
     lookup = {(c, k, i): hz for c, k, i, hz in freqs}
     for row in outcome.rows:
         key = (row["configuration"], row.get("receptance") or row["kind"], row.get("model_index", row["index"]))

@@ -87,6 +87,9 @@ def measure(structure, parameters, truth: dict, *, kind: str, rng, noise: float 
         modes = list(range(rigid + 1, rigid + 1 + (n_modes or 3)))
     natural = []
     if kind != "P3":
+        if max(modes) > w.size:
+            raise ValueError(f"measure: model mode {max(modes)} asked for, but the model has {w.size} modes "
+                             f"({rigid} rigid-body)")
         pos = np.array(modes) - 1
         hz = _noisy(rng, w[pos] / TWO_PI, noise, lambda m: bool(np.all(np.diff(m) > 0))
                     and _nearest_ok(m, pos, w / TWO_PI))

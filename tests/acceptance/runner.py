@@ -75,7 +75,27 @@ def run_api(problem) -> Outcome:
         return failed_outcome("refused", time.perf_counter() - start, str(exc))
     except Exception as exc:   # an internal error is the finding, recorded
         return failed_outcome("crash", time.perf_counter() - start, f"{type(exc).__name__}: {exc}")
-    return from_update_result(result, time.perf_counter() - start)
+    seconds = time.perf_counter() - start
+    try:
+        ranges = api_ranges(problem, result)
+    except Exception as exc:   # the library's ranges failing on a verified answer is a finding too
+        return failed_outcome("crash", seconds, f"parameter_ranges: {type(exc).__name__}: {exc}")
+    return from_update_result(result, seconds, ranges)
+
+
+def api_ranges(problem, result):
+    """The consistent ranges a Python user computes at a verified answer, as ``vibupdate run``
+    does (docs/python-api.md, "Which parameters do the data determine?"): `parameter_ranges` at
+    ``result.xbar`` with the case's frequency tolerance; None when the answer is not verified
+    (the CLI computes none then either)."""
+    if not result.success:
+        return None
+    from vibupdate.ranges.identifiability import parameter_ranges
+
+    configurations = problem.configurations()
+    found = parameter_ranges(configurations, result.xbar, frequency_tolerance=problem.tolerance,
+                             freqs=list(result.correlation.updated))
+    return found.as_dict()
 
 
 def run_problem(problem, routes=("cli", "api"), workdir: Path | None = None) -> list[Verdict]:

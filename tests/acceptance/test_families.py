@@ -107,6 +107,21 @@ def test_a_mass_normalized_shape_is_judged_without_a_free_scaling():
     assert not R.misses(replace(doubled, mass_normalized=False), _truth(doubled))[0]
 
 
+def test_a_family_measures_no_more_modes_than_its_model_has():
+    """Seed 48 of `mass_normalized` draws a 3-mass chain and 4 modes to measure: it measures
+    the chain's 3 (it failed to draw, an IndexError, before); `measure` refuses a mode the
+    model lacks by name."""
+    from acceptance.measure import measure
+
+    problem = F.mass_normalized(48)
+    assert len(problem.structure.measurable) == 3
+    assert [n.mode for n in problem.data[0].natural] == [1, 2, 3]
+    assert not R.misses(problem, _truth(problem))[0]
+    with pytest.raises(ValueError, match="model mode 4 asked for, but the model has 3 modes"):
+        measure(problem.structure, problem.parameters, problem.truth, kind="P2", rng=np.random.default_rng(0),
+                n_modes=4)
+
+
 @pytest.mark.parametrize("family", (*C.NEW_FAMILIES, "shear_building"))
 def test_case_file_and_python_objects_are_the_same_problem(tmp_path, family):
     problem = F.MAKERS[family](1)
