@@ -292,7 +292,8 @@ def admissible_misses(problem, values: np.ndarray) -> np.ndarray:
     `ADMISSIBLE_FLOOR` of it. A shape of two entries or more is one datum: its entries' intervals
     (an entry of zero width given `EXACT_HALF_WIDTH`) widened by the shape tolerance and the floor
     times the magnitude of the entry whose midpoint is largest, at the best common scale
-    (`scale_miss`; its scale free, a mass-normalized shape's too); a mass-normalized shape adds
+    (`scale_miss`; its scale free; a mass-normalized shape's the mode's own, up to sign, times a
+    calibration within ``1 / sqrt(1 -+ t)``, ``t`` the modal-mass tolerance); a mass-normalized shape adds
     its modal mass at that entry, ``1 / phi_p^2``, against ``[1 / hi_p^2, 1 / lo_p^2]`` widened
     by the modal-mass tolerance and the floor times its midpoint."""
     return np.array(misses(problem, values)[3], dtype=float)
@@ -308,7 +309,9 @@ def _admissible_shape(problem, shape: dict, names: list, phi, form: dict) -> lis
     p = int(np.argmax(np.abs(mid)))
     scale = abs(mid[p])
     extra = np.where(hi - lo <= 0, EXACT_HALF_WIDTH * scale, 0.0) + (form["shape_tolerance"] + ADMISSIBLE_FLOOR) * scale
-    out = [scale_miss(phi, lo - extra, hi + extra) if phi is not None else np.inf]
+    t = form["modal_mass_tolerance"]
+    calibration = (1.0 / np.sqrt(1.0 + t), 1.0 / np.sqrt(1.0 - t)) if problem.mass_normalized else None
+    out = [scale_miss(phi, lo - extra, hi + extra, calibration) if phi is not None else np.inf]
     if problem.mass_normalized:
         a, b = sorted((abs(lo[p]), abs(hi[p])))
         mlo, mhi = 1.0 / b**2, 1.0 / a**2
@@ -330,18 +333,22 @@ def _entry_miss(phi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     return float(np.max(np.maximum(np.maximum(lo - phi, phi - hi), 0.0) / half))
 
 
-def scale_miss(phi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+def scale_miss(phi: np.ndarray, lo: np.ndarray, hi: np.ndarray, scales: tuple | None = None) -> float:
     """How far a model shape ``phi`` (at the measured DOFs) is from its entry intervals
     ``[lo, hi]`` at the best common scaling: ``min over c, max over j`` of the distance of
     ``c phi_j`` outside ``[lo_j, hi_j]`` in half-widths (0 when some scaling fits every entry; the
     normalization of a measured shape is free, `vibupdate.ShapeInterval`). A linear program in
-    ``(c, t)``."""
+    ``(c, t)``; with ``scales`` ``(a, b)``, ``c`` within ``+-[a, b]`` (a mass-normalized shape:
+    the mode itself up to sign, times a calibration)."""
     half = np.maximum(0.5 * (hi - lo), 1e-12)
     # c phi_j - t half_j <= hi_j  and  -c phi_j - t half_j <= -lo_j
     A = np.vstack([np.column_stack([phi, -half]), np.column_stack([-phi, -half])])
     b = np.concatenate([hi, -lo])
-    sol = linprog([0.0, 1.0], A_ub=A, b_ub=b, bounds=[(None, None), (0.0, None)], method="highs")
-    return float(sol.x[1]) if sol.status == 0 else np.inf
+    best = np.inf
+    for bound in ([(None, None)] if scales is None else [scales, (-scales[1], -scales[0])]):
+        sol = linprog([0.0, 1.0], A_ub=A, b_ub=b, bounds=[bound, (0.0, None)], method="highs")
+        best = min(best, float(sol.x[1]) if sol.status == 0 else np.inf)
+    return best
 
 
 # -- the verdict -----------------------------------------------------------------------------------
