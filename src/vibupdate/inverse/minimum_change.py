@@ -205,6 +205,71 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int =
     return np.array(points).reshape(-1, x0.size)
 
 
+#: A parameter moves along the directions the data leave undetermined when its component in
+#: their span (the norm of its row of the null basis) exceeds this (`valley_ends`; the ranges'
+#: `vibupdate.ranges.identifiability.NULL_COMPONENT` is the same figure).
+MOVES = 1e-3
+#: Iterations of each SLSQP run of `valley_ends` at most (one evaluation of the data with their
+#: derivatives each, a few more for its line searches). On the acceptance engine's exact-data
+#: problems with fewer data than parameters most ends converge in 2 to 17; a run stopped here
+#: still ends on a point with the answer's data (checked to `DATA_TOL`), one that is not the
+#: extreme.
+END_ITERATIONS = 20
+
+
+def valley_ends(configurations: Sequence[Configuration], xbar) -> list[tuple[str, int, np.ndarray]]:
+    """Where each parameter that the data leave free to move (`MOVES`) is lowest and highest
+    among the points of the box with exactly the data of ``xbar``: ``min / max x_i`` subject to
+    ``g(x) = g(xbar)`` (``g`` of the module docstring, a set of its rows of full rank at
+    ``xbar``), by SLSQP from ``xbar`` (`END_ITERATIONS`), then returned to the data by the
+    iteration of `_same_data_nearest`. The set of answers is curved: a parameter the data fix
+    to first order at one of its points (a turning point of that parameter along the set) moves
+    elsewhere on it, so these ends, not the answer's linearization, show how far each moves.
+    Returns ``(sense, i, x)`` per end found (``sense`` "lowest" or "highest", ``i`` the
+    parameter), only ends that keep every datum to `DATA_TOL`; empty when the data determine
+    every parameter."""
+    from scipy.linalg import qr
+    from scipy.optimize import minimize
+
+    configurations = list(configurations)
+    lo, hi = configurations[0].model.bounds()
+    x0 = np.asarray(xbar, dtype=float)
+    found = _undetermined(configurations, x0)
+    if found is None or found[3] >= x0.size:
+        return []
+    g0, J, finite, rank, Vt = found
+    rows = np.flatnonzero(finite)[qr(J[finite].T, pivoting=True)[2][:rank]]
+    memo: dict = {x0.tobytes(): (g0, J)}
+
+    def at(x):
+        key = np.asarray(x, dtype=float).tobytes()
+        if key not in memo:
+            memo.clear()
+            memo[key] = _data(configurations, x)
+        return memo[key]
+
+    ends = []
+    for i in np.flatnonzero(np.linalg.norm(Vt[rank:], axis=0) > MOVES):
+        unit = np.zeros(x0.size)
+        unit[i] = 1.0
+        for sense, sign in (("lowest", 1.0), ("highest", -1.0)):
+            try:
+                run = minimize(lambda x: sign * x[i], x0, jac=lambda x: sign * unit, method="SLSQP",
+                               bounds=list(zip(lo, hi)),
+                               constraints={"type": "eq", "fun": lambda x: at(x)[0][rows] - g0[rows],
+                                            "jac": lambda x: at(x)[1][rows]},
+                               options={"ftol": 1e-12, "maxiter": END_ITERATIONS})
+            except (ValueError, np.linalg.LinAlgError):   # a lost mode or zero on the way
+                continue
+            if not np.all(np.isfinite(run.x)):
+                continue
+            x, change, _, lost = _same_data_nearest(configurations, np.clip(run.x, lo, hi), np.clip(run.x, lo, hi),
+                                                    g0, finite, rank, lo, hi)
+            if not lost and change <= DATA_TOL:
+                ends.append((sense, int(i), x))
+    return ends
+
+
 def minimum_change(configurations: Sequence[Configuration], xbar) -> MinimumChange:
     """The answer nearest the nominal point with the same data as ``xbar`` (module docstring).
 

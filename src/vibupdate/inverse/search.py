@@ -12,7 +12,11 @@ nominal point and `Search.probe_random_starts` random points) are polished with 
 about as well (`Search.as_well`) and differs from the returned one by more than
 `Search.distinct` (a normalized parameter) is an `Alternative`: a different answer that fits
 the data as well, and the verdict is
-``not_unique``. Where the uniqueness search is not run (the polish off, a sampling sweep, a
+``not_unique``. Where the data leave directions undetermined at the answer (fewer independent
+data than parameters), the answers with its data form a set and every start would be moved to
+the same point of it (`vibupdate.inverse.minimum_change`): the ends of that set in each
+parameter that moves along it are found instead (`Search.valley_ends`,
+`vibupdate.inverse.minimum_change.valley_ends`) and are Alternatives. Where the uniqueness search is not run (the polish off, a sampling sweep, a
 model above `Search.probe_dofs` DOFs or `Search.probe_parameters` parameters, where a polish
 from a random point costs minutes), the result says so and why (`Sought`).
 
@@ -59,6 +63,10 @@ class Search:
         weaker is not an alternative to the answer.
     seed : int
         Of the random starts.
+    valley_ends : bool
+        Where the data leave directions undetermined at a verified answer, find where each
+        parameter that moves is lowest and highest among the answers with the same data, and
+        report those points as alternatives (module docstring).
     """
 
     random_starts: int = 2
@@ -70,6 +78,7 @@ class Search:
     tie: float = 1e-3
     as_well: float = 2.0
     seed: int = 0
+    valley_ends: bool = True
 
     def box_starts(self, lo: np.ndarray, hi: np.ndarray, n_random: int) -> list[tuple[str, np.ndarray]]:
         """The nominal point and ``n_random`` random points of the box ``[lo, hi]``, in this
@@ -87,14 +96,16 @@ class Search:
         if n_parameters > self.probe_parameters:
             return False, (f"the model has {n_parameters} parameters, above the {self.probe_parameters} of the "
                            "uniqueness search")
-        return True, f"{self.probe_random_starts + 1} starts of the box polished"
+        return True, (f"{self.probe_random_starts + 1} starts of the box polished"
+                      + (", and the ends of the set of answers with the same data where the data leave directions "
+                         "undetermined" if self.valley_ends else ""))
 
 
 @dataclass(frozen=True)
 class Start:
     """One start tried: its label, why (``purpose`` "fit" or "uniqueness"), the verdict of its
     answer ("verified", "not_verified", "path failed", "same answer": it reached a known answer
-    again), the failed checks, its polish objective and seconds."""
+    again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed checks, its polish objective and seconds."""
 
     start: str
     purpose: str

@@ -41,7 +41,7 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
-from vibupdate.inverse.minimum_change import MinimumChange, minimum_change
+from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, valley_ends
 from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
@@ -544,6 +544,34 @@ def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
                                            if abs(a - b) > search.distinct)) for c in others)
 
 
+def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ...], search: Search, model, starts: list,
+            say) -> tuple[Alternative, ...]:
+    """Where the data leave directions undetermined at the chosen answer, the answers with
+    exactly its data form a set, and every start the polish takes there is moved to the same
+    point of it (the minimum change): the ends of that set in each parameter that moves
+    (`vibupdate.inverse.minimum_change.valley_ends`) are the other answers, each an
+    `Alternative` with the chosen answer's objective (the same data to 1e-9, so the same
+    verification). ``search.valley_ends`` off, or a rank that the data fill, adds none."""
+    if not search.valley_ends or chosen.sensitivity.get("rank", chosen.xbar.size) >= chosen.xbar.size:
+        return alternatives
+    t0 = time.perf_counter()
+    ends = valley_ends(configurations, chosen.xbar)
+    names = model.parameter_names
+    known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
+    added = []
+    for sense, i, x in ends:
+        if all(np.max(np.abs(x - k)) > search.distinct for k in known):
+            known.append(x)
+            added.append(Alternative(f"valley end ({sense} {names[i]})", chosen.cost, tuple(x.tolist()),
+                                     dict(zip(names, model.physical(x).tolist())),
+                                     tuple(n for n, a, b in zip(names, x, chosen.xbar) if abs(a - b) > search.distinct)))
+    starts.append(Start("valley ends", "uniqueness", "same data" if added else "same answer", (), chosen.cost,
+                        time.perf_counter() - t0))
+    say(f"uniqueness: the data leave {chosen.xbar.size - chosen.sensitivity['rank']} direction(s) undetermined; "
+        f"{len(added)} end(s) of the set of answers with the same data differ from the answer")
+    return alternatives + tuple(added)
+
+
 def _exact_cost(contract: Admissible, verification: VerifyOptions) -> float:
     """The polish's objective of missing every frequency by its exact half-width (an exact fit)."""
     h = contract.relative_half_widths()
@@ -656,6 +684,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
                     replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                         search.probe_evaluations * (model.n_parameters + 1))))
         best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
+        alternatives = _valley(configurations, best, alternatives, search, model, starts, say)
     elif best is not None and best.status.ok:
         reason = f"uniqueness not searched: {reason}"
     else:
