@@ -56,3 +56,55 @@ def test_valley_ends_are_empty_where_the_data_determine_every_parameter():
     w = modes(M, K)[0]
     cfg = Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))
     assert valley_ends([cfg], model.normalized([1100.0, 900.0])) == []
+
+
+def test_a_parameter_fixed_to_first_order_at_the_truth_is_reported_where_it_is_lowest_along_the_curve():
+    # three parameters of a 2-mass chain from its two natural frequencies: the answers form a
+    # curve. Along it m1 has a local minimum; the truth is put there, so the data fix m1 to
+    # first order at the truth (what a judge linearizing at the truth sees), while the
+    # answer nearest the nominal model has another m1. The turning point, computed here
+    # independently (the curve parametrized by k1, m1 minimized over it), is reported.
+    from scipy.optimize import fsolve, minimize_scalar
+
+    model = chain_model(2, ["k1", "m1", "m2"])
+    base = model.physical(np.array([0.179, -0.233, 0.115]))
+    M, K = model.matrices_at(base)
+    w = modes(M, K)[0][:2]
+
+    def masses(k1):   # the (m1, m2) of the curve at this k1
+        f = lambda m: modes(*model.matrices_at([k1, *m]))[0][:2] / w - 1   # noqa: E731
+        return fsolve(f, base[1:], xtol=1e-13)
+
+    k1 = minimize_scalar(lambda k: masses(k)[0], bounds=(0.6 * base[0], 0.9 * base[0]), method="bounded",
+                         options={"xatol": 1e-9}).x
+    truth = np.array([k1, *masses(k1)])
+    assert np.allclose(modes(*model.matrices_at(truth))[0][:2], w, rtol=1e-10)
+    result = update([Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))])
+    assert abs(result.values[1] / truth[1] - 1) > 0.01      # the answer's m1 is elsewhere on the curve
+    assert result.verdict is Verdict.NOT_UNIQUE
+    # here the local minimum is also the lowest m1 of the whole curve: found as an end or a turn
+    turns = [a for a in result.alternatives if a.start.endswith("lowest m1)")]
+    assert len(turns) == 1, [a.start for a in result.alternatives]
+    assert turns[0].values["m1"] == pytest.approx(truth[1], rel=1e-9)
+    at = [turns[0].values[n] for n in ("k1", "m1", "m2")]
+    assert np.allclose(modes(*model.matrices_at(at))[0][:2], w, rtol=1e-9)
+
+
+def test_valley_turns_are_points_of_the_curve_where_its_tangent_leaves_that_parameter_fixed():
+    # the tangent of the curve of answers, from a central-difference Jacobian of the two
+    # frequencies, has no component along the parameter said to turn there
+    from vibupdate.inverse.minimum_change import valley_turns
+
+    model = chain_model(2, ["k1", "k2", "m1"])
+    x = np.array([0.068, -0.115, -0.23])
+    w = modes(*model.matrices_at(model.physical(x)))[0][:2]
+    turns = valley_turns([Configuration("two modes", model, tuple(NaturalFrequency(v) for v in w))], x)
+    assert turns
+    for sense, i, y in turns:
+        assert np.allclose(modes(*model.matrices_at(model.physical(y)))[0][:2], w, rtol=1e-9)
+        step = 1e-6
+        J = np.column_stack([(modes(*model.matrices_at(model.physical(y + step * e)))[0][:2]
+                              - modes(*model.matrices_at(model.physical(y - step * e)))[0][:2]) / (2 * step * w)
+                             for e in np.eye(3)])
+        tangent = np.linalg.svd(J)[2][-1]
+        assert abs(tangent[i]) < 1e-4, (sense, i, tangent)

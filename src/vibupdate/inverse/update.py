@@ -41,7 +41,7 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
-from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, valley_ends
+from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, valley_ends, valley_turns
 from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
@@ -549,20 +549,23 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     """Where the data leave directions undetermined at the chosen answer, the answers with
     exactly its data form a set, and every start the polish takes there is moved to the same
     point of it (the minimum change): the ends of that set in each parameter that moves
-    (`vibupdate.inverse.minimum_change.valley_ends`) are the other answers, each an
+    (`vibupdate.inverse.minimum_change.valley_ends`) and, where it is a curve, the points where
+    a parameter turns along it (`vibupdate.inverse.minimum_change.valley_turns`) are the other
+    answers, each an
     `Alternative` with the chosen answer's objective (the same data to 1e-9, so the same
     verification). ``search.valley_ends`` off, or a rank that the data fill, adds none."""
     if not search.valley_ends or chosen.sensitivity.get("rank", chosen.xbar.size) >= chosen.xbar.size:
         return alternatives
     t0 = time.perf_counter()
-    ends = valley_ends(configurations, chosen.xbar)
+    ends = valley_ends(configurations, chosen.xbar) + valley_turns(configurations, chosen.xbar)
     names = model.parameter_names
     known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
     added = []
     for sense, i, x in ends:
         if all(np.max(np.abs(x - k)) > search.distinct for k in known):
             known.append(x)
-            added.append(Alternative(f"valley end ({sense} {names[i]})", chosen.cost, tuple(x.tolist()),
+            kind = "end" if sense in ("lowest", "highest") else "turn"
+            added.append(Alternative(f"valley {kind} ({sense} {names[i]})", chosen.cost, tuple(x.tolist()),
                                      dict(zip(names, model.physical(x).tolist())),
                                      tuple(n for n, a, b in zip(names, x, chosen.xbar) if abs(a - b) > search.distinct)))
     starts.append(Start("valley ends", "uniqueness", "same data" if added else "same answer", (), chosen.cost,
