@@ -108,3 +108,29 @@ def test_valley_turns_are_points_of_the_curve_where_its_tangent_leaves_that_para
                              for e in np.eye(3)])
         tangent = np.linalg.svd(J)[2][-1]
         assert abs(tangent[i]) < 1e-4, (sense, i, tangent)
+
+
+def test_the_second_answer_across_a_fold_is_found_from_the_weakest_direction():
+    # two springs of a 2-mass chain from both natural frequencies: (1000, 1000) and (2000, 500)
+    # fit exactly (k1 + 2 k2 and k1 k2 fixed). With no random start, the answer moved along
+    # the data's weakest direction finds the second; the nominal point alone does not.
+    model = chain_model(2, ["k1", "k2"], nominal={"k1": 1200.0, "k2": 900.0}, spread=0.7)
+    w = modes(*model.matrices_at([1000.0, 1000.0]))[0]
+    cfg = Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))
+    found = update([cfg], search=Search(probe_random_starts=0))
+    assert found.verdict is Verdict.NOT_UNIQUE
+    assert [a.start for a in found.alternatives] == ["weakest direction -"]
+    assert np.allclose(list(found.alternatives[0].values.values()), [2000.0, 500.0], rtol=1e-6)
+    alone = update([cfg], search=Search(probe_random_starts=0, weak_direction=False))
+    assert alone.verdict is Verdict.VERIFIED and not alone.alternatives
+
+
+def test_weak_starts_go_to_the_box_along_the_smallest_nonzero_singular_direction():
+    S = np.array([[1.0, 0.0, 0.0], [0.0, 0.1, 0.0]])      # rank 2: x3 unseen, x2 the weakest seen
+    lo, hi = -np.ones(3), np.ones(3)
+    starts = dict(Search().weak_starts(np.array([0.5, 0.2, 0.0]), {"matrix": S, "rank": 2}, lo, hi))
+    assert set(starts) == {"weakest direction +", "weakest direction -"}
+    assert sorted(x[1] for x in starts.values()) == [-1.0, 1.0]
+    for x in starts.values():
+        assert x[0] == 0.5 and x[2] == 0.0
+    assert Search(weak_direction=False).weak_starts(np.zeros(3), {"matrix": S, "rank": 2}, lo, hi) == []

@@ -500,13 +500,17 @@ def _verdict_word(candidate: _Finish) -> str:
     return "verified" if candidate.status.ok else "not_verified"
 
 
-def _uniqueness(configurations, finish, tried: list[_Finish], search: Search, starts: list, say,
+def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, search: Search, starts: list, say,
                 options: PolishOptions) -> None:
-    """Polish from the box starts not tried yet (`vibupdate.inverse.search`); a start whose
-    polish reaches a verified answer again stops there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`)."""
+    """Polish from the nominal point, the ``answer`` moved along the data's weakest direction
+    (`vibupdate.inverse.search.Search.weak_starts`) and the random box starts, those not tried
+    yet (`vibupdate.inverse.search`); a start whose polish reaches a verified answer again stops
+    there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`)."""
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
-    todo = [(label, x) for label, x in search.box_starts(lo, hi, search.probe_random_starts) if label not in done]
+    boxed = search.box_starts(lo, hi, search.probe_random_starts)
+    todo = [(label, x) for label, x in boxed[:1] + search.weak_starts(answer.xbar, answer.sensitivity, lo, hi)
+            + boxed[1:] if label not in done]
     if todo:
         say(f"uniqueness: polishing from {len(todo)} further starts")
     for label, x0 in todo:
@@ -683,7 +687,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
     alternatives: tuple[Alternative, ...] = ()
     if best is not None and best.status.ok and unique:
-        _uniqueness(configurations, finish, tried, search, starts, say,
+        _uniqueness(configurations, finish, tried, best, search, starts, say,
                     replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                         search.probe_evaluations * (model.n_parameters + 1))))
         best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
