@@ -125,6 +125,12 @@ def numerical_rank(sv: np.ndarray, rtol: float = RANK_RTOL) -> int:
     return int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
 
 
+def undetermined(configurations, x0):
+    """`_data` at ``x0`` with the rank and right singular vectors of its Jacobian (`_undetermined`),
+    for the explorations of the set of answers (`valley_ends`, `valley_turns`) to share."""
+    return _undetermined(configurations, x0)
+
+
 def _undetermined(configurations, x0):
     """`_data` at ``x0``, the rows with finite derivatives, the rank of their Jacobian and its
     right singular vectors (rows ``rank:`` span the directions the data leave undetermined);
@@ -217,7 +223,7 @@ MOVES = 1e-3
 END_ITERATIONS = 20
 
 
-def valley_ends(configurations: Sequence[Configuration], xbar) -> list[tuple[str, int, np.ndarray]]:
+def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
     """Where each parameter that the data leave free to move (`MOVES`) is lowest and highest
     among the points of the box with exactly the data of ``xbar``: ``min / max x_i`` subject to
     ``g(x) = g(xbar)`` (``g`` of the module docstring, a set of its rows of full rank at
@@ -227,14 +233,14 @@ def valley_ends(configurations: Sequence[Configuration], xbar) -> list[tuple[str
     elsewhere on it, so these ends, not the answer's linearization, show how far each moves.
     Returns ``(sense, i, x)`` per end found (``sense`` "lowest" or "highest", ``i`` the
     parameter), only ends that keep every datum to `DATA_TOL`; empty when the data determine
-    every parameter."""
+    every parameter. ``found``: `undetermined` at ``xbar`` when the caller has it."""
     from scipy.linalg import qr
     from scipy.optimize import minimize
 
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
     x0 = np.asarray(xbar, dtype=float)
-    found = _undetermined(configurations, x0)
+    found = found if found is not None else _undetermined(configurations, x0)
     if found is None or found[3] >= x0.size:
         return []
     g0, J, finite, rank, Vt = found
@@ -284,7 +290,7 @@ TURN_REFINEMENTS = 4
 TRACE_EVALUATIONS = 400
 
 
-def valley_turns(configurations: Sequence[Configuration], xbar) -> list[tuple[str, int, np.ndarray]]:
+def valley_turns(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
     """The points where a parameter turns (is locally lowest or highest) along the set of
     answers with exactly the data of ``xbar``, where that set is a curve: one direction left
     undetermined among the parameters the data see (a parameter no datum sees at all moves
@@ -295,11 +301,12 @@ def valley_turns(configurations: Sequence[Configuration], xbar) -> list[tuple[st
     the curve. At such a point the data fix that parameter to first order, as at every point
     where the linearization says so; the ends of the curve alone (`valley_ends`) miss it.
     Returns ``(sense, i, x)`` ("locally lowest" / "locally highest"), each keeping every datum
-    to `DATA_TOL`; empty where the set is not a curve."""
+    to `DATA_TOL`; empty where the set is not a curve. ``found``: `undetermined` at ``xbar``
+    when the caller has it."""
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
     x0 = np.asarray(xbar, dtype=float)
-    found = _undetermined(configurations, x0)
+    found = found if found is not None else _undetermined(configurations, x0)
     if found is None:
         return []
     g0, J, finite, rank, _ = found

@@ -41,7 +41,7 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
-from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, valley_ends, valley_turns
+from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, undetermined, valley_ends, valley_turns
 from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
@@ -561,7 +561,8 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     if not search.valley_ends or chosen.sensitivity.get("rank", chosen.xbar.size) >= chosen.xbar.size:
         return alternatives
     t0 = time.perf_counter()
-    ends = valley_ends(configurations, chosen.xbar) + valley_turns(configurations, chosen.xbar)
+    found = undetermined(configurations, chosen.xbar)   # one evaluation at the answer, for both
+    ends = valley_ends(configurations, chosen.xbar, found) + valley_turns(configurations, chosen.xbar, found)
     names = model.parameter_names
     known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
     added = []
