@@ -127,7 +127,7 @@ def numerical_rank(sv: np.ndarray, rtol: float = RANK_RTOL) -> int:
 
 def undetermined(configurations, x0):
     """`_data` at ``x0`` with the rank and right singular vectors of its Jacobian (`_undetermined`),
-    for the explorations of the set of answers (`valley_ends`, `valley_turns`) to share."""
+    for the explorations of the set of answers (`valley_ends`, `valley_curve`) to share."""
     return _undetermined(configurations, x0)
 
 
@@ -276,21 +276,21 @@ def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> li
     return ends
 
 
-#: Arclength steps of `valley_turns` (normalized parameters): the first, the largest and the
+#: Arclength steps of `valley_curve` (normalized parameters): the first, the largest and the
 #: smallest before a sense gives up; each step is a predictor along the tangent and a Newton
 #: corrector of at most `CORRECTIONS` evaluations to `TRACE_TOL` (relative frequency).
 TRACE_STEP = (0.02, 0.1, 1e-4)
 CORRECTIONS = 6
 TRACE_TOL = 1e-11
-#: Regula falsi steps placing a turning point between two points of the trace (`valley_turns`):
+#: Regula falsi steps placing a turning point between two points of the trace (`valley_curve`):
 #: the parameter's error there is of the order of the curvature times the square of the
 #: arclength error; on the constructed chain of the tests one step leaves 4e-6 of its value.
 TURN_REFINEMENTS = 4
-#: Evaluations of `valley_turns` at most (both senses together).
+#: Evaluations of `valley_curve` at most (both senses together).
 TRACE_EVALUATIONS = 400
 
 
-def valley_turns(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
+def valley_curve(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
     """The points where a parameter turns (is locally lowest or highest) along the set of
     answers with exactly the data of ``xbar``, where that set is a curve: one direction left
     undetermined among the parameters the data see (a parameter no datum sees at all moves
@@ -300,9 +300,12 @@ def valley_turns(configurations: Sequence[Configuration], xbar, found=None) -> l
     point is placed by linear interpolation of that component in arclength and corrected onto
     the curve. At such a point the data fix that parameter to first order, as at every point
     where the linearization says so; the ends of the curve alone (`valley_ends`) miss it.
-    Returns ``(sense, i, x)`` ("locally lowest" / "locally highest"), each keeping every datum
-    to `DATA_TOL`; empty where the set is not a curve. ``found``: `undetermined` at ``xbar``
-    when the caller has it."""
+    Returns ``(sense, i, x)`` per point: the turning points ("locally lowest" / "locally
+    highest" parameter ``i``) and, of the points traced (a sense ends on the face of the box it
+    reaches), where each parameter the data see is lowest and highest ("lowest" / "highest"),
+    each keeping every datum to `DATA_TOL`; empty where the set is not a curve. The set may
+    have other branches than the one traced: `valley_ends` is run besides. ``found``:
+    `undetermined` at ``xbar`` when the caller has it."""
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
     x0 = np.asarray(xbar, dtype=float)
@@ -343,20 +346,27 @@ def valley_turns(configurations: Sequence[Configuration], xbar, found=None) -> l
     lo_s, hi_s = lo[seen], hi[seen]
     y0 = x0[seen]
     t0 = tangent(J[rows][:, seen], None)
-    turns = []
+    turns, points = [], [y0]
     for sense in (1.0, -1.0):
         y, t, h = y0, sense * t0, TRACE_STEP[0]
         while count[0] < TRACE_EVALUATIONS and h >= TRACE_STEP[2]:
             y_pred = y + h * t
-            if np.any(y_pred < lo_s) or np.any(y_pred > hi_s):   # past the box: shorten, end there
-                inside_h = float(np.min(np.where(t > 0, (hi_s - y) / np.where(t > 0, t, 1),
-                                                 np.where(t < 0, (lo_s - y) / np.where(t < 0, t, 1), np.inf))))
-                if inside_h < TRACE_STEP[2]:
+            if np.any(y_pred < lo_s) or np.any(y_pred > hi_s):   # past the box: end on its face
+                reach = np.where(t > 0, (hi_s - y) / np.where(t > 0, t, 1),
+                                 np.where(t < 0, (lo_s - y) / np.where(t < 0, t, 1), np.inf))
+                j = int(np.argmin(reach))
+                y_pred = y + reach[j] * t
+                y_pred[j] = hi_s[j] if t[j] > 0 else lo_s[j]
+                face = np.zeros(t.size)
+                face[j] = 1.0
+                end = correct(y_pred, face)     # on the curve with parameter j on its bound
+                if end is not None and np.all(end[0] >= lo_s - 1e-12) and np.all(end[0] <= hi_s + 1e-12):
+                    points.append(end[0])
                     break
-                h = inside_h
+                h = 0.5 * float(reach[j])
                 continue
             step = correct(y_pred, t)
-            if step is None:
+            if step is None or np.any(step[0] < lo_s) or np.any(step[0] > hi_s):   # corrected out of the box
                 h /= 2
                 continue
             y_new, J_new = step
@@ -372,16 +382,20 @@ def valley_turns(configurations: Sequence[Configuration], xbar, found=None) -> l
                     c = tangent(got[1], t)[i]
                     a, ca, b, cb = (s_turn, c, b, cb) if c * ca > 0 else (a, ca, s_turn, c)
                 if mid is not None:
-                    x = x0.copy()
-                    x[seen] = mid
-                    turns.append(("locally lowest" if t[i] < 0 else "locally highest",
-                                  int(np.flatnonzero(seen)[i]), x))
+                    turns.append(("locally lowest" if t[i] < 0 else "locally highest", int(i), mid))
+                    points.append(mid)
             y, t, h = y_new, t_new, min(1.5 * h, TRACE_STEP[1])
+            points.append(y)
+    along = np.array(points)
+    for i in range(along.shape[1]):
+        turns += [("lowest", i, along[np.argmin(along[:, i])]), ("highest", i, along[np.argmax(along[:, i])])]
     out = []
-    for sense, i, x in turns:   # each back on the data to DATA_TOL
+    for sense, i, y in turns:   # each back on the data to DATA_TOL
+        x = x0.copy()
+        x[seen] = y
         x, change, _, lost = _same_data_nearest(configurations, x, x, g0, finite, rank, lo, hi)
         if not lost and change <= DATA_TOL:
-            out.append((sense, i, x))
+            out.append((sense, int(np.flatnonzero(seen)[i]), x))
     return out
 
 

@@ -22,7 +22,7 @@ the structure that makes it:
   `vibupdate.inverse.minimum_change`). The set is explored instead (`Search.valley_ends`): where
   each parameter that moves is lowest and highest on it, and, where it is a curve, every point
   where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_ends`,
-  `~.valley_turns`). Those that differ from the answer are Alternatives.
+  `~.valley_curve`). Those that differ from the answer are Alternatives.
 
 Any Alternative makes the verdict ``not_unique``. Where the uniqueness search is not run (the
 polish off, a sampling sweep, a model above `Search.probe_dofs` DOFs or

@@ -41,7 +41,7 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
-from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, undetermined, valley_ends, valley_turns
+from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, undetermined, valley_curve, valley_ends
 from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
@@ -554,7 +554,7 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     exactly its data form a set, and every start the polish takes there is moved to the same
     point of it (the minimum change): the ends of that set in each parameter that moves
     (`vibupdate.inverse.minimum_change.valley_ends`) and, where it is a curve, the points where
-    a parameter turns along it (`vibupdate.inverse.minimum_change.valley_turns`) are the other
+    a parameter turns along it (`vibupdate.inverse.minimum_change.valley_curve`) are the other
     answers, each an
     `Alternative` with the chosen answer's objective (the same data to 1e-9, so the same
     verification). ``search.valley_ends`` off, or a rank that the data fill, adds none."""
@@ -562,7 +562,7 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
         return alternatives
     t0 = time.perf_counter()
     found = undetermined(configurations, chosen.xbar)   # one evaluation at the answer, for both
-    ends = valley_ends(configurations, chosen.xbar, found) + valley_turns(configurations, chosen.xbar, found)
+    ends = valley_curve(configurations, chosen.xbar, found) + valley_ends(configurations, chosen.xbar, found)
     names = model.parameter_names
     known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
     added = []
@@ -576,7 +576,7 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     starts.append(Start("valley ends", "uniqueness", "same data" if added else "same answer", (), chosen.cost,
                         time.perf_counter() - t0))
     say(f"uniqueness: the data leave {chosen.xbar.size - chosen.sensitivity['rank']} direction(s) undetermined; "
-        f"{len(added)} end(s) of the set of answers with the same data differ from the answer")
+        f"{len(added)} point(s) of the set of answers with the same data differ from the answer")
     return alternatives + tuple(added)
 
 
