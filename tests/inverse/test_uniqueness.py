@@ -36,7 +36,7 @@ def test_fewer_data_than_parameters_give_not_unique_with_the_ends_of_the_set_of_
     hi = {p.name: p.upper for p in model.parameters}
     # w1 grows with both springs: k1 is lowest where k2 is highest, and the other way round
     def k1_at(k2):   # the k1 that gives w1 with this k2, held to its bounds
-        f = lambda k: _first(model, k, k2) - w1   # noqa: E731
+        f = lambda k: _first(model, k, k2) - w1
         return lo["k1"] if f(lo["k1"]) > 0 else hi["k1"] if f(hi["k1"]) < 0 else brentq(f, lo["k1"], hi["k1"],
                                                                                           xtol=1e-10)
 
@@ -72,7 +72,7 @@ def test_a_parameter_fixed_to_first_order_at_the_truth_is_reported_where_it_is_l
     w = modes(M, K)[0][:2]
 
     def masses(k1):   # the (m1, m2) of the curve at this k1
-        f = lambda m: modes(*model.matrices_at([k1, *m]))[0][:2] / w - 1   # noqa: E731
+        f = lambda m: modes(*model.matrices_at([k1, *m]))[0][:2] / w - 1
         return fsolve(f, base[1:], xtol=1e-13)
 
     k1 = minimize_scalar(lambda k: masses(k)[0], bounds=(0.6 * base[0], 0.9 * base[0]), method="bounded",

@@ -260,7 +260,8 @@ def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> li
         unit[i] = 1.0
         for sense, sign in (("lowest", 1.0), ("highest", -1.0)):
             try:
-                run = minimize(lambda x: sign * x[i], x0, jac=lambda x: sign * unit, method="SLSQP",
+                run = minimize(lambda x, i=i, sign=sign: sign * x[i], x0,
+                               jac=lambda x, unit=unit, sign=sign: sign * unit, method="SLSQP",
                                bounds=list(zip(lo, hi)),
                                constraints={"type": "eq", "fun": lambda x: at(x)[0][rows] - g0[rows],
                                             "jac": lambda x: at(x)[1][rows]},
