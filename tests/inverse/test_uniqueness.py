@@ -135,3 +135,7 @@ def test_weak_starts_go_to_the_box_along_the_smallest_nonzero_singular_direction
     for x in starts.values():
         assert x[0] == 0.5 and x[2] == 0.0
     assert Search(weak_direction=False).weak_starts(np.zeros(3), {"matrix": S, "rank": 2}, lo, hi) == []
+    # a parameter held at a bound stays there: the weakest direction of the others, x1 here
+    held = dict(Search().weak_starts(np.array([0.5, 1.0, 0.0]), {"matrix": S, "rank": 2}, lo, hi))
+    assert sorted(x[0] for x in held.values()) == [-1.0, 1.0]
+    assert all(x[1] == 1.0 and x[2] == 0.0 for x in held.values())
