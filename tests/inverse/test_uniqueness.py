@@ -139,3 +139,21 @@ def test_weak_starts_go_to_the_box_along_the_smallest_nonzero_singular_direction
     held = dict(Search().weak_starts(np.array([0.5, 1.0, 0.0]), {"matrix": S, "rank": 2}, lo, hi))
     assert sorted(x[0] for x in held.values()) == [-1.0, 1.0]
     assert all(x[1] == 1.0 and x[2] == 0.0 for x in held.values())
+
+
+def test_the_valley_budgets_cut_the_search_short_but_every_point_still_keeps_the_data(monkeypatch):
+    # END_ITERATIONS and TRACE_EVALUATIONS only bound the cost: a run stopped by them returns
+    # fewer or less extreme points, never one with other data
+    import vibupdate.inverse.minimum_change as mc
+
+    model = chain_model(2, ["k1", "k2", "m1"])
+    x = np.array([0.068, -0.115, -0.23])
+    w = modes(*model.matrices_at(model.physical(x)))[0][:2]
+    cfg = Configuration("two modes", model, tuple(NaturalFrequency(v) for v in w))
+    full = mc.valley_curve([cfg], x) + mc.valley_ends([cfg], x)
+    monkeypatch.setattr(mc, "END_ITERATIONS", 2)
+    monkeypatch.setattr(mc, "TRACE_EVALUATIONS", 8)
+    short = mc.valley_curve([cfg], x) + mc.valley_ends([cfg], x)
+    assert len(short) < len(full)
+    for _, _, y in short:
+        assert np.allclose(modes(*model.matrices_at(model.physical(y)))[0][:2], w, rtol=1e-9)
