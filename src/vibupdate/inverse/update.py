@@ -553,11 +553,11 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     """Where the data leave directions undetermined at the chosen answer, the answers with
     exactly its data form a set, and every start the polish takes there is moved to the same
     point of it (the minimum change): the ends of that set in each parameter that moves
-    (`vibupdate.inverse.minimum_change.valley_ends`) and, where it is a curve, the points where
-    a parameter turns along it (`vibupdate.inverse.minimum_change.valley_curve`) are the other
-    answers, each an
-    `Alternative` with the chosen answer's objective (the same data to 1e-9, so the same
-    verification). ``search.valley_ends`` off, or a rank that the data fill, adds none."""
+    (`vibupdate.inverse.minimum_change.valley_ends`) and, where it is a curve, its ends and the
+    points where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_curve`)
+    are the other answers, each an `Alternative` with the chosen answer's objective (the same
+    data to 1e-9, so the same verification). ``search.valley_ends`` off, or a rank that the data
+    fill, adds none."""
     if not search.valley_ends or chosen.sensitivity.get("rank", chosen.xbar.size) >= chosen.xbar.size:
         return alternatives
     t0 = time.perf_counter()
