@@ -125,6 +125,12 @@ def numerical_rank(sv: np.ndarray, rtol: float = RANK_RTOL) -> int:
     return int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
 
 
+def undetermined(configurations, x0):
+    """`_data` at ``x0`` with the rank and right singular vectors of its Jacobian (`_undetermined`),
+    for the explorations of the set of answers (`valley_ends`, `valley_curve`) to share."""
+    return _undetermined(configurations, x0)
+
+
 def _undetermined(configurations, x0):
     """`_data` at ``x0``, the rows with finite derivatives, the rank of their Jacobian and its
     right singular vectors (rows ``rank:`` span the directions the data leave undetermined);
@@ -203,6 +209,195 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int =
                 points.append(x)
                 start, at = x, None
     return np.array(points).reshape(-1, x0.size)
+
+
+#: A parameter moves along the directions the data leave undetermined when its component in
+#: their span (the norm of its row of the null basis) exceeds this (`valley_ends`; the ranges'
+#: `vibupdate.ranges.identifiability.NULL_COMPONENT` is the same figure).
+MOVES = 1e-3
+#: Iterations of each SLSQP run of `valley_ends` at most (one evaluation of the data with their
+#: derivatives each, a few more for its line searches). On the acceptance engine's exact-data
+#: problems with fewer data than parameters most ends converge in 2 to 17; a run stopped here
+#: still ends on a point with the answer's data (checked to `DATA_TOL`), one that is not the
+#: extreme.
+END_ITERATIONS = 20
+
+
+def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
+    """Where each parameter that the data leave free to move (`MOVES`) is lowest and highest
+    among the points of the box with exactly the data of ``xbar``: ``min / max x_i`` subject to
+    ``g(x) = g(xbar)`` (``g`` of the module docstring, a set of its rows of full rank at
+    ``xbar``), by SLSQP from ``xbar`` (`END_ITERATIONS`), then returned to the data by the
+    iteration of `_same_data_nearest`. The set of answers is curved: a parameter the data fix
+    to first order at one of its points (a turning point of that parameter along the set) moves
+    elsewhere on it, so these ends, not the answer's linearization, show how far each moves.
+    Returns ``(sense, i, x)`` per end found (``sense`` "lowest" or "highest", ``i`` the
+    parameter), only ends that keep every datum to `DATA_TOL`; empty when the data determine
+    every parameter. ``found``: `undetermined` at ``xbar`` when the caller has it."""
+    from scipy.linalg import qr
+    from scipy.optimize import minimize
+
+    configurations = list(configurations)
+    lo, hi = configurations[0].model.bounds()
+    x0 = np.asarray(xbar, dtype=float)
+    found = found if found is not None else _undetermined(configurations, x0)
+    if found is None or found[3] >= x0.size:
+        return []
+    g0, J, finite, rank, Vt = found
+    rows = np.flatnonzero(finite)[qr(J[finite].T, pivoting=True)[2][:rank]]
+    memo: dict = {x0.tobytes(): (g0, J)}
+
+    def at(x):
+        key = np.asarray(x, dtype=float).tobytes()
+        if key not in memo:
+            memo.clear()
+            memo[key] = _data(configurations, x)
+        return memo[key]
+
+    ends = []
+    for i in np.flatnonzero(np.linalg.norm(Vt[rank:], axis=0) > MOVES):
+        unit = np.zeros(x0.size)
+        unit[i] = 1.0
+        for sense, sign in (("lowest", 1.0), ("highest", -1.0)):
+            try:
+                run = minimize(lambda x, i=i, sign=sign: sign * x[i], x0,
+                               jac=lambda x, unit=unit, sign=sign: sign * unit, method="SLSQP",
+                               bounds=list(zip(lo, hi)),
+                               constraints={"type": "eq", "fun": lambda x: at(x)[0][rows] - g0[rows],
+                                            "jac": lambda x: at(x)[1][rows]},
+                               options={"ftol": 1e-12, "maxiter": END_ITERATIONS})
+            except (ValueError, np.linalg.LinAlgError):   # a lost mode or zero on the way
+                continue
+            if not np.all(np.isfinite(run.x)):
+                continue
+            x, change, _, lost = _same_data_nearest(configurations, np.clip(run.x, lo, hi), np.clip(run.x, lo, hi),
+                                                    g0, finite, rank, lo, hi)
+            if not lost and change <= DATA_TOL:
+                ends.append((sense, int(i), x))
+    return ends
+
+
+#: Arclength steps of `valley_curve` (normalized parameters): the first, the largest and the
+#: smallest before a sense gives up; each step is a predictor along the tangent and a Newton
+#: corrector of at most `CORRECTIONS` evaluations to `TRACE_TOL` (relative frequency).
+TRACE_STEP = (0.02, 0.1, 1e-4)
+CORRECTIONS = 6
+TRACE_TOL = 1e-11
+#: Regula falsi steps placing a turning point between two points of the trace (`valley_curve`):
+#: the parameter's error there is of the order of the curvature times the square of the
+#: arclength error; on the constructed chain of the tests one step leaves 4e-6 of its value.
+TURN_REFINEMENTS = 4
+#: Evaluations of `valley_curve` at most (both senses together).
+TRACE_EVALUATIONS = 400
+
+
+def valley_curve(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
+    """The points where a parameter turns (is locally lowest or highest) along the set of
+    answers with exactly the data of ``xbar``, where that set is a curve: one direction left
+    undetermined among the parameters the data see (a parameter no datum sees at all moves
+    freely and is held at its value). The curve is traced both ways from ``xbar`` to the box by
+    pseudo-arclength continuation (`TRACE_STEP`, `CORRECTIONS`, `TRACE_TOL`); where a
+    parameter's component of the unit tangent changes sign between two points, the turning
+    point is placed by linear interpolation of that component in arclength and corrected onto
+    the curve. At such a point the data fix that parameter to first order, as at every point
+    where the linearization says so; the ends of the curve alone (`valley_ends`) miss it.
+    Returns ``(sense, i, x)`` per point: the turning points ("locally lowest" / "locally
+    highest" parameter ``i``) and, of the points traced (a sense ends on the face of the box it
+    reaches), where each parameter the data see is lowest and highest ("lowest" / "highest"),
+    each keeping every datum to `DATA_TOL`; empty where the set is not a curve. The set may
+    have other branches than the one traced: `valley_ends` is run besides. ``found``:
+    `undetermined` at ``xbar`` when the caller has it."""
+    configurations = list(configurations)
+    lo, hi = configurations[0].model.bounds()
+    x0 = np.asarray(xbar, dtype=float)
+    found = found if found is not None else _undetermined(configurations, x0)
+    if found is None:
+        return []
+    g0, J, finite, rank, _ = found
+    seen = np.linalg.norm(J[finite], axis=0) > 0
+    if rank != int(seen.sum()) - 1:
+        return []
+    from scipy.linalg import qr
+
+    rows = np.flatnonzero(finite)[qr(J[finite][:, seen].T, pivoting=True)[2][:rank]]
+    count = [0]
+
+    def at(y):
+        count[0] += 1
+        x = x0.copy()
+        x[seen] = y
+        g, Jy = _data(configurations, x)
+        return g[rows] - g0[rows], Jy[rows][:, seen]
+
+    def tangent(Jy, before):
+        t = np.linalg.svd(Jy)[2][-1]
+        return t if before is None or t @ before >= 0 else -t
+
+    def correct(y_pred, t):
+        y = y_pred.copy()
+        for _ in range(CORRECTIONS):
+            F, Jy = at(y)
+            if np.all(np.isfinite(F)) and np.max(np.abs(F)) <= TRACE_TOL:
+                return y, Jy
+            if not np.all(np.isfinite(F)):
+                return None
+            y = y - np.linalg.solve(np.vstack([Jy, t]), np.append(F, t @ (y - y_pred)))
+        return None
+
+    lo_s, hi_s = lo[seen], hi[seen]
+    y0 = x0[seen]
+    t0 = tangent(J[rows][:, seen], None)
+    turns, points = [], [y0]
+    for sense in (1.0, -1.0):
+        y, t, h = y0, sense * t0, TRACE_STEP[0]
+        while count[0] < TRACE_EVALUATIONS and h >= TRACE_STEP[2]:
+            y_pred = y + h * t
+            if np.any(y_pred < lo_s) or np.any(y_pred > hi_s):   # past the box: end on its face
+                reach = np.where(t > 0, (hi_s - y) / np.where(t > 0, t, 1),
+                                 np.where(t < 0, (lo_s - y) / np.where(t < 0, t, 1), np.inf))
+                j = int(np.argmin(reach))
+                y_pred = y + reach[j] * t
+                y_pred[j] = hi_s[j] if t[j] > 0 else lo_s[j]
+                face = np.zeros(t.size)
+                face[j] = 1.0
+                end = correct(y_pred, face)     # on the curve with parameter j on its bound
+                if end is not None and np.all(end[0] >= lo_s - 1e-12) and np.all(end[0] <= hi_s + 1e-12):
+                    points.append(end[0])
+                    break
+                h = 0.5 * float(reach[j])
+                continue
+            step = correct(y_pred, t)
+            if step is None or np.any(step[0] < lo_s) or np.any(step[0] > hi_s):   # corrected out of the box
+                h /= 2
+                continue
+            y_new, J_new = step
+            t_new = tangent(J_new, t)
+            for i in np.flatnonzero(t * t_new < 0):
+                mid, a, b, ca, cb = None, 0.0, h, t[i], t_new[i]
+                for _ in range(TURN_REFINEMENTS):   # regula falsi on the component, in arclength
+                    s_turn = a + (b - a) * ca / (ca - cb)
+                    got = correct(y + s_turn * t, t)
+                    if got is None:
+                        break
+                    mid = got[0]
+                    c = tangent(got[1], t)[i]
+                    a, ca, b, cb = (s_turn, c, b, cb) if c * ca > 0 else (a, ca, s_turn, c)
+                if mid is not None:
+                    turns.append(("locally lowest" if t[i] < 0 else "locally highest", int(i), mid))
+                    points.append(mid)
+            y, t, h = y_new, t_new, min(1.5 * h, TRACE_STEP[1])
+            points.append(y)
+    along = np.array(points)
+    for i in range(along.shape[1]):
+        turns += [("lowest", i, along[np.argmin(along[:, i])]), ("highest", i, along[np.argmax(along[:, i])])]
+    out = []
+    for sense, i, y in turns:   # each back on the data to DATA_TOL
+        x = x0.copy()
+        x[seen] = y
+        x, change, _, lost = _same_data_nearest(configurations, x, x, g0, finite, rank, lo, hi)
+        if not lost and change <= DATA_TOL:
+            out.append((sense, int(np.flatnonzero(seen)[i]), x))
+    return out
 
 
 def minimum_change(configurations: Sequence[Configuration], xbar) -> MinimumChange:

@@ -41,7 +41,7 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
-from vibupdate.inverse.minimum_change import MinimumChange, minimum_change
+from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, undetermined, valley_curve, valley_ends
 from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
@@ -511,13 +511,17 @@ def _verdict_word(candidate: _Finish) -> str:
     return "verified" if candidate.status.ok else "not_verified"
 
 
-def _uniqueness(configurations, finish, tried: list[_Finish], search: Search, starts: list, say,
+def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, search: Search, starts: list, say,
                 options: PolishOptions) -> None:
-    """Polish from the box starts not tried yet (`vibupdate.inverse.search`); a start whose
-    polish reaches a verified answer again stops there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`)."""
+    """Polish from the nominal point, the ``answer`` moved along the data's weakest direction
+    (`vibupdate.inverse.search.Search.weak_starts`) and the random box starts, those not tried
+    yet (`vibupdate.inverse.search`); a start whose polish reaches a verified answer again stops
+    there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`)."""
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
-    todo = [(label, x) for label, x in search.box_starts(lo, hi, search.probe_random_starts) if label not in done]
+    boxed = search.box_starts(lo, hi, search.probe_random_starts)
+    todo = [(label, x) for label, x in boxed[:1] + search.weak_starts(answer.xbar, answer.sensitivity, lo, hi)
+            + boxed[1:] if label not in done]
     if todo:
         say(f"uniqueness: polishing from {len(todo)} further starts")
     for label, x0 in todo:
@@ -553,6 +557,38 @@ def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
                                      dict(zip(names, model.physical(c.xbar).tolist())),
                                      tuple(n for n, a, b in zip(names, c.xbar, chosen.xbar)
                                            if abs(a - b) > search.distinct)) for c in others)
+
+
+def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ...], search: Search, model, starts: list,
+            say) -> tuple[Alternative, ...]:
+    """Where the data leave directions undetermined at the chosen answer, the answers with
+    exactly its data form a set, and every start the polish takes there is moved to the same
+    point of it (the minimum change): the ends of that set in each parameter that moves
+    (`vibupdate.inverse.minimum_change.valley_ends`) and, where it is a curve, its ends and the
+    points where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_curve`)
+    are the other answers, each an `Alternative` with the chosen answer's objective (the same
+    data to 1e-9, so the same verification). ``search.valley_ends`` off, or a rank that the data
+    fill, adds none."""
+    if not search.valley_ends or chosen.sensitivity.get("rank", chosen.xbar.size) >= chosen.xbar.size:
+        return alternatives
+    t0 = time.perf_counter()
+    found = undetermined(configurations, chosen.xbar)   # one evaluation at the answer, for both
+    ends = valley_curve(configurations, chosen.xbar, found) + valley_ends(configurations, chosen.xbar, found)
+    names = model.parameter_names
+    known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
+    added = []
+    for sense, i, x in ends:
+        if all(np.max(np.abs(x - k)) > search.distinct for k in known):
+            known.append(x)
+            kind = "end" if sense in ("lowest", "highest") else "turn"
+            added.append(Alternative(f"valley {kind} ({sense} {names[i]})", chosen.cost, tuple(x.tolist()),
+                                     dict(zip(names, model.physical(x).tolist())),
+                                     tuple(n for n, a, b in zip(names, x, chosen.xbar) if abs(a - b) > search.distinct)))
+    starts.append(Start("valley ends", "uniqueness", "same data" if added else "same answer", (), chosen.cost,
+                        time.perf_counter() - t0))
+    say(f"uniqueness: the data leave {chosen.xbar.size - chosen.sensitivity['rank']} direction(s) undetermined; "
+        f"{len(added)} point(s) of the set of answers with the same data differ from the answer")
+    return alternatives + tuple(added)
 
 
 def _exact_cost(contract: Admissible, verification: VerifyOptions) -> float:
@@ -663,10 +699,11 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
     alternatives: tuple[Alternative, ...] = ()
     if best is not None and best.status.ok and unique:
-        _uniqueness(configurations, finish, tried, search, starts, say,
+        _uniqueness(configurations, finish, tried, best, search, starts, say,
                     replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                         search.probe_evaluations * (model.n_parameters + 1))))
         best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
+        alternatives = _valley(configurations, best, alternatives, search, model, starts, say)
     elif best is not None and best.status.ok:
         reason = f"uniqueness not searched: {reason}"
     else:

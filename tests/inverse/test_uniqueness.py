@@ -1,0 +1,159 @@
+"""The uniqueness search: the set of answers where the data leave directions undetermined,
+and the cost of the probing polishes."""
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from helpers import chain_model
+from vibupdate import Configuration, NaturalFrequency, modes
+from vibupdate.inverse.minimum_change import valley_ends
+from vibupdate.inverse.search import Search
+from vibupdate.inverse.status import Verdict
+from vibupdate.inverse.update import update
+
+
+def _first(model, k1, k2):
+    M, K = model.matrices_at([k1, k2])
+    return float(modes(M, K)[0][0])
+
+
+def test_fewer_data_than_parameters_give_not_unique_with_the_ends_of_the_set_of_answers():
+    # two springs of a 2-mass chain from its first natural frequency alone: the springs that
+    # give it form a curve; the answer returned is its point nearest the nominal model, and the
+    # ends of the curve in each spring (computed here by root finding on the frequency) are the
+    # other answers. Before, every start of the uniqueness search was moved to the same point
+    # of the curve and the run said "verified".
+    model = chain_model(2, ["k1", "k2"])
+    truth = (1000.0, 1000.0)
+    w1 = _first(model, *truth)
+    result = update([Configuration("one mode", model, (NaturalFrequency(w1),))])
+    assert result.success and result.verdict is Verdict.NOT_UNIQUE, result.message
+    ends = {a.start: a.values for a in result.alternatives}
+    for values in ends.values():   # each fits the datum exactly
+        assert _first(model, values["k1"], values["k2"]) == pytest.approx(w1, rel=1e-9)
+    lo = {p.name: p.lower for p in model.parameters}
+    hi = {p.name: p.upper for p in model.parameters}
+    # w1 grows with both springs: k1 is lowest where k2 is highest, and the other way round
+    def k1_at(k2):   # the k1 that gives w1 with this k2, held to its bounds
+        f = lambda k: _first(model, k, k2) - w1
+        return lo["k1"] if f(lo["k1"]) > 0 else hi["k1"] if f(hi["k1"]) < 0 else brentq(f, lo["k1"], hi["k1"],
+                                                                                          xtol=1e-10)
+
+    k1_low, k1_high = k1_at(hi["k2"]), k1_at(lo["k2"])
+    assert lo["k1"] < k1_low < k1_high < hi["k1"]    # interior ends: k2 is on its bounds there
+    assert ends["valley end (lowest k1)"]["k1"] == pytest.approx(k1_low, rel=1e-6)
+    assert ends["valley end (highest k1)"]["k1"] == pytest.approx(k1_high, rel=1e-6)
+    assert any(s.start == "valley ends" and s.status == "same data" for s in result.sought.starts)
+    # switched off, the same run says verified, as the search did before
+    off = update([Configuration("one mode", model, (NaturalFrequency(w1),))], search=Search(valley_ends=False))
+    assert off.verdict is Verdict.VERIFIED and not off.alternatives
+
+
+def test_valley_ends_are_empty_where_the_data_determine_every_parameter():
+    model = chain_model(2, ["k1", "k2"])
+    M, K = model.matrices_at([1100.0, 900.0])
+    w = modes(M, K)[0]
+    cfg = Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))
+    assert valley_ends([cfg], model.normalized([1100.0, 900.0])) == []
+
+
+def test_a_parameter_fixed_to_first_order_at_the_truth_is_reported_where_it_is_lowest_along_the_curve():
+    # three parameters of a 2-mass chain from its two natural frequencies: the answers form a
+    # curve. Along it m1 has a local minimum; the truth is put there, so the data fix m1 to
+    # first order at the truth (what a judge linearizing at the truth sees), while the
+    # answer nearest the nominal model has another m1. The turning point, computed here
+    # independently (the curve parametrized by k1, m1 minimized over it), is reported.
+    from scipy.optimize import fsolve, minimize_scalar
+
+    model = chain_model(2, ["k1", "m1", "m2"])
+    base = model.physical(np.array([0.179, -0.233, 0.115]))
+    M, K = model.matrices_at(base)
+    w = modes(M, K)[0][:2]
+
+    def masses(k1):   # the (m1, m2) of the curve at this k1
+        f = lambda m: modes(*model.matrices_at([k1, *m]))[0][:2] / w - 1
+        return fsolve(f, base[1:], xtol=1e-13)
+
+    k1 = minimize_scalar(lambda k: masses(k)[0], bounds=(0.6 * base[0], 0.9 * base[0]), method="bounded",
+                         options={"xatol": 1e-9}).x
+    truth = np.array([k1, *masses(k1)])
+    assert np.allclose(modes(*model.matrices_at(truth))[0][:2], w, rtol=1e-10)
+    result = update([Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))])
+    assert abs(result.values[1] / truth[1] - 1) > 0.01      # the answer's m1 is elsewhere on the curve
+    assert result.verdict is Verdict.NOT_UNIQUE
+    # here the local minimum is also the lowest m1 of the whole curve: found as an end or a turn
+    turns = [a for a in result.alternatives if a.start.endswith("lowest m1)")]
+    assert len(turns) == 1, [a.start for a in result.alternatives]
+    assert turns[0].values["m1"] == pytest.approx(truth[1], rel=1e-9)
+    at = [turns[0].values[n] for n in ("k1", "m1", "m2")]
+    assert np.allclose(modes(*model.matrices_at(at))[0][:2], w, rtol=1e-9)
+
+
+def test_valley_curve_turns_are_points_of_the_curve_where_its_tangent_leaves_that_parameter_fixed():
+    # the tangent of the curve of answers, from a central-difference Jacobian of the two
+    # frequencies, has no component along the parameter said to turn there
+    from vibupdate.inverse.minimum_change import valley_curve
+
+    model = chain_model(2, ["k1", "k2", "m1"])
+    x = np.array([0.068, -0.115, -0.23])
+    w = modes(*model.matrices_at(model.physical(x)))[0][:2]
+    points = valley_curve([Configuration("two modes", model, tuple(NaturalFrequency(v) for v in w))], x)
+    turns = [(sense, i, y) for sense, i, y in points if sense.startswith("locally")]
+    assert turns
+    for sense, i, y in turns:
+        assert np.allclose(modes(*model.matrices_at(model.physical(y)))[0][:2], w, rtol=1e-9)
+        step = 1e-6
+        J = np.column_stack([(modes(*model.matrices_at(model.physical(y + step * e)))[0][:2]
+                              - modes(*model.matrices_at(model.physical(y - step * e)))[0][:2]) / (2 * step * w)
+                             for e in np.eye(3)])
+        tangent = np.linalg.svd(J)[2][-1]
+        assert abs(tangent[i]) < 1e-4, (sense, i, tangent)
+
+
+def test_the_second_answer_across_a_fold_is_found_from_the_weakest_direction():
+    # two springs of a 2-mass chain from both natural frequencies: (1000, 1000) and (2000, 500)
+    # fit exactly (k1 + 2 k2 and k1 k2 fixed). With no random start, the answer moved along
+    # the data's weakest direction finds the second; the nominal point alone does not.
+    model = chain_model(2, ["k1", "k2"], nominal={"k1": 1200.0, "k2": 900.0}, spread=0.7)
+    w = modes(*model.matrices_at([1000.0, 1000.0]))[0]
+    cfg = Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))
+    found = update([cfg], search=Search(probe_random_starts=0))
+    assert found.verdict is Verdict.NOT_UNIQUE
+    assert [a.start for a in found.alternatives] == ["weakest direction -"]
+    assert np.allclose(list(found.alternatives[0].values.values()), [2000.0, 500.0], rtol=1e-6)
+    alone = update([cfg], search=Search(probe_random_starts=0, weak_direction=False))
+    assert alone.verdict is Verdict.VERIFIED and not alone.alternatives
+
+
+def test_weak_starts_go_to_the_box_along_the_smallest_nonzero_singular_direction():
+    S = np.array([[1.0, 0.0, 0.0], [0.0, 0.1, 0.0]])      # rank 2: x3 unseen, x2 the weakest seen
+    lo, hi = -np.ones(3), np.ones(3)
+    starts = dict(Search().weak_starts(np.array([0.5, 0.2, 0.0]), {"matrix": S, "rank": 2}, lo, hi))
+    assert set(starts) == {"weakest direction +", "weakest direction -"}
+    assert sorted(x[1] for x in starts.values()) == [-1.0, 1.0]
+    for x in starts.values():
+        assert x[0] == 0.5 and x[2] == 0.0
+    assert Search(weak_direction=False).weak_starts(np.zeros(3), {"matrix": S, "rank": 2}, lo, hi) == []
+    # a parameter held at a bound stays there: the weakest direction of the others, x1 here
+    held = dict(Search().weak_starts(np.array([0.5, 1.0, 0.0]), {"matrix": S, "rank": 2}, lo, hi))
+    assert sorted(x[0] for x in held.values()) == [-1.0, 1.0]
+    assert all(x[1] == 1.0 and x[2] == 0.0 for x in held.values())
+
+
+def test_the_valley_budgets_cut_the_search_short_but_every_point_still_keeps_the_data(monkeypatch):
+    # END_ITERATIONS and TRACE_EVALUATIONS only bound the cost: a run stopped by them returns
+    # fewer or less extreme points, never one with other data
+    import vibupdate.inverse.minimum_change as mc
+
+    model = chain_model(2, ["k1", "k2", "m1"])
+    x = np.array([0.068, -0.115, -0.23])
+    w = modes(*model.matrices_at(model.physical(x)))[0][:2]
+    cfg = Configuration("two modes", model, tuple(NaturalFrequency(v) for v in w))
+    full = mc.valley_curve([cfg], x) + mc.valley_ends([cfg], x)
+    monkeypatch.setattr(mc, "END_ITERATIONS", 2)
+    monkeypatch.setattr(mc, "TRACE_EVALUATIONS", 8)
+    short = mc.valley_curve([cfg], x) + mc.valley_ends([cfg], x)
+    assert len(short) < len(full)
+    for _, _, y in short:
+        assert np.allclose(modes(*model.matrices_at(model.physical(y)))[0][:2], w, rtol=1e-9)
