@@ -126,17 +126,26 @@ def test_the_second_answer_across_a_fold_is_found_from_the_weakest_direction():
     assert alone.verdict is Verdict.VERIFIED and not alone.alternatives
 
 
+def _sensitivity(S):
+    """A `Sensitivity` of the matrix ``S`` alone (what `Search.weak_starts` reads)."""
+    from vibupdate.inverse.data_map import Sensitivity
+
+    sv = np.linalg.svd(S, compute_uv=False)
+    return Sensitivity(S, sv, float(sv[0] / sv[-1]), int(np.sum(sv > 1e-8 * sv[0])), np.linalg.norm(S, axis=0),
+                       np.zeros((0, S.shape[1])))
+
+
 def test_weak_starts_go_to_the_box_along_the_smallest_nonzero_singular_direction():
     S = np.array([[1.0, 0.0, 0.0], [0.0, 0.1, 0.0]])      # rank 2: x3 unseen, x2 the weakest seen
     lo, hi = -np.ones(3), np.ones(3)
-    starts = dict(Search().weak_starts(np.array([0.5, 0.2, 0.0]), {"matrix": S, "rank": 2}, lo, hi))
+    starts = dict(Search().weak_starts(np.array([0.5, 0.2, 0.0]), _sensitivity(S), lo, hi))
     assert set(starts) == {"weakest direction +", "weakest direction -"}
     assert sorted(x[1] for x in starts.values()) == [-1.0, 1.0]
     for x in starts.values():
         assert x[0] == 0.5 and x[2] == 0.0
-    assert Search(weak_direction=False).weak_starts(np.zeros(3), {"matrix": S, "rank": 2}, lo, hi) == []
+    assert Search(weak_direction=False).weak_starts(np.zeros(3), _sensitivity(S), lo, hi) == []
     # a parameter held at a bound stays there: the weakest direction of the others, x1 here
-    held = dict(Search().weak_starts(np.array([0.5, 1.0, 0.0]), {"matrix": S, "rank": 2}, lo, hi))
+    held = dict(Search().weak_starts(np.array([0.5, 1.0, 0.0]), _sensitivity(S), lo, hi))
     assert sorted(x[0] for x in held.values()) == [-1.0, 1.0]
     assert all(x[1] == 1.0 and x[2] == 0.0 for x in held.values())
 

@@ -111,15 +111,15 @@ class Search:
         return [("nominal point", np.clip(np.zeros(lo.size), lo, hi))] + [
             (f"random start {k + 1}", rng.uniform(lo, hi)) for k in range(n_random)]
 
-    def weak_starts(self, xbar: np.ndarray, sensitivity: dict, lo: np.ndarray,
+    def weak_starts(self, xbar: np.ndarray, sensitivity, lo: np.ndarray,
                     hi: np.ndarray) -> list[tuple[str, np.ndarray]]:
         """The answer ``xbar`` moved along the data's weakest determined direction (the right
-        singular vector of the smallest nonzero singular value of ``sensitivity["matrix"]``,
+        singular vector of the smallest nonzero singular value of ``sensitivity.matrix``,
         `vibupdate.inverse.data_map.sensitivity`) in each sense, out to the box ``[lo, hi]``:
         a second answer across a fold (module docstring). Parameters the answer holds at a
         bound stay there (the direction is that of the others: along it, the bound would stop
         both senses at once); ``weak_direction`` off or no determined direction gives none."""
-        S = sensitivity.get("matrix")
+        S = sensitivity.matrix
         if not self.weak_direction or S is None or not S.size:
             return []
         span = hi - lo

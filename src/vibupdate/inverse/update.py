@@ -569,7 +569,7 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     are the other answers, each an `Alternative` with the chosen answer's objective (the same
     data to 1e-9, so the same verification). ``search.valley_ends`` off, or a rank that the data
     fill, adds none."""
-    if not search.valley_ends or chosen.sensitivity.get("rank", chosen.xbar.size) >= chosen.xbar.size:
+    if not search.valley_ends or chosen.sensitivity.rank >= chosen.xbar.size:
         return alternatives
     t0 = time.perf_counter()
     found = undetermined(configurations, chosen.xbar)   # one evaluation at the answer, for both
@@ -586,7 +586,7 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
                                      tuple(n for n, a, b in zip(names, x, chosen.xbar) if abs(a - b) > search.distinct)))
     starts.append(Start("valley ends", "uniqueness", "same data" if added else "same answer", (), chosen.cost,
                         time.perf_counter() - t0))
-    say(f"uniqueness: the data leave {chosen.xbar.size - chosen.sensitivity['rank']} direction(s) undetermined; "
+    say(f"uniqueness: the data leave {chosen.xbar.size - chosen.sensitivity.rank} direction(s) undetermined; "
         f"{len(added)} point(s) of the set of answers with the same data differ from the answer")
     return alternatives + tuple(added)
 
