@@ -220,7 +220,8 @@ def test_every_field_reloads_as_its_type_and_writes_back_the_same_bytes(tiny_run
 
     run, out, _ = tiny_run
     loaded = load_results(out / "results.json")
-    assert loaded.status is Status.SUCCESS and loaded.solver.verdict is Verdict.VERIFIED
+    # frequencies alone see E / rho only: the other answers along that valley make it not unique
+    assert loaded.status is Status.SUCCESS and loaded.solver.verdict is Verdict.NOT_UNIQUE
     assert isinstance(loaded.solver, SolverRecord) and all(isinstance(s, StepRow) for s in loaded.solver.steps)
     assert loaded.solver.steps[-1].status is Status.SUCCESS and loaded.solver.attempts[0].status is Status.SUCCESS
     assert isinstance(loaded.identifiability, Identifiability) and isinstance(loaded.damping_model, DampingModel)
