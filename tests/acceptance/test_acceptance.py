@@ -177,14 +177,12 @@ def test_a_least_squares_answer_outside_its_intervals_is_polished_inside_them():
     assert not misses, misses
 
 
-@pytest.mark.xfail(strict=True, reason="the linearized ranges bound a parameter by the tangent at the answer: far "
-                   "along a weak direction (singular values 9.6e-4 of the largest, above the rank tolerance) the "
-                   "valley bends, and kc's reported range [800.2, 987.9] excludes the truth 1047.8 "
-                   "(benchmarks/RESULTS.md, 'Acceptance judge: engine errors, one measure ...')")
 def test_the_ranges_of_a_verified_answer_far_along_a_valley_hold_the_truth():
     """r184: a symmetric chain, noisy frequencies and shapes, no parameter determined; the answer
     (kL 1226.9, kc 814.3) lies far along the valley from the truth (865.5, 1047.8). The Python
-    route's ranges are the CLI's (`acceptance.runner.api_ranges`)."""
+    route's ranges are the CLI's (`acceptance.runner.api_ranges`). The linear range's ends,
+    bounded by the tangent at the answer, excluded the truth (kc [800.2, 987.9]); followed along
+    the valley by relinearized programs they hold it."""
     problem = G.random_problem(184)
     outcome = R.run_api(problem)
     assert outcome.status == "success" and outcome.ranges is not None

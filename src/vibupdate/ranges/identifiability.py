@@ -48,7 +48,7 @@ from scipy.optimize import linprog
 
 from vibupdate.inverse.data_map import data_jacobian, measured_shapes
 from vibupdate.options import default
-from vibupdate.inverse.minimum_change import numerical_rank, valley_points
+from vibupdate.inverse.minimum_change import numerical_rank, valley_curve, valley_ends, valley_points
 from vibupdate.modal.analysis import DENSE_LIMIT
 from vibupdate.data.measured import Configuration
 
@@ -60,6 +60,9 @@ VALLEY_DOFS = DENSE_LIMIT
 #: A parameter moves along a null direction when its component there exceeds this; its range
 #: is then its box (`parameter_ranges`).
 NULL_COMPONENT = 1e-3
+#: Linear programs relinearized along the valley per range end, at most (`_along_the_valley`):
+#: each one data map and Jacobian, on models of up to `VALLEY_DOFS` DOFs.
+VALLEY_PROGRAMS = 4
 
 
 @dataclass(frozen=True)
@@ -183,7 +186,7 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
     return np.asarray(out, dtype=float)
 
 
-def _scaled_shapes(configurations, d_hat, G, rounding):
+def _scaled_shapes(configurations, d_hat, G, rounding, at=None):
     """The shape rows of the ranges' linear program at the shapes' own meaning, a free scale
     per mode (`vibupdate.inverse.admissible`): ``s q_j(x)`` in each entry's measured interval,
     ``q`` the model's ratios (1 at the reference), linearized in the step ``dx`` and in the
@@ -192,7 +195,8 @@ def _scaled_shapes(configurations, d_hat, G, rounding):
     interval is widened on its side to ``e`` beyond the answer; an entry known exactly has the
     contract's ``exact_half_width`` of the shape's largest entry. Returns the data-map rows they
     replace and, per shape, its rows divided by their half-widths (columns ``dx`` then one
-    column per shape's scale) and their offsets."""
+    column per shape's scale) and their offsets. ``at``, ``(d, G, shift)``: the same windows
+    with the shapes linearized at another point instead, ``shift`` the answer minus that point."""
     rows, extra, k, n_x = [], [], 0, G.shape[1]
     shapes = [(cfg, s) for cfg in configurations for s in measured_shapes(cfg)]
     n_s = sum(s.lower.size > 0 for _, s in shapes)
@@ -220,6 +224,11 @@ def _scaled_shapes(configurations, d_hat, G, rounding):
             half = (0.5 * (high - low) + exact) * (1 + 1e-9) + 1e-12 * abs(mid[0])
             if rounding is not None:
                 half = half + abs(s0) * np.concatenate([[0.0], rounding[idx]])
+            if at is not None:   # the answer's windows, the linearization at the other point
+                q = np.concatenate([[1.0], at[0][idx]])
+                Gq = np.vstack([np.zeros((1, n_x)), at[1][idx]])
+                s0 = float(q @ mid) / float(q @ q)
+                v = s0 * (q + Gq @ at[2])
             block = np.zeros((q.size, n_x + n_s))
             block[:, :n_x] = s0 * Gq / half[:, None]
             block[:, n_x + col] = q / half
@@ -228,6 +237,29 @@ def _scaled_shapes(configurations, d_hat, G, rounding):
             col += 1
         k += sum(s.mass is not None for s in mine)
     return rows, extra
+
+
+def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, solve, box) -> float:
+    """The extreme of parameter ``i`` (its minimum for ``sign`` 1, maximum for -1) over points
+    found consistent with the data, by successive linear programs: from the linear range's end
+    ``xbar + step``, the data and their Jacobian there, the program relinearized about that
+    point (the answer's windows), its extreme the next point, at most `VALLEY_PROGRAMS` times.
+    A point counts only where its own data lie in every window (its relinearized program holds
+    at the point itself). Returns ``xbar[i]`` when no point qualified."""
+    best, x = float(xbar[i]), xbar + step
+    for _ in range(VALLEY_PROGRAMS):
+        d, G = data_jacobian(configurations, x)
+        A, b, n_s = program((d, G, xbar - x))
+        fixed = [(v, v) for v in x - xbar] + [(None, None)] * n_s
+        if solve(np.zeros(xbar.size + n_s), A, b, fixed) is not None:
+            best = min(best, x[i]) if sign > 0 else max(best, x[i])
+        c = np.zeros(xbar.size + n_s)
+        c[i] = sign
+        nxt = solve(c, A, b, box + [(None, None)] * n_s)
+        if nxt is None or abs(nxt[i] - (x[i] - xbar[i])) <= 1e-9:
+            break
+        x = xbar + nxt[:xbar.size]
+    return best
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
@@ -295,40 +327,61 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     # difference of two large numbers. Where the default simplex gives up on a badly
     # conditioned problem (the refined frame's exact data at 2,996 DOFs: a "solve error" in 3
     # of 58 programs), the interior-point method solves it.
-    Gs, offs = G / half[:, None], offset / half
-    rows, extra = _scaled_shapes(configurations, d_hat, G, rounding)
-    keep = np.ones(d_hat.size, dtype=bool)
-    keep[[r for r in rows]] = False
-    n_s = len(extra)
-    A1 = np.vstack([np.hstack([Gs[keep], np.zeros((int(keep.sum()), n_s))])] + [e[0] for e in extra]
-                   + [np.zeros((0, xbar.size + n_s))])
-    o1 = np.concatenate([offs[keep]] + [e[1] for e in extra])
-    A = np.vstack([A1, -A1])
-    b = np.concatenate([1.0 - o1, 1.0 + o1])
-    bounds = list(zip(lo - xbar, hi - xbar)) + [(None, None)] * n_s
+    center = d_hat - offset       # each window's centre, fixed at the answer
+
+    def program(at=None):
+        """The linear program's rows in the step ``dx`` from the answer (and each shape's scale
+        step), linearized at the answer, or at ``at = (d, G, xbar - x)``, another point ``x``
+        (the same windows: at ``dx = x - xbar`` its data rows are the data themselves)."""
+        Gp, off = (G, offset) if at is None else (at[1], at[0] + at[1] @ at[2] - center)
+        Gs, offs = Gp / half[:, None], off / half
+        rows, extra = _scaled_shapes(configurations, d_hat, G, rounding, at)
+        keep = np.ones(d_hat.size, dtype=bool)
+        keep[[r for r in rows]] = False
+        n_s = len(extra)
+        A1 = np.vstack([np.hstack([Gs[keep], np.zeros((int(keep.sum()), n_s))])] + [e[0] for e in extra]
+                       + [np.zeros((0, xbar.size + n_s))])
+        o1 = np.concatenate([offs[keep]] + [e[1] for e in extra])
+        return np.vstack([A1, -A1]), np.concatenate([1.0 - o1, 1.0 + o1]), n_s
+
+    def solve(c, A, b, bounds):
+        for method in ("highs", "highs-ipm"):
+            sol = linprog(c, A_ub=A, b_ub=b, bounds=bounds, method=method)
+            if sol.status == 0:
+                return sol.x
+        return None
+
+    A, b, n_s = program()
+    box = list(zip(lo - xbar, hi - xbar))
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
+    bent = model.n_dofs <= VALLEY_DOFS
     for i in range(model.n_parameters):
         c = np.zeros(model.n_parameters + n_s)
         c[i] = 1.0
         for sign, target in ((1.0, lower), (-1.0, upper)):
-            for method in ("highs", "highs-ipm"):
-                sol = linprog(sign * c, A_ub=A, b_ub=b, bounds=bounds, method=method)
-                if sol.status == 0:
-                    target[i] = xbar[i] + sol.x[i]
-                    break
+            step = solve(sign * c, A, b, box + [(None, None)] * n_s)
+            if step is None:
+                continue
+            target[i] = xbar[i] + step[i]
+            if bent:
+                found = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve, box)
+                target[i] = min(target[i], found) if sign > 0 else max(target[i], found)
     # Along a direction the data do not see at all (a null direction of the Jacobian), the
     # linear program follows the tangent line to the box, but the set of parameters that fit
     # bends away from that line: on the known-truth acceptance problems the truth lay outside
     # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
     # along a null direction is bounded by the box alone.
-    _, sv, Vt = np.linalg.svd(Gs)   # null directions: singular values below RANK_RTOL of the largest
+    _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
     rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
     if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:
         # the other parameters move along the curved valley too (at second order where the
         # answer is a symmetric point): the points of the valley with the answer's data
-        points = valley_points(configurations, xbar)
+        # and where each parameter is lowest and highest along it, and where one turns
+        # (`vibupdate.inverse.minimum_change.valley_ends`, `valley_curve`)
+        ends = [x for _, _, x in valley_ends(configurations, xbar) + valley_curve(configurations, xbar)]
+        points = np.vstack([valley_points(configurations, xbar)] + [np.atleast_2d(x) for x in ends])
         if points.size:
             lower, upper = np.fmin(lower, points.min(axis=0)), np.fmax(upper, points.max(axis=0))
     width = (upper - lower) * 100.0   # xbar is already relative to the reference value
