@@ -49,7 +49,9 @@ def test_frequency_intervals_are_the_per_datum_tolerances_of_the_ranges():
     assert np.all(by_tolerance.width_pct > 0)
     _, wider = _chain(truth, tol=4e-3)
     widths = parameter_ranges([wider], truth).width_pct
-    np.testing.assert_allclose(widths, 2 * by_tolerance.width_pct, rtol=1e-3)  # linear in the half-widths
+    # twice as wide to first order; the ends followed along the bent set add the rest (measured
+    # 2.012, 2.011 and 2.004 times; exactly 2 while the ranges were the tangent's alone)
+    assert np.all(widths > 1.99 * by_tolerance.width_pct) and np.all(widths < 2.05 * by_tolerance.width_pct)
 
 
 def test_damping_intervals_weigh_the_damping_fit_and_are_stated():
