@@ -30,7 +30,11 @@ A parameter that moves along a direction the data do not see at all (a null dire
 Jacobian) gets its whole box: the linearization cannot bound a curved valley. On models of up
 to `VALLEY_DOFS` DOFs the ranges also hold the points of that valley that keep the answer's
 data exactly (`vibupdate.inverse.minimum_change.valley_points`): the other parameters move
-along it at second order.
+along it at second order, and the points where each parameter is lowest, highest or turns
+along it (`valley_ends`, `valley_curve`). Where the data see a direction only weakly the set
+bends too: each end of a linear range is followed by up to `VALLEY_PROGRAMS` programs
+relinearized at the previous end (the answer's windows), and the range grows to every end
+whose own data lie in the windows (`_along_the_valley`); it never shrinks.
 
 A model whose matrices are known only to a relative ``matrix_precision`` (read from an export
 written with fewer digits than a double) widens every window by what that rounding can do to
@@ -363,7 +367,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
             if step is None:
                 continue
             target[i] = xbar[i] + step[i]
-            if bent:
+            at_box = np.isclose(target[i], lo[i] if sign > 0 else hi[i], rtol=0.0, atol=1e-12)
+            if bent and not at_box:
                 found = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve, box)
                 target[i] = min(target[i], found) if sign > 0 else max(target[i], found)
     # Along a direction the data do not see at all (a null direction of the Jacobian), the
