@@ -52,18 +52,12 @@ class Search:
         Random points of the box polished when the answer does not verify.
     probe_random_starts : int
         Random points of the box polished to test a verified answer for uniqueness, after the
-        weakest-direction starts. Where the acceptance engine's problems (random seeds 0-1,199,
-        the cross-receptance family) have a second isolated exact fit that the uniqueness
-        search found (four problems), it lies along the weakest direction (cosine 0.86 to
-        0.995 with its singular vector); the weakest-direction starts find three of the four,
-        the first random start the fourth. The random starts also find better answers than the
-        one verified: on random seed 99 the homotopy's answer misses an exact datum by 7e-5
-        (inside its admissible interval) where an exact fit exists, found by the second random
-        start (and the third and fifth of six), none of the structured ones
-        (`benchmarks/RESULTS.md`, "The uniqueness search by the structure of the problem").
-        Each start costs the cantilever's update about 0.15 times the classical fit: with six
-        random starts it took 1.47 times the fit, with two (and the two weakest-direction
-        starts) 0.8 to 0.9 times.
+        weakest-direction starts: a second isolated fit usually lies along the weakest
+        determined direction, which those starts follow, and the random starts cover the rest
+        (and find better answers than the one verified, an exact fit where the first answer
+        only lay inside its intervals). Each start costs the cantilever's update about 0.15
+        times the classical fit (`benchmarks/RESULTS.md`, "The uniqueness search by the
+        structure of the problem").
     probe_evaluations : int
         Evaluations of each uniqueness polish, per unknown plus one: a start that has not
         converged by then is not an answer that fits as well.
