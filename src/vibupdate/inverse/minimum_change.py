@@ -175,7 +175,8 @@ def _same_data_nearest(configurations, x0, target, g0, finite, rank, lo, hi, at_
 VALLEY_STEPS = 6
 
 
-def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int = VALLEY_STEPS) -> np.ndarray:
+def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int = VALLEY_STEPS,
+                  found=None) -> np.ndarray:
     """Points with exactly the data of ``xbar`` along each direction the data leave
     undetermined, out to the box: for each null direction ``v`` of the data Jacobian and each
     sense, the points nearest ``xbar + (k / steps) t v`` (``t`` to the box boundary, ``k = 1 ..
@@ -183,11 +184,12 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int =
     the straight line (at a symmetric answer ``kL = kR`` of a chain the coupling spring changes
     at second order), so these points, not the line, show how far each parameter moves along
     it. A sense stops at its first point that fails. Returns shape (n_points, n_x), empty when
-    the data determine every parameter."""
+    the data determine every parameter. ``found``: `undetermined` at ``xbar`` when the caller
+    has it."""
     configurations = list(configurations)
     lo, hi = configurations[0].model.bounds()
     x0 = np.asarray(xbar, dtype=float)
-    found = _undetermined(configurations, x0)
+    found = found if found is not None else _undetermined(configurations, x0)
     if found is None:
         return np.zeros((0, x0.size))
     g0, J, finite, rank, Vt = found

@@ -52,7 +52,8 @@ from scipy.optimize import linprog
 
 from vibupdate.inverse.data_map import data_jacobian, measured_shapes
 from vibupdate.options import default
-from vibupdate.inverse.minimum_change import numerical_rank, valley_curve, valley_ends, valley_points
+from vibupdate.inverse.minimum_change import (numerical_rank, undetermined, valley_curve, valley_ends,
+                                              valley_points)
 from vibupdate.modal.analysis import DENSE_LIMIT
 from vibupdate.data.measured import Configuration
 
@@ -385,8 +386,9 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         # answer is a symmetric point): the points of the valley with the answer's data
         # and where each parameter is lowest and highest along it, and where one turns
         # (`vibupdate.inverse.minimum_change.valley_ends`, `valley_curve`)
-        ends = [x for _, _, x in valley_ends(configurations, xbar) + valley_curve(configurations, xbar)]
-        points = np.vstack([valley_points(configurations, xbar)] + [np.atleast_2d(x) for x in ends])
+        found = undetermined(configurations, xbar)   # one evaluation at the answer for the three
+        ends = [x for _, _, x in valley_ends(configurations, xbar, found) + valley_curve(configurations, xbar, found)]
+        points = np.vstack([valley_points(configurations, xbar, found=found)] + [np.atleast_2d(x) for x in ends])
         if points.size:
             lower, upper = np.fmin(lower, points.min(axis=0)), np.fmax(upper, points.max(axis=0))
     width = (upper - lower) * 100.0   # xbar is already relative to the reference value
