@@ -1,5 +1,6 @@
 """First stage (Problems 1-4): known-truth recovery, relaxation properties, test case 2."""
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -18,7 +19,7 @@ from vibupdate.inverse.status import Verdict
 from vibupdate.inverse.polish import PolishOptions, polish
 from vibupdate.inverse.relaxation import lifted_values, mccormick
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.update import prepare, update
+from vibupdate.inverse.update import prepare, prepare_first_stage, update
 
 TRUE_CHAIN = {"k1": 1100.0, "k3": 900.0, "m2": 1.15, "m5": 0.85}
 
@@ -36,13 +37,42 @@ def assert_recovered(result, model, truth):
     for row in frequencies_of(result.correlation):
         assert row.updated_hz == pytest.approx(row.measured_hz, rel=1e-6)
     assert_sound(result)
+    # Exact data: the returned model has every measured frequency as an eigenvalue (or zero of
+    # its receptance) with the returned vector as its eigenvector (measured: at most 1.7e-7 over
+    # this file's exact-data problems, the two configurations' the largest).
+    residuals = eigen_residuals(result, result.xbar)
+    assert residuals.max() <= 1e-6, residuals
+
+
+def first_stage_unknowns(result):
+    """The first stage's problem of the result's data and its free unknowns read back from the
+    returned vectors (the fixed normalization entries left out)."""
+    problem = prepare_first_stage(result.correlation.configurations).problem
+    assert len(result.vectors) == len(problem.blocks)
+    u = np.concatenate([(v / b.scale)[~b.fixed] for v, b in zip(result.vectors, problem.blocks)])
+    return problem, u
+
+
+def eigen_residuals(result, xbar):
+    """``||(K - w^2 M) v|| / ||K v||`` of each returned vector at ``xbar`` (rows and columns of
+    its block: the whole model for a mode, the adjunct system for an antiresonance)."""
+    problem, _ = first_stage_unknowns(result)
+    models = {c.name: c.model for c in result.correlation.configurations}
+    out = []
+    for v, b in zip(result.vectors, problem.blocks):
+        M, K = models[b.configuration].matrices(xbar)
+        K, A = K[b.rows][:, b.cols], (K - b.omega**2 * M)[b.rows][:, b.cols]
+        out.append(np.linalg.norm(A @ v) / np.linalg.norm(K @ v))
+    return np.array(out)
 
 
 def assert_sound(result):
-    """Properties every answer has: no vector near zero, lower bound below the objective."""
-    for v in result.vectors:
-        assert np.max(np.abs(v)) > 0.1 * np.linalg.norm(v) > 0
-        assert np.max(np.abs(v)) >= 1.0 / 10  # a normalized entry survives scaling back
+    """Properties every answer has, measured or exact data: the objective it reports is the
+    first stage's objective of the vectors it returns at the homotopy's parameters, and the
+    relaxation's lower bound is below it."""
+    problem, u = first_stage_unknowns(result)
+    recomputed = problem.objective(result.first_stage_xbar, u)
+    assert recomputed == pytest.approx(result.objective, rel=1e-6, abs=1e-14), (recomputed, result.objective)
     assert result.relaxation_lower_bound is not None
     assert result.relaxation_lower_bound <= result.objective + 1e-12
 
@@ -227,6 +257,24 @@ def test_cantilever_meets_the_paper_figure(cantilever_result):
     for p, v in zip(r.parameters, r.values):
         assert p.lower - 1e-9 * abs(p.lower) <= v <= p.upper + 1e-9 * abs(p.upper), p.name
     assert_sound(r)
+
+
+def test_the_soundness_checks_fail_on_a_corrupted_answer(cantilever_result):
+    """The helpers above can fail: one vector scaled, the objective misreported, a lower bound
+    above the objective, or exact-data parameters moved off the answer."""
+    r = cantilever_result
+    vectors = list(r.vectors)
+    vectors[3] = vectors[3] * np.where(np.arange(vectors[3].size) % 2, 1.05, 1.0)
+    for wrong in (replace(r, vectors=tuple(vectors)), replace(r, objective=0.5 * r.objective),
+                  replace(r, relaxation_lower_bound=2 * r.objective)):
+        with pytest.raises(AssertionError):
+            assert_sound(wrong)
+    model = chain_model(5, list(TRUE_CHAIN))
+    _, _, omega, _ = exact(model, TRUE_CHAIN)
+    exact_result = update([Configuration("P2", model, tuple(NaturalFrequency(w) for w in omega))])
+    assert_recovered(exact_result, model, TRUE_CHAIN)
+    moved = model.normalized(exact_result.values * np.array([1.001, 1.0, 1.0, 1.0]))   # k1 0.1 % off
+    assert eigen_residuals(exact_result, moved).max() > 1e-6
 
 
 def test_cantilever_problem_size_against_table_1(cantilever_result):
