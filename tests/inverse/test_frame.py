@@ -44,7 +44,10 @@ def test_problem_1_fits_the_frequencies_and_shapes(noisy):
     noise: the answer is judged against the truth's noise-free modes. A model that reproduced
     the noisy frequencies would be as far from the truth's as the data are; the answer must be
     nearer (measured 0.364 %, 1 - MAC 1.5e-4; benchmarks/RESULTS.md, "The frame generator: the
-    answer against the truth's noise-free modes")."""
+    answer against the truth's noise-free modes"). Ceilings from the figures measured on the
+    bundled answer (benchmarks/RESULTS.md, "Tests that assert what they claim: the ceilings at their measured figures"):
+    1 - MAC against the truth 4.3e-4 at worst, held to 1e-3 (2.3x); MAC against the noisy
+    shapes 0.9921 at worst, held to 0.99 (1 - MAC 1.3x)."""
     from vibupdate.modal.analysis import modes
 
     configurations, r = noisy
@@ -61,7 +64,7 @@ def test_problem_1_fits_the_frequencies_and_shapes(noisy):
     mac_true = np.array([(Phi[idx, k] @ Phi_true[idx, k]) ** 2
                          / ((Phi[idx, k] @ Phi[idx, k]) * (Phi_true[idx, k] @ Phi_true[idx, k])) for k in range(frame.N_MODES)])
     assert np.all(mac_true >= 0.999), mac_true
-    assert np.all(macs_of(r.correlation)["frame"] >= 0.95)
+    assert np.all(macs_of(r.correlation)["frame"] >= 0.99)
     assert r.relaxation_lower_bound <= r.objective
 
 
@@ -86,8 +89,8 @@ def test_truth_is_recovered_within_the_measurement_error(noisy):
     for i in narrowed:
         assert abs(r.values[i] / true[i] - 1) * 100 <= ranges.width_pct[i], model.parameter_names[i]
     # The two balancing springs act in parallel through the axially stiff upper beam: only their
-    # sum is seen, each one alone spans most of its bounds.
-    assert min(ranges.width_pct[model.parameter_names.index(n)] for n in ("kbs", "kbs2")) > 20
+    # sum is seen, each one alone spans most of its bounds (measured: the whole 40 % box).
+    assert not {"kbs", "kbs2"} & {model.parameter_names[i] for i in narrowed}
 
 
 def test_exact_data_recover_every_identifiable_parameter():
@@ -118,8 +121,9 @@ def test_damping_with_the_paper_test_case_1_exponents(noisy):
     configurations, r = noisy
     stage = identify_damping(configurations, r.xbar, frame.DAMPING.exponents)
     # The generating law (Y = 0, 0.5, 1) lies in the span of Y = 0, 0.25, ..., 1; what is left
-    # is the frequency error of the updated model: measured 0.0079 % (Rayleigh 3.97 %), the
-    # ceiling 2.5 times that, as the updated frequencies move with where the polish stops.
+    # is the frequency error of the updated model: measured 0.0164 % (Rayleigh 3.98 %; 0.0079 %
+    # before the admissible-data polish moved the answer), the ceiling 1.2 times that
+    # (benchmarks/RESULTS.md, "Tests that assert what they claim: the ceilings at their measured figures").
     assert stage.caughey.mean_error_pct < 0.02
     assert stage.rayleigh.mean_error_pct > stage.caughey.mean_error_pct
 
