@@ -21,7 +21,7 @@ from vibupdate.cli import main
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations
-from vibupdate.study.sweep import RUN_COLUMNS, read_rows, run_sweep
+from vibupdate.study.sweep import ENDS_KEY, RUN_COLUMNS, read_rows, run_sample, run_sweep
 
 SRC = str(Path(__file__).resolve().parents[2] / "src")
 
@@ -196,29 +196,53 @@ def test_resume_drops_line_ends_of_unfinished_samples(client, tmp_path):
 
 
 def test_a_killed_worker_costs_only_its_tasks(client, chain_file, tmp_path):
-    out = tmp_path / "k"
-    pids = list(client.run(os.getpid).values())
-    killed = {}
+    """The worker that starts sample 3 dies inside it (SIGKILL at a point the task reaches, no
+    clock): the sample is run again elsewhere and every row is as a sweep without a death has it."""
+    out, flag = tmp_path / "k", tmp_path / "killed-pid"
 
-    def kill_when_started():
-        file = out / "samples.csv"
-        deadline = time.time() + 120
-        while time.time() < deadline:
-            if file.exists() and len(file.read_text().splitlines()) >= 4:  # header + 3 rows
-                killed["rows_before"] = len(file.read_text().splitlines()) - 1
-                os.kill(pids[0], signal.SIGKILL)
-                return
-            time.sleep(0.05)
+    def arm(flag, index):   # runs in each worker: the sample's drawing kills its process once
+        import vibupdate.study.sweep as sweep
 
-    thread = threading.Thread(target=kill_when_started)
-    thread.start()
-    summary = run_sweep(str(chain_file), out, 16, seed=5, client=client, plots=False)
-    thread.join()
-    assert killed and killed["rows_before"] < 16, "the worker was not killed mid-run"
+        real = getattr(sweep.draw_configurations, "real", sweep.draw_configurations)
+
+        def draw(*args):
+            if args[3] == index:
+                try:
+                    fd = os.open(flag, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+                except FileExistsError:
+                    pass
+                else:
+                    os.write(fd, str(os.getpid()).encode())
+                    os.close(fd)
+                    os.kill(os.getpid(), signal.SIGKILL)
+            return real(*args)
+
+        draw.real = real
+        sweep.draw_configurations = draw
+
+    def disarm():
+        import vibupdate.study.sweep as sweep
+
+        sweep.draw_configurations = getattr(sweep.draw_configurations, "real", sweep.draw_configurations)
+
+    pids = set(client.run(os.getpid).values())
+    client.run(arm, str(flag), 3)
+    try:
+        summary = run_sweep(str(chain_file), out, 8, seed=5, client=client, plots=False)
+    finally:
+        client.run(disarm)
+    killed = int(flag.read_text())
+    assert killed in pids, "the kill was not in a worker of the cluster"
+    assert killed not in client.run(os.getpid).values()   # the worker process is gone (its nanny started another)
     _, rows = read_rows(out / "samples.csv")
-    assert sorted(r["index"] for r in rows) == list(range(16))
-    assert summary.samples == 16 and summary.verified >= 14
-    assert pids[0] not in client.run(os.getpid).values()  # the worker process is gone (its nanny started another)
+    assert sorted(r["index"] for r in rows) == list(range(8))
+    assert next(r["worker"] for r in rows if r["index"] == 3) != killed   # sample 3 finished elsewhere
+    assert summary.samples == 8 and summary.verified >= 7
+    # the sample that was run again is the row its computation alone gives
+    alone = run_sample(load_case(chain_file), 3, 5, SamplingOptions())
+    alone.pop(ENDS_KEY)
+    again = next(r for r in rows if r["index"] == 3)
+    assert _data_rows([again]) == _data_rows([alone]), (again, alone)
 
 
 def test_stopped_sweep_resumes_to_the_same_rows(client, chain_file, tmp_path):
