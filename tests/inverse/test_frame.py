@@ -44,10 +44,10 @@ def test_problem_1_fits_the_frequencies_and_shapes(noisy):
     noise: the answer is judged against the truth's noise-free modes. A model that reproduced
     the noisy frequencies would be as far from the truth's as the data are; the answer must be
     nearer (measured 0.364 %, 1 - MAC 1.5e-4; benchmarks/RESULTS.md, "The frame generator: the
-    answer against the truth's noise-free modes"). Ceilings from the figures measured on the
-    bundled answer (benchmarks/RESULTS.md, "Tests that assert what they claim: the ceilings at their measured figures"):
-    1 - MAC against the truth 4.3e-4 at worst, held to 1e-3 (2.3x); MAC against the noisy
-    shapes 0.9921 at worst, held to 0.99 (1 - MAC 1.3x)."""
+    answer against the truth's noise-free modes"). Ceilings from the bundled answer's figures
+    (benchmarks/RESULTS.md, "Ceilings at their measured figures"): 1 - MAC against the truth
+    4.3e-4 at worst, held to 1e-3 (2.3x); MAC against the noisy shapes 0.9921 at worst, held to
+    0.99 (1 - MAC 1.3x)."""
     from vibupdate.modal.analysis import modes
 
     configurations, r = noisy
@@ -122,8 +122,8 @@ def test_damping_with_the_paper_test_case_1_exponents(noisy):
     stage = identify_damping(configurations, r.xbar, frame.DAMPING.exponents)
     # The generating law (Y = 0, 0.5, 1) lies in the span of Y = 0, 0.25, ..., 1; what is left
     # is the frequency error of the updated model: measured 0.0164 % (Rayleigh 3.98 %; 0.0079 %
-    # before the admissible-data polish moved the answer), the ceiling 1.2 times that
-    # (benchmarks/RESULTS.md, "Tests that assert what they claim: the ceilings at their measured figures").
+    # when the ceiling was set), the ceiling 1.2 times that (benchmarks/RESULTS.md, "Ceilings at
+    # their measured figures").
     assert stage.caughey.mean_error_pct < 0.02
     assert stage.rayleigh.mean_error_pct > stage.caughey.mean_error_pct
 

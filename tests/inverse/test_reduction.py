@@ -119,7 +119,7 @@ def test_auto_reduction_solves_a_refined_frame(budget):
     measured = np.array([f.omega for f in configurations[0].natural])
     assert np.mean(np.abs(w / w_true - 1)) < np.mean(np.abs(measured / w_true - 1))
     # MAC against the noisy shapes: measured 0.9921 at worst, both budgets, held to 0.99
-    # (1 - MAC 1.3x; benchmarks/RESULTS.md, "Tests that assert what they claim: the ceilings at their measured figures")
+    # (1 - MAC 1.3x; benchmarks/RESULTS.md, "Ceilings at their measured figures")
     assert np.all(macs_of(result.correlation)["frame"] >= 0.99)
     assert result.vectors[0].shape == (configurations[0].model.n_dofs,)
     reduced, _ = reduce_configurations(configurations, 20)

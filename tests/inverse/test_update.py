@@ -253,7 +253,7 @@ def test_cantilever_meets_the_paper_figure(cantilever_result):
     r = cantilever_result
     assert r.status == Status.SUCCESS, r.message
     # measured 0.47662 % (the paper's Table 5: 0.6 %), the same figure as the command line's run
-    # (benchmarks/RESULTS.md, "Tests that assert what they claim (2026-12-06, branch `notebook`)")
+    # (benchmarks/RESULTS.md, "Ceilings at their measured figures")
     mean = r.mean_error("updated")
     assert mean == pytest.approx(0.4766, abs=5e-4), f"mean error {mean:.4f} % (0.4766 % measured; paper: 0.6 %)"
     assert r.mean_error("nominal") > 4.0  # the nominal model is far off, as in the paper (5.6 %)
