@@ -16,10 +16,6 @@ from vibupdate.data._modal_fit import _correlation_inflation, _modal_basis, _und
 
 LOCAL_FRACTION = 1 / 3      # local refit: window of this times the distance to the nearest pole ...
 LOCAL_LINES = 21            # ... holding at least this many lines
-
-
-SNR_LINES = 5               # local signal-to-noise ratio of a zero: over this many lines each side
-
 GRID_CHUNK = 65536          # grid points evaluated at once by `_zeros_of_all` (bounds its memory)
 
 
@@ -54,13 +50,25 @@ def _zeros_of_all(x, coefs, xn, zeta):
     return out
 
 
-def _zero_snr(z, x, fitted, v) -> float:
-    """Local signal-to-noise ratio of a zero ``z``: the median over the `SNR_LINES` lines each
-    side of ``z`` of ``|fitted| / sigma`` (``fitted`` the damped fit (n_freq,), ``v`` its noise
-    variance per line). A zero of the structure keeps the fit's damped minimum above the noise
-    around it; one where the FRF sinks into the noise floor has it near 1 or below."""
-    k = int(np.searchsorted(x, z))
-    near = slice(max(k - SNR_LINES, 0), min(k + SNR_LINES, x.size))
+def _zero_window(z, x, xn) -> np.ndarray:
+    """Indices of the lines that locate a zero ``z``: those within `LOCAL_FRACTION` of its
+    distance to the nearest fitted pole (``xn``), at least `LOCAL_LINES` of them. Its width
+    follows the structure (where the receptance turns from one pole's side to the next), not
+    the line spacing."""
+    d = LOCAL_FRACTION * float(np.min(np.abs(xn - z)))
+    near = np.nonzero(np.abs(x - z) <= d)[0]
+    if near.size < LOCAL_LINES:
+        near = np.sort(np.argsort(np.abs(x - z))[:LOCAL_LINES])
+    return near
+
+
+def _zero_snr(z, x, fitted, v, xn) -> float:
+    """Signal-to-noise ratio of a zero ``z``: the median of ``|fitted| / sigma`` over the lines
+    that locate it (`_zero_window`; ``fitted`` the damped fit (n_freq,), ``v`` its noise
+    variance per line, ``xn`` the fitted poles). A zero of the structure has the receptance
+    rise well above the noise on either side within that window; a zero made by noise, where
+    the receptance lies in the noise floor across it, has the ratio near 1 or below."""
+    near = _zero_window(z, x, xn)
     return float(np.median(np.abs(fitted[near]) / np.sqrt(v[near])))
 
 
@@ -103,10 +111,7 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     misfitting model gives way, while an exact one (known-truth data) keeps the global zero,
     which uses every line.
     """
-    d = LOCAL_FRACTION * float(np.min(np.abs(xn - z)))
-    near = np.nonzero(np.abs(x - z) <= d)[0]
-    if near.size < LOCAL_LINES:
-        near = np.sort(np.argsort(np.abs(x - z))[:LOCAL_LINES])
+    near = _zero_window(z, x, xn)
     w = 1.0 / np.sqrt(v[near])
     X = np.column_stack([np.ones(near.size), x[near] - z]) * w[:, None]
     r = (f[near] - Phi[near] @ coef).real * w

@@ -121,11 +121,12 @@ REPEAT_LINES = 9            # with repeats, the smooth noise component is locall
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 MISFIT_QUALITY = 2.0        # notes: an FRF fitted to a worse quality figure misses its data
 NARROW_LINES = 4.0          # notes: a mode whose half-power bandwidth spans fewer lines
-#: A zero whose local signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`) is under this
-#: is left out unless kept. Spurious zeros appear only at raised noise floors, at low ratios;
-#: true zeros at raised floors sink as low, so the threshold drops every spurious zero found by
-#: ``benchmarks/noisy_zeros.py`` at the cost of some true ones (the counts:
-#: `benchmarks/RESULTS.md`, "Figures behind src/: zeros at the noise floor").
+#: A zero whose signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`: the fit's |H| against
+#: the line-to-line noise, over the lines that locate the zero) is under this is left out unless
+#: kept: the receptance lies a tenth of the noise deep across it. The ratio does not separate
+#: true zeros from zeros made by noise at raised noise floors (both sink together); the figures
+#: of both sides: `benchmarks/RESULTS.md`, "Zeros at the noise floor, measured where they are
+#: located".
 NOISY_ZERO_SNR = 0.1
 
 
@@ -633,7 +634,7 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
     zeros, outer, noisy = [], [], []
     lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
-    for pair, f, v, coef, cov, fitted in found:
+    for pair, f, v, coef, cov, noise_var, fitted in found:
         index = 0
         for z in fitted:
             se = _zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)[0]
@@ -644,7 +645,7 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
             if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
                 continue  # not located within the band (a residual-term artefact near an edge)
             index += 1
-            snr = _zero_snr(z, fit.x, Phi @ coef, v)
+            snr = _zero_snr(z, fit.x, Phi @ coef, noise_var, fit.wn)
             found_zero = ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
                                        (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w)), snr)
             if not keep_outer and not lowest <= z <= highest:
@@ -697,7 +698,7 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         wd = wn * np.sqrt(1 - zeta**2)
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
-        found.append((pair, f, v, coef, cov))
+        found.append((pair, f, v, coef, cov, reference[k]))
     # the FRFs share the poles: their zeros are searched together, one grid for all
     found = [(*k, z) for k, z in zip(found, _zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
     zeros, outer, noisy = _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer_zeros, keep_noisy_zeros)

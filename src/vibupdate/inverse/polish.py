@@ -12,13 +12,9 @@ is taken at its best scale. The model's values and their exact Jacobian come fro
 (`vibupdate.inverse.data_map`); one eigen-solve per evaluation serves residual and Jacobian. The refined point is kept only where it lowers this objective; both
 points are recorded.
 
-Measured on test case 2 (the cantilever, 16 frequencies): the homotopy alone gives 0.574 %
-mean error, the polished answer 0.477 %, the optimum of the classical frequency fit.
-After a reduced (Craig-Bampton) first stage the polish is the finish on the full model: on the
-refined frame with exact data (shapes as points) the first stage ends up to 1.9 times a true
-value away (J9) and the polish takes every parameter to within 6e-7 (305 DOFs, 35
-evaluations) and 7e-6 (2,996 DOFs, 30 evaluations) of the truth, stopping on ``xtol``, not
-on the evaluation limit (`benchmarks/RESULTS.md`).
+After a reduced (Craig-Bampton) first stage the polish is the finish on the full model. What
+it gains over the first stage, and in how many evaluations: `benchmarks/RESULTS.md`, "Figures
+behind src/: the decision layer".
 
 **Stopping.** The least squares ends on scipy's tests (``ftol``, ``xtol``, ``gtol``), or on a
 stall (`vibupdate.inverse.bounded_lsq.STALL_DECREASE`); the evaluation budget (`EVALUATIONS_PER_UNKNOWN`) and the optional
@@ -30,8 +26,7 @@ docs/polish-and-verification.md).
 
 **Reduced rounds on large models.** Above `vibupdate.modal.eigen.DENSE_LIMIT` DOFs one full
 evaluation is one shift-invert eigen-solve and one sparse LU per measured shape (its
-shape-ratio derivatives); at 30,315 DOFs (the building frame of `benchmarks/large_structure.py`)
-2.2 s, 36 of them 80 s, and LU fill grows faster than the DOFs. The polish therefore works in
+shape-ratio derivatives), and LU fill grows faster than the DOFs. The polish therefore works in
 rounds: at the current point ``x`` one full evaluation gives the residual, the Jacobian and the
 vectors it computed on the way (the modes, the shape-ratio derivative solutions ``V``, the
 adjunct vectors of the zeros); the model is projected on the kept DOFs plus the span of those
@@ -47,11 +42,6 @@ predicted gain below `ROUND_SETTLED` of it; the reduced model's best within `ROU
 above the full objective). Otherwise (the reduced model's rounding floor far above the
 objective, a refuted step with a large predicted gain, the round limit) the usual full-model
 least squares finishes from the best point.
-Building frame, exact data: 30,315 DOFs 36 full evaluations (80 s) -> 4 full evaluations and
-4 rounds (10.9 s); 2,940 DOFs 18 -> 3 (with the ratio-box objective of an earlier version).
-With the admissible-data objective on 546 DOFs: exact data 3 full evaluations (58 reduced)
-against 38 on the full model; noisy data, two draws, 4 and 3 full evaluations to the
-full-model polish's objective (188 and 78 there).
 """
 
 from __future__ import annotations
@@ -73,15 +63,12 @@ from vibupdate.modal.eigen import DENSE_LIMIT
 REDUCED_EVALUATIONS = 200
 #: A round the full model refutes although the reduced model predicted a gain below this
 #: fraction of the objective ends the rounds as converged: what is left is below the reduced
-#: model's own accuracy (on noisy data the full-model finish found nothing more there, in 20 to
-#: 30 further evaluations).
+#: model's own accuracy.
 ROUND_SETTLED = 1e-6
 #: A round whose step moves no normalized parameter by more than this (a fraction of the
 #: parameter's reference value, Eq. 12) has converged.
 ROUND_XTOL = 1e-10
-#: Full-model evaluations of the default budget per unknown plus one (`PolishOptions`): the
-#: noisy-shape beam of the tests (10 parameters, 6 modes, shape intervals of +-3 sigma) takes up
-#: to 491 from a poor start, most of them crawling along one interval edge; the budget is a
+#: Full-model evaluations of the default budget per unknown plus one (`PolishOptions`): a
 #: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
 #: Every least squares of the polish (full or reduced model) starts with this weight of the
@@ -404,10 +391,8 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     """The full-model least squares from ``x`` after ``evaluations`` of the ``budget``, its start
     with `START_PULL` first; restarted while scipy's step or cost
     test stopped it and a restart still lowers the objective: trf's trust radius collapses on
-    the way to a minimum on a bound (the refined frame's J12, true value 0 = its lower bound)
-    and its step test then stops it with the objective still falling (2,996 DOFs, exact data:
-    1.4e-14 after 32 evaluations, 8.8e-16 after one restart, largest parameter error 2.5e-5 ->
-    1.5e-5).
+    the way to a minimum on a bound and its step test then stops it with the objective still
+    falling.
 
     Returns ``(sol, evaluations, stopped_on)``: the best point in the shape of a
     `least_squares` result, the evaluations counted from the polish's start, and what ended it.

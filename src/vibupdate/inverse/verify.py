@@ -19,8 +19,7 @@ against the data it was given:
     declared mode or zero, every measured shape at its best scale, every modal mass of a
     mass-normalized shape lies in its admissible interval: the measurement interval, widened by
     the model-form tolerance of its kind (``natural_tolerance``, ``antiresonance_tolerance``,
-    relative, default 2 %: on the paper's cantilever the verified update misses no frequency by
-    more than 1.63 %; ``shape_tolerance`` times the shape's largest measured entry;
+    relative, default 2 %; ``shape_tolerance`` times the shape's largest measured entry;
     ``modal_mass_tolerance``) and by the numerical floor, an exact datum with the stated
     ``exact_half_width``. A mode of a repeated frequency is taken as the combination of its
     modes that fits best (`vibupdate.inverse.repeated`);
