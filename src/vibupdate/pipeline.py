@@ -66,8 +66,7 @@ def _identifiability(result: UpdateResult) -> dict:
             "undetermined_combinations": [describe_direction(names, v) for v in s.null_directions],
             "minimum_change": (result.minimum_change.message
                                if result.minimum_change is not None and result.minimum_change.applied else None),
-            "alternatives": [{k: getattr(a, k) for k in ("start", "objective", "values", "differs")}
-                             for a in result.alternatives]}
+            "alternatives": list(result.alternatives)}
 
 
 def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:

@@ -214,8 +214,9 @@ def test_every_field_reloads_as_its_type_and_writes_back_the_same_bytes(tiny_run
     statuses as `Status` and `Verdict`, and writing the loaded object gives the file back byte
     for byte."""
     from vibupdate.inverse.status import Status, Verdict
-    from vibupdate.io.records import (CheckRow, DampingModel, Identifiability, LinearRange, MacMatrix,
-                                      PlottedReceptance, SolverRecord, StepRow)
+    from vibupdate.inverse.homotopy import StepRecord as StepRow
+    from vibupdate.inverse.verify import Check as CheckRow
+    from vibupdate.io.records import DampingModel, Identifiability, LinearRange, MacMatrix, PlottedReceptance, SolverRecord
     from vibupdate.io.results import write_results
 
     run, out, _ = tiny_run
