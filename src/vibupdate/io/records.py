@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
 import types
 import typing
@@ -53,6 +54,12 @@ def plain(obj):
     if dataclasses.is_dataclass(obj) and hasattr(obj, "as_dict"):   # a record of the library (`Check`)
         return plain(obj.as_dict())
     return obj
+
+
+def json_text(obj) -> str:
+    """``obj`` as strict JSON text (indented): numpy to Python, NaN and +-inf to ``null`` (no
+    ``NaN``/``Infinity`` tokens, which JSON does not have)."""
+    return json.dumps(plain(obj), indent=2, allow_nan=False)
 
 
 def _optional():

@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.inverse.status import Status
+from vibupdate.inverse.verify import Check
 from vibupdate.io.records import (
     DampingModel, DampingRow, DeclaredSensor, DiagnosisRecord, FrequencyRow, Identifiability, MacMatrix,
     MeshSensor, ModalMassRow, Multistart, ParameterRow, PlottedReceptance, ReferenceColumns, Sampled, SolverRecord,
@@ -35,12 +36,6 @@ from vibupdate.io.records import (
 
 #: Version of the layout of ``results.json`` (raised when a key is added).
 FORMAT_VERSION = 2
-
-
-def json_text(obj) -> str:
-    """``obj`` as strict JSON text (indented): numpy to Python, NaN and +-inf to ``null`` (no
-    ``NaN``/``Infinity`` tokens, which JSON does not have)."""
-    return json.dumps(plain(obj), indent=2, allow_nan=False)
 
 
 @dataclass(frozen=True)

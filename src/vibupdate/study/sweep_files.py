@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 from vibupdate.io.case_types import Case
-from vibupdate.io.results import json_text
+from vibupdate.io.records import json_text
 from vibupdate.study.sampling import SamplingOptions
 
 
