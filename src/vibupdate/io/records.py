@@ -23,6 +23,12 @@ import numpy as np
 
 from vibupdate.inverse.status import Status, Verdict
 
+if typing.TYPE_CHECKING:   # resolved by `field_types` when first read, not at import
+    from vibupdate.inverse.homotopy import StepRecord
+    from vibupdate.inverse.search import Alternative, Start
+    from vibupdate.inverse.update import Attempt
+    from vibupdate.inverse.verify import Check
+
 
 def number(value) -> float | None:
     """A finite Python float, or None."""
