@@ -438,28 +438,12 @@ def _import(args) -> int:
     return EXIT["success"]
 
 
-@contextlib.contextmanager
-def _printed(category):
-    """Warnings of ``category`` raised inside printed as ``warning: ...`` lines after it; others
-    shown as usual."""
-    import warnings
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", category)
-        yield
-    for w in caught:
-        if issubclass(w.category, category):
-            print(f"warning: {w.message}")
-        else:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-
-
 def _extract(args) -> int:
     import math
 
     from vibupdate.data.extraction import extract
     from vibupdate.data.names import mode_name, receptance_name
-    from vibupdate.io.outputs import OutputWarning, kept_note
+    from vibupdate.io.outputs import OutputWarning, collected, kept_note
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import FRFWarning, read_frfs
 
@@ -473,8 +457,10 @@ def _extract(args) -> int:
         if key in mapping:
             raise ValueError(f"--map renames {key!r} twice ({key}={mapping[key]} and {item})")
         mapping[key] = value
-    with _printed(FRFWarning):
+    with collected(FRFWarning) as doubts:
         frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
+    for message in doubts:
+        print(f"warning: {message}")
     if args.reciprocal:
         frfs = frfs.reciprocal()
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
@@ -483,9 +469,11 @@ def _extract(args) -> int:
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
                      window=args.window, keep_outer_zeros=args.keep_outer_zeros, window_decay=args.window_decay,
                      window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros)
-    with _printed(OutputWarning):
+    with collected(OutputWarning) as failures:
         paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
                                  force=args.force, inputs=args.files)
+    for message in failures:
+        print(f"warning: {message}")
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
           f"intervals at {100 * args.confidence:g} %")
     for k, m in enumerate(result.modes):

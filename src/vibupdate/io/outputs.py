@@ -87,6 +87,23 @@ class OutputWarning(UserWarning):
     themselves are kept and the warning says which file and why."""
 
 
+@contextmanager
+def collected(category):
+    """The messages of the warnings of ``category`` raised inside, in the list it yields (filled
+    on exit); warnings of other categories are shown as usual."""
+    import warnings
+
+    messages = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", category)
+        yield messages
+    for w in caught:
+        if issubclass(w.category, category):
+            messages.append(str(w.message))
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
 def drawn(path, plot, *args, **kwargs) -> bool:
     """Call ``plot(path, *args, **kwargs)``; a plot (or another optional file) that fails costs
     a warning, not the run.
