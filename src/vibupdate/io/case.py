@@ -405,7 +405,7 @@ def _element_models(source, items: dict, parameters, where: Where) -> dict:
 
     if source is None:
         return {}
-    tables = [t for t in (*items["parameter"], *items["candidate"])]
+    tables = [*items["parameter"], *items["candidate"]]
     return {model_tag({}): element_model(source, tables, parameters, where)}
 
 
