@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
 
@@ -181,12 +180,9 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
 
 def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
-    require("plots", "drawing plots")
-    import matplotlib
+    from vibupdate.report.plots import _pyplot, _save
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     data = frfs.band(*result.band)
     fitted = result.synthesize(data.omega)
     mean = data.mean()
@@ -213,6 +209,4 @@ def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     axes[0, 0].plot([], [], color="C2", ls=":", label="zeros")
     axes[0, 0].legend(fontsize=7)
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, wspace=0.35, hspace=0.5)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return _save(plt, fig, path)
