@@ -25,7 +25,7 @@ from vibupdate.inverse.status import Status, Verdict
 
 if typing.TYPE_CHECKING:   # resolved by `field_types` when first read, not at import
     from vibupdate.inverse.homotopy import StepRecord
-    from vibupdate.inverse.search import Alternative, Start
+    from vibupdate.inverse.search import Alternative, Sought
     from vibupdate.inverse.update import Attempt
     from vibupdate.inverse.verify import Check
 
@@ -78,11 +78,11 @@ def field_types(cls) -> dict:
     """The resolved annotation of each field of a record class, by field name (the library's
     records that sections hold, imported here when first read)."""
     from vibupdate.inverse.homotopy import StepRecord
-    from vibupdate.inverse.search import Alternative, Start
+    from vibupdate.inverse.search import Alternative, Sought
     from vibupdate.inverse.update import Attempt
     from vibupdate.inverse.verify import Check
 
-    library = {"Alternative": Alternative, "Attempt": Attempt, "Check": Check, "Start": Start,
+    library = {"Alternative": Alternative, "Attempt": Attempt, "Check": Check, "Sought": Sought,
                "StepRecord": StepRecord}
     return typing.get_type_hints(cls, localns=library)
 
@@ -262,17 +262,6 @@ class PolishRow(_Row):
 
 
 @dataclass(frozen=True)
-class SoughtRow(_Row):
-    """What the update sought (`vibupdate.inverse.search.Sought`): the search's settings, the
-    starts in order, whether uniqueness was searched and why."""
-
-    search: dict[str, int | float]
-    starts: tuple[Start, ...]
-    uniqueness_searched: bool
-    reason: str
-
-
-@dataclass(frozen=True)
 class MinimumChangeRow(_Row):
     """The move along undetermined directions (`vibupdate.inverse.minimum_change.MinimumChange`)."""
 
@@ -305,7 +294,7 @@ class SolverRecord(_Row):
     polish: PolishRow | None = None
     attempts: tuple[Attempt, ...] = ()
     verdict: Verdict | None = None
-    sought: SoughtRow | None = None
+    sought: Sought | None = None
     minimum_change: MinimumChangeRow | None = None
     alternatives: tuple[Alternative, ...] = ()
 
