@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate._extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
 
@@ -180,9 +181,12 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
 
 def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
-    from vibupdate.report.plots import _pyplot, _save
+    require("plots", "drawing plots")
+    import matplotlib
 
-    plt = _pyplot()
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     data = frfs.band(*result.band)
     fitted = result.synthesize(data.omega)
     mean = data.mean()
@@ -209,4 +213,6 @@ def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     axes[0, 0].plot([], [], color="C2", ls=":", label="zeros")
     axes[0, 0].legend(fontsize=7)
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, wspace=0.35, hspace=0.5)
-    return _save(plt, fig, path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
