@@ -220,17 +220,12 @@ def _batch(args) -> int:
     return EXIT["success"] if all(r["status"] in ("success", "acceptable") for r in rows) else EXIT["not_verified"]
 
 
-def _print_tables(run) -> None:
+def _finish(run) -> int:
+    from vibupdate.inverse.status import Status
     from vibupdate.report.document import terminal_text
 
     print()
     print(terminal_text(run))
-
-
-def _finish(run) -> int:
-    from vibupdate.inverse.status import Status
-
-    _print_tables(run)
     if not run.success:
         if run.status == Status.NOT_VERIFIED:
             print(f"vibupdate: {run.solver.message}; see the warnings above and the report", file=sys.stderr)
@@ -269,14 +264,8 @@ def _command(args) -> int:
     from vibupdate.pipeline import check_case, example_names, run_case, run_example
 
     _check_extras(args)
-    if args.command == "extract":
-        return _extract(args)
-    if args.command == "sweep":
-        return _sweep(args)
-    if args.command == "batch":
-        return _batch(args)
-    if args.command == "import":
-        return _import(args)
+    if args.command in ("extract", "sweep", "batch", "import"):
+        return {"extract": _extract, "sweep": _sweep, "batch": _batch, "import": _import}[args.command](args)
     if args.command == "example":
         if args.list or not args.name:
             print("\n".join(example_names()))
@@ -451,11 +440,10 @@ def _import(args) -> int:
 
 def _extract(args) -> int:
     import math
-    import warnings
 
     from vibupdate.data.extraction import extract
     from vibupdate.data.names import mode_name, receptance_name
-    from vibupdate.io.outputs import OutputWarning, kept_note
+    from vibupdate.io.outputs import OutputWarning, collected, kept_note
     from vibupdate.io.extraction_io import check_extraction_folder, configuration_block, write_extraction
     from vibupdate.data.frf import FRFWarning, read_frfs
 
@@ -469,14 +457,10 @@ def _extract(args) -> int:
         if key in mapping:
             raise ValueError(f"--map renames {key!r} twice ({key}={mapping[key]} and {item})")
         mapping[key] = value
-    with warnings.catch_warnings(record=True) as doubts:
-        warnings.simplefilter("always", FRFWarning)
+    with collected(FRFWarning) as doubts:
         frfs = read_frfs(args.files, args.responses, args.excitations, args.kind, args.g, args.re_im, mapping)
-    for w in doubts:
-        if issubclass(w.category, FRFWarning):
-            print(f"warning: {w.message}")
-        else:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    for message in doubts:
+        print(f"warning: {message}")
     if args.reciprocal:
         frfs = frfs.reciprocal()
     band = None if args.band is None else (2 * math.pi * args.band[0], 2 * math.pi * args.band[1])
@@ -485,15 +469,11 @@ def _extract(args) -> int:
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
                      window=args.window, keep_outer_zeros=args.keep_outer_zeros, window_decay=args.window_decay,
                      window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", OutputWarning)
+    with collected(OutputWarning) as failures:
         paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
                                  force=args.force, inputs=args.files)
-    for w in caught:
-        if issubclass(w.category, OutputWarning):
-            print(f"warning: {w.message}")
-        else:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    for message in failures:
+        print(f"warning: {message}")
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
           f"intervals at {100 * args.confidence:g} %")
     for k, m in enumerate(result.modes):

@@ -22,7 +22,7 @@ from vibupdate.io.case_types import Case, DampingOptions
 from vibupdate.damping import DampingStage, DampingWarning, damping_data, damping_weights, identify_damping
 from vibupdate.examples import EXAMPLES
 from vibupdate.io.interrupted import Interrupted
-from vibupdate.io.outputs import (MANIFEST, file_names, kept_note, matrix_file, matrix_files_planned,
+from vibupdate.io.outputs import (MANIFEST, collected, file_names, kept_note, matrix_file, matrix_files_planned,
                                   prepare_output, write_published)
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.status import Status
@@ -66,8 +66,7 @@ def _identifiability(result: UpdateResult) -> dict:
             "undetermined_combinations": [describe_direction(names, v) for v in s.null_directions],
             "minimum_change": (result.minimum_change.message
                                if result.minimum_change is not None and result.minimum_change.applied else None),
-            "alternatives": [{k: getattr(a, k) for k in ("start", "objective", "values", "differs")}
-                             for a in result.alternatives]}
+            "alternatives": list(result.alternatives)}
 
 
 def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
@@ -80,11 +79,8 @@ def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | No
     rule = damping_weights(labels, ratios, options.mode_weights, relative=options.relative,
                            half_widths=_damping_half_widths(case, labels))
     weights = rule.weights
-    notes = []
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", DampingWarning)
+    with collected(DampingWarning) as notes:
         stage = identify_damping(case.configurations, xbar, options.exponents, weights, freqs=freqs)
-    notes += [str(w.message) for w in caught if issubclass(w.category, DampingWarning)]
     notes += list(stage.warnings)
     for n in notes:
         say(f"warning: {n}")
@@ -184,8 +180,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
         _write_matrices(folder, parts[cfg.name], run.matrices[cfg.name], run.matrix_files.get(cfg.name), run)
     write_results(folder / "results.json", run)
     images = []
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", OutputWarning)
+    with collected(OutputWarning) as failures:
         if plots:
             from vibupdate.report.plots import plot_homotopy
 
@@ -201,10 +196,6 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
             except Exception as exc:  # the study's files are extras: the run's results stand without them
                 warnings.warn(OutputWarning(f"the files of the study were not all written: {type(exc).__name__}: "
                                             f"{exc}"))
-    failures = [str(w.message) for w in caught if issubclass(w.category, OutputWarning)]
-    for w in caught:   # any other warning of the plots is shown as it would have been
-        if not issubclass(w.category, OutputWarning):
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     failures += _write_report(folder / "report.md", replace(run, warnings=run.warnings + tuple(failures)), images)
     if failures:
         run = replace(run, warnings=run.warnings + tuple(failures))

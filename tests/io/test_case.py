@@ -175,6 +175,25 @@ def test_uff_without_dataset_55_is_named(tmp_path, capsys):
     assert "has no dataset 55" in capsys.readouterr().err
 
 
+def test_uff_modes_file_cut_short_is_named(tmp_path, capsys):
+    """A dataset-55 file that does not end with the ``-1`` closing its last dataset (a copy that
+    stopped) is refused naming the file, as an FRF file is, not read without its last mode."""
+    write_chain_matrices(tmp_path)
+    uff = pyuff.UFF(str(tmp_path / "cut.uff"))
+    for k in range(2):
+        uff.write_sets(pyuff.prepare_55(
+            id1="test", model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+            n_data_per_node=3, r1=np.array([0.3, 0.6, 1.0]), r2=np.zeros(3), r3=np.zeros(3),
+            load_case=1, mode_n=k + 1, freq=10.0 * (k + 1), modal_m=0.0, modal_damp_vis=0.01,
+            modal_damp_his=0.0, node_nums=np.array([1, 2, 3])), "add")
+    lines = (tmp_path / "cut.uff").read_text().splitlines(keepends=True)
+    (tmp_path / "cut.uff").write_text("".join(lines[:-2]))
+    text = CHAIN_CASE.replace('["a", "b", "c"]', '["x1", "x2", "x3"]') + 'mode_shapes_uff = "cut.uff"\n'
+    assert main(["check", str(write(tmp_path, text))]) == 2
+    err = capsys.readouterr().err
+    assert "cut.uff" in err and "-1" in err
+
+
 def test_check_prints_the_problem_size(tmp_path, capsys):
     assert main(["check", str(write(tmp_path, EXAMPLE))]) == 0
     out = capsys.readouterr().out

@@ -214,8 +214,9 @@ def test_every_field_reloads_as_its_type_and_writes_back_the_same_bytes(tiny_run
     statuses as `Status` and `Verdict`, and writing the loaded object gives the file back byte
     for byte."""
     from vibupdate.inverse.status import Status, Verdict
-    from vibupdate.io.records import (CheckRow, DampingModel, Identifiability, LinearRange, MacMatrix,
-                                      PlottedReceptance, SolverRecord, StepRow)
+    from vibupdate.inverse.homotopy import StepRecord as StepRow
+    from vibupdate.inverse.verify import Check as CheckRow
+    from vibupdate.io.records import DampingModel, Identifiability, LinearRange, MacMatrix, PlottedReceptance, SolverRecord
     from vibupdate.io.results import write_results
 
     run, out, _ = tiny_run
@@ -227,6 +228,8 @@ def test_every_field_reloads_as_its_type_and_writes_back_the_same_bytes(tiny_run
     assert isinstance(loaded.identifiability, Identifiability) and isinstance(loaded.damping_model, DampingModel)
     assert all(isinstance(r, LinearRange) for r in loaded.identifiability.ranges.values())
     assert all(isinstance(c, CheckRow) for c in (*loaded.checks, *loaded.solver.checks))
+    from vibupdate.inverse.search import Search, Sought
+    assert isinstance(loaded.solver.sought, Sought) and isinstance(loaded.solver.sought.search, Search)
     assert isinstance(loaded.frf["A"], PlottedReceptance) and loaded.dofs["A"] == run.dofs["A"]
     mappings = {f.name for f in dataclasses.fields(RunResult) if isinstance(getattr(loaded, f.name), dict)}
     assert mappings == {"mac", "mac_matrix", "dofs", "frf", "problem_size", "matrix_files", "matrices"}   # by name

@@ -107,7 +107,8 @@ def test_a_diagnosed_run_reloads_typed_and_writes_back_the_same_bytes(biased_run
     """The diagnosis, its best update's status and checks reload as their types; the loaded
     object writes the same file."""
     from vibupdate.inverse.status import Status
-    from vibupdate.io.results import CheckRow, write_results
+    from vibupdate.inverse.verify import Check as CheckRow
+    from vibupdate.io.results import write_results
 
     _, out = biased_run
     loaded = load_results(out / "results.json")

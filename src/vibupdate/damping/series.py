@@ -150,14 +150,12 @@ def fit_caughey(omega, ratios, exponents, weights=None, labels=None, *,
     condition = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else float("inf")
     notes = []
     if xi.size < Y.size or rank < Y.size:
-        msg = (f"damping fit under-determined: {xi.size} ratios, {Y.size} exponents, rank {rank}; "
-               "the minimum-norm solution of the column-scaled system was taken")
-        notes.append(msg)
-        warnings.warn(msg, DampingWarning, stacklevel=2)
+        notes.append(f"damping fit under-determined: {xi.size} ratios, {Y.size} exponents, rank {rank}; "
+                     "the minimum-norm solution of the column-scaled system was taken")
     elif condition > condition_limit:
-        msg = (f"damping fit ill-conditioned (condition {condition:.2e} after column scaling): "
-               "the exponents give nearly dependent columns over the measured band")
-        notes.append(msg)
+        notes.append(f"damping fit ill-conditioned (condition {condition:.2e} after column scaling): "
+                     "the exponents give nearly dependent columns over the measured band")
+    for msg in notes:
         warnings.warn(msg, DampingWarning, stacklevel=2)
     labels = tuple(labels) if labels is not None else tuple(("", i + 1) for i in range(xi.size))
     return DampingFit(Y, beta, omega, xi, _theta(omega, Y) @ beta, W, labels, condition, tuple(notes))

@@ -28,27 +28,15 @@ matters most, at the resonance peaks of lightly damped modes:
    components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39, 1977): each line's
    squared residual is shared between the components in proportion to their expected
    shares, then each component is re-estimated from its share. With ``beta = 0`` this is
-   the previous running mean, so data without a proportional part lose nothing. The same
+   a running mean, so data without a proportional part lose nothing. The same
    split applies to the repeats' per-line variance of the mean: a mean of ``R - 1``
    exponential variables has a Gamma likelihood proportional to the exponential one in
    ``sigma^2``, so the maximum-likelihood equations are the same.
 
-What the residual cannot tell apart on real data (measured on the Southampton frame, one
-record per pair; ``benchmarks/soton_noise.py``): the modal model misses the measured peak
-lines by 6-14 % of ``|H|`` (a systematic misfit, not noise: leakage of a lightly damped peak,
-for one), and the unweighted fit spreads that misfit over the lines between the peaks. The
-variance taken from the unweighted fit, with one proportional level per excitation set by
-the peaks, is then 130-300 times the line-to-line noise between the peaks (median, in
-variance, against the model-free second-difference estimate). Two options measure the
-alternative and are not the default: ``W`` takes the residual and the leverage of the
-weighted fit, and ``beta_width`` makes the proportional level local (ratio then 1.3-1.8).
-On known-truth data they change little (coverage within 0.02 over 50 seeds, one record). On
-the real frame they narrow the intervals 2-10-fold, and 6 of the 10 reference
-antiresonances and one reference frequency fall outside them: those intervals no longer
-count the misfit. On noise-free data whose modal model is truncated, the weights move the
-poles (frequency error 5e-6 -> 3e-5). Until the misfit has a term of its own, the default
-keeps the conservative estimate, and the quality figure reports the misfit
-(`vibupdate.data.extraction`).
+On real data the unweighted fit's residual also holds the model's systematic misfit at the
+peaks, so this estimate is conservative there; ``W`` (the residual and leverage of the
+weighted fit) and ``beta_width`` (a local proportional level) measure the alternative and are
+not the default (docs/notes/frf-intervals.md, "The noise estimate of one record on real data").
 """
 
 from __future__ import annotations

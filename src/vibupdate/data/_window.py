@@ -5,9 +5,7 @@ A frequency response estimated from random excitation, record by record with a d
 ``w`` over each record of length ``T`` (the ``H1`` estimate, averaged), is in expectation the
 true FRF smoothed by the window's power kernel ``|W|^2``. A lightly damped peak whose
 half-power bandwidth spans a few lines comes out lower and wider, and a modal fit reads that
-as damping: on known truth through a Hann window (``tests/frf_synthetic.py``'s
-``frame_windowed``) the damping ratios came out 55, 13 and 5 % high at 1.3, 2.4 and 3.7
-lines, and no interval held them (``benchmarks/frf_coverage.py frame-windowed``).
+as damping, by tens of per cent at a peak one or two lines wide (docs/notes/frf-leakage.md).
 
 In the time domain the same smoothing multiplies the impulse response by the window's
 normalized autocorrelation ``g(t / T)`` (``g(0) = 1``, zero beyond ``T``). A modal term
@@ -19,9 +17,7 @@ in closed form for the windows here: ``g`` is a sum of ``(c0 + c1 u) exp(2 pi j 
 ``integral_0^1 u^k exp(w u) du`` has a closed form (a power series where ``|w| < 1``, whose
 closed form loses digits there). The derivative with respect to ``a`` (for the fit's exact
 Jacobian) is ``T^2 integral_0^1 u exp(z u) g(u) du``. The residual terms (``1/s^2``, a
-constant) vary slowly over a kernel's width and are left as they are. Nothing here is in the
-modal-analysis libraries measured (module docstring of
-`vibupdate.data.extraction`): they fit the estimate as if it were the FRF.
+constant) vary slowly over a kernel's width and are left as they are.
 
 **Impact tests.** A hammer test's FRF is one transient record of length ``T``: the response
 times a window, transformed, over the force's transform. An exponential window

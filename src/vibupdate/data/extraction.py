@@ -1,96 +1,34 @@
 """Modal extraction from measured FRFs: poles, damping, shapes and antiresonances with intervals.
 
-Why own code instead of sdypy-EMA, pyFRF or peak picking: in a prototype study on known-truth
-FRFs of the cantilever (5 repeated hits, 3 % complex noise, a -60 dB floor) sdypy-EMA's LSCF+LSFD gave
-10-40x larger frequency errors than a rational-fraction fit, no intervals, no antiresonances,
-a noise bias invisible to the repeats and a stateful API; peak picking with half-power
-bandwidths gave 0.16 % / 3 % errors and about 20 spurious zeros per trial; local minima of
-``|H|`` miscounted the zeros of noise-free FRFs. What follows needs numpy and scipy only.
+The method and its options are stated in ``docs/frf-extraction.md`` (Method); the figures
+behind each rule are in ``docs/notes/frf-intervals.md`` and ``docs/notes/frf-leakage.md``.
+Two stages on the receptances ``H_i(omega)``, ``i`` over the measured DOF pairs, fitted on
+lines that reach past the reported band (``fit_band``, by default to twice its top), so that
+a mode just above the band is fitted with its own residues:
 
-Method (two stages on the receptances ``H_i(omega)``, ``i`` over the measured DOF pairs):
-
-0. **Fit band.** Antiresonances depend on every mode's residue, and a mode just above the
-   band changes quickly across its top, which the residual terms below cannot follow. The
-   lines fitted therefore reach past the band (by default to twice its top, within the
-   data; ``fit_band``): every stable mode there is fitted as a mode with its own residues,
-   and only the modes and zeros in the band are reported.
 1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999)
-   of all FRFs with common poles, at several model orders, each line weighted by ``1/sigma``
-   (the repeats' scatter, or without repeats the running median of the squared second
-   difference of the FRF over 21 lines: a noise estimate before any model, blind to the few
-   lines of a sharp peak; without it the noisy low-frequency lines of a receptance take the
-   poles); a pole in the fit band with
-   ``0 < zeta < max_damping`` that recurs (frequency within 0.2 %, damping within 20 %) in at
-   least ``min_stable`` orders is a mode (the stabilization check), unless the data cannot
-   resolve it: a half-power bandwidth under 0.1 line spacings, or a response above twice the
-   noise on fewer than 5 lines of every FRF. ``n_modes`` keeps the modes in the band whose
-   model fits best (one pole per split peak). The poles are then refined by variable projection on the modal
-   model (FRFs normalized to unit RMS, weights 1/sigma per line)::
+   of all FRFs with common poles at several model orders, each line weighted by ``1/sigma``;
+   a pole that recurs in ``min_stable`` orders (frequency within 0.2 %, damping within 20 %)
+   and that the data resolve is a mode. The poles are refined by variable projection on the
+   modal model::
 
        H_i(s) = sum_r [A_ir / (s - lam_r) + conj(A_ir) / (s - conj(lam_r))]
                 + L_i / s^2 + U_i + (pseudo-mode above the band, complex residue)
 
-   with complex residues ``A_ir`` (non-proportional damping), real lower and upper residual
-   terms, ``s = j omega``, ``lam_r = -zeta_r w_r + j w_r sqrt(1 - zeta_r^2)``. Covariance of
-   ``(w_r, zeta_r)``: the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1`` with ``V`` the noise
-   variance per line (below), inflated by the reduced chi-square when it exceeds 1.
-2. **Zeros and shapes.** With the poles fixed, the residues of each FRF are refit by weighted
-   linear least squares (weights 1/sigma per line). The real modal constant of mode ``r`` is
-   ``m_ir = Re(2 j w_d A_ir)``; the antiresonances are the real zeros in the band of the
-   fitted **undamped** receptance ``sum_r m_ir / (w_r^2 - omega^2) + ...`` (never minima of
-   ``|H|``), found by sign changes of that function times ``prod (w_r^2 - omega^2)`` and
-   refined by Brent's method; their covariance follows by the implicit-function rule from
-   the residues' covariance and the poles'. **Local refit**: the misfit of a real
-   structure's FRF is smooth along frequency, and near a shallow zero a small offset of the
-   real part moves the zero far; on the lines within a third of the distance to the nearest
-   pole the real part of the misfit is fitted by ``c0 + c1 (omega - z)`` and added to the
-   undamped receptance (`_local_zero`). That zero is taken when its standard error is the
-   smaller: the global zero's is inflated by a misfit (chi-square and correlation, below),
-   while on an exact model the global zero, which uses every line, stays. Real normal modes
-   at the measured DOFs come from a rank-one fit ``phi_a phi_b = m_ab`` of the modal
-   constants (mass-normalized when a driving point is measured, else scaled to unit largest
-   entry).
+   with ``s = j omega``, ``lam_r = -zeta_r w_r + j w_r sqrt(1 - zeta_r^2)``; covariance of
+   ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
+2. **Zeros and shapes.** With the poles fixed, the residues are refit by weighted linear
+   least squares; the antiresonances are the real zeros in the band of the fitted undamped
+   receptance ``sum_r m_ir / (w_r^2 - omega^2) + ...`` with ``m_ir = Re(2 j w_d A_ir)``
+   (refit near each zero when that is the more precise, `_local_zero`), their covariance by
+   the implicit-function rule; the shapes come from a rank-one fit of the modal constants.
 
-Window of the estimate (``window``): an FRF estimated record by record from random
-excitation through a data window is, in expectation, the FRF smoothed by the window's power
-kernel, and a plain fit reads a peak a few lines wide as extra damping (known truth through
-a Hann window: +55, +13, +5 % at 1.3, 2.4, 3.7 lines, coverage 0). With ``window`` given,
-every pole term of the stage-1 and stage-2 fits is replaced by its windowed expectation
-(`vibupdate.data._window`), of the quantity that was measured (``FRFSet.measured``); the
-zeros stay those of the undamped receptance of the fitted residues. Same known truth,
-window modelled: coverage 0.93 for the damping ratios, the figures of exact FRFs. An impact
-test's exponential window on the response (``window="exponential"`` with ``window_decay``,
-its value at the end of the record, or ``window_tau``) adds ``1/tau`` to every pole's decay
-rate: its terms are modelled the same way, so the damping ratios reported are the
-structure's (`vibupdate.data._window`); the force window (``"force"``) needs no model.
-
-Noise: with repeats, ``sigma^2`` per line comes from the variance of the mean of the repeats,
-split by maximum likelihood into a component smooth along frequency (locally constant over 9
-lines) and one proportional to ``|H|^2`` (`vibupdate.data._noise`; a plain running mean over
-9 lines spreads a sharp peak's noise over its neighbours). Without repeats, from the unweighted fit's residual
-(`vibupdate.data._noise`): each squared residual divided by ``1 - h`` (``h`` the leverage of
-its line in the fit: the ``n - p`` degrees of freedom, line by line), then split by maximum
-likelihood into a component smooth along frequency (locally constant over 21 lines) and one
-proportional to ``|H|^2`` whose level is shared by the FRFs of one excitation; the weighted
-fit is repeated twice with it (feasible weighted least squares). Why: a lightly damped
-mode's half-power bandwidth may span one line, and its damping ratio and frequency rest on
-those few peak lines, where the residual nearly vanishes (leverage near 1) and a running
-mean spreads the peak's larger noise over its neighbours. Measured on a known-truth frame
-like the Southampton one (one record, 50 seeds, ``benchmarks/frf_coverage.py``): the plain
-running mean under-stated the standard errors of the damping ratios 2.7-fold and of the
-frequencies 2.9-fold (coverage 0.50 and 0.51 of the covariance's 95 % intervals); given the
-true noise, the same covariance covered 0.95 of the damping ratios; with this estimate
-0.93 (frequencies, damping ratios, antiresonances and shape entries alike, without floors).
-Residuals correlated along frequency (a smooth misfit of real data, not white noise) would
-make those covariances too small: each is multiplied by ``1 + 2 sum_k rho_k`` (the pooled
-autocorrelation of the normalized residual, summed while above 0.05), about 1 for white noise.
-The quality figure of an FRF is ``sqrt(chi^2 / n)`` of its stage-2 fit against the repeats'
-noise, or without repeats against the model-free second-difference noise (the residual's own
-estimate would make it about 1, or below, by construction): about 1 when the fit is within
-the noise, above when the model misses the data (on the Southampton frame 2.7-3.6, from the
-misfit at the peaks; `vibupdate.data._noise`). Intervals are ``value +- z * SE`` at the stated confidence (normal
-quantile) with floors on the half-width: ``1e-5`` relative for frequencies and
-antiresonances, ``0.1 %`` relative for damping ratios, ``1e-3`` of the largest entry for shapes.
+With ``window``, every pole term is replaced by its windowed expectation
+(`vibupdate.data._window`). The noise per line comes from the repeats or, with one record,
+from the leverage-corrected residual (`vibupdate.data._noise`). Intervals are
+``value +- z * SE`` with floors on the half-width: ``1e-5`` relative for frequencies and
+antiresonances, ``0.1 %`` relative for damping ratios, ``1e-3`` of the largest entry for
+shapes.
 """
 
 from __future__ import annotations

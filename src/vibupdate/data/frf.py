@@ -280,28 +280,9 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
     g_units : bool
         The ordinate is in g per newton.
     """
-    require("frf", "reading UFF files")
-    import pyuff
-
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"UFF file {str(path)!r} does not exist")
-    _check_uff_end(path)
-    try:
-        uff = pyuff.UFF(str(path))
-        types = [int(t) for t in uff.get_set_types()]
-    except Exception as exc:  # pyuff raises bare Exceptions on malformed files
-        raise ValueError(f"UFF file {str(path)!r} could not be read: {exc}") from None
-    indices = [i for i, t in enumerate(types) if t == 58]
-    if not indices:
-        raise ValueError(f"UFF file {str(path)!r} has no dataset 58 (FRFs); datasets found: "
-                         f"{', '.join(map(str, types)) or 'none'}")
     omega, records, kinds = None, [], set()
-    for number, i in enumerate(indices, start=1):
-        try:
-            rec = uff.read_sets(i)
-        except Exception as exc:  # pyuff raises bare Exceptions on malformed records
-            raise ValueError(f"UFF file {str(path)!r}: dataset 58 number {number} could not be read: {exc}") from None
+    for number, rec in uff_records(path, 58, "FRFs"):
         where = f"UFF file {str(path)!r}, dataset 58 number {number}"
         if int(rec.get("func_type", 4)) != 4:
             raise ValueError(f"{where}: function type {rec.get('func_type')}, expected 4 (frequency response function)")
@@ -325,6 +306,33 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
         records.append(((names[0], names[1]), sign * h))
         kinds.add(rec_kind)
     return _group(omega, records, path, kinds.pop() if len(kinds) == 1 else "mixed")
+
+
+def uff_records(path: Path, dataset: int, what: str):
+    """``(number, record)`` of each dataset ``dataset`` of a UFF file through pyuff, numbered from
+    1 in file order; a ValueError naming the file when it is missing, cut short
+    (`_check_uff_end`), unreadable, or has no such dataset (``what`` they hold, in words)."""
+    require("frf", "reading UFF files")
+    import pyuff
+
+    if not path.is_file():
+        raise ValueError(f"UFF file {str(path)!r} does not exist")
+    _check_uff_end(path)
+    try:
+        uff = pyuff.UFF(str(path))
+        types = [int(t) for t in uff.get_set_types()]
+    except Exception as exc:  # pyuff raises bare Exceptions on malformed files
+        raise ValueError(f"UFF file {str(path)!r} could not be read: {exc}") from None
+    indices = [i for i, t in enumerate(types) if t == dataset]
+    if not indices:
+        raise ValueError(f"UFF file {str(path)!r} has no dataset {dataset} ({what}); datasets found: "
+                         f"{', '.join(map(str, types)) or 'none'}")
+    for number, i in enumerate(indices, start=1):
+        try:
+            yield number, uff.read_sets(i)
+        except Exception as exc:  # pyuff raises bare Exceptions on malformed records
+            raise ValueError(f"UFF file {str(path)!r}: dataset {dataset} number {number} could not be read: "
+                             f"{exc}") from None
 
 
 def _check_uff_end(path: Path) -> None:

@@ -10,11 +10,8 @@ constant by ``j w`` or ``1 / (j w)``: all of them turn by +90 or -90 degrees. Th
 ``exp(2 j theta)`` over every FRF and fitted mode tells one order off from right without a
 driving point; a driving point then gives the direction.
 
-Measured on known truth (grounded cantilever and chain, frame with non-proportional damping,
-free-free bar; benchmarks/RESULTS.md, "A kind one order off"): declared right, every
-dominant constant within 5 degrees of 0 or 180; one order off, within 10 degrees of +-90
-(a mode of 1 % of the largest weight at 41). The Southampton accelerances, right: the
-dominant constants within 4 degrees. `KIND_TURN` sits halfway.
+`KIND_TURN` sits halfway between the turns of data declared right and one order off on known
+truth and on the Southampton accelerances (benchmarks/RESULTS.md, "A kind one order off").
 
 Two orders off (an accelerance read as a receptance, or back) turns every constant by 180
 degrees, which the doubled angle cannot see, and neither can it tell from transfer FRFs'

@@ -29,7 +29,7 @@ import time
 import weakref
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -99,9 +99,9 @@ class StepRecord:
     """One solve on the path: ``lam``, objective (weighted residual, no proximal term),
     IPOPT iterations, status, wall seconds, whether it was a cold retry, and whether it is the
     outcome of the identical relaxation solved before in this process (``reused``: no solve,
-    0 s; `RELAXATIONS`)."""
+    0 s; `RELAXATIONS`). ``lam`` is written as ``lambda``."""
 
-    lam: float
+    lam: float = field(metadata={"key": "lambda"})
     objective: float
     iterations: int
     status: Status

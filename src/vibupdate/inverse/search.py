@@ -34,7 +34,7 @@ Every start tried is a `Start` in the result (`vibupdate.inverse.update.UpdateRe
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -195,7 +195,7 @@ class Sought:
 
     search: Search
     starts: tuple[Start, ...]
-    uniqueness: bool
+    uniqueness: bool = field(metadata={"key": "uniqueness_searched"})
     reason: str
 
     def as_dict(self) -> dict:

@@ -70,13 +70,11 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
     fit_band = spec.get("fit_band_hz")
     if fit_band is not None:
         fit_band = tuple(2 * math.pi * b for b in numbers(fit_band, f"{key}.frf.fit_band_hz", where))
-    import warnings
-
     from vibupdate.data.frf import FRFWarning
+    from vibupdate.io.outputs import collected
 
     try:
-        with warnings.catch_warnings(record=True) as doubts:  # said with the extraction's notes
-            warnings.simplefilter("always", FRFWarning)
+        with collected(FRFWarning) as doubts:  # said with the extraction's notes
             frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),
                              spec.get("kind"), spec.get("g", False), spec.get("re_im", False), spec.get("map"))
         if spec.get("reciprocal", False):
@@ -101,7 +99,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
         raise where.error(f"{key}.mass_normalized_shapes", "the extracted shapes are not mass-normalized: that needs "
                                                            "a driving-point FRF (a response equal to its excitation) "
                                                            f"among {', '.join(f'h_{r},{c}' for r, c in frfs.pairs)}")
-    notes = tuple(str(w.message) for w in doubts if issubclass(w.category, FRFWarning)) + tuple(result.notes(first))
+    notes = tuple(doubts) + tuple(result.notes(first))
     return natural, zeros, shapes, frfs.band(*result.band), notes
 
 
@@ -407,7 +405,7 @@ def _element_models(source, items: dict, parameters, where: Where) -> dict:
 
     if source is None:
         return {}
-    tables = [t for t in (*items["parameter"], *items["candidate"])]
+    tables = [*items["parameter"], *items["candidate"]]
     return {model_tag({}): element_model(source, tables, parameters, where)}
 
 

@@ -138,7 +138,7 @@ def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int 
 
 
 def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, name: str, plot: bool) -> dict:
-    from vibupdate.io.results import json_text
+    from vibupdate.io.records import json_text
 
     paths = {"json": out / "extraction.json", "frequencies": out / "frequencies.csv",
              "shapes": out / "shapes.csv", "damping": out / "damping.csv", "configuration": out / "configuration.toml"}

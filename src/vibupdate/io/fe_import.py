@@ -75,9 +75,7 @@ def _export(fmt: str, where_key: str, item, spec: dict, base: Path, where: Where
     """One export of the set, as an `FEExport` with the ``fix`` DOFs removed."""
     if fmt == "opensees":
         from vibupdate.io.case_model import _load_callable
-        from vibupdate.model.fe.opensees import export_from_builder
-
-        from vibupdate.model.fe.opensees import openseespy
+        from vibupdate.model.fe.opensees import export_from_builder, openseespy
 
         openseespy()   # the optional extra, or MissingExtra naming it
         func = _load_callable(spec["builder"], base, Where(where.path))

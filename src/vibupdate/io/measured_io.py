@@ -32,8 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
-
 
 _UFF_DIRECTIONS = {"r1": "x", "r2": "y", "r3": "z", "r4": "rx", "r5": "ry", "r6": "phi"}
 
@@ -238,27 +236,10 @@ class UffMode(dict):
 
 def read_uff_modes(path) -> list[UffMode]:
     """Normal modes from the dataset-55 records of a UFF file, in file order."""
-    require("frf", "reading UFF files")
-    import pyuff
+    from vibupdate.data.frf import uff_records
 
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"UFF file {str(path)!r} does not exist")
-    try:
-        uff = pyuff.UFF(str(path))
-        types = list(uff.get_set_types())
-    except Exception as exc:  # pyuff raises bare Exceptions on malformed files
-        raise ValueError(f"UFF file {str(path)!r} could not be read: {exc}") from None
-    indices = [i for i, t in enumerate(types) if int(t) == 55]
-    if not indices:
-        found = ", ".join(str(int(t)) for t in types) or "none"
-        raise ValueError(f"UFF file {str(path)!r} has no dataset 55 (mode shapes); datasets found: {found}")
     modes = []
-    for i in indices:
-        try:
-            record = uff.read_sets(i)
-        except Exception as exc:  # pyuff raises bare Exceptions on malformed records
-            raise ValueError(f"UFF file {str(path)!r}: dataset 55 number {i + 1} could not be read: {exc}") from None
+    for _, record in uff_records(Path(path), 55, "mode shapes"):
         if int(record.get("analysis_type", 0)) != 2:
             continue
         nodes = np.asarray(record["node_nums"]).astype(int)

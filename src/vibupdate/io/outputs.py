@@ -41,6 +41,7 @@ import shutil
 import signal
 import tempfile
 import threading
+from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -85,6 +86,23 @@ def is_partial(name: str) -> bool:
 class OutputWarning(UserWarning):
     """A file of the results (a plot, the report) that could not be written; the results
     themselves are kept and the warning says which file and why."""
+
+
+@contextmanager
+def collected(category):
+    """The messages of the warnings of ``category`` raised inside, in the list it yields (filled
+    on exit); warnings of other categories are shown as usual."""
+    import warnings
+
+    messages = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", category)
+        yield messages
+    for w in caught:
+        if issubclass(w.category, category):
+            messages.append(str(w.message))
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 def drawn(path, plot, *args, **kwargs) -> bool:
@@ -152,15 +170,8 @@ def file_names(names: Sequence[str]) -> dict[str, str]:
     of their full text appended.
     """
     first = {n: safe_name(n, default="configuration") for n in names}
-    counts: dict[str, int] = {}
-    for part in first.values():
-        counts[part] = counts.get(part, 0) + 1
-    out = {}
-    for n, part in first.items():
-        if counts[part] > 1:
-            part = _hashed(part, n)
-        out[n] = part
-    return out
+    counts = Counter(first.values())
+    return {n: _hashed(part, n) if counts[part] > 1 else part for n, part in first.items()}
 
 
 #: Prefix of the matrix files of a model that is not verified.

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
 import types
 import typing
@@ -21,6 +22,12 @@ from enum import Enum
 import numpy as np
 
 from vibupdate.inverse.status import Status, Verdict
+
+if typing.TYPE_CHECKING:   # resolved by `field_types` when first read, not at import
+    from vibupdate.inverse.homotopy import StepRecord
+    from vibupdate.inverse.search import Alternative, Sought
+    from vibupdate.inverse.update import Attempt
+    from vibupdate.inverse.verify import Check
 
 
 def number(value) -> float | None:
@@ -55,6 +62,12 @@ def plain(obj):
     return obj
 
 
+def json_text(obj) -> str:
+    """``obj`` as strict JSON text (indented): numpy to Python, NaN and +-inf to ``null`` (no
+    ``NaN``/``Infinity`` tokens, which JSON does not have)."""
+    return json.dumps(plain(obj), indent=2, allow_nan=False)
+
+
 def _optional():
     """A field written only when it is not None (a section the run may not have computed)."""
     return field(default=None, metadata={"omit": True})
@@ -62,8 +75,38 @@ def _optional():
 
 @functools.cache
 def field_types(cls) -> dict:
-    """The resolved annotation of each field of a record class, by field name."""
-    return typing.get_type_hints(cls)
+    """The resolved annotation of each field of a record class, by field name (the library's
+    records that sections hold, imported here when first read)."""
+    from vibupdate.inverse.homotopy import StepRecord
+    from vibupdate.inverse.search import Alternative, Sought
+    from vibupdate.inverse.update import Attempt
+    from vibupdate.inverse.verify import Check
+
+    library = {"Alternative": Alternative, "Attempt": Attempt, "Check": Check, "Sought": Sought,
+               "StepRecord": StepRecord}
+    return typing.get_type_hints(cls, localns=library)
+
+
+def from_dict(cls, data: Mapping):
+    """The record ``cls`` (of this module, or a frozen dataclass of the library such as
+    `vibupdate.inverse.verify.Check`) of a document: each field, under its name or the ``key``
+    of its metadata, read as its type; a field without a default must be there. A record of
+    this module keeps further keys in ``extra``."""
+    hints, values, missing, keys = field_types(cls), {}, [], set()
+    for f in dataclasses.fields(cls):
+        key = f.metadata.get("key", f.name)
+        keys.add(key)
+        if f.name == "extra":
+            continue
+        if key in data:
+            values[f.name] = typed(hints[f.name], data[key])
+        elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            missing.append(key)
+    if missing:
+        raise ValueError(f"{cls.__name__} lacks {', '.join(missing)}")
+    if issubclass(cls, _Row):
+        values["extra"] = tuple((k, plain(v)) for k, v in data.items() if k not in keys)
+    return cls(**values)
 
 
 def typed(tp, value):
@@ -84,8 +127,8 @@ def typed(tp, value):
         return {k: typed(args[1], v) for k, v in value.items()}
     if isinstance(tp, type) and issubclass(tp, Enum):
         return tp(value)
-    if isinstance(tp, type) and issubclass(tp, _Row):
-        return tp.from_dict(value)
+    if dataclasses.is_dataclass(tp):
+        return from_dict(tp, value)
     return value
 
 
@@ -107,21 +150,8 @@ class _Row:
 
     @classmethod
     def from_dict(cls, data: Mapping):
-        """The record of a document: each field read as its type; a field without a default
-        must be there."""
-        hints, values, missing, keys = field_types(cls), {}, [], set()
-        for f in dataclasses.fields(cls):
-            key = f.metadata.get("key", f.name)
-            keys.add(key)
-            if f.name == "extra":
-                continue
-            if key in data:
-                values[f.name] = typed(hints[f.name], data[key])
-            elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
-                missing.append(key)
-        if missing:
-            raise ValueError(f"{cls.__name__} lacks {', '.join(missing)}")
-        return cls(**values, extra=tuple((k, plain(v)) for k, v in data.items() if k not in keys))
+        """The record of a document (`from_dict`)."""
+        return from_dict(cls, data)
 
 
 @dataclass(frozen=True)
@@ -216,33 +246,6 @@ class PlottedReceptance(_Row):
 
 
 @dataclass(frozen=True)
-class CheckRow(_Row):
-    """One verification check as written (`vibupdate.inverse.verify.Check`)."""
-
-    name: str
-    passed: bool
-    severity: str
-    message: str
-    value: float | None = None
-    limit: float | None = None
-    limited_by: str | None = None
-
-
-@dataclass(frozen=True)
-class StepRow(_Row):
-    """One solve of the homotopy (`vibupdate.inverse.homotopy.StepRecord`)."""
-
-    lam: float = field(metadata={"key": "lambda"})
-    objective: float | None
-    iterations: int
-    status: Status
-    seconds: float | None
-    cold: bool
-    accepted: bool
-    reused: bool = False
-
-
-@dataclass(frozen=True)
 class PolishRow(_Row):
     """What the polish did (`vibupdate.inverse.polish.PolishResult`)."""
 
@@ -256,41 +259,6 @@ class PolishRow(_Row):
     reduced_evaluations: int = 0
     stopped_on: str | None = None
     budget: int | None = None
-
-
-@dataclass(frozen=True)
-class AttemptRow(_Row):
-    """One first-stage attempt (`vibupdate.inverse.update.Attempt`)."""
-
-    shape_margin: float
-    adjunct_margin: float
-    relaxation_lower_bound: float | None
-    objective: float | None
-    status: Status
-    active_bounds: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
-class StartRow(_Row):
-    """One start of the search (`vibupdate.inverse.search.Start`)."""
-
-    start: str
-    purpose: str
-    status: str
-    failed: tuple[str, ...] = ()
-    cost: float | None = None
-    seconds: float | None = 0.0
-
-
-@dataclass(frozen=True)
-class SoughtRow(_Row):
-    """What the update sought (`vibupdate.inverse.search.Sought`): the search's settings, the
-    starts in order, whether uniqueness was searched and why."""
-
-    search: dict[str, int | float]
-    starts: tuple[StartRow, ...]
-    uniqueness_searched: bool
-    reason: str
 
 
 @dataclass(frozen=True)
@@ -308,18 +276,6 @@ class MinimumChangeRow(_Row):
 
 
 @dataclass(frozen=True, kw_only=True)
-class AlternativeRow(_Row):
-    """Another verified answer (`vibupdate.inverse.search.Alternative`); ``xbar`` only in
-    ``solver.alternatives``."""
-
-    start: str
-    objective: float | None
-    xbar: tuple[float | None, ...] | None = _optional()
-    values: dict[str, float | None]
-    differs: tuple[str, ...]
-
-
-@dataclass(frozen=True, kw_only=True)
 class SolverRecord(_Row):
     """``solver`` of ``results.json``: the first stage's status and verdict, message, every
     solve of the homotopy, objective, relaxation lower bound, seconds, checks, warnings, the
@@ -327,20 +283,20 @@ class SolverRecord(_Row):
 
     status: Status
     message: str
-    steps: tuple[StepRow, ...] = ()
+    steps: tuple[StepRecord, ...] = ()
     objective: float | None = None
     relaxation_lower_bound: float | None = None
     seconds: float | None = None
     verified: bool = False
-    checks: tuple[CheckRow, ...] = ()
+    checks: tuple[Check, ...] = ()
     warnings: tuple[str, ...] = ()
     first_stage_xbar: tuple[float | None, ...] | None = None
     polish: PolishRow | None = None
-    attempts: tuple[AttemptRow, ...] = ()
+    attempts: tuple[Attempt, ...] = ()
     verdict: Verdict | None = None
-    sought: SoughtRow | None = None
+    sought: Sought | None = None
     minimum_change: MinimumChangeRow | None = None
-    alternatives: tuple[AlternativeRow, ...] = ()
+    alternatives: tuple[Alternative, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -488,7 +444,7 @@ class Identifiability(_Row):
     column_norm: dict[str, float | None]
     undetermined_combinations: tuple[str, ...]
     minimum_change: str | None
-    alternatives: tuple[AlternativeRow, ...]
+    alternatives: tuple[Alternative, ...]
     ranges_note: str | None = _optional()
     ranges: dict[str, LinearRange] | None = _optional()
     frequency_tolerance: float | None = _optional()
@@ -640,7 +596,7 @@ class DiagnosisBest(_Row):
     xbar: tuple[float | None, ...]
     mean_error_pct: float | None
     max_error_pct: float | None
-    checks: tuple[CheckRow, ...]
+    checks: tuple[Check, ...]
     seconds: float | None
 
 

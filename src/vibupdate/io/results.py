@@ -27,20 +27,15 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.inverse.status import Status
+from vibupdate.inverse.verify import Check
 from vibupdate.io.records import (
-    CheckRow, DampingModel, DampingRow, DeclaredSensor, DiagnosisRecord, FrequencyRow, Identifiability, MacMatrix,
+    DampingModel, DampingRow, DeclaredSensor, DiagnosisRecord, FrequencyRow, Identifiability, MacMatrix,
     MeshSensor, ModalMassRow, Multistart, ParameterRow, PlottedReceptance, ReferenceColumns, Sampled, SolverRecord,
     SuggestionRecord, Summary, field_types, number, plain, typed)
 
 
 #: Version of the layout of ``results.json`` (raised when a key is added).
 FORMAT_VERSION = 2
-
-
-def json_text(obj) -> str:
-    """``obj`` as strict JSON text (indented): numpy to Python, NaN and +-inf to ``null`` (no
-    ``NaN``/``Infinity`` tokens, which JSON does not have)."""
-    return json.dumps(plain(obj), indent=2, allow_nan=False)
 
 
 @dataclass(frozen=True)
@@ -104,7 +99,7 @@ class RunResult:
     identifiability : Identifiability or None
     damping_model : DampingModel or None
     warnings : tuple of str
-    checks : tuple of CheckRow
+    checks : tuple of Check
         Verification checks of the first stage.
     paper : ReferenceColumns or None
         Reference columns of the tables (a bundled example's ``reference_columns()``:
@@ -146,7 +141,7 @@ class RunResult:
     identifiability: Identifiability | None = None
     damping_model: DampingModel | None = None
     warnings: tuple[str, ...] = ()
-    checks: tuple[CheckRow, ...] = ()
+    checks: tuple[Check, ...] = ()
     paper: ReferenceColumns | None = None
     sensors: tuple[MeshSensor, ...] = ()
     declared_sensors: tuple[DeclaredSensor, ...] = ()
@@ -329,7 +324,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         solver=SolverRecord.from_dict(plain(result.solver_record())),
         identifiability=section(Identifiability, identifiability), damping_model=section(DampingModel, damping_model),
         warnings=tuple(str(w) for w in (*result.warnings, *warnings)),
-        checks=tuple(CheckRow.from_dict(plain(c)) for c in result.checks),
+        checks=typed(field_types(RunResult)["checks"], plain(result.checks)),
         paper=section(ReferenceColumns, paper),
         sensors=tuple(MeshSensor.from_dict(plain(s)) for s in getattr(case, "sensors", ())),
         declared_sensors=_declared_sensors(configurations),

@@ -102,11 +102,8 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
     For matrices known only to a coarser ``precision`` (an export written with fewer digits),
     the larger of that and the change when every entry of ``K`` and ``M`` is rounded once more
     to the digits the precision stands for (`export_rounding`): what the export's rounding does,
-    entry by entry. One rounding unit of ``precision`` per entry with the signs of a row aligned
-    instead bounds rather than estimates it: on a free-free frame from 10 digits (``precision``
-    5e-10; its entries rounded by 6.5e-12 of their magnitude, median, 2.8e-10 at most) that
-    put the floor at 3.1e-6, where the exact frame's point shapes missed the imported model
-    by 2.9e-9.
+    entry by entry (an estimate, where one unit of ``precision`` per entry would bound it far
+    above what the exports show: docs/notes/eigen-solutions.md).
 
     The double-precision pencil fixes its modes only to this level (module docstring): a
     solver of any accuracy returns ratios that differ from those of the same model assembled
@@ -148,9 +145,7 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
     own : float
         The computed vector's own error: the largest first-order change of the ratios that
         its residual ``K phi - eigval M phi`` calls for (a second right-hand side of the same
-        solve). A dense solver is backward stable only in norm, not entry by entry: the 7th
-        mode of a 10-element clamped beam missed its exact point data by 4e-13 where one
-        rounding unit per entry moves the ratios by 1.6e-15.
+        solve): a dense solver is backward stable only in norm, not entry by entry.
     """
     import scipy.sparse as sp
 

@@ -10,8 +10,7 @@ from zero when
 (``|K|`` entrywise). The right-hand side is what rounding alone puts into the Rayleigh
 quotient ``u^T K u / u^T M u`` of that very vector: the products of ``K`` with ``u`` cancel
 down to the true value, and each cancels from ``|K| |u|``. It follows the scale of the mode,
-not of the matrix: a relative threshold on the largest ``K_ii / M_ii`` (what
-`vibupdate.model.physical` used) grows with the fourth power of the inverse element length on
+not of the matrix: a relative threshold on the largest ``K_ii / M_ii`` grows with the fourth power of the inverse element length on
 bending meshes, and counts flexible modes of a refined mesh as rigid. The ratio ``|eigval|``
 over ``eps |u|^T |K| |u| / u^T M u`` stays of order 1 for rigid-body modes and structural
 zeros and is orders larger for flexible modes, soft suspension modes included; `RIGID_FACTOR`
@@ -24,7 +23,6 @@ sits between the two (the ratios found with vibupdate's own solvers: `benchmarks
 ``k`` rigid-body modes has ``k - 1`` such combinations (``k`` when ``r`` does not move in any),
 and each is an eigenvalue 0 of every adjunct pencil. It is no antiresonance: the cofactor and
 ``det(K - w^2 M)`` share the factor, the receptance keeps its mass line ``-A / w^2`` to 0 Hz.
-Computed, it lands at +-1e-4 Hz and was reported as a zero when rounding made it positive.
 The same test applies to it, with ``u`` the right vector embedded in the full space (entry
 ``r`` set to 0): for a structural zero ``u`` is a rigid-body mode, ``u^T K u = 0``.
 

@@ -10,10 +10,9 @@ A model is admissible when
   of the pencil ``(K, M)`` below ``RIGID_TOL * lam_ref``, with ``lam_ref = max_i K_ii / M_ii``
   over the DOFs with mass (a Rayleigh quotient, so at most the largest eigenvalue), are the
   candidates; each is then solved for and counted rigid when it is zero within the rounding
-  of its own mode's Rayleigh quotient (`vibupdate.modal.rigid`), negative below that. The
+  of its own mode's Rayleigh quotient (`vibupdate.modal.rigid`), negative below that (the
   threshold alone grows with the fourth power of the inverse element length on bending
-  meshes and counted 4 flexible modes of the 3,893-DOF refined frame as rigid. ``K`` is
-  rejected when an eigenvalue lies below ``-RIGID_TOL * lam_ref`` or is negative beyond
+  meshes). ``K`` is rejected when an eigenvalue lies below ``-RIGID_TOL * lam_ref`` or is negative beyond
   rounding.
 
 Eigenvalues of the pencil below a threshold ``t`` are counted by Sylvester's law of inertia:

@@ -372,7 +372,7 @@ def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str
     if solver.sought:
         sought = solver.sought
         out += [f"Starts tried: {len(sought.starts)}; uniqueness "
-                + ("searched" if sought.uniqueness_searched else "not searched") + f" ({sought.reason}).", ""]
+                + ("searched" if sought.uniqueness else "not searched") + f" ({sought.reason}).", ""]
     out += markdown(shown["summary"]) + verification_markdown(solver) + matrix_files_markdown(run)
     out += diagnosis_markdown(run) + run_section_markdown(run.suggestion)
     out += section("Parameters", "parameters")

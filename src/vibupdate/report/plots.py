@@ -45,9 +45,9 @@ def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
     return _save(plt, fig, path)
 
 
-def _save(plt, fig, path) -> Path:
+def _save(plt, fig, path, dpi: int = 110) -> Path:
     """Save ``fig`` as PNG at ``path`` and close it."""
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return Path(path)
 

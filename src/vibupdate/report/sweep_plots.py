@@ -19,7 +19,7 @@ from vibupdate.data.measured import TWO_PI
 from vibupdate._extras import available, skipped
 from vibupdate.io.outputs import OutputWarning, drawn, file_names
 from vibupdate.report.numbers import finite
-from vibupdate.report.plots import _pyplot
+from vibupdate.report.plots import _pyplot, _save as _save_png
 
 
 #: Samples used for an FRF band (the first verified ones by index).
@@ -30,9 +30,7 @@ FRF_POINTS = 600
 def _save(plt, fig, path) -> Path:
     """Lay out, save as PNG and close."""
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return _save_png(plt, fig, path, dpi=100)
 
 
 def _verified(rows):

@@ -49,28 +49,26 @@ def open_client(workers: int | None = None, scheduler: str | None = None, *,
     require("study", "running on Dask")
     from distributed import Client, LocalCluster
 
+    cluster = None
     if scheduler is not None:
         try:
             c = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"cannot connect to the Dask scheduler at {scheduler!r}: {exc}") from None
-        try:
-            yield c
-        finally:
-            c.close()
-        return
-    n = default_workers() if workers is None else workers
-    if not isinstance(n, int) or n < 1:
-        raise ValueError(f"the number of workers must be an integer >= 1, got {workers!r}")
-    with _sigint_ignored():
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=40)
-    c = Client(cluster)
+    else:
+        n = default_workers() if workers is None else workers
+        if not isinstance(n, int) or n < 1:
+            raise ValueError(f"the number of workers must be an integer >= 1, got {workers!r}")
+        with _sigint_ignored():
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                   silence_logs=40)
+        c = Client(cluster)
     try:
         yield c
     finally:
         c.close()
-        cluster.close()
+        if cluster is not None:
+            cluster.close()
 
 
 @contextlib.contextmanager

@@ -29,7 +29,7 @@ same whichever worker draws it, in whatever order, in a resumed run or a re-run.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -90,9 +90,7 @@ class SamplingOptions:
             raise ValueError(f"shape_width must be in [0, 1], got {self.shape_width!r}")
 
     def as_dict(self) -> dict:
-        return {"distribution": self.distribution, "confidence": self.confidence,
-                "frequency_tolerance": self.frequency_tolerance, "damping_tolerance": self.damping_tolerance,
-                "shape_width": self.shape_width, "random_start": self.random_start, "walk": self.walk}
+        return asdict(self)
 
 
 def sample_rng(seed: int, index: int, stream: int = 0) -> np.random.Generator:

@@ -169,18 +169,14 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     start, cpu = time.perf_counter(), time.process_time()
     case = _resolve(case)
     row: dict = {"index": index, "worker": os.getpid()}
-    try:
-        cfgs, drawn = draw_configurations(case.configurations, case.frequency_tolerance, seed, index, sampling)
-    except ValueError as exc:
-        row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
-                   cpu_seconds=time.process_time() - cpu)
-        return row
-    row.update({f"data:{k}": v for k, v in drawn.items()})
     tolerance = case.frequency_tolerance if sampling.frequency_tolerance is None else sampling.frequency_tolerance
     verification = replace(case.verification, frequency_tolerance=tolerance) if tolerance > 0 else case.verification
-    try:   # the case's own options, as `vibupdate run` uses them
+    try:
+        cfgs, drawn = draw_configurations(case.configurations, case.frequency_tolerance, seed, index, sampling)
+        row.update({f"data:{k}": v for k, v in drawn.items()})
+        # the case's own options, as `vibupdate run` uses them; the sweep's own random start follows
         result = update(cfgs, formulation=case.formulation, solver=case.solver, polish=case.polish,
-                        verification=verification, probe=False)   # the sweep's own random start follows
+                        verification=verification, probe=False)
     except ValueError as exc:
         row.update(outcome="failed", status="bad_data", message=str(exc), seconds=time.perf_counter() - start,
                    cpu_seconds=time.process_time() - cpu)

@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 from vibupdate.io.case_types import Case
-from vibupdate.io.results import json_text
+from vibupdate.io.records import json_text
 from vibupdate.study.sampling import SamplingOptions
 
 
@@ -102,19 +102,12 @@ def write_summary(out: Path, case: Case, rows, document: dict, ends, listing, sa
     (out / SUMMARY_FILE).write_text(json_text(document), encoding="utf-8")
     if not plots:
         return
-    import warnings
-
-    from vibupdate.io.outputs import OutputWarning
+    from vibupdate.io.outputs import OutputWarning, collected
     from vibupdate.report.sweep_plots import write_sweep_plots
 
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", OutputWarning)
+    with collected(OutputWarning) as notes:
         files = write_sweep_plots(out, case, rows, document, ends)
     listing.add(*(f.name for f in files))
-    notes = [str(w.message) for w in caught if issubclass(w.category, OutputWarning)]
-    for w in caught:
-        if not issubclass(w.category, OutputWarning):
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     if notes:
         for note in notes:
             say(f"warning: {note}")

@@ -4,6 +4,7 @@ verified samples (`summarize`), and the object `vibupdate.study.sweep.run_sweep`
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -81,10 +82,7 @@ def summarize(case: Case, rows: list[dict], settings: dict, ends: list[dict] = (
         predictions.append({"label": d.label, "configuration": d.configuration, "kind": d.kind, "name": d.name,
                             "measured_hz": d.value, "interval_hz": [d.lower, d.upper],
                             **_stats(r.get(f"pred:{d.label}") for r in ok)})
-    failures: dict[str, int] = {}
-    for r in rows:
-        if r["outcome"] == "failed":
-            failures[str(r["status"])] = failures.get(str(r["status"]), 0) + 1
+    failures = dict(Counter(str(r["status"]) for r in rows if r["outcome"] == "failed"))
     return {"case": case.name, "samples": len(rows), "verified": outcomes.count("verified"),
             "unverified": outcomes.count("unverified"), "failed": outcomes.count("failed"), "line_ends": len(ends),
             "failed_by_status": failures, "seed": settings["seed"], "sampling": settings["sampling"],

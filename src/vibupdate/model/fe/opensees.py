@@ -5,14 +5,11 @@ with the openseespy API (``model``, ``node``, ``fix``, ``element``, ``mass`` ...
 before an eigen analysis. `export_from_builder` wipes the domain, calls it, and reads K and M
 column by column from the model's own response to probe motions.
 
-**Why probes, not ``printA``.** The ``opensees`` package (the ``[fe]`` extra; OpenSees built
-as a Tcl interpreter) offers no sparse access to the assembled system: ``printA`` forms a
-dense n x n matrix whatever ``system`` is chosen (``FullGeneral``, ``UmfPack``, ``BandGeneral``
-all print n^2 numbers), ``applyA`` works on ``FullGeneral`` only, and element responses carry
-no element matrix. A dense matrix is 20 GB at 50,000 DOFs, and the Python side parses n^2
-numbers as text (about 16 s per matrix at 1,920 DOFs). What OpenSees does give exactly is the
-force of every element on its nodes: ``reactions`` sums, at each node, the resisting force of
-the elements (``K u``) and, with ``-dynamic``, their inertia and the nodal masses (``M a``).
+**Why probes, not ``printA``.** OpenSees gives no sparse copy of its assembled system
+(``printA`` forms a dense n x n matrix whatever ``system``; docs/fe/opensees.md). It does give
+exactly the force of every element on its nodes: ``reactions`` sums, at each node, the
+resisting force of the elements (``K u``) and, with ``-dynamic``, their inertia and the nodal
+masses (``M a``).
 
 **The probes.** Two nodes are *neighbours* when an element joins them (``eleNodes``); K and M
 have non-zero blocks only between neighbours. The nodes are coloured so that two nodes of one
@@ -42,17 +39,15 @@ nodes and elements. A probe moves one direction at a time, as the check does: ``
 plumb columns (axial and transverse motion never together) is linear for both and is read.
 
 Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``) tie DOFs that the
-export would have to eliminate: refused, naming the constrained and retained nodes (the former
-route's ``Plain`` handler applied no tie and dropped a DOF of the retained node). Fixed DOFs
-(``fix``) have no equation, as before. The builder's load patterns (gravity loads for an
+export would have to eliminate: refused, naming the constrained and retained nodes. Fixed DOFs
+(``fix``) have no equation. The builder's load patterns (gravity loads for an
 eigen analysis) are removed first: their loads would add to every probe's forces.
 
 Models of ``-ndf 6`` (3-D frames) and ``-ndf 3`` with ``-ndm 2`` (planar frames:
 ``x, y, rz``) are named; other DOFs are refused. The cost is ``ndf (c + 2)`` element updates
 (each one ``domainChange`` and analysis step) and twice as many reaction sums, ``c`` the number
-of colours (8 for the example frame), where the dense route formed, factored and printed two
-n x n systems: `benchmarks/RESULTS.md`, heading "OpenSees
-import: probes against the dense printA".
+of colours (8 for the example frame): `benchmarks/RESULTS.md`, heading "OpenSees import: probes
+against the dense printA".
 """
 
 from __future__ import annotations
