@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -125,10 +126,11 @@ class ShapeInterval:
     def midpoint(self) -> dict[str, float]:
         return {d: 0.5 * (lo + hi) for d, (lo, hi) in self.bounds.items()}
 
-    @property
+    @cached_property
     def reference(self) -> str:
         """The DOF whose interval midpoint has the largest magnitude: the entry a measured
-        shape is normalized at (shape ratios ``phi_j / phi_reference``)."""
+        shape is normalized at (shape ratios ``phi_j / phi_reference``). Computed once: the
+        bounds do not change."""
         mid = self.midpoint
         return max(mid, key=lambda d: abs(mid[d]))
 

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -160,6 +161,13 @@ class Shape:
     @property
     def floor(self) -> float:
         return FLOOR * self.scale
+
+    @cached_property
+    def targets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The polish's target intervals of the entries (`_targets`) as ``(lo, hi, mid, h)``,
+        ``h`` the admissible half-widths: constants of the data, computed once."""
+        lo, hi = _targets(self.lower, self.upper, self.floor)
+        return _frozen(lo, hi, 0.5 * (lo + hi), self.half_width)
 
     def scales(self, modal_mass: float) -> tuple[float, float] | None:
         """The scales the model's shape (normalized to 1 at the reference entry) may take: any
@@ -303,10 +311,18 @@ def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np
            scales: tuple[float, float] | None = None) -> float:
     """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`): a convex piecewise quadratic in
     ``s`` whose pieces end where an entry ``s q_j`` crosses an interval end; each piece's
-    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact). Within
+    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact). Where the
+    minimizer of the pull rows alone puts every entry inside its interval, no distance row nor
+    its slope is active there: a stationary point of the convex function, so the minimum,
+    returned without the pieces (the common case near an answer). Within
     ``scales`` (`Shape.scales`), the minimizer of a convex function of one variable clipped to them."""
     if scales is not None:
         return float(np.clip(_scale(q, lo, hi, mid, h, pull), *scales))
+    w_in = (1.0 / h) ** 2
+    s = float(np.sum(w_in * q * mid) / np.sum(w_in * q * q))   # the pull's own minimizer (q_0 = 1)
+    V = s * q
+    if np.all((V >= lo) & (V <= hi)):   # no distance row is active there, nor its slope: the minimum
+        return s
     nz = q != 0
     breaks = np.unique(np.concatenate([lo[nz] / q[nz], hi[nz] / q[nz]]))
     edges = np.concatenate([[-np.inf], breaks, [np.inf]])
@@ -316,8 +332,7 @@ def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np
         probe = np.array([0.0])
         a, b = np.array([-np.inf]), np.array([np.inf])
     V = probe[:, None] * q[None, :]
-    below, above = V < lo, V > hi
-    w_in = (1.0 / h) ** 2                                                  # per piece: weights of the rows
+    below, above = V < lo, V > hi                                          # per piece: weights of the rows
     w_out = np.where(below | above, 1.0 / (pull * h), 0.0) ** 2               # squared, in s q_j
     edge = np.where(below, lo, np.where(above, hi, 0.0))
     s = np.sum(q * (w_in * mid + w_out * edge), axis=1) / np.maximum(np.sum(q * q * (w_in + w_out), axis=1), 1e-300)
@@ -332,8 +347,7 @@ def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: 
     mass-normalized shape's scale within `Shape.scales` of the model's modal mass ``mass``
     (its value and, with ``jac``, its gradient)."""
     q = np.concatenate([[1.0], ratios])
-    lo, hi = _targets(shape.lower, shape.upper, shape.floor)
-    mid, h = 0.5 * (lo + hi), shape.half_width
+    lo, hi, mid, h = shape.targets
     scales = shape.scales(mass[0])
     if scales is not None and not np.isfinite(scales[0]):   # no modal mass: the model lost the mode
         r = np.concatenate([np.zeros(q.size), np.full(q.size, 1.0 / pull)])
@@ -385,12 +399,9 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                                  (masses, m.masses, m.mass_jacobian)):
             if not items:
                 continue
-            lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
-                              FLOOR * np.array([abs(d.value) for d in items]))
-            w = np.tile(np.sqrt([d.weight for d in items]), 2)
+            lo, hi, mid, h, w = _datum_targets(items)
             lost = ~np.isfinite(values)
-            r, slope = _rows(np.where(lost, 0.5 * (lo + hi), values), lo, hi, 0.5 * (lo + hi),
-                             np.array([d.half_width for d in items]), pull)
+            r, slope = _rows(np.where(lost, mid, values), lo, hi, mid, h, pull)
             # a lost zero: its pull row 0, its distance row 1 / pull, no direction
             res.append(np.where(np.concatenate([lost, lost]), np.concatenate([0 * lost, lost / pull]), w * r))
             if jacobian:
@@ -408,6 +419,33 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                     jac.append(J)
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
+
+
+def _datum_targets(items: tuple) -> tuple[np.ndarray, ...]:
+    """The polish's target intervals of a block of data (`_targets`) as ``(lo, hi, mid, h, w)``,
+    ``h`` the admissible half-widths, ``w`` the square roots of the data's weights repeated for
+    the two rows of each: constants of the contract, computed once per block (`_TARGETS`)."""
+    kept = _TARGETS.get(id(items))
+    if kept is not None and kept[0] is items:
+        return kept[1]
+    lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
+                      FLOOR * np.array([abs(d.value) for d in items]))
+    out = _frozen(lo, hi, 0.5 * (lo + hi), np.array([d.half_width for d in items]),
+                  np.tile(np.sqrt([d.weight for d in items]), 2))
+    if len(_TARGETS) >= 64:
+        _TARGETS.pop(next(iter(_TARGETS)))
+    _TARGETS[id(items)] = (items, out)   # the block itself is kept with its targets: its id stays its own
+    return out
+
+
+#: `_datum_targets` of the most recent blocks of data (a contract's tuples of `Datum`), by id.
+_TARGETS: dict[int, tuple] = {}
+
+
+def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 def _modal_masses(m, jacobian: bool) -> list:

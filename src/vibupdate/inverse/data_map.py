@@ -25,8 +25,10 @@ masses mode by mode.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -76,7 +78,31 @@ class MeasuredShape:
 
 def measured_shapes(cfg: Configuration) -> list[MeasuredShape]:
     """The measured shapes of ``cfg`` that give a ratio (two measured DOFs or more) or a modal
-    mass, in the order of ``cfg.natural``."""
+    mass, in the order of ``cfg.natural``.
+
+    They depend on the configuration's data and its model's measurement map only, never on the
+    point: built once per configuration and kept while it lives (`_KEPT_SHAPES`), so that every
+    evaluation of a run (the polish's, the uniqueness probes', the verification's, the ranges')
+    reads the same measurement maps and intervals."""
+    kept = _KEPT_SHAPES.get(id(cfg))
+    if kept is None or kept[0]() is not cfg:
+        kept = (weakref.ref(cfg, partial(_forget_shapes, id(cfg))), tuple(_build_shapes(cfg)))
+        _KEPT_SHAPES[id(cfg)] = kept
+    return list(kept[1])
+
+
+#: `measured_shapes` of each living configuration, by its id: (weak reference, shapes). An
+#: entry goes when its configuration is collected (a frozen `Configuration` holds dicts, so it
+#: cannot be a dict key itself).
+_KEPT_SHAPES: dict[int, tuple] = {}
+
+
+def _forget_shapes(key: int, ref) -> None:
+    if _KEPT_SHAPES.get(key, (None,))[0] is ref:
+        del _KEPT_SHAPES[key]
+
+
+def _build_shapes(cfg: Configuration) -> list[MeasuredShape]:
     out = []
     for k, f in enumerate(cfg.natural):
         if f.shape is None or (len(f.shape.bounds) < 2 and not f.shape.mass_normalized):
