@@ -48,11 +48,13 @@ class MeasuredShape:
     ----------
     position : int
         Of the mode in ``Configuration.natural`` (0-based).
-    reference : csr_matrix, shape (1, n)
-        Measurement map of the denominator ``p`` (a unit row for a DOF, a sensor's weights).
-    entries : csr_matrix, shape (n_e, n)
+    reference : ndarray of int, shape (1,), or csr_matrix, shape (1, n)
+        Measurement map of the denominator ``p``: its DOF index, or a sensor's weights
+        (`_reading_map`; either is read by `vibupdate.modal.readings.readings`).
+    entries : ndarray of int, shape (n_e,), or csr_matrix, shape (n_e, n)
         Measurement map of the ratios' numerators ``j``: the other measured DOFs or sensors, in
-        their measured order (`vibupdate.model.AffineModel.measurement`).
+        their measured order (`vibupdate.model.AffineModel.measurement`): their DOF indices
+        where all are DOFs, else the sparse map.
     lower, upper : ndarray, shape (n_e,)
         Measured interval of each ratio (`vibupdate.data.measured.ShapeInterval.ratio_bounds`).
     mass : (float, float) or None
@@ -109,9 +111,23 @@ def _build_shapes(cfg: Configuration) -> list[MeasuredShape]:
             continue
         ratios = f.shape.ratio_bounds()
         lower, upper = np.array(list(ratios.values())).reshape(-1, 2).T
-        out.append(MeasuredShape(k, cfg.model.measurement([f.shape.reference]), cfg.model.measurement(list(ratios)),
-                                 lower, upper, f.shape.modal_mass_bounds()))
+        lower.flags.writeable = upper.flags.writeable = False   # kept and shared: read-only
+        out.append(MeasuredShape(k, _reading_map(cfg.model, [f.shape.reference]),
+                                 _reading_map(cfg.model, list(ratios)), lower, upper, f.shape.modal_mass_bounds()))
     return out
+
+
+def _reading_map(model, names: list):
+    """The measurement map of ``names`` (`vibupdate.model.AffineModel.measurement`) as
+    `vibupdate.modal.readings.readings` takes it: the DOF indices, shape (len(names),), where
+    every name is a plain DOF (each row a unit row: reading it is indexing, exact, on a model
+    of any size); the sparse map where a sensor combines DOFs."""
+    S = model.measurement(names)
+    if np.all(np.diff(S.indptr) == 1) and np.all(S.data == 1.0):
+        index = S.indices.astype(np.intp)
+        index.flags.writeable = False
+        return index
+    return S
 
 
 @dataclass(frozen=True)

@@ -72,10 +72,20 @@ def frequency_derivatives(model, omega, Phi) -> np.ndarray:
 
 
 def _factor(A):
+    """A solver of ``A x = b``: sparse LU above the dense limit; one LAPACK solve below (each
+    caller solves once, so a kept factorization would only add the checks of two calls)."""
     if sp.issparse(A):
         return sparse_lu(A).solve
-    lu = sla.lu_factor(np.asarray(A))
-    return lambda b: sla.lu_solve(lu, b)
+    A = np.asarray(A)
+    if not np.isfinite(A).all():    # as LU's own check
+        raise ValueError("array must not contain infs or NaNs")
+
+    def solve(b):
+        try:
+            return np.linalg.solve(A, b)
+        except np.linalg.LinAlgError:   # exactly singular: LU's answer (inf or NaN), as before
+            return sla.lu_solve(sla.lu_factor(A), b)
+    return solve
 
 
 def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: int, *,
