@@ -36,8 +36,9 @@ import scipy.sparse as sp
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, model_frequencies
 from vibupdate.inverse.repeated import paired_vector
-from vibupdate.modal.readings import readings
-from vibupdate.modal.sensitivities import frequency_derivatives, modal_mass_derivatives, shape_ratio_derivatives
+from vibupdate.modal.readings import ratio_derivatives, readings
+from vibupdate.modal.sensitivities import (frequency_derivatives, modal_mass_derivatives, ratio_solutions,
+                                           shape_ratio_derivatives)
 
 
 @dataclass(frozen=True)
@@ -238,8 +239,13 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
     measured = tuple(measured_shapes(cfg)) if shapes else ()
     ratios, ratio_jacobians, masses, mass_jacobian = [], [], [], []
     M = model.solver_matrices(xbar)[0] if any(s.mass is not None for s in measured) else None   # once, for the masses
-    for s in measured:
-        phi, near = paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position)
+    paired = [paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position) for s in measured]
+    simple = [k for k, (_, near) in enumerate(paired) if near.size == 1] if jacobian else []
+    batch = (ratio_solutions(model, xbar, freqs.natural[[measured[k].position for k in simple]],
+                             np.column_stack([paired[k][0] for k in simple])) if len(simple) > 1 else None)
+    solved = {} if batch is None else dict(zip(simple, batch))   # every simple mode in one solve (dense models)
+    for k, s in enumerate(measured):
+        phi, near = paired[k]
         ref = readings(phi, s.reference)
         ratios.append(readings(phi, s.entries) / ref)
         if s.mass is not None and not jacobian:   # q^T M q, q = phi / phi_p: 1 / phi_p^2 of a mass-normalized mode
@@ -247,8 +253,11 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
             masses.append(float(q @ (M @ q)))
         if jacobian:
             basis = freqs.Phi_all[:, near] if near.size > 1 else None
-            out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
-                                          vectors=vectors or s.mass is not None, basis=basis)
+            if k in solved:
+                out = (ratio_derivatives(solved[k], phi, s.entries, s.reference), solved[k])
+            else:
+                out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
+                                              vectors=vectors or s.mass is not None, basis=basis)
             D = out[0] if isinstance(out, tuple) else out
             ratio_jacobians.append(D if basis is None else _refitted(D, readings(basis, s.entries),
                                                                        readings(basis, s.reference)[0]))

@@ -140,6 +140,47 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
     return (D, V.copy()) if vectors else D
 
 
+def ratio_solutions(model, xbar, omega, Phi) -> np.ndarray | None:
+    """The solutions ``V`` of the module docstring of several simple modes at once, shape
+    (m, n, n_x), on a model with dense stacks (`vibupdate.model.AffineModel.dense_stacks`, at
+    most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs; None otherwise: `shape_ratio_derivatives`
+    one mode at a time). The same systems as `_ratio_solutions`, in one batched solve: the row
+    and column of each mode's largest ``|phi|`` replaced by those of the identity (its entry of
+    ``V`` is then 0 and the other entries solve the system without them) instead of removed,
+    so that the m systems have one size. Memory: m dense n x n matrices.
+
+    Parameters
+    ----------
+    omega : ndarray, shape (m,)
+        Natural frequencies, rad/s, each a simple eigenvalue.
+    Phi : ndarray, shape (n, m)
+        Their mass-normalized modes at ``xbar``.
+    """
+    stacks = model.dense_stacks
+    if stacks is None:
+        return None
+    M, K = model.solver_matrices(xbar)
+    Phi = np.asarray(Phi, dtype=float)
+    eigval = np.asarray(omega, dtype=float) ** 2
+    m = eigval.size
+    products_M, products_K = (S[1:] @ Phi for S in stacks)                  # (n_x, n, m)
+    F = np.transpose(products_K - eigval * products_M, (2, 1, 0))           # (m, n, n_x)
+    d_eigval = np.einsum("nm,mnx->mx", Phi, F)
+    rhs = -F + (M @ Phi).T[:, :, None] * d_eigval[:, None, :]
+    A = K[None, :, :] - eigval[:, None, None] * M[None, :, :]
+    k, p = np.arange(m), np.argmax(np.abs(Phi), axis=0)
+    A[k, p, :] = 0.0
+    A[k, :, p] = 0.0
+    A[k, p, p] = 1.0
+    rhs[k, p, :] = 0.0
+    if not np.isfinite(A).all():
+        raise ValueError("array must not contain infs or NaNs")
+    try:
+        return np.linalg.solve(A, rhs)
+    except np.linalg.LinAlgError:   # one system exactly singular: each on its own (LU's inf or NaN there)
+        return np.stack([_ratio_solutions(model, xbar, w, phi) for w, phi in zip(omega, Phi.T)])
+
+
 def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarray]:
     """The modal mass ``q^T M q`` (kg) of the mode ``phi`` scaled to 1 at DOF ``reference``
     (``1 / phi_p^2`` of a mass-normalized mode), ``M`` the model's mass matrix at the mode's
