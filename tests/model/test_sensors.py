@@ -103,6 +103,19 @@ def test_sensors_are_checked_against_the_model():
         with_sensors(model, [Sensor("f1:x", (("f1:x", 1.0),))])
 
 
+def test_a_shape_at_plain_dofs_has_its_own_intervals_as_its_dof_box_without_building_the_map():
+    """`ShapeInterval.on_dofs` of a shape whose names are all DOFs returns its intervals (what
+    `dof_box` gives for unit rows, to the bit) without the measurement map; the box is not
+    mass-normalized."""
+    model = _frame_model()
+    shape = ShapeInterval({"f2:y": (-1.0, 2.0), "f1:x": (0.1, 0.3), "f3:rz": (0.5, 0.7)}, mass_normalized=True)
+    lower, upper = np.array(list(shape.bounds.values())).T
+    idx, lo, hi = dof_box(model.measurement(list(shape.bounds)), lower, upper)
+    box = shape.on_dofs(model)
+    assert box.bounds == {model.dofs[i]: (a, b) for i, a, b in zip(idx, lo, hi)} and not box.mass_normalized
+    assert list(box.bounds) == list(shape.bounds)
+
+
 def test_the_box_on_dofs_is_the_intervals_of_plain_dofs_and_holds_the_dofs_four_sensors_give():
     model = _frame_model()
     idx, lo, hi = dof_box(model.measurement(["f2:y", "f1:x"]), np.array([-1.0, 0.1]), np.array([2.0, 0.3]))

@@ -116,6 +116,9 @@ class ShapeInterval:
         from vibupdate.model.measurement import dof_box
 
         names = list(self.bounds)
+        sensors = {s.name for s in model.sensors}
+        if all(model.measures(d) and d not in sensors for d in names):   # every name a DOF: its own interval
+            return ShapeInterval(dict(self.bounds))
         lower, upper = np.array(list(self.bounds.values()), dtype=float).T
         idx, lo, hi = dof_box(model.measurement(names), lower, upper)
         if not idx.size:
