@@ -280,6 +280,12 @@ class Admissible:
                           tuple(tuple(shape(s) for s in row) for row in self.shapes),
                           tuple(tuple(datum(d) for d in row) for row in self.masses))
 
+    @cached_property
+    def datum_targets(self) -> tuple:
+        """Per configuration, the polish's target intervals of its frequencies and of its modal
+        masses (`_datum_targets`, None for none): constants of the contract, computed once."""
+        return tuple((_datum_targets(f), _datum_targets(m)) for f, m in zip(self.frequencies, self.masses))
+
     def relative_half_widths(self) -> np.ndarray:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
         return np.array([d.half_width / d.value for row in self.frequencies for d in row])
@@ -417,12 +423,12 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
     entry first, the same two blocks). A zero the model lost costs a constant distance row of
     ``1 / pull`` with no direction."""
     res, jac = [], []
-    for data, shapes, masses, m in zip(contract.frequencies, contract.shapes, contract.masses, maps):
-        for items, values, J in ((data, m.frequency_values, m.frequency_jacobian if jacobian else None),
-                                 (masses, m.masses, m.mass_jacobian)):
-            if not items:
+    for shapes, targets, m in zip(contract.shapes, contract.datum_targets, maps):
+        for target, values, J in ((targets[0], m.frequency_values, m.frequency_jacobian if jacobian else None),
+                                  (targets[1], m.masses, m.mass_jacobian)):
+            if target is None:
                 continue
-            lo, hi, mid, h, w = _datum_targets(items)
+            lo, hi, mid, h, w = target
             lost = ~np.isfinite(values)
             r, slope = _rows(np.where(lost, mid, values), lo, hi, mid, h, pull)
             # a lost zero: its pull row 0, its distance row 1 / pull, no direction
@@ -456,25 +462,16 @@ def _runs(items: list, sizes: list) -> list[list]:
     return out
 
 
-def _datum_targets(items: tuple) -> tuple[np.ndarray, ...]:
+def _datum_targets(items: tuple) -> tuple[np.ndarray, ...] | None:
     """The polish's target intervals of a block of data (`_targets`) as ``(lo, hi, mid, h, w)``,
     ``h`` the admissible half-widths, ``w`` the square roots of the data's weights repeated for
-    the two rows of each: constants of the contract, computed once per block (`_TARGETS`)."""
-    kept = _TARGETS.get(id(items))
-    if kept is not None and kept[0] is items:
-        return kept[1]
+    the two rows of each; None for an empty block."""
+    if not items:
+        return None
     lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
                       FLOOR * np.array([abs(d.value) for d in items]))
-    out = _frozen(lo, hi, 0.5 * (lo + hi), np.array([d.half_width for d in items]),
-                  np.tile(np.sqrt([d.weight for d in items]), 2))
-    if len(_TARGETS) >= 64:
-        _TARGETS.pop(next(iter(_TARGETS)))
-    _TARGETS[id(items)] = (items, out)   # the block itself is kept with its targets: its id stays its own
-    return out
-
-
-#: `_datum_targets` of the most recent blocks of data (a contract's tuples of `Datum`), by id.
-_TARGETS: dict[int, tuple] = {}
+    return _frozen(lo, hi, 0.5 * (lo + hi), np.array([d.half_width for d in items]),
+                   np.tile(np.sqrt([d.weight for d in items]), 2))
 
 
 def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:

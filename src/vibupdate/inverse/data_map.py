@@ -102,7 +102,7 @@ _KEPT_SHAPES: dict[int, tuple] = {}
 
 def _forget_shapes(key: int, ref) -> None:
     if _KEPT_SHAPES.get(key, (None,))[0] is ref:
-        del _KEPT_SHAPES[key]
+        _KEPT_SHAPES.pop(key, None)
 
 
 def _build_shapes(cfg: Configuration) -> list[MeasuredShape]:
