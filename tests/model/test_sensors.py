@@ -82,6 +82,25 @@ def test_the_measurement_map_is_a_unit_row_for_a_dof_and_the_weights_for_a_senso
         model.measurement(["f9xs"])
 
 
+def test_a_measurement_map_is_built_once_per_list_of_names(monkeypatch):
+    """The map depends on the model and the names only: asked again, the same matrix, not a
+    new build; another list is its own; a bad name raises every time (nothing kept)."""
+    from dataclasses import replace
+
+    import vibupdate.model.measurement as measurement
+
+    model = replace(_frame_model())   # a model of its own: nothing kept yet
+    built, real = [], measurement.measurement_rows
+    monkeypatch.setattr(measurement, "measurement_rows", lambda *a: built.append(tuple(a[2])) or real(*a))
+    first = model.measurement(["f2:y", "f1xs"])
+    assert model.measurement(("f2:y", "f1xs")) is first and built == [("f2:y", "f1xs")]
+    assert model.measurement(["f1xs"]).shape == (1, 12) and len(built) == 2
+    for _ in range(2):
+        with pytest.raises(ValueError, match="DOF 'f9xs' does not exist"):
+            model.measurement(["f9xs"])
+    assert len(built) == 4
+
+
 @pytest.mark.parametrize("weights, message", [
     ((), "has no DOF weights"),
     ((("f1:x", 0.0),), "only zero weights"),
