@@ -84,6 +84,31 @@ def test_the_scale_of_a_shape_minimizes_its_rows_exactly():
     assert scaling_miss(-mid, lo, hi) == 0.0                            # the sign is free
 
 
+def test_the_scales_of_many_shapes_at_once_minimize_each_ones_rows():
+    """`_scales` on 200 constructed shapes at once (entries inside, outside on either side, a
+    zero entry, intervals not holding zero) against a scan of each one's convex sum of squares;
+    its fast case (the pull's own minimizer inside every interval) on some of them."""
+    from vibupdate.inverse.admissible import PULL, _rows, _scales
+
+    rng = np.random.default_rng(7)
+    m, k = 200, 5
+    Q = np.hstack([np.ones((m, 1)), rng.uniform(-1.5, 1.5, (m, k - 1))])
+    Q[::7, 2] = 0.0
+    centre = Q * rng.uniform(0.3, 3.0, (m, 1)) + rng.normal(0.0, 0.05, (m, k))
+    half = rng.uniform(0.005, 0.2, (m, k))
+    lo, hi = centre - half, centre + half
+    mid, h = centre, half
+    s = _scales(Q, lo, hi, mid, h, PULL)
+    fast = np.all((s[:, None] * Q >= lo) & (s[:, None] * Q <= hi), axis=1)
+    assert 0 < fast.sum() < m
+    for i in range(m):
+        grid = s[i] + np.linspace(-0.05, 0.05, 2001) * max(1.0, abs(s[i]))
+        cost = np.sum(_rows(grid[:, None] * Q[i], lo[i], hi[i], mid[i], h[i], PULL)[0] ** 2, axis=1)
+        own = float(np.sum(_rows(s[i] * Q[i], lo[i], hi[i], mid[i], h[i], PULL)[0] ** 2))
+        assert own <= cost.min() * (1 + 1e-9), i
+        assert s[i] == pytest.approx(_scale(Q[i], lo[i], hi[i], mid[i], h[i], PULL), rel=1e-12)
+
+
 def test_the_polish_residual_jacobian_is_exact_with_the_scale_eliminated():
     model, x, omega, Phi = _chain()
     idx = [model.dof(d) for d in ("y1", "y2", "y3")]

@@ -205,3 +205,27 @@ def test_an_evaluation_within_the_dense_limit_builds_no_sparse_matrix(mixed, wei
         cfg = dataclasses.replace(cfg, model=dataclasses.replace(cfg.model))
         for jacobian in (True, False):
             assert np.all(np.isfinite(data_map(cfg, x, jacobian=jacobian).values()))
+
+
+def test_an_update_builds_each_measurement_map_once_per_configuration(monkeypatch):
+    """The measured shapes' measurement maps and ratio intervals depend on the data alone: an
+    update (polish, uniqueness probes, verification) builds them once per configuration, not
+    at every evaluation (thousands of sparse builds before)."""
+    import vibupdate.model.measurement as measurement
+    from helpers import chain_model
+    from vibupdate import update
+
+    model = chain_model(3, ["k1", "k2", "k3"])
+    x = model.normalized([1000.0, 800.0, 1200.0])
+    omega, Phi = modes(*model.matrices(x), 3)
+    dofs = ("y1", "y2", "y3")
+    idx = [model.dof(d) for d in dofs]
+    natural = tuple(NaturalFrequency(omega[k] * (1 + 0.002 * (-1) ** k), shape=ShapeInterval.from_values(
+        dict(zip(dofs, Phi[idx, k] * (1 + 0.01 * np.arange(3)))), 0.01)) for k in range(3))
+    cfg = Configuration("c", model, natural)
+    built, real = [], measurement.measurement_rows
+    monkeypatch.setattr(measurement, "measurement_rows", lambda *a: built.append(tuple(a[2])) or real(*a))
+    update([cfg])
+    maps = [(f.shape.reference,) for f in natural] + [tuple(f.shape.ratio_bounds()) for f in natural]
+    assert all(built.count(names) == 1 for names in maps), built
+    assert len(measured_shapes(cfg)) == 3 and all(built.count(names) == 1 for names in maps)

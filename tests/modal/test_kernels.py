@@ -328,3 +328,25 @@ def test_the_qz_of_the_adjunct_pencil_is_scipys_eig_without_its_loop():
     np.testing.assert_allclose(right, right_ref.real, rtol=0, atol=1e-14)
     with pytest.raises(ValueError, match="infs or NaNs"):
         _qz(np.full((3, 3), np.nan), B[:3, :3])
+
+
+def test_the_ratio_solutions_of_several_modes_in_one_solve_equal_each_ones_own():
+    """`ratio_solutions` (the simple modes of a dense model in one batched solve, each mode's
+    largest entry's row and column replaced by the identity's) against the one-mode solve with
+    them removed; a model above the dense limit has no dense stacks and gives None (its modes
+    are solved one at a time, sparse)."""
+    from helpers import chain_model
+    from vibupdate.modal.sensitivities import _ratio_solutions, ratio_solutions
+
+    model = chain_model(12, ["k1", "k2", "m3", "k7"])
+    x = np.array([0.1, -0.2, 0.05, 0.3])
+    omega, Phi = modes(*model.matrices(x), 5)
+    V = ratio_solutions(model, x, omega, Phi)
+    assert V.shape == (5, 12, 4)
+    for k in range(5):
+        own = _ratio_solutions(model, x, omega[k], Phi[:, k])
+        np.testing.assert_allclose(V[k], own, rtol=1e-9, atol=1e-12 * np.abs(own).max())
+        assert np.all(V[k][np.argmax(np.abs(Phi[:, k]))] == 0.0)
+    large = chain_model(DENSE_LIMIT + 1, ["k1"])
+    assert large.dense_stacks is None
+    assert ratio_solutions(large, np.zeros(1), omega[:2], np.zeros((DENSE_LIMIT + 1, 2))) is None

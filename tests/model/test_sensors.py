@@ -82,6 +82,25 @@ def test_the_measurement_map_is_a_unit_row_for_a_dof_and_the_weights_for_a_senso
         model.measurement(["f9xs"])
 
 
+def test_a_measurement_map_is_built_once_per_list_of_names(monkeypatch):
+    """The map depends on the model and the names only: asked again, the same matrix, not a
+    new build; another list is its own; a bad name raises every time (nothing kept)."""
+    from dataclasses import replace
+
+    import vibupdate.model.measurement as measurement
+
+    model = replace(_frame_model())   # a model of its own: nothing kept yet
+    built, real = [], measurement.measurement_rows
+    monkeypatch.setattr(measurement, "measurement_rows", lambda *a: built.append(tuple(a[2])) or real(*a))
+    first = model.measurement(["f2:y", "f1xs"])
+    assert model.measurement(("f2:y", "f1xs")) is first and built == [("f2:y", "f1xs")]
+    assert model.measurement(["f1xs"]).shape == (1, 12) and len(built) == 2
+    for _ in range(2):
+        with pytest.raises(ValueError, match="DOF 'f9xs' does not exist"):
+            model.measurement(["f9xs"])
+    assert len(built) == 4
+
+
 @pytest.mark.parametrize("weights, message", [
     ((), "has no DOF weights"),
     ((("f1:x", 0.0),), "only zero weights"),
@@ -101,6 +120,19 @@ def test_sensors_are_checked_against_the_model():
         with_sensors(model, [Sensor("a", (("f1:x", 1.0),)), Sensor("a", (("f1:y", 1.0),))])
     with pytest.raises(ValueError, match="sensor 'f1:x' has the name of a DOF"):
         with_sensors(model, [Sensor("f1:x", (("f1:x", 1.0),))])
+
+
+def test_a_shape_at_plain_dofs_has_its_own_intervals_as_its_dof_box_without_building_the_map():
+    """`ShapeInterval.on_dofs` of a shape whose names are all DOFs returns its intervals (what
+    `dof_box` gives for unit rows, to the bit) without the measurement map; the box is not
+    mass-normalized."""
+    model = _frame_model()
+    shape = ShapeInterval({"f2:y": (-1.0, 2.0), "f1:x": (0.1, 0.3), "f3:rz": (0.5, 0.7)}, mass_normalized=True)
+    lower, upper = np.array(list(shape.bounds.values())).T
+    idx, lo, hi = dof_box(model.measurement(list(shape.bounds)), lower, upper)
+    box = shape.on_dofs(model)
+    assert box.bounds == {model.dofs[i]: (a, b) for i, a, b in zip(idx, lo, hi)} and not box.mass_normalized
+    assert list(box.bounds) == list(shape.bounds)
 
 
 def test_the_box_on_dofs_is_the_intervals_of_plain_dofs_and_holds_the_dofs_four_sensors_give():

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -115,6 +116,9 @@ class ShapeInterval:
         from vibupdate.model.measurement import dof_box
 
         names = list(self.bounds)
+        sensors = {s.name for s in model.sensors}
+        if all(model.measures(d) and d not in sensors for d in names):   # every name a DOF: its own interval
+            return ShapeInterval(dict(self.bounds))
         lower, upper = np.array(list(self.bounds.values()), dtype=float).T
         idx, lo, hi = dof_box(model.measurement(names), lower, upper)
         if not idx.size:
@@ -125,10 +129,11 @@ class ShapeInterval:
     def midpoint(self) -> dict[str, float]:
         return {d: 0.5 * (lo + hi) for d, (lo, hi) in self.bounds.items()}
 
-    @property
+    @cached_property
     def reference(self) -> str:
         """The DOF whose interval midpoint has the largest magnitude: the entry a measured
-        shape is normalized at (shape ratios ``phi_j / phi_reference``)."""
+        shape is normalized at (shape ratios ``phi_j / phi_reference``). Computed once: the
+        bounds do not change."""
         mid = self.midpoint
         return max(mid, key=lambda d: abs(mid[d]))
 

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -161,6 +162,13 @@ class Shape:
     def floor(self) -> float:
         return FLOOR * self.scale
 
+    @cached_property
+    def targets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The polish's target intervals of the entries (`_targets`) as ``(lo, hi, mid, h)``,
+        ``h`` the admissible half-widths: constants of the data, computed once."""
+        lo, hi = _targets(self.lower, self.upper, self.floor)
+        return _frozen(lo, hi, 0.5 * (lo + hi), self.half_width)
+
     def scales(self, modal_mass: float) -> tuple[float, float] | None:
         """The scales the model's shape (normalized to 1 at the reference entry) may take: any
         (None) for a free-scale shape; for a mass-normalized one, the mass-normalized mode's own,
@@ -272,6 +280,12 @@ class Admissible:
                           tuple(tuple(shape(s) for s in row) for row in self.shapes),
                           tuple(tuple(datum(d) for d in row) for row in self.masses))
 
+    @cached_property
+    def datum_targets(self) -> tuple:
+        """Per configuration, the polish's target intervals of its frequencies and of its modal
+        masses (`_datum_targets`, None for none): constants of the contract, computed once."""
+        return tuple((_datum_targets(f), _datum_targets(m)) for f, m in zip(self.frequencies, self.masses))
+
     def relative_half_widths(self) -> np.ndarray:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
         return np.array([d.half_width / d.value for row in self.frequencies for d in row])
@@ -301,56 +315,85 @@ def _targets(lower, upper, floor):
 
 def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float,
            scales: tuple[float, float] | None = None) -> float:
-    """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`): a convex piecewise quadratic in
-    ``s`` whose pieces end where an entry ``s q_j`` crosses an interval end; each piece's
-    minimizer, clipped to the piece, is tried and the best kept (vectorized, exact). Within
+    """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`) of one shape (`_scales`); within
     ``scales`` (`Shape.scales`), the minimizer of a convex function of one variable clipped to them."""
-    if scales is not None:
-        return float(np.clip(_scale(q, lo, hi, mid, h, pull), *scales))
-    nz = q != 0
-    breaks = np.unique(np.concatenate([lo[nz] / q[nz], hi[nz] / q[nz]]))
-    edges = np.concatenate([[-np.inf], breaks, [np.inf]])
-    a, b = edges[:-1], edges[1:]
-    probe = np.where(np.isfinite(a) & np.isfinite(b), 0.5 * (a + b), np.where(np.isfinite(a), a + 1.0, b - 1.0))
-    if not breaks.size:
-        probe = np.array([0.0])
-        a, b = np.array([-np.inf]), np.array([np.inf])
-    V = probe[:, None] * q[None, :]
-    below, above = V < lo, V > hi
-    w_in = (1.0 / h) ** 2                                                  # per piece: weights of the rows
-    w_out = np.where(below | above, 1.0 / (pull * h), 0.0) ** 2               # squared, in s q_j
-    edge = np.where(below, lo, np.where(above, hi, 0.0))
-    s = np.sum(q * (w_in * mid + w_out * edge), axis=1) / np.maximum(np.sum(q * q * (w_in + w_out), axis=1), 1e-300)
-    s = np.clip(s, a, b)
-    cost = np.sum(_rows(s[:, None] * q[None, :], lo, hi, mid, h, pull)[0] ** 2, axis=1)
-    return float(s[int(np.argmin(cost))])
+    s = float(_scales(np.asarray(q, dtype=float)[None, :], lo[None, :], hi[None, :], mid[None, :], h[None, :],
+                      pull)[0])
+    return s if scales is None else float(np.clip(s, *scales))
 
 
-def _shape_rows(shape: Shape, ratios: np.ndarray, jac: np.ndarray | None, pull: float,
-                mass: tuple[float, np.ndarray | None] = (np.nan, None)):
-    """Rows of one shape at its best scale and their Jacobian (Gauss-Newton in the scale); a
-    mass-normalized shape's scale within `Shape.scales` of the model's modal mass ``mass``
-    (its value and, with ``jac``, its gradient)."""
-    q = np.concatenate([[1.0], ratios])
-    lo, hi = _targets(shape.lower, shape.upper, shape.floor)
-    mid, h = 0.5 * (lo + hi), shape.half_width
-    scales = shape.scales(mass[0])
-    if scales is not None and not np.isfinite(scales[0]):   # no modal mass: the model lost the mode
-        r = np.concatenate([np.zeros(q.size), np.full(q.size, 1.0 / pull)])
-        return r, (None if jac is None else np.zeros((r.size, jac.shape[1])))
-    s = _scale(q, lo, hi, mid, h, pull, scales)
-    r, slope = _rows(s * q, lo, hi, mid, h, pull)
-    if jac is None:
-        return r, None
-    dq = np.vstack([np.zeros((1, jac.shape[1])), jac])
-    dq, q = np.vstack([dq, dq]), np.concatenate([q, q])   # the two rows of each entry
-    J = slope[:, None] * s * dq
-    Js = slope * q                                   # d rows / d s
-    if scales is not None and s in scales:           # held at a bound: the scale follows the modal mass
-        ds = -0.5 * s / mass[0] * mass[1]
-    else:   # the scale follows the shape (variable projection): d/dx of sum r dr/ds = 0 at the best scale
-        ds = -(Js @ J + (r * slope) @ dq) / max(float(Js @ Js), 1e-300)
-    return r, J + np.outer(Js, ds)
+def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray,
+            pull: float) -> np.ndarray:
+    """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`) of each row ``q`` of ``Q``
+    (shapes with the same number of entries; every array shape (m, k), ``Q[:, 0] = 1``), exact.
+
+    The sum is a strictly convex piecewise quadratic in ``s`` (the pull rows alone are), its
+    pieces ending where an entry ``s q_j`` crosses an interval end (``lo_j / q_j``,
+    ``hi_j / q_j``); its slope ``g(s) = sum_j q_j (s q_j - mid_j) / h_j^2 + q_j (s q_j -
+    clip(s q_j)) / (pull h_j)^2`` is continuous, increasing and linear on each piece. Where the
+    pull's own minimizer puts every entry inside, no distance row is active there: it is the
+    minimum (the common case near an answer). Elsewhere ``g`` is evaluated at every piece end
+    and at one point beyond each outer end, and its zero interpolated on the piece where it
+    changes sign (extrapolated on an outer piece): linear there, so exact."""
+    w_in, w_out = (1.0 / h) ** 2, (1.0 / (pull * h)) ** 2
+    s = np.sum(w_in * Q * mid, axis=1) / np.sum(w_in * Q * Q, axis=1)
+    V = s[:, None] * Q
+    rest = np.flatnonzero(~np.all((V >= lo) & (V <= hi), axis=1))
+    if not rest.size:
+        return s
+    q, lo, hi, mid, w_in, w_out = (a[rest] for a in (Q, lo, hi, mid, w_in, w_out))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ends = np.where(q[:, :, None] != 0, np.stack([lo, hi], axis=-1) / q[:, :, None], 0.0).reshape(rest.size, -1)
+    ends = np.sort(ends, axis=1)
+    first, last = ends[:, :1], ends[:, -1:]
+    at = np.hstack([first - 1.0 - np.abs(first), ends, last + 1.0 + np.abs(last)])   # (r, 2 k + 2)
+    v = at[:, :, None] * q[:, None, :]
+    g = np.sum(q[:, None, :] * (w_in[:, None, :] * (v - mid[:, None, :])
+                                + w_out[:, None, :] * (v - np.clip(v, lo[:, None, :], hi[:, None, :]))), axis=2)
+    j = np.clip(np.sum(g < 0, axis=1), 1, at.shape[1] - 1)   # the zero lies in [at[j - 1], at[j]] or beyond an outer one
+    i = np.arange(rest.size)
+    a, b, ga, gb = at[i, j - 1], at[i, j], g[i, j - 1], g[i, j]
+    s[rest] = np.where(gb > ga, a - ga * (b - a) / np.where(gb > ga, gb - ga, 1.0), a)
+    return s
+
+
+def _shape_rows(shapes: Sequence[Shape], ratios: Sequence[np.ndarray], jacs: Sequence[np.ndarray] | None,
+                pull: float, masses: Sequence[tuple[float, np.ndarray | None]]):
+    """Rows of shapes with the same number of entries ``k``, each at its best scale, and their
+    Jacobian (Gauss-Newton in the scale), shapes stacked in their order: one array operation
+    for all of them. A mass-normalized shape's scale lies within `Shape.scales` of the model's
+    modal mass in ``masses`` (its value and, with ``jacs``, its gradient).
+
+    ``ratios``: per shape, shape (k - 1,); ``jacs``: per shape, shape (k - 1, n_x), or None
+    for the rows alone. Returns the rows, shape (2 k m,), and their Jacobian, shape
+    (2 k m, n_x), or None."""
+    m = len(shapes)
+    Q = np.hstack([np.ones((m, 1)), np.vstack(ratios)])                  # (m, k): the reference entry first
+    lo, hi, mid, h = (np.vstack(t) for t in zip(*(s.targets for s in shapes)))
+    scales = [s.scales(value) for s, (value, _) in zip(shapes, masses)]
+    bound = np.array([(-np.inf, np.inf) if b is None else b for b in scales], dtype=float).reshape(m, 2)
+    lost = np.isnan(bound[:, 0])                                         # no modal mass: the model lost the mode
+    s = np.clip(_scales(np.where(lost[:, None], 1.0, Q), lo, hi, mid, h, pull), bound[:, 0], bound[:, 1])
+    s[lost] = 0.0
+    r, slope = _rows(s[:, None] * Q, lo, hi, mid, h, pull)               # (m, 2 k)
+    k = Q.shape[1]
+    r[lost] = np.concatenate([np.zeros(k), np.full(k, 1.0 / pull)])
+    if jacs is None:
+        return r.ravel(), None
+    n_x = jacs[0].shape[1]
+    dq = np.concatenate([np.zeros((m, 1, n_x)), np.stack(jacs)], axis=1)
+    dq, q = np.concatenate([dq, dq], axis=1), np.concatenate([Q, Q], axis=1)   # the two rows of each entry
+    J = (slope * s[:, None])[:, :, None] * dq
+    Js = slope * q                                                       # d rows / d s
+    # the scale follows the shape (variable projection): d/dx of sum r dr/ds = 0 at the best scale
+    ds = -(np.einsum("mi,mix->mx", Js, J) + np.einsum("mi,mix->mx", r * slope, dq)) \
+        / np.maximum(np.sum(Js * Js, axis=1), 1e-300)[:, None]
+    for i, b in enumerate(scales):
+        if b is not None and not lost[i] and s[i] in b:                  # held at a bound: it follows the modal mass
+            ds[i] = -0.5 * s[i] / masses[i][0] * masses[i][1]
+    J = J + Js[:, :, None] * ds[:, None, :]
+    J[lost] = 0.0
+    return r.ravel(), J.reshape(-1, n_x)
 
 
 def evaluate(configurations: Sequence[Configuration], contract: Admissible, xbar, jacobian: bool = True,
@@ -380,17 +423,14 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
     entry first, the same two blocks). A zero the model lost costs a constant distance row of
     ``1 / pull`` with no direction."""
     res, jac = [], []
-    for data, shapes, masses, m in zip(contract.frequencies, contract.shapes, contract.masses, maps):
-        for items, values, J in ((data, m.frequency_values, m.frequency_jacobian if jacobian else None),
-                                 (masses, m.masses, m.mass_jacobian)):
-            if not items:
+    for shapes, targets, m in zip(contract.shapes, contract.datum_targets, maps):
+        for target, values, J in ((targets[0], m.frequency_values, m.frequency_jacobian if jacobian else None),
+                                  (targets[1], m.masses, m.mass_jacobian)):
+            if target is None:
                 continue
-            lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
-                              FLOOR * np.array([abs(d.value) for d in items]))
-            w = np.tile(np.sqrt([d.weight for d in items]), 2)
+            lo, hi, mid, h, w = target
             lost = ~np.isfinite(values)
-            r, slope = _rows(np.where(lost, 0.5 * (lo + hi), values), lo, hi, 0.5 * (lo + hi),
-                             np.array([d.half_width for d in items]), pull)
+            r, slope = _rows(np.where(lost, mid, values), lo, hi, mid, h, pull)
             # a lost zero: its pull row 0, its distance row 1 / pull, no direction
             res.append(np.where(np.concatenate([lost, lost]), np.concatenate([0 * lost, lost / pull]), w * r))
             if jacobian:
@@ -399,15 +439,45 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                                     (w * slope)[:, None] * np.vstack([dv, dv])))
         by = {s.position: s for s in shapes}
         mass = _modal_masses(m, jacobian)
-        for k, (measured, ratios) in enumerate(zip(m.shapes, m.ratios)):
-            if measured.position in by:
-                r, J = _shape_rows(by[measured.position], ratios, m.ratio_jacobians[k] if jacobian else None, pull,
-                                   mass[k])
-                res.append(r)
-                if jacobian:
-                    jac.append(J)
+        held = [k for k, measured in enumerate(m.shapes) if measured.position in by]
+        for group in _runs(held, [m.ratios[k].size for k in held]):   # consecutive shapes of one size at once
+            r, J = _shape_rows([by[m.shapes[k].position] for k in group], [m.ratios[k] for k in group],
+                               [m.ratio_jacobians[k] for k in group] if jacobian else None, pull,
+                               [mass[k] for k in group])
+            res.append(r)
+            if jacobian:
+                jac.append(J)
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
+
+
+def _runs(items: list, sizes: list) -> list[list]:
+    """``items`` cut into runs of consecutive items of equal size, in order."""
+    out: list[list] = []
+    for item, size, before in zip(items, sizes, [None, *sizes[:-1]]):
+        if size == before:
+            out[-1].append(item)
+        else:
+            out.append([item])
+    return out
+
+
+def _datum_targets(items: tuple) -> tuple[np.ndarray, ...] | None:
+    """The polish's target intervals of a block of data (`_targets`) as ``(lo, hi, mid, h, w)``,
+    ``h`` the admissible half-widths, ``w`` the square roots of the data's weights repeated for
+    the two rows of each; None for an empty block."""
+    if not items:
+        return None
+    lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
+                      FLOOR * np.array([abs(d.value) for d in items]))
+    return _frozen(lo, hi, 0.5 * (lo + hi), np.array([d.half_width for d in items]),
+                   np.tile(np.sqrt([d.weight for d in items]), 2))
+
+
+def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 def _modal_masses(m, jacobian: bool) -> list:

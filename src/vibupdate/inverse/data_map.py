@@ -25,8 +25,10 @@ masses mode by mode.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,8 +36,9 @@ import scipy.sparse as sp
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.correlation import ModelFrequencies, declared_zeros, model_frequencies
 from vibupdate.inverse.repeated import paired_vector
-from vibupdate.modal.readings import readings
-from vibupdate.modal.sensitivities import frequency_derivatives, modal_mass_derivatives, shape_ratio_derivatives
+from vibupdate.modal.readings import ratio_derivatives, readings
+from vibupdate.modal.sensitivities import (frequency_derivatives, modal_mass_derivatives, ratio_solutions,
+                                           shape_ratio_derivatives)
 
 
 @dataclass(frozen=True)
@@ -46,11 +49,13 @@ class MeasuredShape:
     ----------
     position : int
         Of the mode in ``Configuration.natural`` (0-based).
-    reference : csr_matrix, shape (1, n)
-        Measurement map of the denominator ``p`` (a unit row for a DOF, a sensor's weights).
-    entries : csr_matrix, shape (n_e, n)
+    reference : ndarray of int, shape (1,), or csr_matrix, shape (1, n)
+        Measurement map of the denominator ``p``: its DOF index, or a sensor's weights
+        (`_reading_map`; either is read by `vibupdate.modal.readings.readings`).
+    entries : ndarray of int, shape (n_e,), or csr_matrix, shape (n_e, n)
         Measurement map of the ratios' numerators ``j``: the other measured DOFs or sensors, in
-        their measured order (`vibupdate.model.AffineModel.measurement`).
+        their measured order (`vibupdate.model.AffineModel.measurement`): their DOF indices
+        where all are DOFs, else the sparse map.
     lower, upper : ndarray, shape (n_e,)
         Measured interval of each ratio (`vibupdate.data.measured.ShapeInterval.ratio_bounds`).
     mass : (float, float) or None
@@ -76,16 +81,54 @@ class MeasuredShape:
 
 def measured_shapes(cfg: Configuration) -> list[MeasuredShape]:
     """The measured shapes of ``cfg`` that give a ratio (two measured DOFs or more) or a modal
-    mass, in the order of ``cfg.natural``."""
+    mass, in the order of ``cfg.natural``.
+
+    They depend on the configuration's data and its model's measurement map only, never on the
+    point: built once per configuration and kept while it lives (`_KEPT_SHAPES`), so that every
+    evaluation of a run (the polish's, the uniqueness probes', the verification's, the ranges')
+    reads the same measurement maps and intervals."""
+    kept = _KEPT_SHAPES.get(id(cfg))
+    if kept is None or kept[0]() is not cfg:
+        kept = (weakref.ref(cfg, partial(_forget_shapes, id(cfg))), tuple(_build_shapes(cfg)))
+        _KEPT_SHAPES[id(cfg)] = kept
+    return list(kept[1])
+
+
+#: `measured_shapes` of each living configuration, by its id: (weak reference, shapes). An
+#: entry goes when its configuration is collected (a frozen `Configuration` holds dicts, so it
+#: cannot be a dict key itself).
+_KEPT_SHAPES: dict[int, tuple] = {}
+
+
+def _forget_shapes(key: int, ref) -> None:
+    if _KEPT_SHAPES.get(key, (None,))[0] is ref:
+        _KEPT_SHAPES.pop(key, None)
+
+
+def _build_shapes(cfg: Configuration) -> list[MeasuredShape]:
     out = []
     for k, f in enumerate(cfg.natural):
         if f.shape is None or (len(f.shape.bounds) < 2 and not f.shape.mass_normalized):
             continue
         ratios = f.shape.ratio_bounds()
         lower, upper = np.array(list(ratios.values())).reshape(-1, 2).T
-        out.append(MeasuredShape(k, cfg.model.measurement([f.shape.reference]), cfg.model.measurement(list(ratios)),
-                                 lower, upper, f.shape.modal_mass_bounds()))
+        lower.flags.writeable = upper.flags.writeable = False   # kept and shared: read-only
+        out.append(MeasuredShape(k, _reading_map(cfg.model, [f.shape.reference]),
+                                 _reading_map(cfg.model, list(ratios)), lower, upper, f.shape.modal_mass_bounds()))
     return out
+
+
+def _reading_map(model, names: list):
+    """The measurement map of ``names`` (`vibupdate.model.AffineModel.measurement`) as
+    `vibupdate.modal.readings.readings` takes it: the DOF indices, shape (len(names),), where
+    every name is a plain DOF (each row a unit row: reading it is indexing, exact, on a model
+    of any size); the sparse map where a sensor combines DOFs."""
+    S = model.measurement(names)
+    if np.all(np.diff(S.indptr) == 1) and np.all(S.data == 1.0):
+        index = S.indices.astype(np.intp)
+        index.flags.writeable = False
+        return index
+    return S
 
 
 @dataclass(frozen=True)
@@ -196,8 +239,13 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
     measured = tuple(measured_shapes(cfg)) if shapes else ()
     ratios, ratio_jacobians, masses, mass_jacobian = [], [], [], []
     M = model.solver_matrices(xbar)[0] if any(s.mass is not None for s in measured) else None   # once, for the masses
-    for s in measured:
-        phi, near = paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position)
+    paired = [paired_vector(cfg, freqs.Phi_all, freqs.omega_all, s.position) for s in measured]
+    simple = [k for k, (_, near) in enumerate(paired) if near.size == 1] if jacobian else []
+    batch = (ratio_solutions(model, xbar, freqs.natural[[measured[k].position for k in simple]],
+                             np.column_stack([paired[k][0] for k in simple])) if len(simple) > 1 else None)
+    solved = {} if batch is None else dict(zip(simple, batch))   # every simple mode in one solve (dense models)
+    for k, s in enumerate(measured):
+        phi, near = paired[k]
         ref = readings(phi, s.reference)
         ratios.append(readings(phi, s.entries) / ref)
         if s.mass is not None and not jacobian:   # q^T M q, q = phi / phi_p: 1 / phi_p^2 of a mass-normalized mode
@@ -205,8 +253,11 @@ def data_map(cfg: Configuration, xbar, *, jacobian: bool = True, shapes: bool = 
             masses.append(float(q @ (M @ q)))
         if jacobian:
             basis = freqs.Phi_all[:, near] if near.size > 1 else None
-            out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
-                                          vectors=vectors or s.mass is not None, basis=basis)
+            if k in solved:
+                out = (ratio_derivatives(solved[k], phi, s.entries, s.reference), solved[k])
+            else:
+                out = shape_ratio_derivatives(model, xbar, freqs.natural[s.position], phi, s.entries, s.reference,
+                                              vectors=vectors or s.mass is not None, basis=basis)
             D = out[0] if isinstance(out, tuple) else out
             ratio_jacobians.append(D if basis is None else _refitted(D, readings(basis, s.entries),
                                                                        readings(basis, s.reference)[0]))

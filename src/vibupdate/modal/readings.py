@@ -15,6 +15,8 @@ def readings(X, where):
     (n_r, n): ``where @ X``, `vibupdate.model.AffineModel.measurement`). One entry point for the
     code that reads model vectors at measured points, so a DOF index and a sensor's weights are
     read alike."""
+    if isinstance(where, np.ndarray) and where.dtype.kind == "i":   # DOF indices (the common case, first)
+        return X[where]
     if sp.issparse(where):
         return where @ X
     return X[where] if isinstance(where, (int, np.integer)) else X[np.asarray(where, dtype=int)]

@@ -72,10 +72,20 @@ def frequency_derivatives(model, omega, Phi) -> np.ndarray:
 
 
 def _factor(A):
+    """A solver of ``A x = b``: sparse LU above the dense limit; one LAPACK solve below (each
+    caller solves once, so a kept factorization would only add the checks of two calls)."""
     if sp.issparse(A):
         return sparse_lu(A).solve
-    lu = sla.lu_factor(np.asarray(A))
-    return lambda b: sla.lu_solve(lu, b)
+    A = np.asarray(A)
+    if not np.isfinite(A).all():    # as LU's own check
+        raise ValueError("array must not contain infs or NaNs")
+
+    def solve(b):
+        try:
+            return np.linalg.solve(A, b)
+        except np.linalg.LinAlgError:   # exactly singular: LU's answer (inf or NaN), as before
+            return sla.lu_solve(sla.lu_factor(A), b)
+    return solve
 
 
 def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: int, *,
@@ -128,6 +138,47 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
             _RATIO_SOLUTIONS.put(key, V, V.nbytes)
     D = ratio_derivatives(V, phi, entries, reference)
     return (D, V.copy()) if vectors else D
+
+
+def ratio_solutions(model, xbar, omega, Phi) -> np.ndarray | None:
+    """The solutions ``V`` of the module docstring of several simple modes at once, shape
+    (m, n, n_x), on a model with dense stacks (`vibupdate.model.AffineModel.dense_stacks`, at
+    most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs; None otherwise: `shape_ratio_derivatives`
+    one mode at a time). The same systems as `_ratio_solutions`, in one batched solve: the row
+    and column of each mode's largest ``|phi|`` replaced by those of the identity (its entry of
+    ``V`` is then 0 and the other entries solve the system without them) instead of removed,
+    so that the m systems have one size. Memory: m dense n x n matrices.
+
+    Parameters
+    ----------
+    omega : ndarray, shape (m,)
+        Natural frequencies, rad/s, each a simple eigenvalue.
+    Phi : ndarray, shape (n, m)
+        Their mass-normalized modes at ``xbar``.
+    """
+    stacks = model.dense_stacks
+    if stacks is None:
+        return None
+    M, K = model.solver_matrices(xbar)
+    Phi = np.asarray(Phi, dtype=float)
+    eigval = np.asarray(omega, dtype=float) ** 2
+    m = eigval.size
+    products_M, products_K = (S[1:] @ Phi for S in stacks)                  # (n_x, n, m)
+    F = np.transpose(products_K - eigval * products_M, (2, 1, 0))           # (m, n, n_x)
+    d_eigval = np.einsum("nm,mnx->mx", Phi, F)
+    rhs = -F + (M @ Phi).T[:, :, None] * d_eigval[:, None, :]
+    A = K[None, :, :] - eigval[:, None, None] * M[None, :, :]
+    k, p = np.arange(m), np.argmax(np.abs(Phi), axis=0)
+    A[k, p, :] = 0.0
+    A[k, :, p] = 0.0
+    A[k, p, p] = 1.0
+    rhs[k, p, :] = 0.0
+    if not np.isfinite(A).all():
+        raise ValueError("array must not contain infs or NaNs")
+    try:
+        return np.linalg.solve(A, rhs)
+    except np.linalg.LinAlgError:   # one system exactly singular: each on its own (LU's inf or NaN there)
+        return np.stack([_ratio_solutions(model, xbar, w, phi) for w, phi in zip(omega, Phi.T)])
 
 
 def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarray]:

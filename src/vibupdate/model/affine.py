@@ -35,6 +35,11 @@ Builder = Callable[[dict], "System | tuple"]
 #: serve need anyway (400 DOFs, 48 parameters: 125 MB).
 DENSE_STACK_BYTES = 128 * 2**20
 
+#: Measurement maps an `AffineModel` keeps (`AffineModel.measurement`): more lists of names
+#: than a run's measured shapes and checks ask for (one or two per measured mode); all are
+#: dropped when a further one would exceed it.
+MEASUREMENTS_KEPT = 256
+
 
 @dataclass(frozen=True)
 class AffineModel:
@@ -95,10 +100,23 @@ class AffineModel:
     def measurement(self, names) -> sp.csr_matrix:
         """The measurement map of ``names`` (DOFs or sensors), shape (len(names), n): a model
         vector's readings there are ``measurement(names) @ phi``
-        (`vibupdate.model.measurement.measurement_rows`)."""
+        (`vibupdate.model.measurement.measurement_rows`). It depends on the model and the names
+        only: built once per list of names and kept (the most recent `MEASUREMENTS_KEPT`
+        lists), the same matrix for every caller, so it is not to be changed in place."""
         from vibupdate.model.measurement import measurement_rows
 
-        return measurement_rows(self._positions, self.sensors, list(names))
+        key = tuple(names)
+        kept = self._measurements.get(key)
+        if kept is None:
+            kept = measurement_rows(self._positions, self.sensors, list(key))
+            if len(self._measurements) >= MEASUREMENTS_KEPT:
+                self._measurements.clear()
+            self._measurements[key] = kept
+        return kept
+
+    @cached_property
+    def _measurements(self) -> dict:
+        return {}
 
     @cached_property
     def _positions(self) -> dict:
