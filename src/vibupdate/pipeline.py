@@ -372,7 +372,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
         from vibupdate.ranges.identifiability import parameter_ranges
 
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
-                                  freqs=result.correlation.updated)
+                                  freqs=result.correlation.updated, valley=result.valley)
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
         identifiability["frequency_windows"] = _frequency_windows(case)

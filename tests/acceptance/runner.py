@@ -94,7 +94,7 @@ def api_ranges(problem, result):
 
     configurations = problem.configurations()
     found = parameter_ranges(configurations, result.xbar, frequency_tolerance=problem.tolerance,
-                             freqs=list(result.correlation.updated))
+                             freqs=list(result.correlation.updated), valley=result.valley)
     return found.as_dict()
 
 

@@ -166,3 +166,24 @@ def test_the_valley_budgets_cut_the_search_short_but_every_point_still_keeps_the
     assert len(short) < len(full)
     for _, _, y in short:
         assert np.allclose(modes(*model.matrices_at(model.physical(y)))[0][:2], w, rtol=1e-9)
+
+
+def test_the_ranges_read_the_valley_the_update_searched(monkeypatch):
+    """The same 2-mass chain from its first frequency: the update searches the ends of the set
+    of answers and keeps them (`UpdateResult.valley`); the consistent ranges given them search
+    nothing again and are the ranges that search them themselves, to the last bit."""
+    import vibupdate.ranges.identifiability as ident
+
+    model = chain_model(2, ["k1", "k2"])
+    cfg = Configuration("one mode", model, (NaturalFrequency(_first(model, 1000.0, 1000.0)),))
+    result = update([cfg])
+    assert result.valley and all(x.shape == (2,) for x in result.valley)
+    alone = ident.parameter_ranges([cfg], result.xbar, freqs=list(result.correlation.updated))
+    searched = []
+    for name in ("valley_ends", "valley_curve"):
+        real = getattr(ident, name)
+        monkeypatch.setattr(ident, name, lambda *a, real=real, name=name, **k: searched.append(name) or real(*a, **k))
+    given = ident.parameter_ranges([cfg], result.xbar, freqs=list(result.correlation.updated), valley=result.valley)
+    assert not searched
+    assert np.array_equal(given.lower, alone.lower) and np.array_equal(given.upper, alone.upper)
+    assert update([cfg], search=Search(valley_ends=False)).valley is None   # not explored: not claimed empty

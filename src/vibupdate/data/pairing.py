@@ -14,8 +14,12 @@ Correspondence is data, never inferred from nearness at the updated point:
   measured zero of ``h_rc`` there, it is zero ``n_0 + j`` where ``n_0`` counts the nominal
   model's zeros of ``h_rc`` below its mode ``m``; below the lowest measured pole, counting
   goes down from the first zero below that pole; without measured poles, zeros are
-  consecutive from 1. For a driving point this gives zero ``m`` between modes ``m`` and
-  ``m + 1``, as interlacing requires.
+  consecutive from 1. A driving point's zeros are counted by interlacing instead (one zero
+  between each two consecutive modes, after those below the first mode): a symmetric nominal
+  model whose point lies on a node of mode ``m`` has zeros exactly on that pole, which a
+  perturbed structure moves to either side, so their count at the nominal point is not the
+  structure's. For a grounded driving point this gives zero ``m`` between modes ``m`` and
+  ``m + 1``.
 
 Every pairing downstream (formulation start vectors, polish residuals, verification, reports,
 ``results.json``) reads these declared indices.
@@ -30,7 +34,12 @@ import numpy as np
 from vibupdate.data.names import zero_name
 
 
-def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]:
+#: A nominal zero within this relative distance of the first mode lies on it (a node of that
+#: mode at a driving point), not below it.
+ON_POLE = 1e-6
+
+
+def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: bool = False) -> list[int]:
     """Default zero indices of one receptance's measured antiresonances (module docstring).
 
     Parameters
@@ -45,6 +54,9 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]
         Nominal model natural frequencies, rad/s, ascending (at least up to the highest mode).
     nominal_zeros : ndarray
         Nominal model zeros of the receptance, rad/s, ascending.
+    driving : bool
+        A driving-point receptance (response = excitation): zeros below a mode counted by
+        interlacing (module docstring).
 
     Returns
     -------
@@ -52,6 +64,11 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]
     """
     poles = np.asarray(poles, dtype=float)
     zeros = np.asarray(zeros, dtype=float)
+    first = int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) if len(nominal_omega) else 0
+
+    def zeros_below(m: int) -> int:   # the nominal model's zeros below its mode m
+        return first + m - 1 if driving else int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
+
     out = []
     for i, z in enumerate(zeros):
         below = np.flatnonzero(poles < z)
@@ -60,13 +77,11 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros) -> list[int]
             continue
         if below.size:
             k = int(below[-1])
-            m = modes[k]
-            n0 = int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
+            n0 = zeros_below(modes[k])
             j = int(np.count_nonzero((zeros > poles[k]) & (zeros <= z)))
             out.append(n0 + j)
         else:
-            m = modes[0]
-            n0 = int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
+            n0 = zeros_below(modes[0])
             j = int(np.count_nonzero((zeros >= z) & (zeros < poles[0])))
             out.append(max(n0 - j + 1, i + 1))
     # keep them strictly rising (a sparse nominal spectrum can repeat a count)
@@ -109,7 +124,8 @@ def declare(cfg):
         for rc in todo:
             mine = [i for i, a in enumerate(zeros) if a.receptance == rc]
             nominal_z = antiresonances(M0, K0, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), precision=precision)
-            found = zero_indices(poles, mode_list, [zeros[i].omega for i in mine], nominal_omega, nominal_z)
+            found = zero_indices(poles, mode_list, [zeros[i].omega for i in mine], nominal_omega, nominal_z,
+                                 driving=rc[0] == rc[1])
             for i, idx in zip(mine, found):
                 if zeros[i].index is None:
                     zeros[i] = replace(zeros[i], index=idx)

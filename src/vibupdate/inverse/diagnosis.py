@@ -11,19 +11,20 @@ the data are split into groups, each a unit that one fault corrupts:
   driving point whose entry carries the force cell's mass or a calibration error, corrupts
   that DOF's entry in every mode.
 
-Each group is screened: the data without it are polished from the full answer (the same
-polish options) and the result verified against the data kept (every check but the
-consistency of the relaxation, which needs a first stage of its own). The groups are ranked
-verified first, then by the polish objective on the data kept (relative frequency errors and
-shape-interval distances, the quantity the update minimizes): the group whose removal leaves
-the best fit heads the list. The first stage is then run again, in full (`update`, the same
-options), without the top group: that is the best model without the worst group, with its
-own status and verification on the data kept.
+Every group is first screened in one step: at the full answer, the residual and Jacobian of
+the data without it (one evaluation) give the objective one bounded Gauss-Newton step would
+reach without that group (`_predicted`), and the groups are ordered by it. The first
+`MAX_GROUPS` of that order are refitted: the data without the group are polished from the full
+answer (the same polish options) and the result verified against the data kept (every check
+but the consistency of the relaxation, which needs a first stage of its own). The refitted
+groups are ranked verified first, then by the polish objective on the data kept (the quantity
+the update minimizes): the group whose removal leaves the best fit heads the list. The first
+stage is then run again, in full (`update`, the same options), without the top group: that is
+the best model without the worst group, with its own status and verification on the data kept.
 
-The cost is one polish and one verification per group plus one update; the groups are tried
-in order of their share of the misfit at the full answer (the objective's drop when the group
-is dropped without refitting) and the screening stops at `MAX_GROUPS` groups or
-`MAX_SECONDS`, the groups left untried counted in the record.
+The cost is one evaluation per group, one polish and one verification per refitted group, and
+one update; the refits also stop at `MAX_SECONDS`. The groups not refitted are named in the
+record, in the order of the one-step screening.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.optimize import lsq_linear
 
 from vibupdate.data.measured import Configuration, ShapeInterval
 from vibupdate.data.names import mode_name, zero_name
@@ -51,8 +53,11 @@ from vibupdate.inverse.verify import VerifyOptions, verify
 #: model mode or zero a datum is, which its message already names; removing data does not
 #: answer it.
 MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "consistency", "improvement"})
-#: Groups screened at most (the rest are counted as untried).
-MAX_GROUPS = 60
+#: Groups refitted at most, the best of the one-step screening (the rest are named as untried).
+#: A group whose removal leaves a fit does so to first order at the answer, so it leads that
+#: order; the refits rank the leaders by what a whole polish reaches (`benchmarks/RESULTS.md`,
+#: "The diagnosis screened in one step").
+MAX_GROUPS = 3
 #: Seconds of screening at most; the group under way is finished.
 MAX_SECONDS = 120.0
 
@@ -225,9 +230,10 @@ class Diagnosis:
     mean_error_pct, max_error_pct : float
         Relative frequency errors of the full answer.
     trials : tuple of GroupTrial
-        Screened groups, ranked: passed first, then by objective.
+        Refitted groups, ranked: passed first, then by objective.
     untried : int
-        Groups not screened because of `MAX_GROUPS` or `MAX_SECONDS` (or whose refit failed).
+        Groups not refitted: beyond the first `MAX_GROUPS` of the one-step screening, past
+        `MAX_SECONDS`, or whose refit failed.
     groups : int
         Groups of the data in all.
     best : UpdateResult or None
@@ -238,7 +244,7 @@ class Diagnosis:
     seconds : float
         The whole diagnosis.
     untried_groups : tuple of str
-        The labels of the ``untried`` groups, in the order they would have been screened.
+        The labels of the ``untried`` groups, in the order of the one-step screening.
     """
 
     failed: tuple[str, ...]
@@ -294,6 +300,17 @@ def _objective(configurations, xbar, polish: PolishOptions, verification: Verify
     return 0.5 * float(r @ r)
 
 
+def _predicted(configurations, xbar, verification: VerifyOptions) -> tuple[float, float]:
+    """The polish's objective of ``configurations`` at ``xbar``, and after one Gauss-Newton
+    step from there within the parameter box (`scipy.optimize.lsq_linear` on the residual's
+    linearization): what a refit without the left-out group is predicted to reach."""
+    r, J = evaluate(configurations, Admissible.of(configurations, verification), xbar)
+    lo, hi = configurations[0].model.bounds()
+    ok = np.all(np.isfinite(J), axis=1) & np.isfinite(r)
+    step = lsq_linear(J[ok], -r[ok], bounds=(np.minimum(lo - xbar, 0.0), np.maximum(hi - xbar, 0.0))).x
+    return 0.5 * float(r @ r), 0.5 * float(np.sum(np.where(ok, r + np.where(ok[:, None], J, 0.0) @ step, r) ** 2))
+
+
 def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
             verification: VerifyOptions) -> GroupTrial:
     """Polish the data ``kept`` from ``xbar`` and verify the answer on them."""
@@ -335,7 +352,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
     progress : callable, optional
         Receives one line per group.
     max_groups, max_seconds : int, float
-        Limits of the screening.
+        Groups refitted at most, and seconds of the refits at most.
 
     Returns
     -------
@@ -361,12 +378,13 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
         except ValueError as exc:   # data that are invalid without the group (a check of Configuration)
             say(f"diagnosis: the data without the {group.label} are not a valid problem ({exc}); not screened")
             continue
-        if kept is not None:   # the share of the misfit the group carries at the answer orders the screening
-            share = (full - _objective(kept, xbar, polish, verification)) / full if full > 0 else 0.0
-            candidates.append((share, group, kept))
-    candidates.sort(key=lambda c: -c[0])
-    say(f"diagnosis: the answer failed {', '.join(failed)}; screening {min(len(candidates), max_groups)} of "
-        f"{len(candidates)} groups of the data, each left out in turn (polished from the answer)")
+        if kept is not None:   # the one-step screening orders the refits (module docstring)
+            here, predicted = _predicted(kept, xbar, verification)
+            candidates.append(((full - here) / full if full > 0 else 0.0, group, kept, predicted))
+    candidates.sort(key=lambda c: c[3])
+    candidates = [c[:3] for c in candidates]
+    say(f"diagnosis: the answer failed {', '.join(failed)}; {len(candidates)} groups of the data screened in one "
+        f"step, the best {min(len(candidates), max_groups)} left out in turn and refitted (polished from the answer)")
     trials = []
     for k, (share, group, kept) in enumerate(candidates[:max_groups], start=1):
         if time.perf_counter() - t0 > max_seconds:

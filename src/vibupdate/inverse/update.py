@@ -105,6 +105,13 @@ class UpdateResult:
     minimum_change : MinimumChange or None
         Where the data leave directions undetermined, the move of the answer along them to the
         point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
+    valley : tuple of ndarray or None
+        Where the data leave directions undetermined: the points of the set of answers with
+        exactly the answer's data where each parameter free to move is lowest and highest, and
+        where one turns along a curve (`vibupdate.inverse.minimum_change.valley_ends`,
+        `~.valley_curve`), normalized; the consistent ranges read them
+        (`vibupdate.ranges.identifiability.parameter_ranges`, ``valley``). Empty when the data
+        determine every parameter; None when the set was not explored.
     correlation : Correlation
         The nominal and updated models' modal data paired with each configuration's data, as
         verification and sensitivity used them (`vibupdate.inverse.correlation.Correlation`):
@@ -133,6 +140,7 @@ class UpdateResult:
     sought: Sought | None = None
     minimum_change: MinimumChange | None = None
     alternatives: tuple[Alternative, ...] = ()
+    valley: tuple[np.ndarray, ...] | None = None
 
     @property
     def matrices(self) -> dict[str, tuple[sp.csr_matrix, sp.csr_matrix]]:
@@ -555,7 +563,7 @@ def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
 
 
 def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ...], search: Search, model, starts: list,
-            say) -> tuple[Alternative, ...]:
+            say) -> tuple[tuple[Alternative, ...], tuple[np.ndarray, ...] | None]:
     """Where the data leave directions undetermined at the chosen answer, the answers with
     exactly its data form a set, and every start the polish takes there is moved to the same
     point of it (the minimum change): the ends of that set in each parameter that moves
@@ -563,9 +571,11 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     points where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_curve`)
     are the other answers, each an `Alternative` with the chosen answer's objective (the same
     data to 1e-9, so the same verification). ``search.valley_ends`` off, or a rank that the data
-    fill, adds none."""
-    if not search.valley_ends or chosen.sensitivity.rank >= chosen.xbar.size:
-        return alternatives
+    fill, adds none. Returns the alternatives and every point found (`UpdateResult.valley`)."""
+    if not search.valley_ends:
+        return alternatives, None
+    if chosen.sensitivity.rank >= chosen.xbar.size:
+        return alternatives, ()
     t0 = time.perf_counter()
     found = undetermined(configurations, chosen.xbar)   # one evaluation at the answer, for both
     ends = valley_curve(configurations, chosen.xbar, found) + valley_ends(configurations, chosen.xbar, found)
@@ -583,7 +593,7 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
                         time.perf_counter() - t0))
     say(f"uniqueness: the data leave {chosen.xbar.size - chosen.sensitivity.rank} direction(s) undetermined; "
         f"{len(added)} point(s) of the set of answers with the same data differ from the answer")
-    return alternatives + tuple(added)
+    return alternatives + tuple(added), tuple(x for _, _, x in ends)
 
 
 def _exact_cost(contract: Admissible, verification: VerifyOptions) -> float:
@@ -693,12 +703,13 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         best = _no_worse_than_nominal(configurations, contract, best, finish, polish, say)
     unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
     alternatives: tuple[Alternative, ...] = ()
+    valley = None
     if best is not None and best.status.ok and unique:
         _uniqueness(configurations, finish, tried, best, search, starts, say,
                     replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                         search.probe_evaluations * (model.n_parameters + 1))))
         best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
-        alternatives = _valley(configurations, best, alternatives, search, model, starts, say)
+        alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say)
     elif best is not None and best.status.ok:
         reason = f"uniqueness not searched: {reason}"
     else:
@@ -753,5 +764,6 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         attempts=attempts,
         sought=Sought(search, tuple(starts), unique, reason),
         minimum_change=best.minimum,
+        valley=valley,
         alternatives=alternatives,
     )

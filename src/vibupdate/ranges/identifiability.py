@@ -269,7 +269,7 @@ def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                      frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0,
-                     freqs=None):
+                     freqs=None, valley=None):
     """Consistent range of every parameter around the answer ``xbar`` (module docstring).
 
     ``method="certified"`` returns instead the certified outer ranges over the consistent
@@ -292,6 +292,10 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         `vibupdate.inverse.correlation.model_frequencies` of each configuration at ``xbar``
         with ``derivatives=True`` (`UpdateResult.correlation`), when already computed: the
         linearized method then repeats no eigen-solve.
+    valley : sequence of ndarray, optional
+        The points of the set of answers with the answer's data that the update found at this
+        ``xbar`` (`UpdateResult.valley`): the linearized method reads them instead of searching
+        the same ends and turns again.
     """
     if method == "certified":
         from vibupdate.ranges.certify import certified_ranges
@@ -385,9 +389,10 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         # the other parameters move along the curved valley too (at second order where the
         # answer is a symmetric point): the points of the valley with the answer's data
         # and where each parameter is lowest and highest along it, and where one turns
-        # (`vibupdate.inverse.minimum_change.valley_ends`, `valley_curve`)
+        # (`vibupdate.inverse.minimum_change.valley_ends`, `valley_curve`; the update's, when given)
         found = undetermined(configurations, xbar)   # one evaluation at the answer for the three
-        ends = [x for _, _, x in valley_ends(configurations, xbar, found) + valley_curve(configurations, xbar, found)]
+        ends = list(valley) if valley else [x for _, _, x in valley_ends(configurations, xbar, found)
+                                            + valley_curve(configurations, xbar, found)]
         points = np.vstack([valley_points(configurations, xbar, found=found)] + [np.atleast_2d(x) for x in ends])
         if points.size:
             lower, upper = np.fmin(lower, points.min(axis=0)), np.fmax(upper, points.max(axis=0))
