@@ -230,3 +230,21 @@ def test_exact_data_beside_data_with_a_model_form_tolerance_converge_from_the_no
     assert out.stopped_on == "convergence", out.message
     assert out.evaluations <= 60
     np.testing.assert_allclose(out.xbar, x_true, atol=1e-9)
+
+
+def test_the_start_is_solved_once(monkeypatch):
+    """The start's objective and the soft start's residual and Jacobian come from one
+    eigen-solve: a polish on the full model evaluates the data once per evaluation it counts
+    (one more before, the start solved twice)."""
+    import vibupdate.inverse.data_map as dm
+    from helpers import chain_model
+
+    model = chain_model(5, ["k1", "k3", "m2", "m5"])
+    w = modes(*model.matrices_at([1100.0, 900.0, 1.15, 0.85]))[0]
+    cfg = Configuration("P2", model, tuple(NaturalFrequency(x) for x in w[:4]))
+    count = [0]
+    real = dm.data_map
+    monkeypatch.setattr(dm, "data_map", lambda *a, **k: count.__setitem__(0, count[0] + 1) or real(*a, **k))
+    result = polish([cfg], np.array([0.05, -0.05, 0.05, -0.05]))
+    assert result.stopped_on == "convergence" and result.cost < 1e-20
+    assert count[0] == result.evaluations

@@ -338,11 +338,16 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     start = time.perf_counter()
     x0 = np.clip(np.asarray(xbar0, dtype=float), lo, hi)
     contract = contract or Admissible.of(configurations)
-    cost0 = _cost(configurations, contract, x0)
+    # the start's objective, and where the full-model least squares starts right here, its data
+    # maps with their Jacobians: the soft start's residual comes from the same eigen-solve
+    maps0: list | None = [] if not _in_rounds(configurations, options) and np.array_equal(inside(x0, lo, hi), x0) \
+        else None
+    r0, _ = evaluate(configurations, contract, x0, jacobian=maps0 is not None, maps=maps0)
+    cost0 = 0.5 * float(r0 @ r0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}
     try:
         x, cost, evaluations, rounds, reduced_evaluations, stopped_on, message = _minimize(
-            configurations, x0, contract, options, tols, budget, start, answers, progress)
+            configurations, x0, contract, options, tols, budget, start, answers, progress, maps0)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
@@ -359,13 +364,19 @@ def _cost(configurations: list, contract: Admissible, x) -> float:
     return 0.5 * float(r @ r)
 
 
+def _in_rounds(configurations: list, options: PolishOptions) -> bool:
+    """Whether the polish starts with reduced rounds (a model above `DENSE_LIMIT` DOFs)."""
+    return bool(options.reduced_rounds) and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT
+
+
 def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, started: float,
-              answers, progress):
+              answers, progress, maps0=None):
     """The reduced rounds on a large model, the full-model least squares where they did not
-    converge. Returns ``(x, cost, evaluations, rounds, reduced_evaluations, stopped_on,
-    message)``, ``cost`` the objective at ``x``."""
+    converge (``maps0``: the data maps at ``x0`` with their Jacobians, when evaluated). Returns
+    ``(x, cost, evaluations, rounds, reduced_evaluations, stopped_on, message)``, ``cost`` the
+    objective at ``x``."""
     x, known, rounds, reduced, converged, evaluations = x0, None, 0, 0, "", 0
-    if options.reduced_rounds and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT:
+    if _in_rounds(configurations, options):
         try:
             x, value, evaluations, rounds, reduced, converged = _reduced_rounds(
                 configurations, x0, contract, options, tols, budget, progress)
@@ -382,25 +393,28 @@ def _minimize(configurations: list, x0, contract, options: PolishOptions, tols: 
                 f"stopped on the limit of {budget} evaluations of the full model in {rounds} reduced rounds "
                 f"(set polish.max_evaluations to allow more)")
     sol, evaluations, stopped_on = _full_model(configurations, x, contract, tols, budget, evaluations,
-                                               started, options.max_seconds, answers)
+                                               started, options.max_seconds, answers, maps0)
     return sol.x, float(sol.cost), evaluations, rounds, reduced, stopped_on, sol.message
 
 
 def _full_model(configurations: list, x, contract, tols: dict, budget: int, evaluations: int,
-                started: float, max_seconds=None, answers=None):
+                started: float, max_seconds=None, answers=None, maps0=None):
     """The full-model least squares from ``x`` after ``evaluations`` of the ``budget``, its start
     with `START_PULL` first; restarted while scipy's step or cost
     test stopped it and a restart still lowers the objective: trf's trust radius collapses on
     the way to a minimum on a bound and its step test then stops it with the objective still
     falling.
 
-    Returns ``(sol, evaluations, stopped_on)``: the best point in the shape of a
-    `least_squares` result, the evaluations counted from the polish's start, and what ended it.
+    ``maps0``: the data maps at ``x`` (strictly inside the box) with their Jacobians, when the
+    caller evaluated them. Returns ``(sol, evaluations, stopped_on)``: the best point in the
+    shape of a `least_squares` result, the evaluations counted from the polish's start, and what
+    ended it.
     """
     lo, hi = configurations[0].model.bounds()
     x = inside(x, lo, hi)
     soft = contract.floored(START_FLOOR)
-    start = (x, evaluate(configurations, soft, x, pull=START_PULL))
+    start = (x, residuals(soft, maps0, True, START_PULL) if maps0 else evaluate(configurations, soft, x,
+                                                                                  pull=START_PULL))
     monitor = Monitor(x, start[1], max(budget - evaluations - 1, 1), budget, stall_window(lo.size), started,
                       max_seconds, answers)
     memo: dict = {}
