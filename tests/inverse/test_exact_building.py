@@ -38,10 +38,17 @@ def test_exact_data_of_a_315_dof_building_through_vibupdate_run(tmp_path):
     _check(code, doc)
 
 
+@pytest.fixture(scope="module")
+def building_14x6(tmp_path_factory):
+    """``(exit code, results.json)`` of one ``vibupdate run`` of the 2,940-DOF building (14
+    storeys x 6 bays, exact data), shared by the two tests that read it."""
+    return _run_building(tmp_path_factory.mktemp("building_14x6"), 14, 6)
+
+
 @pytest.mark.slow
-def test_exact_data_of_a_2940_dof_building_through_vibupdate_run(tmp_path):
+def test_exact_data_of_a_2940_dof_building_through_vibupdate_run(building_14x6):
     """14 storeys x 6 bays (measured: largest parameter error 1.8e-11, 3 reduced rounds, 28 s)."""
-    code, doc = _run_building(tmp_path, 14, 6)
+    code, doc = building_14x6
     _check(code, doc)
 
 
@@ -84,12 +91,12 @@ def test_a_reduced_first_stage_does_not_call_exact_data_inconsistent(two_groups)
 
 
 @pytest.mark.slow
-def test_a_run_above_2000_dofs_reports_what_the_data_determine(tmp_path):
+def test_a_run_above_2000_dofs_reports_what_the_data_determine(building_14x6):
     """The linearized ranges were computed up to 2,000 DOFs only: a 2,940-DOF building whose
     noisy +-1 % interval shapes allow every parameter 30 % off its truth ended "success" with
     no range at all. They are now computed at any size (0.18 s here): with exact point data
     every range is narrow and holds the truth."""
-    code, doc = _run_building(tmp_path, 14, 6)
+    code, doc = building_14x6
     assert code == 0 and doc["solver"]["status"] == "success"
     ranges = doc["identifiability"]["ranges"]
     truth = building.truth()
