@@ -64,10 +64,10 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
     """
     poles = np.asarray(poles, dtype=float)
     zeros = np.asarray(zeros, dtype=float)
-    first = int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) if len(nominal_omega) else 0
-
     def zeros_below(m: int) -> int:   # the nominal model's zeros below its mode m
-        return first + m - 1 if driving else int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
+        if not driving:
+            return int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
+        return int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) + m - 1
 
     out = []
     for i, z in enumerate(zeros):

@@ -308,7 +308,9 @@ def _predicted(configurations, xbar, verification: VerifyOptions) -> tuple[float
     lo, hi = configurations[0].model.bounds()
     ok = np.all(np.isfinite(J), axis=1) & np.isfinite(r)
     step = lsq_linear(J[ok], -r[ok], bounds=(np.minimum(lo - xbar, 0.0), np.maximum(hi - xbar, 0.0))).x
-    return 0.5 * float(r @ r), 0.5 * float(np.sum(np.where(ok, r + np.where(ok[:, None], J, 0.0) @ step, r) ** 2))
+    after = r.copy()
+    after[ok] += J[ok] @ step   # rows without derivatives keep their value
+    return 0.5 * float(r @ r), 0.5 * float(after @ after)
 
 
 def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,

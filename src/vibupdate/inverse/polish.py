@@ -340,8 +340,8 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     contract = contract or Admissible.of(configurations)
     # the start's objective, and where the full-model least squares starts right here, its data
     # maps with their Jacobians: the soft start's residual comes from the same eigen-solve
-    maps0: list | None = [] if not _in_rounds(configurations, options) and np.array_equal(inside(x0, lo, hi), x0) \
-        else None
+    reuse = not _in_rounds(configurations, options) and np.array_equal(inside(x0, lo, hi), x0)
+    maps0: list | None = [] if reuse else None
     r0, _ = evaluate(configurations, contract, x0, jacobian=maps0 is not None, maps=maps0)
     cost0 = 0.5 * float(r0 @ r0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}
