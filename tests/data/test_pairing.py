@@ -69,3 +69,39 @@ def test_driving_points_of_random_asymmetric_chains_keep_their_true_indices(n_ma
             if got != true_index:
                 wrong.append((point, got, true_index))
     assert not wrong, wrong[:3]
+
+
+def test_driving_points_of_free_free_chains_count_the_zero_below_the_first_mode():
+    """Another boundary condition: free-free chains (a rigid-body mode, so one zero lies below
+    the first flexible mode) of 3, 5 and 7 masses, their middle mass on a node of the symmetric
+    nominal model's first flexible mode; 6 random truths, every point: the true indices."""
+    from vibupdate.modal.analysis import flexible_modes
+
+    def free_chain(n):
+        def build(p):
+            asm = Assembly("beam")
+            for i in range(1, n + 1):
+                asm.node(i, float(i))
+                asm.fix(f"phi{i}")
+                asm.mass(f"y{i}", 1.0)
+            for i in range(1, n):
+                asm.spring(f"y{i}", p.get(f"k{i}", 1000.0), f"y{i + 1}")
+            return asm.system()
+
+        return from_builder(build, [Parameter(f"k{i}", 1000.0, 700.0, 1300.0) for i in range(1, n)])
+
+    rng = np.random.default_rng(1)
+    wrong = []
+    for n in (3, 5, 7):
+        model = free_chain(n)
+        for _ in range(6):
+            M, K = model.matrices_at(rng.uniform(700.0, 1300.0, n - 1))
+            omega = flexible_modes(M, K, n - 1)[0]
+            for point in (f"y{i}" for i in range(1, n + 1)):
+                zeros = antiresonances(M, K, model.dof(point), model.dof(point))
+                cfg = Configuration("free", model, tuple(NaturalFrequency(w) for w in omega),
+                                    tuple(Antiresonance(z, point, point) for z in zeros))
+                got = [a.index for a in declare(cfg)[1]]
+                if got != list(range(1, zeros.size + 1)):
+                    wrong.append((n, point, got))
+    assert not wrong, wrong[:3]
