@@ -1,8 +1,8 @@
 """Known-truth acceptance over many problems of every family: what fails today, by class.
 
 Run: ``PYTHONPATH=src python benchmarks/acceptance.py --profile ci|dev|full|held-out
-[--family NAME ...] [--cases N] [--workers 1] [--routes cli api] [--json FILE]`` (``--cases``: the
-first N seeds of each family of the profile), or, for the random family alone, ``--cases 500
+[--family NAME ...] [--cases N] [--skip K] [--workers 1] [--routes cli api] [--json FILE]`` (``--cases``: the
+first N seeds of each family of the profile; ``--skip K`` leaves out the first K), or, for the random family alone, ``--cases 500
 [--seed 0] [--named]``.
 
 A profile (`acceptance.criteria.PROFILES`) is a set of seeds per family: ``ci`` the test suite's,
@@ -124,6 +124,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cases", type=int, default=None, help="random problems seed .. seed + cases - 1; with "
                         "--profile, the first CASES seeds of each family")
     parser.add_argument("--seed", type=int, default=0, help="first seed (with --cases)")
+    parser.add_argument("--skip", type=int, default=0, help="with --profile, leave out the first SKIP seeds of "
+                        "each family (with --cases N: seeds SKIP+1 .. N of each family)")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--routes", nargs="+", default=["cli", "api"], choices=["cli", "api"])
     parser.add_argument("--named", action="store_true", help="also the named problems (with --cases)")
@@ -133,10 +135,11 @@ def main(argv=None) -> int:
 
     routes = tuple(args.routes)
     if args.profile is not None:
-        seeds = {f: list(s)[:args.cases] for f, s in C.PROFILES[args.profile].items()}
+        seeds = {f: list(s)[args.skip:args.cases] for f, s in C.PROFILES[args.profile].items()}
         jobs = [(f, s, routes) for f, s in C.profile_jobs(args.profile)
                 if (not args.family or f in args.family) and s in seeds[f]]
-        title = f"profile {args.profile}" + (f", first {args.cases} seeds of each family" if args.cases else "")
+        title = f"profile {args.profile}" + (f", seeds {args.skip + 1} to {args.cases or 'last'} of each family"
+                                             if args.cases or args.skip else "")
     else:
         cases = 500 if args.cases is None else args.cases
         jobs = [("random", s, routes) for s in range(args.seed, args.seed + cases)]
