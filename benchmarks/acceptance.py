@@ -1,9 +1,9 @@
 """Known-truth acceptance over many problems of every family: what fails today, by class.
 
 Run: ``PYTHONPATH=src python benchmarks/acceptance.py --profile ci|dev|full|held-out
-[--family NAME ...] [--cases N] [--skip K] [--workers 1] [--routes cli api] [--json FILE]`` (``--cases``: the
-first N seeds of each family of the profile; ``--skip K`` leaves out the first K), or, for the random family alone, ``--cases 500
-[--seed 0] [--named]``.
+[--family NAME ...] [--cases N] [--skip K] [--workers 1] [--routes cli api] [--json FILE]``
+(``--cases``: the first N seeds of each family of the profile; ``--skip K`` leaves out the first
+K), or, for the random family alone, ``--cases 500 [--seed 0] [--named]``.
 
 A profile (`acceptance.criteria.PROFILES`) is a set of seeds per family: ``ci`` the test suite's,
 ``dev`` the development profile, ``full`` over 2,000 runs, ``held-out`` seeds kept out of
