@@ -88,7 +88,7 @@ def coarse_mesh(seed: int) -> Problem:
                    receptances=[(names[f"y{n_el}"],) * 2] if kind == "P4" else None, avoid_poles=True)
     back = {v: k for k, v in names.items()}
     return Problem(f"coarse{seed}", spec, tuple(params), truth, (_rename(data, back),), noise, 0.0, seed,
-                   family="coarse_mesh", in_family=False, note="8x finer mesh's data")
+                   family="coarse_mesh", in_family=False, compromise=True, note="8x finer mesh's data")
 
 
 def root_spring(seed: int) -> Problem:
@@ -107,7 +107,8 @@ def root_spring(seed: int) -> Problem:
     data = measure(actual, params, truth, kind=kind, rng=rng, noise=noise, shape_noise=noise,
                    n_modes=int(rng.integers(3, 5)), sensors=sensors)
     return Problem(f"root{seed}", spec, tuple(params), truth, (data,), noise, noise if kind == "P1" else 0.0, seed,
-                   family="root_spring", in_family=False, note=f"unmodelled root spring {kr:.4g} N m/rad")
+                   family="root_spring", in_family=False, compromise=True,
+                   note=f"unmodelled root spring {kr:.4g} N m/rad")
 
 
 def sensor_masses(seed: int) -> Problem:
@@ -133,7 +134,7 @@ def sensor_masses(seed: int) -> Problem:
     data = measure(actual, params, truth, kind="P1", rng=rng, noise=noise, shape_noise=noise,
                    n_modes=int(rng.integers(3, 5)), sensors=sensors)
     return Problem(f"sensors{seed}", spec, tuple(params), truth, (data,), noise, noise, seed, family="sensor_masses",
-                   in_family=False, note="unmodelled sensor masses")
+                   in_family=False, compromise=True, note="unmodelled sensor masses")
 
 
 

@@ -253,6 +253,11 @@ def test_each_budget_of_a_family_can_fail_on_its_own():
     assert _failed(_verdicts("coarse_mesh", ["not_verified"] * 5, extra=["worse_than_nominal"])) == {
         "answers worse than nominal"}
     assert _failed(_verdicts("random", ["success"] * 10, extra=["outside"])) == {"defect outside"}
+    near = _verdicts("root_spring", ["not_verified"] * 3)
+    for v, answer in zip(near, (50.0, 54.9, 56.0)):
+        v.compromise = {"misfit": answer, "compromise_misfit": 50.0, "distance_pct": 1.0, "time_ratio": 1.0}
+    assert _failed(near[:2]) == set()
+    assert _failed(near) == {"answers over 10% above the compromise's misfit"}
     right = _verdicts("biased_channel", ["not_verified"] * 4, diagnosis=("A/dof/y2",), expected="A/dof/y2")
     wrong = _verdicts("biased_channel", ["not_verified"] * 4, diagnosis=("A/natural/1",), expected="A/dof/y2")
     assert not _failed(right) and _failed(wrong) == {"wrong group ranked first (share right)"}
