@@ -1,7 +1,8 @@
 """Known-truth acceptance over many problems of every family: what fails today, by class.
 
 Run: ``PYTHONPATH=src python benchmarks/acceptance.py --profile ci|dev|full|held-out
-[--family NAME ...] [--cases N] [--skip K] [--workers 1] [--routes cli api] [--json FILE]``
+[--family NAME ...] [--cases N] [--skip K] [--workers 1] [--routes cli api] [--json FILE]
+[--compromise]``
 (``--cases``: the first N seeds of each family of the profile; ``--skip K`` leaves out the first
 K), or, for the random family alone, ``--cases 500 [--seed 0] [--named]``.
 
@@ -36,13 +37,17 @@ COLUMNS = ("runs", "success %", "not_verified %", "path failed %", "crash", "ref
 
 
 def _one(args) -> list[dict]:
-    family, index, routes = args
+    family, index, routes, *compromise = args
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from acceptance import criteria as C
     from acceptance import runner as R
 
     try:
         problem = C.FAMILIES[family].make(index)
+        if compromise and compromise[0]:
+            from dataclasses import replace
+
+            problem = replace(problem, compromise=True)
     except Exception as exc:   # a generator failure is reported, not hidden
         return [{"case": f"{family}{index}", "route": "engine", "family": family, "status": "engine_error",
                  "exit_code": None, "seconds": 0.0, "failures": ["engine_error"], "excused": [],
@@ -130,20 +135,22 @@ def main(argv=None) -> int:
     parser.add_argument("--routes", nargs="+", default=["cli", "api"], choices=["cli", "api"])
     parser.add_argument("--named", action="store_true", help="also the named problems (with --cases)")
     parser.add_argument("--json", default=None, help="write every verdict to this file")
+    parser.add_argument("--compromise", action="store_true", help="the judge's least-squares compromise on every "
+                        "problem (each run's time and misfit against it, per family), not only where a family asks")
     args = parser.parse_args(argv)
     from acceptance import criteria as C
 
     routes = tuple(args.routes)
     if args.profile is not None:
         seeds = {f: list(s)[args.skip:args.cases] for f, s in C.PROFILES[args.profile].items()}
-        jobs = [(f, s, routes) for f, s in C.profile_jobs(args.profile)
+        jobs = [(f, s, routes, args.compromise) for f, s in C.profile_jobs(args.profile)
                 if (not args.family or f in args.family) and s in seeds[f]]
         title = f"profile {args.profile}" + (f", seeds {args.skip + 1} to {args.cases or 'last'} of each family"
                                              if args.cases or args.skip else "")
     else:
         cases = 500 if args.cases is None else args.cases
-        jobs = [("random", s, routes) for s in range(args.seed, args.seed + cases)]
-        jobs += [("named", i, routes) for i in range(9)] if args.named else []
+        jobs = [("random", s, routes, args.compromise) for s in range(args.seed, args.seed + cases)]
+        jobs += [("named", i, routes, args.compromise) for i in range(9)] if args.named else []
         title = f"random seeds {args.seed}..{args.seed + cases - 1}" + (", named" if args.named else "")
     start = time.perf_counter()
     results = []
