@@ -41,11 +41,12 @@ class _BadInput(Exception):
     """Bad input found outside the library's own ValueErrors (user code of a builder)."""
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="vibupdate", description="Model updating of vibrating systems.")
-    parser.add_argument("--version", action="version", version=f"vibupdate {__version__}")
-    parser.add_argument("--debug", action="store_true", help="print the traceback of an internal error")
-    sub = parser.add_subparsers(dest="command", required=True)
+def parser() -> argparse.ArgumentParser:
+    """The command line's parser: every command and option (``docs/cli.md``)."""
+    top = argparse.ArgumentParser(prog="vibupdate", description="Model updating of vibrating systems.")
+    top.add_argument("--version", action="version", version=f"vibupdate {__version__}")
+    top.add_argument("--debug", action="store_true", help="print the traceback of an internal error")
+    sub = top.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a case file (both stages) and write DIR")
     run.add_argument("case", help="case file (TOML), see docs/case-file.md")
     run.add_argument("--out", default=None, help="output folder (default: ./CASE-results)")
@@ -158,7 +159,7 @@ def _parser() -> argparse.ArgumentParser:
     # --debug is accepted after the subcommand too.
     for p in (run, check, ex, fx, sweep, batch, imp, sg):
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
-    return parser
+    return top
 
 
 def _say(line: str) -> None:
@@ -184,7 +185,7 @@ def _sweep(args) -> int:
                         scheduler=args.scheduler, resume=args.resume, force=args.force, progress=_say)
     if args.multistart:
         from vibupdate.study.multistart import multistart
-        from vibupdate.study.sweep import write_multistart
+        from vibupdate.study.sweep_files import write_multistart
 
         result = multistart(case, args.multistart, seed=args.seed, workers=args.workers, scheduler=args.scheduler,
                             progress=_say)
@@ -338,11 +339,11 @@ def _fe_example(args) -> int:
         print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
         imp, run = fe.commands(out)
         print("$ vibupdate " + " ".join(imp))
-        _import(_parser().parse_args(imp))
+        _import(parser().parse_args(imp))
         print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
         run += _run_options(args)
         print("$ vibupdate " + " ".join(run))
-        code = _command(_parser().parse_args(run))
+        code = _command(parser().parse_args(run))
     if (Path(out) / "results" / "results.json").is_file():
         print()
         print("\n".join(fe.truth_lines(out)))
@@ -398,7 +399,7 @@ def _bar_example(args) -> int:
         codes = []
         for command in bar.commands(out):
             print("$ vibupdate " + " ".join(command))
-            codes.append(_command(_parser().parse_args(command)))
+            codes.append(_command(parser().parse_args(command)))
     print()
     print("\n".join(bar.truth_lines(out)))
     # the example did what it shows when the run with E alone is not verified and the others succeed
@@ -561,7 +562,7 @@ def main(argv=None) -> int:
     reading or its output cannot be written (`_ReaderGone`)."""
     if argv is None:
         _guard_streams()
-    args = _parser().parse_args(argv)
+    args = parser().parse_args(argv)
     return _main(args)
 
 

@@ -69,7 +69,7 @@ def _identifiability(result: UpdateResult) -> dict:
             "alternatives": list(result.alternatives)}
 
 
-def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
+def damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
     """The second stage at ``xbar``; ``freqs``: the configurations' modal data there when
     already computed (``UpdateResult.correlation``)."""
     options = case.damping or DampingOptions()
@@ -109,7 +109,7 @@ def _damping_half_widths(case: Case, labels) -> np.ndarray | None:
     return np.array(half)
 
 
-def _frequency_windows(case: Case) -> str:
+def frequency_windows(case: Case) -> str:
     """How the consistent ranges bound each frequency: the text of the report."""
     data = [d for c in case.configurations for d in (*c.natural, *c.antiresonances)]
     n = sum(d.interval is not None for d in data)
@@ -220,7 +220,7 @@ def _write_matrices(folder: Path, part: str, matrices, files: dict | None, run: 
         else:
             matrix = getattr(matrices, name)
             what = f"{run.status.value} updated model"
-        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix), **_symmetry(matrix),
+        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix), **mm_symmetry(matrix),
                          comment=f"vibupdate: {name} of configuration {part}, {what} (SI units)")
 
 
@@ -229,7 +229,7 @@ def _write_matrices(folder: Path, part: str, matrices, files: dict | None, run: 
 MM_SYMMETRY_ROWS = 100
 
 
-def _symmetry(matrix) -> dict:
+def mm_symmetry(matrix) -> dict:
     """Keywords of `scipy.io.mmwrite` for ``matrix``: ``symmetry="symmetric"`` for a small matrix
     equal to its transpose entry by entry, which is what scipy's default finds there (only the
     lower triangle is written); otherwise none (scipy's own choice, as before)."""
@@ -360,7 +360,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     diagnosis, diagnosis_notes = _diagnosis(case, result, verification, say,
                                             verification.diagnose if diagnose is None else diagnose)
     suggestion, suggestion_notes = _suggestion(case, result, verification, say)
-    stage, notes, info = _damping_stage(case, result.xbar, say, result.correlation.updated)
+    stage, notes, info = damping_stage(case, result.xbar, say, result.correlation.updated)
     notes = list(checked.warnings) + notes + diagnosis_notes + suggestion_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
@@ -375,7 +375,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
                                   freqs=result.correlation.updated, valley=result.valley)
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
-        identifiability["frequency_windows"] = _frequency_windows(case)
+        identifiability["frequency_windows"] = frequency_windows(case)
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     extra, answers = None, ()
     if study is not None:

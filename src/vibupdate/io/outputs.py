@@ -62,8 +62,6 @@ from vibupdate.io.manifests import (
     manifest_files,
     manifest_name,
     ownership,
-    read_manifest,
-    read_manifests,
     recorded_hashes,
     write_manifest,
 )

@@ -20,6 +20,16 @@ from collections.abc import Callable, Iterator
 from vibupdate._extras import require
 
 
+def case_digest(case) -> str:
+    """Content hash of an in-memory case (its data, model matrices and options): the key under
+    which workers cache what they build from it."""
+    import hashlib
+    import pickle
+
+    blob = pickle.dumps((case.configurations, case.formulation, case.solver, case.damping, case.frequency_tolerance))
+    return hashlib.sha256(blob).hexdigest()
+
+
 def default_workers() -> int:
     """One worker per core available to this process."""
     try:

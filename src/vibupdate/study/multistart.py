@@ -13,8 +13,6 @@ compiled CasADi solver once (cached by the case's content hash) and reuses them.
 
 from __future__ import annotations
 
-import hashlib
-import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -65,10 +63,6 @@ class MultistartResult:
                 "minima": [{"objective": m.objective, "starts": m.starts,
                             "values": {p.name: float(v) for p, v in zip(parameters, m.values)}}
                            for m in self.minima]}
-
-
-def _digest(case: Case) -> str:
-    return hashlib.sha256(pickle.dumps((case.configurations, case.formulation, case.solver))).hexdigest()
 
 
 def _solver(case: Case, digest: str):
@@ -174,14 +168,14 @@ def multistart(case: Case, starts: int, *, seed: int = 0, x_tol: float = 1e-3, w
     require("study", "running on Dask")
     from distributed import as_completed
 
-    from vibupdate.study.engine import Progress, open_client
+    from vibupdate.study.engine import Progress, case_digest, open_client
 
     say = progress or (lambda message: None)
     if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
         raise ValueError(f"the number of starts must be an integer >= 1, got {starts!r}")
     if not x_tol > 0:
         raise ValueError(f"x_tol must be > 0, got {x_tol!r}")
-    digest = _digest(case)
+    digest = case_digest(case)
     answers = []
     with open_client(workers, scheduler, client=client) as c:
         [payload] = c.scatter([case], broadcast=True, hash=False)
