@@ -50,30 +50,27 @@ def parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a case file (both stages) and write DIR")
     run.add_argument("case", help="case file (TOML), see docs/case-file.md")
     run.add_argument("--out", default=None, help="output folder (default: ./CASE-results)")
-    run.add_argument("--certify", type=float, default=None, metavar="SECONDS",
-                     help="also compute certified outer parameter ranges within this time budget (needs the "
-                          "extra [certify])")
-    run.add_argument("--force", action="store_true",
-                     help="write into a folder that holds other files or another case's results (only this "
-                          "command's own files, unchanged since written, are replaced or removed; every other file "
-                          "is kept and named)")
-    run.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None,
-                     help="when the answer does not fit the data, do not rank which data conflict (the case's "
-                          "[verification] diagnose, default true)")
     check = sub.add_parser("check", help="validate a case file and print the problem size")
     check.add_argument("case", help="case file (TOML), see docs/case-file.md")
     ex = sub.add_parser("example", help="run a bundled example")
     ex.add_argument("name", nargs="?", help="example name (see --list)")
     ex.add_argument("--list", action="store_true", help="list the bundled examples")
     ex.add_argument("--out", default=None, help="output folder (default: ./NAME-results)")
-    ex.add_argument("--force", action="store_true", help="as for run")
-    ex.add_argument("--certify", type=float, default=None, metavar="SECONDS", help="as for run")
-    ex.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None, help="as for run")
     imp = sub.add_parser("import", help="read an FE code's export set and write the model of a case file "
                                         "(docs/fe-models.md)")
     imp.add_argument("spec", help="import file (TOML): the code, the nominal export and one per parameter")
     imp.add_argument("--out", required=True, help="new folder for model.toml and the matrix files")
     for p in (run, ex):
+        p.add_argument("--certify", type=float, default=None, metavar="SECONDS",
+                       help="also compute certified outer parameter ranges within this time budget (needs the "
+                            "extra [certify])")
+        p.add_argument("--force", action="store_true",
+                       help="write into a folder that holds other files or another case's results (only this "
+                            "command's own files, unchanged since written, are replaced or removed; every other "
+                            "file is kept and named)")
+        p.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None,
+                       help="when the answer does not fit the data, do not rank which data conflict (the case's "
+                            "[verification] diagnose, default true)")
         p.add_argument("--samples", type=int, default=None, metavar="N",
                        help="also update N data sets drawn inside the measured intervals on Dask and report the "
                             "sampled ranges beside the linearized (and certified) ones (needs the extra [study])")
@@ -167,8 +164,6 @@ def _say(line: str) -> None:
 
 
 def _sweep(args) -> int:
-    from pathlib import Path
-
     from vibupdate.io.case import load_case
     from vibupdate.io.outputs import safe_name
     from vibupdate.report.numbers import fmt
@@ -221,20 +216,25 @@ def _batch(args) -> int:
     return EXIT["success"] if all(r["status"] in ("success", "acceptable") for r in rows) else EXIT["not_verified"]
 
 
-def _finish(run) -> int:
+def _finished(run, out) -> int:
+    """The tables of a run whose results are in ``out`` and its exit code; Ctrl-C while they
+    print keeps the results."""
     from vibupdate.inverse.status import Status
     from vibupdate.report.document import terminal_text
 
-    print()
-    print(terminal_text(run))
-    if not run.success:
+    try:
+        print()
+        print(terminal_text(run))
+        if run.success:
+            return EXIT["success"]
         if run.status == Status.NOT_VERIFIED:
             print(f"vibupdate: {run.solver.message}; see the warnings above and the report", file=sys.stderr)
         else:
             print(f"vibupdate: updating failed: {run.solver.message}; results written with the status",
                   file=sys.stderr)
         return EXIT["not_verified"]
-    return EXIT["success"]
+    except KeyboardInterrupt:
+        raise Interrupted(f"the results were written to {out}/ before it") from None
 
 
 def _load(path):
@@ -293,14 +293,6 @@ def _command(args) -> int:
     out = args.out or f"{safe_name(case.name)}-results"
     return _finished(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
                               diagnose=args.diagnose), out)
-
-
-def _finished(run, out) -> int:
-    """`_finish` of a run whose results are in ``out``: Ctrl-C while its tables print keeps them."""
-    try:
-        return _finish(run)
-    except KeyboardInterrupt:
-        raise Interrupted(f"the results were written to {out}/ before it") from None
 
 
 def _suggest(args, case) -> int:

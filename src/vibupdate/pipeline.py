@@ -128,31 +128,6 @@ def planned_files(case: Case) -> list[str]:
     return names
 
 
-def _damping_labels(nominal, updated) -> tuple[str, str]:
-    """How the nominal and the updated model of an FRF plot are damped (``(M, K, C)`` each)."""
-    return ("identified damping applied" if nominal[2] is not None else "undamped",
-            "with the identified Caughey damping" if updated[2] is not None else "undamped")
-
-
-def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> None:
-    """``frf_NAME.png`` of a configuration whose data came from FRF files: the measured
-    receptances over the nominal and updated model receptances."""
-    from vibupdate.report.plots import plot_measured_frf
-
-    nominal_damping, damped = _damping_labels(nominal, updated)
-    title = f"configuration {cfg.name}: measured and model receptances (m/N)"
-    plot_measured_frf(path, frfs, cfg.model.dofs, nominal, updated, title,
-                      f"nominal model ({nominal_damping})", f"updated model ({damped})", cfg.model.sensors)
-
-
-def _measured_frf_caption(cfg, frfs, nominal, updated) -> str:
-    """The report's caption of `_measured_frf_plot`."""
-    nominal_damping, damped = _damping_labels(nominal, updated)
-    return (f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
-            f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model ({nominal_damping}) "
-            f"and the updated model ({damped})")
-
-
 def write_outputs(folder: Path, case: Case, run: RunResult,
                   extra: Callable[[Path], list[tuple[str, str]]] | None = None) -> RunResult:
     """Write ``results.json``, matrices, plots and ``report.md`` of ``run`` into ``folder``.
@@ -225,14 +200,14 @@ def _write_matrices(folder: Path, part: str, matrices, files: dict | None, run: 
 
 
 #: Below this many rows `scipy.io.mmwrite` finds a matrix's symmetry itself (its default), one
-#: entry at a time in Python: about half of the time of each small file.
+#: entry at a time in Python, which `mm_symmetry` spares it.
 MM_SYMMETRY_ROWS = 100
 
 
 def mm_symmetry(matrix) -> dict:
     """Keywords of `scipy.io.mmwrite` for ``matrix``: ``symmetry="symmetric"`` for a small matrix
     equal to its transpose entry by entry, which is what scipy's default finds there (only the
-    lower triangle is written); otherwise none (scipy's own choice, as before)."""
+    lower triangle is written); otherwise none (scipy's own choice)."""
     import scipy.sparse as sp
 
     A = sp.csr_matrix(matrix)
@@ -269,15 +244,21 @@ def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResul
     receptances) and the MAC plot of one with measured shapes; returns the ``(caption, file
     name)`` of those drawn (`vibupdate.io.outputs.drawn`: a failure is a warning)."""
     from vibupdate.io.outputs import drawn
-    from vibupdate.report.plots import plot_mac
+    from vibupdate.report.plots import plot_mac, plot_measured_frf
 
     images = []
     matrices = run.matrices[cfg.name]
     file = f"frf_{part}.png"
     updated = (matrices.M, matrices.K, matrices.damping)
-    if cfg.name in case.frfs:
-        if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices.nominal, updated):
-            images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices.nominal, updated), file))
+    frfs = case.frfs.get(cfg.name)
+    # the case has no nominal damping model: the nominal FRF is drawn undamped
+    damped = "with the identified Caughey damping" if updated[2] is not None else "undamped"
+    if frfs is not None and drawn(folder / file, plot_measured_frf, frfs, cfg.model.dofs, matrices.nominal, updated,
+                                  f"configuration {cfg.name}: measured and model receptances (m/N)",
+                                  "nominal model (undamped)", f"updated model ({damped})", cfg.model.sensors):
+        images.append((f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
+                       f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model (undamped) "
+                       f"and the updated model ({damped})", file))
     mac = run.mac_matrix.get(cfg.name)
     if mac is not None:
         file = f"mac_{part}.png"
@@ -330,15 +311,11 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     which data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
     ``[verification] diagnose``.
     """
-    if certify is not None and not certify >= 0:
-        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
-    return _run_case(case, out_dir, progress or (lambda message: None), paper, force, certify, study, diagnose)
-
-
-def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) -> RunResult:
-    """`run_case` with its arguments checked."""
     from vibupdate import __version__
 
+    if certify is not None and not certify >= 0:
+        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
+    say = progress or (lambda message: None)
     checked = validate_case(case)       # what check validates, before anything is touched
     for w in checked.warnings:
         say(f"warning: {w}")
