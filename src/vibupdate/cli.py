@@ -262,7 +262,8 @@ def _check_extras(args) -> None:
 
 def _command(args) -> int:
     from vibupdate.io.outputs import safe_name
-    from vibupdate.pipeline import check_case, example_names, run_case, run_example
+    from vibupdate.io.validation import validate_case
+    from vibupdate.pipeline import example_names, run_case, run_example
 
     _check_extras(args)
     if args.command in ("extract", "sweep", "batch", "import"):
@@ -282,7 +283,7 @@ def _command(args) -> int:
     if args.command == "suggest":
         return _suggest(args, case)
     if args.command == "check":
-        checked = check_case(case)
+        checked = validate_case(case)   # as `run_case` validates it before solving
         print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
         for note in checked.notes:
             print(f"model {note}")

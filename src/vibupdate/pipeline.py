@@ -27,7 +27,7 @@ from vibupdate.io.outputs import (MANIFEST, collected, file_names, kept_note, ma
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update
-from vibupdate.io.validation import CaseCheck, validate_case
+from vibupdate.io.validation import validate_case
 
 
 def example_names() -> list[str]:
@@ -48,12 +48,6 @@ def example_module(name: str):
     if name not in EXAMPLES:
         raise ValueError(f"unknown example {name!r}; bundled examples: {', '.join(example_names())}")
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")
-
-
-def check_case(case: Case) -> CaseCheck:
-    """Validate a case exactly as `run_case` does before solving (`vibupdate.io.validation`);
-    returns the problem size, notes and warnings. Raises ValueError naming file and key."""
-    return validate_case(case)
 
 
 def _identifiability(result: UpdateResult) -> dict:

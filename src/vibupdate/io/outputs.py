@@ -112,25 +112,15 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
     the file and the error is issued, and False is returned. KeyboardInterrupt is not caught.
     """
+    import sys
     import warnings
 
     path = Path(path)
-    ok, why = draw_here(path, plot, args, kwargs)
-    if not ok:
-        warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
-    return ok
-
-
-def draw_here(path: Path, plot, args, kwargs) -> tuple[bool, str | None]:
-    """``plot(path, *args, **kwargs)`` in this process: ``(True, None)``, or ``(False, reason)``
-    with the partial file and the figures it opened removed (`drawn`)."""
-    import sys
-
     plt = sys.modules.get("matplotlib.pyplot")
     before = set(plt.get_fignums()) if plt is not None else set()
     try:
         plot(path, *args, **kwargs)
-        return True, None
+        return True
     except Exception as exc:  # an optional file is never worth the run: any failure is a note
         plt = sys.modules.get("matplotlib.pyplot")
         if plt is not None:
@@ -138,7 +128,9 @@ def draw_here(path: Path, plot, args, kwargs) -> tuple[bool, str | None]:
                 plt.close(number)
         if path.is_file():
             path.unlink()
-        return False, str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
+        warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
+        return False
 
 
 def safe_name(text: str, *, default: str = "case") -> str:
