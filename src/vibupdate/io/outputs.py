@@ -259,9 +259,14 @@ def _inputs_in(folder: Path, inputs: Iterable) -> set[str]:
     return names
 
 
+def first_of(items, n: int = 5, sep: str = ", ") -> str:
+    """The first ``n`` of ``items`` joined by ``sep``, and how many more there are."""
+    items = list(items)
+    return sep.join(items[:n]) + (f" and {len(items) - n} more" if len(items) > n else "")
+
+
 def _shown(names) -> str:
-    names = sorted(names)
-    return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    return first_of(sorted(names))
 
 
 def _described(names, others: dict[str, str]) -> str:

@@ -4,6 +4,7 @@ for ``vibupdate suggest`` and the section of a run's report."""
 
 from __future__ import annotations
 
+from vibupdate.io.outputs import first_of
 from vibupdate.io.records import SuggestionRecord
 from vibupdate.report.numbers import fmt
 from vibupdate.report.table import Column, Table, markdown, text
@@ -118,8 +119,4 @@ def run_section_markdown(record: SuggestionRecord | None) -> list[str]:
 
 def _untried(record: SuggestionRecord) -> str:
     """The sets left untried, named (the first 8), in brackets; empty when none is listed."""
-    sets = record.untried_sets
-    if not sets:
-        return ""
-    names = ["+".join(s) for s in sets[:8]]
-    return f" ({', '.join(names)}" + (f" and {len(sets) - 8} more" if len(sets) > 8 else "") + ")"
+    return f" ({first_of(('+'.join(s) for s in record.untried_sets), 8)})" if record.untried_sets else ""

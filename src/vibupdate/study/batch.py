@@ -138,7 +138,7 @@ def _kept(out: Path, folders: list[Path]) -> str:
     cluster is closed by then, so no run writes any more)."""
     import shutil
 
-    from vibupdate.io.outputs import is_partial
+    from vibupdate.io.outputs import first_of, is_partial
 
     for entry in out.iterdir() if out.is_dir() else ():
         if is_partial(entry.name) and entry.is_dir():
@@ -146,8 +146,7 @@ def _kept(out: Path, folders: list[Path]) -> str:
     done = [d.name for d in folders if (d / "results.json").is_file()]   # each published whole by its run
     if not done:
         return f"no case finished; nothing written in {out}/"
-    return (f"kept the results of {len(done)} of {len(folders)} case(s) in {out}/ ({', '.join(done[:5])}"
-            + (f" and {len(done) - 5} more" if len(done) > 5 else "") + "); no summary written")
+    return f"kept the results of {len(done)} of {len(folders)} case(s) in {out}/ ({first_of(done)}); no summary written"
 
 
 def _write_summary(folder: Path, rows: list[dict], fields: list[str]) -> None:
