@@ -56,19 +56,12 @@ def _folders(paths: Sequence[str], out: Path) -> list[Path]:
 
 
 def summary_markdown(rows: Sequence[dict], fields: Sequence[str]) -> str:
-    """The summary table as markdown (numbers to 6 significant digits)."""
-    from vibupdate.report.numbers import fmt
+    """The summary table as markdown (numbers to 6 significant digits), drawn as the report's
+    tables are (`vibupdate.report.table`)."""
+    from vibupdate.report.table import Column, Table, markdown
 
-    def cell(v):
-        if v is None:
-            return ""
-        if isinstance(v, float):
-            return fmt(v, ".6g")
-        return str(v).replace("|", "/")
-
-    lines = ["| " + " | ".join(fields) + " |", "|" + "---|" * len(fields)]
-    lines += ["| " + " | ".join(cell(r.get(f)) for f in fields) + " |" for r in rows]
-    return "\n".join(lines) + "\n"
+    table = Table("", tuple(Column(f, spec=".6g") for f in fields), tuple(tuple(r.get(f) for f in fields) for r in rows))
+    return "\n".join(markdown(table))
 
 
 def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler: str | None = None,
