@@ -83,9 +83,9 @@ def random_start_solve(problem, backend, rng: np.random.Generator, proximal: flo
     is ``proximal`` times the objective at ``z_t`` when ``||x - x_t|| = ||x1 - x_t||``. Where the
     minimizers form a set (an exact symmetry), the answer is then near the minimizer closest to
     the random point, instead of the one the interior-point barrier leads to (near the centre
-    of the boxes). No solve without the term follows: measured on a scale-symmetric chain, it
-    walks back to the centre. The returned objective is the exact one (no proximal term); the
-    caller judges whether it is good enough (`vibupdate.study.sweep` compares it with the homotopy's).
+    of the boxes). No solve without the term follows (it would walk back to the centre). The
+    returned objective is the exact one (no proximal term); the caller judges whether it is good
+    enough (`vibupdate.study.sweep` compares it with the homotopy's).
 
     Returns a dict with ``ok``, ``status``, ``xbar`` (list, normalized) and ``objective``.
     """
