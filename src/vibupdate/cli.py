@@ -272,6 +272,8 @@ def _command(args) -> int:
         if args.list or not args.name:
             print("\n".join(example_names()))
             return EXIT["success"]
+        if (args.name.startswith("fe-") or args.name == "bar") and args.force:
+            raise ValueError(f"example {args.name} writes into a new folder (--out); --force does not apply to it")
         if args.name.startswith("fe-"):
             return _fe_example(args)
         if args.name == "bar":
@@ -324,23 +326,24 @@ def _fe_example(args) -> int:
     from vibupdate.examples import fe
     from vibupdate.io.outputs import safe_name
 
-    if args.force:
-        raise ValueError(f"example {args.name} writes into a new folder (--out); --force does not apply to it")
     out = args.out or f"{safe_name(args.name)}-results"
     with _example_folder(out, ["results"]):
         fe.write_inputs(args.name, out)
         print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
         imp, run = fe.commands(out)
-        print("$ vibupdate " + " ".join(imp))
-        _import(parser().parse_args(imp))
+        _shown_and_run(imp)
         print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
-        run += _run_options(args)
-        print("$ vibupdate " + " ".join(run))
-        code = _command(parser().parse_args(run))
+        code = _shown_and_run(run + _run_options(args))
     if (Path(out) / "results" / "results.json").is_file():
         print()
         print("\n".join(fe.truth_lines(out)))
     return code
+
+
+def _shown_and_run(words: list[str]) -> int:
+    """Print the command line ``vibupdate WORDS`` and run it."""
+    print("$ vibupdate " + " ".join(words))
+    return _command(parser().parse_args(words))
 
 
 @contextlib.contextmanager
@@ -377,8 +380,6 @@ def _bar_example(args) -> int:
     run the extract, run, suggest and run commands it prints (`vibupdate.examples.bar`)."""
     from vibupdate.examples import bar
 
-    if args.force:
-        raise ValueError("example bar writes into a new folder (--out); --force does not apply to it")
     ignored = _run_options(args) + (["--no-diagnose"] if args.diagnose is False else [])
     if ignored:
         # its commands are the ones docs/worked-bar.md shows; run them by hand to change them
@@ -389,10 +390,7 @@ def _bar_example(args) -> int:
         bar.write_inputs(out)
         print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
               f"{out}/{bar.CASE_R} (E and r)")
-        codes = []
-        for command in bar.commands(out):
-            print("$ vibupdate " + " ".join(command))
-            codes.append(_command(parser().parse_args(command)))
+        codes = [_shown_and_run(command) for command in bar.commands(out)]
     print()
     print("\n".join(bar.truth_lines(out)))
     # the example did what it shows when the run with E alone is not verified and the others succeed
