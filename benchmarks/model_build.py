@@ -79,9 +79,9 @@ def per_element_builder(spec: dict, names):
 
     from vibupdate import Assembly
     from vibupdate.io.case_keys import Where
-    from vibupdate.io.case_model import _nodes, linear_expression
+    from vibupdate.io.case_model import element_nodes, linear_expression
 
-    nodes = _nodes(spec, Where(Path("case.toml")))
+    nodes = element_nodes(spec, Where(Path("case.toml")))
     chains = [(item["nodes"], {k: linear_expression(item[k], names) for k in ("EA", "EI", "mass_per_length")})
               for item in spec["frame"]]
 

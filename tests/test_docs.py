@@ -183,14 +183,14 @@ def test_the_python_examples_of_the_api_page_run(tmp_path, monkeypatch):
 def test_every_command_line_shown_parses(path):
     """Every ``vibupdate ...`` line of a bash block parses with the command line's own parser,
     and the case files it names exist."""
-    from vibupdate.cli import _parser
+    from vibupdate.cli import parser
 
     text = path.read_text(encoding="utf-8")
     for block in re.findall(r"```bash\n(.*?)```", text, re.S):
         for line in block.splitlines():
             if line.startswith("vibupdate "):
                 words = line.split("&&")[0].split()
-                args = _parser().parse_args(words[1:])
+                args = parser().parse_args(words[1:])
                 if getattr(args, "case", None):
                     assert (ROOT / args.case).is_file(), line
 
@@ -198,9 +198,9 @@ def test_every_command_line_shown_parses(path):
 def _cli_options() -> dict[str, set[str]]:
     import argparse
 
-    from vibupdate.cli import _parser
+    from vibupdate.cli import parser
 
-    commands = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
+    commands = next(a for a in parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
     return {name: {o for a in sub._actions if a.help != argparse.SUPPRESS for o in a.option_strings
                    if o not in ("-h", "--help")} for name, sub in commands.items()}
 

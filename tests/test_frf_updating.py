@@ -15,7 +15,7 @@ from vibupdate.damping import identify_damping
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.ranges.identifiability import parameter_ranges
-from vibupdate.pipeline import _damping_stage, _frequency_windows
+from vibupdate.pipeline import damping_stage, frequency_windows
 
 
 def _chain(truth, tol=None, damping=None, damping_half=None):
@@ -59,7 +59,7 @@ def test_damping_intervals_weigh_the_damping_fit_and_are_stated():
     xi, half = [0.010, 0.012, 0.030], [1e-4, 1e-4, 5e-3]
     _, cfg = _chain(truth, damping=xi, damping_half=half)
     case = Case("c", None, (cfg,), SolverOptions(), FormulationOptions(), DampingOptions(relative=True))
-    stage, _, info = _damping_stage(case, truth, lambda message: None)
+    stage, _, info = damping_stage(case, truth, lambda message: None)
     expected = identify_damping([cfg], truth, (0.0, 1.0), 1 / np.array(half) ** 2)
     np.testing.assert_allclose(stage.caughey.beta, expected.caughey.beta, rtol=1e-9)
     unweighted = identify_damping([cfg], truth, (0.0, 1.0), None)
@@ -72,17 +72,17 @@ def test_damping_intervals_weigh_the_damping_fit_and_are_stated():
     # one ratio without an interval: the case's weighting applies to all
     _, partial = _chain(truth, damping=xi)
     case = Case("c", None, (partial,), SolverOptions(), FormulationOptions(), None)
-    _, _, info = _damping_stage(case, truth, lambda message: None)
+    _, _, info = damping_stage(case, truth, lambda message: None)
     assert info["weights_text"].startswith("W_ii = w_mode with")
 
 
 def test_frequency_windows_text_names_the_source():
     _, cfg = _chain(np.zeros(3), tol=1e-3)
     case = Case("c", None, (cfg,), SolverOptions(), FormulationOptions(), None, frequency_tolerance=0.01)
-    assert _frequency_windows(case) == "the half-width of its measured interval (5 of 5 frequencies)"
+    assert frequency_windows(case) == "the half-width of its measured interval (5 of 5 frequencies)"
     _, plain = _chain(np.zeros(3))
     case = Case("c", None, (plain,), SolverOptions(), FormulationOptions(), None, frequency_tolerance=0.01)
-    assert _frequency_windows(case) == "1 % of each frequency"
+    assert frequency_windows(case) == "1 % of each frequency"
 
 
 @pytest.mark.slow   # four whole runs, about 26 s: in CI's second step (pytest -m slow)

@@ -373,9 +373,9 @@ FUZZED = ("run", "check", "extract", "sweep")
 
 def _options(command: str) -> list:
     """The optional arguments of a sub-command of the parser: ``(flag, nargs)``."""
-    from vibupdate.cli import _parser
+    from vibupdate.cli import parser
 
-    sub = next(a for a in _parser()._actions if a.dest == "command").choices[command]
+    sub = next(a for a in parser()._actions if a.dest == "command").choices[command]
     return [(a.option_strings[-1], a.nargs) for a in sub._actions if a.option_strings and a.dest != "help"]
 
 

@@ -74,9 +74,8 @@ def available(extra: str) -> bool:
 
 def installed(extra: str) -> bool:
     """Whether every module of ``extra`` is installed, found without importing it (a module
-    set to None in ``sys.modules`` counts as missing, as an import of it fails). Cheaper than
-    `available` (importing matplotlib costs about 0.2 s): for a run that only needs to know
-    whether to plan plots, whose drawing reports its own failure."""
+    set to None in ``sys.modules`` counts as missing, as an import of it fails): for a run that
+    only needs to know whether to plan plots, whose drawing reports its own failure."""
     for module in _extra(extra).modules:
         if module in sys.modules:
             if sys.modules[module] is None:

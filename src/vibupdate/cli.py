@@ -41,38 +41,36 @@ class _BadInput(Exception):
     """Bad input found outside the library's own ValueErrors (user code of a builder)."""
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="vibupdate", description="Model updating of vibrating systems.")
-    parser.add_argument("--version", action="version", version=f"vibupdate {__version__}")
-    parser.add_argument("--debug", action="store_true", help="print the traceback of an internal error")
-    sub = parser.add_subparsers(dest="command", required=True)
+def parser() -> argparse.ArgumentParser:
+    """The command line's parser: every command and option (``docs/cli.md``)."""
+    top = argparse.ArgumentParser(prog="vibupdate", description="Model updating of vibrating systems.")
+    top.add_argument("--version", action="version", version=f"vibupdate {__version__}")
+    top.add_argument("--debug", action="store_true", help="print the traceback of an internal error")
+    sub = top.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a case file (both stages) and write DIR")
     run.add_argument("case", help="case file (TOML), see docs/case-file.md")
     run.add_argument("--out", default=None, help="output folder (default: ./CASE-results)")
-    run.add_argument("--certify", type=float, default=None, metavar="SECONDS",
-                     help="also compute certified outer parameter ranges within this time budget (needs the "
-                          "extra [certify])")
-    run.add_argument("--force", action="store_true",
-                     help="write into a folder that holds other files or another case's results (only this "
-                          "command's own files, unchanged since written, are replaced or removed; every other file "
-                          "is kept and named)")
-    run.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None,
-                     help="when the answer does not fit the data, do not rank which data conflict (the case's "
-                          "[verification] diagnose, default true)")
     check = sub.add_parser("check", help="validate a case file and print the problem size")
     check.add_argument("case", help="case file (TOML), see docs/case-file.md")
     ex = sub.add_parser("example", help="run a bundled example")
     ex.add_argument("name", nargs="?", help="example name (see --list)")
     ex.add_argument("--list", action="store_true", help="list the bundled examples")
     ex.add_argument("--out", default=None, help="output folder (default: ./NAME-results)")
-    ex.add_argument("--force", action="store_true", help="as for run")
-    ex.add_argument("--certify", type=float, default=None, metavar="SECONDS", help="as for run")
-    ex.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None, help="as for run")
     imp = sub.add_parser("import", help="read an FE code's export set and write the model of a case file "
                                         "(docs/fe-models.md)")
     imp.add_argument("spec", help="import file (TOML): the code, the nominal export and one per parameter")
     imp.add_argument("--out", required=True, help="new folder for model.toml and the matrix files")
     for p in (run, ex):
+        p.add_argument("--certify", type=float, default=None, metavar="SECONDS",
+                       help="also compute certified outer parameter ranges within this time budget (needs the "
+                            "extra [certify])")
+        p.add_argument("--force", action="store_true",
+                       help="write into a folder that holds other files or another case's results (only this "
+                            "command's own files, unchanged since written, are replaced or removed; every other "
+                            "file is kept and named)")
+        p.add_argument("--no-diagnose", dest="diagnose", action="store_false", default=None,
+                       help="when the answer does not fit the data, do not rank which data conflict (the case's "
+                            "[verification] diagnose, default true)")
         p.add_argument("--samples", type=int, default=None, metavar="N",
                        help="also update N data sets drawn inside the measured intervals on Dask and report the "
                             "sampled ranges beside the linearized (and certified) ones (needs the extra [study])")
@@ -158,7 +156,7 @@ def _parser() -> argparse.ArgumentParser:
     # --debug is accepted after the subcommand too.
     for p in (run, check, ex, fx, sweep, batch, imp, sg):
         p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
-    return parser
+    return top
 
 
 def _say(line: str) -> None:
@@ -166,8 +164,6 @@ def _say(line: str) -> None:
 
 
 def _sweep(args) -> int:
-    from pathlib import Path
-
     from vibupdate.io.case import load_case
     from vibupdate.io.outputs import safe_name
     from vibupdate.report.numbers import fmt
@@ -184,7 +180,7 @@ def _sweep(args) -> int:
                         scheduler=args.scheduler, resume=args.resume, force=args.force, progress=_say)
     if args.multistart:
         from vibupdate.study.multistart import multistart
-        from vibupdate.study.sweep import write_multistart
+        from vibupdate.study.sweep_files import write_multistart
 
         result = multistart(case, args.multistart, seed=args.seed, workers=args.workers, scheduler=args.scheduler,
                             progress=_say)
@@ -220,20 +216,25 @@ def _batch(args) -> int:
     return EXIT["success"] if all(r["status"] in ("success", "acceptable") for r in rows) else EXIT["not_verified"]
 
 
-def _finish(run) -> int:
+def _finished(run, out) -> int:
+    """The tables of a run whose results are in ``out`` and its exit code; Ctrl-C while they
+    print keeps the results."""
     from vibupdate.inverse.status import Status
     from vibupdate.report.document import terminal_text
 
-    print()
-    print(terminal_text(run))
-    if not run.success:
+    try:
+        print()
+        print(terminal_text(run))
+        if run.success:
+            return EXIT["success"]
         if run.status == Status.NOT_VERIFIED:
             print(f"vibupdate: {run.solver.message}; see the warnings above and the report", file=sys.stderr)
         else:
             print(f"vibupdate: updating failed: {run.solver.message}; results written with the status",
                   file=sys.stderr)
         return EXIT["not_verified"]
-    return EXIT["success"]
+    except KeyboardInterrupt:
+        raise Interrupted(f"the results were written to {out}/ before it") from None
 
 
 def _load(path):
@@ -261,7 +262,8 @@ def _check_extras(args) -> None:
 
 def _command(args) -> int:
     from vibupdate.io.outputs import safe_name
-    from vibupdate.pipeline import check_case, example_names, run_case, run_example
+    from vibupdate.io.validation import validate_case
+    from vibupdate.pipeline import example_names, run_case, run_example
 
     _check_extras(args)
     if args.command in ("extract", "sweep", "batch", "import"):
@@ -270,6 +272,8 @@ def _command(args) -> int:
         if args.list or not args.name:
             print("\n".join(example_names()))
             return EXIT["success"]
+        if (args.name.startswith("fe-") or args.name == "bar") and args.force:
+            raise ValueError(f"example {args.name} writes into a new folder (--out); --force does not apply to it")
         if args.name.startswith("fe-"):
             return _fe_example(args)
         if args.name == "bar":
@@ -281,7 +285,7 @@ def _command(args) -> int:
     if args.command == "suggest":
         return _suggest(args, case)
     if args.command == "check":
-        checked = check_case(case)
+        checked = validate_case(case)   # as `run_case` validates it before solving
         print(f"{args.case}: OK; case {case.name!r}, {len(case.configurations)} configuration(s)")
         for note in checked.notes:
             print(f"model {note}")
@@ -292,14 +296,6 @@ def _command(args) -> int:
     out = args.out or f"{safe_name(case.name)}-results"
     return _finished(run_case(case, out, progress=print, force=args.force, certify=args.certify, study=_study(args),
                               diagnose=args.diagnose), out)
-
-
-def _finished(run, out) -> int:
-    """`_finish` of a run whose results are in ``out``: Ctrl-C while its tables print keeps them."""
-    try:
-        return _finish(run)
-    except KeyboardInterrupt:
-        raise Interrupted(f"the results were written to {out}/ before it") from None
 
 
 def _suggest(args, case) -> int:
@@ -330,23 +326,24 @@ def _fe_example(args) -> int:
     from vibupdate.examples import fe
     from vibupdate.io.outputs import safe_name
 
-    if args.force:
-        raise ValueError(f"example {args.name} writes into a new folder (--out); --force does not apply to it")
     out = args.out or f"{safe_name(args.name)}-results"
     with _example_folder(out, ["results"]):
         fe.write_inputs(args.name, out)
         print(f"example {args.name}: wrote the export set in {out}/exports and the measured data in {out}/measured")
         imp, run = fe.commands(out)
-        print("$ vibupdate " + " ".join(imp))
-        _import(_parser().parse_args(imp))
+        _shown_and_run(imp)
         print(f"wrote {fe.write_case(args.name, out)}: the model with the measured data")
-        run += _run_options(args)
-        print("$ vibupdate " + " ".join(run))
-        code = _command(_parser().parse_args(run))
+        code = _shown_and_run(run + _run_options(args))
     if (Path(out) / "results" / "results.json").is_file():
         print()
         print("\n".join(fe.truth_lines(out)))
     return code
+
+
+def _shown_and_run(words: list[str]) -> int:
+    """Print the command line ``vibupdate WORDS`` and run it."""
+    print("$ vibupdate " + " ".join(words))
+    return _command(parser().parse_args(words))
 
 
 @contextlib.contextmanager
@@ -383,8 +380,6 @@ def _bar_example(args) -> int:
     run the extract, run, suggest and run commands it prints (`vibupdate.examples.bar`)."""
     from vibupdate.examples import bar
 
-    if args.force:
-        raise ValueError("example bar writes into a new folder (--out); --force does not apply to it")
     ignored = _run_options(args) + (["--no-diagnose"] if args.diagnose is False else [])
     if ignored:
         # its commands are the ones docs/worked-bar.md shows; run them by hand to change them
@@ -395,10 +390,7 @@ def _bar_example(args) -> int:
         bar.write_inputs(out)
         print(f"example bar: wrote the test in {out}/hammer.uff and the case files {out}/{bar.CASE} (E) and "
               f"{out}/{bar.CASE_R} (E and r)")
-        codes = []
-        for command in bar.commands(out):
-            print("$ vibupdate " + " ".join(command))
-            codes.append(_command(_parser().parse_args(command)))
+        codes = [_shown_and_run(command) for command in bar.commands(out)]
     print()
     print("\n".join(bar.truth_lines(out)))
     # the example did what it shows when the run with E alone is not verified and the others succeed
@@ -561,7 +553,7 @@ def main(argv=None) -> int:
     reading or its output cannot be written (`_ReaderGone`)."""
     if argv is None:
         _guard_streams()
-    args = _parser().parse_args(argv)
+    args = parser().parse_args(argv)
     return _main(args)
 
 

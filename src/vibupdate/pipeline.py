@@ -27,7 +27,7 @@ from vibupdate.io.outputs import (MANIFEST, collected, file_names, kept_note, ma
 from vibupdate.io.results import RunResult, run_result, write_results
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import UpdateResult, update
-from vibupdate.io.validation import CaseCheck, validate_case
+from vibupdate.io.validation import validate_case
 
 
 def example_names() -> list[str]:
@@ -50,12 +50,6 @@ def example_module(name: str):
     return importlib.import_module(f"vibupdate.examples.{EXAMPLES[name]}")
 
 
-def check_case(case: Case) -> CaseCheck:
-    """Validate a case exactly as `run_case` does before solving (`vibupdate.io.validation`);
-    returns the problem size, notes and warnings. Raises ValueError naming file and key."""
-    return validate_case(case)
-
-
 def _identifiability(result: UpdateResult) -> dict:
     from vibupdate.inverse.data_map import describe_direction
 
@@ -69,7 +63,7 @@ def _identifiability(result: UpdateResult) -> dict:
             "alternatives": list(result.alternatives)}
 
 
-def _damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
+def damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | None, list[str], dict]:
     """The second stage at ``xbar``; ``freqs``: the configurations' modal data there when
     already computed (``UpdateResult.correlation``)."""
     options = case.damping or DampingOptions()
@@ -109,7 +103,7 @@ def _damping_half_widths(case: Case, labels) -> np.ndarray | None:
     return np.array(half)
 
 
-def _frequency_windows(case: Case) -> str:
+def frequency_windows(case: Case) -> str:
     """How the consistent ranges bound each frequency: the text of the report."""
     data = [d for c in case.configurations for d in (*c.natural, *c.antiresonances)]
     n = sum(d.interval is not None for d in data)
@@ -126,31 +120,6 @@ def planned_files(case: Case) -> list[str]:
     for part in file_names([c.name for c in case.configurations]).values():
         names += matrix_files_planned(part) + [f"frf_{part}.png", f"mac_{part}.png"]
     return names
-
-
-def _damping_labels(nominal, updated) -> tuple[str, str]:
-    """How the nominal and the updated model of an FRF plot are damped (``(M, K, C)`` each)."""
-    return ("identified damping applied" if nominal[2] is not None else "undamped",
-            "with the identified Caughey damping" if updated[2] is not None else "undamped")
-
-
-def _measured_frf_plot(path: Path, cfg, frfs, nominal, updated) -> None:
-    """``frf_NAME.png`` of a configuration whose data came from FRF files: the measured
-    receptances over the nominal and updated model receptances."""
-    from vibupdate.report.plots import plot_measured_frf
-
-    nominal_damping, damped = _damping_labels(nominal, updated)
-    title = f"configuration {cfg.name}: measured and model receptances (m/N)"
-    plot_measured_frf(path, frfs, cfg.model.dofs, nominal, updated, title,
-                      f"nominal model ({nominal_damping})", f"updated model ({damped})", cfg.model.sensors)
-
-
-def _measured_frf_caption(cfg, frfs, nominal, updated) -> str:
-    """The report's caption of `_measured_frf_plot`."""
-    nominal_damping, damped = _damping_labels(nominal, updated)
-    return (f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
-            f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model ({nominal_damping}) "
-            f"and the updated model ({damped})")
 
 
 def write_outputs(folder: Path, case: Case, run: RunResult,
@@ -220,19 +189,19 @@ def _write_matrices(folder: Path, part: str, matrices, files: dict | None, run: 
         else:
             matrix = getattr(matrices, name)
             what = f"{run.status.value} updated model"
-        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix), **_symmetry(matrix),
+        scipy.io.mmwrite(str(folder / file), sp.coo_matrix(matrix), **mm_symmetry(matrix),
                          comment=f"vibupdate: {name} of configuration {part}, {what} (SI units)")
 
 
 #: Below this many rows `scipy.io.mmwrite` finds a matrix's symmetry itself (its default), one
-#: entry at a time in Python: about half of the time of each small file.
+#: entry at a time in Python, which `mm_symmetry` spares it.
 MM_SYMMETRY_ROWS = 100
 
 
-def _symmetry(matrix) -> dict:
+def mm_symmetry(matrix) -> dict:
     """Keywords of `scipy.io.mmwrite` for ``matrix``: ``symmetry="symmetric"`` for a small matrix
     equal to its transpose entry by entry, which is what scipy's default finds there (only the
-    lower triangle is written); otherwise none (scipy's own choice, as before)."""
+    lower triangle is written); otherwise none (scipy's own choice)."""
     import scipy.sparse as sp
 
     A = sp.csr_matrix(matrix)
@@ -269,15 +238,21 @@ def _configuration_plots(folder: Path, case: Case, cfg, part: str, run: RunResul
     receptances) and the MAC plot of one with measured shapes; returns the ``(caption, file
     name)`` of those drawn (`vibupdate.io.outputs.drawn`: a failure is a warning)."""
     from vibupdate.io.outputs import drawn
-    from vibupdate.report.plots import plot_mac
+    from vibupdate.report.plots import plot_mac, plot_measured_frf
 
     images = []
     matrices = run.matrices[cfg.name]
     file = f"frf_{part}.png"
     updated = (matrices.M, matrices.K, matrices.damping)
-    if cfg.name in case.frfs:
-        if drawn(folder / file, _measured_frf_plot, cfg, case.frfs[cfg.name], matrices.nominal, updated):
-            images.append((_measured_frf_caption(cfg, case.frfs[cfg.name], matrices.nominal, updated), file))
+    frfs = case.frfs.get(cfg.name)
+    # the case has no nominal damping model: the nominal FRF is drawn undamped
+    damped = "with the identified Caughey damping" if updated[2] is not None else "undamped"
+    if frfs is not None and drawn(folder / file, plot_measured_frf, frfs, cfg.model.dofs, matrices.nominal, updated,
+                                  f"configuration {cfg.name}: measured and model receptances (m/N)",
+                                  "nominal model (undamped)", f"updated model ({damped})", cfg.model.sensors):
+        images.append((f"FRFs of configuration {cfg.name}: measured receptance (m/N, mean of the repeats, "
+                       f"{frfs.freq_hz[0]:.4g}-{frfs.freq_hz[-1]:.4g} Hz) against the nominal model (undamped) "
+                       f"and the updated model ({damped})", file))
     mac = run.mac_matrix.get(cfg.name)
     if mac is not None:
         file = f"mac_{part}.png"
@@ -330,15 +305,11 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     which data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
     ``[verification] diagnose``.
     """
-    if certify is not None and not certify >= 0:
-        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
-    return _run_case(case, out_dir, progress or (lambda message: None), paper, force, certify, study, diagnose)
-
-
-def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) -> RunResult:
-    """`run_case` with its arguments checked."""
     from vibupdate import __version__
 
+    if certify is not None and not certify >= 0:
+        raise ValueError(f"the certification time budget must be >= 0 seconds, got {certify!r}")
+    say = progress or (lambda message: None)
     checked = validate_case(case)       # what check validates, before anything is touched
     for w in checked.warnings:
         say(f"warning: {w}")
@@ -360,7 +331,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
     diagnosis, diagnosis_notes = _diagnosis(case, result, verification, say,
                                             verification.diagnose if diagnose is None else diagnose)
     suggestion, suggestion_notes = _suggestion(case, result, verification, say)
-    stage, notes, info = _damping_stage(case, result.xbar, say, result.correlation.updated)
+    stage, notes, info = damping_stage(case, result.xbar, say, result.correlation.updated)
     notes = list(checked.warnings) + notes + diagnosis_notes + suggestion_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
@@ -375,7 +346,7 @@ def _run_case(case: Case, out_dir, say, paper, force, certify, study, diagnose) 
                                   freqs=result.correlation.updated, valley=result.valley)
         identifiability["ranges"] = ranges.as_dict()
         identifiability["frequency_tolerance"] = case.frequency_tolerance
-        identifiability["frequency_windows"] = _frequency_windows(case)
+        identifiability["frequency_windows"] = frequency_windows(case)
         say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
     extra, answers = None, ()
     if study is not None:

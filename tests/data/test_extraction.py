@@ -337,7 +337,7 @@ def test_cli_extract_writes_json_case_files_and_plot(tmp_path, capsys):
 
 
 def test_cli_extract_writes_through_the_manifest_and_keeps_foreign_files(tmp_path, capsys):
-    from vibupdate.io.outputs import read_manifest
+    from vibupdate.io.manifests import read_manifest
 
     frfs, *_ = measured(8, repeats=2)
     uff = tmp_path / "hits.uff"

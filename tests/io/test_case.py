@@ -408,18 +408,18 @@ def test_damped_frequencies_are_made_natural_with_their_damping_ratios(tmp_path,
 
 
 def test_damped_frequencies_not_declared_are_taken_as_natural_with_a_note(tmp_path):
-    from vibupdate.pipeline import check_case
+    from vibupdate.io.validation import validate_case
 
     path, natural = _damped_chain_case(tmp_path)
     case = load_case(path)
     assert case.configurations[0].natural[0].freq_hz < natural[0] * (1 - 1e-3)     # taken as given
-    said = [w for w in check_case(case).warnings if "damping ratios make natural frequencies higher" in w]
+    said = [w for w in validate_case(case).warnings if "damping ratios make natural frequencies higher" in w]
     assert len(said) == 1 and said[0].startswith("configuration 'only': ")
     assert "frequency 1 at " in said[0] and "frequency_type = \"damped\"" in said[0]
     # stated natural: the user has said, no note; a wider interval than the shift: no note
     for statement, tolerance in (('frequency_type = "natural"\n', 0.001), ("", 0.01)):
         path, _ = _damped_chain_case(tmp_path, statement, tolerance)
-        assert not [w for w in check_case(load_case(path)).warnings if "damped" in w]
+        assert not [w for w in validate_case(load_case(path)).warnings if "damped" in w]
 
 
 @pytest.mark.parametrize("edit, message", [

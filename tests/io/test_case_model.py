@@ -10,7 +10,7 @@ import pytest
 from vibupdate import Assembly, Parameter, from_builder
 from vibupdate.io.case import load_case
 from vibupdate.io.case_keys import Where
-from vibupdate.io.case_model import _nodes, base_model, linear_expression
+from vibupdate.io.case_model import element_nodes, base_model, linear_expression
 from vibupdate.model import elements
 
 WHERE = Where(Path("case.toml"))
@@ -62,7 +62,7 @@ def reference_builder(spec, names):
 
     def build(p):
         asm = Assembly(spec["kind"])
-        for label, x, y in _nodes(spec, WHERE):
+        for label, x, y in element_nodes(spec, WHERE):
             asm.node(label, x, y)
         for item in spec.get(spec["kind"], []):
             values = {k: compile_(item[k])(p) for k in props[spec["kind"]]}

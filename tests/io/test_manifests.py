@@ -14,10 +14,9 @@ from vibupdate.io.outputs import (
     MANIFEST,
     manifest_name,
     prepare_output,
-    read_manifest,
-    read_manifests,
     write_published,
 )
+from vibupdate.io.manifests import read_manifest, read_manifests
 
 EXTRACTION = ("extraction.json", "frequencies.csv", "shapes.csv", "damping.csv", "configuration.toml")
 

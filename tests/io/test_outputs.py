@@ -13,10 +13,10 @@ from vibupdate.io.outputs import (
     MAX_NAME,
     file_names,
     prepare_output,
-    read_manifest,
     safe_name,
     write_published,
 )
+from vibupdate.io.manifests import read_manifest
 
 
 @pytest.mark.parametrize("text", ["../x", "/abs/x", "a/../../b", "..", ".hidden", "a\\b", "x" * 300, "名前/é", ""])

@@ -428,12 +428,12 @@ def test_sensors_by_position_use_the_grid_cards_or_a_node_file(small, tmp_path, 
 def test_a_sensor_name_with_a_comma_and_quotes_reads_back_from_sensors_csv(tmp_path):
     from vibupdate.io.case_keys import Where
     from vibupdate.io.case_model import read_sensors
-    from vibupdate.io.fe_import import _sensors_csv
+    from vibupdate.io.fe_import import sensors_csv
     from vibupdate.model.fe.sensors import Sensor
 
     sensors = [Sensor('roof, "north" corner', "12:y", -1.0, 0.25, np.array([0.0, -1.0, 0.0])),
                Sensor("plain", "13:x", 1.0, 0.0, np.array([1.0, 0.0, 0.0]))]
-    (tmp_path / "sensors.csv").write_text(_sensors_csv(sensors))
+    (tmp_path / "sensors.csv").write_text(sensors_csv(sensors))
     back = read_sensors(tmp_path / "sensors.csv", ["12:y", "13:x"], Where(tmp_path / "case.toml"))
     assert [r["sensor"] for r in back] == ['roof, "north" corner', "plain"]
     assert back[0]["dof"] == "12:y" and back[0]["sign"] == -1.0 and back[0]["direction"] == [0.0, -1.0, 0.0]

@@ -119,17 +119,17 @@ def test_results_json_is_written_once_when_only_the_plots_were_skipped(monkeypat
 
 @pytest.mark.parametrize("n, symmetric", [(12, True), (12, False), (120, True)])
 def test_matrix_files_are_those_scipy_writes_by_default(tmp_path, n, symmetric):
-    """The run names the symmetry of a small symmetric matrix (`pipeline._symmetry`) so that
+    """The run names the symmetry of a small symmetric matrix (`pipeline.mm_symmetry`) so that
     scipy does not look for it entry by entry; the file is the one scipy's default writes."""
     import scipy.io
     import scipy.sparse as sp
 
-    from vibupdate.pipeline import _symmetry
+    from vibupdate.pipeline import mm_symmetry
 
     rng = np.random.default_rng(n)
     A = sp.random(n, n, density=0.3, random_state=rng, format="csr") + sp.identity(n, format="csr")
     A = A + A.T if symmetric else A
-    scipy.io.mmwrite(str(tmp_path / "named.mtx"), sp.coo_matrix(A), **_symmetry(A), comment="c")
+    scipy.io.mmwrite(str(tmp_path / "named.mtx"), sp.coo_matrix(A), **mm_symmetry(A), comment="c")
     scipy.io.mmwrite(str(tmp_path / "found.mtx"), sp.coo_matrix(A), comment="c")
     assert (tmp_path / "named.mtx").read_bytes() == (tmp_path / "found.mtx").read_bytes()
-    assert bool(_symmetry(A)) == (symmetric and n < 100)
+    assert bool(mm_symmetry(A)) == (symmetric and n < 100)

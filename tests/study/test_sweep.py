@@ -421,16 +421,16 @@ def test_multistart_counts_minima_and_finds_the_truth(client, chain_file):
 
 
 def test_the_cli_page_shows_the_local_and_the_scheduler_sweep():
-    from vibupdate.cli import _parser
+    from vibupdate.cli import parser
 
     page = (Path(__file__).resolve().parents[2] / "docs" / "cli.md").read_text()
     text = "".join(re.findall(r"```bash\n(.*?)```", page, re.S))   # the command lines shown
     lines = [line.split() for line in text.splitlines() if line.startswith("vibupdate sweep ")]
-    parsed = [_parser().parse_args(words[1:]) for words in lines]
+    parsed = [parser().parse_args(words[1:]) for words in lines]
     assert any(a.scheduler is None for a in parsed)
     assert any(a.scheduler and a.scheduler.startswith("tcp://") for a in parsed)
     assert all(Path(__file__).resolve().parents[2].joinpath(a.case).is_file() for a in parsed)
-    runs = [_parser().parse_args(line.split()[1:]) for line in text.splitlines()
+    runs = [parser().parse_args(line.split()[1:]) for line in text.splitlines()
             if line.startswith("vibupdate run ") and "--samples" in line]
     assert runs and all(a.samples >= 1 and Path(__file__).resolve().parents[2].joinpath(a.case).is_file()
                         for a in runs)

@@ -76,7 +76,7 @@ def client():
 
 def test_a_sweep_whose_plot_fails_keeps_its_rows_and_says_so(client, tmp_path, monkeypatch):
     import vibupdate.report.sweep_plots as sweep_plots
-    from vibupdate.io.outputs import read_manifest
+    from vibupdate.io.manifests import read_manifest
     from vibupdate.study.sweep import run_sweep
 
     def broken(*args, **kwargs):
@@ -98,7 +98,7 @@ def test_a_sweep_whose_plot_fails_keeps_its_rows_and_says_so(client, tmp_path, m
 def test_run_with_samples_whose_plot_fails_keeps_the_run(client, tmp_path, monkeypatch):
     import vibupdate.report.sweep_plots as sweep_plots
     from vibupdate.io.case import load_case
-    from vibupdate.io.outputs import read_manifest
+    from vibupdate.io.manifests import read_manifest
     from vibupdate.io.results import load_results
     from vibupdate.pipeline import run_case
     from vibupdate.study.sampled_ranges import SampledRanges

@@ -55,7 +55,8 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
     in the extraction band (`vibupdate.data.frf.FRFSet`). With ``mass_normalized`` the shapes
     must be mass-normalized, which needs a driving-point FRF."""
     from vibupdate.data.extraction import extract
-    from vibupdate.data.frf import read_frfs
+    from vibupdate.data.frf import FRFWarning, read_frfs
+    from vibupdate.io.outputs import collected
 
     check_table(spec, FRF_KEYS, f"{key}.frf", where, required=("files",))
     for name, what in (("modes", "how many modes to keep"), ("first_mode", "the model mode of the lowest "
@@ -64,15 +65,8 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
             raise where.error(f"{key}.frf.{name}", f"must be an integer >= 1 ({what}), got {spec[name]!r}")
     if "confidence" in spec and not 0 < spec["confidence"] < 1:
         raise where.error(f"{key}.frf.confidence", f"must be between 0 and 1 (e.g. 0.95), got {spec['confidence']!r}")
-    band = spec.get("band_hz")
-    if band is not None:
-        band = tuple(2 * math.pi * b for b in numbers(band, f"{key}.frf.band_hz", where))
-    fit_band = spec.get("fit_band_hz")
-    if fit_band is not None:
-        fit_band = tuple(2 * math.pi * b for b in numbers(fit_band, f"{key}.frf.fit_band_hz", where))
-    from vibupdate.data.frf import FRFWarning
-    from vibupdate.io.outputs import collected
-
+    band, fit_band = (tuple(2 * math.pi * b for b in numbers(spec[k], f"{key}.frf.{k}", where)) if k in spec else None
+                      for k in ("band_hz", "fit_band_hz"))
     try:
         with collected(FRFWarning) as doubts:  # said with the extraction's notes
             frfs = read_frfs([base / f for f in spec["files"]], spec.get("responses"), spec.get("excitations"),

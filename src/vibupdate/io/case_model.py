@@ -88,7 +88,7 @@ def _point(values, key: str, where: Where) -> list[float]:
     return [float(v) for v in values]
 
 
-def _nodes(spec: dict, where: Where) -> list[tuple]:
+def element_nodes(spec: dict, where: Where) -> list[tuple]:
     """``(label, x, y)`` of every node of an elements model (``model.line`` then
     ``model.nodes``), coordinates in m."""
     nodes = []
@@ -128,7 +128,7 @@ def _elements_assembly(spec: dict, names, where: Where) -> Assembly:
     kind = spec["kind"]
     if kind not in ("beam", "frame"):
         raise where.error("model.kind", f"must be 'beam' or 'frame', got {kind!r}")
-    nodes = _nodes(spec, where)
+    nodes = element_nodes(spec, where)
     for support in ("clamp", "pin"):
         for i, label in enumerate(spec.get(support, []), start=1):
             _label(label, f"model.{support}[{i}]", where)

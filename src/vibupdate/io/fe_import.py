@@ -265,7 +265,7 @@ def import_model(path, out) -> ImportedModel:
                                      for k, v in imported.nominal.nodes.items()]
             (tmp / "nodes.csv").write_text("\n".join(rows) + "\n")
         if imported.sensors:
-            (tmp / "sensors.csv").write_text(_sensors_csv(imported.sensors))
+            (tmp / "sensors.csv").write_text(sensors_csv(imported.sensors))
         if out.exists():
             out.rmdir()
         tmp.rename(out)
@@ -275,7 +275,7 @@ def import_model(path, out) -> ImportedModel:
     return imported
 
 
-def _sensors_csv(sensors) -> str:
+def sensors_csv(sensors) -> str:
     """``sensors.csv``: one row per sensor, its direction to full precision (the oblique DOFs'
     directions are read back from it)."""
     import csv

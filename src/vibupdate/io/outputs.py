@@ -62,8 +62,6 @@ from vibupdate.io.manifests import (
     manifest_files,
     manifest_name,
     ownership,
-    read_manifest,
-    read_manifests,
     recorded_hashes,
     write_manifest,
 )
@@ -114,25 +112,15 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
     the file and the error is issued, and False is returned. KeyboardInterrupt is not caught.
     """
+    import sys
     import warnings
 
     path = Path(path)
-    ok, why = draw_here(path, plot, args, kwargs)
-    if not ok:
-        warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
-    return ok
-
-
-def draw_here(path: Path, plot, args, kwargs) -> tuple[bool, str | None]:
-    """``plot(path, *args, **kwargs)`` in this process: ``(True, None)``, or ``(False, reason)``
-    with the partial file and the figures it opened removed (`drawn`)."""
-    import sys
-
     plt = sys.modules.get("matplotlib.pyplot")
     before = set(plt.get_fignums()) if plt is not None else set()
     try:
         plot(path, *args, **kwargs)
-        return True, None
+        return True
     except Exception as exc:  # an optional file is never worth the run: any failure is a note
         plt = sys.modules.get("matplotlib.pyplot")
         if plt is not None:
@@ -140,7 +128,9 @@ def draw_here(path: Path, plot, args, kwargs) -> tuple[bool, str | None]:
                 plt.close(number)
         if path.is_file():
             path.unlink()
-        return False, str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"
+        warnings.warn(OutputWarning(f"{path.name} was not drawn: {why}"), stacklevel=2)
+        return False
 
 
 def safe_name(text: str, *, default: str = "case") -> str:
@@ -269,9 +259,14 @@ def _inputs_in(folder: Path, inputs: Iterable) -> set[str]:
     return names
 
 
+def first_of(items, n: int = 5, sep: str = ", ") -> str:
+    """The first ``n`` of ``items`` joined by ``sep``, and how many more there are."""
+    items = list(items)
+    return sep.join(items[:n]) + (f" and {len(items) - n} more" if len(items) > n else "")
+
+
 def _shown(names) -> str:
-    names = sorted(names)
-    return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    return first_of(sorted(names))
 
 
 def _described(names, others: dict[str, str]) -> str:

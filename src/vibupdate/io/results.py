@@ -193,7 +193,9 @@ def _declared_sensors(configurations) -> tuple[DeclaredSensor, ...]:
     return tuple(seen.values())
 
 
-def _receptance_dofs(cfg, M) -> PlottedReceptance:
+def plotted_receptance(cfg, M) -> PlottedReceptance:
+    """The receptance an FRF plot of ``cfg`` shows: its first measured one, else the driving
+    point of the DOF with the largest diagonal mass in ``M``."""
     receptances = cfg.receptances()
     if receptances:
         return PlottedReceptance(receptances[0][0], receptances[0][1])
@@ -311,7 +313,7 @@ def run_result(case, result, stage=None, *, identifiability: dict | None = None,
         if best is not None:   # every configuration: the parameters are shared, whatever data were left out
             matrices[cfg.name] = replace(matrices[cfg.name], without_worst=tuple(
                 sp.csr_matrix(A) for A in cfg.model.matrices(best.xbar)))
-        frf[cfg.name] = _receptance_dofs(cfg, matrices[cfg.name].M)
+        frf[cfg.name] = plotted_receptance(cfg, matrices[cfg.name].M)
         if any(f.shape is not None for f in cfg.natural):
             mac_matrix[cfg.name] = _mac_matrix(cfg, modal.Phi)
     section = (lambda cls, data: cls.from_dict(plain(data)) if data else None)

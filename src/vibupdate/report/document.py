@@ -8,6 +8,7 @@ infinite, huge) can stop a table or the report."""
 from __future__ import annotations
 
 from vibupdate.data.names import frequency_name, mode_name
+from vibupdate.io.outputs import first_of
 from vibupdate.io.records import Identifiability, SolverRecord
 from vibupdate.io.results import RunResult
 from vibupdate.report.suggestion import run_section_markdown
@@ -318,8 +319,7 @@ def diagnosis_markdown(results) -> list[str]:
            "DOF across all modes: a biased sensor or driving point corrupts that DOF in every mode) was left out "
            "in turn, the rest refitted from the answer (polish, the same options) and verified on the data kept "
            f"(the consistency check aside). {len(d.trials)} of {d.groups} groups screened"
-           + (f", {d.untried} left untried on the limits ({'; '.join(d.untried_groups[:8])}"
-              + (f" and {len(d.untried_groups) - 8} more" if len(d.untried_groups) > 8 else "") + ")"
+           + (f", {d.untried} left untried on the limits ({first_of(d.untried_groups, 8, '; ')})"
               if d.untried and d.untried_groups else f", {d.untried} left untried on the limits" if d.untried else "")
            + f", {fmt(d.seconds, '.1f')} s in all. With all the data: objective {fmt(d.objective, '.3g')}, "
            f"frequency error mean {fmt(d.mean_error_pct, '.3g')} %, max {fmt(d.max_error_pct, '.3g')} %. "

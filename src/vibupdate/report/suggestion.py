@@ -4,8 +4,10 @@ for ``vibupdate suggest`` and the section of a run's report."""
 
 from __future__ import annotations
 
+from vibupdate.io.outputs import first_of
 from vibupdate.io.records import SuggestionRecord
 from vibupdate.report.numbers import fmt
+from vibupdate.report.table import Column, Table, markdown, text
 
 
 #: Sets shown in the tables (every set is in the record).
@@ -33,6 +35,11 @@ HEADER = ["rank", "added", "objective", "natural max %", "antires. max %", "rank
           "ties with"]
 
 
+def _table(trials, title: str = "") -> Table:
+    """The ranked sets ``trials`` as a table (`vibupdate.report.table`), the first ranked 1."""
+    return Table(title, tuple(Column(h) for h in HEADER), tuple(_cells(k, t) for k, t in enumerate(trials, start=1)))
+
+
 def _values_lines(t) -> list[str]:
     """The values of a checked set's full update, one line each."""
     units, ranges = t.update.units, t.update.range_pct or {}
@@ -50,23 +57,14 @@ def suggestion_text(record: SuggestionRecord) -> str:
     """The terminal table of a suggestion."""
     trials = record.trials
     own = ", ".join(record.own) or "none"
-    lines = [f"Which parameters to update ({len(record.candidates)} candidates, the case's own: {own}; "
-             f"{len(trials)} sets screened, sizes {', '.join(map(str, record.sizes))}; "
-             f"{fmt(record.seconds, '.1f')} s)"]
-    widths = [4, 24, 10, 13, 14, 9, 10, 30, 0]
-    lines.append(" ".join(f"{h:<{w}}" for h, w in zip(HEADER, widths)).rstrip())
-    for k, t in enumerate(trials[:SHOWN], start=1):
-        lines.append(" ".join(f"{c:<{w}}" for c, w in zip(_cells(k, t), widths)).rstrip())
+    lines = [text(_table(trials[:SHOWN], f"Which parameters to update ({len(record.candidates)} candidates, the "
+                                         f"case's own: {own}; {len(trials)} sets screened, sizes "
+                                         f"{', '.join(map(str, record.sizes))}; {fmt(record.seconds, '.1f')} s)")),
+             record.message]
     best = _best(record)
-    lines.append(record.message)
     if best is not None:
         lines += ["  " + line for line in _values_lines(best)]
     return "\n".join(lines)
-
-
-def _table(rows: list[list[str]]) -> list[str]:
-    out = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
-    return out + ["| " + " | ".join(cell.replace("|", "/") for cell in row) + " |" for row in rows]
 
 
 def suggestion_markdown(record: SuggestionRecord, case: str) -> str:
@@ -86,7 +84,7 @@ def suggestion_markdown(record: SuggestionRecord, case: str) -> str:
         out += [f"The case's own parameters alone: objective {fmt(nominal.get('objective'), '.3g')}, natural "
                 f"frequencies within {fmt(nominal.get('natural_max_pct'), '.3g')} %, "
                 + ("passes." if nominal.get("passed") else f"fails {', '.join(nominal.get('failed') or [])}."), ""]
-    out += _table([_cells(k, t) for k, t in enumerate(trials[:SHOWN], start=1)]) + [""]
+    out += markdown(_table(trials[:SHOWN]))
     if len(trials) > SHOWN:
         out += [f"The other {len(trials) - SHOWN} sets rank lower (all in `suggestion.json`).", ""]
     out += [f"**{record.message}**", ""]
@@ -109,7 +107,7 @@ def run_section_markdown(record: SuggestionRecord | None) -> list[str]:
            f"{', '.join(map(str, record.sizes))} candidate(s) was added to the parameters, fitted from "
            "the answer (polish) and verified (the consistency check aside); screened only, not updated in full "
            f"({fmt(record.seconds, '.1f')} s).", ""]
-    out += _table([_cells(k, t) for k, t in enumerate(trials[:5], start=1)]) + [""]
+    out += markdown(_table(trials[:5]))
     passing = [t for t in trials if t.passed]
     if passing:
         out += [f"Adding {' + '.join(passing[0].candidates)} lets the data fit within their tolerances in the "
@@ -121,8 +119,4 @@ def run_section_markdown(record: SuggestionRecord | None) -> list[str]:
 
 def _untried(record: SuggestionRecord) -> str:
     """The sets left untried, named (the first 8), in brackets; empty when none is listed."""
-    sets = record.untried_sets
-    if not sets:
-        return ""
-    names = ["+".join(s) for s in sets[:8]]
-    return f" ({', '.join(names)}" + (f" and {len(sets) - 8} more" if len(sets) > 8 else "") + ")"
+    return f" ({first_of(('+'.join(s) for s in record.untried_sets), 8)})" if record.untried_sets else ""

@@ -154,24 +154,18 @@ def plot_frequency_bands(path, document: dict) -> Path:
     return _save(plt, fig, path)
 
 
-def _frf_dofs(cfg):
-    if cfg.receptances():
-        rc = cfg.receptances()[0]
-        return cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), f"h_{rc[0]},{rc[1]}"
-    M0, _ = cfg.model.matrices()
-    d = int(np.argmax(np.abs(M0.diagonal())))
-    return d, d, f"h_{cfg.model.dofs[d]},{cfg.model.dofs[d]}"
-
-
 def plot_frf_band(path, case, cfg, rows) -> Path:
     """5-50-95 % band of |h_rc| of one configuration over the verified samples (damped with
     each sample's Caughey coefficients when the case has damping data), measured marked."""
     from vibupdate.damping import caughey_damping
+    from vibupdate.io.results import plotted_receptance
     from vibupdate.report.plots import model_receptance
 
     plt = _pyplot()
     ok = _verified(rows)[:FRF_SAMPLES]
-    r, c, label = _frf_dofs(cfg)
+    plotted = plotted_receptance(cfg, cfg.model.M0)
+    r, c = cfg.model.dof(plotted.response), cfg.model.dof(plotted.excitation)
+    label = f"h_{plotted.response},{plotted.excitation}"
     measured = [f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances]
     top = 1.25 * max(measured)
     omega = np.linspace(top / FRF_POINTS, top, FRF_POINTS)

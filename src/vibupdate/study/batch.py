@@ -56,19 +56,12 @@ def _folders(paths: Sequence[str], out: Path) -> list[Path]:
 
 
 def summary_markdown(rows: Sequence[dict], fields: Sequence[str]) -> str:
-    """The summary table as markdown (numbers to 6 significant digits)."""
-    from vibupdate.report.numbers import fmt
+    """The summary table as markdown (numbers to 6 significant digits), drawn as the report's
+    tables are (`vibupdate.report.table`)."""
+    from vibupdate.report.table import Column, Table, markdown
 
-    def cell(v):
-        if v is None:
-            return ""
-        if isinstance(v, float):
-            return fmt(v, ".6g")
-        return str(v).replace("|", "/")
-
-    lines = ["| " + " | ".join(fields) + " |", "|" + "---|" * len(fields)]
-    lines += ["| " + " | ".join(cell(r.get(f)) for f in fields) + " |" for r in rows]
-    return "\n".join(lines) + "\n"
+    table = Table("", tuple(Column(f, spec=".6g") for f in fields), tuple(tuple(r.get(f) for f in fields) for r in rows))
+    return "\n".join(markdown(table))
 
 
 def run_batch(paths: Sequence, out_dir, *, workers: int | None = None, scheduler: str | None = None,
@@ -138,7 +131,7 @@ def _kept(out: Path, folders: list[Path]) -> str:
     cluster is closed by then, so no run writes any more)."""
     import shutil
 
-    from vibupdate.io.outputs import is_partial
+    from vibupdate.io.outputs import first_of, is_partial
 
     for entry in out.iterdir() if out.is_dir() else ():
         if is_partial(entry.name) and entry.is_dir():
@@ -146,8 +139,7 @@ def _kept(out: Path, folders: list[Path]) -> str:
     done = [d.name for d in folders if (d / "results.json").is_file()]   # each published whole by its run
     if not done:
         return f"no case finished; nothing written in {out}/"
-    return (f"kept the results of {len(done)} of {len(folders)} case(s) in {out}/ ({', '.join(done[:5])}"
-            + (f" and {len(done) - 5} more" if len(done) > 5 else "") + "); no summary written")
+    return f"kept the results of {len(done)} of {len(folders)} case(s) in {out}/ ({first_of(done)}); no summary written"
 
 
 def _write_summary(folder: Path, rows: list[dict], fields: list[str]) -> None:

@@ -20,6 +20,16 @@ from collections.abc import Callable, Iterator
 from vibupdate._extras import require
 
 
+def case_digest(case) -> str:
+    """Content hash of an in-memory case (its data, model matrices and options): the key under
+    which workers cache what they build from it."""
+    import hashlib
+    import pickle
+
+    blob = pickle.dumps((case.configurations, case.formulation, case.solver, case.damping, case.frequency_tolerance))
+    return hashlib.sha256(blob).hexdigest()
+
+
 def default_workers() -> int:
     """One worker per core available to this process."""
     try:
@@ -73,15 +83,10 @@ def open_client(workers: int | None = None, scheduler: str | None = None, *,
 
 @contextlib.contextmanager
 def _sigint_ignored() -> Iterator[None]:
-    """SIGINT ignored while the local cluster starts its worker processes, which inherit it.
-
-    Ctrl-C at a terminal signals the whole process group: without this, each worker process
-    would end with a traceback of its own. With it only this process is interrupted; it stops
-    waiting and closes the cluster, which ends the workers. A Python process started with
-    SIGINT ignored keeps it ignored (no KeyboardInterrupt handler is installed). A Ctrl-C during
-    the cluster's start (a second or two) is dropped. Outside the main thread (where signal
-    handlers cannot be set) nothing changes.
-    """
+    """SIGINT ignored while the local cluster starts its worker processes, which inherit it:
+    Ctrl-C at a terminal (the whole process group) then interrupts only this process, which
+    closes the cluster and so ends the workers, none with a traceback of its own. A Ctrl-C
+    during the cluster's start is dropped; outside the main thread nothing changes."""
     import signal
     import threading
 

@@ -13,8 +13,6 @@ compiled CasADi solver once (cached by the case's content hash) and reuses them.
 
 from __future__ import annotations
 
-import hashlib
-import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -67,10 +65,6 @@ class MultistartResult:
                            for m in self.minima]}
 
 
-def _digest(case: Case) -> str:
-    return hashlib.sha256(pickle.dumps((case.configurations, case.formulation, case.solver))).hexdigest()
-
-
 def _solver(case: Case, digest: str):
     if digest not in _SOLVERS:
         _SOLVERS[digest] = build_solver(case.configurations, case.formulation, case.solver)
@@ -89,9 +83,9 @@ def random_start_solve(problem, backend, rng: np.random.Generator, proximal: flo
     is ``proximal`` times the objective at ``z_t`` when ``||x - x_t|| = ||x1 - x_t||``. Where the
     minimizers form a set (an exact symmetry), the answer is then near the minimizer closest to
     the random point, instead of the one the interior-point barrier leads to (near the centre
-    of the boxes). No solve without the term follows: measured on a scale-symmetric chain, it
-    walks back to the centre. The returned objective is the exact one (no proximal term); the
-    caller judges whether it is good enough (`vibupdate.study.sweep` compares it with the homotopy's).
+    of the boxes). No solve without the term follows (it would walk back to the centre). The
+    returned objective is the exact one (no proximal term); the caller judges whether it is good
+    enough (`vibupdate.study.sweep` compares it with the homotopy's).
 
     Returns a dict with ``ok``, ``status``, ``xbar`` (list, normalized) and ``objective``.
     """
@@ -174,14 +168,14 @@ def multistart(case: Case, starts: int, *, seed: int = 0, x_tol: float = 1e-3, w
     require("study", "running on Dask")
     from distributed import as_completed
 
-    from vibupdate.study.engine import Progress, open_client
+    from vibupdate.study.engine import Progress, case_digest, open_client
 
     say = progress or (lambda message: None)
     if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
         raise ValueError(f"the number of starts must be an integer >= 1, got {starts!r}")
     if not x_tol > 0:
         raise ValueError(f"x_tol must be > 0, got {x_tol!r}")
-    digest = _digest(case)
+    digest = case_digest(case)
     answers = []
     with open_client(workers, scheduler, client=client) as c:
         [payload] = c.scatter([case], broadcast=True, hash=False)

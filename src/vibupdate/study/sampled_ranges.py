@@ -26,6 +26,7 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 from vibupdate.study.sampling import SamplingOptions
 
@@ -82,6 +83,8 @@ class SampledRanges:
     workers: int | None = None
     scheduler: str | None = None
     client: object = field(default=None, compare=False, repr=False)
+    #: Names of the files the study writes into the results folder.
+    files: ClassVar[tuple[str, ...]] = FILES
 
     def __post_init__(self):
         for name in ("samples", "starts", "seed"):
@@ -90,11 +93,6 @@ class SampledRanges:
             if isinstance(value, bool) or not isinstance(value, int) or value < least:
                 raise ValueError(f"the number of {'random starts' if name == 'starts' else name} must be an "
                                  f"integer >= {least}, got {value!r}")
-
-    @property
-    def files(self) -> tuple[str, ...]:
-        """Names of the files the study writes into the results folder."""
-        return FILES
 
     def check(self, case) -> None:
         """Raise ValueError, before any work, when the case's data cannot be sampled (a

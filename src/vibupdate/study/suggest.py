@@ -6,7 +6,6 @@ into place at the end, listed in the folder's manifest)."""
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -14,7 +13,7 @@ from vibupdate.io.case_types import Case
 from vibupdate.io.outputs import prepare_output, write_published
 from vibupdate.io.validation import validate_case
 from vibupdate.ranges.candidates import CHECKED, Suggestion, suggest_sets
-from vibupdate.io.records import SuggestionRecord
+from vibupdate.io.records import SuggestionRecord, plain
 from vibupdate.report.suggestion import suggestion_markdown
 
 
@@ -22,21 +21,10 @@ from vibupdate.report.suggestion import suggestion_markdown
 FILES = ("suggestion.json", "suggestion.md")
 
 
-def _json_safe(value):
-    """``value`` with every non-finite number as None (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def _write(folder: Path, case: Case, suggestion: Suggestion) -> None:
     from vibupdate import __version__
 
-    record = {"version": __version__, "case": case.name, **_json_safe(suggestion.record())}
+    record = {"version": __version__, "case": case.name, **plain(suggestion.record())}
     (folder / FILES[0]).write_text(json.dumps(record, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     (folder / FILES[1]).write_text(suggestion_markdown(SuggestionRecord.from_dict(record), case.name),
                                    encoding="utf-8")

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-import pickle
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -50,7 +49,7 @@ from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.data.measured import TWO_PI
 from vibupdate.data.names import mode_column, zero_column
 from vibupdate.inverse.reduction import wants_reduction
-from vibupdate.study.extent import ACCEPT_FRACTION
+from vibupdate.study.engine import case_digest
 from vibupdate.study.sampling import SamplingOptions, data_intervals, draw_configurations, positional_labels
 from vibupdate.study.sweep_files import (
     ENDS_FILE,
@@ -60,7 +59,6 @@ from vibupdate.study.sweep_files import (
     prepare_sweep_folder,
     settings_of,
     sweep_listing,
-    write_multistart,
     write_settings,
     write_summary,
 )
@@ -95,12 +93,6 @@ def case_source(path) -> CaseSource:
     except OSError as exc:
         raise ValueError(f"case file {str(path)!r} could not be read: {exc}") from None
     return CaseSource(str(path), hashlib.sha256(data).hexdigest())
-
-
-def _digest(case: Case) -> str:
-    """Content hash of an in-memory case (its data, model matrices and options)."""
-    blob = pickle.dumps((case.configurations, case.formulation, case.solver, case.damping, case.frequency_tolerance))
-    return hashlib.sha256(blob).hexdigest()
 
 
 def _resolve(case) -> Case:
@@ -163,7 +155,7 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
     index, seed : int
     sampling : SamplingOptions
     """
-    from vibupdate.pipeline import _damping_stage
+    from vibupdate.pipeline import damping_stage
     from vibupdate.inverse.update import update
 
     start, cpu = time.perf_counter(), time.process_time()
@@ -199,7 +191,7 @@ def run_sample(case, index: int, seed: int, sampling: SamplingOptions) -> dict:
                     for a, w in zip(cfg.antiresonances, freqs.antiresonances)})
     if row["outcome"] != "failed" and any(f.damping_ratio is not None for c in cfgs for f in c.natural):
         try:
-            stage, _, _ = _damping_stage(replace(case, configurations=cfgs), xbar, lambda message: None)
+            stage, _, _ = damping_stage(replace(case, configurations=cfgs), xbar, lambda message: None)
             row.update({f"beta{i}": float(b) for i, b in enumerate(stage.caughey.beta)})
         except ValueError as exc:
             row["message"] += f"; damping stage: {exc}"
@@ -243,12 +235,9 @@ def _acceptance(case: Case, cfgs, result, sampling: SamplingOptions, verificatio
 
 
 def _random_start(case: Case, cfgs, seed: int, index: int, accept) -> tuple | None:
-    """``(xbar, objective, frequencies)`` of a random-start solve of the sample (`vibupdate.study.multistart.
-    random_start_solve`) when it converged and ``accept`` (`_acceptance`) takes its answer: it
-    fits the drawn data no worse than the verified homotopy answer (every frequency's
-    relative error at most the homotopy's plus ``ACCEPT_FRACTION`` times that datum's relative
-    interval half-width) and passes the same verification; None otherwise, and the homotopy's
-    answer stands."""
+    """``(xbar, objective, frequencies)`` of a random-start solve of the sample
+    (`vibupdate.study.multistart.random_start_solve`) when it converged and ``accept``
+    (`vibupdate.study.extent.Acceptance`) takes its answer; None otherwise."""
     from vibupdate.study.multistart import build_solver, random_start_solve
     from vibupdate.study.sampling import sample_rng
 
@@ -308,7 +297,7 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
         raise ValueError(f"the seed must be an integer >= 0, got {seed!r}")
     sampling = sampling or SamplingOptions()
     if isinstance(case, Case):
-        loaded, source, digest = case, None, _digest(case)
+        loaded, source, digest = case, None, case_digest(case)
     else:
         source = case_source(case)
         loaded, digest = load_case(source.path), source.digest
