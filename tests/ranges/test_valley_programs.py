@@ -49,3 +49,25 @@ def test_points_beyond_the_end_so_far_are_checked_and_move_it(monkeypatch):
     end, counts = _follow(monkeypatch, [-0.55, -0.58, -0.59])
     assert end == pytest.approx(-0.59)
     assert counts == {"data": 4, "check": 3, "extreme": 3}
+
+
+def test_a_parameter_on_a_null_direction_gets_its_box_without_a_program(monkeypatch):
+    """Constructed: a 2-mass chain (k1, k2 within +-30 %) with its first frequency alone
+    measured: one datum, two parameters, a null direction in which both move. Both ranges are
+    their boxes, as before, and no linear program is solved for them (before: 4 programs and
+    the ends followed along the valley, then replaced by the boxes)."""
+    from helpers import chain_model
+
+    from vibupdate import Configuration, NaturalFrequency
+    from vibupdate.modal.analysis import modes
+
+    solved = []
+    real = identifiability.linprog
+    monkeypatch.setattr(identifiability, "linprog", lambda *a, **k: solved.append(1) or real(*a, **k))
+    model = chain_model(2, ["k1", "k2"])
+    omega, _ = modes(*model.matrices(np.zeros(2)), 1)
+    cfg = Configuration("c", model, (NaturalFrequency(omega[0]),))
+    found = identifiability.parameter_ranges([cfg], np.zeros(2), frequency_tolerance=0.01)
+    lo, hi = model.bounds()
+    assert np.allclose(model.normalized(found.lower), lo) and np.allclose(model.normalized(found.upper), hi)
+    assert not solved

@@ -373,11 +373,19 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                 return sol.x
         return None
 
+    # Along a direction the data do not see at all (a null direction of the Jacobian), the
+    # linear program follows the tangent line to the box, but the set of parameters that fit
+    # bends away from that line: on the known-truth acceptance problems the truth lay outside
+    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
+    # along a null direction is bounded by the box alone (and its programs are not solved).
+    _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
+    rank = numerical_rank(sv)
+    free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     A, b, n_s = program()
     box = list(zip(lo - xbar, hi - xbar))
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     bent = model.n_dofs <= VALLEY_DOFS
-    for i in range(model.n_parameters):
+    for i in np.flatnonzero(~free):
         c = np.zeros(model.n_parameters + n_s)
         c[i] = 1.0
         for sign, target in ((1.0, lower), (-1.0, upper)):
@@ -388,14 +396,6 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
             at_box = np.isclose(target[i], lo[i] if sign > 0 else hi[i], rtol=0.0, atol=1e-12)
             if bent and not at_box:
                 target[i] = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve, box)
-    # Along a direction the data do not see at all (a null direction of the Jacobian), the
-    # linear program follows the tangent line to the box, but the set of parameters that fit
-    # bends away from that line: on the known-truth acceptance problems the truth lay outside
-    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
-    # along a null direction is bounded by the box alone.
-    _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
-    rank = numerical_rank(sv)
-    free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
     if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:
         # the other parameters move along the curved valley too (at second order where the
