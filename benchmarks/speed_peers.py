@@ -172,6 +172,7 @@ def vibupdate_run(problem):
     import contextlib
     import io
     import json
+    import shutil
     import tempfile
 
     from vibupdate.cli import main as cli
@@ -186,6 +187,7 @@ def vibupdate_run(problem):
             pass
     seconds = (time.perf_counter() - t0, time.process_time() - c0)
     doc = json.loads((folder / "out" / "results.json").read_text())
+    shutil.rmtree(folder)
     updated = {p["name"]: p["updated"] for p in doc["parameters"]}
     return np.array([updated[p.name] for p in problem.parameters]), seconds, doc["solver"]["status"]
 
