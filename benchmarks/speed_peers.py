@@ -1,7 +1,7 @@
 """vibupdate's update against the classical fit a user would write, on problems it was not
 built around, in one process: time ratios and accuracy, medians over seeds.
 
-Run:  python benchmarks/speed_peers.py [--seeds 5] [--problems cantilever frame12 frame120]
+Run:  python benchmarks/speed_peers.py [--seeds 5] [--repeat 1] [--problems cantilever frame12 frame120 run120]
 
 Problems:
 
@@ -11,6 +11,11 @@ Problems:
 * ``frame12`` / ``frame120``: the braced frame of the IASC-ASCE benchmark class
   (`benchmarks/braced_frame.py`: 12- and 120-DOF models, 8 stiffness factors, the 6 lowest
   modes with noisy frequencies and shapes at the 12 floor DOFs; truth and noise drawn per seed).
+* ``run120``: ``vibupdate run`` (in process, `vibupdate.cli.main`, its output discarded) on
+  a case folder of the acceptance engine's shear-building family (`tests/acceptance`, the
+  frame's 6 lowest modes with 0.5-1 % noise at a drawn truth) with the 120-DOF model itself:
+  the whole run (loading, update, ranges, report, plots, matrices), against the classical fit
+  on the same data (the configurations the engine's Python route reads).
 
 Peer (the classical fit, as a user with scipy writes it): `scipy.optimize.least_squares`
 (``trf``, the default tolerances, forward-difference Jacobian) from the nominal parameters,
@@ -26,7 +31,10 @@ polish, verification and the uniqueness probe); "first stage": building the prob
 homotopy path alone (`prepare_first_stage`, `solve_homotopy`); "one evaluation": the CPU time
 of one evaluation of every configuration's data and Jacobian (`evaluation_cpu`). Accuracy: the
 largest relative parameter error against the truth (frames), the mean frequency error in per
-cent (cantilever).
+cent (cantilever). Each time is wall and CPU (process) time: on a shared machine the CPU ratio
+is the steadier one (one thread, ``OMP_NUM_THREADS=1``); ``--repeat R`` times each run and each
+fit R times, alternating, and keeps the least of each (what the other load on the machine added
+the least).
 """
 
 from __future__ import annotations
@@ -57,36 +65,37 @@ def _mac(a, b):
 
 
 def classical_fit(configurations):
-    """The peer (module docstring); returns (physical values, seconds, evaluations)."""
+    """The peer (module docstring); returns (physical values, (wall, CPU) seconds, evaluations)."""
     model = configurations[0].model
     nominal = np.array([p.nominal for p in model.parameters])
     lower = np.array([p.lower for p in model.parameters]) / nominal
     upper = np.array([p.upper for p in model.parameters]) / nominal
     measured = []
     for cfg in configurations:
-        shapes = [n.shape for n in cfg.natural]
-        dofs = list(shapes[0].bounds) if shapes[0] is not None else []
-        idx = [cfg.model.dof(d) for d in dofs]
-        phis = [np.array([np.mean(s.bounds[d]) for d in dofs]) if s is not None else None for s in shapes]
+        # each mode's measured DOFs and the midpoints of its intervals (None: no shape)
+        shapes = [None if n.shape is None else ([cfg.model.dof(d) for d in n.shape.bounds],
+                                                np.array([np.mean(b) for b in n.shape.bounds.values()]))
+                  for n in cfg.natural]
         zeros = {}
         for a in cfg.antiresonances:
             zeros.setdefault(a.receptance, []).append(a.omega)
-        measured.append((cfg, idx, phis, zeros))
+        measured.append((cfg, shapes, zeros))
 
     def residual(scaled):
         values = scaled * nominal
         out = []
-        for cfg, idx, phis, zeros in measured:
+        for cfg, shapes, zeros in measured:
             M, K = cfg.model.matrices_at(values)
             n = len(cfg.natural)
-            w, Phi = vu.modes(M, K, n + 2 if idx else n)
+            w, Phi = vu.modes(M, K, n + 2 if any(shapes) else n)
             for k, f in enumerate(cfg.natural):
-                if idx:
-                    j = int(np.argmax([_mac(Phi[idx, q], phis[k]) for q in range(w.size)]))
+                if shapes[k] is not None:
+                    idx, phi = shapes[k]
+                    j = int(np.argmax([_mac(Phi[idx, q], phi) for q in range(w.size)]))
                     model_shape = Phi[idx, j]
-                    scale = np.dot(model_shape, phis[k]) / np.dot(model_shape, model_shape)
+                    scale = np.dot(model_shape, phi) / np.dot(model_shape, model_shape)
                     out.append((w[j] - f.omega) / f.omega)
-                    out.extend(scale * model_shape - phis[k])
+                    out.extend(scale * model_shape - phi)
                 else:
                     out.append((w[k] - f.omega) / f.omega)
             for (r, c), measured_zeros in zeros.items():
@@ -95,9 +104,9 @@ def classical_fit(configurations):
                     out.append((z[np.argmin(np.abs(z - zm))] - zm) / zm)
         return np.asarray(out)
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     fit = least_squares(residual, np.ones(nominal.size), bounds=(lower, upper), method="trf")
-    return fit.x * nominal, time.perf_counter() - t0, fit.nfev
+    return fit.x * nominal, (time.perf_counter() - t0, time.process_time() - c0), fit.nfev
 
 
 def evaluation_cpu(configurations, repetitions=100):
@@ -124,6 +133,11 @@ def problems(names, seeds):
     from vibupdate.examples import cantilever
 
     for name in names:
+        if name == "run120":
+            for seed in seeds:
+                problem = _run120(seed)
+                yield name, seed, problem, np.array([problem.truth[p.name] for p in problem.parameters])
+            continue
         if name == "cantilever":
             cfgs = cantilever.configurations()
             for seed in seeds:
@@ -133,6 +147,49 @@ def problems(names, seeds):
         for seed in seeds:
             truth = braced_frame.truth(seed)
             yield name, seed, [braced_frame.configuration(model, truth, seed)], truth
+
+
+def _run120(seed: int):
+    """The acceptance engine's shear-building problem of ``seed`` with the frame's 120-DOF
+    model (``run120``, module docstring)."""
+    import dataclasses
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from acceptance import families, structures
+
+    frame = families._braced_frame()
+    problem = families.shear_building(seed)
+    M, K_fixed, groups, names = frame.matrices(120)
+    spec = structures.given_matrices("frame-120", M, K_fixed, dict(zip(frame.parameter_names(), groups)), names,
+                                     frame.MEASURED_DOFS)
+    return dataclasses.replace(problem, structure=spec, in_family=True, case_id=f"frame120_{seed}",
+                               family="frame120")
+
+
+def vibupdate_run(problem):
+    """``vibupdate run`` in process on ``problem`` written as a case folder; returns the
+    physical values, (wall, CPU) seconds of the run and its status."""
+    import contextlib
+    import io
+    import json
+    import shutil
+    import tempfile
+
+    from vibupdate.cli import main as cli
+
+    folder = Path(tempfile.mkdtemp(prefix="speed_peers_"))
+    case = problem.write_case(folder / "case")
+    t0, c0 = time.perf_counter(), time.process_time()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            cli(["run", str(case), "--out", str(folder / "out")])
+        except SystemExit:
+            pass
+    seconds = (time.perf_counter() - t0, time.process_time() - c0)
+    doc = json.loads((folder / "out" / "results.json").read_text())
+    shutil.rmtree(folder)
+    updated = {p["name"]: p["updated"] for p in doc["parameters"]}
+    return np.array([updated[p.name] for p in problem.parameters]), seconds, doc["solver"]["status"]
 
 
 def accuracy(configurations, values, truth):
@@ -150,40 +207,59 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--problems", nargs="+", default=["cantilever", "frame12", "frame120"])
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="time each run and fit this many times and keep the least (a shared machine)")
     args = parser.parse_args()
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
           f"OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']}")
     vu.update(__import__("vibupdate.examples.cantilever", fromlist=["x"]).configurations())  # warm-up: imports, builds
+    if "run120" in args.problems:   # warm-up of the run: its imports (matplotlib) and the report's fonts
+        vibupdate_run(_run120(1000))
     rows = {}
-    print("problem    seed  update_s  first_stage_s  classical_s  ratio_update  ratio_first  status         "
-          "acc_update  acc_classical")
+    print("problem    seed  update_s (cpu)  first_stage_s  classical_s (cpu)  ratio_update (cpu)  ratio_first  "
+          "status         acc_update  acc_classical")
     for name, seed, cfgs, truth in problems(args.problems, range(args.seeds)):
-        t0 = time.perf_counter()
-        result = vu.update(cfgs)
-        t_update = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        path = solve_homotopy(prepare_first_stage(cfgs).problem)
-        t_first = time.perf_counter() - t0
-        values, t_classical, nfev = classical_fit(cfgs)
+        problem, run_times, fit_times = cfgs, [], []
+        if name == "run120":
+            cfgs = problem.configurations()
+        for _ in range(args.repeat):   # the vibupdate run or update, then the classical fit
+            if name == "run120":
+                values_run, seconds, status = vibupdate_run(problem)
+                t_first, path_status = float("nan"), "-"
+            else:
+                t0, c0 = time.perf_counter(), time.process_time()
+                result = vu.update(cfgs)
+                seconds = (time.perf_counter() - t0, time.process_time() - c0)
+                values_run, status = np.asarray(result.values), result.status.value
+                t0 = time.perf_counter()
+                path = solve_homotopy(prepare_first_stage(cfgs).problem)
+                t_first, path_status = time.perf_counter() - t0, path.status.value
+            run_times.append(seconds)
+            values, fit_seconds, nfev = classical_fit(cfgs)
+            fit_times.append(fit_seconds)
+        (t_update, c_update), (t_classical, c_classical) = np.min(run_times, axis=0), np.min(fit_times, axis=0)
         row = (t_update, t_first, t_classical, t_update / t_classical, t_first / t_classical,
-               accuracy(cfgs, np.asarray(result.values), truth), accuracy(cfgs, values, truth))
+               accuracy(cfgs, values_run, truth), accuracy(cfgs, values, truth), c_update, c_classical,
+               c_update / c_classical)
         rows.setdefault(name, []).append(row)
-        print(f"{name:10s} {seed:4d}  {t_update:8.2f}  {t_first:13.2f}  {t_classical:11.2f}  {row[3]:12.2f}  "
-              f"{row[4]:11.2f}  {result.status.value:13s}  {row[5]:10.3g}  {row[6]:13.3g}  "
-              f"(path {path.status.value}, {nfev} fit evaluations)", flush=True)
+        print(f"{name:10s} {seed:4d}  {t_update:6.2f} ({c_update:5.2f})  {t_first:13.2f}  {t_classical:7.2f} "
+              f"({c_classical:5.2f})  {row[3]:9.2f} ({row[9]:5.2f})  {row[4]:11.2f}  {status:13s}  {row[5]:10.3g}  "
+              f"{row[6]:13.3g}  (path {path_status}, {nfev} fit evaluations)", flush=True)
     print("\nmedians (accuracy: largest relative parameter error for the frames, mean frequency error % for the "
           "cantilever)")
     done = set()
     for name, _, cfgs, _ in problems(args.problems, range(1)):
-        if name not in done:
+        if name not in done and name != "run120":
             done.add(name)
             print(f"{name:10s} one evaluation of the data with its Jacobian: "
                   f"{1e3 * evaluation_cpu(cfgs):.2f} ms CPU")
     for name, rs in rows.items():
         med = np.median(np.array(rs), axis=0)
-        print(f"{name:10s} update {med[0]:.2f} s, first stage {med[1]:.2f} s, classical {med[2]:.2f} s; "
-              f"ratio update/classical {med[3]:.2f}x, first stage/classical {med[4]:.2f}x; "
-              f"accuracy update {med[5]:.3g}, classical {med[6]:.3g}")
+        what = "vibupdate run" if name == "run120" else "update"
+        print(f"{name:10s} {what} {med[0]:.2f} s ({med[7]:.2f} s CPU), first stage {med[1]:.2f} s, classical "
+              f"{med[2]:.2f} s ({med[8]:.2f} s CPU); ratio {what}/classical {med[3]:.2f}x wall, {med[9]:.2f}x CPU "
+              f"(range {min(r[9] for r in rs):.2f}-{max(r[9] for r in rs):.2f}x), first stage/classical "
+              f"{med[4]:.2f}x; accuracy {what} {med[5]:.3g}, classical {med[6]:.3g}")
 
 
 if __name__ == "__main__":

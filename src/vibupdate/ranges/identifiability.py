@@ -34,7 +34,8 @@ along it at second order, and the points where each parameter is lowest, highest
 along it (`valley_ends`, `valley_curve`). Where the data see a direction only weakly the set
 bends too: each end of a linear range is followed by up to `VALLEY_PROGRAMS` programs
 relinearized at the previous end (the answer's windows), and the range grows to every end
-whose own data lie in the windows (`_along_the_valley`); it never shrinks.
+whose own data lie in the windows (`_along_the_valley`, which solves only the programs whose
+answer can move the end); it never shrinks.
 
 A model whose matrices are known only to a relative ``matrix_precision`` (read from an export
 written with fewer digits than a double) widens every window by what that rounding can do to
@@ -245,26 +246,38 @@ def _scaled_shapes(configurations, d_hat, G, rounding, at=None):
 
 
 def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, solve, box) -> float:
-    """The extreme of parameter ``i`` (its minimum for ``sign`` 1, maximum for -1) over points
-    found consistent with the data, by successive linear programs: from the linear range's end
-    ``xbar + step``, the data and their Jacobian there, the program relinearized about that
-    point (the answer's windows), its extreme the next point, at most `VALLEY_PROGRAMS` times.
-    A point counts only where its own data lie in every window (its relinearized program holds
-    at the point itself). Returns ``xbar[i]`` when no point qualified."""
-    best, x = float(xbar[i]), xbar + step
-    for _ in range(VALLEY_PROGRAMS):
+    """The extreme of parameter ``i`` (its minimum for ``sign`` 1, maximum for -1) over the
+    linear range's end ``xbar + step`` and the points found consistent with the data, by
+    successive linear programs: from that end, the data and their Jacobian there, the program
+    relinearized about that point (the answer's windows), its extreme the next point, at most
+    `VALLEY_PROGRAMS` points. A point counts only where its own data lie in every window (its
+    relinearized program holds at the point itself).
+
+    A program whose answer cannot change the result is not solved, nor the data it needs: a
+    point's own check only where the point lies beyond the extreme so far (the linear end is
+    the first extreme, so its own check never is), and no next extreme from the last point
+    (no point follows it). The result is that of checking every point."""
+    x = xbar + step
+    end = float(x[i])
+    for k in range(VALLEY_PROGRAMS):
+        beyond = sign * (end - x[i]) > 0
+        last = k == VALLEY_PROGRAMS - 1
+        if last and not beyond:
+            break
         d, G = data_jacobian(configurations, x)
         A, b, n_s = program((d, G, xbar - x))
-        fixed = [(v, v) for v in x - xbar] + [(None, None)] * n_s
-        if solve(np.zeros(xbar.size + n_s), A, b, fixed) is not None:
-            best = min(best, x[i]) if sign > 0 else max(best, x[i])
+        if beyond and solve(np.zeros(xbar.size + n_s), A, b,
+                            [(v, v) for v in x - xbar] + [(None, None)] * n_s) is not None:
+            end = float(x[i])
+        if last:
+            break
         c = np.zeros(xbar.size + n_s)
         c[i] = sign
         nxt = solve(c, A, b, box + [(None, None)] * n_s)
         if nxt is None or abs(nxt[i] - (x[i] - xbar[i])) <= 1e-9:
             break
         x = xbar + nxt[:xbar.size]
-    return best
+    return end
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
@@ -360,11 +373,19 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                 return sol.x
         return None
 
+    # Along a direction the data do not see at all (a null direction of the Jacobian), the
+    # linear program follows the tangent line to the box, but the set of parameters that fit
+    # bends away from that line: on the known-truth acceptance problems the truth lay outside
+    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
+    # along a null direction is bounded by the box alone (and its programs are not solved).
+    _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
+    rank = numerical_rank(sv)
+    free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     A, b, n_s = program()
     box = list(zip(lo - xbar, hi - xbar))
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     bent = model.n_dofs <= VALLEY_DOFS
-    for i in range(model.n_parameters):
+    for i in np.flatnonzero(~free):
         c = np.zeros(model.n_parameters + n_s)
         c[i] = 1.0
         for sign, target in ((1.0, lower), (-1.0, upper)):
@@ -374,16 +395,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
             target[i] = xbar[i] + step[i]
             at_box = np.isclose(target[i], lo[i] if sign > 0 else hi[i], rtol=0.0, atol=1e-12)
             if bent and not at_box:
-                found = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve, box)
-                target[i] = min(target[i], found) if sign > 0 else max(target[i], found)
-    # Along a direction the data do not see at all (a null direction of the Jacobian), the
-    # linear program follows the tangent line to the box, but the set of parameters that fit
-    # bends away from that line: on the known-truth acceptance problems the truth lay outside
-    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
-    # along a null direction is bounded by the box alone.
-    _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
-    rank = numerical_rank(sv)
-    free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
+                target[i] = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve, box)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
     if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:
         # the other parameters move along the curved valley too (at second order where the

@@ -1,0 +1,73 @@
+"""The programs of a range end followed along the valley (`_along_the_valley`): only those
+whose answer can move the end are solved."""
+
+import numpy as np
+import pytest
+
+from vibupdate.ranges import identifiability
+
+
+def _follow(monkeypatch, points):
+    """Follow the minimum of parameter 0 from the linear end -0.5 with the relinearized
+    programs' extremes scripted as ``points`` (every point's own data in the windows); returns
+    the end and the counts of data maps, own checks and extremes solved."""
+    counts = {"data": 0, "check": 0, "extreme": 0}
+    steps = iter(points)
+
+    def data_jacobian(configurations, x):
+        counts["data"] += 1
+        return None, None
+
+    def solve(c, A, b, bounds):
+        if all(lo is not None and lo == hi for lo, hi in bounds):   # a point's own check
+            counts["check"] += 1
+            return np.zeros(len(bounds))
+        counts["extreme"] += 1
+        return np.array([next(steps), 0.0])
+
+    monkeypatch.setattr(identifiability, "data_jacobian", data_jacobian)
+    xbar = np.zeros(2)
+    end = identifiability._along_the_valley(None, xbar, np.array([-0.5, 0.0]), 0, 1.0,
+                                            lambda at: (None, None, 0), solve, [(-0.8, 0.5), (-0.8, 0.5)])
+    return end, counts
+
+
+def test_points_inside_the_linear_end_are_not_checked_and_the_last_point_needs_no_data(monkeypatch):
+    """Constructed: each relinearized extreme lies inside the linear end (the valley bends
+    inward): no point could lower the minimum, so no point's own check is solved, and the last
+    point, which no extreme follows and no check needs, costs no data map (every program was
+    solved before: 4 data maps, 4 checks, 4 extremes)."""
+    end, counts = _follow(monkeypatch, [-0.45, -0.42, -0.41])
+    assert end == -0.5
+    assert counts == {"data": 3, "check": 0, "extreme": 3}
+
+
+def test_points_beyond_the_end_so_far_are_checked_and_move_it(monkeypatch):
+    """Constructed: each relinearized extreme lies beyond the last (the valley bends outward),
+    each point consistent: every point after the linear end is checked and the end is the last
+    one; the last point's next extreme is not solved."""
+    end, counts = _follow(monkeypatch, [-0.55, -0.58, -0.59])
+    assert end == pytest.approx(-0.59)
+    assert counts == {"data": 4, "check": 3, "extreme": 3}
+
+
+def test_a_parameter_on_a_null_direction_gets_its_box_without_a_program(monkeypatch):
+    """Constructed: a 2-mass chain (k1, k2 within +-30 %) with its first frequency alone
+    measured: one datum, two parameters, a null direction in which both move. Both ranges are
+    their boxes, as before, and no linear program is solved for them (before: 4 programs and
+    the ends followed along the valley, then replaced by the boxes)."""
+    from helpers import chain_model
+
+    from vibupdate import Configuration, NaturalFrequency
+    from vibupdate.modal.analysis import modes
+
+    solved = []
+    real = identifiability.linprog
+    monkeypatch.setattr(identifiability, "linprog", lambda *a, **k: solved.append(1) or real(*a, **k))
+    model = chain_model(2, ["k1", "k2"])
+    omega, _ = modes(*model.matrices(np.zeros(2)), 1)
+    cfg = Configuration("c", model, (NaturalFrequency(omega[0]),))
+    found = identifiability.parameter_ranges([cfg], np.zeros(2), frequency_tolerance=0.01)
+    lo, hi = model.bounds()
+    assert np.allclose(model.normalized(found.lower), lo) and np.allclose(model.normalized(found.upper), hi)
+    assert not solved
