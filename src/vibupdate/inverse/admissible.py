@@ -17,7 +17,7 @@ verification options (`Admissible.of`):
 
 A measured shape keeps its documented meaning: its entries are known up to one free scale per
 mode. The model's shape at the measured DOFs, scaled by the best scale ``s``, is held against
-the entries' intervals; ``s`` is eliminated (variable projection, `_scale`). A mass-normalized
+the entries' intervals; ``s`` is eliminated (variable projection, `_scales`). A mass-normalized
 shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
 the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
 
@@ -56,8 +56,7 @@ FLOOR = 1e-8
 #: weighted least-squares point, and outside a datum costs ``1 / PULL^2`` times its squared
 #: distance. A datum held at its interval's end by a pull ``F`` half-widths strong (its own and
 #: the other data's) stays ``F PULL^2`` half-widths outside its target: `MARGIN` covers ``F`` up
-#: to 10. Measured with 0.03: the noisy beam of the tests with 1 % frequency noise in 0.2 %
-#: intervals ended 3 to 8 data outside their intervals.
+#: to 10 (with 0.03 the noisy beam of the tests ended data outside their intervals).
 PULL = 1e-2
 #: The polish aims at each interval shrunk by this many half-widths (and by the floor): more
 #: than the pull's trade-off (``F PULL^2``) and than where the least squares stops on an
@@ -78,8 +77,7 @@ class VerifyOptions:
     ----------
     mac_min : float
         Smallest MAC of a measured shape with its declared mode (0.8: the usual threshold
-        below which two shapes are not taken as the same mode; the frame example's verified
-        answer has 0.9917 at worst).
+        below which two shapes are not taken as the same mode).
     frequency_tolerance : float
         Relative frequency uncertainty used for the consistency allowance (a case file's
         ``frequency_tolerance`` when it states one; 1 % otherwise).
@@ -311,15 +309,6 @@ def _targets(lower, upper, floor):
     """The polish's target interval: the admissible one without its floor, shrunk by `MARGIN`."""
     inset = floor + MARGIN * 0.5 * (upper - lower - 2 * floor)
     return lower + inset, upper - inset
-
-
-def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float,
-           scales: tuple[float, float] | None = None) -> float:
-    """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`) of one shape (`_scales`); within
-    ``scales`` (`Shape.scales`), the minimizer of a convex function of one variable clipped to them."""
-    s = float(_scales(np.asarray(q, dtype=float)[None, :], lo[None, :], hi[None, :], mid[None, :], h[None, :],
-                      pull)[0])
-    return s if scales is None else float(np.clip(s, *scales))
 
 
 def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray,
@@ -569,8 +558,6 @@ def weighted(configurations: Sequence[Configuration], contract: Admissible):
     """The data with each frequency's weight multiplied by ``1 / h^2``, ``h`` its relative
     admissible half-width, the multipliers normalized to mean 1: the first stage weighs each
     residual as the contract does (the same objects when every ``h`` is equal)."""
-    from dataclasses import replace
-
     factor = 1.0 / np.maximum(contract.relative_half_widths(), WEIGHT_FLOOR) ** 2
     if not factor.size:
         return list(configurations)

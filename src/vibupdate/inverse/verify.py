@@ -16,40 +16,33 @@ against the data it was given:
     no other model mode matches it better;
 ``fit``, ``shape_intervals``, ``modal_mass``
     one membership test (`vibupdate.inverse.admissible.misses`): every measured frequency's
-    declared mode or zero, every measured shape at its best scale, every modal mass of a
-    mass-normalized shape lies in its admissible interval: the measurement interval, widened by
-    the model-form tolerance of its kind (``natural_tolerance``, ``antiresonance_tolerance``,
-    relative, default 2 %; ``shape_tolerance`` times the shape's largest measured entry;
-    ``modal_mass_tolerance``) and by the numerical floor, an exact datum with the stated
-    ``exact_half_width``. A mode of a repeated frequency is taken as the combination of its
-    modes that fits best (`vibupdate.inverse.repeated`);
+    declared mode or zero, every measured shape at its best scale (a repeated frequency's best
+    combination of modes, `vibupdate.inverse.repeated`), every modal mass of a mass-normalized
+    shape lies in its admissible interval, the intervals the polish fits;
 ``correspondence``
     when the first-stage answer fitted the data under another pairing (a mode skipped), the
     final answer's mean natural-frequency error under the declared pairing must stay within
     twice that other fit's error plus a tenth of the natural frequencies' tolerance
-    (measurement plus model-form: 0.2 % by default);
-    otherwise the declared modes are likely wrong and the user is told which pairing fits;
+    (measurement plus model-form); otherwise the declared modes are likely wrong;
 ``improvement``
     the updated mean frequency error is not above the nominal one;
 ``consistency`` (warning only)
     the optimum of the convex relaxation (a lower bound of the best objective inside the
     boxes) against a heuristic allowance, ``n_blocks (2 tol)^2`` (each block's weighted
-    residual approximates a relative eigenvalue error, twice the relative frequency error). A
-    bound above it is not a proof of misfit (the allowance is not a certificate): the warning
-    names both figures and the active bounds of the relaxed solution;
+    residual approximates a relative eigenvalue error, twice the relative frequency error): not
+    a certificate, so a bound above it is a warning naming both figures and the active bounds;
 ``bounds`` (warning only)
     parameters on a bound of their box.
 
-A failed error check makes the status ``not_verified``; warnings are reported either way.
-The membership checks say what limited a passed answer (`Check.limited_by`): the measurements,
-when every datum lies in its measurement interval, or the model's form, when some lie outside
-it and within the model-form tolerance. The polish fits the same intervals.
+A failed error check makes the status ``not_verified``. A passed membership check says what
+limited the answer (`Check.limited_by`): the measurements, when every datum lies in its
+measurement interval, or the model's form, when some lie only within the model-form tolerance.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -90,8 +83,7 @@ class Check:
     limited_by: str | None = None
 
     def as_dict(self) -> dict:
-        return {"name": self.name, "passed": self.passed, "severity": self.severity, "message": self.message,
-                "value": self.value, "limit": self.limit, "limited_by": self.limited_by}
+        return asdict(self)
 
 
 def consistency_allowance(n_blocks: int, tolerance: float) -> float:
