@@ -40,6 +40,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
+from itertools import groupby
 
 import numpy as np
 
@@ -266,17 +267,13 @@ class Admissible:
         """The same data with every admissible half-width at least ``relative`` times the
         datum's scale (its value; a shape entry: its shape's `Shape.scale`), each interval
         widened about its midpoint: the softer objective a polish starts on (`vibupdate.inverse.polish.START_FLOOR`)."""
-        def datum(d: Datum) -> Datum:
-            mid, h = 0.5 * (d.lower + d.upper), max(d.half_width, relative * abs(d.value))
+        def wide(d, scale):
+            mid, h = 0.5 * (d.lower + d.upper), np.maximum(d.half_width, relative * scale)
             return replace(d, lower=mid - h, upper=mid + h)
 
-        def shape(s: Shape) -> Shape:
-            mid, h = 0.5 * (s.lower + s.upper), np.maximum(s.half_width, relative * s.scale)
-            return replace(s, lower=mid - h, upper=mid + h)
-
-        return Admissible(tuple(tuple(datum(d) for d in row) for row in self.frequencies),
-                          tuple(tuple(shape(s) for s in row) for row in self.shapes),
-                          tuple(tuple(datum(d) for d in row) for row in self.masses))
+        return Admissible(tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.frequencies),
+                          tuple(tuple(wide(s, s.scale) for s in row) for row in self.shapes),
+                          tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.masses))
 
     @cached_property
     def datum_targets(self) -> tuple:
@@ -429,7 +426,8 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
         by = {s.position: s for s in shapes}
         mass = _modal_masses(m, jacobian)
         held = [k for k, measured in enumerate(m.shapes) if measured.position in by]
-        for group in _runs(held, [m.ratios[k].size for k in held]):   # consecutive shapes of one size at once
+        for _, run in groupby(held, key=lambda k: m.ratios[k].size):   # consecutive shapes of one size at once
+            group = list(run)
             r, J = _shape_rows([by[m.shapes[k].position] for k in group], [m.ratios[k] for k in group],
                                [m.ratio_jacobians[k] for k in group] if jacobian else None, pull,
                                [mass[k] for k in group])
@@ -438,17 +436,6 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                 jac.append(J)
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
-
-
-def _runs(items: list, sizes: list) -> list[list]:
-    """``items`` cut into runs of consecutive items of equal size, in order."""
-    out: list[list] = []
-    for item, size, before in zip(items, sizes, [None, *sizes[:-1]]):
-        if size == before:
-            out[-1].append(item)
-        else:
-            out.append([item])
-    return out
 
 
 def _datum_targets(items: tuple) -> tuple[np.ndarray, ...] | None:

@@ -10,8 +10,8 @@ the polished answer ``x*`` there.
 
 Let ``g(x)`` be the measured data as the model gives them: every declared natural frequency
 and zero relative to its measured value, and every measured shape ratio (the residuals of
-`vibupdate.inverse.polish.polish_residuals`, which differ
-from ``g`` by constants and fixed weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
+`vibupdate.inverse.baseline.classical_residuals`, which differ from ``g`` by constants and fixed
+weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
 (singular values above ``RANK_RTOL`` of the largest, the threshold of the reported
 sensitivity, `vibupdate.inverse.data_map.sensitivity`), below the number of parameters.
 The answer is
@@ -46,7 +46,7 @@ import numpy as np
 
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.data_map import measured_shapes
-from vibupdate.inverse.polish import polish_residuals
+from vibupdate.inverse.baseline import classical_residuals
 
 
 #: Singular values of the data Jacobian below this fraction of the largest count as zero (the
@@ -102,14 +102,13 @@ class MinimumChange:
 
 def _data(configurations, x):
     """``g(x)`` up to fixed weights and constants, and its exact Jacobian."""
-    return polish_residuals(configurations, x, SHAPE_WEIGHT)
+    return classical_residuals(configurations, x, SHAPE_WEIGHT)
 
 
 def _weights(configurations: Sequence[Configuration]) -> np.ndarray:
     """Per residual row of `_data`, the factor that turns it into a datum change: the inverse
-    of a frequency's ``sqrt(weight)``, of `SHAPE_WEIGHT` for a shape ratio (the rows of
-    `vibupdate.inverse.polish.polish_residuals`, configuration by configuration, in the order of
-    `vibupdate.inverse.data_map`)."""
+    of a frequency's ``sqrt(weight)``, of `SHAPE_WEIGHT` for a shape ratio, in the order of
+    `vibupdate.inverse.baseline.classical_residuals`."""
     out = []
     for cfg in configurations:
         out += [1 / np.sqrt(d.weight) for d in (*cfg.natural, *cfg.antiresonances)]

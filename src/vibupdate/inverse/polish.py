@@ -38,7 +38,6 @@ from scipy.optimize import OptimizeResult
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
 from vibupdate.inverse.admissible import PULL, Admissible, evaluate, residuals
-from vibupdate.inverse.data_map import data_map
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
 
@@ -154,44 +153,6 @@ class PolishResult:
 
     def as_dict(self) -> dict:
         return {k: v for k, v in asdict(self).items() if k not in ("xbar_start", "xbar")}
-
-
-def polish_residuals(configurations: Sequence[Configuration], xbar, shape_weight: float = 1.0,
-                     jacobian: bool = True):
-    """Residuals of the classical fit and their exact Jacobian: each declared frequency's
-    relative error times ``sqrt(weight)``, then ``shape_weight`` times each shape ratio's and
-    each modal mass's signed difference from its interval's midpoint (the mass relative to it):
-    the eigenvector-difference fit of `vibupdate.inverse.baseline` and the data the minimum
-    change keeps (`vibupdate.inverse.minimum_change`). The polish fits the admissible data
-    instead (`vibupdate.inverse.admissible.residuals`).
-
-    Returns
-    -------
-    r : ndarray, shape (n_r,)
-        Per configuration, in the order of the data map (`vibupdate.inverse.data_map`).
-    J : ndarray, shape (n_r, n_x), or None without ``jacobian``
-    """
-    res, jac = [], []
-    for cfg in configurations:
-        d = data_map(cfg, xbar, jacobian=jacobian, shapes=shape_weight > 0)
-        measured = (*cfg.natural, *cfg.antiresonances)
-        w = np.array([m.omega for m in measured])
-        s = np.sqrt([m.weight for m in measured])
-        lost = np.isnan(d.frequency_values)   # a zero the model lost: a constant penalty, no direction to follow
-        res.append(np.where(lost, s, s * (d.frequency_values - w) / w))
-        if jacobian:
-            jac.append(np.where(lost[:, None], 0.0, s[:, None] * d.frequency_jacobian / w[:, None]))
-        for k, (shape, ratio) in enumerate(zip(d.shapes, d.ratios)):
-            res.append(shape_weight * (ratio - shape.midpoint))
-            if jacobian:
-                jac.append(shape_weight * d.ratio_jacobians[k])
-        mid = np.array([0.5 * sum(shape.mass) for shape in d.shapes if shape.mass is not None])
-        if mid.size:
-            res.append(shape_weight * (d.masses - mid) / mid)
-            if jacobian:
-                jac.append(shape_weight * d.mass_jacobian / mid[:, None])
-    r = np.concatenate(res) if res else np.zeros(0)
-    return r, (np.vstack(jac) if jacobian and jac else None)
 
 
 def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Admissible, known=None,
