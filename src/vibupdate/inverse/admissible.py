@@ -21,18 +21,13 @@ the entries' intervals; ``s`` is eliminated (variable projection, `_scales`). A 
 shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
 the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
 
-Two uses, one set of intervals:
-
-* the **polish** minimizes, in half-widths ``h`` of the admissible intervals, the squared
-  distance of each model value outside its interval, weighted by ``1 / PULL^2``, plus the
-  squared distance from the interval's midpoint (`residuals`, two rows per datum: `_rows`):
-  inside every interval only the pull is left, and its minimum is the least-squares fit
-  weighted by ``1 / h^2``, every datum alike, a shape's entries as a frequency (the classical
-  fit when every frequency has the same relative tolerance: the paper's cantilever); outside,
-  the distance dominates by ``1 / PULL^2``. The polish aims at the intervals without the floor
-  and shrunk by `MARGIN` half-widths, so that the pull's trade-off stays inside them;
-* the **verification** asks whether every model value lies in its admissible interval, a shape
-  at some scale (`misses`): one membership test.
+Two uses, one set of intervals: the **polish** minimizes, in half-widths ``h``, each value's
+distance outside its interval (weighted by ``1 / PULL^2``) plus its distance from the midpoint
+(`residuals`, two rows per datum: `_rows`), aiming at the intervals without the floor and
+shrunk by `MARGIN` half-widths: inside every interval only the pull is left, the least-squares
+fit weighted by ``1 / h^2`` (the classical fit when every frequency has the same relative
+tolerance); the **verification** asks whether every value lies in its interval, a shape at
+some scale (`misses`). The rows in full: docs/polish-and-verification.md, section 7.2.
 """
 
 from __future__ import annotations
@@ -49,8 +44,7 @@ from vibupdate.data.measured import Antiresonance, Configuration
 from vibupdate.inverse.repeated import cluster
 
 #: Relative numerical floor added to every admissible interval: the rounding of a
-#: double-precision eigen-solve (about 1e-12 relative on the acceptance models) with room for
-#: the polish's own stopping test.
+#: double-precision eigen-solve with room for the polish's own stopping test.
 FLOOR = 1e-8
 #: Weight of the pull toward the midpoints against the distance outside the intervals (both in
 #: half-widths, in separate rows: `_rows`): small, so that inside the intervals it only picks the
@@ -63,7 +57,6 @@ PULL = 1e-2
 #: than the pull's trade-off (``F PULL^2``) and than where the least squares stops on an
 #: interval's end.
 MARGIN = 1e-3
-
 
 #: Smallest relative half-width the first stage's weights use (`weighted`): a chosen cap, so
 #: that an exact datum among 1 % ones weighs 1e4^2 times more rather than without bound.
@@ -291,10 +284,8 @@ def _rows(v, lo, hi, mid, h, pull=PULL):
     ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
     per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
     outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
-    zero, so their sum of squares has a continuous gradient. (One row
-    ``((v - mid) + out / pull) / h`` jumps in slope by ``1 / pull`` at an interval's end, where
-    it is about one: its square's gradient jumps there, and trust-region steps crawl along the
-    ends: `vibupdate.inverse.polish`.)"""
+    zero, so their sum of squares has a continuous gradient (one combined row's would jump at
+    an interval's end, where trust-region steps then crawl)."""
     out = v - np.clip(v, lo, hi)
     slope_in = np.broadcast_to(1.0 / h, np.shape(out))
     slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)

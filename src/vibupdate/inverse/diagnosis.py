@@ -1,16 +1,12 @@
 """Which data conflict: leave-one-group-out after an answer that does not fit the data.
 
-When the returned model fails a check of its fit to the data (`MISFIT_CHECKS`), the data are
-split into groups, each a unit that one fault corrupts (`data_groups`): each natural frequency
-(with its shape, measured at it), each antiresonance, each mode's shape, and each measured
-shape DOF across the modes of its configuration (a biased sensor, a driving point carrying the
-force cell's mass). Every group is screened in one step: at the answer, the residual and
-Jacobian of the data without it give the objective one bounded Gauss-Newton step would reach
-(`_predicted`). The first `MAX_GROUPS` of that order are refitted (the data without the group
-polished from the answer, the same polish options, and verified on the data kept, but for the
-relaxation's consistency) and ranked verified first, then by the polish objective on the data
-kept. The update is then run again in full without the top group. The refits also stop at
-`MAX_SECONDS`; the groups not refitted are named in the record.
+When the answer fails a check of its fit to the data (`MISFIT_CHECKS`), each group of the data
+that one fault corrupts (`data_groups`) is screened in one bounded Gauss-Newton step without it
+(`_predicted`); the first `MAX_GROUPS` of that order are refitted without their group (polished
+from the answer, verified on the data kept but for the relaxation's consistency) within
+`MAX_SECONDS`, and ranked verified first, then by the polish objective on the data kept. The
+update is then run again in full without the top group. The groups, the ranking and the cost:
+docs/polish-and-verification.md, section 7.8.
 """
 
 from __future__ import annotations

@@ -1,12 +1,10 @@
 """Minimum change along what the data leave undetermined.
 
-Where the measured data do not determine every parameter (fewer independent data than
-parameters, an exact symmetry), the fitted parameters form a set, not a point, and the point
-the homotopy and the polish return is an accident of the path: two solver schedules can
-return answers far apart, both fitting the data exactly (`benchmarks/RESULTS.md`, "Figures
-behind src/: minimum change"). A user expects the answer closest to the nominal model along
-the undetermined directions, as a regularized or minimum-norm fit gives. This module takes
-the polished answer ``x*`` there.
+Where the data do not determine every parameter (fewer independent data than parameters, an
+exact symmetry), the fitted parameters form a set and the point the solver returns is an
+accident of the path (`benchmarks/RESULTS.md`, "Figures behind src/: minimum change"). This
+module takes the polished answer ``x*`` to the point of that set nearest the nominal model, as
+a minimum-norm fit would, and explores the set (`valley_points`, `valley_ends`, `valley_curve`).
 
 Let ``g(x)`` be the measured data as the model gives them: every declared natural frequency
 and zero relative to its measured value, and every measured shape ratio (the residuals of
@@ -18,10 +16,9 @@ The answer is
 
     min ||x||^2   over   { x in the box : g(x) = g(x*) },
 
-the normalized parameters (Eq. 12) closest to the nominal point (``x = 0``) among those that
-reproduce *exactly the same data* as ``x*``: every frequency, zero and shape ratio is unchanged,
-so the fit and every verification figure stay what they were, only the parameters move. It is
-solved by the minimum-norm Gauss-Newton iteration on the constraint,
+the normalized parameters (Eq. 12) closest to the nominal point among those with *exactly the
+data* of ``x*`` (so the fit and every verification figure stay what they were), solved by the
+minimum-norm Gauss-Newton iteration on the constraint,
 
     d = -V_k S_k^-1 U_k^T (g(x) - g(x*)) - (I - V_k V_k^T) x,
 

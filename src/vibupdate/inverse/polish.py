@@ -1,29 +1,18 @@
 """Polish: a bounded least-squares refinement of the first-stage answer on the full model.
 
-The homotopy minimizes the weighted eigen-residual of Eqs. 7 and 9 over parameters *and*
-vectors, where a measured frequency need only be *some* eigenvalue, and a reduced
-(Craig-Bampton) first stage leaves its own small error. The polish starts from that answer and
-minimizes, over the normalized parameters in their box, the distance of every model value
-outside its admissible interval plus a small pull toward the midpoints, in half-widths
-(`vibupdate.inverse.admissible`: the intervals the verification holds the answer to). A
-frequency is its *declared* mode or zero (`vibupdate.data.pairing`), a shape is taken at its
-best scale; values and exact Jacobian come from one eigen-solve (`vibupdate.inverse.data_map`).
-The refined point is kept only where it lowers this objective. What it gains:
+The polish starts from the first stage's answer and minimizes, over the normalized parameters
+in their box, the distance of every model value outside its admissible interval plus a small
+pull toward the midpoints, in half-widths (`vibupdate.inverse.admissible`: the intervals the
+verification holds the answer to); a frequency is its *declared* mode or zero, a shape is taken
+at its best scale, and one eigen-solve gives residual and exact Jacobian
+(`vibupdate.inverse.data_map`). The refined point is kept only where it lowers this objective.
+It stops on scipy's tests or on a stall (`vibupdate.inverse.bounded_lsq.STALL_DECREASE`); the
+evaluation budget and the optional time limit are backstops, reported
+(`PolishResult.stopped_on`). Above `vibupdate.modal.eigen.DENSE_LIMIT` DOFs it first works in
+reduced rounds (`_reduced_rounds`): the least squares on the model projected on the vectors of
+one full evaluation, exact to first order there. The decision, its soft start and its rounds:
+docs/polish-and-verification.md, section 7.2, and docs/notes/polish.md; figures:
 `benchmarks/RESULTS.md`, "Figures behind src/: the decision layer".
-
-**Stopping.** On scipy's tests (``ftol``, ``xtol``, ``gtol``) or on a stall
-(`vibupdate.inverse.bounded_lsq.STALL_DECREASE`); the evaluation budget
-(`EVALUATIONS_PER_UNKNOWN`) and the optional time limit are backstops, reported
-(`PolishResult.stopped_on`) and made a warning of the update (docs/polish-and-verification.md).
-
-**Reduced rounds on large models.** Above `vibupdate.modal.eigen.DENSE_LIMIT` DOFs the polish
-works in rounds: one full evaluation at ``x`` gives the residual, the Jacobian and the vectors
-computed on the way (modes, shape-ratio derivative solutions, adjunct vectors of the zeros);
-the model projected on the kept DOFs plus their span (`vibupdate.inverse.reduction.ritz_reduction`,
-~100 DOFs) has the full model's residual *and* Jacobian at ``x``, so the same least squares on
-it converges like Newton steps. Each round's answer is kept only if it lowers the full
-objective; when the rounds do not converge (`_reduced_rounds`) the full-model least squares
-finishes from the best point.
 """
 
 from __future__ import annotations

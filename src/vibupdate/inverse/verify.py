@@ -1,42 +1,36 @@
 """Verification: is the returned model the one the data describe?
 
-A solver that reaches ``lam = 1`` has found a point where its objective is small; that does
-not make the model right. Before an answer is called a success the returned model is checked
-against the data it was given:
+A solver that reaches ``lam = 1`` has found a small objective; that does not make the model
+right. The checks (what each passes on, and its default limit: docs/polish-and-verification.md,
+section 7.3):
 
 ``mode_order``
     every measured natural frequency is nearest to its declared model mode, or to a mode that
-    repeats its frequency (no mode of the model skipped or inserted below the highest measured
-    one);
+    repeats its frequency (`vibupdate.inverse.repeated`);
 ``zero_order``
-    every measured antiresonance is nearest to its declared zero of its receptance, and the
-    model has that zero;
+    every measured antiresonance is nearest to its declared zero, and the model has that zero;
 ``mac``
-    where a shape was measured, its MAC with the declared mode is at least ``mac_min`` and
-    no other model mode matches it better;
+    a measured shape's MAC with its declared mode is at least ``mac_min`` and no other model
+    mode matches it better;
 ``fit``, ``shape_intervals``, ``modal_mass``
-    one membership test (`vibupdate.inverse.admissible.misses`): every measured frequency's
-    declared mode or zero, every measured shape at its best scale (a repeated frequency's best
-    combination of modes, `vibupdate.inverse.repeated`), every modal mass of a mass-normalized
-    shape lies in its admissible interval, the intervals the polish fits;
+    one membership test of the admissible intervals the polish fits
+    (`vibupdate.inverse.admissible.misses`);
 ``correspondence``
     when the first-stage answer fitted the data under another pairing (a mode skipped), the
-    final answer's mean natural-frequency error under the declared pairing must stay within
-    twice that other fit's error plus a tenth of the natural frequencies' tolerance
-    (measurement plus model-form); otherwise the declared modes are likely wrong;
+    declared pairing's mean natural-frequency error stays within twice that pairing's plus a
+    tenth of the natural frequencies' tolerance (measurement plus model form);
 ``improvement``
     the updated mean frequency error is not above the nominal one;
 ``consistency`` (warning only)
-    the optimum of the convex relaxation (a lower bound of the best objective inside the
-    boxes) against a heuristic allowance, ``n_blocks (2 tol)^2`` (each block's weighted
-    residual approximates a relative eigenvalue error, twice the relative frequency error): not
-    a certificate, so a bound above it is a warning naming both figures and the active bounds;
+    the relaxation's lower bound against the heuristic allowance ``n_blocks (2 tol)^2`` (each
+    block's weighted residual approximates twice a relative frequency error): not a
+    certificate, so a bound above it is a warning naming both figures and the active bounds;
 ``bounds`` (warning only)
     parameters on a bound of their box.
 
 A failed error check makes the status ``not_verified``. A passed membership check says what
-limited the answer (`Check.limited_by`): the measurements, when every datum lies in its
-measurement interval, or the model's form, when some lie only within the model-form tolerance.
+limited the answer (`Check.limited_by`): the measurements, or the model's form when some data
+lie only within the model-form tolerance.
 """
 
 from __future__ import annotations
