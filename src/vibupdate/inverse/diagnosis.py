@@ -258,13 +258,11 @@ class Diagnosis:
         """The ``diagnosis`` section of ``results.json`` (``best`` without its matrices)."""
         best = None
         if self.best is not None:
-            b = self.best
-            best = {"without": self.worst.key, "without_label": self.worst.label, "status": b.status.value, "message": b.message,
-                    "success": bool(b.success),
-                    "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
-                    "xbar": np.asarray(b.xbar, dtype=float).tolist(),
-                    "mean_error_pct": mean_max(b.correlation.errors())[0],
-                    "max_error_pct": mean_max(b.correlation.errors())[1],
+            b, top = self.best, self.worst
+            mean, worst = mean_max(b.correlation.errors())
+            best = {"without": top.key, "without_label": top.label, "status": b.status.value, "message": b.message,
+                    "success": bool(b.success), "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
+                    "xbar": np.asarray(b.xbar, dtype=float).tolist(), "mean_error_pct": mean, "max_error_pct": worst,
                     "checks": [c.as_dict() for c in b.checks], "seconds": self.best_seconds}
         return {"failed": list(self.failed), "objective": self.objective, "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,

@@ -183,10 +183,8 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int =
     """Points with exactly the data of ``xbar`` along each direction the data leave
     undetermined, out to the box: for each null direction ``v`` of the data Jacobian and each
     sense, the points nearest ``xbar + (k / steps) t v`` (``t`` to the box boundary, ``k = 1 ..
-    steps``) that keep every datum to `DATA_TOL`. The set of parameters that fit bends away from
-    the straight line (at a symmetric answer ``kL = kR`` of a chain the coupling spring changes
-    at second order), so these points, not the line, show how far each parameter moves along
-    it. A sense stops at its first point that fails. Returns shape (n_points, n_x), empty when
+    steps``) that keep every datum to `DATA_TOL`: the set of parameters that fit bends away from
+    the straight line. A sense stops at its first point that fails. Returns shape (n_points, n_x), empty when
     the data determine every parameter. ``found``: as in `valley_curve`."""
     configurations, lo, hi, x0, found = _start(configurations, xbar, found)
     if found is None:
@@ -226,10 +224,8 @@ def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> li
     among the points of the box with exactly the data of ``xbar``: ``min / max x_i`` subject to
     ``g(x) = g(xbar)`` (``g`` of the module docstring, a set of its rows of full rank at
     ``xbar``), by SLSQP from ``xbar`` (`END_ITERATIONS`), then returned to the data by the
-    iteration of `_same_data_nearest`. The set of answers is curved: a parameter the data fix
-    to first order at one of its points (a turning point of that parameter along the set) moves
-    elsewhere on it, so these ends, not the answer's linearization, show how far each moves.
-    Returns ``(sense, i, x)`` per end found (``sense`` "lowest" or "highest", ``i`` the
+    iteration of `_same_data_nearest`: the set is curved, so these ends, not the answer's
+    linearization, show how far each parameter moves. Returns ``(sense, i, x)`` per end found (``sense`` "lowest" or "highest", ``i`` the
     parameter), only ends that keep every datum to `DATA_TOL`; empty when the data determine
     every parameter. ``found``: as in `valley_curve`."""
     from scipy.optimize import minimize
