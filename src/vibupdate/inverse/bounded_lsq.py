@@ -2,13 +2,10 @@
 for limits and stalls: the solver of the polish (`vibupdate.inverse.polish`) and of the
 classical peers (`vibupdate.inverse.baseline`).
 
-`bounded_least_squares` runs `scipy.optimize.least_squares` (trust-region reflective,
-``x_scale="jac"``) on a function that returns residual and Jacobian from one eigen-solve.
 A `Monitor`, when given, counts the evaluations, keeps the best point and ends the run by
-raising `Stop` on an evaluation limit, a time limit, a stall (the best objective fell by
-less than `STALL_DECREASE` of itself over the last `stall_window` evaluations) or, when given
-known answers, on reaching one of them (`SAME_ANSWER`): a run that only finds an answer again
-need not converge on it a second time.
+raising `Stop` on an evaluation limit, a time limit, a stall (the best objective fell by less
+than `STALL_DECREASE` of itself over the last `stall_window` evaluations) or on reaching a known
+answer again (`SAME_ANSWER`): a run that only finds an answer again need not converge on it.
 """
 
 from __future__ import annotations

@@ -33,8 +33,7 @@ from vibupdate.modal.eigen import DENSE_LIMIT
 #: Evaluations of a reduced model in one round, at most (each a dense solve of ~100 DOFs).
 REDUCED_EVALUATIONS = 200
 #: A round the full model refutes although the reduced model predicted a gain below this
-#: fraction of the objective ends the rounds as converged: what is left is below the reduced
-#: model's own accuracy.
+#: fraction of the objective ends the rounds as converged (below the reduced model's accuracy).
 ROUND_SETTLED = 1e-6
 #: A round whose step moves no normalized parameter by more than this (a fraction of the
 #: parameter's reference value, Eq. 12) has converged.
