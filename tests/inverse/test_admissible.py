@@ -9,7 +9,7 @@ import pytest
 from helpers import chain_model
 from vibupdate import Configuration, NaturalFrequency, VerifyOptions, update
 from vibupdate.data.measured import ShapeInterval
-from vibupdate.inverse.admissible import FLOOR, Admissible, _scale, evaluate, misses, scaling_miss
+from vibupdate.inverse.admissible import FLOOR, Admissible, evaluate, misses, scaling_miss
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.data_map import data_map
 from vibupdate.inverse.status import Verdict
@@ -68,15 +68,16 @@ def test_a_shape_is_held_to_its_intervals_at_a_free_scale_not_to_the_ratio_box()
 
 
 def test_the_scale_of_a_shape_minimizes_its_rows_exactly():
-    """`_scale` against a brute-force scan of the scale: the rows are piecewise linear in it."""
+    """`_scales` of one shape against a brute-force scan of the scale: the rows are piecewise
+    linear in it."""
     rng = np.random.default_rng(1)
     q = np.array([1.0, 0.6, -0.3, 0.05])
     lo = np.array([0.9, 0.5, -0.35, -0.01])
     hi = lo + np.array([0.2, 0.05, 0.1, 0.04])
     mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    from vibupdate.inverse.admissible import PULL, _rows
+    from vibupdate.inverse.admissible import PULL, _rows, _scales
 
-    s = _scale(q, lo, hi, mid, h, PULL)
+    s = float(_scales(q[None], lo[None], hi[None], mid[None], h[None], PULL)[0])
     grid = np.linspace(s - 0.2, s + 0.2, 40001)
     cost = np.sum(_rows(grid[:, None] * q[None, :], lo, hi, mid, h, PULL)[0] ** 2, axis=1)
     assert float(np.sum(_rows(s * q, lo, hi, mid, h, PULL)[0] ** 2)) <= cost.min() * (1 + 1e-9)
@@ -106,7 +107,8 @@ def test_the_scales_of_many_shapes_at_once_minimize_each_ones_rows():
         cost = np.sum(_rows(grid[:, None] * Q[i], lo[i], hi[i], mid[i], h[i], PULL)[0] ** 2, axis=1)
         own = float(np.sum(_rows(s[i] * Q[i], lo[i], hi[i], mid[i], h[i], PULL)[0] ** 2))
         assert own <= cost.min() * (1 + 1e-9), i
-        assert s[i] == pytest.approx(_scale(Q[i], lo[i], hi[i], mid[i], h[i], PULL), rel=1e-12)
+        one = slice(i, i + 1)   # alone, as among the others
+        assert s[i] == pytest.approx(_scales(Q[one], lo[one], hi[one], mid[one], h[one], PULL)[0], rel=1e-12)
 
 
 def test_the_polish_residual_jacobian_is_exact_with_the_scale_eliminated():

@@ -6,7 +6,7 @@ import pytest
 from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 from vibupdate.examples import cantilever
 from vibupdate.inverse.data_map import data_jacobian, data_map, measured_shapes, sensitivity
-from vibupdate.inverse.polish import polish_residuals
+from vibupdate.inverse.baseline import classical_residuals
 from vibupdate.modal.analysis import antiresonances, modes
 
 
@@ -45,7 +45,7 @@ def test_the_polish_and_the_sensitivity_read_the_map_in_its_order(mixed):
     m = data_map(cfg, x)
     measured = np.array([f.omega for f in (*cfg.natural, *cfg.antiresonances)])
     shapes = [s.midpoint for s in measured_shapes(cfg)]
-    r, J = polish_residuals([cfg], x, 1.0)
+    r, J = classical_residuals([cfg], x, 1.0)
     np.testing.assert_array_equal(r, np.concatenate([(m.frequency_values - measured) / measured, *
                                                      [q - mid for q, mid in zip(m.ratios, shapes)]]))
     np.testing.assert_array_equal(J, m.jacobian() / np.concatenate([measured, np.ones(r.size - measured.size)])[:, None])
@@ -151,7 +151,7 @@ def test_a_modal_mass_is_held_to_its_interval_in_relative_units(weighed):
     m = data_map(cfg, x)
     lower, upper = np.array([s.mass for s in measured_shapes(cfg)]).T
     mid = 0.5 * (lower + upper)
-    r, J = polish_residuals([cfg], x, 2.0)
+    r, J = classical_residuals([cfg], x, 2.0)
     np.testing.assert_allclose(r[-2:], 2.0 * (m.masses - mid) / mid, rtol=1e-12)
     found = [f for f in misses(Admissible.of([cfg], VerifyOptions(modal_mass_tolerance=0.0)), [m])
              if f.kind == "modal_mass"]

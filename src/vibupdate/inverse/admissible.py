@@ -17,22 +17,17 @@ verification options (`Admissible.of`):
 
 A measured shape keeps its documented meaning: its entries are known up to one free scale per
 mode. The model's shape at the measured DOFs, scaled by the best scale ``s``, is held against
-the entries' intervals; ``s`` is eliminated (variable projection, `_scale`). A mass-normalized
+the entries' intervals; ``s`` is eliminated (variable projection, `_scales`). A mass-normalized
 shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
 the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
 
-Two uses, one set of intervals:
-
-* the **polish** minimizes, in half-widths ``h`` of the admissible intervals, the squared
-  distance of each model value outside its interval, weighted by ``1 / PULL^2``, plus the
-  squared distance from the interval's midpoint (`residuals`, two rows per datum: `_rows`):
-  inside every interval only the pull is left, and its minimum is the least-squares fit
-  weighted by ``1 / h^2``, every datum alike, a shape's entries as a frequency (the classical
-  fit when every frequency has the same relative tolerance: the paper's cantilever); outside,
-  the distance dominates by ``1 / PULL^2``. The polish aims at the intervals without the floor
-  and shrunk by `MARGIN` half-widths, so that the pull's trade-off stays inside them;
-* the **verification** asks whether every model value lies in its admissible interval, a shape
-  at some scale (`misses`): one membership test.
+Two uses, one set of intervals: the **polish** minimizes, in half-widths ``h``, each value's
+distance outside its interval (weighted by ``1 / PULL^2``) plus its distance from the midpoint
+(`residuals`, two rows per datum: `_rows`), aiming at the intervals without the floor and
+shrunk by `MARGIN` half-widths: inside every interval only the pull is left, the least-squares
+fit weighted by ``1 / h^2`` (the classical fit when every frequency has the same relative
+tolerance); the **verification** asks whether every value lies in its interval, a shape at
+some scale (`misses`). The rows in full: docs/polish-and-verification.md, section 7.2.
 """
 
 from __future__ import annotations
@@ -40,6 +35,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
+from itertools import groupby
 
 import numpy as np
 
@@ -48,22 +44,19 @@ from vibupdate.data.measured import Antiresonance, Configuration
 from vibupdate.inverse.repeated import cluster
 
 #: Relative numerical floor added to every admissible interval: the rounding of a
-#: double-precision eigen-solve (about 1e-12 relative on the acceptance models) with room for
-#: the polish's own stopping test.
+#: double-precision eigen-solve with room for the polish's own stopping test.
 FLOOR = 1e-8
 #: Weight of the pull toward the midpoints against the distance outside the intervals (both in
 #: half-widths, in separate rows: `_rows`): small, so that inside the intervals it only picks the
 #: weighted least-squares point, and outside a datum costs ``1 / PULL^2`` times its squared
 #: distance. A datum held at its interval's end by a pull ``F`` half-widths strong (its own and
 #: the other data's) stays ``F PULL^2`` half-widths outside its target: `MARGIN` covers ``F`` up
-#: to 10. Measured with 0.03: the noisy beam of the tests with 1 % frequency noise in 0.2 %
-#: intervals ended 3 to 8 data outside their intervals.
+#: to 10 (with 0.03 the noisy beam of the tests ended data outside their intervals).
 PULL = 1e-2
 #: The polish aims at each interval shrunk by this many half-widths (and by the floor): more
 #: than the pull's trade-off (``F PULL^2``) and than where the least squares stops on an
 #: interval's end.
 MARGIN = 1e-3
-
 
 #: Smallest relative half-width the first stage's weights use (`weighted`): a chosen cap, so
 #: that an exact datum among 1 % ones weighs 1e4^2 times more rather than without bound.
@@ -78,8 +71,7 @@ class VerifyOptions:
     ----------
     mac_min : float
         Smallest MAC of a measured shape with its declared mode (0.8: the usual threshold
-        below which two shapes are not taken as the same mode; the frame example's verified
-        answer has 0.9917 at worst).
+        below which two shapes are not taken as the same mode).
     frequency_tolerance : float
         Relative frequency uncertainty used for the consistency allowance (a case file's
         ``frequency_tolerance`` when it states one; 1 % otherwise).
@@ -268,17 +260,13 @@ class Admissible:
         """The same data with every admissible half-width at least ``relative`` times the
         datum's scale (its value; a shape entry: its shape's `Shape.scale`), each interval
         widened about its midpoint: the softer objective a polish starts on (`vibupdate.inverse.polish.START_FLOOR`)."""
-        def datum(d: Datum) -> Datum:
-            mid, h = 0.5 * (d.lower + d.upper), max(d.half_width, relative * abs(d.value))
+        def wide(d, scale):
+            mid, h = 0.5 * (d.lower + d.upper), np.maximum(d.half_width, relative * scale)
             return replace(d, lower=mid - h, upper=mid + h)
 
-        def shape(s: Shape) -> Shape:
-            mid, h = 0.5 * (s.lower + s.upper), np.maximum(s.half_width, relative * s.scale)
-            return replace(s, lower=mid - h, upper=mid + h)
-
-        return Admissible(tuple(tuple(datum(d) for d in row) for row in self.frequencies),
-                          tuple(tuple(shape(s) for s in row) for row in self.shapes),
-                          tuple(tuple(datum(d) for d in row) for row in self.masses))
+        return Admissible(tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.frequencies),
+                          tuple(tuple(wide(s, s.scale) for s in row) for row in self.shapes),
+                          tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.masses))
 
     @cached_property
     def datum_targets(self) -> tuple:
@@ -296,10 +284,8 @@ def _rows(v, lo, hi, mid, h, pull=PULL):
     ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
     per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
     outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
-    zero, so their sum of squares has a continuous gradient. (One row
-    ``((v - mid) + out / pull) / h`` jumps in slope by ``1 / pull`` at an interval's end, where
-    it is about one: its square's gradient jumps there, and trust-region steps crawl along the
-    ends: `vibupdate.inverse.polish`.)"""
+    zero, so their sum of squares has a continuous gradient (one combined row's would jump at
+    an interval's end, where trust-region steps then crawl)."""
     out = v - np.clip(v, lo, hi)
     slope_in = np.broadcast_to(1.0 / h, np.shape(out))
     slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)
@@ -311,15 +297,6 @@ def _targets(lower, upper, floor):
     """The polish's target interval: the admissible one without its floor, shrunk by `MARGIN`."""
     inset = floor + MARGIN * 0.5 * (upper - lower - 2 * floor)
     return lower + inset, upper - inset
-
-
-def _scale(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray, pull: float,
-           scales: tuple[float, float] | None = None) -> float:
-    """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`) of one shape (`_scales`); within
-    ``scales`` (`Shape.scales`), the minimizer of a convex function of one variable clipped to them."""
-    s = float(_scales(np.asarray(q, dtype=float)[None, :], lo[None, :], hi[None, :], mid[None, :], h[None, :],
-                      pull)[0])
-    return s if scales is None else float(np.clip(s, *scales))
 
 
 def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray,
@@ -440,7 +417,8 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
         by = {s.position: s for s in shapes}
         mass = _modal_masses(m, jacobian)
         held = [k for k, measured in enumerate(m.shapes) if measured.position in by]
-        for group in _runs(held, [m.ratios[k].size for k in held]):   # consecutive shapes of one size at once
+        for _, run in groupby(held, key=lambda k: m.ratios[k].size):   # consecutive shapes of one size at once
+            group = list(run)
             r, J = _shape_rows([by[m.shapes[k].position] for k in group], [m.ratios[k] for k in group],
                                [m.ratio_jacobians[k] for k in group] if jacobian else None, pull,
                                [mass[k] for k in group])
@@ -449,17 +427,6 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                 jac.append(J)
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
-
-
-def _runs(items: list, sizes: list) -> list[list]:
-    """``items`` cut into runs of consecutive items of equal size, in order."""
-    out: list[list] = []
-    for item, size, before in zip(items, sizes, [None, *sizes[:-1]]):
-        if size == before:
-            out[-1].append(item)
-        else:
-            out.append([item])
-    return out
 
 
 def _datum_targets(items: tuple) -> tuple[np.ndarray, ...] | None:
@@ -569,8 +536,6 @@ def weighted(configurations: Sequence[Configuration], contract: Admissible):
     """The data with each frequency's weight multiplied by ``1 / h^2``, ``h`` its relative
     admissible half-width, the multipliers normalized to mean 1: the first stage weighs each
     residual as the contract does (the same objects when every ``h`` is equal)."""
-    from dataclasses import replace
-
     factor = 1.0 / np.maximum(contract.relative_half_widths(), WEIGHT_FLOOR) ** 2
     if not factor.size:
         return list(configurations)

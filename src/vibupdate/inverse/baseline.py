@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from vibupdate.data.measured import Configuration
+from vibupdate.inverse.bounded_lsq import bounded_least_squares
+from vibupdate.inverse.data_map import data_map
 
 
 #: Residual evaluations at most (each one eigen-solve per configuration).
@@ -61,19 +63,54 @@ class FrequencyFit:
     n_evaluations: int
 
 
-def _fit(configurations, shape_weight: float, x0=None, tol=None) -> FrequencyFit:
-    from vibupdate.inverse.polish import bounded_least_squares, polish_residuals
+def classical_residuals(configurations: Sequence[Configuration], xbar, shape_weight: float = 1.0,
+                        jacobian: bool = True):
+    """Residuals of the classical fit and their exact Jacobian: each declared frequency's
+    relative error times ``sqrt(weight)``, then ``shape_weight`` times each shape ratio's and
+    each modal mass's signed difference from its interval's midpoint (the mass relative to it):
+    the residuals of `frequency_fit` (``shape_weight`` 0) and `eigenvector_fit`, and the data
+    the minimum change keeps (`vibupdate.inverse.minimum_change`).
 
+    Returns
+    -------
+    r : ndarray, shape (n_r,)
+        Per configuration, in the order of the data map (`vibupdate.inverse.data_map`).
+    J : ndarray, shape (n_r, n_x), or None without ``jacobian``
+    """
+    res, jac = [], []
+    for cfg in configurations:
+        d = data_map(cfg, xbar, jacobian=jacobian, shapes=shape_weight > 0)
+        measured = (*cfg.natural, *cfg.antiresonances)
+        w = np.array([m.omega for m in measured])
+        s = np.sqrt([m.weight for m in measured])
+        lost = np.isnan(d.frequency_values)   # a zero the model lost: a constant penalty, no direction to follow
+        res.append(np.where(lost, s, s * (d.frequency_values - w) / w))
+        if jacobian:
+            jac.append(np.where(lost[:, None], 0.0, s[:, None] * d.frequency_jacobian / w[:, None]))
+        for k, (shape, ratio) in enumerate(zip(d.shapes, d.ratios)):
+            res.append(shape_weight * (ratio - shape.midpoint))
+            if jacobian:
+                jac.append(shape_weight * d.ratio_jacobians[k])
+        mid = np.array([0.5 * sum(shape.mass) for shape in d.shapes if shape.mass is not None])
+        if mid.size:
+            res.append(shape_weight * (d.masses - mid) / mid)
+            if jacobian:
+                jac.append(shape_weight * d.mass_jacobian / mid[:, None])
+    r = np.concatenate(res) if res else np.zeros(0)
+    return r, (np.vstack(jac) if jacobian and jac else None)
+
+
+def _fit(configurations, shape_weight: float, x0=None, tol=None) -> FrequencyFit:
     configurations = list(configurations)
     model = configurations[0].model
     lo, hi = model.bounds()
     x0 = np.zeros(model.n_parameters) if x0 is None else np.asarray(x0, dtype=float)
     start = time.perf_counter()
-    sol = bounded_least_squares(lambda x: polish_residuals(configurations, x, shape_weight),
+    sol = bounded_least_squares(lambda x: classical_residuals(configurations, x, shape_weight),
                                 x0, lo, hi, max_nfev=MAX_EVALUATIONS,
                                 **({} if tol is None else {"ftol": tol, "xtol": tol, "gtol": tol}))
     seconds = time.perf_counter() - start
-    r = polish_residuals(configurations, sol.x, shape_weight=0.0, jacobian=False)[0]
+    r = classical_residuals(configurations, sol.x, shape_weight=0.0, jacobian=False)[0]
     weights = np.concatenate([[f.weight for f in c.natural] + [a.weight for a in c.antiresonances]
                               for c in configurations])
     err = 100 * np.abs(r) / np.sqrt(weights)

@@ -2,13 +2,10 @@
 for limits and stalls: the solver of the polish (`vibupdate.inverse.polish`) and of the
 classical peers (`vibupdate.inverse.baseline`).
 
-`bounded_least_squares` runs `scipy.optimize.least_squares` (trust-region reflective,
-``x_scale="jac"``) on a function that returns residual and Jacobian from one eigen-solve.
 A `Monitor`, when given, counts the evaluations, keeps the best point and ends the run by
-raising `Stop` on an evaluation limit, a time limit, a stall (the best objective fell by
-less than `STALL_DECREASE` of itself over the last `stall_window` evaluations) or, when given
-known answers, on reaching one of them (`SAME_ANSWER`): a run that only finds an answer again
-need not converge on it a second time.
+raising `Stop` on an evaluation limit, a time limit, a stall (the best objective fell by less
+than `STALL_DECREASE` of itself over the last `stall_window` evaluations) or on reaching a known
+answer again (`SAME_ANSWER`): a run that only finds an answer again need not converge on it.
 """
 
 from __future__ import annotations
@@ -24,11 +21,9 @@ from scipy.optimize import least_squares
 #: along an interval edge on noisy shapes, about 1 % per evaluation, is not a stall.)
 STALL_DECREASE = 1e-3
 #: A run evaluated at a point within this distance (largest normalized parameter difference)
-#: of a known answer has found that answer again and stops (`Monitor`, ``answers``). A tenth of
-#: the distance at which two answers count as distinct in the uniqueness probe
-#: (`vibupdate.inverse.update.DISTINCT`); on the acceptance problems the probe's starts that
-#: ended on the answer already found spent 27 % of their evaluations inside it (9,442
-#: evaluations of 256 starts, 6,882 before first reaching it).
+#: of a known answer has found that answer again and stops (`Monitor`, ``answers``): a tenth of
+#: the distance at which two answers count as distinct (`vibupdate.inverse.search.Search.distinct`;
+#: `benchmarks/RESULTS.md`, "The uniqueness probe stops on answers found again").
 SAME_ANSWER = 1e-4
 
 
@@ -54,10 +49,9 @@ class Stop(Exception):
 
 
 class Monitor:
-    """Counts the full-model evaluations of the polish's least squares, keeps the best point
-    seen, and raises `Stop` after ``limit`` of them (what is left of ``budget``), on the time
-    limit or on a stall (the best objective fell by less than `STALL_DECREASE` over the last
-    ``window`` evaluations), or on a point within `SAME_ANSWER` of one of ``answers`` (shape
+    """Counts the evaluations of a least squares, keeps the best point seen, and raises `Stop`
+    on the module docstring's events: ``limit`` evaluations (what is left of ``budget``), the
+    time limit, a stall over ``window`` evaluations, a point near one of ``answers`` (shape
     (n_a, n_x); none by default)."""
 
     def __init__(self, x, value, limit: int, budget: int, window: int, started: float, max_seconds: float | None,

@@ -8,7 +8,7 @@ measured magnitude (`vibupdate.data.measured.ShapeInterval.reference`), and, of 
 mass-normalized measured shape, the modal mass ``1 / phi_p^2`` at that entry (kg). As functions of the
 normalized parameters they are the data map ``d(xbar)``; with its exact Jacobian
 ``G = d d / d xbar`` (`vibupdate.modal.sensitivities`) it is what the polish fits
-(`vibupdate.inverse.polish.polish_residuals`), what the sensitivity reports (`sensitivity`) and
+(`vibupdate.inverse.admissible.residuals`), what the sensitivity reports (`sensitivity`) and
 what the linearized ranges bound (`vibupdate.ranges.identifiability`).
 
 It is evaluated here and nowhere else, so that those three agree on which model value is

@@ -1,37 +1,19 @@
 """Which data conflict: leave-one-group-out after an answer that does not fit the data.
 
-When the returned model fails a check that measures its fit to the data (`MISFIT_CHECKS`),
-the data are split into groups, each a unit that one fault corrupts:
-
-* each natural frequency (with its shape: a shape is measured at its frequency and cannot be
-  kept without it);
-* each antiresonance;
-* each mode's shape (every measured entry of it);
-* each measured shape DOF across all modes of its configuration: a biased sensor, or a
-  driving point whose entry carries the force cell's mass or a calibration error, corrupts
-  that DOF's entry in every mode.
-
-Every group is first screened in one step: at the full answer, the residual and Jacobian of
-the data without it (one evaluation) give the objective one bounded Gauss-Newton step would
-reach without that group (`_predicted`), and the groups are ordered by it. The first
-`MAX_GROUPS` of that order are refitted: the data without the group are polished from the full
-answer (the same polish options) and the result verified against the data kept (every check
-but the consistency of the relaxation, which needs a first stage of its own). The refitted
-groups are ranked verified first, then by the polish objective on the data kept (the quantity
-the update minimizes): the group whose removal leaves the best fit heads the list. The first
-stage is then run again, in full (`update`, the same options), without the top group: that is
-the best model without the worst group, with its own status and verification on the data kept.
-
-The cost is one evaluation per group, one polish and one verification per refitted group, and
-one update; the refits also stop at `MAX_SECONDS`. The groups not refitted are named in the
-record, in the order of the one-step screening.
+When the answer fails a check of its fit to the data (`MISFIT_CHECKS`), each group of the data
+that one fault corrupts (`data_groups`) is screened in one bounded Gauss-Newton step without it
+(`_predicted`); the first `MAX_GROUPS` of that order are refitted without their group (polished
+from the answer, verified on the data kept but for the relaxation's consistency) within
+`MAX_SECONDS`, and ranked verified first, then by the polish objective on the data kept. The
+update is then run again in full without the top group. The groups, the ranking and the cost:
+docs/polish-and-verification.md, section 7.8.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from scipy.optimize import lsq_linear
@@ -86,8 +68,7 @@ class DataGroup:
     size: int
 
     def as_dict(self) -> dict:
-        return {"key": self.key, "kind": self.kind, "configuration": self.configuration, "label": self.label,
-                "size": self.size}
+        return asdict(self)
 
 
 def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
@@ -211,10 +192,8 @@ class GroupTrial:
     evaluations: int = 0
 
     def as_dict(self) -> dict:
-        return {**self.group.as_dict(), "share": self.share, "objective": self.objective,
-                "passed": self.passed, "failed": list(self.failed), "mean_error_pct": self.mean_error_pct,
-                "max_error_pct": self.max_error_pct, "shape_misses": self.shape_misses,
-                "xbar": self.xbar.tolist(), "seconds": self.seconds, "evaluations": self.evaluations}
+        out = asdict(self)
+        return {**out.pop("group"), **out, "failed": list(self.failed), "xbar": self.xbar.tolist()}
 
 
 @dataclass(frozen=True)
@@ -279,25 +258,17 @@ class Diagnosis:
         """The ``diagnosis`` section of ``results.json`` (``best`` without its matrices)."""
         best = None
         if self.best is not None:
-            b = self.best
-            best = {"without": self.worst.key, "without_label": self.worst.label, "status": b.status.value, "message": b.message,
-                    "success": bool(b.success),
-                    "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
-                    "xbar": np.asarray(b.xbar, dtype=float).tolist(),
-                    "mean_error_pct": mean_max(b.correlation.errors())[0],
-                    "max_error_pct": mean_max(b.correlation.errors())[1],
+            b, top = self.best, self.worst
+            mean, worst = mean_max(b.correlation.errors())
+            best = {"without": top.key, "without_label": top.label, "status": b.status.value, "message": b.message,
+                    "success": bool(b.success), "values": {p.name: float(v) for p, v in zip(b.parameters, b.values)},
+                    "xbar": np.asarray(b.xbar, dtype=float).tolist(), "mean_error_pct": mean, "max_error_pct": worst,
                     "checks": [c.as_dict() for c in b.checks], "seconds": self.best_seconds}
         return {"failed": list(self.failed), "objective": self.objective, "mean_error_pct": self.mean_error_pct,
                 "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,
                 "untried_groups": list(self.untried_groups),
                 "trials": [t.as_dict() for t in self.trials], "best": best, "seconds": self.seconds,
                 "limits": {"groups": MAX_GROUPS, "seconds": MAX_SECONDS}}
-
-
-def _objective(configurations, xbar, polish: PolishOptions, verification: VerifyOptions) -> float:
-    """The polish's objective at ``xbar``, the data weighed as the update weighs them."""
-    r, _ = evaluate(configurations, Admissible.of(configurations, verification), xbar, jacobian=False)
-    return 0.5 * float(r @ r)
 
 
 def _predicted(configurations, xbar, verification: VerifyOptions) -> tuple[float, float]:
@@ -330,10 +301,6 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
     return GroupTrial(group, share, float(polished.cost), not failed, failed, mean, worst,
                       int(shape.value) if shape is not None else 0, np.asarray(x, dtype=float),
                       time.perf_counter() - t0, polished.evaluations)
-
-
-def _rank(trial: GroupTrial) -> tuple:
-    return (not trial.passed, trial.objective, trial.max_error_pct)
 
 
 def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, formulation: FormulationOptions | None = None,
@@ -369,7 +336,8 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
     verification = verification or VerifyOptions()
     configurations = list(configurations)
     xbar = np.asarray(result.xbar, dtype=float)
-    full = _objective(configurations, xbar, polish, verification)
+    r, _ = evaluate(configurations, Admissible.of(configurations, verification), xbar, jacobian=False)
+    full = 0.5 * float(r @ r)   # the polish's objective at the answer
     mean, worst = mean_max(np.concatenate(list(declared_errors(
         configurations, [model_frequencies(c, xbar) for c in configurations]).values())))
     failed = tuple(c.name for c in result.checks if c.severity == "error" and not c.passed)
@@ -402,7 +370,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
         say(f"diagnosis {k}/{min(len(candidates), max_groups)}: without the {group.label}: objective "
             f"{trial.objective:.3g}, frequency error max {trial.max_error_pct:.3g} %, "
             + ("passes" if trial.passed else f"fails {', '.join(trial.failed)}") + f" ({trial.seconds:.2f} s)")
-    trials.sort(key=_rank)
+    trials.sort(key=lambda t: (not t.passed, t.objective, t.max_error_pct))
     best, t1 = None, time.perf_counter()
     if trials:
         kept = without(configurations, trials[0].group)

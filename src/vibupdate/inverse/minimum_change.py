@@ -1,27 +1,24 @@
 """Minimum change along what the data leave undetermined.
 
-Where the measured data do not determine every parameter (fewer independent data than
-parameters, an exact symmetry), the fitted parameters form a set, not a point, and the point
-the homotopy and the polish return is an accident of the path: two solver schedules can
-return answers far apart, both fitting the data exactly (`benchmarks/RESULTS.md`, "Figures
-behind src/: minimum change"). A user expects the answer closest to the nominal model along
-the undetermined directions, as a regularized or minimum-norm fit gives. This module takes
-the polished answer ``x*`` there.
+Where the data do not determine every parameter (fewer independent data than parameters, an
+exact symmetry), the fitted parameters form a set and the point the solver returns is an
+accident of the path (`benchmarks/RESULTS.md`, "Figures behind src/: minimum change"). This
+module takes the polished answer ``x*`` to the point of that set nearest the nominal model, as
+a minimum-norm fit would, and explores the set (`valley_points`, `valley_ends`, `valley_curve`).
 
 Let ``g(x)`` be the measured data as the model gives them: every declared natural frequency
 and zero relative to its measured value, and every measured shape ratio (the residuals of
-`vibupdate.inverse.polish.polish_residuals`, which differ
-from ``g`` by constants and fixed weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
+`vibupdate.inverse.baseline.classical_residuals`, which differ from ``g`` by constants and fixed
+weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
 (singular values above ``RANK_RTOL`` of the largest, the threshold of the reported
 sensitivity, `vibupdate.inverse.data_map.sensitivity`), below the number of parameters.
 The answer is
 
     min ||x||^2   over   { x in the box : g(x) = g(x*) },
 
-the normalized parameters (Eq. 12) closest to the nominal point (``x = 0``) among those that
-reproduce *exactly the same data* as ``x*``: every frequency, zero and shape ratio is unchanged,
-so the fit and every verification figure stay what they were, only the parameters move. It is
-solved by the minimum-norm Gauss-Newton iteration on the constraint,
+the normalized parameters (Eq. 12) closest to the nominal point among those with *exactly the
+data* of ``x*`` (so the fit and every verification figure stay what they were), solved by the
+minimum-norm Gauss-Newton iteration on the constraint,
 
     d = -V_k S_k^-1 U_k^T (g(x) - g(x*)) - (I - V_k V_k^T) x,
 
@@ -40,12 +37,13 @@ continuation changes the fit by ``O(mu^2)`` at every stage.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.data_map import measured_shapes
+from vibupdate.inverse.baseline import classical_residuals
 
 
 #: Singular values of the data Jacobian below this fraction of the largest count as zero (the
@@ -96,23 +94,18 @@ class MinimumChange:
     message: str
 
     def as_dict(self) -> dict:
-        return {"applied": self.applied, "kept": self.kept, "rank": self.rank, "norm_start": self.norm_start,
-                "norm": self.norm, "data_change": self.data_change, "iterations": self.iterations,
-                "message": self.message}
+        return {k: v for k, v in asdict(self).items() if k not in ("xbar_start", "xbar")}
 
 
 def _data(configurations, x):
     """``g(x)`` up to fixed weights and constants, and its exact Jacobian."""
-    from vibupdate.inverse.polish import polish_residuals
-
-    return polish_residuals(configurations, x, SHAPE_WEIGHT)
+    return classical_residuals(configurations, x, SHAPE_WEIGHT)
 
 
 def _weights(configurations: Sequence[Configuration]) -> np.ndarray:
     """Per residual row of `_data`, the factor that turns it into a datum change: the inverse
-    of a frequency's ``sqrt(weight)``, of `SHAPE_WEIGHT` for a shape ratio (the rows of
-    `vibupdate.inverse.polish.polish_residuals`, configuration by configuration, in the order of
-    `vibupdate.inverse.data_map`)."""
+    of a frequency's ``sqrt(weight)``, of `SHAPE_WEIGHT` for a shape ratio, in the order of
+    `vibupdate.inverse.baseline.classical_residuals`."""
     out = []
     for cfg in configurations:
         out += [1 / np.sqrt(d.weight) for d in (*cfg.natural, *cfg.antiresonances)]
@@ -126,15 +119,9 @@ def numerical_rank(sv: np.ndarray, rtol: float = RANK_RTOL) -> int:
 
 
 def undetermined(configurations, x0):
-    """`_data` at ``x0`` with the rank and right singular vectors of its Jacobian (`_undetermined`),
-    for the explorations of the set of answers (`valley_ends`, `valley_curve`) to share."""
-    return _undetermined(configurations, x0)
-
-
-def _undetermined(configurations, x0):
     """`_data` at ``x0``, the rows with finite derivatives, the rank of their Jacobian and its
     right singular vectors (rows ``rank:`` span the directions the data leave undetermined);
-    None when no datum has derivatives."""
+    None when no datum has derivatives. The explorations of the set of answers share it."""
     g0, J = _data(configurations, x0)
     if J is None:
         return None
@@ -143,6 +130,22 @@ def _undetermined(configurations, x0):
         return None
     _, sv, Vt = np.linalg.svd(J[finite])
     return g0, J, finite, numerical_rank(sv), Vt
+
+
+def _start(configurations, xbar, found):
+    """The configurations as a list, the box, ``xbar`` as an array and `undetermined` there
+    (``found`` when the caller has it)."""
+    configurations = list(configurations)
+    x0 = np.asarray(xbar, dtype=float)
+    return (configurations, *configurations[0].model.bounds(), x0,
+            found if found is not None else undetermined(configurations, x0))
+
+
+def _independent_rows(J, finite, rank):
+    """``rank`` rows of ``J`` (among the ``finite`` ones) of full rank, by pivoted QR."""
+    from scipy.linalg import qr
+
+    return np.flatnonzero(finite)[qr(J[finite].T, pivoting=True)[2][:rank]]
 
 
 def _same_data_nearest(configurations, x0, target, g0, finite, rank, lo, hi, at_x0=None):
@@ -180,16 +183,10 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int =
     """Points with exactly the data of ``xbar`` along each direction the data leave
     undetermined, out to the box: for each null direction ``v`` of the data Jacobian and each
     sense, the points nearest ``xbar + (k / steps) t v`` (``t`` to the box boundary, ``k = 1 ..
-    steps``) that keep every datum to `DATA_TOL`. The set of parameters that fit bends away from
-    the straight line (at a symmetric answer ``kL = kR`` of a chain the coupling spring changes
-    at second order), so these points, not the line, show how far each parameter moves along
-    it. A sense stops at its first point that fails. Returns shape (n_points, n_x), empty when
-    the data determine every parameter. ``found``: `undetermined` at ``xbar`` when the caller
-    has it."""
-    configurations = list(configurations)
-    lo, hi = configurations[0].model.bounds()
-    x0 = np.asarray(xbar, dtype=float)
-    found = found if found is not None else _undetermined(configurations, x0)
+    steps``) that keep every datum to `DATA_TOL`: the set of parameters that fit bends away from
+    the straight line. A sense stops at its first point that fails. Returns shape (n_points, n_x), empty when
+    the data determine every parameter. ``found``: as in `valley_curve`."""
+    configurations, lo, hi, x0, found = _start(configurations, xbar, found)
     if found is None:
         return np.zeros((0, x0.size))
     g0, J, finite, rank, Vt = found
@@ -217,11 +214,8 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int =
 #: their span (the norm of its row of the null basis) exceeds this (`valley_ends`; the ranges'
 #: `vibupdate.ranges.identifiability.NULL_COMPONENT` is the same figure).
 MOVES = 1e-3
-#: Iterations of each SLSQP run of `valley_ends` at most (one evaluation of the data with their
-#: derivatives each, a few more for its line searches). On the acceptance engine's exact-data
-#: problems with fewer data than parameters most ends converge in 2 to 17; a run stopped here
-#: still ends on a point with the answer's data (checked to `DATA_TOL`), one that is not the
-#: extreme.
+#: Iterations of each SLSQP run of `valley_ends` at most: a run stopped here still ends on a
+#: point with the answer's data (checked to `DATA_TOL`), one that is not the extreme.
 END_ITERATIONS = 20
 
 
@@ -230,23 +224,17 @@ def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> li
     among the points of the box with exactly the data of ``xbar``: ``min / max x_i`` subject to
     ``g(x) = g(xbar)`` (``g`` of the module docstring, a set of its rows of full rank at
     ``xbar``), by SLSQP from ``xbar`` (`END_ITERATIONS`), then returned to the data by the
-    iteration of `_same_data_nearest`. The set of answers is curved: a parameter the data fix
-    to first order at one of its points (a turning point of that parameter along the set) moves
-    elsewhere on it, so these ends, not the answer's linearization, show how far each moves.
-    Returns ``(sense, i, x)`` per end found (``sense`` "lowest" or "highest", ``i`` the
+    iteration of `_same_data_nearest`: the set is curved, so these ends, not the answer's
+    linearization, show how far each parameter moves. Returns ``(sense, i, x)`` per end found (``sense`` "lowest" or "highest", ``i`` the
     parameter), only ends that keep every datum to `DATA_TOL`; empty when the data determine
-    every parameter. ``found``: `undetermined` at ``xbar`` when the caller has it."""
-    from scipy.linalg import qr
+    every parameter. ``found``: as in `valley_curve`."""
     from scipy.optimize import minimize
 
-    configurations = list(configurations)
-    lo, hi = configurations[0].model.bounds()
-    x0 = np.asarray(xbar, dtype=float)
-    found = found if found is not None else _undetermined(configurations, x0)
+    configurations, lo, hi, x0, found = _start(configurations, xbar, found)
     if found is None or found[3] >= x0.size:
         return []
     g0, J, finite, rank, Vt = found
-    rows = np.flatnonzero(finite)[qr(J[finite].T, pivoting=True)[2][:rank]]
+    rows = _independent_rows(J, finite, rank)
     memo: dict = {x0.tobytes(): (g0, J)}
 
     def at(x):
@@ -285,9 +273,7 @@ def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> li
 TRACE_STEP = (0.02, 0.1, 1e-4)
 CORRECTIONS = 6
 TRACE_TOL = 1e-11
-#: Regula falsi steps placing a turning point between two points of the trace (`valley_curve`):
-#: the parameter's error there is of the order of the curvature times the square of the
-#: arclength error; on the constructed chain of the tests one step leaves 4e-6 of its value.
+#: Regula falsi steps placing a turning point between two points of the trace (`valley_curve`).
 TURN_REFINEMENTS = 4
 #: Evaluations of `valley_curve` at most (both senses together).
 TRACE_EVALUATIONS = 400
@@ -295,33 +281,24 @@ TRACE_EVALUATIONS = 400
 
 def valley_curve(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
     """The points where a parameter turns (is locally lowest or highest) along the set of
-    answers with exactly the data of ``xbar``, where that set is a curve: one direction left
-    undetermined among the parameters the data see (a parameter no datum sees at all moves
-    freely and is held at its value). The curve is traced both ways from ``xbar`` to the box by
-    pseudo-arclength continuation (`TRACE_STEP`, `CORRECTIONS`, `TRACE_TOL`); where a
-    parameter's component of the unit tangent changes sign between two points, the turning
-    point is placed by linear interpolation of that component in arclength and corrected onto
-    the curve. At such a point the data fix that parameter to first order, as at every point
-    where the linearization says so; the ends of the curve alone (`valley_ends`) miss it.
+    answers with exactly the data of ``xbar``, where that set is a curve (one direction left
+    undetermined among the parameters the data see; the others are held). The curve is traced
+    both ways from ``xbar`` to the box by pseudo-arclength continuation (`TRACE_STEP`,
+    `CORRECTIONS`, `TRACE_TOL`); where a parameter's tangent component changes sign, the
+    turning point is placed by regula falsi in arclength and corrected onto the curve: there the
+    data fix that parameter to first order, which the curve's ends (`valley_ends`) miss.
     Returns ``(sense, i, x)`` per point: the turning points ("locally lowest" / "locally
-    highest" parameter ``i``) and, of the points traced (a sense ends on the face of the box it
-    reaches), where each parameter the data see is lowest and highest ("lowest" / "highest"),
-    each keeping every datum to `DATA_TOL`; empty where the set is not a curve. The set may
-    have other branches than the one traced: `valley_ends` is run besides. ``found``:
-    `undetermined` at ``xbar`` when the caller has it."""
-    configurations = list(configurations)
-    lo, hi = configurations[0].model.bounds()
-    x0 = np.asarray(xbar, dtype=float)
-    found = found if found is not None else _undetermined(configurations, x0)
+    highest" parameter ``i``) and where each parameter is lowest and highest among the points
+    traced ("lowest" / "highest"), each keeping every datum to `DATA_TOL`; empty where the set
+    is not a curve. ``found``: `undetermined` at ``xbar`` when the caller has it."""
+    configurations, lo, hi, x0, found = _start(configurations, xbar, found)
     if found is None:
         return []
     g0, J, finite, rank, _ = found
     seen = np.linalg.norm(J[finite], axis=0) > 0
     if rank != int(seen.sum()) - 1:
         return []
-    from scipy.linalg import qr
-
-    rows = np.flatnonzero(finite)[qr(J[finite][:, seen].T, pivoting=True)[2][:rank]]
+    rows = _independent_rows(J[:, seen], finite, rank)
     count = [0]
 
     def at(y):
@@ -411,37 +388,31 @@ def minimum_change(configurations: Sequence[Configuration], xbar) -> MinimumChan
     xbar : ndarray, shape (n_x,)
         The polished answer, normalized parameters.
     """
-    configurations = list(configurations)
-    lo, hi = configurations[0].model.bounds()
-    x0 = np.asarray(xbar, dtype=float)
+    configurations, lo, hi, x0, found = _start(configurations, xbar, None)
     norm0 = float(np.linalg.norm(x0))
-    n_x = x0.size
 
-    def outcome(x, applied, kept, rank, change, iterations, message):
-        return MinimumChange(x0, x, applied, kept, rank, norm0, float(np.linalg.norm(x)), change, iterations,
-                             message)
+    def outcome(x, applied, rank, change, iterations, message):
+        return MinimumChange(x0, x, applied, x is not x0, rank, norm0, float(np.linalg.norm(x)), change,
+                             iterations, message)
 
-    found = _undetermined(configurations, x0)
     if found is None:
-        return outcome(x0, False, False, 0, 0.0, 0, "no data with derivatives")
+        return outcome(x0, False, 0, 0.0, 0, "no data with derivatives")
     g0, J, finite, rank, _ = found
-    if rank >= n_x:
-        return outcome(x0, False, False, rank, 0.0, 0, "the data determine every parameter")
+    if rank >= x0.size:
+        return outcome(x0, False, rank, 0.0, 0, "the data determine every parameter")
     if norm0 == 0.0:
-        return outcome(x0, True, False, rank, 0.0, 0, "the answer is the nominal point")
-    x, change, iterations, lost = _same_data_nearest(configurations, x0, np.zeros(n_x), g0, finite, rank,
+        return outcome(x0, True, rank, 0.0, 0, "the answer is the nominal point")
+    x, change, iterations, lost = _same_data_nearest(configurations, x0, np.zeros(x0.size), g0, finite, rank,
                                                      lo, hi, at_x0=(g0, J))
     if lost:
-        return outcome(x0, True, False, rank, float("inf"), iterations,
+        return outcome(x0, True, rank, float("inf"), iterations,
                        "not kept: the model lost a declared mode or zero on the way")
-    norm = float(np.linalg.norm(x))
-    undetermined = n_x - rank
     if change > DATA_TOL:
-        return outcome(x0, True, False, rank, change, iterations,
+        return outcome(x0, True, rank, change, iterations,
                        f"not kept: the data moved by {change:.2e} (> {DATA_TOL:g}) on the way to the nominal point")
-    if not norm < norm0:
-        return outcome(x0, True, False, rank, change, iterations, "the answer is already the minimum change")
-    return outcome(x, True, True, rank, change, iterations,
-                   f"{undetermined} direction(s) undetermined by the data: the answer moved along them to the "
-                   f"point nearest the nominal model (||xbar|| {norm0:.4g} -> {norm:.4g}), every datum unchanged "
-                   f"within {change:.1e}")
+    if not np.linalg.norm(x) < norm0:
+        return outcome(x0, True, rank, change, iterations, "the answer is already the minimum change")
+    return outcome(x, True, rank, change, iterations,
+                   f"{x0.size - rank} direction(s) undetermined by the data: the answer moved along them to the "
+                   f"point nearest the nominal model (||xbar|| {norm0:.4g} -> {np.linalg.norm(x):.4g}), every "
+                   f"datum unchanged within {change:.1e}")

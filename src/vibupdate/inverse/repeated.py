@@ -1,21 +1,18 @@
 """Repeated natural frequencies: model modes that share one eigenspace.
 
-A structure with a symmetry has natural frequencies that repeat: the x and y sway of a frame
-with square bays, the two bending planes of a round shaft. Every combination of the modes of a
-repeated frequency is a mode of it, and which combination an eigen-solver returns is decided
-by rounding (the square frame's pair, stored by an export to ten digits, is split by 1.7e-10 of
-its frequency). So the model's shape of such a mode is the eigenspace, not the vector computed:
-a measured shape of a mode of the pair fits the model when *some* combination of the pair's
-vectors fits it, and the measured frequency of the pair's second mode is as near to the
-model's first mode as to its second.
+A structure with a symmetry has natural frequencies that repeat (the x and y sway of a frame
+with square bays). Every combination of the modes of a repeated frequency is a mode of it, and
+which one an eigen-solver returns is decided by rounding, so the model's shape of such a mode
+is the eigenspace: a measured shape fits when *some* combination of the vectors fits it, and
+the measured frequency of the pair's second mode is as near to the model's first as to its
+second.
 
 `cluster` groups the model's modes whose frequencies agree to `REPEATED_GAP`;
 `paired_vector` is the vector a measured mode is compared with: its declared mode, or for a
-repeated frequency the combination of the group's vectors whose shape ratios lie deepest in
-the measured intervals (`best_combination`). The verification checks that vector as it checks
-a single mode's; the data map of the polish takes its ratios
-and their derivative as the eigenspace moves (`vibupdate.modal.sensitivities`), and the first
-stage starts from it. `subspace_mac` is the MAC of a measured shape with its best combination.
+repeated frequency the combination whose shape ratios lie deepest in the measured intervals
+(`best_combination`). The verification, the data map (its ratios and their derivative as the
+eigenspace moves, `vibupdate.modal.sensitivities`) and the first stage use it; `subspace_mac`
+is the MAC of a measured shape with its best combination.
 """
 
 from __future__ import annotations
@@ -24,11 +21,8 @@ import numpy as np
 import scipy.linalg as sla
 
 #: Largest relative difference of two model frequencies that are taken as one repeated frequency
-#: (`cluster`). Far below any measurement of a frequency, and far above the split that rounding
-#: leaves in an exactly repeated pair (1.7e-10 on the square frame exported to ten digits, 5e-14
-#: exported in full). A split this small is below what a measured frequency resolves, and a
-#: change of the parameters as small (one that breaks the symmetry) turns the pair's vectors
-#: anywhere in their plane: the model does not say which combination the structure shows.
+#: (`cluster`): far below what a measured frequency resolves, far above the split rounding leaves
+#: in an exactly repeated pair (1.7e-10 on a square frame exported to ten digits).
 REPEATED_GAP = 1e-8
 
 
@@ -48,14 +42,11 @@ def cluster(omega: np.ndarray, m: int) -> np.ndarray:
     ndarray of int, ascending
     """
     omega = np.asarray(omega, dtype=float)
+    close = np.abs(np.diff(omega)) <= REPEATED_GAP * np.maximum(np.abs(omega[:-1]), np.abs(omega[1:]))
     lo = hi = m
-
-    def close(a: int, b: int) -> bool:
-        return bool(abs(omega[b] - omega[a]) <= REPEATED_GAP * max(abs(omega[a]), abs(omega[b])))
-
-    while lo > 0 and close(lo - 1, lo):
+    while lo > 0 and close[lo - 1]:
         lo -= 1
-    while hi + 1 < omega.size and close(hi, hi + 1):
+    while hi + 1 < omega.size and close[hi]:
         hi += 1
     return np.arange(lo, hi + 1)
 
@@ -63,9 +54,8 @@ def cluster(omega: np.ndarray, m: int) -> np.ndarray:
 def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """The model vector paired with the ``k``-th (0-based) measured natural frequency of
     ``cfg``, shape (n,), and the modes of its frequency (`cluster`): the declared mode itself,
-    or for a repeated frequency with a measured shape the combination of its modes whose ratios
-    lie deepest in the measured intervals
-    (`best_combination`; normalized to ratio 1 at the shape's reference DOF).
+    or for a repeated frequency with a measured shape its `best_combination` (ratio 1 at the
+    shape's reference DOF).
 
     Parameters
     ----------
@@ -104,11 +94,10 @@ def best_combination(U_entries: np.ndarray, u_reference: np.ndarray, lower: np.n
     intervals: ``U_entries c`` are the ratios when ``u_reference c = 1``, and ``c`` minimizes
     the largest distance of a ratio outside ``[lower, upper]``.
 
-    Found in two steps, both checked by the caller on the vector itself: the least-squares fit
-    of the ratios to the intervals' midpoints (exact to rounding, enough for point data), then
-    the linear program of the largest distance, solved for the correction to that fit scaled by
-    the fit's own miss (so that the LP solver's absolute tolerances act relative to the miss);
-    the better of the two is returned.
+    The better of two: the least-squares fit of the ratios to the intervals' midpoints (enough
+    for point data), and the linear program of the largest distance, solved for the correction
+    to that fit scaled by the fit's own miss (the LP solver's absolute tolerances then act
+    relative to it).
 
     Parameters
     ----------

@@ -1,55 +1,42 @@
 """Verification: is the returned model the one the data describe?
 
-A solver that reaches ``lam = 1`` has found a point where its objective is small; that does
-not make the model right. Before an answer is called a success the returned model is checked
-against the data it was given:
+A solver that reaches ``lam = 1`` has found a small objective; that does not make the model
+right. The checks (what each passes on, and its default limit: docs/polish-and-verification.md,
+section 7.3):
 
 ``mode_order``
     every measured natural frequency is nearest to its declared model mode, or to a mode that
-    repeats its frequency (no mode of the model skipped or inserted below the highest measured
-    one);
+    repeats its frequency (`vibupdate.inverse.repeated`);
 ``zero_order``
-    every measured antiresonance is nearest to its declared zero of its receptance, and the
-    model has that zero;
+    every measured antiresonance is nearest to its declared zero, and the model has that zero;
 ``mac``
-    where a shape was measured, its MAC with the declared mode is at least ``mac_min`` and
-    no other model mode matches it better;
+    a measured shape's MAC with its declared mode is at least ``mac_min`` and no other model
+    mode matches it better;
 ``fit``, ``shape_intervals``, ``modal_mass``
-    one membership test (`vibupdate.inverse.admissible.misses`): every measured frequency's
-    declared mode or zero, every measured shape at its best scale, every modal mass of a
-    mass-normalized shape lies in its admissible interval: the measurement interval, widened by
-    the model-form tolerance of its kind (``natural_tolerance``, ``antiresonance_tolerance``,
-    relative, default 2 %; ``shape_tolerance`` times the shape's largest measured entry;
-    ``modal_mass_tolerance``) and by the numerical floor, an exact datum with the stated
-    ``exact_half_width``. A mode of a repeated frequency is taken as the combination of its
-    modes that fits best (`vibupdate.inverse.repeated`);
+    one membership test of the admissible intervals the polish fits
+    (`vibupdate.inverse.admissible.misses`);
 ``correspondence``
     when the first-stage answer fitted the data under another pairing (a mode skipped), the
-    final answer's mean natural-frequency error under the declared pairing must stay within
-    twice that other fit's error plus a tenth of the natural frequencies' tolerance
-    (measurement plus model-form: 0.2 % by default);
-    otherwise the declared modes are likely wrong and the user is told which pairing fits;
+    declared pairing's mean natural-frequency error stays within twice that pairing's plus a
+    tenth of the natural frequencies' tolerance (measurement plus model form);
 ``improvement``
     the updated mean frequency error is not above the nominal one;
 ``consistency`` (warning only)
-    the optimum of the convex relaxation (a lower bound of the best objective inside the
-    boxes) against a heuristic allowance, ``n_blocks (2 tol)^2`` (each block's weighted
-    residual approximates a relative eigenvalue error, twice the relative frequency error). A
-    bound above it is not a proof of misfit (the allowance is not a certificate): the warning
-    names both figures and the active bounds of the relaxed solution;
+    the relaxation's lower bound against the heuristic allowance ``n_blocks (2 tol)^2`` (each
+    block's weighted residual approximates twice a relative frequency error): not a
+    certificate, so a bound above it is a warning naming both figures and the active bounds;
 ``bounds`` (warning only)
     parameters on a bound of their box.
 
-A failed error check makes the status ``not_verified``; warnings are reported either way.
-The membership checks say what limited a passed answer (`Check.limited_by`): the measurements,
-when every datum lies in its measurement interval, or the model's form, when some lie outside
-it and within the model-form tolerance. The polish fits the same intervals.
+A failed error check makes the status ``not_verified``. A passed membership check says what
+limited the answer (`Check.limited_by`): the measurements, or the model's form when some data
+lie only within the model-form tolerance.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -90,8 +77,7 @@ class Check:
     limited_by: str | None = None
 
     def as_dict(self) -> dict:
-        return {"name": self.name, "passed": self.passed, "severity": self.severity, "message": self.message,
-                "value": self.value, "limit": self.limit, "limited_by": self.limited_by}
+        return asdict(self)
 
 
 def consistency_allowance(n_blocks: int, tolerance: float) -> float:
