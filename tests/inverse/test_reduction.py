@@ -50,7 +50,7 @@ def test_ritz_reduction_holds_modes_zeros_and_ratio_derivatives_exactly():
     """The basis of the polish's reduced rounds: kept DOFs plus modes, the shape-ratio
     derivative solutions and the adjunct vectors of one point. At that point the reduced model
     has the same low modes, zeros and ratio derivatives; elsewhere its modes are upper bounds."""
-    from vibupdate.examples import building
+    import building
     from vibupdate.modal.sensitivities import adjunct_eigenpairs, shape_ratio_derivatives
     from vibupdate.modal.zeros import antiresonances
 
