@@ -59,12 +59,10 @@ PAYLOAD = (12, 1.5)          # node, known mass (kg)
 N_MODES = 7
 #: Translational DOFs that are "measured" (accelerometers): x and y of every free node.
 MEASURED_DOFS = tuple(f"{d}{n}" for n in FREE_NODES for d in ("x", "y"))
-#: Seeded errors of the generated data (see `generate`).
+#: Seeded errors of the bundled data (`tests/frame_data.py` generates them).
 FREQUENCY_ERROR = 0.003      # relative standard deviation of the measured frequencies
 SHAPE_ERROR = 0.02           # standard deviation of shape entries, relative to the largest entry
 SEED = 20210224
-#: The Caughey law that generates the measured damping ratios: Y, beta.
-DAMPING_LAW = ((0.0, 0.5, 1.0), (0.6, 2.0e-3, 2.0e-5))
 
 
 def parameters() -> tuple[Parameter, ...]:
@@ -139,42 +137,6 @@ def build(p: dict, subdivisions: int = 1) -> System:
 def model(subdivisions: int = 1):
     """The affine model (complex-step parameter matrices)."""
     return from_builder(lambda p: build(p, subdivisions), parameters())
-
-
-def generate(frequency_error: float = FREQUENCY_ERROR, shape_error: float = SHAPE_ERROR, seed: int = SEED,
-             subdivisions: int = 1):
-    """Measured data from the true model: 7 frequencies with relative noise, 7 damping ratios
-    of the Caughey law `DAMPING_LAW`, and mode shapes at the translational DOFs with noise,
-    given as intervals value +- 3 sigma.
-
-    Returns
-    -------
-    frequencies : list of dict
-        ``{"mode", "hz", "damping_ratio"}``.
-    shapes : list of dict
-        ``{"mode", "dof", "value", "tolerance"}`` with the shape scaled to unit largest
-        measured entry.
-    """
-    from vibupdate.modal.analysis import modes
-    from vibupdate.damping import modal_damping
-
-    rng = np.random.default_rng(seed)
-    m = model(subdivisions)
-    values = truth()
-    M, K = m.matrices_at([values[p.name] for p in m.parameters])
-    omega, Phi = modes(M, K, N_MODES)
-    hz = omega / (2 * np.pi) * (1 + frequency_error * rng.standard_normal(N_MODES))
-    ratios = modal_damping(DAMPING_LAW[0], DAMPING_LAW[1], omega)
-    frequencies = [{"mode": k + 1, "hz": float(hz[k]), "damping_ratio": float(ratios[k])} for k in range(N_MODES)]
-    idx = [m.dof(d) for d in MEASURED_DOFS]
-    shapes = []
-    for k in range(N_MODES):
-        v = Phi[idx, k] / np.abs(Phi[idx, k]).max()
-        sigma = shape_error
-        noisy = v + sigma * rng.standard_normal(v.size)
-        shapes += [{"mode": k + 1, "dof": d, "value": float(x), "tolerance": float(3 * sigma)}
-                   for d, x in zip(MEASURED_DOFS, noisy)]
-    return frequencies, shapes
 
 
 def configurations(frequencies=None, shapes=None, subdivisions: int = 1) -> list[Configuration]:
