@@ -1,12 +1,7 @@
 """Nastran DMIG matrices (a punch file of ``PARAM,EXTOUT,DMIGPCH`` or any bulk data).
 
-Why a reader of its own: pyNastran is the usual Python reader of these cards, but its current
-release (1.4.1) requires ``numpy < 2`` and cannot be installed beside this package's numpy 2.
-Given numpy 2, pip resolves the older 1.3.4 instead (it states no upper bound on numpy); it
-predates numpy 2, and asking for pyNastran in a fresh environment makes pip downgrade numpy to
-reach 1.4.1. So it is not a dependency: the DMIG card is small and is read here, and the tests
-compare this reader with pyNastran's (the ``test`` extra installs 1.3.4 beside numpy 2, under
-which it reads the three field formats to the same matrices).
+Read here, not through pyNastran: its current release (1.4.1) requires ``numpy < 2``; the
+tests compare this reader with pyNastran 1.3.4, which the ``test`` extra installs.
 
 Format read
 -----------
