@@ -346,23 +346,16 @@ def _flexible_shift(Ms, Ks, lu, q: int, precision: float | None = None) -> float
     """``-lambda_1``, one first flexible eigenvalue below zero, for the eigen-solve of a model
     whose ``K`` is singular (rigid-body modes), or None when no flexible eigenvalue is found.
 
-    Why. `_shifted_lu` puts the shift of a singular ``K`` `SINGULAR_SHIFT` rounding units below
-    zero. Lanczos at that shift sees the rigid-body modes at ``1 / |sigma|``, some 1e12 times
-    the flexible ones: its vectors carry errors of eps times that ratio, and a flexible mode of
-    a full-precision export of a free-free frame of 1,000-1,500 DOFs came back with a backward
-    error of 1.3e-8 to 5.2e-8 (against `RESIDUAL_TOL`, 1e-8), even after the refinement step.
-    The same frames from 10 digits passed only because their rounding unit, hence their shift,
-    is larger. At ``sigma = -lambda_1`` the rigid-body modes sit at ``lambda_1`` from the
-    shift and the flexible ones at ``2 lambda_1`` and beyond: no singular point near any mode,
-    whatever the precision.
+    At the shift `_shifted_lu` gives a singular ``K``, `SINGULAR_SHIFT` rounding units below
+    zero, Lanczos sees the rigid-body modes some 1e12 times the flexible ones and its vectors
+    carry errors of eps times that ratio, enough to fail `RESIDUAL_TOL` on full-precision
+    free-free frames (`benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and
+    examples"). At ``sigma = -lambda_1`` every mode is at least ``lambda_1`` from the shift.
 
-    How. `FLEXIBLE_STEPS` steps of block inverse iteration with the LU of the first shift
-    (``lu``) on ``q`` seeded random vectors, then a Rayleigh-Ritz projection: the rigid-body
-    modes are captured at once (their ratio to the rest is that 1e12), and the lowest Ritz
-    value not zero by the rigid-body test at the matrices' ``precision``
-    (`vibupdate.modal.rigid`, the same test that makes a rigid-body mode exactly 0 rad/s) is an
-    upper bound of ``lambda_1``; a bound a few times too high only slows Lanczos down a little.
-    ``q`` block solves per step, no second eigen-solve."""
+    `FLEXIBLE_STEPS` steps of block inverse iteration with ``lu`` on ``q`` seeded random
+    vectors and a Rayleigh-Ritz projection capture the rigid-body modes at once; the lowest
+    Ritz value not zero by the rigid-body test at ``precision`` (`vibupdate.modal.rigid`) is an
+    upper bound of ``lambda_1`` (a bound a few times too high only slows Lanczos a little)."""
     X = np.random.default_rng(2).standard_normal((Ks.shape[0], q))
     for _ in range(FLEXIBLE_STEPS):
         X = np.linalg.qr(lu.solve(np.asarray(Ms @ X)))[0]
@@ -381,9 +374,8 @@ _ARPACK_RNG = "rng" in inspect.signature(spla.eigsh).parameters
 def repeatable(n: int) -> dict:
     """Keywords of `scipy.sparse.linalg.eigsh` / ``eigs`` that make an ARPACK run repeatable:
     a fixed start vector and, where scipy takes one, a seeded generator for the random vectors
-    ARPACK asks for on a restart. Without them scipy draws both from the operating system's
-    entropy: the same matrices gave zeros differing by 4e-11 (relative) from call to call, and
-    the polish took different paths on identical inputs."""
+    ARPACK asks for on a restart, else drawn from the operating system's entropy
+    (`benchmarks/RESULTS.md`, "... repeatable ARPACK (2026-11-25)")."""
     rng = np.random.default_rng(0)
     out = {"v0": rng.standard_normal(n)}
     if _ARPACK_RNG:

@@ -6,8 +6,8 @@ models by the modes of the first-order form or by dense complex solves over chun
 frequencies. Large models, undamped or with classical (modal) damping, by superposition of
 their lowest modes plus the residual flexibility of the modes left out (`modal_sum`): one
 sparse eigen-solve and one factorization for every line and pair, where a direct solve costs
-one sparse LU per line (2,000 LUs, 12 s of a 19 s `vibupdate run` of a 2,940-DOF frame;
-`benchmarks/RESULTS.md`). Large models with a general damping matrix: one sparse LU per line.
+one sparse LU per line (`benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and
+examples"). Large models with a general damping matrix: one sparse LU per line.
 Several pairs of one model share the eigen-solve or the factorizations (`receptances`); memory
 is O(n^2) at most on small models, O(n k) on large ones, never O(n_f n^2).
 
@@ -39,9 +39,8 @@ MODAL_SUM_MODES = 40
 #: A modal sum takes modes up to this multiple of its highest line (`modal_sum`), so that every
 #: resonance drawn is an exact mode and the nearest ones left out lie above the plot.
 MODAL_SUM_REACH = 1.2
-#: Krylov vectors per excitation added to the modes of a modal sum (`modal_sum`). On the
-#: 2,940-DOF building with 40 modes the worst error relative to the peak was 1.4e-2, 1.6e-4,
-#: 4.9e-5 and 7.9e-7 with 1, 2, 3 and 4 vectors.
+#: Krylov vectors per excitation added to the modes of a modal sum (`modal_sum`; the error
+#: against the depth: `benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and examples").
 KRYLOV_DEPTH = 4
 
 
