@@ -400,10 +400,8 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     """
     from threadpoolctl import threadpool_limits
 
-    # The fit is many small least-squares problems (one per model order, FRF and refinement
-    # step); a multithreaded BLAS spends its time waking threads for them. Measured on the
-    # Southampton frame (9 FRFs, 2 shared cores): 111 s wall with OpenBLAS's default threads,
-    # 1.9 s with one.
+    # many small least-squares problems: a multithreaded BLAS spends its time waking threads
+    # (`benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and examples")
     with threadpool_limits(limits=1, user_api="blas"):
         return _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, fit_band, local_zeros,
                         window, keep_outer_zeros, _decay_rate(window, window_decay, window_tau, frfs.omega),

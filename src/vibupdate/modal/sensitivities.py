@@ -197,7 +197,7 @@ def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarr
 
 #: Solutions ``V`` of large models kept by (model, point, eigenpair): the polish's last
 #: evaluation, the sensitivity rows and the linearized ranges ask for the same ones at the
-#: answer (16 sparse LUs of 0.1 s saved at 30,315 DOFs); the most recent within 256 MB.
+#: answer; the most recent within 256 MB.
 _RATIO_SOLUTIONS = Kept(64, 256 * 2**20)
 
 
