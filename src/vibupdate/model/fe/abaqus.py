@@ -22,11 +22,11 @@ from __future__ import annotations
 
 import io
 from collections import Counter
-from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, digit_counts, dof_name, precision_of_digits, symmetric_from_entries
+from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, existing_file, precision_of_digits,
+                                       symmetric_from_entries)
 
 #: One line of a ``.mtx`` file: row node, row DOF, column node, column DOF, value.
 _TERM = np.dtype([("n1", np.int64), ("d1", np.int64), ("n2", np.int64), ("d2", np.int64), ("value", float)])
@@ -42,9 +42,7 @@ def read_mtx_terms(path, digits: Counter | None = None):
     by reading the lines one by one once the whole-file parse has failed), an internal node and
     a component outside 0..6 are refused naming the line.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"Abaqus matrix file {str(path)!r} does not exist")
+    path = existing_file(path, "Abaqus matrix file")
     texts = np.char.strip(np.array(path.read_bytes().splitlines(), dtype=bytes))
     kept = (np.char.str_len(texts) > 0) & ~np.char.startswith(texts, b"*")
     numbers, data = np.flatnonzero(kept) + 1, texts[kept]

@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.model.fe.export import (DIRECTIONS, FEExport, dof_name, precision_of_digits, significant_digits,
-                                       symmetric_from_entries)
+from vibupdate.model.fe.export import (DIRECTIONS, FEExport, dof_name, existing_file, precision_of_digits,
+                                       significant_digits, symmetric_from_entries)
 
 
 #: ANSYS DOF labels -> component 1..6.
@@ -42,9 +42,7 @@ ANSYS_LABELS = {"UX": 1, "UY": 2, "UZ": 3, "ROTX": 4, "ROTY": 5, "ROTZ": 6}
 
 def read_mapping(path) -> tuple[str, ...]:
     """DOF names of the equations of an HBMAT ``.mapping`` file, in equation order."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"ANSYS mapping file {str(path)!r} does not exist")
+    path = existing_file(path, "ANSYS mapping file")
     names = {}
     for number, line in enumerate(path.read_text(errors="replace").splitlines(), start=1):
         parts = line.split()
@@ -173,9 +171,7 @@ def _header_ints(line: str, path: Path, number: int, names: tuple[str, ...], req
 def _read_hb(path: Path, digits: Counter | None = None) -> sp.csr_matrix:
     """The matrix of a Harwell-Boeing file (module docstring): header and counts checked, a
     symmetric (``RSA``) file mirrored."""
-    if not path.is_file():
-        raise ValueError(f"ANSYS matrix file {str(path)!r} does not exist")
-    lines = path.read_text(errors="replace").splitlines()
+    lines = existing_file(path, "ANSYS matrix file").read_text(errors="replace").splitlines()
     if len(lines) < 4:
         raise ValueError(f"{path}: {len(lines)} line(s); a Harwell-Boeing file has a header of at least 4 lines")
     totcrd, ptrcrd, indcrd, valcrd, rhscrd = _header_ints(
@@ -261,9 +257,7 @@ def read_full(path) -> FEExport:
 
     require("fe", f"reading the ANSYS .full file {str(path)!r}", modules=("ansys.mapdl.reader",))
     from ansys.mapdl import reader as pymapdl_reader
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"ANSYS .full file {str(path)!r} does not exist")
+    path = existing_file(path, "ANSYS .full file")
     full = pymapdl_reader.read_binary(str(path))
     dof_ref, k, m = full.load_km(as_sparse=True, sort=True)
     dofs = tuple(_full_dof(node, d) for node, d in np.asarray(dof_ref))

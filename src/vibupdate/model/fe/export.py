@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import re
 
@@ -43,6 +44,14 @@ DIGIT_SPREAD = 2
 DOUBLE_DIGITS = 17
 
 _EXPONENT_START = re.compile(r"[EeDd]|(?<=[0-9.])[+-]")
+
+
+def existing_file(path, what: str) -> Path:
+    """``path`` as a `Path`; a ValueError naming it (``what``: "Nastran file") when no such file exists."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{what} {str(path)!r} does not exist")
+    return path
 
 
 def significant_digits(text: str) -> int:

@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, digit_counts, dof_name, precision_of_digits, symmetric_from_entries
+from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, existing_file, precision_of_digits,
+                                       symmetric_from_entries)
 
 
 _EXPONENT = re.compile(r"^([+-]?[0-9.]+)([+-][0-9]+)$")
@@ -81,9 +82,7 @@ def read_dmig_matrices(path, cards=None) -> dict:
     line), a term without its value, and more DOFs than the header's NCOL are refused naming the
     line. ``cards``: the file's `_cards` when the caller has them already (the file is then not read
     again)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"Nastran file {str(path)!r} does not exist")
+    path = existing_file(path, "Nastran file")
     out, forms, digits, ncols, headers = {}, {}, {}, {}, {}
     for number, head, data, lines in (_cards(path) if cards is None else cards):
         if head != "DMIG":
@@ -155,9 +154,7 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     stiffness, mass : str
         Names of the two DMIG matrices (default ``KAAX``, ``MAAX``, the punch's names).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"Nastran file {str(path)!r} does not exist")
+    path = existing_file(path, "Nastran file")
     cards = _cards(path)
     found = read_dmig_matrices(path, cards)
     for name in (stiffness, mass):
