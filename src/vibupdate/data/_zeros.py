@@ -1,7 +1,7 @@
 """Antiresonances of a fitted modal model (private kernels of `vibupdate.data.extraction`):
 the real zeros of the undamped fitted receptance, their standard errors by the
 implicit-function rule with exact derivatives, and the local refit of a zero on the lines
-around it. Frequencies normalized as in `vibupdate.data._modal_fit`; the method is described
+around it. Frequencies normalized as in `vibupdate.data.modal_fit`; the method is described
 in `vibupdate.data.extraction`."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from vibupdate.data._modal_fit import _correlation_inflation, _modal_basis, _undamped_derivatives
+from vibupdate.data.modal_fit import _correlation_inflation, _modal_basis, _undamped_derivatives
 
 LOCAL_FRACTION = 1 / 3      # local refit: window of this times the distance to the nearest pole ...
 LOCAL_LINES = 21            # ... holding at least this many lines

@@ -24,8 +24,8 @@ a mode just above the band is fitted with its own residues:
    the implicit-function rule; the shapes come from a rank-one fit of the modal constants.
 
 With ``window``, every pole term is replaced by its windowed expectation
-(`vibupdate.data._window`). The noise per line comes from the repeats or, with one record,
-from the leverage-corrected residual (`vibupdate.data._noise`). Intervals are
+(`vibupdate.data.window`). The noise per line comes from the repeats or, with one record,
+from the leverage-corrected residual (`vibupdate.data.noise`). Intervals are
 ``value +- z * SE`` with floors on the half-width: ``1e-5`` relative for frequencies and
 antiresonances, ``0.1 %`` relative for damping ratios, ``1e-3`` of the largest entry for
 shapes.
@@ -42,11 +42,11 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
-                                       _noise_from_differences, _noise_from_repeats, _real_stack, _refine_poles,
-                                       _significant, _split_residual, _stabilization, _stable_poles)
-from vibupdate.data._noise import _residual_variance, _variance_components
-from vibupdate.data._window import window_for
+from vibupdate.data.modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
+                                       _noise_from_differences, _noise_from_repeats, _real_stack, refine_poles,
+                                       _significant, split_residual, _stabilization, _stable_poles)
+from vibupdate.data.noise import residual_variance, variance_components
+from vibupdate.data.window import window_for
 from vibupdate.data._zeros import _local_zero, _zero_se, _zero_snr, _zeros_of_all
 from vibupdate.data.frf import KINDS, FRFSet
 from vibupdate.data.residue_kind import check_fitted_kind
@@ -207,7 +207,7 @@ class Extraction:
         """Fitted receptances, shape (n_pairs, n_freq), at ``omega`` (rad/s, shape (n_freq,)):
         ``damped`` as estimated (through the window the fit modelled, if any), else the
         undamped receptance of the fitted modes."""
-        from vibupdate.data._window import ORDERS, Window
+        from vibupdate.data.window import ORDERS, Window
 
         x = np.asarray(omega, dtype=float) / self.fit_band[1]
         xn = self.fitted_poles[:, 0] / self.fit_band[1]
@@ -377,7 +377,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     window : {None, "none", "hann", "rectangular", "exponential", "force"}
         The data window of the FRF estimate (random excitation, ``H1`` record by record, one
         record = one over the line spacing). When given, the fit models the window's leakage
-        (`vibupdate.data._window`), so the damping ratios of peaks a few lines wide are not
+        (`vibupdate.data.window`), so the damping ratios of peaks a few lines wide are not
         read high; default None: the FRFs are fitted as they are. Impact tests:
         ``"exponential"``, a window ``exp(-t / tau)`` on the response over the record (one
         over the line spacing), whose added damping is modelled (needs ``window_decay`` or
@@ -471,13 +471,13 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     noise = "repeats" if var is not None else "residual"
     if var is not None:  # floored: identical repeats (noise-free data) would give infinite weights
         tiny = 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True)
-        var = _variance_components(np.maximum(var / scales[:, None] ** 2, tiny), np.abs(F) ** 2, groups,
+        var = variance_components(np.maximum(var / scales[:, None] ** 2, tiny), np.abs(F) ** 2, groups,
                                    REPEAT_LINES)[0]
     stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
     wn, zeta, counts = _stable_poles(stab, min_stable)
-    residual_variance = _LastResult(lambda wn, zeta: _residual_variance(x, F, wn, zeta, groups, window=window))
+    noise_at = _LastResult(lambda wn, zeta: residual_variance(x, F, wn, zeta, groups, window=window))
     if wn.size:
-        var = var if var is not None else residual_variance(wn, zeta)
+        var = var if var is not None else noise_at(wn, zeta)
         wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var, window=window)
     in_band = (wn >= x_report[0]) & (wn <= x_report[1])
     if not np.any(in_band):
@@ -491,12 +491,12 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
         wn, zeta, counts, in_band = wn[keep], zeta[keep], [counts[k] for k in keep], in_band[keep]
 
     if noise == "repeats":
-        wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
+        wn, zeta, cov_poles = refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
     else:  # feasible weighted least squares: noise from the residual, refit, once more
         for _ in range(2):   # at the poles the significance test kept, its estimate again (not recomputed)
-            var = residual_variance(wn, zeta)
-            wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
-        var = residual_variance(wn, zeta)
+            var = noise_at(wn, zeta)
+            wn, zeta, cov_poles = refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
+        var = noise_at(wn, zeta)
     order = np.argsort(wn)
     wn, zeta, counts, in_band = wn[order], zeta[order], [counts[k] for k in order], in_band[order]
     cov_poles = cov_poles[np.ix_(np.r_[order, order + wn.size], np.r_[order, order + wn.size])]
@@ -559,7 +559,7 @@ class _Fitted:
     inside: np.ndarray      # (n_freq,) bool: line in the band
     x_band: tuple           # the band, normalized
     scale_w: float
-    window: object = None   # vibupdate.data._window.Window of the estimate, or None
+    window: object = None   # vibupdate.data.window.Window of the estimate, or None
 
 
 def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, keep_noisy=False):
@@ -624,7 +624,7 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         A = _real_stack(Phi, w)
         # weighted residual components have variance 1/2 (complex noise of variance sigma^2)
         chi2 = 2.0 * float(res @ res) / max(res.size - coef.size, 1)
-        tau = _correlation_inflation(_split_residual(res, (1, x.size)))
+        tau = _correlation_inflation(split_residual(res, (1, x.size)))
         cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2) * tau
         coefs.append(coef)
         miss = np.abs(f - Phi @ coef)[fit.inside] ** 2

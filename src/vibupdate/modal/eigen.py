@@ -242,7 +242,7 @@ def _null_level(K, M, lu, precision: float | None = None) -> float | None:
     return float(rounding / max(np.linalg.norm(M @ x), 1e-300))
 
 
-def _shifted_lu(K, M, precision: float | None = None):
+def shifted_lu(K, M, precision: float | None = None):
     """Sparse LU of ``K - sigma M`` with ``sigma = 0`` when K is nonsingular, else below zero:
     ``-SINGULAR_SHIFT`` rounding levels of its null vector (`_null_level`, entries known to the
     relative ``precision``) when the LU of a singular ``K`` completes on rounding-level pivots,
@@ -299,7 +299,7 @@ _SOLVED = Kept(_SOLVED_KEPT, 256 * 2**20)
 
 def _sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | None = None):
     """The ``k`` lowest eigenpairs by shift-invert (module docstring), from `_SOLVED` when the
-    same matrices were solved for at least ``k`` modes before; ``factor``: `_shifted_lu` of
+    same matrices were solved for at least ``k`` modes before; ``factor``: `shifted_lu` of
     ``(K, M)`` when the caller has it."""
     key = content_key(M, K, extra=np.array([rtol, rigid.unit(precision)]).tobytes())
     kept = _SOLVED.get(key)
@@ -312,10 +312,10 @@ def _sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | Non
 
 def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | None = None):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
-    sigma, lu = _shifted_lu(Ks, Ms, precision) if factor is None else factor
+    sigma, lu = shifted_lu(Ks, Ms, precision) if factor is None else factor
     q = block_size(k, Ks.shape[0] - massless_dofs(Ms).size - 1)
-    if sigma < 0:   # K singular: rigid-body modes (`_flexible_shift`)
-        shift = _flexible_shift(Ms, Ks, lu, q, precision)
+    if sigma < 0:   # K singular: rigid-body modes (`flexible_shift`)
+        shift = flexible_shift(Ms, Ks, lu, q, precision)
         if shift is not None:
             sigma, lu = shift, sparse_lu(Ks - shift * Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
@@ -338,15 +338,15 @@ def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float
 
 
 #: Steps of block inverse iteration that estimate the first flexible eigenvalue of a singular
-#: ``K`` (`_flexible_shift`).
+#: ``K`` (`flexible_shift`).
 FLEXIBLE_STEPS = 3
 
 
-def _flexible_shift(Ms, Ks, lu, q: int, precision: float | None = None) -> float | None:
+def flexible_shift(Ms, Ks, lu, q: int, precision: float | None = None) -> float | None:
     """``-lambda_1``, one first flexible eigenvalue below zero, for the eigen-solve of a model
     whose ``K`` is singular (rigid-body modes), or None when no flexible eigenvalue is found.
 
-    At the shift `_shifted_lu` gives a singular ``K``, `SINGULAR_SHIFT` rounding units below
+    At the shift `shifted_lu` gives a singular ``K``, `SINGULAR_SHIFT` rounding units below
     zero, Lanczos sees the rigid-body modes some 1e12 times the flexible ones and its vectors
     carry errors of eps times that ratio, enough to fail `RESIDUAL_TOL` on full-precision
     free-free frames (`benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and
@@ -416,7 +416,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     rtol : float
         Largest accepted backward error of a sparse eigenpair.
     factor : (float, SuperLU), optional
-        The shift and sparse LU of ``K - sigma M`` (`_shifted_lu`) when the caller already
+        The shift and sparse LU of ``K - sigma M`` (`shifted_lu`) when the caller already
         has them (the sparse path does not factorize again).
     precision : float, optional
         Relative precision of the entries of ``K`` and ``M``, the rounding unit of the

@@ -184,7 +184,7 @@ def modal_sum(M, K, pairs, omega, damping=None, n_modes: int | None = None) -> n
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
     n_finite = n - massless_dofs(Ms).size
     k = min(n_finite - 1, n_modes if n_modes is not None else MODAL_SUM_MODES)
-    sigma, lu = eigen._shifted_lu(Ks, Ms)
+    sigma, lu = eigen.shifted_lu(Ks, Ms)
     while True:
         w, Phi = eigen.modes(Ms, Ks, k, dense=False, factor=(sigma, lu))
         if n_modes is not None or k >= n_finite - 1 or w[-1] >= MODAL_SUM_REACH * omega.max():

@@ -133,7 +133,7 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
                None if basis is None else np.asarray(basis, dtype=float).tobytes())
         V = _RATIO_SOLUTIONS.get(key)
     if V is None:
-        V = _ratio_solutions(model, xbar, omega, phi, basis)
+        V = ratio_solution(model, xbar, omega, phi, basis)
         if key is not None:
             _RATIO_SOLUTIONS.put(key, V, V.nbytes)
     D = ratio_derivatives(V, phi, entries, reference)
@@ -144,7 +144,7 @@ def ratio_solutions(model, xbar, omega, Phi) -> np.ndarray | None:
     """The solutions ``V`` of the module docstring of several simple modes at once, shape
     (m, n, n_x), on a model with dense stacks (`vibupdate.model.AffineModel.dense_stacks`, at
     most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs; None otherwise: `shape_ratio_derivatives`
-    one mode at a time). The same systems as `_ratio_solutions`, in one batched solve: the row
+    one mode at a time). The same systems as `ratio_solution`, in one batched solve: the row
     and column of each mode's largest ``|phi|`` replaced by those of the identity (its entry of
     ``V`` is then 0 and the other entries solve the system without them) instead of removed,
     so that the m systems have one size. Memory: m dense n x n matrices.
@@ -178,7 +178,7 @@ def ratio_solutions(model, xbar, omega, Phi) -> np.ndarray | None:
     try:
         return np.linalg.solve(A, rhs)
     except np.linalg.LinAlgError:   # one system exactly singular: each on its own (LU's inf or NaN there)
-        return np.stack([_ratio_solutions(model, xbar, w, phi) for w, phi in zip(omega, Phi.T)])
+        return np.stack([ratio_solution(model, xbar, w, phi) for w, phi in zip(omega, Phi.T)])
 
 
 def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarray]:
@@ -201,7 +201,7 @@ def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarr
 _RATIO_SOLUTIONS = Kept(64, 256 * 2**20)
 
 
-def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarray | None = None) -> np.ndarray:
+def ratio_solution(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarray | None = None) -> np.ndarray:
     """The solutions ``V`` (n, n_x) of the module docstring: one factorization of
     ``K - eigval M`` without the row and column of the largest ``|phi|``, every parameter in one
     solve. With a ``basis`` of a repeated frequency's modes (`shape_ratio_derivatives`): without
@@ -273,7 +273,7 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right, precision)
         eigval_z, V_right = eigval_z[keep][:n_zeros], V_right[:, keep][:, :n_zeros]
         return eigval_z, V_right, V_right
-    (num, den), V_left, V_right = _qz(Kr, Mr)
+    (num, den), V_left, V_right = qz(Kr, Mr)
     scale = np.abs(num) + np.abs(den)
     finite = np.abs(den) > 1e-10 * scale
     eigval_z = np.full(num.shape, np.nan, dtype=complex)
@@ -285,7 +285,7 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
     return eigval_z[order], V_right[:, order], V_left[:, order]
 
 
-def _qz(A: np.ndarray, B: np.ndarray):
+def qz(A: np.ndarray, B: np.ndarray):
     """The eigenvalues of the real pencil ``(A, B)`` as ``(alpha, beta)`` (complex ``alpha``)
     with the real parts of the left and right vectors, each of unit norm as a complex vector:
     what ``scipy.linalg.eig(A, B, left=True, right=True, homogeneous_eigvals=True)`` gives,

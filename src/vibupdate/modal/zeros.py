@@ -21,7 +21,7 @@ from vibupdate.modal.eigen import (
     RESIDUAL_TOL,
     _dense,
     _dense_modes,
-    _shifted_lu,
+    shifted_lu,
     check_dof_pair,
 )
 
@@ -107,7 +107,7 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: fl
     """The lowest ``n_zeros`` real positive eigenvalues of the adjunct pencil by shift-invert."""
     Mr, Kr = sp.csc_matrix(adjunct(M, r, c)), sp.csc_matrix(adjunct(K, r, c))
     m = Mr.shape[0]
-    sigma, lu = _shifted_lu(Kr, Mr, precision)
+    sigma, lu = shifted_lu(Kr, Mr, precision)
     k = min(m - 2, 2 * n_zeros + 8)
     while True:
         if r == c:

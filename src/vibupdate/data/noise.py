@@ -1,7 +1,7 @@
-"""Noise variance of FRFs per line (private kernel of `vibupdate.data.extraction`): of a single
+"""Noise variance of FRFs per line (a kernel of `vibupdate.data.extraction`): of a single
 record from the modal fit's residual, and the split of any per-line variance estimate (the
 residual's, or the repeats' scatter) into a smooth and a proportional component.
-Frequencies and FRFs normalized as in `vibupdate.data._modal_fit`.
+Frequencies and FRFs normalized as in `vibupdate.data.modal_fit`.
 
 Two things make the raw squared residual a poor estimate of the noise variance where it
 matters most, at the resonance peaks of lightly damped modes:
@@ -44,21 +44,21 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from vibupdate.data._modal_fit import _basis, _basis_derivatives, _linear_fit, _real_stack, _smooth, _triangle
+from vibupdate.data.modal_fit import _linear_fit, _real_stack, _triangle, basis, basis_derivatives, smooth
 
 SMOOTH_LINES = 21           # the additive component is locally constant over this many lines
 EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
 
 
-def _combined(derivatives, c):
+def pole_columns(derivatives, c):
     """One FRF's pole columns (n_freq, 2 n): the exact derivatives of its modal model ``Phi(theta) c``
-    with respect to ``w_n`` (first n) and ``zeta`` (last n), from `_basis_derivatives` and its
+    with respect to ``w_n`` (first n) and ``zeta`` (last n), from `basis_derivatives` and its
     coefficients ``c``."""
     n = derivatives[0].shape[1] // 2
     return np.hstack([d[:, 0::2] * c[0:2 * n:2] + d[:, 1::2] * c[1:2 * n:2] for d in derivatives])
 
 
-def _leverage(x, xn, zeta, coef, W=None, window=None):
+def leverage(x, xn, zeta, coef, W=None, window=None):
     """Diagonal of the hat matrix of the modal fit of every FRF, shape (n_pairs, 2, n_freq)
     (real and imaginary row of each line): the residue columns of each FRF plus the pole
     columns shared by all FRFs, projected off the former. ``W`` (n_pairs, n_freq): the
@@ -71,15 +71,15 @@ def _leverage(x, xn, zeta, coef, W=None, window=None):
     FRF by FRF), so that no FRF's block is kept beyond its own pass: two passes, the blocks
     formed again in the second, instead of the whole ``D`` and its QR (hundreds of MB at
     50,000 lines)."""
-    Phi = _basis(x, xn, zeta, window)
-    derivatives = _basis_derivatives(x, xn, zeta, window)
+    Phi = basis(x, xn, zeta, window)
+    derivatives = basis_derivatives(x, xn, zeta, window)
     shared = None if W is not None else _orthonormal(np.vstack([Phi.real, Phi.imag]))
 
     def blocks():  # per FRF: the residue columns' basis and the projected pole columns
         for k, c in enumerate(coef):
             w = np.ones(x.size) if W is None else W[k]
             Q = shared if W is None else _orthonormal(_real_stack(Phi, w))
-            D = _real_stack(_combined(derivatives, c), w)
+            D = _real_stack(pole_columns(derivatives, c), w)
             yield Q, D - Q @ (Q.T @ D)
 
     R = _triangle(np.vstack([_triangle(D) for _, D in blocks()]))
@@ -95,7 +95,7 @@ def _orthonormal(A):
     return scipy.linalg.qr(A, mode="economic", check_finite=False)[0]
 
 
-def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iterations: int = EM_ITERATIONS,
+def variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iterations: int = EM_ITERATIONS,
                          beta_width: int | None = None):
     """Maximum-likelihood ``sigma^2 = s + beta g`` per row from squared residuals ``e``.
 
@@ -110,10 +110,10 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
     labels, member = np.unique(groups, return_inverse=True)
     rows = [np.nonzero(member == k)[0] for k in range(labels.size)]
     # a floor that keeps v^2 representable: noise-free data give residuals of rounding size or 0
-    floor = 1e-12 * np.max(_smooth(e, width), axis=1, keepdims=True) + 1e-150
+    floor = 1e-12 * np.max(smooth(e, width), axis=1, keepdims=True) + 1e-150
 
     def level(share):  # the proportional level: group sums (of running sums along frequency if local)
-        num, den = (share, g) if beta_width is None else (_smooth(share, beta_width), _smooth(g, beta_width))
+        num, den = (share, g) if beta_width is None else (smooth(share, beta_width), smooth(g, beta_width))
         out = np.empty_like(e)
         for r in rows:
             top = np.sum(num[r], axis=0 if beta_width else None)
@@ -121,7 +121,7 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
         return out
 
     # start from an even split of each line's squared residual between the components
-    s = np.maximum(_smooth(e / 2, width), floor)
+    s = np.maximum(smooth(e / 2, width), floor)
     beta = level(e / 2)
     for _ in range(iterations):
         b = beta * g
@@ -132,12 +132,12 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
         v2, s2, b2 = v * v, s * s, b * b
         share_s = (s - s2 / v) + s2 * e / v2
         share_b = (b - b2 / v) + b2 * e / v2
-        s = np.maximum(_smooth(share_s, width), floor)
+        s = np.maximum(smooth(share_s, width), floor)
         beta = level(share_b)
     return s + beta * g, s, beta
 
 
-def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W=None,
+def residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W=None,
                        beta_width: int | None = None, window=None):
     """Noise variance per line of each FRF from the fit's residual, shape (n_pairs, n_freq):
     squared residuals corrected by the leverage, then split into a smooth and a proportional
@@ -148,7 +148,7 @@ def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W
     the residual and the leverage are then those of the weighted fit (feasible weighted
     least squares; the module docstring says why an unweighted fit misleads on real data).
     Default: unweighted."""
-    Phi = _basis(x, wn, zeta, window)
+    Phi = basis(x, wn, zeta, window)
     if W is None:  # one least-squares solve for every FRF
         A = np.vstack([Phi.real, Phi.imag])
         coef = scipy.linalg.lstsq(A, np.concatenate([F.real, F.imag], axis=1).T, lapack_driver="gelsy")[0].T
@@ -156,7 +156,7 @@ def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W
         coef = np.array([_linear_fit(Phi, f, w)[0] for f, w in zip(F, W)])
     fitted = coef @ Phi.T
     r = F - fitted
-    h = np.minimum(_leverage(x, wn, zeta, coef, W, window), 0.99)
+    h = np.minimum(leverage(x, wn, zeta, coef, W, window), 0.99)
     e = r.real**2 / (1.0 - h[:, 0]) + r.imag**2 / (1.0 - h[:, 1])
-    var = _variance_components(e, np.abs(fitted) ** 2, groups, width, beta_width=beta_width)[0]
+    var = variance_components(e, np.abs(fitted) ** 2, groups, width, beta_width=beta_width)[0]
     return np.maximum(var, 1e-12 * np.max(var, axis=1, keepdims=True) + 1e-300)

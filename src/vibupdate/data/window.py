@@ -1,5 +1,5 @@
-"""The leakage of a windowed spectral estimate, put into the modal model (private kernel of
-`vibupdate.data.extraction`). Frequencies normalized as in `vibupdate.data._modal_fit`.
+"""The leakage of a windowed spectral estimate, put into the modal model (a kernel of
+`vibupdate.data.extraction`). Frequencies normalized as in `vibupdate.data.modal_fit`.
 
 A frequency response estimated from random excitation, record by record with a data window
 ``w`` over each record of length ``T`` (the ``H1`` estimate, averaged), is in expectation the
@@ -94,7 +94,7 @@ def window_for(name: str | None, x: np.ndarray, measured: str = "receptance", de
     return Window(name, 2 * math.pi / float(np.mean(step)), ORDERS[measured], float(decay))
 
 
-def _moments(w: np.ndarray, kmax: int) -> np.ndarray:
+def moments(w: np.ndarray, kmax: int) -> np.ndarray:
     """``integral_0^1 u^k exp(w u) du`` for ``k = 0..kmax``, shape (kmax + 1, *w.shape),
     complex: the closed form where ``|w| >= SERIES_BELOW``, the power series elsewhere."""
     w = np.asarray(w, dtype=complex)
@@ -124,7 +124,7 @@ def _lagged(z, name: str, kmax: int) -> np.ndarray:
     (kmax + 1, *z.shape)."""
     total = np.zeros((kmax + 1,) + z.shape, dtype=complex)
     for m, c0, c1 in WINDOWS[name]:
-        mom = _moments(z + 2j * math.pi * m, kmax + 1)
+        mom = moments(z + 2j * math.pi * m, kmax + 1)
         total += c0 * mom[:-1] + c1 * mom[1:]
     return total
 
