@@ -3,40 +3,24 @@ record from the modal fit's residual, and the split of any per-line variance est
 residual's, or the repeats' scatter) into a smooth and a proportional component.
 Frequencies and FRFs normalized as in `vibupdate.data.modal_fit`.
 
-Two things make the raw squared residual a poor estimate of the noise variance where it
-matters most, at the resonance peaks of lightly damped modes:
+The raw squared residual misleads at the peaks of lightly damped modes, which alone fix the
+damping ratios (docs/notes/frf-intervals.md, "The fix"):
 
-1. **Leverage** (the degrees of freedom of the fit). For a least-squares fit
-   ``E |r_k|^2 = sigma_k^2 (1 - h_k)`` with ``h_k`` the diagonal of the hat matrix
-   (``sum_k h_k = p``, the number of fitted parameters: this is the ``n - p`` of the
-   unbiased variance, line by line). A mode whose half-power bandwidth ``2 zeta w_n`` spans
-   about one line is fitted from its few peak lines: there ``h_k`` nears 1 and the residual
-   nearly vanishes whatever the noise. Each squared residual is divided by ``1 - h_k``
-   (the "HC2" correction of MacKinnon and White, J. Econometrics 29, 1985), ``h_k`` from the
-   fit's exact Jacobian: the linear (residue) columns and the projected pole columns of the
-   variable-projection problem (Golub and Pereyra, SIAM J. Numer. Anal. 10, 1973), whose
-   hat matrices add because the second is orthogonal to the first.
-2. **Smoothing across a peak**. Measured FRFs carry a noise floor that varies slowly along
-   frequency and a part proportional to ``|H|`` (force-channel noise, leakage, the
-   estimator's bias at a peak), which varies as fast as the FRF itself: by a factor of 10 or
-   more across a peak one line wide. A running mean of the squared residual over 21 lines
-   spreads a peak's variance over its neighbours and under-states it at the peak lines,
-   which alone fix the damping ratio. The variance is therefore modelled per FRF as two
-   components, ``sigma_k^2 = s_k + beta |H_k|^2`` with ``s`` smooth (locally constant over
-   21 lines) and ``beta >= 0`` one number, ``H_k`` the fitted FRF, and both are estimated by
-   maximum likelihood from the corrected squared residuals by the EM iteration for variance
-   components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39, 1977): each line's
-   squared residual is shared between the components in proportion to their expected
-   shares, then each component is re-estimated from its share. With ``beta = 0`` this is
-   a running mean, so data without a proportional part lose nothing. The same
-   split applies to the repeats' per-line variance of the mean: a mean of ``R - 1``
-   exponential variables has a Gamma likelihood proportional to the exponential one in
-   ``sigma^2``, so the maximum-likelihood equations are the same.
+1. **Leverage.** ``E |r_k|^2 = sigma_k^2 (1 - h_k)``, ``h_k`` the diagonal of the hat matrix,
+   near 1 at the few lines a narrow peak is fitted from: each squared residual is divided by
+   ``1 - h_k`` (HC2, MacKinnon and White, J. Econometrics 29, 1985), ``h_k`` from the exact
+   Jacobian of the variable-projection fit (residue columns plus the projected pole columns,
+   whose hat matrices add: `leverage`).
+2. **Two components.** ``sigma_k^2 = s_k + beta |H_k|^2``, ``s`` locally constant over
+   `SMOOTH_LINES` and ``beta >= 0`` one number per group, by maximum likelihood with the EM
+   iteration for variance components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39,
+   1977; `variance_components`): a running mean alone would spread a peak's variance over its
+   neighbours. The repeats' per-line variance of the mean (a Gamma likelihood, the same
+   equations) is split the same way.
 
-On real data the unweighted fit's residual also holds the model's systematic misfit at the
-peaks, so this estimate is conservative there; ``W`` (the residual and leverage of the
-weighted fit) and ``beta_width`` (a local proportional level) measure the alternative and are
-not the default (docs/notes/frf-intervals.md, "The noise estimate of one record on real data").
+``W`` (a weighted fit) and ``beta_width`` (a local proportional level) are the measured
+alternative, not the default (docs/notes/frf-intervals.md, "The noise estimate of one record
+on real data").
 """
 
 from __future__ import annotations
