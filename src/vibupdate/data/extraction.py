@@ -1,34 +1,25 @@
 """Modal extraction from measured FRFs: poles, damping, shapes and antiresonances with intervals.
 
-The method and its options are stated in ``docs/frf-extraction.md`` (Method); the figures
-behind each rule are in ``docs/notes/frf-intervals.md`` and ``docs/notes/frf-leakage.md``.
-Two stages on the receptances ``H_i(omega)``, ``i`` over the measured DOF pairs, fitted on
-lines that reach past the reported band (``fit_band``, by default to twice its top), so that
-a mode just above the band is fitted with its own residues:
+The method, its options and the reasons behind them: docs/frf-extraction.md, "Method" (the
+figures: docs/notes/frf-intervals.md and docs/notes/frf-leakage.md). In short, on the
+receptances over the fit band (by default to `FIT_BAND_FACTOR` times the band's top):
 
-1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999)
-   of all FRFs with common poles at several model orders, each line weighted by ``1/sigma``;
-   a pole that recurs in ``min_stable`` orders (frequency within 0.2 %, damping within 20 %)
-   and that the data resolve is a mode. The poles are refined by variable projection on the
-   modal model::
+1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999) at
+   several orders; a pole that recurs in ``min_stable`` orders and that the data resolve is a
+   mode; refined by variable projection (`vibupdate.data.modal_fit`) on the modal model::
 
        H_i(s) = sum_r [A_ir / (s - lam_r) + conj(A_ir) / (s - conj(lam_r))]
                 + L_i / s^2 + U_i + (pseudo-mode above the band, complex residue)
 
-   with ``s = j omega``, ``lam_r = -zeta_r w_r + j w_r sqrt(1 - zeta_r^2)``; covariance of
-   ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
-2. **Zeros and shapes.** With the poles fixed, the residues are refit by weighted linear
-   least squares; the antiresonances are the real zeros in the band of the fitted undamped
-   receptance ``sum_r m_ir / (w_r^2 - omega^2) + ...`` with ``m_ir = Re(2 j w_d A_ir)``
-   (refit near each zero when that is the more precise, `_local_zero`), their covariance by
-   the implicit-function rule; the shapes come from a rank-one fit of the modal constants.
+   covariance of ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
+2. **Zeros and shapes.** Residues refit with the poles fixed; antiresonances are the real zeros
+   of the fitted undamped receptance (`vibupdate.data._zeros`), shapes a rank-one fit of the
+   modal constants ``m_ir = Re(2 j w_d A_ir)`` (`_shapes`).
 
-With ``window``, every pole term is replaced by its windowed expectation
-(`vibupdate.data.window`). The noise per line comes from the repeats or, with one record,
-from the leverage-corrected residual (`vibupdate.data.noise`). Intervals are
-``value +- z * SE`` with floors on the half-width: ``1e-5`` relative for frequencies and
-antiresonances, ``0.1 %`` relative for damping ratios, ``1e-3`` of the largest entry for
-shapes.
+With ``window`` every pole term is its windowed expectation (`vibupdate.data.window`); the noise
+per line comes from the repeats or the leverage-corrected residual (`vibupdate.data.noise`).
+Intervals are ``value +- z * SE`` with the floors `FREQUENCY_FLOOR`, `DAMPING_FLOOR` and
+`SHAPE_FLOOR`.
 """
 
 from __future__ import annotations
