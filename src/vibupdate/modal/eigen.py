@@ -375,7 +375,8 @@ def repeatable(n: int) -> dict:
     """Keywords of `scipy.sparse.linalg.eigsh` / ``eigs`` that make an ARPACK run repeatable:
     a fixed start vector and, where scipy takes one, a seeded generator for the random vectors
     ARPACK asks for on a restart, else drawn from the operating system's entropy
-    (`benchmarks/RESULTS.md`, "... repeatable ARPACK (2026-11-25)")."""
+    (`benchmarks/RESULTS.md`, "The polish stops on convergence; point data against the pencil's
+    rounding floor; repeatable ARPACK")."""
     rng = np.random.default_rng(0)
     out = {"v0": rng.standard_normal(n)}
     if _ARPACK_RNG:
