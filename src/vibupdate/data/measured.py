@@ -39,15 +39,21 @@ def _optional_index(value, what: str) -> int | None:
     return int(value)
 
 
-def _interval(pair, value, what: str) -> tuple[float, float] | None:
-    if pair is None:
-        return None
+def _bounds(pair, what: str) -> tuple[float, float]:
+    """``pair`` as a finite ``(lower, upper)``, ``lower <= upper``; a ValueError names ``what``."""
     try:
         lo, hi = (float(v) for v in pair)
     except (TypeError, ValueError):
         raise ValueError(f"{what} must be (lower, upper), got {pair!r}") from None
     if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
         raise ValueError(f"{what} must be finite with lower <= upper, got ({lo!r}, {hi!r})")
+    return lo, hi
+
+
+def _interval(pair, value, what: str) -> tuple[float, float] | None:
+    if pair is None:
+        return None
+    lo, hi = _bounds(pair, what)
     if not lo <= value <= hi:
         raise ValueError(f"{what} ({lo:.6g}, {hi:.6g}) does not contain its value {value:.6g}")
     return (lo, hi)
@@ -74,17 +80,8 @@ class ShapeInterval:
     mass_normalized: bool = False
 
     def __post_init__(self):
-        clean = {}
-        for dof, pair in dict(self.bounds).items():
-            try:
-                lo, hi = (float(v) for v in pair)
-            except (TypeError, ValueError):
-                raise ValueError(f"mode-shape interval for {dof!r} must be (lower, upper), got {pair!r}") from None
-            if not (math.isfinite(lo) and math.isfinite(hi)):
-                raise ValueError(f"mode-shape interval for {dof!r} is not finite: ({lo}, {hi})")
-            if lo > hi:
-                raise ValueError(f"mode-shape interval for {dof!r} has lower {lo:g} > upper {hi:g}")
-            clean[str(dof)] = (lo, hi)
+        clean = {str(dof): _bounds(pair, f"mode-shape interval for {dof!r}")
+                 for dof, pair in dict(self.bounds).items()}
         if not clean:
             raise ValueError("a mode-shape interval needs at least one measured DOF")
         object.__setattr__(self, "bounds", clean)
