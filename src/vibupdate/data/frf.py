@@ -122,12 +122,9 @@ class FRFSet:
             new = str(mapping.get(name, name)).strip()
             return (new[1:], -1.0) if new.startswith("-") else (new.lstrip("+"), 1.0)
 
-        groups: dict = {}
-        for (r, c), h in zip(self.pairs, self.H):
-            (r2, sr), (c2, sc) = target(r), target(c)
-            groups.setdefault((r2, c2), []).append(sr * sc * h)
-        return FRFSet(self.omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), self.sources,
-                      self.measured)
+        moved = ((target(r), target(c), h) for (r, c), h in zip(self.pairs, self.H))
+        return _grouped(self.omega, (((r, c), sr * sc * h) for (r, sr), (c, sc), h in moved), self.sources,
+                        self.measured)
 
 
     def reciprocal(self) -> "FRFSet":
@@ -246,27 +243,29 @@ def combine(sets: Sequence[FRFSet]) -> FRFSet:
     if not sets:
         raise ValueError("no FRF data to combine")
     omega = sets[0].omega
-    groups: dict = {}
     for s in sets:
         if s.omega.size != omega.size or not np.allclose(s.omega, omega, rtol=1e-9, atol=0):
             raise ValueError(f"FRF files {sets[0].sources} and {s.sources} have different frequency lines "
                              f"({omega.size} vs {s.omega.size} lines, {sets[0].freq_hz[0]:.6g}-{sets[0].freq_hz[-1]:.6g} "
                              f"vs {s.freq_hz[0]:.6g}-{s.freq_hz[-1]:.6g} Hz)")
-        for pair, h in zip(s.pairs, s.H):
-            groups.setdefault(pair, []).append(h)
     kinds = {s.measured for s in sets}
-    return FRFSet(omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()),
-                  tuple(src for s in sets for src in s.sources), kinds.pop() if len(kinds) == 1 else "mixed")
+    return _grouped(omega, ((pair, h) for s in sets for pair, h in zip(s.pairs, s.H)),
+                    [src for s in sets for src in s.sources], kinds.pop() if len(kinds) == 1 else "mixed")
+
+
+def _grouped(omega, records, sources, measured: str) -> FRFSet:
+    """An `FRFSet` of ``records``, ``((response, excitation), values)`` with values of shape
+    (n_freq,) or (n_repeats, n_freq): the records of one pair become its repeats."""
+    groups: dict = {}
+    for pair, h in records:
+        groups.setdefault(pair, []).append(np.atleast_2d(h))
+    return FRFSet(omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), tuple(sources), measured)
 
 
 def _group(omega, records, source, measured: str) -> FRFSet:
-    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line;
-    ``measured`` as in `FRFSet`."""
+    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line."""
     keep = omega > 0
-    groups: dict = {}
-    for pair, h in records:
-        groups.setdefault(pair, []).append(np.asarray(h)[keep])
-    return FRFSet(omega[keep], tuple(groups), tuple(np.array(v) for v in groups.values()), (str(source),), measured)
+    return _grouped(omega[keep], ((pair, np.asarray(h)[keep]) for pair, h in records), (str(source),), measured)
 
 
 def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
