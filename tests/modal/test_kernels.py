@@ -313,7 +313,7 @@ def test_every_mode_of_a_stiff_model_keeps_the_better_pencil():
 def test_the_qz_of_the_adjunct_pencil_is_scipys_eig_without_its_loop():
     """Eigenvalues and the real parts of the unit left and right vectors as
     ``scipy.linalg.eig`` gives them, on a pencil with real eigenvalues and complex pairs."""
-    from vibupdate.modal.sensitivities import qz
+    from vibupdate.modal.zeros import qz
 
     rng = np.random.default_rng(4)
     D = sla.block_diag(*np.arange(1.0, 7.0), *[[[a, b], [-b, a]] for a, b in ((2.0, 1.0), (5.0, 0.5), (9.0, 3.0))])

@@ -33,11 +33,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from vibupdate.modal import eigen
-from vibupdate.modal.eigen import _dense_modes
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.readings import ratio_derivatives, readings
-from vibupdate.modal.zeros import adjunct, antiresonances, others, structural
+from vibupdate.modal.zeros import antiresonances, dense_zeros, others
 
 
 def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
@@ -267,50 +266,8 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
     # a dense-limit model is small: one conversion costs less than sparse slicing and products
     M = M.toarray() if sp.issparse(M) else np.asarray(M)
     K = K.toarray() if sp.issparse(K) else np.asarray(K)
-    Mr, Kr = adjunct(M, r, c), adjunct(K, r, c)
-    if r == c:   # symmetric: the solver of `antiresonances` (reciprocal pencil, massless DOFs condensed)
-        eigval_z, V_right = _dense_modes(Mr, Kr, precision)
-        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right, precision)
-        eigval_z, V_right = eigval_z[keep][:n_zeros], V_right[:, keep][:, :n_zeros]
-        return eigval_z, V_right, V_right
-    (num, den), V_left, V_right = qz(Kr, Mr)
-    scale = np.abs(num) + np.abs(den)
-    finite = np.abs(den) > 1e-10 * scale
-    eigval_z = np.full(num.shape, np.nan, dtype=complex)
-    eigval_z[finite] = num[finite] / den[finite]
-    real = finite & (np.abs(eigval_z.imag) <= 1e-8 * np.abs(eigval_z.real)) & (eigval_z.real > 0)
-    real[real] = ~structural(M, K, r, eigval_z[real].real, V_right[:, real], precision)
-    eigval_z, V_right, V_left = eigval_z[real].real, V_right[:, real], V_left[:, real]
-    order = np.argsort(eigval_z)[:n_zeros]
-    return eigval_z[order], V_right[:, order], V_left[:, order]
-
-
-def qz(A: np.ndarray, B: np.ndarray):
-    """The eigenvalues of the real pencil ``(A, B)`` as ``(alpha, beta)`` (complex ``alpha``)
-    with the real parts of the left and right vectors, each of unit norm as a complex vector:
-    what ``scipy.linalg.eig(A, B, left=True, right=True, homogeneous_eigvals=True)`` gives,
-    taken from LAPACK's ``ggev`` without that function's per-vector normalization loop (most
-    of its time on a small pencil). ``ggev`` stores a complex pair's vectors as the real and
-    imaginary parts in two columns: the real part of both is the first column."""
-    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
-    if not (np.isfinite(A).all() and np.isfinite(B).all()):
-        raise ValueError("array must not contain infs or NaNs")
-    ggev, = sla.get_lapack_funcs(("ggev",), (A, B))
-    lwork = int(ggev(A, B, lwork=-1)[-2][0])
-    alphar, alphai, beta, vl, vr, _, info = ggev(A, B, 1, 1, lwork)
-    if info != 0:
-        raise sla.LinAlgError(f"generalized eig algorithm (ggev) did not converge (LAPACK info={info})")
-    first = alphai > 0                 # the first column of each complex pair
-    first[:-1] |= alphai[1:] < 0
-    j = np.flatnonzero(first)
-    out = []
-    for V in (vl, vr):
-        norms = np.linalg.norm(V, axis=0)
-        norms[j] = norms[j + 1] = np.hypot(norms[j], norms[j + 1])
-        real = V.copy()
-        real[:, j + 1] = V[:, j]
-        out.append(real / norms)
-    return (alphar + 1j * alphai, beta), out[0], out[1]
+    eigval_z, V_right, V_left = dense_zeros(M, K, r, c, 1e-8, precision)
+    return eigval_z[:n_zeros], V_right[:, :n_zeros], V_left[:, :n_zeros]
 
 
 def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zeros: int | None = None):
