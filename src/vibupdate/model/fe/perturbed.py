@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from vibupdate.model.affine import AffineModel
 from vibupdate.model.build import from_files
@@ -167,16 +168,12 @@ def _change(nominal: FEExport, other: FEExport, name: str, step: float, p0: floa
     return dK, dM
 
 
-def _frobenius(A) -> float:
-    return float(np.sqrt((A.multiply(A)).sum())) if A.nnz else 0.0
-
-
 def _departure(d1, d2) -> float:
     worst = 0.0
     for a, b in zip(d1, d2):
-        scale = max(_frobenius(a), _frobenius(b))
+        scale = max(spla.norm(a), spla.norm(b))
         if scale:
-            worst = max(worst, _frobenius(a - b) / scale)
+            worst = max(worst, float(spla.norm(a - b)) / scale)
     return worst
 
 
