@@ -20,8 +20,7 @@ Parameters (property groups):
   so the model is *not* affine in it.
 
 A known payload of `PAYLOAD` kg sits on each roof corner node (translational mass, no
-parameter): with every stiffness and mass term a parameter, scaling them all together would
-change neither frequencies nor mode shapes, and no modal data could fix the scale.
+parameter): it fixes the scale that modal data alone cannot.
 
 The rotations of the beams' mid-span nodes carry no mass (the beams are massless and the floor
 mass is translational), so ``M`` is singular on that set (`FrameModel.massless`). The base
