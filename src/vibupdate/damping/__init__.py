@@ -13,10 +13,7 @@ solved in the weighted least-squares sense ``beta = (Theta^T W Theta)^-1 Theta^T
 of the updated model, so that the identified ``C`` reproduces the fitted ratios exactly.
 ``C`` itself is built as ``M Phi diag(sum_h beta_h w^(2h)) Phi^T M`` (no matrix powers).
 Rayleigh damping is ``Y = [0, 1]``.
-
-Four modules: `series` (the series and its fit), `models` (the matrix ``C`` and the modal
-law), `sanity` (negative damping) and `stage` (the second stage over the configurations);
-their public names are importable from ``vibupdate.damping``.
+The public names of its modules (docs/method.md lists them) are importable from here.
 """
 
 from vibupdate.damping.models import CaugheyLaw, caughey_damping, caughey_matrix

@@ -16,15 +16,10 @@ Two paths, chosen by size (`DENSE_LIMIT`):
   check per mode (`mode_residuals`); a mode whose backward error exceeds the tolerance raises
   `ModalAccuracyError` rather than returning a number nobody can trust.
 
-Positive semidefinite mass matrices (massless DOFs, as exported by FE packages that lump
-masses on translations only) are supported when ``K`` is positive definite on the massless
-DOFs. A DOF is massless when its diagonal mass entry is at most `MASSLESS_TOL` times the
-largest one in magnitude (`massless_dofs`, the one definition used by the eigen-solvers and by
-the admissibility check of `vibupdate.model.physical`; for a positive semidefinite ``M`` the
-whole row is then zero to that tolerance). The dense path condenses those DOFs out
-exactly (static condensation, ``u_s = -K_ss^-1 K_sm u_m``); the sparse path needs nothing
-special, since shift-invert only factorizes ``K - sigma M``. Mode vectors are always returned
-full length; a model with ``n_s`` massless DOFs has ``n - n_s`` finite natural frequencies.
+Massless DOFs (`massless_dofs`; ``K`` positive definite on them) are condensed out exactly on
+the dense path (``u_s = -K_ss^-1 K_sm u_m``) and need nothing on the sparse one (shift-invert
+factorizes ``K - sigma M`` only); mode vectors are always full length, and a model with ``n_s``
+massless DOFs has ``n - n_s`` finite natural frequencies.
 """
 
 from __future__ import annotations
@@ -397,12 +392,9 @@ def require_accuracy(M, K, omega, V, rtol: float, what: str) -> None:
 
 def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL,
           factor=None, precision: float | None = None):
-    """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0).
-
-    Accuracy (see the module docstring): the dense path solves the reciprocal pencil with the
-    full ``scipy.linalg.eigh``, relative error about ``n eps eigval_k / eigval_1`` for mode ``k``;
-    the sparse path is shift-invert ARPACK whose every pair passes a residual check, backward
-    error at most ``rtol`` (typically 1e-15).
+    """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0), by the
+    dense or the sparse path of the module docstring (every sparse pair's backward error at
+    most ``rtol``).
 
     Parameters
     ----------

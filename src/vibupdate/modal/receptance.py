@@ -222,13 +222,9 @@ def receptances(M, K, pairs, omega, C=None) -> np.ndarray:
     """Receptances ``h_rc(j omega)`` of several ``(r, c)`` pairs of one model, from one
     eigen-solve or one factorization per frequency shared by every pair.
 
-    ``h_rc`` is entry ``r`` of the solution of ``(K + j omega C - omega^2 M) x = e_c``. Small
-    undamped models: superposition of all modes (exact, with the static term of massless
-    DOFs); small damped models: the modes of the first-order (state-space) form when there are
-    more than 50 lines and ``M`` is positive definite (checked against direct solves at
-    three lines), else dense complex solves over chunks of frequencies; large models (over
-    `DENSE_LIMIT` DOFs): undamped by `modal_sum`, damped by one sparse LU per frequency.
-    Memory is O(n^2) at most, never O(n_f n^2).
+    ``h_rc`` is entry ``r`` of the solution of ``(K + j omega C - omega^2 M) x = e_c``, by the
+    path of the module docstring for the model's size and damping (the first-order form of a
+    small damped model from 50 lines on, when ``M`` is positive definite).
 
     Parameters
     ----------

@@ -535,15 +535,9 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
     of the parameters, assembled directly (`Assembly.affine_parts`), without complex step.
 
     Every element matrix is linear in its properties, so the model is affine by construction
-    and ``M_i``, ``K_i`` (Eqs. 13-14) are exact: each is the assembly of only the elements
-    whose expressions involve ``p_i``, with the properties set to their coefficients. The
-    build grows with the DOFs (each element is evaluated at the nominal point and once per
-    parameter it depends on) where `affine_from_builder` calls the builder ``2 n_x + 2``
-    times, each assembling every element.
-
-    Since affinity holds by construction, the per-parameter check of `check_affine` is not
-    needed; with ``check`` a single safety check remains: the assembly evaluated with every
-    parameter moved inside its bounds (`Assembly.system`) must equal the affine prediction.
+    and ``M_i``, ``K_i`` (Eqs. 13-14) are exact (`Assembly.affine_parts`). With ``check`` one
+    safety check remains: the assembly with every parameter moved inside its bounds
+    (`Assembly.system`) must equal the affine prediction.
 
     Parameters
     ----------
