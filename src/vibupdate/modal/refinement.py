@@ -97,12 +97,10 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
     entry by entry (an estimate, where one unit of ``precision`` per entry would bound it far
     above what the exports show: docs/notes/eigen-solutions.md).
 
-    The double-precision pencil fixes its modes only to this level (module docstring): a
-    solver of any accuracy returns ratios that differ from those of the same model assembled
-    at a neighbouring point, or exported with other rounding, by about this much. It is the
-    achievable accuracy against which point shape data are checked
-    (`vibupdate.inverse.verify`). One factorization of ``K - eigval M`` with the row and
-    column of the largest ``|phi|`` removed (as in Nelson's method).
+    The achievable accuracy against which point shape data are checked
+    (`vibupdate.inverse.verify`): the pencil fixes its modes only to this level (module
+    docstring). One factorization of ``K - eigval M`` without the row and column of the
+    largest ``|phi|`` (Nelson's method).
 
     Parameters
     ----------

@@ -166,13 +166,8 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: fl
 
 def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: float = 1e-8,
                    n_zeros: int | None = None, dense: bool | None = None, precision: float | None = None):
-    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8).
-
-    They are the finite, real, positive eigenvalues ``omega^2`` of the adjunct pencil
-    ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed), without the structural zeros of a
-    model with rigid-body modes (`structural`). Small models: dense (symmetric
-    reciprocal pencil for ``r == c``, QZ otherwise); large models: shift-invert on the sparse
-    adjunct pencil (Lanczos for ``r == c``, Arnoldi otherwise) with a residual check per zero.
+    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8), dense or by shift-invert
+    (Lanczos for ``r == c``, Arnoldi otherwise) as the module docstring says.
 
     Parameters
     ----------
