@@ -45,8 +45,10 @@ def _bounds(pair, what: str) -> tuple[float, float]:
         lo, hi = (float(v) for v in pair)
     except (TypeError, ValueError):
         raise ValueError(f"{what} must be (lower, upper), got {pair!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-        raise ValueError(f"{what} must be finite with lower <= upper, got ({lo!r}, {hi!r})")
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ValueError(f"{what} is not finite: ({lo}, {hi})")
+    if lo > hi:
+        raise ValueError(f"{what} has lower {lo:g} > upper {hi:g}")
     return lo, hi
 
 
