@@ -88,11 +88,9 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
     """All eigenpairs of ``K phi = eigval M phi`` (M positive definite); ``precision``: the
     relative precision of the entries (`vibupdate.modal.rigid`), None for double precision.
 
-    The reciprocal pencil ``M phi = mu (K - sigma M) phi`` resolves the low modes to about
-    ``n eps eigval_k / eigval_1``; the direct pencil resolves the high ones to
-    ``n eps eigval_max / eigval_k``.
-    When the spectrum spans more than six decades both are solved and spliced at the geometric
-    mean of the extreme eigenvalues, so every mode keeps the better of the two.
+    The reciprocal pencil resolves the low modes, the direct one the high ones (module
+    docstring): when the spectrum spans more than six decades both are solved and spliced at
+    the geometric mean of the extreme eigenvalues.
 
     Returns ``eigval`` ascending and ``Phi`` with ``Phi.T M Phi = I``.
     """
@@ -108,12 +106,9 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
         # modes.
         mu = None
     if mu is None:
-        # K is not positive definite (rigid-body modes or an unstable parameter point): shift
-        # below the lowest eigenvalue, estimated by the direct pencil.
-        # With rigid-body modes the shift goes one first flexible eigenvalue below zero: the
-        # error n eps mu_max then stays at n eps of the flexible modes (a shift at a fixed
-        # fraction of the largest eigenvalue, or at rounding level, costs digits). An unstable
-        # point: at its own size.
+        # K is not positive definite: shift below the lowest eigenvalue of the direct pencil,
+        # with rigid-body modes by one first flexible eigenvalue (the error n eps mu_max then
+        # stays at n eps of the flexible modes), at an unstable point by its own size.
         eigval_direct, V_direct = _direct_eigh(K, M)
         # the direct pencil puts a rigid-body mode at up to n eps |eigval_max|, which can exceed
         # the allowance of `vibupdate.modal.rigid`: a shift to that mode would leave
