@@ -12,10 +12,8 @@ balancing springs ``kbs`` and ``kbs2`` act at the top nodes. 10 free nodes x 3 D
 = 32 DOFs.
 
 A calibrated payload of known mass (`PAYLOAD`, kg) sits at the middle of the upper beam, a
-node with no mass parameter. It matters: with every mass and stiffness term a parameter,
-scaling all of them together changes neither frequencies nor mode shapes, and no data could
-fix the scale (the paper's mechanism has a known gravity stiffness ``Kg`` in that role); a
-known mass at a node that also has an unknown mass parameter would fix nothing either.
+node with no mass parameter: it fixes the scale that frequencies and shapes alone cannot (the
+paper's mechanism has a known gravity stiffness ``Kg`` in that role).
 
 Parameters (29, as in Table 2): one density ``rho``; Young's moduli ``E1``..``E5`` of the five
 members (left column, right column, lower beam, upper beam, brace); springs ``kbs``, ``kr1``,
