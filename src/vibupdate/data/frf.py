@@ -1,21 +1,12 @@
 """Measured frequency response functions (FRFs): reading, units and DOF names.
 
 An FRF ``H_rc(omega)`` is the response at DOF ``r`` to a unit force at DOF ``c``. Inside
-vibupdate every FRF is a **receptance** (m/N or rad/(N m)) on a frequency axis in rad/s;
-the readers convert at the edge:
-
-* accelerance ``A = (j omega)^2 H`` and mobility ``Y = j omega H`` are divided back,
-  after multiplying by ``g = 9.80665 m/s^2`` when the file is in g per newton;
-* DOF names follow the dataset-55 reader of `vibupdate.io.measured_io`: direction then node,
-  ``x3`` (node 3, +X), ``y3``, ``z3``, ``rx3``, ``ry3``, ``phi3``; a negative direction in
-  a UFF record flips the sign of the data so that the name always means the + direction;
-* records of the same (response, excitation) pair are **repeats** (repeated hits, several
-  files), kept apart so that their scatter can be used as a noise estimate.
-
-Sources: Universal File Format dataset 58 (ASCII, and 58b binary) through pyuff; CSV/text
-columns with column 0 the frequency in Hz and then complex values, either as ``1+2j`` text
-(the Southampton format: ``;``-separated, no header) or as real/imaginary column pairs;
-``.npz`` files with arrays ``freq_hz`` (n_freq,) and ``H`` (n_freq, n_columns).
+vibupdate every FRF is a **receptance** (m/N or rad/(N m)) on a frequency axis in rad/s: the
+readers convert accelerance and mobility at the edge, name DOFs as the dataset-55 reader does
+(``x3``, ``rx3``, ``phi3``; a negative UFF direction flips the data's sign), and keep records of
+one (response, excitation) pair apart as **repeats**, whose scatter is the noise estimate. The
+sources (UFF dataset 58 through pyuff, CSV/text columns, ``.npz``) and every check:
+docs/frf-extraction.md, "Input".
 """
 
 from __future__ import annotations

@@ -1,11 +1,9 @@
 """The leakage of a windowed spectral estimate, put into the modal model (a kernel of
 `vibupdate.data.extraction`). Frequencies normalized as in `vibupdate.data.modal_fit`.
 
-A frequency response estimated from random excitation, record by record with a data window
-``w`` over each record of length ``T`` (the ``H1`` estimate, averaged), is in expectation the
-true FRF smoothed by the window's power kernel ``|W|^2``. A lightly damped peak whose
-half-power bandwidth spans a few lines comes out lower and wider, and a modal fit reads that
-as damping, by tens of per cent at a peak one or two lines wide (docs/notes/frf-leakage.md).
+An ``H1`` estimate from random excitation with a data window ``w`` over each record of
+length ``T`` is in expectation the true FRF smoothed by the window's power kernel ``|W|^2``,
+which a modal fit reads as damping at narrow peaks (docs/notes/frf-leakage.md).
 
 In the time domain the same smoothing multiplies the impulse response by the window's
 normalized autocorrelation ``g(t / T)`` (``g(0) = 1``, zero beyond ``T``). A modal term
