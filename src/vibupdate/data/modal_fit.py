@@ -4,12 +4,9 @@ fitting, the stabilization check, variable projection of the poles, noise estima
 pole selection. Frequencies are normalized by the band's top (``x = omega / omega_max``);
 FRFs by their RMS. The method is described in `vibupdate.data.extraction`.
 
-Cost on long records (``benchmarks/extraction_cost.py``: nine FRFs of 51,200 lines): the
-variable projection of the poles has an exact Jacobian (`projection`; a finite difference
-cost ``2 n`` extra least-squares solves per FRF and step, most of the time), and hands the
-optimizer the ``(2 n + 1)``-square triangle of ``[J r]`` instead of ``J`` and ``r``
-(`_CompressedProjection`), so that neither the Jacobian of every line nor its SVD is held;
-what must see every line is formed one FRF at a time."""
+On long records (``benchmarks/extraction_cost.py``) the variable projection of the poles has
+an exact Jacobian (`projection`) and hands the optimizer the ``(2 n + 1)``-square triangle of
+``[J r]`` (`_CompressedProjection`): what must see every line is formed one FRF at a time."""
 
 from __future__ import annotations
 
@@ -322,9 +319,8 @@ def _projection_jacobian(Q, R, piv, d_theta, c, r, w):
 def refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     """Variable projection on (w_n, zeta); returns them and their covariance (sandwich).
 
-    Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform. The
-    Jacobian is exact (`projection`): a finite difference would cost ``2 n`` more
-    least-squares solves per FRF and step."""
+    Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform; the
+    Jacobian exact (`projection`)."""
     n = wn.size
     W = 1.0 / np.sqrt(var) if weighted else np.ones_like(F.real)
     theta0 = np.concatenate([wn, zeta])
