@@ -49,12 +49,9 @@ def leverage(x, xn, zeta, coef, W=None, window=None):
     weights ``1/sigma`` per line of a weighted fit (default 1: unweighted); ``coef`` that
     fit's coefficients.
 
-    The two hat matrices add because the projected pole columns ``D`` are orthogonal to the
-    residue columns. ``D`` stacks every FRF's block (the poles are shared); its hat diagonal
-    is the row norm of ``D V S^-1`` (``S``, ``V`` of the SVD of ``D``'s triangle ``R``, built
-    FRF by FRF), so that no FRF's block is kept beyond its own pass: two passes, the blocks
-    formed again in the second, instead of the whole ``D`` and its QR (hundreds of MB at
-    50,000 lines)."""
+    The projected pole columns ``D`` (every FRF's block: the poles are shared) have the hat
+    diagonal of the row norms of ``D V S^-1`` (``S``, ``V`` of the SVD of ``D``'s triangle,
+    built FRF by FRF): two passes over the blocks, none kept beyond its own, not the whole ``D``."""
     Phi = basis(x, xn, zeta, window)
     derivatives = basis_derivatives(x, xn, zeta, window)
     shared = None if W is not None else _orthonormal(np.vstack([Phi.real, Phi.imag]))
