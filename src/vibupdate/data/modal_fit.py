@@ -267,13 +267,10 @@ def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
 class _CompressedProjection:
     """`projection` as ``scipy.optimize.least_squares`` needs it, in ``2 n + 1`` numbers.
 
-    With ``[J r] = Q_t R_t`` (QR of the Jacobian beside the residual, all FRFs), the residual
-    ``R_t[:, -1]`` and Jacobian ``R_t[:, :-1]`` have the same ``J^T J``, ``J^T r`` and
-    ``|r|`` as the full ones, which is all a Gauss-Newton trust-region step uses: the
-    iterations are those of the full problem, without its (n_pairs * 2 n_freq, 2 n)
-    Jacobian and the solver's copies and SVD of it (hundreds of MB at 50,000 lines). Each
-    FRF's block is reduced by its own QR as it is formed; the last point's ``R_t`` is kept,
-    since the solver asks for the Jacobian where it has just asked for the residual."""
+    With ``[J r] = Q_t R_t`` (all FRFs, each block reduced by its own QR as it is formed),
+    ``R_t[:, -1]`` and ``R_t[:, :-1]`` have the ``J^T J``, ``J^T r`` and ``|r|`` of the full
+    residual and Jacobian, all a trust-region step uses; the last point's ``R_t`` is kept (the
+    solver asks for the Jacobian where it has just asked for the residual)."""
 
     def __init__(self, x, F, W, window=None):
         self.args = (x, F, W, window)
