@@ -110,12 +110,10 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
         # with rigid-body modes by one first flexible eigenvalue (the error n eps mu_max then
         # stays at n eps of the flexible modes), at an unstable point by its own size.
         eigval_direct, V_direct = _direct_eigh(K, M)
-        # the direct pencil puts a rigid-body mode at up to n eps |eigval_max|, which can exceed
-        # the allowance of `vibupdate.modal.rigid`: a shift to that mode would leave
-        # K - sigma M singular within rounding. The shift goes below the first eigenvalue
-        # `SINGULAR_SHIFT` rounding units clear of zero; the rigid-body modes are told apart
-        # afterwards, from the reciprocal pencil's own vectors (`modes`). The figures:
-        # `benchmarks/RESULTS.md`, "Figures behind src/: eigen-solver paths and shifts".
+        # the direct pencil puts a rigid-body mode at up to n eps |eigval_max|, beyond what
+        # `vibupdate.modal.rigid` allows: the shift goes below the first eigenvalue
+        # `SINGULAR_SHIFT` rounding units clear of zero, the rigid-body modes told apart later
+        # (`modes`; `benchmarks/RESULTS.md`, "Figures behind src/: eigen-solver paths and shifts").
         near = np.abs(eigval_direct) <= SINGULAR_SHIFT * rigid.rounding_scale(M, K, V_direct, precision)
         mu = None
         if near[0] and not near.all():

@@ -7,10 +7,8 @@ parameter matrices come from the complex-step derivative (Eq. 15),
 
     dM/dp_i = Im(M(p0 + j h e_i)) / h,
 
-exact to rounding for any small ``h`` because no difference is taken. For an `Assembly`
-whose properties are linear expressions of the parameters (the elements model of a case file)
-they are assembled directly instead (`affine_from_assembly`), since every element matrix is
-linear in its properties.
+exact to rounding for any small ``h`` because no difference is taken; an `Assembly` of linear
+expressions is assembled directly instead (`affine_from_assembly`).
 """
 
 from __future__ import annotations
