@@ -119,11 +119,9 @@ class FRFSet:
 
 
     def reciprocal(self) -> "FRFSet":
-        """Each ``h_rc`` read as ``h_cr`` (Maxwell-Betti reciprocity of a linear structure):
-        a roving-hammer test (one or a few responses, the hammer at every measured point) as
-        the layout the extraction takes, responses at every point and one excitation per
-        accelerometer, so the mode shapes are known at every hammer point. Repeats stay
-        repeats; a pair measured both ways stays two FRFs (each read the other way)."""
+        """Each ``h_rc`` read as ``h_cr`` (Maxwell-Betti reciprocity): a roving-hammer test as
+        the extraction takes it, the shapes known at every hammer point. Repeats stay repeats;
+        a pair measured both ways stays two FRFs (each read the other way)."""
         return FRFSet(self.omega, tuple((c, r) for r, c in self.pairs), self.H, self.sources, self.measured)
 
 

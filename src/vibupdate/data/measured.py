@@ -295,14 +295,11 @@ class Configuration:
     model : AffineModel
     natural : tuple of NaturalFrequency
         Measured natural frequencies, ascending; equal ones are the modes of a repeated
-        frequency (each its own model mode, `vibupdate.inverse.repeated`). Each says which model
-        mode it is (``mode``); omitted modes are consecutive (`declared_modes`). After
-        construction every entry carries its mode explicitly.
+        frequency (`vibupdate.inverse.repeated`). After construction each carries its model
+        ``mode`` (`vibupdate.data.pairing`).
     antiresonances : tuple of Antiresonance
         Measured antiresonances, of one or more receptances, any subset of each receptance's
-        zeros. Each says which zero of its receptance it is (``index``); omitted indices are
-        assigned from the measured poles around it and the nominal model's zeros between them
-        (`vibupdate.data.pairing`). After construction every entry carries its index explicitly.
+        zeros. After construction each carries its ``index`` (`vibupdate.data.pairing`).
     interlacing : bool
         Derive sign bounds on modal constants from the pole/zero pattern of each receptance
         (Eq. 11, Section 3.6), for pairs of measured poles that are consecutive model modes.
