@@ -63,11 +63,8 @@ def _diagonal(A) -> np.ndarray:
 def massless_dofs(M) -> np.ndarray:
     """Indices of the massless DOFs: ``|M_ii| <= MASSLESS_TOL * max_j |M_jj|``.
 
-    The one definition of a massless DOF in vibupdate (eigen-solvers, receptances and the
-    admissibility check of `vibupdate.model.physical`). A relative tolerance, so that an
-    exported model whose rotations carry a rounding-level mass is treated as the massless
-    model it stands for, and not as one with spurious modes at ~1e7 times the highest
-    physical frequency.
+    The one definition of a massless DOF in vibupdate; relative, so that rotations carrying a
+    rounding-level mass in an export are massless, not spurious modes far above the rest.
 
     Parameters
     ----------

@@ -5,17 +5,11 @@ With ``FORMAT=MATRIX INPUT`` (the default) Abaqus writes ``JOB_STIF<step>.mtx`` 
 
     row node, row DOF, column node, column DOF, value
 
-DOFs 1..6 of a node are its translations and rotations. The *MATRIX INPUT layout (Abaqus
-Keywords Reference) gives a symmetric matrix as its lower triangle, its upper triangle or the
-square, with or without the zeros of its sparsity pattern; all are read, one triangle mirrored,
-the two triangles of a square file compared. Lines starting with ``*`` (``**`` comments) are
-skipped. Nodes with a
-non-positive number are Abaqus's internal nodes (Lagrange multipliers of constraints); they
-are refused with a message, as the model they belong to is not a plain K, M pair. Abaqus writes
-the matrices before boundary conditions: the DOFs they fix are removed by naming them
-(`vibupdate.model.fe.export.without_dofs`, ``fix`` of ``vibupdate import``). The significant
-digits of the values give the export's relative precision
-(`vibupdate.model.fe.export.precision_of_digits`).
+DOFs 1..6 of a node are its translations and rotations. Any layout the *MATRIX INPUT format
+allows is read (docs/fe/abaqus.md, "What to export from Abaqus"): one triangle, mirrored, or the
+square, whose two triangles are compared. Internal nodes (a non-positive number: a constraint's
+Lagrange multiplier) are refused. The matrices come before boundary conditions: the DOFs they
+fix are removed by naming them (``fix``, `vibupdate.model.fe.export.without_dofs`).
 """
 
 from __future__ import annotations
