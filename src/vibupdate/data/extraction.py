@@ -50,12 +50,10 @@ REPEAT_LINES = 9            # with repeats, the smooth noise component is locall
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 MISFIT_QUALITY = 2.0        # notes: an FRF fitted to a worse quality figure misses its data
 NARROW_LINES = 4.0          # notes: a mode whose half-power bandwidth spans fewer lines
-#: A zero whose signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`: the fit's |H| against
-#: the line-to-line noise, over the lines that locate the zero) is under this is left out unless
-#: kept: the receptance lies a tenth of the noise deep across it. The ratio does not separate
-#: true zeros from zeros made by noise at raised noise floors (both sink together); the figures
-#: of both sides: `benchmarks/RESULTS.md`, "Zeros at the noise floor, measured where they are
-#: located".
+#: A zero whose signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`) is under this is left
+#: out unless kept: the receptance lies a tenth of the noise deep across it (at raised noise
+#: floors true zeros sink with the noise's: `benchmarks/RESULTS.md`, "Zeros at the noise floor,
+#: measured where they are located").
 NOISY_ZERO_SNR = 0.1
 
 

@@ -7,9 +7,8 @@ generates the "measured" data, so that recovery can be checked.
 
 Geometry (m): columns at x = 0 and x = 1.2 from y = 0 to 1.6 (nodes every 0.4), floor beams at
 y = 0.8 and 1.6 with a node at mid-span, and a diagonal brace from (0, 0.8) to (1.2, 1.6).
-Both feet are pinned with a rotational spring (a motor, ``kr1``, ``kr2``); a horizontal
-balancing springs ``kbs`` and ``kbs2`` act at the top nodes. 10 free nodes x 3 DOFs + 2 foot rotations
-= 32 DOFs.
+Both feet are pinned with a rotational spring (a motor, ``kr1``, ``kr2``); horizontal balancing
+springs ``kbs`` and ``kbs2`` act at the top nodes: 10 free nodes x 3 DOFs + 2 foot rotations = 32 DOFs.
 
 A calibrated payload of known mass (`PAYLOAD`, kg) sits at the middle of the upper beam, a
 node with no mass parameter: it fixes the scale that frequencies and shapes alone cannot (the

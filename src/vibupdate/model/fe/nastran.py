@@ -12,13 +12,10 @@ per column ``DMIG, NAME, GJ, CJ, , G1, C1, A1, B1, G2, C2, A2, B2, ...``: the co
 point and component, then (grid, component, value) of each row term. ``IFO = 6`` (symmetric)
 holds one triangle, which is mirrored (a term given in both triangles must agree); ``IFO = 1``
 (square) must be symmetric. Reals are Nastran numbers (``1.5+3``, ``-2.D-4``, ``7.E5``).
-Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards in the file (basic coordinate
-system) give the node coordinates; a file with GRID cards must have one for every grid point
-of its matrices (a file cut in its GRID cards is refused). The significant digits of every
-real read give the export's relative precision (`vibupdate.model.fe.export.precision_of_digits`: 5e-10 for the 10 digits a
-16-character large field holds). Component 1..6 of a grid point is
-``"<grid>:x"`` ... ``"<grid>:rz"``; component 0 (a scalar point) is ``"<id>:s"``. The DMIG
-punch holds the analysis set: the constrained DOFs are already gone.
+Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards (basic system) give the node
+coordinates, one for every grid point of the matrices (the checks: docs/fe/nastran.md). Component
+1..6 of a grid point is ``"<grid>:x"`` ... ``"<grid>:rz"``, component 0 (a scalar point)
+``"<id>:s"``. The punch holds the analysis set: the constrained DOFs are already gone.
 """
 
 from __future__ import annotations
