@@ -88,7 +88,7 @@ def _true_shapes(M, K, dofs, wn_band):
 
 
 def _with_true_noise(sigma_raw, H_raw):
-    """A stand-in for `_residual_variance` that returns the true noise variance (normalized)."""
+    """A stand-in for `residual_variance` that returns the true noise variance (normalized)."""
     def fake(x, F, wn, zeta, *_, **__):
         n = F.shape[1]  # the fit band of both cases starts at the record's first line
         scale = np.abs(H_raw[:, :1] / F[:, :1])
@@ -101,17 +101,17 @@ def collect(name, records, seeds, true_noise=False, floors=True, window=None):
     t_cpu = 0.0
     for seed in range(seeds):
         frfs, M, K, C, dofs, pairs, kwargs, sigma, H_raw = _case(name, seed, records)
-        original = extraction._residual_variance, extraction.FREQUENCY_FLOOR, extraction.DAMPING_FLOOR, \
+        original = extraction.residual_variance, extraction.FREQUENCY_FLOOR, extraction.DAMPING_FLOOR, \
             extraction.SHAPE_FLOOR
         if true_noise:
-            extraction._residual_variance = _with_true_noise(sigma, H_raw)
+            extraction.residual_variance = _with_true_noise(sigma, H_raw)
         if not floors:
             extraction.FREQUENCY_FLOOR = extraction.DAMPING_FLOOR = extraction.SHAPE_FLOOR = 0.0
         t0 = time.process_time()
         try:
             result = extraction.extract(frfs, window=window, **kwargs)
         finally:
-            (extraction._residual_variance, extraction.FREQUENCY_FLOOR, extraction.DAMPING_FLOOR,
+            (extraction.residual_variance, extraction.FREQUENCY_FLOOR, extraction.DAMPING_FLOOR,
              extraction.SHAPE_FLOOR) = original
         t_cpu += time.process_time() - t0
         lo, hi = result.band

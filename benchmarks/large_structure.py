@@ -4,7 +4,7 @@ Run:  python benchmarks/large_structure.py check  [--sizes 300 3000 30000]
       python benchmarks/large_structure.py update [--sizes 300 3000 30000]
       python benchmarks/large_structure.py run    [--sizes 300 3000 30000]
 
-The structure is `vibupdate.examples.building`: a planar steel building frame of ``storeys`` x
+The structure is `tests/building.py`: a planar steel building frame of ``storeys`` x
 ``bays`` with 0.75 m frame elements on 0.3-0.36 m deep sections, 12 parameters (column and
 beam stiffness factors and superimposed floor mass, per group of storeys), the 8 lowest modes
 with shapes at 20-30 translational DOFs. The sizes grow by storeys and bays:
@@ -33,8 +33,11 @@ imported libraries) is its own. Parameter error: ``|updated - true| / |true|``.
 from __future__ import annotations
 
 import os
+import sys
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))   # the building frame
 
 from exact_data import peak_mb as _peak_mb, timed as _timed, sizes_main, update_and_peers
 
@@ -50,7 +53,7 @@ TARGET = 1e-4
 def _parameter_error(parameters, values) -> dict:
     import numpy as np
 
-    from vibupdate.examples import building
+    import building
 
     truth = building.truth()
     true = np.array([truth[p.name] for p in parameters])
@@ -95,7 +98,7 @@ def check_point(size: int) -> dict:
     """Determinacy of the data and the rounding floor of the model at the truth."""
     import numpy as np
 
-    from vibupdate.examples import building
+    import building
     from vibupdate.inverse.data_map import sensitivity
 
     storeys, bays = SIZES[size]
@@ -123,7 +126,7 @@ def check_point(size: int) -> dict:
 
 
 def exact_case(size: int):
-    from vibupdate.examples import building
+    import building
     from vibupdate.inverse.formulation.options import FormulationOptions
     from vibupdate.inverse.homotopy import SolverOptions
     from vibupdate.io.case_types import Case, DampingOptions

@@ -3,7 +3,7 @@ at ~3,000, ~30,000 and ~300,000 DOFs, exact data, in one benchmark run.
 
 Run:  python benchmarks/run_speed.py [--sizes 3000 30000 300000] [--damping] [--profile] [--no-classical]
 
-The structure is `vibupdate.examples.building` (a planar steel frame of ``storeys`` x ``bays``,
+The structure is `tests/building.py` (a planar steel frame of ``storeys`` x ``bays``,
 12 parameters: column and beam stiffness factors and a superimposed floor mass per group of
 storeys). Its exact data (the 8 lowest natural frequencies, the shapes at 20-30 translational
 DOFs as points) and its affine model are written as a user exporting from an FE package would
@@ -34,6 +34,8 @@ import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))   # the building frame
+
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 SIZES = {3000: (14, 6), 30000: (43, 21), 300000: (135, 67)}
@@ -46,7 +48,7 @@ def write_case(folder: Path, storeys: int, bays: int, damping: bool, exact_famil
     import numpy as np
     import scipy.sparse as sp
 
-    from vibupdate.examples import building
+    import building
 
     model = building.model(storeys, bays)
     omega, ratios, shapes = building.exact_data(storeys, bays)
@@ -85,7 +87,7 @@ def classical_fit(storeys: int, bays: int) -> dict:
     import scipy.sparse as sp
     import scipy.sparse.linalg as sla
 
-    from vibupdate.examples import building
+    import building
 
     model = building.model(storeys, bays)
     omega_m, _, shapes_m = building.exact_data(storeys, bays)
@@ -122,7 +124,7 @@ def vibupdate_run(case: Path, out: Path, profile: bool) -> dict:
     """``vibupdate run`` in a child process (module docstring)."""
     import numpy as np
 
-    from vibupdate.examples import building
+    import building
 
     cmd = [sys.executable, "-m", "vibupdate", "run", str(case), "--out", str(out)]
     if profile:
@@ -150,7 +152,7 @@ def vibupdate_run(case: Path, out: Path, profile: bool) -> dict:
 
 
 def point(size: int, damping: bool, profile: bool, classical: bool = True, exact_family: bool = False) -> dict:
-    from vibupdate.examples import building
+    import building
 
     storeys, bays = SIZES[size]
     with tempfile.TemporaryDirectory() as tmp:

@@ -40,8 +40,11 @@ needed to fix it to 1e-4 and which parameters +-1e-4 intervals leave undetermine
 from __future__ import annotations
 
 import os
+import sys
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))   # the frame data generator
 
 from exact_data import peak_mb as _peak_mb, timed as _timed, sizes_main, update_and_peers
 
@@ -96,9 +99,10 @@ def exact_case(subdivisions: int):
     """The frame case on the refined model with exact data (module docstring)."""
     from dataclasses import replace
 
+    import frame_data
     from vibupdate.examples import frame
 
-    frequencies, shapes = frame.generate(frequency_error=0.0, shape_error=0.0, subdivisions=subdivisions)
+    frequencies, shapes = frame_data.generate(frequency_error=0.0, shape_error=0.0, subdivisions=subdivisions)
     shapes = [{**s, "tolerance": SHAPE_TOLERANCE} for s in shapes]
     configurations = frame.configurations(frequencies, shapes, subdivisions)
     return replace(frame.case(), configurations=tuple(configurations), frequency_tolerance=FREQUENCY_TOLERANCE)

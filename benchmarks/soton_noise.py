@@ -11,7 +11,7 @@ comes from the fit's residual) and prints:
   pole) of the extraction's noise variance over the model-free one (running median of the
   squared second difference, `_noise_from_differences`), and the largest relative misfit
   ``|F - fit| / |F|`` at a peak line; the quality figure;
-* the same with the alternative of `vibupdate.data._noise` (``W``: the residual and leverage of
+* the same with the alternative of `vibupdate.data.noise` (``W``: the residual and leverage of
   the weighted fit, fed the previous estimate as a feasible weighted least squares; and a
   local proportional level, ``beta_width`` = 21 lines), and what it does to the antiresonance
   intervals against the reference values and to the modes' intervals.
@@ -30,7 +30,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import vibupdate.data.extraction as extraction  # noqa: E402
-from vibupdate.data._modal_fit import _basis, _linear_fit, _noise_from_differences  # noqa: E402
+from vibupdate.data.modal_fit import basis, _linear_fit, _noise_from_differences  # noqa: E402
 from vibupdate.data.frf import read_frfs  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -40,10 +40,10 @@ MODES_HZ = (6.5126, 17.4608, 26.5003)  # the reference analysis
 
 
 def _alternative():
-    """`_residual_variance` as a feasible weighted least squares with a local proportional
+    """`residual_variance` as a feasible weighted least squares with a local proportional
     level: each call weights the fit by the previous call's estimate (the first by the
     model-free one)."""
-    original = extraction._residual_variance
+    original = extraction.residual_variance
     last = {}
 
     def variance(x, F, wn, zeta, groups=None, **_):
@@ -55,18 +55,18 @@ def _alternative():
 
 def _run(frfs, alternative: bool):
     captured = {}
-    stage_two, variance = extraction._stage_two, extraction._residual_variance
+    stage_two, variance = extraction._stage_two, extraction.residual_variance
 
     def spy(frfs_, fit, *args):
         captured["fit"] = fit
         return stage_two(frfs_, fit, *args)
     extraction._stage_two = spy
     if alternative:
-        extraction._residual_variance = _alternative()
+        extraction.residual_variance = _alternative()
     try:
         result = extraction.extract(frfs, (3 * TWO_PI, 28 * TWO_PI), n_modes=3)
     finally:
-        extraction._stage_two, extraction._residual_variance = stage_two, variance
+        extraction._stage_two, extraction.residual_variance = stage_two, variance
     return result, captured["fit"]
 
 
@@ -80,7 +80,7 @@ def main(folder: Path) -> None:
         between = np.min(np.abs(f_hz[:, None] - poles_hz[None, :]), axis=1) > 1.0
         peaks = [int(np.argmin(np.abs(f_hz - p))) for p in poles_hz[:3]]
         reference = _noise_from_differences(fit.F)
-        Phi = _basis(fit.x, fit.wn, fit.zeta)
+        Phi = basis(fit.x, fit.wn, fit.zeta)
         print(f"\n{label}")
         print(f"{'FRF':5s} {'var/model-free':>15s} {'peak misfit':>12s} {'quality':>8s}")
         for k, pair in enumerate(result.pairs):

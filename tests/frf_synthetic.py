@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from vibupdate.examples import cantilever
+from vibupdate.examples import bar, cantilever
 from vibupdate.data.frf import FRFSet
 from vibupdate.data.frf import write_uff58 as write_uff  # noqa: F401  (the tests' name for it)
 
@@ -359,7 +359,7 @@ def cantilever_frf_case(folder):
     """The cantilever's known-truth hits (`measured`, seed 9, three repeats) as ``hits.uff`` in
     ``folder``, and the case text: its head (model and parameters, one configuration ``A``)
     and the whole case reading the hits through ``[configuration.frf]`` in 20-300 Hz."""
-    from vibupdate.examples import cantilever
+    from vibupdate.examples import bar, cantilever
 
     frfs, *_ = measured(9, repeats=3)
     write_uff(folder / "hits.uff", frfs)
@@ -368,3 +368,13 @@ def cantilever_frf_case(folder):
     head = (f'case = "frf"\n[model]\ntype = "builder"\nbuilder = "vibupdate.examples.cantilever:build"\n{params}\n'
             '[[configuration]]\nname = "A"\n')
     return head, head + '[configuration.frf]\nfiles = ["hits.uff"]\nband_hz = [20, 300]\n'
+
+
+def bar_true_shapes(n_modes: int = 4):
+    """The mass-normalized bending modes of the bar example's truth (`vibupdate.examples.bar`) at
+    the hammer points, ``{dof: value}`` per mode, and their frequencies (Hz): the model's modes
+    `bar.FIRST_MODE` on."""
+    w, V, index = bar.true_modes()
+    flexible = np.flatnonzero(w > 2 * np.pi * 1.0)   # the suspension modes are a few Hz; rigid ones 0
+    chosen = flexible[bar.FIRST_MODE - 1:bar.FIRST_MODE - 1 + n_modes]
+    return [{f"y{k}": float(V[index[f"y{k}"], m]) for k in bar.HAMMER} for m in chosen], w[chosen] / (2 * np.pi)

@@ -68,7 +68,7 @@ def counting_solves(stages, default: str = "other"):
 
     log: list[Solve] = []
     points = ((eigen._dense_modes, "modes"), (eigen._solve_sparse_modes, "modes"),
-              (zeros._dense_zeros, "zeros"), (zeros._sparse_zeros, "zeros"),
+              (zeros.dense_zeros, "zeros"), (zeros._sparse_zeros, "zeros"),
               (sensitivities.adjunct_eigenpairs, "zeros"))
     wrapped = {}
     depth = [0]   # an entry point called inside another (a dense adjunct solve) is one solve

@@ -121,13 +121,13 @@ def test_the_noise_is_never_estimated_twice_at_the_same_poles(monkeypatch):
     # significance test's estimate at the same poles (a quarter of the noise cost)
     from vibupdate.data import extraction
 
-    inner, seen = extraction._residual_variance, []
+    inner, seen = extraction.residual_variance, []
 
     def counted(x, F, wn, zeta, *args, **kwargs):
         seen.append(np.r_[wn, zeta].tobytes())
         return inner(x, F, wn, zeta, *args, **kwargs)
 
-    monkeypatch.setattr(extraction, "_residual_variance", counted)
+    monkeypatch.setattr(extraction, "residual_variance", counted)
     frfs, *_ = measured(3, repeats=1)
     assert extract(frfs).noise == "residual"
     assert len(seen) == 3 and len(set(seen)) == len(seen)

@@ -1,11 +1,11 @@
 """The noise variance of a single FRF record from the modal fit's residual
-(`vibupdate.data._noise`): the leverage of the fit, the two variance components, and the
+(`vibupdate.data.noise`): the leverage of the fit, the two variance components, and the
 estimate at the peak lines of a mode whose bandwidth is about one line."""
 
 import numpy as np
 
-from vibupdate.data._modal_fit import _basis, _basis_derivatives, _projected_residual, _smooth, _split_residual
-from vibupdate.data._noise import _combined, _leverage, _residual_variance, _variance_components
+from vibupdate.data.modal_fit import basis, basis_derivatives, projected_residual, smooth, split_residual
+from vibupdate.data.noise import leverage, pole_columns, residual_variance, variance_components
 
 
 def _model(n_pairs=3, seed=0):
@@ -18,12 +18,12 @@ def _model(n_pairs=3, seed=0):
     coef[:, 1:2 * xn.size:2] = -rng.uniform(0.5, 1.5, (n_pairs, xn.size)) * 1e-4
     coef[:, 0:2 * xn.size:2] = rng.uniform(-0.1, 0.1, (n_pairs, xn.size)) * 1e-4
     coef[:, -1] = 0.1
-    return x, xn, zeta, coef, coef @ _basis(x, xn, zeta).T
+    return x, xn, zeta, coef, coef @ basis(x, xn, zeta).T
 
 
 def test_leverage_sums_to_the_number_of_fitted_parameters_and_peaks_at_the_resonances():
     x, xn, zeta, coef, F = _model()
-    h = _leverage(x, xn, zeta, coef)
+    h = leverage(x, xn, zeta, coef)
     assert h.shape == (3, 2, x.size)
     assert np.all(h >= -1e-12) and np.all(h <= 1 + 1e-9)
     n_params = coef.size + 2 * xn.size  # residues and residual terms per FRF, poles shared
@@ -34,15 +34,15 @@ def test_leverage_sums_to_the_number_of_fitted_parameters_and_peaks_at_the_reson
 
 def test_pole_columns_are_the_exact_derivatives():
     x, xn, zeta, coef, _ = _model()
-    derivatives = _basis_derivatives(x, xn, zeta, None)
-    D = np.array([_combined(derivatives, c) for c in coef])
+    derivatives = basis_derivatives(x, xn, zeta, None)
+    D = np.array([pole_columns(derivatives, c) for c in coef])
     for k in range(2 * xn.size):
         theta = np.concatenate([xn, zeta])
         step = 1e-7 * theta[k]
         up, down = theta.copy(), theta.copy()
         up[k] += step
         down[k] -= step
-        fd = (coef @ _basis(x, up[:2], up[2:]).T - coef @ _basis(x, down[:2], down[2:]).T) / (2 * step)
+        fd = (coef @ basis(x, up[:2], up[2:]).T - coef @ basis(x, down[:2], down[2:]).T) / (2 * step)
         assert np.allclose(D[:, :, k], fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
 
 
@@ -61,11 +61,11 @@ def test_variance_components_recover_a_smooth_floor_and_a_shared_proportional_le
     betas, peaks, plain, floors = [], [], [], []
     for _ in range(20):
         e = v_true * rng.exponential(size=v_true.shape)
-        v, s, beta = _variance_components(e, g, groups=[0, 0])
+        v, s, beta = variance_components(e, g, groups=[0, 0])
         assert np.all(beta == beta[0, 0])  # one level per group
         betas.append(beta[0, 0])
         peaks.append(v[[0, 1], top] / v_true[[0, 1], top])
-        plain.append(_smooth(e, 21)[[0, 1], top] / v_true[[0, 1], top])
+        plain.append(smooth(e, 21)[[0, 1], top] / v_true[[0, 1], top])
         floors.append(np.median(s / s_true))
     assert abs(np.mean(peaks) - 1) < 0.1
     assert abs(np.mean(floors) - 1) < 0.05
@@ -82,35 +82,35 @@ def test_residual_variance_at_the_peak_lines_of_a_one_line_mode():
     what the residual does not show."""
     x, xn, _, coef, _ = _model()
     zeta = np.array([8e-4, 8e-4])
-    F = coef @ _basis(x, xn, zeta).T
+    F = coef @ basis(x, xn, zeta).T
     sigma2 = (2e-4 + 0.01 * np.abs(F)) ** 2
     peak = np.argsort(np.abs(F).max(axis=0))[-6:]
     new, old, overall = [], [], []
     for seed in range(12):
         rng = np.random.default_rng(seed)
         noisy = F + np.sqrt(sigma2 / 2) * (rng.standard_normal(F.shape) + 1j * rng.standard_normal(F.shape))
-        v = _residual_variance(x, noisy, xn, zeta, groups=[0, 0, 0])
-        r = _split_residual(_projected_residual(np.r_[xn, zeta], x, noisy, np.ones_like(F.real)), F.shape)
+        v = residual_variance(x, noisy, xn, zeta, groups=[0, 0, 0])
+        r = split_residual(projected_residual(np.r_[xn, zeta], x, noisy, np.ones_like(F.real)), F.shape)
         new.append(np.mean(v[:, peak] / sigma2[:, peak]))
-        old.append(np.mean(_smooth(np.abs(r) ** 2, 21)[:, peak] / sigma2[:, peak]))
+        old.append(np.mean(smooth(np.abs(r) ** 2, 21)[:, peak] / sigma2[:, peak]))
         overall.append(np.median(v / sigma2))
     assert np.mean(new) > 0.6 and np.mean(old) < 0.5, (np.mean(new), np.mean(old))
     assert 0.85 < np.mean(overall) < 1.18, overall
 
 
 def test_weighted_leverage_sums_to_the_number_of_fitted_parameters():
-    """`_leverage` of a weighted fit (weights 1/sigma per FRF and line): still the trace of a
+    """`leverage` of a weighted fit (weights 1/sigma per FRF and line): still the trace of a
     projection, and it moves toward the lines the weights favour."""
     x, xn, zeta, coef, F = _model()
     rng = np.random.default_rng(3)
     W = np.exp(rng.uniform(-2, 2, F.shape))
-    h = _leverage(x, xn, zeta, coef, W)
+    h = leverage(x, xn, zeta, coef, W)
     n_params = coef.size + 2 * xn.size
     assert np.all(h >= -1e-12) and np.all(h <= 1 + 1e-9)
     assert abs(np.sum(h) - n_params) < 1e-6 * n_params
     W2 = np.ones_like(W)
     W2[:, :100] = 100.0  # the first 100 lines weighted 100x: they take more of the fit (measured 3.0x)
-    assert np.sum(_leverage(x, xn, zeta, coef, W2)[:, :, :100]) > 2 * np.sum(_leverage(x, xn, zeta, coef)[:, :, :100])
+    assert np.sum(leverage(x, xn, zeta, coef, W2)[:, :, :100]) > 2 * np.sum(leverage(x, xn, zeta, coef)[:, :, :100])
 
 
 def test_local_proportional_level_follows_a_level_that_changes_along_frequency():
@@ -126,26 +126,26 @@ def test_local_proportional_level_follows_a_level_that_changes_along_frequency()
     shared, local = [], []
     for seed in range(20):
         e = v_true * np.random.default_rng(seed).exponential(size=v_true.shape)
-        shared.append(_variance_components(e, g)[2][0, tops] / beta_true[0, tops])
-        local.append(_variance_components(e, g, beta_width=21)[2][0, tops] / beta_true[0, tops])
+        shared.append(variance_components(e, g)[2][0, tops] / beta_true[0, tops])
+        local.append(variance_components(e, g, beta_width=21)[2][0, tops] / beta_true[0, tops])
     local, shared = np.mean(local, axis=0), np.mean(shared, axis=0)
     assert np.all((0.5 < local) & (local < 2)), local
     assert np.max(np.abs(np.log(shared))) > np.log(10), shared
 
 
 def test_weighted_residual_variance_on_known_noise():
-    """`_residual_variance` with the true weights (``W = 1/sigma``): the same total as the
+    """`residual_variance` with the true weights (``W = 1/sigma``): the same total as the
     unweighted estimate on an exact model (median ratio to the truth near 1 both ways)."""
     x, xn, _, coef, _ = _model()
     zeta = np.array([8e-4, 8e-4])
-    F = coef @ _basis(x, xn, zeta).T
+    F = coef @ basis(x, xn, zeta).T
     sigma2 = (2e-4 + 0.01 * np.abs(F)) ** 2
     ratios = []
     for seed in range(6):
         rng = np.random.default_rng(seed)
         noisy = F + np.sqrt(sigma2 / 2) * (rng.standard_normal(F.shape) + 1j * rng.standard_normal(F.shape))
-        weighted = _residual_variance(x, noisy, xn, zeta, groups=[0, 0, 0], W=1 / np.sqrt(sigma2))
-        plain = _residual_variance(x, noisy, xn, zeta, groups=[0, 0, 0])
+        weighted = residual_variance(x, noisy, xn, zeta, groups=[0, 0, 0], W=1 / np.sqrt(sigma2))
+        plain = residual_variance(x, noisy, xn, zeta, groups=[0, 0, 0])
         ratios.append((np.median(weighted / sigma2), np.median(plain / sigma2)))
     weighted_mean, plain_mean = np.mean(ratios, axis=0)
     assert 0.85 < weighted_mean < 1.18 and 0.85 < plain_mean < 1.18, ratios

@@ -1,4 +1,4 @@
-"""The window of the FRF estimate in the modal model (`vibupdate.data._window`, `extract`'s
+"""The window of the FRF estimate in the modal model (`vibupdate.data.window`, `extract`'s
 ``window``): the windowed pole terms against an independent fine-grid convolution, their exact
 derivative, the errors named, and the extraction on known truth through a Hann-windowed H1
 estimate (`frame_windowed`), whose damping ratios the plain fit reads 5-55 % high."""
@@ -13,7 +13,7 @@ import scipy.signal
 from frf_synthetic import (FRAME_PAIRS, frame_measured, frame_windowed, true_poles, window_power_kernel,
                            windowed_accelerance)
 from vibupdate.cli import main
-from vibupdate.data._window import SERIES_BELOW, Window, _moments, window_for, windowed_poles
+from vibupdate.data.window import SERIES_BELOW, Window, moments, window_for, windowed_poles
 from vibupdate.data.extraction import extract
 
 BAND = (2 * math.pi * 3, 2 * math.pi * 28)
@@ -59,7 +59,7 @@ def test_windowed_pole_derivative_is_exact():
 
 def test_moments_are_continuous_where_the_series_takes_over():
     w = SERIES_BELOW * np.exp(1j * np.linspace(0, 2 * np.pi, 13))
-    inside, outside = _moments(w * (1 - 1e-12), 2), _moments(w * (1 + 1e-12), 2)
+    inside, outside = moments(w * (1 - 1e-12), 2), moments(w * (1 + 1e-12), 2)
     for a, b in zip(inside, outside):  # a step of 2e-12 in w: values of size 1 move by about that
         assert np.max(np.abs(a - b)) < 1e-11
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vibupdate.examples import building
+import building
 
 
 def test_dof_count_and_sizes():

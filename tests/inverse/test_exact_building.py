@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from vibupdate.examples import building
+import building
 
 
 def _run_building(tmp_path, storeys: int, bays: int) -> tuple[int, dict]:

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+import frame_data
 from vibupdate.io.results import macs_of
 from vibupdate import SolverOptions, update
 from vibupdate.damping import identify_damping
@@ -24,7 +25,7 @@ def true_values(model):
 
 
 def test_shipped_data_are_what_the_generator_makes():
-    frequencies, shapes = frame.generate()
+    frequencies, shapes = frame_data.generate()
     shipped = read_table("frame_frequencies.csv")
     np.testing.assert_allclose([float(r["hz"]) for r in shipped], [f["hz"] for f in frequencies], rtol=1e-9)
     shipped = read_table("frame_shapes.csv")
@@ -98,7 +99,7 @@ def test_exact_data_recover_every_identifiable_parameter():
     come back to 1e-4. The rotary inertias with nominal 0 move the 7 frequencies and shapes
     10^4 times less: they are only weakly identifiable and come back to 1e-2 of their
     reference value."""
-    frequencies, shapes = frame.generate(frequency_error=0.0, shape_error=0.0)
+    frequencies, shapes = frame_data.generate(frequency_error=0.0, shape_error=0.0)
     configurations = frame.configurations(frequencies, shapes)
     model = configurations[0].model
     true = true_values(model)

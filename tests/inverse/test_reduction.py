@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+import frame_data
 from helpers import uniform_cantilever
 from vibupdate.io.results import macs_of
 from vibupdate import FormulationOptions, Parameter, from_builder, modes, update
@@ -50,7 +51,7 @@ def test_ritz_reduction_holds_modes_zeros_and_ratio_derivatives_exactly():
     """The basis of the polish's reduced rounds: kept DOFs plus modes, the shape-ratio
     derivative solutions and the adjunct vectors of one point. At that point the reduced model
     has the same low modes, zeros and ratio derivatives; elsewhere its modes are upper bounds."""
-    from vibupdate.examples import building
+    import building
     from vibupdate.modal.sensitivities import adjunct_eigenpairs, shape_ratio_derivatives
     from vibupdate.modal.zeros import antiresonances
 
@@ -100,7 +101,7 @@ def test_auto_reduction_solves_a_refined_frame(budget):
     With the default polish it takes about 6 s (33 s before the admissible-data polish, which
     fitted the example's noise for 779 evaluations: benchmarks/RESULTS.md, "why the refined
     frame's polish takes 779 evaluations"); CI's fast step caps the polish at 40 evaluations."""
-    frequencies, shapes = frame.generate(subdivisions=8)
+    frequencies, shapes = frame_data.generate(subdivisions=8)
     configurations = frame.configurations(frequencies, shapes, 8)
     assert wants_reduction(configurations, FormulationOptions())
     assert not wants_reduction(configurations, FormulationOptions(reduction="none"))

@@ -40,7 +40,7 @@ def test_the_kept_solutions_are_bounded_in_bytes(monkeypatch):
 def test_shape_ratio_solutions_are_factorized_once_per_point_of_a_large_model(monkeypatch):
     """The polish's last evaluation, the sensitivity rows and the linearized ranges ask for the
     same shape-ratio derivatives at the answer: one sparse LU per mode and point, not three."""
-    from vibupdate.examples import building
+    import building
     from vibupdate.modal import sensitivities
 
     model = building.model(7, 2)                      # 546 DOFs: the sparse path

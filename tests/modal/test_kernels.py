@@ -313,13 +313,13 @@ def test_every_mode_of_a_stiff_model_keeps_the_better_pencil():
 def test_the_qz_of_the_adjunct_pencil_is_scipys_eig_without_its_loop():
     """Eigenvalues and the real parts of the unit left and right vectors as
     ``scipy.linalg.eig`` gives them, on a pencil with real eigenvalues and complex pairs."""
-    from vibupdate.modal.sensitivities import _qz
+    from vibupdate.modal.zeros import qz
 
     rng = np.random.default_rng(4)
     D = sla.block_diag(*np.arange(1.0, 7.0), *[[[a, b], [-b, a]] for a, b in ((2.0, 1.0), (5.0, 0.5), (9.0, 3.0))])
     P, Q = rng.standard_normal((2, 12, 12))
     A, B = P @ D @ Q, P @ Q          # eigenvalues 1 to 6 and three complex pairs
-    (alpha, beta), left, right = _qz(A, B)
+    (alpha, beta), left, right = qz(A, B)
     (alpha_ref, beta_ref), left_ref, right_ref = sla.eig(A, B, left=True, right=True, homogeneous_eigvals=True)
     assert np.count_nonzero(alpha.imag) == 6 and np.count_nonzero(alpha.imag == 0) == 6
     np.testing.assert_allclose(alpha, alpha_ref, rtol=0, atol=1e-14 * np.abs(alpha_ref).max())
@@ -327,7 +327,7 @@ def test_the_qz_of_the_adjunct_pencil_is_scipys_eig_without_its_loop():
     np.testing.assert_allclose(left, left_ref.real, rtol=0, atol=1e-14)
     np.testing.assert_allclose(right, right_ref.real, rtol=0, atol=1e-14)
     with pytest.raises(ValueError, match="infs or NaNs"):
-        _qz(np.full((3, 3), np.nan), B[:3, :3])
+        qz(np.full((3, 3), np.nan), B[:3, :3])
 
 
 def test_the_ratio_solutions_of_several_modes_in_one_solve_equal_each_ones_own():
@@ -336,7 +336,7 @@ def test_the_ratio_solutions_of_several_modes_in_one_solve_equal_each_ones_own()
     them removed; a model above the dense limit has no dense stacks and gives None (its modes
     are solved one at a time, sparse)."""
     from helpers import chain_model
-    from vibupdate.modal.sensitivities import _ratio_solutions, ratio_solutions
+    from vibupdate.modal.sensitivities import ratio_solution, ratio_solutions
 
     model = chain_model(12, ["k1", "k2", "m3", "k7"])
     x = np.array([0.1, -0.2, 0.05, 0.3])
@@ -344,7 +344,7 @@ def test_the_ratio_solutions_of_several_modes_in_one_solve_equal_each_ones_own()
     V = ratio_solutions(model, x, omega, Phi)
     assert V.shape == (5, 12, 4)
     for k in range(5):
-        own = _ratio_solutions(model, x, omega[k], Phi[:, k])
+        own = ratio_solution(model, x, omega[k], Phi[:, k])
         np.testing.assert_allclose(V[k], own, rtol=1e-9, atol=1e-12 * np.abs(own).max())
         assert np.all(V[k][np.argmax(np.abs(Phi[:, k]))] == 0.0)
     large = chain_model(DENSE_LIMIT + 1, ["k1"])

@@ -5,7 +5,7 @@ eigen-solve: mode 7 (19.1443 rad/s) has a residual (backward error) of 5.15e-08 
 1,056-DOF frame, 8.13e-8 to 1.1e-7 on 378 to 516 DOFs), while the same model from 10 digits
 imported: the shift of a singular K sat some thousand rounding units below zero, where the
 rigid-body modes swamp the Lanczos vectors. The shift is now one first flexible eigenvalue
-below zero (`vibupdate.modal.eigen._flexible_shift`)."""
+below zero (`vibupdate.modal.eigen.flexible_shift`)."""
 
 import json
 
@@ -17,7 +17,7 @@ import fe_writers
 from vibupdate.cli import main
 from vibupdate.examples.frame3d import NOMINAL, frame3d
 from vibupdate.modal.analysis import flexible_modes
-from vibupdate.modal.eigen import _flexible_shift, _shifted_lu, mode_residuals, modes
+from vibupdate.modal.eigen import flexible_shift, shifted_lu, mode_residuals, modes
 
 #: 414 DOFs, above the dense limit: the sparse path.
 SIZE = (2, 2, 2)
@@ -52,10 +52,10 @@ def test_the_flexible_shift_is_an_upper_bound_of_the_first_flexible_eigenvalue_n
     n = 600
     K = sp.diags([np.r_[1.0, 2.0 * np.ones(n - 2), 1.0], -np.ones(n - 1), -np.ones(n - 1)], [0, -1, 1], format="csc")
     M = sp.identity(n, format="csc")
-    sigma, lu = _shifted_lu(K, M)
+    sigma, lu = shifted_lu(K, M)
     assert sigma < 0
     first = 4 * np.sin(np.pi / (2 * n)) ** 2
-    shift = _flexible_shift(M, K, lu, 12)
+    shift = flexible_shift(M, K, lu, 12)
     assert first <= -shift <= 3 * first
     w = modes(M, K, 6, dense=False)[0]
     assert w[0] == 0 and w[1] ** 2 == pytest.approx(first, rel=1e-10)

@@ -36,10 +36,10 @@ def test_frame3d_is_symmetric_with_massless_rotations_and_over_1000_dofs():
 
 
 def test_the_beam_element_resists_no_rigid_motion_and_carries_its_mass():
-    from vibupdate.examples.frame3d import _rotation, element_mass, element_stiffness
+    from vibupdate.examples.frame3d import rotation, element_mass, element_stiffness
 
     p1, p2 = np.array([0.0, 0.0, 0.0]), np.array([1.0, 2.0, 3.0])
-    T = np.kron(np.eye(4), _rotation(p1, p2))
+    T = np.kron(np.eye(4), rotation(p1, p2))
     L = float(np.linalg.norm(p2 - p1))
     k = T.T @ element_stiffness(L, 1e-2, 2e-4, 1e-4, 3e-4) @ T
     m = T.T @ element_mass(L, 1e-2, 3e-4) @ T

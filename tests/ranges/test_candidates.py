@@ -212,10 +212,10 @@ def test_free_free_bar_known_truth_suggests_the_rotary_inertia_factor_with_E(tmp
     with every natural frequency within 0.1 % and E within 0.5 % of its truth; no single
     candidate verifies. Figures over 20 seeds: benchmarks/suggest_bar.py, benchmarks/RESULTS.md."""
     from vibupdate.examples import bar
-    from frf_synthetic import write_uff
+    from frf_synthetic import bar_true_shapes, write_uff
     from vibupdate.data.extraction import extract
 
-    shapes, hz = bar.true_shapes()
+    shapes, hz = bar_true_shapes()
     band = tuple(2 * math.pi * np.array(bar.BAND_HZ))
     hits, masses = [], []
     for seed in range(10):

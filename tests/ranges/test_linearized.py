@@ -8,10 +8,11 @@ def test_point_data_give_finite_ranges_that_hold_the_truth():
     DOFs, 29 parameters, sensitivity condition 7.2e5): every range is finite and holds the
     truth. Before the LP's rows were scaled by their half-widths and solved for the step from
     the answer, HiGHS reported all 58 programs infeasible and every range was NaN."""
+    import frame_data
     from vibupdate.examples import frame
     from vibupdate.ranges.identifiability import parameter_ranges
 
-    frequencies, shapes = frame.generate(frequency_error=0.0, shape_error=0.0, subdivisions=8)
+    frequencies, shapes = frame_data.generate(frequency_error=0.0, shape_error=0.0, subdivisions=8)
     shapes = [{**s, "tolerance": 0.0} for s in shapes]
     configurations = frame.configurations(frequencies, shapes, 8)
     model = configurations[0].model

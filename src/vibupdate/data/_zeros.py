@@ -1,7 +1,7 @@
 """Antiresonances of a fitted modal model (private kernels of `vibupdate.data.extraction`):
 the real zeros of the undamped fitted receptance, their standard errors by the
 implicit-function rule with exact derivatives, and the local refit of a zero on the lines
-around it. Frequencies normalized as in `vibupdate.data._modal_fit`; the method is described
+around it. Frequencies normalized as in `vibupdate.data.modal_fit`; the method is described
 in `vibupdate.data.extraction`."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from vibupdate.data._modal_fit import _correlation_inflation, _modal_basis, _undamped_derivatives
+from vibupdate.data.modal_fit import _correlation_inflation, _modal_basis, _undamped_derivatives
 
 LOCAL_FRACTION = 1 / 3      # local refit: window of this times the distance to the nearest pole ...
 LOCAL_LINES = 21            # ... holding at least this many lines
@@ -99,17 +99,11 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     and ``coef`` (n_cols,) the FRF's fitted coefficients; ``xn``, ``zeta`` (n,) the poles,
     ``cov_poles`` (2 n, 2 n) their covariance (all normalized).
 
-    The misfit ``f - Phi coef`` of a real structure's FRF is smooth along frequency (the modal
-    model is not exact), and near a shallow zero a small offset of the real part moves the
-    zero far. Within ``LOCAL_FRACTION`` of the distance from ``z`` to the nearest fitted pole
-    (at least ``LOCAL_LINES`` lines) the real part of the misfit is fitted by
-    ``c0 + c1 (x - z)`` (weights ``1/sigma``) and added to the undamped fitted receptance,
-    whose zero in the window is returned with its standard error: ``(c0, c1)``'s covariance
-    (inflated by the reduced chi-square and the residual's correlation) and the poles'.
-    Returns ``(zero, se)``. The caller takes the local zero when its standard error is the
-    smaller: the global one's is inflated by the misfit's chi-square and correlation, so a
-    misfitting model gives way, while an exact one (known-truth data) keeps the global zero,
-    which uses every line.
+    On the lines of `_zero_window` the real part of the misfit ``f - Phi coef`` is fitted by
+    ``c0 + c1 (x - z)`` (weights ``1/sigma``) and added to the undamped fitted receptance (why:
+    docs/frf-extraction.md, "Method", step 4). Returns ``(zero, se)``, the standard error from
+    ``(c0, c1)``'s covariance (inflated by the reduced chi-square and the residual's
+    correlation) and the poles'.
     """
     near = _zero_window(z, x, xn)
     w = 1.0 / np.sqrt(v[near])

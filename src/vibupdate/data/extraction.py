@@ -1,34 +1,25 @@
 """Modal extraction from measured FRFs: poles, damping, shapes and antiresonances with intervals.
 
-The method and its options are stated in ``docs/frf-extraction.md`` (Method); the figures
-behind each rule are in ``docs/notes/frf-intervals.md`` and ``docs/notes/frf-leakage.md``.
-Two stages on the receptances ``H_i(omega)``, ``i`` over the measured DOF pairs, fitted on
-lines that reach past the reported band (``fit_band``, by default to twice its top), so that
-a mode just above the band is fitted with its own residues:
+The method, its options and the reasons behind them: docs/frf-extraction.md, "Method" (the
+figures: docs/notes/frf-intervals.md and docs/notes/frf-leakage.md). In short, on the
+receptances over the fit band (by default to `FIT_BAND_FACTOR` times the band's top):
 
-1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999)
-   of all FRFs with common poles at several model orders, each line weighted by ``1/sigma``;
-   a pole that recurs in ``min_stable`` orders (frequency within 0.2 %, damping within 20 %)
-   and that the data resolve is a mode. The poles are refined by variable projection on the
-   modal model::
+1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999) at
+   several orders; a pole that recurs in ``min_stable`` orders and that the data resolve is a
+   mode; refined by variable projection (`vibupdate.data.modal_fit`) on the modal model::
 
        H_i(s) = sum_r [A_ir / (s - lam_r) + conj(A_ir) / (s - conj(lam_r))]
                 + L_i / s^2 + U_i + (pseudo-mode above the band, complex residue)
 
-   with ``s = j omega``, ``lam_r = -zeta_r w_r + j w_r sqrt(1 - zeta_r^2)``; covariance of
-   ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
-2. **Zeros and shapes.** With the poles fixed, the residues are refit by weighted linear
-   least squares; the antiresonances are the real zeros in the band of the fitted undamped
-   receptance ``sum_r m_ir / (w_r^2 - omega^2) + ...`` with ``m_ir = Re(2 j w_d A_ir)``
-   (refit near each zero when that is the more precise, `_local_zero`), their covariance by
-   the implicit-function rule; the shapes come from a rank-one fit of the modal constants.
+   covariance of ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
+2. **Zeros and shapes.** Residues refit with the poles fixed; antiresonances are the real zeros
+   of the fitted undamped receptance (`vibupdate.data._zeros`), shapes a rank-one fit of the
+   modal constants ``m_ir = Re(2 j w_d A_ir)`` (`_shapes`).
 
-With ``window``, every pole term is replaced by its windowed expectation
-(`vibupdate.data._window`). The noise per line comes from the repeats or, with one record,
-from the leverage-corrected residual (`vibupdate.data._noise`). Intervals are
-``value +- z * SE`` with floors on the half-width: ``1e-5`` relative for frequencies and
-antiresonances, ``0.1 %`` relative for damping ratios, ``1e-3`` of the largest entry for
-shapes.
+With ``window`` every pole term is its windowed expectation (`vibupdate.data.window`); the noise
+per line comes from the repeats or the leverage-corrected residual (`vibupdate.data.noise`).
+Intervals are ``value +- z * SE`` with the floors `FREQUENCY_FLOOR`, `DAMPING_FLOOR` and
+`SHAPE_FLOOR`.
 """
 
 from __future__ import annotations
@@ -42,11 +33,11 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from vibupdate.data._modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
-                                       _noise_from_differences, _noise_from_repeats, _real_stack, _refine_poles,
-                                       _significant, _split_residual, _stabilization, _stable_poles)
-from vibupdate.data._noise import _residual_variance, _variance_components
-from vibupdate.data._window import window_for
+from vibupdate.data.modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
+                                       _noise_from_differences, _noise_from_repeats, _real_stack, refine_poles,
+                                       _significant, split_residual, _stabilization, _stable_poles)
+from vibupdate.data.noise import residual_variance, variance_components
+from vibupdate.data.window import window_for
 from vibupdate.data._zeros import _local_zero, _zero_se, _zero_snr, _zeros_of_all
 from vibupdate.data.frf import KINDS, FRFSet
 from vibupdate.data.residue_kind import check_fitted_kind
@@ -59,12 +50,10 @@ REPEAT_LINES = 9            # with repeats, the smooth noise component is locall
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 MISFIT_QUALITY = 2.0        # notes: an FRF fitted to a worse quality figure misses its data
 NARROW_LINES = 4.0          # notes: a mode whose half-power bandwidth spans fewer lines
-#: A zero whose signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`: the fit's |H| against
-#: the line-to-line noise, over the lines that locate the zero) is under this is left out unless
-#: kept: the receptance lies a tenth of the noise deep across it. The ratio does not separate
-#: true zeros from zeros made by noise at raised noise floors (both sink together); the figures
-#: of both sides: `benchmarks/RESULTS.md`, "Zeros at the noise floor, measured where they are
-#: located".
+#: A zero whose signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`) is under this is left
+#: out unless kept: the receptance lies a tenth of the noise deep across it (at raised noise
+#: floors true zeros sink with the noise's: `benchmarks/RESULTS.md`, "Zeros at the noise floor,
+#: measured where they are located").
 NOISY_ZERO_SNR = 0.1
 
 
@@ -207,7 +196,7 @@ class Extraction:
         """Fitted receptances, shape (n_pairs, n_freq), at ``omega`` (rad/s, shape (n_freq,)):
         ``damped`` as estimated (through the window the fit modelled, if any), else the
         undamped receptance of the fitted modes."""
-        from vibupdate.data._window import ORDERS, Window
+        from vibupdate.data.window import ORDERS, Window
 
         x = np.asarray(omega, dtype=float) / self.fit_band[1]
         xn = self.fitted_poles[:, 0] / self.fit_band[1]
@@ -377,7 +366,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     window : {None, "none", "hann", "rectangular", "exponential", "force"}
         The data window of the FRF estimate (random excitation, ``H1`` record by record, one
         record = one over the line spacing). When given, the fit models the window's leakage
-        (`vibupdate.data._window`), so the damping ratios of peaks a few lines wide are not
+        (`vibupdate.data.window`), so the damping ratios of peaks a few lines wide are not
         read high; default None: the FRFs are fitted as they are. Impact tests:
         ``"exponential"``, a window ``exp(-t / tau)`` on the response over the record (one
         over the line spacing), whose added damping is modelled (needs ``window_decay`` or
@@ -400,10 +389,8 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     """
     from threadpoolctl import threadpool_limits
 
-    # The fit is many small least-squares problems (one per model order, FRF and refinement
-    # step); a multithreaded BLAS spends its time waking threads for them. Measured on the
-    # Southampton frame (9 FRFs, 2 shared cores): 111 s wall with OpenBLAS's default threads,
-    # 1.9 s with one.
+    # many small least-squares problems: a multithreaded BLAS spends its time waking threads
+    # (`benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and examples")
     with threadpool_limits(limits=1, user_api="blas"):
         return _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, fit_band, local_zeros,
                         window, keep_outer_zeros, _decay_rate(window, window_decay, window_tau, frfs.omega),
@@ -473,13 +460,13 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     noise = "repeats" if var is not None else "residual"
     if var is not None:  # floored: identical repeats (noise-free data) would give infinite weights
         tiny = 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True)
-        var = _variance_components(np.maximum(var / scales[:, None] ** 2, tiny), np.abs(F) ** 2, groups,
+        var = variance_components(np.maximum(var / scales[:, None] ** 2, tiny), np.abs(F) ** 2, groups,
                                    REPEAT_LINES)[0]
     stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
     wn, zeta, counts = _stable_poles(stab, min_stable)
-    residual_variance = _LastResult(lambda wn, zeta: _residual_variance(x, F, wn, zeta, groups, window=window))
+    noise_at = _LastResult(lambda wn, zeta: residual_variance(x, F, wn, zeta, groups, window=window))
     if wn.size:
-        var = var if var is not None else residual_variance(wn, zeta)
+        var = var if var is not None else noise_at(wn, zeta)
         wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var, window=window)
     in_band = (wn >= x_report[0]) & (wn <= x_report[1])
     if not np.any(in_band):
@@ -493,12 +480,12 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
         wn, zeta, counts, in_band = wn[keep], zeta[keep], [counts[k] for k in keep], in_band[keep]
 
     if noise == "repeats":
-        wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
+        wn, zeta, cov_poles = refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
     else:  # feasible weighted least squares: noise from the residual, refit, once more
         for _ in range(2):   # at the poles the significance test kept, its estimate again (not recomputed)
-            var = residual_variance(wn, zeta)
-            wn, zeta, cov_poles = _refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
-        var = residual_variance(wn, zeta)
+            var = noise_at(wn, zeta)
+            wn, zeta, cov_poles = refine_poles(x, F, wn, zeta, var, weighted=True, window=window)
+        var = noise_at(wn, zeta)
     order = np.argsort(wn)
     wn, zeta, counts, in_band = wn[order], zeta[order], [counts[k] for k in order], in_band[order]
     cov_poles = cov_poles[np.ix_(np.r_[order, order + wn.size], np.r_[order, order + wn.size])]
@@ -561,7 +548,7 @@ class _Fitted:
     inside: np.ndarray      # (n_freq,) bool: line in the band
     x_band: tuple           # the band, normalized
     scale_w: float
-    window: object = None   # vibupdate.data._window.Window of the estimate, or None
+    window: object = None   # vibupdate.data.window.Window of the estimate, or None
 
 
 def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, keep_noisy=False):
@@ -626,7 +613,7 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         A = _real_stack(Phi, w)
         # weighted residual components have variance 1/2 (complex noise of variance sigma^2)
         chi2 = 2.0 * float(res @ res) / max(res.size - coef.size, 1)
-        tau = _correlation_inflation(_split_residual(res, (1, x.size)))
+        tau = _correlation_inflation(split_residual(res, (1, x.size)))
         cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2) * tau
         coefs.append(coef)
         miss = np.abs(f - Phi @ coef)[fit.inside] ** 2

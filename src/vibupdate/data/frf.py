@@ -1,21 +1,12 @@
 """Measured frequency response functions (FRFs): reading, units and DOF names.
 
 An FRF ``H_rc(omega)`` is the response at DOF ``r`` to a unit force at DOF ``c``. Inside
-vibupdate every FRF is a **receptance** (m/N or rad/(N m)) on a frequency axis in rad/s;
-the readers convert at the edge:
-
-* accelerance ``A = (j omega)^2 H`` and mobility ``Y = j omega H`` are divided back,
-  after multiplying by ``g = 9.80665 m/s^2`` when the file is in g per newton;
-* DOF names follow the dataset-55 reader of `vibupdate.io.measured_io`: direction then node,
-  ``x3`` (node 3, +X), ``y3``, ``z3``, ``rx3``, ``ry3``, ``phi3``; a negative direction in
-  a UFF record flips the sign of the data so that the name always means the + direction;
-* records of the same (response, excitation) pair are **repeats** (repeated hits, several
-  files), kept apart so that their scatter can be used as a noise estimate.
-
-Sources: Universal File Format dataset 58 (ASCII, and 58b binary) through pyuff; CSV/text
-columns with column 0 the frequency in Hz and then complex values, either as ``1+2j`` text
-(the Southampton format: ``;``-separated, no header) or as real/imaginary column pairs;
-``.npz`` files with arrays ``freq_hz`` (n_freq,) and ``H`` (n_freq, n_columns).
+vibupdate every FRF is a **receptance** (m/N or rad/(N m)) on a frequency axis in rad/s: the
+readers convert accelerance and mobility at the edge, name DOFs as the dataset-55 reader does
+(``x3``, ``rx3``, ``phi3``; a negative UFF direction flips the data's sign), and keep records of
+one (response, excitation) pair apart as **repeats**, whose scatter is the noise estimate. The
+sources (UFF dataset 58 through pyuff, CSV/text columns, ``.npz``) and every check:
+docs/frf-extraction.md, "Input".
 """
 
 from __future__ import annotations
@@ -122,20 +113,15 @@ class FRFSet:
             new = str(mapping.get(name, name)).strip()
             return (new[1:], -1.0) if new.startswith("-") else (new.lstrip("+"), 1.0)
 
-        groups: dict = {}
-        for (r, c), h in zip(self.pairs, self.H):
-            (r2, sr), (c2, sc) = target(r), target(c)
-            groups.setdefault((r2, c2), []).append(sr * sc * h)
-        return FRFSet(self.omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), self.sources,
-                      self.measured)
+        moved = ((target(r), target(c), h) for (r, c), h in zip(self.pairs, self.H))
+        return _grouped(self.omega, (((r, c), sr * sc * h) for (r, sr), (c, sc), h in moved), self.sources,
+                        self.measured)
 
 
     def reciprocal(self) -> "FRFSet":
-        """Each ``h_rc`` read as ``h_cr`` (Maxwell-Betti reciprocity of a linear structure):
-        a roving-hammer test (one or a few responses, the hammer at every measured point) as
-        the layout the extraction takes, responses at every point and one excitation per
-        accelerometer, so the mode shapes are known at every hammer point. Repeats stay
-        repeats; a pair measured both ways stays two FRFs (each read the other way)."""
+        """Each ``h_rc`` read as ``h_cr`` (Maxwell-Betti reciprocity): a roving-hammer test as
+        the extraction takes it, the shapes known at every hammer point. Repeats stay repeats;
+        a pair measured both ways stays two FRFs (each read the other way)."""
         return FRFSet(self.omega, tuple((c, r) for r, c in self.pairs), self.H, self.sources, self.measured)
 
 
@@ -246,27 +232,29 @@ def combine(sets: Sequence[FRFSet]) -> FRFSet:
     if not sets:
         raise ValueError("no FRF data to combine")
     omega = sets[0].omega
-    groups: dict = {}
     for s in sets:
         if s.omega.size != omega.size or not np.allclose(s.omega, omega, rtol=1e-9, atol=0):
             raise ValueError(f"FRF files {sets[0].sources} and {s.sources} have different frequency lines "
                              f"({omega.size} vs {s.omega.size} lines, {sets[0].freq_hz[0]:.6g}-{sets[0].freq_hz[-1]:.6g} "
                              f"vs {s.freq_hz[0]:.6g}-{s.freq_hz[-1]:.6g} Hz)")
-        for pair, h in zip(s.pairs, s.H):
-            groups.setdefault(pair, []).append(h)
     kinds = {s.measured for s in sets}
-    return FRFSet(omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()),
-                  tuple(src for s in sets for src in s.sources), kinds.pop() if len(kinds) == 1 else "mixed")
+    return _grouped(omega, ((pair, h) for s in sets for pair, h in zip(s.pairs, s.H)),
+                    [src for s in sets for src in s.sources], kinds.pop() if len(kinds) == 1 else "mixed")
+
+
+def _grouped(omega, records, sources, measured: str) -> FRFSet:
+    """An `FRFSet` of ``records``, ``((response, excitation), values)`` with values of shape
+    (n_freq,) or (n_repeats, n_freq): the records of one pair become its repeats."""
+    groups: dict = {}
+    for pair, h in records:
+        groups.setdefault(pair, []).append(np.atleast_2d(h))
+    return FRFSet(omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), tuple(sources), measured)
 
 
 def _group(omega, records, source, measured: str) -> FRFSet:
-    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line;
-    ``measured`` as in `FRFSet`."""
+    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line."""
     keep = omega > 0
-    groups: dict = {}
-    for pair, h in records:
-        groups.setdefault(pair, []).append(np.asarray(h)[keep])
-    return FRFSet(omega[keep], tuple(groups), tuple(np.array(v) for v in groups.values()), (str(source),), measured)
+    return _grouped(omega[keep], ((pair, np.asarray(h)[keep]) for pair, h in records), (str(source),), measured)
 
 
 def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:

@@ -39,15 +39,23 @@ def _optional_index(value, what: str) -> int | None:
     return int(value)
 
 
-def _interval(pair, value, what: str) -> tuple[float, float] | None:
-    if pair is None:
-        return None
+def _bounds(pair, what: str) -> tuple[float, float]:
+    """``pair`` as a finite ``(lower, upper)``, ``lower <= upper``; a ValueError names ``what``."""
     try:
         lo, hi = (float(v) for v in pair)
     except (TypeError, ValueError):
         raise ValueError(f"{what} must be (lower, upper), got {pair!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-        raise ValueError(f"{what} must be finite with lower <= upper, got ({lo!r}, {hi!r})")
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ValueError(f"{what} is not finite: ({lo}, {hi})")
+    if lo > hi:
+        raise ValueError(f"{what} has lower {lo:g} > upper {hi:g}")
+    return lo, hi
+
+
+def _interval(pair, value, what: str) -> tuple[float, float] | None:
+    if pair is None:
+        return None
+    lo, hi = _bounds(pair, what)
     if not lo <= value <= hi:
         raise ValueError(f"{what} ({lo:.6g}, {hi:.6g}) does not contain its value {value:.6g}")
     return (lo, hi)
@@ -74,17 +82,8 @@ class ShapeInterval:
     mass_normalized: bool = False
 
     def __post_init__(self):
-        clean = {}
-        for dof, pair in dict(self.bounds).items():
-            try:
-                lo, hi = (float(v) for v in pair)
-            except (TypeError, ValueError):
-                raise ValueError(f"mode-shape interval for {dof!r} must be (lower, upper), got {pair!r}") from None
-            if not (math.isfinite(lo) and math.isfinite(hi)):
-                raise ValueError(f"mode-shape interval for {dof!r} is not finite: ({lo}, {hi})")
-            if lo > hi:
-                raise ValueError(f"mode-shape interval for {dof!r} has lower {lo:g} > upper {hi:g}")
-            clean[str(dof)] = (lo, hi)
+        clean = {str(dof): _bounds(pair, f"mode-shape interval for {dof!r}")
+                 for dof, pair in dict(self.bounds).items()}
         if not clean:
             raise ValueError("a mode-shape interval needs at least one measured DOF")
         object.__setattr__(self, "bounds", clean)
@@ -296,14 +295,11 @@ class Configuration:
     model : AffineModel
     natural : tuple of NaturalFrequency
         Measured natural frequencies, ascending; equal ones are the modes of a repeated
-        frequency (each its own model mode, `vibupdate.inverse.repeated`). Each says which model
-        mode it is (``mode``); omitted modes are consecutive (`declared_modes`). After
-        construction every entry carries its mode explicitly.
+        frequency (`vibupdate.inverse.repeated`). After construction each carries its model
+        ``mode`` (`vibupdate.data.pairing`).
     antiresonances : tuple of Antiresonance
         Measured antiresonances, of one or more receptances, any subset of each receptance's
-        zeros. Each says which zero of its receptance it is (``index``); omitted indices are
-        assigned from the measured poles around it and the nominal model's zeros between them
-        (`vibupdate.data.pairing`). After construction every entry carries its index explicitly.
+        zeros. After construction each carries its ``index`` (`vibupdate.data.pairing`).
     interlacing : bool
         Derive sign bounds on modal constants from the pole/zero pattern of each receptance
         (Eq. 11, Section 3.6), for pairs of measured poles that are consecutive model modes.

@@ -1,28 +1,15 @@
-"""Which model mode, and which zero of a receptance, each measured value is.
+"""Which model mode, and which zero of a receptance, each measured value is: data, never
+inferred from nearness at the updated point (the rule as the user reads it: docs/method.md,
+"Declared correspondence").
 
-Correspondence is data, never inferred from nearness at the updated point:
-
-* a measured natural frequency is the model's mode ``mode`` (1-based, counted from the lowest
-  *flexible* mode: rigid-body modes, `vibupdate.modal.rigid`, are not counted, so mode 1 of a
-  free-free test is its first flexible mode); when omitted, measured frequencies are
-  consecutive modes from mode 1, or from the mode after the previous measured one;
-* a measured antiresonance of ``h_rc`` is the model's zero ``index`` of that receptance
-  (1-based, counted from the lowest real zero above 0 Hz: the structural zeros of a model with
-  rigid-body modes are not zeros, `vibupdate.modal.zeros.structural`); when omitted it is
-  assigned once, from the
-  nominal model: if it lies above the measured pole of mode ``m`` and is the ``j``-th
-  measured zero of ``h_rc`` there, it is zero ``n_0 + j`` where ``n_0`` counts the nominal
-  model's zeros of ``h_rc`` below its mode ``m``; below the lowest measured pole, counting
-  goes down from the first zero below that pole; without measured poles, zeros are
-  consecutive from 1. A driving point's zeros are counted by interlacing instead (one zero
-  between each two consecutive modes, after those below the first mode): a symmetric nominal
-  model whose point lies on a node of mode ``m`` has zeros exactly on that pole, which a
-  perturbed structure moves to either side, so their count at the nominal point is not the
-  structure's. For a grounded driving point this gives zero ``m`` between modes ``m`` and
-  ``m + 1``.
-
-Every pairing downstream (formulation start vectors, polish residuals, verification, reports,
-``results.json``) reads these declared indices.
+A natural frequency's ``mode`` counts flexible modes from 1 (`declared_modes`: the mode after
+the previous one when omitted). An antiresonance's omitted ``index`` is assigned once, from the
+nominal model (`zero_indices`): above the measured pole of mode ``m``, the ``j``-th measured zero
+of ``h_rc`` there is zero ``n_0 + j``, ``n_0`` the nominal zeros below mode ``m`` (counting down
+below the lowest pole, consecutive from 1 without poles). A driving point's ``n_0`` comes from
+interlacing instead (one zero between two consecutive modes): a symmetric nominal model whose
+point is a node of mode ``m`` has zeros exactly on that pole, which a perturbed structure moves
+to either side. Every pairing downstream reads these declared indices.
 """
 
 from __future__ import annotations

@@ -20,9 +20,8 @@ constants turned past 135 degrees are refused too: two orders off, or the drivin
 flipped (the response measured against the force's direction), which the data cannot tell
 apart and which both make the shapes wrong.
 
-This replaces no check of the raw FRFs (`vibupdate.data.frf.check_kind`): their slope and
-phase share catch two orders off, and whether a kind one order off reads plausibly there
-depends on which lines and peaks count; after the fit, every mode counts by its constant.
+It adds to the check of the raw FRFs (`vibupdate.data.frf.check_kind`), which catches two
+orders off; after the fit, every mode counts by its constant.
 """
 
 from __future__ import annotations

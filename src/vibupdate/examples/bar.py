@@ -1,31 +1,15 @@
-"""Worked example: a roving-hammer test of a free-free steel bar, ``vibupdate example bar --out DIR``.
+"""Worked example: a roving-hammer test of a free-free steel bar, ``vibupdate example bar --out DIR``
+(docs/worked-bar.md walks through it): `write_inputs` writes the test's UFF file and the two
+case files, `commands` lists the commands a user runs.
 
-It writes what a lab would have after the test and the model of the bar, then runs the commands
-a user would (`commands`; docs/worked-bar.md walks through them):
-
-* ``DIR/hammer.uff``: the nine accelerances of the test (UFF dataset 58, three hits per point);
-* ``DIR/case.toml``: the Euler-Bernoulli model with E its only ``[[parameter]]`` and the five
-  other candidates (rho, the rotary-inertia factor r, the two suspension springs, the
-  accelerometer's mass) as ``[[candidate]]``; ``DIR/case-r.toml``: the same with r freed too;
-* ``vibupdate extract``, ``vibupdate run`` (E alone: not verified), ``vibupdate suggest`` and
-  ``vibupdate run`` of ``case-r.toml`` (E and r: verified).
-
-The truth is a Timoshenko beam (shear deformation and rotary inertia): the shear-flexible
-element of interdependent interpolation (stiffness with ``Phi = 12 EI / (k G A L^2)``, exact
-for static shear bending) with the consistent translational mass and the consistent
-rotary-inertia mass ``rho I`` of the Hermite cubics, on a mesh three times finer than the
-model's (`TRUTH_REFINE`); the discretization converges to the Timoshenko beam as the mesh is
-refined (at 3x the first four bending frequencies differ from 6x by under 4e-5). The bar hangs on two
-soft springs (the suspension cords) and carries the accelerometer's mass at its tip.
-
-The model of the case (`case_text`) is an Euler-Bernoulli beam of the same bar: it lacks the
-shear and rotary inertia, which lower the bending frequencies by 0.1 % (mode 1) to 1.3 %
-(mode 4); a rotary-inertia factor ``r`` on the section's ``rho I`` (``rotary_inertia`` of the
-beam element) stands in for both.
-
-One accelerometer at the tip (``y1``), the hammer at nine points ``y1, y3, ..., y17`` (every
-other node of the model's 17), repeated hits, modal damping, complex Gaussian noise of
-``noise * |H|`` plus ``floor * max |H|`` per line and repeat.
+The truth is a Timoshenko beam on a mesh `TRUTH_REFINE` times finer than the model's: the
+shear-flexible element of interdependent interpolation (``Phi = 12 EI / (k G A L^2)``, exact for
+static shear bending) with the consistent translational and rotary-inertia masses of the Hermite
+cubics (at 3x the first four bending frequencies differ from 6x by under 4e-5), on two soft
+springs (the cords) with the accelerometer's mass at its tip. The model (`case_text`) is an
+Euler-Bernoulli beam, a rotary-inertia factor ``r`` standing in for the missing shear and
+rotary inertia. Noise: complex Gaussian, ``noise * |H|`` plus ``floor * max |H|`` per line and
+repeat.
 """
 
 from __future__ import annotations
@@ -111,15 +95,6 @@ def measured(seed: int, repeats: int = 3, noise: float = 0.01, floor: float = 1e
         e = rng.standard_normal((repeats, h.size)) + 1j * rng.standard_normal((repeats, h.size))
         blocks.append(h[None] + sigma[None] * e / np.sqrt(2))
     return FRFSet(omega, pairs, tuple(blocks))
-
-
-def true_shapes(n_modes: int = 4):
-    """The truth's mass-normalized bending modes at the hammer points, ``{dof: value}`` per
-    mode, and their frequencies (Hz): the model's modes `FIRST_MODE` on."""
-    w, V, index = true_modes()
-    flexible = np.flatnonzero(w > 2 * np.pi * 1.0)   # the suspension modes are a few Hz; rigid ones 0
-    chosen = flexible[FIRST_MODE - 1:FIRST_MODE - 1 + n_modes]
-    return [{f"y{k}": float(V[index[f"y{k}"], m]) for k in HAMMER} for m in chosen], w[chosen] / (2 * np.pi)
 
 
 #: Model-form tolerances of the case: the frequencies to 0.1 % (the accuracy asked of the

@@ -1,26 +1,14 @@
-"""Worked examples of the FE-code route: ``vibupdate example fe-<code> --out DIR``.
+"""Worked examples of the FE-code route: ``vibupdate example fe-<code> --out DIR`` (one page per
+code under docs/fe/).
 
-Each writes, for one FE code, what a user would have after exporting a model from it and
-measuring the structure, then runs the two commands that update it:
-
-* ``DIR/exports/``: the export set of the space frame of `vibupdate.examples.frame3d`
-  (`SIZE`: 2 x 1 bays, 2 storeys, 246 DOFs) in the code's own format, written by
-  `vibupdate.examples.fe_writers` (no FE code is run), at the nominal parameters and once per
-  parameter changed by 10 % (``E_col`` also by -10 %, to check its affinity), and the import
-  file ``import.toml``; for OpenSees, the builder file ``frame_ops.py`` instead of exports;
-* ``DIR/measured/``: the "measured" data, the first `N_MODES` natural frequencies (Hz) and mode
-  shapes at ten sensors named ``"<node>:<dir>"`` of the frame at the known `truth` (for
-  OpenSees, of the matrices OpenSees forms at the truth), rounded as a test report would give
-  them (6 significant digits, 4 decimals) and stated with tolerances of one unit of the last
-  digit (twice the rounding's largest error), the model-form tolerances 0 (the data come
-  from the model family itself);
-* ``vibupdate import DIR/exports/import.toml --out DIR/model``;
-* ``DIR/model/case.toml``: the written ``model.toml`` with a case name above it and the
-  ``[[configuration]]`` of the measured data below it, as ``docs/fe-models.md`` says to make a
-  case file;
-* ``vibupdate run DIR/model/case.toml --out DIR/results``.
-
-`commands` gives the two command lines; the command line prints and runs exactly those.
+Each writes what a user would have after exporting a model from the code and measuring the
+structure: ``DIR/exports/``, the export set of the space frame of `vibupdate.examples.frame3d`
+(`SIZE`) in the code's own format (`vibupdate.examples.fe_writers`, no FE code is run; for
+OpenSees the builder file ``frame_ops.py``) with ``import.toml``; ``DIR/measured/``, the
+`N_MODES` frequencies and shapes of the frame at the known `truth`, rounded as a test report
+gives them (`FREQUENCY_DIGITS`, `SHAPE_DECIMALS`). `commands` gives the ``vibupdate import``
+and ``vibupdate run`` command lines that update it (`write_case` makes the case file between
+them, as docs/fe-models.md says to).
 """
 
 from __future__ import annotations

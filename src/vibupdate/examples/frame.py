@@ -7,15 +7,12 @@ generates the "measured" data, so that recovery can be checked.
 
 Geometry (m): columns at x = 0 and x = 1.2 from y = 0 to 1.6 (nodes every 0.4), floor beams at
 y = 0.8 and 1.6 with a node at mid-span, and a diagonal brace from (0, 0.8) to (1.2, 1.6).
-Both feet are pinned with a rotational spring (a motor, ``kr1``, ``kr2``); a horizontal
-balancing springs ``kbs`` and ``kbs2`` act at the top nodes. 10 free nodes x 3 DOFs + 2 foot rotations
-= 32 DOFs.
+Both feet are pinned with a rotational spring (a motor, ``kr1``, ``kr2``); horizontal balancing
+springs ``kbs`` and ``kbs2`` act at the top nodes: 10 free nodes x 3 DOFs + 2 foot rotations = 32 DOFs.
 
 A calibrated payload of known mass (`PAYLOAD`, kg) sits at the middle of the upper beam, a
-node with no mass parameter. It matters: with every mass and stiffness term a parameter,
-scaling all of them together changes neither frequencies nor mode shapes, and no data could
-fix the scale (the paper's mechanism has a known gravity stiffness ``Kg`` in that role); a
-known mass at a node that also has an unknown mass parameter would fix nothing either.
+node with no mass parameter: it fixes the scale that frequencies and shapes alone cannot (the
+paper's mechanism has a known gravity stiffness ``Kg`` in that role).
 
 Parameters (29, as in Table 2): one density ``rho``; Young's moduli ``E1``..``E5`` of the five
 members (left column, right column, lower beam, upper beam, brace); springs ``kbs``, ``kr1``,
@@ -59,12 +56,10 @@ PAYLOAD = (12, 1.5)          # node, known mass (kg)
 N_MODES = 7
 #: Translational DOFs that are "measured" (accelerometers): x and y of every free node.
 MEASURED_DOFS = tuple(f"{d}{n}" for n in FREE_NODES for d in ("x", "y"))
-#: Seeded errors of the generated data (see `generate`).
+#: Seeded errors of the bundled data (`tests/frame_data.py` generates them).
 FREQUENCY_ERROR = 0.003      # relative standard deviation of the measured frequencies
 SHAPE_ERROR = 0.02           # standard deviation of shape entries, relative to the largest entry
 SEED = 20210224
-#: The Caughey law that generates the measured damping ratios: Y, beta.
-DAMPING_LAW = ((0.0, 0.5, 1.0), (0.6, 2.0e-3, 2.0e-5))
 
 
 def parameters() -> tuple[Parameter, ...]:
@@ -139,42 +134,6 @@ def build(p: dict, subdivisions: int = 1) -> System:
 def model(subdivisions: int = 1):
     """The affine model (complex-step parameter matrices)."""
     return from_builder(lambda p: build(p, subdivisions), parameters())
-
-
-def generate(frequency_error: float = FREQUENCY_ERROR, shape_error: float = SHAPE_ERROR, seed: int = SEED,
-             subdivisions: int = 1):
-    """Measured data from the true model: 7 frequencies with relative noise, 7 damping ratios
-    of the Caughey law `DAMPING_LAW`, and mode shapes at the translational DOFs with noise,
-    given as intervals value +- 3 sigma.
-
-    Returns
-    -------
-    frequencies : list of dict
-        ``{"mode", "hz", "damping_ratio"}``.
-    shapes : list of dict
-        ``{"mode", "dof", "value", "tolerance"}`` with the shape scaled to unit largest
-        measured entry.
-    """
-    from vibupdate.modal.analysis import modes
-    from vibupdate.damping import modal_damping
-
-    rng = np.random.default_rng(seed)
-    m = model(subdivisions)
-    values = truth()
-    M, K = m.matrices_at([values[p.name] for p in m.parameters])
-    omega, Phi = modes(M, K, N_MODES)
-    hz = omega / (2 * np.pi) * (1 + frequency_error * rng.standard_normal(N_MODES))
-    ratios = modal_damping(DAMPING_LAW[0], DAMPING_LAW[1], omega)
-    frequencies = [{"mode": k + 1, "hz": float(hz[k]), "damping_ratio": float(ratios[k])} for k in range(N_MODES)]
-    idx = [m.dof(d) for d in MEASURED_DOFS]
-    shapes = []
-    for k in range(N_MODES):
-        v = Phi[idx, k] / np.abs(Phi[idx, k]).max()
-        sigma = shape_error
-        noisy = v + sigma * rng.standard_normal(v.size)
-        shapes += [{"mode": k + 1, "dof": d, "value": float(x), "tolerance": float(3 * sigma)}
-                   for d, x in zip(MEASURED_DOFS, noisy)]
-    return frequencies, shapes
 
 
 def configurations(frequencies=None, shapes=None, subdivisions: int = 1) -> list[Configuration]:

@@ -20,8 +20,7 @@ Parameters (property groups):
   so the model is *not* affine in it.
 
 A known payload of `PAYLOAD` kg sits on each roof corner node (translational mass, no
-parameter): with every stiffness and mass term a parameter, scaling them all together would
-change neither frequencies nor mode shapes, and no modal data could fix the scale.
+parameter): it fixes the scale that modal data alone cannot.
 
 The rotations of the beams' mid-span nodes carry no mass (the beams are massless and the floor
 mass is translational), so ``M`` is singular on that set (`FrameModel.massless`). The base
@@ -91,7 +90,7 @@ def element_mass(L, A, J, rho=1.0):
     return m
 
 
-def _rotation(p1, p2):
+def rotation(p1, p2):
     """Rows: local x, y, z axes in global coordinates (local z horizontal for columns)."""
     ex = (p2 - p1) / np.linalg.norm(p2 - p1)
     ref = np.array([1.0, 0.0, 0.0]) if abs(ex[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
@@ -206,7 +205,7 @@ def frame3d(bays_x: int = 3, bays_y: int = 2, stories: int = 4) -> FrameModel:
     def assemble(elements, local):
         rows, cols, vals = [], [], []
         for a, b in elements:
-            R = _rotation(nodes[a], nodes[b])
+            R = rotation(nodes[a], nodes[b])
             T = np.kron(np.eye(4), R)
             k = T.T @ local(np.linalg.norm(nodes[b] - nodes[a])) @ T
             idx = np.r_[6 * index[a]:6 * index[a] + 6, 6 * index[b]:6 * index[b] + 6]

@@ -3,11 +3,10 @@
 element matrices (``elasticBeamColumn``): its K equals the generator's to rounding, but its M
 differs, so the updating is checked against the matrices OpenSees itself produces at the truth.
 
-The columns' mass is lumped (``-mass`` alone: translational, every rotation massless). With
-``-cMass`` the 3-D ``elasticBeamColumn`` of opensees 0.1.32 returned a mass matrix singular
-along combinations of rotations that are not single DOFs (48 zero eigenvalues against 42 zero
-rows for the 2 x 1 x 2 frame), which no massless-DOF condensation can handle, and its
-translation-rotation terms at a node shared by two collinear elements do not cancel."""
+The columns' mass is lumped (``-mass`` alone: translational, every rotation massless): with
+``-cMass`` the 3-D ``elasticBeamColumn`` of opensees 0.1.32 gives a mass singular along
+combinations of rotations, which no massless-DOF condensation handles (`benchmarks/RESULTS.md`,
+"Shrinking data, modal, damping, model and examples")."""
 
 from __future__ import annotations
 

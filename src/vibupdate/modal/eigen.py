@@ -16,15 +16,10 @@ Two paths, chosen by size (`DENSE_LIMIT`):
   check per mode (`mode_residuals`); a mode whose backward error exceeds the tolerance raises
   `ModalAccuracyError` rather than returning a number nobody can trust.
 
-Positive semidefinite mass matrices (massless DOFs, as exported by FE packages that lump
-masses on translations only) are supported when ``K`` is positive definite on the massless
-DOFs. A DOF is massless when its diagonal mass entry is at most `MASSLESS_TOL` times the
-largest one in magnitude (`massless_dofs`, the one definition used by the eigen-solvers and by
-the admissibility check of `vibupdate.model.physical`; for a positive semidefinite ``M`` the
-whole row is then zero to that tolerance). The dense path condenses those DOFs out
-exactly (static condensation, ``u_s = -K_ss^-1 K_sm u_m``); the sparse path needs nothing
-special, since shift-invert only factorizes ``K - sigma M``. Mode vectors are always returned
-full length; a model with ``n_s`` massless DOFs has ``n - n_s`` finite natural frequencies.
+Massless DOFs (`massless_dofs`; ``K`` positive definite on them) are condensed out exactly on
+the dense path (``u_s = -K_ss^-1 K_sm u_m``) and need nothing on the sparse one (shift-invert
+factorizes ``K - sigma M`` only); mode vectors are always full length, and a model with ``n_s``
+massless DOFs has ``n - n_s`` finite natural frequencies.
 """
 
 from __future__ import annotations
@@ -68,11 +63,8 @@ def _diagonal(A) -> np.ndarray:
 def massless_dofs(M) -> np.ndarray:
     """Indices of the massless DOFs: ``|M_ii| <= MASSLESS_TOL * max_j |M_jj|``.
 
-    The one definition of a massless DOF in vibupdate (eigen-solvers, receptances and the
-    admissibility check of `vibupdate.model.physical`). A relative tolerance, so that an
-    exported model whose rotations carry a rounding-level mass is treated as the massless
-    model it stands for, and not as one with spurious modes at ~1e7 times the highest
-    physical frequency.
+    The one definition of a massless DOF in vibupdate; relative, so that rotations carrying a
+    rounding-level mass in an export are massless, not spurious modes far above the rest.
 
     Parameters
     ----------
@@ -93,11 +85,9 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
     """All eigenpairs of ``K phi = eigval M phi`` (M positive definite); ``precision``: the
     relative precision of the entries (`vibupdate.modal.rigid`), None for double precision.
 
-    The reciprocal pencil ``M phi = mu (K - sigma M) phi`` resolves the low modes to about
-    ``n eps eigval_k / eigval_1``; the direct pencil resolves the high ones to
-    ``n eps eigval_max / eigval_k``.
-    When the spectrum spans more than six decades both are solved and spliced at the geometric
-    mean of the extreme eigenvalues, so every mode keeps the better of the two.
+    The reciprocal pencil resolves the low modes, the direct one the high ones (module
+    docstring): when the spectrum spans more than six decades both are solved and spliced at
+    the geometric mean of the extreme eigenvalues.
 
     Returns ``eigval`` ascending and ``Phi`` with ``Phi.T M Phi = I``.
     """
@@ -113,19 +103,14 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
         # modes.
         mu = None
     if mu is None:
-        # K is not positive definite (rigid-body modes or an unstable parameter point): shift
-        # below the lowest eigenvalue, estimated by the direct pencil.
-        # With rigid-body modes the shift goes one first flexible eigenvalue below zero: the
-        # error n eps mu_max then stays at n eps of the flexible modes (a shift at a fixed
-        # fraction of the largest eigenvalue, or at rounding level, costs digits). An unstable
-        # point: at its own size.
+        # K is not positive definite: shift below the lowest eigenvalue of the direct pencil,
+        # with rigid-body modes by one first flexible eigenvalue (the error n eps mu_max then
+        # stays at n eps of the flexible modes), at an unstable point by its own size.
         eigval_direct, V_direct = _direct_eigh(K, M)
-        # the direct pencil puts a rigid-body mode at up to n eps |eigval_max|, which can exceed
-        # the allowance of `vibupdate.modal.rigid`: a shift to that mode would leave
-        # K - sigma M singular within rounding. The shift goes below the first eigenvalue
-        # `SINGULAR_SHIFT` rounding units clear of zero; the rigid-body modes are told apart
-        # afterwards, from the reciprocal pencil's own vectors (`modes`). The figures:
-        # `benchmarks/RESULTS.md`, "Figures behind src/: eigen-solver paths and shifts".
+        # the direct pencil puts a rigid-body mode at up to n eps |eigval_max|, beyond what
+        # `vibupdate.modal.rigid` allows: the shift goes below the first eigenvalue
+        # `SINGULAR_SHIFT` rounding units clear of zero, the rigid-body modes told apart later
+        # (`modes`; `benchmarks/RESULTS.md`, "Figures behind src/: eigen-solver paths and shifts").
         near = np.abs(eigval_direct) <= SINGULAR_SHIFT * rigid.rounding_scale(M, K, V_direct, precision)
         mu = None
         if near[0] and not near.all():
@@ -242,7 +227,7 @@ def _null_level(K, M, lu, precision: float | None = None) -> float | None:
     return float(rounding / max(np.linalg.norm(M @ x), 1e-300))
 
 
-def _shifted_lu(K, M, precision: float | None = None):
+def shifted_lu(K, M, precision: float | None = None):
     """Sparse LU of ``K - sigma M`` with ``sigma = 0`` when K is nonsingular, else below zero:
     ``-SINGULAR_SHIFT`` rounding levels of its null vector (`_null_level`, entries known to the
     relative ``precision``) when the LU of a singular ``K`` completes on rounding-level pivots,
@@ -299,7 +284,7 @@ _SOLVED = Kept(_SOLVED_KEPT, 256 * 2**20)
 
 def _sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | None = None):
     """The ``k`` lowest eigenpairs by shift-invert (module docstring), from `_SOLVED` when the
-    same matrices were solved for at least ``k`` modes before; ``factor``: `_shifted_lu` of
+    same matrices were solved for at least ``k`` modes before; ``factor``: `shifted_lu` of
     ``(K, M)`` when the caller has it."""
     key = content_key(M, K, extra=np.array([rtol, rigid.unit(precision)]).tobytes())
     kept = _SOLVED.get(key)
@@ -312,10 +297,10 @@ def _sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | Non
 
 def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float | None = None):
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
-    sigma, lu = _shifted_lu(Ks, Ms, precision) if factor is None else factor
+    sigma, lu = shifted_lu(Ks, Ms, precision) if factor is None else factor
     q = block_size(k, Ks.shape[0] - massless_dofs(Ms).size - 1)
-    if sigma < 0:   # K singular: rigid-body modes (`_flexible_shift`)
-        shift = _flexible_shift(Ms, Ks, lu, q, precision)
+    if sigma < 0:   # K singular: rigid-body modes (`flexible_shift`)
+        shift = flexible_shift(Ms, Ks, lu, q, precision)
         if shift is not None:
             sigma, lu = shift, sparse_lu(Ks - shift * Ms)
     op = spla.LinearOperator(Ks.shape, matvec=lu.solve, dtype=float)
@@ -338,31 +323,24 @@ def _solve_sparse_modes(M, K, k: int, rtol: float, factor=None, precision: float
 
 
 #: Steps of block inverse iteration that estimate the first flexible eigenvalue of a singular
-#: ``K`` (`_flexible_shift`).
+#: ``K`` (`flexible_shift`).
 FLEXIBLE_STEPS = 3
 
 
-def _flexible_shift(Ms, Ks, lu, q: int, precision: float | None = None) -> float | None:
+def flexible_shift(Ms, Ks, lu, q: int, precision: float | None = None) -> float | None:
     """``-lambda_1``, one first flexible eigenvalue below zero, for the eigen-solve of a model
     whose ``K`` is singular (rigid-body modes), or None when no flexible eigenvalue is found.
 
-    Why. `_shifted_lu` puts the shift of a singular ``K`` `SINGULAR_SHIFT` rounding units below
-    zero. Lanczos at that shift sees the rigid-body modes at ``1 / |sigma|``, some 1e12 times
-    the flexible ones: its vectors carry errors of eps times that ratio, and a flexible mode of
-    a full-precision export of a free-free frame of 1,000-1,500 DOFs came back with a backward
-    error of 1.3e-8 to 5.2e-8 (against `RESIDUAL_TOL`, 1e-8), even after the refinement step.
-    The same frames from 10 digits passed only because their rounding unit, hence their shift,
-    is larger. At ``sigma = -lambda_1`` the rigid-body modes sit at ``lambda_1`` from the
-    shift and the flexible ones at ``2 lambda_1`` and beyond: no singular point near any mode,
-    whatever the precision.
+    At the shift `shifted_lu` gives a singular ``K``, `SINGULAR_SHIFT` rounding units below
+    zero, Lanczos sees the rigid-body modes some 1e12 times the flexible ones and its vectors
+    carry errors of eps times that ratio, enough to fail `RESIDUAL_TOL` on full-precision
+    free-free frames (`benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and
+    examples"). At ``sigma = -lambda_1`` every mode is at least ``lambda_1`` from the shift.
 
-    How. `FLEXIBLE_STEPS` steps of block inverse iteration with the LU of the first shift
-    (``lu``) on ``q`` seeded random vectors, then a Rayleigh-Ritz projection: the rigid-body
-    modes are captured at once (their ratio to the rest is that 1e12), and the lowest Ritz
-    value not zero by the rigid-body test at the matrices' ``precision``
-    (`vibupdate.modal.rigid`, the same test that makes a rigid-body mode exactly 0 rad/s) is an
-    upper bound of ``lambda_1``; a bound a few times too high only slows Lanczos down a little.
-    ``q`` block solves per step, no second eigen-solve."""
+    `FLEXIBLE_STEPS` steps of block inverse iteration with ``lu`` on ``q`` seeded random
+    vectors and a Rayleigh-Ritz projection capture the rigid-body modes at once; the lowest
+    Ritz value not zero by the rigid-body test at ``precision`` (`vibupdate.modal.rigid`) is an
+    upper bound of ``lambda_1`` (a bound a few times too high only slows Lanczos a little)."""
     X = np.random.default_rng(2).standard_normal((Ks.shape[0], q))
     for _ in range(FLEXIBLE_STEPS):
         X = np.linalg.qr(lu.solve(np.asarray(Ms @ X)))[0]
@@ -381,9 +359,9 @@ _ARPACK_RNG = "rng" in inspect.signature(spla.eigsh).parameters
 def repeatable(n: int) -> dict:
     """Keywords of `scipy.sparse.linalg.eigsh` / ``eigs`` that make an ARPACK run repeatable:
     a fixed start vector and, where scipy takes one, a seeded generator for the random vectors
-    ARPACK asks for on a restart. Without them scipy draws both from the operating system's
-    entropy: the same matrices gave zeros differing by 4e-11 (relative) from call to call, and
-    the polish took different paths on identical inputs."""
+    ARPACK asks for on a restart, else drawn from the operating system's entropy
+    (`benchmarks/RESULTS.md`, "The polish stops on convergence; point data against the pencil's
+    rounding floor; repeatable ARPACK")."""
     rng = np.random.default_rng(0)
     out = {"v0": rng.standard_normal(n)}
     if _ARPACK_RNG:
@@ -404,12 +382,9 @@ def require_accuracy(M, K, omega, V, rtol: float, what: str) -> None:
 
 def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL,
           factor=None, precision: float | None = None):
-    """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0).
-
-    Accuracy (see the module docstring): the dense path solves the reciprocal pencil with the
-    full ``scipy.linalg.eigh``, relative error about ``n eps eigval_k / eigval_1`` for mode ``k``;
-    the sparse path is shift-invert ARPACK whose every pair passes a residual check, backward
-    error at most ``rtol`` (typically 1e-15).
+    """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0), by the
+    dense or the sparse path of the module docstring (every sparse pair's backward error at
+    most ``rtol``).
 
     Parameters
     ----------
@@ -424,7 +399,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     rtol : float
         Largest accepted backward error of a sparse eigenpair.
     factor : (float, SuperLU), optional
-        The shift and sparse LU of ``K - sigma M`` (`_shifted_lu`) when the caller already
+        The shift and sparse LU of ``K - sigma M`` (`shifted_lu`) when the caller already
         has them (the sparse path does not factorize again).
     precision : float, optional
         Relative precision of the entries of ``K`` and ``M``, the rounding unit of the

@@ -6,8 +6,8 @@ models by the modes of the first-order form or by dense complex solves over chun
 frequencies. Large models, undamped or with classical (modal) damping, by superposition of
 their lowest modes plus the residual flexibility of the modes left out (`modal_sum`): one
 sparse eigen-solve and one factorization for every line and pair, where a direct solve costs
-one sparse LU per line (2,000 LUs, 12 s of a 19 s `vibupdate run` of a 2,940-DOF frame;
-`benchmarks/RESULTS.md`). Large models with a general damping matrix: one sparse LU per line.
+one sparse LU per line (`benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and
+examples"). Large models with a general damping matrix: one sparse LU per line.
 Several pairs of one model share the eigen-solve or the factorizations (`receptances`); memory
 is O(n^2) at most on small models, O(n k) on large ones, never O(n_f n^2).
 
@@ -39,9 +39,8 @@ MODAL_SUM_MODES = 40
 #: A modal sum takes modes up to this multiple of its highest line (`modal_sum`), so that every
 #: resonance drawn is an exact mode and the nearest ones left out lie above the plot.
 MODAL_SUM_REACH = 1.2
-#: Krylov vectors per excitation added to the modes of a modal sum (`modal_sum`). On the
-#: 2,940-DOF building with 40 modes the worst error relative to the peak was 1.4e-2, 1.6e-4,
-#: 4.9e-5 and 7.9e-7 with 1, 2, 3 and 4 vectors.
+#: Krylov vectors per excitation added to the modes of a modal sum (`modal_sum`; the error
+#: against the depth: `benchmarks/RESULTS.md`, "Shrinking data, modal, damping, model and examples").
 KRYLOV_DEPTH = 4
 
 
@@ -185,7 +184,7 @@ def modal_sum(M, K, pairs, omega, damping=None, n_modes: int | None = None) -> n
     Ms, Ks = sp.csc_matrix(M), sp.csc_matrix(K)
     n_finite = n - massless_dofs(Ms).size
     k = min(n_finite - 1, n_modes if n_modes is not None else MODAL_SUM_MODES)
-    sigma, lu = eigen._shifted_lu(Ks, Ms)
+    sigma, lu = eigen.shifted_lu(Ks, Ms)
     while True:
         w, Phi = eigen.modes(Ms, Ks, k, dense=False, factor=(sigma, lu))
         if n_modes is not None or k >= n_finite - 1 or w[-1] >= MODAL_SUM_REACH * omega.max():
@@ -223,13 +222,9 @@ def receptances(M, K, pairs, omega, C=None) -> np.ndarray:
     """Receptances ``h_rc(j omega)`` of several ``(r, c)`` pairs of one model, from one
     eigen-solve or one factorization per frequency shared by every pair.
 
-    ``h_rc`` is entry ``r`` of the solution of ``(K + j omega C - omega^2 M) x = e_c``. Small
-    undamped models: superposition of all modes (exact, with the static term of massless
-    DOFs); small damped models: the modes of the first-order (state-space) form when there are
-    more than 50 lines and ``M`` is positive definite (checked against direct solves at
-    three lines), else dense complex solves over chunks of frequencies; large models (over
-    `DENSE_LIMIT` DOFs): undamped by `modal_sum`, damped by one sparse LU per frequency.
-    Memory is O(n^2) at most, never O(n_f n^2).
+    ``h_rc`` is entry ``r`` of the solution of ``(K + j omega C - omega^2 M) x = e_c``, by the
+    path of the module docstring for the model's size and damping (the first-order form of a
+    small damped model from 50 lines on, when ``M`` is positive definite).
 
     Parameters
     ----------

@@ -1,19 +1,11 @@
 """Accurate low modes of large, finely meshed models: one subspace step with refined solves.
 
-Why this is needed. Shift-invert Lanczos returns eigenpairs whose *normwise* backward error
-``||K phi - w^2 M phi|| / ((||K|| + w^2 ||M||) ||phi||)`` is at rounding level, yet on a fine
-bending mesh their low modes can still be far from the exact eigenpairs of the given
-matrices: the stiffness entries (``EI / h^3``) dwarf ``K phi = w^2 M phi`` of a smooth mode, so
-every solve with ``K`` and every product ``K phi`` in double precision loses about
-``log10(|K| |phi| / |K phi|)`` digits to cancellation, and the residual check cannot see it (it
-is computed with the same cancellation). The loss grows with the mesh's refinement, and
-errors of that size in "exact" data and in the model's shapes move the updated parameters
-(the figures: `benchmarks/RESULTS.md`, "Figures behind src/: accurate low modes").
-
-What it cannot do: make the matrices mean more than they do. Perturbing every entry of ``K``
-by one rounding unit moves the low modes of a fine mesh by a measurable amount: they are fixed
-by the model's parameters only to that level in double precision, so that a different point
-``xbar`` (a different rounding of ``K0 + sum xbar_i K_i``) moves them by as much.
+Shift-invert Lanczos returns eigenpairs whose *normwise* backward error is at rounding level,
+yet on a fine bending mesh every solve with ``K`` and every product ``K phi`` loses about
+``log10(|K| |phi| / |K phi|)`` digits to cancellation, which the residual check (formed with
+the same cancellation) cannot see (`benchmarks/RESULTS.md`, "Figures behind src/: accurate low
+modes"). No solver makes the matrices mean more: one rounding unit per entry of ``K`` moves
+the low modes of a fine mesh by as much (`shape_ratio_floor`).
 
 What is done. Given Lanczos vectors ``X`` (n, q) of a block a few modes wider than wanted,
 one step of subspace (inverse) iteration ``Y = (K - sigma M)^-1 M X`` is taken with each solve
@@ -105,12 +97,10 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
     entry by entry (an estimate, where one unit of ``precision`` per entry would bound it far
     above what the exports show: docs/notes/eigen-solutions.md).
 
-    The double-precision pencil fixes its modes only to this level (module docstring): a
-    solver of any accuracy returns ratios that differ from those of the same model assembled
-    at a neighbouring point, or exported with other rounding, by about this much. It is the
-    achievable accuracy against which point shape data are checked
-    (`vibupdate.inverse.verify`). One factorization of ``K - eigval M`` with the row and
-    column of the largest ``|phi|`` removed (as in Nelson's method).
+    The achievable accuracy against which point shape data are checked
+    (`vibupdate.inverse.verify`): the pencil fixes its modes only to this level (module
+    docstring). One factorization of ``K - eigval M`` without the row and column of the
+    largest ``|phi|`` (Nelson's method).
 
     Parameters
     ----------

@@ -2,42 +2,23 @@
 adjunct pencils of a free-free model, told apart from flexible modes by the rounding of each
 eigenvector's own Rayleigh quotient. rad/s and (rad/s)^2 throughout.
 
-**The tolerance.** A computed eigenvalue ``eigval`` with vector ``u`` is indistinguishable
-from zero when
+**The tolerance.** A computed eigenvalue ``eigval`` with vector ``u`` is zero when
 
-    |eigval| <= RIGID_FACTOR * eps * (|u|^T |K| |u|) / (u^T M u)
+    |eigval| <= RIGID_FACTOR * delta * (|u|^T |K| |u|) / (u^T M u)
 
-(``|K|`` entrywise). The right-hand side is what rounding alone puts into the Rayleigh
-quotient ``u^T K u / u^T M u`` of that very vector: the products of ``K`` with ``u`` cancel
-down to the true value, and each cancels from ``|K| |u|``. It follows the scale of the mode,
-not of the matrix: a relative threshold on the largest ``K_ii / M_ii`` grows with the fourth power of the inverse element length on
-bending meshes, and counts flexible modes of a refined mesh as rigid. The ratio ``|eigval|``
-over ``eps |u|^T |K| |u| / u^T M u`` stays of order 1 for rigid-body modes and structural
-zeros and is orders larger for flexible modes, soft suspension modes included; `RIGID_FACTOR`
-sits between the two (the ratios found with vibupdate's own solvers: `benchmarks/RESULTS.md`,
-"Figures behind src/: rigid-body modes").
+(``|K|`` entrywise): what rounding alone puts into the Rayleigh quotient of that very vector,
+so it follows the scale of the mode, not of the matrix. ``delta`` is the rounding unit of the
+entries (`unit`): ``eps`` for matrices exact to double precision, the export's relative
+precision for a model read from a text export (``AffineModel.matrix_precision``).
 
-**Adjunct pencils.** The zeros of ``h_rc`` are the eigenvalues of ``(K_rc, M_rc)``, ``K`` and
-``M`` without row ``c`` and column ``r`` (paper Eq. 8). A rigid-body mode ``rho`` with
-``rho_r = 0`` gives ``K_rc rho' = 0`` (``rho'`` is ``rho`` without entry ``r``): a model with
-``k`` rigid-body modes has ``k - 1`` such combinations (``k`` when ``r`` does not move in any),
-and each is an eigenvalue 0 of every adjunct pencil. It is no antiresonance: the cofactor and
-``det(K - w^2 M)`` share the factor, the receptance keeps its mass line ``-A / w^2`` to 0 Hz.
-The same test applies to it, with ``u`` the right vector embedded in the full space (entry
-``r`` set to 0): for a structural zero ``u`` is a rigid-body mode, ``u^T K u = 0``.
+**Adjunct pencils.** The zeros of ``h_rc`` are the eigenvalues of ``(K_rc, M_rc)`` (paper
+Eq. 8). A rigid-body mode with no motion at ``r`` gives an eigenvalue 0 of every adjunct pencil
+(``k - 1`` of them for ``k`` rigid-body modes), a *structural zero*, no antiresonance; the
+same test applies with ``u`` the right vector embedded in the full space (`embed`).
 
-**Matrices known to fewer digits.** ``eps`` is the rounding unit of matrices exact to double
-precision. A model read from a text export carries the rounding of the export instead: every
-entry within ``delta |K_ij|`` of the exact one, ``delta`` the export's relative precision (5e-10
-for the 10 significant digits of a Nastran large-field DMIG). The bound is the same with
-``max(eps, delta)`` in place of ``eps`` (`unit`), and every function here takes that
-``precision`` (``vibupdate.model.affine.AffineModel.matrix_precision``). One ``delta`` unit is
-the most the export's rounding moves a zero eigenvalue at the nominal point (``u^T E u``); the
-factor `RIGID_FACTOR` leaves room for the difference quotients of an imported model, whose
-rounding grows away from the nominal point. Counted in ``eps`` units, the rigid-body
-eigenvalues of an exported model lie far above the bound (some negative); in ``delta`` units
-they stay well under it, and the flexible modes far above (`benchmarks/RESULTS.md`, "Figures
-behind src/: rigid-body modes").
+The rule, the rounding units measured and the alternatives: docs/method.md, "Rigid-body
+modes", docs/notes/eigen-solutions.md and `benchmarks/RESULTS.md`, "Figures behind src/:
+rigid-body modes".
 """
 
 from __future__ import annotations

@@ -33,11 +33,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from vibupdate.modal import eigen
-from vibupdate.modal.eigen import _dense_modes
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.readings import ratio_derivatives, readings
-from vibupdate.modal.zeros import adjunct, antiresonances, others, structural
+from vibupdate.modal.zeros import antiresonances, dense_zeros, others
 
 
 def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
@@ -133,7 +132,7 @@ def shape_ratio_derivatives(model, xbar, omega: float, phi, entries, reference: 
                None if basis is None else np.asarray(basis, dtype=float).tobytes())
         V = _RATIO_SOLUTIONS.get(key)
     if V is None:
-        V = _ratio_solutions(model, xbar, omega, phi, basis)
+        V = ratio_solution(model, xbar, omega, phi, basis)
         if key is not None:
             _RATIO_SOLUTIONS.put(key, V, V.nbytes)
     D = ratio_derivatives(V, phi, entries, reference)
@@ -144,7 +143,7 @@ def ratio_solutions(model, xbar, omega, Phi) -> np.ndarray | None:
     """The solutions ``V`` of the module docstring of several simple modes at once, shape
     (m, n, n_x), on a model with dense stacks (`vibupdate.model.AffineModel.dense_stacks`, at
     most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs; None otherwise: `shape_ratio_derivatives`
-    one mode at a time). The same systems as `_ratio_solutions`, in one batched solve: the row
+    one mode at a time). The same systems as `ratio_solution`, in one batched solve: the row
     and column of each mode's largest ``|phi|`` replaced by those of the identity (its entry of
     ``V`` is then 0 and the other entries solve the system without them) instead of removed,
     so that the m systems have one size. Memory: m dense n x n matrices.
@@ -178,7 +177,7 @@ def ratio_solutions(model, xbar, omega, Phi) -> np.ndarray | None:
     try:
         return np.linalg.solve(A, rhs)
     except np.linalg.LinAlgError:   # one system exactly singular: each on its own (LU's inf or NaN there)
-        return np.stack([_ratio_solutions(model, xbar, w, phi) for w, phi in zip(omega, Phi.T)])
+        return np.stack([ratio_solution(model, xbar, w, phi) for w, phi in zip(omega, Phi.T)])
 
 
 def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarray]:
@@ -197,11 +196,11 @@ def modal_mass_derivatives(model, M, phi, reference, V) -> tuple[float, np.ndarr
 
 #: Solutions ``V`` of large models kept by (model, point, eigenpair): the polish's last
 #: evaluation, the sensitivity rows and the linearized ranges ask for the same ones at the
-#: answer (16 sparse LUs of 0.1 s saved at 30,315 DOFs); the most recent within 256 MB.
+#: answer; the most recent within 256 MB.
 _RATIO_SOLUTIONS = Kept(64, 256 * 2**20)
 
 
-def _ratio_solutions(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarray | None = None) -> np.ndarray:
+def ratio_solution(model, xbar, omega: float, phi: np.ndarray, basis: np.ndarray | None = None) -> np.ndarray:
     """The solutions ``V`` (n, n_x) of the module docstring: one factorization of
     ``K - eigval M`` without the row and column of the largest ``|phi|``, every parameter in one
     solve. With a ``basis`` of a repeated frequency's modes (`shape_ratio_derivatives`): without
@@ -267,50 +266,8 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
     # a dense-limit model is small: one conversion costs less than sparse slicing and products
     M = M.toarray() if sp.issparse(M) else np.asarray(M)
     K = K.toarray() if sp.issparse(K) else np.asarray(K)
-    Mr, Kr = adjunct(M, r, c), adjunct(K, r, c)
-    if r == c:   # symmetric: the solver of `antiresonances` (reciprocal pencil, massless DOFs condensed)
-        eigval_z, V_right = _dense_modes(Mr, Kr, precision)
-        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V_right, precision)
-        eigval_z, V_right = eigval_z[keep][:n_zeros], V_right[:, keep][:, :n_zeros]
-        return eigval_z, V_right, V_right
-    (num, den), V_left, V_right = _qz(Kr, Mr)
-    scale = np.abs(num) + np.abs(den)
-    finite = np.abs(den) > 1e-10 * scale
-    eigval_z = np.full(num.shape, np.nan, dtype=complex)
-    eigval_z[finite] = num[finite] / den[finite]
-    real = finite & (np.abs(eigval_z.imag) <= 1e-8 * np.abs(eigval_z.real)) & (eigval_z.real > 0)
-    real[real] = ~structural(M, K, r, eigval_z[real].real, V_right[:, real], precision)
-    eigval_z, V_right, V_left = eigval_z[real].real, V_right[:, real], V_left[:, real]
-    order = np.argsort(eigval_z)[:n_zeros]
-    return eigval_z[order], V_right[:, order], V_left[:, order]
-
-
-def _qz(A: np.ndarray, B: np.ndarray):
-    """The eigenvalues of the real pencil ``(A, B)`` as ``(alpha, beta)`` (complex ``alpha``)
-    with the real parts of the left and right vectors, each of unit norm as a complex vector:
-    what ``scipy.linalg.eig(A, B, left=True, right=True, homogeneous_eigvals=True)`` gives,
-    taken from LAPACK's ``ggev`` without that function's per-vector normalization loop (most
-    of its time on a small pencil). ``ggev`` stores a complex pair's vectors as the real and
-    imaginary parts in two columns: the real part of both is the first column."""
-    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
-    if not (np.isfinite(A).all() and np.isfinite(B).all()):
-        raise ValueError("array must not contain infs or NaNs")
-    ggev, = sla.get_lapack_funcs(("ggev",), (A, B))
-    lwork = int(ggev(A, B, lwork=-1)[-2][0])
-    alphar, alphai, beta, vl, vr, _, info = ggev(A, B, 1, 1, lwork)
-    if info != 0:
-        raise sla.LinAlgError(f"generalized eig algorithm (ggev) did not converge (LAPACK info={info})")
-    first = alphai > 0                 # the first column of each complex pair
-    first[:-1] |= alphai[1:] < 0
-    j = np.flatnonzero(first)
-    out = []
-    for V in (vl, vr):
-        norms = np.linalg.norm(V, axis=0)
-        norms[j] = norms[j + 1] = np.hypot(norms[j], norms[j + 1])
-        real = V.copy()
-        real[:, j + 1] = V[:, j]
-        out.append(real / norms)
-    return (alphar + 1j * alphai, beta), out[0], out[1]
+    eigval_z, V_right, V_left = dense_zeros(M, K, r, c, 1e-8, precision)
+    return eigval_z[:n_zeros], V_right[:, :n_zeros], V_left[:, :n_zeros]
 
 
 def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zeros: int | None = None):

@@ -21,7 +21,7 @@ from vibupdate.modal.eigen import (
     RESIDUAL_TOL,
     _dense,
     _dense_modes,
-    _shifted_lu,
+    shifted_lu,
     check_dof_pair,
 )
 
@@ -77,21 +77,52 @@ def structural(M, K, r: int, eigval_z, V, precision: float | None = None) -> np.
     return rigid.is_zero(M, K, eigval_z, rigid.embed(_real_vectors(V), M.shape[0], r), precision)
 
 
-def _dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = None):
+def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = None):
+    """The finite, real (imaginary part within ``rtol``), positive eigenvalues of the dense adjunct
+    pencil of ``h_rc`` without its structural zeros (`structural`), ascending, with their right
+    and left vectors (real, each of unit norm; the same for ``r == c``): the symmetric
+    reciprocal pencil for ``r == c``, QZ (`qz`) otherwise."""
     Mr, Kr = _dense(adjunct(M, r, c)), _dense(adjunct(K, r, c))
     if r == c:
         eigval_z, V = _dense_modes(Mr, Kr, precision)
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
-        return eigval_z[keep], V[:, keep]
-    (num, den), V = sla.eig(Kr, Mr, homogeneous_eigvals=True)
-    scale = np.abs(num) + np.abs(den)
-    finite = np.abs(den) > 1e-10 * scale
+        return eigval_z[keep], V[:, keep], V[:, keep]
+    (num, den), V_left, V_right = qz(Kr, Mr)
+    finite = np.abs(den) > 1e-10 * (np.abs(num) + np.abs(den))
     eigval_z = np.full(num.shape, np.nan, dtype=complex)
     eigval_z[finite] = num[finite] / den[finite]
-    real = finite & (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real))
-    keep = real & (eigval_z.real > 0)
-    keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V[:, keep], precision)
-    return eigval_z[keep].real, _real_vectors(V[:, keep])
+    keep = finite & (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real)) & (eigval_z.real > 0)
+    keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V_right[:, keep], precision)
+    order = np.argsort(eigval_z[keep].real)
+    return eigval_z[keep].real[order], V_right[:, keep][:, order], V_left[:, keep][:, order]
+
+
+def qz(A: np.ndarray, B: np.ndarray):
+    """The eigenvalues of the real pencil ``(A, B)`` as ``(alpha, beta)`` (complex ``alpha``)
+    with the real parts of the left and right vectors, each of unit norm as a complex vector:
+    what ``scipy.linalg.eig(A, B, left=True, right=True, homogeneous_eigvals=True)`` gives,
+    taken from LAPACK's ``ggev`` without that function's per-vector normalization loop (most
+    of its time on a small pencil). ``ggev`` stores a complex pair's vectors as the real and
+    imaginary parts in two columns: the real part of both is the first column."""
+    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    if not (np.isfinite(A).all() and np.isfinite(B).all()):
+        raise ValueError("array must not contain infs or NaNs")
+    ggev, = sla.get_lapack_funcs(("ggev",), (A, B))
+    lwork = int(ggev(A, B, lwork=-1)[-2][0])
+    alphar, alphai, beta, vl, vr, _, info = ggev(A, B, 1, 1, lwork)
+    if info != 0:
+        raise sla.LinAlgError(f"generalized eig algorithm (ggev) did not converge (LAPACK info={info})")
+    first = alphai > 0                 # the first column of each complex pair
+    first[:-1] |= alphai[1:] < 0
+    j = np.flatnonzero(first)
+    out = []
+    for V in (vl, vr):
+        norms = np.linalg.norm(V, axis=0)
+        norms[j] = norms[j + 1] = np.hypot(norms[j], norms[j + 1])
+        real = V.copy()
+        real[:, j + 1] = V[:, j]
+        out.append(real / norms)
+    return (alphar + 1j * alphai, beta), out[0], out[1]
 
 
 def _real_vectors(V: np.ndarray) -> np.ndarray:
@@ -107,7 +138,7 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: fl
     """The lowest ``n_zeros`` real positive eigenvalues of the adjunct pencil by shift-invert."""
     Mr, Kr = sp.csc_matrix(adjunct(M, r, c)), sp.csc_matrix(adjunct(K, r, c))
     m = Mr.shape[0]
-    sigma, lu = _shifted_lu(Kr, Mr, precision)
+    sigma, lu = shifted_lu(Kr, Mr, precision)
     k = min(m - 2, 2 * n_zeros + 8)
     while True:
         if r == c:
@@ -135,13 +166,8 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: fl
 
 def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: float = 1e-8,
                    n_zeros: int | None = None, dense: bool | None = None, precision: float | None = None):
-    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8).
-
-    They are the finite, real, positive eigenvalues ``omega^2`` of the adjunct pencil
-    ``(K_rc, M_rc)`` (row ``c`` and column ``r`` removed), without the structural zeros of a
-    model with rigid-body modes (`structural`). Small models: dense (symmetric
-    reciprocal pencil for ``r == c``, QZ otherwise); large models: shift-invert on the sparse
-    adjunct pencil (Lanczos for ``r == c``, Arnoldi otherwise) with a residual check per zero.
+    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8), dense or by shift-invert
+    (Lanczos for ``r == c``, Arnoldi otherwise) as the module docstring says.
 
     Parameters
     ----------
@@ -180,7 +206,7 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
         raise ValueError(f"n_zeros must be between 1 and {n - 1}, got {n_zeros!r}")
     use_dense = n <= eigen.DENSE_LIMIT if dense is None else dense
     if use_dense:
-        eigval_z, V = _dense_zeros(M, K, r, c, rtol, precision)
+        eigval_z, V = dense_zeros(M, K, r, c, rtol, precision)[:2]
         order = np.argsort(eigval_z)[:n_zeros]
     else:
         eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol, precision)

@@ -7,10 +7,8 @@ parameter matrices come from the complex-step derivative (Eq. 15),
 
     dM/dp_i = Im(M(p0 + j h e_i)) / h,
 
-exact to rounding for any small ``h`` because no difference is taken. For an `Assembly`
-whose properties are linear expressions of the parameters (the elements model of a case file)
-they are assembled directly instead (`affine_from_assembly`), since every element matrix is
-linear in its properties.
+exact to rounding for any small ``h`` because no difference is taken; an `Assembly` of linear
+expressions is assembled directly instead (`affine_from_assembly`).
 """
 
 from __future__ import annotations
@@ -535,15 +533,9 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
     of the parameters, assembled directly (`Assembly.affine_parts`), without complex step.
 
     Every element matrix is linear in its properties, so the model is affine by construction
-    and ``M_i``, ``K_i`` (Eqs. 13-14) are exact: each is the assembly of only the elements
-    whose expressions involve ``p_i``, with the properties set to their coefficients. The
-    build grows with the DOFs (each element is evaluated at the nominal point and once per
-    parameter it depends on) where `affine_from_builder` calls the builder ``2 n_x + 2``
-    times, each assembling every element.
-
-    Since affinity holds by construction, the per-parameter check of `check_affine` is not
-    needed; with ``check`` a single safety check remains: the assembly evaluated with every
-    parameter moved inside its bounds (`Assembly.system`) must equal the affine prediction.
+    and ``M_i``, ``K_i`` (Eqs. 13-14) are exact (`Assembly.affine_parts`). With ``check`` one
+    safety check remains: the assembly with every parameter moved inside its bounds
+    (`Assembly.system`) must equal the affine prediction.
 
     Parameters
     ----------

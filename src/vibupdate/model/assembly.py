@@ -4,18 +4,10 @@ DOF names are the DOF kind followed by the node label: ``"y3"``, ``"phi3"`` for 
 labelled 3, ``"x3"``, ``"y3"``, ``"phi3"`` for a frame node. Measured data refer to DOFs by
 these names.
 
-An `Assembly` is used in one of two ways:
-
-* filled inside a model builder (a function ``params -> System``) with numbers and evaluated
-  once per call, so that a builder can be called with complex parameter values for the
-  complex-step derivative (Eq. 15): every stored value keeps its complex type;
-* filled once with properties and lumped values that are `LinearExpression` s of the
-  parameters, then assembled directly into the affine form (`Assembly.affine_parts`,
-  `vibupdate.model.affine.affine_from_assembly`): each element is evaluated at the nominal
-  point and once per parameter it depends on, with no differentiation. ``system(values)``
-  evaluates the same assembly at given parameter values.
-
-Supports and the DOF order are the same either way.
+An `Assembly` is filled with numbers inside a model builder (complex values kept, for the
+complex step of Eq. 15), or once with `LinearExpression` properties and assembled directly into
+the affine form (`Assembly.affine_parts`); supports and the DOF order are the same either way
+(`vibupdate.model.build` lists the routes).
 """
 
 from __future__ import annotations

@@ -25,6 +25,7 @@ import scipy.sparse as sp
 
 from vibupdate.model.affine import (AffineModel, _check_unique_names, affine_from_assembly, affine_from_builder,
                                    check_matrices, symmetric_error)
+from vibupdate.model.fe.export import existing_file
 from vibupdate.model.parameters import Parameter
 
 
@@ -39,9 +40,7 @@ def load_matrix(path) -> sp.csr_matrix:
     """
     import scipy.io   # here: a model built in Python reads no file (scipy.io loads many readers)
 
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"matrix file {str(path)!r} does not exist")
+    path = existing_file(path, "matrix file")
     suffix = path.suffix.lower()
     if suffix not in (".mtx", ".npz"):
         raise ValueError(f"matrix file {str(path)!r}: expected a .mtx or .npz file")

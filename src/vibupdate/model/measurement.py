@@ -1,20 +1,13 @@
-"""Sensors that read linear combinations of a model's DOFs, and the measurement map.
+"""Sensors that read linear combinations of a model's DOFs, and the measurement map (the rules
+as the user reads them: docs/sensors.md).
 
-A sensor reads ``y = w^T u``: a weight ``w_d`` on each DOF ``d`` it sees (the reading's unit
-per unit of the DOF: m/rad on a rotation read by an accelerometer; 1 for a sensor on a DOF). An accelerometer on a rigid floor at the offset
-``r`` from the floor's reference point, pointing along the unit vector ``n``, reads
-``n . (u + theta x r) = n . u + (r x n) . theta``, ``u`` and ``theta`` the reference point's
-translation and rotation: weights ``n`` on the translations and ``r x n`` on the rotations
-(`rigid_weights`). Four such sensors on a floor of three DOFs are four data, one of them a
-combination of the other three: a sensor is data, not a DOF, so the model is not transformed.
-
-The measurement map of a list of names is the sparse matrix ``S`` (one row per name, one
-column per DOF) whose row is the sensor's weights, or the unit row of a plain DOF
-(`measurement_rows`): a measured shape entry is ``S phi``. Everything that compares a model
-vector with measured entries goes through it; a DOF is the case of one weight 1.
-
-The first stage's formulation bounds DOF entries, not combinations: `dof_box` gives the box
-on DOFs that sensor intervals imply (an outer bound, exact for plain DOFs).
+A sensor reads ``y = w^T u``, a weight ``w_d`` on each DOF it sees; on a rigid body at offset
+``r`` along ``n`` the weights are ``n`` on the translations and ``r x n`` on the rotations
+(`rigid_weights`). A sensor is data, not a DOF: the model is not transformed. The measurement
+map of a list of names is the sparse ``S`` whose row is a sensor's weights or a DOF's unit row
+(`measurement_rows`); everything that compares a model vector with measured entries goes
+through it. `dof_box` gives the box on DOFs that sensor intervals imply (an outer bound, exact
+for plain DOFs), which the first stage's formulation bounds.
 """
 
 from __future__ import annotations

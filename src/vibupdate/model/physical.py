@@ -1,34 +1,16 @@
 """Physical admissibility of a model: definiteness of ``M`` and ``K``, massless DOFs and
-rigid-body modes, at the nominal point and over the parameter box.
+rigid-body modes, at the nominal point and over the parameter box (the rule as a user reads it:
+docs/case-file.md, "Mass and stiffness").
 
-A model is admissible when
-
-* ``M`` is positive definite, or positive semidefinite with *massless DOFs* (a zero row and
-  column, as in FE models whose rotations carry no inertia) on which ``K`` is positive
-  definite, so that they can be condensed statically;
-* ``K`` is positive semidefinite. Its null space holds the rigid-body modes. The eigenvalues
-  of the pencil ``(K, M)`` below ``RIGID_TOL * lam_ref``, with ``lam_ref = max_i K_ii / M_ii``
-  over the DOFs with mass (a Rayleigh quotient, so at most the largest eigenvalue), are the
-  candidates; each is then solved for and counted rigid when it is zero within the rounding
-  of its own mode's Rayleigh quotient (`vibupdate.modal.rigid`), negative below that (the
-  threshold alone grows with the fourth power of the inverse element length on bending
-  meshes). ``K`` is rejected when an eigenvalue lies below ``-RIGID_TOL * lam_ref`` or is negative beyond
-  rounding.
-
-Eigenvalues of the pencil below a threshold ``t`` are counted by Sylvester's law of inertia:
-their number is the number of negative eigenvalues of ``K - t M`` (with massless DOFs too,
-when ``K`` is positive definite on them: the Schur complement on the massless block is the
-condensed pencil). Models up to `DENSE_LIMIT` DOFs use dense symmetric eigenvalues; larger
-ones a sparse ``L D L^T`` factorization (SuperLU in symmetric mode, diagonal pivots, fill-
-reducing symmetric ordering), whose pivot signs give the inertia; no dense ``n x n`` array is
-formed.
-
-Over the parameter box, ``M(xbar)`` and ``K(xbar)`` are affine (Eqs. 12-14), so they are
-positive (semi)definite on the whole box when they are at every corner; the corners checked
-are listed by `box_corners`. A box that reaches beyond the admissible region (a stiffness
-parameter whose lower bound is 0, so that ``K`` turns singular there) while the nominal model
-is admissible is not an error: `physical_box` gives the solver bounds inside the region, and
-the check warns with the figures.
+``M`` must be positive definite, or semidefinite with massless DOFs on which ``K`` is positive
+definite; ``K`` positive semidefinite, its candidates for rigid-body modes (eigenvalues below
+``RIGID_TOL * lam_ref``, ``lam_ref = max_i K_ii / M_ii`` over the DOFs with mass) counted rigid
+when zero within the rounding of their own mode (`vibupdate.modal.rigid`), refused when
+negative beyond it. Eigenvalues below ``t`` are counted by Sylvester's law of inertia on
+``K - t M``: dense symmetric eigenvalues up to `DENSE_LIMIT` DOFs, above that the pivot signs of
+a sparse symmetric ``L D L^T`` (no dense ``n x n`` array). ``M(xbar)``, ``K(xbar)`` being affine,
+the box is admissible when its corners are (`box_corners`); a box reaching beyond the admissible
+region gets bounds inside it (`physical_box`) and a warning.
 """
 
 from __future__ import annotations

@@ -5,28 +5,22 @@ With ``FORMAT=MATRIX INPUT`` (the default) Abaqus writes ``JOB_STIF<step>.mtx`` 
 
     row node, row DOF, column node, column DOF, value
 
-DOFs 1..6 of a node are its translations and rotations. The *MATRIX INPUT layout (Abaqus
-Keywords Reference) gives a symmetric matrix as its lower triangle, its upper triangle or the
-square, with or without the zeros of its sparsity pattern; all are read, one triangle mirrored,
-the two triangles of a square file compared. Lines starting with ``*`` (``**`` comments) are
-skipped. Nodes with a
-non-positive number are Abaqus's internal nodes (Lagrange multipliers of constraints); they
-are refused with a message, as the model they belong to is not a plain K, M pair. Abaqus writes
-the matrices before boundary conditions: the DOFs they fix are removed by naming them
-(`vibupdate.model.fe.export.without_dofs`, ``fix`` of ``vibupdate import``). The significant
-digits of the values give the export's relative precision
-(`vibupdate.model.fe.export.precision_of_digits`).
+DOFs 1..6 of a node are its translations and rotations. Any layout the *MATRIX INPUT format
+allows is read (docs/fe/abaqus.md, "What to export from Abaqus"): one triangle, mirrored, or the
+square, whose two triangles are compared. Internal nodes (a non-positive number: a constraint's
+Lagrange multiplier) are refused. The matrices come before boundary conditions: the DOFs they
+fix are removed by naming them (``fix``, `vibupdate.model.fe.export.without_dofs`).
 """
 
 from __future__ import annotations
 
 import io
 from collections import Counter
-from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, digit_counts, dof_name, precision_of_digits, symmetric_from_entries
+from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, existing_file, precision_of_digits,
+                                       symmetric_from_entries)
 
 #: One line of a ``.mtx`` file: row node, row DOF, column node, column DOF, value.
 _TERM = np.dtype([("n1", np.int64), ("d1", np.int64), ("n2", np.int64), ("d2", np.int64), ("value", float)])
@@ -42,9 +36,7 @@ def read_mtx_terms(path, digits: Counter | None = None):
     by reading the lines one by one once the whole-file parse has failed), an internal node and
     a component outside 0..6 are refused naming the line.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"Abaqus matrix file {str(path)!r} does not exist")
+    path = existing_file(path, "Abaqus matrix file")
     texts = np.char.strip(np.array(path.read_bytes().splitlines(), dtype=bytes))
     kept = (np.char.str_len(texts) > 0) & ~np.char.startswith(texts, b"*")
     numbers, data = np.flatnonzero(kept) + 1, texts[kept]

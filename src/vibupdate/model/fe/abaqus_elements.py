@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.model.element_groups import ElementMatrices, element_matrices
-from vibupdate.model.fe.export import DIRECTIONS, digit_counts, dof_name, precision_of_digits
+from vibupdate.model.fe.export import DIRECTIONS, digit_counts, dof_name, existing_file, precision_of_digits
 
 
 _ELEMENT = re.compile(r"\*\*\s*ELEMENT NUMBER\s+(-?\d+)(?:\s+STEP NUMBER\s+(\d+))?", re.I)
@@ -164,12 +164,10 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
     none (``MASS=NO``, or an element without mass). An element written twice (two steps or
     increments, or two files) is refused: export one step.
     """
-    paths = [Path(p) for p in paths]
+    paths = [existing_file(p, "Abaqus element matrix file") for p in paths]
     written = []
     elements = []
     for path in paths:
-        if not path.is_file():
-            raise ValueError(f"Abaqus element matrix file {str(path)!r} does not exist")
         blocks = _blocks(path)
         if not blocks:
             raise ValueError(f"{path}: no '** ELEMENT NUMBER' block; is it written by *ELEMENT MATRIX OUTPUT, "
@@ -215,9 +213,7 @@ def read_abaqus_element_sets(path) -> dict[str, list[int]]:
     elements it defines). Set names are kept as written and matched regardless of case, as
     Abaqus does. Only a flat input file is read: a model of parts and instances numbers its
     elements per part, and is refused."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"Abaqus input file {str(path)!r} does not exist")
+    path = existing_file(path, "Abaqus input file")
     sets: dict[str, list[int]] = {}
     named: dict[str, str] = {}              # upper-case name -> name as first written
     target, mode = None, None

@@ -6,20 +6,12 @@ HBMAT
 ``HBMAT, K, matrix, , ASCII, STIFF, NO, YES`` (and ``MASS``) writes the assembled matrix of the
 ``.full`` file in Harwell-Boeing form and, with ``Mapping = YES``, a text file with one line per
 equation: the equation number, the node and the DOF label (``UX, UY, UZ, ROTX, ROTY, ROTZ``).
-The Harwell-Boeing file is read by this module's own reader, not `scipy.io.hb_read`: scipy
-(1.17) reads the layout its own ``hb_write`` produces and not MAPDL's: it expects exactly three
-format fields on the fourth header line (MAPDL writes a fourth, the right-hand side's, and a
-fifth header line when ``Rhs = YES``), it cannot parse a descriptor without a repeat count such
-as ``(I14)`` (MAPDL's, one pointer per line) or a lower-case one such as ``(d25.15)``, and it
-does not read Fortran ``D`` exponents (``0.666666666666667D+03``). The layout read here is the
-Harwell-Boeing one (Duff, Grimes and Lewis, 1992): a title line, a line of five line counts
-(``TOTCRD PTRCRD INDCRD VALCRD RHSCRD``), the matrix type (``RSA``: one triangle of a
-symmetric matrix, mirrored; ``RUA``: both triangles, which must agree) with ``NROW NCOL
-NNZERO``, the Fortran formats, an optional right-hand side line (``F``, ``NRHS``), then the
-column pointers, row indices, values and right-hand side in fixed-width fields, any repeat
-count and width, ``E``, ``D`` or no exponent letter, a scale factor ``kP``. Every count is
-checked against the header: a file whose line or number counts, pointers or row indices do
-not match its header is refused naming the file and the line, never read in part.
+It is read by this module's own reader, as the Harwell-Boeing layout (Duff, Grimes and
+Lewis, 1992) of any repeat count, width, exponent letter and scale factor: `scipy.io.hb_read`
+reads only the layout scipy's ``hb_write`` produces (the layout and the checks:
+docs/fe/ansys.md, "What the reader takes from an HBMAT file"). A file whose line or number
+counts, pointers or row indices do not match its header is refused naming the file and the
+line, never read in part.
 The equations are those ANSYS solved: constrained DOFs are not written. The significant digits
 of the values as written give the export's relative precision
 (`vibupdate.model.fe.export.precision_of_digits`); the binary ``.full`` file holds doubles.
@@ -27,10 +19,8 @@ of the values as written give the export's relative precision
 ``.full``
 ---------
 Read through ``ansys-mapdl-reader`` (the optional extra ``vibupdate[fe]``), which returns each
-equation's node and DOF and the constrained DOFs. Its ``load_km`` (0.56.0) keeps the constrained
-DOFs as zero rows and columns of K and M (the sample ``file.full`` it ships: 963 equations, 63
-of them constrained and all zero), so they are removed here: left in, they would be massless
-DOFs without stiffness, a singular model.
+equation's node and DOF and the constrained DOFs. Its ``load_km`` keeps the constrained DOFs
+as zero rows and columns of K and M, which are removed here (else a singular model).
 """
 
 from __future__ import annotations
@@ -42,8 +32,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.model.fe.export import (DIRECTIONS, FEExport, dof_name, precision_of_digits, significant_digits,
-                                       symmetric_from_entries)
+from vibupdate.model.fe.export import (DIRECTIONS, FEExport, dof_name, existing_file, precision_of_digits,
+                                       significant_digits, symmetric_from_entries)
 
 
 #: ANSYS DOF labels -> component 1..6.
@@ -52,9 +42,7 @@ ANSYS_LABELS = {"UX": 1, "UY": 2, "UZ": 3, "ROTX": 4, "ROTY": 5, "ROTZ": 6}
 
 def read_mapping(path) -> tuple[str, ...]:
     """DOF names of the equations of an HBMAT ``.mapping`` file, in equation order."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"ANSYS mapping file {str(path)!r} does not exist")
+    path = existing_file(path, "ANSYS mapping file")
     names = {}
     for number, line in enumerate(path.read_text(errors="replace").splitlines(), start=1):
         parts = line.split()
@@ -183,9 +171,7 @@ def _header_ints(line: str, path: Path, number: int, names: tuple[str, ...], req
 def _read_hb(path: Path, digits: Counter | None = None) -> sp.csr_matrix:
     """The matrix of a Harwell-Boeing file (module docstring): header and counts checked, a
     symmetric (``RSA``) file mirrored."""
-    if not path.is_file():
-        raise ValueError(f"ANSYS matrix file {str(path)!r} does not exist")
-    lines = path.read_text(errors="replace").splitlines()
+    lines = existing_file(path, "ANSYS matrix file").read_text(errors="replace").splitlines()
     if len(lines) < 4:
         raise ValueError(f"{path}: {len(lines)} line(s); a Harwell-Boeing file has a header of at least 4 lines")
     totcrd, ptrcrd, indcrd, valcrd, rhscrd = _header_ints(
@@ -271,9 +257,7 @@ def read_full(path) -> FEExport:
 
     require("fe", f"reading the ANSYS .full file {str(path)!r}", modules=("ansys.mapdl.reader",))
     from ansys.mapdl import reader as pymapdl_reader
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"ANSYS .full file {str(path)!r} does not exist")
+    path = existing_file(path, "ANSYS .full file")
     full = pymapdl_reader.read_binary(str(path))
     dof_ref, k, m = full.load_km(as_sparse=True, sort=True)
     dofs = tuple(_full_dof(node, d) for node, d in np.asarray(dof_ref))

@@ -7,17 +7,12 @@ coordinates when the export holds them, and the relative precision of the number
 (`precision_of_digits`). The helpers here turn the entries a code writes (one triangle or both)
 into symmetric CSR matrices and check what every reader must check.
 
-**Precision of a text export.** A code writes its matrices with a fixed number of significant
-digits (10 or 11 in a 16-character Nastran field, 17 where it writes every digit of a double),
-so every entry of the matrices read is within ``delta |A_ij|`` of the code's own, ``delta`` half a
-unit in the last digit. The text readers count the significant digits of each number they parse
-(`significant_digits`) and `precision_of_digits` turns the counts into ``delta``: the widest
-number sets the writer's width, numbers with up to `DIGIT_SPREAD` digits fewer are taken as
-written to that width (a minus sign or a longer exponent takes a character of a fixed-width
-field) and the fewest of them sets ``delta = 0.5 * 10^(1 - digits)``; numbers with fewer digits
-still are taken as trailing zeros the writer dropped (``1.5+3``). 17 digits or more are a
-double written in full: no rounding beyond double precision (None). The import carries
-``delta`` into the model (``matrix_precision``, `vibupdate.modal.rigid`).
+**Precision of a text export** (docs/fe-models.md, "Precision of the exports"): every entry
+read is within ``delta |A_ij|`` of the code's own, ``delta`` half a unit in the last digit the
+format holds. The text readers count the significant digits of what they parse
+(`significant_digits`, `digit_counts`) and `precision_of_digits` turns the counts into
+``delta`` (None for doubles written in full); the import carries it into the model
+(``matrix_precision``, `vibupdate.modal.rigid`).
 """
 
 from __future__ import annotations
@@ -25,6 +20,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import re
 
@@ -37,12 +33,20 @@ DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 #: Relative asymmetry above which a matrix is refused as not symmetric.
 SYMMETRY_TOL = 1e-10
 #: Numbers with up to this many significant digits fewer than the widest of an export are taken
-#: as written to the same width (module docstring).
+#: as written to the same width (a sign or a longer exponent takes a character of the field).
 DIGIT_SPREAD = 2
 #: Significant digits from which a number is a double written in full.
 DOUBLE_DIGITS = 17
 
 _EXPONENT_START = re.compile(r"[EeDd]|(?<=[0-9.])[+-]")
+
+
+def existing_file(path, what: str) -> Path:
+    """``path`` as a `Path`; a ValueError naming it (``what``: "Nastran file") when no such file exists."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{what} {str(path)!r} does not exist")
+    return path
 
 
 def significant_digits(text: str) -> int:

@@ -1,12 +1,7 @@
 """Nastran DMIG matrices (a punch file of ``PARAM,EXTOUT,DMIGPCH`` or any bulk data).
 
-Why a reader of its own: pyNastran is the usual Python reader of these cards, but its current
-release (1.4.1) requires ``numpy < 2`` and cannot be installed beside this package's numpy 2.
-Given numpy 2, pip resolves the older 1.3.4 instead (it states no upper bound on numpy); it
-predates numpy 2, and asking for pyNastran in a fresh environment makes pip downgrade numpy to
-reach 1.4.1. So it is not a dependency: the DMIG card is small and is read here, and the tests
-compare this reader with pyNastran's (the ``test`` extra installs 1.3.4 beside numpy 2, under
-which it reads the three field formats to the same matrices).
+Read here, not through pyNastran: its current release (1.4.1) requires ``numpy < 2``; the
+tests compare this reader with pyNastran 1.3.4, which the ``test`` extra installs.
 
 Format read
 -----------
@@ -17,13 +12,10 @@ per column ``DMIG, NAME, GJ, CJ, , G1, C1, A1, B1, G2, C2, A2, B2, ...``: the co
 point and component, then (grid, component, value) of each row term. ``IFO = 6`` (symmetric)
 holds one triangle, which is mirrored (a term given in both triangles must agree); ``IFO = 1``
 (square) must be symmetric. Reals are Nastran numbers (``1.5+3``, ``-2.D-4``, ``7.E5``).
-Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards in the file (basic coordinate
-system) give the node coordinates; a file with GRID cards must have one for every grid point
-of its matrices (a file cut in its GRID cards is refused). The significant digits of every
-real read give the export's relative precision (`vibupdate.model.fe.export.precision_of_digits`: 5e-10 for the 10 digits a
-16-character large field holds). Component 1..6 of a grid point is
-``"<grid>:x"`` ... ``"<grid>:rz"``; component 0 (a scalar point) is ``"<id>:s"``. The DMIG
-punch holds the analysis set: the constrained DOFs are already gone.
+Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards (basic system) give the node
+coordinates, one for every grid point of the matrices (the checks: docs/fe/nastran.md). Component
+1..6 of a grid point is ``"<grid>:x"`` ... ``"<grid>:rz"``, component 0 (a scalar point)
+``"<id>:s"``. The punch holds the analysis set: the constrained DOFs are already gone.
 """
 
 from __future__ import annotations
@@ -33,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import FEExport, digit_counts, dof_name, precision_of_digits, symmetric_from_entries
+from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, existing_file, precision_of_digits,
+                                       symmetric_from_entries)
 
 
 _EXPONENT = re.compile(r"^([+-]?[0-9.]+)([+-][0-9]+)$")
@@ -86,9 +79,7 @@ def read_dmig_matrices(path, cards=None) -> dict:
     line), a term without its value, and more DOFs than the header's NCOL are refused naming the
     line. ``cards``: the file's `_cards` when the caller has them already (the file is then not read
     again)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"Nastran file {str(path)!r} does not exist")
+    path = existing_file(path, "Nastran file")
     out, forms, digits, ncols, headers = {}, {}, {}, {}, {}
     for number, head, data, lines in (_cards(path) if cards is None else cards):
         if head != "DMIG":
@@ -160,9 +151,7 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     stiffness, mass : str
         Names of the two DMIG matrices (default ``KAAX``, ``MAAX``, the punch's names).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"Nastran file {str(path)!r} does not exist")
+    path = existing_file(path, "Nastran file")
     cards = _cards(path)
     found = read_dmig_matrices(path, cards)
     for name in (stiffness, mass):

@@ -1,13 +1,10 @@
 """Oblique DOFs: the reading of a sensor that is not along a node axis, as a DOF of the model.
 
-A case file measures single DOFs. A sensor at node N along the unit direction ``n`` reads
-``n . u``, where ``u = (u_x, u_y, u_z)`` is the node's translation (m). To make that reading a
-DOF, the node's translations are replaced by the coordinates ``u' = D u``: ``D`` (3 x 3) is the
-identity with the row of one axis per oblique direction replaced by that direction
-(`Oblique.replaces`). The new DOF is named ``"<node>:n<k>"`` (k = 1, 2, 3 in the order of the
-node's oblique directions); the node's other translations keep their names and their meaning.
-With ``T`` (n x n) the identity except ``D^-1`` in the rows and columns of each such node's x,
-y, z (``q = T q'``):
+A sensor along the unit direction ``n`` reads ``n . u`` (docs/fe-models.md, "Sensors along an
+axis and oblique sensors"). To make that reading a DOF ``"<node>:n<k>"``, the node's
+translations are replaced by ``u' = D u``, ``D`` the identity with the row of one axis per
+oblique direction replaced by that direction (`Oblique.replaces`). With ``T`` the identity
+except ``D^-1`` in the rows and columns of each such node's x, y, z (``q = T q'``):
 
     M' = T^T M T,   K' = T^T K T,   dM'/dp = T^T (dM/dp) T,   dK'/dp = T^T (dK/dp) T.
 

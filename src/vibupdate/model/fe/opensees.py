@@ -1,53 +1,24 @@
 """OpenSees models: K and M of a model built by the user's openseespy code, sparse.
 
 The user writes ``builder(p)``, a function of a dict of parameter values that builds the model
-with the openseespy API (``model``, ``node``, ``fix``, ``element``, ``mass`` ...), as they would
-before an eigen analysis. `export_from_builder` wipes the domain, calls it, and reads K and M
-column by column from the model's own response to probe motions.
+with the openseespy API. `export_from_builder` wipes the domain, calls it, and reads K and M
+column by column from the model's own forces (docs/fe/opensees.md, "How K and M are read"):
 
-**Why probes, not ``printA``.** OpenSees gives no sparse copy of its assembled system
-(``printA`` forms a dense n x n matrix whatever ``system``; docs/fe/opensees.md). It does give
-exactly the force of every element on its nodes: ``reactions`` sums, at each node, the
-resisting force of the elements (``K u``) and, with ``-dynamic``, their inertia and the nodal
-masses (``M a``).
+* **probes**: nodes are coloured so that two nodes of one colour are neither neighbours
+  (``eleNodes``) nor share a neighbour; a probe moves DOF ``d`` of every node of one colour
+  by `PROBE` (a power of two: dividing by it is exact), and the force read at a DOF next to
+  it (``reactions``; ``-dynamic`` with trial accelerations, ``setNodeAccel``, for M) is one
+  entry of the probed column. Stiffness probes set and commit displacements and take one
+  step of the ``GimmeMCK`` integrator on a ``Diagonal`` system, which updates the elements
+  to the committed response (``setNodeDisp`` alone does not);
+* **linearity check**: before the probes each direction moves every node by
+  ``(1 + 2 colour) PROBE``, then by ``-2`` times that; forces not exactly ``-2`` times as large
+  (second-order terms, a kink or yield at rest) stop the import, naming nodes and elements;
+* multi-point constraints are refused, load patterns removed, fixed DOFs have no equation;
+  ``-ndf 6`` and planar ``-ndf 3 -ndm 2`` models are named, other DOFs refused.
 
-**The probes.** Two nodes are *neighbours* when an element joins them (``eleNodes``); K and M
-have non-zero blocks only between neighbours. The nodes are coloured so that two nodes of one
-colour are neither neighbours nor share a neighbour (greedy colouring of the square of the
-neighbour graph). A probe moves DOF ``d`` of every node of one colour by ``s`` and nothing else:
-each element then sees at most one moving DOF, and the force read at DOF ``i`` (at the moved
-nodes' neighbours; elsewhere no element carries a force) is ``s`` times ``K[i, j]`` for the
-one probed DOF ``j`` next to it. ``ndf`` probes per colour give every column; ``s`` is a power
-of two, so dividing by it is exact. Mass probes set trial accelerations (``setNodeAccel``)
-with the model at rest and read ``reactions -dynamic``. Stiffness probes set and commit
-displacements, and one step of an analysis with the ``GimmeMCK`` integrator on a ``Diagonal``
-system (set up once; ``domainChange`` before each probe) updates the elements to them:
-``GimmeMCK`` takes the committed response as its trial response and updates the domain, which
-``setNodeDisp`` alone does not (the elements keep the forces of their last update). The
-matrices are ``printA``'s to the last bits of the summation order (bitwise equal on the
-example frame; the tests compare them at 1e-13).
-
-**What a probe cannot read, refused.** Probes give the tangent at rest only if the forces are
-linear in the motion. Before the probes of K (and of M), each direction ``d`` is checked once:
-DOF ``d`` of every node moves by ``(1 + 2 colour) s`` (neighbours differ by at least ``2 s``,
-so every element deforms, more than under a probe) and then by ``-2`` times that. For a model
-linear about rest the forces are exactly ``-2`` times as large (multiplying by ``-2`` is exact
-in floating point); a term of second order (a ``Corotational`` geometric transformation,
-``PDelta`` on an inclined member), a kink at rest (a material stiffer in tension than in
-compression) or a yield within that motion breaks the equality, and the import stops naming the
-nodes and elements. A probe moves one direction at a time, as the check does: ``PDelta`` on
-plumb columns (axial and transverse motion never together) is linear for both and is read.
-
-Multi-point constraints (``equalDOF``, ``rigidLink``, ``rigidDiaphragm``) tie DOFs that the
-export would have to eliminate: refused, naming the constrained and retained nodes. Fixed DOFs
-(``fix``) have no equation. The builder's load patterns (gravity loads for an
-eigen analysis) are removed first: their loads would add to every probe's forces.
-
-Models of ``-ndf 6`` (3-D frames) and ``-ndf 3`` with ``-ndm 2`` (planar frames:
-``x, y, rz``) are named; other DOFs are refused. The cost is ``ndf (c + 2)`` element updates
-(each one ``domainChange`` and analysis step) and twice as many reaction sums, ``c`` the number
-of colours (8 for the example frame): `benchmarks/RESULTS.md`, heading "OpenSees import: probes
-against the dense printA".
+The cost, ``ndf (c + 2)`` element updates for ``c`` colours: `benchmarks/RESULTS.md`, heading
+"OpenSees import: probes against the dense printA".
 """
 
 from __future__ import annotations

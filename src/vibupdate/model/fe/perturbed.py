@@ -9,17 +9,11 @@ parameter changed by a stated step ``h`` (the others at nominal). The derivative
   exports, ``D = (h2^2 dA1 - h1^2 dA2) / (h1 h2 (h2 - h1))`` with ``dAk = A(p0 + hk) - A(p0)``
   (the central difference ``(A(p0 + h) - A(p0 - h)) / 2h`` when ``h2 = -h1``).
 
-The second step also measures how far the matrix is from affine in the parameter: the
-*departure* ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
-M's, 0 for an affine parameter up to rounding (a beam depth in bending, ``K ~ d^3``, departs
-by up to ``|h1 - h2| / d``). The affine model is then the linearization at ``p0``: exact for an
-affine parameter, first-order for another.
-
-Each parameter also names the property group it moves: the DOFs (and their nodes) whose rows of
-``D`` are not zero.
-
-The model's ``matrix_precision`` is the coarsest precision of the exports
-(`vibupdate.model.fe.export`): the entries of ``K0``, ``M0`` are known to it.
+The second step also gives the *departure* from affine (docs/fe-models.md, "Perturbed
+exports"), ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
+M's; the affine model is the linearization at ``p0``. Each parameter names the property group
+it moves (the DOFs whose rows of ``D`` are not zero); the model's ``matrix_precision`` is the
+coarsest of the exports'.
 """
 
 from __future__ import annotations
@@ -29,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from vibupdate.model.affine import AffineModel
 from vibupdate.model.build import from_files
@@ -167,16 +162,12 @@ def _change(nominal: FEExport, other: FEExport, name: str, step: float, p0: floa
     return dK, dM
 
 
-def _frobenius(A) -> float:
-    return float(np.sqrt((A.multiply(A)).sum())) if A.nnz else 0.0
-
-
 def _departure(d1, d2) -> float:
     worst = 0.0
     for a, b in zip(d1, d2):
-        scale = max(_frobenius(a), _frobenius(b))
+        scale = max(spla.norm(a), spla.norm(b))
         if scale:
-            worst = max(worst, _frobenius(a - b) / scale)
+            worst = max(worst, float(spla.norm(a - b)) / scale)
     return worst
 
 

@@ -1,24 +1,12 @@
 """Measured points on an FE mesh: a sensor named by node and direction (``"1203:y"``) or by
-coordinates and a sensor direction, and the DOF each one reads.
+coordinates and a sensor direction, and the DOF each one reads (the rules as the user reads
+them: docs/fe-models.md, "Sensors along an axis and oblique sensors").
 
-A sensor given by coordinates sits on the nearest node (of two at the same distance, one that
-moves), which must have translational DOFs in the model: a constrained or absent node is
-refused. Its direction (a vector, normalized here) is projected on the node's x, y, z:
-
-* within `ALIGN_TOL` of an axis, the sensor reads that axis's DOF with the sign of the
-  projection: a sensor pointing along -y reads ``-1 x "1203:y"``. A sensor named by a DOF of
-  x, y or z reads it along the positive axis.
-* otherwise it is *oblique*: it reads ``n . u``, the node's translation ``u`` projected on its
-  unit direction ``n``, which becomes a DOF of the model, ``"1203:n1"`` (``n2``, ``n3`` for a
-  second and third oblique direction on the node), in place of one of the node's x, y, z
-  (the one that keeps the change best conditioned among those no aligned sensor reads;
-  `vibupdate.model.fe.oblique`). It needs the node's three translations. A further sensor
-  within ALIGN_TOL of an oblique direction (or of its opposite) reads the same DOF with sign
-  +1 (-1).
-
-A node gives at most three independent readings: a direction within ALIGN_TOL of the span of
-the node's axes read by aligned sensors and its earlier oblique directions would read a
-combination of DOFs, and is refused naming the sensors.
+A sensor by coordinates sits on the nearest node that moves. Within `ALIGN_TOL` of a node axis
+it reads that axis's DOF with the projection's sign; otherwise it is *oblique* and its reading
+``n . u`` becomes a DOF ``"<node>:n<k>"`` in place of one of the node's translations
+(`vibupdate.model.fe.oblique`). A node gives at most three independent readings; a direction
+within `ALIGN_TOL` of the span of the others is refused naming the sensors.
 """
 
 from __future__ import annotations

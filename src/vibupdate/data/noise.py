@@ -1,42 +1,26 @@
-"""Noise variance of FRFs per line (private kernel of `vibupdate.data.extraction`): of a single
+"""Noise variance of FRFs per line (a kernel of `vibupdate.data.extraction`): of a single
 record from the modal fit's residual, and the split of any per-line variance estimate (the
 residual's, or the repeats' scatter) into a smooth and a proportional component.
-Frequencies and FRFs normalized as in `vibupdate.data._modal_fit`.
+Frequencies and FRFs normalized as in `vibupdate.data.modal_fit`.
 
-Two things make the raw squared residual a poor estimate of the noise variance where it
-matters most, at the resonance peaks of lightly damped modes:
+The raw squared residual misleads at the peaks of lightly damped modes, which alone fix the
+damping ratios (docs/notes/frf-intervals.md, "The fix"):
 
-1. **Leverage** (the degrees of freedom of the fit). For a least-squares fit
-   ``E |r_k|^2 = sigma_k^2 (1 - h_k)`` with ``h_k`` the diagonal of the hat matrix
-   (``sum_k h_k = p``, the number of fitted parameters: this is the ``n - p`` of the
-   unbiased variance, line by line). A mode whose half-power bandwidth ``2 zeta w_n`` spans
-   about one line is fitted from its few peak lines: there ``h_k`` nears 1 and the residual
-   nearly vanishes whatever the noise. Each squared residual is divided by ``1 - h_k``
-   (the "HC2" correction of MacKinnon and White, J. Econometrics 29, 1985), ``h_k`` from the
-   fit's exact Jacobian: the linear (residue) columns and the projected pole columns of the
-   variable-projection problem (Golub and Pereyra, SIAM J. Numer. Anal. 10, 1973), whose
-   hat matrices add because the second is orthogonal to the first.
-2. **Smoothing across a peak**. Measured FRFs carry a noise floor that varies slowly along
-   frequency and a part proportional to ``|H|`` (force-channel noise, leakage, the
-   estimator's bias at a peak), which varies as fast as the FRF itself: by a factor of 10 or
-   more across a peak one line wide. A running mean of the squared residual over 21 lines
-   spreads a peak's variance over its neighbours and under-states it at the peak lines,
-   which alone fix the damping ratio. The variance is therefore modelled per FRF as two
-   components, ``sigma_k^2 = s_k + beta |H_k|^2`` with ``s`` smooth (locally constant over
-   21 lines) and ``beta >= 0`` one number, ``H_k`` the fitted FRF, and both are estimated by
-   maximum likelihood from the corrected squared residuals by the EM iteration for variance
-   components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39, 1977): each line's
-   squared residual is shared between the components in proportion to their expected
-   shares, then each component is re-estimated from its share. With ``beta = 0`` this is
-   a running mean, so data without a proportional part lose nothing. The same
-   split applies to the repeats' per-line variance of the mean: a mean of ``R - 1``
-   exponential variables has a Gamma likelihood proportional to the exponential one in
-   ``sigma^2``, so the maximum-likelihood equations are the same.
+1. **Leverage.** ``E |r_k|^2 = sigma_k^2 (1 - h_k)``, ``h_k`` the diagonal of the hat matrix,
+   near 1 at the few lines a narrow peak is fitted from: each squared residual is divided by
+   ``1 - h_k`` (HC2, MacKinnon and White, J. Econometrics 29, 1985), ``h_k`` from the exact
+   Jacobian of the variable-projection fit (residue columns plus the projected pole columns,
+   whose hat matrices add: `leverage`).
+2. **Two components.** ``sigma_k^2 = s_k + beta |H_k|^2``, ``s`` locally constant over
+   `SMOOTH_LINES` and ``beta >= 0`` one number per group, by maximum likelihood with the EM
+   iteration for variance components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39,
+   1977; `variance_components`): a running mean alone would spread a peak's variance over its
+   neighbours. The repeats' per-line variance of the mean (a Gamma likelihood, the same
+   equations) is split the same way.
 
-On real data the unweighted fit's residual also holds the model's systematic misfit at the
-peaks, so this estimate is conservative there; ``W`` (the residual and leverage of the
-weighted fit) and ``beta_width`` (a local proportional level) measure the alternative and are
-not the default (docs/notes/frf-intervals.md, "The noise estimate of one record on real data").
+``W`` (a weighted fit) and ``beta_width`` (a local proportional level) are the measured
+alternative, not the default (docs/notes/frf-intervals.md, "The noise estimate of one record
+on real data").
 """
 
 from __future__ import annotations
@@ -44,42 +28,39 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from vibupdate.data._modal_fit import _basis, _basis_derivatives, _linear_fit, _real_stack, _smooth, _triangle
+from vibupdate.data.modal_fit import _linear_fit, _real_stack, _triangle, basis, basis_derivatives, smooth
 
 SMOOTH_LINES = 21           # the additive component is locally constant over this many lines
 EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
 
 
-def _combined(derivatives, c):
+def pole_columns(derivatives, c):
     """One FRF's pole columns (n_freq, 2 n): the exact derivatives of its modal model ``Phi(theta) c``
-    with respect to ``w_n`` (first n) and ``zeta`` (last n), from `_basis_derivatives` and its
+    with respect to ``w_n`` (first n) and ``zeta`` (last n), from `basis_derivatives` and its
     coefficients ``c``."""
     n = derivatives[0].shape[1] // 2
     return np.hstack([d[:, 0::2] * c[0:2 * n:2] + d[:, 1::2] * c[1:2 * n:2] for d in derivatives])
 
 
-def _leverage(x, xn, zeta, coef, W=None, window=None):
+def leverage(x, xn, zeta, coef, W=None, window=None):
     """Diagonal of the hat matrix of the modal fit of every FRF, shape (n_pairs, 2, n_freq)
     (real and imaginary row of each line): the residue columns of each FRF plus the pole
     columns shared by all FRFs, projected off the former. ``W`` (n_pairs, n_freq): the
     weights ``1/sigma`` per line of a weighted fit (default 1: unweighted); ``coef`` that
     fit's coefficients.
 
-    The two hat matrices add because the projected pole columns ``D`` are orthogonal to the
-    residue columns. ``D`` stacks every FRF's block (the poles are shared); its hat diagonal
-    is the row norm of ``D V S^-1`` (``S``, ``V`` of the SVD of ``D``'s triangle ``R``, built
-    FRF by FRF), so that no FRF's block is kept beyond its own pass: two passes, the blocks
-    formed again in the second, instead of the whole ``D`` and its QR (hundreds of MB at
-    50,000 lines)."""
-    Phi = _basis(x, xn, zeta, window)
-    derivatives = _basis_derivatives(x, xn, zeta, window)
+    The projected pole columns ``D`` (every FRF's block: the poles are shared) have the hat
+    diagonal of the row norms of ``D V S^-1`` (``S``, ``V`` of the SVD of ``D``'s triangle,
+    built FRF by FRF): two passes over the blocks, none kept beyond its own, not the whole ``D``."""
+    Phi = basis(x, xn, zeta, window)
+    derivatives = basis_derivatives(x, xn, zeta, window)
     shared = None if W is not None else _orthonormal(np.vstack([Phi.real, Phi.imag]))
 
     def blocks():  # per FRF: the residue columns' basis and the projected pole columns
         for k, c in enumerate(coef):
             w = np.ones(x.size) if W is None else W[k]
             Q = shared if W is None else _orthonormal(_real_stack(Phi, w))
-            D = _real_stack(_combined(derivatives, c), w)
+            D = _real_stack(pole_columns(derivatives, c), w)
             yield Q, D - Q @ (Q.T @ D)
 
     R = _triangle(np.vstack([_triangle(D) for _, D in blocks()]))
@@ -95,7 +76,7 @@ def _orthonormal(A):
     return scipy.linalg.qr(A, mode="economic", check_finite=False)[0]
 
 
-def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iterations: int = EM_ITERATIONS,
+def variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iterations: int = EM_ITERATIONS,
                          beta_width: int | None = None):
     """Maximum-likelihood ``sigma^2 = s + beta g`` per row from squared residuals ``e``.
 
@@ -110,10 +91,10 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
     labels, member = np.unique(groups, return_inverse=True)
     rows = [np.nonzero(member == k)[0] for k in range(labels.size)]
     # a floor that keeps v^2 representable: noise-free data give residuals of rounding size or 0
-    floor = 1e-12 * np.max(_smooth(e, width), axis=1, keepdims=True) + 1e-150
+    floor = 1e-12 * np.max(smooth(e, width), axis=1, keepdims=True) + 1e-150
 
     def level(share):  # the proportional level: group sums (of running sums along frequency if local)
-        num, den = (share, g) if beta_width is None else (_smooth(share, beta_width), _smooth(g, beta_width))
+        num, den = (share, g) if beta_width is None else (smooth(share, beta_width), smooth(g, beta_width))
         out = np.empty_like(e)
         for r in rows:
             top = np.sum(num[r], axis=0 if beta_width else None)
@@ -121,7 +102,7 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
         return out
 
     # start from an even split of each line's squared residual between the components
-    s = np.maximum(_smooth(e / 2, width), floor)
+    s = np.maximum(smooth(e / 2, width), floor)
     beta = level(e / 2)
     for _ in range(iterations):
         b = beta * g
@@ -132,12 +113,12 @@ def _variance_components(e, g, groups=None, width: int = SMOOTH_LINES, iteration
         v2, s2, b2 = v * v, s * s, b * b
         share_s = (s - s2 / v) + s2 * e / v2
         share_b = (b - b2 / v) + b2 * e / v2
-        s = np.maximum(_smooth(share_s, width), floor)
+        s = np.maximum(smooth(share_s, width), floor)
         beta = level(share_b)
     return s + beta * g, s, beta
 
 
-def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W=None,
+def residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W=None,
                        beta_width: int | None = None, window=None):
     """Noise variance per line of each FRF from the fit's residual, shape (n_pairs, n_freq):
     squared residuals corrected by the leverage, then split into a smooth and a proportional
@@ -148,7 +129,7 @@ def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W
     the residual and the leverage are then those of the weighted fit (feasible weighted
     least squares; the module docstring says why an unweighted fit misleads on real data).
     Default: unweighted."""
-    Phi = _basis(x, wn, zeta, window)
+    Phi = basis(x, wn, zeta, window)
     if W is None:  # one least-squares solve for every FRF
         A = np.vstack([Phi.real, Phi.imag])
         coef = scipy.linalg.lstsq(A, np.concatenate([F.real, F.imag], axis=1).T, lapack_driver="gelsy")[0].T
@@ -156,7 +137,7 @@ def _residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W
         coef = np.array([_linear_fit(Phi, f, w)[0] for f, w in zip(F, W)])
     fitted = coef @ Phi.T
     r = F - fitted
-    h = np.minimum(_leverage(x, wn, zeta, coef, W, window), 0.99)
+    h = np.minimum(leverage(x, wn, zeta, coef, W, window), 0.99)
     e = r.real**2 / (1.0 - h[:, 0]) + r.imag**2 / (1.0 - h[:, 1])
-    var = _variance_components(e, np.abs(fitted) ** 2, groups, width, beta_width=beta_width)[0]
+    var = variance_components(e, np.abs(fitted) ** 2, groups, width, beta_width=beta_width)[0]
     return np.maximum(var, 1e-12 * np.max(var, axis=1, keepdims=True) + 1e-300)

@@ -1,14 +1,12 @@
-"""Numerical kernels of `vibupdate.data.extraction` (private): the modal-model basis, vector
+"""Numerical kernels of `vibupdate.data.extraction` (no ``__all__``: the names without an
+underscore are the units its tests check, not a promised surface): the modal-model basis, vector
 fitting, the stabilization check, variable projection of the poles, noise estimates and
 pole selection. Frequencies are normalized by the band's top (``x = omega / omega_max``);
 FRFs by their RMS. The method is described in `vibupdate.data.extraction`.
 
-Cost on long records (``benchmarks/extraction_cost.py``: nine FRFs of 51,200 lines): the
-variable projection of the poles has an exact Jacobian (`_projection`; a finite difference
-cost ``2 n`` extra least-squares solves per FRF and step, most of the time), and hands the
-optimizer the ``(2 n + 1)``-square triangle of ``[J r]`` instead of ``J`` and ``r``
-(`_CompressedProjection`), so that neither the Jacobian of every line nor its SVD is held;
-what must see every line is formed one FRF at a time."""
+On long records (``benchmarks/extraction_cost.py``) the variable projection of the poles has
+an exact Jacobian (`projection`) and hands the optimizer the ``(2 n + 1)``-square triangle of
+``[J r]`` (`_CompressedProjection`): what must see every line is formed one FRF at a time."""
 
 from __future__ import annotations
 
@@ -41,7 +39,7 @@ def _pole_terms(x, a, window=None, derivative: bool = False):
         s = 1j * np.asarray(x)[:, None]
         p, q = 1.0 / (s - a[None, :]), 1.0 / (s - np.conj(a)[None, :])
         return (p, q, p * p, q * q) if derivative else (p, q)
-    from vibupdate.data._window import windowed_poles
+    from vibupdate.data.window import windowed_poles
 
     both = np.concatenate([a, np.conj(a)])
     p, q = np.split(windowed_poles(x, both, window), 2, axis=1)
@@ -50,12 +48,12 @@ def _pole_terms(x, a, window=None, derivative: bool = False):
     return (p, q, *np.split(windowed_poles(x, both, window, derivative=True), 2, axis=1))
 
 
-def _basis(x, xn, zeta, window=None) -> np.ndarray:
+def basis(x, xn, zeta, window=None) -> np.ndarray:
     """Columns of the modal model at normalized frequencies ``x``, shape (n_freq, 2 n + 4).
 
     Per pole (modes, then the pseudo-mode): ``1/(s-a) + 1/(s-conj a)``, ``j/(s-a) - j/(s-conj a)``
     (coefficients Re A, Im A); then ``1/s^2`` and ``1``. With ``window`` (a
-    `vibupdate.data._window.Window`) the pole terms are those of the windowed estimate.
+    `vibupdate.data.window.Window`) the pole terms are those of the windowed estimate.
     """
     x = np.asarray(x)
     p, q = _pole_terms(x, _all_poles(xn, zeta), window)
@@ -65,10 +63,10 @@ def _basis(x, xn, zeta, window=None) -> np.ndarray:
     return cols
 
 
-def _basis_derivatives(x, xn, zeta, window=None):
-    """Exact derivatives of the modes' columns of `_basis` with respect to their poles'
+def basis_derivatives(x, xn, zeta, window=None):
+    """Exact derivatives of the modes' columns of `basis` with respect to their poles'
     ``w_n`` and ``zeta``: two complex arrays (n_freq, 2 n), column ``2 r`` (``2 r + 1``) the
-    derivative of column ``2 r`` (``2 r + 1``) of `_basis` with respect to ``w_n`` (``zeta``)
+    derivative of column ``2 r`` (``2 r + 1``) of `basis` with respect to ``w_n`` (``zeta``)
     of mode ``r`` (no other parameter moves those columns)."""
     xn, zeta = np.asarray(xn, dtype=float), np.asarray(zeta, dtype=float)
     a = _poles(xn, zeta)
@@ -84,7 +82,7 @@ def _basis_derivatives(x, xn, zeta, window=None):
 
 
 def _undamped_basis(x, xn, zeta) -> np.ndarray:
-    """Real columns of the undamped receptance, same coefficients as `_basis`: each mode's
+    """Real columns of the undamped receptance, same coefficients as `basis`: each mode's
     ``-2 w_d / (w_n^2 - x^2)`` on Im A (its real modal constant ``Re(2 j w_d A)``); the
     pseudo-mode and the residual terms (which stand for modes outside the band, real in it)
     keep the real part of their damped columns. Built in real arithmetic: the zeros are
@@ -123,9 +121,9 @@ def _undamped_derivatives(x, xn, zeta):
 
 
 def _modal_basis(x, xn, zeta, damped: bool = True, window=None) -> np.ndarray:
-    """Stage-2 columns: `_basis` (damped, through ``window`` when given) or `_undamped_basis`
+    """Stage-2 columns: `basis` (damped, through ``window`` when given) or `_undamped_basis`
     (the structure's own receptance: never windowed)."""
-    return _basis(x, xn, zeta, window) if damped else _undamped_basis(x, xn, zeta)
+    return basis(x, xn, zeta, window) if damped else _undamped_basis(x, xn, zeta)
 
 
 def _real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -208,9 +206,9 @@ def _stable_poles(stab, min_stable):
             [counts[i] for i in order])
 
 
-def _projected_residual(theta, x, F, W, window=None):
-    """The variable-projection residual at poles ``theta`` = (w_n, zeta): `_projection`'s."""
-    return _projection(theta, x, F, W, window)[0]
+def projected_residual(theta, x, F, W, window=None):
+    """The variable-projection residual at poles ``theta`` = (w_n, zeta): `projection`'s."""
+    return projection(theta, x, F, W, window)[0]
 
 
 def _weighted_qr(A):
@@ -223,7 +221,7 @@ def _weighted_qr(A):
     return Q[:, :rank], R[:rank, :rank], piv[:rank]
 
 
-def _projection(theta, x, F, W, window=None, jacobian: bool = False):
+def projection(theta, x, F, W, window=None, jacobian: bool = False):
     """Weighted residual of the variable-projection problem at poles ``theta`` and, with
     ``jacobian``, its exact derivative with respect to ``theta``.
 
@@ -235,10 +233,10 @@ def _projection(theta, x, F, W, window=None, jacobian: bool = False):
 
         dr/dtheta_k = -(I - Q Q^T) (dA/dtheta_k) c - Q R^-T (dA/dtheta_k)^T r
 
-    with ``dA/dtheta_k`` from `_basis_derivatives` (two columns per mode). The second term is
+    with ``dA/dtheta_k`` from `basis_derivatives` (two columns per mode). The second term is
     orthogonal to ``r`` (Kaufman's approximation drops it): the gradient ``J^T r`` is the
     same either way, and keeping it gives the same Jacobian as a finite difference of the
-    residual, so the sandwich covariance of `_refine_poles` is unchanged.
+    residual, so the sandwich covariance of `refine_poles` is unchanged.
 
     Returns ``r`` (n_pairs * 2 n_freq,), stacked [Re f1, Im f1, Re f2, ...] (weighted), and
     ``J`` (n_pairs * 2 n_freq, 2 n) or None.
@@ -249,13 +247,13 @@ def _projection(theta, x, F, W, window=None, jacobian: bool = False):
 
 
 def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
-    """`_projection` one FRF at a time: yields ``(r_k, J_k)`` ((2 n_freq,), (2 n_freq, 2 n) or
+    """`projection` one FRF at a time: yields ``(r_k, J_k)`` ((2 n_freq,), (2 n_freq, 2 n) or
     None), so that a caller may reduce each block before the next is formed."""
     n = theta.size // 2
     xn, zeta = theta[:n], theta[n:]
-    Phi = _basis(x, xn, zeta, window)
+    Phi = basis(x, xn, zeta, window)
     if jacobian:   # the pole columns' derivatives, (n_freq, 4 n): shared by every FRF
-        d_theta = np.hstack(_basis_derivatives(x, xn, zeta, window))
+        d_theta = np.hstack(basis_derivatives(x, xn, zeta, window))
     for f, w in zip(F, W):
         A = _real_stack(Phi, w)
         b = np.concatenate([f.real * w, f.imag * w])
@@ -267,15 +265,12 @@ def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
 
 
 class _CompressedProjection:
-    """`_projection` as ``scipy.optimize.least_squares`` needs it, in ``2 n + 1`` numbers.
+    """`projection` as ``scipy.optimize.least_squares`` needs it, in ``2 n + 1`` numbers.
 
-    With ``[J r] = Q_t R_t`` (QR of the Jacobian beside the residual, all FRFs), the residual
-    ``R_t[:, -1]`` and Jacobian ``R_t[:, :-1]`` have the same ``J^T J``, ``J^T r`` and
-    ``|r|`` as the full ones, which is all a Gauss-Newton trust-region step uses: the
-    iterations are those of the full problem, without its (n_pairs * 2 n_freq, 2 n)
-    Jacobian and the solver's copies and SVD of it (hundreds of MB at 50,000 lines). Each
-    FRF's block is reduced by its own QR as it is formed; the last point's ``R_t`` is kept,
-    since the solver asks for the Jacobian where it has just asked for the residual."""
+    With ``[J r] = Q_t R_t`` (all FRFs, each block reduced by its own QR as it is formed),
+    ``R_t[:, -1]`` and ``R_t[:, :-1]`` have the ``J^T J``, ``J^T r`` and ``|r|`` of the full
+    residual and Jacobian, all a trust-region step uses; the last point's ``R_t`` is kept (the
+    solver asks for the Jacobian where it has just asked for the residual)."""
 
     def __init__(self, x, F, W, window=None):
         self.args = (x, F, W, window)
@@ -300,8 +295,8 @@ def _triangle(A):
 
 
 def _projection_jacobian(Q, R, piv, d_theta, c, r, w):
-    """One FRF's block of `_projection`'s Jacobian, (2 n_freq, 2 n): ``d_theta`` (n_freq, 4 n)
-    the two arrays of `_basis_derivatives` side by side (``w_n``, then ``zeta``); ``Q``, ``R``,
+    """One FRF's block of `projection`'s Jacobian, (2 n_freq, 2 n): ``d_theta`` (n_freq, 4 n)
+    the two arrays of `basis_derivatives` side by side (``w_n``, then ``zeta``); ``Q``, ``R``,
     ``piv`` from `_weighted_qr`; ``c`` the coefficients, ``r`` the weighted residual, ``w`` the
     weights."""
     n = d_theta.shape[1] // 4
@@ -318,12 +313,11 @@ def _projection_jacobian(Q, R, piv, d_theta, c, r, w):
     return -(dAc - Q @ (Q.T @ dAc)) - second
 
 
-def _refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
+def refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     """Variable projection on (w_n, zeta); returns them and their covariance (sandwich).
 
-    Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform. The
-    Jacobian is exact (`_projection`): a finite difference would cost ``2 n`` more
-    least-squares solves per FRF and step."""
+    Weights 1/sigma per line when ``weighted`` (sigma from repeats), else uniform; the
+    Jacobian exact (`projection`)."""
     n = wn.size
     W = 1.0 / np.sqrt(var) if weighted else np.ones_like(F.real)
     theta0 = np.concatenate([wn, zeta])
@@ -344,13 +338,13 @@ def _refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     JtJ_inv = np.linalg.pinv(JtJ)
     cov = JtJ_inv @ JtVJ @ JtJ_inv
     chi2 = float(np.sum(r**2)) / max(r.size - theta0.size, 1)
-    tau = _correlation_inflation(_split_residual(r, F.shape) / math.sqrt(2.0))  # over sigma per line
+    tau = _correlation_inflation(split_residual(r, F.shape) / math.sqrt(2.0))  # over sigma per line
     return sol.x[:n], sol.x[n:], cov * max(1.0, chi2) * tau
 
 
 # ----------------------------------------------------------------------------- noise
 
-def _smooth(values: np.ndarray, width: int) -> np.ndarray:
+def smooth(values: np.ndarray, width: int) -> np.ndarray:
     kernel = np.ones(width) / width
     pad = width // 2
     padded = np.pad(values, [(0, 0), (pad, pad)], mode="edge")
@@ -390,7 +384,7 @@ def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandw
     lines in every FRF (a pole fitted to a noise spike). Returns the kept poles and their
     largest sampled response."""
     spacing = float(np.median(np.diff(x)))
-    Phi = _basis(x, wn, zeta, window)
+    Phi = basis(x, wn, zeta, window)
     coef = np.array([_linear_fit(Phi, f, np.ones(x.size))[0] for f in F])
     n = wn.size
     own = np.abs(Phi[:, 0:2 * n:2][None] * coef[:, None, 0:2 * n:2]
@@ -435,13 +429,13 @@ def _best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: 
     for subset in combinations(range(candidates.size), n_modes):
         keep = np.r_[candidates[list(subset)], fixed]
         theta = np.concatenate([wn[keep], zeta[keep]])
-        cost = float(np.sum(_projected_residual(theta, x, F, np.ones_like(F.real), window) ** 2))
+        cost = float(np.sum(projected_residual(theta, x, F, np.ones_like(F.real), window) ** 2))
         if cost < best_cost:
             best, best_cost = np.array(subset), cost
     return best
 
 
-def _split_residual(r, shape):
+def split_residual(r, shape):
     """The stacked projected residual [Re f1, Im f1, Re f2, ...] back to complex (n_pairs, n_freq)."""
     flat = r.ravel().reshape(shape[0], 2, shape[1])
     return flat[:, 0, :] + 1j * flat[:, 1, :]

@@ -1,11 +1,9 @@
-"""The leakage of a windowed spectral estimate, put into the modal model (private kernel of
-`vibupdate.data.extraction`). Frequencies normalized as in `vibupdate.data._modal_fit`.
+"""The leakage of a windowed spectral estimate, put into the modal model (a kernel of
+`vibupdate.data.extraction`). Frequencies normalized as in `vibupdate.data.modal_fit`.
 
-A frequency response estimated from random excitation, record by record with a data window
-``w`` over each record of length ``T`` (the ``H1`` estimate, averaged), is in expectation the
-true FRF smoothed by the window's power kernel ``|W|^2``. A lightly damped peak whose
-half-power bandwidth spans a few lines comes out lower and wider, and a modal fit reads that
-as damping, by tens of per cent at a peak one or two lines wide (docs/notes/frf-leakage.md).
+An ``H1`` estimate from random excitation with a data window ``w`` over each record of
+length ``T`` is in expectation the true FRF smoothed by the window's power kernel ``|W|^2``,
+which a modal fit reads as damping at narrow peaks (docs/notes/frf-leakage.md).
 
 In the time domain the same smoothing multiplies the impulse response by the window's
 normalized autocorrelation ``g(t / T)`` (``g(0) = 1``, zero beyond ``T``). A modal term
@@ -94,7 +92,7 @@ def window_for(name: str | None, x: np.ndarray, measured: str = "receptance", de
     return Window(name, 2 * math.pi / float(np.mean(step)), ORDERS[measured], float(decay))
 
 
-def _moments(w: np.ndarray, kmax: int) -> np.ndarray:
+def moments(w: np.ndarray, kmax: int) -> np.ndarray:
     """``integral_0^1 u^k exp(w u) du`` for ``k = 0..kmax``, shape (kmax + 1, *w.shape),
     complex: the closed form where ``|w| >= SERIES_BELOW``, the power series elsewhere."""
     w = np.asarray(w, dtype=complex)
@@ -124,7 +122,7 @@ def _lagged(z, name: str, kmax: int) -> np.ndarray:
     (kmax + 1, *z.shape)."""
     total = np.zeros((kmax + 1,) + z.shape, dtype=complex)
     for m, c0, c1 in WINDOWS[name]:
-        mom = _moments(z + 2j * math.pi * m, kmax + 1)
+        mom = moments(z + 2j * math.pi * m, kmax + 1)
         total += c0 * mom[:-1] + c1 * mom[1:]
     return total
 

@@ -25,8 +25,8 @@ up to `MEASURED_FLOORS` floors (spread over the height, the roof included): ``x`
 column and ``y`` at the quarter and three-quarter points of the first and last bays (where the
 beams bend under sway; mid-span moves little).
 
-It is a generated, sized model for `benchmarks/large_structure.py`, not one of the bundled
-``vibupdate example`` cases (no data files; every function takes ``storeys`` and ``bays``).
+It is a generated, sized model for the tests and `benchmarks/large_structure.py` (no data
+files; every function takes ``storeys`` and ``bays``).
 """
 
 from __future__ import annotations
