@@ -8,7 +8,6 @@ import pytest
 from helpers import BIASED_CHAIN_TRUTH, biased_chain
 from vibupdate import Configuration, NaturalFrequency, ShapeInterval
 from vibupdate.data.measured import Antiresonance
-from vibupdate.inverse import diagnosis
 from vibupdate.inverse.diagnosis import DataGroup, data_groups, diagnose, wants_diagnosis, without
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import update

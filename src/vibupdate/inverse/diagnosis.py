@@ -33,8 +33,8 @@ from vibupdate.inverse.verify import VerifyOptions, verify
 #: Failed checks that say the model does not fit the data: only these start a diagnosis. A
 #: failure of ``mode_order``, ``zero_order`` or ``correspondence`` alone is a question of which
 #: model mode or zero a datum is, which its message already names; removing data does not
-#: answer it.
-MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "consistency", "improvement"})
+#: answer it. (``consistency`` is a warning, never a failed error: it is not among them.)
+MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "improvement"})
 #: Groups refitted at most, the best of the one-step screening (the rest are named as untried).
 #: A group whose removal leaves a fit does so to first order at the answer, so it leads that
 #: order; the refits rank the leaders by what a whole polish reaches (`benchmarks/RESULTS.md`,
