@@ -37,14 +37,14 @@ COLUMNS = ("runs", "success %", "not_verified %", "path failed %", "crash", "ref
 
 
 def _one(args) -> list[dict]:
-    family, index, routes, *compromise = args
+    family, index, routes, compromise = args
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from acceptance import criteria as C
     from acceptance import runner as R
 
     try:
         problem = C.FAMILIES[family].make(index)
-        if compromise and compromise[0]:
+        if compromise:
             from dataclasses import replace
 
             problem = replace(problem, compromise=True)

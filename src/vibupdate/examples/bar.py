@@ -61,32 +61,33 @@ def timoshenko_matrices(n_elements: int, E: float = E_TRUE, rho: float = RHO_TRU
     return K, M
 
 
-def truth_system():
-    """K, M of the truth with the suspension springs and the tip mass, and the truth DOF
-    index of each model node's deflection ``y<label>``."""
+def truth_system(accelerometer: int = ACCELEROMETER):
+    """K, M of the truth with the suspension springs and the accelerometer's mass at node
+    ``accelerometer``, and the truth DOF index of each model node's deflection ``y<label>``."""
     K, M = timoshenko_matrices(MODEL_ELEMENTS * TRUTH_REFINE)
     index = {f"y{j}": 2 * TRUTH_REFINE * (j - 1) for j in range(1, MODEL_ELEMENTS + 2)}
     for node in SUPPORTS:
         K[index[f"y{node}"], index[f"y{node}"]] += SPRING
-    M[index[f"y{ACCELEROMETER}"], index[f"y{ACCELEROMETER}"]] += TIP_MASS
+    M[index[f"y{accelerometer}"], index[f"y{accelerometer}"]] += TIP_MASS
     return K, M, index
 
 
-def true_modes():
+def true_modes(accelerometer: int = ACCELEROMETER):
     """Undamped natural frequencies (rad/s) and mass-normalized modes of the truth, ascending."""
-    K, M, index = truth_system()
+    K, M, index = truth_system(accelerometer)
     lam, V = scipy.linalg.eigh(K, M)
     return np.sqrt(np.abs(lam)), V, index
 
 
-def measured(seed: int, repeats: int = 3, noise: float = 0.01, floor: float = 1e-4):
-    """Roving-hammer receptances ``h(y1, yk)`` of the truth, k over `HAMMER`, as measured (the
-    accelerometer the response): an `FRFSet` over `DATA_HZ` at `STEP_HZ`."""
-    w, V, index = true_modes()
+def measured(seed: int, repeats: int = 3, noise: float = 0.01, floor: float = 1e-4,
+             accelerometer: int = ACCELEROMETER, hammer=HAMMER):
+    """Roving-hammer receptances ``h(y<accelerometer>, yk)`` of the truth, k over ``hammer``,
+    as measured (the accelerometer the response): an `FRFSet` over `DATA_HZ` at `STEP_HZ`."""
+    w, V, index = true_modes(accelerometer)
     omega = 2 * np.pi * np.arange(DATA_HZ[0], DATA_HZ[1] + STEP_HZ / 2, STEP_HZ)
     denominator = w[None, :] ** 2 - omega[:, None] ** 2 + 2j * DAMPING * w[None, :] * omega[:, None]
-    response = V[index[f"y{ACCELEROMETER}"]]
-    pairs = tuple((f"y{ACCELEROMETER}", f"y{k}") for k in HAMMER)
+    response = V[index[f"y{accelerometer}"]]
+    pairs = tuple((f"y{accelerometer}", f"y{k}") for k in hammer)
     rng = np.random.default_rng(seed)
     blocks = []
     for _, c in pairs:
