@@ -5,6 +5,7 @@ out with a note naming the FRF. A three-mass chain, its FRFs computed exactly; t
 and the dense reference of the sensor's zeros (the bordered pencil) written here."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -181,3 +182,15 @@ def test_a_uff_channel_mapped_to_a_sensor_is_data_at_the_sensor(tmp_path):
         np.testing.assert_allclose([b.shape.midpoint[d] for d in ("s12", "x2", "x3")],
                                    [a.shape.midpoint[d] for d in ("s12", "x2", "x3")], rtol=1e-9)
     assert any(n.startswith("the antiresonances of h_s12,x1 (2, at ") for n in case.frf_notes["test"])
+
+
+@pytest.mark.parametrize("band", ["[60.0, 3.0]", "[0.0, 60.0]", "[3.0]"])
+def test_a_band_not_low_then_high_in_hz_is_refused_naming_the_key_and_the_values_given(tmp_path, band):
+    """The case states the band in Hz: the error repeats the Hz the user wrote (it said rad/s
+    values before), names the key and what is expected."""
+    path = Path(write_case(tmp_path))
+    path.write_text(path.read_text().replace("band_hz = [3.0, 60.0]", f"band_hz = {band}"))
+    with pytest.raises(ValueError, match=r"frf\.band_hz.*must be \[low, high\] in Hz with 0 < low < high, got "
+                                         + band.replace("[", r"\[").replace("]", r"\]").replace(".", r"\.")):
+        load_case(path)
+

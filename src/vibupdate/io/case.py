@@ -65,7 +65,11 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
             raise where.error(f"{key}.frf.{name}", f"must be an integer >= 1 ({what}), got {spec[name]!r}")
     if "confidence" in spec and not 0 < spec["confidence"] < 1:
         raise where.error(f"{key}.frf.confidence", f"must be between 0 and 1 (e.g. 0.95), got {spec['confidence']!r}")
-    band, fit_band = (tuple(2 * math.pi * b for b in numbers(spec[k], f"{key}.frf.{k}", where)) if k in spec else None
+    bands = {k: numbers(spec[k], f"{key}.frf.{k}", where) for k in ("band_hz", "fit_band_hz") if k in spec}
+    for k, hz in bands.items():
+        if len(hz) != 2 or not 0 < hz[0] < hz[1]:
+            raise where.error(f"{key}.frf.{k}", f"must be [low, high] in Hz with 0 < low < high, got {spec[k]!r}")
+    band, fit_band = (tuple(2 * math.pi * b for b in bands[k]) if k in bands else None
                       for k in ("band_hz", "fit_band_hz"))
     try:
         with collected(FRFWarning) as doubts:  # said with the extraction's notes
