@@ -81,7 +81,10 @@ def caughey_matrix(M, K, exponents, beta, *, spectrum=None) -> np.ndarray:
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
+        Mass (kg) and stiffness (N/m) matrices of the model.
     exponents, beta : array_like, shape (n_h,)
+        The series: the exponents ``Y`` and their coefficients, ``beta_h`` in s^(1 - 2h).
+        Negative exponents need a model without rigid-body modes.
     spectrum : (ndarray, ndarray), optional
         Every finite mode of ``(M, K)``, ``(omega, Phi)`` of shapes (n_f,) rad/s and (n, n_f)
         mass-normalized, when already computed (`vibupdate.inverse.correlation.ModelFrequencies`

@@ -17,16 +17,36 @@ from vibupdate.damping.series import DampingFit, DampingWarning, fit_caughey
 
 @dataclass(frozen=True)
 class DampingStage:
-    """The second stage over several configurations: the Caughey fit and the Rayleigh
-    baseline (``Y = [0, 1]``), both on the updated model's natural frequencies, and the
-    warnings of `damping_sanity` for both."""
+    """The second stage over several configurations: a Caughey fit and its Rayleigh baseline.
+
+    Both fits are made on the updated model's natural frequencies.
+
+    Attributes
+    ----------
+    caughey : DampingFit
+        The Caughey series fitted with the exponents asked for.
+    rayleigh : DampingFit
+        The Rayleigh baseline (``Y = [0, 1]``) on the same data, unweighted.
+    warnings : tuple of str
+        What `damping_sanity` found in either fit (negative modal damping within 1.5 times
+        the highest measured frequency, or a damping matrix with negative eigenvalues), in
+        words; empty when nothing.
+    """
 
     caughey: DampingFit
     rayleigh: DampingFit
     warnings: tuple[str, ...] = ()
 
     def rows(self) -> list[dict]:
-        """``damping`` rows of ``results.json``, plus the Rayleigh value of each ratio."""
+        """The ``damping`` rows of ``results.json``, plus the Rayleigh value of each ratio.
+
+        Returns
+        -------
+        list of dict
+            One row per measured ratio: ``configuration``, ``mode``, ``measured`` and
+            ``identified`` ratios (dimensionless), ``error_pct``, and the Rayleigh baseline's
+            ``rayleigh`` and ``error_rayleigh_pct``.
+        """
         return [
             {"configuration": cfg, "mode": mode, "measured": float(m), "identified": float(c),
              "error_pct": float(e), "rayleigh": float(r), "error_rayleigh_pct": float(er)}
@@ -36,6 +56,14 @@ class DampingStage:
         ]
 
     def summary(self) -> dict:
+        """The mean errors of both fits, as the ``summary`` of ``results.json`` holds them.
+
+        Returns
+        -------
+        dict
+            ``mean_damping_error_pct`` (Caughey fit) and ``mean_damping_error_rayleigh_pct``
+            (Rayleigh baseline), in percent of the measured ratios.
+        """
         return {"mean_damping_error_pct": self.caughey.mean_error_pct,
                 "mean_damping_error_rayleigh_pct": self.rayleigh.mean_error_pct}
 
@@ -127,12 +155,36 @@ def _expand_weights(weights, labels):
 
 def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), weights=None, *,
                      freqs=None) -> DampingStage:
-    """Second stage on the updated model (``xbar``; nominal if None).
+    """Second stage: fit a Caughey series to the measured damping ratios on the updated model.
 
-    ``weights``: None, one weight per measured ratio (in configuration and mode order), a full
-    matrix ``W``, or a mapping ``{mode number: weight}`` applied in every configuration.
-    ``freqs``: the modal data of the configurations at ``xbar`` when already computed
-    (``UpdateResult.correlation.updated``; `damping_data`): then no eigen-solve is repeated on the dense path.
+    Parameters
+    ----------
+    configurations : sequence of Configuration
+        The measured configurations; the natural frequencies that carry a ``damping_ratio``
+        are the data.
+    xbar : array_like, shape (n_x,), optional
+        Normalized parameters of the updated model (``UpdateResult.xbar``); the nominal values
+        when None.
+    exponents : array_like, shape (n_h,)
+        The Caughey exponents ``Y`` (Eq. 20); ``(0, 1)`` is Rayleigh damping.
+    weights : None, array_like or dict, optional
+        None (all 1), one weight per measured ratio (in configuration and mode order), a full
+        matrix ``W`` (Eq. 24), or a mapping ``{mode number: weight}`` applied in every
+        configuration.
+    freqs : sequence of ModelFrequencies, optional
+        The modal data of each configuration at ``xbar`` when already computed
+        (``UpdateResult.correlation.updated``; `damping_data`): then no eigen-solve is repeated
+        on the dense path.
+
+    Returns
+    -------
+    DampingStage
+        The Caughey fit, the Rayleigh baseline on the same data and the warnings of both.
+
+    Raises
+    ------
+    ValueError
+        No configuration has a measured damping ratio, or a weight is not positive.
     """
     omega, ratios, labels = damping_data(configurations, xbar, freqs)
     W = _expand_weights(weights, labels)

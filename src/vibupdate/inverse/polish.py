@@ -89,7 +89,18 @@ class PolishOptions:
         check("polish", self)       # types and ranges: vibupdate.options
 
     def budget(self, n_x: int) -> int:
-        """Full-model evaluations allowed for ``n_x`` parameters."""
+        """Full-model evaluations allowed for ``n_x`` parameters.
+
+        Parameters
+        ----------
+        n_x : int
+            Number of updated parameters.
+
+        Returns
+        -------
+        int
+            ``max_evaluations`` when set, else `EVALUATIONS_PER_UNKNOWN` times ``n_x + 1``.
+        """
         return self.max_evaluations if self.max_evaluations is not None else EVALUATIONS_PER_UNKNOWN * (n_x + 1)
 
 

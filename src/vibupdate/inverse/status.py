@@ -10,12 +10,37 @@ from enum import Enum
 
 
 class Status(str, Enum):
-    """Outcome of a solve or of the whole homotopy."""
+    """Outcome of a solve or of the whole homotopy.
 
-    SUCCESS = "success"                  # lambda = 1 reached and the returned model verified
-    ACCEPTABLE = "acceptable"            # as success, at IPOPT's looser acceptable tolerance
-    NOT_VERIFIED = "not_verified"        # lambda = 1 reached, but a check of the model failed
-    STEP_FAILED = "step_failed"          # a homotopy step failed down to the minimum step
+    The value of each member is the word ``results.json`` writes.
+
+    Attributes
+    ----------
+    SUCCESS
+        ``lam = 1`` reached and the returned model verified.
+    ACCEPTABLE
+        As ``SUCCESS``, at IPOPT's looser acceptable tolerance.
+    NOT_VERIFIED
+        ``lam = 1`` reached, but a check of the returned model failed.
+    STEP_FAILED
+        A homotopy step failed down to the minimum step.
+    INFEASIBLE
+        The solver found the problem infeasible.
+    MAX_ITERATIONS
+        The solver stopped at its iteration limit.
+    TIME_LIMIT
+        The solver or the homotopy stopped at its time limit.
+    NUMERICAL_ERROR
+        The solver stopped on a numerical failure (a restoration failure, an invalid number,
+        an unknown return status).
+    NOT_SOLVED
+        The solver stopped without an answer (a stop on request, an unsolved QP).
+    """
+
+    SUCCESS = "success"
+    ACCEPTABLE = "acceptable"
+    NOT_VERIFIED = "not_verified"
+    STEP_FAILED = "step_failed"
     INFEASIBLE = "infeasible"
     MAX_ITERATIONS = "max_iterations"
     TIME_LIMIT = "time_limit"
@@ -24,6 +49,7 @@ class Status(str, Enum):
 
     @property
     def ok(self) -> bool:
+        """True for ``SUCCESS`` and ``ACCEPTABLE``, the outcomes that reached their goal."""
         return self in (Status.SUCCESS, Status.ACCEPTABLE)
 
 

@@ -64,8 +64,13 @@ class UpdateResult:
     Attributes
     ----------
     status : Status
+        How the first stage ended: ``SUCCESS`` (``ACCEPTABLE`` when the last solve met only
+        IPOPT's looser tolerance) for a verified answer, ``NOT_VERIFIED`` when a check failed,
+        a solver status when the path failed.
     message : str
+        How the path ended and what the answer passed or failed, in words.
     parameters : tuple of Parameter
+        The updated parameters, in the order of ``xbar`` and ``values``.
     xbar : ndarray, shape (n_x,)
         Updated normalized parameters (Eq. 12).
     values : ndarray, shape (n_x,)
@@ -77,11 +82,14 @@ class UpdateResult:
         Counts of the first stage's problem (`BilinearProblem.sizes`; ``reduced_dofs`` after a
         reduction).
     steps : tuple of StepRecord
+        One per solve on the homotopy path, in order (``lam``, objective, iterations, status,
+        wall seconds).
     objective : float
         Exact objective at the answer.
     relaxation_lower_bound : float or None
         Optimum of the convex ``lam = 0`` relaxation, a lower bound of the global minimum.
     seconds : float
+        Wall time of the path's solves and of the further starts, s.
     sensitivity : Sensitivity
         The exact relative sensitivity of the data at the answer
         (`vibupdate.inverse.data_map.sensitivity`).
@@ -166,12 +174,29 @@ class UpdateResult:
         return () if self.sought is None else tuple(s for s in self.sought.starts if s.start != "homotopy")
 
     def mean_error(self, which: str = "updated") -> float:
-        """Mean absolute frequency error in per cent over all measured frequencies of the
-        ``"updated"`` or ``"nominal"`` model."""
+        """Mean absolute frequency error over all measured frequencies, in per cent.
+
+        Parameters
+        ----------
+        which : {"updated", "nominal"}
+            The model whose frequencies are compared with the measured ones.
+
+        Returns
+        -------
+        float
+            The mean of the absolute relative errors of the paired natural frequencies, %.
+        """
         return float(np.mean(self.correlation.errors(which=which, finite=False)))
 
     def solver_record(self) -> dict:
-        """The ``solver`` section of ``results.json``."""
+        """The ``solver`` section of ``results.json``.
+
+        Returns
+        -------
+        dict
+            Status, message, steps, objective, checks, warnings, polish, attempts, verdict and
+            the search's record, as plain JSON values (docs/outputs.md).
+        """
         return {
             "status": self.status.value,
             "message": self.message,
@@ -629,8 +654,12 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     Parameters
     ----------
     configurations : sequence of Configuration
+        The measured configurations; their models share the parameters to update.
     formulation : FormulationOptions, optional
+        How the problem is built (margins, weighting, interlacing, reduction); the defaults
+        when None.
     solver : SolverOptions, optional
+        The homotopy and its solver (steps, tolerances, time limit); the defaults when None.
     polish : PolishOptions, optional
         The refinement after the homotopy (on by default).
     verification : VerifyOptions, optional

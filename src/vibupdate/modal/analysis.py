@@ -26,8 +26,10 @@ from vibupdate.modal.zeros import adjunct, antiresonances
 
 
 def flexible_modes(M, K, n_modes: int | None = None, **options):
-    """The lowest flexible modes: `modes` without the rigid-body modes (those `modes` returns
-    at exactly 0 rad/s, `vibupdate.modal.rigid`), and the rigid-body modes apart.
+    """The lowest flexible modes, with the rigid-body modes apart.
+
+    These are `modes` without the rigid-body modes (those `modes` returns at exactly 0 rad/s,
+    `vibupdate.modal.rigid`).
 
     Measured natural frequencies are numbered by these (docs/vocabulary.md): mode 1 of a
     free-free test is the first flexible mode, whatever the number of rigid-body modes.
@@ -35,6 +37,8 @@ def flexible_modes(M, K, n_modes: int | None = None, **options):
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
+        Symmetric mass and stiffness matrices of the model (SI: kg and N/m on translations,
+        kg m^2 and N m/rad on rotations).
     n_modes : int, optional
         How many flexible modes; by default every finite one (dense) or 20 (sparse).
     **options
@@ -69,8 +73,10 @@ def mac(A, B) -> np.ndarray:
 
     Parameters
     ----------
-    A : ndarray, shape (n, m_a)
-    B : ndarray, shape (n, m_b)
+    A : ndarray, shape (n, m_a) or (n,)
+        The first set of shapes, one per column (real or complex, any scaling).
+    B : ndarray, shape (n, m_b) or (n,)
+        The second set, on the same ``n`` coordinates as ``A``.
 
     Returns
     -------

@@ -382,9 +382,10 @@ def require_accuracy(M, K, omega, V, rtol: float, what: str) -> None:
 
 def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: float = RESIDUAL_TOL,
           factor=None, precision: float | None = None):
-    """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0), by the
-    dense or the sparse path of the module docstring (every sparse pair's backward error at
-    most ``rtol``).
+    """Natural angular frequencies and mass-normalized mode shapes (Eq. 3 with C = 0).
+
+    By the dense or the sparse path of the module docstring (every sparse pair's backward
+    error at most ``rtol``).
 
     Parameters
     ----------

@@ -162,6 +162,8 @@ def modal_sum(M, K, pairs, omega, damping=None, n_modes: int | None = None) -> n
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
+        Symmetric mass and stiffness matrices of the model (SI: kg and N/m on translations,
+        kg m^2 and N m/rad on rotations).
     pairs : sequence of (int, int), length n_pairs
         Response and excitation DOF indices (0-based).
     omega : array_like, shape (n_f,)
@@ -229,6 +231,8 @@ def receptances(M, K, pairs, omega, C=None) -> np.ndarray:
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
+        Symmetric mass and stiffness matrices of the model (SI: kg and N/m on translations,
+        kg m^2 and N m/rad on rotations).
     pairs : sequence of (int, int), length n_pairs
         Response and excitation DOF indices (0-based) of each receptance.
     omega : array_like, shape (n_f,)
@@ -270,6 +274,8 @@ def receptance(M, K, r: int, c: int, omega, C=None) -> np.ndarray:
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
+        Symmetric mass and stiffness matrices of the model (SI: kg and N/m on translations,
+        kg m^2 and N m/rad on rotations).
     r, c : int
         Response and excitation DOF indices (0-based).
     omega : array_like, shape (n_f,)

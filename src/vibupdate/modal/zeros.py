@@ -166,12 +166,16 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: fl
 
 def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: float = 1e-8,
                    n_zeros: int | None = None, dense: bool | None = None, precision: float | None = None):
-    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8), dense or by shift-invert
-    (Lanczos for ``r == c``, Arnoldi otherwise) as the module docstring says.
+    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8).
+
+    Dense, or by shift-invert (Lanczos for ``r == c``, Arnoldi otherwise) as the module
+    docstring says.
 
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
+        Symmetric mass and stiffness matrices of the model (SI: kg and N/m on translations,
+        kg m^2 and N m/rad on rotations).
     r, c : int
         Response and excitation DOF indices (0-based).
     with_vectors : bool

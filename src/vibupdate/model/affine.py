@@ -46,7 +46,9 @@ class AffineModel:
     Attributes
     ----------
     parameters : tuple of Parameter, length n_x
+        The updating parameters, in the order of ``xbar``.
     dofs : tuple of str, length n
+        The names of the degrees of freedom (``"3:uy"``), in the order of the matrices' rows.
     M0, K0 : csr_matrix, shape (n, n)
         Nominal mass and stiffness matrices (SI units).
     M_par, K_par : tuple of csr_matrix, each shape (n, n), length n_x
@@ -73,22 +75,52 @@ class AffineModel:
 
     @property
     def n_dofs(self) -> int:
+        """Number of degrees of freedom ``n``, the size of the matrices."""
         return self.M0.shape[0]
 
     @property
     def n_parameters(self) -> int:
+        """Number of updating parameters ``n_x``."""
         return len(self.parameters)
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
+        """The parameters' names, in the order of ``xbar``."""
         return tuple(p.name for p in self.parameters)
 
     def dof(self, name: str) -> int:
-        """Index of a named DOF."""
+        """Index of a named DOF.
+
+        Parameters
+        ----------
+        name : str
+            A name of ``dofs``.
+
+        Returns
+        -------
+        int
+            Its row in the matrices (0-based).
+
+        Raises
+        ------
+        ValueError
+            ``name`` is not a DOF of the model (the message lists some that are).
+        """
         return dof_index(self.dofs, name)
 
     def measures(self, name: str) -> bool:
-        """Whether ``name`` is a DOF or a sensor of the model."""
+        """Whether ``name`` is a DOF or a sensor of the model.
+
+        Parameters
+        ----------
+        name : str
+            A DOF name or a sensor name.
+
+        Returns
+        -------
+        bool
+            True when measured shapes may be given at ``name``.
+        """
         return name in self._measured_names
 
     @cached_property
@@ -96,11 +128,24 @@ class AffineModel:
         return frozenset(self.dofs) | {s.name for s in self.sensors}
 
     def measurement(self, names) -> sp.csr_matrix:
-        """The measurement map of ``names`` (DOFs or sensors), shape (len(names), n): a model
-        vector's readings there are ``measurement(names) @ phi``
+        """The measurement map of ``names`` (DOFs or sensors).
+
+        A model vector's readings at ``names`` are ``measurement(names) @ phi``
         (`vibupdate.model.measurement.measurement_rows`). It depends on the model and the names
         only: built once per list of names and kept (the most recent `MEASUREMENTS_KEPT`
-        lists), the same matrix for every caller, so it is not to be changed in place."""
+        lists), the same matrix for every caller, so it is not to be changed in place.
+
+        Parameters
+        ----------
+        names : sequence of str
+            DOF or sensor names (`measures`), in the order of the readings.
+
+        Returns
+        -------
+        csr_matrix, shape (len(names), n)
+            One row per name: a unit row for a DOF, the sensor's combination of DOFs for a
+            sensor.
+        """
         from vibupdate.model.measurement import measurement_rows
 
         key = tuple(names)
@@ -121,19 +166,64 @@ class AffineModel:
         return {d: i for i, d in enumerate(self.dofs)}
 
     def normalized(self, values) -> np.ndarray:
-        """Physical parameter values, shape (n_x,), to ``xbar``."""
+        """Normalize physical parameter values (Eq. 12).
+
+        Parameters
+        ----------
+        values : array_like, shape (n_x,)
+            Parameter values, each in its parameter's ``unit``.
+
+        Returns
+        -------
+        ndarray, shape (n_x,)
+            ``xbar = (values - nominal) / reference``, dimensionless.
+        """
         return to_normalized(self.parameters, values)
 
     def physical(self, xbar) -> np.ndarray:
-        """``xbar``, shape (n_x,), to physical parameter values."""
+        """Physical parameter values of a normalized point (Eq. 12 inverted).
+
+        Parameters
+        ----------
+        xbar : array_like, shape (n_x,)
+            Normalized parameters.
+
+        Returns
+        -------
+        ndarray, shape (n_x,)
+            ``nominal + reference * xbar``, each in its parameter's ``unit``.
+        """
         return to_physical(self.parameters, xbar)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Box of ``xbar`` from the parameter bounds."""
+        """Box of ``xbar`` from the parameter bounds.
+
+        Returns
+        -------
+        lower, upper : ndarray, shape (n_x,)
+            The parameters' ``lower`` and ``upper`` bounds, normalized (a negative reference
+            swaps them).
+        """
         return normalized_bounds(self.parameters)
 
     def matrices(self, xbar=None) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-        """``M(xbar)``, ``K(xbar)``; ``xbar=None`` is the nominal model."""
+        """Mass and stiffness matrices at a normalized point, Eq. 13.
+
+        Parameters
+        ----------
+        xbar : array_like, shape (n_x,), optional
+            Normalized parameters; None is the nominal model.
+
+        Returns
+        -------
+        M, K : csr_matrix, shape (n, n)
+            ``M0 + sum_i xbar_i M_i`` and ``K0 + sum_i xbar_i K_i`` (SI units).
+
+        Raises
+        ------
+        ValueError
+            ``xbar`` does not have shape (n_x,).
+        """
         if xbar is None:
             return self.M0, self.K0
         xbar = np.asarray(xbar, dtype=float)
@@ -142,10 +232,27 @@ class AffineModel:
         return self._combine(self._stacked_M, xbar), self._combine(self._stacked_K, xbar)
 
     def solver_matrices(self, xbar=None) -> tuple:
-        """``M(xbar)``, ``K(xbar)`` in the form the solvers take: on a model within the dense
-        stacks' reach (`dense_stacks`) dense read-only arrays, one matrix-vector product over
-        the stacks, kept for the last point asked (an evaluation asks at one point several times);
-        `matrices` (csr) otherwise. ``xbar=None`` is the nominal model."""
+        """``M(xbar)``, ``K(xbar)`` in the form the solvers take.
+
+        On a model within the dense stacks' reach (`dense_stacks`) they are dense read-only
+        arrays, one matrix-vector product over the stacks, kept for the last point asked (an
+        evaluation asks at one point several times); `matrices` (csr) otherwise.
+
+        Parameters
+        ----------
+        xbar : array_like, shape (n_x,), optional
+            Normalized parameters; None is the nominal model.
+
+        Returns
+        -------
+        M, K : ndarray or csr_matrix, shape (n, n)
+            The matrices of `matrices`, dense and read-only on the dense path.
+
+        Raises
+        ------
+        ValueError
+            ``xbar`` does not have shape (n_x,).
+        """
         stacks = self.dense_stacks
         if stacks is None:
             return self.matrices(xbar)
@@ -193,8 +300,18 @@ class AffineModel:
         return tuple(out)
 
     def parameter_products(self, v) -> tuple[np.ndarray, np.ndarray]:
-        """``[M_1 v, ..., M_nx v]`` and ``[K_1 v, ...]``, each shape (n, n_x), of a vector
-        ``v``, shape (n,)."""
+        """Products of every parameter matrix with one vector.
+
+        Parameters
+        ----------
+        v : array_like, shape (n,)
+            A vector on the model's DOFs.
+
+        Returns
+        -------
+        Mv, Kv : ndarray, shape (n, n_x)
+            ``[M_1 v, ..., M_nx v]`` and ``[K_1 v, ..., K_nx v]``.
+        """
         v = np.asarray(v, dtype=float)
         if self.dense_stacks is not None:
             return tuple(np.ascontiguousarray((S[1:] @ v).T) for S in self.dense_stacks)
@@ -202,8 +319,20 @@ class AffineModel:
                      for parts in (self.M_par, self.K_par))
 
     def parameter_forms(self, L, R) -> tuple[np.ndarray, np.ndarray]:
-        """``L[:, j]^T M_i R[:, j]`` and ``L[:, j]^T K_i R[:, j]``, each shape (k, n_x), of the
-        columns of ``L``, ``R``, shape (n, k): the derivative products of `vibupdate.modal.sensitivities`."""
+        """Bilinear forms of every parameter matrix with pairs of vectors.
+
+        These are the derivative products of `vibupdate.modal.sensitivities`.
+
+        Parameters
+        ----------
+        L, R : array_like, shape (n, k)
+            Left and right vectors, paired column by column.
+
+        Returns
+        -------
+        LMR, LKR : ndarray, shape (k, n_x)
+            ``L[:, j]^T M_i R[:, j]`` and ``L[:, j]^T K_i R[:, j]``.
+        """
         L, R = np.asarray(L, dtype=float), np.asarray(R, dtype=float)
         if self.dense_stacks is not None:
             return tuple(np.einsum("nk,pnk->kp", L, S[1:] @ R) for S in self.dense_stacks)
@@ -234,7 +363,18 @@ class AffineModel:
         return content_key(self.M0, self.K0, *self.M_par, *self.K_par, extra=extra)
 
     def matrices_at(self, values) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-        """``M``, ``K`` at physical parameter values, shape (n_x,)."""
+        """Mass and stiffness matrices at physical parameter values.
+
+        Parameters
+        ----------
+        values : array_like, shape (n_x,)
+            Parameter values, each in its parameter's ``unit``.
+
+        Returns
+        -------
+        M, K : csr_matrix, shape (n, n)
+            `matrices` at the normalized point of ``values`` (SI units).
+        """
         return self.matrices(self.normalized(values))
 
 

@@ -22,7 +22,7 @@ import numpy as np
 class Parameter:
     """One updating parameter.
 
-    Parameters
+    Attributes
     ----------
     name : str
         Identifier used in data, reports and result files.
@@ -33,8 +33,14 @@ class Parameter:
     unit : str
         SI unit of the value, for reports (``"Pa"``, ``"kg/m^3"``).
     reference : float, optional
-        Normalization value ``p_ref`` of Eq. 12. Defaults to the nominal; required when the
-        nominal is 0.
+        Normalization value ``p_ref`` of Eq. 12, in ``unit``. Defaults to the nominal; required
+        when the nominal is 0.
+
+    Raises
+    ------
+    ValueError
+        A bound or the nominal is not finite, the nominal lies outside the bounds, or the
+        nominal is 0 and no non-zero reference is given.
     """
 
     name: str
