@@ -280,30 +280,57 @@ def _write_report(path: Path, run: RunResult, images) -> list[str]:
 def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = None,
              paper: dict | None = None, force: bool = False, certify: float | None = None,
              study=None, diagnose: bool | None = None) -> RunResult:
-    """Both stages on a case; writes the results folder and returns the results object.
-
-    ``certify``: time budget in seconds of the certified outer parameter ranges
-    (`vibupdate.ranges.certify`, in ``identifiability.certified``); None skips them.
-
-    ``study``: a further study of the case run after the update, such as the sampled ranges
-    and multistart of `vibupdate.study.sampled_ranges.SampledRanges`. It has ``files`` (names
-    it writes), ``check(case)`` (raises ValueError before any work) and is called as
-    ``study(case, result, say) -> (sections, write, answers)``: ``sections`` join
-    ``identifiability``, ``write(folder)`` writes its files and returns its plots, ``answers``
-    are the further answers it reports as consistent with the data (``(label, xbar)``,
-    normalized). The study runs before the certification, which widens the consistent set to
-    hold the run's answer and these (`vibupdate.ranges.inclusion`), so the certified range
-    contains every answer the run reports or is not flagged certified.
+    """Run both stages on a case and write the results folder.
 
     The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
-    file a run did not write unless ``force``, no file the case reads among those a run would
+    file but the run's own results of this case unless ``force``, no file the case reads among those a run would
     replace or remove); the files are written beside it and moved into place at the end, so a
     run that fails or is interrupted leaves earlier results as they were, and files in the
     folder that a run did not write (the user's, another command's) are never touched.
 
-    ``diagnose``: whether an answer that does not fit the data is followed by the diagnosis of
-    which data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
-    ``[verification] diagnose``.
+    Parameters
+    ----------
+    case : Case
+        The case to run (`load_case`, or built in Python).
+    out_dir : str or Path
+        The results folder (docs/outputs.md names its files); created when missing.
+    progress : callable, optional
+        Receives one line of progress at a time.
+    paper : dict, optional
+        Reference columns for the report's tables (a bundled example's
+        ``reference_columns()``: published values, a synthetic example's truth).
+    force : bool
+        Accept a folder that holds files other than this command's unchanged results of the
+        case (they are kept) or results of another case.
+    certify : float, optional
+        Time budget, s, of the certified outer parameter ranges (`vibupdate.ranges.certify`,
+        in ``identifiability.certified``); None skips them.
+    study : callable, optional
+        A further study of the case run after the update, such as the sampled ranges and
+        multistart of `vibupdate.study.sampled_ranges.SampledRanges`. It has ``files`` (names
+        it writes), ``check(case)`` (raises ValueError before any work) and is called as
+        ``study(case, result, say) -> (sections, write, answers)``: ``sections`` join
+        ``identifiability``, ``write(folder)`` writes its files and returns its plots,
+        ``answers`` are the further answers it reports as consistent with the data
+        (``(label, xbar)``, normalized). The study runs before the certification, which widens
+        the consistent set to hold the run's answer and these (`vibupdate.ranges.inclusion`),
+        so the certified range contains every answer the run reports or is not flagged
+        certified.
+    diagnose : bool, optional
+        Whether an answer that does not fit the data is followed by the diagnosis of which
+        data conflict (`vibupdate.inverse.diagnosis`); None takes the case's
+        ``[verification] diagnose``.
+
+    Returns
+    -------
+    RunResult
+        What the run wrote to ``results.json``, with the updated matrices.
+
+    Raises
+    ------
+    ValueError
+        The case or the options are invalid, or the folder cannot be used; raised before any
+        solve.
     """
     from vibupdate import __version__
 

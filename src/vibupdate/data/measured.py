@@ -98,7 +98,25 @@ class ShapeInterval:
 
     @classmethod
     def from_values(cls, values: Mapping[str, float], tolerance) -> "ShapeInterval":
-        """Intervals ``value +- tolerance``; ``tolerance`` a number or a mapping per DOF."""
+        """Intervals ``value +- tolerance`` around measured entries.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            The measured entry at each DOF or sensor name, in the DOF's unit (m or rad).
+        tolerance : float or mapping of str to float
+            The half-width of every interval, or one per name, in the same units; >= 0.
+
+        Returns
+        -------
+        ShapeInterval
+            The intervals, not mass-normalized.
+
+        Raises
+        ------
+        ValueError
+            A tolerance is negative or not finite.
+        """
         tol = tolerance if isinstance(tolerance, Mapping) else {d: tolerance for d in values}
         for d, t in tol.items():
             if not math.isfinite(float(t)) or float(t) < 0:
@@ -106,12 +124,23 @@ class ShapeInterval:
         return cls({d: (v - tol[d], v + tol[d]) for d, v in values.items()})
 
     def on_dofs(self, model) -> "ShapeInterval | None":
-        """The intervals these imply on ``model``'s DOFs, for a shape given (partly) at sensors
-        (`vibupdate.model.measurement.dof_box`): the intervals themselves, in their order, where
-        every name is a DOF; an outer box where sensors give DOFs in combination; None when no
-        DOF is implied. What the first stage's formulation bounds: its unknowns are DOF
-        entries. The box bounds entries, not the modal mass (it may hold zero at its largest
-        entry): it is not marked mass-normalized."""
+        """The intervals these imply on ``model``'s DOFs, for a shape given (partly) at sensors.
+
+        This is what the first stage's formulation bounds: its unknowns are DOF entries
+        (`vibupdate.model.measurement.dof_box`). The box bounds entries, not the modal mass (it
+        may hold zero at its largest entry): it is not marked mass-normalized.
+
+        Parameters
+        ----------
+        model : AffineModel
+            The model whose DOFs and sensors the names refer to.
+
+        Returns
+        -------
+        ShapeInterval or None
+            The intervals themselves, in their order, where every name is a DOF; an outer box
+            where sensors give DOFs in combination; None when no DOF is implied.
+        """
         from vibupdate.model.measurement import dof_box
 
         names = list(self.bounds)
@@ -126,27 +155,42 @@ class ShapeInterval:
 
     @property
     def midpoint(self) -> dict[str, float]:
+        """The midpoint of each interval, by name."""
         return {d: 0.5 * (lo + hi) for d, (lo, hi) in self.bounds.items()}
 
     @cached_property
     def reference(self) -> str:
-        """The DOF whose interval midpoint has the largest magnitude: the entry a measured
-        shape is normalized at (shape ratios ``phi_j / phi_reference``). Computed once: the
+        """The DOF whose interval midpoint has the largest magnitude.
+
+        It is the entry a measured shape is normalized at (shape ratios ``phi_j / phi_reference``). Computed once: the
         bounds do not change."""
         mid = self.midpoint
         return max(mid, key=lambda d: abs(mid[d]))
 
     def modal_mass_bounds(self) -> tuple[float, float] | None:
-        """Of a mass-normalized shape, the interval (kg) of the modal mass at the reference
-        entry ``p``: ``1 / phi_p^2``, the mass of the mode scaled to 1 at ``p``; None otherwise."""
+        """The interval of the modal mass at the reference entry, for a mass-normalized shape.
+
+        Returns
+        -------
+        (float, float) or None
+            ``1 / phi_p^2`` over the interval of the reference entry ``p``: the mass (kg, or
+            kg m^2 at a rotation) of the mode scaled to 1 at ``p``. None when the shape is not
+            mass-normalized.
+        """
         if not self.mass_normalized:
             return None
         lo, hi = sorted(abs(v) for v in self.bounds[self.reference])
         return (1.0 / hi**2, 1.0 / lo**2)
 
     def ratio_bounds(self) -> dict[str, tuple[float, float]]:
-        """Interval of each ratio ``phi_j / phi_reference`` (the other DOFs), from the bounds
-        divided by the reference midpoint."""
+        """Interval of each ratio ``phi_j / phi_reference`` over the other entries.
+
+        Returns
+        -------
+        dict of str to (float, float)
+            For each name but `reference`, its bounds divided by the reference midpoint
+            (dimensionless, lower first).
+        """
         ref = self.midpoint[self.reference]
         return {d: (min(lo / ref, hi / ref), max(lo / ref, hi / ref))
                 for d, (lo, hi) in self.bounds.items() if d != self.reference}
@@ -159,7 +203,7 @@ class NaturalFrequency:
     Attributes
     ----------
     omega : float
-        rad/s.
+        The natural frequency, rad/s.
     weight : float
         User weight multiplying the default weight of its residual (docs/method.md, "Default weights").
     shape : ShapeInterval, optional
@@ -201,10 +245,25 @@ class NaturalFrequency:
 
     @classmethod
     def from_hz(cls, freq_hz: float, **kwargs) -> "NaturalFrequency":
+        """A measured natural frequency given in Hz.
+
+        Parameters
+        ----------
+        freq_hz : float
+            The frequency, Hz; positive and finite.
+        **kwargs
+            The other fields (``weight``, ``shape``, ``damping_ratio``, ...).
+
+        Returns
+        -------
+        NaturalFrequency
+            With ``omega = 2 pi freq_hz`` rad/s.
+        """
         return cls(TWO_PI * _positive_finite(freq_hz, "natural frequency (Hz)"), **kwargs)
 
     @property
     def freq_hz(self) -> float:
+        """The natural frequency, Hz."""
         return self.omega / TWO_PI
 
 
@@ -245,10 +304,12 @@ class Antiresonance:
     Attributes
     ----------
     omega : float
-        rad/s.
+        The antiresonance frequency, rad/s.
     response, excitation : str
         Names of the DOFs ``r`` (response) and ``c`` (force).
     weight : float
+        User weight multiplying the default weight of its residual (docs/method.md, "Default
+        weights").
     index : int, optional
         Which antiresonance of ``h_rc`` this is (1-based, counted from the lowest zero of the
         model's receptance). When omitted it is assigned from the measured poles around it
@@ -272,14 +333,32 @@ class Antiresonance:
 
     @classmethod
     def from_hz(cls, freq_hz: float, response: str, excitation: str, **kwargs) -> "Antiresonance":
+        """A measured antiresonance given in Hz.
+
+        Parameters
+        ----------
+        freq_hz : float
+            The frequency, Hz; positive and finite.
+        response, excitation : str
+            Names of the DOFs ``r`` (response) and ``c`` (force).
+        **kwargs
+            The other fields (``weight``, ``index``, ``interval``).
+
+        Returns
+        -------
+        Antiresonance
+            With ``omega = 2 pi freq_hz`` rad/s.
+        """
         return cls(TWO_PI * _positive_finite(freq_hz, "antiresonance frequency (Hz)"), response, excitation, **kwargs)
 
     @property
     def freq_hz(self) -> float:
+        """The antiresonance frequency, Hz."""
         return self.omega / TWO_PI
 
     @property
     def receptance(self) -> tuple[str, str]:
+        """The receptance's DOF names ``(response, excitation)``."""
         return (self.response, self.excitation)
 
 
@@ -292,7 +371,9 @@ class Configuration:
     Attributes
     ----------
     name : str
+        The configuration's name, as reports and ``results.json`` show it.
     model : AffineModel
+        The configuration's model; every configuration's model has the same parameters.
     natural : tuple of NaturalFrequency
         Measured natural frequencies, ascending; equal ones are the modes of a repeated
         frequency (`vibupdate.inverse.repeated`). After construction each carries its model
@@ -325,7 +406,14 @@ class Configuration:
         object.__setattr__(self, "antiresonances", zeros)
 
     def receptances(self) -> list[tuple[str, str]]:
-        """The receptances ``(r, c)`` with measured antiresonances, in order of appearance."""
+        """The receptances with measured antiresonances.
+
+        Returns
+        -------
+        list of (str, str)
+            Each receptance's ``(response, excitation)`` DOF names, once, in order of
+            appearance.
+        """
         seen: list[tuple[str, str]] = []
         for a in self.antiresonances:
             if a.receptance not in seen:

@@ -323,7 +323,24 @@ def _damping(table: dict, where: Where) -> DampingOptions:
 
 
 def load_case(path) -> Case:
-    """Read and validate a case file; raises ValueError naming the file and the key."""
+    """Read and validate a case file (docs/case-file.md).
+
+    Parameters
+    ----------
+    path : str or Path
+        The case's TOML file; files it names are found relative to its folder.
+
+    Returns
+    -------
+    Case
+        The configurations with their models and data, and the options of every stage.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the key, when the file cannot be read, is not TOML, or holds a
+        value that is not what the key expects.
+    """
     import tomllib   # here: a bundled example builds its case without TOML
 
     path = Path(path)

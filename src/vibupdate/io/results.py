@@ -74,13 +74,17 @@ class RunResult:
     format_version : int
         Layout version of ``results.json`` (`FORMAT_VERSION`).
     case : str
+        The case's name.
     success : bool
         Whether the first stage succeeded (``UpdateResult.success``: verified, once the
         verification stage exists).
     parameters : tuple of ParameterRow
+        One row per parameter: unit, bounds, reference value, nominal and updated values.
     xbar : tuple of float
         Updated normalized parameters (Eq. 12), in the order of ``parameters``.
     frequencies : tuple of FrequencyRow
+        One row per measured natural frequency and antiresonance (Hz), with the nominal and
+        updated models' paired values and errors.
     modal_masses : tuple of ModalMassRow
         The modal masses of mass-normalized measured shapes; empty without them.
     mac : dict of str to tuple of float or None
@@ -93,12 +97,23 @@ class RunResult:
     frf : dict of str to PlottedReceptance
         Per configuration, the receptance plotted.
     damping : tuple of DampingRow
+        One row per measured damping ratio, with the Caughey fit's and the Rayleigh
+        baseline's values; empty without a damping stage.
     summary : Summary
+        The mean absolute errors, in per cent, of the frequencies and damping ratios.
     problem_size : dict of str to int
+        Counts of the first stage's problem (parameters, mode and adjunct unknowns, lifted
+        variables, residuals; ``reduced_dofs`` after a reduction).
     solver : SolverRecord
+        The first stage's record: status, verdict, message, every solve of the homotopy,
+        checks, polish and search.
     identifiability : Identifiability or None
+        What the data determine: the sensitivity's rank and condition, undetermined
+        combinations, parameter ranges and the further studies' sections.
     damping_model : DampingModel or None
+        The fitted Caughey series and the Rayleigh baseline; None without a damping stage.
     warnings : tuple of str
+        Every warning of the run, in words, with its figures.
     checks : tuple of Check
         Verification checks of the first stage.
     paper : ReferenceColumns or None
@@ -167,12 +182,29 @@ class RunResult:
         return self.identifiability.multistart if self.identifiability is not None else None
 
     def as_document(self) -> dict:
-        """The ``results.json`` document (JSON-safe)."""
+        """The ``results.json`` document.
+
+        Returns
+        -------
+        dict
+            Every field but ``matrices`` as plain JSON values (lists, numbers, strings, None).
+        """
         return {f.name: plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name not in _NOT_WRITTEN}
 
     @classmethod
     def from_document(cls, doc: Mapping) -> RunResult:
-        """The typed object of a ``results.json`` document (`validate_document` first)."""
+        """The typed object of a ``results.json`` document.
+
+        Parameters
+        ----------
+        doc : mapping
+            A parsed ``results.json`` document that passed `validate_document`.
+
+        Returns
+        -------
+        RunResult
+            Each section as its record type; ``matrices`` empty.
+        """
         hints = field_types(cls)
         return cls(**{f.name: typed(hints[f.name], doc[f.name]) for f in dataclasses.fields(cls)
                       if f.name not in _NOT_WRITTEN and f.name in doc})
@@ -384,10 +416,23 @@ def write_results(path, run: RunResult) -> Path:
 
 
 def load_results(path) -> RunResult:
-    """Read a ``results.json`` file into a `RunResult` (without matrices: see the ``.mtx`` files).
+    """Read a ``results.json`` file into a `RunResult`.
 
-    Raises ValueError naming the file when it cannot be read, is not JSON, or does not match
-    the schema (e.g. a file of an older vibupdate, before ``format_version`` 2).
+    Parameters
+    ----------
+    path : str or Path
+        The ``results.json`` file of a run.
+
+    Returns
+    -------
+    RunResult
+        Every section as its record type, without matrices (the ``.mtx`` files hold them).
+
+    Raises
+    ------
+    ValueError
+        Naming the file, when it cannot be read, is not JSON, or does not match the schema
+        (e.g. a file of an older vibupdate, before ``format_version`` 2).
     """
     path = Path(path)
     try:

@@ -48,7 +48,7 @@ class AffineModel:
     parameters : tuple of Parameter, length n_x
         The updating parameters, in the order of ``xbar``.
     dofs : tuple of str, length n
-        The names of the degrees of freedom (``"3:uy"``), in the order of the matrices' rows.
+        The names of the degrees of freedom (``"y2"``, ``"phi2"``), in the order of the matrices' rows.
     M0, K0 : csr_matrix, shape (n, n)
         Nominal mass and stiffness matrices (SI units).
     M_par, K_par : tuple of csr_matrix, each shape (n, n), length n_x
@@ -282,9 +282,11 @@ class AffineModel:
 
     @cached_property
     def dense_stacks(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(M0, M_1, ..., M_nx)`` and ``(K0, K_1, ...)`` as dense read-only arrays, each shape
-        (1 + n_x, n, n), for a model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose
-        two stacks fit in `DENSE_STACK_BYTES`; None otherwise (the sparse path). On such a model
+        """The matrices stacked as dense read-only arrays, on a small model.
+
+        ``(M0, M_1, ..., M_nx)`` and ``(K0, K_1, ...)``, each shape (1 + n_x, n, n), for a
+        model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose two stacks fit in
+        `DENSE_STACK_BYTES`; None otherwise (the sparse path). On such a model
         the solvers work on dense matrices anyway, and a product with every parameter matrix at
         once is one array operation instead of ``2 n_x`` sparse products."""
         from vibupdate.modal.eigen import DENSE_LIMIT
@@ -354,8 +356,9 @@ class AffineModel:
 
     @cached_property
     def fingerprint(self) -> str:
-        """A hash of the matrices ``M0``, ``K0``, ``M_i``, ``K_i`` (`vibupdate.modal.kept.content_key`):
-        two models with the same fingerprint have the same ``M(xbar)``, ``K(xbar)`` at every
+        """A hash of the matrices ``M0``, ``K0``, ``M_i``, ``K_i``.
+
+        Made by `vibupdate.modal.kept.content_key`: two models with the same fingerprint have the same ``M(xbar)``, ``K(xbar)`` at every
         ``xbar`` (and the same `matrix_precision`); the key of caches of results computed from them."""
         from vibupdate.modal.kept import content_key
 

@@ -44,7 +44,23 @@ class System:
     dofs: tuple[str, ...]
 
     def dof(self, name: str) -> int:
-        """Position (0-based) of the DOF called ``name``, as `AffineModel.dof`."""
+        """Position (0-based) of the DOF called ``name``, as `AffineModel.dof`.
+
+        Parameters
+        ----------
+        name : str
+            A name of ``dofs``.
+
+        Returns
+        -------
+        int
+            Its row in the matrices.
+
+        Raises
+        ------
+        ValueError
+            ``name`` is not a DOF of the system.
+        """
         return dof_index(self.dofs, name)
 
 
@@ -95,11 +111,39 @@ class Assembly:
 
     # -- nodes and supports -------------------------------------------------------------
     def node(self, label, x: float, y: float = 0.0) -> None:
-        """Add a node at (x, y), m. For a beam assembly only x is used."""
+        """Add a node at (x, y).
+
+        Parameters
+        ----------
+        label : hashable
+            The node's label; its DOFs are named after it (``"y2"``, ``"phi2"`` for node 2).
+        x, y : float
+            Coordinates, m. A beam assembly uses only ``x``.
+
+        Raises
+        ------
+        ValueError
+            The label is already a node.
+        """
         self.nodes([label], [x], [y])
 
     def nodes(self, labels: Sequence, x, y=None) -> None:
-        """Add many nodes at once: ``labels`` (length n_n) at coordinates ``x``, ``y`` (m)."""
+        """Add many nodes at once.
+
+        Parameters
+        ----------
+        labels : sequence of hashable, length n_n
+            The nodes' labels, each new.
+        x : float or array_like, shape (n_n,)
+            Coordinates along x, m.
+        y : float or array_like, shape (n_n,), optional
+            Coordinates along y, m; 0 when omitted.
+
+        Raises
+        ------
+        ValueError
+            A label is repeated or is already a node.
+        """
         labels = list(labels)
         x = np.broadcast_to(np.asarray(x, dtype=float), (len(labels),)).tolist()
         y = [0.0] * len(labels) if y is None else np.broadcast_to(np.asarray(y, dtype=float), (len(labels),)).tolist()
@@ -126,17 +170,50 @@ class Assembly:
         return self._index[name] if name in self._index else dof_index(self._dofs, name)
 
     def clamp(self, label) -> None:
-        """Fix every DOF of a node."""
+        """Fix every DOF of a node.
+
+        Parameters
+        ----------
+        label : hashable
+            The node's label.
+
+        Raises
+        ------
+        ValueError
+            The node does not exist.
+        """
         self._node_dofs(label)
         self._fixed.update(f"{kind}{label}" for kind in self._dof_kinds)
 
     def pin(self, label) -> None:
-        """Fix the translations of a node and leave its rotation free."""
+        """Fix the translations of a node and leave its rotation free.
+
+        Parameters
+        ----------
+        label : hashable
+            The node's label.
+
+        Raises
+        ------
+        ValueError
+            The node does not exist.
+        """
         self._node_dofs(label)
         self._fixed.update(f"{kind}{label}" for kind in self._dof_kinds if kind != "phi")
 
     def fix(self, dof: str) -> None:
-        """Fix a single named DOF."""
+        """Fix a single named DOF.
+
+        Parameters
+        ----------
+        dof : str
+            The DOF's name (``"y2"``, ``"phi3"``).
+
+        Raises
+        ------
+        ValueError
+            The DOF does not exist.
+        """
         self._dof(dof)
         self._fixed.add(dof)
 
@@ -161,17 +238,48 @@ class Assembly:
     def beam(self, n1, n2, *, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Euler-Bernoulli beam element between two nodes of a beam assembly.
 
-        ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m, ``rotary_inertia`` (rho I, kg m;
-        default 0, none); the length is the distance of the nodes along x.
+        The length is the distance of the nodes along x.
+
+        Parameters
+        ----------
+        n1, n2 : hashable
+            The labels of the element's end nodes.
+        EI : float or LinearExpression
+            Bending stiffness, N m^2.
+        mass_per_length : float or LinearExpression
+            Mass per unit length ``rho A``, kg/m.
+        rotary_inertia : float or LinearExpression
+            Rotary inertia of the section per unit length ``rho I``, kg m; 0 (none) by default.
+
+        Raises
+        ------
+        ValueError
+            The assembly is a frame, a node does not exist, or a property is not a number.
         """
         self.beams([n1], [n2], EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
 
     def beams(self, first: Sequence, second: Sequence, *, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Many beam elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
 
-        ``EI`` (N m^2), ``mass_per_length`` (kg/m) and ``rotary_inertia`` (rho I of the
-        section, kg m; default 0): scalars or arrays of shape (n_e,), real or complex, or one
-        `LinearExpression` of the parameters for all the elements.
+        Each property is a scalar or an array of shape (n_e,), real or complex (a complex
+        value is a complex step), or one `LinearExpression` of the parameters for all the
+        elements.
+
+        Parameters
+        ----------
+        first, second : sequence of hashable, length n_e
+            The labels of the elements' end nodes.
+        EI : float, array_like or LinearExpression
+            Bending stiffness, N m^2.
+        mass_per_length : float, array_like or LinearExpression
+            Mass per unit length ``rho A``, kg/m.
+        rotary_inertia : float, array_like or LinearExpression
+            Rotary inertia of the section per unit length ``rho I``, kg m; 0 (none) by default.
+
+        Raises
+        ------
+        ValueError
+            The assembly is a frame, a node does not exist, or a property is not a number.
         """
         if self.kind != "beam":
             raise ValueError("beam() needs a beam assembly; use frame() in a frame assembly")
@@ -185,17 +293,50 @@ class Assembly:
     def frame(self, n1, n2, *, EA, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Planar frame element (axial + bending) between two nodes of a frame assembly.
 
-        ``EA`` in N, ``EI`` in N m^2, ``mass_per_length`` (rho A) in kg/m, ``rotary_inertia``
-        (rho I, kg m; default 0, none).
+        Parameters
+        ----------
+        n1, n2 : hashable
+            The labels of the element's end nodes.
+        EA : float or LinearExpression
+            Axial stiffness, N.
+        EI : float or LinearExpression
+            Bending stiffness, N m^2.
+        mass_per_length : float or LinearExpression
+            Mass per unit length ``rho A``, kg/m.
+        rotary_inertia : float or LinearExpression
+            Rotary inertia of the section per unit length ``rho I``, kg m; 0 (none) by default.
+
+        Raises
+        ------
+        ValueError
+            The assembly is a beam, a node does not exist, or a property is not a number.
         """
         self.frames([n1], [n2], EA=EA, EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
 
     def frames(self, first: Sequence, second: Sequence, *, EA, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Many frame elements at once, element ``i`` from node ``first[i]`` to ``second[i]``.
 
-        ``EA`` (N), ``EI`` (N m^2), ``mass_per_length`` (kg/m) and ``rotary_inertia`` (rho I
-        of the section, kg m; default 0): scalars or arrays of shape (n_e,), real or complex,
-        or one `LinearExpression` of the parameters for all the elements.
+        Each property is a scalar or an array of shape (n_e,), real or complex (a complex
+        value is a complex step), or one `LinearExpression` of the parameters for all the
+        elements.
+
+        Parameters
+        ----------
+        first, second : sequence of hashable, length n_e
+            The labels of the elements' end nodes.
+        EA : float, array_like or LinearExpression
+            Axial stiffness, N.
+        EI : float, array_like or LinearExpression
+            Bending stiffness, N m^2.
+        mass_per_length : float, array_like or LinearExpression
+            Mass per unit length ``rho A``, kg/m.
+        rotary_inertia : float, array_like or LinearExpression
+            Rotary inertia of the section per unit length ``rho I``, kg m; 0 (none) by default.
+
+        Raises
+        ------
+        ValueError
+            The assembly is a beam, a node does not exist, or a property is not a number.
         """
         if self.kind != "frame":
             raise ValueError("frame() needs a frame assembly; use beam() in a beam assembly")
@@ -207,13 +348,40 @@ class Assembly:
         self._elements.append(_Batch("frame", idx, props, (dx, dy)))
 
     def mass(self, dof: str, value) -> None:
-        """Lumped mass (kg) on a translational DOF or rotary inertia (kg m^2) on a rotation;
-        ``value`` a number or a `LinearExpression` of the parameters."""
+        """Add a lumped mass on a translational DOF or a rotary inertia on a rotation.
+
+        Parameters
+        ----------
+        dof : str
+            The DOF's name.
+        value : float or LinearExpression
+            The mass, kg (rotary inertia, kg m^2), or a `LinearExpression` of the parameters.
+
+        Raises
+        ------
+        ValueError
+            The DOF does not exist or ``value`` is not a number.
+        """
         self._lumped.append(_Lumped("M", np.array([self._dof(dof)]), _POINT, _scalar(value, "mass")))
 
     def spring(self, dof: str, stiffness, other: str | None = None) -> None:
-        """Spring (N/m, or N m/rad on rotations) to ground, or between ``dof`` and ``other``;
-        ``stiffness`` a number or a `LinearExpression` of the parameters."""
+        """Add a spring to ground, or between two DOFs.
+
+        Parameters
+        ----------
+        dof : str
+            The DOF's name.
+        stiffness : float or LinearExpression
+            The stiffness, N/m (N m/rad on rotations), or a `LinearExpression` of the
+            parameters.
+        other : str, optional
+            The DOF at the spring's other end; ground when omitted.
+
+        Raises
+        ------
+        ValueError
+            A DOF does not exist or ``stiffness`` is not a number.
+        """
         value = _scalar(stiffness, "spring stiffness")
         if other is None:
             self._lumped.append(_Lumped("K", np.array([self._dof(dof)]), _POINT, value))
@@ -275,8 +443,11 @@ class Assembly:
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
-        """Names of the parameters that `LinearExpression` properties and values involve,
-        in order of first appearance."""
+        """Names of the parameters that the assembly's expressions involve.
+
+        These are the names in its `LinearExpression` properties and lumped values, in order
+        of first appearance.
+        """
         names = {}
         for item in [*self._elements, *self._lumped]:
             for prop in (item.props if isinstance(item, _Batch) else (item.value,)):
@@ -292,6 +463,16 @@ class Assembly:
         values : mapping of str to float or complex, optional
             Parameter values at which `LinearExpression` properties are evaluated (complex
             values give the complex step of Eq. 15); needed when the assembly has any.
+
+        Returns
+        -------
+        System
+            ``M``, ``K`` (csr, over the free DOFs) and the free DOFs' names in matrix order.
+
+        Raises
+        ------
+        ValueError
+            The assembly depends on a parameter that ``values`` does not give.
         """
         needed = self.parameter_names
         missing = [n for n in needed if values is None or n not in values]
@@ -308,8 +489,9 @@ class Assembly:
         return System(M, K, tuple(np.array(self._dofs, dtype=object)[free]))
 
     def affine_parts(self, parameters: Sequence[Parameter]):
-        """Nominal matrices and normalized parameter matrices of an assembly whose properties
-        are `LinearExpression` s, assembled directly (Eqs. 13-14).
+        """Nominal and normalized parameter matrices of the assembly (Eqs. 13-14).
+
+        The properties that are `LinearExpression` s are assembled directly.
 
         Every element matrix is linear in its properties, so ``dK/dp_i`` is the assembly of
         only the elements (and lumped values) whose expressions involve ``p_i``, with each
