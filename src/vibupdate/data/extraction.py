@@ -130,10 +130,15 @@ class Extraction:
 
     Attributes
     ----------
-    modes : tuple of ExtractedMode, ascending in frequency
-    zeros : tuple of ExtractedZero, grouped by pair, ascending
-    quality : tuple of FRFQuality, one per pair
+    modes : tuple of ExtractedMode
+        The modes in the band, ascending in frequency: natural frequency, damping ratio,
+        shape, and their intervals.
+    zeros : tuple of ExtractedZero
+        The antiresonances in the band, grouped by pair, ascending, with their intervals.
+    quality : tuple of FRFQuality
+        The fit's quality on each FRF, one per pair.
     band : (float, float)
+        The band whose modes and zeros are reported, rad/s.
     confidence : float
         Level of every interval.
     noise : str
@@ -141,6 +146,7 @@ class Extraction:
     stabilization : tuple of (int, ndarray, ndarray)
         ``(n_pole_pairs, omega, zeta)`` of the physical poles in the band at each order.
     pairs : tuple of (str, str)
+        ``(response, excitation)`` DOF names of each fitted FRF, as in the `FRFSet`.
     coefficients : ndarray, shape (n_pairs, n_columns)
         Stage-2 linear coefficients (normalized units), for `synthesize`.
     scales : ndarray, shape (n_pairs,)
@@ -193,9 +199,21 @@ class Extraction:
     noisy_zeros: tuple = ()
 
     def synthesize(self, omega, damped: bool = True) -> np.ndarray:
-        """Fitted receptances, shape (n_pairs, n_freq), at ``omega`` (rad/s, shape (n_freq,)):
-        ``damped`` as estimated (through the window the fit modelled, if any), else the
-        undamped receptance of the fitted modes."""
+        """The fitted receptances at some frequencies.
+
+        Parameters
+        ----------
+        omega : array_like, shape (n_freq,)
+            Angular frequencies, rad/s.
+        damped : bool
+            The receptances as estimated (through the window the fit modelled, if any); else
+            the undamped receptance of the fitted modes.
+
+        Returns
+        -------
+        ndarray of complex, shape (n_pairs, n_freq)
+            The fitted receptance of each pair, in the units of the FRFs (m/N).
+        """
         from vibupdate.data.window import ORDERS, Window
 
         x = np.asarray(omega, dtype=float) / self.fit_band[1]
@@ -207,11 +225,23 @@ class Extraction:
         return (_modal_basis(x, xn, zeta, damped, window) @ self.coefficients.T).T * self.scales[:, None]
 
     def notes(self, first_mode: int = 1) -> list:
-        """What a user should know before using this extraction, as sentences: FRFs whose
-        fit misses the data by more than their noise (quality above `MISFIT_QUALITY`), and,
-        when no window was modelled, modes whose half-power bandwidth ``2 zeta omega`` spans
-        fewer than `NARROW_LINES` lines, whose damping ratio then depends on the window of
-        the spectral estimate; modes numbered from ``first_mode``."""
+        """What a user should know before using this extraction, as sentences.
+
+        Parameters
+        ----------
+        first_mode : int
+            The number the sentences give the lowest extracted mode.
+
+        Returns
+        -------
+        list of str
+            FRFs whose fit misses the data by more than their noise (quality above
+            `MISFIT_QUALITY`); zeros left out (outside the fitted poles, at the noise floor);
+            the damping an exponential window adds; and, when no window was modelled, modes
+            whose half-power bandwidth ``2 zeta omega`` spans fewer than `NARROW_LINES`
+            lines, whose damping ratio then depends on the window of the spectral estimate.
+            Empty when there is nothing to say.
+        """
         line_spacing = self.line_spacing
         out = []
         misfit = [q for q in self.quality if q.quality > MISFIT_QUALITY]
@@ -253,15 +283,33 @@ class Extraction:
         return bool(self.modes) and all(m.normalization == "mass" for m in self.modes)
 
     def to_measured(self, first_mode: int | None = None, weight: float = 1.0, mass_normalized: bool = False):
-        """Measured data for a `Configuration`: ``(naturals, antiresonances)``.
+        """Measured data for a `Configuration`.
 
-        ``naturals`` are `NaturalFrequency` with ``interval``, damping ratio and its interval,
-        and a `ShapeInterval` from the shape intervals; ``mode`` is set when ``first_mode``
-        (the model mode number of the lowest extracted mode) is given. Antiresonances get
-        ``index`` only when ``first_mode == 1`` (the band then starts below the first mode, so
-        zeros counted in the band are counted from the lowest). ``mass_normalized``: the
-        shapes are taken as mass-normalized (`ShapeInterval`), for FRFs calibrated in SI
-        units; ValueError when they are not (no driving point).
+        Parameters
+        ----------
+        first_mode : int, optional
+            The model mode number of the lowest extracted mode; each natural frequency's
+            ``mode`` is set from it. Antiresonances get their ``index`` only when it is 1 (the
+            band then starts below the first mode, so zeros counted in the band are counted
+            from the lowest).
+        weight : float
+            The user weight of every datum (`NaturalFrequency`, `Antiresonance`).
+        mass_normalized : bool
+            Take the shapes as mass-normalized (`ShapeInterval`), for FRFs calibrated in SI
+            units.
+
+        Returns
+        -------
+        naturals : list of NaturalFrequency
+            With their intervals, damping ratios and their intervals, and a `ShapeInterval`
+            from the shape intervals.
+        antiresonances : list of Antiresonance
+            With their intervals.
+
+        Raises
+        ------
+        ValueError
+            ``mass_normalized`` is asked for shapes that are not (no driving point).
         """
         from vibupdate.data.measured import Antiresonance, NaturalFrequency, ShapeInterval
 
@@ -342,8 +390,8 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     frfs : FRFSet
         Receptances (repeats are averaged; their scatter is the noise estimate).
     band : (float, float), optional
-        rad/s; the modes and antiresonances reported are those in this band. Default the
-        whole frequency axis.
+        The band, rad/s, whose modes and antiresonances are reported. Default the whole
+        frequency axis.
     n_modes : int, optional
         Report this many of the stable modes in ``band`` (those whose model fits best);
         default all.
@@ -357,7 +405,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     confidence : float
         Level of the intervals, in (0, 1).
     fit_band : (float, float), optional
-        rad/s, containing ``band``: the lines that are fitted. Every stable mode in it is
+        The fitted lines' band, rad/s, containing ``band``. Every stable mode in it is
         fitted as a mode (with its own residues), but only those in ``band`` are reported.
         Default: from ``band``'s bottom to ``FIT_BAND_FACTOR`` (2) times its top, within the
         data (module docstring: modes just above the band shape its antiresonances).
@@ -371,13 +419,13 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         ``"exponential"``, a window ``exp(-t / tau)`` on the response over the record (one
         over the line spacing), whose added damping is modelled (needs ``window_decay`` or
         ``window_tau``); ``"force"``, the force window alone, which needs no model.
+    keep_outer_zeros : bool
+        Report the antiresonances below the lowest or above the highest fitted pole with the
+        others; by default they are left out (`Extraction.outer_zeros`) and said in the notes.
     window_decay : float, optional
         The exponential window's value at the end of the record, in (0, 1).
     window_tau : float, optional
         The exponential window's time constant, s (instead of ``window_decay``).
-    keep_outer_zeros : bool
-        Report the antiresonances below the lowest or above the highest fitted pole with the
-        others; by default they are left out (`Extraction.outer_zeros`) and said in the notes.
     keep_noisy_zeros : bool
         Report the antiresonances whose local signal-to-noise ratio is under `NOISY_ZERO_SNR`
         with the others; by default they are left out (`Extraction.noisy_zeros`) and said in
@@ -386,6 +434,16 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     Returns
     -------
     Extraction
+        The modes and antiresonances in ``band`` with their intervals at ``confidence``, the
+        fit's quality per FRF and the record of the fit (`Extraction.notes` says what a user
+        should know before using it).
+
+    Raises
+    ------
+    ValueError
+        An option is out of range (a band not ``0 < low < high``, a ``fit_band`` that does
+        not contain ``band``, the window's values missing or contradictory), an FRF is zero
+        over the band, or fewer stable modes than asked for are found.
     """
     from threadpoolctl import threadpool_limits
 

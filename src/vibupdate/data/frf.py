@@ -89,14 +89,37 @@ class FRFSet:
 
     @property
     def n_repeats(self) -> tuple[int, ...]:
+        """Number of repeats of each pair, in the order of ``pairs``."""
         return tuple(h.shape[0] for h in self.H)
 
     def mean(self) -> np.ndarray:
-        """Average over repeats, shape (n_pairs, n_freq), complex receptance."""
+        """Average over repeats.
+
+        Returns
+        -------
+        ndarray of complex, shape (n_pairs, n_freq)
+            The mean receptance of each pair, m/N (rad/(N m) for rotations).
+        """
         return np.array([h.mean(axis=0) for h in self.H])
 
     def band(self, lo: float, hi: float) -> "FRFSet":
-        """The lines with ``lo <= omega <= hi`` (rad/s)."""
+        """The lines within a band.
+
+        Parameters
+        ----------
+        lo, hi : float
+            The band's ends, rad/s; the lines with ``lo <= omega <= hi`` are kept.
+
+        Returns
+        -------
+        FRFSet
+            The same pairs and repeats on the kept lines.
+
+        Raises
+        ------
+        ValueError
+            The band holds fewer than two lines.
+        """
         keep = (self.omega >= lo) & (self.omega <= hi)
         if keep.sum() < 2:
             raise ValueError(f"band {lo / TWO_PI:.6g}-{hi / TWO_PI:.6g} Hz holds {int(keep.sum())} frequency lines; "
@@ -104,10 +127,20 @@ class FRFSet:
         return FRFSet(self.omega[keep], self.pairs, tuple(h[:, keep] for h in self.H), self.sources, self.measured)
 
     def renamed(self, mapping: Mapping[str, str]) -> "FRFSet":
-        """DOF names mapped to model DOF names: ``{"y3": "x2", "y4": "-x3"}``.
+        """DOF names mapped to model DOF names.
 
-        A leading ``-`` flips the sign (the measured direction opposes the model's). DOFs not
-        in the mapping keep their names.
+        Parameters
+        ----------
+        mapping : mapping of str to str
+            New name of each measured DOF name: ``{"y3": "x2", "y4": "-x3"}``. A leading ``-``
+            flips the sign (the measured direction opposes the model's). DOFs not in the
+            mapping keep their names.
+
+        Returns
+        -------
+        FRFSet
+            The FRFs under the new names, signs applied; FRFs that come to share a pair become
+            repeats of it.
         """
         def target(name):
             new = str(mapping.get(name, name)).strip()
@@ -119,9 +152,17 @@ class FRFSet:
 
 
     def reciprocal(self) -> "FRFSet":
-        """Each ``h_rc`` read as ``h_cr`` (Maxwell-Betti reciprocity): a roving-hammer test as
-        the extraction takes it, the shapes known at every hammer point. Repeats stay repeats;
-        a pair measured both ways stays two FRFs (each read the other way)."""
+        """Each ``h_rc`` read as ``h_cr`` (Maxwell-Betti reciprocity).
+
+        A roving-hammer test as the extraction takes it: the shapes known at every hammer
+        point.
+
+        Returns
+        -------
+        FRFSet
+            The same data with each pair's response and excitation swapped. Repeats stay
+            repeats; a pair measured both ways stays two FRFs (each read the other way).
+        """
         return FRFSet(self.omega, tuple((c, r) for r, c in self.pairs), self.H, self.sources, self.measured)
 
 
@@ -462,8 +503,40 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
               mapping: Mapping[str, str] | None = None) -> FRFSet:
     """FRFs from several files (UFF by suffix ``.uff``/``.unv``, else table), combined.
 
-    ``excitations`` gives one excitation DOF per table file; ``responses`` the column names
-    shared by table files; ``mapping`` renames DOFs (`FRFSet.renamed`).
+    Records of the same pair in several files become repeats of it (docs/frf-extraction.md
+    describes the file layouts).
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        The files; all must share the frequency lines (to 1e-9 relative).
+    responses : sequence of str, optional
+        The response DOF name of each data column, shared by the table files; a name may
+        repeat (repeats of the same FRF). Needed when a file is a table.
+    excitations : sequence of str, optional
+        One excitation DOF name per table file, in the order of the table files.
+    kind : {"receptance", "mobility", "accelerance"}, optional
+        What the files hold; converted to receptance (m/N). Tables default to receptance;
+        a UFF record's own ordinate type is used unless this overrides it.
+    g_units : bool
+        The ordinate is in g per newton (an accelerance in g/N), converted with standard
+        gravity.
+    pairs : bool
+        The table data are real/imaginary column pairs instead of complex text.
+    mapping : mapping of str to str, optional
+        Renames DOFs to the model's (`FRFSet.renamed`).
+
+    Returns
+    -------
+    FRFSet
+        The receptances of every file on their common frequency axis.
+
+    Raises
+    ------
+    ValueError
+        A file cannot be read or is given twice, the files' frequency lines differ, a table
+        lacks its responses or excitation, the data cannot be a receptance of the kind
+        stated, or repeats of one FRF are identical or contradict each other.
     """
     paths = [Path(p) for p in paths]
     sets, k = [], 0

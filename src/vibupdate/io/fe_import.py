@@ -55,6 +55,8 @@ class ImportedModel:
     derivatives : tuple of Derivative
         In the model's coordinates.
     sensors : tuple of Sensor
+        Where each sensor of the import file measures on the mesh: the DOF it reads, its
+        sign, its distance from the position given (`vibupdate.model.fe.sensors.Sensor`).
     obliques : tuple of Oblique
         The model's oblique DOFs.
     """
@@ -243,7 +245,31 @@ def _model_toml(imported: ImportedModel, source: str) -> str:
 
 
 def import_model(path, out) -> ImportedModel:
-    """Read the import file ``path`` and write the model files into the new folder ``out``."""
+    """Read an import file and write the model files into a new folder (docs/fe-models.md).
+
+    The files are written beside ``out`` and moved into place at the end, so a failed import
+    leaves no partial folder.
+
+    Parameters
+    ----------
+    path : str or Path
+        The import file (TOML) naming the FE exports and the parameters.
+    out : str or Path
+        The new folder: it must not exist or be empty. It receives ``M0.npz``, ``K0.npz``,
+        the ``dM_*.npz``/``dK_*.npz`` parameter matrices, ``model.toml`` and, when the exports
+        have them, ``nodes.csv`` and ``sensors.csv``.
+
+    Returns
+    -------
+    ImportedModel
+        The model, the nominal export, the parameter derivatives and the sensors, as read.
+
+    Raises
+    ------
+    ValueError
+        ``out`` exists and is not an empty folder, or the import file or an export cannot be
+        read or fails its checks.
+    """
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ValueError(f"output folder {str(out)!r} exists and is not empty; name a new folder")

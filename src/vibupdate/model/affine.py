@@ -656,9 +656,34 @@ def affine_from_builder(builder: Builder, parameters: Sequence[Parameter], *, do
                         check: bool = True) -> AffineModel:
     """Affine form of a builder ``params -> System | (M, K) | (M, K, dofs)``.
 
-    The builder receives a dict ``{name: value}`` and must be complex-safe (no ``abs``,
-    ``float()`` or comparisons on parameter values). With ``check`` the result is verified
-    against the builder at points inside the bounds.
+    The parameter matrices are the builder's derivatives by complex step (Eq. 15).
+
+    Parameters
+    ----------
+    builder : callable
+        Receives a dict ``{name: value}`` of physical parameter values and returns a `System`,
+        ``(M, K)`` or ``(M, K, dofs)`` (SI units). It must be complex-safe (no ``abs``,
+        ``float()`` or comparisons on parameter values).
+    parameters : sequence of Parameter, length n_x
+        The updating parameters, each named as the builder's dict names it.
+    dofs : sequence of str, optional
+        DOF names in matrix order, when the builder returns ``(M, K)``; ``q1 ... qn`` by
+        default.
+    check : bool
+        Verify the affine form against the builder at points inside the bounds, each
+        parameter moved alone and all together.
+
+    Returns
+    -------
+    AffineModel
+        The nominal matrices and the parameter matrices ``M_i``, ``K_i`` (Eqs. 13-14).
+
+    Raises
+    ------
+    ValueError
+        Parameter names repeat, the nominal matrices are not valid (not symmetric, not
+        square), or with ``check`` a parameter enters ``M`` or ``K`` non-affinely or the
+        builder drops the complex step.
     """
     parameters = tuple(parameters)
     _check_unique_names(parameters)

@@ -73,6 +73,7 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
     M0, K0 : path or sparse matrix, shape (n, n)
         Nominal mass and stiffness matrices.
     parameters : sequence of Parameter
+        The updating parameters; each needs a ``dM`` or a ``dK`` matrix.
     dM, dK : mapping of parameter name to path or matrix, optional
         ``dM/dp`` and ``dK/dp`` in physical units (e.g. kg per kg/m^3). A parameter needs at
         least one of the two; a missing one counts as zero.
@@ -81,6 +82,17 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
     matrix_precision : float, optional
         Relative precision of the matrix entries (`AffineModel.matrix_precision`), e.g. 5e-10
         for matrices written with 10 significant digits; None: exact to double precision.
+
+    Returns
+    -------
+    AffineModel
+        ``M0``, ``K0`` and the normalized parameter matrices ``M_i = dM/dp p_ref`` (Eq. 13).
+
+    Raises
+    ------
+    ValueError
+        A file cannot be read, a matrix has the wrong shape or is not symmetric, a mapping
+        names an unknown parameter, or a parameter has neither matrix.
     """
     parameters = tuple(parameters)
     _check_unique_names(parameters)

@@ -358,6 +358,7 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
     Parameters
     ----------
     configurations : sequence of Configuration
+        The measured configurations whose data define the consistent set S.
     xbar : ndarray, shape (n_x,), optional
         The answer (normalized); S is widened to hold it (`vibupdate.ranges.inclusion`).
     include : sequence of (str, ndarray of shape (n_x,))
@@ -373,6 +374,15 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
     options : FormulationOptions, optional
         The vector boxes, as in the first stage.
     progress : callable, optional
+        Receives one line after the root ranges, each pass of the tightening and the
+        branching.
+
+    Returns
+    -------
+    CertifiedRanges
+        The outer range of each parameter (physical units) that every point of S lies in,
+        with a flag per parameter saying whether both ends are certified, or S certified
+        empty.
 
     Raises
     ------

@@ -292,6 +292,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     Parameters
     ----------
     configurations : sequence of Configuration
+        The measured configurations the answer was updated on.
     xbar : ndarray, shape (n_x,)
         The answer (normalized parameters).
     frequency_tolerance : float
@@ -299,6 +300,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         ``interval`` (e.g. 3 sigma of the measurement error); a frequency with an interval uses
         the interval's half-width instead. The answer's own misfit is added to either.
     method : {"linearized", "certified"}
+        The linearized ranges (a linear program on the data Jacobian at ``xbar``) or the
+        certified outer ranges.
     seconds : float
         Time budget of the certified method's bound tightening.
     freqs : sequence of ModelFrequencies, optional
@@ -309,6 +312,18 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         The points of the set of answers with the answer's data that the update found at this
         ``xbar`` (`UpdateResult.valley`): the linearized method reads them instead of searching
         the same ends and turns again.
+
+    Returns
+    -------
+    ParameterRanges or CertifiedRanges
+        With ``method="linearized"``, the range of each parameter (physical units), its width
+        in per cent and the singular values of the scaled data Jacobian; with
+        ``method="certified"``, `certified_ranges`'s outcome.
+
+    Raises
+    ------
+    ValueError
+        ``method`` is neither of the two.
     """
     if method == "certified":
         from vibupdate.ranges.certify import certified_ranges

@@ -53,6 +53,9 @@ def suggest_case(case: Case, out_dir=None, *, max_size: int = 3, checked: int = 
     Returns
     -------
     Suggestion
+        Every set of candidates screened, ranked (sets that pass verification first, then
+        smaller sets, then by misfit), the top ``checked`` sets updated in full; a set is
+        suggested only when its full update is verified.
 
     Raises
     ------
