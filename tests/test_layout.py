@@ -70,8 +70,8 @@ def test_no_stage_imports_a_later_stage():
 
 TESTS = PACKAGE.parents[1] / "tests"
 #: Tests that exercise a whole run, across stages, stay at the top of ``tests/``.
-CROSS_STAGE = {"test_cli", "test_docs", "test_layout", "test_fuzz", "test_frf_updating", "test_solves",
-               "test_extras"}
+CROSS_STAGE = {"test_cli", "test_docs", "test_docstrings", "test_layout", "test_fuzz", "test_frf_updating",
+               "test_solves", "test_extras"}
 #: Folders of whole-run tests: the known-truth acceptance engine (generator, runner, its profile).
 CROSS_STAGE_FOLDERS = {"acceptance"}
 

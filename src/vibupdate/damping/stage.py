@@ -168,8 +168,8 @@ def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), 
     exponents : array_like, shape (n_h,)
         The Caughey exponents ``Y`` (Eq. 20); ``(0, 1)`` is Rayleigh damping.
     weights : None, array_like or dict, optional
-        None (all 1), one weight per measured ratio (in configuration and mode order), a full
-        matrix ``W`` (Eq. 24), or a mapping ``{mode number: weight}`` applied in every
+        None (equal weights); one weight per measured ratio, in configuration and mode order;
+        a full matrix ``W`` (Eq. 24); or a mapping ``{mode number: weight}`` applied in every
         configuration.
     freqs : sequence of ModelFrequencies, optional
         The modal data of each configuration at ``xbar`` when already computed

@@ -132,9 +132,9 @@ class FRFSet:
         Parameters
         ----------
         mapping : mapping of str to str
-            New name of each measured DOF name: ``{"y3": "x2", "y4": "-x3"}``. A leading ``-``
-            flips the sign (the measured direction opposes the model's). DOFs not in the
-            mapping keep their names.
+            The model's name for each DOF name of the data, e.g.
+            ``{"y3": "x2", "y4": "-x3"}``. A leading ``-`` flips the sign (where the data's
+            direction opposes the model's). DOFs not in the mapping keep their names.
 
         Returns
         -------
