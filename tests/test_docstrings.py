@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import functools
+import importlib
 import inspect
 
 import numpydoc.validate as numpydoc_validate  # in the `test` extra of pyproject.toml
@@ -76,11 +77,26 @@ def _attribute_errors(cls: type) -> list[str]:
     return errors
 
 
+def _load(path: str):
+    """The object at an import path: the longest prefix that imports as a module, then
+    attributes."""
+    parts = path.split(".")
+    for split in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:split]))
+        except ModuleNotFoundError:
+            continue
+        for name in parts[split:]:
+            obj = getattr(obj, name)
+        return obj
+    raise ModuleNotFoundError(path)
+
+
 def docstring_errors(path: str) -> list[str]:
     """``CODE message`` for each fault of the docstring of the object at import path ``path``
     (``"vibupdate.update"``, ``"vibupdate.model.affine.AffineModel.matrices"``)."""
     report = numpydoc_validate.validate(path)
-    obj = numpydoc_validate.Validator._load_obj(path)
+    obj = _load(path)
     replaced = inspect.isclass(obj) and _attribute_names(obj) is not None
     errors = [f"{code} {message}" for code, message in report["errors"]
               if code in CODES and not (replaced and code in PARAMETER_CODES)]
