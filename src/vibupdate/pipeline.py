@@ -283,8 +283,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     """Run both stages on a case and write the results folder.
 
     The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
-    file but the run's own results of this case unless ``force``, no file the case reads among those a run would
-    replace or remove); the files are written beside it and moved into place at the end, so a
+    file but the run's own results of this case unless ``force``, no file the case reads
+    among those a run would replace or remove); the files are written beside it and moved into place at the end, so a
     run that fails or is interrupted leaves earlier results as they were, and files in the
     folder that a run did not write (the user's, another command's) are never touched.
 

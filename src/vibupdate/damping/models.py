@@ -81,7 +81,7 @@ def caughey_matrix(M, K, exponents, beta, *, spectrum=None) -> np.ndarray:
     Parameters
     ----------
     M, K : sparse or ndarray, shape (n, n)
-        Mass (kg) and stiffness (N/m) matrices of the model.
+        Mass and stiffness matrices of the model (SI units).
     exponents, beta : array_like, shape (n_h,)
         The series: the exponents ``Y`` and their coefficients, ``beta_h`` in s^(1 - 2h).
         Negative exponents need a model without rigid-body modes.

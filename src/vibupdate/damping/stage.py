@@ -184,7 +184,8 @@ def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), 
     Raises
     ------
     ValueError
-        No configuration has a measured damping ratio, or a weight is not positive.
+        No configuration has a measured damping ratio, the exponents repeat, or the weights
+        are not positive (a matrix not symmetric positive definite) or not one per ratio.
     """
     omega, ratios, labels = damping_data(configurations, xbar, freqs)
     W = _expand_weights(weights, labels)

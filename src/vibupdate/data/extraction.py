@@ -443,7 +443,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     ValueError
         An option is out of range (a band not ``0 < low < high``, a ``fit_band`` that does
         not contain ``band``, the window's values missing or contradictory), an FRF is zero
-        over the band, or fewer stable modes than asked for are found.
+        over the band, or no stable mode (or fewer than ``n_modes``) is found in the band.
     """
     from threadpoolctl import threadpool_limits
 

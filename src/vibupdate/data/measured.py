@@ -162,8 +162,9 @@ class ShapeInterval:
     def reference(self) -> str:
         """The DOF whose interval midpoint has the largest magnitude.
 
-        It is the entry a measured shape is normalized at (shape ratios ``phi_j / phi_reference``). Computed once: the
-        bounds do not change."""
+        It is the entry a measured shape is normalized at (shape ratios
+        ``phi_j / phi_reference``). Computed once: the bounds do not change.
+        """
         mid = self.midpoint
         return max(mid, key=lambda d: abs(mid[d]))
 

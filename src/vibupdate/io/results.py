@@ -100,7 +100,8 @@ class RunResult:
         One row per measured damping ratio, with the Caughey fit's and the Rayleigh
         baseline's values; empty without a damping stage.
     summary : Summary
-        The mean absolute errors, in per cent, of the frequencies and damping ratios.
+        The mean absolute errors, in per cent, of the frequencies (nominal and updated
+        models) and of the damping ratios (Caughey fit and Rayleigh baseline).
     problem_size : dict of str to int
         Counts of the first stage's problem (parameters, mode and adjunct unknowns, lifted
         variables, residuals; ``reduced_dofs`` after a reduction).

@@ -358,8 +358,10 @@ class AffineModel:
     def fingerprint(self) -> str:
         """A hash of the matrices ``M0``, ``K0``, ``M_i``, ``K_i``.
 
-        Made by `vibupdate.modal.kept.content_key`: two models with the same fingerprint have the same ``M(xbar)``, ``K(xbar)`` at every
-        ``xbar`` (and the same `matrix_precision`); the key of caches of results computed from them."""
+        Made by `vibupdate.modal.kept.content_key`: two models with the same fingerprint have
+        the same ``M(xbar)``, ``K(xbar)`` at every ``xbar`` (and the same `matrix_precision`);
+        the key of caches of results computed from them.
+        """
         from vibupdate.modal.kept import content_key
 
         extra = b"" if self.matrix_precision is None else np.float64(self.matrix_precision).tobytes()
