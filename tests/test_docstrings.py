@@ -1,6 +1,7 @@
 """Every public name of ``vibupdate`` has a numpydoc docstring, and so has every public method
-and property of its public classes (they are the surface a user calls: ``model.matrices(p)``,
-``result.verdict``, ``frfs.band(...)``).
+and property that its public classes define themselves (they are the surface a user calls:
+``model.matrices(p)``, ``result.verdict``, ``frfs.band(...)``; what a class inherits from ``str``,
+``Enum`` or ``object`` is documented there).
 
 The check is numpydoc's own validator (``numpydoc.validate``), held to the codes in ``CODES``:
 a docstring; a summary on one line, capitalised and ended by a period; sections numpydoc knows,
@@ -214,8 +215,8 @@ class BadRecord:
 
     Attributes
     ----------
-    label : str
-        Its name.
+    label
+        Its name, without a type.
     colour : str
         Not a field.
     """
@@ -262,6 +263,7 @@ def test_the_checker_holds_a_dataclass_to_its_fields():
     errors = docstring_errors(f"{__name__}.BadRecord")
     assert any("does not name ['value']" in error for error in errors), errors
     assert any("['colour'], which are not fields" in error for error in errors), errors
+    assert any("attribute 'label' has no type" in error for error in errors), errors
 
 
 def test_the_checker_holds_an_enumeration_to_its_members():
