@@ -267,6 +267,30 @@ def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> li
     return ends
 
 
+def onto_data(configurations: Sequence[Configuration], xbar, points, found=None) -> list[tuple[str, int, np.ndarray]]:
+    """Each ``(sense, i, x)`` of ``points`` (found on another model of the same parameters: a
+    reduced one) moved onto the data of ``xbar`` on these configurations by minimum-norm
+    Gauss-Newton steps (at most `MAX_ITERATIONS`); those that reach every datum to `DATA_TOL`
+    without losing a mode or zero. ``found``: as in `valley_curve`."""
+    configurations, lo, hi, x0, found = _start(configurations, xbar, found)
+    if found is None:
+        return []
+    g0, _, finite, rank, _ = found
+    scale = _weights(configurations)[finite]
+    out = []
+    for sense, i, x in points:
+        for _ in range(MAX_ITERATIONS):
+            g, J = _data(configurations, x)
+            if J is None or not np.all(np.isfinite(g[finite])):
+                break
+            if np.max(np.abs((g[finite] - g0[finite]) * scale)) <= DATA_TOL:
+                out.append((sense, i, x))
+                break
+            U, s, Vt = np.linalg.svd(J[finite], full_matrices=False)
+            x = np.clip(x - Vt[:rank].T @ ((U[:, :rank].T @ (g[finite] - g0[finite])) / s[:rank]), lo, hi)
+    return out
+
+
 #: Arclength steps of `valley_curve` (normalized parameters): the first, the largest and the
 #: smallest before a sense gives up; each step is a predictor along the tangent and a Newton
 #: corrector of at most `CORRECTIONS` evaluations to `TRACE_TOL` (relative frequency).

@@ -24,10 +24,14 @@ the structure that makes it:
   where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_ends`,
   `~.valley_curve`). Those that differ from the answer are Alternatives.
 
+Above `Search.probe_dofs` DOFs the starts are first polished on a model reduced at the answer
+(`vibupdate.inverse.update`): one that reaches the answer there costs no full-model polish, the
+others are polished on the full model; the set of answers is followed on the reduced model and
+its points moved onto the full model's data.
+
 Any Alternative makes the verdict ``not_unique``. Where the uniqueness search is not run (the
-polish off, a sampling sweep, a model above `Search.probe_dofs` DOFs or
-`Search.probe_parameters` parameters, where a polish from a random point costs minutes), the
-result says so and why (`Sought`).
+polish off, a sampling sweep, a model above `Search.probe_parameters` parameters), the result
+says so and why (`Sought`).
 
 Every start tried is a `Start` in the result (`vibupdate.inverse.update.UpdateResult.sought`).
 """
@@ -61,10 +65,13 @@ class Search:
     probe_evaluations : int
         Evaluations of each uniqueness polish, per unknown plus one: a start that has not
         converged by then is not an answer that fits as well.
-    probe_dofs, probe_parameters : int
-        The uniqueness search runs on models up to these sizes (the dense models, where a
-        polish costs a fraction of a second; the bundled 29-parameter frame took 36 s for four
-        starts, its answer unchanged).
+    probe_dofs : int
+        Above this many DOFs the uniqueness search polishes its starts on a model reduced at
+        the answer first (module docstring): the dense models, where a full polish costs a
+        fraction of a second, are searched on the full model.
+    probe_parameters : int
+        The uniqueness search runs on models up to this many parameters (the bundled
+        29-parameter frame took 36 s for four starts, its answer unchanged).
     distinct : float
         Two answers differ when a normalized parameter differs by more than this.
     tie : float
@@ -137,14 +144,13 @@ class Search:
         """Whether a verified answer is tested for uniqueness on a model of this size, and why."""
         if not asked:
             return False, "not asked for (polish off or a sampling sweep)"
-        if n_dofs > self.probe_dofs:
-            return False, f"the model has {n_dofs} DOFs, above the {self.probe_dofs} of the uniqueness search"
         if n_parameters > self.probe_parameters:
             return False, (f"the model has {n_parameters} parameters, above the {self.probe_parameters} of the "
                            "uniqueness search")
         return True, (f"the nominal point, {self.probe_random_starts} random start(s)"
                       + (" and the answer moved along the weakest direction" if self.weak_direction else "")
-                      + " polished"
+                      + " polished" + (f" on the model reduced at the answer (above {self.probe_dofs} DOFs)"
+                                       if n_dofs > self.probe_dofs else "")
                       + (", and the ends of the set of answers with the same data where the data leave directions "
                          "undetermined" if self.valley_ends else ""))
 

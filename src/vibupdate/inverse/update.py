@@ -41,13 +41,15 @@ from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.problem import BilinearProblem
 from vibupdate.inverse.homotopy import HomotopyResult, SolverOptions, StepRecord, solve_homotopy
 from vibupdate.inverse.interlacing import sign_bounds
-from vibupdate.inverse.minimum_change import MinimumChange, minimum_change, undetermined, valley_curve, valley_ends
+from vibupdate.inverse.minimum_change import (MinimumChange, minimum_change, onto_data, undetermined, valley_curve,
+                                              valley_ends)
 from vibupdate.data.measured import Configuration
 from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
-from vibupdate.inverse.reduction import reduce_configurations, wants_reduction
+from vibupdate.inverse.reduction import (derivative_vectors, kept_dofs, reduce_configurations, ritz_reduction,
+                                         wants_reduction)
 from vibupdate.inverse.status import Status
-from vibupdate.inverse.admissible import Admissible, misses, weighted
+from vibupdate.inverse.admissible import Admissible, evaluate, misses, weighted
 from vibupdate.inverse.search import Alternative, Search, Sought, Start
 from vibupdate.inverse.status import Verdict
 from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
@@ -540,26 +542,65 @@ def _verdict_word(candidate: _Finish) -> str:
 
 
 def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, search: Search, starts: list, say,
-                options: PolishOptions) -> None:
+                options: PolishOptions, contract: Admissible, probes: tuple[list, list] | None) -> None:
     """Polish from the nominal point, the ``answer`` moved along the data's weakest direction
     (`vibupdate.inverse.search.Search.weak_starts`) and the random box starts, those not tried
     yet (`vibupdate.inverse.search`); a start whose polish reaches a verified answer again stops
-    there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`)."""
+    there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`). Given ``probes`` (above
+    ``search.probe_dofs`` DOFs: `_probe_model`), each start is first polished on the model
+    reduced at the answer: one that reaches the answer there is the same answer, the others are
+    polished from the start on the full model as below that size."""
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
     boxed = search.box_starts(lo, hi, search.probe_random_starts)
     todo = [(label, x) for label, x in boxed[:1] + search.weak_starts(answer.xbar, answer.sensitivity, lo, hi)
             + boxed[1:] if label not in done]
-    if todo:
-        say(f"uniqueness: polishing from {len(todo)} further starts")
+    if not todo:
+        return
+    reduced, known = probes or (None, [])
+    say(f"uniqueness: polishing from {len(todo)} further starts"
+        + (f" on a {reduced[0].model.n_dofs}-DOF model reduced at the answer" if reduced else ""))
     for label, x0 in todo:
         t0 = time.perf_counter()
-        candidate = finish(x0, label, options, [c.xbar for c in tried if c.status.ok])
+        answers = [c.xbar for c in tried if c.status.ok]
+        if reduced is not None:
+            x = _reduced_answer(reduced, x0, options, contract, known)
+            if x is None or np.min(np.max(np.abs(np.asarray(known) - x), axis=1)) <= search.distinct:
+                starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0))
+                continue
+        candidate = finish(x0, label, options, answers)
         if candidate is None:
             starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0))
         else:
             starts.append(Start(label, "uniqueness", _verdict_word(candidate), tuple(candidate.failed),
                                 candidate.cost, time.perf_counter() - t0))
+
+
+def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions):
+    """The configurations with their models reduced at the answer ``xbar``
+    (`vibupdate.inverse.reduction.ritz_reduction`) on the vectors of one full evaluation there
+    (its modes, adjunct and derivative vectors: the reduced data and their first derivatives
+    equal the full model's at ``xbar``) and the static parts of the modes' parameter
+    derivatives (`~.reduction.derivative_vectors`: the modes' changes far from ``xbar``), and
+    the answer as the reduced model has it (`_reduced_answer` from ``xbar``), in a list."""
+    basis: list = []
+    maps: list = []
+    evaluate(configurations, contract, xbar, basis=basis, maps=maps)
+    reduced = []
+    for c, V, m in zip(configurations, basis, maps):   # m.vectors[0]: the modes the evaluation solved for
+        W = np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])])
+        reduced.append(replace(c, model=ritz_reduction(c.model, kept_dofs(c), W)[0]))
+    return reduced, [_reduced_answer(reduced, xbar, options, contract)]
+
+
+def _reduced_answer(reduced, x0, options: PolishOptions, contract: Admissible, answers=None) -> np.ndarray | None:
+    """``x0`` polished on the ``reduced`` configurations and moved to the minimum change there,
+    as `_finish` does on the full model; None when the polish reached one of the ``answers``."""
+    probe = run_polish(reduced, x0, options, answers=answers, contract=contract)
+    if probe.stopped_on == "known answer":
+        return None
+    moved = minimum_change(reduced, probe.xbar)
+    return moved.xbar if moved.kept else probe.xbar
 
 
 def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
@@ -588,7 +629,7 @@ def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
 
 
 def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ...], search: Search, model, starts: list,
-            say) -> tuple[tuple[Alternative, ...], tuple[np.ndarray, ...] | None]:
+            say, reduced=None) -> tuple[tuple[Alternative, ...], tuple[np.ndarray, ...] | None]:
     """Where the data leave directions undetermined at the chosen answer, the answers with
     exactly its data form a set, and every start the polish takes there is moved to the same
     point of it (the minimum change): the ends of that set in each parameter that moves
@@ -596,16 +637,25 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     points where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_curve`)
     are the other answers, each an `Alternative` with the chosen answer's objective (the same
     data to 1e-9, so the same verification). ``search.valley_ends`` off, or a rank that the data
-    fill, adds none. Returns the alternatives and every point found (`UpdateResult.valley`)."""
+    fill, adds none. Given ``reduced`` configurations (`_probe_model`), the set is followed on them
+    and each point found is moved onto the full model's data (`~.minimum_change.onto_data`).
+    Returns the alternatives and every point found (`UpdateResult.valley`)."""
     if not search.valley_ends:
         return alternatives, None
     if chosen.sensitivity.rank >= chosen.xbar.size:
         return alternatives, ()
     t0 = time.perf_counter()
-    found = undetermined(configurations, chosen.xbar)   # one evaluation at the answer, for both
-    ends = valley_curve(configurations, chosen.xbar, found) + valley_ends(configurations, chosen.xbar, found)
+    where = reduced or configurations
+    found = undetermined(where, chosen.xbar)   # one evaluation at the answer, for both
+    ends = valley_curve(where, chosen.xbar, found) + valley_ends(where, chosen.xbar, found)
     names = model.parameter_names
     known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
+    if reduced:   # the distinct points of the reduced model's set, moved onto the full model's data
+        distinct: list = []
+        for end in ends:
+            if all(np.max(np.abs(end[2] - k)) > search.distinct for k in known + [d[2] for d in distinct]):
+                distinct.append(end)
+        ends = onto_data(configurations, chosen.xbar, distinct)
     added = []
     for sense, i, x in ends:
         if all(np.max(np.abs(x - k)) > search.distinct for k in known):
@@ -734,11 +784,14 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     alternatives: tuple[Alternative, ...] = ()
     valley = None
     if best is not None and best.status.ok and unique:
-        _uniqueness(configurations, finish, tried, best, search, starts, say,
-                    replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
-                                                        search.probe_evaluations * (model.n_parameters + 1))))
+        options = replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
+                                                      search.probe_evaluations * (model.n_parameters + 1)))
+        probes = _probe_model(configurations, best.xbar, contract, options) if model.n_dofs > search.probe_dofs \
+            else None
+        _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
         best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
-        alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say)
+        alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
+                                       probes[0] if probes else None)
     elif best is not None and best.status.ok:
         reason = f"uniqueness not searched: {reason}"
     else:
