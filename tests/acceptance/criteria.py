@@ -155,9 +155,15 @@ def summary(verdicts: list[Verdict]) -> str:
             dist = sorted(c["distance_pct"] for c in near)
             ratio = sorted(c["time_ratio"] for c in near)
             excess = sorted(c["misfit"] - c["compromise_misfit"] * (1 + ABOVE_COMPROMISE) for c in near)
+            routes = defaultdict(list)   # the routes differ in what a run does besides the update
+            for v in runs:
+                if v.compromise:
+                    routes[v.route].append(v.compromise["time_ratio"])
+            split = ", ".join(f"{route} {sorted(r)[len(r) // 2]:.3g}x" for route, r in sorted(routes.items()))
             lines.append(f"\n{name}: answer to the judge's least-squares compromise, largest parameter distance "
                          f"median {dist[len(dist) // 2]:.3g} % (max {dist[-1]:.3g} %) of the reference; run time "
-                         f"median {ratio[len(ratio) // 2]:.3g}x the compromise's (max {ratio[-1]:.3g}x); misfit "
+                         f"median {ratio[len(ratio) // 2]:.3g}x the compromise's (max {ratio[-1]:.3g}x; median "
+                         f"by route: {split}); misfit "
                          f"over the compromise's + {ABOVE_COMPROMISE:.0%} in {sum(above_compromise(c) for c in near)} "
                          f"(largest excess {excess[-1]:.3g}), {len(near)} runs")
     return "\n".join(lines)

@@ -263,6 +263,18 @@ def test_each_budget_of_a_family_can_fail_on_its_own():
     assert not _failed(right) and _failed(wrong) == {"wrong group ranked first (share right)"}
 
 
+def test_the_summary_gives_the_run_time_against_the_compromise_by_route():
+    """The CLI route also diagnoses and writes the outputs, the Python route updates only: the
+    family's median ratio is split by route."""
+    from acceptance import criteria as C
+
+    runs = _verdicts("biased_channel", ["not_verified"] * 4)
+    for v, route, ratio in zip(runs, ("cli", "cli", "api", "api"), (5.0, 7.0, 1.0, 2.0)):
+        v.route = route
+        v.compromise = {"misfit": 1.0, "compromise_misfit": 1.0, "distance_pct": 0.0, "time_ratio": ratio}
+    assert "run time median 5x the compromise's (max 7x; median by route: api 2x, cli 7x)" in C.summary(runs)
+
+
 def test_the_sparse_truth_kernel_agrees_with_the_dense_one():
     """A 600-DOF chain (above `structures.DENSE_MAX`): the shift-invert Lanczos kernel gives the
     dense kernel's lowest frequencies to 1e-10 and mass-normalized modes (MAC 1 with the dense
