@@ -566,3 +566,22 @@ def test_the_correlation_gives_the_frequency_table_s_errors_in_its_order():
     np.testing.assert_allclose(c.errors(which="nominal"), [0.0, 10.0, 0.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="'updated' or 'nominal', got 'both'"):
         c.errors(which="both")
+
+
+def test_a_start_that_reaches_an_answer_tried_already_ends_there():
+    """No parameter set fits data with one shape entry 10 % off in every mode: every start of
+    the search polishes to the same answer, which does not verify. Each further start ends on
+    reaching it again (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`, as in the uniqueness
+    search) instead of converging on it once more; the answer is the homotopy's."""
+    from helpers import biased_chain
+    from vibupdate import ShapeInterval
+
+    model, freqs, shapes = biased_chain("y3", 0.10, 0.005)
+    cfg = Configuration("A", model, tuple(NaturalFrequency.from_hz(f, shape=ShapeInterval.from_values(s, 0.005))
+                                          for f, s in zip(freqs, shapes)))
+    result = update([cfg])
+    assert result.status == Status.NOT_VERIFIED, result.message
+    assert [(s.start, s.status) for s in result.sought.starts] == [
+        ("homotopy", "not_verified"), ("stepped homotopy path", "same answer"), ("nominal point", "same answer"),
+        ("random start 1", "same answer"), ("random start 2", "same answer")]
+    assert result.message.startswith("solved (lambda = 1) but not verified"), result.message

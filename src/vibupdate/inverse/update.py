@@ -498,13 +498,19 @@ def _search(configurations, problem, solver, best, finish, search: Search, start
     todo += [(label, lambda point=point: point) for label, point in search.box_starts(lo, hi, search.random_starts)]
     if best is not None:
         say(f"the answer did not verify (failed {', '.join(best.failed)}): trying {len(todo)} further starts")
+    found = [] if best is None else [best]
     for label, start in todo:
         t0 = time.perf_counter()
         x0 = start()
         if x0 is None:
             starts.append(Start(label, "fit", "path failed", seconds=time.perf_counter() - t0))
             continue
-        candidate = finish(x0, label)
+        candidate = finish(x0, label, None, [c.xbar for c in found])
+        if candidate is None:   # it reached an answer tried already
+            starts.append(Start(label, "fit", "same answer", seconds=time.perf_counter() - t0))
+            say(f"restart from the {label}: the same answer again")
+            continue
+        found.append(candidate)
         starts.append(Start(label, "fit", _verdict_word(candidate), tuple(candidate.failed), candidate.cost,
                             time.perf_counter() - t0 - (sum(s.seconds for s in steps) if label.startswith("stepped")
                                                         else 0.0)))
