@@ -192,14 +192,15 @@ def test_the_ranges_read_the_valley_the_update_searched(monkeypatch):
 def test_above_the_probe_size_two_answers_that_fit_are_still_both_found():
     """The 2-mass chain whose two frequencies k1 + 2 k2 and k1 k2 fix (1000, 1000) and
     (2000, 500): with the probes' size limit below the model, the search runs on the model
-    reduced at the answer and still finds the second answer. Before, a model above the limit
+    reduced at the answer (no measured DOFs to keep: the Ritz model) and still finds the second
+    answer. Before, a model above the limit
     was not searched ("uniqueness not searched") and the run said verified."""
     model = chain_model(2, ["k1", "k2"], nominal={"k1": 1200.0, "k2": 900.0}, spread=0.7)
     M, K = model.matrices_at([1000.0, 1000.0])
     cfg = Configuration("P2", model, tuple(NaturalFrequency(w) for w in modes(M, K)[0]))
     result = update([cfg], search=Search(probe_dofs=1))
     assert result.verdict is Verdict.NOT_UNIQUE, result.message
-    assert result.sought.uniqueness and "reduced at the answer" in result.sought.reason
+    assert result.sought.uniqueness and "first on a reduced model" in result.sought.reason
     other = result.alternatives[0].values
     assert np.allclose([other["k1"], other["k2"]], [2000.0, 500.0], rtol=1e-6)
 
@@ -240,6 +241,33 @@ def test_a_start_the_reduced_model_takes_to_the_answer_costs_no_full_model_polis
     probes = [s for s in result.sought.starts if s.purpose == "uniqueness"]
     assert len(probes) >= 3 and all(s.status == "same answer" for s in probes), probes
     assert len(full) == 1     # the homotopy's answer only
+
+
+def test_with_measured_shapes_the_probes_run_on_the_first_stage_s_reduced_model(monkeypatch):
+    """The same chain with shapes at 5 masses and the Craig-Bampton reduction asked for: the
+    probes are polished on the first stage's reduced model (5 kept DOFs and 8 fixed-interface
+    modes), reach the answer there and cost no full-model polish."""
+    import vibupdate.inverse.update as upd
+    from vibupdate import FormulationOptions, ShapeInterval
+
+    model = chain_model(40, ["k1", "k5", "k20"])
+    truth = [1100.0, 900.0, 1200.0]
+    w, Phi = modes(*model.matrices_at(truth))
+    at = [model.dof(f"y{i}") for i in (4, 12, 20, 30, 40)]
+    cfg = Configuration("shapes", model, tuple(
+        NaturalFrequency(w[k], shape=ShapeInterval({f"y{i}": (v, v) for i, v in zip((4, 12, 20, 30, 40), Phi[at, k])}))
+        for k in range(3)))
+    full, said = [], []
+    real = upd.run_polish
+    monkeypatch.setattr(upd, "run_polish", lambda configurations, *a, **k: (
+        full.append(1) if configurations[0].model.n_dofs == model.n_dofs else None) or real(configurations, *a, **k))
+    result = update([cfg], formulation=FormulationOptions(reduction="craig-bampton", reduction_modes=8),
+                    search=Search(probe_dofs=10), progress=said.append)
+    assert result.verdict is Verdict.VERIFIED and result.sought.uniqueness, result.message
+    assert any("first on a 13-DOF reduced model" in m for m in said), said
+    probes = [s for s in result.sought.starts if s.purpose == "uniqueness"]
+    assert len(probes) >= 3 and all(s.status == "same answer" for s in probes), probes
+    assert len(full) == 1
 
 
 def test_the_derivative_vectors_carry_the_modes_through_a_parameter_change():

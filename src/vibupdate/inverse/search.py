@@ -24,8 +24,8 @@ the structure that makes it:
   where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_ends`,
   `~.valley_curve`). Those that differ from the answer are Alternatives.
 
-Above `Search.probe_dofs` DOFs the starts are first polished on a model reduced at the answer
-(`vibupdate.inverse.update`): one that reaches the answer there costs no full-model polish, the
+Above `Search.probe_dofs` DOFs the starts are first polished on a reduced model
+(`vibupdate.inverse.update`: the first stage's, or one built at the answer): one that reaches the answer there costs no full-model polish, the
 others are polished on the full model; the set of answers is followed on the reduced model and
 its points moved onto the full model's data.
 
@@ -66,8 +66,8 @@ class Search:
         Evaluations of each uniqueness polish, per unknown plus one: a start that has not
         converged by then is not an answer that fits as well.
     probe_dofs : int
-        Above this many DOFs the uniqueness search polishes its starts on a model reduced at
-        the answer first (module docstring): the dense models, where a full polish costs a
+        Above this many DOFs the uniqueness search polishes its starts on a reduced model
+        first (module docstring): the dense models, where a full polish costs a
         fraction of a second, are searched on the full model.
     probe_parameters : int
         The uniqueness search runs on models up to this many parameters (the bundled
@@ -149,7 +149,7 @@ class Search:
                            "uniqueness search")
         return True, (f"the nominal point, {self.probe_random_starts} random start(s)"
                       + (" and the answer moved along the weakest direction" if self.weak_direction else "")
-                      + " polished" + (f" on the model reduced at the answer (above {self.probe_dofs} DOFs)"
+                      + " polished" + (f", first on a reduced model (above {self.probe_dofs} DOFs)"
                                        if n_dofs > self.probe_dofs else "")
                       + (", and the ends of the set of answers with the same data where the data leave directions "
                          "undetermined" if self.valley_ends else ""))

@@ -553,8 +553,8 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
     (`vibupdate.inverse.search.Search.weak_starts`) and the random box starts, those not tried
     yet (`vibupdate.inverse.search`); a start whose polish reaches a verified answer again stops
     there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`). Given ``probes`` (above
-    ``search.probe_dofs`` DOFs: `_probe_model`), each start is first polished on the model
-    reduced at the answer: one that reaches the answer there is the same answer, the others are
+    ``search.probe_dofs`` DOFs: `_probe_model`), each start is first polished on a reduced
+    model: one that reaches the answer there is the same answer, the others are
     polished from the start on the full model as below that size."""
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
@@ -565,7 +565,7 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         return
     reduced, known = probes or (None, [])
     say(f"uniqueness: polishing from {len(todo)} further starts"
-        + (f" on a {reduced[0].model.n_dofs}-DOF model reduced at the answer" if reduced else ""))
+        + (f", first on a {reduced[0].model.n_dofs}-DOF reduced model" if reduced else ""))
     for label, x0 in todo:
         t0 = time.perf_counter()
         answers = [c.xbar for c in tried if c.status.ok]
@@ -582,20 +582,22 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
                                 candidate.cost, time.perf_counter() - t0))
 
 
-def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions):
-    """The configurations with their models reduced at the answer ``xbar``
-    (`vibupdate.inverse.reduction.ritz_reduction`) on the vectors of one full evaluation there
-    (its modes, adjunct and derivative vectors: the reduced data and their first derivatives
-    equal the full model's at ``xbar``) and the static parts of the modes' parameter
-    derivatives (`~.reduction.derivative_vectors`: the modes' changes far from ``xbar``), and
-    the answer as the reduced model has it (`_reduced_answer` from ``xbar``), in a list."""
-    basis: list = []
-    maps: list = []
-    evaluate(configurations, contract, xbar, basis=basis, maps=maps)
-    reduced = []
-    for c, V, m in zip(configurations, basis, maps):   # m.vectors[0]: the modes the evaluation solved for
-        W = np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])])
-        reduced.append(replace(c, model=ritz_reduction(c.model, kept_dofs(c), W)[0]))
+def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions, models=None):
+    """The configurations on a reduced model, and the answer ``xbar`` as that model has it
+    (`_reduced_answer`), in a list. The reduced model is the first stage's (``models``: its
+    Craig-Bampton models, `vibupdate.inverse.reduction.craig_bampton`) when it has one; else
+    (no measured DOFs to keep, or the reduction off) the Ritz model at ``xbar``
+    (`~.reduction.ritz_reduction`) on the vectors of one full evaluation there (modes,
+    adjunct and derivative vectors: its data and their first derivatives are the full
+    model's at ``xbar``) and the static parts of the modes' parameter derivatives
+    (`~.reduction.derivative_vectors`: the modes' changes far from ``xbar``)."""
+    if models is None:
+        basis: list = []
+        maps: list = []
+        evaluate(configurations, contract, xbar, basis=basis, maps=maps)
+        models = [ritz_reduction(c.model, kept_dofs(c), np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])]))[0]
+                  for c, V, m in zip(configurations, basis, maps)]   # m.vectors[0]: the modes solved for
+    reduced = [replace(c, model=r) for c, r in zip(configurations, models)]
     return reduced, [_reduced_answer(reduced, xbar, options, contract)]
 
 
@@ -792,8 +794,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     if best is not None and best.status.ok and unique:
         options = replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                       search.probe_evaluations * (model.n_parameters + 1)))
-        probes = _probe_model(configurations, best.xbar, contract, options) if model.n_dofs > search.probe_dofs \
-            else None
+        probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
+            configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])
         _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
         best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
         alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
