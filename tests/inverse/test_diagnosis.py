@@ -95,6 +95,11 @@ def test_a_biased_driving_point_is_named_first_and_the_model_without_it_is_the_t
     record = found.record()
     assert record["best"]["without"] == "A/dof/y3" and record["trials"][0]["key"] == "A/dof/y3"
     assert sum(t.evaluations for t in found.trials) <= 70
+    # the shapes outside their intervals are counted: none where the trial passes, at least one
+    # where it fails shape_intervals (the count held the worst miss truncated: 0 for a miss of
+    # 0.7 half-widths)
+    for t in found.trials:
+        assert (t.shape_misses >= 1) == ("shape_intervals" in t.failed), (t.group.key, t.shape_misses, t.failed)
 
 
 def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
