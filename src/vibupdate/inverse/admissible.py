@@ -156,10 +156,8 @@ class Shape:
 
     @cached_property
     def targets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The polish's target intervals of the entries (`_targets`) as ``(lo, hi, mid, h)``,
-        ``h`` the admissible half-widths: constants of the data, computed once."""
-        lo, hi = _targets(self.lower, self.upper, self.floor)
-        return _frozen(lo, hi, 0.5 * (lo + hi), self.half_width)
+        """The polish's target intervals of the entries (`_targets`), computed once."""
+        return _targets(self.lower, self.upper, self.floor)
 
     def scales(self, modal_mass: float) -> tuple[float, float] | None:
         """The scales the model's shape (normalized to 1 at the reference entry) may take: any
@@ -270,9 +268,18 @@ class Admissible:
 
     @cached_property
     def datum_targets(self) -> tuple:
-        """Per configuration, the polish's target intervals of its frequencies and of its modal
-        masses (`_datum_targets`, None for none): constants of the contract, computed once."""
-        return tuple((_datum_targets(f), _datum_targets(m)) for f, m in zip(self.frequencies, self.masses))
+        """Per configuration, the polish's target intervals (`_targets`) of its frequencies and
+        of its modal masses, each with the square roots of the data's weights repeated for the
+        two rows of each datum (None for no data), computed once."""
+        def block(items):
+            if not items:
+                return None
+            lower, upper, value = (np.array([getattr(d, k) for d in items]) for k in ("lower", "upper", "value"))
+            w = np.tile(np.sqrt([d.weight for d in items]), 2)
+            w.flags.writeable = False
+            return (*_targets(lower, upper, FLOOR * np.abs(value)), w)
+
+        return tuple((block(f), block(m)) for f, m in zip(self.frequencies, self.masses))
 
     def relative_half_widths(self) -> np.ndarray:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
@@ -293,10 +300,16 @@ def _rows(v, lo, hi, mid, h, pull=PULL):
             np.concatenate([slope_in, slope_out], axis=-1))
 
 
-def _targets(lower, upper, floor):
-    """The polish's target interval: the admissible one without its floor, shrunk by `MARGIN`."""
+def _targets(lower, upper, floor) -> tuple[np.ndarray, ...]:
+    """The polish's target intervals: the admissible ones ``[lower, upper]`` without their
+    ``floor``, shrunk by `MARGIN` half-widths, as read-only ``(lo, hi, mid, h)``, ``h`` the
+    admissible half-widths."""
     inset = floor + MARGIN * 0.5 * (upper - lower - 2 * floor)
-    return lower + inset, upper - inset
+    lo, hi = lower + inset, upper - inset
+    out = (lo, hi, 0.5 * (lo + hi), 0.5 * (upper - lower))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray,
@@ -427,24 +440,6 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                 jac.append(J)
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
-
-
-def _datum_targets(items: tuple) -> tuple[np.ndarray, ...] | None:
-    """The polish's target intervals of a block of data (`_targets`) as ``(lo, hi, mid, h, w)``,
-    ``h`` the admissible half-widths, ``w`` the square roots of the data's weights repeated for
-    the two rows of each; None for an empty block."""
-    if not items:
-        return None
-    lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
-                      FLOOR * np.array([abs(d.value) for d in items]))
-    return _frozen(lo, hi, 0.5 * (lo + hi), np.array([d.half_width for d in items]),
-                   np.tile(np.sqrt([d.weight for d in items]), 2))
-
-
-def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    for a in arrays:
-        a.flags.writeable = False
-    return arrays
 
 
 def _modal_masses(m, jacobian: bool) -> list:
