@@ -162,14 +162,3 @@ def subspace_mac(shape: np.ndarray, U: np.ndarray) -> float:
     p = Q.T @ shape
     return float(p @ p) / denom
 
-
-def paired_modal_mass(cfg, M, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> float:
-    """The modal mass (kg) at the reference DOF of the ``k``-th measured shape of ``cfg`` of
-    the model vector paired with it (`paired_vector`): ``q^T M q``, ``q`` that vector scaled to
-    1 at the reference (``1 / phi_p^2`` of a mass-normalized mode); inf where it is 0 there."""
-    phi = paired_vector(cfg, Phi_all, omega_all, k)[0]
-    ref = float((cfg.model.measurement([cfg.natural[k].shape.reference]) @ phi)[0])
-    if ref == 0:
-        return float("inf")
-    q = phi / ref
-    return float(q @ (M @ q))
