@@ -532,17 +532,10 @@ def weighted(configurations: Sequence[Configuration], contract: Admissible):
     admissible half-width, the multipliers normalized to mean 1: the first stage weighs each
     residual as the contract does (the same objects when every ``h`` is equal)."""
     factor = 1.0 / np.maximum(contract.relative_half_widths(), WEIGHT_FLOOR) ** 2
-    if not factor.size:
+    factor = factor / factor.mean() if factor.size else factor
+    if np.allclose(factor, 1.0, rtol=1e-12, atol=0.0):   # every h equal, or no frequency at all
         return list(configurations)
-    factor /= factor.mean()
-    if np.allclose(factor, 1.0, rtol=1e-12, atol=0.0):
-        return list(configurations)
-    out, k = [], 0
-    for c in configurations:
-        n, m = len(c.natural), len(c.antiresonances)
-        fn, fa = factor[k:k + n], factor[k + n:k + n + m]
-        k += n + m
-        out.append(replace(c, natural=tuple(replace(d, weight=d.weight * w) for d, w in zip(c.natural, fn)),
-                           antiresonances=tuple(replace(d, weight=d.weight * w)
-                                                for d, w in zip(c.antiresonances, fa))))
-    return out
+    each = iter(factor)   # in the contract's order: per configuration, natural then antiresonances
+    return [replace(c, natural=tuple(replace(d, weight=d.weight * next(each)) for d in c.natural),
+                    antiresonances=tuple(replace(d, weight=d.weight * next(each)) for d in c.antiresonances))
+            for c in configurations]

@@ -168,8 +168,8 @@ def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Adm
 def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None):
     """The reduced rounds (module docstring) from ``x0``.
 
-    Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best
-    point found, its full-model residual and Jacobian, the counts, and why the rounds converged
+    Returns ``(x, cost, evaluations, rounds, reduced_evaluations, converged)``: the best
+    point found, its full-model objective, the counts, and why the rounds converged
     ("" when they did not: the full-model finish follows). They converge on a step below
     `ROUND_XTOL`, on a predicted gain below ``tol`` times the objective, where what is left is
     below the reduced model's accuracy (`ROUND_SETTLED`), or on a refuted step at an objective
@@ -218,11 +218,11 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
                 converged = (f"the full model refuted a further step whose predicted gain was below "
                              f"{ROUND_SETTLED:g} of the objective")
             break
-        x, value, cost, basis = x_new, value_new, cost_new, basis_new
+        x, cost, basis = x_new, cost_new, basis_new
         if say is not None:
             say(f"  polish round {rounds}: objective {cost:.4e} on the full model ({int(sol.nfev)} evaluations "
                 f"of a {reduced[0].model.n_dofs}-DOF reduced model)")
-    return x, value, evaluations, rounds, reduced_evaluations, converged
+    return x, cost, evaluations, rounds, reduced_evaluations, converged
 
 
 def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None,
@@ -247,19 +247,17 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     r0, _ = evaluate(configurations, contract, x0, jacobian=maps0 is not None, maps=maps0)
     cost0 = 0.5 * float(r0 @ r0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}
-    x, known, rounds, reduced, converged, evaluations = x0, None, 0, 0, "", 0
+    x, rounds, reduced, converged, evaluations = x0, 0, 0, "", 0
     try:
         if in_rounds:
             try:
-                x, value, evaluations, rounds, reduced, converged = _reduced_rounds(
+                x, cost, evaluations, rounds, reduced, converged = _reduced_rounds(
                     configurations, x0, contract, options, tols, budget, progress)
-                known = (x, value)
             except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model least squares alone, from x0
-                x, evaluations, known = x0, 0, None
+                x, evaluations = x0, 0
                 if progress is not None:
                     progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
         if converged or evaluations >= budget:
-            cost = 0.5 * float(known[1][0] @ known[1][0])
             stopped_on, message = ("convergence", f"converged in {rounds} reduced rounds: {converged}") if converged \
                 else ("evaluations", f"stopped on the limit of {budget} evaluations of the full model in {rounds} "
                                      f"reduced rounds (set polish.max_evaluations to allow more)")
@@ -305,12 +303,9 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
                     evaluations + 2 + monitor.count, stop.reason)
         x = monitor.best[0]
     evaluations += 1 + monitor.count
-    maps = memo.get(np.asarray(x, dtype=float).tobytes())
-    if maps is not None:   # the start's last evaluation was its answer: the same eigen-solve
-        known = (x, residuals(contract, maps, True, PULL))
-    else:
-        known = (x, evaluate(configurations, contract, x))
-        evaluations += 1
+    maps = memo.get(np.asarray(x, dtype=float).tobytes())   # the start's answer evaluated by it: no eigen-solve
+    known = (x, residuals(contract, maps, True, PULL) if maps is not None else evaluate(configurations, contract, x))
+    evaluations += int(maps is None)
     monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
                       max_seconds, answers)
     stopped_on = "convergence"
