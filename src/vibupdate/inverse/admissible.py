@@ -458,35 +458,28 @@ def _modal_masses(m, jacobian: bool) -> list:
 def scaling_miss(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: bool = False,
                  scales: tuple[float, float] | None = None):
     """The least ``t`` such that some scale ``s`` (within ``scales``, when given:
-    `Shape.scales`) puts every ``s q_j`` within ``t`` half-widths of ``[lower_j, upper_j]``
-    (0: the shape is admissible); bisection on ``t``, for each ``t`` the scales each entry
-    admits form one interval and they intersect or not. With ``scale``, ``(t, s)``."""
+    `Shape.scales`) puts every ``s q_j`` within ``t`` half-widths ``h_j`` of
+    ``[lower_j, upper_j]`` (0: the shape is admissible); with ``scale``, ``(t, s)``, ``s`` the
+    middle of the scales admitted at that ``t``.
+
+    Exact: an entry with ``q_j != 0`` admits the scales between ``(lower_j - t h_j) / q_j`` and
+    ``(upper_j + t h_j) / q_j``, whose lower end falls and upper end rises linearly in ``t``
+    (``scales`` adds two constant ends); the entries share a scale from the largest ``t`` at
+    which a lower end meets an upper end. An entry with ``q_j = 0`` needs ``t`` to reach zero."""
     half = 0.5 * (upper - lower)
-    if not np.all(np.isfinite(q)) or np.any(half <= 0) or (scales is not None and not np.isfinite(scales[0])):
+    zero = q == 0
+    if not np.all(np.isfinite(q)) or np.any(half <= 0) or zero.all() or \
+            (scales is not None and not np.isfinite(scales[0])):
         return (np.inf, np.nan) if scale else np.inf
-
-    def feasible(t: float):
-        a, b = lower - t * half, upper + t * half
-        zero = q == 0
-        if np.any(zero & ((a > 0) | (b < 0))) or zero.all():
-            return None
-        s1, s2 = a[~zero] / q[~zero], b[~zero] / q[~zero]
-        lo, hi = np.max(np.minimum(s1, s2)), np.min(np.maximum(s1, s2))
-        if scales is not None:
-            lo, hi = max(lo, scales[0]), min(hi, scales[1])
-        return 0.5 * (lo + hi) if lo <= hi else None
-
-    top, s = 0.0, feasible(0.0)
-    if s is None:
-        top = 1.0
-        while feasible(top) is None and top < 1e12:
-            top *= 2.0
-        low = 0.0
-        for _ in range(50):
-            mid = 0.5 * (low + top)
-            low, top = (low, mid) if feasible(mid) is not None else (mid, top)
-        s = feasible(top)
-    return (top, s) if scale else top
+    qn, slope = q[~zero], half[~zero] / np.abs(q[~zero])
+    low, high = np.where(qn > 0, lower[~zero], upper[~zero]) / qn, np.where(qn > 0, upper[~zero], lower[~zero]) / qn
+    if scales is not None:   # the ends low - slope t and high + slope t, and the two constant ones
+        low, high, slope = np.append(low, scales[0]), np.append(high, scales[1]), np.append(slope, 0.0)
+    gap, rate = low[:, None] - high[None, :], slope[:, None] + slope[None, :]
+    meet = np.divide(gap, rate, out=np.full(gap.shape, -np.inf), where=rate > 0)
+    t = max(0.0, float(np.max(meet)), float(np.max(np.maximum(lower[zero], -upper[zero]) / half[zero], initial=0.0)))
+    s = 0.5 * (np.max(low - t * slope) + np.min(high + t * slope))
+    return (t, s) if scale else t
 
 
 def misses(contract: Admissible, maps: Sequence) -> list[Miss]:
