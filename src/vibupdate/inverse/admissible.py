@@ -445,14 +445,9 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
 def _modal_masses(m, jacobian: bool) -> list:
     """Per measured shape of the data map ``m``: its model modal mass and gradient (a
     mass-normalized shape), else ``(nan, None)``."""
-    out, k = [], 0
-    for measured in m.shapes:
-        if measured.mass is None:
-            out.append((np.nan, None))
-        else:
-            out.append((float(m.masses[k]), m.mass_jacobian[k] if jacobian else None))
-            k += 1
-    return out
+    row = np.cumsum([s.mass is not None for s in m.shapes], dtype=int) - 1   # of each shape among the masses
+    return [(np.nan, None) if s.mass is None else (float(m.masses[k]), m.mass_jacobian[k] if jacobian else None)
+            for s, k in zip(m.shapes, row)]
 
 
 def scaling_miss(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: bool = False,

@@ -11,8 +11,7 @@ second.
 `paired_vector` is the vector a measured mode is compared with: its declared mode, or for a
 repeated frequency the combination whose shape ratios lie deepest in the measured intervals
 (`best_combination`). The verification, the data map (its ratios and their derivative as the
-eigenspace moves, `vibupdate.modal.sensitivities`) and the first stage use it; `subspace_mac`
-is the MAC of a measured shape with its best combination.
+eigenspace moves, `vibupdate.modal.sensitivities`) and the first stage use it.
 """
 
 from __future__ import annotations
@@ -149,16 +148,4 @@ def best_combination(U_entries: np.ndarray, u_reference: np.ndarray, lower: np.n
         if miss(c_lp) < best:
             return c_lp
     return c_ls
-
-
-def subspace_mac(shape: np.ndarray, U: np.ndarray) -> float:
-    """MAC of a measured ``shape``, shape (n_s,), with the best combination of the columns of
-    ``U``, shape (n_s, k): the squared cosine of its angle with their span."""
-    shape = np.asarray(shape, dtype=float)
-    denom = float(shape @ shape)
-    if denom == 0.0:
-        return 0.0
-    Q = sla.orth(np.asarray(U, dtype=float))
-    p = Q.T @ shape
-    return float(p @ p) / denom
 

@@ -19,11 +19,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from vibupdate.modal.analysis import mac
+from vibupdate.modal.analysis import mac, subspace_mac
 from vibupdate.inverse.admissible import Admissible, VerifyOptions, misses
 from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.inverse.data_map import data_map
-from vibupdate.inverse.repeated import cluster, subspace_mac
+from vibupdate.inverse.repeated import cluster
 from vibupdate.data.measured import TWO_PI, Configuration
 
 
