@@ -46,12 +46,10 @@ from vibupdate.inverse.repeated import cluster
 #: Relative numerical floor added to every admissible interval: the rounding of a
 #: double-precision eigen-solve with room for the polish's own stopping test.
 FLOOR = 1e-8
-#: Weight of the pull toward the midpoints against the distance outside the intervals (both in
-#: half-widths, in separate rows: `_rows`): small, so that inside the intervals it only picks the
-#: weighted least-squares point, and outside a datum costs ``1 / PULL^2`` times its squared
-#: distance. A datum held at its interval's end by a pull ``F`` half-widths strong (its own and
-#: the other data's) stays ``F PULL^2`` half-widths outside its target: `MARGIN` covers ``F`` up
-#: to 10 (with 0.03 the noisy beam of the tests ended data outside their intervals).
+#: Weight of the pull toward the midpoints against the distance outside the intervals (`_rows`):
+#: small, so that inside the intervals it only picks the weighted least-squares point. A datum
+#: held at its interval's end by a pull ``F`` half-widths strong (its own and the other data's)
+#: stays ``F PULL^2`` half-widths outside its target: `MARGIN` covers ``F`` up to 10.
 PULL = 1e-2
 #: The polish aims at each interval shrunk by this many half-widths (and by the floor): more
 #: than the pull's trade-off (``F PULL^2``) and than where the least squares stops on an

@@ -17,8 +17,7 @@ from scipy.optimize import least_squares
 
 
 #: A run has stalled when its best objective fell by less than this fraction over the last
-#: `stall_window` evaluations; it then stops with the best point. (The crawl of the polish
-#: along an interval edge on noisy shapes, about 1 % per evaluation, is not a stall.)
+#: `stall_window` evaluations; it then stops with the best point.
 STALL_DECREASE = 1e-3
 #: A run evaluated at a point within this distance (largest normalized parameter difference)
 #: of a known answer has found that answer again and stops (`Monitor`, ``answers``): a tenth of

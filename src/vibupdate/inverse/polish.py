@@ -41,17 +41,13 @@ ROUND_XTOL = 1e-10
 #: Full-model evaluations of the default budget per unknown plus one (`PolishOptions`): a
 #: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
-#: Every least squares of the polish (full or reduced model) starts with this weight of the
-#: distance rows, ``1 / START_PULL``, to ``ftol`` `START_FTOL`, then goes on from there with
-#: `vibupdate.inverse.admissible.PULL` (penalty continuation): with 0.01 from the start,
-#: trust-region steps crawl along the interval ends that hold the answer.
+#: Every least squares of the polish (full or reduced model) starts with the distance rows
+#: weighed by ``1 / START_PULL``, to ``ftol`` `START_FTOL`, and every admissible half-width at
+#: least `START_FLOOR` of its datum's scale (`Admissible.floored`), then goes on from there with
+#: `vibupdate.inverse.admissible.PULL` and the data's own intervals: the continuations of
+#: docs/polish-and-verification.md, section 7.2 (without them trust-region steps crawl).
 START_PULL = 0.1
 START_FTOL = 1e-3
-#: That start also holds every datum to an admissible half-width of at least this fraction of
-#: its value (`vibupdate.inverse.admissible.Admissible.floored`), then the finish holds the data
-#: to their own intervals: exact data beside data with a model-form tolerance otherwise bend the
-#: valley so that trust-region steps crawl along it (`benchmarks/RESULTS.md`, "The polish's
-#: floored start").
 START_FLOOR = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
