@@ -22,7 +22,6 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
-from scipy.optimize import OptimizeResult
 
 from vibupdate.options import check, default
 from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
@@ -258,9 +257,9 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
                 else ("evaluations", f"stopped on the limit of {budget} evaluations of the full model in {rounds} "
                                      f"reduced rounds (set polish.max_evaluations to allow more)")
         else:
-            sol, evaluations, stopped_on = _full_model(configurations, x, contract, tols, budget, evaluations,
-                                                       start, options.max_seconds, answers, maps0)
-            x, cost, message = sol.x, float(sol.cost), sol.message
+            x, cost, message, evaluations, stopped_on = _full_model(configurations, x, contract, tols, budget,
+                                                                    evaluations, start, options.max_seconds, answers,
+                                                                    maps0)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
@@ -277,15 +276,18 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     with `START_PULL` first; restarted while scipy's step or cost test stopped it and a restart
     still lowers the objective (trf's trust radius collapses on the way to a minimum on a bound).
     ``maps0``: the data maps at ``x`` with their Jacobians, when the caller evaluated them.
-    Returns ``(sol, evaluations, stopped_on)``: the best point as a `least_squares` result, the
-    evaluations counted from the polish's start, and what ended it."""
+    Returns ``(x, cost, message, evaluations, stopped_on)``: the best point, its objective, why
+    it stopped in words, the evaluations counted from the polish's start, and what ended it."""
     lo, hi = configurations[0].model.bounds()
     x = inside(x, lo, hi)
     soft = contract.floored(START_FLOOR)
     start = (x, residuals(soft, maps0, True, START_PULL) if maps0 else evaluate(configurations, soft, x,
                                                                                   pull=START_PULL))
-    monitor = Monitor(x, start[1], max(budget - evaluations - 1, 1), budget, stall_window(lo.size), started,
-                      max_seconds, answers)
+
+    def watch(x, value, left: int) -> Monitor:
+        return Monitor(x, value, max(left, 1), budget, stall_window(lo.size), started, max_seconds, answers)
+
+    monitor = watch(x, start[1], budget - evaluations - 1)
     memo: dict = {}
     try:   # the start (`START_PULL`, `START_FLOOR`), then the objective from its answer
         first = fit_least_squares(configurations, x, soft, known=start, monitor=monitor, pull=START_PULL,
@@ -295,15 +297,13 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
         if stop.reason != "stall":   # a limit, or a known answer reached again
             x_best = monitor.best[0]
             r, _ = evaluate(configurations, contract, x_best, jacobian=False)
-            return (OptimizeResult(x=x_best, cost=0.5 * float(r @ r), status=-2, message=stop.args[0]),
-                    evaluations + 2 + monitor.count, stop.reason)
+            return x_best, 0.5 * float(r @ r), stop.args[0], evaluations + 2 + monitor.count, stop.reason
         x = monitor.best[0]
     evaluations += 1 + monitor.count
     maps = memo.get(np.asarray(x, dtype=float).tobytes())   # the start's answer evaluated by it: no eigen-solve
     known = (x, residuals(contract, maps, True, PULL) if maps is not None else evaluate(configurations, contract, x))
     evaluations += int(maps is None)
-    monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
-                      max_seconds, answers)
+    monitor = watch(*known, budget - evaluations)
     stopped_on = "convergence"
     try:
         sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
@@ -314,7 +314,7 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
             if not again.cost < sol.cost:
                 break
             sol = again
+        x, cost, message = sol.x, float(sol.cost), sol.message
     except Stop as stop:
-        x_best, _, cost_best = monitor.best
-        sol, stopped_on = OptimizeResult(x=x_best, cost=cost_best, status=-2, message=stop.args[0]), stop.reason
-    return sol, evaluations + monitor.count, stopped_on
+        (x, _, cost), message, stopped_on = monitor.best, stop.args[0], stop.reason
+    return x, cost, message, evaluations + monitor.count, stopped_on
