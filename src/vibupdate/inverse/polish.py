@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from vibupdate.options import check, default
-from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
+from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside
 from vibupdate.inverse.admissible import PULL, Admissible, evaluate, residuals
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -285,7 +285,7 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
                                                                                   pull=START_PULL))
 
     def watch(x, value, left: int) -> Monitor:
-        return Monitor(x, value, max(left, 1), budget, stall_window(lo.size), started, max_seconds, answers)
+        return Monitor(x, value, max(left, 1), budget, started, max_seconds, answers)
 
     monitor = watch(x, start[1], budget - evaluations - 1)
     memo: dict = {}
