@@ -21,13 +21,10 @@ the entries' intervals; ``s`` is eliminated (variable projection, `_scales`). A 
 shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
 the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
 
-Two uses, one set of intervals: the **polish** minimizes, in half-widths ``h``, each value's
-distance outside its interval (weighted by ``1 / PULL^2``) plus its distance from the midpoint
-(`residuals`, two rows per datum: `_rows`), aiming at the intervals without the floor and
-shrunk by `MARGIN` half-widths: inside every interval only the pull is left, the least-squares
-fit weighted by ``1 / h^2`` (the classical fit when every frequency has the same relative
-tolerance); the **verification** asks whether every value lies in its interval, a shape at
-some scale (`misses`). The rows in full: docs/polish-and-verification.md, section 7.2.
+Two uses, one set of intervals: the **polish** minimizes each value's distance outside its
+interval plus a small pull toward its midpoint, in half-widths (`residuals`; the rows in full:
+docs/polish-and-verification.md, section 7.2); the **verification** asks whether every value
+lies in its interval, a shape at some scale (`misses`).
 """
 
 from __future__ import annotations
