@@ -282,7 +282,7 @@ class Admissible:
 
 
 def _rows(v, lo, hi, mid, h, pull=PULL):
-    """The polish's rows (module docstring) of values ``v`` (last axis: the data) against
+    """The polish's rows of values ``v`` (last axis: the data) against
     ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
     per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
     outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
@@ -401,7 +401,7 @@ def evaluate(configurations: Sequence[Configuration], contract: Admissible, xbar
 
 
 def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull: float = PULL):
-    """The polish's residual rows (module docstring) from the data maps of each configuration
+    """The polish's residual rows (`_rows`) from the data maps of each configuration
     (`vibupdate.inverse.data_map.DataMap`, with ``jacobian`` their Jacobians), and their
     Jacobian, shape (n_r, n_x) (None without ``jacobian``). Order per configuration:
     frequencies, modal masses (each: the pull rows, then the distance rows), shapes (reference
