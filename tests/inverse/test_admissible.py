@@ -377,3 +377,14 @@ def test_an_unmodelled_root_spring_gives_the_least_squares_compromise_and_names_
     assert answer < misfit([cfg], contract, np.zeros(lo.size))
     fit = next(c for c in result.checks if c.name == "fit")
     assert not fit.passed and all(f"mode {k}" in fit.message for k in range(1, 5))
+
+
+def test_the_least_miss_of_a_shape_is_exact_and_a_shape_without_readings_fits_at_no_scale():
+    """Entries 1 and 1 against [0, 1] and [3, 3.2] (half-widths 0.5 and 0.1): a common scale
+    first fits at t = 2 / 0.6, at s = 1 + 0.5 t. A model shape that is zero at every measured
+    entry (the measured DOFs at nodes of the paired mode) fits at no scale: an infinite miss and
+    no scale, not a finite figure."""
+    t, s = scaling_miss(np.array([1.0, 1.0]), np.array([0.0, 3.0]), np.array([1.0, 3.2]), scale=True)
+    assert t == pytest.approx(2 / 0.6, rel=1e-14) and s == pytest.approx(1 + 0.5 * t, rel=1e-14)
+    t, s = scaling_miss(np.zeros(3), -np.ones(3), np.ones(3), scale=True)
+    assert t == np.inf and np.isnan(s)

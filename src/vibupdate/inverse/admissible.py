@@ -21,13 +21,10 @@ the entries' intervals; ``s`` is eliminated (variable projection, `_scales`). A 
 shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
 the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
 
-Two uses, one set of intervals: the **polish** minimizes, in half-widths ``h``, each value's
-distance outside its interval (weighted by ``1 / PULL^2``) plus its distance from the midpoint
-(`residuals`, two rows per datum: `_rows`), aiming at the intervals without the floor and
-shrunk by `MARGIN` half-widths: inside every interval only the pull is left, the least-squares
-fit weighted by ``1 / h^2`` (the classical fit when every frequency has the same relative
-tolerance); the **verification** asks whether every value lies in its interval, a shape at
-some scale (`misses`). The rows in full: docs/polish-and-verification.md, section 7.2.
+Two uses, one set of intervals: the **polish** minimizes each value's distance outside its
+interval plus a small pull toward its midpoint, in half-widths (`residuals`; the rows in full:
+docs/polish-and-verification.md, section 7.2); the **verification** asks whether every value
+lies in its interval, a shape at some scale (`misses`).
 """
 
 from __future__ import annotations
@@ -46,12 +43,10 @@ from vibupdate.inverse.repeated import cluster
 #: Relative numerical floor added to every admissible interval: the rounding of a
 #: double-precision eigen-solve with room for the polish's own stopping test.
 FLOOR = 1e-8
-#: Weight of the pull toward the midpoints against the distance outside the intervals (both in
-#: half-widths, in separate rows: `_rows`): small, so that inside the intervals it only picks the
-#: weighted least-squares point, and outside a datum costs ``1 / PULL^2`` times its squared
-#: distance. A datum held at its interval's end by a pull ``F`` half-widths strong (its own and
-#: the other data's) stays ``F PULL^2`` half-widths outside its target: `MARGIN` covers ``F`` up
-#: to 10 (with 0.03 the noisy beam of the tests ended data outside their intervals).
+#: Weight of the pull toward the midpoints against the distance outside the intervals (`_rows`):
+#: small, so that inside the intervals it only picks the weighted least-squares point. A datum
+#: held at its interval's end by a pull ``F`` half-widths strong (its own and the other data's)
+#: stays ``F PULL^2`` half-widths outside its target: `MARGIN` covers ``F`` up to 10.
 PULL = 1e-2
 #: The polish aims at each interval shrunk by this many half-widths (and by the floor): more
 #: than the pull's trade-off (``F PULL^2``) and than where the least squares stops on an
@@ -156,10 +151,8 @@ class Shape:
 
     @cached_property
     def targets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The polish's target intervals of the entries (`_targets`) as ``(lo, hi, mid, h)``,
-        ``h`` the admissible half-widths: constants of the data, computed once."""
-        lo, hi = _targets(self.lower, self.upper, self.floor)
-        return _frozen(lo, hi, 0.5 * (lo + hi), self.half_width)
+        """The polish's target intervals of the entries (`_targets`), computed once."""
+        return _targets(self.lower, self.upper, self.floor)
 
     def scales(self, modal_mass: float) -> tuple[float, float] | None:
         """The scales the model's shape (normalized to 1 at the reference entry) may take: any
@@ -270,9 +263,18 @@ class Admissible:
 
     @cached_property
     def datum_targets(self) -> tuple:
-        """Per configuration, the polish's target intervals of its frequencies and of its modal
-        masses (`_datum_targets`, None for none): constants of the contract, computed once."""
-        return tuple((_datum_targets(f), _datum_targets(m)) for f, m in zip(self.frequencies, self.masses))
+        """Per configuration, the polish's target intervals (`_targets`) of its frequencies and
+        of its modal masses, each with the square roots of the data's weights repeated for the
+        two rows of each datum (None for no data), computed once."""
+        def block(items):
+            if not items:
+                return None
+            lower, upper, value = (np.array([getattr(d, k) for d in items]) for k in ("lower", "upper", "value"))
+            w = np.tile(np.sqrt([d.weight for d in items]), 2)
+            w.flags.writeable = False
+            return (*_targets(lower, upper, FLOOR * np.abs(value)), w)
+
+        return tuple((block(f), block(m)) for f, m in zip(self.frequencies, self.masses))
 
     def relative_half_widths(self) -> np.ndarray:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
@@ -280,7 +282,7 @@ class Admissible:
 
 
 def _rows(v, lo, hi, mid, h, pull=PULL):
-    """The polish's rows (module docstring) of values ``v`` (last axis: the data) against
+    """The polish's rows of values ``v`` (last axis: the data) against
     ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
     per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
     outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
@@ -293,10 +295,16 @@ def _rows(v, lo, hi, mid, h, pull=PULL):
             np.concatenate([slope_in, slope_out], axis=-1))
 
 
-def _targets(lower, upper, floor):
-    """The polish's target interval: the admissible one without its floor, shrunk by `MARGIN`."""
+def _targets(lower, upper, floor) -> tuple[np.ndarray, ...]:
+    """The polish's target intervals: the admissible ones ``[lower, upper]`` without their
+    ``floor``, shrunk by `MARGIN` half-widths, as read-only ``(lo, hi, mid, h)``, ``h`` the
+    admissible half-widths."""
     inset = floor + MARGIN * 0.5 * (upper - lower - 2 * floor)
-    return lower + inset, upper - inset
+    lo, hi = lower + inset, upper - inset
+    out = (lo, hi, 0.5 * (lo + hi), 0.5 * (upper - lower))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray,
@@ -393,7 +401,7 @@ def evaluate(configurations: Sequence[Configuration], contract: Admissible, xbar
 
 
 def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull: float = PULL):
-    """The polish's residual rows (module docstring) from the data maps of each configuration
+    """The polish's residual rows (`_rows`) from the data maps of each configuration
     (`vibupdate.inverse.data_map.DataMap`, with ``jacobian`` their Jacobians), and their
     Jacobian, shape (n_r, n_x) (None without ``jacobian``). Order per configuration:
     frequencies, modal masses (each: the pull rows, then the distance rows), shapes (reference
@@ -429,69 +437,39 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
     return r, (np.vstack(jac) if jacobian and jac else None)
 
 
-def _datum_targets(items: tuple) -> tuple[np.ndarray, ...] | None:
-    """The polish's target intervals of a block of data (`_targets`) as ``(lo, hi, mid, h, w)``,
-    ``h`` the admissible half-widths, ``w`` the square roots of the data's weights repeated for
-    the two rows of each; None for an empty block."""
-    if not items:
-        return None
-    lo, hi = _targets(*(np.array([getattr(d, k) for d in items]) for k in ("lower", "upper")),
-                      FLOOR * np.array([abs(d.value) for d in items]))
-    return _frozen(lo, hi, 0.5 * (lo + hi), np.array([d.half_width for d in items]),
-                   np.tile(np.sqrt([d.weight for d in items]), 2))
-
-
-def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    for a in arrays:
-        a.flags.writeable = False
-    return arrays
-
-
 def _modal_masses(m, jacobian: bool) -> list:
     """Per measured shape of the data map ``m``: its model modal mass and gradient (a
     mass-normalized shape), else ``(nan, None)``."""
-    out, k = [], 0
-    for measured in m.shapes:
-        if measured.mass is None:
-            out.append((np.nan, None))
-        else:
-            out.append((float(m.masses[k]), m.mass_jacobian[k] if jacobian else None))
-            k += 1
-    return out
+    row = np.cumsum([s.mass is not None for s in m.shapes], dtype=int) - 1   # of each shape among the masses
+    return [(np.nan, None) if s.mass is None else (float(m.masses[k]), m.mass_jacobian[k] if jacobian else None)
+            for s, k in zip(m.shapes, row)]
 
 
 def scaling_miss(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: bool = False,
                  scales: tuple[float, float] | None = None):
     """The least ``t`` such that some scale ``s`` (within ``scales``, when given:
-    `Shape.scales`) puts every ``s q_j`` within ``t`` half-widths of ``[lower_j, upper_j]``
-    (0: the shape is admissible); bisection on ``t``, for each ``t`` the scales each entry
-    admits form one interval and they intersect or not. With ``scale``, ``(t, s)``."""
+    `Shape.scales`) puts every ``s q_j`` within ``t`` half-widths ``h_j`` of
+    ``[lower_j, upper_j]`` (0: the shape is admissible); with ``scale``, ``(t, s)``, ``s`` the
+    middle of the scales admitted at that ``t``.
+
+    Exact: an entry with ``q_j != 0`` admits the scales between ``(lower_j - t h_j) / q_j`` and
+    ``(upper_j + t h_j) / q_j``, whose lower end falls and upper end rises linearly in ``t``
+    (``scales`` adds two constant ends); the entries share a scale from the largest ``t`` at
+    which a lower end meets an upper end. An entry with ``q_j = 0`` needs ``t`` to reach zero."""
     half = 0.5 * (upper - lower)
-    if not np.all(np.isfinite(q)) or np.any(half <= 0) or (scales is not None and not np.isfinite(scales[0])):
+    zero = q == 0
+    if not np.all(np.isfinite(q)) or np.any(half <= 0) or zero.all() or \
+            (scales is not None and not np.isfinite(scales[0])):
         return (np.inf, np.nan) if scale else np.inf
-
-    def feasible(t: float):
-        a, b = lower - t * half, upper + t * half
-        zero = q == 0
-        if np.any(zero & ((a > 0) | (b < 0))) or zero.all():
-            return None
-        s1, s2 = a[~zero] / q[~zero], b[~zero] / q[~zero]
-        lo, hi = np.max(np.minimum(s1, s2)), np.min(np.maximum(s1, s2))
-        if scales is not None:
-            lo, hi = max(lo, scales[0]), min(hi, scales[1])
-        return 0.5 * (lo + hi) if lo <= hi else None
-
-    top, s = 0.0, feasible(0.0)
-    if s is None:
-        top = 1.0
-        while feasible(top) is None and top < 1e12:
-            top *= 2.0
-        low = 0.0
-        for _ in range(50):
-            mid = 0.5 * (low + top)
-            low, top = (low, mid) if feasible(mid) is not None else (mid, top)
-        s = feasible(top)
-    return (top, s) if scale else top
+    qn, slope = q[~zero], half[~zero] / np.abs(q[~zero])
+    low, high = np.where(qn > 0, lower[~zero], upper[~zero]) / qn, np.where(qn > 0, upper[~zero], lower[~zero]) / qn
+    if scales is not None:   # the ends low - slope t and high + slope t, and the two constant ones
+        low, high, slope = np.append(low, scales[0]), np.append(high, scales[1]), np.append(slope, 0.0)
+    gap, rate = low[:, None] - high[None, :], slope[:, None] + slope[None, :]
+    meet = np.divide(gap, rate, out=np.full(gap.shape, -np.inf), where=rate > 0)
+    t = max(0.0, float(np.max(meet)), float(np.max(np.maximum(lower[zero], -upper[zero]) / half[zero], initial=0.0)))
+    s = 0.5 * (np.max(low - t * slope) + np.min(high + t * slope))
+    return (t, s) if scale else t
 
 
 def misses(contract: Admissible, maps: Sequence) -> list[Miss]:
@@ -537,17 +515,10 @@ def weighted(configurations: Sequence[Configuration], contract: Admissible):
     admissible half-width, the multipliers normalized to mean 1: the first stage weighs each
     residual as the contract does (the same objects when every ``h`` is equal)."""
     factor = 1.0 / np.maximum(contract.relative_half_widths(), WEIGHT_FLOOR) ** 2
-    if not factor.size:
+    factor = factor / factor.mean() if factor.size else factor
+    if np.allclose(factor, 1.0, rtol=1e-12, atol=0.0):   # every h equal, or no frequency at all
         return list(configurations)
-    factor /= factor.mean()
-    if np.allclose(factor, 1.0, rtol=1e-12, atol=0.0):
-        return list(configurations)
-    out, k = [], 0
-    for c in configurations:
-        n, m = len(c.natural), len(c.antiresonances)
-        fn, fa = factor[k:k + n], factor[k + n:k + n + m]
-        k += n + m
-        out.append(replace(c, natural=tuple(replace(d, weight=d.weight * w) for d, w in zip(c.natural, fn)),
-                           antiresonances=tuple(replace(d, weight=d.weight * w)
-                                                for d, w in zip(c.antiresonances, fa))))
-    return out
+    each = iter(factor)   # in the contract's order: per configuration, natural then antiresonances
+    return [replace(c, natural=tuple(replace(d, weight=d.weight * next(each)) for d in c.natural),
+                    antiresonances=tuple(replace(d, weight=d.weight * next(each)) for d in c.antiresonances))
+            for c in configurations]

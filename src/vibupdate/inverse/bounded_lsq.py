@@ -4,7 +4,7 @@ classical peers (`vibupdate.inverse.baseline`).
 
 A `Monitor`, when given, counts the evaluations, keeps the best point and ends the run by
 raising `Stop` on an evaluation limit, a time limit, a stall (the best objective fell by less
-than `STALL_DECREASE` of itself over the last `stall_window` evaluations) or on reaching a known
+than `STALL_DECREASE` of itself over its last ``window`` evaluations) or on reaching a known
 answer again (`SAME_ANSWER`): a run that only finds an answer again need not converge on it.
 """
 
@@ -17,20 +17,13 @@ from scipy.optimize import least_squares
 
 
 #: A run has stalled when its best objective fell by less than this fraction over the last
-#: `stall_window` evaluations; it then stops with the best point. (The crawl of the polish
-#: along an interval edge on noisy shapes, about 1 % per evaluation, is not a stall.)
+#: ``window`` evaluations (`Monitor`); it then stops with the best point.
 STALL_DECREASE = 1e-3
 #: A run evaluated at a point within this distance (largest normalized parameter difference)
 #: of a known answer has found that answer again and stops (`Monitor`, ``answers``): a tenth of
 #: the distance at which two answers count as distinct (`vibupdate.inverse.search.Search.distinct`;
 #: `benchmarks/RESULTS.md`, "The uniqueness probe stops on answers found again").
 SAME_ANSWER = 1e-4
-
-
-def stall_window(n_x: int) -> int:
-    """Evaluations over which a stall is judged (`STALL_DECREASE`): twice the unknowns plus
-    one, at least 20 (scipy's trust region may need several rejected steps in a row)."""
-    return max(20, 2 * (n_x + 1))
 
 
 def inside(x, lower, upper) -> np.ndarray:
@@ -51,13 +44,14 @@ class Stop(Exception):
 class Monitor:
     """Counts the evaluations of a least squares, keeps the best point seen, and raises `Stop`
     on the module docstring's events: ``limit`` evaluations (what is left of ``budget``), the
-    time limit, a stall over ``window`` evaluations, a point near one of ``answers`` (shape
-    (n_a, n_x); none by default)."""
+    time limit, a stall over ``window`` evaluations (by default twice the unknowns plus one, at
+    least 20: scipy's trust region may need several rejected steps in a row), a point near one
+    of ``answers`` (shape (n_a, n_x); none by default)."""
 
-    def __init__(self, x, value, limit: int, budget: int, window: int, started: float, max_seconds: float | None,
-                 answers=None):
+    def __init__(self, x, value, limit: int, budget: int, started: float, max_seconds: float | None,
+                 answers=None, window: int | None = None):
         self.best = (np.asarray(x, dtype=float), value, 0.5 * float(value[0] @ value[0]))
-        self.limit, self.budget, self.window = limit, budget, window
+        self.limit, self.budget, self.window = limit, budget, window or max(20, 2 * (self.best[0].size + 1))
         self.started, self.max_seconds = started, max_seconds
         self.answers = None if answers is None or not len(answers) else np.atleast_2d(np.asarray(answers, float))
         self.count = 0

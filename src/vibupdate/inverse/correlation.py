@@ -233,7 +233,15 @@ def modal_mass_rows(configurations: Sequence[Configuration], nominal: Sequence[M
     mass-normalized measured shape, the modal mass ``1 / phi_p^2`` at its reference entry
     measured (interval), nominal and updated (at ``xbar``), the errors against the interval's
     midpoint."""
-    from vibupdate.inverse.repeated import paired_modal_mass
+    from vibupdate.inverse.repeated import paired_vector
+
+    def modal_mass(cfg, M, m, k):   # q^T M q, q the paired vector at 1 on the reference (1 / phi_p^2)
+        phi = paired_vector(cfg, m.Phi_all, m.omega_all, k)[0]
+        ref = float((cfg.model.measurement([cfg.natural[k].shape.reference]) @ phi)[0])
+        if ref == 0:
+            return float("inf")
+        q = phi / ref
+        return float(q @ (M @ q))
 
     rows = []
     for cfg, nom, upd in zip(configurations, nominal, updated):
@@ -245,7 +253,7 @@ def modal_mass_rows(configurations: Sequence[Configuration], nominal: Sequence[M
                 continue
             lo, hi = f.shape.modal_mass_bounds()
             mid = 0.5 * (lo + hi)
-            masses = [paired_modal_mass(cfg, M, m.Phi_all, m.omega_all, k) for M, m in zip(mass_matrices, (nom, upd))]
+            masses = [modal_mass(cfg, M, m, k) for M, m in zip(mass_matrices, (nom, upd))]
             rows.append({"configuration": cfg.name, "mode": f.mode, "dof": f.shape.reference,
                          "measured_lower_kg": lo, "measured_upper_kg": hi, "nominal_kg": masses[0],
                          "updated_kg": masses[1], "error_nominal_pct": 100 * (masses[0] / mid - 1),

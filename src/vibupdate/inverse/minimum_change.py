@@ -1,37 +1,18 @@
-"""Minimum change along what the data leave undetermined.
+"""Minimum change along what the data leave undetermined, and the set of answers there.
 
-Where the data do not determine every parameter (fewer independent data than parameters, an
-exact symmetry), the fitted parameters form a set and the point the solver returns is an
-accident of the path (`benchmarks/RESULTS.md`, "Figures behind src/: minimum change"). This
-module takes the polished answer ``x*`` to the point of that set nearest the nominal model, as
-a minimum-norm fit would, and explores the set (`valley_points`, `valley_ends`, `valley_curve`).
-
-Let ``g(x)`` be the measured data as the model gives them: every declared natural frequency
-and zero relative to its measured value, and every measured shape ratio (the residuals of
-`vibupdate.inverse.baseline.classical_residuals`, which differ from ``g`` by constants and fixed
-weights). Its exact Jacobian ``J`` at ``x*`` has rank ``k``
-(singular values above ``RANK_RTOL`` of the largest, the threshold of the reported
-sensitivity, `vibupdate.inverse.data_map.sensitivity`), below the number of parameters.
-The answer is
-
-    min ||x||^2   over   { x in the box : g(x) = g(x*) },
-
-the normalized parameters (Eq. 12) closest to the nominal point among those with *exactly the
-data* of ``x*`` (so the fit and every verification figure stay what they were), solved by the
-minimum-norm Gauss-Newton iteration on the constraint,
+Where the exact Jacobian ``J`` of the measured data ``g(x)`` (declared frequencies and zeros,
+shape ratios: `vibupdate.inverse.baseline.classical_residuals` up to constants and fixed
+weights) has rank ``k`` below the number of parameters (singular values above `RANK_RTOL` of
+the largest), the fitted parameters form a set and the polished answer ``x*`` is an accident of
+the path. `minimum_change` returns the point of the box nearest the nominal model with exactly
+the data of ``x*``, ``min ||x||^2`` subject to ``g(x) = g(x*)``, by minimum-norm Gauss-Newton
+steps (``J = U S V^T`` truncated at ``k``)
 
     d = -V_k S_k^-1 U_k^T (g(x) - g(x*)) - (I - V_k V_k^T) x,
 
-(``J = U S V^T`` at the current point, truncated at rank ``k``): the first term returns to the
-data, the second removes the component of ``x`` along the null directions. It converges
-quadratically where the rank is constant. The new point is kept only when its data agree with
-those of ``x*`` to ``DATA_TOL`` (relative) and it is nearer the nominal point; otherwise ``x*``
-is returned and the reason recorded.
-
-Written here rather than taken from scipy: `scipy.optimize.minimize` with equality constraints
-(SLSQP, trust-constr) needs the constraint Jacobian to keep full row rank, which ``J`` never
-has in this situation (it is the rank deficiency that makes the problem), and a Tikhonov
-continuation changes the fit by ``O(mu^2)`` at every stage.
+kept only when its data agree with those of ``x*`` to `DATA_TOL`; `valley_points`,
+`valley_ends` and `valley_curve` explore the set. The decision, and why not scipy's
+constrained minimizers: docs/polish-and-verification.md, section 7.5.
 """
 
 from __future__ import annotations
@@ -178,14 +159,14 @@ def _same_data_nearest(configurations, x0, target, g0, finite, rank, lo, hi, at_
 VALLEY_STEPS = 6
 
 
-def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int = VALLEY_STEPS,
-                  found=None) -> np.ndarray:
+def valley_points(configurations: Sequence[Configuration], xbar, found=None) -> np.ndarray:
     """Points with exactly the data of ``xbar`` along each direction the data leave
     undetermined, out to the box: for each null direction ``v`` of the data Jacobian and each
-    sense, the points nearest ``xbar + (k / steps) t v`` (``t`` to the box boundary, ``k = 1 ..
-    steps``) that keep every datum to `DATA_TOL`: the set of parameters that fit bends away from
-    the straight line. A sense stops at its first point that fails. Returns shape (n_points, n_x), empty when
-    the data determine every parameter. ``found``: as in `valley_curve`."""
+    sense, the points nearest ``xbar + (k / n) t v`` (``t`` to the box boundary, ``k = 1 .. n``,
+    ``n`` = `VALLEY_STEPS`) that keep every datum to `DATA_TOL`: the set of parameters that fit
+    bends away from the straight line. A sense stops at its first point that fails. Returns
+    shape (n_points, n_x), empty when the data determine every parameter. ``found``: as in
+    `valley_curve`."""
     configurations, lo, hi, x0, found = _start(configurations, xbar, found)
     if found is None:
         return np.zeros((0, x0.size))
@@ -200,8 +181,8 @@ def valley_points(configurations: Sequence[Configuration], xbar, *, steps: int =
             if not np.isfinite(t_max) or t_max <= 0:
                 continue
             start, at = x0, (g0, J)
-            for k in range(1, steps + 1):
-                x, change, _, lost = _same_data_nearest(configurations, start, x0 + (k / steps) * t_max * d, g0,
+            for k in range(1, VALLEY_STEPS + 1):
+                x, change, _, lost = _same_data_nearest(configurations, start, x0 + (k / VALLEY_STEPS) * t_max * d, g0,
                                                         finite, rank, lo, hi, at_x0=at)
                 if lost or change > DATA_TOL:
                     break

@@ -22,10 +22,9 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
-from scipy.optimize import OptimizeResult
 
 from vibupdate.options import check, default
-from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside, stall_window
+from vibupdate.inverse.bounded_lsq import Monitor, Stop, bounded_least_squares, inside
 from vibupdate.inverse.admissible import PULL, Admissible, evaluate, residuals
 from vibupdate.data.measured import Configuration
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -41,17 +40,13 @@ ROUND_XTOL = 1e-10
 #: Full-model evaluations of the default budget per unknown plus one (`PolishOptions`): a
 #: backstop, the polish ends on convergence or on `bounded_lsq.STALL_DECREASE`.
 EVALUATIONS_PER_UNKNOWN = 100
-#: Every least squares of the polish (full or reduced model) starts with this weight of the
-#: distance rows, ``1 / START_PULL``, to ``ftol`` `START_FTOL`, then goes on from there with
-#: `vibupdate.inverse.admissible.PULL` (penalty continuation): with 0.01 from the start,
-#: trust-region steps crawl along the interval ends that hold the answer.
+#: Every least squares of the polish (full or reduced model) starts with the distance rows
+#: weighed by ``1 / START_PULL``, to ``ftol`` `START_FTOL`, and every admissible half-width at
+#: least `START_FLOOR` of its datum's scale (`Admissible.floored`), then goes on from there with
+#: `vibupdate.inverse.admissible.PULL` and the data's own intervals: the continuations of
+#: docs/polish-and-verification.md, section 7.2 (without them trust-region steps crawl).
 START_PULL = 0.1
 START_FTOL = 1e-3
-#: That start also holds every datum to an admissible half-width of at least this fraction of
-#: its value (`vibupdate.inverse.admissible.Admissible.floored`), then the finish holds the data
-#: to their own intervals: exact data beside data with a model-form tolerance otherwise bend the
-#: valley so that trust-region steps crawl along it (`benchmarks/RESULTS.md`, "The polish's
-#: floored start").
 START_FLOOR = 1e-3
 #: What stopped the polish, besides convergence and a stall: a limit, reported as a warning.
 LIMITS = ("evaluations", "time")
@@ -179,8 +174,8 @@ def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Adm
 def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None):
     """The reduced rounds (module docstring) from ``x0``.
 
-    Returns ``(x, value, evaluations, rounds, reduced_evaluations, converged)``: the best
-    point found, its full-model residual and Jacobian, the counts, and why the rounds converged
+    Returns ``(x, cost, evaluations, rounds, reduced_evaluations, converged)``: the best
+    point found, its full-model objective, the counts, and why the rounds converged
     ("" when they did not: the full-model finish follows). They converge on a step below
     `ROUND_XTOL`, on a predicted gain below ``tol`` times the objective, where what is left is
     below the reduced model's accuracy (`ROUND_SETTLED`), or on a refuted step at an objective
@@ -229,11 +224,11 @@ def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, 
                 converged = (f"the full model refuted a further step whose predicted gain was below "
                              f"{ROUND_SETTLED:g} of the objective")
             break
-        x, value, cost, basis = x_new, value_new, cost_new, basis_new
+        x, cost, basis = x_new, cost_new, basis_new
         if say is not None:
             say(f"  polish round {rounds}: objective {cost:.4e} on the full model ({int(sol.nfev)} evaluations "
                 f"of a {reduced[0].model.n_dofs}-DOF reduced model)")
-    return x, value, evaluations, rounds, reduced_evaluations, converged
+    return x, cost, evaluations, rounds, reduced_evaluations, converged
 
 
 def polish(configurations: Sequence[Configuration], xbar0, options: PolishOptions | None = None,
@@ -258,26 +253,24 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     r0, _ = evaluate(configurations, contract, x0, jacobian=maps0 is not None, maps=maps0)
     cost0 = 0.5 * float(r0 @ r0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}
-    x, known, rounds, reduced, converged, evaluations = x0, None, 0, 0, "", 0
+    x, rounds, reduced, converged, evaluations = x0, 0, 0, "", 0
     try:
         if in_rounds:
             try:
-                x, value, evaluations, rounds, reduced, converged = _reduced_rounds(
+                x, cost, evaluations, rounds, reduced, converged = _reduced_rounds(
                     configurations, x0, contract, options, tols, budget, progress)
-                known = (x, value)
             except (np.linalg.LinAlgError, ValueError) as exc:   # the full-model least squares alone, from x0
-                x, evaluations, known = x0, 0, None
+                x, evaluations = x0, 0
                 if progress is not None:
                     progress(f"  polish: the reduced rounds failed ({exc}); polishing on the full model")
         if converged or evaluations >= budget:
-            cost = 0.5 * float(known[1][0] @ known[1][0])
             stopped_on, message = ("convergence", f"converged in {rounds} reduced rounds: {converged}") if converged \
                 else ("evaluations", f"stopped on the limit of {budget} evaluations of the full model in {rounds} "
                                      f"reduced rounds (set polish.max_evaluations to allow more)")
         else:
-            sol, evaluations, stopped_on = _full_model(configurations, x, contract, tols, budget, evaluations,
-                                                       start, options.max_seconds, answers, maps0)
-            x, cost, message = sol.x, float(sol.cost), sol.message
+            x, cost, message, evaluations, stopped_on = _full_model(configurations, x, contract, tols, budget,
+                                                                    evaluations, start, options.max_seconds, answers,
+                                                                    maps0)
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
@@ -294,15 +287,18 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     with `START_PULL` first; restarted while scipy's step or cost test stopped it and a restart
     still lowers the objective (trf's trust radius collapses on the way to a minimum on a bound).
     ``maps0``: the data maps at ``x`` with their Jacobians, when the caller evaluated them.
-    Returns ``(sol, evaluations, stopped_on)``: the best point as a `least_squares` result, the
-    evaluations counted from the polish's start, and what ended it."""
+    Returns ``(x, cost, message, evaluations, stopped_on)``: the best point, its objective, why
+    it stopped in words, the evaluations counted from the polish's start, and what ended it."""
     lo, hi = configurations[0].model.bounds()
     x = inside(x, lo, hi)
     soft = contract.floored(START_FLOOR)
     start = (x, residuals(soft, maps0, True, START_PULL) if maps0 else evaluate(configurations, soft, x,
                                                                                   pull=START_PULL))
-    monitor = Monitor(x, start[1], max(budget - evaluations - 1, 1), budget, stall_window(lo.size), started,
-                      max_seconds, answers)
+
+    def watch(x, value, left: int) -> Monitor:
+        return Monitor(x, value, max(left, 1), budget, started, max_seconds, answers)
+
+    monitor = watch(x, start[1], budget - evaluations - 1)
     memo: dict = {}
     try:   # the start (`START_PULL`, `START_FLOOR`), then the objective from its answer
         first = fit_least_squares(configurations, x, soft, known=start, monitor=monitor, pull=START_PULL,
@@ -312,18 +308,13 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
         if stop.reason != "stall":   # a limit, or a known answer reached again
             x_best = monitor.best[0]
             r, _ = evaluate(configurations, contract, x_best, jacobian=False)
-            return (OptimizeResult(x=x_best, cost=0.5 * float(r @ r), status=-2, message=stop.args[0]),
-                    evaluations + 2 + monitor.count, stop.reason)
+            return x_best, 0.5 * float(r @ r), stop.args[0], evaluations + 2 + monitor.count, stop.reason
         x = monitor.best[0]
     evaluations += 1 + monitor.count
-    maps = memo.get(np.asarray(x, dtype=float).tobytes())
-    if maps is not None:   # the start's last evaluation was its answer: the same eigen-solve
-        known = (x, residuals(contract, maps, True, PULL))
-    else:
-        known = (x, evaluate(configurations, contract, x))
-        evaluations += 1
-    monitor = Monitor(known[0], known[1], max(budget - evaluations, 1), budget, stall_window(lo.size), started,
-                      max_seconds, answers)
+    maps = memo.get(np.asarray(x, dtype=float).tobytes())   # the start's answer evaluated by it: no eigen-solve
+    known = (x, residuals(contract, maps, True, PULL) if maps is not None else evaluate(configurations, contract, x))
+    evaluations += int(maps is None)
+    monitor = watch(*known, budget - evaluations)
     stopped_on = "convergence"
     try:
         sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
@@ -334,7 +325,7 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
             if not again.cost < sol.cost:
                 break
             sol = again
+        x, cost, message = sol.x, float(sol.cost), sol.message
     except Stop as stop:
-        x_best, _, cost_best = monitor.best
-        sol, stopped_on = OptimizeResult(x=x_best, cost=cost_best, status=-2, message=stop.args[0]), stop.reason
-    return sol, evaluations + monitor.count, stopped_on
+        (x, _, cost), message, stopped_on = monitor.best, stop.args[0], stop.reason
+    return x, cost, message, evaluations + monitor.count, stopped_on

@@ -11,8 +11,7 @@ second.
 `paired_vector` is the vector a measured mode is compared with: its declared mode, or for a
 repeated frequency the combination whose shape ratios lie deepest in the measured intervals
 (`best_combination`). The verification, the data map (its ratios and their derivative as the
-eigenspace moves, `vibupdate.modal.sensitivities`) and the first stage use it; `subspace_mac`
-is the MAC of a measured shape with its best combination.
+eigenspace moves, `vibupdate.modal.sensitivities`) and the first stage use it.
 """
 
 from __future__ import annotations
@@ -150,26 +149,3 @@ def best_combination(U_entries: np.ndarray, u_reference: np.ndarray, lower: np.n
             return c_lp
     return c_ls
 
-
-def subspace_mac(shape: np.ndarray, U: np.ndarray) -> float:
-    """MAC of a measured ``shape``, shape (n_s,), with the best combination of the columns of
-    ``U``, shape (n_s, k): the squared cosine of its angle with their span."""
-    shape = np.asarray(shape, dtype=float)
-    denom = float(shape @ shape)
-    if denom == 0.0:
-        return 0.0
-    Q = sla.orth(np.asarray(U, dtype=float))
-    p = Q.T @ shape
-    return float(p @ p) / denom
-
-
-def paired_modal_mass(cfg, M, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> float:
-    """The modal mass (kg) at the reference DOF of the ``k``-th measured shape of ``cfg`` of
-    the model vector paired with it (`paired_vector`): ``q^T M q``, ``q`` that vector scaled to
-    1 at the reference (``1 / phi_p^2`` of a mass-normalized mode); inf where it is 0 there."""
-    phi = paired_vector(cfg, Phi_all, omega_all, k)[0]
-    ref = float((cfg.model.measurement([cfg.natural[k].shape.reference]) @ phi)[0])
-    if ref == 0:
-        return float("inf")
-    q = phi / ref
-    return float(q @ (M @ q))

@@ -1,36 +1,15 @@
 """Verification: is the returned model the one the data describe?
 
 A solver that reaches ``lam = 1`` has found a small objective; that does not make the model
-right. The checks (what each passes on, and its default limit: docs/polish-and-verification.md,
-section 7.3):
-
-``mode_order``
-    every measured natural frequency is nearest to its declared model mode, or to a mode that
-    repeats its frequency (`vibupdate.inverse.repeated`);
-``zero_order``
-    every measured antiresonance is nearest to its declared zero, and the model has that zero;
-``mac``
-    a measured shape's MAC with its declared mode is at least ``mac_min`` and no other model
-    mode matches it better;
-``fit``, ``shape_intervals``, ``modal_mass``
-    one membership test of the admissible intervals the polish fits
-    (`vibupdate.inverse.admissible.misses`);
-``correspondence``
-    when the first-stage answer fitted the data under another pairing (a mode skipped), the
-    declared pairing's mean natural-frequency error stays within twice that pairing's plus a
-    tenth of the natural frequencies' tolerance (measurement plus model form);
-``improvement``
-    the updated mean frequency error is not above the nominal one;
-``consistency`` (warning only)
-    the relaxation's lower bound against the heuristic allowance ``n_blocks (2 tol)^2`` (each
-    block's weighted residual approximates twice a relative frequency error): not a
-    certificate, so a bound above it is a warning naming both figures and the active bounds;
-``bounds`` (warning only)
-    parameters on a bound of their box.
-
-A failed error check makes the status ``not_verified``. A passed membership check says what
-limited the answer (`Check.limited_by`): the measurements, or the model's form when some data
-lie only within the model-form tolerance.
+right. `verify` returns one `Check` per property, each with its measured figure and limit:
+the declared pairing of modes and zeros (``mode_order``, ``zero_order``, ``mac``,
+``correspondence``; a repeated frequency's modes tie, `vibupdate.inverse.repeated`), one
+membership test of the admissible intervals the polish fits (``fit``, ``shape_intervals``,
+``modal_mass``: `vibupdate.inverse.admissible.misses`), ``improvement`` over the nominal model,
+and two warnings: the relaxation's lower bound against a heuristic allowance (``consistency``,
+not a certificate) and parameters on a bound (``bounds``). What each passes on and its default
+limit: docs/polish-and-verification.md, section 7.3. A failed error check makes the status
+``not_verified``; a passed membership check says what limited the answer (`Check.limited_by`).
 """
 
 from __future__ import annotations
@@ -40,11 +19,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from vibupdate.modal.analysis import mac
+from vibupdate.modal.analysis import mac, subspace_mac
 from vibupdate.inverse.admissible import Admissible, VerifyOptions, misses
 from vibupdate.inverse.correlation import ModelFrequencies, percent_error
 from vibupdate.inverse.data_map import data_map
-from vibupdate.inverse.repeated import cluster, subspace_mac
+from vibupdate.inverse.repeated import cluster
 from vibupdate.data.measured import TWO_PI, Configuration
 
 

@@ -10,6 +10,7 @@ here.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 
 from vibupdate.modal.eigen import (
     DENSE_LIMIT,
@@ -92,3 +93,15 @@ def mac(A, B) -> np.ndarray:
     num = np.abs(A.conj().T @ B) ** 2
     den = np.outer(np.sum(np.abs(A) ** 2, axis=0), np.sum(np.abs(B) ** 2, axis=0))
     return num / den
+
+
+def subspace_mac(shape: np.ndarray, U: np.ndarray) -> float:
+    """MAC of a measured ``shape``, shape (n_s,), with the best combination of the columns of
+    ``U``, shape (n_s, k): the squared cosine of its angle with their span."""
+    shape = np.asarray(shape, dtype=float)
+    denom = float(shape @ shape)
+    if denom == 0.0:
+        return 0.0
+    Q = scipy.linalg.orth(np.asarray(U, dtype=float))
+    p = Q.T @ shape
+    return float(p @ p) / denom
