@@ -215,3 +215,24 @@ def test_the_measured_frf_plot_draws_an_frf_measured_at_a_sensor(tmp_path):
     path = plot_measured_frf(tmp_path / "frf.png", frfs, dofs, (M, K, None), (M, K, C), "A", "nominal", "updated",
                              (sensor,))
     assert path.is_file() and path.stat().st_size > 0
+
+
+def test_the_homotopy_plot_draws_each_path_as_its_own_line(tmp_path, monkeypatch):
+    """A direct jump (lambda 0, 1) then the stepped restart (0, 0.5, 1): two lines, not one
+    that runs from lambda 1 back to 0."""
+    from types import SimpleNamespace
+
+    import matplotlib.figure
+
+    from vibupdate.inverse.status import Status
+    from vibupdate.report.plots import plot_homotopy
+
+    drawn = []
+    real = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
+                        lambda fig, *a, **k: drawn.append([line.get_xdata().tolist() for line in fig.axes[0].lines
+                                                           if line.get_linestyle() == "-"]) or real(fig, *a, **k))
+    steps = [SimpleNamespace(lam=lam, objective=obj, status=Status.SUCCESS)
+             for lam, obj in ((0.0, 1e-8), (1.0, 3.0), (0.0, 1e-8), (0.5, 1e-3), (1.0, 1e-6))]
+    plot_homotopy(tmp_path / "homotopy.png", steps)
+    assert drawn == [[[0.0, 1.0], [0.0, 0.5, 1.0]]]

@@ -267,14 +267,16 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
 
 
 def plot_homotopy(path, steps) -> Path:
-    """Objective of every solve (``steps``: `vibupdate.io.results.StepRow`) against lambda (log scale)."""
+    """Objective of every solve (``steps``: `vibupdate.io.results.StepRow`) against lambda (log
+    scale), each path its own line: a path starts again wherever lambda does not grow (the
+    stepped restart, a first stage repeated with wider boxes)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.8))
-    lam = [s.lam for s in steps]
-    obj = [max(s.objective, 1e-300) for s in steps]
-    ok = [s.status.ok for s in steps]
-    ax.semilogy(lam, obj, "-", color="0.6")
-    lam, obj, ok = np.array(lam), np.array(obj), np.array(ok, dtype=bool)
+    lam = np.array([s.lam for s in steps], dtype=float)
+    obj = np.array([max(s.objective, 1e-300) for s in steps])
+    ok = np.array([s.status.ok for s in steps], dtype=bool)
+    for path_steps in np.split(np.arange(lam.size), np.flatnonzero(np.diff(lam) <= 0) + 1):
+        ax.semilogy(lam[path_steps], obj[path_steps], "-", color="0.6")
     ax.semilogy(lam[ok], obj[ok], "o", label="converged")
     if not ok.all():
         ax.semilogy(lam[~ok], obj[~ok], "x", color="tab:red", label="failed")
