@@ -9,7 +9,7 @@ means some set of candidates verified, 1 none; 130 interrupted: one line saying 
 (nothing, earlier results intact; the rows a sweep wrote, ``--resume``; the case folders a
 batch finished).
 
-A command or option whose optional extra is not installed (`NEEDS`, `vibupdate._extras`)
+A command or option whose optional extra is not installed (`NEEDS`, `vibupdate.extras`)
 exits 2 with one line naming the extra, before any work.
 """
 
@@ -23,7 +23,7 @@ import traceback
 from pathlib import Path
 
 from vibupdate import __version__
-from vibupdate._extras import MissingExtra, install_hint, require
+from vibupdate.extras import MissingExtra, install_hint, require
 from vibupdate.io.interrupted import Interrupted
 
 

@@ -138,7 +138,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     (no matplotlib) is known before anything is written and is in the first ``results.json``.
     Returns the run as written (with those notes).
     """
-    from vibupdate._extras import installed, skipped
+    from vibupdate.extras import installed, skipped
     from vibupdate.io.outputs import OutputWarning, drawn
 
     plots = installed("plots")

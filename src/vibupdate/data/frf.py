@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 
 
 G = 9.80665  # m/s^2, standard gravity

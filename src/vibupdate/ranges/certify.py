@@ -43,7 +43,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -376,7 +376,7 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
 
     Raises
     ------
-    vibupdate._extras.MissingExtra
+    vibupdate.extras.MissingExtra
         Without the optional extra ``[certify]`` (HiGHS, Clarabel), before any work.
     """
     require("certify", "computing certified ranges")

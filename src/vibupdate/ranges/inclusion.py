@@ -175,7 +175,7 @@ def _fits_some_scale(blk: VectorBlock, v) -> bool:
     return bool(np.max(np.minimum(a, b)) <= np.min(np.maximum(a, b)))
 
 
-def _widen_box(blk: VectorBlock, v, base: float, label: str, where: str):
+def widen_box(blk: VectorBlock, v, base: float, label: str, where: str):
     """``(block, None)``: the block with its box widened to hold the scaled vector ``v``; or
     ``(blk, reason)`` when it cannot be held (``base``: the largest bound before widening)."""
     j = _anchor(blk)
@@ -256,7 +256,7 @@ def widen(configurations: Sequence[Configuration], blocks: Sequence[VectorBlock]
                     beyond = max(omega_lower[b] - w, w - omega_upper[b], 0.0)
                     reach[b] = max(reach[b], 100.0 * beyond / blocks[b].omega)
                     lo[b], hi[b] = min(lo[b], a), max(hi[b], c)
-                blocks[b], why = _widen_box(blocks[b], v / blocks[b].scale, base[b], label, where[b])
+                blocks[b], why = widen_box(blocks[b], v / blocks[b].scale, base[b], label, where[b])
                 if why:
                     uncovered.append(why)
         if np.any(lo != state[0]) or np.any(hi != state[1]) or any(x is not y for x, y in zip(blocks, state[2])):

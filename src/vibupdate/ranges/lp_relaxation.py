@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.ranges.consistent import RESIDUAL_FLOOR, ConsistentSet
 
 

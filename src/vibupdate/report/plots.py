@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 

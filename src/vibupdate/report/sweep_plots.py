@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI
-from vibupdate._extras import available, skipped
+from vibupdate.extras import available, skipped
 from vibupdate.io.outputs import OutputWarning, drawn, file_names
 from vibupdate.report.numbers import finite
 from vibupdate.report.plots import _pyplot, _save as _save_png

@@ -18,7 +18,7 @@ import csv
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 
 
 #: The files a batch writes into its output directory beside the case folders.
