@@ -55,7 +55,8 @@ from vibupdate.ranges.tightening import Box, Lifts, Tactics, lifts, root_box, ti
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
 STALL = 1e-3
 #: The same when branching follows: passes that gain less are worth less than splits
-#: (measured on the cantilever, benchmarks/RESULTS.md).
+#: (`benchmarks/RESULTS.md`, "After (branch `certify`): bound tightening rebuilt, branching,
+#: scale-free shapes").
 ROOT_STALL = 0.02
 
 

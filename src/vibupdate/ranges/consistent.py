@@ -24,7 +24,8 @@ the other answers a run reports: verified sampled answers and line ends) the win
 vector boxes are widened just enough to hold every included point, each point's paired model
 frequencies and exact eigenvectors with a stated margin (`vibupdate.ranges.inclusion`): S then
 holds every answer the run reports, so its certified outer range contains them all. With
-exact data and ``frequency_tolerance = 0`` the window is the single measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
+exact data and ``frequency_tolerance = 0`` the window is the single measured frequency, and
+the truth is in S whenever its eigenvectors lie in the boxes.
 
 S asks for *an* eigenpair in each window, not the k-th mode: it contains every parameter
 set that a mode-correspondence check would admit, and possibly more.
@@ -221,8 +222,8 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
     Every block needs a real eigenpair whose frequency is inside its window shrunk by
     ``margin`` (relative; an exact datum within the residual floor) and whose vector,
     scaled to the block's fixed entry (or by any scale, for a block without one), lies inside
-    its box shrunk by ``margin`` (absolute, scaled coordinates). The margin absorbs the eigensolver's rounding, so a point with a
-    witness is a point of S.
+    its box shrunk by ``margin`` (absolute, scaled coordinates). The margin absorbs the
+    eigensolver's rounding, so a point with a witness is a point of S.
 
     Parameters
     ----------

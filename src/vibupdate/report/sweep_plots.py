@@ -157,7 +157,7 @@ def plot_frequency_bands(path, document: dict) -> Path:
 def plot_frf_band(path, case, cfg, rows) -> Path:
     """5-50-95 % band of |h_rc| of one configuration over the verified samples (damped with
     each sample's Caughey coefficients when the case has damping data), measured marked."""
-    from vibupdate.damping import caughey_damping
+    from vibupdate.damping.models import caughey_damping
     from vibupdate.io.results import plotted_receptance
     from vibupdate.report.plots import model_receptance
 
