@@ -40,7 +40,7 @@ from vibupdate.io.case_keys import (
     numbers,
 )
 from vibupdate.io.case_model import configuration_model
-from vibupdate.io.case_types import Case, DampingOptions  # noqa: F401  (importable from here too)
+from vibupdate.io.case_types import Case, DampingOptions
 from vibupdate.io.case_sensors import case_sensors
 from vibupdate.model.parameters import Parameter
 from vibupdate.options import problem as option_problem
