@@ -9,10 +9,11 @@ import pytest
 
 from helpers import chain_builder, chain_model
 from vibupdate import Configuration, NaturalFrequency, Parameter, VerifyOptions, update
-from vibupdate.data.measured import ShapeInterval
+from vibupdate.data.measured import Antiresonance, ShapeInterval
 from vibupdate.inverse.admissible import FLOOR, Admissible, Datum, Shape, evaluate, misses, residuals, scaling_miss
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.data_map import data_map
+from vibupdate.inverse.search import Search
 from vibupdate.inverse.status import Verdict
 from vibupdate.inverse.update import misfit
 from vibupdate.inverse.verify import verify
@@ -190,19 +191,34 @@ def test_under_model_form_error_the_answer_is_the_least_misfit_and_no_worse_than
 
 
 def test_of_answers_that_do_not_verify_the_lower_misfit_wins_over_the_lower_objective():
-    """The polish's objective carries the pull toward the midpoints; an answer that misses the
-    admissible intervals less is the better answer even when its objective is higher."""
-    from vibupdate.inverse.status import Status
-    from vibupdate.inverse.update import _better, _Finish
-
-    def candidate(cost, misfit, ok=False):
-        polished = type("P", (), {"cost": cost})()
-        return _Finish("s", np.zeros(1), np.zeros(1), polished, None, [], {}, (),
-                       Status.SUCCESS if ok else Status.NOT_VERIFIED, misfit)
-
-    near_mid, less_outside = candidate(cost=1.0, misfit=9.0), candidate(cost=5.0, misfit=2.0)
-    assert _better(near_mid, less_outside) and not _better(less_outside, near_mid)
-    assert _better(less_outside, candidate(cost=50.0, misfit=0.0, ok=True))   # verified first
+    """The polish's objective weighs each datum by its weight and pulls toward the midpoints;
+    of the answers that do not verify, the one that misses the admissible intervals less (the
+    misfit, unweighted) is the better answer even when its objective is higher, and a verified
+    answer is better than any that does not verify. Constructed: a two-mass chain whose two
+    frequencies both (k1, k2) = (1000, 600) and (1200, 500) N/m give exactly; the antiresonance
+    of h_y1,y1 measured at the second's (sqrt(k2)), that of h_y2,y2 at the first's
+    (sqrt(k1 + k2)). Each basin misses the other's zero, the first by 9.5 %, the second by
+    3.1 %; the first zero weighs 0.05, so the first basin has the lower objective and the
+    higher misfit. Most starts of the search (10 random ones) end in the first basin."""
+    model = chain_model(2, ["k1", "k2"], spread=0.6)
+    first, second = model.normalized([1000.0, 600.0]), model.normalized([1200.0, 500.0])
+    omega, _ = modes(*model.matrices(first), 2)
+    assert np.allclose(modes(*model.matrices(second), 2)[0], omega, rtol=1e-12)
+    for weight, tolerance in ((0.05, 0.0), (1e-6, 0.04)):   # 4 %: the second basin verifies
+        cfg = Configuration("c", model, tuple(NaturalFrequency(w, weight=100.0) for w in omega),
+                            (Antiresonance(np.sqrt(500.0), "y1", "y1", weight=weight),
+                             Antiresonance(np.sqrt(1600.0), "y2", "y2")))
+        options = VerifyOptions(natural_tolerance=0.0, antiresonance_tolerance=tolerance, measurement_tolerance=0.001)
+        result = update([cfg], verification=options, search=Search(random_starts=10), probe=False)
+        lowest = min(s.cost for s in result.sought.starts if s.status == "not_verified")
+        assert result.polish.cost > 1.5 * lowest                      # the lower objective lost
+        np.testing.assert_allclose(result.values, [1200.0, 500.0], rtol=0.05)
+        if tolerance:
+            assert result.verdict is Verdict.VERIFIED
+        else:
+            contract = Admissible.of([cfg], options)
+            assert result.verdict is Verdict.NOT_VERIFIED
+            assert misfit([cfg], contract, result.xbar) < misfit([cfg], contract, first)
 
 
 def test_a_best_answer_that_misses_more_than_the_nominal_model_gives_way_to_it():
