@@ -369,8 +369,7 @@ def solve_clarabel(lp: RelaxedLP, c, model: ClarabelModel | None = None, *, poin
     """Clarabel (interior point) on the LP with objective ``c``; returns (status, optimum,
     safe bound from its multipliers), and with ``point`` its primal solution as a fourth
     item (None unless optimal). It solves the large LPs of all blocks, where it is the faster
-    (`benchmarks/RESULTS.md`, "Frame (29 parameters, 7 blocks, 217 vector unknowns, measured
-    shapes at 20 DOFs)").
+    (`benchmarks/RESULTS.md`, "Certified outer parameter ranges", the frame's LPs).
 
     ``model`` (`clarabel_model`) is re-solved with the objective ``c`` instead of building a
     new instance; it may hold narrower column bounds than ``lp`` (`ClarabelModel.change_bounds`),
