@@ -49,7 +49,7 @@ from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.data.measured import Configuration
-from vibupdate.ranges.inclusion import Inclusion, _anchor, widen
+from vibupdate.ranges.inclusion import Inclusion, anchor, into_box, widen
 
 
 #: Relative eigen-residual allowed in S: ``|((K - s M) v)_k| <= RESIDUAL_FLOOR * (|K| |v| + s |M| |v|)_k``
@@ -255,7 +255,7 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
             inside = np.abs(w - cs.omega_lower[b]) <= 0.01 * RESIDUAL_FLOOR * cs.omega_lower[b]
         found = None
         for k in np.flatnonzero(inside):
-            v = _into_box(blk, V[:, k] / blk.scale, margin)
+            v = into_box(blk, V[:, k] / blk.scale, margin)
             if v is not None:
                 found = (float(lam[k]), v)
                 break
@@ -263,30 +263,6 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
             return None
         pairs.append(found)
     return pairs
-
-
-def _into_box(blk: VectorBlock, v, margin: float):
-    """``c v`` for a scale ``c`` that puts the free entries inside the block's box shrunk by
-    ``margin`` and the fixed entries on their values, or None when no scale does."""
-    free = ~blk.fixed
-    if blk.fixed.any():
-        j = int(np.flatnonzero(blk.fixed)[0])
-        if abs(v[j]) < 1e-12 * np.max(np.abs(v)):
-            return None
-        v = v / v[j] * blk.lower[j]
-        if np.all(v[free] >= blk.lower[free] + margin) and np.all(v[free] <= blk.upper[free] - margin):
-            v[blk.fixed] = blk.lower[blk.fixed]
-            return v
-        return None
-    lo, hi, x = blk.lower + margin, blk.upper - margin, v
-    nz = x != 0
-    if np.any(~nz & ((lo > 0) | (hi < 0))):
-        return None
-    a, b = lo[nz] / x[nz], hi[nz] / x[nz]
-    c_lo, c_hi = np.max(np.minimum(a, b)), np.min(np.maximum(a, b))
-    if not c_lo <= c_hi:
-        return None
-    return 0.5 * (c_lo + c_hi) * v
 
 
 def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
@@ -308,7 +284,7 @@ def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:
             continue
         w.append(f.natural[blk.index - 1])
         v = f.Phi[blk.cols, blk.index - 1] / blk.scale
-        j = _anchor(blk)
+        j = anchor(blk)
         free = ~blk.fixed & (blk.measured if blk.measured is not None else True)
         free[j] = False
         ref = 0.5 * (blk.lower[j] + blk.upper[j])
