@@ -197,7 +197,7 @@ def exact_data(storeys: int, bays: int):
     """Exact data of the true model: natural frequencies (rad/s, shape (N_MODES,)), damping
     ratios of `DAMPING_LAW` (shape (N_MODES,)) and the mode shapes at `measured_dofs`
     (shape (n_measured, N_MODES), each mode scaled to unit largest measured entry)."""
-    from vibupdate.damping import modal_damping
+    from vibupdate.damping.series import modal_damping
     from vibupdate.modal.analysis import modes
 
     m = model(storeys, bays)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vibupdate.damping import modal_damping
+from vibupdate.damping.series import modal_damping
 from vibupdate.examples import frame
 from vibupdate.modal.analysis import modes
 

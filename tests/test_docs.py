@@ -325,7 +325,7 @@ def _missing_dependency(commands: list[str]) -> str | None:
     its package (`vibupdate.model.fe.opensees.openseespy`), so the skip follows what the route
     imports."""
     if any("fe-opensees" in c for c in commands):
-        from vibupdate._extras import MissingExtra
+        from vibupdate.extras import MissingExtra
         from vibupdate.model.fe.opensees import openseespy
 
         try:

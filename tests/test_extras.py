@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from outputs_helpers import write_case
 
-from vibupdate._extras import EXTRAS, MissingExtra, available, require
+from vibupdate.extras import EXTRAS, MissingExtra, available, require
 from vibupdate.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -199,7 +199,7 @@ def test_extract_without_matplotlib_writes_its_files_and_names_the_extra_for_the
 
 
 def test_installed_finds_a_module_without_importing_it(monkeypatch):
-    from vibupdate._extras import installed
+    from vibupdate.extras import installed
 
     monkeypatch.delitem(sys.modules, "pyuff", raising=False)
     found = installed("frf")

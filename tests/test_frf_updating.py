@@ -11,7 +11,7 @@ import pytest
 from helpers import chain_model
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, antiresonances, modes
 from vibupdate.io.case import Case, DampingOptions
-from vibupdate.damping import identify_damping
+from vibupdate.damping.stage import identify_damping
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.homotopy import SolverOptions
 from vibupdate.ranges.identifiability import parameter_ranges

@@ -9,7 +9,7 @@ means some set of candidates verified, 1 none; 130 interrupted: one line saying 
 (nothing, earlier results intact; the rows a sweep wrote, ``--resume``; the case folders a
 batch finished).
 
-A command or option whose optional extra is not installed (`NEEDS`, `vibupdate._extras`)
+A command or option whose optional extra is not installed (`NEEDS`, `vibupdate.extras`)
 exits 2 with one line naming the extra, before any work.
 """
 
@@ -23,7 +23,7 @@ import traceback
 from pathlib import Path
 
 from vibupdate import __version__
-from vibupdate._extras import MissingExtra, install_hint, require
+from vibupdate.extras import MissingExtra, install_hint, require
 from vibupdate.io.interrupted import Interrupted
 
 
@@ -112,7 +112,8 @@ def parser() -> argparse.ArgumentParser:
     fx.add_argument("--map", nargs="+", default=(), metavar="FROM=TO",
                     help="rename DOFs, e.g. y3=x2 y4=-x3 (a '-' flips the sign)")
     fx.add_argument("--keep-outer-zeros", action="store_true",
-                    help="report antiresonances below the lowest or above the highest fitted pole (left out by default)")
+                    help="report antiresonances below the lowest or above the highest fitted pole "
+                         "(left out by default)")
     fx.add_argument("--keep-noisy-zeros", action="store_true",
                     help="report antiresonances at the noise floor (local SNR under 0.1; left out by default)")
     fx.add_argument("--reciprocal", action="store_true",
@@ -479,7 +480,8 @@ def _extract(args) -> int:
         print(f"  (the zeros are numbered by the run, from the nominal model: the lowest mode here is mode "
               f"{args.first_mode})")
     for q in result.quality:
-        print(f"  fit of {receptance_name(q.response, q.excitation)}: quality {q.quality:.2f}, residual {100 * q.relative_residual:.2f} %")
+        print(f"  fit of {receptance_name(q.response, q.excitation)}: quality {q.quality:.2f}, "
+              f"residual {100 * q.relative_residual:.2f} %")
     for note in result.notes(args.first_mode):
         print(f"note: {note}")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")

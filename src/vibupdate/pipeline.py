@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.io.case_types import Case, DampingOptions
-from vibupdate.damping import DampingStage, DampingWarning, damping_data, damping_weights, identify_damping
+from vibupdate.damping.series import DampingWarning
+from vibupdate.damping.stage import DampingStage, damping_data, damping_weights, identify_damping
 from vibupdate.examples import EXAMPLES
 from vibupdate.io.interrupted import Interrupted
 from vibupdate.io.outputs import (MANIFEST, collected, file_names, kept_note, matrix_file, matrix_files_planned,
@@ -138,7 +139,7 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
     (no matplotlib) is known before anything is written and is in the first ``results.json``.
     Returns the run as written (with those notes).
     """
-    from vibupdate._extras import installed, skipped
+    from vibupdate.extras import installed, skipped
     from vibupdate.io.outputs import OutputWarning, drawn
 
     plots = installed("plots")
@@ -366,7 +367,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     if not result.success:
         identifiability["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
                                           "answer and mean something only at a verified answer")
-    else:   # at any size: the Jacobian is the exact sparse one (0.18 s at 2,940 DOFs, 1.0 s at 30,315)
+    else:   # at any size: the Jacobian is the exact sparse one (its cost: docs/notes/ranges.md, "Linearized ranges")
         from vibupdate.ranges.identifiability import parameter_ranges
 
         ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,

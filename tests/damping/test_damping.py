@@ -7,9 +7,9 @@ import pytest
 
 from helpers import random_spd
 from vibupdate import modes
-from vibupdate.damping import (DampingWarning, caughey_matrix, damping_data, damping_weights, fit_caughey,
-                               identify_damping,
-                               modal_damping)
+from vibupdate.damping.models import caughey_matrix
+from vibupdate.damping.series import DampingWarning, fit_caughey, modal_damping
+from vibupdate.damping.stage import damping_data, damping_weights, identify_damping
 from vibupdate.examples import cantilever
 from vibupdate.inverse.update import update
 
@@ -105,7 +105,7 @@ def test_cantilever_damping_meets_the_paper_figure():
 
 
 def test_negative_bands_find_the_roots_of_a_known_series():
-    from vibupdate.damping import negative_bands
+    from vibupdate.damping.sanity import negative_bands
 
     # xi(w) = (b0 + b1 w^2) / (2 w) with b0 = 4, b1 = -1e-4: negative above w = 200 rad/s
     assert negative_bands([0.0, 1.0], [4.0, -1e-4], 1000.0) == [(pytest.approx(200.0), 1000.0)]
@@ -116,7 +116,7 @@ def test_negative_bands_find_the_roots_of_a_known_series():
 
 
 def test_negative_band_starts_at_a_root_that_falls_exactly_on_a_grid_point():
-    from vibupdate.damping import negative_bands
+    from vibupdate.damping.sanity import negative_bands
 
     # g(w) = 1 - 2^-20 w^2 is exactly 0 at w = 1024, a point of the uniform grid
     # (1, 2, ..., 4096 rad/s); every operation is exact in binary, so g(1024) == 0.0 and the

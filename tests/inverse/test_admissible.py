@@ -2,19 +2,23 @@
 ranges; constructed cases for each rule it states."""
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from helpers import chain_model
-from vibupdate import Configuration, NaturalFrequency, VerifyOptions, update
-from vibupdate.data.measured import ShapeInterval
-from vibupdate.inverse.admissible import FLOOR, Admissible, evaluate, misses, scaling_miss
+from helpers import chain_builder, chain_model
+from vibupdate import Configuration, NaturalFrequency, Parameter, VerifyOptions, update
+from vibupdate.data.measured import Antiresonance, ShapeInterval
+from vibupdate.inverse.admissible import FLOOR, Admissible, Datum, Shape, evaluate, misses, residuals, scaling_miss
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.data_map import data_map
+from vibupdate.inverse.search import Search
 from vibupdate.inverse.status import Verdict
+from vibupdate.inverse.update import misfit
 from vibupdate.inverse.verify import verify
 from vibupdate.modal.analysis import antiresonances, modes
+from vibupdate.model.build import from_builder
 
 TRUTH = {"k1": 1000.0, "k2": 800.0, "k3": 1200.0}
 
@@ -67,30 +71,54 @@ def test_a_shape_is_held_to_its_intervals_at_a_free_scale_not_to_the_ratio_box()
     assert found[0].miss > 1 and repr(dofs[other]) in found[0].text
 
 
+def shape_rows(Q, lo, hi, scales=None):
+    """The polish's rows (`residuals`) of shapes ``Q`` (one per row, the reference entry first at 1)
+    against ``[lo, hi]`` (same shape as ``Q``), shape (m, 2 k): at each shape's best scale, or at
+    the ``scales`` given (a mass-normalized shape of modal mass 1 whose calibration is that
+    scale alone). All shapes have k entries: they go through one array operation together."""
+    m, k = Q.shape
+    pinned = scales is not None
+    shapes = tuple(Shape(f"shape {i}", i, i + 1, tuple(range(k)), lo[i], hi[i], lo[i], hi[i], 1.0,
+                         (scales[i], scales[i]) if pinned else None) for i in range(m))
+    maps = [SimpleNamespace(frequency_values=np.zeros(0), frequency_jacobian=None, ratio_jacobians=(),
+                            masses=np.ones(m) if pinned else np.zeros(0), mass_jacobian=None, ratios=tuple(Q[:, 1:]),
+                            shapes=tuple(SimpleNamespace(position=i, mass=(1.0, 1.0) if pinned else None)
+                                         for i in range(m)))]
+    r, _ = residuals(Admissible(((),), (shapes,), ((),)), maps, jacobian=False)
+    return r.reshape(m, 2 * k)
+
+
+def around(s, reach, n=30):
+    """Scales on both sides of each of ``s``, from ``reach`` down to ``reach 2^-n`` away: on a
+    convex function of the scale, a point none of them beats by 1e-9 is its minimum to within
+    about a factor two of the scan's resolution at every distance."""
+    steps = reach[..., None] * 2.0 ** -np.arange(n + 1)
+    return np.concatenate([s[..., None] - steps, s[..., None] + steps], axis=-1)
+
+
 def test_the_scale_of_a_shape_minimizes_its_rows_exactly():
-    """`_scales` of one shape against a brute-force scan of the scale: the rows are piecewise
-    linear in it."""
+    """The scale the polish's rows eliminate (`residuals`) against a scan of the scale: the rows
+    are piecewise linear in it."""
     rng = np.random.default_rng(1)
     q = np.array([1.0, 0.6, -0.3, 0.05])
     lo = np.array([0.9, 0.5, -0.35, -0.01])
     hi = lo + np.array([0.2, 0.05, 0.1, 0.04])
-    mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    from vibupdate.inverse.admissible import PULL, _rows, _scales
-
-    s = float(_scales(q[None], lo[None], hi[None], mid[None], h[None], PULL)[0])
-    grid = np.linspace(s - 0.2, s + 0.2, 40001)
-    cost = np.sum(_rows(grid[:, None] * q[None, :], lo, hi, mid, h, PULL)[0] ** 2, axis=1)
-    assert float(np.sum(_rows(s * q, lo, hi, mid, h, PULL)[0] ** 2)) <= cost.min() * (1 + 1e-9)
+    mid = 0.5 * (lo + hi)
+    r = shape_rows(q[None], lo[None], hi[None])
+    s = mid[0] + 0.5 * (hi[0] - lo[0]) * r[0, 0]          # the reference entry's pull row (s - mid) / h
+    assert np.array_equal(shape_rows(q[None], lo[None], hi[None], [s]), r)
+    grid = np.concatenate([np.linspace(s - 0.2, s + 0.2, 401), around(np.array(s), np.array(0.2), 40)])
+    n = grid.size
+    cost = np.sum(shape_rows(np.tile(q, (n, 1)), np.tile(lo, (n, 1)), np.tile(hi, (n, 1)), grid) ** 2, axis=1)
+    assert float(np.sum(r ** 2)) <= cost.min() * (1 + 1e-9)
     assert scaling_miss(mid * rng.uniform(0.2, 0.5), lo, hi) == 0.0     # inside at some scale, whatever its own
     assert scaling_miss(-mid, lo, hi) == 0.0                            # the sign is free
 
 
 def test_the_scales_of_many_shapes_at_once_minimize_each_ones_rows():
-    """`_scales` on 200 constructed shapes at once (entries inside, outside on either side, a
+    """The scales of 200 constructed shapes at once (entries inside, outside on either side, a
     zero entry, intervals not holding zero) against a scan of each one's convex sum of squares;
     its fast case (the pull's own minimizer inside every interval) on some of them."""
-    from vibupdate.inverse.admissible import PULL, _rows, _scales
-
     rng = np.random.default_rng(7)
     m, k = 200, 5
     Q = np.hstack([np.ones((m, 1)), rng.uniform(-1.5, 1.5, (m, k - 1))])
@@ -98,17 +126,20 @@ def test_the_scales_of_many_shapes_at_once_minimize_each_ones_rows():
     centre = Q * rng.uniform(0.3, 3.0, (m, 1)) + rng.normal(0.0, 0.05, (m, k))
     half = rng.uniform(0.005, 0.2, (m, k))
     lo, hi = centre - half, centre + half
-    mid, h = centre, half
-    s = _scales(Q, lo, hi, mid, h, PULL)
-    fast = np.all((s[:, None] * Q >= lo) & (s[:, None] * Q <= hi), axis=1)
+    r = shape_rows(Q, lo, hi)
+    s = centre[:, 0] + half[:, 0] * r[:, 0]                # from the reference entry's pull row
+    targets = [Shape("", 0, 1, (), lo[i], hi[i], lo[i], hi[i], 1.0).targets for i in range(m)]
+    fast = np.array([np.all((s[i] * Q[i] >= t[0]) & (s[i] * Q[i] <= t[1])) for i, t in enumerate(targets)])
     assert 0 < fast.sum() < m
-    for i in range(m):
-        grid = s[i] + np.linspace(-0.05, 0.05, 2001) * max(1.0, abs(s[i]))
-        cost = np.sum(_rows(grid[:, None] * Q[i], lo[i], hi[i], mid[i], h[i], PULL)[0] ** 2, axis=1)
-        own = float(np.sum(_rows(s[i] * Q[i], lo[i], hi[i], mid[i], h[i], PULL)[0] ** 2))
-        assert own <= cost.min() * (1 + 1e-9), i
-        one = slice(i, i + 1)   # alone, as among the others
-        assert s[i] == pytest.approx(_scales(Q[one], lo[one], hi[one], mid[one], h[one], PULL)[0], rel=1e-12)
+    scan = around(s, 0.05 * np.maximum(1.0, np.abs(s)), 20)
+    n = scan.shape[1]
+    cost = np.sum(shape_rows(np.repeat(Q, n, axis=0), np.repeat(lo, n, axis=0), np.repeat(hi, n, axis=0),
+                             scan.ravel()) ** 2, axis=1).reshape(m, n)
+    own = np.sum(r ** 2, axis=1)
+    assert np.all(own <= cost.min(axis=1) * (1 + 1e-9)), np.flatnonzero(own > cost.min(axis=1) * (1 + 1e-9))
+    for i in range(m):   # alone, as among the others
+        one = slice(i, i + 1)
+        np.testing.assert_allclose(shape_rows(Q[one], lo[one], hi[one])[0], r[i], rtol=1e-12, atol=1e-12)
 
 
 def test_the_polish_residual_jacobian_is_exact_with_the_scale_eliminated():
@@ -160,55 +191,65 @@ def test_under_model_form_error_the_answer_is_the_least_misfit_and_no_worse_than
 
 
 def test_of_answers_that_do_not_verify_the_lower_misfit_wins_over_the_lower_objective():
-    """The polish's objective carries the pull toward the midpoints; an answer that misses the
-    admissible intervals less is the better answer even when its objective is higher."""
-    from vibupdate.inverse.status import Status
-    from vibupdate.inverse.update import _better, _Finish
-
-    def candidate(cost, misfit, ok=False):
-        polished = type("P", (), {"cost": cost})()
-        return _Finish("s", np.zeros(1), np.zeros(1), polished, None, [], {}, (),
-                       Status.SUCCESS if ok else Status.NOT_VERIFIED, misfit)
-
-    near_mid, less_outside = candidate(cost=1.0, misfit=9.0), candidate(cost=5.0, misfit=2.0)
-    assert _better(near_mid, less_outside) and not _better(less_outside, near_mid)
-    assert _better(less_outside, candidate(cost=50.0, misfit=0.0, ok=True))   # verified first
+    """The polish's objective weighs each datum by its weight and pulls toward the midpoints;
+    of the answers that do not verify, the one that misses the admissible intervals less (the
+    misfit, unweighted) is the better answer even when its objective is higher, and a verified
+    answer is better than any that does not verify. Constructed: a two-mass chain whose two
+    frequencies both (k1, k2) = (1000, 600) and (1200, 500) N/m give exactly; the antiresonance
+    of h_y1,y1 measured at the second's (sqrt(k2)), that of h_y2,y2 at the first's
+    (sqrt(k1 + k2)). Each basin misses the other's zero, the first by 9.5 %, the second by
+    3.1 %; the first zero weighs 0.05, so the first basin has the lower objective and the
+    higher misfit. Most starts of the search (10 random ones) end in the first basin."""
+    model = chain_model(2, ["k1", "k2"], spread=0.6)
+    first, second = model.normalized([1000.0, 600.0]), model.normalized([1200.0, 500.0])
+    omega, _ = modes(*model.matrices(first), 2)
+    assert np.allclose(modes(*model.matrices(second), 2)[0], omega, rtol=1e-12)
+    for weight, tolerance in ((0.05, 0.0), (1e-6, 0.04)):   # 4 %: the second basin verifies
+        cfg = Configuration("c", model, tuple(NaturalFrequency(w, weight=100.0) for w in omega),
+                            (Antiresonance(np.sqrt(500.0), "y1", "y1", weight=weight),
+                             Antiresonance(np.sqrt(1600.0), "y2", "y2")))
+        options = VerifyOptions(natural_tolerance=0.0, antiresonance_tolerance=tolerance, measurement_tolerance=0.001)
+        result = update([cfg], verification=options, search=Search(random_starts=10), probe=False)
+        lowest = min(s.cost for s in result.sought.starts if s.status == "not_verified")
+        assert result.polish.cost > 1.5 * lowest                      # the lower objective lost
+        np.testing.assert_allclose(result.values, [1200.0, 500.0], rtol=0.05)
+        if tolerance:
+            assert result.verdict is Verdict.VERIFIED
+        else:
+            contract = Admissible.of([cfg], options)
+            assert result.verdict is Verdict.NOT_VERIFIED
+            assert misfit([cfg], contract, result.xbar) < misfit([cfg], contract, first)
 
 
 def test_a_best_answer_that_misses_more_than_the_nominal_model_gives_way_to_it():
     """The guard of the search: when no answer verifies and the best one lies further outside the
     admissible intervals than the nominal model, the nominal model is returned, verified as it
-    is, and its misfit is the nominal one."""
-    from dataclasses import replace as copy
-
-    from vibupdate.inverse.polish import PolishOptions
-    from vibupdate.inverse.status import Status
-    from vibupdate.inverse.update import _Finish, _no_worse_than_nominal, misfit
-
-    model, x, _, _ = _chain()
-    M, K = model.matrices(x)
-    K = K.tolil()
-    K[model.dof("y3"), model.dof("y3")] += 300.0           # an unmodelled spring: no k1..k3 fits
-    omega, _ = modes(M, K.tocsr(), 3)
-    cfg = Configuration("c", model, tuple(NaturalFrequency(w) for w in omega))
-    contract = Admissible.of([cfg], VerifyOptions(natural_tolerance=0.0, measurement_tolerance=0.001))
-    far = np.array([0.9, -0.5, 0.9])
-    nominal = misfit([cfg], contract, np.zeros(3))
-    assert misfit([cfg], contract, far) > nominal > 0
-    worse = _Finish("random start 1", far, far, None, None, [], {}, (), Status.NOT_VERIFIED,
-                    misfit([cfg], contract, far))
-    seen = []
-
-    def finish(start, label, options=None, answers=None):
-        seen.append((label, options))
-        return _Finish(label, start, start, None, None, [], {}, (), Status.NOT_VERIFIED,
-                       misfit([cfg], contract, start))
-
-    chosen = _no_worse_than_nominal([cfg], contract, worse, finish, PolishOptions(), lambda m: None)
-    assert chosen.label == "nominal model" and np.array_equal(chosen.xbar, np.zeros(3))
-    assert chosen.misfit == nominal and seen[0][1] == copy(PolishOptions(), enabled=False)
-    better = copy(worse, misfit=0.5 * nominal)
-    assert _no_worse_than_nominal([cfg], contract, better, finish, PolishOptions(), lambda m: None) is better
+    is, and its misfit is the nominal one. Constructed: one stiffness scales every spring, so
+    every frequency moves by the same factor; the first is measured 1 % above the nominal
+    model's, the others at it, each held to 0.1 %. Weighted 1e4, the first draws every polished
+    answer to itself and the other two out of their intervals (the misfit counts each datum
+    once, unweighted): the nominal model misses less. Weighted 1, the answer misses less than
+    the nominal model and is kept."""
+    chain = chain_builder(3)
+    model = from_builder(lambda p: chain({f"k{i}": p["k"] for i in (1, 2, 3)}),
+                         [Parameter("k", 1000.0, 700.0, 1300.0)])
+    omega, _ = modes(*model.matrices(np.zeros(1)), 3)
+    options = VerifyOptions(natural_tolerance=0.0, measurement_tolerance=0.001)
+    for weight, guarded in ((1e4, True), (1.0, False)):
+        cfg = Configuration("c", model, (NaturalFrequency(1.01 * omega[0], weight=weight),
+                                         NaturalFrequency(omega[1]), NaturalFrequency(omega[2])))
+        contract = Admissible.of([cfg], options)
+        nominal = misfit([cfg], contract, np.zeros(1))
+        said = []
+        result = update([cfg], verification=options, progress=said.append)
+        assert result.verdict is Verdict.NOT_VERIFIED
+        if guarded:
+            best = next(line for line in said if line.startswith("no answer verified, and the best ("))
+            assert float(best.split("(")[1].split(")")[0]) > nominal
+            assert np.array_equal(result.xbar, np.zeros(1)) and result.polish is None
+            assert misfit([cfg], contract, result.xbar) == nominal and "nominal model" in result.message
+        else:
+            assert result.xbar[0] > 0 and misfit([cfg], contract, result.xbar) < nominal
 
 
 def test_old_case_keys_are_refused_naming_what_replaced_them(tmp_path):
@@ -235,18 +276,19 @@ def test_old_case_keys_are_refused_naming_what_replaced_them(tmp_path):
 
 
 def test_the_polish_objective_has_a_continuous_gradient_at_an_interval_end():
-    """The pull and the distance outside are separate rows (`_rows`): the gradient of half their
-    squared sum is continuous where a value leaves its interval, so Gauss-Newton steps do not
-    meet a kink there. (One combined row ``((v - mid) + out / PULL) / h`` jumps by about
-    ``1 / PULL`` half-widths there.) Inside, only the pull toward the midpoint is left."""
-    from vibupdate.inverse.admissible import PULL, _rows
-
-    lo, hi = np.array([0.9]), np.array([1.1])
-    mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    """The pull and the distance outside are separate rows (`residuals`): the gradient of half
+    their squared sum is continuous where a value leaves its target interval, so Gauss-Newton
+    steps do not meet a kink there. (One combined row ``((v - mid) + out / PULL) / h`` jumps by
+    about ``1 / PULL`` half-widths there.) Inside, only the pull toward the midpoint is left."""
+    datum = Datum("one", "natural", 1.0, (0.9, 1.1), 0.9, 1.1)
+    contract = Admissible(((datum,),), ((),), ((),))
+    _, hi, mid, h, _ = contract.datum_targets[0][0]
 
     def gradient(v):
-        r, slope = _rows(np.array([v]), lo, hi, mid, h, PULL)
-        return float(r @ slope)
+        data = SimpleNamespace(frequency_values=np.array([v]), frequency_jacobian=np.ones((1, 1)),
+                               masses=np.zeros(0), mass_jacobian=None, shapes=(), ratios=(), ratio_jacobians=())
+        r, J = residuals(contract, [data])
+        return float(r @ J[:, 0])
 
     eps = 1e-12
     assert gradient(hi[0] + eps) == pytest.approx(gradient(hi[0] - eps), abs=1e-4)

@@ -119,11 +119,16 @@ def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
 
 def test_a_mass_normalized_shape_left_without_a_dof_stays_mass_normalized():
     """Leaving a shape DOF out keeps the other entries' scale: the modal mass stays a datum."""
-    from vibupdate.inverse.diagnosis import _drop_dof
+    model, freqs, _ = biased_chain(bias=0.0)
 
-    shape = ShapeInterval({"y1": (0.9, 1.0), "y2": (0.4, 0.5), "y3": (-0.01, 0.02)}, mass_normalized=True)
-    kept = _drop_dof(shape, "y2")
+    def left_without(dof, bounds):
+        shape = ShapeInterval(bounds, mass_normalized=True)
+        cfg = Configuration("A", model, (NaturalFrequency.from_hz(freqs[0], shape=shape),))
+        group = next(g for g in data_groups([cfg]) if g.key == f"A/dof/{dof}")
+        (kept,) = without([cfg], group)
+        return shape, kept.natural[0].shape
+
+    shape, kept = left_without("y2", {"y1": (0.9, 1.0), "y2": (0.4, 0.5), "y3": (-0.01, 0.02)})
     assert kept.mass_normalized and kept.modal_mass_bounds() == shape.modal_mass_bounds()
-    assert _drop_dof(shape, "y1").mass_normalized          # y2 becomes the reference
-    assert not _drop_dof(ShapeInterval({"y1": (0.9, 1.0), "y3": (-0.01, 0.02)}, mass_normalized=True),
-                         "y1").mass_normalized             # y3's interval holds zero: no modal mass
+    assert left_without("y1", shape.bounds)[1].mass_normalized          # y2 becomes the reference
+    assert not left_without("y1", {"y1": (0.9, 1.0), "y3": (-0.01, 0.02)})[1].mass_normalized   # y3's holds 0

@@ -6,7 +6,7 @@ import pytest
 import frame_data
 from vibupdate.io.results import macs_of
 from vibupdate import SolverOptions, update
-from vibupdate.damping import identify_damping
+from vibupdate.damping.stage import identify_damping
 from vibupdate.examples import frame, read_table
 from vibupdate.inverse.data_map import data_jacobian
 from vibupdate.ranges.identifiability import parameter_ranges

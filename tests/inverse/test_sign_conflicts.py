@@ -12,7 +12,7 @@ import pytest
 
 import vibupdate as vu
 from vibupdate.data.measured import Antiresonance, Configuration, NaturalFrequency
-from vibupdate.inverse.interlacing import SignConflict, _likely_cause
+from vibupdate.inverse.interlacing import SignConflict, likely_cause
 from vibupdate.inverse.update import prepare
 from vibupdate.model.build import from_builder
 
@@ -77,6 +77,6 @@ def test_the_likely_cause_of_a_conflict(roving):
     blocks = [b for b in prepare([with_zeros]).blocks if b.kind == "natural"]
     modes = [1, 2, 3, 4]
     away = [b.__class__(**{**b.__dict__, "start": np.ones_like(b.start)}) for b in blocks]
-    assert _likely_cause(away, modes, 0, 3, ("y0", "y1"), 2, 0) == "a zero between these poles lost in noise or damping"
-    assert "moved across a pole" in _likely_cause(away, modes, 0, 3, ("y0", "y1"), 2, 1)
-    assert "y10 is near a node of mode 2" in _likely_cause(blocks, modes, 20, 6, ("y10", "y3"), 1, 1)
+    assert likely_cause(away, modes, 0, 3, ("y0", "y1"), 2, 0) == "a zero between these poles lost in noise or damping"
+    assert "moved across a pole" in likely_cause(away, modes, 0, 3, ("y0", "y1"), 2, 1)
+    assert "y10 is near a node of mode 2" in likely_cause(blocks, modes, 20, 6, ("y10", "y3"), 1, 1)

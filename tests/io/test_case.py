@@ -8,7 +8,8 @@ import pyuff
 import pytest
 
 from helpers import CASE_FILE_EXAMPLE, CHAIN_CASE, CHAIN_K, write_chain_matrices
-from vibupdate.io.case import linear_expression, load_case
+from vibupdate.io.case import load_case
+from vibupdate.io.case_model import linear_expression
 from vibupdate.cli import main
 from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.examples import cantilever

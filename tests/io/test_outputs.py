@@ -204,7 +204,7 @@ def test_large_model_keeps_the_caughey_law_instead_of_a_dense_C(tmp_path):
     from vibupdate import Antiresonance, Configuration, NaturalFrequency, modes
     from vibupdate.io.case import Case, DampingOptions
     from vibupdate.modal.analysis import antiresonances
-    from vibupdate.damping import CaugheyLaw, caughey_matrix
+    from vibupdate.damping.models import CaugheyLaw, caughey_matrix
     from vibupdate.inverse.formulation.options import FormulationOptions
     from vibupdate.inverse.homotopy import SolverOptions
     from vibupdate.pipeline import run_case

@@ -9,7 +9,8 @@ import scipy.sparse as sp
 
 import vibupdate as vu
 from vibupdate.model.affine import Lumped, with_lumped
-from vibupdate.io.case import linear_expression, load_case
+from vibupdate.io.case import load_case
+from vibupdate.io.case_model import linear_expression
 
 PARAMS = """
 [[parameter]]

@@ -97,9 +97,9 @@ def test_linearized_ranges_from_the_answers_modal_data_are_those_it_computes_its
 
 def test_results_json_is_written_once_when_only_the_plots_were_skipped(monkeypatch, tmp_path, capsys):
     import vibupdate.pipeline as pipeline
-    from vibupdate import _extras
+    from vibupdate import extras
 
-    monkeypatch.setattr(_extras, "installed", lambda extra: extra != "plots")
+    monkeypatch.setattr(extras, "installed", lambda extra: extra != "plots")
     written, real = [], pipeline.write_results
 
     def counting(path, run):
@@ -110,7 +110,7 @@ def test_results_json_is_written_once_when_only_the_plots_were_skipped(monkeypat
     from vibupdate.cli import main
 
     assert main(["example", "cantilever", "--out", str(tmp_path / "out")]) == 0
-    note = _extras.skipped("plots", "plots")
+    note = extras.skipped("plots", "plots")
     assert len(written) == 1 and written[0][-1] == note
     doc = json.loads((tmp_path / "out" / "results.json").read_text())
     assert doc["warnings"].count(note) == 1

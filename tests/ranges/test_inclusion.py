@@ -107,15 +107,15 @@ def test_an_answer_s_cannot_hold_leaves_every_range_unflagged_with_the_reason():
 
 def test_a_vector_at_a_node_of_its_normalization_entry_or_needing_a_huge_box_is_not_held():
     from vibupdate.inverse.formulation.blocks import VectorBlock
-    from vibupdate.ranges.inclusion import GROWTH_LIMIT, NODE_FRACTION, _widen_box
+    from vibupdate.ranges.inclusion import GROWTH_LIMIT, NODE_FRACTION, widen_box
 
     n = 3
     blk = VectorBlock("A", "natural", 1, 10.0, 1.0, np.arange(n), np.arange(n), np.ones(n), np.array([1.0, -1.5, -1.5]),
                       np.array([1.0, 1.5, 1.5]), np.array([1.0, 0.5, 0.2]), np.array([True, False, False]))
-    held, why = _widen_box(blk, np.array([1.0, 1.8, -0.3]), 1.5, "sample 1", "mode 1")
+    held, why = widen_box(blk, np.array([1.0, 1.8, -0.3]), 1.5, "sample 1", "mode 1")
     assert why is None and held.upper[1] == pytest.approx(1.8 * (1 + 1e-6) + 1e-6) and held.lower[2] == -1.5
-    same, why = _widen_box(blk, np.array([0.5 * NODE_FRACTION, 1.0, 0.5]), 1.5, "sample 2", "mode 1")
+    same, why = widen_box(blk, np.array([0.5 * NODE_FRACTION, 1.0, 0.5]), 1.5, "sample 2", "mode 1")
     assert same is blk and why.startswith("sample 2: its mode 1 vector is 5e-05 of its largest entry")
     big = 2 * GROWTH_LIMIT * 1.5
-    same, why = _widen_box(blk, np.array([1.0, big, 0.5]), 1.5, "sample 3", "mode 1")
+    same, why = widen_box(blk, np.array([1.0, big, 0.5]), 1.5, "sample 3", "mode 1")
     assert same is blk and "would need a box 200 times the largest bound" in why

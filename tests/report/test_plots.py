@@ -9,7 +9,7 @@ import scipy.linalg
 import scipy.sparse.linalg
 from frf_synthetic import cantilever_system, measured
 
-from vibupdate.damping import CaugheyLaw
+from vibupdate.damping.models import CaugheyLaw
 from vibupdate.modal.analysis import receptance, receptances
 from vibupdate.report.plots import model_receptance, model_receptances, plot_measured_frf
 

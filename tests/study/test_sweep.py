@@ -544,7 +544,7 @@ def test_the_certified_set_holds_every_reported_answer_and_says_so(certified_run
 
 def test_disagreements_between_sampled_and_linearized_ranges():
     from vibupdate.io.records import LinearRange, SampledRange
-    from vibupdate.report.document import sampled_disagreements
+    from vibupdate.report.ranges_text import sampled_disagreements
 
     sampled = {n: SampledRange("", lo, hi, None, None, None) for n, lo, hi in
                [("a", 1.0, 1.0), ("b", 0.5, 2.5), ("c", 1.0, 1.1), ("d", 1.0, 2.0), ("e", None, None)]}

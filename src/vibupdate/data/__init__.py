@@ -1,1 +1,2 @@
-"""Measured data: typed frequencies, antiresonances and shape intervals, their pairing with model modes, and extraction from FRFs."""
+"""Measured data: typed frequencies, antiresonances and shape intervals, their pairing with model
+modes, and extraction from FRFs."""

@@ -252,7 +252,8 @@ class Extraction:
         narrow = [(first_mode + k, 2 * m.damping_ratio * m.omega / line_spacing) for k, m in enumerate(self.modes)
                   if 2 * m.damping_ratio * m.omega < NARROW_LINES * line_spacing]
         if self.outer_zeros:
-            listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz" for z in self.outer_zeros)
+            listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz"
+                               for z in self.outer_zeros)
             poles = self.fitted_poles[:, 0] / (2 * math.pi)
             out.append(f"{len(self.outer_zeros)} antiresonance(s) outside the fitted poles ({poles.min():.5g}-"
                        f"{poles.max():.5g} Hz) left out: {listed}; the residual terms that stand for modes outside "

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 
 
 G = 9.80665  # m/s^2, standard gravity
@@ -276,7 +276,8 @@ def combine(sets: Sequence[FRFSet]) -> FRFSet:
     for s in sets:
         if s.omega.size != omega.size or not np.allclose(s.omega, omega, rtol=1e-9, atol=0):
             raise ValueError(f"FRF files {sets[0].sources} and {s.sources} have different frequency lines "
-                             f"({omega.size} vs {s.omega.size} lines, {sets[0].freq_hz[0]:.6g}-{sets[0].freq_hz[-1]:.6g} "
+                             f"({omega.size} vs {s.omega.size} lines, "
+                             f"{sets[0].freq_hz[0]:.6g}-{sets[0].freq_hz[-1]:.6g} "
                              f"vs {s.freq_hz[0]:.6g}-{s.freq_hz[-1]:.6g} Hz)")
     kinds = {s.measured for s in sets}
     return _grouped(omega, ((pair, h) for s in sets for pair, h in zip(s.pairs, s.H)),

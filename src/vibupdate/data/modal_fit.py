@@ -197,7 +197,8 @@ def _stable_poles(stab, min_stable):
     keep, counts = [], []
     for _, wn, zeta in reversed(stab):
         for w, z in zip(wn, zeta):
-            count = sum(np.any((np.abs(w2 - w) < STABLE_FREQUENCY * w) & (np.abs(z2 - z) < STABLE_DAMPING * z)) for _, w2, z2 in stab)
+            count = sum(np.any((np.abs(w2 - w) < STABLE_FREQUENCY * w) & (np.abs(z2 - z) < STABLE_DAMPING * z))
+                        for _, w2, z2 in stab)
             if count >= min_stable and not any(abs(k[0] - w) < 5e-3 * w for k in keep):
                 keep.append((w, z))
                 counts.append(count)

@@ -80,10 +80,10 @@ def check_fitted_kind(result, kinds, sources) -> None:
     if turn <= KIND_TURN and drive is not None and abs(drive) >= 180.0 - KIND_TURN:
         two = [kinds[order + k] for k in (2, -2) if 0 <= order + k < len(kinds)]
         raise ValueError(f"{where}: declared {result.measured}, but the driving point's fitted modal constants are "
-                         f"negative (at {drive:+.0f} degrees; a driving point's are phi^2 > 0): the data are two orders "
-                         f"off the kind declared ({' or '.join(two)}?) or the driving point's sign is flipped (the "
-                         "response measured against the force's direction). Is the kind (--kind, kind =) or the sign "
-                         "right?")
+                         f"negative (at {drive:+.0f} degrees; a driving point's are phi^2 > 0): the data are two "
+                         f"orders off the kind declared ({' or '.join(two)}?) or the driving point's sign is flipped "
+                         "(the response measured against the force's direction). Is the kind (--kind, kind =) or the "
+                         "sign right?")
     if turn <= KIND_TURN:
         return
     steps = [1] if drive is not None and drive > 0 else [-1] if drive is not None else [1, -1]

@@ -161,7 +161,7 @@ def write_inputs(out) -> Path:
 
     Raises `MissingExtra` without the ``[frf]`` extra (UFF files need pyuff) before any file
     is written, and ValueError for a folder that holds files."""
-    from vibupdate._extras import require
+    from vibupdate.extras import require
     from vibupdate.data.frf import write_uff58
     from vibupdate.examples import new_folder
 

@@ -88,7 +88,8 @@ def grid_text(nodes) -> str:
 
 def write_dmig(path, K, M, dofs, field="free", nodes=None):
     """A punch file with ``KAAX`` and ``MAAX`` (and GRID cards of ``nodes``)."""
-    text = "$ punch written by vibupdate.examples.fe_writers\n" + dmig_text("KAAX", K, dofs, field) + dmig_text("MAAX", M, dofs, field)
+    text = ("$ punch written by vibupdate.examples.fe_writers\n" + dmig_text("KAAX", K, dofs, field)
+            + dmig_text("MAAX", M, dofs, field))
     text += grid_text(nodes) if nodes else ""
     Path(path).write_text(text)
     return Path(path)

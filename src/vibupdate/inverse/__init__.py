@@ -1,1 +1,2 @@
-"""The inverse problem: correlation with the data, formulation, reduction, lifting and relaxation, the homotopy solve, polish and verification."""
+"""The inverse problem: correlation with the data, formulation, reduction, lifting and relaxation,
+the homotopy solve, polish and verification."""

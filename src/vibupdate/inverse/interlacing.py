@@ -99,7 +99,7 @@ class SignConflict:
     bounds : tuple of float
         The entry's bounds when it was asked (scaled coordinates of the block).
     cause : str
-        The likely cause, in words (`_likely_cause`).
+        The likely cause, in words (`likely_cause`).
     """
 
     configuration: str
@@ -125,7 +125,7 @@ class SignConflict:
                 "The run goes on without the sign relations of this FRF")
 
 
-def _likely_cause(blocks, modes, r: int, c: int, rc, k: int, zeros_between) -> str:
+def likely_cause(blocks, modes, r: int, c: int, rc, k: int, zeros_between) -> str:
     """Name the likely cause of a conflict at pole ``k`` (index among the configuration's
     natural blocks ``blocks``): a point near a node of pole ``k`` or ``k - 1`` (`NODE_FRACTION`
     of the nominal mode), else a zero lost in noise or damping (no zero measured where the
@@ -222,7 +222,7 @@ def _receptance_bounds(natural, nominal, cfg: Configuration, rc, delta: float):
                            int(np.count_nonzero((zeros > poles[k - 1]) & (zeros < poles[k]))))
                 return natural, SignConflict(
                     cfg.name, tuple(rc), modes[k], poles[k] / TWO_PI, None if k == 0 else modes[k - 1], between, name,
-                    sign, (float(lower[dof]), float(upper[dof])), _likely_cause(nominal, modes, r, c, rc, k, between))
+                    sign, (float(lower[dof]), float(upper[dof])), likely_cause(nominal, modes, r, c, rc, k, between))
             lower[dof], upper[dof] = bounds
         out[k] = blk.with_bounds(lower, upper)
     return out, None

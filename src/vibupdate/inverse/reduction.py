@@ -1,4 +1,6 @@
-"""Craig-Bampton reduction of an affine model, for large models (docs/method.md, "Large models: Craig-Bampton reduction").
+"""Craig-Bampton reduction of an affine model, for large models.
+
+(docs/method.md, "Large models: Craig-Bampton reduction".)
 
 The residual of the full formulation has one row per DOF, and for bending models its
 conditioning grows like ``w_max^2 / w_1^2 ~ N^4``: the lambda = 1 solve needs more and more

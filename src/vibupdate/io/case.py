@@ -8,7 +8,7 @@ Four modules: this one reads the file (parameters, configurations and their meas
 options) into a `Case`; `vibupdate.io.case_types` defines `Case` and `DampingOptions` (both
 importable from here too); `vibupdate.io.case_keys` holds the schema (allowed keys and types) and
 the checks that name file and key; `vibupdate.io.case_model` builds the models and compiles the
-linear expressions of parameters (`LinearExpression`, re-exported here).
+linear expressions of parameters (`vibupdate.io.case_model.LinearExpression`).
 """
 
 from __future__ import annotations
@@ -39,8 +39,8 @@ from vibupdate.io.case_keys import (
     check_table,
     numbers,
 )
-from vibupdate.io.case_model import LinearExpression, configuration_model, linear_expression
-from vibupdate.io.case_types import Case, DampingOptions  # noqa: F401  (importable from here too)
+from vibupdate.io.case_model import configuration_model
+from vibupdate.io.case_types import Case, DampingOptions
 from vibupdate.io.case_sensors import case_sensors
 from vibupdate.model.parameters import Parameter
 from vibupdate.options import problem as option_problem
@@ -469,7 +469,8 @@ def _frequency_types(data: dict, configurations, where: Where):
             shift = damped_shift(f.damping_ratio)
             top = f.interval[1] if f.interval is not None else (f.omega * (1 + tolerance) if tolerance else None)
             if top is not None and f.omega * (1 + shift) > top:
-                beyond.append(f"frequency {k} at {f.freq_hz:.6g} Hz: {100 * shift:.2g} % > {100 * (top / f.omega - 1):.2g} %")
+                beyond.append(f"frequency {k} at {f.freq_hz:.6g} Hz: {100 * shift:.2g} % > "
+                              f"{100 * (top / f.omega - 1):.2g} %")
         if stated == "damped":
             configuration = replace(configuration, natural=tuple(natural_from_damped(f) for f in configuration.natural))
         converted.append(configuration)

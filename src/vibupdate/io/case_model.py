@@ -261,8 +261,9 @@ def matrix_precision(spec: dict, where: Where) -> float | None:
     value = float(spec["matrix_precision"])
     eps = float(np.finfo(float).eps)
     if not eps <= value < COARSEST_PRECISION:
-        raise where.error("model.matrix_precision", f"must be a relative precision from {eps:.3g} (double precision) "
-                                                    f"to below {COARSEST_PRECISION:g}, got {spec['matrix_precision']!r}")
+        raise where.error("model.matrix_precision",
+                          f"must be a relative precision from {eps:.3g} (double precision) to below "
+                          f"{COARSEST_PRECISION:g}, got {spec['matrix_precision']!r}")
     return value
 
 

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
 

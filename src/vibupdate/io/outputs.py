@@ -48,7 +48,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
-from vibupdate._extras import MissingExtra
+from vibupdate.extras import MissingExtra
 from vibupdate.io.interrupted import Interrupted
 from vibupdate.io.manifests import (
     COMMANDS,
@@ -108,7 +108,7 @@ def drawn(path, plot, *args, **kwargs) -> bool:
     a warning, not the run.
 
     Returns True when the file was written. On any exception of ``plot`` (a degenerate
-    figure, a font or backend problem, matplotlib not installed: `vibupdate._extras`) the
+    figure, a font or backend problem, matplotlib not installed: `vibupdate.extras`) the
     partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
     the file and the error is issued, and False is returned. KeyboardInterrupt is not caught.
     """

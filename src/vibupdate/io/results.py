@@ -240,7 +240,7 @@ def _matrices(cfg, updated, stage, modal) -> ConfigurationMatrices:
     """One configuration's matrices: updated ``M``, ``K``, the nominal model
     undamped, and the identified damping (a dense ``C`` on small models, its modal law on
     large ones) built from the updated spectrum ``modal.spectrum`` when there is one."""
-    from vibupdate.damping import caughey_damping
+    from vibupdate.damping.models import caughey_damping
 
     M, K = updated
     M0, K0 = cfg.model.matrices()

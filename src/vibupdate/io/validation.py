@@ -108,7 +108,8 @@ def _check_damping(case, rigid: int, error) -> list[str]:
     if bad:
         raise error("damping.exponents", f"must be finite numbers, got {bad[0]!r}")
     if max(abs(y) for y in exponents) > MAX_EXPONENT:
-        raise error("damping.exponents", f"must lie within +-{MAX_EXPONENT:g} (w^(2h) overflows beyond), got {exponents}")
+        raise error("damping.exponents",
+                    f"must lie within +-{MAX_EXPONENT:g} (w^(2h) overflows beyond), got {exponents}")
     if len(set(exponents)) != len(exponents):
         raise error("damping.exponents", f"must be distinct, got {exponents}")
     if rigid and min(exponents) < 0:

@@ -1,1 +1,2 @@
-"""Modal analysis kernels on mass and stiffness matrices: eigen-solutions, receptances, their zeros and exact derivatives."""
+"""Modal analysis kernels on mass and stiffness matrices: eigen-solutions, receptances, their zeros
+and exact derivatives."""

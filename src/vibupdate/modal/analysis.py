@@ -3,8 +3,8 @@
 (`vibupdate.modal.zeros`), paper Eqs. 2, 3 and 8, and the modal assurance criterion.
 
 Everything works in rad/s. Receptance ``h_rc`` is the displacement of DOF ``r`` per unit
-force at DOF ``c`` (m/N). The public names of the three kernel modules are importable from
-here.
+force at DOF ``c`` (m/N). The kernels' names the rest of the package uses are re-exported
+here (``import name as name``).
 """
 
 from __future__ import annotations
@@ -12,18 +12,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from vibupdate.modal.eigen import (
-    DENSE_LIMIT,
-    DENSE_MAX,
-    MASSLESS_TOL,
-    RESIDUAL_TOL,
-    ModalAccuracyError,
-    massless_dofs,
-    mode_residuals,
-    modes,
-)
-from vibupdate.modal.receptance import receptance, receptances
-from vibupdate.modal.zeros import adjunct, antiresonances
+from vibupdate.modal.eigen import (DENSE_LIMIT as DENSE_LIMIT, MASSLESS_TOL as MASSLESS_TOL, massless_dofs,
+                                   ModalAccuracyError as ModalAccuracyError, mode_residuals as mode_residuals, modes)
+from vibupdate.modal.receptance import receptance as receptance, receptances as receptances
+from vibupdate.modal.zeros import adjunct as adjunct, antiresonances as antiresonances
 
 
 def flexible_modes(M, K, n_modes: int | None = None, **options):

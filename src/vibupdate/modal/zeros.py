@@ -160,7 +160,8 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: fl
     order = np.argsort(eigval_z)[:n_zeros]
     eigval_z, V = eigval_z[order], V[:, order]
     V = lu.solve(np.asarray(Mr @ V)) * (eigval_z - sigma)
-    eigen.require_accuracy(Mr, Kr, np.sqrt(eigval_z), V, RESIDUAL_TOL, f"shift-invert antiresonances of h({r}, {c}): zero")
+    eigen.require_accuracy(Mr, Kr, np.sqrt(eigval_z), V, RESIDUAL_TOL,
+                           f"shift-invert antiresonances of h({r}, {c}): zero")
     return eigval_z, V
 
 

@@ -131,7 +131,8 @@ def element_matrices(elements: Sequence[tuple], *, dofs: Sequence[str] | None = 
         M = np.zeros_like(K) if M is None else np.asarray(M, dtype=float)
         for what, A in (("stiffness", K), ("mass", M)):
             if A.shape != (len(where), len(where)):
-                raise ValueError(f"{source}: element {label!r}: {what} matrix has shape {A.shape} for {len(where)} DOFs")
+                raise ValueError(f"{source}: element {label!r}: {what} matrix has shape {A.shape} "
+                                 f"for {len(where)} DOFs")
         by_size.setdefault(len(where), []).append((position, where, K, M))
     parts = [_triplets(batch, labels, source) for batch in by_size.values()]
     rows, cols, owner, K, M = (parts[0][k] if len(parts) == 1 else np.concatenate([p[k] for p in parts])
@@ -199,8 +200,8 @@ def affine_from_elements(elements: ElementMatrices, parameters: Sequence[Paramet
     names = {p.name: p for p in parameters}
     unknown = sorted(set(scaling) - set(names))
     if unknown:
-        raise ValueError(f"element groups name {', '.join(map(repr, unknown))}, which {'is' if len(unknown) == 1 else 'are'} "
-                         "not a parameter")
+        verb = "is" if len(unknown) == 1 else "are"
+        raise ValueError(f"element groups name {', '.join(map(repr, unknown))}, which {verb} not a parameter")
     elements = elements.without(list(fixed))
     position = {label: k for k, label in enumerate(elements.labels)}
     claimed: dict[tuple, str] = {}

@@ -58,12 +58,8 @@ MAX_SECONDS = 300.0
 CHECKED = 3
 #: Objectives within this relative difference are ties: equally good fits. The objective of
 #: a set that fits carries the model-form error no set removes exactly, and sets that differ
-#: by this little say nothing about which parameter is missing. On the bar of the tests, E +
-#: r and rho + r, which the frequencies see through E / rho but for the tip mass and the
-#: springs, differed by 0.1 % with a shape weight of 0.05 stated in the case, and by 1.6 % with
-#: the fit's own shape weight from the tolerances (0.107: the zeros' 2 % counts in the
-#: frequencies' tolerance): not a tie by this rule, and no more telling (benchmarks/RESULTS.md,
-#: `vibupdate suggest` on the bar).
+#: by this little say nothing about which parameter is missing (`benchmarks/RESULTS.md`,
+#: "Which parameters to update: `benchmarks/suggest_bar.py`").
 TIE_RTOL = 0.01
 
 

@@ -43,7 +43,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.data.measured import Configuration
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.modal.eigen import DENSE_LIMIT
@@ -55,7 +55,8 @@ from vibupdate.ranges.tightening import Box, Lifts, Tactics, lifts, root_box, ti
 #: A pass that narrows the boxes (summed relative widths) by less than this ends the tightening.
 STALL = 1e-3
 #: The same when branching follows: passes that gain less are worth less than splits
-#: (measured on the cantilever, benchmarks/RESULTS.md).
+#: (`benchmarks/RESULTS.md`, "After (branch `certify`): bound tightening rebuilt, branching,
+#: scale-free shapes").
 ROOT_STALL = 0.02
 
 
@@ -386,7 +387,7 @@ def certified_ranges(configurations: Sequence[Configuration], xbar=None, *, incl
 
     Raises
     ------
-    vibupdate._extras.MissingExtra
+    vibupdate.extras.MissingExtra
         Without the optional extra ``[certify]`` (HiGHS, Clarabel), before any work.
     """
     require("certify", "computing certified ranges")

@@ -24,7 +24,8 @@ the other answers a run reports: verified sampled answers and line ends) the win
 vector boxes are widened just enough to hold every included point, each point's paired model
 frequencies and exact eigenvectors with a stated margin (`vibupdate.ranges.inclusion`): S then
 holds every answer the run reports, so its certified outer range contains them all. With
-exact data and ``frequency_tolerance = 0`` the window is the single measured frequency, and the truth is in S whenever its eigenvectors lie in the boxes.
+exact data and ``frequency_tolerance = 0`` the window is the single measured frequency, and
+the truth is in S whenever its eigenvectors lie in the boxes.
 
 S asks for *an* eigenpair in each window, not the k-th mode: it contains every parameter
 set that a mode-correspondence check would admit, and possibly more.
@@ -48,7 +49,7 @@ from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.interlacing import sign_bounds
 from vibupdate.data.measured import Configuration
-from vibupdate.ranges.inclusion import Inclusion, _anchor, widen
+from vibupdate.ranges.inclusion import Inclusion, anchor, into_box, widen
 
 
 #: Relative eigen-residual allowed in S: ``|((K - s M) v)_k| <= RESIDUAL_FLOOR * (|K| |v| + s |M| |v|)_k``
@@ -221,8 +222,8 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
     Every block needs a real eigenpair whose frequency is inside its window shrunk by
     ``margin`` (relative; an exact datum within the residual floor) and whose vector,
     scaled to the block's fixed entry (or by any scale, for a block without one), lies inside
-    its box shrunk by ``margin`` (absolute, scaled coordinates). The margin absorbs the eigensolver's rounding, so a point with a
-    witness is a point of S.
+    its box shrunk by ``margin`` (absolute, scaled coordinates). The margin absorbs the
+    eigensolver's rounding, so a point with a witness is a point of S.
 
     Parameters
     ----------
@@ -254,7 +255,7 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
             inside = np.abs(w - cs.omega_lower[b]) <= 0.01 * RESIDUAL_FLOOR * cs.omega_lower[b]
         found = None
         for k in np.flatnonzero(inside):
-            v = _into_box(blk, V[:, k] / blk.scale, margin)
+            v = into_box(blk, V[:, k] / blk.scale, margin)
             if v is not None:
                 found = (float(lam[k]), v)
                 break
@@ -262,30 +263,6 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
             return None
         pairs.append(found)
     return pairs
-
-
-def _into_box(blk: VectorBlock, v, margin: float):
-    """``c v`` for a scale ``c`` that puts the free entries inside the block's box shrunk by
-    ``margin`` and the fixed entries on their values, or None when no scale does."""
-    free = ~blk.fixed
-    if blk.fixed.any():
-        j = int(np.flatnonzero(blk.fixed)[0])
-        if abs(v[j]) < 1e-12 * np.max(np.abs(v)):
-            return None
-        v = v / v[j] * blk.lower[j]
-        if np.all(v[free] >= blk.lower[free] + margin) and np.all(v[free] <= blk.upper[free] - margin):
-            v[blk.fixed] = blk.lower[blk.fixed]
-            return v
-        return None
-    lo, hi, x = blk.lower + margin, blk.upper - margin, v
-    nz = x != 0
-    if np.any(~nz & ((lo > 0) | (hi < 0))):
-        return None
-    a, b = lo[nz] / x[nz], hi[nz] / x[nz]
-    c_lo, c_hi = np.max(np.minimum(a, b)), np.min(np.maximum(a, b))
-    if not c_lo <= c_hi:
-        return None
-    return 0.5 * (c_lo + c_hi) * v
 
 
 def is_consistent(cs: ConsistentSet, xbar, margin: float = 1e-7) -> bool:
@@ -307,7 +284,7 @@ def _paired_slack(cs: ConsistentSet, xbar, mid, half) -> np.ndarray:
             continue
         w.append(f.natural[blk.index - 1])
         v = f.Phi[blk.cols, blk.index - 1] / blk.scale
-        j = _anchor(blk)
+        j = anchor(blk)
         free = ~blk.fixed & (blk.measured if blk.measured is not None else True)
         free[j] = False
         ref = 0.5 * (blk.lower[j] + blk.upper[j])

@@ -156,7 +156,7 @@ def paired_vectors(cfg: Configuration, blocks: Sequence[VectorBlock], xbar) -> l
     return out
 
 
-def _anchor(blk: VectorBlock) -> int:
+def anchor(blk: VectorBlock) -> int:
     """The entry a vector is normalized at: the fixed entry, else (a measured shape with its
     reference freed) the entry whose box keeps farthest from zero."""
     if blk.fixed.any():
@@ -165,25 +165,39 @@ def _anchor(blk: VectorBlock) -> int:
     return int(np.argmax(away))
 
 
-def _fits_some_scale(blk: VectorBlock, v) -> bool:
-    """A block without a fixed entry: some scaling ``c v`` lies in the box shrunk by `BOX_MARGIN`."""
-    lo, hi = blk.lower + BOX_MARGIN, blk.upper - BOX_MARGIN
-    nz = v != 0
+def into_box(blk: VectorBlock, v, margin: float):
+    """``c v`` for a scale ``c`` that puts the free entries inside the block's box shrunk by
+    ``margin`` and the fixed entries on their values, or None when no scale does."""
+    free = ~blk.fixed
+    if blk.fixed.any():
+        j = int(np.flatnonzero(blk.fixed)[0])
+        if abs(v[j]) < 1e-12 * np.max(np.abs(v)):
+            return None
+        v = v / v[j] * blk.lower[j]
+        if np.all(v[free] >= blk.lower[free] + margin) and np.all(v[free] <= blk.upper[free] - margin):
+            v[blk.fixed] = blk.lower[blk.fixed]
+            return v
+        return None
+    lo, hi, x = blk.lower + margin, blk.upper - margin, v
+    nz = x != 0
     if np.any(~nz & ((lo > 0) | (hi < 0))):
-        return False
-    a, b = lo[nz] / v[nz], hi[nz] / v[nz]
-    return bool(np.max(np.minimum(a, b)) <= np.min(np.maximum(a, b)))
+        return None
+    a, b = lo[nz] / x[nz], hi[nz] / x[nz]
+    c_lo, c_hi = np.max(np.minimum(a, b)), np.min(np.maximum(a, b))
+    if not c_lo <= c_hi:
+        return None
+    return 0.5 * (c_lo + c_hi) * v
 
 
-def _widen_box(blk: VectorBlock, v, base: float, label: str, where: str):
+def widen_box(blk: VectorBlock, v, base: float, label: str, where: str):
     """``(block, None)``: the block with its box widened to hold the scaled vector ``v``; or
     ``(blk, reason)`` when it cannot be held (``base``: the largest bound before widening)."""
-    j = _anchor(blk)
+    j = anchor(blk)
     big = float(np.max(np.abs(v)))
     if not abs(v[j]) > NODE_FRACTION * big:
         return blk, (f"{label}: its {where} vector is {abs(v[j]) / big:.2g} of its largest entry at the "
                              f"normalization entry (below {NODE_FRACTION:g})")
-    if not blk.fixed.any() and _fits_some_scale(blk, v):
+    if not blk.fixed.any() and into_box(blk, v, BOX_MARGIN) is not None:
         return blk, None
     v = v / v[j] * (blk.lower[j] if blk.fixed.any() else 1.0)
     pad = BOX_MARGIN * (1.0 + np.abs(v))
@@ -256,7 +270,7 @@ def widen(configurations: Sequence[Configuration], blocks: Sequence[VectorBlock]
                     beyond = max(omega_lower[b] - w, w - omega_upper[b], 0.0)
                     reach[b] = max(reach[b], 100.0 * beyond / blocks[b].omega)
                     lo[b], hi[b] = min(lo[b], a), max(hi[b], c)
-                blocks[b], why = _widen_box(blocks[b], v / blocks[b].scale, base[b], label, where[b])
+                blocks[b], why = widen_box(blocks[b], v / blocks[b].scale, base[b], label, where[b])
                 if why:
                     uncovered.append(why)
         if np.any(lo != state[0]) or np.any(hi != state[1]) or any(x is not y for x, y in zip(blocks, state[2])):

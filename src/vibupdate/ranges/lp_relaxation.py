@@ -15,9 +15,9 @@ lifted (`lifted_point`); the eigen rows keep the residual floor of S. Constants 
 envelopes are rounded outward.
 
 Safe bounds. The LP solvers (HiGHS through highspy for the small per-block LPs, built once
-and solved warm for every objective; Clarabel for the large LPs of all blocks) are inexact, so its optimum is never used as a bound. Every
-variable of the LP is boxed, so for *any* row multipliers ``y`` (signs projected so that each
-term is valid) the Lagrangian bound
+and solved warm for every objective; Clarabel for the large LPs of all blocks) are inexact,
+so its optimum is never used as a bound. Every variable of the LP is boxed, so for *any* row
+multipliers ``y`` (signs projected so that each term is valid) the Lagrangian bound
 
     c^T z >= sum_j min_{z_j in [l_j, u_j]} (c - A^T y)_j z_j + sum_r min_{a_r in [lo_r, hi_r]} y_r a_r
 
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.ranges.consistent import RESIDUAL_FLOOR, ConsistentSet
 
 
@@ -236,8 +236,8 @@ def relax(L: Lifted, xl, xu, ul, uu) -> RelaxedLP:
     zu = np.concatenate([xu, uu, tu, L.d_upper, eu])
     zmag = np.maximum(np.abs(zl), np.abs(zu))
     # Eigen rows: (Kz - w^2 Mz) z - e = -(k0 - w^2 m0), up to the residual floor.
-    G = sp.csr_matrix(L.Kz - sp.diags(L.w2) @ L.Mz) + sp.csr_matrix((-np.ones(L.n_r), (np.arange(L.n_r), n_z - L.n_r + np.arange(L.n_r))),
-                                         shape=(L.n_r, n_z))
+    slack = sp.csr_matrix((-np.ones(L.n_r), (np.arange(L.n_r), n_z - L.n_r + np.arange(L.n_r))), shape=(L.n_r, n_z))
+    G = sp.csr_matrix(L.Kz - sp.diags(L.w2) @ L.Mz) + slack
     c0 = L.k0 - L.w2 * L.m0
     floor = RESIDUAL_FLOOR * (abs(L.Kz) @ zmag + np.abs(L.k0) + (L.w2 + dU) * mmag)
     t_parts, t_lo, t_hi = _mccormick_t(L, xl, xu, ul, uu)
@@ -368,8 +368,8 @@ def clarabel_model(lp: RelaxedLP, c=None) -> ClarabelModel:
 def solve_clarabel(lp: RelaxedLP, c, model: ClarabelModel | None = None, *, point: bool = False):
     """Clarabel (interior point) on the LP with objective ``c``; returns (status, optimum,
     safe bound from its multipliers), and with ``point`` its primal solution as a fourth
-    item (None unless optimal). On the large LPs of all blocks it was many times faster than
-    HiGHS (benchmarks/RESULTS.md).
+    item (None unless optimal). It solves the large LPs of all blocks, where it is the faster
+    (`benchmarks/RESULTS.md`, "Certified outer parameter ranges", the frame's LPs).
 
     ``model`` (`clarabel_model`) is re-solved with the objective ``c`` instead of building a
     new instance; it may hold narrower column bounds than ``lp`` (`ClarabelModel.change_bounds`),

@@ -69,10 +69,10 @@ class Tactics:
     parameter_stall : bool
         The passes end when a pass shrinks the summed relative widths of the *parameters*
         (what is reported) by less than the stall fraction; else (the default) those of the
-        whole box, vector entries included. Off by default: at 120 s it narrowed the
-        cantilever's mlc and klc (earlier branching) but stopped the frame's passes after
-        one, where its 29 parameters, most filling their bounds, dilute the sum, and left
-        E4, m3, m7, m9, m11 wider (benchmarks/RESULTS.md).
+        whole box, vector entries included. Off by default: where most parameters fill their
+        bounds they dilute the sum and the passes stop too early (`benchmarks/RESULTS.md`,
+        "Economies of the tightening (branch `certify2`): solver reuse, Clarabel's bound kept,
+        stall rule").
     """
 
     reuse_solver: bool = True

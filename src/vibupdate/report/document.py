@@ -13,7 +13,7 @@ from vibupdate.io.records import Identifiability, SolverRecord
 from vibupdate.io.results import RunResult
 from vibupdate.report.suggestion import run_section_markdown
 from vibupdate.report.numbers import finite, fmt
-from vibupdate.report.ranges_text import ranges_markdown, ranges_table, sampled_disagreements
+from vibupdate.report.ranges_text import ranges_markdown, ranges_table
 from vibupdate.report.table import Column, Table, error_pct, markdown, text, with_reference
 
 
@@ -67,7 +67,8 @@ def frequency_table(run: RunResult) -> Table:
                  for r, d, i in zip(run.frequencies, docs, intervals))
     table = Table("Frequencies", (Column("cfg"), Column("datum"), hz("measured"),
                                   *([Column("interval", "Hz")] if shown else []), hz("nominal"), pct, hz("updated"),
-                                  pct), rows, keys=tuple(f"{r.configuration}/{r.kind}/{r.index}" for r in run.frequencies))
+                                  pct), rows,
+                  keys=tuple(f"{r.configuration}/{r.kind}/{r.index}" for r in run.frequencies))
     return with_reference(table, run.paper, "frequencies")
 
 
@@ -288,8 +289,8 @@ def verification_markdown(solver: SolverRecord) -> list[str]:
         stages += (f"; the vector boxes were widened {len(attempts) - 1} time(s) because the relaxation proved that "
                    "they excluded every fit (lower bounds "
                    + ", ".join(fmt(a.relaxation_lower_bound, ".3g") for a in attempts) + ")")
-    verdict = ("**verified**: every check of the returned model against the data passed"
-               + limited_text(solver.checks) if solver.verified else "**not verified**: the failed checks below say why")
+    verdict = ("**verified**: every check of the returned model against the data passed" + limited_text(solver.checks)
+               if solver.verified else "**not verified**: the failed checks below say why")
     return out + [stages + ". The answer is " + verdict + ".", ""] + markdown(checks_table(solver))
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
@@ -122,7 +122,7 @@ def _nominal_curve(nominal, updated):
     (`vibupdate.modal.receptance.modal_sum`, the modes left out in its Krylov vectors), so that
     the two curves differ by the models only.
     """
-    from vibupdate.damping import CaugheyLaw
+    from vibupdate.damping.models import CaugheyLaw
 
     M, K, C = nominal
     law = updated[2]
@@ -147,7 +147,7 @@ def plot_receptances(path, panels) -> Path:
     panels : sequence of (cfg, nominal, updated, pairs)
         Per configuration: the `Configuration` (its measured frequencies), the nominal and
         updated models as ``(M, K, C)`` with ``C`` possibly None (undamped, and labelled so) or
-        a `vibupdate.damping.CaugheyLaw` (large models: modal superposition; each curve uses its
+        a `vibupdate.damping.models.CaugheyLaw` (large models: modal superposition; each curve uses its
         own model's damping, never the updated ``C`` on the nominal curve), and ``pairs``: the
         response and excitation DOF indices, the label (``h_{r,c}``) and the measured
         antiresonances (rad/s) of each receptance. The pairs of one model share its eigen-solve

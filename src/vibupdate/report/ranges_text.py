@@ -212,10 +212,10 @@ def ranges_markdown(ident) -> list[str]:
     info = ident.certified
     if info:
         out += ["Certified outer range: min and max of each parameter over a convex (McCormick, linear "
-                "programming) relaxation of the consistent set S below, with bound tightening and branching; every point of S "
-                "lies inside. Each end is a safe Lagrangian bound evaluated from the LP solver's multipliers with "
-                "its rounding accounted for; \"certified\" means the safe bound confirms the solver's optimum, "
-                "\"no\" that the reported (still valid) range may be looser. " + info.definition
+                "programming) relaxation of the consistent set S below, with bound tightening and branching; every "
+                "point of S lies inside. Each end is a safe Lagrangian bound evaluated from the LP solver's "
+                "multipliers with its rounding accounted for; \"certified\" means the safe bound confirms the "
+                "solver's optimum, \"no\" that the reported (still valid) range may be looser. " + info.definition
                 + f" Outcome: {info.message}; {info.passes} tightening pass(es), {info.n_lps} LPs, "
                 f"{fmt(info.seconds, '.1f')} s (root {fmt(info.root_seconds, '.1f')} s).", ""]
     return out

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI
-from vibupdate._extras import available, skipped
+from vibupdate.extras import available, skipped
 from vibupdate.io.outputs import OutputWarning, drawn, file_names
 from vibupdate.report.numbers import finite
 from vibupdate.report.plots import _pyplot, _save as _save_png
@@ -157,7 +157,7 @@ def plot_frequency_bands(path, document: dict) -> Path:
 def plot_frf_band(path, case, cfg, rows) -> Path:
     """5-50-95 % band of |h_rc| of one configuration over the verified samples (damped with
     each sample's Caughey coefficients when the case has damping data), measured marked."""
-    from vibupdate.damping import caughey_damping
+    from vibupdate.damping.models import caughey_damping
     from vibupdate.io.results import plotted_receptance
     from vibupdate.report.plots import model_receptance
 

@@ -18,7 +18,7 @@ import csv
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 
 
 #: The files a batch writes into its output directory beside the case folders.
@@ -60,7 +60,8 @@ def summary_markdown(rows: Sequence[dict], fields: Sequence[str]) -> str:
     tables are (`vibupdate.report.table`)."""
     from vibupdate.report.table import Column, Table, markdown
 
-    table = Table("", tuple(Column(f, spec=".6g") for f in fields), tuple(tuple(r.get(f) for f in fields) for r in rows))
+    table = Table("", tuple(Column(f, spec=".6g") for f in fields),
+                  tuple(tuple(r.get(f) for f in fields) for r in rows))
     return "\n".join(markdown(table))
 
 

@@ -17,7 +17,7 @@ import os
 import time
 from collections.abc import Callable, Iterator
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 
 
 def case_digest(case) -> str:

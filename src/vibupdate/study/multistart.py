@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.io.case_types import Case
 
 

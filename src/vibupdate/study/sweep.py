@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate._extras import require
+from vibupdate.extras import require
 from vibupdate.io.case import load_case
 from vibupdate.io.case_types import Case
 from vibupdate.io.interrupted import Interrupted

@@ -12,8 +12,8 @@ compiled solver therefore depends only on the *structure* of a problem (sizes, s
 patterns, the lifted products, the IPOPT limits), and a process-level cache (`CACHE`) keyed
 by that structure lets a second problem of the same structure (a re-run, a sweep sample, a
 random start) skip the build. The NLP is built in CasADi MX without expansion by default:
-IPOPT's own work dominates each iteration here, and the MX build is about ten times faster
-than the SX one (docs/method.md, section 6, and `benchmarks/RESULTS.md`).
+IPOPT's own work dominates each iteration here, and the MX build is the faster
+(docs/method.md, section 6; `benchmarks/RESULTS.md`, "What grew, and what was done").
 
 **At ``lam = 1`` the NLP without the lifted variables.** There the residual no longer
 involves ``t`` and every ``(xbar, u)`` in its box leaves ``t = xbar[px] u[pu]`` feasible, so
@@ -23,7 +23,8 @@ and returns the outcome in the lifted layout.
 
 **At ``lam = 0`` the QP.** The cold ``lam = 0`` step without a proximal term is the convex
 McCormick relaxation; by default it is solved by a QP interior-point method
-(`vibupdate.inverse.backends.piqp_relaxation`, about ten times faster than IPOPT on it), with
+(`vibupdate.inverse.backends.piqp_relaxation`; `benchmarks/RESULTS.md`, "After the relaxation
+QP and the direct jump (the first stage's solver time)"), with
 IPOPT on the lifted NLP as the fallback when the QP solver does not report success
 (``relaxation_solver = "nlp"`` uses IPOPT directly).
 

@@ -103,7 +103,8 @@ class RelaxationQP:
         z = np.clip(z, self.lower, self.upper)
         R = z[-n_r:]
         # PIQP's stationarity: P z + A' y + G' (z_u - z_l) + (z_bu - z_bl) = 0.
-        mult_g = np.concatenate([np.asarray(result.y, float), np.asarray(result.z_u, float) - np.asarray(result.z_l, float)])
+        mult_g = np.concatenate([np.asarray(result.y, float),
+                                 np.asarray(result.z_u, float) - np.asarray(result.z_l, float)])
         mult_x = np.asarray(result.z_bu, float) - np.asarray(result.z_bl, float)
         return StepOutcome(z=z, objective=float(self.row_weight @ (R * R)), iterations=int(result.info.iter),
                            status=PIQP_STATUS.get(raw, Status.NUMERICAL_ERROR), raw_status=raw,

@@ -102,7 +102,8 @@ def natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: Scal
     else:
         j = _default_normalization_entry(cfg, v0)
     if v0[j] == 0:
-        raise ValueError(f"configuration {cfg.name!r}, mode {k + 1}: the nominal mode is zero at its normalization entry")
+        raise ValueError(f"configuration {cfg.name!r}, mode {k + 1}: the nominal mode is zero at its "
+                         "normalization entry")
     v0n = v0 / v0[j]
     # Unmeasured entries within shape_margin times the nominal mode's largest entry, relative to
     # the entry its normalization refers to: the normalization entry itself, or, with a measured

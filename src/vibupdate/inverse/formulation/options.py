@@ -36,7 +36,8 @@ class FormulationOptions:
     rotation_prefixes : tuple of str
         DOF-name prefixes that mark rotations.
     weighting : {"relative", "unit"}
-        ``"relative"``: relative eigenvalue error (docs/method.md, "Default weights"); ``"unit"``: alpha = 1 (paper test case 1).
+        ``"relative"``: relative eigenvalue error (docs/method.md, "Default weights"); ``"unit"``:
+        alpha = 1 (paper test case 1).
     interlacing : bool
         Apply the sign bounds derived from the pole/zero pattern (Eq. 11).
     reduction : {"auto", "none", "craig-bampton"}

@@ -225,8 +225,8 @@ def read_abaqus_element_sets(path) -> dict[str, list[int]]:
             keyword, params = _keyword(text)
             target, mode = None, None
             if keyword in ("*PART", "*INSTANCE"):
-                raise ValueError(f"{path}: line {number}: {keyword.title()}: the element sets of parts and instances are "
-                                 "numbered per part; give the groups as a CSV of element and group")
+                raise ValueError(f"{path}: line {number}: {keyword.title()}: the element sets of parts and "
+                                 "instances are numbered per part; give the groups as a CSV of element and group")
             if keyword in ("*ELSET", "*ELEMENT") and params.get("ELSET"):
                 name = params["ELSET"]
                 target = named.setdefault(name.upper(), name)

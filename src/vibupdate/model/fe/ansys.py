@@ -253,7 +253,7 @@ def read_hbmat(stiffness, mass, mapping) -> FEExport:
 
 def read_full(path) -> FEExport:
     """K and M of an ANSYS ``.full`` file (needs ``ansys-mapdl-reader``: ``pip install "vibupdate[fe]"``)."""
-    from vibupdate._extras import require
+    from vibupdate.extras import require
 
     require("fe", f"reading the ANSYS .full file {str(path)!r}", modules=("ansys.mapdl.reader",))
     from ansys.mapdl import reader as pymapdl_reader

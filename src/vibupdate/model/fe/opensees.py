@@ -64,7 +64,7 @@ def openseespy():
     """The openseespy API of the ``opensees`` package (the ``[fe]`` extra); `MissingExtra`
     naming ``[fe]`` otherwise. The route needs its Tcl interpreter (``eval``), which the
     ``openseespy`` wheel does not have."""
-    from vibupdate._extras import require
+    from vibupdate.extras import require
 
     require("fe", "an OpenSees model", modules=("opensees",))
     from opensees import openseespy as ops

@@ -106,8 +106,8 @@ def _check_same_dofs(nominal: FEExport, other: FEExport, name: str) -> None:
         return
     if len(other.dofs) != len(nominal.dofs):
         raise ValueError(f"{other.source}: the export of parameter '{name}' has {len(other.dofs)} DOFs, expected "
-                         f"{len(nominal.dofs)} like the nominal export {nominal.source} (is one of them cut short, or of another "
-                         "model?)")
+                         f"{len(nominal.dofs)} like the nominal export {nominal.source} (is one of them cut short, "
+                         "or of another model?)")
     k = next(i for i, (a, b) in enumerate(zip(other.dofs, nominal.dofs)) if a != b)
     raise ValueError(f"{other.source}: the DOF map of parameter '{name}' does not match the nominal export "
                      f"{nominal.source}: DOF {k + 1} is {other.dofs[k]!r}, expected {nominal.dofs[k]!r}")
