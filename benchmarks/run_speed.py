@@ -141,7 +141,10 @@ def vibupdate_run(case: Path, out: Path, profile: bool) -> dict:
         doc = json.loads(results.read_text())
         truth = building.truth()
         err = [abs(p["updated"] / truth[p["name"]] - 1) for p in doc["parameters"]]
-        row.update(status=doc["solver"]["status"], max_parameter_error=float(np.max(err)))
+        sought = doc["solver"].get("sought") or {}
+        row.update(status=doc["solver"]["status"], verdict=doc["solver"].get("verdict"),
+                   uniqueness_searched=sought.get("uniqueness_searched"), uniqueness=sought.get("reason"),
+                   max_parameter_error=float(np.max(err)))
     if profile:
         import pstats
         import io
