@@ -152,6 +152,9 @@ def main(argv=None) -> int:
         jobs = [("random", s, routes, args.compromise) for s in range(args.seed, args.seed + cases)]
         jobs += [("named", i, routes, args.compromise) for i in range(9)] if args.named else []
         title = f"random seeds {args.seed}..{args.seed + cases - 1}" + (", named" if args.named else "")
+    if not jobs:
+        parser.error(f"no problem selected (--cases {args.cases} with --skip {args.skip}: the seeds kept are "
+                     f"SKIP+1 .. CASES of each family; --family {' '.join(args.family or []) or 'any'})")
     start = time.perf_counter()
     results = []
 

@@ -342,3 +342,19 @@ def test_the_compromise_distance_is_reported_on_every_run():
     assert verdict.compromise["distance_pct"] == pytest.approx(expected)
     assert verdict.compromise["time_ratio"] == pytest.approx(1.0 / ref.compromise.seconds)
     assert "worse_than_nominal" not in verdict.failures
+
+
+def test_the_benchmark_refuses_a_selection_without_problems(capsys):
+    """``--skip 60 --cases 6`` keeps no seed (the seeds kept are SKIP+1 .. CASES): a usage error
+    naming both, not a division by zero in the summary after a run of nothing."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "acceptance.py"
+    spec = importlib.util.spec_from_file_location("acceptance_benchmark", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    with pytest.raises(SystemExit) as stop:
+        bench.main(["--profile", "full", "--family", "many_dofs", "--skip", "60", "--cases", "6"])
+    assert stop.value.code == 2
+    assert "no problem selected (--cases 6 with --skip 60" in capsys.readouterr().err
