@@ -1,44 +1,18 @@
 """The search for the answer, as typed records: which starts, in which order, with which budgets.
 
-An update polishes the first stage's answer (`vibupdate.inverse.update`). When that answer
-is not verified, or the path failed, further starts are polished in a fixed order: the stepped
-homotopy path (when the direct jump was taken), the nominal point, then `Search.random_starts`
-points of the parameter box drawn with `Search.seed` (the same input gives the same answer).
-The first verified answer ends that part.
-
-A verified answer is then tested for uniqueness. Two kinds of other answers are sought, each by
-the structure that makes it:
-
-* **Across a fold.** Where the map from parameters to data folds over, a second isolated
-  answer lies across the fold, along the direction the data see least. The nominal point, the
-  answer moved along the data's weakest determined direction out to the box in both senses
-  (`Search.weak_starts`) and `Search.probe_random_starts` random points of the box, those not
-  tried yet, are polished with at most `Search.probe_evaluations` evaluations per unknown plus
-  one. An answer that verifies, fits about as well (`Search.as_well`) and differs from the
-  returned one by more than `Search.distinct` (a normalized parameter) is an `Alternative`.
-* **Along a valley.** Where the data leave directions undetermined at the answer (fewer
-  independent data than parameters), the answers with its data form a set, and every start
-  would be moved to the same point of it (the minimum change,
-  `vibupdate.inverse.minimum_change`). The set is explored instead (`Search.valley_ends`): where
-  each parameter that moves is lowest and highest on it, and, where it is a curve, every point
-  where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_ends`,
-  `~.valley_curve`). Those that differ from the answer are Alternatives.
-
-Above `Search.probe_dofs` DOFs the starts are first polished on a reduced model
-(`vibupdate.inverse.update`: the first stage's, or one built at the answer): one that reaches the answer there costs no full-model polish, the
-others are polished on the full model; the set of answers is followed on the reduced model and
-its points moved onto the full model's data.
-
-Any Alternative makes the verdict ``not_unique``. Where the uniqueness search is not run (the
-polish off, a sampling sweep, a model above `Search.probe_parameters` parameters), the result
-says so and why (`Sought`).
-
-Every start tried is a `Start` in the result (`vibupdate.inverse.update.UpdateResult.sought`).
+When the first stage's answer does not verify, or the path failed, further starts are polished
+in the order `Search` states until one verifies; a verified answer is then tested for uniqueness
+across a fold (box and weakest-direction starts) and along a valley (the ends of the set of
+answers with the same data), and any other verified answer that fits as well is an
+`Alternative`, making the verdict ``not_unique``. Every start tried is a `Start`, and `Sought`
+says whether uniqueness was searched and why. The rules and their measurements:
+docs/polish-and-verification.md, sections 7.6 and 7.7.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields, is_dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -155,8 +129,29 @@ class Search:
                          "undetermined" if self.valley_ends else ""))
 
 
+class _Row:
+    """A record read like its dict of ``results.json`` (``record["start"]``); `as_dict` writes
+    each field under its name (or its metadata's ``key``), tuples as lists, records as dicts."""
+
+    def as_dict(self) -> dict:
+        return {f.metadata.get("key", f.name): _plain(getattr(self, f.name)) for f in fields(self)}
+
+    def __getitem__(self, key):
+        return getattr(self, key)
+
+
+def _plain(value):
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    if isinstance(value, _Row):
+        return value.as_dict()
+    if isinstance(value, Enum):
+        return value.value
+    return asdict(value) if is_dataclass(value) else dict(value) if isinstance(value, dict) else value
+
+
 @dataclass(frozen=True)
-class Start:
+class Start(_Row):
     """One start tried: its label, why (``purpose`` "fit" or "uniqueness"), the verdict of its
     answer ("verified", "not_verified", "path failed", "same answer": it reached a known answer
     again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed checks, its polish objective and seconds."""
@@ -168,15 +163,9 @@ class Start:
     cost: float | None = None
     seconds: float = 0.0
 
-    def as_dict(self) -> dict:
-        return {**asdict(self), "failed": list(self.failed)}
-
-    def __getitem__(self, key):      # read like the dict of ``results.json``
-        return getattr(self, key)
-
 
 @dataclass(frozen=True)
-class Alternative:
+class Alternative(_Row):
     """Another verified answer: its start, objective, ``xbar``, physical ``values`` by name and
     the parameters that differ from the returned answer (``differs``)."""
 
@@ -186,16 +175,9 @@ class Alternative:
     values: dict
     differs: tuple[str, ...]
 
-    def as_dict(self) -> dict:
-        return {"start": self.start, "objective": self.objective, "xbar": list(self.xbar),
-                "values": dict(self.values), "differs": list(self.differs)}
-
-    def __getitem__(self, key):      # read like the dict of ``results.json``
-        return getattr(self, key)
-
 
 @dataclass(frozen=True)
-class Sought:
+class Sought(_Row):
     """What the update sought: the search it ran, every start in order, and whether the
     uniqueness of a verified answer was searched, and why (or why not)."""
 
@@ -203,7 +185,3 @@ class Sought:
     starts: tuple[Start, ...]
     uniqueness: bool = field(metadata={"key": "uniqueness_searched"})
     reason: str
-
-    def as_dict(self) -> dict:
-        return {"search": asdict(self.search), "starts": [s.as_dict() for s in self.starts],
-                "uniqueness_searched": self.uniqueness, "reason": self.reason}

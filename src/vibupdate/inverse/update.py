@@ -50,7 +50,7 @@ from vibupdate.inverse.reduction import (derivative_vectors, kept_dofs, reduce_c
                                          wants_reduction)
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.admissible import Admissible, evaluate, misses, weighted
-from vibupdate.inverse.search import Alternative, Search, Sought, Start
+from vibupdate.inverse.search import Alternative, Search, Sought, Start, _Row
 from vibupdate.inverse.status import Verdict
 from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
 
@@ -264,26 +264,43 @@ def prepare_first_stage(configurations: Sequence[Configuration], formulation: Fo
     configurations = tuple(configurations)
     formulation = formulation or FormulationOptions()
     verification = verification or VerifyOptions()
-    solved, bases = tuple(weighted(configurations, Admissible.of(configurations, verification))), None
-    if wants_reduction(list(solved), formulation):
-        solved, bases = reduce_configurations(list(solved), formulation.reduction_modes)
-        solved, bases = tuple(solved), tuple(bases)
-    return Prepared(configurations, formulation, tuple(solved), bases, prepare(list(solved), formulation),
-                    verification)
+    solved, bases = _weighed(configurations, formulation, Admissible.of(configurations, verification))
+    return Prepared(configurations, formulation, tuple(solved), None if bases is None else tuple(bases),
+                    prepare(solved, formulation), verification)
 
 
-def _message(status: Status, lam: float, steps, checks=()) -> str:
-    if status == Status.NOT_VERIFIED:
-        failed = [c.name for c in checks if c.severity == "error" and not c.passed]
-        return "solved (lambda = 1) but not verified: failed " + ", ".join(failed)
-    if status == Status.SUCCESS:
-        return "homotopy reached lambda = 1; the updated model passed every verification check"
-    if status == Status.ACCEPTABLE:
-        return ("homotopy reached lambda = 1 at IPOPT's acceptable (looser) tolerance; the updated model passed "
-                "every verification check")
-    last = steps[-1] if steps else None
-    detail = f"; last solve at lambda = {last.lam:.4f}: {last.status.value}" if last else ""
-    return f"homotopy stopped at lambda = {lam:.4f} ({status.value}){detail}"
+def _weighed(configurations, formulation: FormulationOptions, contract: Admissible) -> tuple[list, list | None]:
+    """The configurations the first stage solves, each datum weighed as the contract does, and
+    their Craig-Bampton bases where a reduction is wanted (else None)."""
+    solved = weighted(configurations, contract)
+    if wants_reduction(solved, formulation):
+        return reduce_configurations(solved, formulation.reduction_modes)
+    return solved, None
+
+
+def _message(status: Status, path: HomotopyResult, steps, best: _Finish, direct: _Finish | None,
+             tie: float) -> str:
+    """How the path ended and which start gave the returned answer, and what it passed or failed."""
+    failed = "failed " + ", ".join(best.failed)
+    if best.label == "homotopy" and status.ok:
+        looser = " at IPOPT's acceptable (looser) tolerance" if status == Status.ACCEPTABLE else ""
+        return f"homotopy reached lambda = 1{looser}; the updated model passed every verification check"
+    if best.label == "homotopy" and status == Status.NOT_VERIFIED:
+        return f"solved (lambda = 1) but not verified: {failed}"
+    head = f"homotopy stopped at lambda = {path.lam:.4f} ({path.status.value})"
+    if best.label == "homotopy":   # the path failed and no start verified
+        return head + (f"; last solve at lambda = {steps[-1].lam:.4f}: {steps[-1].status.value}" if steps else "")
+    if direct is not None and direct.status.ok:
+        head = (f"the homotopy's answer verified with objective {direct.cost:.3e}; "
+                + (f"a lower one, {best.cost:.3e}, was found" if best.cost < (1 - tie) * direct.cost else
+                   f"an answer that fits as well ({best.cost:.3e}) lies nearer the nominal model"))
+    elif path.status.ok:
+        head = "homotopy reached lambda = 1 but its answer did not verify"
+    if best.label == "nominal model":
+        return (f"{head}; every polished answer missed the data by more than the nominal model, which is returned "
+                f"unchanged ({failed})")
+    return f"{head}; the answer polished from the {best.label} " + ("passed every verification check" if status.ok
+                                                                     else failed)
 
 
 def _active_bounds(problem: BilinearProblem, path: HomotopyResult) -> list[str]:
@@ -330,7 +347,7 @@ def _reduction_error(solved, nominal) -> float:
 
 
 @dataclass(frozen=True)
-class Attempt:
+class Attempt(_Row):
     """One attempt of the first stage (module docstring, item 2): the margins of its vector
     boxes, the relaxation's lower bound, the path's objective and status, and the bounds the
     relaxation's optimum sits at, named for the user."""
@@ -341,12 +358,6 @@ class Attempt:
     objective: float
     status: Status
     active_bounds: tuple[str, ...]
-
-    def as_dict(self) -> dict:
-        """The entry of ``solver.attempts`` in ``results.json``."""
-        return {"shape_margin": self.shape_margin, "adjunct_margin": self.adjunct_margin,
-                "relaxation_lower_bound": self.relaxation_lower_bound, "objective": self.objective,
-                "status": self.status.value, "active_bounds": list(self.active_bounds)}
 
 
 def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None, problem=None):
@@ -415,6 +426,10 @@ class _Finish:
     @property
     def cost(self) -> float:
         return self.polished.cost if self.polished is not None else float("inf")
+
+    @property
+    def word(self) -> str:
+        return "verified" if self.status.ok else "not_verified"
 
 
 def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, contract, say,
@@ -511,7 +526,7 @@ def _search(configurations, problem, solver, best, finish, search: Search, start
             say(f"restart from the {label}: the same answer again")
             continue
         found.append(candidate)
-        starts.append(Start(label, "fit", _verdict_word(candidate), tuple(candidate.failed), candidate.cost,
+        starts.append(Start(label, "fit", candidate.word, tuple(candidate.failed), candidate.cost,
                             time.perf_counter() - t0 - (sum(s.seconds for s in steps) if label.startswith("stepped")
                                                         else 0.0)))
         say(f"restart from the {label}: {candidate.status.value}"
@@ -541,10 +556,6 @@ def _no_worse_than_nominal(configurations, contract: Admissible, best: _Finish |
     say(f"no answer verified, and the best ({best.misfit:.4g}) misses more than the nominal model ({own:.4g}): "
         "the nominal model is returned")
     return finish(at, "nominal model", replace(polish, enabled=False))
-
-
-def _verdict_word(candidate: _Finish) -> str:
-    return "verified" if candidate.status.ok else "not_verified"
 
 
 def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, search: Search, starts: list, say,
@@ -578,7 +589,7 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         if candidate is None:
             starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0))
         else:
-            starts.append(Start(label, "uniqueness", _verdict_word(candidate), tuple(candidate.failed),
+            starts.append(Start(label, "uniqueness", candidate.word, tuple(candidate.failed),
                                 candidate.cost, time.perf_counter() - t0))
 
 
@@ -629,11 +640,14 @@ def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
     for c in sorted(close, key=lambda c: float(np.linalg.norm(c.xbar))):
         if all(np.max(np.abs(c.xbar - d.xbar)) > search.distinct for d in [chosen, *others]):
             others.append(c)
+    return chosen, tuple(_alternative(c.label, c.cost, c.xbar, chosen.xbar, model, search) for c in others)
+
+
+def _alternative(label: str, cost: float, x: np.ndarray, answer: np.ndarray, model, search: Search) -> Alternative:
+    """The verified answer ``x`` as an `Alternative` to the returned ``answer`` (normalized)."""
     names = model.parameter_names
-    return chosen, tuple(Alternative(c.label, c.cost, tuple(c.xbar.tolist()),
-                                     dict(zip(names, model.physical(c.xbar).tolist())),
-                                     tuple(n for n, a, b in zip(names, c.xbar, chosen.xbar)
-                                           if abs(a - b) > search.distinct)) for c in others)
+    return Alternative(label, cost, tuple(x.tolist()), dict(zip(names, model.physical(x).tolist())),
+                       tuple(n for n, a, b in zip(names, x, answer) if abs(a - b) > search.distinct))
 
 
 def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ...], search: Search, model, starts: list,
@@ -656,7 +670,6 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     where = reduced or configurations
     found = undetermined(where, chosen.xbar)   # one evaluation at the answer, for both
     ends = valley_curve(where, chosen.xbar, found) + valley_ends(where, chosen.xbar, found)
-    names = model.parameter_names
     known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
     if reduced:   # the distinct points of the reduced model's set, moved onto the full model's data
         distinct: list = []
@@ -669,9 +682,8 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
         if all(np.max(np.abs(x - k)) > search.distinct for k in known):
             known.append(x)
             kind = "end" if sense in ("lowest", "highest") else "turn"
-            added.append(Alternative(f"valley {kind} ({sense} {names[i]})", chosen.cost, tuple(x.tolist()),
-                                     dict(zip(names, model.physical(x).tolist())),
-                                     tuple(n for n, a, b in zip(names, x, chosen.xbar) if abs(a - b) > search.distinct)))
+            added.append(_alternative(f"valley {kind} ({sense} {model.parameter_names[i]})", chosen.cost, x,
+                                      chosen.xbar, model, search))
     starts.append(Start("valley ends", "uniqueness", "same data" if added else "same answer", (), chosen.cost,
                         time.perf_counter() - t0))
     say(f"uniqueness: the data leave {chosen.xbar.size - chosen.sensitivity.rank} direction(s) undetermined; "
@@ -751,10 +763,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     first_problem = None
     if prepared is not None and prepared.matches(configurations, formulation, verification):
         solved, bases, first_problem = list(prepared.solved), prepared.bases, prepared.problem
-    else:   # the first stage weighs each datum as the contract does
-        solved, bases = weighted(configurations, contract), None
-        if wants_reduction(solved, formulation):
-            solved, bases = reduce_configurations(solved, formulation.reduction_modes)
+    else:
+        solved, bases = _weighed(configurations, formulation, contract)
     if bases is not None:
         say(f"Craig-Bampton reduction: {configurations[0].model.n_dofs} -> {solved[0].model.n_dofs} DOFs "
             f"(measured DOFs kept, {formulation.reduction_modes} fixed-interface modes)")
@@ -782,7 +792,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     direct = best
     starts: list[Start] = []
     if best is not None:
-        starts.append(Start("homotopy", "fit", _verdict_word(best), tuple(best.failed), best.cost,
+        starts.append(Start("homotopy", "fit", best.word, tuple(best.failed), best.cost,
                             best.polished.seconds if best.polished else 0.0))
     if polish.enabled and (best is None or not best.status.ok):
         best, more_steps = _search(configurations, problem, solver, best, finish, search, starts, say)
@@ -818,24 +828,9 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         warnings += (f"polish: {polished.message}",)
     for w in warnings:
         say(f"warning: {w}")
-    message = _message(status, path.lam, steps, checks)
-    if best.label != "homotopy":
-        if direct is not None and direct.status.ok:
-            head = (f"the homotopy's answer verified with objective {direct.cost:.3e}; "
-                    + (f"a lower one, {best.cost:.3e}, was found" if best.cost < (1 - search.tie) * direct.cost else
-                       f"an answer that fits as well ({best.cost:.3e}) lies nearer the nominal model"))
-        elif path.status.ok:
-            head = "homotopy reached lambda = 1 but its answer did not verify"
-        else:
-            head = f"homotopy stopped at lambda = {path.lam:.4f} ({path.status.value})"
-        message = (f"{head}; the answer polished from the {best.label} "
-                   + ("passed every verification check" if status.ok else "failed " + ", ".join(best.failed)))
-        if best.label == "nominal model":
-            message = (f"{head}; every polished answer missed the data by more than the nominal model, which is "
-                       "returned unchanged (failed " + ", ".join(best.failed) + ")")
     return UpdateResult(
         status=status,
-        message=message,
+        message=_message(status, path, steps, best, direct, search.tie),
         parameters=model.parameters,
         xbar=xbar,
         values=model.physical(xbar),
