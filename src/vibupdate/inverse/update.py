@@ -421,15 +421,21 @@ class _Finish:
 
     @property
     def failed(self) -> list[str]:
-        return [c.name for c in self.checks if c.severity == "error" and not c.passed]
+        return _failed(self.checks)
 
     @property
     def cost(self) -> float:
         return self.polished.cost if self.polished is not None else float("inf")
 
-    @property
-    def word(self) -> str:
-        return "verified" if self.status.ok else "not_verified"
+    def record(self, purpose: str, seconds: float) -> Start:
+        """This candidate as a `Start` of the result."""
+        return Start(self.label, purpose, "verified" if self.status.ok else "not_verified", tuple(self.failed),
+                     self.cost, seconds)
+
+
+def _failed(checks) -> list[str]:
+    """The names of the failed error checks."""
+    return [c.name for c in checks if c.severity == "error" and not c.passed]
 
 
 def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, contract, say,
@@ -455,23 +461,22 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
         out = verify(configurations, x, nominal=nominal, updated=at, lower_bound=path.lower_bound,
                      n_blocks=len(problem.blocks), active_bounds=active, first_stage=first, options=verification,
                      reduction_error=reduction_error, contract=contract)
-        return tuple(out), not any(c.severity == "error" and not c.passed for c in out)
+        return tuple(out)
 
-    checks, ok = checked(xbar, updated)
+    checks = checked(xbar, updated)
     if polish.enabled and sens.rank < xbar.size:   # the data leave directions undetermined
         minimum = minimum_change(configurations, xbar)
         if minimum.kept:
             moved = [model_frequencies(c, minimum.xbar, derivatives=True) for c in configurations]
-            verdict = checked(minimum.xbar, moved)
-            if verdict[1] or not ok:
-                xbar, updated, (checks, ok) = minimum.xbar, moved, verdict
-                say(f"minimum change: {minimum.message}")
+            again = checked(minimum.xbar, moved)
+            if _failed(again) and not _failed(checks):   # moved within DATA_TOL, but the intervals allow less
+                minimum = replace(minimum, kept=False, message=f"not kept: the moved answer failed "
+                                  f"{', '.join(_failed(again))} where the polished one passes")
+            else:
+                xbar, updated, checks = minimum.xbar, moved, again
                 sens = sensitivity(configurations, xbar, freqs=updated)
-            else:   # the data moved within DATA_TOL, but the admissible intervals allow less
-                failed = ", ".join(c.name for c in verdict[0] if c.severity == "error" and not c.passed)
-                minimum = replace(minimum, kept=False,
-                                  message=f"not kept: the moved answer failed {failed} where the polished one passes")
-                say(f"minimum change: {minimum.message}")
+            say(f"minimum change: {minimum.message}")
+    ok = not _failed(checks)
     status = (path.status if path.status.ok else Status.SUCCESS) if ok else Status.NOT_VERIFIED
     return _Finish(label, start, xbar, polished, minimum, updated, sens, tuple(checks), status,
                    0.0 if ok else misfit(configurations, contract, xbar))
@@ -498,37 +503,30 @@ def _search(configurations, problem, solver, best, finish, search: Search, start
     """The starts tried when the direct path's answer did not verify or the path failed
     (`vibupdate.inverse.search`, in its order), until one verifies. Returns the best candidate
     (None when none could be polished) and the homotopy steps of the stepped path."""
-    steps: tuple = ()
     lo, hi = configurations[0].model.bounds()
-    todo: list[tuple[str, Callable[[], np.ndarray | None]]] = []
     solver = solver or SolverOptions()
-    if solver.n_lambda == 1:
-        def stepped():
-            nonlocal steps
-            say("restart: the stepped homotopy path (n_lambda = 10)")
-            path = solve_homotopy(problem, replace(solver, n_lambda=10), progress=say)
-            steps = path.steps
-            return np.clip(path.x, problem.x_lower, problem.x_upper) if path.status.ok else None
-        todo.append(("stepped homotopy path", stepped))
-    todo += [(label, lambda point=point: point) for label, point in search.box_starts(lo, hi, search.random_starts)]
+    todo = [("stepped homotopy path", None)] if solver.n_lambda == 1 else []
+    todo += search.box_starts(lo, hi, search.random_starts)
     if best is not None:
         say(f"the answer did not verify (failed {', '.join(best.failed)}): trying {len(todo)} further starts")
-    found = [] if best is None else [best]
-    for label, start in todo:
+    found, steps = ([] if best is None else [best]), ()
+    for label, x0 in todo:
         t0 = time.perf_counter()
-        x0 = start()
-        if x0 is None:
-            starts.append(Start(label, "fit", "path failed", seconds=time.perf_counter() - t0))
-            continue
+        if x0 is None:   # the stepped path: its solves count in ``steps``, not in the start's seconds
+            say("restart: the stepped homotopy path (n_lambda = 10)")
+            path = solve_homotopy(problem, replace(solver, n_lambda=10), progress=say)
+            steps, t0 = path.steps, t0 + sum(s.seconds for s in path.steps)
+            if not path.status.ok:
+                starts.append(Start(label, "fit", "path failed", seconds=time.perf_counter() - t0))
+                continue
+            x0 = np.clip(path.x, problem.x_lower, problem.x_upper)
         candidate = finish(x0, label, None, [c.xbar for c in found])
         if candidate is None:   # it reached an answer tried already
             starts.append(Start(label, "fit", "same answer", seconds=time.perf_counter() - t0))
             say(f"restart from the {label}: the same answer again")
             continue
         found.append(candidate)
-        starts.append(Start(label, "fit", candidate.word, tuple(candidate.failed), candidate.cost,
-                            time.perf_counter() - t0 - (sum(s.seconds for s in steps) if label.startswith("stepped")
-                                                        else 0.0)))
+        starts.append(candidate.record("fit", time.perf_counter() - t0))
         say(f"restart from the {label}: {candidate.status.value}"
             + (f" (failed {', '.join(candidate.failed)})" if candidate.failed else ""))
         if _better(best, candidate):
@@ -589,8 +587,7 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         if candidate is None:
             starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0))
         else:
-            starts.append(Start(label, "uniqueness", candidate.word, tuple(candidate.failed),
-                                candidate.cost, time.perf_counter() - t0))
+            starts.append(candidate.record("uniqueness", time.perf_counter() - t0))
 
 
 def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions, models=None):
@@ -792,8 +789,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     direct = best
     starts: list[Start] = []
     if best is not None:
-        starts.append(Start("homotopy", "fit", best.word, tuple(best.failed), best.cost,
-                            best.polished.seconds if best.polished else 0.0))
+        starts.append(best.record("fit", best.polished.seconds if best.polished else 0.0))
     if polish.enabled and (best is None or not best.status.ok):
         best, more_steps = _search(configurations, problem, solver, best, finish, search, starts, say)
         steps = steps + more_steps
