@@ -30,19 +30,13 @@ class Search:
         Random points of the box polished when the answer does not verify.
     probe_random_starts : int
         Random points of the box polished to test a verified answer for uniqueness, after the
-        weakest-direction starts: a second isolated fit usually lies along the weakest
-        determined direction, which those starts follow, and the random starts cover the rest
-        (and find better answers than the one verified, an exact fit where the first answer
-        only lay inside its intervals). Each start costs the cantilever's update about 0.15
-        times the classical fit (`benchmarks/RESULTS.md`, "The uniqueness search by the
-        structure of the problem").
+        weakest-direction starts (each costs the cantilever about 0.15 times the classical fit:
+        `benchmarks/RESULTS.md`, "The uniqueness search by the structure of the problem").
     probe_evaluations : int
         Evaluations of each uniqueness polish, per unknown plus one: a start that has not
         converged by then is not an answer that fits as well.
     probe_dofs : int
-        Above this many DOFs the uniqueness search polishes its starts on a reduced model
-        first (module docstring): the dense models, where a full polish costs a
-        fraction of a second, are searched on the full model.
+        Above this many DOFs the uniqueness search polishes its starts on a reduced model first.
     probe_parameters : int
         The uniqueness search runs on models up to this many parameters (the bundled
         29-parameter frame took 36 s for four starts, its answer unchanged).
@@ -53,18 +47,15 @@ class Search:
         the one nearest the nominal model is returned.
     as_well : float
         Another verified answer "fits as well" when its objective is at most this times the
-        lowest (or an exact fit): every verified answer lies in the admissible intervals, and
-        with model-form tolerances of 2 % many do; one whose pull toward the midpoints is far
-        weaker is not an alternative to the answer.
+        lowest (or an exact fit).
     seed : int
         Of the random starts.
     weak_direction : bool
         Polish, besides the box starts, from the answer moved along the data's weakest
         determined direction out to the box, in both senses (`weak_starts`).
     valley_ends : bool
-        Where the data leave directions undetermined at a verified answer, find where each
-        parameter that moves is lowest and highest among the answers with the same data, and
-        report those points as alternatives (module docstring).
+        Where the data leave directions undetermined at a verified answer, report the ends and
+        turns of the set of answers with the same data as alternatives.
     """
 
     random_starts: int = 2
@@ -89,11 +80,9 @@ class Search:
     def weak_starts(self, xbar: np.ndarray, sensitivity, lo: np.ndarray,
                     hi: np.ndarray) -> list[tuple[str, np.ndarray]]:
         """The answer ``xbar`` moved along the data's weakest determined direction (the right
-        singular vector of the smallest nonzero singular value of ``sensitivity.matrix``,
-        `vibupdate.inverse.data_map.sensitivity`) in each sense, out to the box ``[lo, hi]``:
-        a second answer across a fold (module docstring). Parameters the answer holds at a
-        bound stay there (the direction is that of the others: along it, the bound would stop
-        both senses at once); ``weak_direction`` off or no determined direction gives none."""
+        singular vector of the smallest nonzero singular value of ``sensitivity.matrix``) in each
+        sense, out to the box ``[lo, hi]``; parameters held at a bound stay there (else the bound
+        would stop both senses at once). Empty when ``weak_direction`` is off or nothing is determined."""
         S = sensitivity.matrix
         if not self.weak_direction or S is None or not S.size:
             return []

@@ -1,28 +1,13 @@
 """The updating as one call: ``update(configurations) -> UpdateResult``.
 
-1. Formulation (`vibupdate.inverse.formulation`) with interlacing sign bounds
-   (`vibupdate.inverse.interlacing`), McCormick relaxation (`vibupdate.inverse.relaxation`) and the homotopy
-   (`vibupdate.inverse.homotopy`): the first stage.
-2. When the relaxation's lower bound proves that nothing inside the boxes fits, the boxes of
-   vector entries that come from a margin (unmeasured mode entries, adjunct entries) are
-   widened tenfold and the first stage repeated (at most twice); every attempt is recorded.
-   Whether the widening removed the misfit is measured, not assumed: a bound that stays
-   positive points at the parameter bounds or the data.
-3. The polish (`vibupdate.inverse.polish`) on the full model, default on.
-4. Where the data leave parameter combinations undetermined, the answer is moved along them
-   to the point nearest the nominal model with the same data
-   (`vibupdate.inverse.minimum_change`).
-5. Verification (`vibupdate.inverse.verify`) against the admissible data
-   (`vibupdate.inverse.admissible`), the intervals the polish fitted: the status is
-   ``success`` only when every check of the returned model passes, ``not_verified`` when the
-   path reached ``lam = 1`` but a check failed.
-6. The search (`vibupdate.inverse.search`): when the answer does not verify or the path failed,
-   further starts in a stated order; a verified answer is tested for uniqueness, and another
-   verified answer makes the verdict ``not_unique``. When nothing verifies, the answer of
-   lowest misfit of the admissible data is returned (never above the nominal model's: the
-   nominal point is one of the starts, and the polish keeps only a lower objective).
-
-The result is a frozen record of the updated model and of how it was found.
+The first stage (formulation with interlacing signs, McCormick relaxation, homotopy: docs/method.md
+sections 4-6; the vector boxes widened tenfold, at most twice, while the relaxation proves they
+exclude every fit), then the polish on the full model, the minimum change along undetermined
+directions, the verification against the admissible data, and the search for further starts
+and other answers (docs/polish-and-verification.md, sections 7.2-7.7). The status is ``success``
+only for a verified answer; when nothing verifies, the answer of lowest misfit of the admissible
+data is returned, never above the nominal model's. The result is a frozen record of the updated
+model and of how it was found.
 """
 
 from __future__ import annotations
@@ -116,17 +101,12 @@ class UpdateResult:
         Where the data leave directions undetermined, the move of the answer along them to the
         point nearest the nominal model with the same data (`vibupdate.inverse.minimum_change`).
     valley : tuple of ndarray or None
-        Where the data leave directions undetermined: the points of the set of answers with
-        exactly the answer's data where each parameter free to move is lowest and highest, and
-        where one turns along a curve (`vibupdate.inverse.minimum_change.valley_ends`,
-        `~.valley_curve`), normalized; the consistent ranges read them
-        (`vibupdate.ranges.identifiability.parameter_ranges`, ``valley``). Empty when the data
-        determine every parameter; None when the set was not explored.
+        The ends and turns of the set of answers with exactly the answer's data, normalized
+        (docs/polish-and-verification.md 7.7; the consistent ranges read them). Empty when the
+        data determine every parameter; None when the set was not explored.
     correlation : Correlation
         The nominal and updated models' modal data paired with each configuration's data, as
-        verification and sensitivity used them (`vibupdate.inverse.correlation.Correlation`):
-        the results layer builds the Hz rows, MAC, modal-mass rows and matrices from it, and
-        later stages (damping, ranges) read it instead of solving the same matrices again.
+        verification and sensitivity used them; later stages read it instead of solving again.
     """
 
     status: Status
@@ -492,9 +472,8 @@ def misfit(configurations, contract: Admissible, xbar) -> float:
 
 
 def _better(a: _Finish | None, b: _Finish) -> bool:
-    """Whether ``b`` is a better answer than ``a``: verified over not; of two answers that do
-    not verify, the lower misfit (`misfit`: the distance outside the admissible intervals, not
-    the polish's objective, whose pull toward the midpoints may favour a model that misses
+    """Whether ``b`` is a better answer than ``a``: verified over not, then the lower `misfit`
+    (not the polish's objective, whose pull toward the midpoints may favour a model that misses
     more), then the lower objective."""
     return a is None or (b.status.ok, -b.misfit, -b.cost) > (a.status.ok, -a.misfit, -a.cost)
 
@@ -538,10 +517,9 @@ def _search(configurations, problem, solver, best, finish, search: Search, start
 
 def _no_worse_than_nominal(configurations, contract: Admissible, best: _Finish | None, finish, polish: PolishOptions,
                            say) -> _Finish | None:
-    """When no answer verifies, the returned model is never further outside the admissible
-    intervals than the nominal model (`misfit`): a best answer that misses more is replaced by
-    the nominal model, verified as it is. (The nominal point is one of the search's starts, but
-    its polish weighs the pull toward the midpoints besides the misfit.)"""
+    """When no answer verifies, a best answer further outside the admissible intervals than the
+    nominal model (`misfit`) is replaced by the nominal model, verified as it is
+    (docs/polish-and-verification.md 7.6)."""
     if best is None or best.status.ok:
         return best
     lo, hi = configurations[0].model.bounds()
@@ -558,13 +536,9 @@ def _no_worse_than_nominal(configurations, contract: Admissible, best: _Finish |
 
 def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, search: Search, starts: list, say,
                 options: PolishOptions, contract: Admissible, probes: tuple[list, list] | None) -> None:
-    """Polish from the nominal point, the ``answer`` moved along the data's weakest direction
-    (`vibupdate.inverse.search.Search.weak_starts`) and the random box starts, those not tried
-    yet (`vibupdate.inverse.search`); a start whose polish reaches a verified answer again stops
-    there (`vibupdate.inverse.bounded_lsq.SAME_ANSWER`). Given ``probes`` (above
-    ``search.probe_dofs`` DOFs: `_probe_model`), each start is first polished on a reduced
-    model: one that reaches the answer there is the same answer, the others are
-    polished from the start on the full model as below that size."""
+    """Polish from the nominal point, the weakest-direction starts and the random box starts not
+    tried yet (docs/polish-and-verification.md 7.7). Given ``probes`` (`_probe_model`), each start
+    is first polished on the reduced model: one that reaches the answer there is the same answer."""
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
     boxed = search.box_starts(lo, hi, search.probe_random_starts)
@@ -592,13 +566,9 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
 
 def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions, models=None):
     """The configurations on a reduced model, and the answer ``xbar`` as that model has it
-    (`_reduced_answer`), in a list. The reduced model is the first stage's (``models``: its
-    Craig-Bampton models, `vibupdate.inverse.reduction.craig_bampton`) when it has one; else
-    (no measured DOFs to keep, or the reduction off) the Ritz model at ``xbar``
-    (`~.reduction.ritz_reduction`) on the vectors of one full evaluation there (modes,
-    adjunct and derivative vectors: its data and their first derivatives are the full
-    model's at ``xbar``) and the static parts of the modes' parameter derivatives
-    (`~.reduction.derivative_vectors`: the modes' changes far from ``xbar``)."""
+    (`_reduced_answer`), in a list: the first stage's Craig-Bampton ``models`` when it has them,
+    else a Ritz model built at ``xbar`` (docs/polish-and-verification.md 7.7, the paragraph on
+    ``probe_dofs``)."""
     if models is None:
         basis: list = []
         maps: list = []
@@ -621,10 +591,9 @@ def _reduced_answer(reduced, x0, options: PolishOptions, contract: Admissible, a
 
 def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
             exact: float) -> tuple[_Finish, tuple[Alternative, ...]]:
-    """The verified answer of lowest objective (objectives within ``search.tie`` of it, or
-    below ``exact``, the objective of missing every datum by its exact half-width, tie: the one
-    nearest the nominal model wins), and every other verified answer that differs from it and
-    fits about as well (``search.as_well``; `vibupdate.inverse.search.Alternative`)."""
+    """The verified answer of lowest objective (ties, within ``search.tie`` or below ``exact``: the
+    nearest the nominal model), and every other distinct verified answer that fits about as well
+    (``search.as_well``) as an `Alternative` (docs/polish-and-verification.md 7.7)."""
     verified = [c for c in tried if c.status.ok]
     if not verified:
         return best, ()
@@ -649,16 +618,11 @@ def _alternative(label: str, cost: float, x: np.ndarray, answer: np.ndarray, mod
 
 def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ...], search: Search, model, starts: list,
             say, reduced=None) -> tuple[tuple[Alternative, ...], tuple[np.ndarray, ...] | None]:
-    """Where the data leave directions undetermined at the chosen answer, the answers with
-    exactly its data form a set, and every start the polish takes there is moved to the same
-    point of it (the minimum change): the ends of that set in each parameter that moves
-    (`vibupdate.inverse.minimum_change.valley_ends`) and, where it is a curve, its ends and the
-    points where a parameter turns along it (`vibupdate.inverse.minimum_change.valley_curve`)
-    are the other answers, each an `Alternative` with the chosen answer's objective (the same
-    data to 1e-9, so the same verification). ``search.valley_ends`` off, or a rank that the data
-    fill, adds none. Given ``reduced`` configurations (`_probe_model`), the set is followed on them
-    and each point found is moved onto the full model's data (`~.minimum_change.onto_data`).
-    Returns the alternatives and every point found (`UpdateResult.valley`)."""
+    """Where the data leave directions undetermined at the chosen answer, the ends and turns of the
+    set of answers with exactly its data (docs/polish-and-verification.md 7.7), each an
+    `Alternative` with the chosen answer's objective; followed on the ``reduced`` configurations
+    when given, each point then moved onto the full model's data. Returns the alternatives and every
+    point found (`UpdateResult.valley`)."""
     if not search.valley_ends:
         return alternatives, None
     if chosen.sensitivity.rank >= chosen.xbar.size:
