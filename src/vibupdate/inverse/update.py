@@ -33,10 +33,9 @@ from vibupdate.model.parameters import Parameter
 from vibupdate.inverse.polish import PolishOptions, PolishResult, polish as run_polish
 from vibupdate.inverse.reduction import (derivative_vectors, kept_dofs, reduce_configurations, ritz_reduction,
                                          wants_reduction)
-from vibupdate.inverse.status import Status
+from vibupdate.inverse.status import Status, Verdict
 from vibupdate.inverse.admissible import Admissible, evaluate, misses, weighted
 from vibupdate.inverse.search import Alternative, Search, Sought, Start, _Row
-from vibupdate.inverse.status import Verdict
 from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
 
 
@@ -373,15 +372,12 @@ def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None, 
 
 
 def _full_vector(problem: BilinearProblem, b: int, u, configurations, bases) -> np.ndarray:
-    """Identified vector of block ``b`` in the full model's coordinates."""
-    v = problem.block_vector(b, u)
-    if bases is None:
+    """Identified vector of block ``b`` in the full model's coordinates (adjunct vectors stay in
+    reduced coordinates: they live on the adjunct system)."""
+    v, blk = problem.block_vector(b, u), problem.blocks[b]
+    if bases is None or blk.kind != "natural":
         return v
-    blk = problem.blocks[b]
-    k = [c.name for c in configurations].index(blk.configuration)
-    if blk.kind != "natural":
-        return v  # adjunct vectors stay in reduced coordinates (they live on the adjunct system)
-    return bases[k] @ v
+    return bases[[c.name for c in configurations].index(blk.configuration)] @ v
 
 
 @dataclass(frozen=True)
@@ -389,7 +385,6 @@ class _Finish:
     """One candidate answer: a start, polished, moved to the minimum change and verified."""
 
     label: str
-    first_xbar: np.ndarray
     xbar: np.ndarray
     polished: PolishResult | None
     minimum: MinimumChange | None
@@ -458,7 +453,7 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
             say(f"minimum change: {minimum.message}")
     ok = not _failed(checks)
     status = (path.status if path.status.ok else Status.SUCCESS) if ok else Status.NOT_VERIFIED
-    return _Finish(label, start, xbar, polished, minimum, updated, sens, tuple(checks), status,
+    return _Finish(label, xbar, polished, minimum, updated, sens, tuple(checks), status,
                    0.0 if ok else misfit(configurations, contract, xbar))
 
 
@@ -552,16 +547,12 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
     for label, x0 in todo:
         t0 = time.perf_counter()
         answers = [c.xbar for c in tried if c.status.ok]
-        if reduced is not None:
-            x = _reduced_answer(reduced, x0, options, contract, known)
-            if x is None or np.min(np.max(np.abs(np.asarray(known) - x), axis=1)) <= search.distinct:
-                starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0))
-                continue
-        candidate = finish(x0, label, options, answers)
-        if candidate is None:
-            starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0))
-        else:
-            starts.append(candidate.record("uniqueness", time.perf_counter() - t0))
+        x = x0 if reduced is None else _reduced_answer(reduced, x0, options, contract, known)
+        same = x is None or (reduced is not None and np.min(np.max(np.abs(np.asarray(known) - x), axis=1))
+                             <= search.distinct)   # the reduced model's polish reached the answer again
+        candidate = None if same else finish(x0, label, options, answers)
+        starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0) if candidate is None
+                      else candidate.record("uniqueness", time.perf_counter() - t0))
 
 
 def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions, models=None):
@@ -570,8 +561,7 @@ def _probe_model(configurations, xbar, contract: Admissible, options: PolishOpti
     else a Ritz model built at ``xbar`` (docs/polish-and-verification.md 7.7, the paragraph on
     ``probe_dofs``)."""
     if models is None:
-        basis: list = []
-        maps: list = []
+        basis, maps = [], []
         evaluate(configurations, contract, xbar, basis=basis, maps=maps)
         models = [ritz_reduction(c.model, kept_dofs(c), np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])]))[0]
                   for c, V, m in zip(configurations, basis, maps)]   # m.vectors[0]: the modes solved for
@@ -721,11 +711,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     search = search or Search()
     say = progress or (lambda message: None)
     contract = Admissible.of(configurations, verification)
-    first_problem = None
     if prepared is not None and prepared.matches(configurations, formulation, verification):
         solved, bases, first_problem = list(prepared.solved), prepared.bases, prepared.problem
     else:
-        solved, bases = _weighed(configurations, formulation, contract)
+        (solved, bases), first_problem = _weighed(configurations, formulation, contract), None
     if bases is not None:
         say(f"Craig-Bampton reduction: {configurations[0].model.n_dofs} -> {solved[0].model.n_dofs} DOFs "
             f"(measured DOFs kept, {formulation.reduction_modes} fixed-interface modes)")
@@ -777,7 +766,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     status = best.status if best is not None else path.status
     if best is None:   # the path failed and no start verified: the first stage's point, unpolished
         updated = [model_frequencies(c, first_xbar, derivatives=True) for c in configurations]
-        best = _Finish("homotopy", first_xbar, first_xbar, None, None, updated,
+        best = _Finish("homotopy", first_xbar, None, None, updated,
                        sensitivity(configurations, first_xbar, freqs=updated), (), status)
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
     warnings = tuple(note.message for note in problem.notes)   # what the formulation set aside
