@@ -66,3 +66,25 @@ def test_the_budget_is_an_option_of_the_case_file():
 
     assert refused("solver", "time_budget", 0.0) == "solver.time_budget: must be finite and > 0, got 0.0"
     assert SolverOptions().time_budget == 300.0
+
+
+def test_a_failed_stepped_path_counts_its_solves_once(monkeypatch):
+    """The result's seconds add the path's solves (``steps``) and the starts: the stepped path's
+    start leaves out the solves its steps already count, also when the path fails."""
+    import time
+    from dataclasses import replace
+
+    from vibupdate.inverse import update as update_module
+
+    def slow(problem, options, progress=None):   # every solve 0.5 s longer, and its steps say so
+        path = solve_homotopy(problem, options, progress=progress)
+        time.sleep(0.5)
+        steps = path.steps[:-1] + (replace(path.steps[-1], seconds=path.steps[-1].seconds + 0.5),)
+        return replace(path, steps=steps)
+
+    monkeypatch.setattr(update_module, "solve_homotopy", slow)
+    result = vu.update([chain_configuration(TRUTH)], solver=SolverOptions(time_budget=1e-9))
+    stepped = result.restarts[0]
+    assert stepped.start == "stepped homotopy path" and stepped.status == "path failed"
+    assert stepped.seconds < 0.25                    # the 0.5 s are in the path's steps only
+    assert sum(s.seconds for s in result.steps) >= 1.0   # the direct and the stepped path's

@@ -318,10 +318,9 @@ def _reduction_error(solved, nominal) -> float:
     exact data by about this much."""
     worst = 0.0
     for cfg, full in zip(solved, nominal):
-        reduced = model_frequencies(cfg).natural
-        ok = np.isfinite(reduced) & np.isfinite(full.natural) & (full.natural > 0)
-        if np.any(ok):
-            worst = max(worst, float(np.max(np.abs(reduced[ok] - full.natural[ok]) / full.natural[ok])))
+        reduced, f = model_frequencies(cfg).natural, full.natural
+        ok = np.isfinite(reduced) & np.isfinite(f) & (f > 0)
+        worst = max(worst, *(np.abs(reduced[ok] - f[ok]) / f[ok]).tolist())
     return worst
 
 
@@ -348,9 +347,8 @@ def _first_stage(solved, formulation, solver, allowance_tol, say, nominal=None, 
         if problem is None or attempt > 0:
             problem = prepare(solved, formulation, nominal)
         if attempt == 0:
-            size = problem.sizes()
-            say(f"problem: {size['n_parameters']} parameters, {size['n_mode_unknowns']} mode unknowns, "
-                f"{size['n_adjunct_unknowns']} adjunct unknowns, {size['n_lifted']} lifted scalars")
+            say("problem: {n_parameters} parameters, {n_mode_unknowns} mode unknowns, {n_adjunct_unknowns} adjunct "
+                "unknowns, {n_lifted} lifted scalars".format(**problem.sizes()))
         path = solve_homotopy(problem, solver, progress=say)
         steps.extend(path.steps)
         allowance = consistency_allowance(len(problem.blocks), allowance_tol)
@@ -642,20 +640,12 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     return alternatives + tuple(added), tuple(x for _, _, x in ends)
 
 
-def _exact_cost(contract: Admissible, verification: VerifyOptions) -> float:
-    """The polish's objective of missing every frequency by its exact half-width (an exact fit)."""
-    h = contract.relative_half_widths()
-    return 0.5 * float(np.sum((verification.exact_half_width / h) ** 2)) if h.size else 0.0
-
-
 def _alternatives_text(records: tuple[Alternative, ...], mine: dict) -> str:
     """The other answers in words: which parameters differ, in their units (``mine``: the
     returned answer's physical values by name)."""
-    parts = []
-    for a in records:
-        parts.append(f"from the {a.start} (objective {a.objective:.3g}): "
-                     + ", ".join(f"{n} = {a.values[n]:.5g} (here {mine[n]:.5g})" for n in a.differs[:6])
-                     + (f" and {len(a.differs) - 6} more" if len(a.differs) > 6 else ""))
+    parts = (f"from the {a.start} (objective {a.objective:.3g}): "
+             + ", ".join(f"{n} = {a.values[n]:.5g} (here {mine[n]:.5g})" for n in a.differs[:6])
+             + (f" and {len(a.differs) - 6} more" if len(a.differs) > 6 else "") for a in records)
     return (f"uniqueness: {len(records)} other answer(s) fit every datum within its admissible interval and pass "
             "every check (not unique), so the data do not single out the parameters that differ; "
             + "; ".join(parts))
@@ -740,23 +730,22 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     first_xbar = np.clip(path.x, problem.x_lower, problem.x_upper)
     best = finish(first_xbar, "homotopy") if path.status.ok else None
     direct = best
-    starts: list[Start] = []
-    if best is not None:
-        starts.append(best.record("fit", best.polished.seconds if best.polished else 0.0))
+    starts = [] if best is None else [best.record("fit", best.polished.seconds if best.polished else 0.0)]
     if polish.enabled and (best is None or not best.status.ok):
         best, more_steps = _search(configurations, problem, solver, best, finish, search, starts, say)
         steps = steps + more_steps
         best = _no_worse_than_nominal(configurations, contract, best, finish, polish, say)
     unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
-    alternatives: tuple[Alternative, ...] = ()
-    valley = None
+    alternatives, valley = (), None
     if best is not None and best.status.ok and unique:
         options = replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                       search.probe_evaluations * (model.n_parameters + 1)))
         probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
             configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])
         _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
-        best, alternatives = _choose(tried, best, search, model, _exact_cost(contract, verification))
+        h = contract.relative_half_widths()   # missing every frequency by its exact half-width: an exact fit
+        exact = 0.5 * float(np.sum((verification.exact_half_width / h) ** 2)) if h.size else 0.0
+        best, alternatives = _choose(tried, best, search, model, exact)
         alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
                                        probes[0] if probes else None)
     elif best is not None and best.status.ok:
