@@ -320,7 +320,7 @@ def _reduction_error(solved, nominal) -> float:
     for cfg, full in zip(solved, nominal):
         reduced, f = model_frequencies(cfg).natural, full.natural
         ok = np.isfinite(reduced) & np.isfinite(f) & (f > 0)
-        worst = max(worst, *(np.abs(reduced[ok] - f[ok]) / f[ok]).tolist())
+        worst = max([worst, *(np.abs(reduced[ok] - f[ok]) / f[ok]).tolist()])
     return worst
 
 
