@@ -129,6 +129,15 @@ def _independent_rows(J, finite, rank):
     return np.flatnonzero(finite)[qr(J[finite].T, pivoting=True)[2][:rank]]
 
 
+def _back_step(J, rows, rank, change):
+    """The minimum-norm step that undoes the data ``change`` to first order, from the ``rows`` of
+    the Jacobian ``J`` and its ``rank`` leading singular triplets, and the basis of the directions
+    it moves in (shape (n_x, rank))."""
+    U, s, Vt = np.linalg.svd(J[rows], full_matrices=False)
+    Vk = Vt[:rank].T
+    return -Vk @ ((U[:, :rank].T @ change[rows]) / s[:rank]), Vk
+
+
 def _same_data_nearest(configurations, x0, target, g0, finite, rank, lo, hi, at_x0=None):
     """The point of the box nearest ``target`` with the data ``g0`` of ``x0``, by the
     minimum-norm Gauss-Newton iteration of the module docstring started at ``x0`` (``target``
@@ -139,9 +148,7 @@ def _same_data_nearest(configurations, x0, target, g0, finite, rank, lo, hi, at_
     x, iterations = x0.copy(), 0
     g, J = at_x0 if at_x0 is not None else _data(configurations, x0)
     for iterations in range(1, MAX_ITERATIONS + 1):
-        U, s, Vt = np.linalg.svd(J[finite], full_matrices=False)
-        Uk, sk, Vk = U[:, :rank], s[:rank], Vt[:rank].T
-        back = -Vk @ ((Uk.T @ (g[finite] - g0[finite])) / sk)
+        back, Vk = _back_step(J, finite, rank, g - g0)
         off = x - target
         d = back - (off - Vk @ (Vk.T @ off))
         x_new = np.clip(x + d, lo, hi)
@@ -267,8 +274,7 @@ def onto_data(configurations: Sequence[Configuration], xbar, points, found=None)
             if np.max(np.abs((g[finite] - g0[finite]) * scale)) <= DATA_TOL:
                 out.append((sense, i, x))
                 break
-            U, s, Vt = np.linalg.svd(J[finite], full_matrices=False)
-            x = np.clip(x - Vt[:rank].T @ ((U[:, :rank].T @ (g[finite] - g0[finite])) / s[:rank]), lo, hi)
+            x = np.clip(x + _back_step(J, finite, rank, g - g0)[0], lo, hi)
     return out
 
 

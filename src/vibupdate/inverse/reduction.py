@@ -148,17 +148,18 @@ def ritz_reduction(model: AffineModel, keep: Sequence[str], vectors: np.ndarray,
 def derivative_vectors(model: AffineModel, xbar, Phi: np.ndarray) -> np.ndarray:
     """Vectors that carry the modes ``Phi`` (shape (n, n_m), the model's at ``xbar``) through a
     change of each parameter: ``(K + s M)^-1 (K_i - lam_j M_i) phi_j`` for every parameter ``i``
-    and mode ``j`` (``lam_j`` the mode's Rayleigh quotient, ``s`` the lowest positive one, so
-    that the matrix is definite with rigid-body modes too): the static part of each mode's
+    and mode ``j`` (``lam_j`` the mode's Rayleigh quotient, ``s`` the lowest of them: the
+    modes are flexible, so the matrix is definite with rigid-body modes too): the static part of each mode's
     parameter derivative. With the modes themselves they are the basis of a reduced model that
     follows the parameters beyond first order (`vibupdate.inverse.update`, the uniqueness
     search on large models). One factorization; shape (n, n_x * n_m)."""
-    M, K = model.matrices(xbar)
     Phi = np.asarray(Phi, dtype=float)
+    if not Phi.size or not model.n_parameters:
+        return np.zeros((model.n_dofs, 0))
+    M, K = model.matrices(xbar)
     lam = np.einsum("ij,ij->j", Phi, K @ Phi) / np.einsum("ij,ij->j", Phi, M @ Phi)
-    shift = float(np.min(lam[lam > 0], initial=1.0))
     rhs = np.hstack([Ki @ Phi - (Mi @ Phi) * lam for Mi, Ki in zip(model.M_par, model.K_par)])
-    return sparse_lu(K + shift * M).solve(rhs) if rhs.size else rhs
+    return sparse_lu(K + float(lam.min()) * M).solve(rhs)
 
 
 def wants_reduction(configurations: Sequence[Configuration], options) -> bool:

@@ -528,7 +528,7 @@ def _no_worse_than_nominal(configurations, contract: Admissible, best: _Finish |
 
 
 def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, search: Search, starts: list, say,
-                options: PolishOptions, contract: Admissible, probes: tuple[list, list] | None) -> None:
+                options: PolishOptions, contract: Admissible, probes: tuple[list, np.ndarray] | None) -> None:
     """Polish from the nominal point, the weakest-direction starts and the random box starts not
     tried yet (docs/polish-and-verification.md 7.7). Given ``probes`` (`_probe_model`), each start
     is first polished on the reduced model: one that reaches the answer there is the same answer."""
@@ -539,15 +539,14 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
             + boxed[1:] if label not in done]
     if not todo:
         return
-    reduced, known = probes or (None, [])
+    reduced, reference = probes or (None, None)
     say(f"uniqueness: polishing from {len(todo)} further starts"
         + (f", first on a {reduced[0].model.n_dofs}-DOF reduced model" if reduced else ""))
     for label, x0 in todo:
         t0 = time.perf_counter()
         answers = [c.xbar for c in tried if c.status.ok]
-        x = x0 if reduced is None else _reduced_answer(reduced, x0, options, contract, known)
-        same = x is None or (reduced is not None and np.min(np.max(np.abs(np.asarray(known) - x), axis=1))
-                             <= search.distinct)   # the reduced model's polish reached the answer again
+        x = x0 if reduced is None else _reduced_answer(reduced, x0, options, contract, [reference])
+        same = x is None or (reduced is not None and np.max(np.abs(x - reference)) <= search.distinct)
         candidate = None if same else finish(x0, label, options, answers)
         starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0) if candidate is None
                       else candidate.record("uniqueness", time.perf_counter() - t0))
@@ -555,7 +554,7 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
 
 def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions, models=None):
     """The configurations on a reduced model, and the answer ``xbar`` as that model has it
-    (`_reduced_answer`), in a list: the first stage's Craig-Bampton ``models`` when it has them,
+    (`_reduced_answer`): the first stage's Craig-Bampton ``models`` when it has them,
     else a Ritz model built at ``xbar`` (docs/polish-and-verification.md 7.7, the paragraph on
     ``probe_dofs``)."""
     if models is None:
@@ -564,7 +563,7 @@ def _probe_model(configurations, xbar, contract: Admissible, options: PolishOpti
         models = [ritz_reduction(c.model, kept_dofs(c), np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])]))[0]
                   for c, V, m in zip(configurations, basis, maps)]   # m.vectors[0]: the modes solved for
     reduced = [replace(c, model=r) for c, r in zip(configurations, models)]
-    return reduced, [_reduced_answer(reduced, xbar, options, contract)]
+    return reduced, _reduced_answer(reduced, xbar, options, contract)
 
 
 def _reduced_answer(reduced, x0, options: PolishOptions, contract: Admissible, answers=None) -> np.ndarray | None:
@@ -620,15 +619,19 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     found = undetermined(where, chosen.xbar)   # one evaluation at the answer, for both
     ends = valley_curve(where, chosen.xbar, found) + valley_ends(where, chosen.xbar, found)
     known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
-    if reduced:   # the distinct points of the reduced model's set, moved onto the full model's data
-        distinct: list = []
+
+    def new(x, among) -> bool:
+        return all(np.max(np.abs(x - k)) > search.distinct for k in among)
+
+    if reduced:   # only the distinct points of the reduced model's set are moved onto the full model's data
+        kept: list = []
         for end in ends:
-            if all(np.max(np.abs(end[2] - k)) > search.distinct for k in known + [d[2] for d in distinct]):
-                distinct.append(end)
-        ends = onto_data(configurations, chosen.xbar, distinct)
+            if new(end[2], known + [e[2] for e in kept]):
+                kept.append(end)
+        ends = onto_data(configurations, chosen.xbar, kept)
     added = []
     for sense, i, x in ends:
-        if all(np.max(np.abs(x - k)) > search.distinct for k in known):
+        if new(x, known):
             known.append(x)
             kind = "end" if sense in ("lowest", "highest") else "turn"
             added.append(_alternative(f"valley {kind} ({sense} {model.parameter_names[i]})", chosen.cost, x,
