@@ -236,3 +236,43 @@ def test_the_homotopy_plot_draws_each_path_as_its_own_line(tmp_path, monkeypatch
              for lam, obj in ((0.0, 1e-8), (1.0, 3.0), (0.0, 1e-8), (0.5, 1e-3), (1.0, 1e-6))]
     plot_homotopy(tmp_path / "homotopy.png", steps)
     assert drawn == [[[0.0, 1.0], [0.0, 0.5, 1.0]]]
+
+
+def test_log_tick_labels_read_as_matplotlib_writes_them_in_plain_text():
+    from vibupdate.report.plots import plain_label
+
+    assert plain_label("$\\mathdefault{10^{-5}}$") == "10\u207b\u2075"
+    assert plain_label("$\\mathdefault{10^{12}}$") == "10\u00b9\u00b2"
+    assert plain_label("$\\mathdefault{4.85\\times10^{-1}}$") == "4.85\u00d710\u207b\u00b9"
+    assert plain_label("") == ""
+    assert plain_label("0.5") == "0.5"
+
+
+def test_log_axis_plots_parse_no_mathtext(tmp_path, monkeypatch):
+    """The log axes' tick labels are plain text: matplotlib's mathtext parse of each label was
+    half the cost of a homotopy plot (and the first in a process builds its parser)."""
+    from types import SimpleNamespace
+
+    import matplotlib.figure
+    import matplotlib.mathtext
+
+    from vibupdate.inverse.status import Status
+    from vibupdate.report.plots import plot_homotopy
+
+    parsed, labels = [], []
+    real_parse = matplotlib.mathtext.MathTextParser.parse
+    monkeypatch.setattr(matplotlib.mathtext.MathTextParser, "parse",
+                        lambda self, s, *a, **k: parsed.append(s) or real_parse(self, s, *a, **k))
+    real_save = matplotlib.figure.Figure.savefig
+
+    def save(fig, *a, **k):
+        out = real_save(fig, *a, **k)   # drawn: the tick labels are set
+        labels.extend(t.get_text() for t in fig.axes[0].get_yticklabels() + fig.axes[0].get_yticklabels(minor=True))
+        return out
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", save)
+    steps = [SimpleNamespace(lam=lam, objective=obj, status=Status.SUCCESS)
+             for lam, obj in ((0.0, 1e-8), (0.5, 1e-3), (1.0, 3.0))]
+    plot_homotopy(tmp_path / "homotopy.png", steps)
+    assert parsed == []
+    assert "10\u207b\u2074" in labels and not any("$" in t for t in labels)

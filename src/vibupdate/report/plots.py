@@ -24,6 +24,37 @@ def _pyplot():
     return plt
 
 
+#: Exponent characters of a tick label written without mathtext (`_plain_log_labels`).
+_SUPERSCRIPT = str.maketrans("0123456789-", "\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079\u207b")
+
+
+def plain_label(text: str) -> str:
+    """A mathtext tick label of matplotlib's log axes (``$\\mathdefault{2\\times10^{-5}}$``) as
+    plain text with Unicode superscripts (``2\u00d710\u207b\u2075``); other text unchanged."""
+    if not (text.startswith("$\\mathdefault{") and text.endswith("}$")):
+        return text
+    body = text[len("$\\mathdefault{"):-2].replace("\\times", "\u00d7")
+    base, hat, power = body.partition("^{")
+    label = base + (power.rstrip("}").translate(_SUPERSCRIPT) if hat else "")
+    return "\u2212" + label[1:] if label.startswith("-") else label
+
+
+def _plain_log_labels(ax) -> None:
+    """The tick labels of the log-scaled y axis of ``ax`` written as plain text
+    (`plain_label`): matplotlib writes them in mathtext, whose parse is half the cost of a
+    log-axis plot and the first one in a process builds the parser; the labels read the same."""
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    class Plain(LogFormatterSciNotation):
+        def __call__(self, x, pos=None):
+            return plain_label(super().__call__(x, pos))
+
+    for current, setter in ((ax.yaxis.get_major_formatter(), ax.yaxis.set_major_formatter),
+                            (ax.yaxis.get_minor_formatter(), ax.yaxis.set_minor_formatter)):
+        if isinstance(current, LogFormatterSciNotation):
+            setter(Plain(labelOnlyBase=current.labelOnlyBase, minor_thresholds=current.minor_thresholds))
+
+
 #: Lines of a model receptance plot, about the pixels across its axes.
 LINES = 1000
 
@@ -36,6 +67,7 @@ def _margins(fig, height_in: float) -> None:
 
 def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
     """Labels, legend and grid, then save as PNG and close."""
+    _plain_log_labels(ax)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, y=1.0)
@@ -185,6 +217,7 @@ def plot_receptances(path, panels) -> Path:
             ax.set_ylabel("|h| [m/N]")
             ax.set_xlabel("frequency [Hz]")
             ax.grid(True, which="both", alpha=0.3)
+            _plain_log_labels(ax)
     for ax in cells:
         ax.set_visible(False)
     # one legend above the panels, at a set place (matplotlib's "best" place searches every
@@ -251,6 +284,7 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
             ax.semilogy(f_hz, h[n], style, lw=1.0, label=name)
         ax.set_title(f"h_{r},{c}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
+        _plain_log_labels(ax)
     for ax in axes.ravel():
         if not ax.lines:
             ax.set_visible(False)
