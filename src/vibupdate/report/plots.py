@@ -43,6 +43,7 @@ def _plain_log_labels(ax) -> None:
     """The tick labels of the log-scaled y axis of ``ax`` written as plain text
     (`plain_label`): matplotlib writes them in mathtext, whose parse is half the cost of a
     log-axis plot and the first one in a process builds the parser; the labels read the same."""
+    require("plots", "drawing plots")
     from matplotlib.ticker import LogFormatterSciNotation
 
     class Plain(LogFormatterSciNotation):
