@@ -53,6 +53,10 @@ class Search:
     weak_direction : bool
         Polish, besides the box starts, from the answer moved along the data's weakest
         determined direction out to the box, in both senses (`weak_starts`).
+    follow : int
+        Further verified answers whose own weakest-direction starts are polished in turn, at
+        most: two exact fits close together lie on either side of a fold of the data, and the
+        weakest direction of each points across its fold (0: only the first answer's).
     valley_ends : bool
         Where the data leave directions undetermined at a verified answer, report the ends and
         turns of the set of answers with the same data as alternatives.
@@ -69,6 +73,7 @@ class Search:
     seed: int = 0
     valley_ends: bool = True
     weak_direction: bool = True
+    follow: int = 2
 
     def box_starts(self, lo: np.ndarray, hi: np.ndarray, n_random: int) -> list[tuple[str, np.ndarray]]:
         """The nominal point and ``n_random`` random points of the box ``[lo, hi]``, in this

@@ -542,7 +542,9 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
     reduced, reference = probes or (None, None)
     say(f"uniqueness: polishing from {len(todo)} further starts"
         + (f", first on a {reduced[0].model.n_dofs}-DOF reduced model" if reduced else ""))
-    for label, x0 in todo:
+    followed = 0
+    while todo:
+        label, x0 = todo.pop(0)
         t0 = time.perf_counter()
         answers = [c.xbar for c in tried if c.status.ok]
         x = x0 if reduced is None else _reduced_answer(reduced, x0, options, contract, [reference])
@@ -550,6 +552,11 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         candidate = None if same else finish(x0, label, options, answers)
         starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0) if candidate is None
                       else candidate.record("uniqueness", time.perf_counter() - t0))
+        if (candidate is not None and candidate.status.ok and followed < search.follow
+                and all(np.max(np.abs(candidate.xbar - a)) > search.distinct for a in answers)):
+            followed += 1   # a new answer: its own weakest direction, across its fold (`Search.follow`)
+            todo += [(f"{weak} from answer {followed + 1}", x)
+                     for weak, x in search.weak_starts(candidate.xbar, candidate.sensitivity, lo, hi)]
 
 
 def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions, models=None):
