@@ -55,8 +55,10 @@ class Search:
         determined direction out to the box, in both senses (`weak_starts`).
     follow : int
         Further verified answers whose own weakest-direction starts are polished in turn, at
-        most: two exact fits close together lie on either side of a fold of the data, and the
-        weakest direction of each points across its fold (0: only the first answer's).
+        most: two isolated exact fits close together lie on either side of a fold of the data,
+        and the weakest direction of each points across its fold (0: only the first answer's).
+        Points of a set of answers (data that leave directions undetermined) are not followed:
+        the valley's ends and turns (``valley_ends``) show that set.
     valley_ends : bool
         Where the data leave directions undetermined at a verified answer, report the ends and
         turns of the set of answers with the same data as alternatives.

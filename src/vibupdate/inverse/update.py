@@ -553,6 +553,7 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0) if candidate is None
                       else candidate.record("uniqueness", time.perf_counter() - t0))
         if (candidate is not None and candidate.status.ok and followed < search.follow
+                and candidate.sensitivity.rank == candidate.xbar.size   # isolated, not a point of a valley
                 and all(np.max(np.abs(candidate.xbar - a)) > search.distinct for a in answers)):
             followed += 1   # a new answer: its own weakest direction, across its fold (`Search.follow`)
             todo += [(f"{weak} from answer {followed + 1}", x)
