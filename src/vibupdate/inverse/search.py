@@ -150,7 +150,8 @@ def _plain(value):
 class Start(_Row):
     """One start tried: its label, why (``purpose`` "fit" or "uniqueness"), the verdict of its
     answer ("verified", "not_verified", "path failed", "same answer": it reached a known answer
-    again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed checks, its polish objective and seconds."""
+    again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed
+    checks, its polish objective and seconds."""
 
     start: str
     purpose: str

@@ -568,8 +568,9 @@ def _probe_model(configurations, xbar, contract: Admissible, options: PolishOpti
     if models is None:
         basis, maps = [], []
         evaluate(configurations, contract, xbar, basis=basis, maps=maps)
-        models = [ritz_reduction(c.model, kept_dofs(c), np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])]))[0]
-                  for c, V, m in zip(configurations, basis, maps)]   # m.vectors[0]: the modes solved for
+        models = [ritz_reduction(c.model, kept_dofs(c),   # m.vectors[0]: the modes solved for
+                                 np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])]))[0]
+                  for c, V, m in zip(configurations, basis, maps)]
     reduced = [replace(c, model=r) for c, r in zip(configurations, models)]
     return reduced, _reduced_answer(reduced, xbar, options, contract)
 
