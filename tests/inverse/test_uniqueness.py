@@ -151,6 +151,27 @@ def test_a_third_exact_fit_across_a_second_fold_is_found_from_the_second_answer(
     assert not np.allclose(first.values, truth, rtol=1e-2)
 
 
+def test_ctrl_c_in_the_uniqueness_search_returns_the_verified_answer_and_elsewhere_raises(monkeypatch):
+    model = chain_model(2, ["k1", "k2"], nominal={"k1": 1200.0, "k2": 900.0}, spread=0.7)
+    w = modes(*model.matrices_at([1000.0, 1000.0]))[0]
+    cfg = Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))
+    whole = update([cfg])
+
+    def ctrl_c(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Search, "weak_starts", ctrl_c)
+    cut = update([cfg])
+    assert cut.success and cut.verdict is Verdict.VERIFIED and cut.sought.interrupted
+    assert not cut.sought.uniqueness and cut.sought.reason.startswith("uniqueness search interrupted (Ctrl-C)")
+    assert [s.purpose for s in cut.sought.starts] == ["fit"] and not cut.alternatives
+    assert any(w.startswith("uniqueness search interrupted") for w in cut.warnings)
+    assert whole.verdict is Verdict.NOT_UNIQUE and not whole.sought.interrupted
+    monkeypatch.setattr("vibupdate.inverse.update.run_polish", ctrl_c)   # before any answer verified
+    with pytest.raises(KeyboardInterrupt):
+        update([cfg])
+
+
 def _sensitivity(S):
     """A `Sensitivity` of the matrix ``S`` alone (what `Search.weak_starts` reads)."""
     from vibupdate.inverse.data_map import Sensitivity

@@ -175,10 +175,12 @@ class Alternative(_Row):
 
 @dataclass(frozen=True)
 class Sought(_Row):
-    """What the update sought: the search it ran, every start in order, and whether the
-    uniqueness of a verified answer was searched, and why (or why not)."""
+    """What the update sought: the search it ran, every start in order, whether the
+    uniqueness of a verified answer was searched, and why (or why not), and whether Ctrl-C
+    ended that search (``interrupted``: the answer is the best verified one found by then)."""
 
     search: Search
     starts: tuple[Start, ...]
     uniqueness: bool = field(metadata={"key": "uniqueness_searched"})
     reason: str
+    interrupted: bool = False

@@ -92,7 +92,9 @@ class UpdateResult:
         One per first-stage attempt (more than one when the boxes were widened).
     sought : Sought or None
         What was sought (`vibupdate.inverse.search.Sought`): every start tried, in order, and
-        whether the uniqueness of a verified answer was searched, and why.
+        whether the uniqueness of a verified answer was searched, and why. Ctrl-C during the
+        uniqueness search ends it and returns the best verified answer found
+        (``sought.interrupted``); at any other stage it raises ``KeyboardInterrupt``.
     alternatives : tuple of Alternative
         Other verified answers (`vibupdate.inverse.search.Alternative`); not empty makes the
         verdict ``not_unique``.
@@ -748,18 +750,29 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         steps = steps + more_steps
         best = _no_worse_than_nominal(configurations, contract, best, finish, polish, say)
     unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
-    alternatives, valley = (), None
+    alternatives, valley, interrupted = (), None, False
     if best is not None and best.status.ok and unique:
         options = replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                       search.probe_evaluations * (model.n_parameters + 1)))
-        probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
-            configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])
-        _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
+        probes = None
+        try:   # Ctrl-C ends the search and keeps what it found: the verified answer is returned
+            probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
+                configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])
+            _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
+        except KeyboardInterrupt:
+            interrupted = True
         h = contract.relative_half_widths()   # missing every frequency by its exact half-width: an exact fit
         exact = 0.5 * float(np.sum((verification.exact_half_width / h) ** 2)) if h.size else 0.0
         best, alternatives = _choose(tried, best, search, model, exact)
-        alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
-                                       probes[0] if probes else None)
+        try:
+            if not interrupted:
+                alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
+                                               probes[0] if probes else None)
+        except KeyboardInterrupt:
+            interrupted = True
+        if interrupted:
+            unique, reason = False, (f"uniqueness search interrupted (Ctrl-C) after {len(starts)} start(s): the best "
+                                     "verified answer found is returned, its uniqueness not established")
     elif best is not None and best.status.ok:
         reason = f"uniqueness not searched: {reason}"
     else:
@@ -774,6 +787,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     warnings += tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
     if alternatives:
         warnings += (_alternatives_text(alternatives, dict(zip(model.parameter_names, model.physical(xbar)))),)
+    if interrupted:
+        warnings += (reason,)
     if polished is not None and polished.on_limit:   # short of the optimum, maybe: said where checks are said
         warnings += (f"polish: {polished.message}",)
     for w in warnings:
@@ -797,7 +812,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         first_stage_xbar=first_xbar,
         polish=polished,
         attempts=attempts,
-        sought=Sought(search, tuple(starts), unique, reason),
+        sought=Sought(search, tuple(starts), unique, reason, interrupted),
         minimum_change=best.minimum,
         valley=valley,
         alternatives=alternatives,
