@@ -390,6 +390,9 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         _say_written(target, written, run, say)
     except KeyboardInterrupt:
         raise Interrupted(f"the results were written to {target.path}/ before it") from None
+    if result.sought is not None and result.sought.interrupted:   # Ctrl-C ended the uniqueness search
+        raise Interrupted(f"the uniqueness search was interrupted; the best verified answer found by then was "
+                          f"written to {target.path}/")
     return written
 
 

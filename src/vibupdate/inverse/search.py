@@ -53,6 +53,12 @@ class Search:
     weak_direction : bool
         Polish, besides the box starts, from the answer moved along the data's weakest
         determined direction out to the box, in both senses (`weak_starts`).
+    follow : int
+        Further verified answers whose own weakest-direction starts are polished in turn, at
+        most: two isolated exact fits close together lie on either side of a fold of the data,
+        and the weakest direction of each points across its fold (0: only the first answer's).
+        Points of a set of answers (data that leave directions undetermined) are not followed:
+        the valley's ends and turns (``valley_ends``) show that set.
     valley_ends : bool
         Where the data leave directions undetermined at a verified answer, report the ends and
         turns of the set of answers with the same data as alternatives.
@@ -69,6 +75,7 @@ class Search:
     seed: int = 0
     valley_ends: bool = True
     weak_direction: bool = True
+    follow: int = 2
 
     def box_starts(self, lo: np.ndarray, hi: np.ndarray, n_random: int) -> list[tuple[str, np.ndarray]]:
         """The nominal point and ``n_random`` random points of the box ``[lo, hi]``, in this
@@ -143,7 +150,8 @@ def _plain(value):
 class Start(_Row):
     """One start tried: its label, why (``purpose`` "fit" or "uniqueness"), the verdict of its
     answer ("verified", "not_verified", "path failed", "same answer": it reached a known answer
-    again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed checks, its polish objective and seconds."""
+    again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed
+    checks, its polish objective and seconds."""
 
     start: str
     purpose: str
@@ -167,10 +175,12 @@ class Alternative(_Row):
 
 @dataclass(frozen=True)
 class Sought(_Row):
-    """What the update sought: the search it ran, every start in order, and whether the
-    uniqueness of a verified answer was searched, and why (or why not)."""
+    """What the update sought: the search it ran, every start in order, whether the
+    uniqueness of a verified answer was searched, and why (or why not), and whether Ctrl-C
+    ended that search (``interrupted``: the answer is the best verified one found by then)."""
 
     search: Search
     starts: tuple[Start, ...]
     uniqueness: bool = field(metadata={"key": "uniqueness_searched"})
     reason: str
+    interrupted: bool = False

@@ -92,7 +92,9 @@ class UpdateResult:
         One per first-stage attempt (more than one when the boxes were widened).
     sought : Sought or None
         What was sought (`vibupdate.inverse.search.Sought`): every start tried, in order, and
-        whether the uniqueness of a verified answer was searched, and why.
+        whether the uniqueness of a verified answer was searched, and why. Ctrl-C during the
+        uniqueness search ends it and returns the best verified answer found
+        (``sought.interrupted``); at any other stage it raises ``KeyboardInterrupt``.
     alternatives : tuple of Alternative
         Other verified answers (`vibupdate.inverse.search.Alternative`); not empty makes the
         verdict ``not_unique``.
@@ -542,7 +544,9 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
     reduced, reference = probes or (None, None)
     say(f"uniqueness: polishing from {len(todo)} further starts"
         + (f", first on a {reduced[0].model.n_dofs}-DOF reduced model" if reduced else ""))
-    for label, x0 in todo:
+    followed = 0
+    while todo:
+        label, x0 = todo.pop(0)
         t0 = time.perf_counter()
         answers = [c.xbar for c in tried if c.status.ok]
         x = x0 if reduced is None else _reduced_answer(reduced, x0, options, contract, [reference])
@@ -550,6 +554,12 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         candidate = None if same else finish(x0, label, options, answers)
         starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0) if candidate is None
                       else candidate.record("uniqueness", time.perf_counter() - t0))
+        if (candidate is not None and candidate.status.ok and followed < search.follow
+                and candidate.sensitivity.rank == candidate.xbar.size   # isolated, not a point of a valley
+                and all(np.max(np.abs(candidate.xbar - a)) > search.distinct for a in answers)):
+            followed += 1   # a new answer: its own weakest direction, across its fold (`Search.follow`)
+            todo += [(f"{weak} from answer {followed + 1}", x)
+                     for weak, x in search.weak_starts(candidate.xbar, candidate.sensitivity, lo, hi)]
 
 
 def _probe_model(configurations, xbar, contract: Admissible, options: PolishOptions, models=None):
@@ -560,8 +570,9 @@ def _probe_model(configurations, xbar, contract: Admissible, options: PolishOpti
     if models is None:
         basis, maps = [], []
         evaluate(configurations, contract, xbar, basis=basis, maps=maps)
-        models = [ritz_reduction(c.model, kept_dofs(c), np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])]))[0]
-                  for c, V, m in zip(configurations, basis, maps)]   # m.vectors[0]: the modes solved for
+        models = [ritz_reduction(c.model, kept_dofs(c),   # m.vectors[0]: the modes solved for
+                                 np.hstack([V, derivative_vectors(c.model, xbar, m.vectors[0])]))[0]
+                  for c, V, m in zip(configurations, basis, maps)]
     reduced = [replace(c, model=r) for c, r in zip(configurations, models)]
     return reduced, _reduced_answer(reduced, xbar, options, contract)
 
@@ -739,18 +750,29 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         steps = steps + more_steps
         best = _no_worse_than_nominal(configurations, contract, best, finish, polish, say)
     unique, reason = search.uniqueness(model.n_dofs, model.n_parameters, probe and polish.enabled)
-    alternatives, valley = (), None
+    alternatives, valley, interrupted = (), None, False
     if best is not None and best.status.ok and unique:
         options = replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                       search.probe_evaluations * (model.n_parameters + 1)))
-        probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
-            configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])
-        _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
+        probes = None
+        try:   # Ctrl-C ends the search and keeps what it found: the verified answer is returned
+            probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
+                configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])
+            _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
+        except KeyboardInterrupt:
+            interrupted = True
         h = contract.relative_half_widths()   # missing every frequency by its exact half-width: an exact fit
         exact = 0.5 * float(np.sum((verification.exact_half_width / h) ** 2)) if h.size else 0.0
         best, alternatives = _choose(tried, best, search, model, exact)
-        alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
-                                       probes[0] if probes else None)
+        try:
+            if not interrupted:
+                alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
+                                               probes[0] if probes else None)
+        except KeyboardInterrupt:
+            interrupted = True
+        if interrupted:
+            unique, reason = False, (f"uniqueness search interrupted (Ctrl-C) after {len(starts)} start(s): the best "
+                                     "verified answer found is returned, its uniqueness not established")
     elif best is not None and best.status.ok:
         reason = f"uniqueness not searched: {reason}"
     else:
@@ -765,6 +787,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
     warnings += tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
     if alternatives:
         warnings += (_alternatives_text(alternatives, dict(zip(model.parameter_names, model.physical(xbar)))),)
+    if interrupted:
+        warnings += (reason,)
     if polished is not None and polished.on_limit:   # short of the optimum, maybe: said where checks are said
         warnings += (f"polish: {polished.message}",)
     for w in warnings:
@@ -788,7 +812,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         first_stage_xbar=first_xbar,
         polish=polished,
         attempts=attempts,
-        sought=Sought(search, tuple(starts), unique, reason),
+        sought=Sought(search, tuple(starts), unique, reason, interrupted),
         minimum_change=best.minimum,
         valley=valley,
         alternatives=alternatives,
