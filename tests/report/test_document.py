@@ -43,3 +43,18 @@ def test_the_sensor_map_shows_each_direction_and_a_dash_where_a_results_file_has
     text = "\n".join(markdown(sensors_table(run)))
     assert "| sensor | DOF | sign | reads along (x, y, z) | distance [m] |" in text
     assert "| d | 7:n1 | - | (-0.6, 0, -0.8) | 0.01 |" in text and "| old | 7:x | + | - | 0 |" in text
+
+
+def test_a_verdict_within_the_model_form_tolerances_claims_no_cause_it_did_not_prove():
+    # data met only through the model-form tolerance: the model's form is one cause, a closer
+    # fit the search's starts did not reach the other (exact data stuck in a local minimum)
+    from types import SimpleNamespace
+
+    from vibupdate.report.document import limited_text
+
+    form = limited_text([SimpleNamespace(name="fit", limited_by="model_form")])
+    assert "within the model-form tolerances only" in form and "(check fit)" in form
+    assert "a closer fit exists that the search's starts did not reach" in form
+    assert limited_text([SimpleNamespace(name="fit", limited_by="measurement")]).endswith(
+        "every datum lies in its measurement interval")
+    assert limited_text([SimpleNamespace(name="fit", limited_by="")]) == ""

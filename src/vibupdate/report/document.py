@@ -303,8 +303,9 @@ def limited_text(checks) -> str:
         return ""
     if "model_form" in limits:
         names = ", ".join(c.name for c in checks if c.limited_by == "model_form")
-        return (f"; the model's form limits it: some data lie outside their measurement intervals and within the "
-                f"model-form tolerances (check {names})")
+        return (f"; within the model-form tolerances only: some data lie outside their measurement intervals "
+                f"(check {names}): the model's form limits the fit, or a closer fit exists that the search's starts "
+                "did not reach")
     return "; the measurements limit it: every datum lies in its measurement interval"
 
 
