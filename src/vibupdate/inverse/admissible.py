@@ -5,26 +5,13 @@ verification options (`Admissible.of`):
 
     admissible = measurement interval + model-form tolerance + numerical floor
 
-* the **measurement interval** is the datum's own (a frequency's ``interval``, a shape entry's
-  bounds), else ``omega (1 -+ measurement_tolerance)``; a datum known exactly (an interval of
-  zero width) gets the stated half-width ``exact_half_width`` (relative, default 1e-6) instead:
-  exact data are met to that, not to the last digit of one eigen-solve;
-* the **model-form tolerance** widens it on both sides by ``natural_tolerance`` or
-  ``antiresonance_tolerance`` times the value, by ``shape_tolerance`` times the magnitude of the
-  shape's largest measured entry, by ``modal_mass_tolerance`` times the measured modal mass;
-* the **numerical floor** `FLOOR` (1e-8 of the same scale) covers the rounding of a
-  double-precision eigen-solve.
-
-A measured shape keeps its documented meaning: its entries are known up to one free scale per
-mode. The model's shape at the measured DOFs, scaled by the best scale ``s``, is held against
-the entries' intervals; ``s`` is eliminated (variable projection, `_scales`). A mass-normalized
-shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
-the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
-
-Two uses, one set of intervals: the **polish** minimizes each value's distance outside its
-interval plus a small pull toward its midpoint, in half-widths (`residuals`; the rows in full:
-docs/polish-and-verification.md, section 7.2); the **verification** asks whether every value
-lies in its interval, a shape at some scale (`misses`).
+(a datum known exactly: its stated half-width ``exact_half_width``; the tolerances per kind:
+`VerifyOptions`; the floor: `FLOOR`). A measured shape is known up to one free scale per mode,
+eliminated by variable projection (`_scales`); a mass-normalized shape's scale is fixed
+besides, and its modal mass is one more datum. The polish minimizes each value's distance
+outside its interval plus a small pull toward its midpoint, in half-widths (`residuals`); the
+verification asks whether every value lies in its interval, a shape at some scale (`misses`).
+The rules in full: docs/polish-and-verification.md, sections 7.2 and 7.3.
 """
 
 from __future__ import annotations
@@ -181,8 +168,8 @@ class Miss:
     relative: float = 0.0    # of a frequency: its relative difference from the measured value
 
 
-def _widened(lo: float, hi: float, scale: float, tolerance: float, exact: float) -> tuple[float, float]:
-    extra = (exact * scale if hi - lo <= 0 else 0.0) + (tolerance + FLOOR) * scale
+def _widened(lo, hi, scale: float, tolerance: float, exact: float):
+    extra = np.where(hi - lo <= 0, exact * scale, 0.0) + (tolerance + FLOOR) * scale
     return lo - extra, hi + extra
 
 
@@ -216,7 +203,7 @@ class Admissible:
             for d in (*cfg.natural, *cfg.antiresonances):
                 anti = isinstance(d, Antiresonance)
                 t = o.antiresonance_tolerance if anti else o.natural_tolerance
-                lo, hi = d.interval or (d.omega * (1 - o.measurement_tolerance), d.omega * (1 + o.measurement_tolerance))
+                lo, hi = d.interval or tuple(d.omega * (1 + sign * o.measurement_tolerance) for sign in (-1, 1))
                 label = (f"configuration {cfg.name!r}, "
                          + (f"zero {d.index} of h_{d.response},{d.excitation}" if anti else f"mode {d.mode}"))
                 row.append(Datum(label, "antiresonance" if anti else "natural", d.omega, (lo, hi),
@@ -232,12 +219,10 @@ class Admissible:
                 order = [ref] + [d for d in bounds if d != ref]
                 scale = abs(nat.shape.midpoint[ref])
                 if len(order) >= 2:
-                    mlo = np.array([bounds[d][0] for d in order])
-                    mhi = np.array([bounds[d][1] for d in order])
-                    lo, hi = zip(*(_widened(a, b, scale, o.shape_tolerance, o.exact_half_width)
-                                   for a, b in zip(mlo, mhi)))
+                    mlo, mhi = np.array([bounds[d] for d in order], dtype=float).T
                     t = o.modal_mass_tolerance   # the modal mass's m (1 -+ t): the scale's 1 / sqrt of it
-                    srow.append(Shape(label, k, nat.mode, tuple(order), mlo, mhi, np.array(lo), np.array(hi), scale,
+                    srow.append(Shape(label, k, nat.mode, tuple(order), mlo, mhi,
+                                      *_widened(mlo, mhi, scale, o.shape_tolerance, o.exact_half_width), scale,
                                       (1.0 / np.sqrt(1.0 + t), 1.0 / np.sqrt(1.0 - t))
                                       if nat.shape.mass_normalized else None))
                 if nat.shape.mass_normalized:
@@ -335,7 +320,8 @@ def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: n
     v = at[:, :, None] * q[:, None, :]
     g = np.sum(q[:, None, :] * (w_in[:, None, :] * (v - mid[:, None, :])
                                 + w_out[:, None, :] * (v - np.clip(v, lo[:, None, :], hi[:, None, :]))), axis=2)
-    j = np.clip(np.sum(g < 0, axis=1), 1, at.shape[1] - 1)   # the zero lies in [at[j - 1], at[j]] or beyond an outer one
+    # the zero lies in [at[j - 1], at[j]], or beyond an outer one
+    j = np.clip(np.sum(g < 0, axis=1), 1, at.shape[1] - 1)
     i = np.arange(rest.size)
     a, b, ga, gb = at[i, j - 1], at[i, j], g[i, j - 1], g[i, j]
     s[rest] = np.where(gb > ga, a - ga * (b - a) / np.where(gb > ga, gb - ga, 1.0), a)

@@ -68,9 +68,6 @@ class DataGroup:
     label: str
     size: int
 
-    def as_dict(self) -> dict:
-        return asdict(self)
-
 
 def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
     """Every group of the data (module docstring), configuration by configuration: natural
@@ -114,37 +111,32 @@ def _drop_dof(shape: ShapeInterval | None, dof: str) -> ShapeInterval | None:
         return ShapeInterval(rest)
 
 
-def _without_in(cfg: Configuration, group: DataGroup) -> Configuration | None:
-    """``cfg`` without ``group``; None when nothing measured is left."""
-    natural, zeros, interlacing = cfg.natural, cfg.antiresonances, cfg.interlacing
-    part = group.key[len(cfg.name) + 1:].split("/")
-    if group.kind == "natural":
-        natural = tuple(f for f in natural if f.mode != int(part[1]))
-    elif group.kind == "antiresonance":
-        response, excitation = part[1].split(",")
-        zeros = tuple(a for a in zeros if (a.response, a.excitation, a.index) != (response, excitation,
-                                                                                 int(part[2])))
-        # the interlacing signs assert that every zero between two measured poles is listed
-        interlacing = False
-    elif group.kind == "shape":
-        natural = tuple(replace(f, shape=None) if f.mode == int(part[1]) else f for f in natural)
-    elif group.kind == "dof":
-        natural = tuple(replace(f, shape=_drop_dof(f.shape, part[1])) for f in natural)
-    else:
-        raise ValueError(f"unknown data group kind {group.kind!r}; expected natural, antiresonance, shape or dof")
-    if not natural and not zeros:
-        return None
-    return replace(cfg, natural=natural, antiresonances=zeros, interlacing=interlacing)
-
-
 def without(configurations: Sequence[Configuration], group: DataGroup) -> list[Configuration] | None:
     """The configurations without ``group``: a configuration left with no data is dropped
     (its parameters are shared with the others); None when no data would be left at all."""
     kept = []
     for cfg in configurations:
-        rest = _without_in(cfg, group) if cfg.name == group.configuration else cfg
-        if rest is not None:
-            kept.append(rest)
+        if cfg.name != group.configuration:
+            kept.append(cfg)
+            continue
+        natural, zeros, interlacing = cfg.natural, cfg.antiresonances, cfg.interlacing
+        part = group.key[len(cfg.name) + 1:].split("/")
+        if group.kind == "natural":
+            natural = tuple(f for f in natural if f.mode != int(part[1]))
+        elif group.kind == "antiresonance":
+            response, excitation = part[1].split(",")
+            zeros = tuple(a for a in zeros if (a.response, a.excitation, a.index) != (response, excitation,
+                                                                                     int(part[2])))
+            # the interlacing signs assert that every zero between two measured poles is listed
+            interlacing = False
+        elif group.kind == "shape":
+            natural = tuple(replace(f, shape=None) if f.mode == int(part[1]) else f for f in natural)
+        elif group.kind == "dof":
+            natural = tuple(replace(f, shape=_drop_dof(f.shape, part[1])) for f in natural)
+        else:
+            raise ValueError(f"unknown data group kind {group.kind!r}; expected natural, antiresonance, shape or dof")
+        if natural or zeros:
+            kept.append(replace(cfg, natural=natural, antiresonances=zeros, interlacing=interlacing))
     return kept or None
 
 
@@ -306,9 +298,10 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
                       time.perf_counter() - t0, polished.evaluations)
 
 
-def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, formulation: FormulationOptions | None = None,
-             solver: SolverOptions | None = None, polish: PolishOptions | None = None,
-             verification: VerifyOptions | None = None, progress: Callable[[str], None] | None = None,
+def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
+             formulation: FormulationOptions | None = None, solver: SolverOptions | None = None,
+             polish: PolishOptions | None = None, verification: VerifyOptions | None = None,
+             progress: Callable[[str], None] | None = None,
              max_groups: int = MAX_GROUPS, max_seconds: float = MAX_SECONDS) -> Diagnosis:
     """Rank the groups of the data by how well the model fits without each, and update again
     without the top one (module docstring).
