@@ -84,12 +84,11 @@ def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
             groups.append(DataGroup(f"{cfg.name}/antiresonance/{a.response},{a.excitation}/{a.index}",
                                     "antiresonance", cfg.name, f"{zero_name(a.response, a.excitation, a.index)} "
                                     f"at {a.freq_hz:.5g} Hz, {where}", 1))
-        for f in cfg.natural:
-            if f.shape is not None:
-                groups.append(DataGroup(f"{cfg.name}/shape/{f.mode}", "shape", cfg.name,
-                                        f"shape of mode {f.mode} ({len(f.shape.bounds)} entries), {where}",
-                                        len(f.shape.bounds)))
         shaped = [f for f in cfg.natural if f.shape is not None]
+        for f in shaped:
+            groups.append(DataGroup(f"{cfg.name}/shape/{f.mode}", "shape", cfg.name,
+                                    f"shape of mode {f.mode} ({len(f.shape.bounds)} entries), {where}",
+                                    len(f.shape.bounds)))
         order = {d: i for i, d in enumerate((*cfg.model.dofs, *(s.name for s in cfg.model.sensors)))}
         for dof in sorted({d for f in shaped for d in f.shape.bounds}, key=order.__getitem__):
             modes = [f.mode for f in shaped if dof in f.shape.bounds]
@@ -346,16 +345,15 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
             continue
         if kept is not None:   # the one-step screening orders the refits (module docstring)
             here, predicted = _predicted(kept, xbar, verification)
-            candidates.append(((full - here) / full if full > 0 else 0.0, group, kept, predicted))
-    candidates.sort(key=lambda c: c[3])
-    candidates = [c[:3] for c in candidates]
+            candidates.append((predicted, (full - here) / full if full > 0 else 0.0, group, kept))
+    candidates.sort(key=lambda c: c[0])
     say(f"diagnosis: the answer failed {', '.join(failed)}; {len(candidates)} groups of the data screened in one "
         f"step, the best {min(len(candidates), max_groups)} left out in turn and refitted (polished from the answer)")
     trials = []
-    for k, (share, group, kept) in enumerate(candidates[:max_groups], start=1):
+    for k, (_, share, group, kept) in enumerate(candidates[:max_groups], start=1):
         if time.perf_counter() - t0 > max_seconds:
             say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s; not screened: "
-                + "; ".join(g.label for _, g, _ in candidates[k - 1:max_groups]))
+                + "; ".join(c[2].label for c in candidates[k - 1:max_groups]))
             break
         try:
             trial = _screen(kept, group, share, xbar, polish, verification)
@@ -374,7 +372,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
         best = update(kept, formulation=formulation, solver=solver, polish=polish, verification=verification,
                       probe=False)
     screened = {t.group.key for t in trials}
-    untried = tuple(g.label for _, g, _ in candidates if g.key not in screened)
+    untried = tuple(c[2].label for c in candidates if c[2].key not in screened)
     diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(untried), len(candidates),
                           best, time.perf_counter() - t0, time.perf_counter() - t1, untried)
     say(diagnosis.message() + f" ({diagnosis.seconds:.1f} s)")
