@@ -267,12 +267,11 @@ class Admissible:
 
 
 def _rows(v, lo, hi, mid, h, pull=PULL):
-    """The polish's rows of values ``v`` (last axis: the data) against
-    ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
-    per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
-    outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
-    zero, so their sum of squares has a continuous gradient (one combined row's would jump at
-    an interval's end, where trust-region steps then crawl)."""
+    """The polish's rows of values ``v`` (last axis: the data) against ``[lo, hi]`` with
+    midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``: per datum two
+    rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance outside
+    ``(v - clip(v, lo, hi)) / (pull h)`` (two rows, not one, for a continuous gradient:
+    docs/polish-and-verification.md, section 7.2)."""
     out = v - np.clip(v, lo, hi)
     slope_in = np.broadcast_to(1.0 / h, np.shape(out))
     slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)
@@ -295,16 +294,11 @@ def _targets(lower, upper, floor) -> tuple[np.ndarray, ...]:
 def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray,
             pull: float) -> np.ndarray:
     """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`) of each row ``q`` of ``Q``
-    (shapes with the same number of entries; every array shape (m, k), ``Q[:, 0] = 1``), exact.
-
-    The sum is a strictly convex piecewise quadratic in ``s`` (the pull rows alone are), its
-    pieces ending where an entry ``s q_j`` crosses an interval end (``lo_j / q_j``,
-    ``hi_j / q_j``); its slope ``g(s) = sum_j q_j (s q_j - mid_j) / h_j^2 + q_j (s q_j -
-    clip(s q_j)) / (pull h_j)^2`` is continuous, increasing and linear on each piece. Where the
-    pull's own minimizer puts every entry inside, no distance row is active there: it is the
-    minimum (the common case near an answer). Elsewhere ``g`` is evaluated at every piece end
-    and at one point beyond each outer end, and its zero interpolated on the piece where it
-    changes sign (extrapolated on an outer piece): linear there, so exact."""
+    (shapes with the same number of entries; every array shape (m, k), ``Q[:, 0] = 1``), exact:
+    the pull's own minimizer where it puts every entry inside, else the zero of the slope
+    ``g(s) = sum_j q_j (s q_j - mid_j) / h_j^2 + q_j (s q_j - clip(s q_j)) / (pull h_j)^2``,
+    increasing and linear between the scales where an entry crosses an interval end, found on
+    the piece where it changes sign (docs/polish-and-verification.md, section 7.2)."""
     w_in, w_out = (1.0 / h) ** 2, (1.0 / (pull * h)) ** 2
     s = np.sum(w_in * Q * mid, axis=1) / np.sum(w_in * Q * Q, axis=1)
     V = s[:, None] * Q
