@@ -132,14 +132,10 @@ class Shape:
     def half_width(self) -> np.ndarray:
         return 0.5 * (self.upper - self.lower)
 
-    @property
-    def floor(self) -> float:
-        return FLOOR * self.scale
-
     @cached_property
     def targets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The polish's target intervals of the entries (`_targets`), computed once."""
-        return _targets(self.lower, self.upper, self.floor)
+        return _targets(self.lower, self.upper, FLOOR * self.scale)
 
     def scales(self, modal_mass: float) -> tuple[float, float] | None:
         """The scales the model's shape (normalized to 1 at the reference entry) may take: any
@@ -475,8 +471,8 @@ def misses(contract: Admissible, maps: Sequence) -> list[Miss]:
             q = np.concatenate([[1.0], ratios])
             scales = shape.scales(mass[0])
             miss, s = scaling_miss(q, shape.lower, shape.upper, scale=True, scales=scales)
-            inside = scaling_miss(q, shape.measured_lower - shape.floor, shape.measured_upper + shape.floor,
-                                  scales=scales) == 0
+            floor = FLOOR * shape.scale
+            inside = scaling_miss(q, shape.measured_lower - floor, shape.measured_upper + floor, scales=scales) == 0
             near = cluster(m.frequencies.omega_all, shape.mode - 1)
             text = f"{shape.label}: the model shape at its best scale" + (
                 "" if near.size == 1 else f" (best combination of the repeated modes {near[0] + 1}-{near[-1] + 1})")
