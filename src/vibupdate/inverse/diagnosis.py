@@ -1,12 +1,9 @@
 """Which data conflict: leave-one-group-out after an answer that does not fit the data.
 
-When the answer fails a check of its fit to the data (`MISFIT_CHECKS`), each group of the data
-that one fault corrupts (`data_groups`) is screened in one bounded Gauss-Newton step without it
-(`_predicted`); the first `MAX_GROUPS` of that order are refitted without their group (polished
-from the answer, verified on the data kept but for the relaxation's consistency) within
-`MAX_SECONDS`, and ranked verified first, then by the polish objective on the data kept. The
-update is then run again in full without the top group. The groups, the ranking and the cost:
-docs/polish-and-verification.md, section 7.8.
+Each group of the data that one fault corrupts (`data_groups`) is screened in one bounded
+Gauss-Newton step without it (`_predicted`); the best `MAX_GROUPS` of that order are refitted
+without their group within `MAX_SECONDS` and ranked, and the update is run again without the
+top one. The groups, the ranking and the cost: docs/polish-and-verification.md, section 7.8.
 """
 
 from __future__ import annotations
@@ -31,15 +28,11 @@ from vibupdate.inverse.data_map import data_map
 from vibupdate.inverse.verify import VerifyOptions, verify
 
 
-#: Failed checks that say the model does not fit the data: only these start a diagnosis. A
-#: failure of ``mode_order``, ``zero_order`` or ``correspondence`` alone is a question of which
-#: model mode or zero a datum is, which its message already names; removing data does not
-#: answer it. (``consistency`` is a warning, never a failed error: it is not among them.)
+#: Failed checks that say the model does not fit the data: only these start a diagnosis (not
+#: a question of which model mode or zero a datum is: docs section 7.8).
 MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "improvement"})
-#: Groups refitted at most, the best of the one-step screening (the rest are named as untried).
-#: A group whose removal leaves a fit does so to first order at the answer, so it leads that
-#: order; the refits rank the leaders by what a whole polish reaches (`benchmarks/RESULTS.md`,
-#: "The diagnosis screened in one step").
+#: Groups refitted at most, the best of the one-step screening (the rest are named as untried;
+#: `benchmarks/RESULTS.md`, "The diagnosis screened in one step").
 MAX_GROUPS = 3
 #: Seconds of screening at most; the group under way is finished.
 MAX_SECONDS = 120.0
