@@ -1,9 +1,10 @@
 """Which data conflict: leave-one-group-out after an answer that does not fit the data.
 
-Each group of the data that one fault corrupts (`data_groups`) is screened in one bounded
-Gauss-Newton step without it (`_predicted`); the best `MAX_GROUPS` of that order are refitted
-without their group within `MAX_SECONDS` and ranked, and the update is run again without the
-top one. The groups, the ranking and the cost: docs/polish-and-verification.md, section 7.8.
+After a failed check of the fit (`MISFIT_CHECKS`), each group of the data that one fault
+corrupts (`data_groups`) is screened in one bounded Gauss-Newton step without it
+(`_predicted`); the best `MAX_GROUPS` are refitted without their group within `MAX_SECONDS`
+and ranked, and the update is run again without the top one. The groups, the ranking and the
+cost: docs/polish-and-verification.md, section 7.8.
 """
 
 from __future__ import annotations
@@ -346,7 +347,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
     for k, (_, share, group, kept) in enumerate(candidates[:max_groups], start=1):
         if time.perf_counter() - t0 > max_seconds:
             say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s; not screened: "
-                + "; ".join(c[2].label for c in candidates[k - 1:max_groups]))
+                + "; ".join(g.label for _, _, g, _ in candidates[k - 1:max_groups]))
             break
         try:
             trial = _screen(kept, group, share, xbar, polish, verification)
@@ -365,7 +366,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
         best = update(kept, formulation=formulation, solver=solver, polish=polish, verification=verification,
                       probe=False)
     screened = {t.group.key for t in trials}
-    untried = tuple(c[2].label for c in candidates if c[2].key not in screened)
+    untried = tuple(g.label for _, _, g, _ in candidates if g.key not in screened)
     diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(untried), len(candidates),
                           best, time.perf_counter() - t0, time.perf_counter() - t1, untried)
     say(diagnosis.message() + f" ({diagnosis.seconds:.1f} s)")
