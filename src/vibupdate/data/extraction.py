@@ -521,7 +521,8 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
         tiny = 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True)
         var = variance_components(np.maximum(var / scales[:, None] ** 2, tiny), np.abs(F) ** 2, groups,
                                    REPEAT_LINES)[0]
-    stab = stabilization_diagram(x, F, orders, max_damping, 1.0 / np.sqrt(noise_from_differences(F) if var is None else var))
+    line_var = noise_from_differences(F) if var is None else var
+    stab = stabilization_diagram(x, F, orders, max_damping, 1.0 / np.sqrt(line_var))
     wn, zeta, counts = stable_poles(stab, min_stable)
     noise_at = _LastResult(lambda wn, zeta: residual_variance(x, F, wn, zeta, groups, window=window))
     if wn.size:

@@ -1,8 +1,9 @@
 """Numerical kernels of `vibupdate.data.extraction` (no ``__all__``: the names without an
-underscore are the units its tests check and its sibling modules use, not a promised surface): the modal-model basis, vector
-fitting, the stabilization check, variable projection of the poles, noise estimates and
-pole selection. Frequencies are normalized by the band's top (``x = omega / omega_max``);
-FRFs by their RMS. The method is described in `vibupdate.data.extraction`.
+underscore are the units its tests check and its sibling modules use, not a promised
+surface): the modal-model basis, vector fitting, the stabilization check, variable projection
+of the poles, noise estimates and pole selection. Frequencies are normalized by the band's
+top (``x = omega / omega_max``); FRFs by their RMS. The method is described in
+`vibupdate.data.extraction`.
 
 On long records (``benchmarks/extraction_cost.py``) the variable projection of the poles has
 an exact Jacobian (`projection`) and hands the optimizer the ``(2 n + 1)``-square triangle of
@@ -280,7 +281,8 @@ class _CompressedProjection:
 
     def _at(self, theta):
         if self.theta is None or not np.array_equal(theta, self.theta):
-            tops = [qr_triangle(np.column_stack([J, r])) for r, J in _projection_blocks(theta, *self.args, jacobian=True)]
+            tops = [qr_triangle(np.column_stack([J, r]))
+                    for r, J in _projection_blocks(theta, *self.args, jacobian=True)]
             self.theta, self.R = np.array(theta, copy=True), qr_triangle(np.vstack(tops))
         return self.R
 
