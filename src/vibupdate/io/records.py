@@ -341,8 +341,8 @@ class MacMatrix(_Row):
     dofs : tuple of str
         The measured DOFs the shapes (interval midpoints) are compared on.
     values : tuple of tuple of float or None
-        MAC (0 to 1), one row per measured shape and one column per declared model mode; None
-        where it could not be computed.
+        MAC, between zero and one: a row per measured shape, a column per declared model
+        mode; None where it could not be computed.
     extra : tuple of (str, object)
         Keys of the producer that the record does not name, with their values, written after
         the fields.
