@@ -28,7 +28,8 @@ Printed as one table, each count with its limit where the project states one:
 * lines of ``src/`` (``*.py``);
 * imports of private names by the tests: ``from vibupdate... import _name`` or an import of a
   private module (a dotted part starting with one underscore), at any depth of ``tests/``
-  (reported, no limit stated);
+  (reported, no limit stated); and the same between the modules of ``src/`` (limit 0: a name
+  two modules share is public in the module that owns it);
 * lines of each docs page (``README.md``, ``docs/*.md``, ``docs/fe/*.md``; limit 700), and,
   listed apart and without a limit, the notes under ``docs/notes/``.
 
@@ -51,7 +52,8 @@ DOCS_PAGE_LIMIT = 700
 #: The project's stated ceilings (benchmarks/RESULTS.md, "Codebase counts").
 LIMITS = {"public names": 60, "untyped UpdateResult fields": 0, "untyped RunResult fields": 0,
           "import circles": 0, "os._exit / gc.freeze / multiprocessing": 0,
-          "seed ids in comments/docstrings": 0, "'measured' beside a figure": 50}
+          "seed ids in comments/docstrings": 0, "'measured' beside a figure": 50,
+          "private names imported between src modules": 0}
 
 SEED = re.compile(r"\bseeds?\s+\d+|\bruns?\s+r\d+|\br\d{2,4}\b", re.IGNORECASE)
 #: "measured" as a report of a measurement, not as the adjective of measured data: followed by
@@ -318,23 +320,24 @@ def prose_counts(src: Path) -> dict[str, list[str]]:
     return hits
 
 
-# --- private names imported by the tests -------------------------------------------------
+# --- private names imported by the tests and between the modules of src/ -------------------
 
 def _private(dotted: str) -> bool:
     return any(part.startswith("_") and not part.startswith("__") for part in dotted.split("."))
 
 
-def private_imports(tests: Path) -> list[str]:
-    """``file:line: name`` of every import of a private ``vibupdate`` name or module in ``tests/``."""
+def private_imports(folder: Path) -> list[str]:
+    """``file:line: name`` of every import of a private ``vibupdate`` name or module in ``folder``
+    (``tests/`` or ``src/``)."""
     found = []
-    for path in sorted(tests.rglob("*.py")):
+    for path in sorted(folder.rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             names = []
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("vibupdate"):
                 names = [f"{node.module}.{a.name}" for a in node.names]
             elif isinstance(node, ast.Import):
                 names = [a.name for a in node.names if a.name.startswith("vibupdate")]
-            found += [f"{path.relative_to(tests.parent)}:{node.lineno}: {n}" for n in names if _private(n)]
+            found += [f"{path.relative_to(folder.parent)}:{node.lineno}: {n}" for n in names if _private(n)]
     return found
 
 
@@ -377,6 +380,7 @@ def main(argv: list[str] | None = None) -> int:
     hits = prose_counts(src)
     src_lines = sum(line_count(p) for p in python_files(src))
     private = private_imports(root / "tests") if (root / "tests").is_dir() else []
+    shared = private_imports(src)
     pages, notes = docs_pages(root)
 
     rows = [
@@ -398,6 +402,8 @@ def main(argv: list[str] | None = None) -> int:
         ("src/ lines", src_lines, f"{len(python_files(src))} files"),
         ("private names imported by tests", len(private),
          f"in {len({h.split(':')[0] for h in private})} test files"),
+        ("private names imported between src modules", len(shared),
+         ", ".join(h.split(": ")[1] for h in shared) or "-"),
     ]
     over = [(name, n) for name, n in pages if n > DOCS_PAGE_LIMIT]
     rows.append((f"docs pages over {DOCS_PAGE_LIMIT} lines", len(over),
@@ -423,7 +429,8 @@ def main(argv: list[str] | None = None) -> int:
         for title, items in (("__all__ lists", list_rows), ("process tricks", hits["tricks"]),
                              ("seed ids", hits["seeds"]), ("'measured' beside a figure", hits["measured"]),
                              ("of which measurement reports", hits["reports"]),
-                             ("private names imported by tests", private)):
+                             ("private names imported by tests", private),
+                             ("private names imported between src modules", shared)):
             print(f"\n{title}:")
             for item in items:
                 print(f"  {item}")

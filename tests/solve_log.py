@@ -67,7 +67,7 @@ def counting_solves(stages, default: str = "other"):
         return default
 
     log: list[Solve] = []
-    points = ((eigen._dense_modes, "modes"), (eigen._solve_sparse_modes, "modes"),
+    points = ((eigen.dense_modes, "modes"), (eigen._solve_sparse_modes, "modes"),
               (zeros.dense_zeros, "zeros"), (zeros._sparse_zeros, "zeros"),
               (sensitivities.adjunct_eigenpairs, "zeros"))
     wrapped = {}

@@ -123,6 +123,20 @@ def test_only_the_facade_names_a_public_surface():
     assert sorted(vibupdate.__all__) == sorted(vibupdate._WHERE)
 
 
+def test_the_facade_table_names_the_module_that_defines_each_name():
+    """``vibupdate._WHERE`` says where each public name is defined, not a module that imports it
+    (a name given to a function of another name, ``from_builder = affine_from_builder``, is
+    defined where it is assigned)."""
+    import vibupdate
+
+    wrong = {}
+    for name, module in vibupdate._WHERE.items():
+        obj = getattr(vibupdate, name)
+        if obj.__name__ == name and obj.__module__ != module:
+            wrong[name] = (module, obj.__module__)
+    assert wrong == {}
+
+
 def test_the_version_is_stated_once_in_the_project_metadata():
     """``vibupdate.__version__`` is the installed distribution's version (pyproject.toml), not a
     second literal in the source."""
@@ -163,7 +177,8 @@ def test_the_count_script_finds_what_it_counts_on_a_constructed_tree(tmp_path):
         '__all__ = ["b", "c"]\n'
         "# os._exit in a comment is no trick\n"
         "def f():\n    os._exit(0)\n")
-    (src / "inner" / "two.py").write_text("def g():\n    from vibupdate.inner import one\n")
+    (src / "inner" / "two.py").write_text("def g():\n    from vibupdate.inner import one\n"
+                                          "    from vibupdate.inner.one import _helper, f\n")
     tests = tmp_path / "tests"
     tests.mkdir()
     (tests / "test_x.py").write_text("from vibupdate.inner.one import _hidden, shown\nimport vibupdate._extras\n")
@@ -174,5 +189,15 @@ def test_the_count_script_finds_what_it_counts_on_a_constructed_tree(tmp_path):
     assert [h.rsplit(": ", 1)[1] for h in hits["tricks"]] == ["os._exit"]
     assert len(hits["seeds"]) == 1 and "r142" in hits["seeds"][0]
     assert len(hits["measured"]) == 1 and "1.5e-9" in hits["measured"][0]
+    assert [h.split(": ")[1] for h in counts.private_imports(tmp_path / "src")] == ["vibupdate.inner.one._helper"]
     assert [h.split(": ")[1] for h in counts.private_imports(tests)] == ["vibupdate.inner.one._hidden",
                                                                          "vibupdate._extras"]
+
+
+def test_no_module_imports_a_private_name_of_another():
+    """A name two modules share is public (no underscore) in the module that owns it; what
+    stays private is used by its own module alone (`codebase_counts.private_imports` on src/).
+    One import is left, inside ``inverse/`` (search's row type, used by update): it is named
+    here so that any other fails, and this list becomes empty when it is renamed."""
+    found = _counts_script().private_imports(PACKAGE.parent)
+    assert [h.split(": ")[1] for h in found] == ["vibupdate.inverse.search._Row"]

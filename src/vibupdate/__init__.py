@@ -16,11 +16,11 @@ import importlib
 #: numpy, scipy and the solver until something asks for them.
 _WHERE = {
     "AffineModel": "vibupdate.model.affine",
-    "antiresonances": "vibupdate.modal.analysis",
+    "antiresonances": "vibupdate.modal.zeros",
     "flexible_modes": "vibupdate.modal.analysis",
     "mac": "vibupdate.modal.analysis",
-    "modes": "vibupdate.modal.analysis",
-    "receptance": "vibupdate.modal.analysis",
+    "modes": "vibupdate.modal.eigen",
+    "receptance": "vibupdate.modal.receptance",
     "Assembly": "vibupdate.model.assembly",
     "System": "vibupdate.model.assembly",
     "Antiresonance": "vibupdate.data.measured",
@@ -36,7 +36,7 @@ _WHERE = {
     "Status": "vibupdate.inverse.status",
     "UpdateResult": "vibupdate.inverse.update",
     "update": "vibupdate.inverse.update",
-    "VerifyOptions": "vibupdate.inverse.verify",
+    "VerifyOptions": "vibupdate.inverse.admissible",
     "Case": "vibupdate.io.case_types",
     "DampingOptions": "vibupdate.io.case_types",
     "load_case": "vibupdate.io.case",

@@ -113,6 +113,13 @@ def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
     assert found.record()["untried_groups"] == list(found.untried_groups)
     # the one-step screening puts the biased DOF among the groups refitted
     assert found.worst.key == "A/dof/y3"
+    # on the time limit no group is refitted; the ones it would have refitted are named
+    lines = []
+    late = diagnose([cfg], result, max_seconds=1e-9, progress=lines.append)
+    assert not late.trials and late.best is None and late.untried == 13 and late.worst is None
+    stopped = [line for line in lines if "on the limit of 1e-09 s" in line]
+    assert len(stopped) == 1 and found.trials[0].group.label in stopped[0].split("not screened: ")[1]
+    assert late.message() == "diagnosis: no group of the data could be screened"
     with pytest.raises(ValueError, match="max_groups >= 1"):
         diagnose([cfg], result, max_groups=0)
 

@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval, antiresonances, modes
-from vibupdate.ranges.certify import enclosure
+from vibupdate.ranges.certify import certified_ranges, enclosure
 from vibupdate.ranges.consistent import consistent_set, inner_ranges, is_consistent, witness
 from vibupdate.ranges.identifiability import parameter_ranges
 from vibupdate.ranges.lp_relaxation import (clarabel_model, highs_model, lift, lifted_point, relax, safe_bound,
@@ -193,7 +193,7 @@ def test_the_answer_is_inside_when_the_windows_are_widened_to_hold_it():
     answer = truth + np.array([0.01, -0.02])
     cs = consistent_set([noisy], include=answer)
     assert is_consistent(cs, answer)
-    r = parameter_ranges([noisy], answer, method="certified", seconds=10.0)
+    r = certified_ranges([noisy], answer, seconds=10.0)
     assert inside(r, model, answer)
 
 
@@ -273,10 +273,10 @@ def test_inconsistent_data_give_a_certified_empty_set():
     assert "empty" in r.message
 
 
-def test_unknown_method_and_bad_budget_are_clear_errors():
+def test_parameter_ranges_has_one_return_type_and_bad_budget_is_a_clear_error():
     model, truth, cfg = chain_data(["k1", "m2"], [0.5, 0.5])
-    with pytest.raises(ValueError, match="method must be 'linearized' or 'certified', got 'exact'"):
-        parameter_ranges([cfg], truth, method="exact")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'method'"):
+        parameter_ranges([cfg], truth, method="certified")     # the certified ranges: certified_ranges
     with pytest.raises(ValueError, match="time budget must be >= 0 seconds, got -1"):
         enclosure(consistent_set([cfg]), seconds=-1)
     with pytest.raises(ValueError, match="frequency_tolerance must be in"):

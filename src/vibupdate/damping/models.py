@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vibupdate.damping.series import _check_exponents, modal_damping
+from vibupdate.damping.series import check_exponents, modal_damping
 from vibupdate.modal.analysis import DENSE_LIMIT, modes
 from vibupdate.modal.eigen import massless_dofs
 
@@ -95,7 +95,7 @@ def caughey_matrix(M, K, exponents, beta, *, spectrum=None) -> np.ndarray:
     ndarray, shape (n, n)
         ``C = M Phi diag(sum_h beta_h w^(2h)) Phi^T M`` (N s/m), symmetric.
     """
-    Y = _check_exponents(exponents)
+    Y = check_exponents(exponents)
     omega, Phi = modes(M, K) if spectrum is None else spectrum
     if np.any(omega <= 0) and np.any(Y < 0):
         raise ValueError("a Caughey series with negative exponents needs a model without rigid-body modes")

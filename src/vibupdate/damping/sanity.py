@@ -69,7 +69,7 @@ def _hz_band(low: float, high: float) -> str:
     return f"{low / (2 * np.pi):.4g}-{high / (2 * np.pi):.4g} Hz"
 
 
-def _checked_frequencies(configurations, xbar, freqs=None) -> list[np.ndarray]:
+def checked_frequencies(configurations, xbar, freqs=None) -> list[np.ndarray]:
     """Natural frequencies (rad/s) of each configuration's updated model checked by
     `damping_sanity`: every mode where C is exported (up to DENSE_LIMIT DOFs; the
     ``spectrum`` of ``freqs`` when given); above, C is kept as its law and the modes checked
@@ -105,7 +105,7 @@ def damping_sanity(fit: DampingFit, configurations, xbar, name: str, *, frequenc
     name : str
         What the fit is, for the messages (``"Caughey fit"``).
     frequencies : list of ndarray, optional
-        The configurations' natural frequencies from `_checked_frequencies` (computed when
+        The configurations' natural frequencies from `checked_frequencies` (computed when
         None); passed in to check several fits on one set of eigen-solves.
 
     Returns
@@ -122,7 +122,7 @@ def damping_sanity(fit: DampingFit, configurations, xbar, name: str, *, frequenc
                    "1.5 x the highest measured frequency); the damping model is not physical there")
     per_config, highest = [], top
     if frequencies is None:
-        frequencies = _checked_frequencies(configurations, xbar)
+        frequencies = checked_frequencies(configurations, xbar)
     for cfg, omega in zip(configurations, frequencies):
         highest = max(highest, float(omega[-1]))
         positive = omega > 0

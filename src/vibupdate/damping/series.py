@@ -77,7 +77,8 @@ def modal_damping(exponents, beta, omega) -> np.ndarray:
     return _theta(np.atleast_1d(omega), exponents) @ np.asarray(beta, dtype=float)
 
 
-def _check_exponents(exponents) -> np.ndarray:
+def check_exponents(exponents) -> np.ndarray:
+    """The Caughey exponents as a float array; a ValueError unless finite, distinct and not empty."""
     Y = np.asarray(exponents, dtype=float).ravel()
     if Y.size == 0 or not np.all(np.isfinite(Y)):
         raise ValueError(f"Caughey exponents must be a non-empty set of finite numbers, got {list(exponents)!r}")
@@ -128,7 +129,7 @@ def fit_caughey(omega, ratios, exponents, weights=None, labels=None, *,
         Under-determined systems (fewer ratios than exponents, or rank deficient) get the
         minimum-norm solution of the column-scaled system, with a warning and a note.
     """
-    Y = _check_exponents(exponents)
+    Y = check_exponents(exponents)
     omega = np.asarray(omega, dtype=float).ravel()
     xi = np.asarray(ratios, dtype=float).ravel()
     if omega.shape != xi.shape or omega.size == 0:

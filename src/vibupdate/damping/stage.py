@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vibupdate.damping.sanity import _checked_frequencies, damping_sanity
+from vibupdate.damping.sanity import checked_frequencies, damping_sanity
 from vibupdate.damping.series import DampingFit, DampingWarning, fit_caughey
 
 
@@ -193,7 +193,7 @@ def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DampingWarning)
         rayleigh = fit_caughey(omega, ratios, [0.0, 1.0], None, labels)
-    frequencies = _checked_frequencies(configurations, xbar, freqs)  # one spectrum per configuration for both checks
+    frequencies = checked_frequencies(configurations, xbar, freqs)  # one spectrum per configuration for both checks
     checks = (damping_sanity(caughey, configurations, xbar, f"Caughey fit (Y = {caughey.exponents.tolist()})",
                              frequencies=frequencies)
               + damping_sanity(rayleigh, configurations, xbar, "Rayleigh baseline", frequencies=frequencies))

@@ -13,7 +13,7 @@ receptances over the fit band (by default to `FIT_BAND_FACTOR` times the band's 
 
    covariance of ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
 2. **Zeros and shapes.** Residues refit with the poles fixed; antiresonances are the real zeros
-   of the fitted undamped receptance (`vibupdate.data._zeros`), shapes a rank-one fit of the
+   of the fitted undamped receptance (`vibupdate.data.fitted_zeros`), shapes a rank-one fit of the
    modal constants ``m_ir = Re(2 j w_d A_ir)`` (`_shapes`).
 
 With ``window`` every pole term is its windowed expectation (`vibupdate.data.window`); the noise
@@ -33,12 +33,12 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from vibupdate.data.modal_fit import (_best_subset, _correlation_inflation, _linear_fit, _modal_basis,
-                                       _noise_from_differences, _noise_from_repeats, _real_stack, refine_poles,
-                                       _significant, split_residual, _stabilization, _stable_poles)
+from vibupdate.data.modal_fit import (best_subset, correlation_inflation, linear_fit, modal_basis,
+                                       noise_from_differences, noise_from_repeats, real_stack, refine_poles,
+                                       resolvable_poles, split_residual, stabilization_diagram, stable_poles)
 from vibupdate.data.noise import residual_variance, variance_components
 from vibupdate.data.window import window_for
-from vibupdate.data._zeros import _local_zero, _zero_se, _zero_snr, _zeros_of_all
+from vibupdate.data.fitted_zeros import local_zero, zero_se, zero_snr, zeros_of_all
 from vibupdate.data.frf import KINDS, FRFSet
 from vibupdate.data.residue_kind import check_fitted_kind
 
@@ -50,7 +50,7 @@ REPEAT_LINES = 9            # with repeats, the smooth noise component is locall
 SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the largest entry
 MISFIT_QUALITY = 2.0        # notes: an FRF fitted to a worse quality figure misses its data
 NARROW_LINES = 4.0          # notes: a mode whose half-power bandwidth spans fewer lines
-#: A zero whose signal-to-noise ratio (`vibupdate.data._zeros._zero_snr`) is under this is left
+#: A zero whose signal-to-noise ratio (`vibupdate.data.fitted_zeros.zero_snr`) is under this is left
 #: out unless kept: the receptance lies a tenth of the noise deep across it (at raised noise
 #: floors true zeros sink with the noise's: `benchmarks/RESULTS.md`, "Zeros at the noise floor,
 #: measured where they are located").
@@ -222,7 +222,7 @@ class Extraction:
         decay = 1.0 / (self.window_tau * self.fit_band[1]) if self.window_tau else 0.0
         window = None if self.window in ("none", "force") else Window(
             self.window, self.record_s * self.fit_band[1], ORDERS[self.measured], decay)
-        return (_modal_basis(x, xn, zeta, damped, window) @ self.coefficients.T).T * self.scales[:, None]
+        return (modal_basis(x, xn, zeta, damped, window) @ self.coefficients.T).T * self.scales[:, None]
 
     def notes(self, first_mode: int = 1) -> list:
         """What a user should know before using this extraction, as sentences.
@@ -411,7 +411,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         Default: from ``band``'s bottom to ``FIT_BAND_FACTOR`` (2) times its top, within the
         data (module docstring: modes just above the band shape its antiresonances).
     local_zeros : bool
-        Refine each antiresonance on the lines around it (`_local_zero`); default true.
+        Refine each antiresonance on the lines around it (`local_zero`); default true.
     window : {None, "none", "hann", "rectangular", "exponential", "force"}
         The data window of the FRF estimate (random excitation, ``H1`` record by record, one
         record = one over the line spacing). When given, the fit models the window's leakage
@@ -514,19 +514,20 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     orders = list(orders) if orders is not None else list(range(2, 11))
     if len(orders) < min_stable:
         raise ValueError(f"{len(orders)} model orders given, fewer than min_stable = {min_stable}")
-    var = _noise_from_repeats(frfs.H)
+    var = noise_from_repeats(frfs.H)
     groups = [c for _, c in frfs.pairs]  # the proportional noise comes with the force: shared per excitation
     noise = "repeats" if var is not None else "residual"
     if var is not None:  # floored: identical repeats (noise-free data) would give infinite weights
         tiny = 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True)
         var = variance_components(np.maximum(var / scales[:, None] ** 2, tiny), np.abs(F) ** 2, groups,
                                    REPEAT_LINES)[0]
-    stab = _stabilization(x, F, orders, max_damping, 1.0 / np.sqrt(_noise_from_differences(F) if var is None else var))
-    wn, zeta, counts = _stable_poles(stab, min_stable)
+    line_var = noise_from_differences(F) if var is None else var
+    stab = stabilization_diagram(x, F, orders, max_damping, 1.0 / np.sqrt(line_var))
+    wn, zeta, counts = stable_poles(stab, min_stable)
     noise_at = _LastResult(lambda wn, zeta: residual_variance(x, F, wn, zeta, groups, window=window))
     if wn.size:
         var = var if var is not None else noise_at(wn, zeta)
-        wn, zeta, counts, peak = _significant(x, F, wn, zeta, counts, var, window=window)
+        wn, zeta, counts, peak = resolvable_poles(x, F, wn, zeta, counts, var, window=window)
     in_band = (wn >= x_report[0]) & (wn <= x_report[1])
     if not np.any(in_band):
         raise ValueError(f"no stable mode found in the band {report[0] / 2 / math.pi:.6g}-"
@@ -583,12 +584,12 @@ def _choose_modes(x, F, wn, zeta, peak, in_band, n_modes, window=None):
     """Indices of the ``n_modes`` poles in the band whose model fits best, the poles outside it
     always fitted; one pole per split peak (two within 2 %) when enough single peaks remain."""
     cand, fixed = np.nonzero(in_band)[0], np.nonzero(~in_band)[0]
-    keep = cand[_best_subset(x, F, wn, zeta, peak, n_modes, cand, fixed, window=window)]
+    keep = cand[best_subset(x, F, wn, zeta, peak, n_modes, cand, fixed, window=window)]
     if np.any(np.diff(wn[keep]) < 0.02 * wn[keep][1:]):  # a split peak: one pole per peak
         single = np.array([k for k in cand if not np.any((np.abs(wn[cand] - wn[k]) < 0.02 * wn[k])
                                                          & (peak[cand] > peak[k]))], dtype=int)
         if single.size >= n_modes:
-            keep = single[_best_subset(x, F, wn, zeta, peak, n_modes, single, fixed, window=window)]
+            keep = single[best_subset(x, F, wn, zeta, peak, n_modes, single, fixed, window=window)]
     return keep
 
 
@@ -612,7 +613,7 @@ class _Fitted:
 
 def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, keep_noisy=False):
     """`ExtractedZero` of every FRF from its fitted zeros: the global zero, or the local refit's
-    (`_local_zero`) when its standard error is the smaller; and, apart unless ``keep_outer``,
+    (`local_zero`) when its standard error is the smaller; and, apart unless ``keep_outer``,
     those below the lowest or above the highest fitted pole (`Extraction.outer_zeros`; their
     ``index`` still counts them, so the others keep theirs)."""
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
@@ -621,15 +622,15 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
     for pair, f, v, coef, cov, noise_var, fitted in found:
         index = 0
         for z in fitted:
-            se = _zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)[0]
-            local = _local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
+            se = zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)[0]
+            local = local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
             if local is not None and local[1] < se:
                 z, se = local
             half = max(zq * se, FREQUENCY_FLOOR * z)
             if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
                 continue  # not located within the band (a residual-term artefact near an edge)
             index += 1
-            snr = _zero_snr(z, fit.x, Phi @ coef, noise_var, fit.wn)
+            snr = zero_snr(z, fit.x, Phi @ coef, noise_var, fit.wn)
             found_zero = ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
                                        (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w)), snr)
             if not keep_outer and not lowest <= z <= highest:
@@ -661,18 +662,18 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
     x, F, var, scales, wn, zeta, scale_w = fit.x, fit.F, fit.var, fit.scales, fit.wn, fit.zeta, fit.scale_w
     n = wn.size
-    Phi = _modal_basis(x, wn, zeta, window=fit.window)
+    Phi = modal_basis(x, wn, zeta, window=fit.window)
     coefs, found, quality, constants, const_se = [], [], [], [], []
     # the quality figure's noise: the repeats' scatter, or without repeats the model-free
     # second-difference estimate (the residual's own would make the figure about 1, or below)
-    reference = var if noise == "repeats" else _noise_from_differences(F)
+    reference = var if noise == "repeats" else noise_from_differences(F)
     for k, (pair, f, v) in enumerate(zip(frfs.pairs, F, var)):
         w = 1.0 / np.sqrt(v)
-        coef, res = _linear_fit(Phi, f, w)
-        A = _real_stack(Phi, w)
+        coef, res = linear_fit(Phi, f, w)
+        A = real_stack(Phi, w)
         # weighted residual components have variance 1/2 (complex noise of variance sigma^2)
         chi2 = 2.0 * float(res @ res) / max(res.size - coef.size, 1)
-        tau = _correlation_inflation(split_residual(res, (1, x.size)))
+        tau = correlation_inflation(split_residual(res, (1, x.size)))
         cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2) * tau
         coefs.append(coef)
         miss = np.abs(f - Phi @ coef)[fit.inside] ** 2
@@ -684,7 +685,7 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
         found.append((pair, f, v, coef, cov, reference[k]))
     # the FRFs share the poles: their zeros are searched together, one grid for all
-    found = [(*k, z) for k, z in zip(found, _zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
+    found = [(*k, z) for k, z in zip(found, zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
     zeros, outer, noisy = _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer_zeros, keep_noisy_zeros)
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)

@@ -1,8 +1,9 @@
 """Numerical kernels of `vibupdate.data.extraction` (no ``__all__``: the names without an
-underscore are the units its tests check, not a promised surface): the modal-model basis, vector
-fitting, the stabilization check, variable projection of the poles, noise estimates and
-pole selection. Frequencies are normalized by the band's top (``x = omega / omega_max``);
-FRFs by their RMS. The method is described in `vibupdate.data.extraction`.
+underscore are the units its tests check and its sibling modules use, not a promised
+surface): the modal-model basis, vector fitting, the stabilization check, variable projection
+of the poles, noise estimates and pole selection. Frequencies are normalized by the band's
+top (``x = omega / omega_max``); FRFs by their RMS. The method is described in
+`vibupdate.data.extraction`.
 
 On long records (``benchmarks/extraction_cost.py``) the variable projection of the poles has
 an exact Jacobian (`projection`) and hands the optimizer the ``(2 n + 1)``-square triangle of
@@ -86,7 +87,7 @@ def _undamped_basis(x, xn, zeta) -> np.ndarray:
     ``-2 w_d / (w_n^2 - x^2)`` on Im A (its real modal constant ``Re(2 j w_d A)``); the
     pseudo-mode and the residual terms (which stand for modes outside the band, real in it)
     keep the real part of their damped columns. Built in real arithmetic: the zeros are
-    searched on twenty points per line (`vibupdate.data._zeros`)."""
+    searched on twenty points per line (`vibupdate.data.fitted_zeros`)."""
     x = np.asarray(x, dtype=float)
     a = _poles(np.asarray(xn), np.asarray(zeta))
     n = a.size
@@ -99,7 +100,7 @@ def _undamped_basis(x, xn, zeta) -> np.ndarray:
     return cols
 
 
-def _undamped_derivatives(x, xn, zeta):
+def undamped_derivatives(x, xn, zeta):
     """Exact derivatives of `_undamped_basis` at ``x`` (n_x,): ``d/dx`` of every column,
     shape (n_x, 2 n + 4), and of each mode's column ``-2 w_n s / (w_n^2 - x^2)``
     (``s = sqrt(1 - zeta^2)``) with respect to its ``w_n`` and ``zeta``, each (n_x, n)."""
@@ -120,13 +121,13 @@ def _undamped_derivatives(x, xn, zeta):
     return d_x, d_wn, d_zeta
 
 
-def _modal_basis(x, xn, zeta, damped: bool = True, window=None) -> np.ndarray:
+def modal_basis(x, xn, zeta, damped: bool = True, window=None) -> np.ndarray:
     """Stage-2 columns: `basis` (damped, through ``window`` when given) or `_undamped_basis`
     (the structure's own receptance: never windowed)."""
     return basis(x, xn, zeta, window) if damped else _undamped_basis(x, xn, zeta)
 
 
-def _real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:
+def real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:
     """``[Re Phi; Im Phi]`` with each line weighted by ``w``, (2 n_freq, n_cols): written in
     place (no temporaries: these are the largest arrays of an extraction)."""
     n = Phi.shape[0]
@@ -136,9 +137,9 @@ def _real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:
     return out
 
 
-def _linear_fit(Phi, h, w):
+def linear_fit(Phi, h, w):
     """Weighted linear LS of h (n_freq,) on Phi; returns coefficients and weighted residual."""
-    A = _real_stack(Phi, w)
+    A = real_stack(Phi, w)
     b = np.concatenate([h.real * w, h.imag * w])
     coef = scipy.linalg.lstsq(A, b, lapack_driver="gelsy")[0]
     return coef, b - A @ coef
@@ -182,7 +183,8 @@ def _vector_fit(x, F, n_pairs: int, n_iter: int = 12, W=None) -> np.ndarray:
     return np.sort_complex(a)
 
 
-def _stabilization(x, F, orders, max_damping, W=None):
+def stabilization_diagram(x, F, orders, max_damping, W=None):
+    """``(order, w_n, zeta)`` per model order: the in-band poles of damping below ``max_damping``."""
     out = []
     for n in orders:
         a = _vector_fit(x, F, n, W=W)
@@ -192,7 +194,7 @@ def _stabilization(x, F, orders, max_damping, W=None):
     return out
 
 
-def _stable_poles(stab, min_stable):
+def stable_poles(stab, min_stable):
     """Poles that recur in >= min_stable orders, each taken from the highest order that has it."""
     keep, counts = [], []
     for _, wn, zeta in reversed(stab):
@@ -228,7 +230,7 @@ def projection(theta, x, F, W, window=None, jacobian: bool = False):
 
     ``theta`` (2 n,): ``w_n`` then ``zeta`` of the modes; ``F``, ``W`` (n_pairs, n_freq):
     FRFs and weights ``1/sigma`` per line. Per FRF, with ``A`` the weighted real basis
-    (`_real_stack`), ``b`` the weighted FRF and ``c`` its least-squares coefficients (one
+    (`real_stack`), ``b`` the weighted FRF and ``c`` its least-squares coefficients (one
     pivoted QR ``A = Q R``), the residual is ``r = b - A c`` and its derivative (Golub and
     Pereyra, SIAM J. Numer. Anal. 10, 1973)::
 
@@ -256,7 +258,7 @@ def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
     if jacobian:   # the pole columns' derivatives, (n_freq, 4 n): shared by every FRF
         d_theta = np.hstack(basis_derivatives(x, xn, zeta, window))
     for f, w in zip(F, W):
-        A = _real_stack(Phi, w)
+        A = real_stack(Phi, w)
         b = np.concatenate([f.real * w, f.imag * w])
         Q, R, piv = _weighted_qr(A)
         c = np.zeros(A.shape[1])
@@ -279,8 +281,9 @@ class _CompressedProjection:
 
     def _at(self, theta):
         if self.theta is None or not np.array_equal(theta, self.theta):
-            tops = [_triangle(np.column_stack([J, r])) for r, J in _projection_blocks(theta, *self.args, jacobian=True)]
-            self.theta, self.R = np.array(theta, copy=True), _triangle(np.vstack(tops))
+            tops = [qr_triangle(np.column_stack([J, r]))
+                    for r, J in _projection_blocks(theta, *self.args, jacobian=True)]
+            self.theta, self.R = np.array(theta, copy=True), qr_triangle(np.vstack(tops))
         return self.R
 
     def residual(self, theta):
@@ -290,7 +293,7 @@ class _CompressedProjection:
         return self._at(theta)[:, :-1]
 
 
-def _triangle(A):
+def qr_triangle(A):
     """The ``R`` of a QR of ``A`` (m >= n), (n, n)."""
     return scipy.linalg.qr(A, mode="r", overwrite_a=True, check_finite=False)[0][:A.shape[1]]
 
@@ -301,7 +304,7 @@ def _projection_jacobian(Q, R, piv, d_theta, c, r, w):
     ``piv`` from `_weighted_qr`; ``c`` the coefficients, ``r`` the weighted residual, ``w`` the
     weights."""
     n = d_theta.shape[1] // 4
-    dA = _real_stack(d_theta, w)                                      # dA/dtheta's nonzero columns
+    dA = real_stack(d_theta, w)                                      # dA/dtheta's nonzero columns
     even = np.r_[c[0:2 * n:2], c[0:2 * n:2]]
     odd = np.r_[c[1:2 * n:2], c[1:2 * n:2]]
     dAc = dA[:, 0::2] * even + dA[:, 1::2] * odd                     # (dA/dtheta_k) c, (2 n_freq, 2 n)
@@ -339,7 +342,7 @@ def refine_poles(x, F, wn, zeta, var, weighted: bool, window=None):
     JtJ_inv = np.linalg.pinv(JtJ)
     cov = JtJ_inv @ JtVJ @ JtJ_inv
     chi2 = float(np.sum(r**2)) / max(r.size - theta0.size, 1)
-    tau = _correlation_inflation(split_residual(r, F.shape) / math.sqrt(2.0))  # over sigma per line
+    tau = correlation_inflation(split_residual(r, F.shape) / math.sqrt(2.0))  # over sigma per line
     return sol.x[:n], sol.x[n:], cov * max(1.0, chi2) * tau
 
 
@@ -352,7 +355,7 @@ def smooth(values: np.ndarray, width: int) -> np.ndarray:
     return np.array([np.convolve(v, kernel, mode="valid") for v in padded])
 
 
-def _noise_from_repeats(blocks) -> np.ndarray | None:
+def noise_from_repeats(blocks) -> np.ndarray | None:
     """Variance of the mean per line, shape (n_pairs, n_freq), unsmoothed (each line's an
     unbiased estimate with ``2 (R - 1)`` real degrees of freedom, ``R`` repeats); None unless
     every pair has >= 2 repeats."""
@@ -361,7 +364,7 @@ def _noise_from_repeats(blocks) -> np.ndarray | None:
     return np.array([np.sum(np.abs(h - h.mean(axis=0)) ** 2, axis=0) / (h.shape[0] - 1) / h.shape[0] for h in blocks])
 
 
-def _noise_from_differences(F, width: int = 21) -> np.ndarray:
+def noise_from_differences(F, width: int = 21) -> np.ndarray:
     """Noise variance per line from the data alone (no repeats, no model), shape (n_pairs, n_freq).
 
     The second difference ``F[k-1] - 2 F[k] + F[k+1]`` of a smooth FRF is small, of white
@@ -376,8 +379,8 @@ def _noise_from_differences(F, width: int = 21) -> np.ndarray:
     return np.maximum(var, 1e-12 * np.mean(np.abs(F) ** 2, axis=1, keepdims=True) + 1e-300)  # noise-free data
 
 
-def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandwidth: float = 0.1,
-                 min_lines: int = 5, window=None):
+def resolvable_poles(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandwidth: float = 0.1,
+                     min_lines: int = 5, window=None):
     """Drop poles the data cannot resolve: a half-power bandwidth ``2 zeta w_n`` below
     ``min_bandwidth`` line spacings; a response on the measured lines below ``threshold``
     times the FRF at the pole in every FRF (computational poles of a noise-free fit); or a
@@ -386,7 +389,7 @@ def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandw
     largest sampled response."""
     spacing = float(np.median(np.diff(x)))
     Phi = basis(x, wn, zeta, window)
-    coef = np.array([_linear_fit(Phi, f, np.ones(x.size))[0] for f in F])
+    coef = np.array([linear_fit(Phi, f, np.ones(x.size))[0] for f in F])
     n = wn.size
     own = np.abs(Phi[:, 0:2 * n:2][None] * coef[:, None, 0:2 * n:2]
                  + Phi[:, 1:2 * n:2][None] * coef[:, None, 1:2 * n:2])                 # (n_pairs, n_freq, n)
@@ -398,7 +401,7 @@ def _significant(x, F, wn, zeta, counts, var, threshold: float = 1e-3, min_bandw
     return wn[keep], zeta[keep], [c for c, k in zip(counts, keep) if k], peak.max(axis=0)[keep]
 
 
-def _correlation_inflation(r: np.ndarray, max_lag: int = 200, stop: float = 0.05) -> float:
+def correlation_inflation(r: np.ndarray, max_lag: int = 200, stop: float = 0.05) -> float:
     """Variance inflation ``1 + 2 sum_k rho_k`` for residuals correlated along frequency.
 
     ``r`` (n_pairs, n_freq) complex, normalized by the noise; ``rho_k`` the pooled
@@ -417,7 +420,7 @@ def _correlation_inflation(r: np.ndarray, max_lag: int = 200, stop: float = 0.05
     return 1.0 + 2.0 * total
 
 
-def _best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: int = 400, window=None):
+def best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: int = 400, window=None):
     """Positions in ``candidates`` (indices into ``wn``) of the ``n_modes`` poles whose modal
     model, with the ``fixed`` poles always in it, fits the FRFs best (unweighted); by peak
     response when there are too many subsets to try."""

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from vibupdate.data.modal_fit import _linear_fit, _real_stack, _triangle, basis, basis_derivatives, smooth
+from vibupdate.data.modal_fit import linear_fit, real_stack, qr_triangle, basis, basis_derivatives, smooth
 
 SMOOTH_LINES = 21           # the additive component is locally constant over this many lines
 EM_ITERATIONS = 50          # EM iterations (from an even split: within 1 % of 1,000 iterations on the tests)
@@ -59,11 +59,11 @@ def leverage(x, xn, zeta, coef, W=None, window=None):
     def blocks():  # per FRF: the residue columns' basis and the projected pole columns
         for k, c in enumerate(coef):
             w = np.ones(x.size) if W is None else W[k]
-            Q = shared if W is None else _orthonormal(_real_stack(Phi, w))
-            D = _real_stack(pole_columns(derivatives, c), w)
+            Q = shared if W is None else _orthonormal(real_stack(Phi, w))
+            D = real_stack(pole_columns(derivatives, c), w)
             yield Q, D - Q @ (Q.T @ D)
 
-    R = _triangle(np.vstack([_triangle(D) for _, D in blocks()]))
+    R = qr_triangle(np.vstack([qr_triangle(D) for _, D in blocks()]))
     _, sv, Vt = np.linalg.svd(R)
     keep = sv > np.finfo(float).eps * max(R.shape) * sv[0]
     T = Vt[keep].T / sv[keep]
@@ -134,7 +134,7 @@ def residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W=
         A = np.vstack([Phi.real, Phi.imag])
         coef = scipy.linalg.lstsq(A, np.concatenate([F.real, F.imag], axis=1).T, lapack_driver="gelsy")[0].T
     else:
-        coef = np.array([_linear_fit(Phi, f, w)[0] for f, w in zip(F, W)])
+        coef = np.array([linear_fit(Phi, f, w)[0] for f, w in zip(F, W)])
     fitted = coef @ Phi.T
     r = F - fitted
     h = np.minimum(leverage(x, wn, zeta, coef, W, window), 0.99)

@@ -99,7 +99,7 @@ def rotation(p1, p2):
     return np.vstack([ex, ey, np.cross(ex, ey)])
 
 
-def _beam_section(d):
+def beam_section(d):
     """Area (m^2), Iy (vertical bending), Iz, J (m^4) of the ``b x d`` rectangle, ``d > b``; J by the
     thin-rectangle formula ``b^3 d / 3 - 0.21 b^4`` (linear in d; Iy is cubic)."""
     b = BEAM_WIDTH
@@ -147,7 +147,7 @@ class FrameModel:
         unknown = sorted(set(p) - set(NOMINAL))
         if unknown:
             raise ValueError(f"frame3d has no parameter {unknown[0]!r}; expected one of {', '.join(NOMINAL)}")
-        A, Iy, Iz, J = _beam_section(p["d_beam"])
+        A, Iy, Iz, J = beam_section(p["d_beam"])
         P = self._parts
         K = (p["E_col"] * P["Kc"] + p["k_base"] * P["Ks"]
              + p["E_beam"] * (A * P["KbA"] + Iy * P["KbIy"] + Iz * P["KbIz"] + J * P["KbJ"]))

@@ -10,7 +10,7 @@ combinations of rotations, which no massless-DOF condensation handles (`benchmar
 
 from __future__ import annotations
 
-from vibupdate.examples.frame3d import COLUMN, NOMINAL, PAYLOAD, POISSON, _beam_section, frame3d
+from vibupdate.examples.frame3d import COLUMN, NOMINAL, PAYLOAD, POISSON, beam_section, frame3d
 
 
 def build_frame(p: dict, size=(3, 2, 4)) -> None:
@@ -38,7 +38,7 @@ def build_frame(p: dict, size=(3, 2, 4)) -> None:
     for k, (a, b) in enumerate(frame.columns, start=1):
         ops.element("elasticBeamColumn", k, a, b, A, E, E / (2 * (1 + POISSON)), J, Iy, Iz, 1,
                     "-mass", float(p["rho_col"]) * A)   # lumped: see the module docstring
-    A, Iy, Iz, J = _beam_section(float(p["d_beam"]))
+    A, Iy, Iz, J = beam_section(float(p["d_beam"]))
     E = float(p["E_beam"])
     for k, (a, b) in enumerate(frame.beams, start=len(frame.columns) + 1):
         ops.element("elasticBeamColumn", k, a, b, A, E, E / (2 * (1 + POISSON)), J, Iy, Iz, 2)

@@ -5,26 +5,13 @@ verification options (`Admissible.of`):
 
     admissible = measurement interval + model-form tolerance + numerical floor
 
-* the **measurement interval** is the datum's own (a frequency's ``interval``, a shape entry's
-  bounds), else ``omega (1 -+ measurement_tolerance)``; a datum known exactly (an interval of
-  zero width) gets the stated half-width ``exact_half_width`` (relative, default 1e-6) instead:
-  exact data are met to that, not to the last digit of one eigen-solve;
-* the **model-form tolerance** widens it on both sides by ``natural_tolerance`` or
-  ``antiresonance_tolerance`` times the value, by ``shape_tolerance`` times the magnitude of the
-  shape's largest measured entry, by ``modal_mass_tolerance`` times the measured modal mass;
-* the **numerical floor** `FLOOR` (1e-8 of the same scale) covers the rounding of a
-  double-precision eigen-solve.
-
-A measured shape keeps its documented meaning: its entries are known up to one free scale per
-mode. The model's shape at the measured DOFs, scaled by the best scale ``s``, is held against
-the entries' intervals; ``s`` is eliminated (variable projection, `_scales`). A mass-normalized
-shape has its scale fixed besides: the modal mass at its largest entry is one more datum, with
-the interval the entry's bounds give (`vibupdate.data.measured.ShapeInterval.modal_mass_bounds`).
-
-Two uses, one set of intervals: the **polish** minimizes each value's distance outside its
-interval plus a small pull toward its midpoint, in half-widths (`residuals`; the rows in full:
-docs/polish-and-verification.md, section 7.2); the **verification** asks whether every value
-lies in its interval, a shape at some scale (`misses`).
+(a datum known exactly: its stated half-width ``exact_half_width``; the tolerances per kind:
+`VerifyOptions`; the floor: `FLOOR`). A measured shape is known up to one free scale per mode,
+eliminated by variable projection (`_scales`); a mass-normalized shape's scale is fixed
+besides, and its modal mass is one more datum. The polish minimizes each value's distance
+outside its interval plus a small pull toward its midpoint, in half-widths (`residuals`); the
+verification asks whether every value lies in its interval, a shape at some scale (`misses`).
+The rules in full: docs/polish-and-verification.md, sections 7.2 and 7.3.
 """
 
 from __future__ import annotations
@@ -145,14 +132,10 @@ class Shape:
     def half_width(self) -> np.ndarray:
         return 0.5 * (self.upper - self.lower)
 
-    @property
-    def floor(self) -> float:
-        return FLOOR * self.scale
-
     @cached_property
     def targets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The polish's target intervals of the entries (`_targets`), computed once."""
-        return _targets(self.lower, self.upper, self.floor)
+        return _targets(self.lower, self.upper, FLOOR * self.scale)
 
     def scales(self, modal_mass: float) -> tuple[float, float] | None:
         """The scales the model's shape (normalized to 1 at the reference entry) may take: any
@@ -181,8 +164,8 @@ class Miss:
     relative: float = 0.0    # of a frequency: its relative difference from the measured value
 
 
-def _widened(lo: float, hi: float, scale: float, tolerance: float, exact: float) -> tuple[float, float]:
-    extra = (exact * scale if hi - lo <= 0 else 0.0) + (tolerance + FLOOR) * scale
+def _widened(lo, hi, scale: float, tolerance: float, exact: float):
+    extra = np.where(hi - lo <= 0, exact * scale, 0.0) + (tolerance + FLOOR) * scale
     return lo - extra, hi + extra
 
 
@@ -216,7 +199,7 @@ class Admissible:
             for d in (*cfg.natural, *cfg.antiresonances):
                 anti = isinstance(d, Antiresonance)
                 t = o.antiresonance_tolerance if anti else o.natural_tolerance
-                lo, hi = d.interval or (d.omega * (1 - o.measurement_tolerance), d.omega * (1 + o.measurement_tolerance))
+                lo, hi = d.interval or tuple(d.omega * (1 + sign * o.measurement_tolerance) for sign in (-1, 1))
                 label = (f"configuration {cfg.name!r}, "
                          + (f"zero {d.index} of h_{d.response},{d.excitation}" if anti else f"mode {d.mode}"))
                 row.append(Datum(label, "antiresonance" if anti else "natural", d.omega, (lo, hi),
@@ -232,12 +215,10 @@ class Admissible:
                 order = [ref] + [d for d in bounds if d != ref]
                 scale = abs(nat.shape.midpoint[ref])
                 if len(order) >= 2:
-                    mlo = np.array([bounds[d][0] for d in order])
-                    mhi = np.array([bounds[d][1] for d in order])
-                    lo, hi = zip(*(_widened(a, b, scale, o.shape_tolerance, o.exact_half_width)
-                                   for a, b in zip(mlo, mhi)))
+                    mlo, mhi = np.array([bounds[d] for d in order], dtype=float).T
                     t = o.modal_mass_tolerance   # the modal mass's m (1 -+ t): the scale's 1 / sqrt of it
-                    srow.append(Shape(label, k, nat.mode, tuple(order), mlo, mhi, np.array(lo), np.array(hi), scale,
+                    srow.append(Shape(label, k, nat.mode, tuple(order), mlo, mhi,
+                                      *_widened(mlo, mhi, scale, o.shape_tolerance, o.exact_half_width), scale,
                                       (1.0 / np.sqrt(1.0 + t), 1.0 / np.sqrt(1.0 - t))
                                       if nat.shape.mass_normalized else None))
                 if nat.shape.mass_normalized:
@@ -282,12 +263,11 @@ class Admissible:
 
 
 def _rows(v, lo, hi, mid, h, pull=PULL):
-    """The polish's rows of values ``v`` (last axis: the data) against
-    ``[lo, hi]`` with midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``:
-    per datum two rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance
-    outside ``(v - clip(v, lo, hi)) / (pull h)``. Each row is linear in ``v`` where it is not
-    zero, so their sum of squares has a continuous gradient (one combined row's would jump at
-    an interval's end, where trust-region steps then crawl)."""
+    """The polish's rows of values ``v`` (last axis: the data) against ``[lo, hi]`` with
+    midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``: per datum two
+    rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance outside
+    ``(v - clip(v, lo, hi)) / (pull h)`` (two rows, not one, for a continuous gradient:
+    docs/polish-and-verification.md, section 7.2)."""
     out = v - np.clip(v, lo, hi)
     slope_in = np.broadcast_to(1.0 / h, np.shape(out))
     slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)
@@ -310,16 +290,11 @@ def _targets(lower, upper, floor) -> tuple[np.ndarray, ...]:
 def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: np.ndarray,
             pull: float) -> np.ndarray:
     """The scale ``s`` minimizing ``sum rows(s q)^2`` (`_rows`) of each row ``q`` of ``Q``
-    (shapes with the same number of entries; every array shape (m, k), ``Q[:, 0] = 1``), exact.
-
-    The sum is a strictly convex piecewise quadratic in ``s`` (the pull rows alone are), its
-    pieces ending where an entry ``s q_j`` crosses an interval end (``lo_j / q_j``,
-    ``hi_j / q_j``); its slope ``g(s) = sum_j q_j (s q_j - mid_j) / h_j^2 + q_j (s q_j -
-    clip(s q_j)) / (pull h_j)^2`` is continuous, increasing and linear on each piece. Where the
-    pull's own minimizer puts every entry inside, no distance row is active there: it is the
-    minimum (the common case near an answer). Elsewhere ``g`` is evaluated at every piece end
-    and at one point beyond each outer end, and its zero interpolated on the piece where it
-    changes sign (extrapolated on an outer piece): linear there, so exact."""
+    (shapes with the same number of entries; every array shape (m, k), ``Q[:, 0] = 1``), exact:
+    the pull's own minimizer where it puts every entry inside, else the zero of the slope
+    ``g(s) = sum_j q_j (s q_j - mid_j) / h_j^2 + q_j (s q_j - clip(s q_j)) / (pull h_j)^2``,
+    increasing and linear between the scales where an entry crosses an interval end, found on
+    the piece where it changes sign (docs/polish-and-verification.md, section 7.2)."""
     w_in, w_out = (1.0 / h) ** 2, (1.0 / (pull * h)) ** 2
     s = np.sum(w_in * Q * mid, axis=1) / np.sum(w_in * Q * Q, axis=1)
     V = s[:, None] * Q
@@ -335,7 +310,8 @@ def _scales(Q: np.ndarray, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, h: n
     v = at[:, :, None] * q[:, None, :]
     g = np.sum(q[:, None, :] * (w_in[:, None, :] * (v - mid[:, None, :])
                                 + w_out[:, None, :] * (v - np.clip(v, lo[:, None, :], hi[:, None, :]))), axis=2)
-    j = np.clip(np.sum(g < 0, axis=1), 1, at.shape[1] - 1)   # the zero lies in [at[j - 1], at[j]] or beyond an outer one
+    # the zero lies in [at[j - 1], at[j]], or beyond an outer one
+    j = np.clip(np.sum(g < 0, axis=1), 1, at.shape[1] - 1)
     i = np.arange(rest.size)
     a, b, ga, gb = at[i, j - 1], at[i, j], g[i, j - 1], g[i, j]
     s[rest] = np.where(gb > ga, a - ga * (b - a) / np.where(gb > ga, gb - ga, 1.0), a)
@@ -495,8 +471,8 @@ def misses(contract: Admissible, maps: Sequence) -> list[Miss]:
             q = np.concatenate([[1.0], ratios])
             scales = shape.scales(mass[0])
             miss, s = scaling_miss(q, shape.lower, shape.upper, scale=True, scales=scales)
-            inside = scaling_miss(q, shape.measured_lower - shape.floor, shape.measured_upper + shape.floor,
-                                  scales=scales) == 0
+            floor = FLOOR * shape.scale
+            inside = scaling_miss(q, shape.measured_lower - floor, shape.measured_upper + floor, scales=scales) == 0
             near = cluster(m.frequencies.omega_all, shape.mode - 1)
             text = f"{shape.label}: the model shape at its best scale" + (
                 "" if near.size == 1 else f" (best combination of the repeated modes {near[0] + 1}-{near[-1] + 1})")

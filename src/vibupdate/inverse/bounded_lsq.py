@@ -1,11 +1,6 @@
 """Bounded nonlinear least squares with an exact Jacobian, each point evaluated once, watched
-for limits and stalls: the solver of the polish (`vibupdate.inverse.polish`) and of the
-classical peers (`vibupdate.inverse.baseline`).
-
-A `Monitor`, when given, counts the evaluations, keeps the best point and ends the run by
-raising `Stop` on an evaluation limit, a time limit, a stall (the best objective fell by less
-than `STALL_DECREASE` of itself over its last ``window`` evaluations) or on reaching a known
-answer again (`SAME_ANSWER`): a run that only finds an answer again need not converge on it.
+for limits and stalls (`Monitor`, which ends a run by raising `Stop`): the solver of the polish
+(`vibupdate.inverse.polish`) and of the classical peers (`vibupdate.inverse.baseline`).
 """
 
 from __future__ import annotations
@@ -43,10 +38,11 @@ class Stop(Exception):
 
 class Monitor:
     """Counts the evaluations of a least squares, keeps the best point seen, and raises `Stop`
-    on the module docstring's events: ``limit`` evaluations (what is left of ``budget``), the
-    time limit, a stall over ``window`` evaluations (by default twice the unknowns plus one, at
-    least 20: scipy's trust region may need several rejected steps in a row), a point near one
-    of ``answers`` (shape (n_a, n_x); none by default)."""
+    on ``limit`` evaluations (what is left of ``budget``), the time limit, a stall
+    (`STALL_DECREASE`) over ``window`` evaluations (by default twice the unknowns plus one, at
+    least 20: scipy's trust region may need several rejected steps in a row), or a point near
+    one of ``answers`` (shape (n_a, n_x); none by default; a run that only finds a known answer
+    again need not converge on it)."""
 
     def __init__(self, x, value, limit: int, budget: int, started: float, max_seconds: float | None,
                  answers=None, window: int | None = None):

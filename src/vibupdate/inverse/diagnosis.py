@@ -1,12 +1,10 @@
 """Which data conflict: leave-one-group-out after an answer that does not fit the data.
 
-When the answer fails a check of its fit to the data (`MISFIT_CHECKS`), each group of the data
-that one fault corrupts (`data_groups`) is screened in one bounded Gauss-Newton step without it
-(`_predicted`); the first `MAX_GROUPS` of that order are refitted without their group (polished
-from the answer, verified on the data kept but for the relaxation's consistency) within
-`MAX_SECONDS`, and ranked verified first, then by the polish objective on the data kept. The
-update is then run again in full without the top group. The groups, the ranking and the cost:
-docs/polish-and-verification.md, section 7.8.
+After a failed check of the fit (`MISFIT_CHECKS`), each group of the data that one fault
+corrupts (`data_groups`) is screened in one bounded Gauss-Newton step without it
+(`_predicted`); the best `MAX_GROUPS` are refitted without their group within `MAX_SECONDS`
+and ranked, and the update is run again without the top one. The groups, the ranking and the
+cost: docs/polish-and-verification.md, section 7.8.
 """
 
 from __future__ import annotations
@@ -31,15 +29,11 @@ from vibupdate.inverse.data_map import data_map
 from vibupdate.inverse.verify import VerifyOptions, verify
 
 
-#: Failed checks that say the model does not fit the data: only these start a diagnosis. A
-#: failure of ``mode_order``, ``zero_order`` or ``correspondence`` alone is a question of which
-#: model mode or zero a datum is, which its message already names; removing data does not
-#: answer it. (``consistency`` is a warning, never a failed error: it is not among them.)
+#: Failed checks that say the model does not fit the data: only these start a diagnosis (not
+#: a question of which model mode or zero a datum is: docs section 7.8).
 MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "improvement"})
-#: Groups refitted at most, the best of the one-step screening (the rest are named as untried).
-#: A group whose removal leaves a fit does so to first order at the answer, so it leads that
-#: order; the refits rank the leaders by what a whole polish reaches (`benchmarks/RESULTS.md`,
-#: "The diagnosis screened in one step").
+#: Groups refitted at most, the best of the one-step screening (the rest are named as untried;
+#: `benchmarks/RESULTS.md`, "The diagnosis screened in one step").
 MAX_GROUPS = 3
 #: Seconds of screening at most; the group under way is finished.
 MAX_SECONDS = 120.0
@@ -68,9 +62,6 @@ class DataGroup:
     label: str
     size: int
 
-    def as_dict(self) -> dict:
-        return asdict(self)
-
 
 def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
     """Every group of the data (module docstring), configuration by configuration: natural
@@ -87,12 +78,11 @@ def data_groups(configurations: Sequence[Configuration]) -> list[DataGroup]:
             groups.append(DataGroup(f"{cfg.name}/antiresonance/{a.response},{a.excitation}/{a.index}",
                                     "antiresonance", cfg.name, f"{zero_name(a.response, a.excitation, a.index)} "
                                     f"at {a.freq_hz:.5g} Hz, {where}", 1))
-        for f in cfg.natural:
-            if f.shape is not None:
-                groups.append(DataGroup(f"{cfg.name}/shape/{f.mode}", "shape", cfg.name,
-                                        f"shape of mode {f.mode} ({len(f.shape.bounds)} entries), {where}",
-                                        len(f.shape.bounds)))
         shaped = [f for f in cfg.natural if f.shape is not None]
+        for f in shaped:
+            groups.append(DataGroup(f"{cfg.name}/shape/{f.mode}", "shape", cfg.name,
+                                    f"shape of mode {f.mode} ({len(f.shape.bounds)} entries), {where}",
+                                    len(f.shape.bounds)))
         order = {d: i for i, d in enumerate((*cfg.model.dofs, *(s.name for s in cfg.model.sensors)))}
         for dof in sorted({d for f in shaped for d in f.shape.bounds}, key=order.__getitem__):
             modes = [f.mode for f in shaped if dof in f.shape.bounds]
@@ -114,37 +104,32 @@ def _drop_dof(shape: ShapeInterval | None, dof: str) -> ShapeInterval | None:
         return ShapeInterval(rest)
 
 
-def _without_in(cfg: Configuration, group: DataGroup) -> Configuration | None:
-    """``cfg`` without ``group``; None when nothing measured is left."""
-    natural, zeros, interlacing = cfg.natural, cfg.antiresonances, cfg.interlacing
-    part = group.key[len(cfg.name) + 1:].split("/")
-    if group.kind == "natural":
-        natural = tuple(f for f in natural if f.mode != int(part[1]))
-    elif group.kind == "antiresonance":
-        response, excitation = part[1].split(",")
-        zeros = tuple(a for a in zeros if (a.response, a.excitation, a.index) != (response, excitation,
-                                                                                 int(part[2])))
-        # the interlacing signs assert that every zero between two measured poles is listed
-        interlacing = False
-    elif group.kind == "shape":
-        natural = tuple(replace(f, shape=None) if f.mode == int(part[1]) else f for f in natural)
-    elif group.kind == "dof":
-        natural = tuple(replace(f, shape=_drop_dof(f.shape, part[1])) for f in natural)
-    else:
-        raise ValueError(f"unknown data group kind {group.kind!r}; expected natural, antiresonance, shape or dof")
-    if not natural and not zeros:
-        return None
-    return replace(cfg, natural=natural, antiresonances=zeros, interlacing=interlacing)
-
-
 def without(configurations: Sequence[Configuration], group: DataGroup) -> list[Configuration] | None:
     """The configurations without ``group``: a configuration left with no data is dropped
     (its parameters are shared with the others); None when no data would be left at all."""
     kept = []
     for cfg in configurations:
-        rest = _without_in(cfg, group) if cfg.name == group.configuration else cfg
-        if rest is not None:
-            kept.append(rest)
+        if cfg.name != group.configuration:
+            kept.append(cfg)
+            continue
+        natural, zeros, interlacing = cfg.natural, cfg.antiresonances, cfg.interlacing
+        part = group.key[len(cfg.name) + 1:].split("/")
+        if group.kind == "natural":
+            natural = tuple(f for f in natural if f.mode != int(part[1]))
+        elif group.kind == "antiresonance":
+            response, excitation = part[1].split(",")
+            zeros = tuple(a for a in zeros if (a.response, a.excitation, a.index) != (response, excitation,
+                                                                                     int(part[2])))
+            # the interlacing signs assert that every zero between two measured poles is listed
+            interlacing = False
+        elif group.kind == "shape":
+            natural = tuple(replace(f, shape=None) if f.mode == int(part[1]) else f for f in natural)
+        elif group.kind == "dof":
+            natural = tuple(replace(f, shape=_drop_dof(f.shape, part[1])) for f in natural)
+        else:
+            raise ValueError(f"unknown data group kind {group.kind!r}; expected natural, antiresonance, shape or dof")
+        if natural or zeros:
+            kept.append(replace(cfg, natural=natural, antiresonances=zeros, interlacing=interlacing))
     return kept or None
 
 
@@ -306,9 +291,10 @@ def _screen(kept, group: DataGroup, share: float, xbar, polish: PolishOptions,
                       time.perf_counter() - t0, polished.evaluations)
 
 
-def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, formulation: FormulationOptions | None = None,
-             solver: SolverOptions | None = None, polish: PolishOptions | None = None,
-             verification: VerifyOptions | None = None, progress: Callable[[str], None] | None = None,
+def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
+             formulation: FormulationOptions | None = None, solver: SolverOptions | None = None,
+             polish: PolishOptions | None = None, verification: VerifyOptions | None = None,
+             progress: Callable[[str], None] | None = None,
              max_groups: int = MAX_GROUPS, max_seconds: float = MAX_SECONDS) -> Diagnosis:
     """Rank the groups of the data by how well the model fits without each, and update again
     without the top one (module docstring).
@@ -353,16 +339,15 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
             continue
         if kept is not None:   # the one-step screening orders the refits (module docstring)
             here, predicted = _predicted(kept, xbar, verification)
-            candidates.append(((full - here) / full if full > 0 else 0.0, group, kept, predicted))
-    candidates.sort(key=lambda c: c[3])
-    candidates = [c[:3] for c in candidates]
+            candidates.append((predicted, (full - here) / full if full > 0 else 0.0, group, kept))
+    candidates.sort(key=lambda c: c[0])
     say(f"diagnosis: the answer failed {', '.join(failed)}; {len(candidates)} groups of the data screened in one "
         f"step, the best {min(len(candidates), max_groups)} left out in turn and refitted (polished from the answer)")
     trials = []
-    for k, (share, group, kept) in enumerate(candidates[:max_groups], start=1):
+    for k, (_, share, group, kept) in enumerate(candidates[:max_groups], start=1):
         if time.perf_counter() - t0 > max_seconds:
             say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s; not screened: "
-                + "; ".join(g.label for _, g, _ in candidates[k - 1:max_groups]))
+                + "; ".join(g.label for _, _, g, _ in candidates[k - 1:max_groups]))
             break
         try:
             trial = _screen(kept, group, share, xbar, polish, verification)
@@ -381,7 +366,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *, f
         best = update(kept, formulation=formulation, solver=solver, polish=polish, verification=verification,
                       probe=False)
     screened = {t.group.key for t in trials}
-    untried = tuple(g.label for _, g, _ in candidates if g.key not in screened)
+    untried = tuple(g.label for _, _, g, _ in candidates if g.key not in screened)
     diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(untried), len(candidates),
                           best, time.perf_counter() - t0, time.perf_counter() - t1, untried)
     say(diagnosis.message() + f" ({diagnosis.seconds:.1f} s)")

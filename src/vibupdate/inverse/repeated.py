@@ -1,17 +1,11 @@
 """Repeated natural frequencies: model modes that share one eigenspace.
 
-A structure with a symmetry has natural frequencies that repeat (the x and y sway of a frame
-with square bays). Every combination of the modes of a repeated frequency is a mode of it, and
-which one an eigen-solver returns is decided by rounding, so the model's shape of such a mode
-is the eigenspace: a measured shape fits when *some* combination of the vectors fits it, and
-the measured frequency of the pair's second mode is as near to the model's first as to its
-second.
-
-`cluster` groups the model's modes whose frequencies agree to `REPEATED_GAP`;
-`paired_vector` is the vector a measured mode is compared with: its declared mode, or for a
-repeated frequency the combination whose shape ratios lie deepest in the measured intervals
-(`best_combination`). The verification, the data map (its ratios and their derivative as the
-eigenspace moves, `vibupdate.modal.sensitivities`) and the first stage use it.
+Every combination of the modes of a repeated frequency is a mode of it (which one an
+eigen-solver returns is decided by rounding), so such a mode is checked as its eigenspace:
+`cluster` groups the model's modes whose frequencies agree to `REPEATED_GAP`; `paired_vector`
+is the vector a measured mode is compared with, its declared mode or the combination whose
+shape ratios lie deepest in the measured intervals (`best_combination`). The rule in full:
+docs/notes/verification.md, "Repeated frequencies: the rule in full".
 """
 
 from __future__ import annotations

@@ -1,15 +1,12 @@
 """Verification: is the returned model the one the data describe?
 
 A solver that reaches ``lam = 1`` has found a small objective; that does not make the model
-right. `verify` returns one `Check` per property, each with its measured figure and limit:
-the declared pairing of modes and zeros (``mode_order``, ``zero_order``, ``mac``,
-``correspondence``; a repeated frequency's modes tie, `vibupdate.inverse.repeated`), one
-membership test of the admissible intervals the polish fits (``fit``, ``shape_intervals``,
-``modal_mass``: `vibupdate.inverse.admissible.misses`), ``improvement`` over the nominal model,
-and two warnings: the relaxation's lower bound against a heuristic allowance (``consistency``,
-not a certificate) and parameters on a bound (``bounds``). What each passes on and its default
-limit: docs/polish-and-verification.md, section 7.3. A failed error check makes the status
-``not_verified``; a passed membership check says what limited the answer (`Check.limited_by`).
+right. `verify` returns one `Check` per property, each with its measured figure and limit: the
+declared pairing of modes and zeros, one membership test of the admissible intervals the polish
+fits (`vibupdate.inverse.admissible.misses`), the improvement over the nominal model, and two
+warnings (the relaxation's heuristic consistency allowance, parameters on a bound). A failed
+error check makes the status ``not_verified``. Each check, what it passes on and its default
+limit: docs/polish-and-verification.md, section 7.3.
 """
 
 from __future__ import annotations

@@ -53,10 +53,10 @@ def _element_table(path: Path) -> tuple[list, dict]:
     ``M``, ``dofs`` (DOF names separated by spaces), ``group``. ``K`` and ``M`` name ``.mtx`` or
     ``.npz`` files relative to the table; an ``.npz`` with arrays ``K`` (and ``M``, ``dofs``)
     holds the element's matrices and its DOF map itself."""
-    from vibupdate.io.measured_io import _rows
+    from vibupdate.io.measured_io import csv_rows
     from vibupdate.model.build import load_matrix
 
-    rows = _rows(path)
+    rows = csv_rows(path)
     if not rows:
         raise ValueError(f"{path}: the element table lists no element")
     missing = [c for c in ("element", "K") if c not in rows[0][1]]
@@ -135,7 +135,7 @@ def read_element_source(spec: dict, base: Path, where: Where) -> ElementSource:
 def _groups(value, base: Path, where: Where) -> dict:
     """``[model] groups``: a table of group name -> element labels, a CSV file with columns
     ``element``, ``group``, or an Abaqus input file (``.inp``) whose element sets are the groups."""
-    from vibupdate.io.measured_io import _rows
+    from vibupdate.io.measured_io import csv_rows
 
     if isinstance(value, str) and value.lower().endswith(".inp"):
         from vibupdate.model.fe.abaqus_elements import read_abaqus_element_sets
@@ -147,7 +147,7 @@ def _groups(value, base: Path, where: Where) -> dict:
     if isinstance(value, str):
         path = base / value
         try:
-            rows = _rows(path)
+            rows = csv_rows(path)
         except ValueError as exc:
             raise where.error("model.groups", str(exc)) from None
         if not rows:

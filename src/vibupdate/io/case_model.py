@@ -182,7 +182,9 @@ def _elements_assembly(spec: dict, names, where: Where) -> Assembly:
     return asm
 
 
-def _load_callable(ref: str, base: Path, where: Where):
+def load_callable(ref: str, base: Path, where: Where):
+    """The function a ``model.builder`` entry names: ``module:function`` or ``file.py:function``
+    (a file relative to ``base``, the case file's folder); a case-file error otherwise."""
     if not isinstance(ref, str) or ":" not in ref:
         raise where.error("model.builder", f"must be 'module:function' or 'file.py:function', got {ref!r}")
     target, func = ref.rsplit(":", 1)
@@ -220,7 +222,7 @@ def base_model(spec: dict, options: dict, parameters, base: Path, where: Where) 
             return affine_from_assembly(_elements_assembly(spec, names, where), parameters)
         if kind == "builder":
             check_table(spec, {"type": str, "builder": str}, "model", where, required=("builder",))
-            func = _load_callable(spec["builder"], base, where)
+            func = load_callable(spec["builder"], base, where)
 
             def build(p):
                 try:
@@ -307,12 +309,12 @@ def read_sensors(path: Path, dofs, where: Where) -> tuple[dict, ...]:
     (the unit direction the sensor reads, needed for an oblique DOF ``"<node>:n<k>"``), each
     DOF one of the model's. Each row gives a dict with those keys and ``direction`` (a list of
     3 floats; for a file without ``nx, ny, nz``, the signed axis of an x, y or z DOF; else None)."""
-    from vibupdate.io.measured_io import _number, _rows
+    from vibupdate.io.measured_io import csv_number, csv_rows
 
     known = set(dofs)
     out = []
     try:
-        rows = _rows(path)
+        rows = csv_rows(path)
     except ValueError as exc:
         raise where.error("model.sensors", str(exc)) from None
     for line, row in rows:
@@ -324,11 +326,11 @@ def read_sensors(path: Path, dofs, where: Where) -> tuple[dict, ...]:
             raise where.error("model.sensors", f"{path}: row {line}: sensor {row['sensor']!r} measures "
                                                f"{row['dof']!r}, which is not a DOF of the model")
         try:
-            sign = _number(row["sign"], "sign", path, line)
+            sign = csv_number(row["sign"], "sign", path, line)
             if sign not in (1.0, -1.0):
                 raise ValueError(f"{path}: row {line}: sign must be 1 or -1, got {row['sign']!r}")
             out.append({"sensor": row["sensor"], "dof": row["dof"], "sign": sign,
-                        "distance_m": _number(row["distance_m"], "distance_m", path, line),
+                        "distance_m": csv_number(row["distance_m"], "distance_m", path, line),
                         "direction": _sensor_direction(row, sign, path, line)})
         except ValueError as exc:
             raise where.error("model.sensors", str(exc)) from None
@@ -337,12 +339,12 @@ def read_sensors(path: Path, dofs, where: Where) -> tuple[dict, ...]:
 
 def _sensor_direction(row: dict, sign: float, path: Path, line: int) -> list | None:
     """The unit direction of one row of a sensors file (`read_sensors`)."""
-    from vibupdate.io.measured_io import _number
+    from vibupdate.io.measured_io import csv_number
     from vibupdate.model.fe.oblique import AXES, OBLIQUE_DOF
 
     given = [row.get(k, "") for k in ("nx", "ny", "nz")]
     if any(given):
-        n = np.array([_number(t, k, path, line) for t, k in zip(given, ("nx", "ny", "nz"))])
+        n = np.array([csv_number(t, k, path, line) for t, k in zip(given, ("nx", "ny", "nz"))])
         if abs(np.linalg.norm(n) - 1) > 1e-6:
             raise ValueError(f"{path}: row {line}: nx, ny, nz must be a unit vector, got {n.tolist()} (length "
                              f"{np.linalg.norm(n):.6g})")

@@ -91,16 +91,16 @@ def read_sensor_csv(path: Path) -> list[Sensor]:
     dof, weight``, one per DOF a sensor reads, a sensor's rows together; or one row per
     rigid-body sensor, columns `RIGID_COLUMNS` (the reference DOFs it needs, ``offset_x``,
     ``offset_y``, and ``direction`` or ``nx``, ``ny``), as a layout sheet lists them."""
-    from vibupdate.io.measured_io import _known_columns, _rows
+    from vibupdate.io.measured_io import check_columns, csv_rows
 
-    rows = _rows(path)
+    rows = csv_rows(path)
     rigid = bool(rows) and "offset_x" in rows[0][1]
-    _known_columns(rows, RIGID_COLUMNS if rigid else WEIGHT_COLUMNS, path)
+    check_columns(rows, RIGID_COLUMNS if rigid else WEIGHT_COLUMNS, path)
     return _rigid_rows(rows, path) if rigid else _weight_rows(rows, path)
 
 
 def _weight_rows(rows, path: Path) -> list[Sensor]:
-    from vibupdate.io.measured_io import _number
+    from vibupdate.io.measured_io import csv_number
 
     weights: dict[str, list] = {}
     last = None
@@ -113,13 +113,13 @@ def _weight_rows(rows, path: Path) -> list[Sensor]:
         if name in weights and name != last:
             raise ValueError(f"{path}: row {line}: sensor {name!r} is declared twice (its rows are not together); "
                              "give each sensor one name")
-        weights.setdefault(name, []).append((row["dof"], _number(row["weight"], "weight", path, line)))
+        weights.setdefault(name, []).append((row["dof"], csv_number(row["weight"], "weight", path, line)))
         last = name
     return [Sensor(name, tuple(pairs)) for name, pairs in weights.items()]
 
 
 def _rigid_rows(rows, path: Path) -> list[Sensor]:
-    from vibupdate.io.measured_io import _number
+    from vibupdate.io.measured_io import csv_number
 
     out = []
     for line, row in rows:
@@ -127,11 +127,11 @@ def _rigid_rows(rows, path: Path) -> list[Sensor]:
         if missing:
             raise ValueError(f"{path}: row {line}: a rigid-body sensor needs sensor, offset_x, offset_y; missing or "
                              f"empty {', '.join(missing)}")
-        offset = [_number(row[c], c, path, line) for c in ("offset_x", "offset_y", "offset_z") if row.get(c)]
+        offset = [csv_number(row[c], c, path, line) for c in ("offset_x", "offset_y", "offset_z") if row.get(c)]
         if row.get("direction"):
             direction = _direction(row["direction"])
         elif row.get("nx") and row.get("ny"):
-            direction = [_number(row[c], c, path, line) for c in ("nx", "ny", "nz") if row.get(c)]
+            direction = [csv_number(row[c], c, path, line) for c in ("nx", "ny", "nz") if row.get(c)]
         else:
             raise ValueError(f"{path}: row {line}: sensor {row['sensor']!r} needs its direction (column direction, "
                              "or nx, ny and optionally nz)")

@@ -76,11 +76,11 @@ class ImportedModel:
 def _export(fmt: str, where_key: str, item, spec: dict, base: Path, where: Where, values=None) -> FEExport:
     """One export of the set, as an `FEExport` with the ``fix`` DOFs removed."""
     if fmt == "opensees":
-        from vibupdate.io.case_model import _load_callable
+        from vibupdate.io.case_model import load_callable
         from vibupdate.model.fe.opensees import export_from_builder, openseespy
 
         openseespy()   # the optional extra, or MissingExtra naming it
-        func = _load_callable(spec["builder"], base, Where(where.path))
+        func = load_callable(spec["builder"], base, Where(where.path))
 
         def build(p):
             try:

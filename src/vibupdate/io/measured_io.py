@@ -43,7 +43,7 @@ def not_utf8(data: bytes, exc: UnicodeDecodeError) -> str:
     return f"line {line}: not UTF-8 text (byte 0x{data[exc.start]:02x} at column {column})"
 
 
-def _rows(path: Path) -> list[tuple[int, dict]]:
+def csv_rows(path: Path) -> list[tuple[int, dict]]:
     """Data rows of a CSV file with their line numbers; blank and ``#`` lines are skipped."""
     path = Path(path)
     try:
@@ -83,7 +83,7 @@ FREQUENCY_COLUMNS = ("kind", "hz", "weight", "damping_ratio", "response", "excit
 SHAPE_COLUMNS = ("mode", "dof", "lower", "upper", "value", "tolerance")
 
 
-def _known_columns(rows, known, path: Path) -> None:
+def check_columns(rows, known, path: Path) -> None:
     """A ValueError naming a column that is none of ``known`` (a misspelt one would be ignored),
     with the closest known name."""
     import difflib
@@ -96,7 +96,8 @@ def _known_columns(rows, known, path: Path) -> None:
                              + f"; expected columns among {', '.join(known)}")
 
 
-def _number(text: str, what: str, path: Path, line: int) -> float:
+def csv_number(text: str, what: str, path: Path, line: int) -> float:
+    """The finite number in a CSV cell; a ValueError naming the file, row and column otherwise."""
     try:
         value = float(text)
     except ValueError:
@@ -110,7 +111,7 @@ def _count(text: str | None, what: str, path: Path, line: int) -> int | None:
     """An optional 1-based integer column (a declared mode or zero index)."""
     if not text:
         return None
-    value = _number(text, what, path, line)
+    value = csv_number(text, what, path, line)
     if value != int(value) or value < 1:
         raise ValueError(f"{path}: row {line}: {what} must be an integer >= 1, got {text!r}")
     return int(value)
@@ -128,11 +129,11 @@ def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
         ``{"hz", "weight", "response", "excitation", "index", "interval"}`` in file order.
     """
     path = Path(path)
-    rows = _rows(path)
+    rows = csv_rows(path)
     for column in ("kind", "hz"):
         if rows and column not in rows[0][1]:
             raise ValueError(f"CSV file {str(path)!r} needs a column {column!r}; it has {list(rows[0][1])}")
-    _known_columns(rows, FREQUENCY_COLUMNS, path)
+    check_columns(rows, FREQUENCY_COLUMNS, path)
     natural, zeros = [], []
     seen: dict[tuple, int] = {}
     for i, row in rows:
@@ -141,12 +142,12 @@ def read_frequency_csv(path) -> tuple[list[dict], list[dict]]:
             raise ValueError(f"{path}: row {i}: duplicates row {seen[same]}")
         seen[same] = i
         kind = row["kind"].lower()
-        hz = _number(row["hz"], "hz", path, i)
-        weight = _number(row["weight"], "weight", path, i) if row.get("weight") else 1.0
+        hz = csv_number(row["hz"], "hz", path, i)
+        weight = csv_number(row["weight"], "weight", path, i) if row.get("weight") else 1.0
         interval = _pair(row, ("lower_hz", "upper_hz"), hz, "hz", path, i)
         if kind == "natural":
             xi = row.get("damping_ratio")
-            xi = _number(xi, "damping_ratio", path, i) if xi else None
+            xi = csv_number(xi, "damping_ratio", path, i) if xi else None
             natural.append({"hz": hz, "weight": weight, "damping_ratio": xi,
                             "mode": _count(row.get("mode"), "mode", path, i), "interval": interval,
                             "damping_interval": _pair(row, ("damping_lower", "damping_upper"), xi, "damping_ratio",
@@ -173,7 +174,7 @@ def _pair(row: dict, columns: tuple[str, str], value, what: str, path: Path, lin
         raise ValueError(f"{path}: row {line}: {columns[0]} and {columns[1]} go together; one of them is empty")
     if value is None:
         raise ValueError(f"{path}: row {line}: {columns[0]}/{columns[1]} given without {what}")
-    a, b = _number(lo, columns[0], path, line), _number(hi, columns[1], path, line)
+    a, b = csv_number(lo, columns[0], path, line), csv_number(hi, columns[1], path, line)
     if not a <= value <= b:
         raise ValueError(f"{path}: row {line}: the interval [{a:g}, {b:g}] ({columns[0]}, {columns[1]}) does not "
                          f"hold its {what} {value:g}")
@@ -186,8 +187,8 @@ def read_shape_csv(path, dofs=None) -> dict[int, dict[str, tuple[float, float]]]
     naming the file, the row and the closest names."""
     path = Path(path)
     known = None if dofs is None else set(dofs)
-    rows = _rows(path)
-    _known_columns(rows, SHAPE_COLUMNS, path)
+    rows = csv_rows(path)
+    check_columns(rows, SHAPE_COLUMNS, path)
     columns = set(rows[0][1]) if rows else set()
     bounds_form = {"lower", "upper"} <= columns
     value_form = {"value", "tolerance"} <= columns
@@ -199,7 +200,7 @@ def read_shape_csv(path, dofs=None) -> dict[int, dict[str, tuple[float, float]]]
     shapes: dict[int, dict[str, tuple[float, float]]] = {}
     seen: dict[tuple[int, str], int] = {}
     for i, row in rows:
-        mode = _number(row["mode"], "mode", path, i)
+        mode = csv_number(row["mode"], "mode", path, i)
         if mode != int(mode) or mode < 1:
             raise ValueError(f"{path}: row {i}: mode must be an integer >= 1, got {row['mode']!r}")
         mode = int(mode)
@@ -217,9 +218,9 @@ def read_shape_csv(path, dofs=None) -> dict[int, dict[str, tuple[float, float]]]
                              f"{seen[(mode, row['dof'])]}")
         seen[(mode, row["dof"])] = i
         if bounds_form:
-            lo, hi = _number(row["lower"], "lower", path, i), _number(row["upper"], "upper", path, i)
+            lo, hi = csv_number(row["lower"], "lower", path, i), csv_number(row["upper"], "upper", path, i)
         else:
-            v, t = _number(row["value"], "value", path, i), _number(row["tolerance"], "tolerance", path, i)
+            v, t = csv_number(row["value"], "value", path, i), csv_number(row["tolerance"], "tolerance", path, i)
             if t < 0:
                 raise ValueError(f"{path}: row {i}: tolerance must be >= 0, got {t}")
             lo, hi = v - t, v + t

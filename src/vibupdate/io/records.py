@@ -156,7 +156,28 @@ class _Row:
 
 @dataclass(frozen=True)
 class ParameterRow(_Row):
-    """One parameter: bounds, reference value (``p_ref`` of Eq. 12), updated value, ``xbar``."""
+    """One updating parameter: its bounds, reference, nominal and updated values.
+
+    Attributes
+    ----------
+    name : str
+        The parameter's name.
+    unit : str
+        Its physical unit (e.g. ``"N/m"``, ``"kg"``), the unit of every value below.
+    nominal : float
+        Value of the nominal model.
+    lower, upper : float
+        Bounds of the parameter.
+    reference : float
+        Reference value ``p_ref`` of Eq. 12 (``xbar = 0``).
+    updated : float or None
+        Updated value; None when the update gave no answer.
+    xbar : float or None
+        Updated normalized value (Eq. 12); None when the update gave no answer.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     name: str
     unit: str
@@ -170,9 +191,37 @@ class ParameterRow(_Row):
 
 @dataclass(frozen=True)
 class FrequencyRow(_Row):
-    """One measured frequency (Hz) against the nominal and updated models: which model mode or
-    zero (``model_index``, the ``receptance`` of a zero), the measured interval and the datum's
-    ``name`` (`vibupdate.data.names.frequency_name`)."""
+    """One measured frequency against the nominal and updated models.
+
+    Attributes
+    ----------
+    configuration : str
+        The configuration it was measured on.
+    kind : {"natural", "antiresonance"}
+        A natural frequency or an antiresonance.
+    index : int
+        Its position (1-based) among the configuration's data of that kind.
+    measured_hz : float
+        The measured frequency, Hz.
+    nominal_hz, updated_hz : float or None
+        The paired frequency of the nominal and updated models, Hz; None where the model has
+        none (or the update gave no answer).
+    error_nominal_pct, error_updated_pct : float or None
+        Their relative errors against the measured frequency, per cent.
+    model_index : int or None
+        The model mode (a natural frequency's declared mode) or zero (an antiresonance's
+        index) it is paired with, 1-based.
+    receptance : str or None
+        The receptance of an antiresonance (``"h_response,excitation"``); None for a natural
+        frequency.
+    measured_lower_hz, measured_upper_hz : float or None
+        The measured interval, Hz; None without one.
+    name : str or None
+        The datum's name (`vibupdate.data.names.frequency_name`).
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     configuration: str
     kind: str
@@ -191,8 +240,29 @@ class FrequencyRow(_Row):
 
 @dataclass(frozen=True)
 class ModalMassRow(_Row):
-    """One measured modal mass (kg, of a mass-normalized shape at its reference DOF) against
-    the nominal and updated models; errors against the measured interval's midpoint."""
+    """One measured modal mass against the nominal and updated models.
+
+    The modal mass is that of a mass-normalized shape at its reference DOF; the errors are
+    against the measured interval's midpoint.
+
+    Attributes
+    ----------
+    configuration : str
+        The configuration it was measured on.
+    mode : int
+        The mode (1-based), as the data declare it.
+    dof : str
+        The reference DOF.
+    measured_lower_kg, measured_upper_kg : float
+        The measured interval, kg.
+    nominal_kg, updated_kg : float or None
+        The modal mass of the nominal and updated models' paired mode, kg.
+    error_nominal_pct, error_updated_pct : float or None
+        Their relative errors against the interval's midpoint, per cent.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     configuration: str
     mode: int
@@ -207,7 +277,28 @@ class ModalMassRow(_Row):
 
 @dataclass(frozen=True)
 class DampingRow(_Row):
-    """One measured damping ratio against the Caughey fit and the Rayleigh baseline."""
+    """One measured damping ratio against the Caughey fit and the Rayleigh baseline.
+
+    Attributes
+    ----------
+    configuration : str
+        The configuration it was measured on.
+    mode : int
+        The mode (1-based), as the data declare it.
+    measured : float
+        The measured damping ratio (dimensionless, a fraction of critical).
+    identified : float or None
+        The Caughey fit's damping ratio of the mode (dimensionless).
+    error_pct : float or None
+        Its relative error against the measured ratio, per cent.
+    rayleigh : float or None
+        The Rayleigh baseline's damping ratio (dimensionless).
+    error_rayleigh_pct : float or None
+        Its relative error against the measured ratio, per cent.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     configuration: str
     mode: int
@@ -220,7 +311,20 @@ class DampingRow(_Row):
 
 @dataclass(frozen=True)
 class Summary(_Row):
-    """Mean absolute errors in per cent (None where not computed)."""
+    """Mean absolute errors of the run, in per cent.
+
+    Attributes
+    ----------
+    mean_error_nominal_pct, mean_error_updated_pct : float or None
+        Mean absolute relative error of the measured frequencies against the nominal and the
+        updated model, per cent; None where not computed.
+    mean_damping_error_pct, mean_damping_error_rayleigh_pct : float or None
+        Mean absolute relative error of the measured damping ratios against the Caughey fit and
+        the Rayleigh baseline, per cent; None without a damping stage.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     mean_error_nominal_pct: float | None
     mean_error_updated_pct: float | None
@@ -230,8 +334,19 @@ class Summary(_Row):
 
 @dataclass(frozen=True)
 class MacMatrix(_Row):
-    """MAC of the measured shapes (rows, interval midpoints on ``dofs``) with the updated
-    model's declared modes (columns): the MAC plot."""
+    """MAC of the measured shapes with the updated model's declared modes: the MAC plot.
+
+    Attributes
+    ----------
+    dofs : tuple of str
+        The measured DOFs the shapes (interval midpoints) are compared on.
+    values : tuple of tuple of float or None
+        MAC, between zero and one: a row per measured shape, a column per declared model
+        mode; None where it could not be computed.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     dofs: tuple[str, ...]
     values: tuple[tuple[float | None, ...], ...]
@@ -239,7 +354,16 @@ class MacMatrix(_Row):
 
 @dataclass(frozen=True)
 class PlottedReceptance(_Row):
-    """The receptance of a configuration's FRF plot: ``response`` and ``excitation`` DOFs."""
+    """The receptance of a configuration's FRF plot.
+
+    Attributes
+    ----------
+    response, excitation : str
+        The response and excitation DOFs.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     response: str
     excitation: str
@@ -247,7 +371,33 @@ class PlottedReceptance(_Row):
 
 @dataclass(frozen=True)
 class PolishRow(_Row):
-    """What the polish did (`vibupdate.inverse.polish.PolishResult`)."""
+    """What the polish did (`vibupdate.inverse.polish.PolishResult`).
+
+    Attributes
+    ----------
+    cost_start, cost : float or None
+        Polish objective (dimensionless) at the first-stage answer and at the polished point.
+    kept : bool
+        Whether the polished point replaced the first-stage answer.
+    evaluations : int
+        Evaluations of the full model (residual and Jacobian).
+    message : str
+        Why it stopped, in words.
+    seconds : float or None
+        Wall time, s.
+    rounds : int
+        Reduced rounds taken; 0 on the full model only.
+    reduced_evaluations : int
+        Evaluations of the reduced models in those rounds.
+    stopped_on : str or None
+        What ended it: ``"convergence"``, ``"stall"``, ``"evaluations"``, ``"time"``,
+        ``"known answer"`` or ``"failure"``.
+    budget : int or None
+        The evaluation limit it had.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     cost_start: float | None
     cost: float | None
@@ -263,7 +413,29 @@ class PolishRow(_Row):
 
 @dataclass(frozen=True)
 class MinimumChangeRow(_Row):
-    """The move along undetermined directions (`vibupdate.inverse.minimum_change.MinimumChange`)."""
+    """The move along undetermined directions (`vibupdate.inverse.minimum_change.MinimumChange`).
+
+    Attributes
+    ----------
+    applied : bool
+        Whether the data left directions undetermined (rank below the number of parameters).
+    kept : bool
+        Whether the minimum-change point replaced the polished answer.
+    rank : int
+        Rank of the data Jacobian at the polished answer.
+    norm_start, norm : float or None
+        Euclidean norm of the normalized parameters at the polished answer and at the point
+        returned.
+    data_change : float or None
+        Largest change of a datum between the two points (relative frequency, shape ratio).
+    iterations : int
+        Gauss-Newton iterations.
+    message : str
+        What it did, in words.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     applied: bool
     kept: bool
@@ -277,9 +449,46 @@ class MinimumChangeRow(_Row):
 
 @dataclass(frozen=True, kw_only=True)
 class SolverRecord(_Row):
-    """``solver`` of ``results.json``: the first stage's status and verdict, message, every
-    solve of the homotopy, objective, relaxation lower bound, seconds, checks, warnings, the
-    polish, the attempts, what was sought, the minimum change and other answers."""
+    """``solver`` of ``results.json``: the record of the first stage.
+
+    Attributes
+    ----------
+    status : Status
+        The first stage's status.
+    message : str
+        Its message, in words.
+    steps : tuple of StepRecord
+        Every solve of the homotopy, in order.
+    objective : float or None
+        Objective at the answer (dimensionless).
+    relaxation_lower_bound : float or None
+        Lower bound of the objective from the McCormick relaxation.
+    seconds : float or None
+        Wall time of the first stage, s.
+    verified : bool
+        Whether the answer passed the verification.
+    checks : tuple of Check
+        The verification checks.
+    warnings : tuple of str
+        The first stage's warnings, in words.
+    first_stage_xbar : tuple of float or None, or None
+        The normalized answer of the homotopy before the polish.
+    polish : PolishRow or None
+        What the polish did.
+    attempts : tuple of Attempt
+        The first stage's attempts, in order.
+    verdict : Verdict or None
+        The answer's verdict.
+    sought : Sought or None
+        What the search for other answers looked for, and why.
+    minimum_change : MinimumChangeRow or None
+        The move along undetermined directions.
+    alternatives : tuple of Alternative
+        Other answers found that fit the data as well.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     status: Status
     message: str
@@ -301,7 +510,18 @@ class SolverRecord(_Row):
 
 @dataclass(frozen=True)
 class LinearRange(_Row):
-    """One parameter's consistent range linearized at the answer, in its unit."""
+    """One parameter's consistent range, linearized at the answer.
+
+    Attributes
+    ----------
+    lower, upper : float or None
+        Ends of the range, in the parameter's unit.
+    width_pct : float or None
+        Width in per cent of the parameter's reference value.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     lower: float | None
     upper: float | None
@@ -310,9 +530,23 @@ class LinearRange(_Row):
 
 @dataclass(frozen=True)
 class SampledRange(_Row):
-    """One parameter over the verified samples of ``run --samples``, in its unit: ``min`` and
-    ``max`` over the answers and the line ends along null directions; the quantiles, and
-    ``answers_min``, ``answers_max``, over the answers (None without a verified sample)."""
+    """One parameter over the verified samples of ``run --samples``, in its unit.
+
+    Attributes
+    ----------
+    unit : str
+        The parameter's unit, the unit of every value below.
+    min, max : float or None
+        Smallest and largest value over the answers and the line ends along undetermined
+        directions; None without a verified sample.
+    q05, q50, q95 : float or None
+        The 5 %, 50 % and 95 % quantiles over the answers.
+    answers_min, answers_max : float or None
+        Smallest and largest value over the answers alone.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     unit: str
     min: float | None
@@ -336,7 +570,26 @@ class SampledRange(_Row):
 
 @dataclass(frozen=True)
 class Sampled(_Row):
-    """``identifiability.sampled``: the counts of the samples and each parameter's range."""
+    """``identifiability.sampled``: the counts of the samples and each parameter's range.
+
+    Attributes
+    ----------
+    samples : int
+        Data sets drawn.
+    verified, unverified, failed : int
+        Samples whose update was verified, not verified, or failed.
+    line_ends : int
+        Ends of lines along undetermined directions that were added to the answers.
+    seed : int
+        The seed the samples were drawn from.
+    distribution : str
+        The distribution the data were drawn from.
+    ranges : dict of str to SampledRange
+        Each parameter's range, by name.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     samples: int
     verified: int
@@ -350,8 +603,20 @@ class Sampled(_Row):
 
 @dataclass(frozen=True)
 class LocalMinimum(_Row):
-    """One distinct local minimum of the multistart: objective, starts that reached it, the
-    parameters' values in their units."""
+    """One distinct local minimum of the multistart.
+
+    Attributes
+    ----------
+    objective : float or None
+        Objective at the minimum (dimensionless).
+    starts : int
+        Random starts that reached it.
+    values : dict of str to float or None
+        The parameters' values there, in their units, by name.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     objective: float | None
     starts: int
@@ -360,8 +625,27 @@ class LocalMinimum(_Row):
 
 @dataclass(frozen=True)
 class Multistart(_Row):
-    """``identifiability.multistart``: random starts of the point estimate grouped into
-    distinct local minima, best first."""
+    """``identifiability.multistart``: random starts grouped into distinct local minima.
+
+    Attributes
+    ----------
+    starts : int
+        Random starts of the point estimate.
+    failed : int
+        Starts whose solve failed.
+    distinct_minima : int
+        Distinct local minima found.
+    x_tol : float
+        Two answers are one minimum when their normalized parameters differ by at most this in
+        every entry.
+    minima : tuple of LocalMinimum
+        The minima, best first.
+    seed : int or None
+        The seed of the starts; not written when None.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     starts: int
     failed: int
@@ -373,7 +657,23 @@ class Multistart(_Row):
 
 @dataclass(frozen=True)
 class CertifiedRange(_Row):
-    """One parameter's certified outer range over the consistent set, and the root box's."""
+    """One parameter's certified outer range over the consistent set, and the root box's.
+
+    Attributes
+    ----------
+    lower, upper : float or None
+        Outer range, in the parameter's unit: every point of the consistent set lies inside;
+        None when the set is certified empty.
+    width_pct : float or None
+        Width in per cent of the parameter's reference value.
+    certified : bool
+        Whether both ends are safe bounds that confirm the LP solver's optimum.
+    root_lower, root_upper : float or None
+        The range before any bound tightening, in the parameter's unit.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     lower: float | None
     upper: float | None
@@ -385,7 +685,19 @@ class CertifiedRange(_Row):
 
 @dataclass(frozen=True)
 class WidenedWindow(_Row):
-    """A datum whose window the certification widened to hold a reported answer."""
+    """A datum whose window the certification widened to hold a reported answer.
+
+    Attributes
+    ----------
+    datum : str
+        The datum.
+    beyond_pct : float or None
+        How far the farthest held frequency lies beyond the data's window, per cent of the
+        measured frequency.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     datum: str
     beyond_pct: float | None
@@ -393,7 +705,20 @@ class WidenedWindow(_Row):
 
 @dataclass(frozen=True)
 class WidenedBox(_Row):
-    """A vector box the certification widened to hold a reported answer."""
+    """A vector box the certification widened to hold a reported answer.
+
+    Attributes
+    ----------
+    vector : str
+        The vector.
+    entries : int
+        Its entries widened.
+    bound_ratio : float or None
+        Its largest bound after the widening against before.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     vector: str
     entries: int
@@ -402,7 +727,24 @@ class WidenedBox(_Row):
 
 @dataclass(frozen=True)
 class Inclusion(_Row):
-    """How the consistent set was widened to hold every answer the run reports."""
+    """How the consistent set was widened to hold every answer the run reports.
+
+    Attributes
+    ----------
+    points : int
+        Points held (the answer and other reported answers).
+    widened_by : tuple of str
+        Labels of the points that needed any widening.
+    windows : tuple of WidenedWindow
+        The frequency windows widened.
+    vector_boxes : tuple of WidenedBox
+        The vector boxes widened.
+    bounds_widened : int
+        Parameters whose bounds were widened by rounding.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     points: int
     widened_by: tuple[str, ...]
@@ -413,7 +755,38 @@ class Inclusion(_Row):
 
 @dataclass(frozen=True, kw_only=True)
 class CertifiedRecord(_Row):
-    """``identifiability.certified`` (`vibupdate.ranges.certify.CertifiedRanges.record`)."""
+    """``identifiability.certified`` (`vibupdate.ranges.certify.CertifiedRanges.record`).
+
+    Attributes
+    ----------
+    definition : str
+        The consistent set, in words.
+    message : str
+        The outcome, in words.
+    empty : bool or None
+        Whether the consistent set is certified empty.
+    seconds, root_seconds : float or None
+        Wall time in all and to the root ranges, s.
+    passes : int or None
+        Completed bound-tightening passes over the whole box.
+    splits : int or None
+        Splits of the parameter box (branching).
+    leaves : int or None
+        Parts of the box not proved empty; the ranges are their hull.
+    n_lps : int or None
+        Linear programs solved.
+    history : tuple of (float or None, float or None), or None
+        (seconds, mean width in per cent) after the root and after each pass.
+    included : Inclusion or None
+        How the set was widened to hold the reported answers.
+    uncovered : tuple of str or None
+        Why a reported answer is not held by the set or not inside the ranges, with the figure.
+    ranges : dict of str to CertifiedRange
+        Each parameter's range, by name.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     definition: str
     message: str
@@ -432,11 +805,42 @@ class CertifiedRecord(_Row):
 
 @dataclass(frozen=True, kw_only=True)
 class Identifiability(_Row):
-    """``identifiability``: what the data determine. The exact sensitivity at the answer
-    (``rank``, ``condition``, singular values, each parameter's column norm, undetermined
-    combinations), the minimum change and other answers in words; at a verified answer the
-    linearized ``ranges`` (else ``ranges_note``), and the sections of further studies
-    (``sampled``, ``multistart``, ``certified``) where they ran."""
+    """``identifiability``: what the data determine.
+
+    Attributes
+    ----------
+    rank : int
+        Numerical rank of the exact sensitivity of the data at the answer.
+    condition : float or None
+        Its condition number.
+    singular_values : tuple of float or None
+        Singular values of the scaled sensitivity, descending (dimensionless).
+    column_norm : dict of str to float or None
+        Norm of each parameter's column of the sensitivity, by name.
+    undetermined_combinations : tuple of str
+        Combinations of parameters that leave every datum unchanged to first order, in words.
+    minimum_change : str or None
+        The move along undetermined directions, in words; None where none was made.
+    alternatives : tuple of Alternative
+        Other answers that fit the data as well.
+    ranges_note : str or None
+        Why the linearized ranges were not computed; not written when they were.
+    ranges : dict of str to LinearRange or None
+        The linearized consistent range of each parameter, by name, at a verified answer.
+    frequency_tolerance : float or None
+        Relative half-width of the frequency windows of data without an interval.
+    frequency_windows : str or None
+        How the ranges bound each frequency, in words.
+    sampled : Sampled or None
+        The sampled ranges (``run --samples``).
+    multistart : Multistart or None
+        The multistart (``run --samples``).
+    certified : CertifiedRecord or None
+        The certified ranges (``run --certify``).
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     rank: int
     condition: float | None
@@ -456,8 +860,24 @@ class Identifiability(_Row):
 
 @dataclass(frozen=True)
 class DampingModel(_Row):
-    """``damping_model``: the Caughey exponents and coefficients, the Rayleigh baseline's, the
-    fit's condition number and its weighting in words."""
+    """``damping_model``: the fitted Caughey series and the Rayleigh baseline.
+
+    Attributes
+    ----------
+    exponents : tuple of float
+        The Caughey series' exponents.
+    beta : tuple of float or None
+        Its coefficients, one per exponent (SI units, `vibupdate.damping.models`).
+    rayleigh_beta : tuple of float or None
+        The Rayleigh baseline's two coefficients (of ``M`` and ``K``).
+    condition : float or None
+        Condition number of the fit.
+    weights_text : str
+        The fit's weighting, in words.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     exponents: tuple[float, ...]
     beta: tuple[float | None, ...]
@@ -468,9 +888,23 @@ class DampingModel(_Row):
 
 @dataclass(frozen=True, kw_only=True)
 class ReferenceColumns(_Row):
-    """``paper``: reference columns of the report's tables (`vibupdate.report.table.with_reference`):
-    ``columns`` by table, column name and row key; ``errors`` by table, column name and the
-    two columns compared; ``notes`` by table."""
+    """``paper``: reference columns of the report's tables.
+
+    The columns come from a bundled example's ``reference_columns()`` (published values, a
+    synthetic example's truth; `vibupdate.report.table.with_reference`).
+
+    Attributes
+    ----------
+    columns : dict of str to dict of str to dict of str to float or str or None, or None
+        By table, column name and row key: the reference value.
+    errors : dict of str to dict of str to (str, str), or None
+        By table and column name: the two columns compared.
+    notes : dict of str to tuple of str, or None
+        By table: notes under it.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     columns: dict[str, dict[str, dict[str, float | str | None]]] | None = _optional()
     errors: dict[str, dict[str, tuple[str, str]]] | None = _optional()
@@ -479,8 +913,24 @@ class ReferenceColumns(_Row):
 
 @dataclass(frozen=True)
 class MeshSensor(_Row):
-    """A measured point on an imported FE mesh: the DOF it reads (``"<node>:<dir>"``), its sign,
-    the distance to the node and the unit direction read (None for a rotation)."""
+    """A measured point on an imported FE mesh.
+
+    Attributes
+    ----------
+    sensor : str
+        The sensor's name.
+    dof : str
+        The DOF it reads, ``"<node>:<dir>"``.
+    sign : float
+        The sign of the reading against the DOF (+1 or -1).
+    distance_m : float or None
+        Distance from the sensor to the node, m.
+    direction : tuple of float or None
+        Unit direction read; None for a rotation.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     sensor: str
     dof: str
@@ -491,7 +941,18 @@ class MeshSensor(_Row):
 
 @dataclass(frozen=True)
 class DeclaredSensor(_Row):
-    """A sensor of the case file: its name and the weight of each DOF in its reading."""
+    """A sensor of the case file: its name and the weight of each DOF in its reading.
+
+    Attributes
+    ----------
+    sensor : str
+        The sensor's name.
+    weights : dict of str to float
+        Weight of each DOF in its reading (dimensionless), by DOF name.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     sensor: str
     weights: dict[str, float]
@@ -499,7 +960,35 @@ class DeclaredSensor(_Row):
 
 @dataclass(frozen=True)
 class SetUpdate(_Row):
-    """The full update of one set of candidates (`vibupdate.ranges.candidates`)."""
+    """The full update of one set of candidates (`vibupdate.ranges.candidates`).
+
+    Attributes
+    ----------
+    status : Status
+        The update's status.
+    success : bool
+        Whether it succeeded (verified).
+    message : str
+        Its message, in words.
+    values : dict of str to float or None
+        Physical values of the free parameters, in their units, by name.
+    units : dict of str to str
+        Their units, by name.
+    natural_mean_pct, natural_max_pct : float or None
+        Mean and largest relative error of the declared modes' frequencies, per cent.
+    antiresonance_mean_pct, antiresonance_max_pct : float or None
+        The same of the antiresonances; None without any.
+    failed : tuple of str
+        The failed checks.
+    limited_by : str or None
+        What limited a verified answer: ``"measurement"`` or ``"model_form"``.
+    range_pct : dict of str to float or None, or None
+        Linearized range width of each parameter, per cent of its reference, at a verified
+        answer.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     status: Status
     success: bool
@@ -517,7 +1006,42 @@ class SetUpdate(_Row):
 
 @dataclass(frozen=True)
 class SetTrialRow(_Row):
-    """One set of candidates screened (`vibupdate.ranges.candidates.SetTrial`)."""
+    """One set of candidates screened (`vibupdate.ranges.candidates.SetTrial`).
+
+    Attributes
+    ----------
+    candidates : tuple of str
+        The candidates added to the case's parameters.
+    objective : float or None
+        Polish objective at the screened answer (the misfit, dimensionless).
+    passed : bool
+        Whether every screened check passed.
+    failed : tuple of str
+        The failed checks of the screening.
+    natural_mean_pct, natural_max_pct : float or None
+        Mean and largest relative error of the declared modes' frequencies, per cent.
+    antiresonance_mean_pct, antiresonance_max_pct : float or None
+        The same of the antiresonances; None without any.
+    rank : int
+        Numerical rank of the data's sensitivity to the free parameters.
+    free : int
+        Free parameters: the case's own and the set's.
+    condition : float or None
+        Condition number of that sensitivity.
+    determined : bool
+        Whether the data determine every free parameter (rank equal to ``free``).
+    values : dict of str to float or None
+        Physical values of the free parameters at the screened answer, by name.
+    tied_with : tuple of tuple of str
+        Other sets whose objective equals this one's within the tie tolerance.
+    update : SetUpdate or None
+        The full update of a checked set; None when not checked.
+    seconds : float or None
+        Wall time, s.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     candidates: tuple[str, ...]
     objective: float | None
@@ -539,8 +1063,40 @@ class SetTrialRow(_Row):
 
 @dataclass(frozen=True)
 class SuggestionRecord(_Row):
-    """``suggestion``: the screening of candidates after a run that did not verify
-    (`vibupdate.ranges.candidates.Suggestion.record`)."""
+    """``suggestion``: the screening of candidates after a run that did not verify.
+
+    The record is `vibupdate.ranges.candidates.Suggestion.record`.
+
+    Attributes
+    ----------
+    own : tuple of str
+        The case's own parameters, free in every set.
+    candidates : tuple of str
+        The pool of candidates, in declaration order.
+    nominal : dict of str to float or bool or tuple of str or None
+        The model with the case's own parameters alone, screened as the sets are.
+    sizes : tuple of int
+        The set sizes screened.
+    untried : int
+        Sets of those sizes not screened because of the limits (or whose fit failed).
+    seconds : float or None
+        Wall time, s.
+    untried_sets : tuple of tuple of str
+        Those sets, each by its candidates' names.
+    best : tuple of str or None
+        The top set whose full update succeeded.
+    screened_best : tuple of str or None
+        The top set of the screening alone.
+    message : str
+        The outcome, in words.
+    trials : tuple of SetTrialRow
+        Every set screened, ranked.
+    limits : dict of str to float
+        The limits of the screening (``sets``, ``seconds``, ``tie_rtol``).
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     own: tuple[str, ...]
     candidates: tuple[str, ...]
@@ -558,11 +1114,40 @@ class SuggestionRecord(_Row):
 
 @dataclass(frozen=True)
 class GroupTrialRow(_Row):
-    """One group of the data left out by the diagnosis (`vibupdate.inverse.diagnosis`): the
-    group (``key``, ``kind``, ``configuration``, ``label``, ``size``), its ``share`` of the
-    misfit at the full answer, and the fit without it after refitting: polish ``objective``,
-    whether the screened checks ``passed`` (``failed``: those that did not), relative frequency
-    errors on the data kept (per cent), shape-interval misses, the answer ``xbar``, seconds."""
+    """One group of the data left out by the diagnosis (`vibupdate.inverse.diagnosis`).
+
+    Attributes
+    ----------
+    key : str
+        The group, unique within a run (``"CFG/natural/MODE"``, ``"CFG/dof/DOF"``, ...).
+    kind : str
+        ``"natural"``, ``"antiresonance"``, ``"shape"`` or ``"dof"``.
+    configuration : str
+        The configuration the group belongs to.
+    label : str
+        The group in words.
+    size : int
+        Data removed with it (frequencies and shape entries).
+    share : float or None
+        Fraction of the full answer's objective that the group carries there.
+    objective : float or None
+        Polish objective on the data kept, after refitting.
+    passed : bool
+        Whether every screened check passed on the data kept.
+    failed : tuple of str
+        The failed checks.
+    mean_error_pct, max_error_pct : float or None
+        Mean and largest relative frequency error on the frequencies kept, per cent.
+    shape_misses : int
+        Measured mode shapes outside their admissible intervals at their best scale.
+    xbar : tuple of float or None
+        The refitted answer, normalized parameters.
+    seconds : float or None
+        Wall time, s.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     key: str
     kind: str
@@ -582,10 +1167,34 @@ class GroupTrialRow(_Row):
 
 @dataclass(frozen=True)
 class DiagnosisBest(_Row):
-    """The update run again without the top group: which group (``without``, its key, and
-    ``without_label``), its ``status``, ``success`` and ``message``, the physical ``values`` by
-    parameter name, ``xbar``, frequency errors on the data kept (per cent), its verification
-    ``checks`` on the data kept and seconds."""
+    """The update run again without the top group of the diagnosis.
+
+    Attributes
+    ----------
+    without : str
+        The key of the group left out.
+    without_label : str
+        That group in words.
+    status : Status
+        The update's status.
+    success : bool
+        Whether it succeeded (verified).
+    message : str
+        Its message, in words.
+    values : dict of str to float or None
+        Physical values of the parameters, in their units, by name.
+    xbar : tuple of float or None
+        The answer, normalized parameters.
+    mean_error_pct, max_error_pct : float or None
+        Mean and largest relative frequency error on the data kept, per cent.
+    checks : tuple of Check
+        Its verification checks on the data kept.
+    seconds : float or None
+        Wall time, s.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     without: str
     without_label: str
@@ -602,10 +1211,34 @@ class DiagnosisBest(_Row):
 
 @dataclass(frozen=True)
 class DiagnosisRecord(_Row):
-    """``diagnosis`` of ``results.json``: which data conflict with the model. The checks that
-    ``failed``, the full answer's polish ``objective`` and frequency errors, the number of
-    ``groups`` and of those ``untried`` (limits), the ``trials`` ranked (best fit without the
-    group first), the ``best`` update without the top group, and ``seconds``."""
+    """``diagnosis`` of ``results.json``: which data conflict with the model.
+
+    Attributes
+    ----------
+    failed : tuple of str
+        The checks of the full answer that failed.
+    objective : float or None
+        The full answer's polish objective.
+    mean_error_pct, max_error_pct : float or None
+        The full answer's mean and largest relative frequency error, per cent.
+    groups : int
+        Groups of data the diagnosis formed.
+    untried : int
+        Groups not tried because of the limits.
+    trials : tuple of GroupTrialRow
+        The groups tried, ranked: best fit without the group first.
+    best : DiagnosisBest or None
+        The update without the top group.
+    seconds : float or None
+        Wall time, s.
+    limits : dict of str to float
+        The limits of the diagnosis (``groups``, ``seconds``).
+    untried_groups : tuple of str
+        The keys of the groups not tried.
+    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
 
     failed: tuple[str, ...]
     objective: float | None

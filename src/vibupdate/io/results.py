@@ -40,11 +40,24 @@ FORMAT_VERSION = 2
 
 @dataclass(frozen=True)
 class ConfigurationMatrices:
-    """Not written to JSON: one configuration's updated matrices (scipy sparse ``M``, ``K``),
-    the identified damping (a dense ``C`` on small models, its modal law ``damping_law`` on
-    large ones; None without damping data), the nominal ``(M0, K0, None)`` (the case has no
-    nominal damping model, so the nominal FRF is drawn undamped, never with the updated
-    ``C``) and, after a diagnosis, ``(M, K)`` of the update without the top group."""
+    """One configuration's updated, nominal and identified matrices (not written to JSON).
+
+    Attributes
+    ----------
+    M, K : scipy.sparse matrix, shape (n, n)
+        The updated mass and stiffness matrices (SI: kg and N/m on translations, kg m^2 and
+        N m/rad on rotations).
+    nominal : (scipy.sparse matrix, scipy.sparse matrix, None)
+        The nominal ``(M0, K0, None)``: the case has no nominal damping model, so the nominal
+        FRF is drawn undamped, never with the updated ``C``.
+    C : ndarray, shape (n, n), or None
+        The identified damping matrix (N s/m on translations) on small models; None on large
+        ones and without damping data.
+    damping_law : callable or None
+        The identified modal damping law on large models, where ``C`` is not formed.
+    without_worst : (scipy.sparse matrix, scipy.sparse matrix) or None
+        After a diagnosis, ``(M, K)`` of the update without the top group of data.
+    """
 
     M: sp.spmatrix
     K: sp.spmatrix

@@ -52,7 +52,8 @@ class ModalAccuracyError(ValueError):
     """An eigenpair failed its residual check (the reported frequency cannot be trusted)."""
 
 
-def _dense(A) -> np.ndarray:
+def as_dense(A) -> np.ndarray:
+    """``A`` as a dense array (a sparse matrix converted, an array passed through)."""
     return A.toarray() if sp.issparse(A) else np.asarray(A)
 
 
@@ -171,13 +172,13 @@ def _condensation(K: np.ndarray, s: np.ndarray, m: np.ndarray):
     return cho, sla.cho_solve(cho, K[np.ix_(s, m)])
 
 
-def _dense_modes(M, K, precision: float | None = None):
+def dense_modes(M, K, precision: float | None = None):
     """All finite eigenpairs of a dense pencil, massless DOFs condensed exactly; ``precision``:
     the relative precision of the entries (`vibupdate.modal.rigid`).
 
     Returns ``eigval`` (n_f,) ascending and ``Phi`` (n, n_f), mass-normalized, full length.
     """
-    Md, Kd = _dense(M).astype(float), _dense(K).astype(float)
+    Md, Kd = as_dense(M).astype(float), as_dense(K).astype(float)
     n = Md.shape[0]
     s = massless_dofs(Md)
     if s.size == 0:
@@ -432,7 +433,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
             raise ValueError(f"a dense eigen-solve of all modes of a {n}-DOF model would need about "
                              f"{5 * 8 * n * n / 2**30:.0f} GB; ask for the lowest n_modes instead (at most "
                              f"{DENSE_MAX} DOFs are solved densely)")
-        eigval, Phi = _dense_modes(M, K, precision)
+        eigval, Phi = dense_modes(M, K, precision)
         if n_modes is not None:
             eigval, Phi = eigval[:n_modes], Phi[:, :n_modes]
     else:

@@ -28,7 +28,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from vibupdate.modal import eigen
-from vibupdate.modal.eigen import _dense, _dense_modes, check_dof_pair, massless_dofs
+from vibupdate.modal.eigen import as_dense, dense_modes, check_dof_pair, massless_dofs
 from vibupdate.modal.factor import sparse_lu
 
 
@@ -58,12 +58,12 @@ def _modal_receptances(M, K, rows, cols, omega: np.ndarray) -> np.ndarray:
     """Undamped ``h_rc`` of every pair by superposition of all finite modes (one eigen-solve),
     plus the exact static term of the massless DOFs (``(K_ss^-1)_rc`` when both are massless).
     Shape (n_pairs, n_f)."""
-    eigval, Phi = _dense_modes(M, K)
+    eigval, Phi = dense_modes(M, K)
     h = (Phi[rows] * Phi[cols]) @ (1.0 / (eigval[:, None] - omega[None, :] ** 2))
     s = massless_dofs(M)
     both = np.flatnonzero(np.isin(rows, s) & np.isin(cols, s))
     if both.size:
-        Kd = _dense(K)
+        Kd = as_dense(K)
         position = {int(d): k for k, d in enumerate(s)}
         E = np.zeros((s.size, both.size))
         E[[position[int(c)] for c in cols[both]], np.arange(both.size)] = 1.0
@@ -84,7 +84,7 @@ def _unit_columns(n: int, cols: np.ndarray):
 def _dense_damped_receptances(M, K, C, rows, cols, omega: np.ndarray) -> np.ndarray:
     """``h_rc`` of every pair by complex solves in chunks of frequencies (memory bounded by
     `_CHUNK_BYTES`), one right-hand side per distinct excitation. Shape (n_pairs, n_f)."""
-    Md, Kd, Cd = _dense(M), _dense(K), _dense(C)
+    Md, Kd, Cd = as_dense(M), as_dense(K), as_dense(C)
     n = Md.shape[0]
     E, which = _unit_columns(n, cols)
     chunk = max(1, _CHUNK_BYTES // (16 * n * n))
@@ -104,7 +104,7 @@ def _state_space_receptances(M, K, C, rows, cols, omega: np.ndarray):
     lines to 1e-7 of the largest |h| of each pair (`benchmarks/RESULTS.md`, "Figures behind
     src/: receptances"); returns None when they disagree (ill-conditioned eigenvectors).
     Shape (n_pairs, n_f)."""
-    Md, Kd, Cd = _dense(M), _dense(K), _dense(C)
+    Md, Kd, Cd = as_dense(M), as_dense(K), as_dense(C)
     n = Md.shape[0]
     try:
         cho = sla.cho_factor(Md)

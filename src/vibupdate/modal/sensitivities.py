@@ -264,8 +264,7 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
                              "eigen-solve did not converge to the same set")
         return wz**2, V_right, V_left
     # a dense-limit model is small: one conversion costs less than sparse slicing and products
-    M = M.toarray() if sp.issparse(M) else np.asarray(M)
-    K = K.toarray() if sp.issparse(K) else np.asarray(K)
+    M, K = eigen.as_dense(M), eigen.as_dense(K)
     eigval_z, V_right, V_left = dense_zeros(M, K, r, c, 1e-8, precision)
     return eigval_z[:n_zeros], V_right[:, :n_zeros], V_left[:, :n_zeros]
 

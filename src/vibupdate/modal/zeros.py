@@ -19,8 +19,8 @@ import scipy.sparse.linalg as spla
 from vibupdate.modal import eigen, rigid
 from vibupdate.modal.eigen import (
     RESIDUAL_TOL,
-    _dense,
-    _dense_modes,
+    as_dense,
+    dense_modes,
     shifted_lu,
     check_dof_pair,
 )
@@ -82,9 +82,9 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
     pencil of ``h_rc`` without its structural zeros (`structural`), ascending, with their right
     and left vectors (real, each of unit norm; the same for ``r == c``): the symmetric
     reciprocal pencil for ``r == c``, QZ (`qz`) otherwise."""
-    Mr, Kr = _dense(adjunct(M, r, c)), _dense(adjunct(K, r, c))
+    Mr, Kr = as_dense(adjunct(M, r, c)), as_dense(adjunct(K, r, c))
     if r == c:
-        eigval_z, V = _dense_modes(Mr, Kr, precision)
+        eigval_z, V = dense_modes(Mr, Kr, precision)
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
         return eigval_z[keep], V[:, keep], V[:, keep]
     (num, den), V_left, V_right = qz(Kr, Mr)

@@ -688,7 +688,7 @@ def affine_from_builder(builder: Builder, parameters: Sequence[Parameter], *, do
         builder drops the complex step.
     """
     parameters = tuple(parameters)
-    _check_unique_names(parameters)
+    check_parameter_names(parameters)
     nominal, M_par, K_par = complex_step_jacobians(builder, parameters, dofs)
     check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
     model = AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
@@ -717,7 +717,7 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
         Run the safety check (one more assembly of every element).
     """
     parameters = tuple(parameters)
-    _check_unique_names(parameters)
+    check_parameter_names(parameters)
     nominal, M_par, K_par = assembly.affine_parts(parameters)
     check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
     model = AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
@@ -733,7 +733,8 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
     return model
 
 
-def _check_unique_names(parameters: Sequence[Parameter]) -> None:
+def check_parameter_names(parameters: Sequence[Parameter]) -> None:
+    """A ValueError unless there is at least one parameter and their names are unique."""
     names = [p.name for p in parameters]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:

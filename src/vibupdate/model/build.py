@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.model.affine import (AffineModel, _check_unique_names, affine_from_assembly, affine_from_builder,
+from vibupdate.model.affine import (AffineModel, check_parameter_names, affine_from_assembly, affine_from_builder,
                                    check_matrices, symmetric_error)
 from vibupdate.model.fe.export import existing_file
 from vibupdate.model.parameters import Parameter
@@ -95,7 +95,7 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
         names an unknown parameter, or a parameter has neither matrix.
     """
     parameters = tuple(parameters)
-    _check_unique_names(parameters)
+    check_parameter_names(parameters)
     dM, dK = dict(dM or {}), dict(dK or {})
     known = {p.name for p in parameters}
     for label, mapping in (("dM", dM), ("dK", dK)):

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from vibupdate.model.affine import AffineModel, _check_unique_names, check_matrices
+from vibupdate.model.affine import AffineModel, check_parameter_names, check_matrices
 from vibupdate.model.parameters import Parameter
 
 
@@ -196,7 +196,7 @@ def affine_from_elements(elements: ElementMatrices, parameters: Sequence[Paramet
         DOF names to remove (supports the export did not apply).
     """
     parameters = tuple(parameters)
-    _check_unique_names(parameters)
+    check_parameter_names(parameters)
     names = {p.name: p for p in parameters}
     unknown = sorted(set(scaling) - set(names))
     if unknown:

@@ -281,13 +281,11 @@ def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, 
 
 
 def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
-                     frequency_tolerance: float = 0.0, method: str = "linearized", seconds: float = 30.0,
-                     freqs=None, valley=None):
+                     frequency_tolerance: float = 0.0, freqs=None, valley=None) -> ParameterRanges:
     """Consistent range of every parameter around the answer ``xbar`` (module docstring).
 
-    ``method="certified"`` returns instead the certified outer ranges over the consistent
-    set of `vibupdate.ranges.consistent` (`vibupdate.ranges.certify.certified_ranges`, a `CertifiedRanges`),
-    refined for at most ``seconds``.
+    The ranges are linearized at ``xbar``; the certified outer ranges over the consistent set
+    of `vibupdate.ranges.consistent` are `vibupdate.certified_ranges`.
 
     Parameters
     ----------
@@ -299,38 +297,21 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         Relative half-width of the frequency window of every measured frequency without an
         ``interval`` (e.g. 3 sigma of the measurement error); a frequency with an interval uses
         the interval's half-width instead. The answer's own misfit is added to either.
-    method : {"linearized", "certified"}
-        The linearized ranges (a linear program on the data Jacobian at ``xbar``) or the
-        certified outer ranges.
-    seconds : float
-        Time budget of the certified method's bound tightening.
     freqs : sequence of ModelFrequencies, optional
         `vibupdate.inverse.correlation.model_frequencies` of each configuration at ``xbar``
         with ``derivatives=True`` (`UpdateResult.correlation`), when already computed: the
-        linearized method then repeats no eigen-solve.
+        ranges then repeat no eigen-solve.
     valley : sequence of ndarray, optional
         The points of the set of answers with the answer's data that the update found at this
-        ``xbar`` (`UpdateResult.valley`): the linearized method reads them instead of searching
+        ``xbar`` (`UpdateResult.valley`): the ranges read them instead of searching
         the same ends and turns again.
 
     Returns
     -------
-    ParameterRanges or CertifiedRanges
-        With ``method="linearized"``, the range of each parameter (physical units), its width
-        in per cent and the singular values of the scaled data Jacobian; with
-        ``method="certified"``, `certified_ranges`'s outcome.
-
-    Raises
-    ------
-    ValueError
-        ``method`` is neither of the two.
+    ParameterRanges
+        The range of each parameter (physical units), its width in per cent and the singular
+        values of the scaled data Jacobian.
     """
-    if method == "certified":
-        from vibupdate.ranges.certify import certified_ranges
-
-        return certified_ranges(configurations, xbar, frequency_tolerance=frequency_tolerance, seconds=seconds)
-    if method != "linearized":
-        raise ValueError(f"method must be 'linearized' or 'certified', got {method!r}")
     configurations = list(configurations)
     model = configurations[0].model
     d_hat, G = data_jacobian(configurations, xbar, freqs=freqs)

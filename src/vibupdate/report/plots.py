@@ -14,7 +14,8 @@ from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib's pyplot on the file-only Agg backend; `MissingExtra` without the extra [plots]."""
     require("plots", "drawing plots")
     import matplotlib
 
@@ -75,10 +76,10 @@ def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, which="both", alpha=0.3)
     _margins(fig, fig.get_figheight())
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
-def _save(plt, fig, path, dpi: int = 110) -> Path:
+def save_png(plt, fig, path, dpi: int = 110) -> Path:
     """Save ``fig`` as PNG at ``path`` and close it."""
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
@@ -186,7 +187,7 @@ def plot_receptances(path, panels) -> Path:
         antiresonances (rad/s) of each receptance. The pairs of one model share its eigen-solve
         (`model_receptances`).
     """
-    plt = _pyplot()
+    plt = pyplot()
     count = sum(len(p[3]) for p in panels)
     ncols = 2 if count >= 3 else 1
     nrows = -(-count // ncols)
@@ -231,7 +232,7 @@ def plot_receptances(path, panels) -> Path:
                bbox_to_anchor=(0.5, 1 - 0.05 / height))
     fig.subplots_adjust(left=0.09 if ncols == 2 else 0.11, right=0.98, bottom=0.5 / height,
                         top=1 - 0.6 / height, hspace=0.75 / 2.3 + 0.1, wspace=0.22)
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
 def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nominal_label: str,
@@ -256,7 +257,7 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     sensors : sequence of vibupdate.model.measurement.Sensor
         The model's sensors (``docs/sensors.md``).
     """
-    plt = _pyplot()
+    plt = pyplot()
     index = {d: i for i, d in enumerate(model_dofs)}
     reads = {d: ((i, 1.0),) for d, i in index.items()}
     reads.update({s.name: tuple((index[d], w) for d, w in s.weights) for s in sensors})
@@ -298,14 +299,14 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     fig.suptitle(title, fontsize=10, y=1 - 0.05 / height, va="top")
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, bbox_to_anchor=(0.5, 1 - 0.3 / height))
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.65 / height))
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
 def plot_homotopy(path, steps) -> Path:
     """Objective of every solve (``steps``: `vibupdate.io.results.StepRow`) against lambda (log
     scale), each path its own line: a path starts again wherever lambda does not grow (the
     stepped restart, a first stage repeated with wider boxes)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.8))
     lam = np.array([s.lam for s in steps], dtype=float)
     obj = np.array([max(s.objective, 1e-300) for s in steps])
@@ -325,7 +326,7 @@ def plot_mac(path, matrix: np.ndarray, title: str) -> Path:
     The axes and the colour bar sit at set places (in inches from the figure's edges):
     ``tight_layout`` and a colour bar that takes its room from the axes measure every text of
     the figure before it is drawn, more than half the plot's cost."""
-    plt = _pyplot()
+    plt = pyplot()
     width, height = 4.6, 4.0
     fig = plt.figure(figsize=(width, height))
     left, right, bottom, top, bar, gap = 0.65, 0.75, 0.55, 0.35, 0.15, 0.15
@@ -344,4 +345,4 @@ def plot_mac(path, matrix: np.ndarray, title: str) -> Path:
     ax.set_ylabel("measured mode")
     ax.set_title(title, y=1.0)
     fig.colorbar(im, cax=cax)
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)

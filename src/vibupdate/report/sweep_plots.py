@@ -19,7 +19,7 @@ from vibupdate.data.measured import TWO_PI
 from vibupdate.extras import available, skipped
 from vibupdate.io.outputs import OutputWarning, drawn, file_names
 from vibupdate.report.numbers import finite
-from vibupdate.report.plots import _pyplot, _save as _save_png
+from vibupdate.report.plots import pyplot, save_png
 
 
 #: Samples used for an FRF band (the first verified ones by index).
@@ -30,7 +30,7 @@ FRF_POINTS = 600
 def _save(plt, fig, path) -> Path:
     """Lay out, save as PNG and close."""
     fig.tight_layout()
-    return _save_png(plt, fig, path, dpi=100)
+    return save_png(plt, fig, path, dpi=100)
 
 
 def _verified(rows):
@@ -75,7 +75,7 @@ def histogram_bins(values, lower: float, upper: float) -> tuple[int, tuple[float
 
 def plot_histograms(path, document: dict, rows) -> Path:
     """One histogram per parameter over the verified samples, bounds and nominal marked."""
-    plt = _pyplot()
+    plt = pyplot()
     params = document["parameters"]
     ok = _verified(rows)
     cols = min(3, len(params))
@@ -100,7 +100,7 @@ def plot_pairs(path, document: dict, rows, names, ends=()) -> Path:
     """Pairwise scatter of the named parameters over the verified samples; where a sample's
     answer was walked along a null direction (``ends``, rows of ``line_ends.csv``), the segment
     between the two ends of that direction is drawn as a line."""
-    plt = _pyplot()
+    plt = pyplot()
     ok = _verified(rows)
     verified = {r["index"] for r in ok}
     segments: dict = {}
@@ -134,7 +134,7 @@ def plot_pairs(path, document: dict, rows, names, ends=()) -> Path:
 def plot_frequency_bands(path, document: dict) -> Path:
     """Per measured frequency: the measured interval and the 5-95 % band of the prediction,
     both relative to the measured value (per cent)."""
-    plt = _pyplot()
+    plt = pyplot()
     preds = [p for p in document["predictions"] if p["q05"] is not None]
     fig, ax = plt.subplots(figsize=(max(5.0, 0.45 * len(preds) + 2), 3.8))
     x = np.arange(len(preds))
@@ -161,7 +161,7 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
     from vibupdate.io.results import plotted_receptance
     from vibupdate.report.plots import model_receptance
 
-    plt = _pyplot()
+    plt = pyplot()
     ok = _verified(rows)[:FRF_SAMPLES]
     plotted = plotted_receptance(cfg, cfg.model.M0)
     r, c = cfg.model.dof(plotted.response), cfg.model.dof(plotted.excitation)

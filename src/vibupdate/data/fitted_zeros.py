@@ -1,4 +1,4 @@
-"""Antiresonances of a fitted modal model (private kernels of `vibupdate.data.extraction`):
+"""Antiresonances of a fitted modal model (kernels of `vibupdate.data.extraction`):
 the real zeros of the undamped fitted receptance, their standard errors by the
 implicit-function rule with exact derivatives, and the local refit of a zero on the lines
 around it. Frequencies normalized as in `vibupdate.data.modal_fit`; the method is described
@@ -12,14 +12,14 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from vibupdate.data.modal_fit import _correlation_inflation, _modal_basis, _undamped_derivatives
+from vibupdate.data.modal_fit import correlation_inflation, modal_basis, undamped_derivatives
 
 LOCAL_FRACTION = 1 / 3      # local refit: window of this times the distance to the nearest pole ...
 LOCAL_LINES = 21            # ... holding at least this many lines
-GRID_CHUNK = 65536          # grid points evaluated at once by `_zeros_of_all` (bounds its memory)
+GRID_CHUNK = 65536          # grid points evaluated at once by `zeros_of_all` (bounds its memory)
 
 
-def _zeros_of_all(x, coefs, xn, zeta):
+def zeros_of_all(x, coefs, xn, zeta):
     """Real zeros of the undamped fitted receptance of each FRF in (x[0], x[-1]): a list of
     arrays, one per row of ``coefs`` (n_fun, n_cols).
 
@@ -33,7 +33,7 @@ def _zeros_of_all(x, coefs, xn, zeta):
 
     def g(t, c):  # (n_t, n_fun) for coefficient rows c
         t = np.atleast_1d(t)
-        return (_modal_basis(t, xn, zeta, False) @ c.T) * np.prod(xn[None, :] ** 2 - t[:, None] ** 2, axis=1)[:, None]
+        return (modal_basis(t, xn, zeta, False) @ c.T) * np.prod(xn[None, :] ** 2 - t[:, None] ** 2, axis=1)[:, None]
 
     brackets = []
     for lo in range(0, grid.size - 1, GRID_CHUNK):
@@ -62,7 +62,7 @@ def _zero_window(z, x, xn) -> np.ndarray:
     return near
 
 
-def _zero_snr(z, x, fitted, v, xn) -> float:
+def zero_snr(z, x, fitted, v, xn) -> float:
     """Signal-to-noise ratio of a zero ``z``: the median of ``|fitted| / sigma`` over the lines
     that locate it (`_zero_window`; ``fitted`` the damped fit (n_freq,), ``v`` its noise
     variance per line, ``xn`` the fitted poles). A zero of the structure has the receptance
@@ -72,16 +72,16 @@ def _zero_snr(z, x, fitted, v, xn) -> float:
     return float(np.median(np.abs(fitted[near]) / np.sqrt(v[near])))
 
 
-def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, slope_offset: float = 0.0):
+def zero_se(z, coef, cov_coef, xn, zeta, cov_poles, slope_offset: float = 0.0):
     """Standard error of a zero ``z`` (normalized) of ``u(t) = b(t) coef (+ a local line)``.
 
     Implicit-function rule: ``dz = -(b dcoef + du/dw_n dw_n + du/dzeta dzeta) / u'(z)``, with
     ``cov_coef`` (n_cols, n_cols) and ``cov_poles`` (2 n, 2 n) of ``(w_n, zeta)``; every
-    derivative exact (`_undamped_derivatives`). ``slope_offset`` is the slope of a line added
-    to ``u`` (the local correction of `_local_zero`). Returns ``(se, u'(z))``."""
+    derivative exact (`undamped_derivatives`). ``slope_offset`` is the slope of a line added
+    to ``u`` (the local correction of `local_zero`). Returns ``(se, u'(z))``."""
     t = np.array([z])
-    b = _modal_basis(t, xn, zeta, False)[0]
-    d_x, d_wn, d_zeta = _undamped_derivatives(t, xn, zeta)
+    b = modal_basis(t, xn, zeta, False)[0]
+    d_x, d_wn, d_zeta = undamped_derivatives(t, xn, zeta)
     du_dz = float(d_x[0] @ coef) + slope_offset
     mode_coef = coef[1:2 * xn.size:2]  # each mode's column carries its Im A coefficient
     g_poles = -np.concatenate([d_wn[0] * mode_coef, d_zeta[0] * mode_coef]) / du_dz
@@ -90,7 +90,7 @@ def _zero_se(z, coef, cov_coef, xn, zeta, cov_poles, slope_offset: float = 0.0):
     return math.sqrt(max(float(var), 0.0)), du_dz
 
 
-def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
+def local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     """A zero of the fitted receptance refined on the lines around it; ``None`` when the
     refined zero leaves the window.
 
@@ -112,15 +112,15 @@ def _local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     c = scipy.linalg.lstsq(X, r)[0]
     res = r - X @ c
     chi2 = 2.0 * float(res @ res) / max(res.size - 2, 1)  # weighted real components have variance 1/2
-    cov_c = np.linalg.inv(X.T @ X) * 0.5 * max(1.0, chi2) * _correlation_inflation(res + 0j)
+    cov_c = np.linalg.inv(X.T @ X) * 0.5 * max(1.0, chi2) * correlation_inflation(res + 0j)
 
     def u(t):
-        return float(_modal_basis(np.array([t]), xn, zeta, False)[0] @ coef) + c[0] + c[1] * (t - z)
+        return float(modal_basis(np.array([t]), xn, zeta, False)[0] @ coef) + c[0] + c[1] * (t - z)
 
     lo, hi = float(x[near[0]]), float(x[near[-1]])
     if u(lo) * u(hi) >= 0:
         return None
     z_local = scipy.optimize.brentq(u, lo, hi, xtol=1e-14)
-    se_poles, du_dz = _zero_se(z_local, coef, np.zeros((coef.size, coef.size)), xn, zeta, cov_poles, c[1])
+    se_poles, du_dz = zero_se(z_local, coef, np.zeros((coef.size, coef.size)), xn, zeta, cov_poles, c[1])
     g = np.array([1.0, z_local - z]) / du_dz
     return z_local, math.sqrt(se_poles**2 + max(float(g @ cov_c @ g), 0.0))
