@@ -2,7 +2,7 @@
 
 Run: ``PYTHONPATH=src python benchmarks/acceptance.py --profile ci|dev|full|held-out
 [--family NAME ...] [--cases N] [--skip K] [--workers 1] [--routes cli api] [--json FILE]
-[--compromise]``
+[--compromise] [--against FILE]``
 (``--cases``: the first N seeds of each family of the profile; ``--skip K`` leaves out the first
 K), or, for the random family alone, ``--cases 500 [--seed 0] [--named]``.
 
@@ -14,7 +14,9 @@ Prints the per-family summary with the judge's excused classes, every criterion 
 `acceptance.criteria` with its measured value and limit, markdown tables per class (family,
 structure, problem kind, exact or noisy data, determinacy at the truth, route): runs, the share
 ending ``success`` and ``not_verified``, the counts of each defect, the median time per run; then
-the case ids of every failure class. ``--json`` writes every verdict. The exit code is 1 when a
+the case ids of every failure class. ``--json`` writes every verdict; ``--against FILE`` (a
+``--json`` file of another run) compares, per family, the share verified and the share right by
+the family's meaning (`acceptance.criteria.right`), with the sampling error of each difference. The exit code is 1 when a
 criterion fails.
 """
 
@@ -135,6 +137,8 @@ def main(argv=None) -> int:
     parser.add_argument("--routes", nargs="+", default=["cli", "api"], choices=["cli", "api"])
     parser.add_argument("--named", action="store_true", help="also the named problems (with --cases)")
     parser.add_argument("--json", default=None, help="write every verdict to this file")
+    parser.add_argument("--against", default=None, help="a --json file of another run (e.g. the development "
+                        "seeds): per family, both runs' verified and right shares and their differences")
     parser.add_argument("--compromise", action="store_true", help="the judge's least-squares compromise on every "
                         "problem (each run's time and misfit against it, per family), not only where a family asks")
     args = parser.parse_args(argv)
@@ -182,6 +186,10 @@ def main(argv=None) -> int:
     print(f"- engine errors: {len(engine)}" + (f" ({', '.join(r['case'] for r in engine[:8])})" if engine else "") + "\n")
     print(tables(rows))
     print(defects(rows))
+    if args.against:
+        those = json.loads(Path(args.against).read_text())
+        print(f"\nAgainst {args.against} (right: `acceptance.criteria.right`, the family's meaning of a right answer):\n")
+        print(C.compare(verdicts, _verdicts([r for r in those if r["route"] != "engine"]), C.FAMILIES))
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1, default=str))
     return 1 if engine or not all(f.ok for f in findings) else 0

@@ -30,7 +30,8 @@ from dataclasses import dataclass
 from acceptance.judge import FLOOR, Verdict
 
 __all__ = ["Family", "Finding", "FAMILIES", "IN_FAMILY", "PROFILES", "REGRESSION_SEEDS", "NEW_FAMILIES", "check",
-           "summary", "profile_jobs", "EXCUSED", "DEFECTS", "SIZE", "SIZE_FAMILIES", "CI_RANDOM"]
+           "summary", "profile_jobs", "EXCUSED", "DEFECTS", "SIZE", "SIZE_FAMILIES", "CI_RANDOM", "right",
+           "compare"]
 
 #: Failure codes that are defects in every family.
 DEFECTS = ("crash", "refused", "exit_code", "outside", "determined_miss", "truth_outside_reported", "report")
@@ -130,6 +131,51 @@ def check(verdicts: list[Verdict], families: dict) -> list[Finding]:
             out.append(Finding(name, "wrong group ranked first (share right)", round(share, 3), fam.first_min,
                                share >= fam.first_min, len(diagnosed), _ids(bad)))
     return out
+
+
+def right(v: Verdict, fam: Family) -> bool:
+    """Whether one run gave a right answer by its family's stated meaning: no defect, verified
+    where the family budgets the verified share, not worse than nominal and not above the
+    compromise where it budgets those, the expected group ranked first where it diagnoses one.
+    A model-form or biased-data run may be right without being verified; an in-family run may not."""
+    if any(code in v.failures for code in DEFECTS):
+        return False
+    if fam.success_min is not None and not v.success:
+        return False
+    if fam.worse_max is not None and "worse_than_nominal" in v.failures:
+        return False
+    if fam.above_compromise_max is not None and v.compromise and above_compromise(v.compromise):
+        return False
+    return fam.first_min is None or not v.diagnosis or v.diagnosis[0] == v.classes.get("expected_first")
+
+
+def compare(these: list[Verdict], those: list[Verdict], families: dict) -> str:
+    """Per family present in both: the share of runs verified and the share right (`right`) in
+    ``these`` and ``those`` (e.g. held-out and development seeds), and the difference in points
+    with its sampling error (two binomial proportions, over problems: a problem's routes are
+    not independent draws)."""
+    def rates(runs):
+        problems = len({v.case_id for v in runs})
+        return problems, sum(v.success for v in runs) / len(runs), sum(right(v, families[v.classes["family"]])
+                                                                       for v in runs) / len(runs)
+
+    def by_family(verdicts):
+        out = defaultdict(list)
+        for v in verdicts:
+            out[v.classes["family"]].append(v)
+        return out
+
+    a, b = by_family(these), by_family(those)
+    lines = ["| family | problems | verified % | right % | problems (against) | verified % | right % | "
+             "verified difference, points (sampling error) | right difference, points (sampling error) |",
+             "|---" * 9 + "|"]
+    for name in sorted(set(a) & set(b)):
+        (na, va, ra), (nb, vb, rb) = rates(a[name]), rates(b[name])
+        diff = [f"{100 * (x - y):+.1f} ({100 * math.sqrt(x * (1 - x) / na + y * (1 - y) / nb):.1f})"
+                for x, y in ((va, vb), (ra, rb))]
+        lines.append(f"| {name} | {na} | {100 * va:.1f} | {100 * ra:.1f} | {nb} | {100 * vb:.1f} | {100 * rb:.1f} | "
+                     f"{diff[0]} | {diff[1]} |")
+    return "\n".join(lines)
 
 
 def above_compromise(found: dict) -> bool:

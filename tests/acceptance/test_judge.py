@@ -263,6 +263,28 @@ def test_each_budget_of_a_family_can_fail_on_its_own():
     assert not _failed(right) and _failed(wrong) == {"wrong group ranked first (share right)"}
 
 
+def test_a_right_answer_is_the_familys_meaning_and_the_comparison_gives_its_sampling_error():
+    from acceptance import criteria as C
+
+    fam = C.FAMILIES
+    # in family: right only when verified and free of defects
+    assert [C.right(v, fam["random"]) for v in _verdicts("random", ["success", "not_verified"])] == [True, False]
+    assert not C.right(_verdicts("random", ["success"], extra=["outside"])[0], fam["random"])
+    # model form: not verified is right, worse than nominal or far above the compromise is not
+    mf = _verdicts("root_spring", ["not_verified"] * 3, extra=["worse_than_nominal"])
+    mf[2].compromise = {"misfit": 60.0, "compromise_misfit": 50.0, "distance_pct": 1.0, "time_ratio": 1.0}
+    assert [C.right(v, fam["root_spring"]) for v in mf] == [False, True, False]
+    # biased data: right when the biased group is ranked first
+    ok = _verdicts("biased_channel", ["not_verified"], diagnosis=("A/dof/y2",), expected="A/dof/y2")[0]
+    bad = _verdicts("biased_channel", ["not_verified"], diagnosis=("A/natural/1",), expected="A/dof/y2")[0]
+    assert C.right(ok, fam["biased_channel"]) and not C.right(bad, fam["biased_channel"])
+    # 30 of 50 against 20 of 50 verified, every run right: +20 points, error sqrt(.24/50 + .24/50)
+    these = _verdicts("root_spring", ["success"] * 30 + ["not_verified"] * 20)
+    those = _verdicts("root_spring", ["success"] * 20 + ["not_verified"] * 30)
+    row = C.compare(these, those, fam).splitlines()[2]
+    assert row == "| root_spring | 50 | 60.0 | 100.0 | 50 | 40.0 | 100.0 | +20.0 (9.8) | +0.0 (0.0) |", row
+
+
 def test_the_summary_gives_the_run_time_against_the_compromise_by_route():
     """The CLI route also diagnoses and writes the outputs, the Python route updates only: the
     family's median ratio is split by route."""
