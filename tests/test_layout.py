@@ -196,8 +196,6 @@ def test_the_count_script_finds_what_it_counts_on_a_constructed_tree(tmp_path):
 
 def test_no_module_imports_a_private_name_of_another():
     """A name two modules share is public (no underscore) in the module that owns it; what
-    stays private is used by its own module alone (`codebase_counts.private_imports` on src/).
-    One import is left, inside ``inverse/`` (search's row type, used by update): it is named
-    here so that any other fails, and this list becomes empty when it is renamed."""
+    stays private is used by its own module alone (`codebase_counts.private_imports` on src/)."""
     found = _counts_script().private_imports(PACKAGE.parent)
-    assert [h.split(": ")[1] for h in found] == ["vibupdate.inverse.search._Row"]
+    assert found == []

@@ -125,11 +125,20 @@ class Search:
                          "undetermined" if self.valley_ends else ""))
 
 
-class _Row:
-    """A record read like its dict of ``results.json`` (``record["start"]``); `as_dict` writes
-    each field under its name (or its metadata's ``key``), tuples as lists, records as dicts."""
+class SearchRecord:
+    """The base of the search's records (`Start`, `Alternative`, `Sought` and
+    `vibupdate.inverse.update.Attempt`, frozen dataclasses): read like its dict of
+    ``results.json`` (``record["start"]``), written by `as_dict`."""
 
     def as_dict(self) -> dict:
+        """The record as its ``results.json`` document.
+
+        Returns
+        -------
+        dict
+            Each field under its name (or its metadata's ``key``): tuples as lists, records as
+            dicts, enumerations as their values.
+        """
         return {f.metadata.get("key", f.name): _plain(getattr(self, f.name)) for f in fields(self)}
 
     def __getitem__(self, key):
@@ -139,7 +148,7 @@ class _Row:
 def _plain(value):
     if isinstance(value, (tuple, list)):
         return [_plain(v) for v in value]
-    if isinstance(value, _Row):
+    if isinstance(value, SearchRecord):
         return value.as_dict()
     if isinstance(value, Enum):
         return value.value
@@ -147,7 +156,7 @@ def _plain(value):
 
 
 @dataclass(frozen=True)
-class Start(_Row):
+class Start(SearchRecord):
     """One start tried: its label, why (``purpose`` "fit" or "uniqueness"), the verdict of its
     answer ("verified", "not_verified", "path failed", "same answer": it reached a known answer
     again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed
@@ -162,7 +171,7 @@ class Start(_Row):
 
 
 @dataclass(frozen=True)
-class Alternative(_Row):
+class Alternative(SearchRecord):
     """Another verified answer: its start, objective, ``xbar``, physical ``values`` by name and
     the parameters that differ from the returned answer (``differs``)."""
 
@@ -174,7 +183,7 @@ class Alternative(_Row):
 
 
 @dataclass(frozen=True)
-class Sought(_Row):
+class Sought(SearchRecord):
     """What the update sought: the search it ran, every start in order, whether the
     uniqueness of a verified answer was searched, and why (or why not), and whether Ctrl-C
     ended that search (``interrupted``: the answer is the best verified one found by then)."""

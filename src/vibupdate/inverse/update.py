@@ -35,7 +35,7 @@ from vibupdate.inverse.reduction import (derivative_vectors, kept_dofs, reduce_c
                                          wants_reduction)
 from vibupdate.inverse.status import Status, Verdict
 from vibupdate.inverse.admissible import Admissible, evaluate, misses, weighted
-from vibupdate.inverse.search import Alternative, Search, Sought, Start, _Row
+from vibupdate.inverse.search import Alternative, Search, SearchRecord, Sought, Start
 from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
 
 
@@ -327,7 +327,7 @@ def _reduction_error(solved, nominal) -> float:
 
 
 @dataclass(frozen=True)
-class Attempt(_Row):
+class Attempt(SearchRecord):
     """One attempt of the first stage (module docstring, item 2): the margins of its vector
     boxes, the relaxation's lower bound, the path's objective and status, and the bounds the
     relaxation's optimum sits at, named for the user."""
