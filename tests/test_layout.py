@@ -237,3 +237,10 @@ def test_every_annotation_of_src_names_what_its_module_imports():
                     except NameError as exc:
                         faults.append(f"{info.name}.{item.__qualname__}: {exc}")
     assert not faults, "\n".join(faults)
+
+
+def test_no_line_of_src_is_over_120_characters():
+    """The source reads without a horizontal scroll: every line of ``src/`` at most 120 characters."""
+    long = [f"{path.relative_to(PACKAGE.parent)}:{number}" for path in sorted(PACKAGE.rglob("*.py"))
+            for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1) if len(line) > 120]
+    assert not long, long
