@@ -114,13 +114,6 @@ def _public_members(cls: type) -> list[str]:
             if not name.startswith("_") and (inspect.isfunction(value) or isinstance(value, kinds))]
 
 
-#: Types that `load_results` returns (reached from ``RunResult``'s fields) and that are defined in
-#: ``vibupdate.inverse``, whose docstrings are not yet held to the rules (their ``Attributes``
-#: name no fields or leave some undescribed; ``Search``'s methods have no ``Parameters``); the
-#: others are.
-NOT_YET = frozenset({"StepRecord", "Check", "Attempt", "Verdict", "Sought", "Start", "Alternative", "Search"})
-
-
 def record_types() -> list[type]:
     """The dataclasses and enumerations a loaded ``results.json`` holds: ``RunResult``'s field
     types, their fields' types, and so on (`vibupdate.io.records.field_types` resolves them)."""
@@ -142,12 +135,12 @@ def record_types() -> list[type]:
 
 
 def public_paths() -> list[str]:
-    """Import paths of the facade's names, of the types a loaded ``results.json`` holds (but
-    `NOT_YET`), and of the public members of those classes."""
+    """Import paths of the facade's names, of the types a loaded ``results.json`` holds, and of
+    the public members of those classes."""
     classes = [getattr(vibupdate, name) for name in vibupdate.__all__]
     paths = [f"vibupdate.{name}" for name in vibupdate.__all__]
     for cls in record_types():
-        if cls.__name__ not in NOT_YET and cls not in classes:
+        if cls not in classes:
             classes.append(cls)
             paths.append(f"{cls.__module__}.{cls.__qualname__}")
     for obj in classes:
@@ -161,7 +154,8 @@ def test_every_public_docstring_passes_numpydoc():
     paths = public_paths()
     assert len(paths) > len(vibupdate.__all__)         # the classes' members are in the scope
     assert "vibupdate.io.records.SolverRecord" in paths and "vibupdate.io.records.WidenedBox" in paths
-    assert NOT_YET <= {cls.__name__ for cls in record_types()}
+    assert {"StepRecord", "Check", "Attempt", "Verdict", "Sought", "Start", "Alternative", "Search"} <= {
+        cls.__name__ for cls in record_types()}
     faults = [f"{path}: {error}" for path in paths for error in docstring_errors(path)]
     assert not faults, f"{len(faults)} docstring faults:\n" + "\n".join(faults)
 

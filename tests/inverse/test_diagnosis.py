@@ -4,9 +4,10 @@ one out keeps, when a diagnosis runs, and a known truth with one biased driving 
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 from helpers import BIASED_CHAIN_TRUTH, biased_chain
-from vibupdate import Configuration, NaturalFrequency, ShapeInterval
+from vibupdate import Assembly, Configuration, NaturalFrequency, Parameter, ShapeInterval, from_builder
 from vibupdate.data.measured import Antiresonance
 from vibupdate.inverse.diagnosis import DataGroup, data_groups, diagnose, wants_diagnosis, without
 from vibupdate.inverse.status import Status
@@ -62,6 +63,7 @@ def test_an_antiresonance_left_out_drops_the_interlacing_signs_and_an_empty_conf
 @pytest.mark.parametrize("status, failed, wanted", [
     (Status.NOT_VERIFIED, ["shape_intervals", "consistency"], True),
     (Status.NOT_VERIFIED, ["fit"], True),
+    (Status.NOT_VERIFIED, ["modal_mass"], True),         # a datum's miss, like fit
     (Status.NOT_VERIFIED, ["mode_order"], False),        # a question of pairing, named by the check
     (Status.NOT_VERIFIED, ["mode_order", "correspondence"], False),
     (Status.STEP_FAILED, ["fit"], False),                 # no answer to start from
@@ -102,6 +104,45 @@ def test_a_biased_driving_point_is_named_first_and_the_model_without_it_is_the_t
         assert (t.shape_misses >= 1) == ("shape_intervals" in t.failed), (t.group.key, t.shape_misses, t.failed)
 
 
+def test_a_biased_modal_mass_alone_starts_a_diagnosis_that_refits_without_it():
+    """Three masses on three springs, one stiffness and one mass scale as parameters: the
+    frequencies fix their ratio, the modal masses their level. Each mode's mass-normalized entry
+    is measured at y3 alone (a driving point's residue: no shape ratios), mode 2's 10 % high, so
+    its modal mass is 17 % low and conflicts with the other two: only ``modal_mass`` fails. Every
+    group refitted and passing leaves mode 2's modal mass out."""
+    truth = {"k": 1100.0, "m": 0.95}
+
+    def build(p):
+        asm = Assembly("beam")
+        for i, mass in enumerate((1.0, 1.5, 0.8), start=1):
+            asm.node(i, float(i))
+            asm.fix(f"phi{i}")
+            asm.mass(f"y{i}", p["m"] * mass)
+        asm.spring("y1", p["k"])
+        asm.spring("y1", 0.7 * p["k"], "y2")
+        asm.spring("y2", 1.3 * p["k"], "y3")
+        return asm.system()
+
+    model = from_builder(build, [Parameter("k", 1000.0, 700.0, 1300.0), Parameter("m", 1.0, 0.7, 1.3)])
+    xbar = np.array([(truth[p.name] - p.nominal) / p.reference for p in model.parameters])
+    M, K = (A.toarray() for A in model.matrices(xbar))
+    eigenvalues, Phi = scipy.linalg.eigh(K, M)
+    natural = []
+    for m in range(3):
+        v = Phi[model.dof("y3"), m] * (1.10 if m == 1 else 1.0)
+        natural.append(NaturalFrequency.from_hz(np.sqrt(eigenvalues[m]) / (2 * np.pi), shape=ShapeInterval(
+            {"y3": (v - HALF_WIDTH * abs(v), v + HALF_WIDTH * abs(v))}, mass_normalized=True)))
+    cfg = Configuration("A", model, tuple(natural))
+    result = update([cfg])
+    failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
+    assert result.status == Status.NOT_VERIFIED and failed == ["modal_mass"], result.message
+    assert wants_diagnosis(result.status, failed)
+    found = diagnose([cfg], result)
+    passed = {t.group.key for t in found.trials if t.passed}
+    assert "A/shape/2" in passed and passed <= {"A/shape/2", "A/natural/2", "A/dof/y3"}, found.trials
+    assert found.best is not None and found.best.status.ok
+
+
 def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
     cfg = biased_configuration("y3", 0.10)
     result = update([cfg])
@@ -111,6 +152,7 @@ def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
     screened = {t.group.label for t in found.trials}
     assert len(found.untried_groups) == 11 and not screened & set(found.untried_groups)
     assert found.record()["untried_groups"] == list(found.untried_groups)
+    assert found.record()["limits"] == {"groups": 2, "seconds": 120.0}     # the caller's limits, not the defaults
     # the one-step screening puts the biased DOF among the groups refitted
     assert found.worst.key == "A/dof/y3"
     # on the time limit no group is refitted; the ones it would have refitted are named
@@ -120,6 +162,7 @@ def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():
     stopped = [line for line in lines if "on the limit of 1e-09 s" in line]
     assert len(stopped) == 1 and found.trials[0].group.label in stopped[0].split("not screened: ")[1]
     assert late.message() == "diagnosis: no group of the data could be screened"
+    assert late.record()["limits"] == {"groups": 3, "seconds": 1e-9}
     with pytest.raises(ValueError, match="max_groups >= 1"):
         diagnose([cfg], result, max_groups=0)
 

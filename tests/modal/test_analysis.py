@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from helpers import random_spd, uniform_cantilever
 from vibupdate import antiresonances, mac, modes, receptance
-from vibupdate.modal.analysis import adjunct
+from vibupdate.modal.analysis import adjunct, antiresonance_vectors
 
 
 def test_modes_are_mass_normalized_and_dense_equals_sparse():
@@ -92,12 +92,23 @@ def test_driving_point_zeros_interlace_with_poles(n, seed, r):
 
 def test_antiresonance_vectors_solve_the_adjunct_problem():
     s = uniform_cantilever(6)
-    z, V = antiresonances(s.M, s.K, 0, 4, with_vectors=True)
+    z, V = antiresonance_vectors(s.M, s.K, 0, 4)
     Mr, Kr = adjunct(s.M, 0, 4).toarray(), adjunct(s.K, 0, 4).toarray()
     for k in range(z.size):
         res = (Kr - z[k] ** 2 * Mr) @ V[:, k]
         assert np.linalg.norm(res) < 1e-8 * np.linalg.norm(Kr @ V[:, k])
         assert np.max(np.abs(V[:, k])) == pytest.approx(1.0)
+
+
+def test_antiresonances_has_one_return_type_and_the_vectors_their_own_function():
+    s = uniform_cantilever(6)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'with_vectors'"):
+        antiresonances(s.M, s.K, 0, 4, with_vectors=True)     # the pair: antiresonance_vectors
+    z = antiresonances(s.M, s.K, 0, 4)
+    z_pair, V = antiresonance_vectors(s.M, s.K, 0, 4)
+    assert isinstance(z, np.ndarray) and z.ndim == 1 and z.size > 0
+    np.testing.assert_array_equal(z, z_pair)
+    assert V.shape == (s.M.shape[0] - 1, z.size)
 
 
 def test_out_of_range_dofs_are_named():

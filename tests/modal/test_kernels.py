@@ -10,7 +10,7 @@ from helpers import uniform_cantilever
 from vibupdate import Assembly, antiresonances, modes, receptance
 from vibupdate.modal import eigen
 from vibupdate.modal import receptance as receptance_module
-from vibupdate.modal.analysis import DENSE_LIMIT, ModalAccuracyError, adjunct, mode_residuals
+from vibupdate.modal.analysis import DENSE_LIMIT, ModalAccuracyError, adjunct, antiresonance_vectors, mode_residuals
 
 
 def lumped_portal(storeys=3, per_column=3):
@@ -152,12 +152,12 @@ def test_sparse_adjunct_antiresonances_equal_the_dense_ones(pair, rtol):
     M, K = sysm.M, sysm.K
     r, c = sysm.dof(pair[0]), sysm.dof(pair[1])
     z_dense = antiresonances(M, K, r, c, dense=True)
-    z, V = antiresonances(M, K, r, c, with_vectors=True, n_zeros=6)
+    z, V = antiresonance_vectors(M, K, r, c, n_zeros=6)
     assert z.size == 6
     np.testing.assert_allclose(z, z_dense[:6], rtol=rtol)
     Mr, Kr = adjunct(M, r, c), adjunct(K, r, c)
     # Right vectors of the (r, c) pencil; those of the (c, r) pencil are its left vectors.
-    _, U = antiresonances(M, K, c, r, with_vectors=True, n_zeros=6)
+    _, U = antiresonance_vectors(M, K, c, r, n_zeros=6)
     for k in range(6):
         A = Kr - z[k] ** 2 * Mr
         scale = abs(Kr).sum(axis=0).max() + z[k] ** 2 * abs(Mr).sum(axis=0).max()

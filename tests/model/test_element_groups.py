@@ -93,6 +93,17 @@ def test_an_element_matrix_with_the_wrong_count_is_named(tmp_path):
         read_abaqus_elements([tmp_path / "bad.mtx"])
 
 
+def test_an_element_of_no_nodes_is_refused_naming_it(tmp_path):
+    # the first node's DOF line needs a first node: NODES=0 is refused, not an index error
+    text = FIXTURE.read_text()
+    (tmp_path / "none.mtx").write_text(text.replace("*USER ELEMENT, NODES= 2, LINEAR\n** ELEMENT NODES\n** 7, 8\n1\n",
+                                                    "*USER ELEMENT, NODES= 0, LINEAR\n** ELEMENT NODES\n1\n", 1))
+    assert (tmp_path / "none.mtx").read_text() != text
+    with pytest.raises(ValueError, match=r"none.mtx: element 40 \(line 19\): \*USER ELEMENT has NODES=0; an element "
+                                         r"has at least one node"):
+        read_abaqus_elements([tmp_path / "none.mtx"])
+
+
 def test_an_element_scaled_by_two_parameters_is_refused():
     k = np.array([[1.0, -1.0], [-1.0, 1.0]])
     elements = element_matrices([(1, ["a", "b"], k, np.eye(2)), (2, ["b", "c"], k, np.eye(2))])

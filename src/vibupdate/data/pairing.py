@@ -14,11 +14,16 @@ to either side. Every pairing downstream reads these declared indices.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vibupdate.data.names import zero_name
+
+if TYPE_CHECKING:   # for the annotations only: vibupdate.data.measured imports this module
+    from vibupdate.data.measured import NaturalFrequency
 
 
 #: A nominal zero within this relative distance of the first mode lies on it (a node of that

@@ -30,8 +30,10 @@ from vibupdate.inverse.verify import VerifyOptions, verify
 
 
 #: Failed checks that say the model does not fit the data: only these start a diagnosis (not
-#: a question of which model mode or zero a datum is: docs section 7.8).
-MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "mac", "improvement"})
+#: a question of which model mode or zero a datum is: docs section 7.8). ``modal_mass`` is a
+#: datum's miss like ``fit``: a mass-normalized shape measured at one DOF (a driving point's
+#: residue) has no shape ratios, and its modal mass is the only check that sees it.
+MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "modal_mass", "mac", "improvement"})
 #: Groups refitted at most, the best of the one-step screening (the rest are named as untried;
 #: `benchmarks/RESULTS.md`, "The diagnosis screened in one step").
 MAX_GROUPS = 3
@@ -199,8 +201,8 @@ class Diagnosis:
     trials : tuple of GroupTrial
         Refitted groups, ranked: passed first, then by objective.
     untried : int
-        Groups not refitted: beyond the first `MAX_GROUPS` of the one-step screening, past
-        `MAX_SECONDS`, or whose refit failed.
+        Groups not refitted: beyond the first ``max_groups`` of the one-step screening, past
+        ``max_seconds``, or whose refit failed.
     groups : int
         Groups of the data in all.
     best : UpdateResult or None
@@ -212,6 +214,10 @@ class Diagnosis:
         The whole diagnosis.
     untried_groups : tuple of str
         The labels of the ``untried`` groups, in the order of the one-step screening.
+    max_groups : int
+        The limit of groups refitted it ran with (`diagnose`).
+    max_seconds : float
+        The limit of seconds of refits it ran with, s.
     """
 
     failed: tuple[str, ...]
@@ -225,6 +231,8 @@ class Diagnosis:
     seconds: float
     best_seconds: float = 0.0
     untried_groups: tuple[str, ...] = ()
+    max_groups: int = MAX_GROUPS
+    max_seconds: float = MAX_SECONDS
 
     @property
     def worst(self) -> DataGroup | None:
@@ -256,7 +264,7 @@ class Diagnosis:
                 "max_error_pct": self.max_error_pct, "groups": self.groups, "untried": self.untried,
                 "untried_groups": list(self.untried_groups),
                 "trials": [t.as_dict() for t in self.trials], "best": best, "seconds": self.seconds,
-                "limits": {"groups": MAX_GROUPS, "seconds": MAX_SECONDS}}
+                "limits": {"groups": self.max_groups, "seconds": self.max_seconds}}
 
 
 def _predicted(configurations, xbar, verification: VerifyOptions) -> tuple[float, float]:
@@ -368,6 +376,6 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
     screened = {t.group.key for t in trials}
     untried = tuple(g.label for _, _, g, _ in candidates if g.key not in screened)
     diagnosis = Diagnosis(failed, full, mean, worst, tuple(trials), len(untried), len(candidates),
-                          best, time.perf_counter() - t0, time.perf_counter() - t1, untried)
+                          best, time.perf_counter() - t0, time.perf_counter() - t1, untried, max_groups, max_seconds)
     say(diagnosis.message() + f" ({diagnosis.seconds:.1f} s)")
     return diagnosis

@@ -96,10 +96,30 @@ class SolverOptions:
 
 @dataclass(frozen=True)
 class StepRecord:
-    """One solve on the path: ``lam``, objective (weighted residual, no proximal term),
-    IPOPT iterations, status, wall seconds, whether it was a cold retry, and whether it is the
-    outcome of the identical relaxation solved before in this process (``reused``: no solve,
-    0 s; `RELAXATIONS`). ``lam`` is written as ``lambda``."""
+    """One solve on the homotopy path.
+
+    Attributes
+    ----------
+    lam : float
+        The homotopy parameter of the solve, in [0, 1] (0: the relaxation); written as
+        ``lambda``.
+    objective : float
+        Weighted residual ``sum_k w_k R_k^2`` at the solve's point, without the proximal term
+        (dimensionless).
+    iterations : int
+        Iterations of the step solver (IPOPT's, or the QP solver's for the relaxation).
+    status : Status
+        How the solve ended.
+    seconds : float
+        Wall time of the solve, s (0 when ``reused``).
+    cold : bool
+        Solved from a cold start: the relaxation, or the retry of a failed warm step.
+    accepted : bool
+        The solve reached its goal (``status.ok``), so the path moved to its point.
+    reused : bool
+        The outcome of the identical relaxation solved before in this process, not solved
+        again (`RELAXATIONS`).
+    """
 
     lam: float = field(metadata={"key": "lambda"})
     objective: float
@@ -111,6 +131,13 @@ class StepRecord:
     reused: bool = False
 
     def as_dict(self) -> dict:
+        """The record as its ``results.json`` document.
+
+        Returns
+        -------
+        dict
+            Each field under its name (``lam`` as ``lambda``), ``status`` as its value.
+        """
         return {"lambda": self.lam, "objective": self.objective, "iterations": self.iterations,
                 "status": self.status.value, "seconds": self.seconds, "cold": self.cold,
                 "accepted": self.accepted, "reused": self.reused}

@@ -78,18 +78,53 @@ class Search:
     follow: int = 2
 
     def box_starts(self, lo: np.ndarray, hi: np.ndarray, n_random: int) -> list[tuple[str, np.ndarray]]:
-        """The nominal point and ``n_random`` random points of the box ``[lo, hi]``, in this
-        order (the first points are the same whatever ``n_random``)."""
+        """The nominal point and ``n_random`` random points of a box, in this order.
+
+        The random points are drawn with `seed`, so the first ones are the same whatever
+        ``n_random``.
+
+        Parameters
+        ----------
+        lo, hi : ndarray, shape (n_x,)
+            Lower and upper bounds of the normalized parameters.
+        n_random : int
+            How many random points.
+
+        Returns
+        -------
+        list of (str, ndarray)
+            Each start's label ("nominal point", "random start 1", ...) and its point, shape
+            (n_x,); the nominal point clipped to the box.
+        """
         rng = np.random.default_rng(self.seed)
         return [("nominal point", np.clip(np.zeros(lo.size), lo, hi))] + [
             (f"random start {k + 1}", rng.uniform(lo, hi)) for k in range(n_random)]
 
     def weak_starts(self, xbar: np.ndarray, sensitivity, lo: np.ndarray,
                     hi: np.ndarray) -> list[tuple[str, np.ndarray]]:
-        """The answer ``xbar`` moved along the data's weakest determined direction (the right
-        singular vector of the smallest nonzero singular value of ``sensitivity.matrix``) in each
-        sense, out to the box ``[lo, hi]``; parameters held at a bound stay there (else the bound
-        would stop both senses at once). Empty when ``weak_direction`` is off or nothing is determined."""
+        """The answer moved along the data's weakest determined direction, in each sense.
+
+        The direction is the right singular vector of the smallest nonzero singular value of
+        ``sensitivity.matrix``; each start lies where it leaves the box. Parameters held at a
+        bound stay there (else the bound would stop both senses at once).
+
+        Parameters
+        ----------
+        xbar : ndarray, shape (n_x,)
+            The answer, normalized parameters.
+        sensitivity : vibupdate.inverse.data_map.Sensitivity
+            The data's relative sensitivity at ``xbar`` (its ``matrix``, shape (n_data, n_x),
+            may be None or empty).
+        lo, hi : ndarray, shape (n_x,)
+            Lower and upper bounds of the normalized parameters.
+
+        Returns
+        -------
+        list of (str, ndarray)
+            Labels "weakest direction +" and "weakest direction -" with their points, shape
+            (n_x,): a sense that leaves the box at once gives none, and the list is empty when
+            `weak_direction` is off or the data determine no direction.
+        """
         S = sensitivity.matrix
         if not self.weak_direction or S is None or not S.size:
             return []
@@ -111,7 +146,25 @@ class Search:
         return out
 
     def uniqueness(self, n_dofs: int, n_parameters: int, asked: bool) -> tuple[bool, str]:
-        """Whether a verified answer is tested for uniqueness on a model of this size, and why."""
+        """Whether a verified answer is tested for uniqueness, and why.
+
+        Parameters
+        ----------
+        n_dofs : int
+            DOFs of the model (above `probe_dofs` the starts are polished on a reduced model
+            first).
+        n_parameters : int
+            Updating parameters (above `probe_parameters` no search).
+        asked : bool
+            Whether the caller asked for the search (polish on, not a sampling sweep).
+
+        Returns
+        -------
+        searched : bool
+            Whether the search runs.
+        reason : str
+            Why, in words: the starts it polishes, or why it does not run.
+        """
         if not asked:
             return False, "not asked for (polish off or a sampling sweep)"
         if n_parameters > self.probe_parameters:
@@ -125,11 +178,20 @@ class Search:
                          "undetermined" if self.valley_ends else ""))
 
 
-class _Row:
-    """A record read like its dict of ``results.json`` (``record["start"]``); `as_dict` writes
-    each field under its name (or its metadata's ``key``), tuples as lists, records as dicts."""
+class SearchRecord:
+    """The base of the search's records (`Start`, `Alternative`, `Sought` and
+    `vibupdate.inverse.update.Attempt`, frozen dataclasses): read like its dict of
+    ``results.json`` (``record["start"]``), written by `as_dict`."""
 
     def as_dict(self) -> dict:
+        """The record as its ``results.json`` document.
+
+        Returns
+        -------
+        dict
+            Each field under its name (or its metadata's ``key``): tuples as lists, records as
+            dicts, enumerations as their values.
+        """
         return {f.metadata.get("key", f.name): _plain(getattr(self, f.name)) for f in fields(self)}
 
     def __getitem__(self, key):
@@ -139,7 +201,7 @@ class _Row:
 def _plain(value):
     if isinstance(value, (tuple, list)):
         return [_plain(v) for v in value]
-    if isinstance(value, _Row):
+    if isinstance(value, SearchRecord):
         return value.as_dict()
     if isinstance(value, Enum):
         return value.value
@@ -147,11 +209,28 @@ def _plain(value):
 
 
 @dataclass(frozen=True)
-class Start(_Row):
-    """One start tried: its label, why (``purpose`` "fit" or "uniqueness"), the verdict of its
-    answer ("verified", "not_verified", "path failed", "same answer": it reached a known answer
-    again, "same data": points with the answer's data to 1e-9, the valley's ends), the failed
-    checks, its polish objective and seconds."""
+class Start(SearchRecord):
+    """One start tried by the search.
+
+    Attributes
+    ----------
+    start : str
+        Its label ("nominal point", "random start 1", "weakest direction +", "valley ends",
+        ...).
+    purpose : {"fit", "uniqueness"}
+        Tried because the answer did not verify, or to test a verified answer for uniqueness.
+    status : {"verified", "not_verified", "path failed", "same answer", "same data"}
+        What its answer was: "same answer" when it reached a known answer again, "same data"
+        for points with the answer's data to 1e-9 (the valley's ends).
+    failed : tuple of str
+        The names of the failed error checks of its answer (`vibupdate.inverse.verify.Check`).
+    cost : float or None
+        Polish objective of its answer (dimensionless, `vibupdate.inverse.polish`): inf for an
+        answer that was not polished, None for a start whose answer was not kept ("path
+        failed", "same answer").
+    seconds : float
+        Wall time spent on it, s.
+    """
 
     start: str
     purpose: str
@@ -162,9 +241,23 @@ class Start(_Row):
 
 
 @dataclass(frozen=True)
-class Alternative(_Row):
-    """Another verified answer: its start, objective, ``xbar``, physical ``values`` by name and
-    the parameters that differ from the returned answer (``differs``)."""
+class Alternative(SearchRecord):
+    """Another verified answer that fits the data as well as the returned one.
+
+    Attributes
+    ----------
+    start : str
+        The label of the `Start` that reached it.
+    objective : float
+        Its polish objective (dimensionless, `vibupdate.inverse.polish`).
+    xbar : tuple of float
+        Its normalized parameters (Eq. 12), one per parameter in the model's order.
+    values : dict of str to float
+        Its physical parameter values by name, each in its parameter's unit.
+    differs : tuple of str
+        The parameters whose normalized values differ from the returned answer's by more than
+        `Search.distinct`.
+    """
 
     start: str
     objective: float
@@ -174,10 +267,23 @@ class Alternative(_Row):
 
 
 @dataclass(frozen=True)
-class Sought(_Row):
-    """What the update sought: the search it ran, every start in order, whether the
-    uniqueness of a verified answer was searched, and why (or why not), and whether Ctrl-C
-    ended that search (``interrupted``: the answer is the best verified one found by then)."""
+class Sought(SearchRecord):
+    """What the update sought.
+
+    Attributes
+    ----------
+    search : Search
+        The starts and budgets it ran with.
+    starts : tuple of Start
+        Every start tried, in order.
+    uniqueness : bool
+        Whether a verified answer was tested for uniqueness; written as
+        ``uniqueness_searched``.
+    reason : str
+        Why it was (which starts) or why not, in words.
+    interrupted : bool
+        Ctrl-C ended the uniqueness search: the answer is the best verified one found by then.
+    """
 
     search: Search
     starts: tuple[Start, ...]

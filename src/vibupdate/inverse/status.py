@@ -56,11 +56,21 @@ class Status(str, Enum):
 class Verdict(str, Enum):
     """What the update proved about its answer, apart from how the solver ended (`Status`).
 
-    ``verified``: every datum lies in its admissible interval and every check passed, and no
-    other answer that does was found (`vibupdate.inverse.search.Sought` says whether one was
-    sought); ``not_unique``: verified, and a different answer fits as well (both reported);
-    ``not_verified``: a check failed, or the path failed; ``refused``: the input was refused
-    before any solve."""
+    The value of each member is the word ``results.json`` writes.
+
+    Attributes
+    ----------
+    VERIFIED
+        Every datum lies in its admissible interval and every check passed, and no other
+        answer that does was found (`vibupdate.inverse.search.Sought` says whether one was
+        sought).
+    NOT_UNIQUE
+        Verified, and a different answer fits as well (both reported).
+    NOT_VERIFIED
+        A check failed, or the path failed.
+    REFUSED
+        The input was refused before any solve.
+    """
 
     VERIFIED = "verified"
     NOT_UNIQUE = "not_unique"
@@ -69,4 +79,5 @@ class Verdict(str, Enum):
 
     @property
     def ok(self) -> bool:
+        """True for ``VERIFIED`` and ``NOT_UNIQUE``, the verdicts of an answer that verified."""
         return self in (Verdict.VERIFIED, Verdict.NOT_UNIQUE)

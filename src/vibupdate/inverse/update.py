@@ -35,7 +35,7 @@ from vibupdate.inverse.reduction import (derivative_vectors, kept_dofs, reduce_c
                                          wants_reduction)
 from vibupdate.inverse.status import Status, Verdict
 from vibupdate.inverse.admissible import Admissible, evaluate, misses, weighted
-from vibupdate.inverse.search import Alternative, Search, Sought, Start, _Row
+from vibupdate.inverse.search import Alternative, Search, SearchRecord, Sought, Start
 from vibupdate.inverse.verify import Check, VerifyOptions, consistency_allowance, verify
 
 
@@ -327,10 +327,29 @@ def _reduction_error(solved, nominal) -> float:
 
 
 @dataclass(frozen=True)
-class Attempt(_Row):
-    """One attempt of the first stage (module docstring, item 2): the margins of its vector
-    boxes, the relaxation's lower bound, the path's objective and status, and the bounds the
-    relaxation's optimum sits at, named for the user."""
+class Attempt(SearchRecord):
+    """One attempt of the first stage, with its vector boxes (module docstring, item 2).
+
+    Attributes
+    ----------
+    shape_margin : float
+        Unmeasured mode entries were bounded by ``+- shape_margin`` times the largest entry of
+        the nominal mode in its block's normalization
+        (`vibupdate.inverse.formulation.FormulationOptions`).
+    adjunct_margin : float
+        Adjunct vector entries were bounded by ``+- adjunct_margin`` around their fixed unit
+        entry.
+    relaxation_lower_bound : float or None
+        Optimum of the ``lam = 0`` relaxation (dimensionless, as ``objective``), None where it
+        was not solved.
+    objective : float
+        Exact objective ``sum_k w_k R_k^2`` at the path's last accepted point (dimensionless).
+    status : Status
+        How the path ended.
+    active_bounds : tuple of str
+        The bounds of parameters and of margin-bounded vector entries at which the
+        relaxation's optimum sits, named for the user.
+    """
 
     shape_margin: float
     adjunct_margin: float

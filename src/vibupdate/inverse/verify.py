@@ -31,7 +31,10 @@ class Check:
     Attributes
     ----------
     name : str
+        The check (``fit``, ``modal_mass``, ``shape_intervals``, ...; the table of
+        docs/polish-and-verification.md, section 7.3).
     passed : bool
+        Whether the answer passed it.
     severity : {"error", "warning"}
         A failed error check makes the answer not verified; a warning does not.
     message : str
@@ -53,6 +56,13 @@ class Check:
     limited_by: str | None = None
 
     def as_dict(self) -> dict:
+        """The record as its ``results.json`` document.
+
+        Returns
+        -------
+        dict
+            Each field under its name.
+        """
         return asdict(self)
 
 

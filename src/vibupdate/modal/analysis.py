@@ -15,7 +15,8 @@ import scipy.linalg
 from vibupdate.modal.eigen import (DENSE_LIMIT as DENSE_LIMIT, MASSLESS_TOL as MASSLESS_TOL, massless_dofs,
                                    ModalAccuracyError as ModalAccuracyError, mode_residuals as mode_residuals, modes)
 from vibupdate.modal.receptance import receptance as receptance, receptances as receptances
-from vibupdate.modal.zeros import adjunct as adjunct, antiresonances as antiresonances
+from vibupdate.modal.zeros import (adjunct as adjunct, antiresonance_vectors as antiresonance_vectors,
+                                   antiresonances as antiresonances)
 
 
 def flexible_modes(M, K, n_modes: int | None = None, **options):

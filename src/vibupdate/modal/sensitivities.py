@@ -36,7 +36,7 @@ from vibupdate.modal import eigen
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.readings import ratio_derivatives, readings
-from vibupdate.modal.zeros import antiresonances, dense_zeros, others
+from vibupdate.modal.zeros import antiresonance_vectors, dense_zeros, others
 
 
 def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
@@ -255,10 +255,10 @@ def adjunct_eigenpairs(M, K, r: int, c: int, n_zeros: int | None = None, precisi
     """
     if M.shape[0] > eigen.DENSE_LIMIT:
         k = n_zeros or 20
-        wz, V_right = antiresonances(M, K, r, c, with_vectors=True, n_zeros=k, precision=precision)
+        wz, V_right = antiresonance_vectors(M, K, r, c, n_zeros=k, precision=precision)
         if r == c:
             return wz**2, V_right, V_right
-        wy, V_left = antiresonances(M, K, c, r, with_vectors=True, n_zeros=k, precision=precision)
+        wy, V_left = antiresonance_vectors(M, K, c, r, n_zeros=k, precision=precision)
         if wy.size != wz.size or np.any(np.abs(wy - wz) > 1e-6 * np.maximum(wz, 1e-300)):
             raise ValueError(f"the zeros of h_{r},{c} and h_{c},{r} of a symmetric model differ: the sparse "
                              "eigen-solve did not converge to the same set")

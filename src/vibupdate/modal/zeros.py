@@ -165,12 +165,12 @@ def _sparse_zeros(M, K, r: int, c: int, n_zeros: int, rtol: float, precision: fl
     return eigval_z, V
 
 
-def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: float = 1e-8,
-                   n_zeros: int | None = None, dense: bool | None = None, precision: float | None = None):
+def antiresonances(M, K, r: int, c: int, *, rtol: float = 1e-8, n_zeros: int | None = None,
+                   dense: bool | None = None, precision: float | None = None) -> np.ndarray:
     """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8).
 
     Dense, or by shift-invert (Lanczos for ``r == c``, Arnoldi otherwise) as the module
-    docstring says.
+    docstring says; `antiresonance_vectors` also gives the adjunct pencil's vectors.
 
     Parameters
     ----------
@@ -179,9 +179,6 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
         kg m^2 and N m/rad on rotations).
     r, c : int
         Response and excitation DOF indices (0-based).
-    with_vectors : bool
-        Also return the right eigenvectors of the adjunct pencil. The left vectors are the
-        right vectors of the ``(c, r)`` pencil.
     rtol : float
         Relative size of the imaginary part below which an eigenvalue counts as real.
     n_zeros : int, optional
@@ -196,9 +193,36 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
     -------
     omega_z : ndarray, shape (n_z,)
         Antiresonance frequencies, rad/s, ascending.
+
+    Raises
+    ------
+    ModalAccuracyError
+        A sparse zero failed its residual check.
+    """
+    return antiresonance_vectors(M, K, r, c, rtol=rtol, n_zeros=n_zeros, dense=dense, precision=precision)[0]
+
+
+def antiresonance_vectors(M, K, r: int, c: int, *, rtol: float = 1e-8, n_zeros: int | None = None,
+                          dense: bool | None = None, precision: float | None = None
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Undamped antiresonance frequencies of ``h_rc`` (Eq. 8) with the right eigenvectors of
+    the adjunct pencil; the left vectors are the right vectors of the ``(c, r)`` pencil.
+
+    Parameters
+    ----------
+    M, K : sparse or ndarray, shape (n, n)
+        Symmetric mass and stiffness matrices of the model, as in `antiresonances`.
+    r, c : int
+        Response and excitation DOF indices (0-based).
+    rtol, n_zeros, dense, precision
+        As in `antiresonances`.
+
+    Returns
+    -------
+    omega_z : ndarray, shape (n_z,)
+        Antiresonance frequencies, rad/s, ascending.
     V : ndarray, shape (n - 1, n_z)
-        Only with ``with_vectors``: ``(K_rc - omega_z^2 M_rc) v = 0``, each scaled to unit
-        largest entry (positive).
+        ``(K_rc - omega_z^2 M_rc) v = 0``, each scaled to unit largest entry (positive).
 
     Raises
     ------
@@ -216,10 +240,6 @@ def antiresonances(M, K, r: int, c: int, *, with_vectors: bool = False, rtol: fl
     else:
         eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol, precision)
         order = np.arange(eigval_z.size)
-    omega_z = np.sqrt(eigval_z[order])
-    if not with_vectors:
-        return omega_z
     V = V[:, order]
     idx = np.argmax(np.abs(V), axis=0)
-    V = V / V[idx, np.arange(V.shape[1])]
-    return omega_z, V
+    return np.sqrt(eigval_z[order]), V / V[idx, np.arange(V.shape[1])]

@@ -135,7 +135,7 @@ def paired_vectors(cfg: Configuration, blocks: Sequence[VectorBlock], xbar) -> l
     ``cfg`` at ``xbar``: the declared mode's eigenvector, or the declared zero's right adjunct
     eigenvector (shape ``(len(cols),)``; NaN frequency where the model lacks the zero). One
     eigen-solve of the model and one adjunct solve per receptance with blocks."""
-    from vibupdate.modal.zeros import antiresonances
+    from vibupdate.modal.zeros import antiresonance_vectors
 
     freqs = model_frequencies(cfg, xbar, zeros=False)
     adjunct = {}
@@ -143,8 +143,8 @@ def paired_vectors(cfg: Configuration, blocks: Sequence[VectorBlock], xbar) -> l
     if rcs:
         M, K = cfg.model.matrices(xbar)
         for rc in rcs:
-            adjunct[rc] = antiresonances(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]), with_vectors=True,
-                                         n_zeros=zeros_wanted(cfg, rc), precision=cfg.model.matrix_precision)
+            adjunct[rc] = antiresonance_vectors(M, K, cfg.model.dof(rc[0]), cfg.model.dof(rc[1]),
+                                                n_zeros=zeros_wanted(cfg, rc), precision=cfg.model.matrix_precision)
     out = []
     for blk in blocks:
         if blk.kind == "natural":

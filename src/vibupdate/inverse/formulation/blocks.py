@@ -19,7 +19,7 @@ from vibupdate.inverse.correlation import model_frequencies
 from vibupdate.inverse.formulation.options import FormulationOptions
 from vibupdate.inverse.formulation.scaling import Scaling, scaling_of
 from vibupdate.inverse.repeated import paired_vector
-from vibupdate.modal.analysis import antiresonances
+from vibupdate.modal.analysis import antiresonance_vectors
 
 
 @dataclass(frozen=True)
@@ -141,7 +141,7 @@ def adjunct_block(cfg: Configuration, k: int, index: int, scaling: Scaling,
     r, c = model.dof(a.response), model.dof(a.excitation)
     n = model.n_dofs
     rows, cols = np.delete(np.arange(n), c), np.delete(np.arange(n), r)
-    zs, V = antiresonances(model.M0, model.K0, r, c, with_vectors=True, precision=model.matrix_precision)
+    zs, V = antiresonance_vectors(model.M0, model.K0, r, c, precision=model.matrix_precision)
     if zs.size == 0:
         raise ValueError(
             f"configuration {cfg.name!r}: the nominal model has no antiresonance of "

@@ -119,6 +119,8 @@ def _blocks(path: Path) -> list[_Block]:
 def _element_dofs(block: _Block, path: Path) -> list[str]:
     """The DOF names of an element's variables, node by node (module docstring)."""
     where = f"{path}: element {block.label} (line {block.line})"
+    if block.n_nodes is not None and block.n_nodes < 1:
+        raise ValueError(f"{where}: *USER ELEMENT has NODES={block.n_nodes}; an element has at least one node")
     if block.n_nodes is None or len(block.nodes) != block.n_nodes:
         raise ValueError(f"{where}: expected {block.n_nodes} node numbers on the '** ELEMENT NODES' lines, got "
                          f"{block.nodes}")
@@ -131,9 +133,9 @@ def _element_dofs(block: _Block, path: Path) -> list[str]:
             raise ValueError(f"{where}: a DOF change line is 'node position, dof, ...' with a position 2 to "
                              f"{block.n_nodes}, got {line}")
         active[line[0] - 1] = line[1:]
-    names = []
-    for k, node in enumerate(block.nodes):
-        dofs = active[k] if active[k] is not None else dofs
+    names, dofs = [], active[0]
+    for node, change in zip(block.nodes, active):
+        dofs = dofs if change is None else change      # a node without a change line: the previous node's DOFs
         for d in dofs:
             if not 1 <= d <= len(DIRECTIONS):
                 raise ValueError(f"{where}: DOF {d} is not a displacement or rotation (1-6)")
