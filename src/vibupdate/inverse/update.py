@@ -780,9 +780,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
             _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
         except KeyboardInterrupt:
             interrupted = True
-        h = contract.relative_half_widths()   # missing every frequency by its exact half-width: an exact fit
-        exact = 0.5 * float(np.sum((verification.exact_half_width / h) ** 2)) if h.size else 0.0
-        best, alternatives = _choose(tried, best, search, model, exact)
+        best, alternatives = _choose(tried, best, search, model, contract.exact_fit(verification.exact_half_width))
         try:
             if not interrupted:
                 alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
