@@ -449,3 +449,4 @@ def test_a_one_dof_case_updates_and_its_antiresonance_is_refused_in_one_line(tmp
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err and "IndexError" not in err, err
     assert "zero 1 of h_y1,y1 is declared" in err and "only 0 DOFs" in err, err
+    assert err.count("configuration 'A'") == 1, err   # named once, not by the library and the reader both

@@ -22,7 +22,9 @@ class Where:
         self.path = path
 
     def error(self, key: str, message: str) -> ValueError:
-        return ValueError(f"{self.path}: {key}: {message}")
+        """The bad-input error at ``key`` of this file; a ``message`` that already starts with
+        the key (the library names the configuration in its own errors) is not prefixed twice."""
+        return ValueError(f"{self.path}: {key}: {message.removeprefix(f'{key}: ')}")
 
 
 _TYPE_NAMES = {str: "a string", bool: "true or false", int: "an integer", float: "a number",
