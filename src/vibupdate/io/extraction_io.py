@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
 
@@ -181,12 +180,9 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
 
 def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
-    require("plots", "drawing plots")
-    import matplotlib
+    from vibupdate.report.plots import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     data = frfs.band(*result.band)
     fitted = result.synthesize(data.omega)
     mean = data.mean()
