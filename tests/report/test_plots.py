@@ -276,30 +276,3 @@ def test_log_axis_plots_parse_no_mathtext(tmp_path, monkeypatch):
     plot_homotopy(tmp_path / "homotopy.png", steps)
     assert parsed == []
     assert "10\u207b\u2074" in labels and not any("$" in t for t in labels)
-
-
-def test_the_plots_register_no_pyplot_figure_and_write_the_same_png(tmp_path, monkeypatch):
-    """A plot is a bare Figure drawn by ``savefig`` on the Agg canvas: no pyplot figure (and
-    figure manager) is made for it, and the PNG is byte for byte the one pyplot's figure gives."""
-    from types import SimpleNamespace
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from vibupdate.inverse.status import Status
-    from vibupdate.report.plots import plot_homotopy, plot_mac
-
-    made, real = [], plt.figure
-    monkeypatch.setattr(plt, "figure", lambda *a, **k: made.append(1) or real(*a, **k))
-    matrix = np.array([[0.98, 0.1], [0.05, 0.55]])
-    plot_mac(tmp_path / "mac.png", matrix, "MAC")
-    plot_homotopy(tmp_path / "homotopy.png", [SimpleNamespace(lam=lam, objective=obj, status=Status.SUCCESS)
-                                              for lam, obj in ((0.0, 1e-8), (1.0, 3.0))])
-    assert not made and (tmp_path / "homotopy.png").stat().st_size > 0
-    import vibupdate.report.plots as plots   # the same MAC plot on a pyplot figure
-    monkeypatch.setattr(plots._Figures, "figure", lambda self, **k: real(**k))
-    plots.plot_mac(tmp_path / "pyplot.png", matrix, "MAC")
-    plt.close("all")
-    assert (tmp_path / "pyplot.png").read_bytes() == (tmp_path / "mac.png").read_bytes()

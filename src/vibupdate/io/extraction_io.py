@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vibupdate.extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
 
@@ -180,9 +181,12 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
 
 def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
-    from vibupdate.report.plots import pyplot
+    require("plots", "drawing plots")
+    import matplotlib
 
-    plt = pyplot()
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     data = frfs.band(*result.band)
     fitted = result.synthesize(data.omega)
     mean = data.mean()
