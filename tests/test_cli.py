@@ -401,3 +401,51 @@ def test_a_reader_that_stops_reading_leaves_the_run_its_exit_code_and_files(tmp_
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=tmp_path)
     bad.stdout.close()
     assert bad.wait(timeout=120) == 2
+
+
+ONE_DOF_CASE = """\
+case = "one"
+
+[model]
+type = "matrices"
+M0 = "M0.mtx"
+K0 = "K0.mtx"
+dofs = ["y1"]
+dK = { k = "dK.mtx" }
+
+[[parameter]]
+name = "k"
+unit = "N/m"
+nominal = 1000.0
+lower = 500.0
+upper = 2000.0
+
+[[configuration]]
+name = "A"
+natural_hz = [3.898484]
+"""
+
+
+def test_a_one_dof_case_updates_and_its_antiresonance_is_refused_in_one_line(tmp_path, capsys):
+    """A 2 kg mass on a spring whose one frequency says k = 1200 N/m: the run verifies it. The
+    one receptance of a 1-DOF model has no zero: a declared antiresonance is bad input naming
+    it (the modal solver ended in an IndexError on the empty adjunct pencil)."""
+    import scipy.io
+    import scipy.sparse as sp
+
+    from outputs_helpers import write_case
+
+    for name, value in (("M0", 2.0), ("K0", 1000.0), ("dK", 1.0)):
+        scipy.io.mmwrite(tmp_path / f"{name}.mtx", sp.csr_matrix([[value]]))
+    case = write_case(tmp_path, ONE_DOF_CASE)
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 0
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert doc["parameters"][0]["updated"] == pytest.approx(1200.0, rel=1e-5)
+    capsys.readouterr()
+    zero = write_case(tmp_path, ONE_DOF_CASE.replace(
+        "natural_hz = [3.898484]", 'natural_hz = [3.898484]\nantiresonances = [{ hz = 2.0, response = "y1", '
+        'excitation = "y1" }]'), "zero.toml")
+    assert main(["run", str(zero), "--out", str(tmp_path / "out_zero")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err and "IndexError" not in err, err
+    assert "zero 1 of h_y1,y1 is declared" in err and "only 0 DOFs" in err, err

@@ -300,8 +300,11 @@ def test_a_failed_direct_jump_falls_back_to_halved_steps(monkeypatch):
     monkeypatch.setitem(backends.BACKENDS, "first-jump-fails", "first_jump_fails")
     path = solve_homotopy(problem, SolverOptions(backend="first-jump-fails"))
     assert failures == [True, False]  # warm, then the cold retry
-    assert [(s.lam, s.accepted) for s in path.steps] == [(0.0, True), (1.0, False), (1.0, False), (0.5, True),
-                                                         (1.0, True)]
+    assert [(s.lam, s.status.ok) for s in path.steps] == [(0.0, True), (1.0, False), (1.0, False), (0.5, True),
+                                                          (1.0, True)]
+    # a step's outcome is its status, said once (no flag beside it that repeats status.ok)
+    keys = {"lambda", "objective", "iterations", "status", "seconds", "cold", "reused"}
+    assert set(path.steps[0].as_dict()) == keys
     assert path.status == Status.SUCCESS
     stepped = solve_homotopy(problem, SolverOptions(n_lambda=10))
     assert [s.lam for s in stepped.steps] == pytest.approx([0.0, 0.1, 0.3, 0.7, 1.0])

@@ -9,7 +9,7 @@ import scipy.linalg
 from helpers import BIASED_CHAIN_TRUTH, biased_chain
 from vibupdate import Assembly, Configuration, NaturalFrequency, Parameter, ShapeInterval, from_builder
 from vibupdate.data.measured import Antiresonance
-from vibupdate.inverse.diagnosis import DataGroup, data_groups, diagnose, wants_diagnosis, without
+from vibupdate.inverse.diagnosis import DataGroup, GroupTrial, data_groups, diagnose, rank, wants_diagnosis, without
 from vibupdate.inverse.status import Status
 from vibupdate.inverse.update import update
 
@@ -109,7 +109,10 @@ def test_a_biased_modal_mass_alone_starts_a_diagnosis_that_refits_without_it():
     frequencies fix their ratio, the modal masses their level. Each mode's mass-normalized entry
     is measured at y3 alone (a driving point's residue: no shape ratios), mode 2's 10 % high, so
     its modal mass is 17 % low and conflicts with the other two: only ``modal_mass`` fails. Every
-    group refitted and passing leaves mode 2's modal mass out."""
+    group refitted and passing leaves mode 2's modal mass out. Three groups fit exactly (objectives
+    about 1e-26, ordered by rounding): the smallest, mode 2's shape, ranks first, and the update
+    without it is the truth (without DOF y3, first on its rounding, no modal mass was left and it
+    returned k 1067, m 0.92)."""
     truth = {"k": 1100.0, "m": 0.95}
 
     def build(p):
@@ -140,7 +143,28 @@ def test_a_biased_modal_mass_alone_starts_a_diagnosis_that_refits_without_it():
     found = diagnose([cfg], result)
     passed = {t.group.key for t in found.trials if t.passed}
     assert "A/shape/2" in passed and passed <= {"A/shape/2", "A/natural/2", "A/dof/y3"}, found.trials
+    assert found.worst.key == "A/shape/2", [(t.group.key, t.objective) for t in found.trials]
     assert found.best is not None and found.best.status.ok
+    values = dict(zip((p.name for p in found.best.parameters), found.best.values))
+    assert all(abs(values[n] / truth[n] - 1) < 1e-3 for n in truth), values
+
+
+def _trial(key, size, objective, passed=True):
+    group = DataGroup(key, "shape", "A", key, size)
+    return GroupTrial(group, 0.5, objective, passed, () if passed else ("fit",), 0.0, 0.0, 0, np.zeros(1), 0.0)
+
+
+def test_exact_fits_tie_and_the_smallest_passing_group_ranks_first():
+    """Below the exact fit the objectives' order is rounding: the smallest passing group comes
+    first; above it the objective decides, and a failing trial comes after every passing one,
+    whatever its objective."""
+    trials = [_trial("big", 3, 1e-27), _trial("small", 1, 8e-27), _trial("mid", 2, 5e-27),
+              _trial("loose", 1, 1e-3), _trial("looser", 1, 1e-2), _trial("failing", 1, 0.0, passed=False)]
+    exact = {t.group.key: 1e-9 for t in trials}
+    assert [t.group.key for t in rank(trials, exact)] == ["small", "mid", "big", "loose", "looser", "failing"]
+    # a fit above its own exact objective is not tied: the objective ranks it
+    exact["small"] = 1e-30
+    assert [t.group.key for t in rank(trials, exact)][:3] == ["mid", "big", "small"]
 
 
 def test_the_screening_stops_on_its_group_limit_and_counts_the_rest():

@@ -49,6 +49,6 @@ def test_a_failed_jump_to_one_is_halved_as_tried_not_repeated(monkeypatch):
     attempts, at = [], 0.0
     for s in result.steps[1:]:
         attempts.append((at, s.lam, s.cold))
-        if s.accepted:
+        if s.status.ok:
             at = s.lam
     assert len(attempts) == len(set(attempts)), attempts

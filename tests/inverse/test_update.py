@@ -334,8 +334,8 @@ def failed_update(monkeypatch, start, status):
     result = update([cfg], polish=PolishOptions(enabled=False))
     assert not result.success and not result.status.ok
     # every attempt is on record, the failed ones included, and none claims lambda = 1
-    assert any(not s.accepted for s in result.steps)
-    assert not any(s.accepted and s.lam == 1.0 for s in result.steps)
+    assert any(not s.status.ok for s in result.steps)
+    assert not any(s.status.ok and s.lam == 1.0 for s in result.steps)
     return result
 
 
@@ -350,8 +350,8 @@ def test_steps_that_keep_failing_end_the_path_with_step_failed(monkeypatch):
     result = failed_update(monkeypatch, 1e-9, Status.MAX_ITERATIONS)
     assert result.status == Status.STEP_FAILED
     assert "stopped at lambda = 0.0000 (step_failed)" in result.message, result.message
-    assert result.relaxation_lower_bound is not None and result.steps[0].accepted
-    assert not any(s.accepted for s in result.steps[1:]) and len(result.steps) > 2
+    assert result.relaxation_lower_bound is not None and result.steps[0].status.ok
+    assert not any(s.status.ok for s in result.steps[1:]) and len(result.steps) > 2
 
 
 def test_a_failed_path_is_on_record_when_a_further_start_verifies():
@@ -360,7 +360,7 @@ def test_a_failed_path_is_on_record_when_a_further_start_verifies():
     x_true = model.normalized([TRUE_CHAIN[p.name] for p in model.parameters])
     cfg = Configuration("P2", model, tuple(NaturalFrequency(w) for w in omega))
     result = update([cfg], solver=SolverOptions(max_iter=1, min_step=0.25))
-    assert not any(s.accepted and s.lam == 1.0 for s in result.steps)
+    assert not any(s.status.ok and s.lam == 1.0 for s in result.steps)
     assert result.restarts and result.restarts[0].start == "stepped homotopy path"
     assert result.success, result.message
     assert "homotopy stopped at lambda" in result.message and "passed every verification check" in result.message

@@ -130,3 +130,23 @@ def test_mac_properties():
     assert mac(A[:, 0], A[:, 0]).shape == (1, 1)
     with pytest.raises(ValueError, match="equal length"):
         mac(A, A[:5])
+
+
+def test_a_one_dof_model_has_its_one_mode_and_no_antiresonance():
+    """A mass on a spring: one mode; its one receptance is a driving point's, without a zero (both
+    paths, with and without vectors); the sparse eigen-solver finds fewer modes than the model has,
+    none here, and says so instead of failing inside ARPACK."""
+    M, K = np.array([[2.0]]), np.array([[800.0]])
+    omega, Phi = modes(M, K)
+    np.testing.assert_allclose(omega, [20.0])
+    np.testing.assert_allclose(Phi, [[np.sqrt(0.5)]])
+    for dense in (True, False):
+        assert antiresonances(M, K, 0, 0, dense=dense).shape == (0,)
+        z, V = antiresonance_vectors(M, K, 0, 0, dense=dense)
+        assert z.shape == (0,) and V.shape == (0, 0)
+    with pytest.raises(ValueError, match=r"between 1 and 0, got 1 \(a receptance of a 1-DOF model has at most 0 zeros"):
+        antiresonances(M, K, 0, 0, n_zeros=1)
+    with pytest.raises(ValueError, match="at most 0 of the 1 finite modes.*dense=True"):
+        modes(M, K, dense=False)
+    with pytest.raises(ValueError, match="at most 2 of the 3 finite modes.*dense=True"):
+        modes(np.eye(3), np.diag([1.0, 2.0, 3.0]), 3, dense=False)

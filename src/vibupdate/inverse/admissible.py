@@ -261,6 +261,13 @@ class Admissible:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
         return np.array([d.half_width / d.value for row in self.frequencies for d in row])
 
+    def exact_fit(self, exact_half_width: float) -> float:
+        """The polish's objective of missing every frequency by ``exact_half_width`` of its
+        value (`VerifyOptions.exact_half_width`): a fit below it is exact, since exact data are
+        met to that and not to the last digit; 0 without frequencies."""
+        h = self.relative_half_widths()
+        return 0.5 * float(np.sum((exact_half_width / h) ** 2)) if h.size else 0.0
+
 
 def _rows(v, lo, hi, mid, h, pull=PULL):
     """The polish's rows of values ``v`` (last axis: the data) against ``[lo, hi]`` with

@@ -199,7 +199,8 @@ class Diagnosis:
     mean_error_pct, max_error_pct : float
         Relative frequency errors of the full answer.
     trials : tuple of GroupTrial
-        Refitted groups, ranked: passed first, then by objective.
+        Refitted groups, ranked (`rank`): passed first, then by objective; passing exact
+        fits tie, the smallest group first.
     untried : int
         Groups not refitted: beyond the first ``max_groups`` of the one-step screening, past
         ``max_seconds``, or whose refit failed.
@@ -265,6 +266,23 @@ class Diagnosis:
                 "untried_groups": list(self.untried_groups),
                 "trials": [t.as_dict() for t in self.trials], "best": best, "seconds": self.seconds,
                 "limits": {"groups": self.max_groups, "seconds": self.max_seconds}}
+
+
+def rank(trials: Sequence[GroupTrial], exact: dict[str, float]) -> list[GroupTrial]:
+    """The trials ranked: those that pass first, then by objective on the data kept, then by
+    the largest frequency error. Objectives at or below ``exact[key]`` (the group's data kept:
+    `Admissible.exact_fit`, what the update calls an exact fit) tie: their order is rounding.
+    Among tied trials that pass, the one that leaves out the fewest data comes first.
+
+    Assumption: of several groups whose removal leaves an exact fit, the smallest explains the
+    conflict with the least data discarded; a larger group that also fits holds the smaller one
+    or shares its fault with data that were right (a DOF across every mode against one mode's
+    entry at it). It is not a proof: the ranking still only says which data conflict."""
+    def key(t: GroupTrial):
+        tied = t.passed and t.objective <= exact[t.group.key]
+        return (not t.passed, not tied, t.group.size if tied else 0, t.objective, t.max_error_pct)
+
+    return sorted(trials, key=key)
 
 
 def _predicted(configurations, xbar, verification: VerifyOptions) -> tuple[float, float]:
@@ -351,7 +369,7 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
     candidates.sort(key=lambda c: c[0])
     say(f"diagnosis: the answer failed {', '.join(failed)}; {len(candidates)} groups of the data screened in one "
         f"step, the best {min(len(candidates), max_groups)} left out in turn and refitted (polished from the answer)")
-    trials = []
+    trials, exact = [], {}
     for k, (_, share, group, kept) in enumerate(candidates[:max_groups], start=1):
         if time.perf_counter() - t0 > max_seconds:
             say(f"diagnosis: stopped after {len(trials)} groups on the limit of {max_seconds:g} s; not screened: "
@@ -363,10 +381,11 @@ def diagnose(configurations: Sequence[Configuration], result: UpdateResult, *,
             say(f"diagnosis {k}: without the {group.label}: the refit failed ({exc}); left out of the ranking")
             continue
         trials.append(trial)
+        exact[group.key] = Admissible.of(kept, verification).exact_fit(verification.exact_half_width)
         say(f"diagnosis {k}/{min(len(candidates), max_groups)}: without the {group.label}: objective "
             f"{trial.objective:.3g}, frequency error max {trial.max_error_pct:.3g} %, "
             + ("passes" if trial.passed else f"fails {', '.join(trial.failed)}") + f" ({trial.seconds:.2f} s)")
-    trials.sort(key=lambda t: (not t.passed, t.objective, t.max_error_pct))
+    trials = rank(trials, exact)
     best, t1 = None, time.perf_counter()
     if trials:
         kept = without(configurations, trials[0].group)

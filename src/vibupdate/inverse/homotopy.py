@@ -114,8 +114,6 @@ class StepRecord:
         Wall time of the solve, s (0 when ``reused``).
     cold : bool
         Solved from a cold start: the relaxation, or the retry of a failed warm step.
-    accepted : bool
-        The solve reached its goal (``status.ok``), so the path moved to its point.
     reused : bool
         The outcome of the identical relaxation solved before in this process, not solved
         again (`RELAXATIONS`).
@@ -127,7 +125,6 @@ class StepRecord:
     status: Status
     seconds: float
     cold: bool
-    accepted: bool
     reused: bool = False
 
     def as_dict(self) -> dict:
@@ -140,7 +137,7 @@ class StepRecord:
         """
         return {"lambda": self.lam, "objective": self.objective, "iterations": self.iterations,
                 "status": self.status.value, "seconds": self.seconds, "cold": self.cold,
-                "accepted": self.accepted, "reused": self.reused}
+                "reused": self.reused}
 
 
 class RelaxationCache:
@@ -246,8 +243,8 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     prox_weight = options.proximal * max(f_nominal, 1e-12)
     steps: list[StepRecord] = []
 
-    def record(lam, out: StepOutcome, cold: bool, accepted: bool, reused: bool = False):
-        steps.append(StepRecord(lam, out.objective, out.iterations, out.status, out.seconds, cold, accepted, reused))
+    def record(lam, out: StepOutcome, cold: bool, reused: bool = False):   # the path moves where status.ok
+        steps.append(StepRecord(lam, out.objective, out.iterations, out.status, out.seconds, cold, reused))
         say(f"  lambda = {lam:6.4f}  objective = {out.objective:.4e}  iterations = {out.iterations:4d}  "
             f"{out.status.value}{' (cold retry)' if cold and lam > 0 else ''}"
             + ("  (the identical relaxation solved before: re-used)" if reused else f"  {out.seconds:.2f} s"))
@@ -257,7 +254,7 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
     first, reused = RELAXATIONS.get(problem, key, lambda: backend.solve(z, 0.0))
     if reused:
         first = replace(first, seconds=0.0)
-    record(0.0, first, True, first.status.ok, reused)
+    record(0.0, first, True, reused)
     if not first.status.ok:
         x, u, t, _ = backend.split(z)
         return HomotopyResult(x, u, t, 0.0, first.status, problem.objective(x, u), None,
@@ -277,10 +274,10 @@ def solve_homotopy(problem: BilinearProblem, options: SolverOptions | None = Non
         weight = 0.0 if target == 1.0 else prox_weight
         out = backend.solve(current.z, target, prox_weight=weight, z_prev=current.z, warm=True,
                             mult_x=current.mult_x, mult_g=current.mult_g)
-        record(target, out, False, out.status.ok)
+        record(target, out, False)
         if not out.status.ok and out.status != Status.TIME_LIMIT:
             out = backend.solve(current.z, target, prox_weight=weight, z_prev=current.z)
-            record(target, out, True, out.status.ok)
+            record(target, out, True)
         if out.status == Status.TIME_LIMIT:
             status = Status.TIME_LIMIT
             say(f"  time budget of {options.time_budget:g} s spent in the step to lambda = {target:.4f}: the path "

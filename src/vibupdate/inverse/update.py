@@ -782,8 +782,7 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         options = replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                       search.probe_evaluations * (model.n_parameters + 1)))
         probes = None
-        h = contract.relative_half_widths()   # missing every frequency by its exact half-width: an exact fit
-        exact = 0.5 * float(np.sum((verification.exact_half_width / h) ** 2)) if h.size else 0.0
+        exact = contract.exact_fit(verification.exact_half_width)
         try:   # Ctrl-C ends the search and keeps what it found: the verified answer is returned
             probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
                 configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])

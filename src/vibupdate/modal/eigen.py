@@ -438,6 +438,9 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
             eigval, Phi = eigval[:n_modes], Phi[:, :n_modes]
     else:
         k = n_modes if n_modes is not None else min(n_finite - 1, 20)
+        if not 1 <= k < n_finite:   # Lanczos (ARPACK) finds fewer pairs than the pencil has
+            raise ValueError(f"the sparse eigen-solver finds at most {n_finite - 1} of the {n_finite} finite modes of "
+                             f"this model, asked for {k}; solve densely (dense=True) for all of them")
         eigval, Phi = _sparse_modes(M, K, k, rtol, factor, precision)
     # rigid-body modes (zero within the rounding of their own Rayleigh quotient,
     # `vibupdate.modal.rigid`) are exactly 0 rad/s, whatever sign rounding gave them

@@ -232,7 +232,10 @@ def antiresonance_vectors(M, K, r: int, c: int, *, rtol: float = 1e-8, n_zeros: 
     n = M.shape[0]
     check_dof_pair(n, r, c)
     if n_zeros is not None and not (isinstance(n_zeros, (int, np.integer)) and 1 <= n_zeros <= n - 1):
-        raise ValueError(f"n_zeros must be between 1 and {n - 1}, got {n_zeros!r}")
+        raise ValueError(f"n_zeros must be between 1 and {n - 1}, got {n_zeros!r} (a receptance of a {n}-DOF model "
+                         f"has at most {n - 1} zeros)")
+    if n == 1:   # the one receptance is a driving point's, 1 / (k - omega^2 m): no zero
+        return np.empty(0), np.empty((0, 0))
     use_dense = n <= eigen.DENSE_LIMIT if dense is None else dense
     if use_dense:
         eigval_z, V = dense_zeros(M, K, r, c, rtol, precision)[:2]
