@@ -229,3 +229,46 @@ def test_an_update_builds_each_measurement_map_once_per_configuration(monkeypatc
     maps = [(f.shape.reference,) for f in natural] + [tuple(f.shape.ratio_bounds()) for f in natural]
     assert all(built.count(names) == 1 for names in maps), built
     assert len(measured_shapes(cfg)) == 3 and all(built.count(names) == 1 for names in maps)
+
+
+def test_the_modes_at_a_point_are_solved_once_whatever_is_asked_of_them(mixed, monkeypatch):
+    """`model_frequencies` of one configuration at one point (with or without its zeros or their
+    derivatives, as the polish, the verification and the sensitivity ask) solves the modes once;
+    another point solves them again; the kept arrays are read-only."""
+    from vibupdate.inverse import correlation
+
+    cfg, x = mixed
+    calls = []
+    solve = correlation.modes
+    monkeypatch.setattr(correlation, "modes", lambda *a, **k: calls.append(1) or solve(*a, **k))
+    first = correlation.model_frequencies(cfg, x, zeros=False)
+    again = correlation.model_frequencies(cfg, x.copy(), derivatives=True)
+    assert len(calls) == 1
+    np.testing.assert_array_equal(first.natural, again.natural)
+    assert not again.spectrum[1].flags.writeable
+    correlation.model_frequencies(cfg, x + 1e-3)
+    assert len(calls) == 2
+
+
+def test_an_update_solves_the_modes_at_each_point_once(monkeypatch):
+    """Across an update (polish, uniqueness probes, minimum change, verification, sensitivity)
+    no point's modes are solved twice (the polished answer was solved again for its
+    verification before)."""
+    from collections import Counter
+
+    from helpers import chain_model
+    from vibupdate import update
+    from vibupdate.inverse import correlation
+
+    model = chain_model(3, ["k1", "k2", "k3"])
+    x = model.normalized([1000.0, 800.0, 1200.0])
+    omega, Phi = modes(*model.matrices(x), 3)
+    dofs = ("y1", "y2", "y3")
+    idx = [model.dof(d) for d in dofs]
+    natural = tuple(NaturalFrequency(omega[k] * (1 + 0.002 * (-1) ** k), shape=ShapeInterval.from_values(
+        dict(zip(dofs, Phi[idx, k] * (1 + 0.01 * np.arange(3)))), 0.01)) for k in range(3))
+    solved, solve = Counter(), correlation.modes
+    monkeypatch.setattr(correlation, "modes",
+                        lambda M, K, **k: solved.update([np.asarray(K).tobytes()]) or solve(M, K, **k))
+    update([Configuration("c", model, natural)])
+    assert len(solved) > 10 and max(solved.values()) == 1, sorted(solved.values())[-3:]

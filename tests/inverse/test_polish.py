@@ -248,3 +248,24 @@ def test_the_start_is_solved_once(monkeypatch):
     result = polish([cfg], np.array([0.05, -0.05, 0.05, -0.05]))
     assert result.stopped_on == "convergence" and result.cost < 1e-20
     assert count[0] == result.evaluations
+
+
+def test_a_restart_of_the_least_squares_does_not_solve_its_start_again(monkeypatch):
+    """scipy's step or cost test ends a run early on the way to a minimum on a bound, and the
+    polish restarts it from the point it returned: that point was the best evaluated, so the
+    restart takes its value and counts it as before (the same iterates and answer) with no
+    second data map there."""
+    from collections import Counter
+
+    import vibupdate.inverse.data_map as dm
+    import vibupdate.inverse.polish as po
+
+    cfg, model, _ = noisy_beam()
+    solved, runs = Counter(), [0]
+    real_map, real_fit = dm.data_map, po.fit_least_squares
+    monkeypatch.setattr(dm, "data_map", lambda c, x, **k: solved.update([np.asarray(x).tobytes()]) or real_map(c, x, **k))
+    monkeypatch.setattr(po, "fit_least_squares", lambda *a, **k: runs.__setitem__(0, runs[0] + 1) or real_fit(*a, **k))
+    result = polish([cfg], _poor_start(model))
+    assert runs[0] > 2, "no restart: the test needs one"
+    assert max(solved.values()) == 1, sorted(solved.values())[-3:]
+    assert sum(solved.values()) < result.evaluations + 1

@@ -347,3 +347,32 @@ def test_a_1439_dof_chain_with_fewer_data_than_parameters_is_not_unique():
     problem = families.MAKERS["many_dofs"](64)
     result = update(problem.configurations(), verification=VerifyOptions(**model_form(problem)))
     assert result.verdict is Verdict.NOT_UNIQUE, result.message
+
+
+def test_a_start_that_cannot_fit_as_well_and_fails_is_not_moved_to_the_minimum_change(monkeypatch):
+    """Fewer data than parameters: every polished point could move to the minimum change. A
+    uniqueness start whose polish ends far above the answer's objective (more than
+    `Search.as_well` times) and fails verification is never kept (`_choose`), and the move
+    keeps its data and objective: it is not made (each costs up to 30 evaluations with exact
+    derivatives). The answer, its verdict and the ends of its set are unchanged."""
+    import vibupdate.inverse.update as up
+    from vibupdate.inverse.polish import PolishResult
+
+    model = chain_model(2, ["k1", "k2"])
+    w1 = _first(model, 1000.0, 1000.0)
+    cfg = Configuration("one mode", model, (NaturalFrequency(w1),))
+    far = model.normalized([400.0, 300.0])                     # misses the datum by about 40 %
+    real_polish, real_move, moved = up.run_polish, up.minimum_change, []
+
+    def polish(configurations, x0, options=None, answers=None, **kw):
+        if answers is None or not len(answers):               # the answer's own polish
+            return real_polish(configurations, x0, options, answers=answers, **kw)
+        return PolishResult(np.asarray(x0, float), far, 1e9, 1e8, True, 1, "stalled", 0.0, stopped_on="stall")
+
+    monkeypatch.setattr(up, "run_polish", polish)
+    monkeypatch.setattr(up, "minimum_change", lambda cfgs, x: moved.append(np.array(x)) or real_move(cfgs, x))
+    result = update([cfg])
+    assert result.verdict is Verdict.NOT_UNIQUE, result.message
+    probes = [s for s in result.sought.starts if s.purpose == "uniqueness" and s.start != "valley ends"]
+    assert probes and all(s.status == "not_verified" for s in probes)
+    assert len(moved) == 1 and not np.allclose(moved[0], far)  # the answer's own move only

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes
+from vibupdate.modal.kept import Kept
 from vibupdate.data.measured import TWO_PI, Configuration
 from vibupdate.data.names import frequency_name, receptance_name
 
@@ -139,6 +140,28 @@ def zeros_wanted(cfg: Configuration, rc) -> int | None:
     return min(top + 1, cfg.model.n_dofs - 1)
 
 
+#: The most recent spectra of models on the dense path, by (configuration, point): one run asks
+#: `model_frequencies` for the same point in several stages (the polish's answer again in the
+#: verification and the sensitivity, the nominal model in the validation, the formulation and
+#: the update). Their arrays are read-only.
+_SPECTRA = Kept(32, 64 * 2**20)
+
+
+def _spectrum(cfg: Configuration, xbar, M, K) -> tuple:
+    """``modes(M, K)`` of ``cfg.model`` at ``xbar`` (every mode of the dense path), solved once
+    among the most recent of the same configuration object at the same point (`_SPECTRA`)."""
+    point = np.zeros(cfg.model.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
+    key = (id(cfg), point.tobytes())
+    kept = _SPECTRA.get(key)
+    if kept is not None and kept[0] is cfg:   # the object itself: its id is not reused while it is kept
+        return kept[1]
+    spectrum = modes(M, K, precision=cfg.model.matrix_precision)
+    for part in spectrum:
+        part.flags.writeable = False
+    _SPECTRA.put(key, (cfg, spectrum), sum(part.nbytes for part in spectrum))
+    return spectrum
+
+
 def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
                       derivatives: bool = False) -> ModelFrequencies:
     """Frequencies of ``cfg.model`` at ``xbar`` (nominal if None), paired with the data by the
@@ -146,7 +169,9 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     ``zeros_all`` empty): for callers that take them with their derivatives from
     `declared_zeros`, which solves the same adjunct eigenproblem. ``derivatives=True`` takes
     the zeros from that solve and keeps their derivatives (``zero_derivatives``): one adjunct
-    eigen-solve per receptance for both."""
+    eigen-solve per receptance for both. On the dense path the modes of the same configuration
+    object at the same point are solved once among the most recent (`_spectrum`; the
+    ``spectrum`` arrays read-only)."""
     from vibupdate.modal.analysis import DENSE_LIMIT
 
     M, K = cfg.model.solver_matrices(xbar)
@@ -156,7 +181,7 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     n_modes = min(cfg.model.n_dofs, max(top + 1, 2))
     spectrum = None
     if cfg.model.n_dofs <= DENSE_LIMIT:    # the dense solve gives every mode: keep them
-        spectrum = modes(M, K, precision=precision)
+        spectrum = _spectrum(cfg, xbar, M, K)
         flexible = spectrum[0] != 0        # rigid-body modes are exactly 0 (`vibupdate.modal.rigid`)
         rigid = spectrum[1][:, ~flexible]
         if top > np.count_nonzero(flexible):

@@ -281,6 +281,17 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
                         time.perf_counter() - start, rounds, reduced, stopped_on, budget)
 
 
+def _restart(monitor: Monitor, x, lo, hi):
+    """``(x, value)`` for a restart of the least squares at ``x`` when ``x`` is the best point
+    the ``monitor`` has seen (scipy returns its best point): its value is that evaluation's, and
+    the monitor counts the restart's first point as before, with no second data map there;
+    None otherwise."""
+    if not (np.array_equal(monitor.best[0], x) and np.array_equal(inside(x, lo, hi), x)):
+        return None
+    monitor.seen(x, monitor.best[1])
+    return x, monitor.best[1]
+
+
 def _full_model(configurations: list, x, contract, tols: dict, budget: int, evaluations: int,
                 started: float, max_seconds=None, answers=None, maps0=None):
     """The full-model least squares from ``x`` after ``evaluations`` of the ``budget``, its start
@@ -320,8 +331,8 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
         sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
                                 max_nfev=budget + 1, **tols)
         while sol.status in (2, 3, 4):
-            again = fit_least_squares(configurations, sol.x, contract, monitor=monitor,
-                                      max_nfev=budget + 1, **tols)
+            again = fit_least_squares(configurations, sol.x, contract, known=_restart(monitor, sol.x, lo, hi),
+                                      monitor=monitor, max_nfev=budget + 1, **tols)
             if not again.cost < sol.cost:
                 break
             sol = again

@@ -433,9 +433,12 @@ def _failed(checks) -> list[str]:
 
 
 def _finish(configurations, start, label, path, problem, active, nominal, polish, verification, contract, say,
-            reduction_error: float = 0.0, answers=None) -> _Finish | None:
+            reduction_error: float = 0.0, answers=None, discarded_above: float = np.inf) -> _Finish | None:
     """Polish ``start``, take the minimum change along undetermined directions, verify. None
-    when the polish reached one of the known ``answers`` again (`polish`)."""
+    when the polish reached one of the known ``answers`` again (`polish`). A polished point
+    that fails verification with an objective above ``discarded_above`` (a uniqueness start
+    that cannot fit as well as the answer: `_choose` never keeps it) is not moved to the
+    minimum change: the move keeps its data and its objective, so it could not be kept either."""
     xbar, polished, minimum = start, None, None
     if polish.enabled:
         polished = run_polish(configurations, start, polish, progress=say, answers=answers, contract=contract)
@@ -458,7 +461,8 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
         return tuple(out)
 
     checks = checked(xbar, updated)
-    if polish.enabled and sens.rank < xbar.size:   # the data leave directions undetermined
+    discarded = bool(_failed(checks)) and polished is not None and polished.cost > discarded_above
+    if polish.enabled and sens.rank < xbar.size and not discarded:   # the data leave directions undetermined
         minimum = minimum_change(configurations, xbar)
         if minimum.kept:
             moved = [model_frequencies(c, minimum.xbar, derivatives=True) for c in configurations]
@@ -549,10 +553,13 @@ def _no_worse_than_nominal(configurations, contract: Admissible, best: _Finish |
 
 
 def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, search: Search, starts: list, say,
-                options: PolishOptions, contract: Admissible, probes: tuple[list, np.ndarray] | None) -> None:
+                options: PolishOptions, contract: Admissible, probes: tuple[list, np.ndarray] | None,
+                as_well: float = np.inf) -> None:
     """Polish from the nominal point, the weakest-direction starts and the random box starts not
     tried yet (docs/polish-and-verification.md 7.7). Given ``probes`` (`_probe_model`), each start
-    is first polished on the reduced model: one that reaches the answer there is the same answer."""
+    is first polished on the reduced model: one that reaches the answer there is the same answer.
+    ``as_well``: the objective above which a start's answer cannot fit as well as the answer
+    (`_choose`); one that also fails verification is not moved to the minimum change."""
     lo, hi = configurations[0].model.bounds()
     done = {c.label for c in tried}
     boxed = search.box_starts(lo, hi, search.probe_random_starts)
@@ -570,7 +577,7 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         answers = [c.xbar for c in tried if c.status.ok]
         x = x0 if reduced is None else _reduced_answer(reduced, x0, options, contract, [reference])
         same = x is None or (reduced is not None and np.max(np.abs(x - reference)) <= search.distinct)
-        candidate = None if same else finish(x0, label, options, answers)
+        candidate = None if same else finish(x0, label, options, answers, as_well)
         starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0) if candidate is None
                       else candidate.record("uniqueness", time.perf_counter() - t0))
         if (candidate is not None and candidate.status.ok and followed < search.follow
@@ -753,9 +760,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
 
     tried: list[_Finish] = []
 
-    def finish(start: np.ndarray, label: str, options: PolishOptions | None = None, answers=None) -> _Finish | None:
+    def finish(start: np.ndarray, label: str, options: PolishOptions | None = None, answers=None,
+               discarded_above: float = np.inf) -> _Finish | None:
         candidate = _finish(configurations, start, label, path, problem, active, nominal, options or polish,
-                            verification, contract, say, reduction_error, answers)
+                            verification, contract, say, reduction_error, answers, discarded_above)
         if candidate is not None:
             tried.append(candidate)
         return candidate
@@ -774,13 +782,15 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         options = replace(polish, max_evaluations=min(polish.max_evaluations or np.inf,
                                                       search.probe_evaluations * (model.n_parameters + 1)))
         probes = None
+        exact = contract.exact_fit(verification.exact_half_width)
         try:   # Ctrl-C ends the search and keeps what it found: the verified answer is returned
             probes = None if model.n_dofs <= search.probe_dofs else _probe_model(
                 configurations, best.xbar, contract, options, None if bases is None else [c.model for c in solved])
-            _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes)
+            _uniqueness(configurations, finish, tried, best, search, starts, say, options, contract, probes,
+                        max(search.as_well * best.cost, exact))
         except KeyboardInterrupt:
             interrupted = True
-        best, alternatives = _choose(tried, best, search, model, contract.exact_fit(verification.exact_half_width))
+        best, alternatives = _choose(tried, best, search, model, exact)
         try:
             if not interrupted:
                 alternatives, valley = _valley(configurations, best, alternatives, search, model, starts, say,
