@@ -25,7 +25,7 @@ import scipy.sparse.linalg as spla
 
 from vibupdate.modal.analysis import DENSE_LIMIT, MASSLESS_TOL, massless_dofs, modes
 from vibupdate.modal import rigid as rigid_test
-from vibupdate.modal.eigen import repeatable
+from vibupdate.modal.eigen import ModalAccuracyError, repeatable
 
 
 #: Relative threshold (to ``lam_ref``) of a zero eigenvalue of the pencil ``(K, M)``.
@@ -176,6 +176,12 @@ def definiteness(M, K, precision: float | None = None) -> Definiteness:
     below = count_below(K, M, tol * lam_ref)      # candidates: rigid-body modes and any negative ones
     negative = count_below(K, M, -tol * lam_ref) if below else 0
     rigid, rounding_note = 0, ""
+    finite = M.shape[0] - massless.size
+    if below >= finite > 1 and precision is not None and precision > rigid_test.EPS:
+        # every mode is a candidate: the entries' rounding hides the whole spectrum
+        raise ModalAccuracyError(f"all {finite} modes of the model lie within the rounding of zero at the matrices' "
+                                 f"relative precision {precision:g}, which cannot tell its lowest modes from zero: "
+                                 "matrices written with more digits are needed")
     if below and not negative:
         # told apart by the rounding of each mode's own Rayleigh quotient (`vibupdate.modal.rigid`):
         # the threshold above, relative to the largest K_ii / M_ii, takes flexible modes of
