@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from helpers import random_spd, uniform_cantilever
@@ -55,6 +55,12 @@ def _chain(masses, springs):
     return np.diag(masses), K
 
 
+#: A zero this close to a pole (relative) nearly cancels it: near both, h ~ C (w - z) / (w - p),
+#: so at a zero computed to a relative error d, |h(z)| / |h(z +- 2 %)| ~ d / gap, which double
+#: precision (d ~ 1e-14) takes above the drop asserted below once the gap is under ~1e-8.
+CANCELLING = 1e-7
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     n=st.integers(3, 7),
@@ -62,12 +68,16 @@ def _chain(masses, springs):
     r=st.integers(0, 6),
     c=st.integers(0, 6),
 )
+@example(n=5, seed=210, r=1, c=1)   # its fourth zero lies 6e-9 (relative) below the fifth pole
 def test_antiresonances_are_zeros_of_the_direct_receptance(n, seed, r, c):
     rng = np.random.default_rng(seed)
     r, c = r % n, c % n
     M, K = random_spd(rng, n, 4.0), random_spd(rng, n, 80.0)
     zeros = antiresonances(M, K, r, c)
+    poles = modes(M, K)[0]
     for z in zeros:
+        if np.min(np.abs(poles / z - 1)) < CANCELLING:   # a pole-zero pair: h is flat around both
+            continue
         at = abs(receptance(M, K, r, c, [z])[0])
         around = np.abs(receptance(M, K, r, c, [z * 0.98, z * 1.02]))
         # |h| drops by orders of magnitude at the antiresonance.
