@@ -77,6 +77,23 @@ class Search:
     weak_direction: bool = True
     follow: int = 2
 
+    def new(self, x: np.ndarray, among) -> bool:
+        """Whether the point ``x`` is another answer than every point of ``among``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n_x,)
+            A normalized point.
+        among : sequence of ndarray, shape (n_x,)
+            The points it is compared with.
+
+        Returns
+        -------
+        bool
+            True when ``x`` differs from each of them by more than `distinct` in some parameter.
+        """
+        return all(np.max(np.abs(np.asarray(x) - np.asarray(k))) > self.distinct for k in among)
+
     def box_starts(self, lo: np.ndarray, hi: np.ndarray, n_random: int) -> list[tuple[str, np.ndarray]]:
         """The nominal point and ``n_random`` random points of a box, in this order.
 

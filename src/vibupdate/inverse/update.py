@@ -576,13 +576,13 @@ def _uniqueness(configurations, finish, tried: list[_Finish], answer: _Finish, s
         t0 = time.perf_counter()
         answers = [c.xbar for c in tried if c.status.ok]
         x = x0 if reduced is None else _reduced_answer(reduced, x0, options, contract, [reference])
-        same = x is None or (reduced is not None and np.max(np.abs(x - reference)) <= search.distinct)
+        same = x is None or (reduced is not None and not search.new(x, [reference]))
         candidate = None if same else finish(x0, label, options, answers, as_well)
         starts.append(Start(label, "uniqueness", "same answer", seconds=time.perf_counter() - t0) if candidate is None
                       else candidate.record("uniqueness", time.perf_counter() - t0))
         if (candidate is not None and candidate.status.ok and followed < search.follow
                 and candidate.sensitivity.rank == candidate.xbar.size   # isolated, not a point of a valley
-                and all(np.max(np.abs(candidate.xbar - a)) > search.distinct for a in answers)):
+                and search.new(candidate.xbar, answers)):
             followed += 1   # a new answer: its own weakest direction, across its fold (`Search.follow`)
             todo += [(f"{weak} from answer {followed + 1}", x)
                      for weak, x in search.weak_starts(candidate.xbar, candidate.sensitivity, lo, hi)]
@@ -624,11 +624,11 @@ def _choose(tried: list[_Finish], best: _Finish, search: Search, model,
     low = min(c.cost for c in verified)
     ties = [c for c in verified if c.cost <= max(low * (1.0 + search.tie), exact)]
     nearest = min(ties, key=lambda c: float(np.linalg.norm(c.xbar)))
-    chosen = next(c for c in ties if np.max(np.abs(c.xbar - nearest.xbar)) <= search.distinct)  # the first found
+    chosen = next(c for c in ties if not search.new(c.xbar, [nearest.xbar]))  # the first found
     others: list[_Finish] = []
     close = [c for c in verified if c.cost <= max(low * search.as_well, exact)]
     for c in sorted(close, key=lambda c: float(np.linalg.norm(c.xbar))):
-        if all(np.max(np.abs(c.xbar - d.xbar)) > search.distinct for d in [chosen, *others]):
+        if search.new(c.xbar, [d.xbar for d in [chosen, *others]]):
             others.append(c)
     return chosen, tuple(_alternative(c.label, c.cost, c.xbar, chosen.xbar, model, search) for c in others)
 
@@ -657,18 +657,15 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     ends = valley_curve(where, chosen.xbar, found) + valley_ends(where, chosen.xbar, found)
     known = [chosen.xbar, *(np.asarray(a.xbar) for a in alternatives)]
 
-    def new(x, among) -> bool:
-        return all(np.max(np.abs(x - k)) > search.distinct for k in among)
-
     if reduced:   # only the distinct points of the reduced model's set are moved onto the full model's data
         kept: list = []
         for end in ends:
-            if new(end[2], known + [e[2] for e in kept]):
+            if search.new(end[2], known + [e[2] for e in kept]):
                 kept.append(end)
         ends = onto_data(configurations, chosen.xbar, kept)
     added = []
     for sense, i, x in ends:
-        if new(x, known):
+        if search.new(x, known):
             known.append(x)
             kind = "end" if sense in ("lowest", "highest") else "turn"
             added.append(_alternative(f"valley {kind} ({sense} {model.parameter_names[i]})", chosen.cost, x,
