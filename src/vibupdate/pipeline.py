@@ -68,7 +68,7 @@ def damping_stage(case: Case, xbar, say, freqs=None) -> tuple[DampingStage | Non
     """The second stage at ``xbar``; ``freqs``: the configurations' modal data there when
     already computed (``UpdateResult.correlation``)."""
     options = case.damping or DampingOptions()
-    if not any(f.damping_ratio is not None for c in case.configurations for f in c.natural):
+    if not _has_damping(case):
         return None, [], {}
     _, ratios, labels = damping_data(case.configurations, xbar, freqs)
     rule = damping_weights(labels, ratios, options.mode_weights, relative=options.relative,
@@ -356,10 +356,15 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         limited = limited_text(result.checks)
         if limited:
             say(limited[2:])
-    diagnosis, diagnosis_notes = _diagnosis(case, result, verification, say,
-                                            verification.diagnose if diagnose is None else diagnose)
-    suggestion, suggestion_notes = _suggestion(case, result, verification, say)
-    stage, notes, info = damping_stage(case, result.xbar, say, result.correlation.updated)
+    later = _Stages("uniqueness search" if result.sought is not None and result.sought.interrupted else None)
+    diagnose = verification.diagnose if diagnose is None else diagnose
+    diagnosis, diagnosis_notes = later.run("diagnosis", diagnose and not result.success, (None, []),
+                                           lambda: _diagnosis(case, result, verification, say, diagnose))
+    suggestion, suggestion_notes = later.run(
+        "screening of candidates", not result.success and bool(case.candidates) and verification.suggest, (None, []),
+        lambda: _suggestion(case, result, verification, say))
+    stage, notes, info = later.run("damping fit", _has_damping(case), (None, [], {}),
+                                   lambda: damping_stage(case, result.xbar, say, result.correlation.updated))
     notes = list(checked.warnings) + notes + diagnosis_notes + suggestion_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
@@ -367,21 +372,19 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     if not result.success:
         identifiability["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
                                           "answer and mean something only at a verified answer")
-    else:   # at any size: the Jacobian is the exact sparse one (its cost: docs/notes/ranges.md, "Linearized ranges")
-        from vibupdate.ranges.identifiability import parameter_ranges
-
-        ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
-                                  freqs=result.correlation.updated, valley=result.valley)
-        identifiability["ranges"] = ranges.as_dict()
-        identifiability["frequency_tolerance"] = case.frequency_tolerance
-        identifiability["frequency_windows"] = frequency_windows(case)
-        say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
+    elif not later.run("range computation", True, False, lambda: _ranges(case, result, identifiability, say)):
+        identifiability["ranges_note"] = "consistent ranges not computed: the run was interrupted (Ctrl-C)"
     extra, answers = None, ()
     if study is not None:
-        sections, extra, answers = study(case, result, say)
+        sections, extra, answers = later.run("study", True, ({}, None, ()), lambda: study(case, result, say))
         identifiability.update(sections)
     if certify is not None:
-        identifiability["certified"] = _certified(case, result, certify, say, answers)
+        certified = later.run("certification", True, None, lambda: _certified(case, result, certify, say, answers))
+        if certified is not None:
+            identifiability["certified"] = certified
+    if later.stopped:
+        notes.append(later.note())
+        say(f"warning: {notes[-1]}")
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper, diagnosis=diagnosis, suggestion=suggestion)
     written = write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
@@ -390,10 +393,61 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         _say_written(target, written, run, say)
     except KeyboardInterrupt:
         raise Interrupted(f"the results were written to {target.path}/ before it") from None
-    if result.sought is not None and result.sought.interrupted:   # Ctrl-C ended the uniqueness search
-        raise Interrupted(f"the uniqueness search was interrupted; the best verified answer found by then was "
-                          f"written to {target.path}/")
+    if later.stopped:
+        without = f" without {_listed(later.skipped)}" if later.skipped else ""
+        raise Interrupted(f"the {later.stopped} was interrupted; the update's answer ({result.verdict.value}) was "
+                          f"written to {target.path}/{without}")
     return written
+
+
+class _Stages:
+    """The stages after the update, ended by Ctrl-C: the stage a Ctrl-C interrupts returns
+    what it would return when not wanted, and every later stage is skipped, so that the update's
+    answer is written at once with what was computed before (`run_case`)."""
+
+    def __init__(self, stopped: str | None = None):
+        self.stopped = stopped      # the stage Ctrl-C ended (the update's uniqueness search included)
+        self.skipped: list[str] = []
+
+    def run(self, name: str, wanted: bool, otherwise, compute: Callable):
+        """``compute()`` when ``wanted`` and no Ctrl-C came before, else ``otherwise``."""
+        if not wanted:
+            return otherwise
+        if self.stopped is not None:
+            self.skipped.append(name)
+            return otherwise
+        try:
+            return compute()
+        except KeyboardInterrupt:
+            self.stopped = name
+            return otherwise
+
+    def note(self) -> str:
+        """The run's warning that says what the interruption left out."""
+        return (f"the {self.stopped} was interrupted (Ctrl-C): the results hold what was computed before it"
+                + (f"; not computed: {_listed(self.skipped)}" if self.skipped else ""))
+
+
+def _listed(names) -> str:
+    names = [f"the {n}" for n in names]
+    return ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else "".join(names)
+
+
+def _has_damping(case: Case) -> bool:
+    return any(f.damping_ratio is not None for c in case.configurations for f in c.natural)
+
+
+def _ranges(case: Case, result: UpdateResult, identifiability: dict, say) -> bool:
+    """The linearized parameter ranges at a verified answer, into ``identifiability``."""
+    from vibupdate.ranges.identifiability import parameter_ranges
+
+    # at any size: the Jacobian is the exact sparse one (its cost: docs/notes/ranges.md, "Linearized ranges")
+    ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
+                              freqs=result.correlation.updated, valley=result.valley)
+    identifiability.update(ranges=ranges.as_dict(), frequency_tolerance=case.frequency_tolerance,
+                           frequency_windows=frequency_windows(case))
+    say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
+    return True
 
 
 def _say_written(target, written: RunResult, run: RunResult, say) -> None:

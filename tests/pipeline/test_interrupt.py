@@ -14,6 +14,7 @@ import pytest
 from outputs_helpers import TINY_CASE, snapshot, write_case
 
 from vibupdate.cli import main
+from vibupdate.io.results import validate_document
 
 #: A child that runs the command line with SIGINT sent to its process group after ``argv[1]``
 #: (``module:function`` or ``module:Class.method``) first returns.
@@ -125,8 +126,8 @@ def test_ctrl_c_in_the_uniqueness_search_writes_the_verified_answer_and_says_so(
     write_case(tmp_path)
     line = _one_line(_interrupted(tmp_path, "vibupdate.inverse.search:Search.weak_starts", "run", "case.toml",
                                   "--out", "res"))
-    assert line == ("vibupdate: interrupted; the uniqueness search was interrupted; the best verified answer found "
-                    "by then was written to res/")
+    assert line == ("vibupdate: interrupted; the uniqueness search was interrupted; the update's answer (verified) was "
+                    "written to res/ without the damping fit and the range computation")
     solver = json.loads((tmp_path / "res" / "results.json").read_text())["solver"]
     assert solver["verdict"] == "verified", solver["verdict"]
     sought = solver["sought"]
@@ -135,6 +136,37 @@ def test_ctrl_c_in_the_uniqueness_search_writes_the_verified_answer_and_says_so(
     assert [s["purpose"] for s in sought["starts"]] == ["fit"]   # no uniqueness start finished
     assert any("uniqueness search interrupted" in w for w in json.loads(
         (tmp_path / "res" / "results.json").read_text())["warnings"])
+
+
+def test_ctrl_c_in_the_ranges_writes_the_answer_without_them(tmp_path):
+    # SIGINT once the linearized ranges are computed, before the run stores them: the stage is
+    # interrupted, the stages after it are skipped, and the answer is written at once
+    write_case(tmp_path)
+    line = _one_line(_interrupted(tmp_path, "vibupdate.ranges.identifiability:parameter_ranges", "run", "case.toml",
+                                  "--certify", "5", "--out", "res"))
+    assert line == ("vibupdate: interrupted; the range computation was interrupted; the update's answer "
+                    "(not_unique) was written to res/ without the certification")
+    doc = json.loads((tmp_path / "res" / "results.json").read_text())
+    validate_document(doc)
+    assert doc["success"] is True and doc["solver"]["verdict"] == "not_unique"
+    assert doc["identifiability"].get("ranges") is None and doc["identifiability"].get("certified") is None
+    assert doc["identifiability"]["ranges_note"] == "consistent ranges not computed: the run was interrupted (Ctrl-C)"
+    assert ("the range computation was interrupted (Ctrl-C): the results hold what was computed before it; not "
+            "computed: the certification") in doc["warnings"]
+    assert (tmp_path / "res" / "report.md").is_file()
+
+
+def test_ctrl_c_in_a_diagnosis_writes_the_answer_that_did_not_verify_without_it(tmp_path):
+    from test_diagnosis_run import write_case as biased_case
+
+    biased_case(tmp_path, 0.10)
+    line = _one_line(_interrupted(tmp_path, "vibupdate.inverse.diagnosis:rank", "run", "case.toml", "--out", "res"))
+    assert line == ("vibupdate: interrupted; the diagnosis was interrupted; the update's answer (not_verified) was "
+                    "written to res/")
+    doc = json.loads((tmp_path / "res" / "results.json").read_text())
+    validate_document(doc)
+    assert doc["success"] is False and doc["diagnosis"] is None
+    assert "the diagnosis was interrupted (Ctrl-C): the results hold what was computed before it" in doc["warnings"]
 
 
 def test_ctrl_c_in_an_fe_example_removes_its_inputs_so_that_it_runs_again(tmp_path):
