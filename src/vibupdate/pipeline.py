@@ -332,6 +332,11 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     ValueError
         The case or the options are invalid, or the folder cannot be used; raised before any
         solve.
+    KeyboardInterrupt
+        Ctrl-C. Before the update has an answer nothing is written. After it (its uniqueness
+        search or a later stage) the stage running ends, the later ones are skipped, the answer
+        is written with what was computed before, and `vibupdate.io.interrupted.Interrupted`
+        says so.
     """
     from vibupdate import __version__
 
