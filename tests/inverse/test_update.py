@@ -69,10 +69,10 @@ def eigen_residuals(result, xbar):
 
 def assert_sound(result):
     """Properties every answer has, measured or exact data: the objective it reports is the
-    first stage's objective of the vectors it returns at the homotopy's parameters, and the
-    relaxation's lower bound is below it."""
+    first stage's objective of the vectors it returns at its parameters, and the relaxation's
+    lower bound is below it."""
     problem, u = first_stage_unknowns(result)
-    recomputed = problem.objective(result.first_stage_xbar, u)
+    recomputed = problem.objective(result.xbar, u)
     assert recomputed == pytest.approx(result.objective, rel=1e-6, abs=1e-14), (recomputed, result.objective)
     assert result.relaxation_lower_bound is not None
     assert result.relaxation_lower_bound <= result.objective + 1e-12

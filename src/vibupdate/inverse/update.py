@@ -62,8 +62,9 @@ class UpdateResult:
     values : ndarray, shape (n_x,)
         Updated physical parameters, in each parameter's unit.
     vectors : tuple of ndarray
-        Identified mode / adjunct vectors (physical units, normalization of the formulation),
-        in the order of ``problem.blocks``.
+        Identified mode / adjunct vectors of the answer (physical units, normalization of the
+        formulation), in the order of ``problem.blocks``: the homotopy's own where the answer is
+        its point, else those that fit best at ``xbar`` (`BilinearProblem.unknowns_at`).
     problem_size : dict of str to int
         Counts of the first stage's problem (`BilinearProblem.sizes`; ``reduced_dofs`` after a
         reduction).
@@ -71,7 +72,8 @@ class UpdateResult:
         One per solve on the homotopy path, in order (``lam``, objective, iterations, status,
         wall seconds).
     objective : float
-        Exact objective at the answer.
+        The first stage's exact objective at the answer with ``vectors`` (the homotopy's end is
+        ``steps[-1].objective``).
     relaxation_lower_bound : float or None
         Optimum of the convex ``lam = 0`` relaxation, a lower bound of the global minimum.
     seconds : float
@@ -807,6 +809,8 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         best = _Finish("homotopy", first_xbar, None, None, updated,
                        sensitivity(configurations, first_xbar, freqs=updated), (), status)
     xbar, polished, checks, updated = best.xbar, best.polished, best.checks, best.updated
+    # the vectors and objective of the model returned, wherever the polish moved it from the path's point
+    u = path.u if np.array_equal(xbar, path.x) else problem.unknowns_at(xbar)
     warnings = tuple(note.message for note in problem.notes)   # what the formulation set aside
     warnings += tuple(f"{c.name}: {c.message}" for c in checks if not c.passed)
     if alternatives:
@@ -823,10 +827,10 @@ def update(configurations: Sequence[Configuration], *, formulation: FormulationO
         parameters=model.parameters,
         xbar=xbar,
         values=model.physical(xbar),
-        vectors=tuple(_full_vector(problem, b, path.u, solved, bases) for b in range(len(problem.blocks))),
+        vectors=tuple(_full_vector(problem, b, u, solved, bases) for b in range(len(problem.blocks))),
         problem_size=size,
         steps=steps,
-        objective=path.objective,
+        objective=problem.objective(xbar, u),
         relaxation_lower_bound=path.lower_bound,
         seconds=sum(st.seconds for st in steps) + sum(r.seconds for r in starts),
         sensitivity=best.sensitivity,

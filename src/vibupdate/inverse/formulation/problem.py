@@ -90,6 +90,40 @@ class BilinearProblem:
         R = self.residual(x, u)
         return float(np.sum(self.row_weight * R**2))
 
+    def unknowns_at(self, x) -> np.ndarray:
+        """The free unknowns that minimize `objective` at the parameters ``x``, each measured
+        entry within its measured interval.
+
+        With ``x`` fixed the residual is linear in ``u`` and each block's rows read only its own
+        unknowns, so this is one bounded linear least squares per block (scipy's ``lsq_linear``,
+        ``bvls``: exact to rounding on these small dense blocks). The boxes of the entries that
+        were not measured are margins of the relaxation, not data, and are left out: the vector
+        of the model at ``x`` may lie outside them. `update` returns these unknowns at its
+        answer, so that the vectors and the objective it reports belong to the model it
+        returns, wherever the polish moved it from the homotopy's point.
+        """
+        from scipy.optimize import lsq_linear
+
+        x = np.asarray(x, dtype=float)
+        bilinear = sp.csr_matrix((x[self.prod_x], (np.arange(self.n_b), self.prod_u)), shape=(self.n_b, self.n_u))
+        w = np.sqrt(self.row_weight)
+        A = sp.csr_matrix(sp.diags(w) @ (self.A_u + self.A_b @ bilinear))
+        rhs = -w * (self.A_x @ x + self.r0)
+        u = np.clip(self.u_start, self.u_lower, self.u_upper)
+        for b, blk in enumerate(self.blocks):
+            rows = slice(self.row_offsets[b], self.row_offsets[b + 1])
+            cols = slice(self.u_offsets[b], self.u_offsets[b + 1])
+            measured = np.zeros(blk.n_free, bool) if blk.measured is None else blk.measured[~blk.fixed]
+            lower = np.where(measured, self.u_lower[cols], -np.inf)
+            upper = np.where(measured, self.u_upper[cols], np.inf)
+            free = lower < upper     # an unknown its interval pins stays there
+            u[cols] = np.where(free, u[cols], lower)
+            if free.any():
+                block = A[rows][:, cols].toarray()
+                u[cols][free] = lsq_linear(block[:, free], rhs[rows] - block[:, ~free] @ lower[~free],
+                                           bounds=(lower[free], upper[free]), method="bvls", tol=1e-14).x
+        return u
+
     def identity(self) -> str:
         """A digest of everything a solver reads (bounds, start, matrices, products, weights):
         two problems with the same identity are the same problem (`vibupdate.inverse.homotopy`
