@@ -403,6 +403,27 @@ def test_a_reader_that_stops_reading_leaves_the_run_its_exit_code_and_files(tmp_
     assert bad.wait(timeout=120) == 2
 
 
+def test_a_run_draws_its_plots_without_importing_pyplot(tmp_path):
+    """The plots are figures on the Agg canvas (`vibupdate.report.plots.figure`): a run that
+    draws them imports matplotlib's figure module but never pyplot (its import is a fixed cost
+    of every ``vibupdate run``, and its register of open figures is global state)."""
+    import subprocess
+    import sys
+
+    from outputs_helpers import write_case
+
+    case = write_case(tmp_path / "case")
+    out = tmp_path / "out"
+    code = ("import sys\n"
+            "from vibupdate.cli import main\n"
+            f"code = main(['run', {str(case)!r}, '--out', {str(out)!r}])\n"
+            "print(code, 'matplotlib.figure' in sys.modules, 'matplotlib.pyplot' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.splitlines()[-1] == "0 True False"
+    assert (out / "frf.png").is_file()
+
+
 ONE_DOF_CASE = """\
 case = "one"
 

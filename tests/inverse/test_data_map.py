@@ -257,6 +257,29 @@ def test_the_modes_at_a_point_are_solved_once_whatever_is_asked_of_them(mixed, m
     assert len(calls) == 2
 
 
+def test_configurations_of_one_model_share_the_solve_of_its_modes(mixed, monkeypatch):
+    """The spectrum is the model's: a configuration of the same model object with other data
+    (as the diagnosis's data without one group, `vibupdate.inverse.diagnosis.without`) reads
+    the modes solved for the first at the same point; a configuration of another model object
+    solves its own."""
+    from dataclasses import replace
+
+    from vibupdate.inverse import correlation
+
+    cfg, x = mixed
+    x = x + 2e-3   # a point no other test of the module solves
+    calls = []
+    solve = correlation.modes
+    monkeypatch.setattr(correlation, "modes", lambda *a, **k: calls.append(1) or solve(*a, **k))
+    full = correlation.model_frequencies(cfg, x)
+    fewer = replace(cfg, natural=cfg.natural[1:], antiresonances=())
+    part = correlation.model_frequencies(fewer, x, derivatives=True)
+    assert len(calls) == 1
+    np.testing.assert_array_equal(part.natural, full.natural[1:])
+    correlation.model_frequencies(replace(cfg, model=replace(cfg.model)), x)
+    assert len(calls) == 2
+
+
 def test_an_update_solves_the_modes_at_each_point_once(monkeypatch):
     """Across an update (polish, uniqueness probes, minimum change, verification, sensitivity)
     no point's modes are solved twice (the polished answer was solved again for its

@@ -18,7 +18,7 @@ def test_the_mac_plot_writes_every_value_without_measuring_its_layout(tmp_path, 
     monkeypatch.setattr(Figure, "tight_layout", lambda self, *a, **k: measured.append(self))
     figures = []
     save = plots.save_png
-    monkeypatch.setattr(plots, "save_png", lambda plt, fig, path, dpi=110: (figures.append(fig), save(plt, fig, path))[1])
+    monkeypatch.setattr(plots, "save_png", lambda fig, path, dpi=110: (figures.append(fig), save(fig, path))[1])
     matrix = np.linspace(0.0, 1.0, 12).reshape(3, 4)
     path = plots.plot_mac(tmp_path / "mac.png", matrix, "MAC")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -140,25 +140,28 @@ def zeros_wanted(cfg: Configuration, rc) -> int | None:
     return min(top + 1, cfg.model.n_dofs - 1)
 
 
-#: The most recent spectra of models on the dense path, by (configuration, point): one run asks
+#: The most recent spectra of models on the dense path, by (model, point): one run asks
 #: `model_frequencies` for the same point in several stages (the polish's answer again in the
 #: verification and the sensitivity, the nominal model in the validation, the formulation and
-#: the update). Their arrays are read-only.
+#: the update), and for configurations that share a model (the diagnosis's data without one
+#: group, `vibupdate.inverse.diagnosis.without`). Their arrays are read-only.
 _SPECTRA = Kept(32, 64 * 2**20)
 
 
 def _spectrum(cfg: Configuration, xbar, M, K) -> tuple:
     """``modes(M, K)`` of ``cfg.model`` at ``xbar`` (every mode of the dense path), solved once
-    among the most recent of the same configuration object at the same point (`_SPECTRA`)."""
-    point = np.zeros(cfg.model.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
-    key = (id(cfg), point.tobytes())
+    among the most recent of the same model object at the same point (`_SPECTRA`): the spectrum
+    is the model's, whichever data a configuration pairs with it."""
+    model = cfg.model
+    point = np.zeros(model.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
+    key = (id(model), point.tobytes())
     kept = _SPECTRA.get(key)
-    if kept is not None and kept[0] is cfg:   # the object itself: its id is not reused while it is kept
+    if kept is not None and kept[0] is model:   # the object itself: its id is not reused while it is kept
         return kept[1]
-    spectrum = modes(M, K, precision=cfg.model.matrix_precision)
+    spectrum = modes(M, K, precision=model.matrix_precision)
     for part in spectrum:
         part.flags.writeable = False
-    _SPECTRA.put(key, (cfg, spectrum), sum(part.nbytes for part in spectrum))
+    _SPECTRA.put(key, (model, spectrum), sum(part.nbytes for part in spectrum))
     return spectrum
 
 
@@ -169,9 +172,9 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     ``zeros_all`` empty): for callers that take them with their derivatives from
     `declared_zeros`, which solves the same adjunct eigenproblem. ``derivatives=True`` takes
     the zeros from that solve and keeps their derivatives (``zero_derivatives``): one adjunct
-    eigen-solve per receptance for both. On the dense path the modes of the same configuration
-    object at the same point are solved once among the most recent (`_spectrum`; the
-    ``spectrum`` arrays read-only)."""
+    eigen-solve per receptance for both. On the dense path the modes of the same model object at
+    the same point are solved once among the most recent (`_spectrum`; the ``spectrum`` arrays
+    read-only)."""
     from vibupdate.modal.analysis import DENSE_LIMIT
 
     M, K = cfg.model.solver_matrices(xbar)

@@ -182,10 +182,8 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
 def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
     require("plots", "drawing plots")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     data = frfs.band(*result.band)
     fitted = result.synthesize(data.omega)
@@ -193,7 +191,9 @@ def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     n = len(data.pairs)
     cols = min(n, 3)
     rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
+    fig = Figure(figsize=(4.2 * cols, 3.2 * rows))   # on the Agg canvas, as `vibupdate.report.plots.figure`
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(rows, cols, squeeze=False)
     f = data.freq_hz
     for k, (pair, ax) in enumerate(zip(data.pairs, axes.ravel())):
         ax.semilogy(f, np.abs(mean[k]), color="0.6", lw=1.0, label="measured")
@@ -214,5 +214,4 @@ def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     axes[0, 0].legend(fontsize=7)
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, wspace=0.35, hspace=0.5)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return Path(path)

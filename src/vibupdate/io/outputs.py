@@ -109,23 +109,17 @@ def drawn(path, plot, *args, **kwargs) -> bool:
 
     Returns True when the file was written. On any exception of ``plot`` (a degenerate
     figure, a font or backend problem, matplotlib not installed: `vibupdate.extras`) the
-    partial file and the matplotlib figures it opened are removed, an `OutputWarning` naming
-    the file and the error is issued, and False is returned. KeyboardInterrupt is not caught.
+    partial file is removed, an `OutputWarning` naming the file and the error is issued, and
+    False is returned (the plots' figures are held by no register: `vibupdate.report.plots.figure`).
+    KeyboardInterrupt is not caught.
     """
-    import sys
     import warnings
 
     path = Path(path)
-    plt = sys.modules.get("matplotlib.pyplot")
-    before = set(plt.get_fignums()) if plt is not None else set()
     try:
         plot(path, *args, **kwargs)
         return True
     except Exception as exc:  # an optional file is never worth the run: any failure is a note
-        plt = sys.modules.get("matplotlib.pyplot")
-        if plt is not None:
-            for number in set(plt.get_fignums()) - before:
-                plt.close(number)
         if path.is_file():
             path.unlink()
         why = str(exc) if isinstance(exc, MissingExtra) else f"{type(exc).__name__}: {exc}"

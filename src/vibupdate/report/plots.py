@@ -1,6 +1,8 @@
 """PNG plots of a run: FRFs nominal vs updated (as Fig. 11), homotopy objective, MAC matrix.
 
-matplotlib is imported inside the functions, with the non-interactive Agg backend.
+matplotlib is imported inside the functions. Each plot is a bare `matplotlib.figure.Figure`
+on the Agg canvas (`figure`), never pyplot: the same PNG, without pyplot's import (a fixed cost
+of every ``vibupdate run``) or its register of open figures.
 """
 
 from __future__ import annotations
@@ -14,15 +16,17 @@ from vibupdate.modal.analysis import receptances
 from vibupdate.data.measured import TWO_PI
 
 
-def pyplot():
-    """matplotlib's pyplot on the file-only Agg backend; `MissingExtra` without the extra [plots]."""
+def figure(**kwargs):
+    """A new `matplotlib.figure.Figure` (``kwargs``: its ``figsize`` and the like) on the
+    file-only Agg canvas, held by no register: it is freed with its last reference;
+    `MissingExtra` without the extra [plots]."""
     require("plots", "drawing plots")
-    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    fig = Figure(**kwargs)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 #: Exponent characters of a tick label written without mathtext (`_plain_log_labels`).
@@ -67,8 +71,8 @@ def _margins(fig, height_in: float) -> None:
     fig.subplots_adjust(left=0.11, right=0.97, bottom=0.55 / height_in, top=1 - 0.35 / height_in, hspace=0.12)
 
 
-def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
-    """Labels, legend and grid, then save as PNG and close."""
+def _finish(fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
+    """Labels, legend and grid, then save as PNG."""
     _plain_log_labels(ax)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
@@ -76,13 +80,12 @@ def _finish(plt, fig, ax, path, xlabel: str, ylabel: str, title: str) -> Path:
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, which="both", alpha=0.3)
     _margins(fig, fig.get_figheight())
-    return save_png(plt, fig, path)
+    return save_png(fig, path)
 
 
-def save_png(plt, fig, path, dpi: int = 110) -> Path:
-    """Save ``fig`` as PNG at ``path`` and close it."""
+def save_png(fig, path, dpi: int = 110) -> Path:
+    """Save ``fig`` as PNG at ``path``."""
     fig.savefig(path, dpi=dpi)
-    plt.close(fig)
     return Path(path)
 
 
@@ -187,12 +190,12 @@ def plot_receptances(path, panels) -> Path:
         antiresonances (rad/s) of each receptance. The pairs of one model share its eigen-solve
         (`model_receptances`).
     """
-    plt = pyplot()
     count = sum(len(p[3]) for p in panels)
     ncols = 2 if count >= 3 else 1
     nrows = -(-count // ncols)
     height = 0.9 + 2.3 * nrows
-    fig, axes = plt.subplots(nrows, ncols, figsize=(7.5 if ncols == 1 else 11.0, height), squeeze=False)
+    fig = figure(figsize=(7.5 if ncols == 1 else 11.0, height))
+    axes = fig.subplots(nrows, ncols, squeeze=False)
     cells = iter(axes.ravel())
     for cfg, nominal, updated, pairs in panels:
         measured = [f.omega for f in cfg.natural] + [a.omega for a in cfg.antiresonances]
@@ -232,7 +235,7 @@ def plot_receptances(path, panels) -> Path:
                bbox_to_anchor=(0.5, 1 - 0.05 / height))
     fig.subplots_adjust(left=0.09 if ncols == 2 else 0.11, right=0.98, bottom=0.5 / height,
                         top=1 - 0.6 / height, hspace=0.75 / 2.3 + 0.1, wspace=0.22)
-    return save_png(plt, fig, path)
+    return save_png(fig, path)
 
 
 def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nominal_label: str,
@@ -257,7 +260,6 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     sensors : sequence of vibupdate.model.measurement.Sensor
         The model's sensors (``docs/sensors.md``).
     """
-    plt = pyplot()
     index = {d: i for i, d in enumerate(model_dofs)}
     reads = {d: ((i, 1.0),) for d, i in index.items()}
     reads.update({s.name: tuple((index[d], w) for d, w in s.weights) for s in sensors})
@@ -271,8 +273,8 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     grid = len(rows) * len(cols) <= 16 and len(rows) * len(cols) < 2 * len(pairs)
     if not grid:
         rows, cols = [None] * len(pairs), [None]
-    fig, axes = plt.subplots(len(rows), len(cols), figsize=(3.6 * len(cols) + 1.2, 2.4 * len(rows) + 0.8),
-                             squeeze=False, sharex=True)
+    fig = figure(figsize=(3.6 * len(cols) + 1.2, 2.4 * len(rows) + 0.8))
+    axes = fig.subplots(len(rows), len(cols), squeeze=False, sharex=True)
     measured = frfs.mean()
     omega, f_hz = frfs.omega, frfs.freq_hz
     at = [p for _, p in pairs]
@@ -299,15 +301,15 @@ def plot_measured_frf(path, frfs, model_dofs, nominal, updated, title: str, nomi
     fig.suptitle(title, fontsize=10, y=1 - 0.05 / height, va="top")
     fig.legend(handles, labels, loc="upper center", ncol=3, fontsize=8, bbox_to_anchor=(0.5, 1 - 0.3 / height))
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.65 / height))
-    return save_png(plt, fig, path)
+    return save_png(fig, path)
 
 
 def plot_homotopy(path, steps) -> Path:
     """Objective of every solve (``steps``: `vibupdate.io.results.StepRow`) against lambda (log
     scale), each path its own line: a path starts again wherever lambda does not grow (the
     stepped restart, a first stage repeated with wider boxes)."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6, 3.8))
+    fig = figure(figsize=(6, 3.8))
+    ax = fig.subplots()
     lam = np.array([s.lam for s in steps], dtype=float)
     obj = np.array([max(s.objective, 1e-300) for s in steps])
     ok = np.array([s.status.ok for s in steps], dtype=bool)
@@ -316,7 +318,7 @@ def plot_homotopy(path, steps) -> Path:
     ax.semilogy(lam[ok], obj[ok], "o", label="converged")
     if not ok.all():
         ax.semilogy(lam[~ok], obj[~ok], "x", color="tab:red", label="failed")
-    return _finish(plt, fig, ax, path, "lambda", "objective", "homotopy path")
+    return _finish(fig, ax, path, "lambda", "objective", "homotopy path")
 
 
 def plot_mac(path, matrix: np.ndarray, title: str) -> Path:
@@ -326,9 +328,8 @@ def plot_mac(path, matrix: np.ndarray, title: str) -> Path:
     The axes and the colour bar sit at set places (in inches from the figure's edges):
     ``tight_layout`` and a colour bar that takes its room from the axes measure every text of
     the figure before it is drawn, more than half the plot's cost."""
-    plt = pyplot()
     width, height = 4.6, 4.0
-    fig = plt.figure(figsize=(width, height))
+    fig = figure(figsize=(width, height))
     left, right, bottom, top, bar, gap = 0.65, 0.75, 0.55, 0.35, 0.15, 0.15
     side = min(width - left - right - bar - gap, height - bottom - top)
     ax = fig.add_axes((left / width, bottom / height, side / width, side / height))
@@ -345,4 +346,4 @@ def plot_mac(path, matrix: np.ndarray, title: str) -> Path:
     ax.set_ylabel("measured mode")
     ax.set_title(title, y=1.0)
     fig.colorbar(im, cax=cax)
-    return save_png(plt, fig, path)
+    return save_png(fig, path)

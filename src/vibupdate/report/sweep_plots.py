@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI
-from vibupdate.extras import available, skipped
+from vibupdate.extras import available, require, skipped
 from vibupdate.io.outputs import OutputWarning, drawn, file_names
 from vibupdate.report.numbers import finite
-from vibupdate.report.plots import pyplot, save_png
+from vibupdate.report.plots import figure, save_png
 
 
 #: Samples used for an FRF band (the first verified ones by index).
@@ -27,10 +27,10 @@ FRF_SAMPLES = 100
 FRF_POINTS = 600
 
 
-def _save(plt, fig, path) -> Path:
-    """Lay out, save as PNG and close."""
+def _save(fig, path) -> Path:
+    """Lay out and save as PNG."""
     fig.tight_layout()
-    return save_png(plt, fig, path, dpi=100)
+    return save_png(fig, path, dpi=100)
 
 
 def _verified(rows):
@@ -75,12 +75,12 @@ def histogram_bins(values, lower: float, upper: float) -> tuple[int, tuple[float
 
 def plot_histograms(path, document: dict, rows) -> Path:
     """One histogram per parameter over the verified samples, bounds and nominal marked."""
-    plt = pyplot()
     params = document["parameters"]
     ok = _verified(rows)
     cols = min(3, len(params))
     nrows = int(np.ceil(len(params) / cols))
-    fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 2.8 * nrows), squeeze=False)
+    fig = figure(figsize=(3.6 * cols, 2.8 * nrows))
+    axes = fig.subplots(nrows, cols, squeeze=False)
     for ax, p in zip(axes.flat, params):
         values = [r[f"p:{p['name']}"] for r in ok]
         bins, span = histogram_bins(values, p["lower"], p["upper"])
@@ -93,14 +93,13 @@ def plot_histograms(path, document: dict, rows) -> Path:
     for ax in list(axes.flat)[len(params):]:
         ax.set_visible(False)
     fig.suptitle(f"sampled parameters: {_counts(document)}; dashed: bounds, orange: nominal", fontsize=9)
-    return _save(plt, fig, path)
+    return _save(fig, path)
 
 
 def plot_pairs(path, document: dict, rows, names, ends=()) -> Path:
     """Pairwise scatter of the named parameters over the verified samples; where a sample's
     answer was walked along a null direction (``ends``, rows of ``line_ends.csv``), the segment
     between the two ends of that direction is drawn as a line."""
-    plt = pyplot()
     ok = _verified(rows)
     verified = {r["index"] for r in ok}
     segments: dict = {}
@@ -110,7 +109,8 @@ def plot_pairs(path, document: dict, rows, names, ends=()) -> Path:
     pairs = list(combinations(names, 2))
     cols = min(3, max(1, len(pairs)))
     nrows = max(1, int(np.ceil(len(pairs) / cols)))
-    fig, axes = plt.subplots(nrows, cols, figsize=(max(3.6 * cols, 6.0), 3.2 * nrows + 0.4), squeeze=False)
+    fig = figure(figsize=(max(3.6 * cols, 6.0), 3.2 * nrows + 0.4))
+    axes = fig.subplots(nrows, cols, squeeze=False)
     bounds = {p["name"]: (p["lower"], p["upper"]) for p in document["parameters"]}
     by_index = {r["index"]: r for r in ok}
     for ax, (a, b) in zip(axes.flat, pairs):
@@ -128,15 +128,15 @@ def plot_pairs(path, document: dict, rows, names, ends=()) -> Path:
         ax.set_visible(False)
     walked = f"\ngreen: lines of equally good answers ({len(segments)} walked to their ends)" if segments else ""
     fig.suptitle(f"least-determined parameters (axes: bounds); {_counts(document)}{walked}", fontsize=9)
-    return _save(plt, fig, path)
+    return _save(fig, path)
 
 
 def plot_frequency_bands(path, document: dict) -> Path:
     """Per measured frequency: the measured interval and the 5-95 % band of the prediction,
     both relative to the measured value (per cent)."""
-    plt = pyplot()
     preds = [p for p in document["predictions"] if p["q05"] is not None]
-    fig, ax = plt.subplots(figsize=(max(5.0, 0.45 * len(preds) + 2), 3.8))
+    fig = figure(figsize=(max(5.0, 0.45 * len(preds) + 2), 3.8))
+    ax = fig.subplots()
     x = np.arange(len(preds))
     for i, p in enumerate(preds):
         m = p["measured_hz"]
@@ -151,7 +151,7 @@ def plot_frequency_bands(path, document: dict) -> Path:
     ax.grid(True, alpha=0.3)
     if preds:
         ax.legend(fontsize=8)
-    return _save(plt, fig, path)
+    return _save(fig, path)
 
 
 def plot_frf_band(path, case, cfg, rows) -> Path:
@@ -161,7 +161,7 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
     from vibupdate.io.results import plotted_receptance
     from vibupdate.report.plots import model_receptance
 
-    plt = pyplot()
+    require("plots", "drawing plots")   # before the samples' receptances
     ok = _verified(rows)[:FRF_SAMPLES]
     plotted = plotted_receptance(cfg, cfg.model.M0)
     r, c = cfg.model.dof(plotted.response), cfg.model.dof(plotted.excitation)
@@ -180,7 +180,8 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
             C = caughey_damping(M, K, exponents, [row[f"beta{i}"] for i in range(len(exponents))],
                                 max((f.mode for f in cfg.natural), default=1))
         curves.append(np.abs(model_receptance((M, K, C), r, c, omega)))
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    fig = figure(figsize=(7.5, 4.2))
+    ax = fig.subplots()
     if curves:
         q = np.quantile(np.log10(np.maximum(curves, 1e-300)), [0.05, 0.5, 0.95], axis=0)
         ax.fill_between(omega / TWO_PI, 10 ** q[0], 10 ** q[2], alpha=0.35, label="5-95 % of samples")
@@ -196,7 +197,7 @@ def plot_frf_band(path, case, cfg, rows) -> Path:
     ax.set_title(f"configuration {cfg.name}: {label}, {len(curves)} verified samples", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
-    return _save(plt, fig, path)
+    return _save(fig, path)
 
 
 def plot_names(case) -> list[str]:
