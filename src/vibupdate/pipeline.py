@@ -363,11 +363,12 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
             say(limited[2:])
     later = _Stages("uniqueness search" if result.sought is not None and result.sought.interrupted else None)
     diagnose = verification.diagnose if diagnose is None else diagnose
+    # each stage's condition is its `wanted`: when it is false the stage's module is not imported
     diagnosis, diagnosis_notes = later.run("diagnosis", diagnose and not result.success, (None, []),
-                                           lambda: _diagnosis(case, result, verification, say, diagnose))
+                                           lambda: _diagnosis(case, result, verification, say))
     suggestion, suggestion_notes = later.run(
-        "screening of candidates", not result.success and bool(case.candidates) and verification.suggest, (None, []),
-        lambda: _suggestion(case, result, verification, say))
+        "screening of candidates", result.status == Status.NOT_VERIFIED and bool(case.candidates)
+        and verification.suggest, (None, []), lambda: _suggestion(case, result, verification, say))
     stage, notes, info = later.run("damping fit", _has_damping(case), (None, [], {}),
                                    lambda: damping_stage(case, result.xbar, say, result.correlation.updated))
     notes = list(checked.warnings) + notes + diagnosis_notes + suggestion_notes
@@ -469,12 +470,10 @@ def _say_written(target, written: RunResult, run: RunResult, say) -> None:
         say(kept)
 
 
-def _diagnosis(case: Case, result: UpdateResult, verification, say, wanted: bool):
-    """Which data conflict (`vibupdate.inverse.diagnosis`), when ``wanted`` and the answer
-    failed a check of its fit to the data; None otherwise. Returns it and the run's notes: a
-    diagnosis that fails costs a note, never the run's results."""
-    if not wanted or result.success:   # nothing to diagnose: the diagnosis module is not imported
-        return None, []
+def _diagnosis(case: Case, result: UpdateResult, verification, say):
+    """Which data conflict (`vibupdate.inverse.diagnosis`), for an answer that is not verified
+    and failed a check of its fit to the data; None otherwise. Returns it and the run's notes:
+    a diagnosis that fails costs a note, never the run's results."""
     from vibupdate.inverse.diagnosis import diagnose, wants_diagnosis
 
     failed = [c.name for c in result.checks if c.severity == "error" and not c.passed]
@@ -496,10 +495,8 @@ SUGGEST_SECONDS = 60.0
 def _suggestion(case: Case, result: UpdateResult, verification, say):
     """When the answer is not verified and the case declares candidates (and ``[verification]
     suggest``): each single candidate screened from the answer, no full update
-    (`vibupdate.ranges.candidates`). Returns its record (None otherwise) and the run's notes:
-    a screening that fails costs a note, never the run's results."""
-    if result.success or not case.candidates or not verification.suggest or result.status != Status.NOT_VERIFIED:
-        return None, []
+    (`vibupdate.ranges.candidates`). Returns its record and the run's notes: a screening that
+    fails costs a note, never the run's results."""
     from vibupdate.ranges.candidates import suggest_sets
 
     own = [p.name for p in result.parameters]
