@@ -49,7 +49,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linprog
+from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
 from vibupdate.inverse.data_map import data_jacobian, measured_shapes
 from vibupdate.options import default
@@ -245,13 +245,36 @@ def _scaled_shapes(configurations, d_hat, G, rounding, at=None):
     return rows, extra
 
 
-def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, solve, box) -> float:
+def _holds(A, offset, dx, n_x: int) -> bool:
+    """Whether the rows ``|A z + offset| <= 1`` of a range's linear program hold at the step
+    ``dx`` for some scale step of each shape (the columns after the first ``n_x``): without a
+    linear program, because each scale enters only its own shape's rows, so that each is an
+    intersection of intervals. A row may miss by HiGHS's default primal feasibility tolerance
+    (1e-7 of its half-width), as in the programs solved."""
+    tol = 1e-7
+    r = A[:, :n_x] @ dx + offset
+    S = A[:, n_x:]
+    g = S.sum(axis=1)          # each row has at most one scale column
+    scaled = g != 0
+    if np.any(np.abs(r[~scaled]) > 1.0 + tol):
+        return False
+    if not scaled.any():
+        return True
+    col = np.argmax(S[scaled] != 0, axis=1)
+    a, b = (-1.0 - tol - r[scaled]) / g[scaled], (1.0 + tol - r[scaled]) / g[scaled]
+    low, high = np.full(S.shape[1], -np.inf), np.full(S.shape[1], np.inf)
+    np.maximum.at(low, col, np.minimum(a, b))
+    np.minimum.at(high, col, np.maximum(a, b))
+    return bool(np.all(low <= high))
+
+
+def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, solve) -> float:
     """The extreme of parameter ``i`` (its minimum for ``sign`` 1, maximum for -1) over the
     linear range's end ``xbar + step`` and the points found consistent with the data, by
     successive linear programs: from that end, the data and their Jacobian there, the program
     relinearized about that point (the answer's windows), its extreme the next point, at most
     `VALLEY_PROGRAMS` points. A point counts only where its own data lie in every window (its
-    relinearized program holds at the point itself).
+    relinearized program holds at the point itself, `_holds`).
 
     A program whose answer cannot change the result is not solved, nor the data it needs: a
     point's own check only where the point lies beyond the extreme so far (the linear end is
@@ -265,15 +288,14 @@ def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, 
         if last and not beyond:
             break
         d, G = data_jacobian(configurations, x)
-        A, b, n_s = program((d, G, xbar - x))
-        if beyond and solve(np.zeros(xbar.size + n_s), A, b,
-                            [(v, v) for v in x - xbar] + [(None, None)] * n_s) is not None:
+        A, offset = program((d, G, xbar - x))
+        if beyond and _holds(A, offset, x - xbar, xbar.size):
             end = float(x[i])
         if last:
             break
-        c = np.zeros(xbar.size + n_s)
+        c = np.zeros(A.shape[1])
         c[i] = sign
-        nxt = solve(c, A, b, box + [(None, None)] * n_s)
+        nxt = solve(c, A, offset)
         if nxt is None or abs(nxt[i] - (x[i] - xbar[i])) <= 1e-9:
             break
         x = xbar + nxt[:xbar.size]
@@ -360,14 +382,24 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         A1 = np.vstack([np.hstack([Gs[keep], np.zeros((int(keep.sum()), n_s))])] + [e[0] for e in extra]
                        + [np.zeros((0, xbar.size + n_s))])
         o1 = np.concatenate([offs[keep]] + [e[1] for e in extra])
-        return np.vstack([A1, -A1]), np.concatenate([1.0 - o1, 1.0 + o1]), n_s
+        return A1, o1       # |A1 z + o1| <= 1
 
-    def solve(c, A, b, bounds):
-        for method in ("highs", "highs-ipm"):
-            sol = linprog(c, A_ub=A, b_ub=b, bounds=bounds, method=method)
-            if sol.status == 0:
-                return sol.x
-        return None
+    box_lo, box_hi = lo - xbar, hi - xbar
+
+    def solve(c, A, offset):
+        """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (two
+        sides of one row: half the rows of ``A_ub`` form) and the box; each shape's scale free.
+        Where the simplex fails, the interior-point method (the stacked form); None when
+        neither solves it."""
+        n_s = A.shape[1] - xbar.size
+        z_lo = np.concatenate([box_lo, np.full(n_s, -np.inf)])
+        z_hi = np.concatenate([box_hi, np.full(n_s, np.inf)])
+        sol = milp(c, constraints=LinearConstraint(A, -1.0 - offset, 1.0 - offset), bounds=Bounds(z_lo, z_hi))
+        if sol.status == 0:
+            return sol.x
+        sol = linprog(c, A_ub=np.vstack([A, -A]), b_ub=np.concatenate([1.0 - offset, 1.0 + offset]),
+                      bounds=np.column_stack([z_lo, z_hi]), method="highs-ipm")
+        return sol.x if sol.status == 0 else None
 
     # Along a direction the data do not see at all (a null direction of the Jacobian), the
     # linear program follows the tangent line to the box, but the set of parameters that fit
@@ -377,21 +409,20 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
     rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
-    A, b, n_s = program()
-    box = list(zip(lo - xbar, hi - xbar))
+    A, o = program()
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     bent = model.n_dofs <= VALLEY_DOFS
     for i in np.flatnonzero(~free):
-        c = np.zeros(model.n_parameters + n_s)
+        c = np.zeros(A.shape[1])
         c[i] = 1.0
         for sign, target in ((1.0, lower), (-1.0, upper)):
-            step = solve(sign * c, A, b, box + [(None, None)] * n_s)
+            step = solve(sign * c, A, o)
             if step is None:
                 continue
             target[i] = xbar[i] + step[i]
             at_box = np.isclose(target[i], lo[i] if sign > 0 else hi[i], rtol=0.0, atol=1e-12)
             if bent and not at_box:
-                target[i] = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve, box)
+                target[i] = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
     if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:
         # the other parameters move along the curved valley too (at second order where the
