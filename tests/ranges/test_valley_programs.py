@@ -18,17 +18,19 @@ def _follow(monkeypatch, points):
         counts["data"] += 1
         return None, None
 
-    def solve(c, A, b, bounds):
-        if all(lo is not None and lo == hi for lo, hi in bounds):   # a point's own check
-            counts["check"] += 1
-            return np.zeros(len(bounds))
+    def holds(A, offset, dx, n_x):   # a point's own check
+        counts["check"] += 1
+        return True
+
+    def solve(c, A, offset):
         counts["extreme"] += 1
         return np.array([next(steps), 0.0])
 
     monkeypatch.setattr(identifiability, "data_jacobian", data_jacobian)
+    monkeypatch.setattr(identifiability, "_holds", holds)
     xbar = np.zeros(2)
     end = identifiability._along_the_valley(None, xbar, np.array([-0.5, 0.0]), 0, 1.0,
-                                            lambda at: (None, None, 0), solve, [(-0.8, 0.5), (-0.8, 0.5)])
+                                            lambda at: (np.zeros((1, 2)), np.zeros(1)), solve)
     return end, counts
 
 
@@ -62,8 +64,8 @@ def test_a_parameter_on_a_null_direction_gets_its_box_without_a_program(monkeypa
     from vibupdate.modal.analysis import modes
 
     solved = []
-    real = identifiability.linprog
-    monkeypatch.setattr(identifiability, "linprog", lambda *a, **k: solved.append(1) or real(*a, **k))
+    real = identifiability.milp
+    monkeypatch.setattr(identifiability, "milp", lambda *a, **k: solved.append(1) or real(*a, **k))
     model = chain_model(2, ["k1", "k2"])
     omega, _ = modes(*model.matrices(np.zeros(2)), 1)
     cfg = Configuration("c", model, (NaturalFrequency(omega[0]),))
@@ -71,3 +73,32 @@ def test_a_parameter_on_a_null_direction_gets_its_box_without_a_program(monkeypa
     lo, hi = model.bounds()
     assert np.allclose(model.normalized(found.lower), lo) and np.allclose(model.normalized(found.upper), hi)
     assert not solved
+
+
+def test_a_points_own_check_is_the_linear_program_it_replaces():
+    """Constructed: programs of 6 data rows, 3 parameters and 2 shapes' scales (each scale in
+    its own shape's 2 rows, 2 rows without a scale), at 400 random steps: the check by interval
+    intersection (`_holds`) says what a linear program with the step fixed and the scales free
+    says, wherever the program's answer is not within 1e-6 of a row's edge."""
+    from scipy.optimize import linprog
+
+    rng = np.random.default_rng(3)
+    agree = 0
+    for _ in range(400):
+        A = np.zeros((6, 5))
+        A[:, :3] = rng.normal(size=(6, 3))
+        A[2:4, 3] = rng.normal(size=2)
+        A[4:6, 4] = rng.normal(size=2)
+        A[5, 4] = 0.0 if rng.random() < 0.2 else A[5, 4]   # a shape row its scale does not enter
+        offset = rng.normal(scale=0.5, size=6)
+        dx = rng.normal(scale=0.3, size=3)
+        lp = linprog(np.zeros(5), A_ub=np.vstack([A, -A]), b_ub=np.concatenate([1 - offset, 1 + offset]),
+                     bounds=[(v, v) for v in dx] + [(None, None)] * 2, method="highs")
+        margin = linprog(np.r_[np.zeros(5), -1.0], A_ub=np.hstack([np.vstack([A, -A]), np.ones((12, 1))]),
+                         b_ub=np.concatenate([1 - offset, 1 + offset]),
+                         bounds=[(v, v) for v in dx] + [(None, None)] * 3, method="highs")
+        if abs(margin.fun) < 1e-6:
+            continue
+        assert identifiability._holds(A, offset, dx, 3) == (lp.status == 0)
+        agree += 1
+    assert agree > 300
