@@ -386,34 +386,17 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
 
     box_lo, box_hi = lo - xbar, hi - xbar
 
-    active = np.zeros(0, dtype=int)   # the rows on their window's edge at the last extreme
-
     def solve(c, A, offset):
-        """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (one
-        two-sided row per window) and the box; each shape's scale free. By constraint
-        generation: the program on the rows active at the last extreme (along the valley and
-        from one parameter to the next they change little), every row checked at its answer
-        and the worst missed ones added (as many as the unknowns at most) until none is missed; the answer is then the whole program's.
-        Where the simplex fails, the interior-point method on the whole program; None when
+        """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (two
+        sides of one row: half the rows of ``A_ub`` form) and the box; each shape's scale free.
+        Where the simplex fails, the interior-point method (the stacked form); None when
         neither solves it."""
-        nonlocal active
         n_s = A.shape[1] - xbar.size
         z_lo = np.concatenate([box_lo, np.full(n_s, -np.inf)])
         z_hi = np.concatenate([box_hi, np.full(n_s, np.inf)])
-        rows = np.zeros(A.shape[0], dtype=bool)
-        rows[active] = True
-        while True:
-            sol = milp(c, constraints=LinearConstraint(A[rows], -1.0 - offset[rows], 1.0 - offset[rows]),
-                       bounds=Bounds(z_lo, z_hi))
-            if sol.status != 0:
-                break
-            r = np.abs(A @ sol.x + offset)
-            missed = r > 1.0 + 1e-7          # HiGHS's default primal feasibility tolerance
-            if not missed.any():
-                active = np.flatnonzero(r >= 1.0 - 1e-7)
-                return sol.x
-            worst = np.argsort(-r)[:A.shape[1]]      # at most as many as the unknowns, the worst first
-            rows[worst[missed[worst]]] = True
+        sol = milp(c, constraints=LinearConstraint(A, -1.0 - offset, 1.0 - offset), bounds=Bounds(z_lo, z_hi))
+        if sol.status == 0:
+            return sol.x
         sol = linprog(c, A_ub=np.vstack([A, -A]), b_ub=np.concatenate([1.0 - offset, 1.0 + offset]),
                       bounds=np.column_stack([z_lo, z_hi]), method="highs-ipm")
         return sol.x if sol.status == 0 else None
