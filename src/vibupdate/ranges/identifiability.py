@@ -387,10 +387,10 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     box_lo, box_hi = lo - xbar, hi - xbar
 
     def solve(c, A, offset):
-        """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (two
-        sides of one row: half the rows of ``A_ub`` form) and the box; each shape's scale free.
-        Where the simplex fails, the interior-point method (the stacked form); None when
-        neither solves it."""
+        """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (each
+        window one two-sided row, half the rows of the one-sided form) and the box, each
+        shape's scale free. Where the simplex fails, the interior-point method on the
+        one-sided form; None when neither solves it."""
         n_s = A.shape[1] - xbar.size
         z_lo = np.concatenate([box_lo, np.full(n_s, -np.inf)])
         z_hi = np.concatenate([box_hi, np.full(n_s, np.inf)])
