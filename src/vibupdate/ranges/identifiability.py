@@ -384,21 +384,16 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         o1 = np.concatenate([offs[keep]] + [e[1] for e in extra])
         return A1, o1       # |A1 z + o1| <= 1
 
-    box_lo, box_hi = lo - xbar, hi - xbar
-
     def solve(c, A, offset):
         """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (each
         window one two-sided row, half the rows of the one-sided form) and the box, each
         shape's scale free. Where the simplex fails, the interior-point method on the
         one-sided form; None when neither solves it."""
-        n_s = A.shape[1] - xbar.size
-        z_lo = np.concatenate([box_lo, np.full(n_s, -np.inf)])
-        z_hi = np.concatenate([box_hi, np.full(n_s, np.inf)])
-        sol = milp(c, constraints=LinearConstraint(A, -1.0 - offset, 1.0 - offset), bounds=Bounds(z_lo, z_hi))
+        sol = milp(c, constraints=LinearConstraint(A, -1.0 - offset, 1.0 - offset), bounds=Bounds(*box))
         if sol.status == 0:
             return sol.x
         sol = linprog(c, A_ub=np.vstack([A, -A]), b_ub=np.concatenate([1.0 - offset, 1.0 + offset]),
-                      bounds=np.column_stack([z_lo, z_hi]), method="highs-ipm")
+                      bounds=np.column_stack(box), method="highs-ipm")
         return sol.x if sol.status == 0 else None
 
     # Along a direction the data do not see at all (a null direction of the Jacobian), the
@@ -410,6 +405,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     A, o = program()
+    free_scales = np.full(A.shape[1] - xbar.size, np.inf)      # one per shape, the same in every program
+    box = (np.concatenate([lo - xbar, -free_scales]), np.concatenate([hi - xbar, free_scales]))
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     bent = model.n_dofs <= VALLEY_DOFS
     for i in np.flatnonzero(~free):
