@@ -181,8 +181,9 @@ def _write_files(result: Extraction, frfs: FRFSet, out: Path, first_mode: int, n
 
 def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     """``|H|`` measured (mean of repeats) vs fitted, one panel per FRF, poles and zeros marked."""
-    require("plots", "drawing plots")   # before the fit is synthesized
-    from vibupdate.report.plots import figure, save_png
+    require("plots", "drawing plots")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     data = frfs.band(*result.band)
     fitted = result.synthesize(data.omega)
@@ -190,7 +191,10 @@ def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     n = len(data.pairs)
     cols = min(n, 3)
     rows = math.ceil(n / cols)
-    fig = figure(figsize=(4.2 * cols, 3.2 * rows))
+    # on the Agg canvas, as `vibupdate.report.plots.figure`, which io may not import (report
+    # comes after io in the data flow: tests/test_layout.py)
+    fig = Figure(figsize=(4.2 * cols, 3.2 * rows))
+    FigureCanvasAgg(fig)
     axes = fig.subplots(rows, cols, squeeze=False)
     f = data.freq_hz
     for k, (pair, ax) in enumerate(zip(data.pairs, axes.ravel())):
@@ -211,4 +215,5 @@ def plot_extraction(result: Extraction, frfs: FRFSet, path) -> Path:
     axes[0, 0].plot([], [], color="C2", ls=":", label="zeros")
     axes[0, 0].legend(fontsize=7)
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, wspace=0.35, hspace=0.5)
-    return save_png(fig, path)
+    fig.savefig(path, dpi=110)
+    return Path(path)
