@@ -354,35 +354,38 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
     verification = case.verify_options()
     result = update(case.configurations, formulation=case.formulation, solver=case.solver, polish=case.polish,
                     verification=verification, progress=say, prepared=checked.prepared)
-    say(f"{result.status.value} ({result.verdict.value}): {result.message} ({result.seconds:.2f} s)")
+    later = _Stages(say, "uniqueness search" if result.sought is not None and result.sought.interrupted else None)
+    later.say(f"{result.status.value} ({result.verdict.value}): {result.message} ({result.seconds:.2f} s)")
     if result.success:
         from vibupdate.report.document import limited_text
 
         limited = limited_text(result.checks)
         if limited:
-            say(limited[2:])
-    later = _Stages("uniqueness search" if result.sought is not None and result.sought.interrupted else None)
+            later.say(limited[2:])
     diagnose = verification.diagnose if diagnose is None else diagnose
     # each stage's condition is its `wanted`: when it is false the stage's module is not imported
     diagnosis, diagnosis_notes = later.run("diagnosis", diagnose and not result.success, (None, []),
-                                           lambda: _diagnosis(case, result, verification, say))
+                                           lambda: (_diagnosis(case, result, verification, say), ()))
     suggestion, suggestion_notes = later.run(
         "screening of candidates", result.status == Status.NOT_VERIFIED and bool(case.candidates)
-        and verification.suggest, (None, []), lambda: _suggestion(case, result, verification, say))
+        and verification.suggest, (None, []), lambda: (_suggestion(case, result, verification, say), ()))
     stage, notes, info = later.run("damping fit", _has_damping(case), (None, [], {}),
-                                   lambda: damping_stage(case, result.xbar, say, result.correlation.updated))
+                                   lambda: _said_after(lambda said: damping_stage(case, result.xbar, said,
+                                                                                   result.correlation.updated)))
     notes = list(checked.warnings) + notes + diagnosis_notes + suggestion_notes
     identifiability = _identifiability(result)
     for combo in identifiability["undetermined_combinations"]:
-        say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
+        later.say(f"not determined by the data (exact null direction of the frequency sensitivity): {combo}")
     if not result.success:
         identifiability["ranges_note"] = ("consistent ranges not computed: they are linearized at the "
                                           "answer and mean something only at a verified answer")
-    elif not later.run("range computation", True, False, lambda: _ranges(case, result, identifiability, say)):
-        identifiability["ranges_note"] = "consistent ranges not computed: the run was interrupted (Ctrl-C)"
+    else:
+        ranges = later.run("range computation", True, None, lambda: _ranges(case, result))
+        identifiability.update(ranges or {"ranges_note": "consistent ranges not computed: the run was interrupted "
+                                                         "(Ctrl-C)"})
     extra, answers = None, ()
     if study is not None:
-        sections, extra, answers = later.run("study", True, ({}, None, ()), lambda: study(case, result, say))
+        sections, extra, answers = later.run("study", True, ({}, None, ()), lambda: (study(case, result, say), ()))
         identifiability.update(sections)
     if certify is not None:
         certified = later.run("certification", True, None, lambda: _certified(case, result, certify, say, answers))
@@ -390,7 +393,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
             identifiability["certified"] = certified
     if later.stopped:
         notes.append(later.note())
-        say(f"warning: {notes[-1]}")
+        later.say(f"warning: {notes[-1]}")
     run = run_result(case, result, stage, identifiability=identifiability, damping_model=info or None,
                      warnings=notes, paper=paper, diagnosis=diagnosis, suggestion=suggestion)
     written = write_published(target, lambda staged: write_outputs(staged, case, run, extra), case=case.name,
@@ -401,7 +404,7 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         raise Interrupted(f"the results were written to {target.path}/ before it") from None
     if later.stopped:
         without = f" without {_listed(later.skipped)}" if later.skipped else ""
-        raise Interrupted(f"the {later.stopped} was interrupted; the update's answer ({result.verdict.value}) was "
+        raise Interrupted(f"{later.what()}; the update's answer ({result.verdict.value}) was "
                           f"written to {target.path}/{without}")
     return written
 
@@ -409,28 +412,54 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
 class _Stages:
     """The stages after the update, ended by Ctrl-C: the stage a Ctrl-C interrupts returns
     what it would return when not wanted, and every later stage is skipped, so that the update's
-    answer is written at once with what was computed before (`run_case`)."""
+    answer is written at once with what was computed before (`run_case`).
 
-    def __init__(self, stopped: str | None = None):
+    A stage computes and returns its value with the lines that say it is done; `run` keeps
+    the value before it says them, and a Ctrl-C while a line is said (`say`) stops the run
+    after what is done. So a stage is either in the results whole, or left out and said to be:
+    never kept and said to be missing, or said done and then dropped."""
+
+    def __init__(self, say: Callable[[str], None], stopped: str | None = None):
+        self._say = say
         self.stopped = stopped      # the stage Ctrl-C ended (the update's uniqueness search included)
+        self.after = False          # Ctrl-C came while a line was said, after ``stopped`` was done
+        self.done = "update"        # the last stage done
         self.skipped: list[str] = []
 
     def run(self, name: str, wanted: bool, otherwise, compute: Callable):
-        """``compute()`` when ``wanted`` and no Ctrl-C came before, else ``otherwise``."""
+        """``compute()``, which returns the stage's value and the lines to say once it is kept,
+        when ``wanted`` and no Ctrl-C came before; else ``otherwise``."""
         if not wanted:
             return otherwise
         if self.stopped is not None:
             self.skipped.append(name)
             return otherwise
         try:
-            return compute()
+            value, lines = compute()
         except KeyboardInterrupt:
             self.stopped = name
             return otherwise
+        self.done = name
+        for line in lines:
+            self.say(line)
+        return value
+
+    def say(self, line: str) -> None:
+        """``line`` said; a Ctrl-C while it is said stops the run after the last stage done."""
+        try:
+            self._say(line)
+        except KeyboardInterrupt:
+            if self.stopped is None:
+                self.stopped, self.after = self.done, True
+
+    def what(self) -> str:
+        """What was interrupted, in words."""
+        return (f"the run was interrupted after the {self.stopped}" if self.after
+                else f"the {self.stopped} was interrupted")
 
     def note(self) -> str:
         """The run's warning that says what the interruption left out."""
-        return (f"the {self.stopped} was interrupted (Ctrl-C): the results hold what was computed before it"
+        return (f"{self.what()} (Ctrl-C): the results hold what was computed before it"
                 + (f"; not computed: {_listed(self.skipped)}" if self.skipped else ""))
 
 
@@ -443,17 +472,24 @@ def _has_damping(case: Case) -> bool:
     return any(f.damping_ratio is not None for c in case.configurations for f in c.natural)
 
 
-def _ranges(case: Case, result: UpdateResult, identifiability: dict, say) -> bool:
-    """The linearized parameter ranges at a verified answer, into ``identifiability``."""
+def _ranges(case: Case, result: UpdateResult) -> tuple[dict, list[str]]:
+    """The linearized parameter ranges at a verified answer: the sections of ``identifiability``
+    and the line that says them."""
     from vibupdate.ranges.identifiability import parameter_ranges
 
     # at any size: the Jacobian is the exact sparse one (its cost: docs/notes/ranges.md, "Linearized ranges")
     ranges = parameter_ranges(case.configurations, result.xbar, frequency_tolerance=case.frequency_tolerance,
                               freqs=result.correlation.updated, valley=result.valley)
-    identifiability.update(ranges=ranges.as_dict(), frequency_tolerance=case.frequency_tolerance,
-                           frequency_windows=frequency_windows(case))
-    say("parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none"))
-    return True
+    sections = {"ranges": ranges.as_dict(), "frequency_tolerance": case.frequency_tolerance,
+                "frequency_windows": frequency_windows(case)}
+    return sections, ["parameters determined within 5 % by the data: " + (", ".join(ranges.determined(5.0)) or "none")]
+
+
+def _said_after(stage: Callable):
+    """``stage(say)``'s value and the lines it said, kept to be said once the value is
+    (`_Stages.run`)."""
+    lines: list[str] = []
+    return stage(lines.append), lines
 
 
 def _say_written(target, written: RunResult, run: RunResult, say) -> None:
@@ -511,10 +547,10 @@ def _suggestion(case: Case, result: UpdateResult, verification, say):
         return None, [note]
 
 
-def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()) -> dict:
+def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()) -> tuple[dict, list[str]]:
     """Certified outer ranges over the consistent set, with the vector boxes the first stage
     ended with (it may have widened the margins), widened to hold the answer and ``answers``
-    (the study's, ``(label, xbar)``)."""
+    (the study's, ``(label, xbar)``); with the line that says them."""
     from vibupdate.ranges.certify import certified_ranges
 
     last = result.attempts[-1] if result.attempts else None
@@ -522,8 +558,7 @@ def _certified(case: Case, result: UpdateResult, seconds: float, say, answers=()
                                                           adjunct_margin=last.adjunct_margin)
     cert = certified_ranges(case.configurations, result.xbar, include=answers,
                             frequency_tolerance=case.frequency_tolerance, seconds=seconds, options=boxes, progress=say)
-    say(f"certified ranges: {cert.message} ({cert.seconds:.1f} s)")
-    return cert.record()
+    return cert.record(), [f"certified ranges: {cert.message} ({cert.seconds:.1f} s)"]
 
 
 def run_example(name: str, out_dir, *, progress: Callable[[str], None] | None = None,

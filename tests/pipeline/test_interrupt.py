@@ -187,3 +187,49 @@ def test_an_unwritable_standard_output_costs_no_exit_code_and_no_traceback(tmp_p
             done = subprocess.run([sys.executable, "-m", "vibupdate", "check", "case.toml"], cwd=tmp_path,
                                   stdout=full, stderr=subprocess.PIPE, text=True, timeout=300)
     assert done.returncode == 0 and done.stderr == "", done.stderr[-3000:]
+
+
+def _stopped_on(prefix: str):
+    """A ``progress`` that says its lines until one starts with ``prefix``, where Ctrl-C comes."""
+    said: list[str] = []
+
+    def say(line: str) -> None:
+        if line.startswith(prefix):
+            raise KeyboardInterrupt
+        said.append(line)
+    return say, said
+
+
+def test_ctrl_c_while_the_ranges_are_said_keeps_them_and_skips_what_follows(tmp_path):
+    # the range computation is done when its line is said: a Ctrl-C there keeps the ranges whole
+    # (no note that they were not computed) and skips the certification after them
+    from vibupdate import load_case, run_case
+    from vibupdate.io.interrupted import Interrupted
+
+    say, said = _stopped_on("parameters determined within 5 %")
+    with pytest.raises(Interrupted) as stop:
+        run_case(load_case(write_case(tmp_path)), tmp_path / "res", progress=say, certify=5.0)
+    doc = json.loads((tmp_path / "res" / "results.json").read_text())
+    validate_document(doc)
+    assert doc["identifiability"]["ranges"] and "ranges_note" not in doc["identifiability"]
+    assert str(stop.value) == ("the run was interrupted after the range computation; the update's answer (not_unique) "
+                               f"was written to {tmp_path / 'res'}/ without the certification")
+    assert doc["identifiability"].get("certified") is None and not any(s.startswith("certified") for s in said)
+    assert ("the run was interrupted after the range computation (Ctrl-C): the results hold what was computed before "
+            "it; not computed: the certification") in doc["warnings"]
+
+
+def test_ctrl_c_while_the_damping_fit_is_said_keeps_it_and_leaves_the_ranges_out_saying_so(tmp_path):
+    from vibupdate import load_case, run_case
+    from vibupdate.io.interrupted import Interrupted
+
+    say, said = _stopped_on("damping: Caughey")
+    with pytest.raises(Interrupted) as stop:
+        run_case(load_case(write_case(tmp_path)), tmp_path / "res", progress=say)
+    doc = json.loads((tmp_path / "res" / "results.json").read_text())
+    validate_document(doc)
+    assert doc["damping_model"]["beta"] and doc["identifiability"].get("ranges") is None
+    assert str(stop.value).startswith("the run was interrupted after the damping fit; ")
+    assert str(stop.value).endswith(" without the range computation")
+    assert doc["identifiability"]["ranges_note"] == "consistent ranges not computed: the run was interrupted (Ctrl-C)"
+    assert not any(s.startswith("parameters determined") for s in said)
