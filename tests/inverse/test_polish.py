@@ -86,11 +86,12 @@ def test_noisy_interval_shapes_converge_from_a_poor_start():
 
 
 def test_a_stop_on_the_evaluation_limit_is_reported():
+    # from this start the polish converges in 15 evaluations: a limit of 10 stops it
     cfg, model, _ = noisy_beam()
-    out = polish([cfg], _poor_start(model), PolishOptions(max_evaluations=20))
-    assert out.on_limit and out.stopped_on == "evaluations" and out.budget == 20
-    assert out.evaluations == 20 and out.kept
-    assert "limit of 20 evaluations" in out.message
+    out = polish([cfg], _poor_start(model), PolishOptions(max_evaluations=10))
+    assert out.on_limit and out.stopped_on == "evaluations" and out.budget == 10
+    assert out.evaluations == 10 and out.kept
+    assert "limit of 10 evaluations" in out.message
     assert out.as_dict()["stopped_on"] == "evaluations"
 
 
@@ -250,22 +251,22 @@ def test_the_start_is_solved_once(monkeypatch):
     assert count[0] == result.evaluations
 
 
-def test_a_restart_of_the_least_squares_does_not_solve_its_start_again(monkeypatch):
-    """scipy's step or cost test ends a run early on the way to a minimum on a bound, and the
-    polish restarts it from the point it returned: that point was the best evaluated, so the
-    restart takes its value and counts it as before (the same iterates and answer) with no
-    second data map there."""
+def test_a_restart_of_the_least_squares_solves_no_point_again(monkeypatch):
+    """scipy's step test ends a run early on the way to a minimum on a bound (from the nominal
+    point of this beam it does), and the polish restarts it from the point it returned. The
+    restart starts at a point evaluated already and retraces steps the run before rejected
+    (here two): none of them is solved again, and the evaluations counted are the solves."""
     from collections import Counter
 
     import vibupdate.inverse.data_map as dm
     import vibupdate.inverse.polish as po
 
-    cfg, model, _ = noisy_beam()
+    cfg, model, _ = noisy_beam(seed=1)
     solved, runs = Counter(), [0]
     real_map, real_fit = dm.data_map, po.fit_least_squares
     monkeypatch.setattr(dm, "data_map", lambda c, x, **k: solved.update([np.asarray(x).tobytes()]) or real_map(c, x, **k))
     monkeypatch.setattr(po, "fit_least_squares", lambda *a, **k: runs.__setitem__(0, runs[0] + 1) or real_fit(*a, **k))
-    result = polish([cfg], _poor_start(model))
+    result = polish([cfg], np.zeros(model.n_parameters))
     assert runs[0] > 2, "no restart: the test needs one"
     assert max(solved.values()) == 1, sorted(solved.values())[-3:]
-    assert sum(solved.values()) < result.evaluations + 1
+    assert sum(solved.values()) == result.evaluations

@@ -77,20 +77,27 @@ class Monitor:
                                      f"the last {self.window} evaluations (to {self.best[2]:.4g})")
 
 
-def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, **options):
+def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, evaluated: dict | None = None,
+                          **options):
     """`scipy.optimize.least_squares` (trf, ``x_scale="jac"``) of ``evaluate`` from ``x0`` in
     the box ``[lower, upper]`` (all shape (n_x,)). ``evaluate(x)`` returns the residual and its
     exact Jacobian from one eigen-solve; it is called once per point. ``x0`` is nudged strictly
     inside the box (`inside`). ``known = (x, evaluate(x))`` saves the first evaluation when
-    ``x`` is that start. ``monitor`` (a `Monitor`) hears of every new evaluation and may end
-    the run by raising `Stop`. ``options`` go to ``least_squares``."""
-    cache: dict = {} if known is None else {np.asarray(known[0], dtype=float).tobytes(): known[1]}
+    ``x`` is that start. ``evaluated``, a dict, holds the values of points evaluated before
+    (by ``x.tobytes()``) and receives every new one: runs that share it (a restart from where
+    the last one stopped, which retraces its rejected steps) solve no point twice. ``monitor``
+    (a `Monitor`) hears of every new evaluation and may end the run by raising `Stop`.
+    ``options`` go to ``least_squares``."""
+    cache: dict = {} if evaluated is None else evaluated
+    if known is not None:
+        cache[np.asarray(known[0], dtype=float).tobytes()] = known[1]
 
     def at(x):
         key = x.tobytes()
         if key not in cache:
             value = evaluate(x)
-            cache.clear()
+            if evaluated is None:   # the last point only (scipy asks for its Jacobian right after)
+                cache.clear()
             cache[key] = value
             if monitor is not None:
                 monitor.seen(x, value)

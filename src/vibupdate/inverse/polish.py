@@ -150,12 +150,13 @@ class PolishResult:
 
 
 def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Admissible, known=None,
-                      monitor=None, pull: float = PULL, memo: dict | None = None, **options):
+                      monitor=None, pull: float = PULL, memo: dict | None = None, evaluated: dict | None = None,
+                      **options):
     """`bounded_least_squares` of the admissible-data residuals
     (`vibupdate.inverse.admissible.evaluate`, with ``pull``) from ``x0``, shape (n_x,), in the
     box of the normalized parameters; ``memo``, a dict, keeps the data maps of the last four
     points evaluated (scipy's answer is among them: the next stage starts there at another
-    ``pull`` with no eigen-solve)."""
+    ``pull`` with no eigen-solve); ``evaluated``: as `bounded_least_squares` has it."""
     lo, hi = configurations[0].model.bounds()
 
     def at(x):
@@ -168,7 +169,7 @@ def fit_least_squares(configurations: Sequence[Configuration], x0, contract: Adm
         memo[np.asarray(x, dtype=float).tobytes()] = maps
         return value
 
-    return bounded_least_squares(at, x0, lo, hi, known=known, monitor=monitor, **options)
+    return bounded_least_squares(at, x0, lo, hi, known=known, monitor=monitor, evaluated=evaluated, **options)
 
 
 def _reduced_rounds(configurations: list, x0, contract, options: PolishOptions, tols: dict, budget: int, say=None):
@@ -281,22 +282,12 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
                         time.perf_counter() - start, rounds, reduced, stopped_on, budget)
 
 
-def _restart(monitor: Monitor, x, lo, hi):
-    """``(x, value)`` for a restart of the least squares at ``x`` when ``x`` is the best point
-    the ``monitor`` has seen (scipy returns its best point): its value is that evaluation's, and
-    the monitor counts the restart's first point as before, with no second data map there;
-    None otherwise."""
-    if not (np.array_equal(monitor.best[0], x) and np.array_equal(inside(x, lo, hi), x)):
-        return None
-    monitor.seen(x, monitor.best[1])
-    return x, monitor.best[1]
-
-
 def _full_model(configurations: list, x, contract, tols: dict, budget: int, evaluations: int,
                 started: float, max_seconds=None, answers=None, maps0=None):
     """The full-model least squares from ``x`` after ``evaluations`` of the ``budget``, its start
-    with `START_PULL` first; restarted while scipy's step or cost test stopped it and a restart
-    still lowers the objective (trf's trust radius collapses on the way to a minimum on a bound).
+    with `START_PULL` first; restarted while scipy's step test stopped it and a restart still
+    lowers the objective (trf's trust radius collapses on the way to a minimum on a bound; its
+    cost test is met only on a step it accepted: converged), no point solved twice.
     ``maps0``: the data maps at ``x`` with their Jacobians, when the caller evaluated them.
     Returns ``(x, cost, message, evaluations, stopped_on)``: the best point, its objective, why
     it stopped in words, the evaluations counted from the polish's start, and what ended it."""
@@ -309,7 +300,7 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     def watch(x, value, left: int) -> Monitor:
         return Monitor(x, value, max(left, 1), budget, started, max_seconds, answers)
 
-    monitor = watch(x, start[1], budget - evaluations - 1)
+    monitor = watch(x, start[1], budget - evaluations - 2)   # one left for the objective at its best point
     memo: dict = {}
     try:   # the start (`START_PULL`, `START_FLOOR`), then the objective from its answer
         first = fit_least_squares(configurations, x, soft, known=start, monitor=monitor, pull=START_PULL,
@@ -326,13 +317,13 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     known = (x, residuals(contract, maps, True, PULL) if maps is not None else evaluate(configurations, contract, x))
     evaluations += int(maps is None)
     monitor = watch(*known, budget - evaluations)
-    stopped_on = "convergence"
+    stopped_on, evaluated = "convergence", {}
     try:
         sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
-                                max_nfev=budget + 1, **tols)
-        while sol.status in (2, 3, 4):
-            again = fit_least_squares(configurations, sol.x, contract, known=_restart(monitor, sol.x, lo, hi),
-                                      monitor=monitor, max_nfev=budget + 1, **tols)
+                                evaluated=evaluated, max_nfev=budget + 1, **tols)
+        while sol.status in (3, 4):   # scipy's step test (its cost test alone: converged)
+            again = fit_least_squares(configurations, sol.x, contract, monitor=monitor, evaluated=evaluated,
+                                      max_nfev=budget + 1, **tols)
             if not again.cost < sol.cost:
                 break
             sol = again
