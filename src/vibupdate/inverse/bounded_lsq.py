@@ -40,23 +40,27 @@ class Monitor:
     """Counts the evaluations of a least squares, keeps the best point seen, and raises `Stop`
     on ``limit`` evaluations (what is left of ``budget``), the time limit, a stall
     (`STALL_DECREASE`) over ``window`` evaluations (by default twice the unknowns plus one, at
-    least 20: scipy's trust region may need several rejected steps in a row), or a point near
+    least 20: scipy's trust region may need several rejected steps in a row), a point near
     one of ``answers`` (shape (n_a, n_x); none by default; a run that only finds a known answer
-    again need not converge on it)."""
+    again need not converge on it), or, given ``stationary = (lower, upper, ftol)``, a best
+    point from which the Gauss-Newton step would lower the objective by at most ``ftol`` of
+    itself (`gauss_newton_decrease`; reason ``"convergence"``)."""
 
     def __init__(self, x, value, limit: int, budget: int, started: float, max_seconds: float | None,
-                 answers=None, window: int | None = None):
+                 answers=None, window: int | None = None, stationary: tuple | None = None):
         self.best = (np.asarray(x, dtype=float), value, 0.5 * float(value[0] @ value[0]))
         self.limit, self.budget, self.window = limit, budget, window or max(20, 2 * (self.best[0].size + 1))
         self.started, self.max_seconds = started, max_seconds
         self.answers = None if answers is None or not len(answers) else np.atleast_2d(np.asarray(answers, float))
+        self.stationary = stationary
         self.count = 0
         self.history = [self.best[2]]
 
     def seen(self, x, value) -> None:
         self.count += 1
         cost = 0.5 * float(value[0] @ value[0])
-        if cost < self.best[2]:
+        better = cost < self.best[2]
+        if better:
             self.best = (np.array(x, dtype=float), value, cost)
         self.history.append(self.best[2])
         if self.answers is not None:
@@ -64,6 +68,11 @@ class Monitor:
             if gap.min() <= SAME_ANSWER:
                 raise Stop("known answer", f"reached known answer {int(gap.argmin()) + 1} again (within "
                                            f"{gap.min():.1e}) after {self.count} evaluations")
+        if better and self.stationary is not None and value[1] is not None:
+            lower, upper, ftol = self.stationary
+            if gauss_newton_decrease(self.best[0], *value, lower, upper) <= ftol:
+                raise Stop("convergence", f"converged: the Gauss-Newton step from the best point would lower the "
+                                          f"objective by at most {ftol:g} of itself (to {cost:.4g})")
         if self.count >= self.limit:
             raise Stop("evaluations", f"stopped on the limit of {self.budget} evaluations of the full model, "
                                        f"objective {self.best[2]:.4g} (set polish.max_evaluations to allow more)")
@@ -75,6 +84,47 @@ class Monitor:
             if self.best[2] > (1 - STALL_DECREASE) * before:
                 raise Stop("stall", f"stalled: the objective fell by less than {STALL_DECREASE:g} of itself over "
                                      f"the last {self.window} evaluations (to {self.best[2]:.4g})")
+
+
+def gauss_newton_decrease(x, r, J, lower, upper) -> float:
+    """The decrease of ``0.5 |r|^2`` that the Gauss-Newton step from ``x`` predicts, as a
+    fraction of it: ``|P r|^2 / |r|^2``, ``P`` the projection on the span of the Jacobian's
+    columns of the parameters free to move (not on a bound their gradient pushes against).
+
+    It is what scipy's cost test (``ftol``) asks of an accepted step, read off the model at the
+    best point instead: where a trust region's steps are all rejected (the polish's optimum on
+    the kink of an interval's end, where the objective's curvature jumps), the step test is met
+    only after its radius has shrunk to ``xtol``, about twenty rejections later. Independent of
+    the parameters' scaling; 1 for a residual in the Jacobian's span (a zero-residual fit not
+    reached yet) and 0 for ``r = 0``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_x,)
+    r : ndarray, shape (n_r,)
+        Residual at ``x``.
+    J : ndarray, shape (n_r, n_x)
+        Its Jacobian.
+    lower, upper : ndarray, shape (n_x,)
+        The box.
+
+    Returns
+    -------
+    float
+        Between 0 and 1.
+    """
+    total = float(r @ r)
+    if not total > 0:
+        return 0.0
+    g = J.T @ r
+    span = upper - lower
+    held = ((x - lower <= 1e-10 * span) & (g > 0)) | ((upper - x <= 1e-10 * span) & (g < 0))
+    free = J[:, ~held]
+    if not free.size:
+        return 0.0
+    step = np.linalg.lstsq(free, r, rcond=None)[0]
+    moved = free @ step
+    return float(moved @ moved) / total
 
 
 def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, evaluated: dict | None = None,

@@ -297,17 +297,18 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     start = (x, residuals(soft, maps0, True, START_PULL) if maps0 else evaluate(configurations, soft, x,
                                                                                   pull=START_PULL))
 
-    def watch(x, value, left: int) -> Monitor:
-        return Monitor(x, value, max(left, 1), budget, started, max_seconds, answers)
+    def watch(x, value, left: int, ftol: float) -> Monitor:
+        return Monitor(x, value, max(left, 1), budget, started, max_seconds, answers, stationary=(lo, hi, ftol))
 
-    monitor = watch(x, start[1], budget - evaluations - 2)   # one left for the objective at its best point
+    soft_ftol = max(tols["ftol"], START_FTOL)
+    monitor = watch(x, start[1], budget - evaluations - 2, soft_ftol)   # one left for the objective at its best point
     memo: dict = {}
     try:   # the start (`START_PULL`, `START_FLOOR`), then the objective from its answer
         first = fit_least_squares(configurations, x, soft, known=start, monitor=monitor, pull=START_PULL,
-                                  memo=memo, max_nfev=budget + 1, **{**tols, "ftol": max(tols["ftol"], START_FTOL)})
+                                  memo=memo, max_nfev=budget + 1, **{**tols, "ftol": soft_ftol})
         x = first.x
     except Stop as stop:
-        if stop.reason != "stall":   # a limit, or a known answer reached again
+        if stop.reason not in ("stall", "convergence"):   # a limit, or a known answer reached again
             x_best = monitor.best[0]
             r, _ = evaluate(configurations, contract, x_best, jacobian=False)
             return x_best, 0.5 * float(r @ r), stop.args[0], evaluations + 2 + monitor.count, stop.reason
@@ -316,7 +317,7 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
     maps = memo.get(np.asarray(x, dtype=float).tobytes())   # the start's answer evaluated by it: no eigen-solve
     known = (x, residuals(contract, maps, True, PULL) if maps is not None else evaluate(configurations, contract, x))
     evaluations += int(maps is None)
-    monitor = watch(*known, budget - evaluations)
+    monitor = watch(*known, budget - evaluations, tols["ftol"])
     stopped_on, evaluated = "convergence", {}
     try:
         sol = fit_least_squares(configurations, known[0], contract, known=known, monitor=monitor,
