@@ -117,6 +117,60 @@ def test_the_stall_criterion_lets_a_crawl_go_on_and_stops_a_plateau():
     assert monitor.best[2] == pytest.approx(cost * (1 - 0.1 * STALL_DECREASE))
 
 
+def test_the_gauss_newton_decrease_is_the_share_of_the_residual_the_free_columns_span():
+    """1 for a residual in the Jacobian's span, 0 for one orthogonal to it, the same under any
+    scaling of the parameters; a parameter on a bound its gradient pushes against is held (its
+    column left out), one its gradient pulls off the bound is free."""
+    from vibupdate.inverse.bounded_lsq import gauss_newton_decrease
+
+    rng = np.random.default_rng(3)
+    J = rng.standard_normal((8, 3))
+    lo, hi, x = -np.ones(3), np.ones(3), np.zeros(3)
+    assert gauss_newton_decrease(x, J @ [1.0, -2.0, 0.5], J, lo, hi) == pytest.approx(1.0, abs=1e-12)
+    q, _ = np.linalg.qr(np.hstack([J, rng.standard_normal((8, 1))]))
+    assert gauss_newton_decrease(x, q[:, 3], J, lo, hi) == pytest.approx(0.0, abs=1e-24)
+    r = rng.standard_normal(8)
+    assert gauss_newton_decrease(x, r, J * [1e6, 1.0, 1e-4], lo, hi) == pytest.approx(
+        gauss_newton_decrease(x, r, J, lo, hi), rel=1e-9)
+    J, r = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]), np.array([1.0, 0.0, 1.0])   # gradient J^T r = (1, 0)
+    lo, hi = np.array([0.0, -1.0]), np.array([2.0, 1.0])
+    assert gauss_newton_decrease(np.array([0.0, 0.0]), r, J, lo, hi) == 0.0      # on its lower bound, pushed down
+    assert gauss_newton_decrease(np.array([2.0, 0.0]), r, J, lo, hi) == 0.5      # on its upper bound, free to go down
+    assert gauss_newton_decrease(np.zeros(2), np.zeros(3), J, lo, hi) == 0.0
+
+
+def test_a_best_point_with_no_gauss_newton_decrease_ends_the_run_as_converged():
+    """The monitor ends a run as converged at a new best point from which the Gauss-Newton step
+    would gain at most ``ftol`` of the objective, not at one with more to gain, and not at a
+    point that is not the best (its test is on the point the run returns)."""
+    from vibupdate.inverse.bounded_lsq import Monitor, Stop
+
+    J = np.array([[1.0], [0.0]])
+    monitor = Monitor(np.zeros(1), (np.array([3.0, 3.0]), J), limit=100, budget=100, started=0.0, max_seconds=None,
+                      stationary=(-np.ones(1), np.ones(1), 1e-12))
+    monitor.seen(np.array([0.1]), (np.array([1.0, 1.0]), J))          # half of it in the span: more to gain
+    monitor.seen(np.array([0.2]), (np.array([0.0, 5.0]), J))          # orthogonal, but not the best
+    with pytest.raises(Stop) as stop:
+        monitor.seen(np.array([0.3]), (np.array([1e-9, 1.0]), J))     # the best, 1e-18 of it to gain
+    assert stop.value.reason == "convergence" and monitor.best[0][0] == 0.3
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_the_polish_ends_at_its_optimum_on_the_gauss_newton_test_not_on_a_stall(seed):
+    """From the nominal point the noisy beam's optimum sits on an interval's end, where trf
+    rejects step after step (its steps ended on the stall rule after about twenty of them): the
+    polish ends on convergence, at a point from which the Gauss-Newton step would gain less than
+    its tolerance."""
+    from vibupdate.inverse.admissible import Admissible, evaluate
+    from vibupdate.inverse.bounded_lsq import gauss_newton_decrease
+
+    cfg, model, _ = noisy_beam(seed)
+    out = polish([cfg], np.zeros(model.n_parameters))
+    assert out.stopped_on == "convergence", out.message
+    r, J = evaluate([cfg], Admissible.of([cfg]), out.xbar)
+    assert gauss_newton_decrease(out.xbar, r, J, *model.bounds()) <= PolishOptions().tol
+
+
 def test_a_limit_stop_is_a_warning_of_the_update():
     """The cantilever (paper test case 2) polish needs 8 evaluations; with 4 it stops on its
     limit, and the update says so among its warnings."""
