@@ -405,7 +405,7 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                        np.where(rows_lost, np.concatenate([0 * lost, lost / pull]), w * r))
             if jacobian:
                 dv = J if np.isfinite(J).all() else np.nan_to_num(J)
-                rows = (w * slope)[:, None] * np.vstack([dv, dv])
+                rows = (w * slope)[:, None] * np.concatenate([dv, dv])
                 jac.append(rows if rows_lost is None else np.where(rows_lost[:, None], 0.0, rows))
         by = {s.position: s for s in shapes}
         mass = _modal_masses(m, jacobian)

@@ -78,7 +78,7 @@ def massless_dofs(M) -> np.ndarray:
     """
     d = np.abs(_diagonal(M))
     scale = float(d.max()) if d.size else 0.0
-    return np.flatnonzero(d <= MASSLESS_TOL * scale)
+    return np.nonzero(d <= MASSLESS_TOL * scale)[0]
 
 
 # -- dense eigen-solver -------------------------------------------------------------------
@@ -111,7 +111,7 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
         mu, V = _eigh(M, K)
     except (sla.LinAlgError, ValueError):
         mu = None
-    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, [1.0 / mu[-1]], V[:, -1:], precision)[0]:
+    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, 1.0 / mu[-1:], V[:, -1:], precision)[0]:
         # A singular K whose Cholesky factor completed on rounding-level pivots: its largest
         # mu is rounding, and the error n eps mu_max it puts on every mu swamps the flexible
         # modes.

@@ -96,7 +96,8 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
         return eigval_z[keep], V[:, keep], V[:, keep]
     (num, den), V_left, V_right = qz(Kr, Mr)
-    finite = np.abs(den) > 1e-10 * (np.abs(num) + np.abs(den))
+    size_den = np.abs(den)
+    finite = size_den > 1e-10 * (np.abs(num) + size_den)
     eigval_z = num / np.where(finite, den, 1.0)     # only the finite ones are read
     real = eigval_z.real
     k = np.flatnonzero(finite & (np.abs(eigval_z.imag) <= rtol * np.abs(real)) & (real > 0))
