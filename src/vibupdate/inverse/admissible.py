@@ -275,10 +275,11 @@ def _rows(v, lo, hi, mid, h, pull=PULL):
     rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance outside
     ``(v - clip(v, lo, hi)) / (pull h)`` (two rows, not one, for a continuous gradient:
     docs/polish-and-verification.md, section 7.2)."""
-    out = v - np.clip(v, lo, hi)
-    slope_in = np.broadcast_to(1.0 / h, np.shape(out))
-    slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)
-    return (np.concatenate([(v - mid) / h, out / (pull * h)], axis=-1),
+    out = v - v.clip(lo, hi)
+    pull_h = pull * h
+    slope_in = np.broadcast_to(1.0 / h, out.shape)
+    slope_out = np.where(out != 0, 1.0 / pull_h, 0.0)
+    return (np.concatenate([(v - mid) / h, out / pull_h], axis=-1),
             np.concatenate([slope_in, slope_out], axis=-1))
 
 

@@ -460,7 +460,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     # `vibupdate.modal.rigid`) are exactly 0 rad/s, whatever sign rounding gave them
     eigval = np.where(rigid.is_zero(M, K, eigval, Phi, precision), 0.0, eigval)
     omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
-    idx = np.argmax(np.abs(Phi), axis=0)
+    idx = np.abs(Phi).argmax(axis=0)
     Phi = Phi * np.sign(Phi[idx, np.arange(Phi.shape[1])])
     return omega, Phi
 

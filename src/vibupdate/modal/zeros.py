@@ -100,9 +100,9 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
     finite = size_den > 1e-10 * (np.abs(num) + size_den)
     eigval_z = num / np.where(finite, den, 1.0)     # only the finite ones are read
     real = eigval_z.real
-    k = np.flatnonzero(finite & (np.abs(eigval_z.imag) <= rtol * np.abs(real)) & (real > 0))
+    k = (finite & (np.abs(eigval_z.imag) <= rtol * np.abs(real)) & (real > 0)).nonzero()[0]
     k = k[~structural(M, K, r, real[k], V_right[:, k], precision)]
-    k = k[np.argsort(real[k])]
+    k = k[real[k].argsort()]
     return real[k], V_right[:, k], V_left[:, k]
 
 
