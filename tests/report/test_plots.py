@@ -10,15 +10,18 @@ import scipy.sparse.linalg
 from frf_synthetic import cantilever_system, measured
 
 from vibupdate.damping.models import CaugheyLaw
+from vibupdate.modal import eigen
 from vibupdate.modal.analysis import receptance, receptances
 from vibupdate.report.plots import model_receptance, model_receptances, plot_measured_frf
 
 
 @pytest.fixture
 def eigen_solves(monkeypatch):
-    """Counts every call of the dense and sparse eigen-solvers vibupdate uses."""
+    """Counts every call of the dense and sparse eigen-solvers vibupdate uses: scipy's, and
+    `vibupdate.modal.eigen._eigh`, through which the dense symmetric solves call LAPACK."""
     calls = []
-    for module, names in ((scipy.linalg, ("eig", "eigh")), (scipy.sparse.linalg, ("eigs", "eigsh"))):
+    for module, names in ((scipy.linalg, ("eig", "eigh")), (scipy.sparse.linalg, ("eigs", "eigsh")),
+                          (eigen, ("_eigh",))):
         for name in names:
             original = getattr(module, name)
 

@@ -275,10 +275,11 @@ def _rows(v, lo, hi, mid, h, pull=PULL):
     rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance outside
     ``(v - clip(v, lo, hi)) / (pull h)`` (two rows, not one, for a continuous gradient:
     docs/polish-and-verification.md, section 7.2)."""
-    out = v - np.clip(v, lo, hi)
-    slope_in = np.broadcast_to(1.0 / h, np.shape(out))
-    slope_out = np.where(out != 0, 1.0 / (pull * h), 0.0)
-    return (np.concatenate([(v - mid) / h, out / (pull * h)], axis=-1),
+    out = v - v.clip(lo, hi)
+    pull_h = pull * h
+    slope_in = np.broadcast_to(1.0 / h, out.shape)
+    slope_out = np.where(out != 0, 1.0 / pull_h, 0.0)
+    return (np.concatenate([(v - mid) / h, out / pull_h], axis=-1),
             np.concatenate([slope_in, slope_out], axis=-1))
 
 
@@ -398,13 +399,15 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                 continue
             lo, hi, mid, h, w = target
             lost = ~np.isfinite(values)
-            r, slope = _rows(np.where(lost, mid, values), lo, hi, mid, h, pull)
+            rows_lost = np.concatenate([lost, lost]) if lost.any() else None   # None: nothing lost
+            r, slope = _rows(values if rows_lost is None else np.where(lost, mid, values), lo, hi, mid, h, pull)
             # a lost zero: its pull row 0, its distance row 1 / pull, no direction
-            res.append(np.where(np.concatenate([lost, lost]), np.concatenate([0 * lost, lost / pull]), w * r))
+            res.append(w * r if rows_lost is None else
+                       np.where(rows_lost, np.concatenate([0 * lost, lost / pull]), w * r))
             if jacobian:
-                dv = np.nan_to_num(J)
-                jac.append(np.where(np.concatenate([lost, lost])[:, None], 0.0,
-                                    (w * slope)[:, None] * np.vstack([dv, dv])))
+                dv = J if np.isfinite(J).all() else np.nan_to_num(J)
+                rows = (w * slope)[:, None] * np.concatenate([dv, dv])
+                jac.append(rows if rows_lost is None else np.where(rows_lost[:, None], 0.0, rows))
         by = {s.position: s for s in shapes}
         mass = _modal_masses(m, jacobian)
         held = [k for k, measured in enumerate(m.shapes) if measured.position in by]
@@ -423,6 +426,8 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
 def _modal_masses(m, jacobian: bool) -> list:
     """Per measured shape of the data map ``m``: its model modal mass and gradient (a
     mass-normalized shape), else ``(nan, None)``."""
+    if not m.shapes:
+        return []
     row = np.cumsum([s.mass is not None for s in m.shapes], dtype=int) - 1   # of each shape among the masses
     return [(np.nan, None) if s.mass is None else (float(m.masses[k]), m.mass_jacobian[k] if jacobian else None)
             for s, k in zip(m.shapes, row)]

@@ -161,7 +161,7 @@ def _spectrum(cfg: Configuration, xbar, M, K) -> tuple:
     spectrum = modes(M, K, precision=model.matrix_precision)
     for part in spectrum:
         part.flags.writeable = False
-    _SPECTRA.put(key, (model, spectrum), sum(part.nbytes for part in spectrum))
+    _SPECTRA.put(key, (model, spectrum), spectrum[0].nbytes + spectrum[1].nbytes)
     return spectrum
 
 
@@ -179,8 +179,9 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
 
     M, K = cfg.model.solver_matrices(xbar)
     precision = cfg.model.matrix_precision
-    mode_index = np.array([f.mode for f in cfg.natural], dtype=int) - 1
-    top = int(mode_index.max()) + 1 if mode_index.size else 0
+    declared = [f.mode for f in cfg.natural]
+    mode_index = np.array(declared, dtype=int) - 1
+    top = max(declared, default=0)
     n_modes = min(cfg.model.n_dofs, max(top + 1, 2))
     spectrum = None
     if cfg.model.n_dofs <= DENSE_LIMIT:    # the dense solve gives every mode: keep them

@@ -78,10 +78,23 @@ def massless_dofs(M) -> np.ndarray:
     """
     d = np.abs(_diagonal(M))
     scale = float(d.max()) if d.size else 0.0
-    return np.flatnonzero(d <= MASSLESS_TOL * scale)
+    return np.nonzero(d <= MASSLESS_TOL * scale)[0]
 
 
 # -- dense eigen-solver -------------------------------------------------------------------
+def _eigh(A: np.ndarray, B: np.ndarray):
+    """``scipy.linalg.eigh(A, B)`` of real dense matrices (``B`` positive definite): the same
+    LAPACK driver (``sygvd``) with the same arguments, without the wrapper's per-call dispatch
+    (half its time on a small pencil). Whatever that fast call does not solve (an empty or
+    non-finite matrix, a nonzero LAPACK ``info``) goes to ``scipy.linalg.eigh`` itself, which
+    raises its own errors."""
+    if A.size and A.dtype == B.dtype == np.float64 and np.isfinite(A).all() and np.isfinite(B).all():
+        eigval, V, info = sla.get_lapack_funcs("sygvd", dtype=np.float64)(A, B)   # eigh's itype 1, "V", "L"
+        if info == 0:
+            return eigval, V
+    return sla.eigh(A, B)
+
+
 def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = None):
     """All eigenpairs of ``K phi = eigval M phi`` (M positive definite); ``precision``: the
     relative precision of the entries (`vibupdate.modal.rigid`), None for double precision.
@@ -95,10 +108,10 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
     sigma = 0.0
     eigval_direct = V_direct = None
     try:
-        mu, V = sla.eigh(M, K)
+        mu, V = _eigh(M, K)
     except (sla.LinAlgError, ValueError):
         mu = None
-    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, [1.0 / mu[-1]], V[:, -1:], precision)[0]:
+    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, 1.0 / mu[-1:], V[:, -1:], precision)[0]:
         # A singular K whose Cholesky factor completed on rounding-level pivots: its largest
         # mu is rounding, and the error n eps mu_max it puts on every mu swamps the flexible
         # modes.
@@ -117,13 +130,13 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
         if near[0] and not near.all():
             sigma = min(eigval_direct[0], 0.0) - eigval_direct[np.argmin(near)]
             try:
-                mu, V = sla.eigh(M, K - sigma * M)
+                mu, V = _eigh(M, K - sigma * M)
             except (sla.LinAlgError, ValueError):
                 mu = None
         if mu is None:
             spread = max(abs(eigval_direct[0]), 1e-6 * abs(eigval_direct[-1]), 1e-300)
             sigma = eigval_direct[0] - spread
-            mu, V = sla.eigh(M, K - sigma * M)
+            mu, V = _eigh(M, K - sigma * M)
     mu, V = mu[::-1], V[:, ::-1]
     if mu[-1] < 1e-6 * mu[0]:
         if eigval_direct is None:
@@ -156,7 +169,7 @@ def _lowest_flexible(K, M, sigma: float, mu: np.ndarray, V: np.ndarray, top: flo
 
 def _direct_eigh(K: np.ndarray, M: np.ndarray):
     try:
-        return sla.eigh(K, M)
+        return _eigh(K, M)
     except (sla.LinAlgError, ValueError) as exc:
         raise ValueError(f"eigenproblem failed (is the mass matrix positive definite?): {exc}") from None
 
@@ -178,7 +191,7 @@ def dense_modes(M, K, precision: float | None = None):
 
     Returns ``eigval`` (n_f,) ascending and ``Phi`` (n, n_f), mass-normalized, full length.
     """
-    Md, Kd = as_dense(M).astype(float), as_dense(K).astype(float)
+    Md, Kd = np.asarray(as_dense(M), dtype=float), np.asarray(as_dense(K), dtype=float)
     n = Md.shape[0]
     s = massless_dofs(Md)
     if s.size == 0:
@@ -424,10 +437,11 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
         A sparse eigenpair failed its residual check.
     """
     n = M.shape[0]
-    n_finite = n - massless_dofs(M).size
-    if n_modes is not None and not 1 <= n_modes <= n_finite:
-        raise ValueError(f"n_modes must be between 1 and {n_finite}, got {n_modes}")
     use_dense = (n <= DENSE_LIMIT or n_modes is None) if dense is None else dense
+    if n_modes is not None or not use_dense:   # the number of finite modes bounds a count
+        n_finite = n - massless_dofs(M).size
+        if n_modes is not None and not 1 <= n_modes <= n_finite:
+            raise ValueError(f"n_modes must be between 1 and {n_finite}, got {n_modes}")
     if use_dense:
         if n > max(DENSE_MAX, DENSE_LIMIT):
             raise ValueError(f"a dense eigen-solve of all modes of a {n}-DOF model would need about "
@@ -446,7 +460,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
     # `vibupdate.modal.rigid`) are exactly 0 rad/s, whatever sign rounding gave them
     eigval = np.where(rigid.is_zero(M, K, eigval, Phi, precision), 0.0, eigval)
     omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
-    idx = np.argmax(np.abs(Phi), axis=0)
+    idx = np.abs(Phi).argmax(axis=0)
     Phi = Phi * np.sign(Phi[idx, np.arange(Phi.shape[1])])
     return omega, Phi
 

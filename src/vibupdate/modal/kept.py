@@ -41,6 +41,7 @@ class Kept:
         self.count, self.nbytes = count, nbytes
         self._items: OrderedDict = OrderedDict()
         self._sizes: dict = {}
+        self._total = 0            # sum of ``_sizes``, kept as they change
         self._lock = threading.Lock()
 
     def __len__(self) -> int:
@@ -59,7 +60,8 @@ class Kept:
         with self._lock:
             self._items[key] = value
             self._items.move_to_end(key)
+            self._total += int(nbytes) - self._sizes.get(key, 0)
             self._sizes[key] = int(nbytes)
-            while len(self._items) > 1 and (len(self._items) > self.count or sum(self._sizes.values()) > self.nbytes):
+            while len(self._items) > 1 and (len(self._items) > self.count or self._total > self.nbytes):
                 old, _ = self._items.popitem(last=False)
-                del self._sizes[old]
+                self._total -= self._sizes.pop(old)

@@ -66,10 +66,10 @@ def rounding_scale(M, K, U, precision: float | None = None) -> np.ndarray:
     A = np.abs(U)
     top = np.einsum("ij,ij->j", A, np.asarray(_abs(K) @ A))
     mass = np.einsum("ij,ij->j", U, np.asarray(M @ U))
-    out = np.full(U.shape[1], np.inf)
-    ok = mass > 0
-    out[ok] = unit(precision) * top[ok] / mass[ok]
-    return out
+    with_mass = mass > 0
+    if with_mass.all():    # the usual case: no masking needed
+        return unit(precision) * top / mass
+    return np.divide(unit(precision) * top, mass, out=np.full(U.shape[1], np.inf), where=with_mass)
 
 
 def is_zero(M, K, eigval, U, precision: float | None = None) -> np.ndarray:
@@ -89,7 +89,7 @@ def is_zero(M, K, eigval, U, precision: float | None = None) -> np.ndarray:
     -------
     ndarray of bool, shape (k,)
     """
-    eigval = np.real(np.asarray(eigval))
+    eigval = np.asarray(eigval).real
     return np.abs(eigval) <= RIGID_FACTOR * rounding_scale(M, K, U, precision)
 
 
@@ -98,5 +98,5 @@ def embed(V, n: int, r: int) -> np.ndarray:
     space with entry ``r`` zero, shape (n, k)."""
     V = np.asarray(V)
     out = np.zeros((n, V.shape[1]), dtype=V.dtype)
-    out[np.delete(np.arange(n), r)] = V
+    out[:r], out[r + 1:] = V[:r], V[r:]
     return out

@@ -36,7 +36,8 @@ from vibupdate.modal import eigen
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.kept import Kept
 from vibupdate.modal.readings import ratio_derivatives, readings
-from vibupdate.modal.zeros import antiresonance_vectors, dense_zeros, others
+from vibupdate.modal.rigid import embed
+from vibupdate.modal.zeros import antiresonance_vectors, dense_zeros
 
 
 def eigenvalue_derivatives(model, omega, Phi) -> np.ndarray:
@@ -295,11 +296,7 @@ def antiresonance_derivatives(model, xbar, r: int, c: int, *, pairs=None, n_zero
                                  adjunct_eigenpairs(M, K, r, c, n_zeros, model.matrix_precision))
     # Embed the vectors in the full space (zero at the removed column r / row c), so that the
     # adjunct products become products with the full sparse matrices.
-    n = M.shape[0]
-    right_full = np.zeros((n, eigval_z.size))
-    right_full[others(n, r)] = V_right
-    left_full = np.zeros((n, eigval_z.size))
-    left_full[others(n, c)] = V_left
+    right_full, left_full = embed(V_right, M.shape[0], r), embed(V_left, M.shape[0], c)
     denom = np.einsum("ij,ij->j", left_full, M @ right_full)
     forms_M, forms_K = model.parameter_forms(left_full, right_full)
     D = (forms_K - eigval_z[:, None] * forms_M) / denom[:, None]

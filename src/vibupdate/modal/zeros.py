@@ -11,6 +11,8 @@ counted, so zero ``j`` of ``h_rc`` is the ``j``-th antiresonance above 0 Hz on e
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -45,10 +47,14 @@ def adjunct(A, r: int, c: int):
     return np.asarray(A)[rows[:, None], cols]
 
 
+@lru_cache(maxsize=256)
 def others(n: int, k: int) -> np.ndarray:
-    """The indices ``0 .. n - 1`` without ``k``, shape (n - 1,)."""
+    """The indices ``0 .. n - 1`` without ``k``, shape (n - 1,), read-only: built once per
+    ``(n, k)`` (every evaluation asks for the same few)."""
     i = np.arange(n - 1)
-    return i + (i >= k)
+    i += i >= k
+    i.flags.writeable = False
+    return i
 
 
 def structural(M, K, r: int, eigval_z, V, precision: float | None = None) -> np.ndarray:
@@ -82,19 +88,22 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
     pencil of ``h_rc`` without its structural zeros (`structural`), ascending, with their right
     and left vectors (real, each of unit norm; the same for ``r == c``): the symmetric
     reciprocal pencil for ``r == c``, QZ (`qz`) otherwise."""
-    Mr, Kr = as_dense(adjunct(M, r, c)), as_dense(adjunct(K, r, c))
+    check_dof_pair(M.shape[0], r, c)
+    rows, cols = others(M.shape[0], c), others(M.shape[0], r)
+    Mr, Kr = as_dense(M)[rows[:, None], cols], as_dense(K)[rows[:, None], cols]   # `adjunct`
     if r == c:
         eigval_z, V = dense_modes(Mr, Kr, precision)
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
         return eigval_z[keep], V[:, keep], V[:, keep]
     (num, den), V_left, V_right = qz(Kr, Mr)
-    finite = np.abs(den) > 1e-10 * (np.abs(num) + np.abs(den))
-    eigval_z = np.full(num.shape, np.nan, dtype=complex)
-    eigval_z[finite] = num[finite] / den[finite]
-    keep = finite & (np.abs(eigval_z.imag) <= rtol * np.abs(eigval_z.real)) & (eigval_z.real > 0)
-    keep[keep] = ~structural(M, K, r, eigval_z[keep].real, V_right[:, keep], precision)
-    order = np.argsort(eigval_z[keep].real)
-    return eigval_z[keep].real[order], V_right[:, keep][:, order], V_left[:, keep][:, order]
+    size_den = np.abs(den)
+    finite = size_den > 1e-10 * (np.abs(num) + size_den)
+    eigval_z = num / np.where(finite, den, 1.0)     # only the finite ones are read
+    real = eigval_z.real
+    k = (finite & (np.abs(eigval_z.imag) <= rtol * np.abs(real)) & (real > 0)).nonzero()[0]
+    k = k[~structural(M, K, r, real[k], V_right[:, k], precision)]
+    k = k[real[k].argsort()]
+    return real[k], V_right[:, k], V_left[:, k]
 
 
 def qz(A: np.ndarray, B: np.ndarray):
@@ -107,22 +116,38 @@ def qz(A: np.ndarray, B: np.ndarray):
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
     if not (np.isfinite(A).all() and np.isfinite(B).all()):
         raise ValueError("array must not contain infs or NaNs")
-    ggev, = sla.get_lapack_funcs(("ggev",), (A, B))
-    lwork = int(ggev(A, B, lwork=-1)[-2][0])
+    ggev, lwork = _ggev(A.shape[0])
     alphar, alphai, beta, vl, vr, _, info = ggev(A, B, 1, 1, lwork)
     if info != 0:
         raise sla.LinAlgError(f"generalized eig algorithm (ggev) did not converge (LAPACK info={info})")
+    alpha = alphar + 1j * alphai
+    if not alphai.any():               # real eigenvalues only: each column its own vector
+        return (alpha, beta), vl / _column_norms(vl), vr / _column_norms(vr)
     first = alphai > 0                 # the first column of each complex pair
     first[:-1] |= alphai[1:] < 0
     j = np.flatnonzero(first)
     out = []
     for V in (vl, vr):
-        norms = np.linalg.norm(V, axis=0)
+        norms = _column_norms(V)
         norms[j] = norms[j + 1] = np.hypot(norms[j], norms[j + 1])
         real = V.copy()
         real[:, j + 1] = V[:, j]
         out.append(real / norms)
-    return (alphar + 1j * alphai, beta), out[0], out[1]
+    return (alpha, beta), out[0], out[1]
+
+
+def _column_norms(V: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(V, axis=0)`` of a real ``V`` (the same operations) without its dispatch."""
+    return np.sqrt(np.add.reduce(V * V, axis=0))
+
+
+@lru_cache(maxsize=64)
+def _ggev(n: int):
+    """LAPACK's double-precision ``ggev`` and its optimal workspace for ``n x n`` pencils with
+    both vectors (it depends on ``n`` alone): queried once per size."""
+    ggev = sla.get_lapack_funcs("ggev", dtype=np.float64)
+    eye = np.eye(n)
+    return ggev, int(ggev(eye, eye, lwork=-1)[-2][0])
 
 
 def _real_vectors(V: np.ndarray) -> np.ndarray:

@@ -264,10 +264,10 @@ class AffineModel:
         if kept is not None and kept[0] == key:
             return kept[1]
         n = self.n_dofs
-        flat = (S.reshape(S.shape[0], n * n) for S in stacks)   # views: the stacks are contiguous
-        pair = tuple((F[0] + xbar @ F[1:]).reshape(n, n) for F in flat)
-        for A in pair:
-            A.flags.writeable = False
+        flat = stacks.reshape(2, 1 + self.n_parameters, n * n)   # a view: the stacks are contiguous
+        both = (flat[:, 0] + xbar @ flat[:, 1:]).reshape(2, n, n)
+        both.flags.writeable = False
+        pair = (both[0], both[1])
         self._last_point["point"] = (key, pair)   # one assignment: a reader sees a whole pair
         return pair
 
@@ -281,10 +281,11 @@ class AffineModel:
         return {k: v for k, v in self.__dict__.items() if k not in ("dense_stacks", "_last_point")}
 
     @cached_property
-    def dense_stacks(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """The matrices stacked as dense read-only arrays, on a small model.
+    def dense_stacks(self) -> np.ndarray | None:
+        """The matrices stacked as one dense read-only array, on a small model.
 
-        ``(M0, M_1, ..., M_nx)`` and ``(K0, K_1, ...)``, each shape (1 + n_x, n, n), for a
+        Shape (2, 1 + n_x, n, n): ``[0]`` is ``(M0, M_1, ..., M_nx)``, ``[1]`` is
+        ``(K0, K_1, ...)`` (so ``M_stack, K_stack = model.dense_stacks`` unpacks them), for a
         model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose two stacks fit in
         `DENSE_STACK_BYTES`; None otherwise (the sparse path). On such a model
         the solvers work on dense matrices anyway, and a product with every parameter matrix at
@@ -294,12 +295,10 @@ class AffineModel:
         n = self.n_dofs
         if n > DENSE_LIMIT or 2 * (1 + self.n_parameters) * n * n * 8 > DENSE_STACK_BYTES:
             return None
-        out = []
-        for A0, parts in ((self.M0, self.M_par), (self.K0, self.K_par)):
-            S = np.stack([sp.csr_matrix(A).toarray() for A in (A0, *parts)])
-            S.flags.writeable = False
-            out.append(S)
-        return tuple(out)
+        S = np.stack([[sp.csr_matrix(A).toarray() for A in (A0, *parts)]
+                      for A0, parts in ((self.M0, self.M_par), (self.K0, self.K_par))])
+        S.flags.writeable = False
+        return S
 
     def parameter_products(self, v) -> tuple[np.ndarray, np.ndarray]:
         """Products of every parameter matrix with one vector.
@@ -316,7 +315,8 @@ class AffineModel:
         """
         v = np.asarray(v, dtype=float)
         if self.dense_stacks is not None:
-            return tuple(np.ascontiguousarray((S[1:] @ v).T) for S in self.dense_stacks)
+            Mv, Kv = self.dense_stacks[:, 1:] @ v                 # each (n_x, n)
+            return np.ascontiguousarray(Mv.T), np.ascontiguousarray(Kv.T)
         return tuple(np.column_stack([A @ v for A in parts]) if parts else np.zeros((v.size, 0))
                      for parts in (self.M_par, self.K_par))
 
@@ -336,8 +336,9 @@ class AffineModel:
             ``L[:, j]^T M_i R[:, j]`` and ``L[:, j]^T K_i R[:, j]``.
         """
         L, R = np.asarray(L, dtype=float), np.asarray(R, dtype=float)
-        if self.dense_stacks is not None:
-            return tuple(np.einsum("nk,pnk->kp", L, S[1:] @ R) for S in self.dense_stacks)
+        if self.dense_stacks is not None:   # both stacks in one product
+            LMR, LKR = np.einsum("nk,spnk->skp", L, self.dense_stacks[:, 1:] @ R)
+            return LMR, LKR
         return tuple(np.column_stack([np.einsum("ij,ij->j", L, A @ R) for A in parts]) if parts
                      else np.zeros((L.shape[1], 0)) for parts in (self.M_par, self.K_par))
 
