@@ -21,15 +21,21 @@ STALL_DECREASE = 1e-3
 SAME_ANSWER = 1e-4
 
 
+#: How far `inside` keeps a point from a bound, a fraction of the box's width; a point this close
+#: is on the bound (`gauss_newton_decrease`).
+INSIDE = 1e-10
+
+
 def inside(x, lower, upper) -> np.ndarray:
     """``x`` nudged strictly inside the box (trf needs it; parameters with nominal 0 often sit
     on a bound); idempotent."""
     span = upper - lower
-    return np.clip(np.asarray(x, dtype=float), lower + 1e-10 * span, upper - 1e-10 * span)
+    return np.clip(np.asarray(x, dtype=float), lower + INSIDE * span, upper - INSIDE * span)
 
 
 class Stop(Exception):
-    """Raised by `Monitor` to end a least-squares run on a limit or a stall."""
+    """Raised by `Monitor` to end a least-squares run (``reason``: a limit, a stall, a known
+    answer reached again, or convergence)."""
 
     def __init__(self, reason: str, message: str):
         super().__init__(message)
@@ -89,7 +95,8 @@ class Monitor:
 def gauss_newton_decrease(x, r, J, lower, upper) -> float:
     """The decrease of ``0.5 |r|^2`` that the Gauss-Newton step from ``x`` predicts, as a
     fraction of it: ``|P r|^2 / |r|^2``, ``P`` the projection on the span of the Jacobian's
-    columns of the parameters free to move (not on a bound their gradient pushes against).
+    columns of the parameters free to move (not on a bound, within `INSIDE`, that their
+    gradient pushes against).
 
     It is what scipy's cost test (``ftol``) asks of an accepted step, read off the model at the
     best point instead: where a trust region's steps are all rejected (the polish's optimum on
@@ -118,7 +125,7 @@ def gauss_newton_decrease(x, r, J, lower, upper) -> float:
         return 0.0
     g = J.T @ r
     span = upper - lower
-    held = ((x - lower <= 1e-10 * span) & (g > 0)) | ((upper - x <= 1e-10 * span) & (g < 0))
+    held = ((x - lower <= INSIDE * span) & (g > 0)) | ((upper - x <= INSIDE * span) & (g < 0))
     free = J[:, ~held]
     if not free.size:
         return 0.0

@@ -88,9 +88,7 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
     pencil of ``h_rc`` without its structural zeros (`structural`), ascending, with their right
     and left vectors (real, each of unit norm; the same for ``r == c``): the symmetric
     reciprocal pencil for ``r == c``, QZ (`qz`) otherwise."""
-    check_dof_pair(M.shape[0], r, c)
-    rows, cols = others(M.shape[0], c), others(M.shape[0], r)
-    Mr, Kr = as_dense(M)[rows[:, None], cols], as_dense(K)[rows[:, None], cols]   # `adjunct`
+    Mr, Kr = adjunct(as_dense(M), r, c), adjunct(as_dense(K), r, c)   # dense first: no sparse indexing
     if r == c:
         eigval_z, V = dense_modes(Mr, Kr, precision)
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
