@@ -78,13 +78,14 @@ class ScaledTerms:
 
 
 def scaled_terms(model, scaling: Scaling) -> ScaledTerms:
-    """The `ScaledTerms` of ``model``: every nominal and parameter matrix scaled once."""
-    parts = []
-    for term, (M, K) in enumerate(zip([model.M0, *model.M_par], [model.K0, *model.K_par])):
-        # K + iM keeps the union pattern: its real and imaginary parts cannot cancel.
-        C = sp.coo_matrix(sp.csr_matrix(K, dtype=complex) + 1j * sp.csr_matrix(M, dtype=complex))
-        parts.append((np.full(C.nnz, term), C.row, C.col, C.data))
-    term, row, col, val = (np.concatenate(a) for a in zip(*parts))
+    """The `ScaledTerms` of ``model``: every nominal and parameter matrix scaled once, the terms
+    stacked one above the other (term ``t`` on rows ``t n`` to ``t n + n - 1``)."""
+    n = model.n_dofs
+    # K + iM keeps the union pattern: its real and imaginary parts cannot cancel.
+    K, M = (sp.vstack([sp.csr_matrix(A, dtype=complex) for A in (A0, *parts)], format="csr")
+            for A0, parts in ((model.K0, model.K_par), (model.M0, model.M_par)))
+    C = sp.coo_matrix(K + 1j * M)
+    term, row = np.divmod(C.row.astype(np.int64), n)
+    col = C.col.astype(np.int64)
     factor = scaling.dr[row] * scaling.s[col]
-    return ScaledTerms(model.n_dofs, term, row.astype(np.int64), col.astype(np.int64), factor * val.real,
-                       factor * val.imag)
+    return ScaledTerms(n, term, row, col, factor * C.data.real, factor * C.data.imag)
