@@ -28,7 +28,7 @@ EXTRAS = {
     "plots": Extra(("matplotlib",), "PNG plots of a run, a sweep and an FRF extraction"),
     "frf": Extra(("pyuff",), "reading Universal File Format (UFF) files"),
     "study": Extra(("distributed",), "sweep, batch, sampled ranges and multistart on Dask"),
-    "certify": Extra(("highspy", "clarabel"), "certified parameter ranges (LP relaxations)"),
+    "certify": Extra(("clarabel",), "certified parameter ranges (LP relaxations)"),
     "fe": Extra(("opensees", "ansys.mapdl.reader"), "models from FE codes: OpenSees builders, ANSYS .full files"),
 }
 

@@ -49,9 +49,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import Bounds, LinearConstraint, linprog, milp
+from scipy.optimize import linprog
 
 from vibupdate.inverse.data_map import data_jacobian, measured_shapes
+from vibupdate.ranges.highs import highs, solve as solve_highs
 from vibupdate.options import default
 from vibupdate.inverse.minimum_change import (numerical_rank, undetermined, valley_curve, valley_ends,
                                               valley_points)
@@ -384,14 +385,25 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         o1 = np.concatenate([offs[keep]] + [e[1] for e in extra])
         return A1, o1       # |A1 z + o1| <= 1
 
+    kept: dict = {}   # role -> (HiGHS instance, the rows it holds)
+
     def solve(c, A, offset):
         """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (each
         window one two-sided row, half the rows of the one-sided form) and the box, each
-        shape's scale free. Where the simplex fails, the interior-point method on the
-        one-sided form; None when neither solves it."""
-        sol = milp(c, constraints=LinearConstraint(A, -1.0 - offset, 1.0 - offset), bounds=Bounds(*box))
-        if sol.status == 0:
-            return sol.x
+        shape's scale free: by HiGHS's simplex, warm (`vibupdate.ranges.highs`): one instance
+        keeps the program at the answer (its solves differ in ``c`` alone), another takes each
+        program relinearized along the valley, starting from the basis of the program solved
+        last (the one it follows, for the same ``c``). Where it fails, the interior-point
+        method on the one-sided form; None when neither solves it."""
+        role = "answer" if A is A0 else "moved"
+        h, rows = kept.get(role, (None, None))
+        if rows is None or rows[0] is not A or rows[1] is not offset:   # another program: loaded
+            last = kept.get("last")
+            h = highs(A, -1.0 - offset, 1.0 - offset, *box, h=h, basis=None if last is None else last.getBasis())
+            kept[role] = (h, (A, offset))
+        kept["last"] = h
+        if solve_highs(h, c):
+            return np.asarray(h.getSolution().col_value, dtype=float)
         sol = linprog(c, A_ub=np.vstack([A, -A]), b_ub=np.concatenate([1.0 - offset, 1.0 + offset]),
                       bounds=np.column_stack(box), method="highs-ipm")
         return sol.x if sol.status == 0 else None
@@ -404,7 +416,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
     rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
-    A, o = program()
+    A0, o = program()
+    A = A0
     free_scales = np.full(A.shape[1] - xbar.size, np.inf)      # one per shape, the same in every program
     box = (np.concatenate([lo - xbar, -free_scales]), np.concatenate([hi - xbar, free_scales]))
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)

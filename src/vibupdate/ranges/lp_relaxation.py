@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibupdate.extras import require
+from vibupdate.ranges.highs import highs, solve as solve_highs
 from vibupdate.ranges.consistent import RESIDUAL_FLOOR, ConsistentSet
 
 
@@ -277,22 +278,7 @@ def safe_bound(c, lp: RelaxedLP, y) -> float:
 def highs_model(lp: RelaxedLP):
     """A HiGHS instance holding the LP (objective set per solve by `solve`)."""
     require("certify", "computing certified ranges")
-    import highspy
-
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
-    model = highspy.HighsLp()
-    A = sp.csc_matrix(lp.A)
-    inf = highspy.kHighsInf
-    model.num_col_, model.num_row_ = A.shape[1], A.shape[0]
-    model.col_cost_ = np.zeros(A.shape[1])
-    model.col_lower_, model.col_upper_ = lp.zl, lp.zu
-    model.row_lower_ = np.where(np.isfinite(lp.lo), lp.lo, -inf)
-    model.row_upper_ = np.where(np.isfinite(lp.hi), lp.hi, inf)
-    model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
-    h.passModel(model)
-    return h
+    return highs(lp.A, lp.lo, lp.hi, lp.zl, lp.zu)
 
 
 def solve(lp: RelaxedLP, c, h=None, *, point: bool = False):
@@ -308,9 +294,7 @@ def solve(lp: RelaxedLP, c, h=None, *, point: bool = False):
     import highspy
 
     h = h if h is not None else highs_model(lp)
-    n = lp.A.shape[1]
-    h.changeColsCost(n, np.arange(n, dtype=np.int32), np.asarray(c, dtype=float))
-    h.run()
+    solve_highs(h, c)
     status = h.getModelStatus()
     if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnboundedOrInfeasible):
         out = ("infeasible", np.nan, np.nan)
