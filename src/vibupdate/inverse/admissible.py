@@ -271,16 +271,15 @@ class Admissible:
 
 def _rows(v, lo, hi, mid, h, pull=PULL):
     """The polish's rows of values ``v`` (last axis: the data) against ``[lo, hi]`` with
-    midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``: per datum two
-    rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance outside
-    ``(v - clip(v, lo, hi)) / (pull h)`` (two rows, not one, for a continuous gradient:
-    docs/polish-and-verification.md, section 7.2)."""
+    midpoints ``mid`` and half-widths ``h`` (arrays of one shape), and their slopes
+    ``d row / d v``: per datum two rows, stacked on the last axis, the pull ``(v - mid) / h``
+    then the distance outside ``(v - clip(v, lo, hi)) / (pull h)`` (two rows, not one, for a
+    continuous gradient: docs/polish-and-verification.md, section 7.2)."""
     out = v - v.clip(lo, hi)
     pull_h = pull * h
-    slope_in = np.broadcast_to(1.0 / h, out.shape)
     slope_out = np.where(out != 0, 1.0 / pull_h, 0.0)
     return (np.concatenate([(v - mid) / h, out / pull_h], axis=-1),
-            np.concatenate([slope_in, slope_out], axis=-1))
+            np.concatenate([1.0 / h, slope_out], axis=-1))
 
 
 def _targets(lower, upper, floor) -> tuple[np.ndarray, ...]:
