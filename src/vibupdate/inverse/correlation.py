@@ -19,7 +19,6 @@ import numpy as np
 
 from vibupdate.modal.analysis import DENSE_LIMIT, antiresonances, flexible_modes, mac, modes
 from vibupdate.modal.kept import Kept
-from vibupdate.modal.sensitivities import adjunct_eigenpairs, antiresonance_derivatives
 from vibupdate.data.measured import TWO_PI, Configuration
 from vibupdate.data.names import frequency_name, receptance_name
 
@@ -309,6 +308,8 @@ def declared_zeros(cfg: Configuration, xbar, M, K):
         Per receptance of ``cfg.receptances()``, its `adjunct_eigenpairs` (squared zeros, right
         and left vectors).
     """
+    from vibupdate.modal.sensitivities import adjunct_eigenpairs, antiresonance_derivatives
+
     model = cfg.model
     values = np.full(len(cfg.antiresonances), np.nan)
     out = np.full((len(cfg.antiresonances), model.n_parameters), np.nan)
