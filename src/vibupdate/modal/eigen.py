@@ -97,10 +97,9 @@ def _eigh(A: np.ndarray, B: np.ndarray):
     return sla.eigh(A, B)
 
 
-def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = None, bound: float = np.inf):
+def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = None):
     """All eigenpairs of ``K phi = eigval M phi`` (M positive definite); ``precision``: the
-    relative precision of the entries (`vibupdate.modal.rigid`), None for double precision;
-    ``bound``: a `vibupdate.modal.rigid.ceiling` of the pencil.
+    relative precision of the entries (`vibupdate.modal.rigid`), None for double precision.
 
     The reciprocal pencil resolves the low modes, the direct one the high ones (module
     docstring): when the spectrum spans more than six decades both are solved and spliced at
@@ -114,7 +113,7 @@ def _reciprocal_eigh(K: np.ndarray, M: np.ndarray, precision: float | None = Non
         mu, V = _eigh(M, K)
     except (sla.LinAlgError, ValueError):
         mu = None
-    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, 1.0 / mu[-1:], V[:, -1:], precision, bound)[0]:
+    if mu is not None and mu[-1] > 0 and rigid.is_zero(M, K, 1.0 / mu[-1:], V[:, -1:], precision)[0]:
         # A singular K whose Cholesky factor completed on rounding-level pivots: its largest
         # mu is rounding, and the error n eps mu_max it puts on every mu swamps the flexible
         # modes.
@@ -188,10 +187,9 @@ def _condensation(K: np.ndarray, s: np.ndarray, m: np.ndarray):
     return cho, sla.cho_solve(cho, K[np.ix_(s, m)])
 
 
-def dense_modes(M, K, precision: float | None = None, bound: float = np.inf):
+def dense_modes(M, K, precision: float | None = None):
     """All finite eigenpairs of a dense pencil, massless DOFs condensed exactly; ``precision``:
-    the relative precision of the entries (`vibupdate.modal.rigid`); ``bound``: a
-    `vibupdate.modal.rigid.ceiling` of the pencil (or of one it is a principal part of).
+    the relative precision of the entries (`vibupdate.modal.rigid`).
 
     Returns ``eigval`` (n_f,) ascending and ``Phi`` (n, n_f), mass-normalized, full length.
     """
@@ -199,7 +197,7 @@ def dense_modes(M, K, precision: float | None = None, bound: float = np.inf):
     n = Md.shape[0]
     s = massless_dofs(Md)
     if s.size == 0:
-        return _reciprocal_eigh(Kd, Md, precision, bound)
+        return _reciprocal_eigh(Kd, Md, precision)
     if s.size == n:
         raise ValueError("the mass matrix is zero: no DOF carries mass")
     m = np.setdiff1d(np.arange(n), s)
@@ -451,8 +449,7 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
             raise ValueError(f"a dense eigen-solve of all modes of a {n}-DOF model would need about "
                              f"{5 * 8 * n * n / 2**30:.0f} GB; ask for the lowest n_modes instead (at most "
                              f"{DENSE_MAX} DOFs are solved densely)")
-        bound = rigid.ceiling(as_dense(M), as_dense(K), precision)   # one bound for both rigid-body tests
-        eigval, Phi = dense_modes(M, K, precision, bound)
+        eigval, Phi = dense_modes(M, K, precision)
         if n_modes is not None:
             eigval, Phi = eigval[:n_modes], Phi[:, :n_modes]
     else:
@@ -461,10 +458,9 @@ def modes(M, K, n_modes: int | None = None, *, dense: bool | None = None, rtol: 
             raise ValueError(f"the sparse eigen-solver finds at most {n_finite - 1} of the {n_finite} finite modes of "
                              f"this model, asked for {k}; solve densely (dense=True) for all of them")
         eigval, Phi = _sparse_modes(M, K, k, rtol, factor, precision)
-        bound = np.inf
     # rigid-body modes (zero within the rounding of their own Rayleigh quotient,
     # `vibupdate.modal.rigid`) are exactly 0 rad/s, whatever sign rounding gave them
-    eigval = np.where(rigid.is_zero(M, K, eigval, Phi, precision, bound), 0.0, eigval)
+    eigval = np.where(rigid.is_zero(M, K, eigval, Phi, precision), 0.0, eigval)
     omega = np.sign(eigval) * np.sqrt(np.abs(eigval))
     idx = np.abs(Phi).argmax(axis=0)
     Phi = Phi * np.sign(Phi[idx, np.arange(Phi.shape[1])])

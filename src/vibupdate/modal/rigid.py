@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg.lapack import dsyev
 
 
 #: An eigenvalue within this many rounding units of its vector's Rayleigh quotient is zero.
@@ -73,34 +72,7 @@ def rounding_scale(M, K, U, precision: float | None = None) -> np.ndarray:
     return np.divide(unit(precision) * top, mass, out=np.full(U.shape[1], np.inf), where=with_mass)
 
 
-def ceiling(M: np.ndarray, K: np.ndarray, precision: float | None = None) -> float:
-    """An upper bound of `rounding_scale` over every real vector of the dense ``M``, ``K``
-    (nonzero, not so small that its products underflow), inf when none is found.
-
-    ``|u|^T |K| |u| <= ||K||_F ||u||^2`` and ``u^T M u >= lambda ||u||^2`` with ``lambda``
-    the least eigenvalue of the symmetric part of ``M`` (LAPACK's, less ``8 n^2 eps ||M||_F``,
-    far above its error and the rounding of ``u^T M u``), so the scale is at most
-    ``delta ||K||_F / lambda``; the bound is twice that (the rounding of the scale itself), inf
-    unless ``lambda > 0`` (massless DOFs). It holds as well for principal submatrices of ``M``,
-    ``K`` and for vectors zero at some entries (`embed`).
-    """
-    S = M + M.T                                  # twice the symmetric part of M
-    size_S, size_K = np.sqrt(np.vdot(S, S)), np.sqrt(np.vdot(K, K))   # Frobenius norms
-    if not (np.isfinite(size_S) and np.isfinite(size_K)):
-        return np.inf
-    eigval_S, _, info = dsyev(S, compute_v=0)
-    lowest = eigval_S[0] - 8.0 * S.shape[0] ** 2 * EPS * size_S
-    return float(4.0 * unit(precision) * size_K / lowest) if info == 0 and lowest > 0 else np.inf
-
-
-def beyond(eigval: np.ndarray, bound: float) -> bool:
-    """Whether every eigenvalue (real) exceeds `RIGID_FACTOR` times ``bound`` in magnitude
-    (a `ceiling`): none of them is zero, whatever its vector."""
-    size = np.abs(eigval)
-    return bool(size.size) and size.min() > RIGID_FACTOR * bound
-
-
-def is_zero(M, K, eigval, U, precision: float | None = None, bound: float = np.inf) -> np.ndarray:
+def is_zero(M, K, eigval, U, precision: float | None = None) -> np.ndarray:
     """Which eigenvalues are zero within rounding (module docstring).
 
     Parameters
@@ -112,17 +84,12 @@ def is_zero(M, K, eigval, U, precision: float | None = None, bound: float = np.i
         Their vectors in the full space.
     precision : float, optional
         Relative precision of the entries of ``K`` and ``M``; None: double precision.
-    bound : float, optional
-        The `ceiling` of ``M``, ``K`` (``U``'s columns scaled eigenvectors): when every
-        eigenvalue is `beyond` it, none is zero and no scale is computed.
 
     Returns
     -------
     ndarray of bool, shape (k,)
     """
     eigval = np.asarray(eigval).real
-    if bound < np.inf and beyond(eigval, bound):
-        return np.zeros(eigval.shape, dtype=bool)
     return np.abs(eigval) <= RIGID_FACTOR * rounding_scale(M, K, U, precision)
 
 

@@ -57,7 +57,7 @@ def others(n: int, k: int) -> np.ndarray:
     return i
 
 
-def structural(M, K, r: int, eigval_z, V, precision: float | None = None, bound: float = np.inf) -> np.ndarray:
+def structural(M, K, r: int, eigval_z, V, precision: float | None = None) -> np.ndarray:
     """Which eigenvalues of the adjunct pencil of ``h_rc`` are its structural zeros, the
     rigid-body combinations with no motion at ``r`` (`vibupdate.modal.rigid`), no
     antiresonances.
@@ -75,16 +75,11 @@ def structural(M, K, r: int, eigval_z, V, precision: float | None = None, bound:
     precision : float, optional
         Relative precision of the entries of ``K`` and ``M`` (`vibupdate.modal.rigid`); None:
         double precision.
-    bound : float, optional
-        The `vibupdate.modal.rigid.ceiling` of ``M``, ``K``: eigenvalues all beyond it are no
-        structural zeros, without their vectors' scales.
 
     Returns
     -------
     ndarray of bool, shape (k,)
     """
-    if bound < np.inf and rigid.beyond(eigval_z, bound):
-        return np.zeros(len(eigval_z), dtype=bool)
     return rigid.is_zero(M, K, eigval_z, rigid.embed(_real_vectors(V), M.shape[0], r), precision)
 
 
@@ -93,12 +88,10 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
     pencil of ``h_rc`` without its structural zeros (`structural`), ascending, with their right
     and left vectors (real, each of unit norm; the same for ``r == c``; None without ``left``
     for ``r != c``): the symmetric reciprocal pencil for ``r == c``, QZ (`qz`) otherwise."""
-    Md, Kd = as_dense(M), as_dense(K)            # dense first: no sparse indexing
-    bound = rigid.ceiling(Md, Kd, precision)     # of the adjunct pencil of r == c too
-    Mr, Kr = adjunct(Md, r, c), adjunct(Kd, r, c)
+    Mr, Kr = adjunct(as_dense(M), r, c), adjunct(as_dense(K), r, c)   # dense first: no sparse indexing
     if r == c:
-        eigval_z, V = dense_modes(Mr, Kr, precision, bound)
-        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision, bound)
+        eigval_z, V = dense_modes(Mr, Kr, precision)
+        keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
         return eigval_z[keep], V[:, keep], V[:, keep]
     (num, den), V_left, V_right = qz(Kr, Mr, left)
     size_den = np.abs(den)
@@ -106,7 +99,7 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
     eigval_z = num / np.where(finite, den, 1.0)     # only the finite ones are read
     real = eigval_z.real
     k = (finite & (np.abs(eigval_z.imag) <= rtol * np.abs(real)) & (real > 0)).nonzero()[0]
-    k = k[~structural(M, K, r, real[k], V_right[:, k], precision, bound)]
+    k = k[~structural(M, K, r, real[k], V_right[:, k], precision)]
     k = k[real[k].argsort()]
     return real[k], V_right[:, k], None if V_left is None else V_left[:, k]
 
