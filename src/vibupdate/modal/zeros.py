@@ -259,7 +259,7 @@ def antiresonance_vectors(M, K, r: int, c: int, *, rtol: float = 1e-8, n_zeros: 
         A sparse zero failed its residual check.
     """
     eigval_z, V, order = _zeros(M, K, r, c, rtol, n_zeros, dense, precision)
-    if not V.size:
+    if not V.size:   # a 1-DOF model: nothing to scale
         return np.sqrt(eigval_z[order]), V[:, order]
     V = V[:, order]
     idx = np.argmax(np.abs(V), axis=0)
