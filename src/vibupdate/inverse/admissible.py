@@ -269,18 +269,18 @@ class Admissible:
         return 0.5 * float(np.sum((exact_half_width / h) ** 2)) if h.size else 0.0
 
 
-def _rows(v, lo, hi, mid, h, pull=PULL):
+def _rows(v, lo, hi, mid, h, pull=PULL, slopes=True):
     """The polish's rows of values ``v`` (last axis: the data) against ``[lo, hi]`` with
-    midpoints ``mid`` and half-widths ``h``, and their slopes ``d row / d v``: per datum two
-    rows, stacked on the last axis, the pull ``(v - mid) / h`` then the distance outside
-    ``(v - clip(v, lo, hi)) / (pull h)`` (two rows, not one, for a continuous gradient:
-    docs/polish-and-verification.md, section 7.2)."""
+    midpoints ``mid`` and half-widths ``h`` (arrays of one shape), and their slopes
+    ``d row / d v`` (None without ``slopes``): per datum two rows, stacked on the last axis,
+    the pull ``(v - mid) / h`` then the distance outside ``(v - clip(v, lo, hi)) / (pull h)``
+    (two rows, not one, for a continuous gradient: docs/polish-and-verification.md, section 7.2)."""
     out = v - v.clip(lo, hi)
     pull_h = pull * h
-    slope_in = np.broadcast_to(1.0 / h, out.shape)
-    slope_out = np.where(out != 0, 1.0 / pull_h, 0.0)
-    return (np.concatenate([(v - mid) / h, out / pull_h], axis=-1),
-            np.concatenate([slope_in, slope_out], axis=-1))
+    rows = np.concatenate([(v - mid) / h, out / pull_h], axis=-1)
+    if not slopes:
+        return rows, None
+    return rows, np.concatenate([1.0 / h, np.where(out != 0, 1.0 / pull_h, 0.0)], axis=-1)
 
 
 def _targets(lower, upper, floor) -> tuple[np.ndarray, ...]:
@@ -344,7 +344,7 @@ def _shape_rows(shapes: Sequence[Shape], ratios: Sequence[np.ndarray], jacs: Seq
     lost = np.isnan(bound[:, 0])                                         # no modal mass: the model lost the mode
     s = np.clip(_scales(np.where(lost[:, None], 1.0, Q), lo, hi, mid, h, pull), bound[:, 0], bound[:, 1])
     s[lost] = 0.0
-    r, slope = _rows(s[:, None] * Q, lo, hi, mid, h, pull)               # (m, 2 k)
+    r, slope = _rows(s[:, None] * Q, lo, hi, mid, h, pull, jacs is not None)   # (m, 2 k)
     k = Q.shape[1]
     r[lost] = np.concatenate([np.zeros(k), np.full(k, 1.0 / pull)])
     if jacs is None:
@@ -400,7 +400,8 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
             lo, hi, mid, h, w = target
             lost = ~np.isfinite(values)
             rows_lost = np.concatenate([lost, lost]) if lost.any() else None   # None: nothing lost
-            r, slope = _rows(values if rows_lost is None else np.where(lost, mid, values), lo, hi, mid, h, pull)
+            r, slope = _rows(values if rows_lost is None else np.where(lost, mid, values), lo, hi, mid, h, pull,
+                             jacobian)
             # a lost zero: its pull row 0, its distance row 1 / pull, no direction
             res.append(w * r if rows_lost is None else
                        np.where(rows_lost, np.concatenate([0 * lost, lost / pull]), w * r))

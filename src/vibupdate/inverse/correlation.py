@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vibupdate.modal.analysis import antiresonances, flexible_modes, mac, modes
+from vibupdate.modal.analysis import DENSE_LIMIT, antiresonances, flexible_modes, mac, modes
 from vibupdate.modal.kept import Kept
 from vibupdate.data.measured import TWO_PI, Configuration
 from vibupdate.data.names import frequency_name, receptance_name
@@ -132,8 +132,6 @@ def mean_max(errors) -> tuple[float, float]:
 def zeros_wanted(cfg: Configuration, rc) -> int | None:
     """How many of the lowest zeros of ``h_rc`` a large model must give (one above the highest
     declared); None (all) for models on the dense path."""
-    from vibupdate.modal.analysis import DENSE_LIMIT
-
     if cfg.model.n_dofs <= DENSE_LIMIT:
         return None
     top = max(a.index for a in cfg.antiresonances if a.receptance == rc)
@@ -175,8 +173,6 @@ def model_frequencies(cfg: Configuration, xbar=None, *, zeros: bool = True,
     eigen-solve per receptance for both. On the dense path the modes of the same model object at
     the same point are solved once among the most recent (`_spectrum`; the ``spectrum`` arrays
     read-only)."""
-    from vibupdate.modal.analysis import DENSE_LIMIT
-
     M, K = cfg.model.solver_matrices(xbar)
     precision = cfg.model.matrix_precision
     declared = [f.mode for f in cfg.natural]

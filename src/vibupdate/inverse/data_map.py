@@ -188,7 +188,7 @@ class DataMap:
     @property
     def frequency_jacobian(self) -> np.ndarray:
         """Their Jacobian, shape (n_p + n_z, n_x)."""
-        return np.vstack([self.natural_jacobian, self.zero_jacobian])
+        return np.concatenate([self.natural_jacobian, self.zero_jacobian])
 
     def values(self) -> np.ndarray:
         """Every datum in the module's order, shape (n_data,)."""

@@ -54,6 +54,8 @@ class ModalAccuracyError(ValueError):
 
 def as_dense(A) -> np.ndarray:
     """``A`` as a dense array (a sparse matrix converted, an array passed through)."""
+    if type(A) is np.ndarray:
+        return A
     return A.toarray() if sp.issparse(A) else np.asarray(A)
 
 

@@ -83,17 +83,17 @@ def structural(M, K, r: int, eigval_z, V, precision: float | None = None) -> np.
     return rigid.is_zero(M, K, eigval_z, rigid.embed(_real_vectors(V), M.shape[0], r), precision)
 
 
-def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = None):
+def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = None, left: bool = True):
     """The finite, real (imaginary part within ``rtol``), positive eigenvalues of the dense adjunct
     pencil of ``h_rc`` without its structural zeros (`structural`), ascending, with their right
-    and left vectors (real, each of unit norm; the same for ``r == c``): the symmetric
-    reciprocal pencil for ``r == c``, QZ (`qz`) otherwise."""
+    and left vectors (real, each of unit norm; the same for ``r == c``; None without ``left``
+    for ``r != c``): the symmetric reciprocal pencil for ``r == c``, QZ (`qz`) otherwise."""
     Mr, Kr = adjunct(as_dense(M), r, c), adjunct(as_dense(K), r, c)   # dense first: no sparse indexing
     if r == c:
         eigval_z, V = dense_modes(Mr, Kr, precision)
         keep = (eigval_z > 0) & ~structural(M, K, r, eigval_z, V, precision)
         return eigval_z[keep], V[:, keep], V[:, keep]
-    (num, den), V_left, V_right = qz(Kr, Mr)
+    (num, den), V_left, V_right = qz(Kr, Mr, left)
     size_den = np.abs(den)
     finite = size_den > 1e-10 * (np.abs(num) + size_den)
     eigval_z = num / np.where(finite, den, 1.0)     # only the finite ones are read
@@ -101,37 +101,42 @@ def dense_zeros(M, K, r: int, c: int, rtol: float, precision: float | None = Non
     k = (finite & (np.abs(eigval_z.imag) <= rtol * np.abs(real)) & (real > 0)).nonzero()[0]
     k = k[~structural(M, K, r, real[k], V_right[:, k], precision)]
     k = k[real[k].argsort()]
-    return real[k], V_right[:, k], V_left[:, k]
+    return real[k], V_right[:, k], None if V_left is None else V_left[:, k]
 
 
-def qz(A: np.ndarray, B: np.ndarray):
+def qz(A: np.ndarray, B: np.ndarray, left: bool = True):
     """The eigenvalues of the real pencil ``(A, B)`` as ``(alpha, beta)`` (complex ``alpha``)
     with the real parts of the left and right vectors, each of unit norm as a complex vector:
     what ``scipy.linalg.eig(A, B, left=True, right=True, homogeneous_eigvals=True)`` gives,
     taken from LAPACK's ``ggev`` without that function's per-vector normalization loop (most
-    of its time on a small pencil). ``ggev`` stores a complex pair's vectors as the real and
-    imaginary parts in two columns: the real part of both is the first column."""
+    of its time on a small pencil). Without ``left`` the left vectors are None and not
+    computed (``ggev`` computes the eigenvalues and right vectors the same way either way)."""
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
     if not (np.isfinite(A).all() and np.isfinite(B).all()):
         raise ValueError("array must not contain infs or NaNs")
     ggev, lwork = _ggev(A.shape[0])
-    alphar, alphai, beta, vl, vr, _, info = ggev(A, B, 1, 1, lwork)
+    alphar, alphai, beta, vl, vr, _, info = ggev(A, B, int(left), 1, lwork)
     if info != 0:
         raise sla.LinAlgError(f"generalized eig algorithm (ggev) did not converge (LAPACK info={info})")
-    alpha = alphar + 1j * alphai
-    if not alphai.any():               # real eigenvalues only: each column its own vector
-        return (alpha, beta), vl / _column_norms(vl), vr / _column_norms(vr)
-    first = alphai > 0                 # the first column of each complex pair
-    first[:-1] |= alphai[1:] < 0
-    j = np.flatnonzero(first)
-    out = []
-    for V in (vl, vr):
-        norms = _column_norms(V)
-        norms[j] = norms[j + 1] = np.hypot(norms[j], norms[j + 1])
-        real = V.copy()
-        real[:, j + 1] = V[:, j]
-        out.append(real / norms)
-    return (alpha, beta), out[0], out[1]
+    j = None
+    if alphai.any():
+        first = alphai > 0             # the first column of each complex pair
+        first[:-1] |= alphai[1:] < 0
+        j = np.flatnonzero(first)
+    return (alphar + 1j * alphai, beta), _unit_real(vl, j) if left else None, _unit_real(vr, j)
+
+
+def _unit_real(V: np.ndarray, j: np.ndarray | None) -> np.ndarray:
+    """The real parts of ``ggev``'s vectors ``V``, each of unit norm as a complex vector; ``j``:
+    the first columns of the complex pairs (None: none). ``ggev`` stores a pair's vectors as the
+    real and imaginary parts in two columns: the real part of both is the first column."""
+    norms = _column_norms(V)
+    if j is None:                      # real eigenvalues only: each column its own vector
+        return V / norms
+    norms[j] = norms[j + 1] = np.hypot(norms[j], norms[j + 1])
+    real = V.copy()
+    real[:, j + 1] = V[:, j]
+    return real / norms
 
 
 def _column_norms(V: np.ndarray) -> np.ndarray:
@@ -222,7 +227,8 @@ def antiresonances(M, K, r: int, c: int, *, rtol: float = 1e-8, n_zeros: int | N
     ModalAccuracyError
         A sparse zero failed its residual check.
     """
-    return antiresonance_vectors(M, K, r, c, rtol=rtol, n_zeros=n_zeros, dense=dense, precision=precision)[0]
+    eigval_z, _, order = _zeros(M, K, r, c, rtol, n_zeros, dense, precision)
+    return np.sqrt(eigval_z[order])
 
 
 def antiresonance_vectors(M, K, r: int, c: int, *, rtol: float = 1e-8, n_zeros: int | None = None,
@@ -252,20 +258,27 @@ def antiresonance_vectors(M, K, r: int, c: int, *, rtol: float = 1e-8, n_zeros: 
     ModalAccuracyError
         A sparse zero failed its residual check.
     """
+    eigval_z, V, order = _zeros(M, K, r, c, rtol, n_zeros, dense, precision)
+    if not V.size:   # a 1-DOF model: nothing to scale
+        return np.sqrt(eigval_z[order]), V[:, order]
+    V = V[:, order]
+    idx = np.argmax(np.abs(V), axis=0)
+    return np.sqrt(eigval_z[order]), V / V[idx, np.arange(V.shape[1])]
+
+
+def _zeros(M, K, r: int, c: int, rtol: float, n_zeros: int | None, dense: bool | None, precision: float | None):
+    """The squared zeros of `antiresonance_vectors`, their right vectors and the order that
+    sorts and keeps them."""
     n = M.shape[0]
     check_dof_pair(n, r, c)
     if n_zeros is not None and not (isinstance(n_zeros, (int, np.integer)) and 1 <= n_zeros <= n - 1):
         raise ValueError(f"n_zeros must be between 1 and {n - 1}, got {n_zeros!r} (a receptance of a {n}-DOF model "
                          f"has at most {n - 1} zeros)")
     if n == 1:   # the one receptance is a driving point's, 1 / (k - omega^2 m): no zero
-        return np.empty(0), np.empty((0, 0))
+        return np.empty(0), np.empty((0, 0)), np.arange(0)
     use_dense = n <= eigen.DENSE_LIMIT if dense is None else dense
     if use_dense:
-        eigval_z, V = dense_zeros(M, K, r, c, rtol, precision)[:2]
-        order = np.argsort(eigval_z)[:n_zeros]
-    else:
-        eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol, precision)
-        order = np.arange(eigval_z.size)
-    V = V[:, order]
-    idx = np.argmax(np.abs(V), axis=0)
-    return np.sqrt(eigval_z[order]), V / V[idx, np.arange(V.shape[1])]
+        eigval_z, V = dense_zeros(M, K, r, c, rtol, precision, left=False)[:2]
+        return eigval_z, V, np.argsort(eigval_z)[:n_zeros]
+    eigval_z, V = _sparse_zeros(M, K, r, c, 20 if n_zeros is None else int(n_zeros), rtol, precision)
+    return eigval_z, V, np.arange(eigval_z.size)
