@@ -51,3 +51,31 @@ def test_the_ranges_hold_every_point_whose_data_lie_in_the_windows_where_the_set
     lower, upper = model.normalized(found.lower), model.normalized(found.upper)
     step = grid[1] - grid[0]
     assert np.all(inside.min(axis=0) >= lower - step) and np.all(inside.max(axis=0) <= upper + step)
+
+
+def test_where_the_warm_simplex_fails_the_interior_point_method_gives_the_same_ranges(monkeypatch):
+    """The ranges' programs go to HiGHS's simplex from a kept basis (`vibupdate.ranges.highs`);
+    where it does not report an optimum, the interior-point method on the one-sided form solves
+    the same program. Constructed: a 3-mass chain (k1, k2, k3 within +-30 %) with its three
+    frequencies known to +-1 %: with every simplex solve made to fail, every range is the one the
+    simplex gives, to the solvers' tolerances, and the fallback ran for each of the 6 programs."""
+    from helpers import chain_model
+
+    from vibupdate import Configuration, NaturalFrequency
+    from vibupdate.modal.analysis import modes
+    from vibupdate.ranges import identifiability
+
+    model = chain_model(3, ["k1", "k2", "k3"])
+    omega, _ = modes(*model.matrices(np.zeros(3)), 3)
+    cfg = Configuration("c", model, tuple(NaturalFrequency(w) for w in omega))
+    simplex = identifiability.parameter_ranges([cfg], np.zeros(3), frequency_tolerance=0.01)
+    fallbacks = []
+    real = identifiability.linprog
+    monkeypatch.setattr(identifiability, "solve_highs", lambda h, c: False)
+    monkeypatch.setattr(identifiability, "linprog", lambda *a, **k: fallbacks.append(1) or real(*a, **k))
+    interior = identifiability.parameter_ranges([cfg], np.zeros(3), frequency_tolerance=0.01)
+    assert len(fallbacks) >= 6
+    width = simplex.upper - simplex.lower
+    assert np.all(width > 0)
+    assert np.allclose(interior.lower, simplex.lower, rtol=0, atol=1e-6 * width.max())
+    assert np.allclose(interior.upper, simplex.upper, rtol=0, atol=1e-6 * width.max())
