@@ -102,3 +102,14 @@ def test_a_points_own_check_is_the_linear_program_it_replaces():
         assert identifiability._holds(A, offset, dx, 3) == (lp.status == 0)
         agree += 1
     assert agree > 300
+
+
+def test_a_point_whose_model_lost_a_datum_does_not_hold():
+    """Constructed: a relinearized program whose rows are not finite (a zero or a mode the model
+    lacks at that point gives NaN data and slopes). Its own check says it does not hold, whatever
+    the other rows say (before, with only rows without a scale, a NaN row passed every
+    comparison); finite rows that hold still do."""
+    A = np.array([[1.0, 0.0], [np.nan, 1.0]])
+    assert not identifiability._holds(A, np.zeros(2), np.zeros(2), 2)
+    assert not identifiability._holds(np.eye(2), np.array([0.0, np.nan]), np.zeros(2), 2)
+    assert identifiability._holds(np.eye(2), np.zeros(2), np.zeros(2), 2)

@@ -251,9 +251,12 @@ def _holds(A, offset, dx, n_x: int) -> bool:
     ``dx`` for some scale step of each shape (the columns after the first ``n_x``): without a
     linear program, because each scale enters only its own shape's rows, so that each is an
     intersection of intervals. A row may miss by HiGHS's default primal feasibility tolerance
-    (1e-7 of its half-width), as in the programs solved."""
+    (1e-7 of its half-width), as in the programs solved. A row that is not finite (a datum
+    the model lost at the point) does not hold."""
     tol = 1e-7
     r = A[:, :n_x] @ dx + offset
+    if not (np.isfinite(r).all() and np.isfinite(A).all()):   # a datum the model lost at the point
+        return False
     S = A[:, n_x:]
     g = S.sum(axis=1)          # each row has at most one scale column
     scaled = g != 0
@@ -394,7 +397,10 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         keeps the program at the answer (its solves differ in ``c`` alone), another takes each
         program relinearized along the valley, starting from the basis of the program solved
         last (the one it follows, for the same ``c``). Where it fails, the interior-point
-        method on the one-sided form; None when neither solves it."""
+        method on the one-sided form; None when neither solves it, or when a row is not finite
+        (a datum the model lost at the point the program is linearized at)."""
+        if not (np.isfinite(A).all() and np.isfinite(offset).all()):
+            return None
         role = "answer" if A is A0 else "moved"
         h, rows = kept.get(role, (None, None))
         if rows is None or rows[0] is not A or rows[1] is not offset:   # another program: loaded
