@@ -423,16 +423,15 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
     A0, o = program()
-    A = A0
-    free_scales = np.full(A.shape[1] - xbar.size, np.inf)      # one per shape, the same in every program
+    free_scales = np.full(A0.shape[1] - xbar.size, np.inf)      # one per shape, the same in every program
     box = (np.concatenate([lo - xbar, -free_scales]), np.concatenate([hi - xbar, free_scales]))
     lower, upper = np.full(xbar.size, np.nan), np.full(xbar.size, np.nan)
     bent = model.n_dofs <= VALLEY_DOFS
     for i in np.flatnonzero(~free):
-        c = np.zeros(A.shape[1])
+        c = np.zeros(A0.shape[1])
         c[i] = 1.0
         for sign, target in ((1.0, lower), (-1.0, upper)):
-            step = solve(sign * c, A, o)
+            step = solve(sign * c, A0, o)
             if step is None:
                 continue
             target[i] = xbar[i] + step[i]
