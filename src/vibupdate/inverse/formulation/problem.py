@@ -16,6 +16,7 @@ import scipy.sparse as sp
 
 from vibupdate.inverse.formulation.blocks import VectorBlock
 from vibupdate.inverse.formulation.options import FormulationOptions
+from vibupdate.modal.eigen import DENSE_LIMIT
 from vibupdate.model.parameters import Parameter
 
 
@@ -95,15 +96,12 @@ class BilinearProblem:
         entry within its measured interval.
 
         With ``x`` fixed the residual is linear in ``u`` and each block's rows read only its own
-        unknowns, so this is one bounded linear least squares per block (scipy's ``lsq_linear``,
-        ``bvls``: exact to rounding on these small dense blocks). The boxes of the entries that
-        were not measured are margins of the relaxation, not data, and are left out: the vector
-        of the model at ``x`` may lie outside them. `update` returns these unknowns at its
-        answer, so that the vectors and the objective it reports belong to the model it
-        returns, wherever the polish moved it from the homotopy's point.
+        unknowns, so this is one bounded linear least squares per block (`bounded_lstsq`). The
+        boxes of the entries that were not measured are margins of the relaxation, not data, and
+        are left out: the vector of the model at ``x`` may lie outside them. `update` returns
+        these unknowns at its answer, so that the vectors and the objective it reports belong
+        to the model it returns, wherever the polish moved it from the homotopy's point.
         """
-        from scipy.optimize import lsq_linear
-
         x = np.asarray(x, dtype=float)
         bilinear = sp.csr_matrix((x[self.prod_x], (np.arange(self.n_b), self.prod_u)), shape=(self.n_b, self.n_u))
         w = np.sqrt(self.row_weight)
@@ -119,9 +117,10 @@ class BilinearProblem:
             free = lower < upper     # an unknown its interval pins stays there
             u[cols] = np.where(free, u[cols], lower)
             if free.any():
-                block = A[rows][:, cols].toarray()
-                u[cols][free] = lsq_linear(block[:, free], rhs[rows] - block[:, ~free] @ lower[~free],
-                                           bounds=(lower[free], upper[free]), method="bvls", tol=1e-14).x
+                block = A[rows][:, cols]
+                block = block.toarray() if block.shape[1] <= DENSE_LIMIT else block   # no n x n dense above
+                u[cols][free] = bounded_lstsq(block[:, free], rhs[rows] - block[:, ~free] @ lower[~free],
+                                              lower[free], upper[free])
         return u
 
     def identity(self) -> str:
@@ -162,3 +161,48 @@ class BilinearProblem:
             "n_residuals": self.n_r,
             "n_fixed_entries": int(sum(np.count_nonzero(b.fixed) for b in self.blocks)),
         }
+
+
+def bounded_lstsq(B, r, lower, upper) -> np.ndarray:
+    """``argmin |B v - r|`` over ``lower <= v <= upper`` (infinite entries: unbounded).
+
+    A dense ``B``: scipy's ``lsq_linear`` (``bvls``, exact to rounding). A sparse one (a
+    block above `vibupdate.modal.eigen.DENSE_LIMIT` unknowns, `BilinearProblem.unknowns_at`):
+    the unbounded unknowns ``v_n`` are eliminated (for given bounded ones ``v_m``, ``v_n = y0 - Y v_m``, the least
+    squares of ``B_n`` solved by one sparse LU of the augmented system ``[[I, B_n], [B_n^T,
+    0]]``), leaving a dense bounded least squares in the few bounded unknowns (the measured
+    entries of a mode), by ``bvls`` again: the same answer without an ``n x n`` dense matrix.
+    A singular ``B_n`` goes to the dense path.
+
+    Parameters
+    ----------
+    B : sparse matrix or ndarray, shape (m, n)
+    r : ndarray, shape (m,)
+    lower, upper : ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    from scipy.optimize import lsq_linear
+    from scipy.sparse.linalg import splu
+
+    def bvls(C, d, lo, hi):
+        return lsq_linear(C, d, bounds=(lo, hi), method="bvls", tol=1e-14).x
+
+    if not sp.issparse(B):
+        return bvls(B, r, lower, upper)
+    bounded = np.isfinite(lower) | np.isfinite(upper)
+    B = sp.csc_matrix(B)
+    Bn, Bm = B[:, ~bounded], B[:, bounded].toarray()
+    m, k = B.shape[0], Bn.shape[1]
+    try:
+        lu = splu(sp.bmat([[sp.eye(m), Bn], [Bn.T, None]], format="csc"))
+    except RuntimeError:   # B_n singular
+        return bvls(B.toarray(), r, lower, upper)
+    Y = lu.solve(np.vstack([np.column_stack([r, Bm]), np.zeros((k, 1 + Bm.shape[1]))]))[m:]
+    y0, Yb = Y[:, 0], Y[:, 1:]
+    v = np.empty(B.shape[1])
+    v[bounded] = bvls(Bm - Bn @ Yb, r - Bn @ y0, lower[bounded], upper[bounded]) if bounded.any() else 0.0
+    v[~bounded] = y0 - Yb @ v[bounded]
+    return v
