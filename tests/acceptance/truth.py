@@ -83,11 +83,13 @@ def modes(M: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _sparse_modes(M, K) -> tuple[np.ndarray, np.ndarray]:
     """The lowest `SPARSE_MODES` modes of a large model: shift-invert Lanczos at 0 to full
-    precision (``tol=0``), each vector mass-normalized. A singular ``K`` (rigid-body modes) is
-    refused: the shift at 0 needs its factorization."""
+    precision (``tol=0``), each vector mass-normalized, from a fixed start vector (ARPACK's own is
+    random: the data then differed in their last bits from one process to the next). A singular
+    ``K`` (rigid-body modes) is refused: the shift at 0 needs its factorization."""
     k = min(SPARSE_MODES, M.shape[0] - 1)
+    start = np.random.default_rng(0).standard_normal(M.shape[0])
     try:
-        lam, Phi = eigsh(K, k=k, M=M, sigma=0.0, which="LM", tol=0.0)
+        lam, Phi = eigsh(K, k=k, M=M, sigma=0.0, which="LM", tol=0.0, v0=start)
     except RuntimeError as exc:   # splu of a singular K
         raise ValueError(f"the sparse truth kernel needs a nonsingular stiffness (no rigid-body mode): {exc}") from exc
     order = np.argsort(lam)
