@@ -24,7 +24,11 @@ def _banner_written() -> bool:
     descriptor pointed at the null device, once per process."""
     import highspy
 
-    out = os.dup(1)
+    try:
+        out = os.dup(1)
+    except OSError:   # no standard output (a closed descriptor 1): nothing to keep clean
+        highspy.Highs()
+        return True
     try:
         with open(os.devnull, "wb") as null:
             os.dup2(null.fileno(), 1)
