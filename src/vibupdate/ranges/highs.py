@@ -39,17 +39,16 @@ def _banner_written() -> bool:
     return True
 
 
-def highs(A, row_lower, row_upper, col_lower, col_upper, cost=None, h=None, basis=None):
-    """A silent HiGHS instance holding ``min cost^T z`` subject to ``row_lower <= A z <=
-    row_upper`` and ``col_lower <= z <= col_upper`` (infinite entries: no bound).
+def highs(A, row_lower, row_upper, col_lower, col_upper, h=None, basis=None):
+    """A silent HiGHS instance holding the program ``row_lower <= A z <= row_upper``,
+    ``col_lower <= z <= col_upper`` (infinite entries: no bound), its objective zero until
+    `solve` sets one.
 
     Parameters
     ----------
     A : ndarray or sparse matrix, shape (m, n)
     row_lower, row_upper : ndarray, shape (m,)
     col_lower, col_upper : ndarray, shape (n,)
-    cost : ndarray, shape (n,), optional
-        Zero by default (`solve` sets it).
     h : highspy.Highs, optional
         An instance to load the program into; a new one by default.
     basis : highspy.HighsBasis, optional
@@ -70,7 +69,7 @@ def highs(A, row_lower, row_upper, col_lower, col_upper, cost=None, h=None, basi
     inf = highspy.kHighsInf
     lp = highspy.HighsLp()
     lp.num_row_, lp.num_col_ = C.shape
-    lp.col_cost_ = np.zeros(C.shape[1]) if cost is None else np.asarray(cost, dtype=float)
+    lp.col_cost_ = np.zeros(C.shape[1])
     lp.col_lower_, lp.col_upper_ = (np.where(np.isfinite(b), b, s * inf) for b, s in ((col_lower, -1), (col_upper, 1)))
     lp.row_lower_, lp.row_upper_ = (np.where(np.isfinite(b), b, s * inf) for b, s in ((row_lower, -1), (row_upper, 1)))
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise

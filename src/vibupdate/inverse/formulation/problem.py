@@ -168,11 +168,11 @@ def bounded_lstsq(B, r, lower, upper) -> np.ndarray:
 
     A dense ``B``: scipy's ``lsq_linear`` (``bvls``, exact to rounding). A sparse one (a
     block above `vibupdate.modal.eigen.DENSE_LIMIT` unknowns, `BilinearProblem.unknowns_at`):
-    the unbounded unknowns ``v_n`` are eliminated (for given bounded ones ``v_m``, ``v_n = y0 - Y v_m``, the least
-    squares of ``B_n`` solved by one sparse LU of the augmented system ``[[I, B_n], [B_n^T,
-    0]]``), leaving a dense bounded least squares in the few bounded unknowns (the measured
-    entries of a mode), by ``bvls`` again: the same answer without an ``n x n`` dense matrix.
-    A singular ``B_n`` goes to the dense path.
+    for given bounded unknowns ``v_m`` (the measured entries of a mode, few) the unbounded ones
+    are ``v_n = y0 - Y v_m``, the least squares of ``B_n`` by one sparse LU of the augmented
+    system ``[[I, B_n], [B_n^T, 0]]``; what is left is a dense bounded least squares in ``v_m``,
+    by ``bvls`` again: the same answer without an ``n x n`` dense matrix. A singular ``B_n``
+    (unbounded unknowns the block does not determine) goes to ``bvls`` on the dense ``B``.
 
     Parameters
     ----------
@@ -185,7 +185,8 @@ def bounded_lstsq(B, r, lower, upper) -> np.ndarray:
     ndarray, shape (n,)
     """
     from scipy.optimize import lsq_linear
-    from scipy.sparse.linalg import splu
+
+    from vibupdate.modal.factor import sparse_lu
 
     def bvls(C, d, lo, hi):
         return lsq_linear(C, d, bounds=(lo, hi), method="bvls", tol=1e-14).x
@@ -197,7 +198,7 @@ def bounded_lstsq(B, r, lower, upper) -> np.ndarray:
     Bn, Bm = B[:, ~bounded], B[:, bounded].toarray()
     m, k = B.shape[0], Bn.shape[1]
     try:
-        lu = splu(sp.bmat([[sp.eye(m), Bn], [Bn.T, None]], format="csc"))
+        lu = sparse_lu(sp.bmat([[sp.eye(m), Bn], [Bn.T, None]]))
     except RuntimeError:   # B_n singular
         return bvls(B.toarray(), r, lower, upper)
     Y = lu.solve(np.vstack([np.column_stack([r, Bm]), np.zeros((k, 1 + Bm.shape[1]))]))[m:]
