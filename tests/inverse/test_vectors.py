@@ -42,3 +42,19 @@ def test_a_dense_block_is_solved_by_bvls_as_it_is():
     lower[:3], upper[:3] = 0.0, 0.1
     assert np.array_equal(bounded_lstsq(B, r, lower, upper),
                           lsq_linear(B, r, bounds=(lower, upper), method="bvls", tol=1e-14).x)
+
+
+def test_unbounded_unknowns_the_block_does_not_determine_go_to_bvls_on_the_dense_block():
+    """Constructed: the banded block of a large mode with one free entry no row reads (a zero
+    column: the augmented system is singular, its LU fails). The answer is scipy's bvls on the
+    dense block, the same bits, with the bounded entries held."""
+    rng = np.random.default_rng(9)
+    m, n = 600, 599
+    B = sp.diags([rng.uniform(1, 2, n), rng.uniform(-0.5, 0.5, n - 1)], [0, 1], shape=(m, n), format="lil")
+    B[:, 100] = 0.0
+    B = sp.csr_matrix(B)
+    r = rng.normal(size=m)
+    lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
+    lower[[3, 300]], upper[[3, 300]] = -0.01, 0.01
+    dense = lsq_linear(B.toarray(), r, bounds=(lower, upper), method="bvls", tol=1e-14).x
+    assert np.array_equal(bounded_lstsq(B, r, lower, upper), dense)
