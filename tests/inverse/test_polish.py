@@ -325,3 +325,41 @@ def test_a_restart_of_the_least_squares_solves_no_point_again(monkeypatch):
     assert runs[0] > 2, "no restart: the test needs one"
     assert max(solved.values()) == 1, sorted(solved.values())[-3:]
     assert sum(solved.values()) == result.evaluations
+
+
+def test_the_gauss_newton_point_is_the_box_constrained_linear_solution():
+    """For a linear residual ``r = J (x - a)`` the point is ``a`` when the box holds it and the
+    bounded least-squares solution (``a`` clipped, for orthogonal columns) when it does not; a
+    parameter whose box is a point stays, and a residual that is not finite moves nothing."""
+    from vibupdate.inverse.bounded_lsq import gauss_newton_point
+
+    J = np.diag([2.0, 3.0, 0.5])
+    x, lo, hi = np.zeros(3), -np.ones(3), np.ones(3)
+    a = np.array([0.3, -0.7, 0.9])
+    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, lo, hi), a, atol=1e-12)
+    a = np.array([0.3, -1.7, 4.0])
+    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, lo, hi), [0.3, -1.0, 1.0], atol=1e-12)
+    fixed = np.array([0.0, -1.0, -1.0]), np.array([0.0, 1.0, 1.0])
+    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, *fixed), [0.0, -1.0, 1.0], atol=1e-12)
+    assert np.array_equal(gauss_newton_point(x, np.array([np.nan, 0.0, 0.0]), J, lo, hi), x)
+
+
+def test_a_run_whose_gauss_newton_step_lands_on_a_known_answer_stops_there():
+    """A point 0.5 away from a known answer whose linear model steps onto it ends the run as
+    "known answer" (it would only find that answer again), before any point comes near it; a
+    model that steps elsewhere, or no box to step in, does not."""
+    from vibupdate.inverse.bounded_lsq import SAME_ANSWER, Monitor, Stop
+
+    J, a, lo, hi = np.array([[1.0, 0.0], [0.0, 2.0], [1.0, 1.0]]), np.array([0.2, -0.3]), -np.ones(2), np.ones(2)
+    x = a + [0.5, 0.0]
+
+    def monitor(stationary):
+        return Monitor(np.zeros(2), (J @ -a, J), limit=100, budget=100, started=0.0, max_seconds=None,
+                       answers=[np.array([0.9, 0.9]), a], stationary=stationary)
+
+    with pytest.raises(Stop) as stop:
+        monitor((lo, hi, 0.0)).seen(x, (J @ (x - a), J))
+    assert stop.value.reason == "known answer" and "known answer 2" in str(stop.value), str(stop.value)
+    elsewhere = a + 10 * SAME_ANSWER
+    monitor((lo, hi, 0.0)).seen(x, (J @ (x - elsewhere), J))
+    monitor(None).seen(x, (J @ (x - a), J))

@@ -8,16 +8,18 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, lsq_linear
 
 
 #: A run has stalled when its best objective fell by less than this fraction over the last
 #: ``window`` evaluations (`Monitor`); it then stops with the best point.
 STALL_DECREASE = 1e-3
 #: A run evaluated at a point within this distance (largest normalized parameter difference)
-#: of a known answer has found that answer again and stops (`Monitor`, ``answers``): a tenth of
-#: the distance at which two answers count as distinct (`vibupdate.inverse.search.Search.distinct`;
-#: `benchmarks/RESULTS.md`, "The uniqueness probe stops on answers found again").
+#: of a known answer, or whose bounded Gauss-Newton step from that point lands this close to one
+#: (`gauss_newton_point`), has found that answer again and stops (`Monitor`, ``answers``): a tenth
+#: of the distance at which two answers count as distinct (`vibupdate.inverse.search.Search.distinct`;
+#: `benchmarks/RESULTS.md`, "The uniqueness probe stops on answers found again" and "Starts whose
+#: Gauss-Newton step lands on a known answer").
 SAME_ANSWER = 1e-4
 
 
@@ -48,8 +50,9 @@ class Monitor:
     (`STALL_DECREASE`) over ``window`` evaluations (by default twice the unknowns plus one, at
     least 20: scipy's trust region may need several rejected steps in a row), a point near
     one of ``answers`` (shape (n_a, n_x); none by default; a run that only finds a known answer
-    again need not converge on it), or, given ``stationary = (lower, upper, ftol)``, a best
-    point from which the Gauss-Newton step would lower the objective by at most ``ftol`` of
+    again need not converge on it), or, given ``stationary = (lower, upper, ftol)``, a point
+    whose bounded Gauss-Newton step lands near one of ``answers`` (`gauss_newton_point`) and a
+    best point from which the Gauss-Newton step would lower the objective by at most ``ftol`` of
     itself (`gauss_newton_decrease`; reason ``"convergence"``)."""
 
     def __init__(self, x, value, limit: int, budget: int, started: float, max_seconds: float | None,
@@ -74,6 +77,11 @@ class Monitor:
             if gap.min() <= SAME_ANSWER:
                 raise Stop("known answer", f"reached known answer {int(gap.argmin()) + 1} again (within "
                                            f"{gap.min():.1e}) after {self.count} evaluations")
+            if self.stationary is not None and value[1] is not None:
+                gap = np.abs(self.answers - gauss_newton_point(x, *value, *self.stationary[:2])).max(axis=1)
+                if gap.min() <= SAME_ANSWER:
+                    raise Stop("known answer", f"heading for known answer {int(gap.argmin()) + 1}: the Gauss-Newton "
+                                               f"step lands within {gap.min():.1e} of it after {self.count} evaluations")
         if better and self.stationary is not None and value[1] is not None:
             lower, upper, ftol = self.stationary
             if gauss_newton_decrease(self.best[0], *value, lower, upper) <= ftol:
@@ -132,6 +140,36 @@ def gauss_newton_decrease(x, r, J, lower, upper) -> float:
     step = np.linalg.lstsq(free, r, rcond=None)[0]
     moved = free @ step
     return float(moved @ moved) / total
+
+
+def gauss_newton_point(x, r, J, lower, upper) -> np.ndarray:
+    """Where the Gauss-Newton step from ``x`` lands in the box: ``x + d``, ``d`` minimizing
+    ``|r + J d|`` with ``lower <= x + d <= upper`` (scipy's ``bvls``); ``x`` itself where ``r``
+    or ``J`` is not finite; a parameter whose box is a point stays. The point the trust region's steps head for while the linear model
+    holds: a run whose point is a known answer only finds that answer again.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_x,)
+    r : ndarray, shape (n_r,)
+        Residual at ``x``.
+    J : ndarray, shape (n_r, n_x)
+        Its Jacobian.
+    lower, upper : ndarray, shape (n_x,)
+        The box.
+
+    Returns
+    -------
+    ndarray, shape (n_x,)
+    """
+    x = np.asarray(x, dtype=float)
+    lo, hi = np.minimum(lower - x, 0.0), np.maximum(upper - x, 0.0)
+    free = lo < hi   # a parameter its box fixes stays
+    if not (free.any() and np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return x
+    d = np.zeros(x.size)
+    d[free] = lsq_linear(J[:, free], -r, bounds=(lo[free], hi[free]), method="bvls").x
+    return x + d
 
 
 def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, evaluated: dict | None = None,
