@@ -80,8 +80,9 @@ class Monitor:
             if self.stationary is not None and value[1] is not None:
                 gap = np.abs(self.answers - gauss_newton_point(x, *value, *self.stationary[:2])).max(axis=1)
                 if gap.min() <= SAME_ANSWER:
-                    raise Stop("known answer", f"heading for known answer {int(gap.argmin()) + 1}: the Gauss-Newton "
-                                               f"step lands within {gap.min():.1e} of it after {self.count} evaluations")
+                    raise Stop("known answer", f"heading for known answer {int(gap.argmin()) + 1}: the Gauss-Newton"
+                                               f" step lands within {gap.min():.1e} of it after {self.count} "
+                                               "evaluations")
         if better and self.stationary is not None and value[1] is not None:
             lower, upper, ftol = self.stationary
             if gauss_newton_decrease(self.best[0], *value, lower, upper) <= ftol:
@@ -145,8 +146,9 @@ def gauss_newton_decrease(x, r, J, lower, upper) -> float:
 def gauss_newton_point(x, r, J, lower, upper) -> np.ndarray:
     """Where the Gauss-Newton step from ``x`` lands in the box: ``x + d``, ``d`` minimizing
     ``|r + J d|`` with ``lower <= x + d <= upper`` (scipy's ``bvls``); ``x`` itself where ``r``
-    or ``J`` is not finite; a parameter whose box is a point stays. The point the trust region's steps head for while the linear model
-    holds: a run whose point is a known answer only finds that answer again.
+    or ``J`` is not finite; a parameter whose box is a point stays. The point the trust
+    region's steps head for while the linear model holds: a run whose point is a known answer
+    only finds that answer again.
 
     Parameters
     ----------
