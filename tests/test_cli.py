@@ -229,6 +229,32 @@ def test_solver_options_out_of_range_are_bad_input(tmp_path, capsys, line, key):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("old, new, named", [
+    ("hz = 164.0447,", "hz = 1e-300,", "antiresonance frequency 1e-300 Hz"),
+    ("hz = 164.0447,", "hz = 1e200,", "antiresonance frequency 1e+200 Hz"),
+    ("natural_hz = [37.3397,", "natural_hz = [3.7e-7,", "natural frequency 3.7e-07 Hz")])
+def test_a_frequency_outside_mechanical_vibration_is_bad_input(tmp_path, capsys, old, new, named):
+    """A frequency whose square leaves double precision ended a run as an internal error after
+    pages of overflow warnings; now it is refused on reading, naming the value and the range."""
+    from outputs_helpers import TINY_CASE, write_case
+
+    case = write_case(tmp_path, TINY_CASE.replace(old, new))
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert named in err and "1e-06 to 1e+12 Hz" in err and "configuration 'A'" in err, err
+    assert "Traceback" not in err and "Warning" not in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_range_of_measured_frequencies_holds_its_ends():
+    from vibupdate import Antiresonance, NaturalFrequency
+
+    assert NaturalFrequency.from_hz(1e-6).freq_hz == pytest.approx(1e-6)
+    assert Antiresonance.from_hz(1e12, "y1", "y1").freq_hz == pytest.approx(1e12)
+    with pytest.raises(ValueError, match=r"natural frequency 9e-07 Hz .* outside 1e-06 to 1e\+12 Hz"):
+        NaturalFrequency.from_hz(9e-7)
+
+
 def test_an_internal_error_is_one_line_and_debug_prints_the_traceback(tmp_path, monkeypatch, capsys):
     from outputs_helpers import write_case
 

@@ -20,6 +20,11 @@ from vibupdate.model.affine import AffineModel
 
 
 TWO_PI = 2.0 * math.pi
+#: Measured frequencies are mechanical vibration: from a period of about eleven days to a
+#: terahertz, Hz. A value outside is a unit or typing error, refused where it is read: its
+#: square and the weights built on it would leave double precision (1e-300 Hz or 1e200 Hz once
+#: ended a run as an internal error after pages of overflow warnings).
+FREQUENCY_RANGE_HZ = (1e-6, 1e12)
 
 
 def _positive_finite(value, what: str) -> float:
@@ -28,6 +33,16 @@ def _positive_finite(value, what: str) -> float:
     value = float(value)
     if not math.isfinite(value) or value <= 0:
         raise ValueError(f"{what} must be positive and finite, got {value!r}")
+    return value
+
+
+def _frequency(value, what: str) -> float:
+    """A measured frequency in rad/s: positive, finite and within `FREQUENCY_RANGE_HZ`."""
+    value = _positive_finite(value, what)
+    lo, hi = FREQUENCY_RANGE_HZ
+    if not TWO_PI * lo <= value <= TWO_PI * hi:
+        raise ValueError(f"{what} {value / TWO_PI:.6g} Hz ({value:.6g} rad/s) is outside {lo:g} to {hi:g} Hz, "
+                         "the range of mechanical vibration: a unit or typing error?")
     return value
 
 
@@ -231,7 +246,7 @@ class NaturalFrequency:
     damping_interval: tuple[float, float] | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "omega", _positive_finite(self.omega, "natural frequency"))
+        object.__setattr__(self, "omega", _frequency(self.omega, "natural frequency"))
         object.__setattr__(self, "weight", _positive_finite(self.weight, "natural-frequency weight"))
         if self.damping_ratio is not None:
             xi = self.damping_ratio
@@ -327,7 +342,7 @@ class Antiresonance:
     interval: tuple[float, float] | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "omega", _positive_finite(self.omega, "antiresonance frequency"))
+        object.__setattr__(self, "omega", _frequency(self.omega, "antiresonance frequency"))
         object.__setattr__(self, "weight", _positive_finite(self.weight, "antiresonance weight"))
         object.__setattr__(self, "index", _optional_index(self.index, "antiresonance index"))
         object.__setattr__(self, "interval", _interval(self.interval, self.omega, "antiresonance interval"))
