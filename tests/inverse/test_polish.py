@@ -336,12 +336,12 @@ def test_the_gauss_newton_point_is_the_box_constrained_linear_solution():
     J = np.diag([2.0, 3.0, 0.5])
     x, lo, hi = np.zeros(3), -np.ones(3), np.ones(3)
     a = np.array([0.3, -0.7, 0.9])
-    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, lo, hi), a, atol=1e-12)
+    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, lo, hi)[0], a, atol=1e-12)
     a = np.array([0.3, -1.7, 4.0])
-    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, lo, hi), [0.3, -1.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, lo, hi)[0], [0.3, -1.0, 1.0], atol=1e-12)
     fixed = np.array([0.0, -1.0, -1.0]), np.array([0.0, 1.0, 1.0])
-    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, *fixed), [0.0, -1.0, 1.0], atol=1e-12)
-    assert np.array_equal(gauss_newton_point(x, np.array([np.nan, 0.0, 0.0]), J, lo, hi), x)
+    np.testing.assert_allclose(gauss_newton_point(x, J @ (x - a), J, *fixed)[0], [0.0, -1.0, 1.0], atol=1e-12)
+    assert np.array_equal(gauss_newton_point(x, np.array([np.nan, 0.0, 0.0]), J, lo, hi)[0], x)
 
 
 def test_a_run_whose_gauss_newton_step_lands_on_a_known_answer_stops_there():
@@ -363,3 +363,23 @@ def test_a_run_whose_gauss_newton_step_lands_on_a_known_answer_stops_there():
     elsewhere = a + 10 * SAME_ANSWER
     monitor((lo, hi, 0.0)).seen(x, (J @ (x - elsewhere), J))
     monitor(None).seen(x, (J @ (x - a), J))
+
+
+def test_the_gauss_newton_point_from_the_last_active_bounds_is_the_same_point():
+    """The active bounds of the last point, given as ``held``, give the point in one least
+    squares where they still hold, and scipy's bvls where they do not: the same point either way
+    (right, wrong and no guess), with the bounds active there."""
+    from vibupdate.inverse.bounded_lsq import gauss_newton_point
+
+    rng = np.random.default_rng(7)
+    J, lo, hi = rng.standard_normal((30, 8)), -0.2 * np.ones(8), 0.3 * np.ones(8)
+    x = rng.uniform(-0.1, 0.1, 8)
+    r = J @ rng.uniform(-1.0, 1.0, 8) + 0.1 * rng.standard_normal(30)
+    point, held = gauss_newton_point(x, r, J, lo, hi)
+    assert 0 < np.count_nonzero(held) < 8
+    np.testing.assert_allclose(point[held < 0], lo[held < 0], atol=1e-14)
+    np.testing.assert_allclose(point[held > 0], hi[held > 0], atol=1e-14)
+    for guess in (held, np.zeros(8, dtype=int), -held, np.where(held == 0, 1, 0)):
+        again, held_again = gauss_newton_point(x, r, J, lo, hi, guess)
+        np.testing.assert_allclose(again, point, atol=1e-12)
+        assert np.array_equal(held_again, held)

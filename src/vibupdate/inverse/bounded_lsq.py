@@ -62,6 +62,7 @@ class Monitor:
         self.started, self.max_seconds = started, max_seconds
         self.answers = None if answers is None or not len(answers) else np.atleast_2d(np.asarray(answers, float))
         self.stationary = stationary
+        self.held = None   # the bounds active where the last point's Gauss-Newton step landed
         self.count = 0
         self.history = [self.best[2]]
 
@@ -78,7 +79,8 @@ class Monitor:
                 raise Stop("known answer", f"reached known answer {int(gap.argmin()) + 1} again (within "
                                            f"{gap.min():.1e}) after {self.count} evaluations")
             if self.stationary is not None and value[1] is not None:
-                gap = np.abs(self.answers - gauss_newton_point(x, *value, *self.stationary[:2])).max(axis=1)
+                landing, self.held = gauss_newton_point(x, *value, *self.stationary[:2], self.held)
+                gap = np.abs(self.answers - landing).max(axis=1)
                 if gap.min() <= SAME_ANSWER:
                     raise Stop("known answer", f"heading for known answer {int(gap.argmin()) + 1}: the Gauss-Newton"
                                                f" step lands within {gap.min():.1e} of it after {self.count} "
@@ -143,12 +145,18 @@ def gauss_newton_decrease(x, r, J, lower, upper) -> float:
     return float(moved @ moved) / total
 
 
-def gauss_newton_point(x, r, J, lower, upper) -> np.ndarray:
+def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np.ndarray]:
     """Where the Gauss-Newton step from ``x`` lands in the box: ``x + d``, ``d`` minimizing
-    ``|r + J d|`` with ``lower <= x + d <= upper`` (scipy's ``bvls``); ``x`` itself where ``r``
-    or ``J`` is not finite; a parameter whose box is a point stays. The point the trust
-    region's steps head for while the linear model holds: a run whose point is a known answer
-    only finds that answer again.
+    ``|r + J d|`` with ``lower <= x + d <= upper``; ``x`` itself where ``r`` or ``J`` is not
+    finite; a parameter whose box is a point stays. The point the trust region's steps head for
+    while the linear model holds: a run whose point is a known answer only finds that answer
+    again.
+
+    Given ``held``, the bounds active at the last point of the run, one least squares with
+    those parameters on their bounds gives the point when it is one: the others inside the box
+    and the residual's gradient pushing each held one out (the optimality conditions of this
+    convex program); else scipy's ``bvls`` solves it (two to three milliseconds on 29 columns,
+    where the one solve takes 0.1).
 
     Parameters
     ----------
@@ -159,19 +167,34 @@ def gauss_newton_point(x, r, J, lower, upper) -> np.ndarray:
         Its Jacobian.
     lower, upper : ndarray, shape (n_x,)
         The box.
+    held : ndarray of int, shape (n_x,), optional
+        -1 for a parameter on its lower bound, 1 on its upper bound, 0 free: what this function
+        returned for the last point.
 
     Returns
     -------
-    ndarray, shape (n_x,)
+    point : ndarray, shape (n_x,)
+    held : ndarray of int, shape (n_x,)
+        The bounds active at ``point``, as ``held`` above.
     """
     x = np.asarray(x, dtype=float)
     lo, hi = np.minimum(lower - x, 0.0), np.maximum(upper - x, 0.0)
     free = lo < hi   # a parameter its box fixes stays
     if not (free.any() and np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-        return x
+        return x, np.zeros(x.size, dtype=int)
+    if held is not None:
+        d = np.where(held < 0, lo, np.where(held > 0, hi, 0.0))
+        inner = free & (held == 0)
+        if inner.any():
+            d[inner] = np.linalg.lstsq(J[:, inner], -(r + J[:, ~inner] @ d[~inner]), rcond=None)[0]
+        g = J.T @ (r + J @ d)
+        tol = 1e-10 * float(np.abs(g).max())
+        if (np.all((d[inner] >= lo[inner]) & (d[inner] <= hi[inner])) and np.all(g[free & (held < 0)] >= -tol)
+                and np.all(g[free & (held > 0)] <= tol)):
+            return x + d, held
     d = np.zeros(x.size)
     d[free] = lsq_linear(J[:, free], -r, bounds=(lo[free], hi[free]), method="bvls").x
-    return x + d
+    return x + d, np.where(free & (d <= lo), -1, np.where(free & (d >= hi), 1, 0))
 
 
 def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, evaluated: dict | None = None,
