@@ -194,7 +194,8 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
             return x + d, held
     d = np.zeros(x.size)
     d[free] = lsq_linear(J[:, free], -r, bounds=(lo[free], hi[free]), method="bvls").x
-    return x + d, np.where(free & (d <= lo), -1, np.where(free & (d >= hi), 1, 0))
+    edge = INSIDE * (hi - lo)   # bvls leaves an active parameter within rounding of its bound
+    return x + d, np.where(free & (d <= lo + edge), -1, np.where(free & (d >= hi - edge), 1, 0))
 
 
 def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, evaluated: dict | None = None,
