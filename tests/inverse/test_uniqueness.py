@@ -376,3 +376,23 @@ def test_a_start_that_cannot_fit_as_well_and_fails_is_not_moved_to_the_minimum_c
     probes = [s for s in result.sought.starts if s.purpose == "uniqueness" and s.start != "valley ends"]
     assert probes and all(s.status == "not_verified" for s in probes)
     assert len(moved) == 1 and not np.allclose(moved[0], far)  # the answer's own move only
+
+
+def test_a_fourteen_spring_chain_from_three_frequencies_is_searched_and_not_unique():
+    """Fourteen springs and three exact frequencies: the data leave eleven directions
+    undetermined. The search now runs on models of this size by default (it stopped at 12
+    parameters, and such a run said verified with the uniqueness not searched), so the verdict
+    is ``not_unique``; every other answer keeps the data, and the warning names three of them
+    and counts the rest."""
+    names = [f"k{i}" for i in range(1, 15)]
+    model = chain_model(14, names)
+    M, K = model.matrices_at([1000.0] * 14)
+    omega = modes(M, K)[0][:3]
+    result = update([Configuration("three modes", model, tuple(NaturalFrequency(w) for w in omega))])
+    assert result.sought.uniqueness, result.sought.reason
+    assert result.verdict is Verdict.NOT_UNIQUE and len(result.alternatives) > 3, result.message
+    for a in result.alternatives:
+        A, B = model.matrices_at([a.values[n] for n in names])
+        np.testing.assert_allclose(modes(A, B)[0][:3], omega, rtol=1e-8)
+    text = next(w for w in result.warnings if w.startswith("uniqueness:"))
+    assert text.count("from the ") == 3 and f"and {len(result.alternatives) - 3} more" in text, text

@@ -38,8 +38,10 @@ class Search:
     probe_dofs : int
         Above this many DOFs the uniqueness search polishes its starts on a reduced model first.
     probe_parameters : int
-        The uniqueness search runs on models up to this many parameters (the bundled
-        29-parameter frame took 36 s for four starts, its answer unchanged).
+        The uniqueness search runs on models up to this many parameters: its five starts cost
+        the bundled 29-parameter frame about 0.4 s, a 30-spring chain with fewer data than
+        springs about 0.5 s besides its 60 valley ends (`benchmarks/RESULTS.md`, "The uniqueness
+        search on up to 40 parameters").
     distinct : float
         Two answers differ when a normalized parameter differs by more than this.
     tie : float
@@ -68,7 +70,7 @@ class Search:
     probe_random_starts: int = 2
     probe_evaluations: int = 20
     probe_dofs: int = DENSE_LIMIT
-    probe_parameters: int = 12
+    probe_parameters: int = 40
     distinct: float = 1e-3
     tie: float = 1e-3
     as_well: float = 2.0

@@ -679,12 +679,18 @@ def _valley(configurations, chosen: _Finish, alternatives: tuple[Alternative, ..
     return alternatives + tuple(added), tuple(x for _, _, x in ends)
 
 
+#: Other answers named in the warning, at most (every one is in ``UpdateResult.alternatives``).
+NAMED_ALTERNATIVES = 3
+
+
 def _alternatives_text(records: tuple[Alternative, ...], mine: dict) -> str:
     """The other answers in words: which parameters differ, in their units (``mine``: the
-    returned answer's physical values by name)."""
-    parts = (f"from the {a.start} (objective {a.objective:.3g}): "
+    returned answer's physical values by name), the first `NAMED_ALTERNATIVES` of them."""
+    parts = [f"from the {a.start} (objective {a.objective:.3g}): "
              + ", ".join(f"{n} = {a.values[n]:.5g} (here {mine[n]:.5g})" for n in a.differs[:6])
-             + (f" and {len(a.differs) - 6} more" if len(a.differs) > 6 else "") for a in records)
+             + (f" and {len(a.differs) - 6} more" if len(a.differs) > 6 else "") for a in records[:NAMED_ALTERNATIVES]]
+    if len(records) > NAMED_ALTERNATIVES:
+        parts.append(f"and {len(records) - NAMED_ALTERNATIVES} more (solver.alternatives in results.json)")
     return (f"uniqueness: {len(records)} other answer(s) fit every datum within its admissible interval and pass "
             "every check (not unique), so the data do not single out the parameters that differ; "
             + "; ".join(parts))
