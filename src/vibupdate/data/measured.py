@@ -21,9 +21,8 @@ from vibupdate.model.affine import AffineModel
 
 TWO_PI = 2.0 * math.pi
 #: Measured frequencies are mechanical vibration: from a period of about eleven days to a
-#: terahertz, Hz. A value outside is a unit or typing error, refused where it is read: its
-#: square and the weights built on it would leave double precision (1e-300 Hz or 1e200 Hz once
-#: ended a run as an internal error after pages of overflow warnings).
+#: terahertz, Hz. A value outside is taken as a unit or typing error and refused where it is
+#: read (its square and the weights built on it would leave double precision).
 FREQUENCY_RANGE_HZ = (1e-6, 1e12)
 
 

@@ -155,8 +155,8 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
     Given ``held``, the bounds active at the last point of the run, one least squares with
     those parameters on their bounds gives the point when it is one: the others inside the box
     and the residual's gradient pushing each held one out (the optimality conditions of this
-    convex program); else scipy's ``bvls`` solves it (two to three milliseconds on 29 columns,
-    where the one solve takes 0.1).
+    convex program); else scipy's ``bvls`` solves it, one bound added or dropped per pass
+    (`benchmarks/RESULTS.md`, "Starts whose Gauss-Newton step lands on a known answer").
 
     Parameters
     ----------
