@@ -383,3 +383,28 @@ def test_the_gauss_newton_point_from_the_last_active_bounds_is_the_same_point():
         again, held_again = gauss_newton_point(x, r, J, lo, hi, guess)
         np.testing.assert_allclose(again, point, atol=1e-12)
         assert np.array_equal(held_again, held)
+
+
+def test_the_warm_gauss_newton_point_is_never_worse_than_bvls_on_random_boxes():
+    """300 random box-bounded linear least squares (1-11 columns, some rank-deficient, some
+    parameters fixed by their box), each from a random guess of its active bounds and from the
+    right one: the point stays in the box and its objective is bvls's (a convex program's
+    minimum, whichever minimizer)."""
+    from vibupdate.inverse.bounded_lsq import gauss_newton_point
+
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        n_x, n_r = int(rng.integers(1, 12)), int(rng.integers(1, 20))
+        J = rng.standard_normal((n_r, n_x))
+        if rng.random() < 0.3:
+            J[:, rng.integers(0, n_x)] = 0.0
+        lo, hi = -rng.uniform(0.0, 1.0, n_x), rng.uniform(0.0, 1.0, n_x)
+        fixed = rng.random(n_x) < 0.1
+        lo[fixed] = hi[fixed] = 0.0
+        x, r = np.where(fixed, 0.0, rng.uniform(lo, hi)), 3.0 * rng.standard_normal(n_r)
+        point, held = gauss_newton_point(x, r, J, lo, hi)
+        best = float(np.sum((r + J @ (point - x)) ** 2))
+        for guess in (held, rng.integers(-1, 2, n_x)):
+            again, _ = gauss_newton_point(x, r, J, lo, hi, guess)
+            assert np.all(again >= lo - 1e-12) and np.all(again <= hi + 1e-12)
+            assert float(np.sum((r + J @ (again - x)) ** 2)) <= best + 1e-9 * (1.0 + best)
