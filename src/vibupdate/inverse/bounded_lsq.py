@@ -160,13 +160,8 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
 
     Parameters
     ----------
-    x : ndarray, shape (n_x,)
-    r : ndarray, shape (n_r,)
-        Residual at ``x``.
-    J : ndarray, shape (n_r, n_x)
-        Its Jacobian.
-    lower, upper : ndarray, shape (n_x,)
-        The box.
+    x, r, J, lower, upper
+        As in `gauss_newton_decrease`.
     held : ndarray of int, shape (n_x,), optional
         -1 for a parameter on its lower bound, 1 on its upper bound, 0 free: what this function
         returned for the last point.
@@ -188,7 +183,7 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
         if inner.any():
             d[inner] = np.linalg.lstsq(J[:, inner], -(r + J[:, ~inner] @ d[~inner]), rcond=None)[0]
         g = J.T @ (r + J @ d)
-        tol = 1e-10 * float(np.abs(g).max())
+        tol = 1e-10 * float(np.abs(g).max())   # a free parameter's gradient is zero to rounding of this scale
         if (np.all((d[inner] >= lo[inner]) & (d[inner] <= hi[inner])) and np.all(g[free & (held < 0)] >= -tol)
                 and np.all(g[free & (held > 0)] <= tol)):
             return x + d, held
