@@ -385,6 +385,21 @@ def test_the_gauss_newton_point_from_the_last_active_bounds_is_the_same_point():
         assert np.array_equal(held_again, held)
 
 
+def _random_boxes(rng, n: int, column_scales: bool = False):
+    """``n`` random box-bounded linear least squares ``(x, r, J, lower, upper)``: 1-11 columns
+    (scaled by 0.01-100 with ``column_scales``), 1-19 rows, a zero column in about 30 % of them
+    (rank-deficient), about 10 % of the parameters fixed by a box of one point."""
+    for _ in range(n):
+        n_x, n_r = int(rng.integers(1, 12)), int(rng.integers(1, 20))
+        J = rng.standard_normal((n_r, n_x)) * (rng.uniform(0.01, 100.0, n_x) if column_scales else 1.0)
+        if rng.random() < 0.3:
+            J[:, rng.integers(0, n_x)] = 0.0
+        lo, hi = -rng.uniform(0.0, 1.0, n_x), rng.uniform(0.0, 1.0, n_x)
+        fixed = rng.random(n_x) < 0.1
+        lo[fixed] = hi[fixed] = 0.0
+        yield np.where(fixed, 0.0, rng.uniform(lo, hi)), 3.0 * rng.standard_normal(n_r), J, lo, hi
+
+
 def test_the_warm_gauss_newton_point_is_never_worse_than_bvls_on_random_boxes():
     """300 random box-bounded linear least squares (1-11 columns, some rank-deficient, some
     parameters fixed by their box), each from a random guess of its active bounds and from the
@@ -393,18 +408,32 @@ def test_the_warm_gauss_newton_point_is_never_worse_than_bvls_on_random_boxes():
     from vibupdate.inverse.bounded_lsq import gauss_newton_point
 
     rng = np.random.default_rng(11)
-    for _ in range(300):
-        n_x, n_r = int(rng.integers(1, 12)), int(rng.integers(1, 20))
-        J = rng.standard_normal((n_r, n_x))
-        if rng.random() < 0.3:
-            J[:, rng.integers(0, n_x)] = 0.0
-        lo, hi = -rng.uniform(0.0, 1.0, n_x), rng.uniform(0.0, 1.0, n_x)
-        fixed = rng.random(n_x) < 0.1
-        lo[fixed] = hi[fixed] = 0.0
-        x, r = np.where(fixed, 0.0, rng.uniform(lo, hi)), 3.0 * rng.standard_normal(n_r)
+    for x, r, J, lo, hi in _random_boxes(rng, 300):
+        n_x = x.size
         point, held = gauss_newton_point(x, r, J, lo, hi)
         best = float(np.sum((r + J @ (point - x)) ** 2))
         for guess in (held, rng.integers(-1, 2, n_x)):
             again, _ = gauss_newton_point(x, r, J, lo, hi, guess)
             assert np.all(again >= lo - 1e-12) and np.all(again <= hi + 1e-12)
             assert float(np.sum((r + J @ (again - x)) ** 2)) <= best + 1e-9 * (1.0 + best)
+
+
+def test_the_landing_screen_never_rules_out_an_answer_near_the_landing_point():
+    """300 random box-bounded linear least squares (as above: rank-deficient columns, fixed
+    parameters): every point of the box within ``SAME_ANSWER`` of the landing point (cold or warm)
+    passes `may_land_near`, and most random points of the box are ruled out without a solve."""
+    from vibupdate.inverse.bounded_lsq import SAME_ANSWER, gauss_newton_point, may_land_near
+
+    rng = np.random.default_rng(13)
+    ruled_out = tried = 0
+    for x, r, J, lo, hi in _random_boxes(rng, 300, column_scales=True):
+        n_x = x.size
+        for point in (gauss_newton_point(x, r, J, lo, hi)[0],
+                      gauss_newton_point(x, r, J, lo, hi, rng.integers(-1, 2, n_x))[0]):
+            near = np.clip(point + rng.uniform(-SAME_ANSWER, SAME_ANSWER, (20, n_x)), lo, hi)
+            near[0] = point
+            assert may_land_near(x, r, J, lo, hi, near, SAME_ANSWER).all()
+        far = rng.uniform(lo, hi, (20, n_x))
+        ruled_out += int(np.count_nonzero(~may_land_near(x, r, J, lo, hi, far, SAME_ANSWER)))
+        tried += far.shape[0]
+    assert ruled_out > 0.5 * tried, (ruled_out, tried)

@@ -78,7 +78,8 @@ class Monitor:
             if gap.min() <= SAME_ANSWER:
                 raise Stop("known answer", f"reached known answer {int(gap.argmin()) + 1} again (within "
                                            f"{gap.min():.1e}) after {self.count} evaluations")
-            if self.stationary is not None and value[1] is not None:
+            if self.stationary is not None and value[1] is not None and may_land_near(
+                    x, *value, *self.stationary[:2], self.answers, SAME_ANSWER).any():
                 landing, self.held = gauss_newton_point(x, *value, *self.stationary[:2], self.held)
                 gap = np.abs(self.answers - landing).max(axis=1)
                 if gap.min() <= SAME_ANSWER:
@@ -191,6 +192,45 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
     d[free] = lsq_linear(J[:, free], -r, bounds=(lo[free], hi[free]), method="bvls").x
     edge = INSIDE * (hi - lo)   # bvls leaves an active parameter within rounding of its bound
     return x + d, np.where(free & (d <= lo + edge), -1, np.where(free & (d >= hi - edge), 1, 0))
+
+
+#: Rounding allowance of `may_land_near`: a gradient entry within this share of the gradient's
+#: scale (the largest sum of the magnitudes of an entry's terms) counts as zero, far more than
+#: the optimality check of `gauss_newton_point` (1e-10 of the largest entry) or bvls leave.
+LANDING_ROUNDING = 1e-6
+
+
+def may_land_near(x, r, J, lower, upper, answers, distance: float) -> np.ndarray:
+    """Which ``answers`` (shape (n_a, n_x)) the landing point `gauss_newton_point` may lie
+    within ``distance`` of (largest entry), from the optimality conditions alone: False proves it
+    does not, at the cost of a few products, without solving for the point.
+
+    Every minimizer ``d`` of ``|r + J d|`` in the box satisfies, per parameter free to move, a
+    gradient ``g(d) = J^T (r + J d)`` of 0 inside its bounds, >= 0 on the lower one, <= 0 on the
+    upper one. Within ``distance`` of ``d* = a - x``, ``g(d)`` differs from ``g(d*)`` by at most
+    ``distance`` times the row sums of ``|J^T J|``; so ``g(d*)`` below minus that bound needs
+    ``d`` on the upper bound (``d*`` within ``distance`` of it), above it on the lower one. An
+    answer whose ``g(d*)`` breaks this for some parameter is out of reach
+    (`LANDING_ROUNDING` for the rounding of both sides). Arguments as in `gauss_newton_point`.
+
+    Returns
+    -------
+    ndarray of bool, shape (n_a,)
+    """
+    x = np.asarray(x, dtype=float)
+    answers = np.atleast_2d(answers)
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return np.ones(answers.shape[0], dtype=bool)   # `gauss_newton_point` stays at x: test it
+    lo, hi = np.minimum(lower - x, 0.0), np.maximum(upper - x, 0.0)
+    free = lo < hi
+    H = J.T @ J
+    step = answers - x                                   # d*, one row per answer
+    g = J.T @ r + step @ H
+    scale = np.abs(J).T @ np.abs(r) + np.abs(step) @ np.abs(H)   # of each gradient entry's terms
+    reach = distance * np.abs(H).sum(axis=1) + LANDING_ROUNDING * scale.max(axis=1, keepdims=True)
+    up = (g < -reach) & (step < hi - distance)           # needs the upper bound it cannot be on
+    down = (g > reach) & (step > lo + distance)          # needs the lower bound it cannot be on
+    return ~np.any((up | down) & free, axis=1)
 
 
 def bounded_least_squares(evaluate, x0, lower, upper, known=None, monitor=None, evaluated: dict | None = None,

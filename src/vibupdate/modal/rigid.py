@@ -64,8 +64,8 @@ def rounding_scale(M, K, U, precision: float | None = None) -> np.ndarray:
     """
     U = np.asarray(U, dtype=float).reshape(M.shape[0], -1)
     A = np.abs(U)
-    top = np.einsum("ij,ij->j", A, np.asarray(_abs(K) @ A))
-    mass = np.einsum("ij,ij->j", U, np.asarray(M @ U))
+    top = np.add.reduce(A * np.asarray(_abs(K) @ A), axis=0)     # column dot products; einsum's dispatch
+    mass = np.add.reduce(U * np.asarray(M @ U), axis=0)          # costs more on small matrices
     with_mass = mass > 0
     if with_mass.all():    # the usual case: no masking needed
         return unit(precision) * top / mass
