@@ -467,7 +467,9 @@ def validate_configuration(cfg: Configuration) -> None:
         if clash:
             raise ValueError(
                 f"{where}: antiresonance of h_{rc[0]},{rc[1]} at {clash[0] / TWO_PI:.6g} Hz equals a natural "
-                "frequency; a zero cannot sit on a pole (interlacing, Eq. 11)"
+                "frequency; a zero cannot sit on a pole (interlacing, Eq. 11). A mode with a node at "
+                f"{rc[0]} or {rc[1]} does not show in h_{rc[0]},{rc[1]}: its pole cancels a zero at the same "
+                "frequency, which is no antiresonance of the measured FRF; leave it out"
             )
         if any(b <= a for a, b in zip(zs, zs[1:])):
             raise ValueError(f"{where}: antiresonances of h_{rc[0]},{rc[1]} must be strictly ascending")
