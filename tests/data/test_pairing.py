@@ -89,3 +89,78 @@ def test_driving_points_of_free_free_chains_count_the_zero_below_the_first_mode(
                 if got != true_index:
                     wrong.append((n, point, got))
     assert not wrong, wrong[:3]
+
+
+def test_cross_receptance_zeros_on_nominal_poles_stay_hidden_unless_the_data_show_more():
+    """Constructed counts (rad/s): nominal modes 1, 2, 3, nominal zeros on pole 2 and at 2.5.
+    A measured zero at 2.4 is zero 2 (the one on pole 2 stays there, hidden by it); measured
+    zeros at 2.1 and 2.5 are zeros 1 and 2 (one more than the nominal model has between the
+    poles: the one on pole 2, the nearer, came off it); with zeros on poles 2 and 3 and none
+    between, a measured zero at 2.9 came off pole 3 and is zero 2."""
+    from vibupdate.data.pairing import zero_indices
+
+    poles, modes, nominal = [1.0, 2.05, 3.0], [1, 2, 3], np.array([1.0, 2.0, 3.0])
+    assert zero_indices(poles, modes, [2.4], nominal, np.array([2.0, 2.5])) == [2]
+    assert zero_indices(poles, modes, [2.1, 2.5], nominal, np.array([2.0, 2.5])) == [1, 2]
+    assert zero_indices(poles, modes, [2.9], nominal, np.array([2.0, 3.0])) == [2]
+    assert zero_indices(poles, modes, [1.9], nominal, np.array([2.0, 3.0])) == [1]   # off pole 2, below it
+
+
+def ring(n_masses):
+    """Unit masses y1..yn on a ring of springs, each also grounded: ``kA`` the springs of one
+    half, ``kB`` of the other, ``kg`` the ground springs (factors of 10 kN/m and 2 kN/m). At the
+    nominal point the ring is cyclic: repeated frequencies, and zeros of cross receptances on
+    their poles; every point keeps a mirror symmetry, whose nodes hide some zeros at their poles."""
+    def build(p):
+        asm = Assembly("beam")
+        for i in range(1, n_masses + 1):
+            asm.node(i, float(i))
+            asm.fix(f"phi{i}")
+            asm.mass(f"y{i}", 1.0)
+            asm.spring(f"y{i}", 2.0e3 * p["kg"])
+        for i in range(1, n_masses + 1):
+            asm.spring(f"y{i}", 1.0e4 * (p["kA"] if i <= n_masses // 2 else p["kB"]), f"y{i % n_masses + 1}")
+        return asm.system()
+
+    return from_builder(build, [Parameter(name, 1.0, 0.5, 2.0) for name in ("kA", "kB", "kg")])
+
+
+def measured_cross(model, truth, r, c, n_modes):
+    """The lowest ``n_modes`` natural frequencies of the model at ``truth`` and the zeros of
+    ``h_rc`` below the highest, undeclared, without those on a pole (a pole-zero pair no FRF
+    shows); their true indices among all real zeros; and whether the receptance has as many real
+    zeros as at the nominal point (else zeros left the real axis: no default can count them)."""
+    M, K = model.matrices_at(truth)
+    omega = flexible_modes(M, K)[0][:n_modes]
+    zeros = antiresonances(M, K, model.dof(r), model.dof(c))
+    seen = [k for k, z in enumerate(zeros) if z < omega[-1] and np.min(np.abs(omega - z)) > 1e-6 * z]
+    M0, K0 = model.matrices_at(np.array([p.nominal for p in model.parameters]))
+    nominal = antiresonances(M0, K0, model.dof(r), model.dof(c))
+    real = zeros.size == nominal.size
+    cfg = Configuration("test", model, tuple(NaturalFrequency(w) for w in omega),
+                        tuple(Antiresonance(zeros[k], r, c) for k in seen))
+    return cfg, [k + 1 for k in seen], real
+
+
+@pytest.mark.parametrize("n_masses", [6, 8, 10])
+def test_cross_receptances_of_near_symmetric_rings_keep_their_true_indices(n_masses):
+    """A family: rings (`ring`) with 10 random truths, cross receptances from y1 to a
+    neighbour, the next but one and the opposite mass, the lowest six modes: wherever the
+    zeros stay real, the default indices are the true ones (the count at the nominal point,
+    which the repeated frequencies leave to rounding, got 45 of 244 such zeros wrong)."""
+    rng = np.random.default_rng(n_masses)
+    model = ring(n_masses)
+    wrong, left_real_axis, counted = [], 0, 0
+    for _ in range(10):
+        truth = rng.uniform(0.7, 1.4, 3)
+        for c in ("y2", "y3", f"y{n_masses // 2 + 1}"):
+            cfg, true_index, real = measured_cross(model, truth, "y1", c, 6)
+            if not real:
+                left_real_axis += 1
+                continue
+            counted += len(true_index)
+            got = [a.index for a in declare(cfg)[1]]
+            if got != true_index:
+                wrong.append((c, got, true_index))
+    assert not wrong, wrong[:3]
+    assert counted >= 30 and left_real_axis <= 10, (counted, left_real_axis)   # most cases count

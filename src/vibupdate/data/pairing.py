@@ -9,7 +9,14 @@ of ``h_rc`` there is zero ``n_0 + j``, ``n_0`` the nominal zeros below mode ``m`
 below the lowest pole, consecutive from 1 without poles). A driving point's ``n_0`` comes from
 interlacing instead (one zero between two consecutive modes): a symmetric nominal model whose
 point is a node of mode ``m`` has zeros exactly on that pole, which a perturbed structure moves
-to either side. Every pairing downstream reads these declared indices.
+to either side. A cross receptance has no interlacing; there a nominal zero on a pole (within
+`ON_POLE`: a node of that mode at ``r`` or ``c``, or a repeated frequency) is taken to stay on
+it, hidden by its pole (a pole-zero pair that no FRF shows), unless more zeros are measured
+between two measured poles than the nominal model has there: each extra one came off the nearer
+of the two poles (relative distance) while it has zeros on it to spare. Zeros that leave the
+real axis (two real zeros of the nominal model becoming a complex pair) shift the count in a way
+no default sees: the case then states ``index``. Every pairing downstream reads these declared
+indices.
 """
 
 from __future__ import annotations
@@ -58,26 +65,45 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
     """
     poles = np.asarray(poles, dtype=float)
     zeros = np.asarray(zeros, dtype=float)
-    def zeros_below(m: int) -> int:   # the nominal model's zeros below its mode m
-        if not driving:
-            return int(np.count_nonzero(nominal_zeros < nominal_omega[m - 1]))
-        return int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) + m - 1
+    nominal_zeros = np.asarray(nominal_zeros, dtype=float)
+    if poles.size == 0:
+        return list(range(1, zeros.size + 1))
+
+    def on(w: float) -> int:   # the nominal zeros on the pole at w
+        return int(np.count_nonzero(np.abs(nominal_zeros - w) <= ON_POLE * w))
 
     out = []
-    for i, z in enumerate(zeros):
-        below = np.flatnonzero(poles < z)
-        if poles.size == 0:
-            out.append(i + 1)
+    gap = np.searchsorted(poles, zeros, side="right")   # g: above the measured pole g - 1, below pole g
+    for g in np.unique(gap):
+        c = int(np.count_nonzero(gap == g))
+        if g == 0:   # below the lowest measured pole: counted down from it
+            w0 = nominal_omega[modes[0] - 1]
+            if driving:
+                top = int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) + modes[0] - 1
+            else:
+                strict = int(np.count_nonzero(nominal_zeros < w0 * (1 - ON_POLE)))
+                top = strict + min(max(c - strict, 0), on(w0))
+            out += [max(top - c + 1 + i, 1 + i) for i in range(c)]
             continue
-        if below.size:
-            k = int(below[-1])
-            n0 = zeros_below(modes[k])
-            j = int(np.count_nonzero((zeros > poles[k]) & (zeros <= z)))
-            out.append(n0 + j)
+        a = modes[g - 1]
+        if driving:
+            first = int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) + a
         else:
-            n0 = zeros_below(modes[0])
-            j = int(np.count_nonzero((zeros >= z) & (zeros < poles[0])))
-            out.append(max(n0 - j + 1, i + 1))
+            wa = nominal_omega[a - 1]
+            wb = nominal_omega[modes[g] - 1] if g < poles.size else np.inf
+            same = wb <= wa * (1 + ON_POLE)
+            strict = int(np.count_nonzero((nominal_zeros > wa * (1 + ON_POLE)) & (nominal_zeros < wb * (1 - ON_POLE))))
+            excess = max(c - strict, 0)
+            f_a, f_b = on(wa), (0 if same or not np.isfinite(wb) else on(wb))
+            # the excess zeros came off the poles' zeros, each off the nearer pole (relative distance)
+            mine = zeros[gap == g]
+            nearer_a = int(np.count_nonzero(mine / poles[g - 1] - 1 <= 1 - mine / (poles[g] if g < poles.size
+                                                                                  else np.inf)))
+            up = min(nearer_a, f_a, excess)
+            down = min(c - nearer_a, f_b, excess - up)
+            up = min(f_a, excess - down)     # and the rest off pole a's, as far as it has them
+            first = int(np.count_nonzero(nominal_zeros <= wa * (1 + ON_POLE))) - up + 1
+        out += [first + i for i in range(c)]
     # keep them strictly rising (a sparse nominal spectrum can repeat a count)
     for i in range(1, len(out)):
         out[i] = max(out[i], out[i - 1] + 1)
