@@ -20,8 +20,8 @@ def _truth(problem):
     return np.array([problem.truth[p.name] for p in problem.parameters])
 
 
-@pytest.mark.parametrize("family", ["close_modes", "cross_receptance", "mass_normalized", "many_dofs",
-                                    "many_parameters"])
+@pytest.mark.parametrize("family", ["close_modes", "cross_receptance", "symmetric_ring", "mass_normalized",
+                                    "many_dofs", "many_parameters"])
 @pytest.mark.parametrize("seed", SEEDS)
 def test_in_family_data_admit_the_truth(family, seed):
     problem = F.MAKERS[family](seed)
@@ -65,6 +65,24 @@ def test_cross_receptances_are_cross():
     for seed in SEEDS:
         zeros = F.cross_receptance(seed).data[0].zeros
         assert zeros and all(z.response != z.excitation for z in zeros)
+
+
+def test_symmetric_rings_leave_zero_indices_to_the_default_with_zeros_on_nominal_poles():
+    """The ring's data state no zero index, and over a few seeds the nominal model has a zero of
+    the cross receptance on a pole (what the family is for): the default must count it."""
+    on_pole = 0
+    for seed in range(6):
+        problem = F.symmetric_ring(seed)
+        data = problem.data[0]
+        assert any(z.response != z.excitation for z in data.zeros)
+        if data.declare:   # zeros left the real axis: stated
+            continue
+        M, K, dofs = S.matrices_at(problem.structure, {p.name: p.nominal for p in problem.parameters})
+        w = T.modes(M, K)[0]
+        c = next(z.excitation for z in data.zeros if z.response != z.excitation)
+        z = T.zeros(M, K, dofs.index("y1"), dofs.index(c))[0]
+        on_pole += int(any(np.min(np.abs(w - x)) <= 1e-6 * x for x in z))
+    assert on_pole >= 3, on_pole
 
 
 def test_the_size_families_span_what_they_say():
