@@ -134,6 +134,37 @@ def test_verify_flags_a_skipped_mode():
     assert "declared mode 3" in checks["mode_order"].message and "model mode 4" in checks["mode_order"].message
 
 
+def test_mode_order_lets_a_declared_mode_inside_its_measurement_interval_pass():
+    """Two grounded unit masses weakly coupled: modes 0.02 % apart. Measured with 0.1 %
+    intervals, the first value lies nearer the model's second mode, but the declared first mode
+    lies inside its interval: the data cannot tell them apart, and `mode_order` passes. The same
+    values taken as exact (no interval) still fail it."""
+    from vibupdate import Assembly, Parameter, from_builder
+
+    def build(p):
+        asm = Assembly("beam")
+        for i in (1, 2):
+            asm.node(i, float(i))
+            asm.fix(f"phi{i}")
+            asm.mass(f"y{i}", 1.0)
+        asm.spring("y1", p["k1"])
+        asm.spring("y2", 1000.0)
+        asm.spring("y1", 0.1, "y2")
+        return asm.system()
+
+    model = from_builder(build, [Parameter("k1", 1000.3, 900.0, 1100.0)])
+    omega, _ = spectrum(model, np.zeros(1))
+    assert 1e-4 < omega[1] / omega[0] - 1 < 5e-4
+    values = (omega[1] * (1 - 1e-5), omega[1] * (1 + 2e-4))   # both nearer the second mode
+    for half, passes in ((1e-3, True), (0.0, False)):
+        nat = tuple(NaturalFrequency(w, interval=(w * (1 - half), w * (1 + half)) if half else None) for w in values)
+        cfg = Configuration("C", model, nat)
+        f = model_frequencies(cfg)
+        checks = {c.name: c for c in verify([cfg], np.zeros(1), nominal=[f], updated=[f], lower_bound=0.0,
+                                            n_blocks=2)}
+        assert checks["mode_order"].passed == passes, checks["mode_order"].message
+
+
 def test_flipped_sign_shape_interval_is_not_success():
     """A shape interval with the wrong sign: never success, a warning naming mode and DOF."""
     truth = {"k1": 1100.0, "k3": 900.0, "m2": 1.15, "m5": 0.85}

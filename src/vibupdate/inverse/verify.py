@@ -75,27 +75,37 @@ def _nearest(values: np.ndarray, target: float) -> int:
     return int(np.argmin(np.abs(values - target) / target))
 
 
-def _mode_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
+def _measured(datum, value: float) -> bool:
+    """Whether ``value`` lies in the datum's measurement interval (`Admissible`): the data
+    cannot tell it from a nearer model value there."""
+    return datum is not None and datum.measured[0] <= value <= datum.measured[1]
+
+
+def _mode_order(cfg: Configuration, f: ModelFrequencies, data=()) -> list[str]:
+    """A measured natural frequency nearer another model mode than its declared one, unless the
+    declared mode lies in its measurement interval (``data``: the configuration's `Datum`s)."""
     bad = []
     for k, nat in enumerate(cfg.natural):
         j = _nearest(f.omega_all, nat.omega)
-        if j not in cluster(f.omega_all, nat.mode - 1):   # a repeated frequency's modes tie (`repeated`)
+        if j not in cluster(f.omega_all, nat.mode - 1) and not _measured(data[k] if data else None, f.natural[k]):
             bad.append(f"configuration {cfg.name!r}: measured {nat.freq_hz:.5g} Hz (declared mode {nat.mode}) is "
                        f"nearest to model mode {j + 1} at {f.omega_all[j] / TWO_PI:.5g} Hz; its mode {nat.mode} "
                        f"is at {f.natural[k] / TWO_PI:.5g} Hz (a mode skipped or inserted)")
     return bad
 
 
-def _zero_order(cfg: Configuration, f: ModelFrequencies) -> list[str]:
+def _zero_order(cfg: Configuration, f: ModelFrequencies, data=()) -> list[str]:
+    """As `_mode_order`, for the declared zeros (``data``: the configuration's `Datum`s, the
+    antiresonances after the natural frequencies)."""
     bad = []
-    for a in cfg.antiresonances:
+    for i, a in enumerate(cfg.antiresonances):
         z = f.zeros_all.get(a.receptance, np.zeros(0))
         label = f"configuration {cfg.name!r}: antiresonance of h_{a.response},{a.excitation} at {a.freq_hz:.5g} Hz"
         if a.index > z.size:
             bad.append(f"{label} is declared zero {a.index}, but the model has {z.size} zeros")
             continue
         j = _nearest(z, a.omega)
-        if j != a.index - 1:
+        if j != a.index - 1 and not _measured(data[len(cfg.natural) + i] if data else None, z[a.index - 1]):
             bad.append(f"{label} (declared zero {a.index}) is nearest to model zero {j + 1} at "
                        f"{z[j] / TWO_PI:.5g} Hz; zero {a.index} is at {z[a.index - 1] / TWO_PI:.5g} Hz")
     return bad
@@ -187,13 +197,14 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
         consistency allowance takes the larger of it and the frequency tolerance.
     """
     options = options or VerifyOptions()
+    contract = contract or Admissible.of(configurations, options)
     checks = []
-    order = [m for c, f in zip(configurations, updated) for m in _mode_order(c, f)]
+    order = [m for c, f, d in zip(configurations, updated, contract.frequencies) for m in _mode_order(c, f, d)]
     checks.append(Check("mode_order", not order, "error",
                         _join(order) if order else "every measured natural frequency is nearest to its declared mode",
                         float(len(order)), 0.0))
     if any(c.antiresonances for c in configurations):
-        zeros = [m for c, f in zip(configurations, updated) for m in _zero_order(c, f)]
+        zeros = [m for c, f, d in zip(configurations, updated, contract.frequencies) for m in _zero_order(c, f, d)]
         checks.append(Check("zero_order", not zeros, "error",
                             _join(zeros) if zeros else "every measured antiresonance is nearest to its declared zero",
                             float(len(zeros)), 0.0))
@@ -204,7 +215,6 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
         checks.append(Check("mac", not bad_mac, "error",
                             _join(bad_mac) if bad_mac else f"lowest MAC with a measured shape {worst:.4f}",
                             worst, options.mac_min))
-    contract = contract or Admissible.of(configurations, options)
     found = misses(contract, [data_map(c, xbar, jacobian=False, freqs=f) for c, f in zip(configurations, updated)])
     for name, kinds in _KINDS.items():
         mine = [m for m in found if m.kind in kinds]
