@@ -282,7 +282,7 @@ def symmetric_ring(seed: int) -> Problem:
     in the boxes; the lowest 4-6 frequencies with the antiresonances between them of the driving
     point at ``y1`` and of a cross receptance from ``y1`` (the indices left to the default: the
     nominal model's repeated frequencies put zeros on poles; stated where zeros of the cross
-    receptance left the real axis, which no default counts), exact or with noise under a tenth of
+    receptance left or joined the real axis, which no default counts), exact or with noise under a tenth of
     the closest spacing. A right answer: as for any in-family problem (the truth or its mirror
     image ``kA <-> kB``)."""
     rng = _rng("symmetric_ring", seed)
@@ -301,13 +301,13 @@ def symmetric_ring(seed: int) -> Problem:
             break
     M0, K0, dofs = S.matrices_at(spec, {p.name: p.nominal for p in params})
     pair = dofs.index("y1"), dofs.index(c)
-    left = T.zeros(M0, K0, *pair)[0].size - T.zeros(M, K, *pair)[0].size   # real zeros that became complex
+    left = T.zeros(M0, K0, *pair)[0].size - T.zeros(M, K, *pair)[0].size   # real zeros lost (+) or gained (-)
     if left:   # no default counts them (docs/notes/data-and-formulation.md): the data say which zeros
         data = replace(data, declare=True)
     return Problem(f"ring{seed}", spec, tuple(params), truth, (data,), noise, 0.0, seed,
                    symmetries=((("kA", "kB"),),), family="symmetric_ring",
                    note=f"{n} masses, zeros of h_y1,y1 and h_y1,{c}, closest spacing {100 * spacing:.3g} %"
-                   + (f"; {left} zeros of h_y1,{c} left the real axis: indices stated" if left else ""))
+                   + (f"; {abs(left)} zeros of h_y1,{c} {'left' if left > 0 else 'joined'} the real axis: indices stated" if left else ""))
 
 
 def mass_normalized(seed: int) -> Problem:

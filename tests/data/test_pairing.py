@@ -129,7 +129,7 @@ def measured_cross(model, truth, r, c, n_modes):
     """The lowest ``n_modes`` natural frequencies of the model at ``truth`` and the zeros of
     ``h_rc`` below the highest, undeclared, without those on a pole (a pole-zero pair no FRF
     shows); their true indices among all real zeros; and whether the receptance has as many real
-    zeros as at the nominal point (else zeros left the real axis: no default can count them)."""
+    zeros as at the nominal point (else zeros left or joined the real axis: no default can count them)."""
     M, K = model.matrices_at(truth)
     omega = flexible_modes(M, K)[0][:n_modes]
     zeros = antiresonances(M, K, model.dof(r), model.dof(c))

@@ -13,9 +13,9 @@ to either side. A cross receptance has no interlacing; there a nominal zero on a
 `ON_POLE`: a node of that mode at ``r`` or ``c``, or a repeated frequency) is taken to stay on
 it, hidden by its pole (a pole-zero pair that no FRF shows), unless more zeros are measured
 between two measured poles than the nominal model has there: each extra one came off the nearer
-of the two poles (relative distance) while it has zeros on it to spare. Zeros that leave the
-real axis (two real zeros of the nominal model becoming a complex pair) shift the count in a way
-no default sees: the case then states ``index``. Every pairing downstream reads these declared
+of the two poles (relative distance) while it has zeros on it to spare. Zeros that leave or
+join the real axis (two real zeros of the nominal model becoming a complex pair, or the reverse)
+shift the count in a way no default sees: the case then states ``index``. Every pairing downstream reads these declared
 indices.
 """
 
