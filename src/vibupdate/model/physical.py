@@ -215,7 +215,8 @@ def _rounding_note(M, K, omega, Phi, precision) -> str:
     if precision is not None:
         return f" (beyond the rounding of entries known to the stated relative precision {precision:.3g})"
     scale = rigid_test.rounding_scale(M, K, Phi[:, neg]) / rigid_test.EPS     # |u|^T |K| |u| / u^T M u
-    needed = float(np.max(omega[neg] ** 2 / (rigid_test.RIGID_FACTOR * scale)))
+    with np.errstate(divide="ignore"):   # a vector K does not touch (scale 0): no rounding explains it
+        needed = float(np.max(omega[neg] ** 2 / (rigid_test.RIGID_FACTOR * scale)))
     if not needed <= ROUNDING_NOTE_PRECISION:
         return ""
     return (f" ({'it is' if neg.sum() == 1 else 'they are'} as small as rounding of the entries to a relative "
