@@ -9,6 +9,16 @@ from vibupdate.data.pairing import declare
 from vibupdate.modal.analysis import flexible_modes
 
 
+def unit_masses(n_masses):
+    """An assembly of unit masses ``y1 .. yn`` (their rotations fixed), no springs yet."""
+    asm = Assembly("beam")
+    for i in range(1, n_masses + 1):
+        asm.node(i, float(i))
+        asm.fix(f"phi{i}")
+        asm.mass(f"y{i}", 1.0)
+    return asm
+
+
 def chain(n_masses, walls=True):
     """Masses y1..yn with springs k1..k(n-1) between them, unit masses; with ``walls``, also
     k0 (wall-y1) and kn (yn-wall), else free-free. With every spring at its nominal 1000 N/m the
@@ -16,11 +26,7 @@ def chain(n_masses, walls=True):
     ends = (0, n_masses) if walls else ()
 
     def build(p):
-        asm = Assembly("beam")
-        for i in range(1, n_masses + 1):
-            asm.node(i, float(i))
-            asm.fix(f"phi{i}")
-            asm.mass(f"y{i}", 1.0)
+        asm = unit_masses(n_masses)
         for i in range(1, n_masses):
             asm.spring(f"y{i}", p.get(f"k{i}", 1000.0), f"y{i + 1}")
         for i in ends:
@@ -112,13 +118,9 @@ def ring(n_masses):
     nominal point the ring is cyclic: repeated frequencies, and zeros of cross receptances on
     their poles; every point keeps a mirror symmetry, whose nodes hide some zeros at their poles."""
     def build(p):
-        asm = Assembly("beam")
+        asm = unit_masses(n_masses)
         for i in range(1, n_masses + 1):
-            asm.node(i, float(i))
-            asm.fix(f"phi{i}")
-            asm.mass(f"y{i}", 1.0)
             asm.spring(f"y{i}", 2.0e3 * p["kg"])
-        for i in range(1, n_masses + 1):
             asm.spring(f"y{i}", 1.0e4 * (p["kA"] if i <= n_masses // 2 else p["kB"]), f"y{i % n_masses + 1}")
         return asm.system()
 

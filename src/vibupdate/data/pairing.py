@@ -15,8 +15,8 @@ it, hidden by its pole (a pole-zero pair that no FRF shows), unless more zeros a
 between two measured poles than the nominal model has there: each extra one came off the nearer
 of the two poles (relative distance) while it has zeros on it to spare. Zeros that leave or
 join the real axis (two real zeros of the nominal model becoming a complex pair, or the reverse)
-shift the count in a way no default sees: the case then states ``index``. Every pairing downstream reads these declared
-indices.
+shift the count in a way no default sees: the case then states ``index``. Every pairing
+downstream reads these declared indices.
 """
 
 from __future__ import annotations
