@@ -166,3 +166,39 @@ def test_cross_receptances_of_near_symmetric_rings_keep_their_true_indices(n_mas
                 wrong.append((c, got, true_index))
     assert not wrong, wrong[:3]
     assert counted >= 30 and left_real_axis <= 10, (counted, left_real_axis)   # most cases count
+
+
+def test_cross_receptances_of_a_symmetric_clamped_beam_keep_their_true_indices():
+    """Another structure of the class: a clamped-clamped beam of 8 Euler-Bernoulli elements, EI
+    in two halves (``EA``, ``EB``), symmetric at the nominal point (its midspan a node of every
+    antisymmetric mode); 12 random truths, the lowest 5 modes and the zeros of the midspan
+    driving point and of the midspan-quarter and quarter-quarter cross receptances below the
+    fifth (those within 0.1 % of a pole left out): every default index is the true one (the
+    count at the nominal point got 15 of 97 wrong)."""
+    def build(p):
+        asm = Assembly("beam")
+        for i in range(9):
+            asm.node(i + 1, i / 8)
+        for e in range(8):
+            asm.beam(e + 1, e + 2, EI=100.0 * (p["EA"] if e < 4 else p["EB"]), mass_per_length=1.0)
+        asm.clamp(1)
+        asm.clamp(9)
+        return asm.system()
+
+    model = from_builder(build, [Parameter("EA", 1.0, 0.5, 2.0), Parameter("EB", 1.0, 0.5, 2.0)])
+    rng = np.random.default_rng(0)
+    wrong, counted = [], 0
+    for _ in range(12):
+        M, K = model.matrices_at(rng.uniform(0.6, 1.6, 2))
+        omega = flexible_modes(M, K)[0][:5]
+        zeros, true_index = [], []
+        for r, c in (("y5", "y5"), ("y5", "y3"), ("y3", "y7")):
+            for k, z in enumerate(antiresonances(M, K, model.dof(r), model.dof(c))):
+                if z < omega[-1] and np.min(np.abs(omega - z)) > 1e-3 * z:
+                    zeros.append(Antiresonance(z, r, c))
+                    true_index.append(k + 1)
+        got = [a.index for a in declare(Configuration("B", model, tuple(map(NaturalFrequency, omega)),
+                                                      tuple(zeros)))[1]]
+        counted += len(got)
+        wrong += [(g, t) for g, t in zip(got, true_index) if g != t]
+    assert counted >= 60 and not wrong, (counted, wrong[:3])   # most of the zeros below the fifth mode count
