@@ -72,14 +72,16 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
     def on(w: float) -> int:   # the nominal zeros on the pole at w
         return int(np.count_nonzero(np.abs(nominal_zeros - w) <= ON_POLE * w))
 
+    below_first = int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE)))   # a driving point's
     out = []
     gap = np.searchsorted(poles, zeros, side="right")   # g: above the measured pole g - 1, below pole g
     for g in np.unique(gap):
-        c = int(np.count_nonzero(gap == g))
+        mine = zeros[gap == g]
+        c = mine.size
         if g == 0:   # below the lowest measured pole: counted down from it
             w0 = nominal_omega[modes[0] - 1]
             if driving:
-                top = int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) + modes[0] - 1
+                top = below_first + modes[0] - 1
             else:
                 strict = int(np.count_nonzero(nominal_zeros < w0 * (1 - ON_POLE)))
                 top = strict + min(max(c - strict, 0), on(w0))
@@ -87,18 +89,16 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
             continue
         a = modes[g - 1]
         if driving:
-            first = int(np.count_nonzero(nominal_zeros < nominal_omega[0] * (1 - ON_POLE))) + a
+            first = below_first + a
         else:
             wa = nominal_omega[a - 1]
-            wb = nominal_omega[modes[g] - 1] if g < poles.size else np.inf
-            same = wb <= wa * (1 + ON_POLE)
+            wb, pb = (nominal_omega[modes[g] - 1], poles[g]) if g < poles.size else (np.inf, np.inf)
             strict = int(np.count_nonzero((nominal_zeros > wa * (1 + ON_POLE)) & (nominal_zeros < wb * (1 - ON_POLE))))
             excess = max(c - strict, 0)
-            f_a, f_b = on(wa), (0 if same or not np.isfinite(wb) else on(wb))
+            f_a = on(wa)
+            f_b = 0 if wb <= wa * (1 + ON_POLE) or not np.isfinite(wb) else on(wb)   # pole b's own zeros
             # the excess zeros came off the poles' zeros, each off the nearer pole (relative distance)
-            mine = zeros[gap == g]
-            nearer_a = int(np.count_nonzero(mine / poles[g - 1] - 1 <= 1 - mine / (poles[g] if g < poles.size
-                                                                                  else np.inf)))
+            nearer_a = int(np.count_nonzero(mine / poles[g - 1] - 1 <= 1 - mine / pb))
             up = min(nearer_a, f_a, excess)
             down = min(c - nearer_a, f_b, excess - up)
             up = min(f_a, excess - down)     # and the rest off pole a's, as far as it has them

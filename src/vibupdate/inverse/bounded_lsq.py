@@ -146,6 +146,13 @@ def gauss_newton_decrease(x, r, J, lower, upper) -> float:
     return float(moved @ moved) / total
 
 
+def _step_box(x, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The box of a step ``d`` from ``x`` (``x`` kept inside it) and which parameters it lets
+    move: a parameter its box fixes stays."""
+    lo, hi = np.minimum(lower - x, 0.0), np.maximum(upper - x, 0.0)
+    return lo, hi, lo < hi
+
+
 def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np.ndarray]:
     """Where the Gauss-Newton step from ``x`` lands in the box: ``x + d``, ``d`` minimizing
     ``|r + J d|`` with ``lower <= x + d <= upper``; ``x`` itself where ``r`` or ``J`` is not
@@ -174,8 +181,7 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
         The bounds active at ``point``, as ``held`` above.
     """
     x = np.asarray(x, dtype=float)
-    lo, hi = np.minimum(lower - x, 0.0), np.maximum(upper - x, 0.0)
-    free = lo < hi   # a parameter its box fixes stays
+    lo, hi, free = _step_box(x, lower, upper)
     if not (free.any() and np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
         return x, np.zeros(x.size, dtype=int)
     if held is not None:
@@ -221,8 +227,7 @@ def may_land_near(x, r, J, lower, upper, answers, distance: float) -> np.ndarray
     answers = np.atleast_2d(answers)
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
         return np.ones(answers.shape[0], dtype=bool)   # `gauss_newton_point` stays at x: test it
-    lo, hi = np.minimum(lower - x, 0.0), np.maximum(upper - x, 0.0)
-    free = lo < hi
+    lo, hi, free = _step_box(x, lower, upper)
     H = J.T @ J
     step = answers - x                                   # d*, one row per answer
     g = J.T @ r + step @ H
