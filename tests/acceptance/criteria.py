@@ -237,7 +237,7 @@ def _families() -> dict:
     fams += [Family("biased_channel", F.biased_channel, first_min=BIASED_FIRST),
              Family("frequency_shift", F.frequency_shift)]
     fams += [Family(name, F.MAKERS[name], **IN_FAMILY)
-             for name in ("close_modes", "cross_receptance", "symmetric_ring", "mass_normalized")]
+             for name in ("close_modes", "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized")]
     fams += [Family(name, F.MAKERS[name], **SIZE) for name in SIZE_FAMILIES]
     fams += [Family("shear_building", F.shear_building, worse_max=0, above_compromise_max=0)]
     return {f.name: f for f in fams}
@@ -250,7 +250,7 @@ FAMILIES = _families()
 
 #: The families drawn beyond the random problems and the named ones.
 NEW_FAMILIES = ("coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "close_modes",
-                "cross_receptance", "symmetric_ring", "mass_normalized", *SIZE_FAMILIES)
+                "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", *SIZE_FAMILIES)
 
 #: Seeds of the random family whose failure class the first 31 do not show (found by
 #: `benchmarks/acceptance.py` on 2026-11-25 and -26; each is described in `tests/acceptance/test_acceptance.py`).

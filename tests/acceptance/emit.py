@@ -60,7 +60,7 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
     if problem.csv and (cfg.natural or cfg.zeros):
         rows = ["kind,hz,response,excitation,mode,index"]
         rows += [f"natural,{n.hz!r},,,{flexible_mode(problem, n) if cfg.declare else ''}," for n in cfg.natural]
-        rows += [f"antiresonance,{z.hz!r},{z.response},{z.excitation},,{z.index if cfg.declare else ''}"
+        rows += [f"antiresonance,{z.hz!r},{z.response},{z.excitation},,{z.index if cfg.declare is True else ''}"
                  for z in cfg.zeros]
         (folder / f"frequencies_{cfg.name}.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
         table["frequencies_csv"] = f"frequencies_{cfg.name}.csv"
@@ -71,7 +71,7 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
                 table["natural_modes"] = [flexible_mode(problem, n) for n in cfg.natural]
         if cfg.zeros:
             table["antiresonances"] = [{"hz": float(z.hz), "response": z.response, "excitation": z.excitation,
-                                        **({"index": z.index} if cfg.declare else {})} for z in cfg.zeros]
+                                        **({"index": z.index} if cfg.declare is True else {})} for z in cfg.zeros]
     shaped = [n for n in cfg.natural if n.shape]
     if shaped:
         rows = ["mode,dof,lower,upper"]
@@ -149,7 +149,8 @@ def configurations(problem, judge: bool = False) -> tuple:
             w = TWO_PI * n.hz
             natural.append(NaturalFrequency(w, shape=shape, mode=flexible_mode(problem, n) if declare else None,
                                             interval=_interval(w, rel * w)))
-        zeros = [Antiresonance(TWO_PI * z.hz, z.response, z.excitation, index=z.index if declare else None,
+        zeros = [Antiresonance(TWO_PI * z.hz, z.response, z.excitation,
+                               index=z.index if cfg.declare is True or judge else None,
                                interval=_interval(TWO_PI * z.hz, rel * TWO_PI * z.hz)) for z in cfg.zeros]
         out.append(Configuration(cfg.name, models[key], tuple(natural), tuple(zeros), interlacing=cfg.interlacing))
     return tuple(out)

@@ -26,7 +26,7 @@ from acceptance.problem import ConfigData, Natural, Problem
 from vibupdate import Parameter
 
 __all__ = ["coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "close_modes",
-           "cross_receptance", "symmetric_ring", "mass_normalized", "many_dofs", "many_parameters",
+           "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", "many_dofs", "many_parameters",
            "shear_building", "MAKERS"]
 
 TWO_PI = 2.0 * np.pi
@@ -310,6 +310,62 @@ def symmetric_ring(seed: int) -> Problem:
                    + (f"; {abs(left)} zeros of h_y1,{c} {'left' if left > 0 else 'joined'} the real axis: indices stated" if left else ""))
 
 
+def hidden_mode(seed: int) -> Problem:
+    """In family: a chain or beam tested with its exciter near a node of one of its modes, so
+    that no FRF shows that mode (its modal constant at the exciter under 1 % of the largest
+    there among the measured modes): the lowest 4-6 frequencies but that one (their modes stated), with the
+    antiresonances between the measured poles of the driving point and of a cross receptance
+    from the exciter, less the zero of each that sits next to the hidden pole (it cancels the
+    pole); the zero indices left to the default, stated where no default can count them (zeros
+    that crossed a measured pole between the nominal model and the truth; two zeros within 2 % of the
+    hidden pole). Exact or with 0.1-0.5 % noise. A right answer: as for any in-family problem."""
+    rng = _rng("hidden_mode", seed)
+    for _ in range(100):
+        spec, params = _chain_or_beam(rng, (5, 10), k_groups_top=4, chain_masses=1)
+        truth = draw_truth(rng, params)
+        M, K, dofs = S.matrices_at(spec, truth)
+        w, Phi = T.modes(M, K)
+        flexible = np.flatnonzero(w > 0)[:int(rng.integers(4, 7))]
+        meas = list(spec.measurable)
+        constants = Phi[np.ix_([dofs.index(d) for d in meas], flexible)] ** 2      # of the driving points
+        share = constants[:, 1:-1] / constants.max(axis=1, keepdims=True)
+        i, k = np.unravel_index(np.argmin(share), share.shape)
+        if share[i, k] <= 0.01 and len(meas) > 1:
+            break
+    r, hidden = meas[i], int(flexible[1 + k])
+    c = meas[(i + 1 + int(rng.integers(len(meas) - 1))) % len(meas)]
+    noise = 0.0 if rng.random() < 0.5 else _noise(rng)
+    modes = [int(m) + 1 for m in flexible if m != hidden]
+    data = measure(spec, params, truth, kind="P4", rng=rng, noise=noise, modes=modes, receptances=[(r, r), (c, r)],
+                   declare="modes", avoid_poles=True)
+    zeros = list(data.zeros)
+    for pair in ((r, r), (c, r)):   # the zero next to the hidden pole cancels it: no FRF shows it
+        mine = [z for z in zeros if (z.response, z.excitation) == pair]
+        if mine:
+            near = min(mine, key=lambda z: abs(TWO_PI * z.hz / w[hidden] - 1))
+            if abs(TWO_PI * near.hz / w[hidden] - 1) < 0.05:
+                zeros.remove(near)
+    data = replace(data, zeros=tuple(zeros))
+    # no default counts zeros that crossed a measured pole between the nominal model and the truth, nor
+    # says which of two zeros within 2 % of the hidden pole a test would see: those state indices
+    M0, K0, _ = S.matrices_at(spec, {p.name: p.nominal for p in params})
+    w0 = T.modes(M0, K0)[0]
+    edges, edges0 = w[np.array(modes) - 1], w0[np.array(modes) - 1]    # the measured poles
+    why = []
+    for pair in ((r, r), (c, r)):
+        z = T.zeros(M, K, dofs.index(pair[0]), dofs.index(pair[1]))[0]
+        z0 = T.zeros(M0, K0, dofs.index(pair[0]), dofs.index(pair[1]))[0]
+        if not np.array_equal(np.histogram(z, edges)[0], np.histogram(z0, edges0)[0]):
+            why.append(f"zeros of h_{pair[0]},{pair[1]} crossed a measured pole")
+        if pair[0] == pair[1] and z.size > 1 and np.sort(np.abs(z / w[hidden] - 1))[1] < 0.02:
+            why.append("two zeros within 2 % of the hidden pole")
+    if why:
+        data = replace(data, declare=True)
+    return Problem(f"hidden{seed}", spec, tuple(params), truth, (data,), noise, 0.0, seed, family="hidden_mode",
+                   note=f"mode {hidden + 1} hidden at the exciter {r} (constant {share[i, k]:.2g}); zeros of "
+                        f"h_{r},{r} and h_{c},{r}" + (f"; indices stated ({', '.join(why)})" if why else ""))
+
+
 def mass_normalized(seed: int) -> Problem:
     """In family: a chain or beam whose shapes are mass-normalized (``phi^T M phi = 1``, entries
     in 1/sqrt(kg) times the DOF's unit, a common sign free), with their frequencies, exact or with
@@ -462,5 +518,5 @@ def shear_building(seed: int) -> Problem:
 
 #: Every family maker by family name.
 MAKERS = {f.__name__: f for f in (coarse_mesh, root_spring, sensor_masses, biased_channel, frequency_shift,
-                                  close_modes, cross_receptance, symmetric_ring, mass_normalized, many_dofs,
+                                  close_modes, cross_receptance, symmetric_ring, hidden_mode, mass_normalized, many_dofs,
                                   many_parameters, shear_building)}

@@ -44,13 +44,14 @@ class Zero:
 @dataclass(frozen=True)
 class ConfigData:
     """The data of one configuration; ``extra_mass`` ``(dof, kg)`` a known added mass;
-    ``declare``: state the modes and zero indices (else the defaults must find them)."""
+    ``declare``: state the modes and zero indices (else the defaults must find them); ``"modes"``:
+    the modes alone."""
 
     name: str
     natural: tuple = ()
     zeros: tuple = ()
     extra_mass: tuple | None = None
-    declare: bool = True
+    declare: bool | str = True
     interlacing: bool = True
 
     @property

@@ -224,13 +224,15 @@ class Extraction:
             self.window, self.record_s * self.fit_band[1], ORDERS[self.measured], decay)
         return (modal_basis(x, xn, zeta, damped, window) @ self.coefficients.T).T * self.scales[:, None]
 
-    def notes(self, first_mode: int = 1) -> list:
+    def notes(self, first_mode: int = 1, modes=None) -> list:
         """What a user should know before using this extraction, as sentences.
 
         Parameters
         ----------
         first_mode : int
-            The number the sentences give the lowest extracted mode.
+            The number the sentences give the lowest extracted mode (the next ones counted on).
+        modes : sequence of int, optional
+            The number of each extracted mode instead (modes the test skipped left out).
 
         Returns
         -------
@@ -243,13 +245,14 @@ class Extraction:
             Empty when there is nothing to say.
         """
         line_spacing = self.line_spacing
+        number = list(modes) if modes is not None else [first_mode + k for k in range(len(self.modes))]
         out = []
         misfit = [q for q in self.quality if q.quality > MISFIT_QUALITY]
         if misfit:
             out.append(f"{len(misfit)} of {len(self.quality)} FRF(s) have quality above {MISFIT_QUALITY:g}: the modal "
                        f"model misses them by more than their line-to-line noise (often at the peaks: leakage, a "
                        f"nonlinearity, a mode not fitted); the intervals count that misfit as noise")
-        narrow = [(first_mode + k, 2 * m.damping_ratio * m.omega / line_spacing) for k, m in enumerate(self.modes)
+        narrow = [(number[k], 2 * m.damping_ratio * m.omega / line_spacing) for k, m in enumerate(self.modes)
                   if 2 * m.damping_ratio * m.omega < NARROW_LINES * line_spacing]
         if self.outer_zeros:
             listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz"
@@ -260,7 +263,7 @@ class Extraction:
                        f"the fitted lines place them only loosely (keep them with keep_outer_zeros, or widen the "
                        f"fit band to the next mode)")
         if self.window == "exponential":
-            added = ", ".join(f"mode {first_mode + k}: {100 / (self.window_tau * m.omega):.3g} %"
+            added = ", ".join(f"mode {number[k]}: {100 / (self.window_tau * m.omega):.3g} %"
                               for k, m in enumerate(self.modes))
             out.append(f"exponential window of tau = {self.window_tau:.4g} s on the response modelled: it adds "
                        f"1/(tau w_n) to each damping ratio ({added}), which the ratios reported do not hold")
@@ -620,7 +623,7 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
     zeros, outer, noisy = [], [], []
     lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
     for pair, f, v, coef, cov, noise_var, fitted in found:
-        index = 0
+        located = []
         for z in fitted:
             se = zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)[0]
             local = local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
@@ -629,7 +632,8 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
             half = max(zq * se, FREQUENCY_FLOOR * z)
             if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
                 continue  # not located within the band (a residual-term artefact near an edge)
-            index += 1
+            located.append((z, half))
+        for index, (z, half) in enumerate(sorted(located), start=1):   # a local refit can pass its neighbour
             snr = zero_snr(z, fit.x, Phi @ coef, noise_var, fit.wn)
             found_zero = ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
                                        (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w)), snr)

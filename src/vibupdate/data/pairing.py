@@ -88,6 +88,16 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
             out += [max(top - c + 1 + i, 1 + i) for i in range(c)]
             continue
         a = modes[g - 1]
+        skipped = nominal_omega[a:modes[g] - 1] if g < poles.size else nominal_omega[:0]
+        if skipped.size:   # modes the test did not see lie in this gap
+            if driving:
+                inside = np.arange(below_first + a, below_first + modes[g])
+            else:
+                inside = 1 + np.flatnonzero((nominal_zeros > nominal_omega[a - 1] * (1 + ON_POLE))
+                                            & (nominal_zeros < nominal_omega[modes[g] - 1] * (1 - ON_POLE)))
+            if c < inside.size:
+                out += _unhidden(inside, nominal_zeros, skipped, inside.size - c)[:c]
+                continue
         if driving:
             first = below_first + a
         else:
@@ -108,6 +118,22 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
     for i in range(1, len(out)):
         out[i] = max(out[i], out[i - 1] + 1)
     return out
+
+
+def _unhidden(inside: np.ndarray, nominal_zeros: np.ndarray, skipped: np.ndarray, missing: int) -> list[int]:
+    """The zero indices ``inside`` a gap (1-based, rising) without those hidden by the modes the
+    test skipped there: a mode no FRF of the receptance shows has a small modal constant
+    ``phi_r phi_c`` in it, so one zero of ``h_rc`` sits next to its pole and the two cancel. Up to
+    ``missing`` zeros are hidden, each the nominal zero nearest (relative distance) to a skipped
+    pole ``skipped`` (rad/s) not yet paired, nearest pairs first."""
+    w = np.array([nominal_zeros[k - 1] if k <= nominal_zeros.size else np.inf for k in inside])
+    distance = np.abs(w[:, None] / skipped[None, :] - 1)
+    hidden = set()
+    for _ in range(min(missing, skipped.size)):
+        i, j = np.unravel_index(np.argmin(distance), distance.shape)
+        hidden.add(int(i))
+        distance[i, :] = distance[:, j] = np.inf
+    return [int(k) for i, k in enumerate(inside) if i not in hidden]
 
 
 def declared_modes(natural: Sequence[NaturalFrequency]) -> list[int]:

@@ -94,6 +94,20 @@ def _mode_order(cfg: Configuration, f: ModelFrequencies, data=()) -> list[str]:
     return bad
 
 
+def _nearest_modes(configurations, first_stage) -> str:
+    """What to state instead of the declared modes: per configuration, the model modes nearest to
+    the measured frequencies at the first stage's answer where they rise (`natural_modes`, in
+    ``[configuration.frf]`` for FRF data, or a frequency table's ``mode`` column)."""
+    found = []
+    for c, f in zip(configurations, first_stage):
+        near = [_nearest(f.omega_all, n.omega) + 1 for n in c.natural]
+        if near != [n.mode for n in c.natural] and all(b > a for a, b in zip(near, near[1:])):
+            found.append(f"natural_modes = {near} in configuration {c.name!r}")
+    return ("state " + "; ".join(found) + " if the shapes agree" if found else "state the model mode of each "
+            "measured frequency") + ": `natural_modes`, in [configuration.frf] for FRF data, or a frequency table's " \
+        "`mode` column"
+
+
 def _zero_order(cfg: Configuration, f: ModelFrequencies, data=()) -> list[str]:
     """As `_mode_order`, for the declared zeros (``data``: the configuration's `Datum`s, the
     antiresonances after the natural frequencies)."""
@@ -242,7 +256,7 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
             text = (f"the first stage fitted the natural frequencies to {e_near:.3g} % mean under another pairing "
                     f"({_join(skipped, 2)}); the declared modes are fitted to {e_decl:.3g} %")
             if not ok:
-                text += ": the declared modes are likely wrong (set `mode` of each measured frequency)"
+                text += ": the declared modes are likely wrong (" + _nearest_modes(configurations, first_stage) + ")"
             checks.append(Check("correspondence", ok, "error", text, e_decl, e_near))
     if lower_bound is not None:
         tol = max(options.frequency_tolerance, reduction_error)

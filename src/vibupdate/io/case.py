@@ -85,20 +85,41 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
     except ValueError as exc:
         raise where.error(f"{key}.frf", str(exc)) from None
     first = spec.get("first_mode", 1)
+    numbers_of = [first + k for k in range(len(result.modes))]
+    if "natural_modes" in spec:   # modes the test skipped: the zeros' indices come from the nominal model
+        numbers_of, first = _stated_modes(spec, result, where, key), None
     to_hz = 1.0 / (2 * math.pi)
-    natural = [{"hz": m.omega * to_hz, "weight": 1.0, "damping_ratio": m.damping_ratio, "mode": first + k,
+    natural = [{"hz": m.omega * to_hz, "weight": 1.0, "damping_ratio": m.damping_ratio, "mode": numbers_of[k],
                 "interval": tuple(v * to_hz for v in m.omega_interval), "damping_interval": m.damping_interval}
                for k, m in enumerate(result.modes)]
     zeros = [{"hz": z.omega * to_hz, "weight": 1.0, "response": z.response, "excitation": z.excitation,
               "index": z.declared_index(first), "interval": tuple(v * to_hz for v in z.interval)}
              for z in result.zeros]
-    shapes = {first + k: dict(m.shape_interval) for k, m in enumerate(result.modes)}
+    shapes = {numbers_of[k]: dict(m.shape_interval) for k, m in enumerate(result.modes)}
     if mass_normalized and not result.mass_normalized:
         raise where.error(f"{key}.mass_normalized_shapes", "the extracted shapes are not mass-normalized: that needs "
                                                            "a driving-point FRF (a response equal to its excitation) "
                                                            f"among {', '.join(f'h_{r},{c}' for r, c in frfs.pairs)}")
-    notes = tuple(doubts) + tuple(result.notes(first))
+    notes = tuple(doubts) + tuple(result.notes(modes=numbers_of))
     return natural, zeros, shapes, frfs.band(*result.band), notes
+
+
+def _stated_modes(spec: dict, result, where: Where, key: str) -> list[int]:
+    """The model modes ``[configuration.frf] natural_modes`` states for the extracted modes: one
+    integer >= 1 per mode, rising (a mode the test did not see is left out), without
+    ``first_mode``."""
+    modes = spec["natural_modes"]
+    name = f"{key}.frf.natural_modes"
+    if "first_mode" in spec:
+        raise where.error(name, "states every extracted mode's number; remove first_mode")
+    if not all(isinstance(m, int) and not isinstance(m, bool) and m >= 1 for m in modes) \
+            or any(b <= a for a, b in zip(modes, modes[1:])):
+        raise where.error(name, f"must be rising integers >= 1 (model modes), got {modes!r}")
+    if len(modes) != len(result.modes):
+        found = ", ".join(f"{m.omega / (2 * math.pi):.5g}" for m in result.modes)
+        raise where.error(name, f"gives {len(modes)} mode numbers, but the extraction found {len(result.modes)} "
+                                f"modes ({found} Hz): one number per extracted mode")
+    return list(modes)
 
 
 def _zeros_between_dofs(zeros: list[dict], model) -> tuple[list[dict], tuple[str, ...]]:
