@@ -95,17 +95,31 @@ def _mode_order(cfg: Configuration, f: ModelFrequencies, data=()) -> list[str]:
 
 
 def _nearest_modes(configurations, first_stage) -> str:
-    """What to state instead of the declared modes: per configuration, the model modes nearest to
-    the measured frequencies at the first stage's answer where they rise (`natural_modes`, in
+    """What to state instead of the declared modes: per configuration, the model mode of each
+    measured frequency that best matches it, where they rise: by the MAC of its shape with the
+    nominal model's modes when it has one (the nominal shapes do not depend on the fit the wrong
+    modes distorted), else the nearest frequency at the first stage's answer (`natural_modes`, in
     ``[configuration.frf]`` for FRF data, or a frequency table's ``mode`` column)."""
+    from vibupdate.modal.analysis import flexible_modes
+
     found = []
     for c, f in zip(configurations, first_stage):
-        near = [_nearest(f.omega_all, n.omega) + 1 for n in c.natural]
+        near, Phi = [], None
+        for n in c.natural:
+            if n.shape is None:
+                near.append(_nearest(f.omega_all, n.omega) + 1)
+                continue
+            if Phi is None:   # twice as many nominal modes as declared: a skipped mode is among them
+                Phi = flexible_modes(*c.model.matrices(), min(c.model.n_dofs, 2 * max(m.mode for m in c.natural) + 2),
+                                     precision=c.model.matrix_precision)[1]
+            dofs = list(n.shape.bounds)
+            near.append(int(np.argmax(mac(np.array([n.shape.midpoint[d] for d in dofs]),
+                                          c.model.measurement(dofs) @ Phi)[0])) + 1)
         if near != [n.mode for n in c.natural] and all(b > a for a, b in zip(near, near[1:])):
             found.append(f"natural_modes = {near} in configuration {c.name!r}")
-    return ("state " + "; ".join(found) + " if the shapes agree" if found else "state the model mode of each "
-            "measured frequency") + ": `natural_modes`, in [configuration.frf] for FRF data, or a frequency table's " \
-        "`mode` column"
+    return ("state " + "; ".join(found) + " (by the MAC of each measured shape with the nominal model's modes, by "
+            "frequency where no shape is measured)" if found else "state the model mode of each measured frequency") \
+        + ": `natural_modes`, in [configuration.frf] for FRF data, or a frequency table's `mode` column"
 
 
 def _zero_order(cfg: Configuration, f: ModelFrequencies, data=()) -> list[str]:
