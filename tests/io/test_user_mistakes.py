@@ -148,7 +148,8 @@ MISTAKES = [
      _edit(TYPED, 'natural_modes = [1, 2]\nfrf = { files = ["frf.npz"], responses = ["y1", "y2", "y3"], '
                   'excitations = ["y3"] }'),
      ["check", "edited.toml"], r"configuration 'A'\.natural_modes: natural_modes goes with natural_hz, which this "
-                               r"configuration does not give \(its natural frequencies come from frf\)"),
+                               r"configuration does not give \(its natural frequencies come from frf\); remove "
+                               r"natural_modes; state the extracted modes' numbers in \[configuration\.frf\] instead"),
     ("a misspelt CSV column",
      _with_file("f.csv", "kind,hz,dampign_ratio\nnatural,37.3397,0.02\nnatural,234.7489,0.01\n",
                 _edit(NO_MODES, 'frequencies_csv = "f.csv"')),

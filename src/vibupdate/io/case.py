@@ -223,9 +223,11 @@ def _check_typed_companions(cfg: dict, where: Where, key: str) -> None:
             raise where.error(f"{key}.{companion}", f"{companion} goes with natural_hz, but the natural frequencies "
                                                     f"come from frequencies_csv ({cfg['frequencies_csv']}); give "
                                                     f"them in its '{column}' column and remove {companion}")
+        move = ("; state the extracted modes' numbers in [configuration.frf] instead"
+                if source == "frf" and companion == "natural_modes" else "")
         raise where.error(f"{key}.{companion}", f"{companion} goes with natural_hz, which this configuration does not "
                                                 "give" + (f" (its natural frequencies come from {source})" if source
-                                                          else "") + f"; remove {companion}")
+                                                          else "") + f"; remove {companion}{move}")
 
 
 def _typed_zeros(cfg: dict, where: Where, key: str) -> list[dict]:
