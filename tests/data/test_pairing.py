@@ -261,3 +261,23 @@ def test_cross_receptances_of_a_symmetric_clamped_beam_keep_their_true_indices()
         counted += len(got)
         wrong += [(g, t) for g, t in zip(got, true_index) if g != t]
     assert counted >= 60 and not wrong, (counted, wrong[:3])   # most of the zeros below the fifth mode count
+
+
+def test_modes_by_shape_names_a_mode_only_where_one_shape_matches_it():
+    """The nominal 5-mass chain's own shapes (as intervals of half-width 0.01) at its 5 masses:
+    modes 1, 3, 4 are named 1, 3, 4; shapes at 2 DOFs, a shape between modes 1 and 2 (MAC under
+    0.8 with each) and shapes out of order name none."""
+    from vibupdate.data.pairing import modes_by_shape
+
+    model = chain(5)
+    Phi = flexible_modes(*model.matrices())[1]
+    dofs = [f"y{i}" for i in range(1, 6)]
+
+    def shape(v, at=dofs):
+        return {d: (float(x) - 0.01, float(x) + 0.01) for d, x in zip(at, v / np.max(np.abs(v)))}
+
+    rows = [model.dof(d) for d in dofs]
+    assert modes_by_shape([shape(Phi[rows, k]) for k in (0, 2, 3)], model) == [1, 3, 4]
+    assert modes_by_shape([shape(Phi[rows[:2], 0], dofs[:2])], model) is None
+    assert modes_by_shape([shape(Phi[rows, 0] + Phi[rows, 1])], model) is None
+    assert modes_by_shape([shape(Phi[rows, k]) for k in (2, 0)], model) is None

@@ -103,13 +103,17 @@ def test_natural_modes_that_do_not_fit_the_extraction_are_refused_naming_the_key
         load_case(case)
 
 
-def test_a_run_on_frfs_that_skip_modes_names_the_modes_to_state(tmp_path, capsys):
+def test_frfs_that_skip_modes_are_numbered_by_their_shapes_and_a_stated_first_mode_is_kept(tmp_path, capsys):
     """A symmetric truth (``kA = kB = 1.2``) puts the exciter ``y3`` on the node of modes 2 and 4:
-    the extraction finds modes 1, 3 and 5 and numbers them 1-3. The run is not verified, and its
-    correspondence warning names the modes by the MAC of the extracted shapes with the nominal
-    model's (the first stage's frequencies, fitted under the wrong modes, paired them with modes
-    1, 3 and 4)."""
+    the extraction finds modes 1, 3 and 5. Without ``first_mode`` their shapes' MAC with the
+    nominal model's modes numbers them 1, 3, 5, with a note; with ``first_mode = 1`` they are 1, 2,
+    3 as stated, the run is not verified, and its correspondence warning names 1, 3, 5 by the same
+    MAC (the first stage's frequencies, fitted under the wrong modes, paired them with 1, 3, 4)."""
     case, *_ = write_test(tmp_path, truth=(1.2, 1.2))
+    assert [n.mode for n in load_case(case).configurations[0].natural] == [1, 3, 5]
+    assert main(["check", str(case)]) == 0
+    assert "are model modes [1, 3, 5] by the MAC of their shapes" in capsys.readouterr().out
+    case, *_ = write_test(tmp_path, truth=(1.2, 1.2), frf_keys="first_mode = 1\n")
     assert [n.mode for n in load_case(case).configurations[0].natural] == [1, 2, 3]
     assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 1
     assert "state natural_modes = [1, 3, 5] in configuration 'A'" in capsys.readouterr().out

@@ -136,6 +136,48 @@ def _unhidden(inside: np.ndarray, nominal_zeros: np.ndarray, skipped: np.ndarray
     return [int(k) for i, k in enumerate(inside) if i not in hidden]
 
 
+#: The MAC a measured shape needs with one nominal mode, and with no other, for `modes_by_shape`
+#: to name that mode: the usual threshold below which two shapes are not taken as the same mode.
+MAC_MIN = 0.8
+
+
+def shape_macs(shapes: Sequence[dict], model, n_modes: int) -> np.ndarray:
+    """The MAC of each measured shape with the nominal model's lowest ``n_modes`` flexible modes.
+
+    Parameters
+    ----------
+    shapes : sequence of dict
+        Per measured mode, ``{dof: (lower, upper)}`` (DOFs or sensors of ``model``); the
+        midpoints are the shape.
+    model : AffineModel
+    n_modes : int
+
+    Returns
+    -------
+    ndarray, shape (n_shapes, n_modes)
+    """
+    from vibupdate.modal.analysis import flexible_modes, mac
+
+    Phi = flexible_modes(*model.matrices(), min(model.n_dofs, n_modes), precision=model.matrix_precision)[1]
+    return np.array([mac(np.array([0.5 * (lo + hi) for lo, hi in s.values()]), model.measurement(list(s)) @ Phi)[0]
+                     for s in shapes]).reshape(len(shapes), -1)
+
+
+def modes_by_shape(shapes: Sequence[dict], model) -> list[int] | None:
+    """The model mode of each measured mode by the MAC of its shape with the nominal model's
+    lowest modes, two more than the shapes (at most two modes skipped; `shape_macs`), where that
+    is unambiguous: every shape at 3 DOFs or more, each with one mode at `MAC_MIN` or above and no
+    second, the modes rising; None otherwise. The default numbers of modes extracted from FRFs
+    without ``first_mode`` (docs/frf-extraction.md)."""
+    if not shapes or any(len(s) < 3 for s in shapes):
+        return None
+    macs = shape_macs(shapes, model, len(shapes) + 2)
+    if np.any(np.count_nonzero(macs >= MAC_MIN, axis=1) != 1):
+        return None
+    found = [int(k) + 1 for k in macs.argmax(axis=1)]
+    return found if all(b > a for a, b in zip(found, found[1:])) else None
+
+
 def declared_modes(natural: Sequence[NaturalFrequency]) -> list[int]:
     """Model mode of each measured natural frequency (1-based): its ``mode``, or the mode
     after the previous one (1 for the first)."""

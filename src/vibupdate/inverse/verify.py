@@ -100,21 +100,14 @@ def _nearest_modes(configurations, first_stage) -> str:
     nominal model's modes when it has one (the nominal shapes do not depend on the fit the wrong
     modes distorted), else the nearest frequency at the first stage's answer (`natural_modes`, in
     ``[configuration.frf]`` for FRF data, or a frequency table's ``mode`` column)."""
-    from vibupdate.modal.analysis import flexible_modes
+    from vibupdate.data.pairing import shape_macs
 
     found = []
     for c, f in zip(configurations, first_stage):
-        near, Phi = [], None
-        for n in c.natural:
-            if n.shape is None:
-                near.append(_nearest(f.omega_all, n.omega) + 1)
-                continue
-            if Phi is None:   # twice as many nominal modes as declared: a skipped mode is among them
-                Phi = flexible_modes(*c.model.matrices(), min(c.model.n_dofs, 2 * max(m.mode for m in c.natural) + 2),
-                                     precision=c.model.matrix_precision)[1]
-            dofs = list(n.shape.bounds)
-            near.append(int(np.argmax(mac(np.array([n.shape.midpoint[d] for d in dofs]),
-                                          c.model.measurement(dofs) @ Phi)[0])) + 1)
+        shaped = [n for n in c.natural if n.shape is not None]
+        top = 2 * max(n.mode for n in c.natural) + 2   # twice the declared modes: a skipped one is among them
+        best = iter(shape_macs([n.shape.bounds for n in shaped], c.model, top).argmax(axis=1) + 1 if shaped else ())
+        near = [int(next(best)) if n.shape is not None else _nearest(f.omega_all, n.omega) + 1 for n in c.natural]
         if near != [n.mode for n in c.natural] and all(b > a for a, b in zip(near, near[1:])):
             found.append(f"natural_modes = {near} in configuration {c.name!r}")
     return ("state " + "; ".join(found) + " (by the MAC of each measured shape with the nominal model's modes, by "

@@ -48,12 +48,15 @@ from vibupdate.options import problem as option_problem
 
 # -- measured data ------------------------------------------------------------------------------
 
-def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: bool = False):
+def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: bool = False, model=None):
     """Measured data extracted from FRF files (``[configuration.frf]``, docs/frf-extraction.md):
     natural-frequency and antiresonance dicts as the other sources give, plus intervals (Hz),
     mode and zero numbers, shape intervals ``{mode: {dof: (lo, hi)}}`` and the measured FRFs
     in the extraction band (`vibupdate.data.frf.FRFSet`). With ``mass_normalized`` the shapes
-    must be mass-normalized, which needs a driving-point FRF."""
+    must be mass-normalized, which needs a driving-point FRF. The modes' numbers: ``natural_modes``,
+    else consecutive from ``first_mode``, else by the shapes' MAC with the nominal ``model``'s
+    modes where that is unambiguous (`vibupdate.data.pairing.modes_by_shape`), else consecutive
+    from 1."""
     from vibupdate.data.extraction import extract
     from vibupdate.data.frf import FRFWarning, read_frfs
     from vibupdate.io.outputs import collected
@@ -86,8 +89,15 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
         raise where.error(f"{key}.frf", str(exc)) from None
     first = spec.get("first_mode", 1)
     numbers_of = [first + k for k in range(len(result.modes))]
+    paired = None
     if "natural_modes" in spec:   # modes the test skipped: the zeros' indices come from the nominal model
         numbers_of, first = _stated_modes(spec, result, where, key), None
+    elif "first_mode" not in spec and model is not None:
+        from vibupdate.data.pairing import modes_by_shape
+
+        paired = modes_by_shape([dict(m.shape_interval) for m in result.modes], model)
+        if paired is not None and paired != numbers_of:
+            numbers_of, first = paired, None
     to_hz = 1.0 / (2 * math.pi)
     natural = [{"hz": m.omega * to_hz, "weight": 1.0, "damping_ratio": m.damping_ratio, "mode": numbers_of[k],
                 "interval": tuple(v * to_hz for v in m.omega_interval), "damping_interval": m.damping_interval}
@@ -101,6 +111,11 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
                                                            "a driving-point FRF (a response equal to its excitation) "
                                                            f"among {', '.join(f'h_{r},{c}' for r, c in frfs.pairs)}")
     notes = tuple(doubts) + tuple(result.notes(modes=numbers_of))
+    if paired is not None and first is None:
+        notes += (f"the extracted modes ({', '.join(f'{m.omega / (2 * math.pi):.5g}' for m in result.modes)} Hz) are "
+                  f"model modes {paired} by the MAC of their shapes with the nominal model's modes, not 1-"
+                  f"{len(paired)}: a mode between them was not seen (state natural_modes, or first_mode, in "
+                  "[configuration.frf] to number them otherwise)",)
     return natural, zeros, shapes, frfs.band(*result.band), notes
 
 
@@ -285,7 +300,7 @@ def _configuration(cfg: dict, index: int, spec: dict, parameters, base: Path, wh
         if mixed:
             raise where.error(f"{key}.frf", f"FRF files take the place of typed data; remove {', '.join(mixed)}")
         natural, zeros, shapes, frfs, notes = _frf_data(cfg["frf"], base, where, key,
-                                                        cfg.get("mass_normalized_shapes", False))
+                                                        cfg.get("mass_normalized_shapes", False), model)
         zeros, dropped = _zeros_between_dofs(zeros, model)
         notes = notes + dropped
     natural, zeros, shapes = _file_data(cfg, model, base, where, key, natural, zeros, shapes)
