@@ -306,6 +306,28 @@ def _slow_case(folder: Path) -> Path:
     return path
 
 
+def _ran_for(pid: int, seconds: float) -> None:
+    """Wait until the process ``pid`` has used ``seconds`` more of CPU time (user and system, from
+    ``/proc``), so that a signal reaches it as far into its work on a loaded machine as on an idle
+    one; where ``/proc`` is missing, ``seconds`` of wall time."""
+    import os
+    import time
+
+    def used():
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+    try:
+        start = used()
+    except OSError:
+        time.sleep(seconds)
+        return
+    deadline = time.monotonic() + 120   # a guard against a child that stopped working
+    while used() - start < seconds and time.monotonic() < deadline:
+        time.sleep(0.01)
+
+
 def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_results(tmp_path):
     """Ctrl-C while IPOPT iterates: CasADi catches it and would report a failed solve; the run
     must stop at once (inside that solve: its step is never reported), exit 130 and leave the
@@ -315,7 +337,6 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
     import signal
     import subprocess
     import sys
-    import time
 
     from outputs_helpers import snapshot
 
@@ -337,7 +358,7 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
             if "step solver ready" in line:
                 break
         assert proc.poll() is None, "".join(lines)
-        time.sleep(0.3)
+        _ran_for(proc.pid, 0.3)   # into the solve: 0.3 s of the child's own CPU, whatever the load
         proc.send_signal(signal.SIGINT)
         rest, _ = proc.communicate(timeout=120)   # a guard against a hang, not a speed figure
     finally:
