@@ -235,7 +235,8 @@ def _families() -> dict:
     fams += [Family(name, F.MAKERS[name], worse_max=0, above_compromise_max=0)
              for name in ("coarse_mesh", "root_spring", "sensor_masses")]
     fams += [Family("biased_channel", F.biased_channel, first_min=BIASED_FIRST),
-             Family("frequency_shift", F.frequency_shift)]
+             Family("frequency_shift", F.frequency_shift),
+             Family("misnumbered_zero", F.misnumbered_zero, first_min=BIASED_FIRST)]
     fams += [Family(name, F.MAKERS[name], **IN_FAMILY)
              for name in ("close_modes", "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized")]
     fams += [Family(name, F.MAKERS[name], **SIZE) for name in SIZE_FAMILIES]
@@ -249,7 +250,8 @@ SIZE_FAMILIES = ("many_dofs", "many_parameters")
 FAMILIES = _families()
 
 #: The families drawn beyond the random problems and the named ones.
-NEW_FAMILIES = ("coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "close_modes",
+NEW_FAMILIES = ("coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "misnumbered_zero",
+                "close_modes",
                 "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", *SIZE_FAMILIES)
 
 #: Seeds of the random family whose failure class the first 31 do not show (found by

@@ -25,7 +25,8 @@ from acceptance.measure import draw_truth, measure
 from acceptance.problem import ConfigData, Natural, Problem
 from vibupdate import Parameter
 
-__all__ = ["coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "close_modes",
+__all__ = ["coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "misnumbered_zero",
+           "close_modes",
            "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", "many_dofs", "many_parameters",
            "shear_building", "MAKERS"]
 
@@ -170,6 +171,39 @@ def biased_channel(seed: int) -> Problem:
     data = replace(data, natural=natural)
     return Problem(f"biased{seed}", spec, tuple(params), truth, (data,), noise, noise, seed, family="biased_channel",
                    in_family=False, expected_first=f"A/dof/{pick}", note=f"sensor {pick} biased by {bias:+.3f}")
+
+
+def misnumbered_zero(seed: int) -> Problem:
+    """Measurement error excluding the truth: the frequencies and the antiresonances between them
+    of a driving point or a cross receptance of a chain or beam (exact, or 0.1-0.5 % noise), every
+    index stated, one of them one off (a slip: the highest measured zero whose next or previous
+    index keeps the indices rising and names a zero of the model stated as that one). A right
+    answer: never ``success`` for a model that misses an interval; the diagnosis ranks that zero
+    (group ``A/antiresonance/R,C/INDEX``) first."""
+    rng = _rng("misnumbered_zero", seed)
+    for _ in range(50):
+        spec, params = _chain_or_beam(rng, (4, 9), k_groups_top=4, chain_masses=1)
+        truth = draw_truth(rng, params)
+        meas = list(spec.measurable)
+        r, c = (meas[i] for i in rng.choice(len(meas), size=2, replace=bool(rng.random() < 0.5)))
+        M, K, dofs = S.matrices_at(spec, truth)
+        n_zeros = T.zeros(M, K, dofs.index(r), dofs.index(c))[0].size
+        noise = 0.0 if rng.random() < 0.5 else _noise(rng)
+        n_modes = min(int(rng.integers(3, 6)), int(np.count_nonzero(T.modes(M, K)[0] > 0)))
+        data = measure(spec, params, truth, kind="P4", rng=rng, noise=noise, n_modes=n_modes, receptances=[(r, c)],
+                       avoid_poles=True)
+        index = [0] + [z.index for z in data.zeros] + [n_zeros + 1]
+        slips = [(k, index[k + 1] + d) for k in reversed(range(len(data.zeros))) for d in (1, -1)
+                 if index[k] < index[k + 1] + d < index[k + 2]]   # still rising, a zero the model has
+        if slips:
+            break
+    zeros = list(data.zeros)
+    k, slip = slips[0]
+    zeros[k] = replace(zeros[k], index=slip)
+    data = replace(data, zeros=tuple(zeros), declare=True)
+    return Problem(f"slip{seed}", spec, tuple(params), truth, (data,), noise, 0.0, seed, family="misnumbered_zero",
+                   in_family=False, expected_first=f"A/antiresonance/{r},{c}/{slip}",
+                   note=f"zero of h_{r},{c} at {zeros[k].hz:.5g} Hz stated as zero {slip}")
 
 
 def frequency_shift(seed: int) -> Problem:
@@ -518,5 +552,6 @@ def shear_building(seed: int) -> Problem:
 
 #: Every family maker by family name.
 MAKERS = {f.__name__: f for f in (coarse_mesh, root_spring, sensor_masses, biased_channel, frequency_shift,
+                                  misnumbered_zero,
                                   close_modes, cross_receptance, symmetric_ring, hidden_mode, mass_normalized, many_dofs,
                                   many_parameters, shear_building)}

@@ -30,7 +30,7 @@ def test_in_family_data_admit_the_truth(family, seed):
     assert not R.misses(problem, _truth(problem))[0]
 
 
-@pytest.mark.parametrize("family", ["biased_channel", "frequency_shift"])
+@pytest.mark.parametrize("family", ["biased_channel", "frequency_shift", "misnumbered_zero"])
 @pytest.mark.parametrize("seed", SEEDS)
 def test_measurement_errors_exclude_the_truth(family, seed):
     problem = F.MAKERS[family](seed)
