@@ -552,6 +552,5 @@ def shear_building(seed: int) -> Problem:
 
 #: Every family maker by family name.
 MAKERS = {f.__name__: f for f in (coarse_mesh, root_spring, sensor_masses, biased_channel, frequency_shift,
-                                  misnumbered_zero,
-                                  close_modes, cross_receptance, symmetric_ring, hidden_mode, mass_normalized, many_dofs,
-                                  many_parameters, shear_building)}
+                                  misnumbered_zero, close_modes, cross_receptance, symmetric_ring, hidden_mode,
+                                  mass_normalized, many_dofs, many_parameters, shear_building)}

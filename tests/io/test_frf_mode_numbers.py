@@ -52,7 +52,8 @@ def write_test(folder, truth=(1.04, 0.99), frf_keys=""):
     for k in range(3):
         noise = rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)
         np.savez(folder / f"rep{k}.npz", freq_hz=f, H=H * (1 + 0.005 * noise))
-    parameters = "".join(f'[[parameter]]\nname = "{n}"\nnominal = 1.0\nlower = 0.5\nupper = 2.0\n\n' for n in ("kA", "kB"))
+    parameters = "".join(f'[[parameter]]\nname = "{n}"\nnominal = 1.0\nlower = 0.5\nupper = 2.0\n\n'
+                         for n in ("kA", "kB"))
     (folder / "case.toml").write_text(
         f'case = "chain"\n\n[model]\ntype = "builder"\nbuilder = "model.py:build"\n\n{parameters}'
         '[[configuration]]\nname = "A"\n\n[configuration.frf]\nfiles = ["rep0.npz", "rep1.npz", "rep2.npz"]\n'
