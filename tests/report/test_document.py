@@ -58,3 +58,15 @@ def test_a_verdict_within_the_model_form_tolerances_claims_no_cause_it_did_not_p
     assert limited_text([SimpleNamespace(name="fit", limited_by="measurement")]).endswith(
         "every datum lies in its measurement interval")
     assert limited_text([SimpleNamespace(name="fit", limited_by="")]) == ""
+
+
+def test_the_search_line_says_whether_uniqueness_was_searched_once():
+    from types import SimpleNamespace
+
+    from vibupdate.report.document import sought_text
+
+    failed = SimpleNamespace(starts=(1, 2, 3), uniqueness=False, reason="uniqueness not searched: no answer verified")
+    assert sought_text(failed) == "Starts tried: 3; uniqueness not searched: no answer verified."
+    searched = SimpleNamespace(starts=(1,), uniqueness=True, reason="the nominal point and 2 random start(s) polished")
+    assert sought_text(searched) == ("Starts tried: 1; uniqueness searched (the nominal point and 2 random start(s) "
+                                     "polished).")
