@@ -88,22 +88,19 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
             out += [max(top - c + 1 + i, 1 + i) for i in range(c)]
             continue
         a = modes[g - 1]
+        wa = nominal_omega[a - 1]
+        wb, pb = (nominal_omega[modes[g] - 1], poles[g]) if g < poles.size else (np.inf, np.inf)
         skipped = nominal_omega[a:modes[g] - 1] if g < poles.size else nominal_omega[:0]
-        if skipped.size:   # modes the test did not see lie in this gap
-            if driving:
-                inside = np.arange(below_first + a, below_first + modes[g])
-            else:
-                inside = 1 + np.flatnonzero((nominal_zeros > nominal_omega[a - 1] * (1 + ON_POLE))
-                                            & (nominal_zeros < nominal_omega[modes[g] - 1] * (1 - ON_POLE)))
-            if c < inside.size:
-                out += _unhidden(inside, nominal_zeros, skipped, inside.size - c)[:c]
-                continue
+        # the nominal zeros of the gap: by interlacing at a driving point, else those strictly inside
+        inside = (np.arange(below_first + a, below_first + modes[g]) if driving and skipped.size else
+                  1 + np.flatnonzero((nominal_zeros > wa * (1 + ON_POLE)) & (nominal_zeros < wb * (1 - ON_POLE))))
+        if skipped.size and c < inside.size:   # modes the test did not see lie in this gap
+            out += _unhidden(inside, nominal_zeros, skipped, inside.size - c)[:c]
+            continue
         if driving:
             first = below_first + a
         else:
-            wa = nominal_omega[a - 1]
-            wb, pb = (nominal_omega[modes[g] - 1], poles[g]) if g < poles.size else (np.inf, np.inf)
-            strict = int(np.count_nonzero((nominal_zeros > wa * (1 + ON_POLE)) & (nominal_zeros < wb * (1 - ON_POLE))))
+            strict = inside.size
             excess = max(c - strict, 0)
             f_a = on(wa)
             f_b = 0 if wb <= wa * (1 + ON_POLE) or not np.isfinite(wb) else on(wb)   # pole b's own zeros

@@ -363,13 +363,13 @@ def _identifiability_markdown(ident: Identifiability | None, units: dict) -> lis
     return out + ([ident.ranges_note + ".", ""] if ident.ranges_note else [])
 
 
-
 def sought_text(sought) -> str:
     """The report's line on the search (`vibupdate.inverse.search.Sought`): the starts tried and
     whether uniqueness was searched, with its reason (said once where the reason says it)."""
     said = sought.reason if sought.reason.startswith("uniqueness") else (
         "uniqueness " + ("searched" if sought.uniqueness else "not searched") + f" ({sought.reason})")
     return f"Starts tried: {len(sought.starts)}; {said}."
+
 
 def markdown_report(results, images: list[tuple[str, str]] = (), notes: list[str] = ()) -> str:
     """``report.md``: summary, verification, diagnosis, parameters, frequencies, damping and
