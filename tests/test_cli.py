@@ -349,7 +349,8 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
     # a user's terminal delivers Ctrl-C; a test runner's worker may ignore SIGINT, and a child
     # inherits an ignored SIGINT (Python then installs no handler): restore the default
     proc = subprocess.Popen([sys.executable, "-m", "vibupdate", "run", str(case), "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=os.environ, cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env={**os.environ, "OMP_NUM_THREADS": "1"}, cwd=tmp_path,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     lines = []
     try:
@@ -358,7 +359,10 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
             if "step solver ready" in line:
                 break
         assert proc.poll() is None, "".join(lines)
-        _ran_for(proc.pid, 0.3)   # into the solve: 0.3 s of the child's own CPU, whatever the load
+        # into the solve's iterations: with one thread, IPOPT's set-up (its first factorization) takes
+        # about 0.3 s of the child's own CPU after this line and its 22 iterations end after about
+        # 1.9 s: 1 s lands among them whatever the load on the machine
+        _ran_for(proc.pid, 1.0)
         proc.send_signal(signal.SIGINT)
         rest, _ = proc.communicate(timeout=120)   # a guard against a hang, not a speed figure
     finally:
