@@ -110,7 +110,8 @@ class PolishResult:
     cost_start, cost : float
         Polish objective at both points.
     kept : bool
-        Whether the polished point replaced the first-stage answer.
+        Whether the polished point replaced the first-stage answer; never when the polish
+        stopped on a known answer (an answer found before: the run's own point is not evaluated).
     evaluations : int
         Evaluations of the full model (residual and Jacobian).
     message : str
@@ -276,7 +277,7 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
     kept = bool(cost < cost0)
-    if not kept:
+    if not kept and stopped_on != "known answer":
         message = f"not kept: the polish did not lower the objective ({message})"
     return PolishResult(x0, x if kept else x0, cost0, cost if kept else cost0, kept, evaluations, message,
                         time.perf_counter() - start, rounds, reduced, stopped_on, budget)
@@ -308,7 +309,9 @@ def _full_model(configurations: list, x, contract, tols: dict, budget: int, eval
                                   memo=memo, max_nfev=budget + 1, **{**tols, "ftol": soft_ftol})
         x = first.x
     except Stop as stop:
-        if stop.reason not in ("stall", "convergence"):   # a limit, or a known answer reached again
+        if stop.reason == "known answer":   # the same answer again: its objective is not wanted
+            return monitor.best[0], float("nan"), stop.args[0], evaluations + 1 + monitor.count, stop.reason
+        if stop.reason not in ("stall", "convergence"):   # a limit
             x_best = monitor.best[0]
             r, _ = evaluate(configurations, contract, x_best, jacobian=False)
             return x_best, 0.5 * float(r @ r), stop.args[0], evaluations + 2 + monitor.count, stop.reason
