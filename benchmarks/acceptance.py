@@ -36,7 +36,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 COLUMNS = ("runs", "success %", "not_verified %", "path failed %", "crash", "refused", "outside",
-           "determined miss (other solution)", "truth outside reported", "worse than nominal", "median s")
+           "determined miss (other solution)", "truth outside reported", "damping", "worse than nominal", "median s")
 
 
 def _one(args) -> list[dict]:
@@ -73,6 +73,7 @@ def _row(rows: list[dict]) -> list[str]:
     return [str(n), f"{100 * ok / n:.1f}", f"{100 * nv / n:.1f}", f"{100 * count('path_failed') / n:.1f}",
             str(count("crash")), str(count("refused") + count("exit_code")), str(count("outside") + count("report")),
             f"{count('determined_miss')} ({count('other_solution')})", str(count("truth_outside_reported")),
+            str(count("damping_fit") + count("damping_truth") + count("damping_unwarned")),
             str(count("worse_than_nominal")), f"{np.median([r['seconds'] for r in rows]):.2f}"]
 
 

@@ -57,6 +57,12 @@ class Outcome:
     diagnosis : tuple of str
         Keys of the data groups the diagnosis ranked, first the one whose removal fits best.
     error : str
+    damping : list of dict
+        The damping rows (``configuration``, ``mode``, ``measured`` and ``identified`` ratios).
+    damping_model : dict or None
+        The fitted Caughey series, ``exponents`` and ``beta``.
+    warnings : tuple of str
+        Every warning the run gave.
     """
 
     status: str
@@ -68,6 +74,9 @@ class Outcome:
     rows: list = field(default_factory=list)
     diagnosis: tuple = ()
     error: str = ""
+    damping: list = field(default_factory=list)
+    damping_model: dict | None = None
+    warnings: tuple = ()
 
     @property
     def answered(self) -> bool:
@@ -88,9 +97,12 @@ def from_results_json(doc: dict | None, exit_code: int, seconds: float, error: s
     ranges = _ranges(ident.get("ranges"))
     alternatives = [np.array([a["values"][n] for n in names], dtype=float) for a in ident.get("alternatives") or []]
     diagnosis = tuple(t["key"] for t in ((doc.get("diagnosis") or {}).get("trials") or []))
+    model = doc.get("damping_model")
     return Outcome(status_word(doc["solver"]["status"]), exit_code, seconds,
                    np.array([p["updated"] for p in doc["parameters"]], dtype=float), ranges, alternatives,
-                   list(doc.get("frequencies") or []), diagnosis, error)
+                   list(doc.get("frequencies") or []), diagnosis, error, list(doc.get("damping") or []),
+                   None if not model else {"exponents": model["exponents"], "beta": model["beta"]},
+                   tuple(doc.get("warnings") or ()))
 
 
 def _ranges(ranges: dict | None) -> dict | None:
@@ -99,11 +111,19 @@ def _ranges(ranges: dict | None) -> dict | None:
     return {n: (r["lower"], r["upper"]) for n, r in ranges.items()} if ranges else None
 
 
-def from_update_result(result, seconds: float, ranges: dict | None = None) -> Outcome:
+def from_update_result(result, seconds: float, ranges: dict | None = None, damping=None) -> Outcome:
     """The outcome of `vibupdate.update`; ``ranges`` the consistent ranges the user computed at
-    its answer, as ``results.json`` writes them (`acceptance.runner.api_ranges`)."""
+    its answer, as ``results.json`` writes them (`acceptance.runner.api_ranges`); ``damping``
+    the `vibupdate.DampingStage` the user identified on it (None: none)."""
     from vibupdate.io.results import frequencies_of
 
     alternatives = [np.array(list(a["values"].values()), dtype=float) for a in getattr(result, "alternatives", ())]
+    rows, model, warned = [], None, tuple(result.warnings)
+    if damping is not None:
+        rows = damping.rows()
+        model = {"exponents": [float(y) for y in damping.caughey.exponents],
+                 "beta": [float(b) for b in damping.caughey.beta]}
+        warned += tuple(damping.warnings)
     return Outcome(status_word(result.status), None, seconds, np.asarray(result.values, dtype=float),
-                   _ranges(ranges), alternatives, [r.as_dict() for r in frequencies_of(result.correlation)])
+                   _ranges(ranges), alternatives, [r.as_dict() for r in frequencies_of(result.correlation)],
+                   damping=rows, damping_model=model, warnings=warned)

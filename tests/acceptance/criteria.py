@@ -5,7 +5,9 @@ Two kinds of criteria:
 
 * defects (`acceptance.runner.DEFECTS`: a crash, a valid input refused, an answer claiming to
   fit with a datum outside its interval, a determined parameter missed, the truth outside a
-  reported range, a report that is not the model's): none, in every family;
+  reported range, a report that is not the model's, a damping fit that is not the least squares
+  of its ratios or misses exact in-family ratios, negative damping not warned of): none, in
+  every family;
 * budgets, per family and each on its own: the least share of runs that must end verified
   (``success_min``), the largest share that may end ``not_verified`` (``not_verified_max``:
   strictness is never free, a family that fails to verify spends it), the answers worse than
@@ -27,14 +29,15 @@ from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from acceptance import runner as R
 from acceptance.judge import FLOOR, Verdict
 
 __all__ = ["Family", "Finding", "FAMILIES", "IN_FAMILY", "PROFILES", "REGRESSION_SEEDS", "NEW_FAMILIES", "check",
            "summary", "profile_jobs", "EXCUSED", "DEFECTS", "SIZE", "SIZE_FAMILIES", "CI_RANDOM", "right",
            "compare"]
 
-#: Failure codes that are defects in every family.
-DEFECTS = ("crash", "refused", "exit_code", "outside", "determined_miss", "truth_outside_reported", "report")
+#: Failure codes that are defects in every family (`acceptance.runner.DEFECTS`).
+DEFECTS = R.DEFECTS
 #: The judge's excused classes, counted and printed.
 EXCUSED = ("not_unique", "undetermined_far")
 #: Budgets of a family whose model holds the truth and whose data admit it: at least 97 % of
@@ -238,7 +241,8 @@ def _families() -> dict:
              Family("frequency_shift", F.frequency_shift),
              Family("misnumbered_zero", F.misnumbered_zero, first_min=BIASED_FIRST)]
     fams += [Family(name, F.MAKERS[name], **IN_FAMILY)
-             for name in ("close_modes", "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized")]
+             for name in ("close_modes", "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized",
+                          "caughey_damping")]
     fams += [Family(name, F.MAKERS[name], **SIZE) for name in SIZE_FAMILIES]
     fams += [Family("shear_building", F.shear_building, worse_max=0, above_compromise_max=0)]
     return {f.name: f for f in fams}
@@ -252,7 +256,8 @@ FAMILIES = _families()
 #: The families drawn beyond the random problems and the named ones.
 NEW_FAMILIES = ("coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "misnumbered_zero",
                 "close_modes",
-                "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", *SIZE_FAMILIES)
+                "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", "caughey_damping",
+                *SIZE_FAMILIES)
 
 #: Seeds of the random family whose failure class the first 31 do not show (found by
 #: `benchmarks/acceptance.py` on 2026-11-25 and -26; each is described in `tests/acceptance/test_acceptance.py`).

@@ -4,8 +4,9 @@
   files in Matrix Market or ``.npz``), the parameters, one ``[[configuration]]`` per data set
   (frequencies typed in the TOML or in a CSV table with the columns of
   `vibupdate.io.measured_io.read_frequency_csv`, shapes in a CSV table ``mode,dof,lower,upper``),
-  ``frequency_tolerance`` = the problem's 3-sigma half-width for noisy data, and the model-form
-  tolerances of a model family that holds the truth (`model_form`).
+  ``frequency_tolerance`` = the problem's 3-sigma half-width for noisy data, the model-form
+  tolerances of a model family that holds the truth (`model_form`), and the measured damping
+  ratios with a ``[damping]`` table of the true series' exponents where the problem has them.
 * `configurations`: the same data for `vibupdate.update`; a noisy frequency carries its
   interval. ``judge=True`` gives the judge's configurations: modes and zeros always declared,
   and exact data widened into intervals of relative half-width `EXACT_SLACK` (frequencies) and
@@ -57,11 +58,13 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
     table: dict = {"name": cfg.name}
     if cfg.extra_mass:
         table["mass"] = [{"dof": cfg.extra_mass[0], "value": float(cfg.extra_mass[1])}]
+    damped = any(n.damping is not None for n in cfg.natural)
     if problem.csv and (cfg.natural or cfg.zeros):
-        rows = ["kind,hz,response,excitation,mode,index"]
-        rows += [f"natural,{n.hz!r},,,{flexible_mode(problem, n) if cfg.declare else ''}," for n in cfg.natural]
+        rows = ["kind,hz,response,excitation,mode,index" + (",damping_ratio" if damped else "")]
+        rows += [f"natural,{n.hz!r},,,{flexible_mode(problem, n) if cfg.declare else ''},"
+                 + (f",{n.damping!r}" if damped else "") for n in cfg.natural]
         rows += [f"antiresonance,{z.hz!r},{z.response},{z.excitation},,{z.index if cfg.declare is True else ''}"
-                 for z in cfg.zeros]
+                 + ("," if damped else "") for z in cfg.zeros]
         (folder / f"frequencies_{cfg.name}.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
         table["frequencies_csv"] = f"frequencies_{cfg.name}.csv"
     else:
@@ -69,6 +72,8 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
             table["natural_hz"] = [float(n.hz) for n in cfg.natural]
             if cfg.declare:
                 table["natural_modes"] = [flexible_mode(problem, n) for n in cfg.natural]
+            if damped:
+                table["damping_ratios"] = [float(n.damping) for n in cfg.natural]
         if cfg.zeros:
             table["antiresonances"] = [{"hz": float(z.hz), "response": z.response, "excitation": z.excitation,
                                         **({"index": z.index} if cfg.declare is True else {})} for z in cfg.zeros]
@@ -102,6 +107,8 @@ def write_case(problem, folder) -> Path:
                                         "upper": p.upper})
     for cfg in problem.data:
         _table(lines, "[[configuration]]", _configuration_table(problem, cfg, folder))
+    if problem.damping is not None:
+        _table(lines, "[damping]", {"exponents": [float(y) for y in problem.damping[0]]})
     path = folder / "case.toml"
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
@@ -148,7 +155,7 @@ def configurations(problem, judge: bool = False) -> tuple:
                                       mass_normalized=problem.mass_normalized)
             w = TWO_PI * n.hz
             natural.append(NaturalFrequency(w, shape=shape, mode=flexible_mode(problem, n) if declare else None,
-                                            interval=_interval(w, rel * w)))
+                                            interval=_interval(w, rel * w), damping_ratio=n.damping))
         zeros = [Antiresonance(TWO_PI * z.hz, z.response, z.excitation,
                                index=z.index if cfg.declare is True or judge else None,
                                interval=_interval(TWO_PI * z.hz, rel * TWO_PI * z.hz)) for z in cfg.zeros]

@@ -28,7 +28,7 @@ from vibupdate import Parameter
 __all__ = ["coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "misnumbered_zero",
            "close_modes",
            "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", "many_dofs", "many_parameters",
-           "shear_building", "MAKERS"]
+           "shear_building", "caughey_damping", "DAMPING_EXPONENTS", "MAKERS"]
 
 TWO_PI = 2.0 * np.pi
 
@@ -429,6 +429,65 @@ def mass_normalized(seed: int) -> Problem:
                    family="mass_normalized", mass_normalized=True, note="mass-normalized shapes")
 
 
+#: The exponents of the true Caughey damping of `caughey_damping` (Rayleigh first).
+DAMPING_EXPONENTS = ((0.0, 1.0), (0.0, 1.0, 2.0), (-1.0, 0.0, 1.0), (0.0, 0.5, 1.0), (-0.5, 0.5))
+
+
+def _caughey(rng, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exponents from `DAMPING_EXPONENTS` and coefficients whose modal damping ratios are 0.5-5 %
+    (log-uniform) at as many of the modes ``omega`` (rad/s, ascending) as there are terms,
+    spread from the lowest to the highest, and positive over ``(0, 1.6 omega[-1]]``; drawn again
+    until they are."""
+    grid = np.geomspace(1e-6, 1.6, 2000) * omega[-1]
+    for _ in range(100):
+        Y = np.array(DAMPING_EXPONENTS[int(rng.integers(len(DAMPING_EXPONENTS)))])
+        anchors = omega[np.unique(np.linspace(0, omega.size - 1, min(Y.size, omega.size)).round().astype(int))]
+        Y = Y[:anchors.size]
+        A = np.column_stack([T.caughey_ratios(Y, np.eye(Y.size)[j], anchors) for j in range(Y.size)])
+        beta = np.linalg.solve(A, 10 ** rng.uniform(np.log10(0.005), np.log10(0.05), Y.size))
+        if np.all(T.caughey_ratios(Y, beta, grid) > 0):
+            return Y, beta
+    raise RuntimeError("no positive Caughey damping drawn in 100 tries")
+
+
+def caughey_damping(seed: int) -> Problem:
+    """In family: a chain or beam (no rigid-body modes) whose true damping is a Caughey series
+    (`DAMPING_EXPONENTS`: Rayleigh, or two or three other terms) with modal damping ratios of
+    0.5-5 % at the measured modes and positive up to 1.6 times the highest; 3-6 measured modes
+    with their frequencies (exact or with 0.1-0.5 % noise) and damping ratios (exact, or with
+    2-10 % relative noise), typed in the case file or in its frequency table, fitted with the
+    true exponents; half the problems add a second configuration with a known added mass (the
+    same series on its own mass and stiffness). A right answer: as for any in-family problem, its damping fit the least
+    squares of the measured ratios at its own frequencies (exact on exact data), and negative
+    modal damping of the fitted series warned of."""
+    rng = _rng("caughey_damping", seed)
+    spec, params = _chain_or_beam(rng, (3, 8), k_groups_top=3, chain_masses=1)
+    truth = draw_truth(rng, params)
+    noise = 0.0 if rng.random() < 0.5 else _noise(rng)
+    n_modes = min(int(rng.integers(3, 7)), len(spec.measurable))
+    extras = [None]
+    if rng.random() < 0.5:   # a second configuration with a known added mass: one series, the same coefficients
+        per_dof = 1.0 if spec.label.startswith("chain") else S.STRIP_RHO_A / len(spec.elements)
+        meas = list(spec.measurable)
+        extras.append((meas[int(rng.integers(len(meas)))], float(rng.uniform(0.1, 0.3) * per_dof)))
+    data, omegas = [], []
+    for name, extra in zip("AB", extras):
+        data.append(measure(spec, params, truth, kind="P2", rng=rng, noise=noise, n_modes=n_modes, name=name,
+                            extra_mass=extra))
+        M, K, _ = S.matrices_at(spec.with_mass(*extra) if extra else spec, truth)
+        omegas.append(T.modes(M, K)[0][[n.mode - 1 for n in data[-1].natural]])
+    Y, beta = _caughey(rng, np.sort(np.concatenate(omegas)))
+    sigma = 0.0 if rng.random() < 0.5 else float(rng.uniform(0.02, 0.1))
+    for k, omega in enumerate(omegas):
+        ratios = T.caughey_ratios(Y, beta, omega) * (1 + sigma * rng.standard_normal(omega.size).clip(-3, 3))
+        data[k] = replace(data[k], natural=tuple(replace(n, damping=float(z)) for n, z in zip(data[k].natural, ratios)))
+    return Problem(f"damp{seed}", spec, tuple(params), truth, tuple(data), noise, 0.0, seed,
+                   csv=bool(rng.random() < 0.3), family="caughey_damping",
+                   damping=(tuple(Y.tolist()), tuple(beta.tolist())), damping_noise=sigma,
+                   note=f"Caughey damping Y = {Y.tolist()}, {len(data)} configuration(s), ratios "
+                   + ("exact" if sigma == 0 else f"with {100 * sigma:.1f} % noise"))
+
+
 def _zoned_beam(rng, n_el: int, zones: int, m_groups: int = 1) -> tuple[S.StructureSpec, list]:
     """A clamped beam of ``n_el`` elements whose EI parameters are ``zones`` contiguous stretches
     (``EI1`` at the root ...), each element's nominal EI drawn +-15 % about the strip's; one mass
@@ -553,4 +612,4 @@ def shear_building(seed: int) -> Problem:
 #: Every family maker by family name.
 MAKERS = {f.__name__: f for f in (coarse_mesh, root_spring, sensor_masses, biased_channel, frequency_shift,
                                   misnumbered_zero, close_modes, cross_receptance, symmetric_ring, hidden_mode,
-                                  mass_normalized, many_dofs, many_parameters, shear_building)}
+                                  mass_normalized, many_dofs, many_parameters, shear_building, caughey_damping)}

@@ -23,6 +23,15 @@ Failure codes of one run (`Verdict.failures`):
 * ``truth_outside_reported``: the truth (or a mirror image) outside a consistent range the run
   reports, for a problem whose model family holds the truth;
 * ``report``: ``results.json`` frequencies that differ from the recomputed ones;
+* ``damping_fit``: where damping ratios were measured, an answer claiming to fit whose damping
+  fit is missing, or whose identified ratios are not the least squares of the measured ones by
+  the reported series' exponents at the answer's reported frequencies (`DAMPING_FIT_TOL`, the
+  judge's own solve), or not what the reported coefficients give there;
+* ``damping_truth``: such an answer to exact in-family data (frequencies and ratios) whose
+  identified ratios miss the measured ones by more than `DAMPING_TRUTH_TOL` of them;
+* ``damping_unwarned``: a reported series with negative modal damping somewhere in ``(0, 1.5
+  x the highest measured frequency]`` and no warning of it (one that names the Caughey fit: the
+  Rayleigh baseline's own warning does not count);
 * ``worse_than_nominal``: an answer further from its data than the nominal model by the
   contract's misfit (`misfit`: the sum of squared distances outside the admissible intervals, in
   their half-widths, the measure the library's own guard uses, recomputed here);
@@ -55,8 +64,8 @@ from acceptance.adapter import Outcome
 from acceptance.emit import EXACT_SLACK, flexible_mode, model_form
 
 __all__ = ["Reference", "Compromise", "Verdict", "reference", "compromise", "judge", "misses", "excess", "misfit",
-           "admissible_misses", "scale_miss", "FLOOR", "FAR_PCT", "ADMISSIBLE_FLOOR", "EXACT_HALF_WIDTH",
-           "MODEL_FORM_DEFAULTS"]
+           "admissible_misses", "scale_miss", "FLOOR", "FAR_PCT", "ADMISSIBLE_FLOOR",
+           "EXACT_HALF_WIDTH", "MODEL_FORM_DEFAULTS", "DAMPING_FIT_TOL", "DAMPING_TRUTH_TOL"]
 
 #: Numerical floor of the interval checks, in half-widths: an answer on a bound to 0.1 % of
 #: its half-width is inside (the polish ends on the bounds of the intervals it reaches).
@@ -78,6 +87,12 @@ EXACT_HALF_WIDTH = 1e-6
 #: Model-form tolerances a case file does not state (`acceptance.emit.model_form` states the rest).
 MODEL_FORM_DEFAULTS = {"natural_tolerance": 0.02, "antiresonance_tolerance": 0.02, "shape_tolerance": 0.02,
                        "modal_mass_tolerance": 0.05}
+#: Agreement of the identified damping ratios with the judge's least squares at the same
+#: frequencies, relative to the largest measured ratio (rounding of two solves of one problem).
+DAMPING_FIT_TOL = 1e-6
+#: Agreement of the identified damping ratios with exact in-family ratios, relative to each: the
+#: answer's frequencies meet exact data to about 1e-6, which moves a ratio by as much.
+DAMPING_TRUTH_TOL = 1e-4
 
 
 @dataclass(frozen=True)
@@ -408,6 +423,8 @@ def judge(problem, route: str, outcome: Outcome, ref: Reference) -> Verdict:
         v.details.append(f"compromise: largest distance {np.max(gap):.3g} % ({names[int(np.argmax(gap))]}) from the "
                          f"judge's least-squares compromise (misfit {ref.compromise.misfit:.4g}, the answer's "
                          f"{answer_misfit:.4g}); run time {v.compromise['time_ratio']:.3g}x the compromise's")
+    if any(n.damping is not None for c in problem.data for n in c.natural):
+        _check_damping(problem, v, outcome)
     lookup = {(c, k, i): hz for c, k, i, hz in freqs}
     for row in outcome.rows:
         key = (row["configuration"], row.get("receptance") or row["kind"], row.get("model_index", row["index"]))
@@ -466,3 +483,56 @@ def _check_parameters(problem, v: Verdict, outcome: Outcome, ref: Reference, nam
             v.failures.append("truth_outside_reported")
             v.details += [f"truth_outside_reported: true {names[i]} = {ref.truths[0][i]:.6g} outside the reported "
                           f"range [{lo[i]:.6g}, {hi[i]:.6g}]" for i in found[0][:4]]
+
+
+def _check_damping(problem, v: Verdict, outcome: Outcome) -> None:
+    """``damping_fit``, ``damping_truth`` and ``damping_unwarned`` (module docstring)."""
+    measured = {(c.name, flexible_mode(problem, n)): (n.damping, TWO_PI * n.hz)
+                for c in problem.data for n in c.natural if n.damping is not None}
+    if outcome.damping_model is not None:
+        Y, beta = (np.asarray(outcome.damping_model[k], dtype=float) for k in ("exponents", "beta"))
+        top = 1.5 * max(w for _, w in measured.values())
+        grid = np.unique(np.concatenate([np.linspace(top / 4000, top, 4000), np.geomspace(1e-6 * top, top, 4000)]))
+        terms = beta * grid[:, None] ** (2.0 * Y)
+        negative = np.sum(terms, axis=1) < -1e-9 * np.sum(np.abs(terms), axis=1)
+        if negative.any() and not any("Caughey" in w and "negative modal damping" in w for w in outcome.warnings):
+            v.failures.append("damping_unwarned")
+            w = grid[negative] / TWO_PI
+            v.details.append(f"damping_unwarned: the reported series is negative at {w.min():.4g}-{w.max():.4g} Hz "
+                             f"(checked to {top / TWO_PI:.4g} Hz) and no warning says so")
+    if not v.success:
+        return
+    if outcome.damping_model is None or len(outcome.damping) != len(measured):
+        v.failures.append("damping_fit")
+        v.details.append(f"damping_fit: {len(measured)} measured damping ratios, {len(outcome.damping)} identified")
+        return
+    updated = {(r["configuration"], r["model_index"]): TWO_PI * r["updated_hz"] for r in outcome.rows
+               if r["kind"] == "natural" and r.get("updated_hz") is not None}
+    keys = [(r["configuration"], int(r["mode"])) for r in outcome.damping]
+    if set(keys) != set(measured) or any(k not in updated for k in keys):
+        v.failures.append("damping_fit")
+        v.details.append(f"damping_fit: ratios identified for {sorted(keys)}, measured for {sorted(measured)}")
+        return
+    omega = np.array([updated[k] for k in keys])
+    zeta = np.array([measured[k][0] for k in keys])
+    identified = np.array([r["identified"] for r in outcome.damping], dtype=float)
+    A = np.column_stack([T.caughey_ratios(Y, np.eye(Y.size)[j], omega) for j in range(Y.size)])   # ratios per beta_j
+    scale = np.linalg.norm(A, axis=0)
+    own = A @ (np.linalg.lstsq(A / scale, zeta, rcond=None)[0] / scale)
+    tol = DAMPING_FIT_TOL * np.max(np.abs(zeta))
+    for what, ratios in (("the least squares of the measured ratios", own),
+                         ("the reported coefficients", T.caughey_ratios(Y, beta, omega))):
+        gap = np.abs(identified - ratios)
+        if gap.max() > tol:
+            k = int(np.argmax(gap))
+            v.failures.append("damping_fit")
+            v.details.append(f"damping_fit: {keys[k][0]} mode {keys[k][1]}: identified ratio {identified[k]:.6g}, "
+                             f"{what} give {ratios[k]:.6g} at the answer's {omega[k] / TWO_PI:.6g} Hz")
+            return
+    if problem.in_family and problem.exact and problem.damping_noise == 0:
+        miss = np.abs(identified - zeta) / zeta
+        if miss.max() > DAMPING_TRUTH_TOL:
+            k = int(np.argmax(miss))
+            v.failures.append("damping_truth")
+            v.details.append(f"damping_truth: {keys[k][0]} mode {keys[k][1]}: identified {identified[k]:.6g}, "
+                             f"exact {zeta[k]:.6g} ({100 * miss[k]:.3g} %)")

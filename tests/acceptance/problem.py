@@ -19,12 +19,14 @@ __all__ = ["Natural", "Zero", "ConfigData", "Problem"]
 
 @dataclass(frozen=True)
 class Natural:
-    """A measured natural frequency (Hz), its model mode (1-based, rigid-body modes counted)
-    and its shape intervals ``{dof: (lower, upper)}`` (ratios to the reference entry) or None."""
+    """A measured natural frequency (Hz), its model mode (1-based, rigid-body modes counted),
+    its shape intervals ``{dof: (lower, upper)}`` (ratios to the reference entry) or None, and
+    its measured modal damping ratio or None."""
 
     hz: float
     mode: int
     shape: dict | None = None
+    damping: float | None = None
 
 
 @dataclass(frozen=True)
@@ -95,6 +97,12 @@ class Problem:
     compromise : bool
         The judge computes its own weighted least-squares compromise and reports each answer's
         distance to it (`acceptance.judge.compromise`).
+    damping : tuple or None
+        The true damping as a Caughey series, ``(exponents, beta)`` (modal damping ratio
+        ``sum_j beta_j w^(2 Y_j) / (2 w)`` at ``w`` rad/s), fitted with the same exponents; the
+        measured ratios are on the ``Natural`` s.
+    damping_noise : float
+        Relative standard deviation of the measured damping ratios (0: exact).
     """
 
     case_id: str
@@ -113,6 +121,8 @@ class Problem:
     mass_normalized: bool = False
     expected_first: str | None = None
     compromise: bool = False
+    damping: tuple | None = None
+    damping_noise: float = 0.0
 
     @property
     def kind(self) -> str:

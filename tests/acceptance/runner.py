@@ -21,11 +21,13 @@ from pathlib import Path
 from acceptance.adapter import Outcome, failed_outcome, from_results_json, from_update_result
 from acceptance.judge import Reference, Verdict, judge, misses, reference
 
-__all__ = ["Reference", "Verdict", "reference", "run_cli", "run_api", "judge", "misses", "run_problem", "DEFECTS"]
+__all__ = ["Reference", "Verdict", "reference", "run_cli", "run_api", "api_damping", "judge", "misses", "run_problem",
+           "DEFECTS"]
 
 #: The failure codes that are defects in every family (not_verified, path_failed and
 #: worse_than_nominal are outcomes, each family's budget in `acceptance.criteria`).
-DEFECTS = ("crash", "refused", "exit_code", "outside", "determined_miss", "truth_outside_reported", "report")
+DEFECTS = ("crash", "refused", "exit_code", "outside", "determined_miss", "truth_outside_reported", "report",
+           "damping_fit", "damping_truth", "damping_unwarned")
 
 
 # -- the two routes ------------------------------------------------------------------------------
@@ -80,7 +82,25 @@ def run_api(problem) -> Outcome:
         ranges = api_ranges(problem, result)
     except Exception as exc:   # the library's ranges failing on a verified answer is a finding too
         return failed_outcome("crash", seconds, f"parameter_ranges: {type(exc).__name__}: {exc}")
-    return from_update_result(result, seconds, ranges)
+    try:
+        damping = api_damping(problem, result)
+    except Exception as exc:   # so is the damping fit failing on valid ratios
+        return failed_outcome("crash", seconds, f"identify_damping: {type(exc).__name__}: {exc}")
+    return from_update_result(result, seconds, ranges, damping)
+
+
+def api_damping(problem, result):
+    """The damping a Python user identifies on the answer, as ``vibupdate run`` does with the
+    case's ``[damping]`` exponents (docs/python-api.md): `identify_damping` at ``result.xbar``
+    with the answer's modal data; None when the problem has no damping."""
+    if problem.damping is None:
+        return None
+    from vibupdate import identify_damping
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return identify_damping(problem.configurations(), result.xbar, problem.damping[0],
+                                freqs=list(result.correlation.updated))
 
 
 def api_ranges(problem, result):

@@ -176,6 +176,19 @@ def test_case_file_and_python_objects_are_the_same_problem(tmp_path, family):
         assert [n.omega for n in a.natural] == pytest.approx([n.omega for n in b.natural], rel=1e-14)
         assert [z.index for z in a.antiresonances] == [z.index for z in b.antiresonances]
         assert [n.shape for n in a.natural] == [n.shape for n in b.natural]
+        assert [n.damping_ratio for n in a.natural] == [n.damping_ratio for n in b.natural]
+
+
+@pytest.mark.parametrize("csv", [False, True])
+def test_damping_ratios_and_exponents_reach_the_case_file_either_way(tmp_path, csv):
+    """The damping family writes its ratios typed in the case file or in its frequency table,
+    and the true series' exponents as the ``[damping]`` table."""
+    problem = next(p for p in map(F.caughey_damping, range(50)) if p.csv == csv)
+    case = load_case(problem.write_case(tmp_path))
+    ratios = [n.damping for c in problem.data for n in c.natural]
+    assert [n.damping_ratio for c in case.configurations for n in c.natural] == ratios
+    assert all(r is not None for r in ratios)
+    assert tuple(case.damping.exponents) == problem.damping[0]
 
 
 def test_every_family_states_what_a_right_answer_is():

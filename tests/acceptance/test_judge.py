@@ -380,3 +380,69 @@ def test_the_benchmark_refuses_a_selection_without_problems(capsys):
         bench.main(["--profile", "full", "--family", "many_dofs", "--skip", "60", "--cases", "6"])
     assert stop.value.code == 2
     assert "no problem selected (--cases 6 with --skip 60" in capsys.readouterr().err
+
+
+def _damped_outcome(problem, exponents=None):
+    """An answer at the truth whose damping fit is the least squares of the measured ratios by
+    ``exponents`` (the problem's own by default), as a run reports it."""
+    from acceptance.emit import flexible_mode
+
+    Y = np.array(problem.damping[0] if exponents is None else exponents, dtype=float)
+    naturals = [(c.name, n) for c in problem.data for n in c.natural]
+    omega = np.array([2 * np.pi * n.hz for _, n in naturals])
+    zeta = np.array([n.damping for _, n in naturals])
+    A = np.column_stack([T.caughey_ratios(Y, np.eye(Y.size)[j], omega) for j in range(Y.size)])
+    beta = np.linalg.lstsq(A, zeta, rcond=None)[0]
+    rows = [{"configuration": c, "kind": "natural", "index": k + 1, "model_index": flexible_mode(problem, n),
+             "receptance": None, "updated_hz": n.hz} for k, (c, n) in enumerate(naturals)]
+    damping = [{"configuration": c, "mode": flexible_mode(problem, n), "measured": n.damping, "identified": float(f)}
+               for (c, n), f in zip(naturals, A @ beta)]
+    return Outcome("success", None, 0.0, _truth(problem), rows=rows, damping=damping,
+                   damping_model={"exponents": Y.tolist(), "beta": beta.tolist()})
+
+
+def _exact_damping_problem(terms: int):
+    """The first `caughey_damping` problem with exact frequencies and ratios and a series of
+    ``terms`` terms."""
+    from acceptance import families as F
+
+    return next(p for p in map(F.caughey_damping, range(100))
+                if p.exact and p.damping_noise == 0 and len(p.damping[0]) == terms)
+
+
+def test_a_damping_fit_that_is_not_the_least_squares_of_its_ratios_is_a_defect():
+    problem = _exact_damping_problem(2)
+    ref = J.reference(problem)
+    right = _damped_outcome(problem)
+    assert J.judge(problem, "api", right, ref).failures == []
+    off = [dict(r) for r in right.damping]
+    off[0]["identified"] *= 1.01
+    assert "damping_fit" in J.judge(problem, "api", replace(right, damping=off), ref).failures
+    model = {**right.damping_model, "beta": [1.01 * b for b in right.damping_model["beta"]]}
+    assert "damping_fit" in J.judge(problem, "api", replace(right, damping_model=model), ref).failures
+    assert "damping_fit" in J.judge(problem, "api", replace(right, damping=right.damping[1:]), ref).failures
+
+
+def test_a_fit_that_misses_exact_in_family_ratios_is_a_defect():
+    """Three-term ratios fitted by Rayleigh damping: the least squares of its exponents, but not
+    the exact ratios."""
+    problem = _exact_damping_problem(3)
+    ref = J.reference(problem)
+    assert J.judge(problem, "api", _damped_outcome(problem), ref).failures == []
+    verdict = J.judge(problem, "api", _damped_outcome(problem, exponents=(0.0, 1.0)), ref)
+    assert verdict.failures == ["damping_truth"], verdict.details
+
+
+def test_negative_damping_of_the_reported_series_must_be_warned_of():
+    problem = _exact_damping_problem(2)
+    ref = J.reference(problem)
+    right = _damped_outcome(problem)
+    top = 2 * np.pi * max(n.hz for c in problem.data for n in c.natural)
+    # a stiffness term that turns the damping negative at 1.2 x the highest measured frequency
+    negative = {"exponents": [0.0, 1.0], "beta": [1.0, -1.0 / (1.2 * top) ** 2]}
+    outcome = replace(right, status="not_verified", damping_model=negative)
+    assert J.judge(problem, "api", outcome, ref).failures == ["not_verified", "damping_unwarned"]
+    baseline = replace(outcome, warnings=("Rayleigh baseline: negative modal damping at ...",))
+    assert J.judge(problem, "api", baseline, ref).failures == ["not_verified", "damping_unwarned"]
+    warned = replace(outcome, warnings=("Caughey fit (Y = [0.0, 1.0]): negative modal damping at ...",))
+    assert J.judge(problem, "api", warned, ref).failures == ["not_verified"]

@@ -15,6 +15,7 @@ returned models, with these few lines of `scipy.linalg` instead of `vibupdate.mo
   row ``r`` and column ``c`` removed, real and positive (a zero at 0 rad/s of a free structure
   cancels against its rigid-body poles and is not a zero of ``h_rc``); infinite eigenvalues of
   a pencil with massless DOFs are dropped.
+* `caughey_ratios`: the modal damping ratios of a Caughey series.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 from scipy.sparse.linalg import eigsh
 
-__all__ = ["modes", "zeros", "mac", "rigid_floor", "SPARSE_MODES"]
+__all__ = ["modes", "zeros", "mac", "caughey_ratios", "rigid_floor", "SPARSE_MODES"]
 
 #: Modes a sparse model's `modes` returns: more than any problem measures.
 SPARSE_MODES = 16
@@ -165,3 +166,13 @@ def mac(a: np.ndarray, b: np.ndarray) -> float:
     irregular chain localized away from every sensor, its entries there underflowing to 0)."""
     norm = (a @ a) * (b @ b)
     return float((a @ b) ** 2 / norm) if norm > 0 else 0.0
+
+
+def caughey_ratios(exponents, beta, omega) -> np.ndarray:
+    """Modal damping ratios of a Caughey series at ``omega`` (rad/s): ``sum_j beta_j w^(2 Y_j)
+    / (2 w)`` (``C = M sum_j beta_j (M^-1 K)^Y_j``, a mode of ``w`` has ``phi^T C phi = sum_j
+    beta_j w^(2 Y_j)``)."""
+    w = np.asarray(omega, dtype=float)[:, None]
+    return np.sum(np.asarray(beta, dtype=float) * w ** (2.0 * np.asarray(exponents, dtype=float)), axis=1) / (
+        2.0 * w[:, 0])
+
