@@ -433,14 +433,15 @@ def mass_normalized(seed: int) -> Problem:
 DAMPING_EXPONENTS = ((0.0, 1.0), (0.0, 1.0, 2.0), (-1.0, 0.0, 1.0), (0.0, 0.5, 1.0), (-0.5, 0.5))
 
 
-def _caughey(rng, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Exponents from `DAMPING_EXPONENTS` and coefficients whose modal damping ratios are 0.5-5 %
-    (log-uniform) at as many of the modes ``omega`` (rad/s, ascending) as there are terms,
-    spread from the lowest to the highest, and positive over ``(0, 1.6 omega[-1]]``; drawn again
-    until they are."""
+def _caughey(rng, omega: np.ndarray, rigid: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Exponents from `DAMPING_EXPONENTS` (none negative for a model with rigid-body modes,
+    ``rigid``) and coefficients whose modal damping ratios are 0.5-5 % (log-uniform) at as many of
+    the modes ``omega`` (rad/s, ascending) as there are terms, spread from the lowest to the
+    highest, and positive over ``(0, 1.6 omega[-1]]``; drawn again until they are."""
     grid = np.geomspace(1e-6, 1.6, 2000) * omega[-1]
+    sets = [Y for Y in DAMPING_EXPONENTS if not rigid or min(Y) >= 0]
     for _ in range(100):
-        Y = np.array(DAMPING_EXPONENTS[int(rng.integers(len(DAMPING_EXPONENTS)))])
+        Y = np.array(sets[int(rng.integers(len(sets)))])
         anchors = omega[np.unique(np.linspace(0, omega.size - 1, min(Y.size, omega.size)).round().astype(int))]
         Y = Y[:anchors.size]
         A = np.column_stack([T.caughey_ratios(Y, np.eye(Y.size)[j], anchors) for j in range(Y.size)])
@@ -451,8 +452,9 @@ def _caughey(rng, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def caughey_damping(seed: int) -> Problem:
-    """In family: a chain or beam (no rigid-body modes) whose true damping is a Caughey series
-    (`DAMPING_EXPONENTS`: Rayleigh, or two or three other terms) with modal damping ratios of
+    """In family: a chain, a clamped beam or a free-free beam (two rigid-body modes) whose true
+    damping is a Caughey series (`DAMPING_EXPONENTS`: Rayleigh, or two or three other terms, none
+    negative with rigid-body modes) with modal damping ratios of
     0.5-5 % at the measured modes and positive up to 1.6 times the highest; 3-6 measured modes
     with their frequencies (exact or with 0.1-0.5 % noise) and damping ratios (exact, or with
     2-10 % relative noise), typed in the case file or in its frequency table, fitted with the
@@ -461,7 +463,10 @@ def caughey_damping(seed: int) -> Problem:
     squares of the measured ratios at its own frequencies (exact on exact data), and negative
     modal damping of the fitted series warned of."""
     rng = _rng("caughey_damping", seed)
-    spec, params = _chain_or_beam(rng, (3, 8), k_groups_top=3, chain_masses=1)
+    if rng.random() < 0.2:
+        spec, params = S.beam(rng, int(rng.integers(4, 9)), support="free", ei_groups=2, m_groups=1)
+    else:
+        spec, params = _chain_or_beam(rng, (3, 8), k_groups_top=3, chain_masses=1)
     truth = draw_truth(rng, params)
     noise = 0.0 if rng.random() < 0.5 else _noise(rng)
     n_modes = min(int(rng.integers(3, 7)), len(spec.measurable))
@@ -476,7 +481,7 @@ def caughey_damping(seed: int) -> Problem:
                             extra_mass=extra))
         M, K, _ = S.matrices_at(spec.with_mass(*extra) if extra else spec, truth)
         omegas.append(T.modes(M, K)[0][[n.mode - 1 for n in data[-1].natural]])
-    Y, beta = _caughey(rng, np.sort(np.concatenate(omegas)))
+    Y, beta = _caughey(rng, np.sort(np.concatenate(omegas)), spec.rigid_modes > 0)
     sigma = 0.0 if rng.random() < 0.5 else float(rng.uniform(0.02, 0.1))
     for k, omega in enumerate(omegas):
         ratios = T.caughey_ratios(Y, beta, omega) * (1 + sigma * rng.standard_normal(omega.size).clip(-3, 3))
