@@ -430,7 +430,7 @@ def test_a_fit_that_misses_exact_in_family_ratios_is_a_defect():
     ref = J.reference(problem)
     assert J.judge(problem, "api", _damped_outcome(problem), ref).failures == []
     verdict = J.judge(problem, "api", _damped_outcome(problem, exponents=(0.0, 1.0)), ref)
-    assert verdict.failures == ["damping_truth"], verdict.details
+    assert "damping_truth" in verdict.failures and "damping_fit" not in verdict.failures, verdict.details
 
 
 def test_negative_damping_of_the_reported_series_must_be_warned_of():
