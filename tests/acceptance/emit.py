@@ -6,7 +6,8 @@
   `vibupdate.io.measured_io.read_frequency_csv`, shapes in a CSV table ``mode,dof,lower,upper``),
   ``frequency_tolerance`` = the problem's 3-sigma half-width for noisy data, the model-form
   tolerances of a model family that holds the truth (`model_form`), and the measured damping
-  ratios with a ``[damping]`` table of the true series' exponents where the problem has them.
+  ratios with a ``[damping]`` table of the true series' exponents where the problem has them
+  (damped frequencies with ``frequency_type = "damped"`` where it gives those).
 * `configurations`: the same data for `vibupdate.update`; a noisy frequency carries its
   interval. ``judge=True`` gives the judge's configurations: modes and zeros always declared,
   and exact data widened into intervals of relative half-width `EXACT_SLACK` (frequencies) and
@@ -59,9 +60,11 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
     if cfg.extra_mass:
         table["mass"] = [{"dof": cfg.extra_mass[0], "value": float(cfg.extra_mass[1])}]
     damped = any(n.damping is not None for n in cfg.natural)
+    if problem.damped:
+        table["frequency_type"] = "damped"
     if problem.csv and (cfg.natural or cfg.zeros):
         rows = ["kind,hz,response,excitation,mode,index" + (",damping_ratio" if damped else "")]
-        rows += [f"natural,{n.hz!r},,,{flexible_mode(problem, n) if cfg.declare else ''},"
+        rows += [f"natural,{_written_hz(problem, n)!r},,,{flexible_mode(problem, n) if cfg.declare else ''},"
                  + (f",{n.damping!r}" if damped else "") for n in cfg.natural]
         rows += [f"antiresonance,{z.hz!r},{z.response},{z.excitation},,{z.index if cfg.declare is True else ''}"
                  + ("," if damped else "") for z in cfg.zeros]
@@ -69,7 +72,7 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
         table["frequencies_csv"] = f"frequencies_{cfg.name}.csv"
     else:
         if cfg.natural:
-            table["natural_hz"] = [float(n.hz) for n in cfg.natural]
+            table["natural_hz"] = [_written_hz(problem, n) for n in cfg.natural]
             if cfg.declare:
                 table["natural_modes"] = [flexible_mode(problem, n) for n in cfg.natural]
             if damped:
@@ -88,6 +91,13 @@ def _configuration_table(problem, cfg, folder: Path) -> dict:
     if not cfg.interlacing:
         table["interlacing"] = False
     return table
+
+
+def _written_hz(problem, natural) -> float:
+    """The frequency the case file gives: the natural one, or the damped one of a problem that
+    gives damped frequencies (``Problem.damped``)."""
+    hz = float(natural.hz)
+    return hz * math.sqrt(1.0 - natural.damping ** 2) if problem.damped else hz
 
 
 def write_case(problem, folder) -> Path:

@@ -459,7 +459,8 @@ def caughey_damping(seed: int) -> Problem:
     with their frequencies (exact or with 0.1-0.5 % noise) and damping ratios (exact, or with
     2-10 % relative noise), typed in the case file or in its frequency table, fitted with the
     true exponents; half the problems add a second configuration with a known added mass (the
-    same series on its own mass and stiffness). A right answer: as for any in-family problem, its damping fit the least
+    same series on its own mass and stiffness), and half of those with exact ratios give damped
+    frequencies (``frequency_type = "damped"``). A right answer: as for any in-family problem, its damping fit the least
     squares of the measured ratios at its own frequencies (exact on exact data), and negative
     modal damping of the fitted series warned of."""
     rng = _rng("caughey_damping", seed)
@@ -486,11 +487,13 @@ def caughey_damping(seed: int) -> Problem:
     for k, omega in enumerate(omegas):
         ratios = T.caughey_ratios(Y, beta, omega) * (1 + sigma * rng.standard_normal(omega.size).clip(-3, 3))
         data[k] = replace(data[k], natural=tuple(replace(n, damping=float(z)) for n, z in zip(data[k].natural, ratios)))
+    damped = sigma == 0 and bool(rng.random() < 0.5)   # exact ratios make damped frequencies natural exactly
     return Problem(f"damp{seed}", spec, tuple(params), truth, tuple(data), noise, 0.0, seed,
                    csv=bool(rng.random() < 0.3), family="caughey_damping",
-                   damping=(tuple(Y.tolist()), tuple(beta.tolist())), damping_noise=sigma,
+                   damping=(tuple(Y.tolist()), tuple(beta.tolist())), damping_noise=sigma, damped=damped,
                    note=f"Caughey damping Y = {Y.tolist()}, {len(data)} configuration(s), ratios "
-                   + ("exact" if sigma == 0 else f"with {100 * sigma:.1f} % noise"))
+                   + ("exact" if sigma == 0 else f"with {100 * sigma:.1f} % noise")
+                   + (", damped frequencies" if damped else ""))
 
 
 def _zoned_beam(rng, n_el: int, zones: int, m_groups: int = 1) -> tuple[S.StructureSpec, list]:

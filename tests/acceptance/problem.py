@@ -103,6 +103,9 @@ class Problem:
         measured ratios are on the ``Natural`` s.
     damping_noise : float
         Relative standard deviation of the measured damping ratios (0: exact).
+    damped : bool
+        The case file gives damped frequencies, ``f_n sqrt(1 - zeta^2)`` with the measured ratios,
+        and says so (``frequency_type = "damped"``); the natural ones are on the ``Natural`` s.
     """
 
     case_id: str
@@ -123,6 +126,7 @@ class Problem:
     compromise: bool = False
     damping: tuple | None = None
     damping_noise: float = 0.0
+    damped: bool = False
 
     @property
     def kind(self) -> str:
