@@ -28,7 +28,7 @@ from vibupdate import Parameter
 __all__ = ["coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "misnumbered_zero",
            "close_modes",
            "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", "many_dofs", "many_parameters",
-           "shear_building", "caughey_damping", "DAMPING_EXPONENTS", "MAKERS"]
+           "shear_building", "caughey_damping", "dashpot_damping", "DAMPING_EXPONENTS", "MAKERS"]
 
 TWO_PI = 2.0 * np.pi
 
@@ -496,6 +496,44 @@ def caughey_damping(seed: int) -> Problem:
                    + (", damped frequencies" if damped else ""))
 
 
+def dashpot_damping(seed: int) -> Problem:
+    """Model-form error in the damping: a chain or clamped beam damped by Rayleigh damping (1 % at
+    its first and highest measured modes) and one dashpot to ground at a random DOF, whose share of
+    the first mode's damping is 1-5 % (non-proportional: complex modes). Its data are what a modal
+    test identifies of 3-6 modes: the poles' magnitudes as natural frequencies (with 0.1-0.5 %
+    noise) and their real parts over them as damping ratios, fitted with Rayleigh damping
+    or another series of `DAMPING_EXPONENTS`. A right answer: ``success`` only when every datum
+    is admissible; never further from the data than the nominal model; the damping fit the least
+    squares of the measured ratios at its own frequencies, and negative modal damping of it
+    warned of."""
+    import scipy.linalg as la
+
+    rng = _rng("dashpot_damping", seed)
+    spec, params = _chain_or_beam(rng, (3, 8), k_groups_top=3, chain_masses=1)
+    truth = draw_truth(rng, params)
+    noise = _noise(rng)   # noisy: the case then holds frequencies to their intervals alone (`emit.model_form`)
+    base = measure(spec, params, truth, kind="P2", rng=rng, noise=noise,
+                   n_modes=min(int(rng.integers(3, 7)), len(spec.measurable)))
+    M, K, dofs = S.matrices_at(spec, truth)
+    w, Phi = T.modes(M, K)
+    modes = [n.mode - 1 for n in base.natural]
+    a, b = np.linalg.solve([[1 / (2 * w[modes[0]]), w[modes[0]] / 2], [1 / (2 * w[modes[-1]]), w[modes[-1]] / 2]],
+                           [0.01, 0.01])
+    C = a * M + b * K
+    d = dofs.index(spec.measurable[int(rng.integers(len(spec.measurable)))])
+    C[d, d] += float(rng.uniform(0.01, 0.05)) * 2 * w[modes[0]] / max(Phi[d, modes[0]] ** 2, 1e-12)
+    n = M.shape[0]
+    poles = la.eigvals(np.block([[np.zeros((n, n)), np.eye(n)], [-la.solve(M, K), -la.solve(M, C)]]))
+    poles = poles[poles.imag > 0]
+    poles = poles[np.argsort(np.abs(poles))]
+    natural = tuple(replace(m, hz=float(abs(poles[k]) / TWO_PI * m.hz / (w[k] / TWO_PI)),
+                            damping=float(-poles[k].real / abs(poles[k]))) for m, k in zip(base.natural, modes))
+    Y = DAMPING_EXPONENTS[int(rng.integers(len(DAMPING_EXPONENTS)))]
+    return Problem(f"dashpot{seed}", spec, tuple(params), truth, (replace(base, natural=natural),), noise, 0.0, seed,
+                   csv=bool(rng.random() < 0.3), family="dashpot_damping", in_family=False, damping=(Y, ()),
+                   note=f"Rayleigh damping and a dashpot at {dofs[d]}, fitted with Y = {list(Y)}")
+
+
 def _zoned_beam(rng, n_el: int, zones: int, m_groups: int = 1) -> tuple[S.StructureSpec, list]:
     """A clamped beam of ``n_el`` elements whose EI parameters are ``zones`` contiguous stretches
     (``EI1`` at the root ...), each element's nominal EI drawn +-15 % about the strip's; one mass
@@ -620,4 +658,5 @@ def shear_building(seed: int) -> Problem:
 #: Every family maker by family name.
 MAKERS = {f.__name__: f for f in (coarse_mesh, root_spring, sensor_masses, biased_channel, frequency_shift,
                                   misnumbered_zero, close_modes, cross_receptance, symmetric_ring, hidden_mode,
-                                  mass_normalized, many_dofs, many_parameters, shear_building, caughey_damping)}
+                                  mass_normalized, many_dofs, many_parameters, shear_building, caughey_damping,
+                                  dashpot_damping)}

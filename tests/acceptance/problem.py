@@ -98,8 +98,9 @@ class Problem:
         The judge computes its own weighted least-squares compromise and reports each answer's
         distance to it (`acceptance.judge.compromise`).
     damping : tuple or None
-        The true damping as a Caughey series, ``(exponents, beta)`` (modal damping ratio
-        ``sum_j beta_j w^(2 Y_j) / (2 w)`` at ``w`` rad/s), fitted with the same exponents; the
+        The damping fitted, ``(exponents, beta)``: the exponents of the case's ``[damping]`` and
+        the true coefficients of a true Caughey series with them (modal damping ratio ``sum_j
+        beta_j w^(2 Y_j) / (2 w)`` at ``w`` rad/s; empty for a truth that is no such series); the
         measured ratios are on the ``Natural`` s.
     damping_noise : float
         Relative standard deviation of the measured damping ratios (0: exact).
