@@ -245,7 +245,8 @@ def _families() -> dict:
                           "caughey_damping")]
     fams += [Family(name, F.MAKERS[name], **SIZE) for name in SIZE_FAMILIES]
     fams += [Family("shear_building", F.shear_building, worse_max=0, above_compromise_max=0),
-             Family("dashpot_damping", F.dashpot_damping, worse_max=0)]
+             Family("dashpot_damping", F.dashpot_damping, worse_max=0),
+             Family("frf_test", F.frf_test, worse_max=0)]
     return {f.name: f for f in fams}
 
 
@@ -258,7 +259,7 @@ FAMILIES = _families()
 NEW_FAMILIES = ("coarse_mesh", "root_spring", "sensor_masses", "biased_channel", "frequency_shift", "misnumbered_zero",
                 "close_modes",
                 "cross_receptance", "symmetric_ring", "hidden_mode", "mass_normalized", "caughey_damping",
-                "dashpot_damping", *SIZE_FAMILIES)
+                "dashpot_damping", "frf_test", *SIZE_FAMILIES)
 
 #: Seeds of the random family whose failure class the first 31 do not show (found by
 #: `benchmarks/acceptance.py` on 2026-11-25 and -26; each is described in `tests/acceptance/test_acceptance.py`).

@@ -23,7 +23,7 @@ from pathlib import Path
 from acceptance import structures as S
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 
-__all__ = ["write_case", "configurations", "toml_value", "flexible_mode", "model_form", "EXACT_SLACK"]
+__all__ = ["write_case", "write_frfs", "configurations", "toml_value", "flexible_mode", "model_form", "EXACT_SLACK"]
 
 #: Half-width the judge gives exact data: relative for frequencies, absolute for shape ratios
 #: (well above the 1e-8 of a dense eigen-solve, far below any measurement).
@@ -55,10 +55,47 @@ def _table(lines: list[str], header: str, items: dict) -> None:
     lines.append("")
 
 
+def write_frfs(problem, folder: Path) -> list[str]:
+    """The receptances of ``problem.frf`` (`acceptance.problem.Problem`), synthesized at the truth
+    from its mass, stiffness and Rayleigh damping, one table file per repeat (column 0 the
+    frequency in Hz, then ``re+imj`` per response, comma separated) with complex Gaussian noise
+    of ``noise`` times ``|H|`` plus a floor constant in acceleration, ``floor`` times the largest
+    ``|w^2 H|`` of each FRF over ``w^2``; returns the file names."""
+    import numpy as np
+
+    f = problem.frf
+    M, K, dofs = S.matrices_at(problem.structure, problem.truth)
+    C = f["rayleigh"][0] * M + f["rayleigh"][1] * K
+    hz = np.linspace(*f["span_hz"], f["lines"])
+    w = TWO_PI * hz
+    force = np.zeros(len(dofs))
+    force[dofs.index(f["exciter"])] = 1.0
+    H = np.linalg.solve(K[None] - w[:, None, None] ** 2 * M[None] + 1j * w[:, None, None] * C[None],
+                        np.broadcast_to(force[:, None], (w.size, len(dofs), 1)))[:, :, 0]
+    H = H[:, [dofs.index(r) for r in f["responses"]]]
+    rng = np.random.default_rng(f["seed"])
+    names = []
+    for k in range(f["repeats"]):
+        e = rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)
+        # the floor is constant in acceleration, as an accelerometer's: of the largest |w^2 H| over w^2
+        floor = f["floor"] * np.abs(w[:, None] ** 2 * H).max(axis=0)[None] / w[:, None] ** 2
+        noisy = H + (f["noise"] * np.abs(H) + floor) * e
+        rows = [f"{float(x)!r}," + ",".join(f"{z.real:.12e}{z.imag:+.12e}j" for z in line) for x, line in zip(hz, noisy)]
+        names.append(f"frf_{k + 1}.csv")
+        (folder / names[-1]).write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return names
+
+
 def _configuration_table(problem, cfg, folder: Path) -> dict:
     table: dict = {"name": cfg.name}
     if cfg.extra_mass:
         table["mass"] = [{"dof": cfg.extra_mass[0], "value": float(cfg.extra_mass[1])}]
+    if problem.frf is not None:
+        files = write_frfs(problem, folder)
+        table["frf"] = {"files": files, "responses": list(problem.frf["responses"]),
+                        "excitations": [problem.frf["exciter"]] * len(files), "kind": "receptance",
+                        "band_hz": [float(b) for b in problem.frf["band_hz"]]}
+        return table
     damped = any(n.damping is not None for n in cfg.natural)
     if problem.damped:
         table["frequency_type"] = "damped"

@@ -107,6 +107,13 @@ class Problem:
     damped : bool
         The case file gives damped frequencies, ``f_n sqrt(1 - zeta^2)`` with the measured ratios,
         and says so (``frequency_type = "damped"``); the natural ones are on the ``Natural`` s.
+    frf : dict or None
+        The measurement is FRFs, which the case file gives instead of the data: ``exciter``,
+        ``responses`` (DOF names), ``rayleigh`` (the true ``(a, b)`` of ``C = a M + b K``),
+        ``span_hz`` and ``lines`` (the frequency axis), ``band_hz`` (the extraction band),
+        ``repeats``, ``noise`` (relative), ``floor`` (of the largest
+        ``|H|``) and ``seed`` of their noise (`acceptance.emit.write_frfs`). The ``Natural`` s are
+        then the true modes in the band, and ``noise`` the judge's own tolerance on them.
     """
 
     case_id: str
@@ -128,6 +135,7 @@ class Problem:
     damping: tuple | None = None
     damping_noise: float = 0.0
     damped: bool = False
+    frf: dict | None = None
 
     @property
     def kind(self) -> str:

@@ -119,11 +119,12 @@ def api_ranges(problem, result):
 
 
 def run_problem(problem, routes=("cli", "api"), workdir: Path | None = None) -> list[Verdict]:
-    """Run ``problem`` on each route and judge it; the reference is computed once."""
+    """Run ``problem`` on each route and judge it (FRF data on the case-file route alone:
+    `acceptance.problem.Problem.frf`); the reference is computed once."""
     ref = reference(problem)
     out = []
     with tempfile.TemporaryDirectory(prefix="vibupdate-accept-", dir=workdir) as tmp:
-        for route in routes:
+        for route in routes if problem.frf is None else [r for r in routes if r == "cli"]:
             outcome = run_cli(problem, Path(tmp) / route) if route == "cli" else run_api(problem)
             out.append(judge(problem, route, outcome, ref))
     return out

@@ -164,7 +164,7 @@ def test_a_family_measures_no_more_modes_than_its_model_has():
                 n_modes=4)
 
 
-@pytest.mark.parametrize("family", (*C.NEW_FAMILIES, "shear_building"))
+@pytest.mark.parametrize("family", [f for f in (*C.NEW_FAMILIES, "shear_building") if f != "frf_test"])
 def test_case_file_and_python_objects_are_the_same_problem(tmp_path, family):
     problem = F.MAKERS[family](1)
     case = load_case(problem.write_case(tmp_path))
@@ -177,6 +177,18 @@ def test_case_file_and_python_objects_are_the_same_problem(tmp_path, family):
         assert [z.index for z in a.antiresonances] == [z.index for z in b.antiresonances]
         assert [n.shape for n in a.natural] == [n.shape for n in b.natural]
         assert [n.damping_ratio for n in a.natural] == [n.damping_ratio for n in b.natural]
+
+
+def test_the_frf_familys_files_hold_its_true_modes(tmp_path):
+    """`frf_test` gives FRF files instead of data (its Python objects are the judge's true modes):
+    the case file's extraction finds each true mode of a well-resolved problem within 0.1 %."""
+    problem = F.frf_test(0)
+    case = load_case(problem.write_case(tmp_path))
+    found = [n.freq_hz for n in case.configurations[0].natural]
+    true = [n.hz for n in problem.data[0].natural]
+    assert len(found) == len(true)
+    assert found == pytest.approx(true, rel=1e-3)
+    assert case.configurations[0].antiresonances   # the FRFs' zeros too
 
 
 @pytest.mark.parametrize("csv", [False, True])
