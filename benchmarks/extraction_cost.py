@@ -110,10 +110,13 @@ def accuracy(result) -> dict:
         out["damping"] = (max(d), sum(m.damping_interval[0] <= z <= m.damping_interval[1]
                                       for m, z in zip(result.modes, zeta)))
     errors, hits, count_ok, total = [], 0, 0, 0
+    poles = beam_modes()[0]
     for pair, truth in zip(result.pairs, true_zeros(lo, hi)):
         got = [z for z in result.zeros if (z.response, z.excitation) == pair]
         low, high = result.fitted_poles[0, 0], result.fitted_poles[-1, 0]
         truth = truth[(truth >= low) & (truth <= high)]  # the zeros `extract` reports (outer ones apart)
+        # a zero on a pole (a mode with a node at the response or excitation) is no antiresonance of the FRF
+        truth = truth[np.min(np.abs(truth[:, None] - poles[None, :]), axis=1) > 1e-9 * truth]
         count_ok += len(got) == truth.size
         if len(got) == truth.size:
             errors += [abs(z.omega / t - 1) for z, t in zip(got, truth)]

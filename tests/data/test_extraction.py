@@ -759,3 +759,27 @@ def test_frequencies_whose_modal_constants_leave_floating_point_are_refused_nami
                                              r"modal constants .* are beyond the range of floating point; expected "
                                              r"frequencies in Hz and the FRF in SI units"):
             extract(scaled)
+
+
+def test_a_zero_on_a_fitted_pole_is_left_out_and_the_case_loads(tmp_path):
+    """A shaker test of a 4-mass chain (acceptance family `frf_test`, held-out seed 100021) whose
+    transfer FRF h_y4,y2 shows mode 4 as a pole and a zero that cancel: the zero was extracted on
+    the pole (its interval holding it, its value equal to 1e-12) and the case was refused ("a zero
+    cannot sit on a pole"). Now it is left out, named in the notes, and the case loads."""
+    from acceptance import families
+    from vibupdate.data.frf import read_frfs
+    from vibupdate.io.case import load_case
+
+    problem = families.frf_test(100021)
+    frf = problem.frf
+    case = load_case(problem.write_case(tmp_path))          # refused before
+    names = sorted(p.name for p in tmp_path.glob("frf_*.csv"))
+    frfs = read_frfs([tmp_path / n for n in names], frf["responses"], [frf["exciter"]] * len(names))
+    result = extract(frfs, band=tuple(2 * np.pi * np.array(frf["band_hz"])))
+    poles = result.fitted_poles[:, 0]
+    assert [(z.response, z.excitation, z.index) for z in result.cancelled_zeros] == [("y4", "y2", 3)]
+    assert any("on a fitted pole left out: h_y4,y2" in n for n in result.notes())
+    for z in result.zeros:
+        assert not np.any((poles >= z.interval[0]) & (poles <= z.interval[1])), z
+    loaded = [(a.receptance, a.index) for a in case.configurations[0].antiresonances]
+    assert (("y4", "y2"), 3) not in loaded and (("y4", "y2"), 2) in loaded

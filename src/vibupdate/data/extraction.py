@@ -176,6 +176,11 @@ class Extraction:
         ``zeros`` (`extract`, ``keep_outer_zeros``): there the receptance is shaped by the
         residual terms standing for modes outside the fitted lines, which place a zero only
         loosely, and its interval does not hold that.
+    cancelled_zeros : tuple of ExtractedZero
+        Zeros whose interval holds a fitted pole, left out of ``zeros``: a zero the data cannot
+        tell from that pole (a mode with a node at the response or the excitation shows as a
+        pole and a zero that cancel) is no antiresonance of the FRF, and on which side of the
+        pole it lies is not known; their ``index`` still counts them.
     """
 
     modes: tuple
@@ -197,6 +202,7 @@ class Extraction:
     outer_zeros: tuple = ()
     window_tau: float = 0.0
     noisy_zeros: tuple = ()
+    cancelled_zeros: tuple = ()
 
     def synthesize(self, omega, damped: bool = True) -> np.ndarray:
         """The fitted receptances at some frequencies.
@@ -273,6 +279,12 @@ class Extraction:
             out.append(f"{len(self.noisy_zeros)} antiresonance(s) at the noise floor left out: {listed}; the fit's "
                        f"|H| around them is under {NOISY_ZERO_SNR:g} of the noise, where noise makes zeros as well "
                        f"(keep them with keep_noisy_zeros)")
+        if self.cancelled_zeros:
+            listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz"
+                               for z in self.cancelled_zeros)
+            out.append(f"{len(self.cancelled_zeros)} antiresonance(s) on a fitted pole left out: {listed}; each "
+                       f"interval holds the pole, so the data cannot tell the zero from it (a mode with a node at "
+                       f"the response or the excitation shows as a pole and a zero that cancel)")
         if narrow and self.window == "none":
             listed = ", ".join(f"mode {k}: {lines:.1f}" for k, lines in narrow)
             out.append(f"half-power bandwidths of fewer than {NARROW_LINES:g} lines ({listed}): such damping ratios "
@@ -618,9 +630,10 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
     """`ExtractedZero` of every FRF from its fitted zeros: the global zero, or the local refit's
     (`local_zero`) when its standard error is the smaller; and, apart unless ``keep_outer``,
     those below the lowest or above the highest fitted pole (`Extraction.outer_zeros`; their
-    ``index`` still counts them, so the others keep theirs)."""
+    ``index`` still counts them, so the others keep theirs), and those whose interval holds a
+    fitted pole (`Extraction.cancelled_zeros`, likewise counted)."""
     zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
-    zeros, outer, noisy = [], [], []
+    zeros, outer, noisy, cancelled = [], [], [], []
     lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
     for pair, f, v, coef, cov, noise_var, fitted in found:
         located = []
@@ -637,13 +650,15 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
             snr = zero_snr(z, fit.x, Phi @ coef, noise_var, fit.wn)
             found_zero = ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
                                        (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w)), snr)
-            if not keep_outer and not lowest <= z <= highest:
+            if np.any(np.abs(fit.wn - z) <= half):
+                cancelled.append(found_zero)
+            elif not keep_outer and not lowest <= z <= highest:
                 outer.append(found_zero)
             elif not keep_noisy and snr < NOISY_ZERO_SNR:
                 noisy.append(found_zero)
             else:
                 zeros.append(found_zero)
-    return zeros, outer, noisy
+    return zeros, outer, noisy, cancelled
 
 
 def _check_range(pairs, scales, scale_w: float) -> None:
@@ -690,7 +705,8 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         found.append((pair, f, v, coef, cov, reference[k]))
     # the FRFs share the poles: their zeros are searched together, one grid for all
     found = [(*k, z) for k, z in zip(found, zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
-    zeros, outer, noisy = _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer_zeros, keep_noisy_zeros)
+    zeros, outer, noisy, cancelled = _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer_zeros,
+                                                    keep_noisy_zeros)
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
     modes = []
@@ -711,4 +727,5 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
                       frfs.pairs, np.array(coefs), np.asarray(scales), (float(frfs.omega[0]), float(frfs.omega[-1])),
                       np.column_stack([wn * scale_w, zeta]), "none" if fit.window is None else fit.window.name,
                       0.0 if fit.window is None else fit.window.record / scale_w, frfs.measured,
-                      float(np.median(np.diff(x))) * scale_w, tuple(outer), noisy_zeros=tuple(noisy))
+                      float(np.median(np.diff(x))) * scale_w, tuple(outer), noisy_zeros=tuple(noisy),
+                      cancelled_zeros=tuple(cancelled))

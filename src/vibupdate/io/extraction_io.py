@@ -97,6 +97,7 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
             "window_tau_s": result.window_tau, "natural": natural,
             "antiresonances": zeros, "outer_antiresonances": [zero(z) for z in result.outer_zeros],
             "noisy_antiresonances": [zero(z) for z in result.noisy_zeros],
+            "cancelled_antiresonances": [zero(z) for z in result.cancelled_zeros],
             "fitted_modes": fitted,
             "quality": quality, "stabilization": stabilization}
 
