@@ -310,7 +310,8 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
     """Ctrl-C while IPOPT iterates: CasADi catches it and would report a failed solve; the run
     must stop at once (inside that solve: its step is never reported), exit 130 and leave the
     previous results folder as it was. No wall-clock bound: the step that was interrupted
-    never completing is the measure of "at once"."""
+    never completing is the measure of "at once". The signal is sent when IPOPT says its first
+    iteration, so it lands inside the solve on a machine under any load."""
     import os
     import signal
     import subprocess
@@ -348,7 +349,10 @@ def test_sigint_during_ipopt_iterations_exits_130_at_once_and_keeps_earlier_resu
         proc.kill()
     text = "".join(lines) + rest
     assert proc.returncode == 130, text
-    assert "KeyboardInterruptException" in text, "the signal did not arrive inside IPOPT:\n" + text
+    # inside the solve: IPOPT had begun iterating (the cue) and the step never ended; the signal
+    # lands in IPOPT's own code (CasADi then warns of a KeyboardInterruptException) or in the
+    # iteration callback's Python, and both must end the run at once
+    assert "lambda = 0.0000: iteration 1," in text
     # the interrupted step is never reported (its record line: "lambda = 0.0000  objective = ...")
     assert "lambda = 0.0000  objective" not in text and "lambda = 1.0000" not in text and "Traceback" not in text
     assert "interrupted" in rest
