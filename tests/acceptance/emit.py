@@ -23,7 +23,8 @@ from pathlib import Path
 from acceptance import structures as S
 from vibupdate import Antiresonance, Configuration, NaturalFrequency, ShapeInterval
 
-__all__ = ["write_case", "write_frfs", "configurations", "toml_value", "flexible_mode", "model_form", "EXACT_SLACK"]
+__all__ = ["write_case", "write_frfs", "configurations", "toml_value", "flexible_mode", "model_form",
+           "EXACT_SLACK"]
 
 #: Half-width the judge gives exact data: relative for frequencies, absolute for shape ratios
 #: (well above the 1e-8 of a dense eigen-solve, far below any measurement).
@@ -73,14 +74,14 @@ def write_frfs(problem, folder: Path) -> list[str]:
     H = np.linalg.solve(K[None] - w[:, None, None] ** 2 * M[None] + 1j * w[:, None, None] * C[None],
                         np.broadcast_to(force[:, None], (w.size, len(dofs), 1)))[:, :, 0]
     H = H[:, [dofs.index(r) for r in f["responses"]]]
+    # the floor is constant in acceleration, as an accelerometer's: of the largest |w^2 H| over w^2
+    sigma = f["noise"] * np.abs(H) + f["floor"] * np.abs(w[:, None] ** 2 * H).max(axis=0)[None] / w[:, None] ** 2
     rng = np.random.default_rng(f["seed"])
     names = []
     for k in range(f["repeats"]):
-        e = rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)
-        # the floor is constant in acceleration, as an accelerometer's: of the largest |w^2 H| over w^2
-        floor = f["floor"] * np.abs(w[:, None] ** 2 * H).max(axis=0)[None] / w[:, None] ** 2
-        noisy = H + (f["noise"] * np.abs(H) + floor) * e
-        rows = [f"{float(x)!r}," + ",".join(f"{z.real:.12e}{z.imag:+.12e}j" for z in line) for x, line in zip(hz, noisy)]
+        noisy = H + sigma * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+        rows = [f"{float(x)!r}," + ",".join(f"{z.real:.12e}{z.imag:+.12e}j" for z in line)
+                for x, line in zip(hz, noisy)]
         names.append(f"frf_{k + 1}.csv")
         (folder / names[-1]).write_text("\n".join(rows) + "\n", encoding="utf-8")
     return names

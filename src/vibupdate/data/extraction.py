@@ -261,8 +261,7 @@ class Extraction:
         narrow = [(number[k], 2 * m.damping_ratio * m.omega / line_spacing) for k, m in enumerate(self.modes)
                   if 2 * m.damping_ratio * m.omega < NARROW_LINES * line_spacing]
         if self.outer_zeros:
-            listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz"
-                               for z in self.outer_zeros)
+            listed = _zeros_text(self.outer_zeros)
             poles = self.fitted_poles[:, 0] / (2 * math.pi)
             out.append(f"{len(self.outer_zeros)} antiresonance(s) outside the fitted poles ({poles.min():.5g}-"
                        f"{poles.max():.5g} Hz) left out: {listed}; the residual terms that stand for modes outside "
@@ -274,14 +273,12 @@ class Extraction:
             out.append(f"exponential window of tau = {self.window_tau:.4g} s on the response modelled: it adds "
                        f"1/(tau w_n) to each damping ratio ({added}), which the ratios reported do not hold")
         if self.noisy_zeros:
-            listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz (SNR {z.snr:.2g})"
-                               for z in self.noisy_zeros)
+            listed = _zeros_text(self.noisy_zeros, snr=True)
             out.append(f"{len(self.noisy_zeros)} antiresonance(s) at the noise floor left out: {listed}; the fit's "
                        f"|H| around them is under {NOISY_ZERO_SNR:g} of the noise, where noise makes zeros as well "
                        f"(keep them with keep_noisy_zeros)")
         if self.cancelled_zeros:
-            listed = ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz"
-                               for z in self.cancelled_zeros)
+            listed = _zeros_text(self.cancelled_zeros)
             out.append(f"{len(self.cancelled_zeros)} antiresonance(s) on a fitted pole left out: {listed}; each "
                        f"interval holds the pole, so the data cannot tell the zero from it (a mode with a node at "
                        f"the response or the excitation shows as a pole and a zero that cancel)")
@@ -624,6 +621,13 @@ class _Fitted:
     x_band: tuple           # the band, normalized
     scale_w: float
     window: object = None   # vibupdate.data.window.Window of the estimate, or None
+
+
+def _zeros_text(zeros, snr: bool = False) -> str:
+    """Zeros left out, named for a note: ``h_r,c`` and the frequency (Hz), with ``snr`` their
+    signal-to-noise ratio."""
+    return ", ".join(f"h_{z.response},{z.excitation} {z.omega / (2 * math.pi):.5g} Hz"
+                     + (f" (SNR {z.snr:.2g})" if snr else "") for z in zeros)
 
 
 def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, keep_noisy=False):

@@ -276,7 +276,7 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     except (np.linalg.LinAlgError, ValueError) as exc:
         return PolishResult(x0, x0, cost0, cost0, False, 0, f"polish failed: {exc}", time.perf_counter() - start,
                             stopped_on="failure", budget=budget)
-    kept = bool(cost < cost0)
+    kept = bool(cost < cost0) and stopped_on != "known answer"
     if not kept and stopped_on != "known answer":
         message = f"not kept: the polish did not lower the objective ({message})"
     return PolishResult(x0, x if kept else x0, cost0, cost if kept else cost0, kept, evaluations, message,
