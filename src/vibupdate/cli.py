@@ -120,7 +120,9 @@ def parser() -> argparse.ArgumentParser:
                     help="roving hammer: read each h_rc as h_cr (reciprocity), so the shapes are at every hammer point")
     fx.add_argument("--modes", type=int, default=None, help="keep this many modes (default: all stable ones)")
     fx.add_argument("--first-mode", type=int, default=1, help="model mode number of the lowest extracted mode")
-    fx.add_argument("--confidence", type=float, default=0.95, help="level of the intervals (default 0.95)")
+    fx.add_argument("--confidence", type=float, default=0.95,
+                    help="level of all the intervals together (default 0.95; each is then at a higher level)")
+    fx.add_argument("--per-interval", action="store_true", help="state --confidence for each interval instead")
     fx.add_argument("--no-plot", action="store_true", help="do not write fit.png (drawn with the extra [plots])")
     fx.add_argument("--force", action="store_true", help="as for run")
     sweep = sub.add_parser("sweep", help="update many data sets drawn inside the measured intervals (Dask; needs "
@@ -461,14 +463,15 @@ def _extract(args) -> int:
     target = check_extraction_folder(args.out, args.force, args.files)  # before the fit, as run checks before solving
     result = extract(frfs, band=band, n_modes=args.modes, confidence=args.confidence, fit_band=fit_band,
                      window=args.window, keep_outer_zeros=args.keep_outer_zeros, window_decay=args.window_decay,
-                     window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros)
+                     window_tau=args.window_tau, keep_noisy_zeros=args.keep_noisy_zeros, joint=not args.per_interval)
     with collected(OutputWarning) as failures:
         paths = write_extraction(result, frfs, args.out, first_mode=args.first_mode, plot=not args.no_plot,
                                  force=args.force, inputs=args.files)
     for message in failures:
         print(f"warning: {message}")
     print(f"{len(result.modes)} mode(s), {len(result.zeros)} antiresonance(s); noise from {result.noise}; "
-          f"intervals at {100 * args.confidence:g} %")
+          + (f"intervals at {100 * args.confidence:g} % each" if args.per_interval else
+             f"intervals at {100 * args.confidence:g} % together ({100 * result.level:.4g} % each)"))
     for k, m in enumerate(result.modes):
         lo, hi = (v / 2 / math.pi for v in m.omega_interval)
         print(f"  {mode_name(args.first_mode + k)}: {m.omega / 2 / math.pi:.4f} Hz [{lo:.4f}, {hi:.4f}], "

@@ -34,7 +34,7 @@ def _accuracy(seeds):
     pooled = {"freq_err": [], "damping_err": [], "zero_err": [], "freq_hit": [], "damping_hit": [], "zero_hit": []}
     for seed in seeds:
         frfs, M, K, C, dofs = measured(seed)
-        s = score(extract(frfs), M, K, C, dofs)
+        s = score(extract(frfs, joint=False), M, K, C, dofs)   # the 95 % intervals each
         assert s["n_modes_ok"], f"seed {seed}: wrong number of modes"
         assert all(s["zero_count_ok"]), f"seed {seed}: wrong zero count on some FRF ({s['zero_count_ok']})"
         for key in pooled:
@@ -85,7 +85,7 @@ def test_interval_coverage_with_one_record_on_the_frame_over_50_seeds():
     pooled = {"freq_hit": [], "damping_hit": [], "zero_hit": []}
     for seed in range(50):
         frfs, M, K, C, dofs = frame_measured(seed)
-        s = score(extract(frfs, band, n_modes=3), M, K, C, dofs, pairs=FRAME_PAIRS)
+        s = score(extract(frfs, band, n_modes=3, joint=False), M, K, C, dofs, pairs=FRAME_PAIRS)
         assert s["n_modes_ok"] and all(s["zero_count_ok"]), f"seed {seed}: {s['zero_count_ok']}"
         for key in pooled:
             pooled[key] += s[key]
@@ -765,7 +765,10 @@ def test_a_zero_on_a_fitted_pole_is_left_out_and_the_case_loads(tmp_path):
     """A shaker test of a 4-mass chain (acceptance family `frf_test`, held-out seed 100021) whose
     transfer FRF h_y4,y2 shows mode 4 as a pole and a zero that cancel: the zero was extracted on
     the pole (its interval holding it, its value equal to 1e-12) and the case was refused ("a zero
-    cannot sit on a pole"). Now it is left out, named in the notes, and the case loads."""
+    cannot sit on a pole"). Now it is left out, named in the notes, and the case loads. Its
+    neighbour below the pole, zero 2 (6.473 Hz, truth 6.481, the pole at 6.521), is located only
+    to +-5 % at 95 % each and +-8.5 % at the default level for all the intervals together, which
+    then holds the pole: it is left out too."""
     from acceptance import families
     from vibupdate.data.frf import read_frfs
     from vibupdate.io.case import load_case
@@ -777,9 +780,9 @@ def test_a_zero_on_a_fitted_pole_is_left_out_and_the_case_loads(tmp_path):
     frfs = read_frfs([tmp_path / n for n in names], frf["responses"], [frf["exciter"]] * len(names))
     result = extract(frfs, band=tuple(2 * np.pi * np.array(frf["band_hz"])))
     poles = result.fitted_poles[:, 0]
-    assert [(z.response, z.excitation, z.index) for z in result.cancelled_zeros] == [("y4", "y2", 3)]
+    assert [(z.response, z.excitation, z.index) for z in result.cancelled_zeros] == [("y4", "y2", 2), ("y4", "y2", 3)]
     assert any("on a fitted pole left out: h_y4,y2" in n for n in result.notes())
     for z in result.zeros:
         assert not np.any((poles >= z.interval[0]) & (poles <= z.interval[1])), z
     loaded = [(a.receptance, a.index) for a in case.configurations[0].antiresonances]
-    assert (("y4", "y2"), 3) not in loaded and (("y4", "y2"), 2) in loaded
+    assert (("y4", "y2"), 3) not in loaded and (("y4", "y2"), 2) not in loaded and (("y4", "y2"), 1) in loaded

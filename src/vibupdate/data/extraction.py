@@ -19,7 +19,8 @@ receptances over the fit band (by default to `FIT_BAND_FACTOR` times the band's 
 With ``window`` every pole term is its windowed expectation (`vibupdate.data.window`); the noise
 per line comes from the repeats or the leverage-corrected residual (`vibupdate.data.noise`).
 Intervals are ``value +- z * SE`` with the floors `FREQUENCY_FLOOR`, `DAMPING_FLOOR` and
-`SHAPE_FLOOR`.
+`SHAPE_FLOOR`, ``z`` at the level `per_interval` gives: by default ``confidence`` holds for all
+the intervals together.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from vibupdate.data.modal_fit import (best_subset, correlation_inflation, linear_fit, modal_basis,
+from vibupdate.data.modal_fit import (NEAR_PSEUDO_POLE, best_subset, correlation_inflation, linear_fit, modal_basis,
                                        noise_from_differences, noise_from_repeats, real_stack, refine_poles,
                                        resolvable_poles, split_residual, stabilization_diagram, stable_poles)
 from vibupdate.data.noise import residual_variance, variance_components
@@ -140,7 +141,8 @@ class Extraction:
     band : (float, float)
         The band whose modes and zeros are reported, rad/s.
     confidence : float
-        Level of every interval.
+        The stated level: with ``joint`` (the default of `extract`), the probability that every
+        interval holds its true value; else the level of each.
     noise : str
         ``"repeats"`` or ``"residual"`` (where sigma came from).
     stabilization : tuple of (int, ndarray, ndarray)
@@ -181,6 +183,8 @@ class Extraction:
         tell from that pole (a mode with a node at the response or the excitation shows as a
         pole and a zero that cancel) is no antiresonance of the FRF, and on which side of the
         pole it lies is not known; their ``index`` still counts them.
+    level : float
+        The level of each interval (`per_interval`): ``confidence`` when not ``joint``.
     """
 
     modes: tuple
@@ -203,6 +207,7 @@ class Extraction:
     window_tau: float = 0.0
     noisy_zeros: tuple = ()
     cancelled_zeros: tuple = ()
+    level: float = math.nan
 
     def synthesize(self, omega, damped: bool = True) -> np.ndarray:
         """The fitted receptances at some frequencies.
@@ -395,7 +400,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
             orders: Sequence[int] | None = None, min_stable: int = 3, max_damping: float = 0.1,
             confidence: float = 0.95, fit_band: tuple | None = None, local_zeros: bool = True,
             window: str | None = None, keep_outer_zeros: bool = False, window_decay: float | None = None,
-            window_tau: float | None = None, keep_noisy_zeros: bool = False) -> Extraction:
+            window_tau: float | None = None, keep_noisy_zeros: bool = False, joint: bool = True) -> Extraction:
     """Natural frequencies, damping ratios, shapes and antiresonances from measured FRFs.
 
     Parameters
@@ -416,7 +421,8 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     max_damping : float
         Poles with a larger damping ratio are not modes (they are computational).
     confidence : float
-        Level of the intervals, in (0, 1).
+        Level of the intervals, in (0, 1): with ``joint``, the probability that all of them
+        hold their true values at once.
     fit_band : (float, float), optional
         The fitted lines' band, rad/s, containing ``band``. Every stable mode in it is
         fitted as a mode (with its own residues), but only those in ``band`` are reported.
@@ -443,6 +449,12 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         Report the antiresonances whose local signal-to-noise ratio is under `NOISY_ZERO_SNR`
         with the others; by default they are left out (`Extraction.noisy_zeros`) and said in
         the notes.
+    joint : bool
+        State ``confidence`` for all the intervals together (default): each is then at the
+        level `per_interval` gives for their number (frequencies, damping ratios, shape
+        entries and antiresonances), so that a model which must lie in every interval at once,
+        as a run's verification asks, fails for the true structure in at most ``1 -
+        confidence`` of tests. False: each interval at ``confidence``.
 
     Returns
     -------
@@ -465,7 +477,7 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
     with threadpool_limits(limits=1, user_api="blas"):
         return _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, fit_band, local_zeros,
                         window, keep_outer_zeros, _decay_rate(window, window_decay, window_tau, frfs.omega),
-                        keep_noisy_zeros)
+                        keep_noisy_zeros, joint)
 
 
 def _decay_rate(window, decay, tau, omega) -> float:
@@ -491,7 +503,7 @@ def _decay_rate(window, decay, tau, omega) -> float:
 
 
 def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, fit_band, local_zeros,
-             window_name, keep_outer_zeros=False, decay_rate=0.0, keep_noisy_zeros=False) -> Extraction:
+             window_name, keep_outer_zeros=False, decay_rate=0.0, keep_noisy_zeros=False, joint=True) -> Extraction:
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
     if n_modes is not None and (isinstance(n_modes, bool) or not isinstance(n_modes, int) or n_modes < 1):
@@ -563,7 +575,7 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     cov_poles = cov_poles[np.ix_(np.r_[order, order + wn.size], np.r_[order, order + wn.size])]
     fitted = _Fitted(x, F, var, scales, wn, zeta, cov_poles, in_band, inside, x_report, scale_w, window)
     result = _stage_two(frfs, fitted, counts, stab, noise, confidence, local_zeros, keep_outer_zeros,
-                        keep_noisy_zeros)
+                        keep_noisy_zeros, joint)
     check_fitted_kind(result, KINDS, frfs.sources)   # a kind one order off turns every constant by 90 degrees
     if window_name == "force":
         result = dataclasses.replace(result, window="force")
@@ -630,28 +642,47 @@ def _zeros_text(zeros, snr: bool = False) -> str:
                      + (f" (SNR {z.snr:.2g})" if snr else "") for z in zeros)
 
 
-def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, keep_noisy=False):
-    """`ExtractedZero` of every FRF from its fitted zeros: the global zero, or the local refit's
-    (`local_zero`) when its standard error is the smaller; and, apart unless ``keep_outer``,
-    those below the lowest or above the highest fitted pole (`Extraction.outer_zeros`; their
-    ``index`` still counts them, so the others keep theirs), and those whose interval holds a
-    fitted pole (`Extraction.cancelled_zeros`, likewise counted)."""
-    zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
-    zeros, outer, noisy, cancelled = [], [], [], []
-    lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
-    for pair, f, v, coef, cov, noise_var, fitted in found:
-        located = []
+def _zero_estimates(found, fit, Phi, local_refit):
+    """Each FRF's fitted zeros with their standard errors: ``(pair, zeros, ses, noise_var,
+    fitted)`` per FRF. A global zero's error counts the noise and the residual model: the
+    residual terms stand for modes outside the fitted lines whose place is not known, so the
+    zero is located again on the fit whose pseudo-mode sits just above the lines
+    (`NEAR_PSEUDO_POLE`, to first order: ``-u_near(z) / u'(z)``) and that shift is added to its
+    error. The zero refined on the lines around it (`local_zero`) replaces it where its error is
+    the smaller (docs/frf-extraction.md, "Method", step 4)."""
+    out = []
+    for pair, f, v, coef, cov, noise_var, near, fitted in found:
+        zs, ses = [], []
         for z in fitted:
-            se = zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)[0]
+            se, slope = zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)
+            near_value = modal_basis(np.array([z]), fit.wn, fit.zeta, False, pseudo=NEAR_PSEUDO_POLE)[0] @ near
+            se = math.hypot(se, float(near_value) / slope)
             local = local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
             if local is not None and local[1] < se:
                 z, se = local
+            zs.append(z)
+            ses.append(se)
+        out.append((pair, np.array(zs), np.array(ses), noise_var, Phi @ coef))
+    return out
+
+
+def _located_zeros(estimates, fit, zq, keep_outer=False, keep_noisy=False):
+    """`ExtractedZero` of every FRF from its estimates (`_zero_estimates`) with half-widths
+    ``zq`` standard errors; and, apart unless ``keep_outer``, those below the lowest or above
+    the highest fitted pole (`Extraction.outer_zeros`; their ``index`` still counts them, so the
+    others keep theirs), and those whose interval holds a fitted pole
+    (`Extraction.cancelled_zeros`, likewise counted)."""
+    zeros, outer, noisy, cancelled = [], [], [], []
+    lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
+    for pair, zs, ses, noise_var, fitted in estimates:
+        located = []
+        for z, se in zip(zs, ses):
             half = max(zq * se, FREQUENCY_FLOOR * z)
             if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
                 continue  # not located within the band (a residual-term artefact near an edge)
             located.append((z, half))
         for index, (z, half) in enumerate(sorted(located), start=1):   # a local refit can pass its neighbour
-            snr = zero_snr(z, fit.x, Phi @ coef, noise_var, fit.wn)
+            snr = zero_snr(z, fit.x, fitted, noise_var, fit.wn)
             found_zero = ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
                                        (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w)), snr)
             if np.any(np.abs(fit.wn - z) <= half):
@@ -663,6 +694,14 @@ def _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer=False, k
             else:
                 zeros.append(found_zero)
     return zeros, outer, noisy, cancelled
+
+
+def per_interval(confidence: float, count: int, joint: bool) -> float:
+    """The level of each of ``count`` intervals: ``confidence`` itself, or with ``joint`` the
+    level at which all of them hold their true values with probability at least
+    ``confidence``, ``confidence ** (1 / count)`` (Sidak: exact for independent errors, and a
+    lower bound for jointly normal errors whatever their correlation)."""
+    return confidence ** (1.0 / max(count, 1)) if joint else confidence
 
 
 def _check_range(pairs, scales, scale_w: float) -> None:
@@ -681,11 +720,11 @@ def _check_range(pairs, scales, scale_w: float) -> None:
 
 
 def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_outer_zeros=False,
-               keep_noisy_zeros=False):
-    zq = float(scipy.stats.norm.ppf(0.5 + confidence / 2))
+               keep_noisy_zeros=False, joint=True):
     x, F, var, scales, wn, zeta, scale_w = fit.x, fit.F, fit.var, fit.scales, fit.wn, fit.zeta, fit.scale_w
     n = wn.size
     Phi = modal_basis(x, wn, zeta, window=fit.window)
+    Phi_near = modal_basis(x, wn, zeta, window=fit.window, pseudo=NEAR_PSEUDO_POLE)
     coefs, found, quality, constants, const_se = [], [], [], [], []
     # the quality figure's noise: the repeats' scatter, or without repeats the model-free
     # second-difference estimate (the residual's own would make the figure about 1, or below)
@@ -706,13 +745,19 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         wd = wn * np.sqrt(1 - zeta**2)
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
-        found.append((pair, f, v, coef, cov, reference[k]))
+        found.append((pair, f, v, coef, cov, reference[k], linear_fit(Phi_near, f, w)[0]))
     # the FRFs share the poles: their zeros are searched together, one grid for all
     found = [(*k, z) for k, z in zip(found, zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
-    zeros, outer, noisy, cancelled = _located_zeros(found, fit, Phi, confidence, local_refit, keep_outer_zeros,
-                                                    keep_noisy_zeros)
+    estimates = _zero_estimates(found, fit, Phi, local_refit)
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
+    # the intervals reported: a frequency and a damping ratio per mode, its shape entries, the zeros (counted
+    # at the stated level: a zero the wider interval then leaves out still counts, so the level holds)
+    count = 2 * reported.size + sum(len(shape) for shape, _, _ in shapes) + len(
+        _located_zeros(estimates, fit, _quantile(confidence), keep_outer_zeros, keep_noisy_zeros)[0])
+    level = per_interval(confidence, count, joint)
+    zq = _quantile(level)
+    zeros, outer, noisy, cancelled = _located_zeros(estimates, fit, zq, keep_outer_zeros, keep_noisy_zeros)
     modes = []
     se_pole = np.sqrt(np.abs(np.diag(fit.cov_poles)))
     for r, shape_fit in zip(reported, shapes):
@@ -732,4 +777,9 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
                       np.column_stack([wn * scale_w, zeta]), "none" if fit.window is None else fit.window.name,
                       0.0 if fit.window is None else fit.window.record / scale_w, frfs.measured,
                       float(np.median(np.diff(x))) * scale_w, tuple(outer), noisy_zeros=tuple(noisy),
-                      cancelled_zeros=tuple(cancelled))
+                      cancelled_zeros=tuple(cancelled), level=level)
+
+
+def _quantile(level: float) -> float:
+    """Half-width of a two-sided normal interval at ``level``, in standard errors."""
+    return float(scipy.stats.norm.ppf(0.5 + level / 2))

@@ -106,6 +106,8 @@ def local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     correlation) and the poles'.
     """
     near = _zero_window(z, x, xn)
+    if near.size <= LOCAL_LINES and 3 * np.max(np.abs(x[near] - z)) > np.min(np.abs(xn - z)):
+        return None   # widened toward the pole, where the misfit is a resonance's, not a line
     w = 1.0 / np.sqrt(v[near])
     X = np.column_stack([np.ones(near.size), x[near] - z]) * w[:, None]
     r = (f[near] - Phi[near] @ coef).real * w

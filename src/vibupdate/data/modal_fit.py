@@ -18,6 +18,9 @@ import scipy.linalg
 import scipy.optimize
 
 PSEUDO_POLE = (1.5, 0.2)    # pseudo-mode: natural frequency (x band top) and damping ratio
+#: The pseudo-mode placed just above the fitted lines instead: where a zero moves when the residual
+#: terms stand for modes close above them, its interval counts that (`vibupdate.data.extraction`).
+NEAR_PSEUDO_POLE = (1.1, 0.2)
 STABLE_FREQUENCY = 2e-3     # a pole recurs when its frequency is within this (relative) ...
 STABLE_DAMPING = 0.2        # ... and its damping ratio within this (relative)
 
@@ -27,9 +30,9 @@ def _poles(xn, zeta):
     return -zeta * xn + 1j * xn * np.sqrt(1.0 - zeta**2)
 
 
-def _all_poles(xn, zeta):
-    return np.append(_poles(np.asarray(xn), np.asarray(zeta)), _poles(np.array([PSEUDO_POLE[0]]),
-                                                                      np.array([PSEUDO_POLE[1]])))
+def _all_poles(xn, zeta, pseudo=None):
+    pseudo = pseudo or PSEUDO_POLE
+    return np.append(_poles(np.asarray(xn), np.asarray(zeta)), _poles(np.array([pseudo[0]]), np.array([pseudo[1]])))
 
 
 def _pole_terms(x, a, window=None, derivative: bool = False):
@@ -49,15 +52,16 @@ def _pole_terms(x, a, window=None, derivative: bool = False):
     return (p, q, *np.split(windowed_poles(x, both, window, derivative=True), 2, axis=1))
 
 
-def basis(x, xn, zeta, window=None) -> np.ndarray:
+def basis(x, xn, zeta, window=None, pseudo=None) -> np.ndarray:
     """Columns of the modal model at normalized frequencies ``x``, shape (n_freq, 2 n + 4).
 
     Per pole (modes, then the pseudo-mode): ``1/(s-a) + 1/(s-conj a)``, ``j/(s-a) - j/(s-conj a)``
     (coefficients Re A, Im A); then ``1/s^2`` and ``1``. With ``window`` (a
-    `vibupdate.data.window.Window`) the pole terms are those of the windowed estimate.
+    `vibupdate.data.window.Window`) the pole terms are those of the windowed estimate;
+    ``pseudo``: the pseudo-mode's ``(frequency, damping)``, default `PSEUDO_POLE`.
     """
     x = np.asarray(x)
-    p, q = _pole_terms(x, _all_poles(xn, zeta), window)
+    p, q = _pole_terms(x, _all_poles(xn, zeta, pseudo), window)
     cols = np.empty((x.size, 2 * p.shape[1] + 2), dtype=complex)
     cols[:, 0:-2:2], cols[:, 1:-2:2] = p + q, 1j * (p - q)
     cols[:, -2], cols[:, -1] = -1.0 / x**2, 1.0      # 1/s^2 = -1/x^2
@@ -82,7 +86,7 @@ def basis_derivatives(x, xn, zeta, window=None):
     return out[0], out[1]
 
 
-def _undamped_basis(x, xn, zeta) -> np.ndarray:
+def _undamped_basis(x, xn, zeta, pseudo=None) -> np.ndarray:
     """Real columns of the undamped receptance, same coefficients as `basis`: each mode's
     ``-2 w_d / (w_n^2 - x^2)`` on Im A (its real modal constant ``Re(2 j w_d A)``); the
     pseudo-mode and the residual terms (which stand for modes outside the band, real in it)
@@ -93,7 +97,8 @@ def _undamped_basis(x, xn, zeta) -> np.ndarray:
     n = a.size
     cols = np.zeros((x.size, 2 * n + 4))
     cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x[:, None] ** 2)
-    pseudo = _poles(np.array([PSEUDO_POLE[0]]), np.array([PSEUDO_POLE[1]]))[0]
+    pseudo = pseudo or PSEUDO_POLE
+    pseudo = _poles(np.array([pseudo[0]]), np.array([pseudo[1]]))[0]
     p, q = 1.0 / (1j * x - pseudo), 1.0 / (1j * x - np.conj(pseudo))
     cols[:, 2 * n], cols[:, 2 * n + 1] = (p + q).real, (1j * (p - q)).real
     cols[:, 2 * n + 2], cols[:, 2 * n + 3] = -1.0 / x**2, 1.0
@@ -121,10 +126,10 @@ def undamped_derivatives(x, xn, zeta):
     return d_x, d_wn, d_zeta
 
 
-def modal_basis(x, xn, zeta, damped: bool = True, window=None) -> np.ndarray:
+def modal_basis(x, xn, zeta, damped: bool = True, window=None, pseudo=None) -> np.ndarray:
     """Stage-2 columns: `basis` (damped, through ``window`` when given) or `_undamped_basis`
-    (the structure's own receptance: never windowed)."""
-    return basis(x, xn, zeta, window) if damped else _undamped_basis(x, xn, zeta)
+    (the structure's own receptance: never windowed); ``pseudo`` as in `basis`."""
+    return basis(x, xn, zeta, window, pseudo) if damped else _undamped_basis(x, xn, zeta, pseudo)
 
 
 def real_stack(Phi: np.ndarray, w: np.ndarray) -> np.ndarray:

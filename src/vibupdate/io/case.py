@@ -84,7 +84,7 @@ def _frf_data(spec: dict, base: Path, where: Where, key: str, mass_normalized: b
                          fit_band=fit_band, window=spec.get("window"),
                          keep_outer_zeros=spec.get("keep_outer_zeros", False),
                          window_decay=spec.get("window_decay"), window_tau=spec.get("window_tau"),
-                         keep_noisy_zeros=spec.get("keep_noisy_zeros", False))
+                         keep_noisy_zeros=spec.get("keep_noisy_zeros", False), joint=spec.get("joint", True))
     except ValueError as exc:
         raise where.error(f"{key}.frf", str(exc)) from None
     first = spec.get("first_mode", 1)

@@ -102,7 +102,7 @@ CFG_KEYS = {"name": str, "natural_hz": list, "natural_weights": list, "natural_m
              "frf": dict, "mass_normalized_shapes": bool, "frequency_type": str}
 FRF_KEYS = {"files": list, "responses": list, "excitations": list, "kind": str, "g": bool, "re_im": bool,
              "map": dict, "band_hz": list, "fit_band_hz": list, "modes": int, "first_mode": int, "natural_modes": list,
-             "confidence": float,
+             "confidence": float, "joint": bool,
              "window": str, "reciprocal": bool, "keep_outer_zeros": bool, "window_decay": float,
              "window_tau": float, "keep_noisy_zeros": bool}
 

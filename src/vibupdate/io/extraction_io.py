@@ -93,6 +93,7 @@ def extraction_document(result: Extraction, first_mode: int = 1) -> dict:
     fitted = [{"freq_hz": float(w) / TWO_PI, "damping_ratio": float(z),
                "reported": any(m.omega == w for m in result.modes)} for w, z in result.fitted_poles]
     return {"band_hz": _hz(result.band), "fit_band_hz": _hz(result.fit_band), "confidence": result.confidence,
+            "level": result.level,
             "noise": result.noise, "window": result.window, "record_s": result.record_s,
             "window_tau_s": result.window_tau, "natural": natural,
             "antiresonances": zeros, "outer_antiresonances": [zero(z) for z in result.outer_zeros],
