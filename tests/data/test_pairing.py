@@ -281,3 +281,25 @@ def test_modes_by_shape_names_a_mode_only_where_one_shape_matches_it():
     assert modes_by_shape([shape(Phi[rows[:2], 0], dofs[:2])], model) is None
     assert modes_by_shape([shape(Phi[rows, 0] + Phi[rows, 1])], model) is None
     assert modes_by_shape([shape(Phi[rows, k]) for k in (2, 0)], model) is None
+
+
+def test_modes_by_shape_lets_the_order_rule_out_an_aliased_mode():
+    """At the three middle masses of the 5-mass chain, mode 2's shape is mode 4's (MAC 1.0 with
+    both). Measured with mode 1 only, modes 1, 2 and 1, 4 both match: no number. Measured with
+    modes 1 and 3, the only rising choice that matches every shape is 1, 2, 3 (when a second
+    match alone meant no number, a shaker test of a 5-mass chain that missed mode 2 was numbered
+    1, 2, 3, 4 instead of 1, 3, 4, 5)."""
+    from vibupdate.data.pairing import modes_by_shape, shape_macs
+
+    model = chain(5)
+    Phi = flexible_modes(*model.matrices())[1]
+    dofs = ["y2", "y3", "y4"]
+    rows = [model.dof(d) for d in dofs]
+
+    def shape(k):
+        v = Phi[rows, k] / np.max(np.abs(Phi[rows, k]))
+        return {d: (float(x) - 0.01, float(x) + 0.01) for d, x in zip(dofs, v)}
+
+    assert shape_macs([shape(1)], model, 5)[0, [1, 3]] == pytest.approx([1.0, 1.0], abs=1e-6)
+    assert modes_by_shape([shape(0), shape(1)], model) is None
+    assert modes_by_shape([shape(k) for k in (0, 1, 2)], model) == [1, 2, 3]

@@ -163,16 +163,19 @@ def shape_macs(shapes: Sequence[dict], model, n_modes: int) -> np.ndarray:
 def modes_by_shape(shapes: Sequence[dict], model) -> list[int] | None:
     """The model mode of each measured mode by the MAC of its shape with the nominal model's
     lowest modes, two more than the shapes (at most two modes skipped; `shape_macs`), where that
-    is unambiguous: every shape at 3 DOFs or more, each with one mode at `MAC_MIN` or above and no
-    second, the modes rising; None otherwise. The default numbers of modes extracted from FRFs
-    without ``first_mode`` (docs/frf-extraction.md)."""
+    is unambiguous: every shape at 3 DOFs or more, and exactly one rising choice of modes gives
+    every shape a mode at `MAC_MIN` or above; None otherwise. A shape may match a second mode
+    (with few sensors a higher mode can look like a lower one) as long as the order of the
+    others rules it out. The default numbers of modes extracted from FRFs without
+    ``first_mode`` (docs/frf-extraction.md)."""
+    from itertools import combinations
+
     if not shapes or any(len(s) < 3 for s in shapes):
         return None
     macs = shape_macs(shapes, model, len(shapes) + 2)
-    if np.any(np.count_nonzero(macs >= MAC_MIN, axis=1) != 1):
-        return None
-    found = [int(k) + 1 for k in macs.argmax(axis=1)]
-    return found if all(b > a for a, b in zip(found, found[1:])) else None
+    rows = np.arange(len(shapes))
+    fits = [c for c in combinations(range(macs.shape[1]), len(shapes)) if np.all(macs[rows, list(c)] >= MAC_MIN)]
+    return [k + 1 for k in fits[0]] if len(fits) == 1 else None
 
 
 def declared_modes(natural: Sequence[NaturalFrequency]) -> list[int]:
