@@ -475,12 +475,17 @@ def relative_misses(result, cfg):
     return np.array(misses)
 
 
-@settings(max_examples=8, deadline=None)
+#: The random problems' seeds are the same every run (as the fuzz suite's CI profile): a miss is a
+#: change, not a draw; the random search for misses is the acceptance engine's.
+FIXED_SEEDS = dict(deadline=None, derandomize=True, database=None)
+
+
+@settings(max_examples=8, **FIXED_SEEDS)
 @given(seed=st.integers(0, 2**31 - 1), use_zeros=st.booleans())
 def test_random_problems_with_exact_data_end_verified_with_the_truth_among_the_answers(seed, use_zeros):
     """Exact data: a verified answer (``not_unique`` included), the truth the returned answer
     or one of the other answers said, and the objective and lower bound sound (measured: 480 of
-    480 seeds, the truth within 1.4e-10 of an answer)."""
+    480 seeds, the truth within 1.4e-10 of an answer; a later draw found a miss, kept below)."""
     cfg, true = random_chain_problem(seed, 0.0, use_zeros)
     result = update([cfg])
     assert result.status == Status.SUCCESS, result.message
@@ -491,7 +496,22 @@ def test_random_problems_with_exact_data_end_verified_with_the_truth_among_the_a
     assert_sound(result)
 
 
-@settings(max_examples=8, deadline=None)
+@pytest.mark.xfail(strict=True, reason="the search's five starts miss the truth: the homotopy's exact fit (4.3 % from "
+                   "the truth in m5) is returned as verified; the weakest-direction start ends at a local minimum that "
+                   "verifies (objective 1.4e-5) but does not fit as well; no start reaches the truth, another exact fit")
+def test_a_random_problem_whose_truth_the_search_misses():
+    """Seed 29186 of `random_chain_problem` (four exact frequencies, four parameters: isolated
+    exact fits), drawn by the test above when its seeds were not fixed (2026-12-07): the answer
+    is an exact fit, the truth another one that no start of the uniqueness search reaches,
+    whatever its evaluation budget (20-400 per unknown); the verdict says `verified`, which
+    claims only that no other answer was found."""
+    cfg, true = random_chain_problem(29186, 0.0, False)
+    result = update([cfg])
+    answers = [result.values] + [[a.values[p.name] for p in result.parameters] for a in result.alternatives]
+    assert min(np.max(np.abs(np.asarray(a) / true - 1)) for a in answers) <= 1e-6
+
+
+@settings(max_examples=8, **FIXED_SEEDS)
 @given(seed=st.integers(0, 2**31 - 1), noise=st.floats(0.002, 0.02), use_zeros=st.booleans())
 def test_random_problems_with_noisy_data_verify_only_answers_that_fit(seed, noise, use_zeros):
     """Noisy data may leave no answer within the tolerance. A verified one has every datum,
