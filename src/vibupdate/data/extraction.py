@@ -643,26 +643,28 @@ def _zeros_text(zeros, snr: bool = False) -> str:
 
 
 def _zero_estimates(found, fit, Phi, local_refit):
-    """Each FRF's fitted zeros with their standard errors: ``(pair, zeros, ses, noise_var,
-    fitted)`` per FRF. A global zero's error counts the noise and the residual model: the
-    residual terms stand for modes outside the fitted lines whose place is not known, so the
-    zero is located again on the fit whose pseudo-mode sits just above the lines
-    (`NEAR_PSEUDO_POLE`, to first order: ``-u_near(z) / u'(z)``) and that shift is added to its
-    error. The zero refined on the lines around it (`local_zero`) replaces it where its error is
+    """Each FRF's fitted zeros with their standard errors and signal-to-noise ratios
+    (`zero_snr`): ``(pair, zeros, ses, snrs)`` per FRF. A global zero's error counts the noise
+    and the residual model: the residual terms stand for modes outside the fitted lines whose
+    place is not known, so the zero is located again on the fit whose pseudo-mode sits just
+    above the lines (`NEAR_PSEUDO_POLE`, to first order: ``-u_near(z) / u'(z)``) and that shift
+    is added to its error. The zero refined on the lines around it (`local_zero`) replaces it where its error is
     the smaller (docs/frf-extraction.md, "Method", step 4)."""
     out = []
     for pair, f, v, coef, cov, noise_var, near, fitted in found:
+        near_values = modal_basis(np.asarray(fitted, dtype=float), fit.wn, fit.zeta, False,
+                                  pseudo=NEAR_PSEUDO_POLE) @ near   # u_near at every zero at once
+        damped = Phi @ coef
         zs, ses = [], []
-        for z in fitted:
+        for z, near_value in zip(fitted, near_values):
             se, slope = zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)
-            near_value = modal_basis(np.array([z]), fit.wn, fit.zeta, False, pseudo=NEAR_PSEUDO_POLE)[0] @ near
             se = math.hypot(se, float(near_value) / slope)
             local = local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
             if local is not None and local[1] < se:
                 z, se = local
             zs.append(z)
             ses.append(se)
-        out.append((pair, np.array(zs), np.array(ses), noise_var, Phi @ coef))
+        out.append((pair, zs, ses, [zero_snr(z, fit.x, damped, noise_var, fit.wn) for z in zs]))
     return out
 
 
@@ -674,15 +676,14 @@ def _located_zeros(estimates, fit, zq, keep_outer=False, keep_noisy=False):
     (`Extraction.cancelled_zeros`, likewise counted)."""
     zeros, outer, noisy, cancelled = [], [], [], []
     lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
-    for pair, zs, ses, noise_var, fitted in estimates:
+    for pair, zs, ses, snrs in estimates:
         located = []
-        for z, se in zip(zs, ses):
+        for z, se, snr in zip(zs, ses, snrs):
             half = max(zq * se, FREQUENCY_FLOOR * z)
             if z - half < fit.x_band[0] or z + half > fit.x_band[1]:
                 continue  # not located within the band (a residual-term artefact near an edge)
-            located.append((z, half))
-        for index, (z, half) in enumerate(sorted(located), start=1):   # a local refit can pass its neighbour
-            snr = zero_snr(z, fit.x, fitted, noise_var, fit.wn)
+            located.append((z, half, snr))
+        for index, (z, half, snr) in enumerate(sorted(located), start=1):   # a local refit can pass its neighbour
             found_zero = ExtractedZero(pair[0], pair[1], index, float(z * fit.scale_w),
                                        (float((z - half) * fit.scale_w), float((z + half) * fit.scale_w)), snr)
             if np.any(np.abs(fit.wn - z) <= half):
@@ -753,7 +754,7 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
     # the intervals reported: a frequency and a damping ratio per mode, its shape entries, the zeros (counted
     # at the stated level: a zero the wider interval then leaves out still counts, so the level holds)
-    count = 2 * reported.size + sum(len(shape) for shape, _, _ in shapes) + len(
+    count = 0 if not joint else 2 * reported.size + sum(len(shape) for shape, _, _ in shapes) + len(
         _located_zeros(estimates, fit, _quantile(confidence), keep_outer_zeros, keep_noisy_zeros)[0])
     level = per_interval(confidence, count, joint)
     zq = _quantile(level)

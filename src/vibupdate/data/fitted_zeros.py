@@ -50,15 +50,15 @@ def zeros_of_all(x, coefs, xn, zeta):
     return out
 
 
-def _zero_window(z, x, xn) -> np.ndarray:
+def _zero_window(z, x, xn, widen: bool = True) -> np.ndarray:
     """Indices of the lines that locate a zero ``z``: those within `LOCAL_FRACTION` of its
-    distance to the nearest fitted pole (``xn``), at least `LOCAL_LINES` of them. Its width
-    follows the structure (where the receptance turns from one pole's side to the next), not
-    the line spacing."""
+    distance to the nearest fitted pole (``xn``), at least `LOCAL_LINES` of them (widened to the
+    nearest `LOCAL_LINES`, or none without ``widen``). Its width follows the structure (where the
+    receptance turns from one pole's side to the next), not the line spacing."""
     d = LOCAL_FRACTION * float(np.min(np.abs(xn - z)))
     near = np.nonzero(np.abs(x - z) <= d)[0]
     if near.size < LOCAL_LINES:
-        near = np.sort(np.argsort(np.abs(x - z))[:LOCAL_LINES])
+        near = np.sort(np.argsort(np.abs(x - z))[:LOCAL_LINES]) if widen else near[:0]
     return near
 
 
@@ -99,15 +99,16 @@ def local_zero(z, x, f, v, Phi, coef, xn, zeta, cov_poles):
     and ``coef`` (n_cols,) the FRF's fitted coefficients; ``xn``, ``zeta`` (n,) the poles,
     ``cov_poles`` (2 n, 2 n) their covariance (all normalized).
 
-    On the lines of `_zero_window` the real part of the misfit ``f - Phi coef`` is fitted by
+    On the lines of `_zero_window` (not widened: none when `LOCAL_FRACTION` of the distance to the
+    pole holds fewer than `LOCAL_LINES` lines) the real part of the misfit ``f - Phi coef`` is fitted by
     ``c0 + c1 (x - z)`` (weights ``1/sigma``) and added to the undamped fitted receptance (why:
     docs/frf-extraction.md, "Method", step 4). Returns ``(zero, se)``, the standard error from
     ``(c0, c1)``'s covariance (inflated by the reduced chi-square and the residual's
     correlation) and the poles'.
     """
-    near = _zero_window(z, x, xn)
-    if near.size <= LOCAL_LINES and 3 * np.max(np.abs(x[near] - z)) > np.min(np.abs(xn - z)):
-        return None   # widened toward the pole, where the misfit is a resonance's, not a line
+    near = _zero_window(z, x, xn, widen=False)
+    if not near.size:
+        return None   # widened, the window would reach toward the pole: a resonance's misfit, not a line
     w = 1.0 / np.sqrt(v[near])
     X = np.column_stack([np.ones(near.size), x[near] - z]) * w[:, None]
     r = (f[near] - Phi[near] @ coef).real * w

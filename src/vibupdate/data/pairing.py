@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from itertools import combinations
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -168,8 +169,6 @@ def modes_by_shape(shapes: Sequence[dict], model) -> list[int] | None:
     (with few sensors a higher mode can look like a lower one) as long as the order of the
     others rules it out. The default numbers of modes extracted from FRFs without
     ``first_mode`` (docs/frf-extraction.md)."""
-    from itertools import combinations
-
     if not shapes or any(len(s) < 3 for s in shapes):
         return None
     macs = shape_macs(shapes, model, len(shapes) + 2)
