@@ -1,26 +1,13 @@
 """Minimum change along what the data leave undetermined, and the set of answers there.
 
-Where the exact Jacobian ``J`` of the measured data ``g(x)`` (declared frequencies and zeros,
-shape ratios: `vibupdate.inverse.baseline.classical_residuals` up to constants and fixed
-weights) has rank ``k`` below the number of parameters (singular values above `RANK_RTOL` of
-the largest), the fitted parameters form a set and the polished answer ``x*`` is an accident of
-the path. `minimum_change` returns the point of the box nearest the nominal model with exactly
-the data of ``x*``, ``min ||x||^2 / 2`` subject to ``g(x) = g(x*)``, by SQP steps in the
-null-space form (``J = U S V^T`` truncated at ``k``, ``Z`` an orthonormal basis of the
-directions ``V_k`` leaves out):
-
-    d = d_n + Z p,   d_n = -V_k S_k^-1 U_k^T (g(x) - g(x*)),   (Z^T B Z) p = -Z^T (x + B d_n),
-
-where ``B`` approximates the Hessian of the Lagrangian ``||x||^2 / 2 + lambda^T (g(x) - g(x*))``
-(multipliers ``lambda = -U_k S_k^-1 V_k^T x``), started at the identity and updated by damped
-BFGS from the exact Jacobians at successive points. With ``B = I`` the step is the minimum-norm
-Gauss-Newton step ``d_n - (I - V_k V_k^T) x``: it ignores the bend of the set of answers and,
-where the set curves round the nominal point over the distance moved, gains only a fixed
-fraction of what is left per step (0.9 per step on a 1,439-DOF chain); the curvature learned
-by ``B`` makes the convergence superlinear (7 steps there). The point is kept only when its
-data agree with those of ``x*`` to `DATA_TOL`; `valley_points`, `valley_ends` and
-`valley_curve` explore the set. The decision, and why not scipy's constrained minimizers:
-docs/polish-and-verification.md, section 7.5.
+Where the exact Jacobian of the measured data ``g(x)`` (`_data`: declared frequencies and zeros,
+shape ratios) has rank below the number of parameters (`RANK_RTOL`), the fitted parameters form
+a set and the polished answer ``x*`` is an accident of the path. `minimum_change` returns the
+point of the box nearest the nominal model with exactly the data of ``x*``, ``min ||x||^2 / 2``
+subject to ``g(x) = g(x*)`` (`_same_data_nearest`), kept only when its data agree with those of
+``x*`` to `DATA_TOL`; `valley_points`, `valley_ends`, `valley_curve` and `onto_data` explore the
+set. The iteration, and why not scipy's constrained minimizers: docs/polish-and-verification.md,
+section 7.5; the explorations: sections 7.4 and 7.7.
 """
 
 from __future__ import annotations
@@ -44,10 +31,8 @@ DATA_TOL = 1e-9
 #: Iterations at most (each one evaluation of the model with exact derivatives).
 MAX_ITERATIONS = 30
 #: The iteration stops once a step moves no normalized parameter by more than this (relative to
-#: the largest, where that exceeds 1): below what the data are kept to (`DATA_TOL`). On a
-#: 1,439-DOF model the steps settle at 1e-11 to 5e-10, the precision of its eigenvalue
-#: derivatives, once the point is reached (benchmarks/RESULTS.md, "The minimum change's
-#: convergence and the CLI route's files").
+#: the largest, where that exceeds 1): below what the data are kept to (`DATA_TOL`), above the
+#: precision of a large model's eigenvalue derivatives (docs section 7.5).
 STEP_TOL = 1e-9
 #: Weight of the shape-ratio rows of `_data` against the frequencies' (the constraint is
 #: ``g(x) = g(x*)``, which any positive weight states; the rank's threshold sees it).
@@ -143,18 +128,13 @@ def _independent_rows(J, finite, rank):
     return np.flatnonzero(finite)[qr(J[finite].T, pivoting=True)[2][:rank]]
 
 
-def _truncated(J, rows, rank):
-    """The ``rank`` leading singular triplets ``U_k, s_k, V_k`` of the ``rows`` of ``J``."""
-    U, s, Vt = np.linalg.svd(J[rows], full_matrices=False)
-    return U[:, :rank], s[:rank], Vt[:rank].T
-
-
 def _back_step(J, rows, rank, change):
-    """The minimum-norm step that undoes the data ``change`` to first order, from the ``rows`` of
-    the Jacobian ``J`` and its ``rank`` leading singular triplets, and the basis of the directions
-    it moves in (shape (n_x, rank))."""
-    Uk, sk, Vk = _truncated(J, rows, rank)
-    return -Vk @ ((Uk.T @ change[rows]) / sk), Vk
+    """The minimum-norm step ``d_n`` that undoes the data ``change`` to first order, from the
+    ``rank`` leading singular triplets ``U_k, s_k, V_k`` of the ``rows`` of the Jacobian ``J``,
+    and those triplets."""
+    U, s, Vt = np.linalg.svd(J[rows], full_matrices=False)
+    Uk, sk, Vk = U[:, :rank], s[:rank], Vt[:rank].T
+    return -Vk @ ((Uk.T @ change[rows]) / sk), Uk, sk, Vk
 
 
 def _curvature_update(B, s, y):
@@ -172,23 +152,24 @@ def _curvature_update(B, s, y):
 
 
 def _same_data_nearest(configurations, x0, target, g0, finite, rank, lo, hi, at_x0=None):
-    """The point of the box nearest ``target`` with the data ``g0`` of ``x0``, by the SQP
-    iteration of the module docstring started at ``x0`` (``target`` 0 is the minimum change);
-    ``at_x0``: `_data` at ``x0`` when the caller has it. Returns the point, the largest datum
-    change there (relative, as `DATA_TOL`), the iterations, and whether the model lost a
+    """The point of the box nearest ``target`` with the data ``g0`` of ``x0`` (``target`` 0 is
+    the minimum change), by SQP steps in the null-space form from ``x0`` (docs section 7.5):
+    ``d = d_n + Z p``, ``(Z^T B Z) p = -Z^T (x - target + B d_n)``, ``Z`` a basis of the directions
+    ``V_k`` leaves out, ``B`` the Lagrangian's Hessian learned by `_curvature_update` from the
+    identity. ``at_x0``: `_data` at ``x0`` when the caller has it. Returns the point, the largest
+    datum change there (relative, as `DATA_TOL`), the iterations, and whether the model lost a
     declared mode or zero."""
     scale = _weights(configurations)[finite]
     x, iterations = x0.copy(), 0
     g, J = at_x0 if at_x0 is not None else _data(configurations, x0)
     B, before = np.eye(x.size), None
     for iterations in range(1, MAX_ITERATIONS + 1):
-        Uk, sk, Vk = _truncated(J, finite, rank)
+        back, Uk, sk, Vk = _back_step(J, finite, rank, g - g0)
         off = x - target
         if before is not None:   # the Lagrangian's gradient change, multipliers of this point
             multipliers = -Uk @ ((Vk.T @ off) / sk)
             B = _curvature_update(B, x - before[0], x - before[0] + (J[finite] - before[1]).T @ multipliers)
         Z = np.linalg.qr(Vk, mode="complete")[0][:, rank:]
-        back = -Vk @ ((Uk.T @ (g - g0)[finite]) / sk)
         d = back - Z @ np.linalg.solve(Z.T @ B @ Z, Z.T @ (off + B @ back))
         x_new = np.clip(x + d, lo, hi)
         step = float(np.max(np.abs(x_new - x)))
@@ -206,13 +187,11 @@ VALLEY_STEPS = 6
 
 
 def valley_points(configurations: Sequence[Configuration], xbar, found=None) -> np.ndarray:
-    """Points with exactly the data of ``xbar`` along each direction the data leave
-    undetermined, out to the box: for each null direction ``v`` of the data Jacobian and each
-    sense, the points nearest ``xbar + (k / n) t v`` (``t`` to the box boundary, ``k = 1 .. n``,
-    ``n`` = `VALLEY_STEPS`) that keep every datum to `DATA_TOL`: the set of parameters that fit
-    bends away from the straight line. A sense stops at its first point that fails. Returns
-    shape (n_points, n_x), empty when the data determine every parameter. ``found``: as in
-    `valley_curve`."""
+    """Points with exactly the data of ``xbar`` along each direction the data leave undetermined
+    (docs section 7.4): per null direction ``v`` and sense, the points nearest ``xbar + (k / n) t
+    v`` (``t`` to the box, ``k = 1 .. n``, ``n`` = `VALLEY_STEPS`), each keeping every datum to
+    `DATA_TOL`; a sense stops at its first that fails. Returns shape (n_points, n_x), empty when
+    the data determine every parameter. ``found``: as in `valley_curve`."""
     configurations, lo, hi, x0, found = _start(configurations, xbar, found)
     if found is None:
         return np.zeros((0, x0.size))
@@ -248,13 +227,10 @@ END_ITERATIONS = 20
 
 def valley_ends(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
     """Where each parameter that the data leave free to move (`MOVES`) is lowest and highest
-    among the points of the box with exactly the data of ``xbar``: ``min / max x_i`` subject to
-    ``g(x) = g(xbar)`` (``g`` of the module docstring, a set of its rows of full rank at
-    ``xbar``), by SLSQP from ``xbar`` (`END_ITERATIONS`), then returned to the data by the
-    iteration of `_same_data_nearest`: the set is curved, so these ends, not the answer's
-    linearization, show how far each parameter moves. Returns ``(sense, i, x)`` per end found
-    (``sense`` "lowest" or "highest", ``i`` the parameter), only ends that keep every datum to
-    `DATA_TOL`; empty when the data determine every parameter. ``found``: as in `valley_curve`."""
+    among the points of the box with exactly the data of ``xbar`` (docs section 7.7): SLSQP on
+    a set of the data's rows of full rank (`END_ITERATIONS`), then back onto every datum by
+    `_same_data_nearest`. Returns ``(sense, i, x)`` per end that keeps every datum to `DATA_TOL`
+    (``sense`` "lowest" or "highest", ``i`` the parameter). ``found``: as in `valley_curve`."""
     from scipy.optimize import minimize
 
     configurations, lo, hi, x0, found = _start(configurations, xbar, found)
@@ -332,15 +308,12 @@ TRACE_EVALUATIONS = 400
 def valley_curve(configurations: Sequence[Configuration], xbar, found=None) -> list[tuple[str, int, np.ndarray]]:
     """The points where a parameter turns (is locally lowest or highest) along the set of
     answers with exactly the data of ``xbar``, where that set is a curve (one direction left
-    undetermined among the parameters the data see; the others are held). The curve is traced
-    both ways from ``xbar`` to the box by pseudo-arclength continuation (`TRACE_STEP`,
-    `CORRECTIONS`, `TRACE_TOL`); where a parameter's tangent component changes sign, the
-    turning point is placed by regula falsi in arclength and corrected onto the curve: there the
-    data fix that parameter to first order, which the curve's ends (`valley_ends`) miss.
-    Returns ``(sense, i, x)`` per point: the turning points ("locally lowest" / "locally
-    highest" parameter ``i``) and where each parameter is lowest and highest among the points
-    traced ("lowest" / "highest"), each keeping every datum to `DATA_TOL`; empty where the set
-    is not a curve. ``found``: `undetermined` at ``xbar`` when the caller has it."""
+    undetermined among the parameters the data see), traced both ways to the box by
+    pseudo-arclength continuation (docs section 7.7; `TRACE_STEP`, `CORRECTIONS`, `TRACE_TOL`),
+    each turn placed by regula falsi on the parameter's tangent component. Returns ``(sense, i,
+    x)``: the turns ("locally lowest" / "locally highest" parameter ``i``) and each parameter's
+    extremes among the points traced ("lowest" / "highest"), each keeping every datum to
+    `DATA_TOL`. ``found``: `undetermined` at ``xbar`` when the caller has it."""
     configurations, lo, hi, x0, found = _start(configurations, xbar, found)
     if found is None:
         return []

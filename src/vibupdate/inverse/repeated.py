@@ -4,7 +4,7 @@ Every combination of the modes of a repeated frequency is a mode of it (which on
 eigen-solver returns is decided by rounding), so such a mode is checked as its eigenspace:
 `cluster` groups the model's modes whose frequencies agree to `REPEATED_GAP`; `paired_vector`
 is the vector a measured mode is compared with, its declared mode or the combination whose
-shape ratios lie deepest in the measured intervals (`best_combination`). The rule in full:
+shape ratios lie deepest in the measured intervals (`_best_combination`). The rule in full:
 docs/notes/verification.md, "Repeated frequencies: the rule in full".
 """
 
@@ -47,7 +47,7 @@ def cluster(omega: np.ndarray, m: int) -> np.ndarray:
 def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """The model vector paired with the ``k``-th (0-based) measured natural frequency of
     ``cfg``, shape (n,), and the modes of its frequency (`cluster`): the declared mode itself,
-    or for a repeated frequency with a measured shape its `best_combination` (ratio 1 at the
+    or for a repeated frequency with a measured shape its `_best_combination` (ratio 1 at the
     shape's reference DOF).
 
     Parameters
@@ -66,8 +66,8 @@ def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> tu
     bounds = nat.shape.ratio_bounds()
     lo, hi = np.array(list(bounds.values()), dtype=float).T
     U = Phi_all[:, near]
-    c = best_combination(cfg.model.measurement(list(bounds)) @ U, (cfg.model.measurement([nat.shape.reference]) @ U)[0],
-                         lo, hi)
+    c = _best_combination(cfg.model.measurement(list(bounds)) @ U,
+                          (cfg.model.measurement([nat.shape.reference]) @ U)[0], lo, hi)
     return (Phi_all[:, m] if c is None else U @ c), near
 
 
@@ -81,41 +81,18 @@ def paired_modes(cfg, f) -> np.ndarray:
                            or [np.zeros((f.Phi.shape[0], 0))])
 
 
-def best_combination(U_entries: np.ndarray, u_reference: np.ndarray, lower: np.ndarray,
-                     upper: np.ndarray) -> np.ndarray | None:
-    """The combination ``c`` of a cluster's vectors whose shape ratios lie deepest in their
-    intervals: ``U_entries c`` are the ratios when ``u_reference c = 1``, and ``c`` minimizes
-    the largest distance of a ratio outside ``[lower, upper]``.
-
-    The better of two: the least-squares fit of the ratios to the intervals' midpoints (enough
-    for point data), and the linear program of the largest distance, solved for the correction
-    to that fit scaled by the fit's own miss (the LP solver's absolute tolerances then act
-    relative to it).
-
-    Parameters
-    ----------
-    U_entries : ndarray, shape (n_e, k)
-        The cluster's vectors at the ratios' DOFs.
-    u_reference : ndarray, shape (k,)
-        The cluster's vectors at the reference DOF.
-    lower, upper : ndarray, shape (n_e,)
-        The ratio intervals (any widening already applied).
-
-    Returns
-    -------
-    ndarray, shape (k,), or None
-        None when every vector of the cluster is zero at the reference DOF.
-    """
+def _best_combination(U: np.ndarray, u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
+    """The combination ``c`` of a cluster's vectors (``U`` at the ratios' DOFs, ``u`` at the
+    reference) whose ratios ``U c`` at ``u c = 1`` lie deepest in ``[lower, upper]``: the better
+    of the least-squares fit to the midpoints and the linear program of the largest distance
+    outside (module docstring); None when every vector is zero at the reference."""
     from scipy.optimize import linprog
 
-    U = np.asarray(U_entries, dtype=float)
-    u = np.asarray(u_reference, dtype=float)
-    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     norm = float(u @ u)
     if norm == 0.0 or not np.all(np.isfinite(U)):
         return None
-    c0 = u / norm                                   # u_reference c0 = 1
-    N = sla.null_space(u[None, :])                  # k x (k - 1): directions keeping u_reference c = 1
+    c0 = u / norm                                   # u c0 = 1
+    N = sla.null_space(u[None, :])                  # k x (k - 1): directions keeping u c = 1
     mid = 0.5 * (lower + upper)
     z = np.linalg.lstsq(U @ N, mid - U @ c0, rcond=None)[0] if N.shape[1] else np.zeros(0)
     c_ls = c0 + N @ z
@@ -128,7 +105,8 @@ def best_combination(U_entries: np.ndarray, u_reference: np.ndarray, lower: np.n
     scale = float(np.max(np.abs(U @ c_ls - mid), initial=0.0) + np.max(0.5 * (upper - lower), initial=0.0))
     if best == 0.0 or N.shape[1] == 0 or scale == 0.0:
         return c_ls
-    # c = c_ls + scale N y; distance t scale: lower <= U c_ls + scale U N y + t scale, and above
+    # c = c_ls + scale N y; distance t scale: lower <= U c_ls + scale U N y + t scale, and above (the
+    # LP solver's absolute tolerances then act relative to the least-squares fit's own miss)
     A = U @ N
     n_e, q = A.shape
     A_ub = np.vstack([np.column_stack([A, -np.ones(n_e)]), np.column_stack([-A, -np.ones(n_e)])])
