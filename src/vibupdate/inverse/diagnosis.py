@@ -29,10 +29,8 @@ from vibupdate.inverse.data_map import data_map
 from vibupdate.inverse.verify import VerifyOptions, verify
 
 
-#: Failed checks that say the model does not fit the data: only these start a diagnosis (not
-#: a question of which model mode or zero a datum is: docs section 7.8). ``modal_mass`` is a
-#: datum's miss like ``fit``: a mass-normalized shape measured at one DOF (a driving point's
-#: residue) has no shape ratios, and its modal mass is the only check that sees it.
+#: Failed checks that say the model does not fit the data: only these start a diagnosis (not a
+#: question of which model mode or zero a datum is; a modal mass is a datum: docs section 7.8).
 MISFIT_CHECKS = frozenset({"fit", "shape_intervals", "modal_mass", "mac", "improvement"})
 #: Groups refitted at most, the best of the one-step screening (the rest are named as untried;
 #: `benchmarks/RESULTS.md`, "The diagnosis screened in one step").
@@ -143,8 +141,7 @@ def wants_diagnosis(status: Status, failed: Sequence[str]) -> bool:
 
 @dataclass(frozen=True)
 class GroupTrial:
-    """The fit without one group (screened: polished from the full answer, verified without
-    the consistency check).
+    """The fit without one group, polished from the full answer and verified (docs section 7.8).
 
     Attributes
     ----------
@@ -160,13 +157,11 @@ class GroupTrial:
     mean_error_pct, max_error_pct : float
         Relative frequency errors on the frequencies kept (per cent).
     shape_misses : int
-        Measured mode shapes outside their admissible intervals at their best scale, on the
-        data kept: a count (the ``shape_intervals`` check's value is the worst miss in
-        half-widths).
+        Measured mode shapes outside their admissible intervals at their best scale: a count.
     xbar : ndarray
     seconds : float
     evaluations : int
-        Full-model evaluations of the polish (one eigen-solve per configuration each).
+        Full-model evaluations of the polish.
     """
 
     group: DataGroup
@@ -199,26 +194,21 @@ class Diagnosis:
     mean_error_pct, max_error_pct : float
         Relative frequency errors of the full answer.
     trials : tuple of GroupTrial
-        Refitted groups, ranked (`rank`): passed first, then by objective; passing exact
-        fits tie, the smallest group first.
+        Refitted groups, ranked (`rank`).
     untried : int
-        Groups not refitted: beyond the first ``max_groups`` of the one-step screening, past
-        ``max_seconds``, or whose refit failed.
+        Groups not refitted (the limits, or a refit that failed).
     groups : int
         Groups of the data in all.
     best : UpdateResult or None
-        The update without the top group, run in full with the same options; None when no
-        group was screened.
+        The update without the top group, with the same options; None when none was screened.
     best_seconds : float
         Wall-clock seconds of that update (its ``seconds`` count the solves only).
     seconds : float
         The whole diagnosis.
     untried_groups : tuple of str
         The labels of the ``untried`` groups, in the order of the one-step screening.
-    max_groups : int
-        The limit of groups refitted it ran with (`diagnose`).
-    max_seconds : float
-        The limit of seconds of refits it ran with, s.
+    max_groups, max_seconds : int, float
+        The limits it ran with (`diagnose`).
     """
 
     failed: tuple[str, ...]
@@ -270,14 +260,9 @@ class Diagnosis:
 
 def rank(trials: Sequence[GroupTrial], exact: dict[str, float]) -> list[GroupTrial]:
     """The trials ranked: those that pass first, then by objective on the data kept, then by
-    the largest frequency error. Objectives at or below ``exact[key]`` (the group's data kept:
-    `Admissible.exact_fit`, what the update calls an exact fit) tie: their order is rounding.
-    Among tied trials that pass, the one that leaves out the fewest data comes first.
-
-    Assumption: of several groups whose removal leaves an exact fit, the smallest explains the
-    conflict with the least data discarded; a larger group that also fits holds the smaller one
-    or shares its fault with data that were right (a DOF across every mode against one mode's
-    entry at it). It is not a proof: the ranking still only says which data conflict."""
+    the largest frequency error. Objectives at or below ``exact[key]`` (`Admissible.exact_fit`
+    of the group's data kept) tie, their order being rounding, and among tied trials that pass
+    the one that leaves out the fewest data comes first: an assumption (docs section 7.8)."""
     def key(t: GroupTrial):
         tied = t.passed and t.objective <= exact[t.group.key]
         return (not t.passed, not tied, t.group.size if tied else 0, t.objective, t.max_error_pct)

@@ -1,10 +1,7 @@
 """Verification: is the returned model the one the data describe?
 
 A solver that reaches ``lam = 1`` has found a small objective; that does not make the model
-right. `verify` returns one `Check` per property, each with its measured figure and limit: the
-declared pairing of modes and zeros, one membership test of the admissible intervals the polish
-fits (`vibupdate.inverse.admissible.misses`), the improvement over the nominal model, and two
-warnings (the relaxation's heuristic consistency allowance, parameters on a bound). A failed
+right. `verify` returns one `Check` per property with its measured figure and limit; a failed
 error check makes the status ``not_verified``. Each check, what it passes on and its default
 limit: docs/polish-and-verification.md, section 7.3.
 """
@@ -97,9 +94,8 @@ def _mode_order(cfg: Configuration, f: ModelFrequencies, data=()) -> list[str]:
 def _nearest_modes(configurations, first_stage) -> str:
     """What to state instead of the declared modes: per configuration, the model mode of each
     measured frequency that best matches it, where they rise: by the MAC of its shape with the
-    nominal model's modes when it has one (the nominal shapes do not depend on the fit the wrong
-    modes distorted), else the nearest frequency at the first stage's answer (`natural_modes`, in
-    ``[configuration.frf]`` for FRF data, or a frequency table's ``mode`` column)."""
+    nominal model's modes (which the wrong modes did not distort), else the nearest frequency
+    at the first stage's answer."""
     from vibupdate.data.pairing import shape_macs
 
     found = []
@@ -212,10 +208,9 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
         Paired model data at the first-stage answer (before the polish).
     options : VerifyOptions, optional
     reduction_error : float
-        When the first stage solved a reduced model: the largest relative difference between
-        its natural frequencies and the full model's at the nominal point. The relaxation bounds
-        the reduced problem, which misses even exact data by about this much, so the
-        consistency allowance takes the larger of it and the frequency tolerance.
+        When the first stage solved a reduced model: the largest relative difference of its
+        natural frequencies from the full model's at the nominal point; the consistency
+        allowance takes the larger of it and the frequency tolerance.
     """
     options = options or VerifyOptions()
     contract = contract or Admissible.of(configurations, options)
@@ -241,8 +236,7 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
         mine = [m for m in found if m.kind in kinds]
         if mine or name == "fit":
             checks.append(_membership(name, mine, options))
-    measured = np.concatenate([[n.omega for n in c.natural] + [a.omega for a in c.antiresonances]
-                               for c in configurations])
+    measured = np.array([d.value for row in contract.frequencies for d in row])   # as declared
     nom = np.concatenate([np.r_[f.natural, f.antiresonances] for f in nominal])
     upd = np.concatenate([np.r_[f.natural, f.antiresonances] for f in updated])
     e_nom = float(np.nanmean(percent_error(nom, measured)))
