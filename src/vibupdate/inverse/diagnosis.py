@@ -116,11 +116,8 @@ def without(configurations: Sequence[Configuration], group: DataGroup) -> list[C
         part = group.key[len(cfg.name) + 1:].split("/")
         if group.kind == "natural":
             natural = tuple(f for f in natural if f.mode != int(part[1]))
-        elif group.kind == "antiresonance":
-            response, excitation = part[1].split(",")
-            zeros = tuple(a for a in zeros if (a.response, a.excitation, a.index) != (response, excitation,
-                                                                                     int(part[2])))
-            # the interlacing signs assert that every zero between two measured poles is listed
+        elif group.kind == "antiresonance":   # interlacing asserts that every zero between two poles is listed
+            zeros = tuple(a for a in zeros if f"{a.response},{a.excitation}/{a.index}" != "/".join(part[1:]))
             interlacing = False
         elif group.kind == "shape":
             natural = tuple(replace(f, shape=None) if f.mode == int(part[1]) else f for f in natural)

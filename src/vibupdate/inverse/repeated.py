@@ -36,12 +36,8 @@ def cluster(omega: np.ndarray, m: int) -> np.ndarray:
     """
     omega = np.asarray(omega, dtype=float)
     close = np.abs(np.diff(omega)) <= REPEATED_GAP * np.maximum(np.abs(omega[:-1]), np.abs(omega[1:]))
-    lo = hi = m
-    while lo > 0 and close[lo - 1]:
-        lo -= 1
-    while hi + 1 < omega.size and close[hi]:
-        hi += 1
-    return np.arange(lo, hi + 1)
+    run = np.cumsum(np.r_[True, ~close])   # each mode's run of modes close to the next
+    return np.flatnonzero(run == run[m])
 
 
 def paired_vector(cfg, Phi_all: np.ndarray, omega_all: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
