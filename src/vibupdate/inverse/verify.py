@@ -266,12 +266,10 @@ def verify(configurations: Sequence[Configuration], xbar, *, nominal: Sequence[M
         explains = f"what {100 * tol:.3g} % frequency errors explain" + (
             "; the first stage's reduced model misses the full model's frequencies by that much at the nominal "
             "point" if reduction_error > options.frequency_tolerance else "")
-        text = (f"relaxation lower bound {lower_bound:.3g} <= {allowance:.3g} ({explains}); a bound near zero "
-                "certifies nothing")
-        if not ok:
-            text = (f"relaxation lower bound {lower_bound:.3g} > {allowance:.3g} ({explains}): a heuristic "
-                    "allowance, not a certificate; the data may contradict the bounds"
-                    + (f"; the relaxed solution sits on: {', '.join(active_bounds)}" if active_bounds else ""))
+        sits = f"; the relaxed solution sits on: {', '.join(active_bounds)}" if active_bounds else ""
+        text = f"relaxation lower bound {lower_bound:.3g} {'<=' if ok else '>'} {allowance:.3g} ({explains})" + (
+            "; a bound near zero certifies nothing" if ok
+            else ": a heuristic allowance, not a certificate; the data may contradict the bounds" + sits)
         checks.append(Check("consistency", ok, "warning", text, float(lower_bound), allowance))
     model = configurations[0].model
     lo, hi = model.bounds()
