@@ -1,21 +1,9 @@
 """Writing an `Extraction`: ``extraction.json``, case-format data files and ``fit.png``.
 
-Hz only here, at the edge. The files are those that `vibupdate.io.measured_io` and the case
-file read (``docs/case-file.md``):
-
-* ``frequencies.csv``: ``kind,hz,weight,damping_ratio,response,excitation,mode,index,lower_hz,
-  upper_hz,damping_lower,damping_upper`` (natural frequencies with their damping ratios and model mode
-  numbers, from ``first_mode``, then antiresonances, each with its intervals);
-* ``shapes.csv``: ``mode,dof,lower,upper`` (shape intervals);
-* ``damping.csv``: ``mode,hz,damping_ratio,lower,upper``, the damping ratios alone for reading
-  (``frequencies.csv`` holds them for the case file);
-* ``configuration.toml``: a ``[[configuration]]`` block naming the two CSV files, to paste
-  into a case file.
-
-The folder is written as a run's results folder is (`vibupdate.io.outputs`): checked first, the
-files written beside it and moved into place, listed in the manifest of ``extract``; files
-that ``extract`` did not write (the user's, a run's) are never replaced or removed, and a
-folder holding any is refused unless ``force``.
+Hz only here, at the edge. The files and their columns are those of ``docs/frf-extraction.md``
+("Output"), in the formats the case file reads (`vibupdate.io.measured_io`); the folder is
+written as a run's results folder is (`vibupdate.io.outputs`), under the manifest of
+``extract``.
 """
 
 from __future__ import annotations

@@ -1,23 +1,10 @@
 """One validation path for ``vibupdate check`` and ``vibupdate run``.
 
 `validate_case` does everything a run would reject before and after solving that can be known
-beforehand, so that ``check`` accepts exactly the cases ``run`` accepts:
-
-* options: the solver, formulation, polish and verification options are checked where they
-  are made, against their declarations (`vibupdate.options`), so a case holds only valid ones;
-  here the top-level ``frequency_tolerance`` and the damping options;
-* physics: the unit scale of ``M`` against the case's mass-like parameters
-  (`_check_mass_scale`), ``M`` and ``K`` of every configuration admissible (`vibupdate.model.physical`) at the
-  nominal point (an error otherwise) and at corners of the parameter box (where not, a
-  warning naming the bound and the solver's narrower bound, `physical_box`), rigid-body
-  modes and massless DOFs counted and reported;
-* measured data: damping ratios in (0, 1) (a warning above `HIGH_DAMPING`), frequencies
-  not falling in mode order (equal ones, the modes of a repeated frequency, with a warning in
-  case one was given twice), a warning when the frequencies look like rad/s written as Hz;
-* the problem itself, built as the run builds it (with the model reduction when the
-  formulation asks for one).
-
-Errors are ValueErrors of the form ``"FILE: KEY: what is wrong"``.
+beforehand, so that ``check`` accepts exactly the cases ``run`` accepts: what is checked is
+``docs/case-file.md`` ("What `check` and `run` validate"); the options were checked where they
+were made (`vibupdate.options`). Errors are ValueErrors of the form ``"FILE: KEY: what is
+wrong"``.
 """
 
 from __future__ import annotations

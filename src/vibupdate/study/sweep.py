@@ -1,33 +1,15 @@
-"""Sampling sweep: which parameter values do the data intervals allow?
+"""Sampling sweep: which parameter values do the data intervals allow? (``docs/cli.md``, "What
+the data allow").
 
-Many data sets are drawn inside the measured intervals (`vibupdate.study.sampling`), each is
-updated as `vibupdate.pipeline.run_case` would (first stage, then the damping stage), and
-the answers are collected. Every sample is one task on a Dask cluster (`vibupdate.study.engine`).
-
-Outcome of a sample (column ``outcome``):
-
-* ``verified``: ``update(...).success``;
-* ``unverified``: an answer whose status is ``not_verified`` (a solve that ended but did not
-  pass verification);
-* ``failed``: no usable answer: drawn data that contradict each other, a solver status other
-  than the two above, or a task lost for good (the error is in ``message``).
-
-Nothing is dropped: every sample is a row of ``samples.csv``; the ranges and quantiles of
-``sweep.json`` are taken over the verified rows only, and the counts of the others stated.
-
-Where the data leave a combination of parameters undetermined (an exact null direction of
-the sensitivity at a verified answer), the answer is one point of a line of equally good
-answers; the walk of `vibupdate.study.extent` finds the line's ends inside the bounds (each a
-verified answer of the same sample's data) and writes them to ``line_ends.csv``, one row per
-end. The sampled ``min`` and ``max`` of each parameter are taken over the verified answers and
-these ends; the quantiles over the answers alone (one per sample).
-
-Robustness. Rows are appended to ``samples.csv`` (and flushed to disk) as tasks complete, so
-a stopped run keeps its work; ``resume=True`` reads the finished indices and submits only
-the others. A sample's data depend on ``(seed, index)`` alone, so a resumed run gives the
-same rows as an uninterrupted one. Tasks of a lost worker are retried by Dask. The case is
-loaded once per worker: a file source is cached on the worker by path and content hash, a
-case object is broadcast once to every worker.
+Each of many data sets drawn inside the measured intervals (`vibupdate.study.sampling`) is
+updated as `vibupdate.pipeline.run_case` would and is one task on a Dask cluster
+(`vibupdate.study.engine`). A sample's ``outcome`` is ``verified`` (``update(...).success``),
+``unverified`` (status ``not_verified``) or ``failed`` (no usable answer; the error in
+``message``). Nothing is dropped: every sample is a row of ``samples.csv``, appended and
+flushed as it completes (``resume=True`` submits only the others; a sample's data depend on
+``(seed, index)`` alone); the ranges of ``sweep.json`` are over the verified rows and the ends
+of the lines along exact null directions (`vibupdate.study.extent`, ``line_ends.csv``), the
+quantiles over the answers alone.
 """
 
 from __future__ import annotations
