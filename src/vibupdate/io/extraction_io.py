@@ -17,9 +17,7 @@ import numpy as np
 from vibupdate.extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
-
-
-TWO_PI = 2.0 * math.pi
+from vibupdate.data.measured import TWO_PI
 
 #: The files `write_extraction` writes (``fit.png`` only with the plot).
 EXTRACTION_FILES = ("extraction.json", "frequencies.csv", "shapes.csv", "damping.csv", "configuration.toml",

@@ -147,16 +147,9 @@ def _check_data(cfg, error) -> None:
 
 
 def _check_mass_scale(cfg, error) -> None:
-    """The mass matrix's unit scale against the values of the case's mass-like parameters.
-
-    Assumption: the mass matrix is linear in every parameter whose unit is a mass, a mass per
-    length or volume, or an inertia (`MASS_UNIT`), with a non-negative rest, ``M = M_rest +
-    sum_p p dM/dp`` (a density times a volume, a lumped mass on its DOF), so the mass those
-    parameters carry at the nominal point, ``sum_p p0 diag(dM/dp)``, cannot exceed ``diag(M0)``.
-    Where it does by more than `MASS_SHARE_FACTOR` on some DOF, ``M0`` (a matrix file) is in
-    other units than the parameters, e.g. tonnes against kg/m^3: an error naming the DOF, the
-    parameters and both masses. A model whose mass comes from its parameters alone (the
-    elements route) meets it with equality. Only diagonals are used: no solve, O(nnz)."""
+    """The mass matrix's unit scale against the values of the case's mass-like parameters
+    (`MASS_UNIT`): the rule of ``docs/case-file.md`` ("Unit scale of `M`"), with
+    `MASS_SHARE_FACTOR`, on the diagonals only (no solve)."""
     model = cfg.model
     carried = np.zeros(model.n_dofs)
     names = []
