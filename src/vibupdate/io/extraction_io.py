@@ -110,11 +110,9 @@ def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int 
                      plot: bool = True, force: bool = False, inputs=()) -> dict:
     """Write every output file into the folder ``out_dir``; returns ``{kind: path}``.
 
-    Through the manifest-protected path of `vibupdate.io.outputs` (module docstring): raises
-    ValueError, writing nothing, when the folder holds files ``extract`` did not write and
-    ``force`` is false, when one of them would be overwritten, or when one of the files read
-    (``inputs``, the FRF files) would be replaced or removed. A ``fit.png`` that cannot be
-    drawn costs a warning (`vibupdate.io.outputs.OutputWarning`), not the extraction.
+    Through `vibupdate.io.outputs` (a ValueError, nothing written, when the folder cannot take
+    the files: `check_extraction_folder`); a ``fit.png`` that cannot be drawn costs a warning
+    (`vibupdate.io.outputs.OutputWarning`), not the extraction.
     """
     from vibupdate import __version__
     from vibupdate.io.outputs import write_published

@@ -261,10 +261,8 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     resume : bool
         Finish the sweep in ``out_dir`` (same case, seed and sampling; ``samples`` may grow).
     force : bool
-        Start a new sweep in a folder that holds other files: those of an earlier sweep there
-        that are unchanged since it wrote them (its manifest's hashes) are removed before the
-        work, every other file is kept and named; a file the sweep would overwrite and did not
-        write, or that changed since, is refused (ValueError) before any work.
+        Start a new sweep in a folder that holds other files, as ``--force`` of ``vibupdate
+        sweep`` does (``docs/cli.md``; `vibupdate.study.sweep_files.prepare_sweep_folder`).
     retries : int
         Retries of a task whose worker was lost.
     plots : bool
