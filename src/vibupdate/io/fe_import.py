@@ -240,8 +240,9 @@ def _model_toml(imported: ImportedModel, source: str) -> str:
 
 
 def import_model(path, out) -> ImportedModel:
-    """Read an import file and write the model files into a new folder (docs/fe-models.md; a
-    failed import leaves no partial folder).
+    """Read an import file and write the model files into a new folder (docs/fe-models.md).
+
+    A failed import leaves no partial folder.
 
     Parameters
     ----------

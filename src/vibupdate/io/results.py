@@ -78,8 +78,9 @@ _NOT_WRITTEN = ("matrices",)
 
 @dataclass(frozen=True)
 class RunResult:
-    """Everything a run produced; ``results.json`` is `as_document` of it (each key:
-    ``docs/outputs.md``, "`results.json`").
+    """Everything a run produced; ``results.json`` is `as_document` of it.
+
+    Each key of the file is described in ``docs/outputs.md`` ("`results.json`").
 
     Attributes
     ----------
