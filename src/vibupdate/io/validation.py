@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI
+from vibupdate.options import finite
 
 
 #: Damping ratios above this get a warning.
@@ -67,11 +68,6 @@ class CaseCheck:
     case: object = field(default=None, repr=False, compare=False)
 
 
-def _finite(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
-        and math.isfinite(value)
-
-
 def _check_damping(case, rigid: int, error) -> list[str]:
     """Damping options and ratios; returns warnings."""
     warnings = []
@@ -91,7 +87,7 @@ def _check_damping(case, rigid: int, error) -> list[str]:
     exponents = list(options.exponents)
     if not exponents:
         raise error("damping.exponents", "needs at least one exponent")
-    bad = [y for y in exponents if not _finite(y)]
+    bad = [y for y in exponents if not finite(y)]
     if bad:
         raise error("damping.exponents", f"must be finite numbers, got {bad[0]!r}")
     if max(abs(y) for y in exponents) > MAX_EXPONENT:
@@ -104,7 +100,7 @@ def _check_damping(case, rigid: int, error) -> list[str]:
                                          f"model's {rigid} rigid-body mode(s); use exponents >= 0")
     measured = {m for _, m, _ in ratios}
     for mode, weight in options.mode_weights:
-        if not _finite(weight) or weight <= 0:
+        if not finite(weight) or weight <= 0:
             raise error(f"damping.mode_weights.{mode}", f"must be a positive finite number, got {weight!r}")
         if mode not in measured:
             warnings.append(f"damping.mode_weights names mode {mode}, which has no measured damping ratio")
@@ -362,7 +358,7 @@ def validate_case(case) -> CaseCheck:
         raise error("parameter", "the case updates no parameter: declare a [[parameter]], or let `vibupdate suggest` "
                                  f"choose among its {len(case.candidates)} [[candidate]]s")
     tol = case.frequency_tolerance
-    if not _finite(tol) or not 0 <= tol < 1:
+    if not finite(tol) or not 0 <= tol < 1:
         raise error("frequency_tolerance", f"must be a finite relative half-width in [0, 1), got {tol!r}")
     try:
         validate_configurations(case.configurations)
