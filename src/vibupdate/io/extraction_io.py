@@ -25,13 +25,8 @@ EXTRACTION_FILES = ("extraction.json", "frequencies.csv", "shapes.csv", "damping
 
 
 def check_extraction_folder(out_dir, force: bool = False, inputs=()):
-    """Check the output folder before extracting (`vibupdate.io.outputs.prepare_output`, as the
-    command ``extract``).
-
-    Raises ValueError naming the folder when it is not a writable folder, or holds files
-    ``extract`` did not write and ``force`` is false, or a file it would overwrite is not its
-    own, or it would replace or remove one of the FRF files it reads (``inputs``).
-    """
+    """Check the output folder before extracting: `vibupdate.io.outputs.prepare_output` as the
+    command ``extract``, which never replaces or removes the FRF files it reads (``inputs``)."""
     from vibupdate.io.outputs import prepare_output
 
     return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES, command="extract", inputs=inputs,

@@ -91,11 +91,8 @@ def _resolve(case) -> Case:
 # -- one sample -------------------------------------------------------------------------------
 
 def columns(case: Case, sampling: SamplingOptions) -> list[str]:
-    """Header of ``samples.csv``: index, outcome, status, start (the answer kept: "homotopy"
-    or "random"), objective, parameters (their unit), predicted frequencies (Hz), drawn data
-    (Hz and -), Caughey coefficients, timing, message. Data are named as
-    `vibupdate.data.names` names columns: ``pred:A:mode3_hz``, ``data:A:zero4_h_y1/y1_hz``,
-    ``data:A:mode3_xi``."""
+    """Header of ``samples.csv`` (``docs/outputs.md``, "The columns of `samples.csv`"; the data
+    named by `vibupdate.data.names`)."""
     cfgs = case.configurations
     names = [f"p:{p.name}" for p in cfgs[0].model.parameters]
     sampled = data_intervals(cfgs, case.frequency_tolerance, sampling)
@@ -110,8 +107,7 @@ def columns(case: Case, sampling: SamplingOptions) -> list[str]:
 
 
 def end_columns(case: Case) -> list[str]:
-    """Header of ``line_ends.csv``: the sample's index, the null direction (1-based), the
-    side (+1/-1), the step from the answer (normalized), why the walk stopped, parameters."""
+    """Header of ``line_ends.csv`` (``docs/outputs.md``; each row a `vibupdate.study.extent.LineEnd`)."""
     return ["index", "direction", "side", "distance", "stop",
             *[f"p:{p.name}" for p in case.configurations[0].model.parameters]]
 
