@@ -41,8 +41,6 @@ def number(value) -> float | None:
 def plain(obj):
     """JSON-safe copy: records to their documents, numpy to Python, NaN/inf to None, tuples to
     lists, enums (`Status`, `Verdict`) to their values."""
-    if isinstance(obj, _Row):
-        return obj.as_dict()
     if isinstance(obj, Mapping):
         return {str(k): plain(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -57,7 +55,7 @@ def plain(obj):
         return int(obj)
     if isinstance(obj, Enum):
         return obj.value
-    if dataclasses.is_dataclass(obj) and hasattr(obj, "as_dict"):   # a record of the library (`Check`)
+    if dataclasses.is_dataclass(obj) and hasattr(obj, "as_dict"):   # a record, here or of the library (`Check`)
         return plain(obj.as_dict())
     return obj
 
