@@ -361,7 +361,8 @@ def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), co
 
 
 def staging_folder(target: OutputTarget) -> Path:
-    """A new empty folder to write the results into (removed by `publish` or by the caller)."""
+    """A new empty folder to write the results into (removed by `publish` or by the caller):
+    hidden, inside the folder or beside a new one, so on its file system and the moves renames."""
     if target.exists:
         where, prefix = target.path, _PARTIAL
     else:
