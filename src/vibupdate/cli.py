@@ -1,16 +1,10 @@
 """Command-line interface: parse, call the library, write files.
 
-Exit codes (`EXIT`): 0 the updating succeeded (verified); 1 it was solved but not verified,
-or the homotopy path failed (results are written, their status says which); 2 bad input
-(one message naming the file, key or folder; nothing written); for ``sweep``, 1 means no
-verified sample, for ``batch`` a case that did not succeed; 3 internal error (one line
-naming what failed, ``--debug`` prints the traceback; nothing written); for ``suggest``, 0
-means some set of candidates verified, 1 none; 130 interrupted: one line saying what was kept
-(nothing, earlier results intact; the rows a sweep wrote, ``--resume``; the case folders a
-batch finished).
-
-A command or option whose optional extra is not installed (`NEEDS`, `vibupdate.extras`)
-exits 2 with one line naming the extra, before any work.
+Exit codes (`EXIT`) are those of ``docs/cli.md`` ("Exit codes"): 0 success (verified), 1 not
+verified or failed (results written), 2 bad input (one message; nothing written), 3 internal
+error, 130 interrupted (one line saying what was kept). A command or option whose optional
+extra is not installed (`NEEDS`, `vibupdate.extras`) exits 2 with one line naming the extra,
+before any work.
 """
 
 from __future__ import annotations

@@ -80,11 +80,9 @@ class Option:
             return isinstance(value, bool)
         if self.kind == "string":
             return isinstance(value, str)
-        if isinstance(value, bool):
-            return False
         if self.kind == "integer":
-            return isinstance(value, numbers.Integral)
-        return isinstance(value, numbers.Real) and math.isfinite(value)
+            return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+        return finite(value)
 
     def _in_range(self, value) -> bool:
         if self.kind == "string":
@@ -105,6 +103,16 @@ class Option:
         if self.kind == "string":
             return f'"{self.default}"'
         return _num(self.default)
+
+
+def finite(value) -> bool:
+    """Whether ``value`` is a real number (not bool) that is finite."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except (TypeError, ValueError, OverflowError):
+        return False
 
 
 def _num(value) -> str:

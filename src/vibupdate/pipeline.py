@@ -129,15 +129,9 @@ def write_outputs(folder: Path, case: Case, run: RunResult,
 
     Every file is written from ``run`` (the nominal models for the FRF plot from ``case``);
     ``extra(folder)``, when given, writes a study's files and returns its plots as
-    ``(caption, file name)`` for the report.
-
-    The results come first: the matrices and ``results.json`` are written before any plot or
-    the report, and only a failure there is an error. A plot, the study's files or the report
-    that cannot be written costs a note (`vibupdate.io.outputs.OutputWarning`): it is added
-    to the run's warnings, ``results.json`` is written again with it, and a report that
-    failed is replaced by a short one saying what failed. The note that the plots were skipped
-    (no matplotlib) is known before anything is written and is in the first ``results.json``.
-    Returns the run as written (with those notes).
+    ``(caption, file name)`` for the report. The order, and what a file that cannot be written
+    costs (an `vibupdate.io.outputs.OutputWarning` added to the run's warnings and to a
+    ``results.json`` written again), is ``docs/outputs.md`` (step 2). Returns the run as written.
     """
     from vibupdate.extras import installed, skipped
     from vibupdate.io.outputs import OutputWarning, drawn
@@ -283,11 +277,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
              study=None, diagnose: bool | None = None) -> RunResult:
     """Run both stages on a case and write the results folder.
 
-    The folder is checked before solving (`vibupdate.io.outputs.prepare_output`: writable, no
-    file but the run's own results of this case unless ``force``, no file the case reads
-    among those a run would replace or remove); the files are written beside it and moved into place at the end, so a
-    run that fails or is interrupted leaves earlier results as they were, and files in the
-    folder that a run did not write (the user's, another command's) are never touched.
+    The folder is checked before solving and written as ``docs/outputs.md`` says
+    (`vibupdate.io.outputs`): a run that fails or is interrupted leaves it as it was.
 
     Parameters
     ----------
@@ -333,10 +324,8 @@ def run_case(case: Case, out_dir, *, progress: Callable[[str], None] | None = No
         The case or the options are invalid, or the folder cannot be used; raised before any
         solve.
     KeyboardInterrupt
-        Ctrl-C. Before the update has an answer nothing is written. After it (its uniqueness
-        search or a later stage) the stage running ends, the later ones are skipped, the answer
-        is written with what was computed before, and `vibupdate.io.interrupted.Interrupted`
-        says so.
+        Ctrl-C: what is then written is ``docs/cli.md`` ("Exit codes", 130); after the update
+        has an answer, `vibupdate.io.interrupted.Interrupted` says what was kept.
     """
     from vibupdate import __version__
 

@@ -464,18 +464,9 @@ def _element_models(source, items: dict, parameters, where: Where) -> dict:
 
 def _frequency_types(data: dict, configurations, where: Where):
     """The configurations with their measured frequencies made natural, and the notes of the
-    configurations where damped and natural differ by more than the measured intervals.
-
-    ``frequency_type`` (a configuration's, else the top level's) says what the measured
-    natural frequencies are: ``"natural"`` (the default: the undamped frequencies the model
-    computes) or ``"damped"`` (peaks of the FRFs, imaginary parts of the poles), converted with
-    their damping ratios (`vibupdate.data.measured.natural_from_damped`). A frequency's natural
-    value is higher than its damped one by `damped_shift`; when that lifts it above its
-    measurement interval (its own, else the case's ``frequency_tolerance``), the distinction
-    matters and the configuration gets a note: unless the case stated ``"natural"`` or the
-    frequencies were extracted from FRFs here (natural by construction), saying which
-    frequencies, by how much, and what was done. A frequency without an interval, or without a
-    damping ratio, has no such note."""
+    configurations where damped and natural differ by more than the measured intervals: the
+    rule of ``frequency_type`` in ``docs/case-file.md`` (`vibupdate.data.measured.natural_from_damped`,
+    `damped_shift`)."""
     from vibupdate.data.measured import damped_shift, natural_from_damped
 
     default = data.get("frequency_type")

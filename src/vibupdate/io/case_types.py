@@ -108,20 +108,12 @@ class Case:
     verification: VerifyOptions = field(default_factory=VerifyOptions)
     frfs: Mapping = field(default_factory=dict)
     frf_notes: Mapping = field(default_factory=dict)
-    """Per such configuration, the extraction's notes (`vibupdate.data.extraction.Extraction.notes`):
-    `check` and `run` report them as warnings."""
     frequency_notes: Mapping = field(default_factory=dict)
     inputs: tuple[Path, ...] = ()
-    """The files the case reads: the case file and every file a value of it names (matrices,
-    builder module, data files); a run never replaces or removes them."""
     sensors: tuple[dict, ...] = ()
     candidates: tuple[Parameter, ...] = ()
-    """The ``[[candidate]]`` parameters: named in the model as parameters are, held at their
-    nominal values in ``configurations`` and freed by `vibupdate suggest`."""
     pool: tuple[Configuration, ...] = ()
     undeclared_modes: tuple[str, ...] = ()
-    """The configurations whose measured natural frequencies declare no model mode (read as
-    modes 1, 2, ...): `check` and `run` test that pairing against the nominal model."""
 
     def with_candidates(self, names) -> "Case":
         """The case with some candidates free beside its own parameters.

@@ -1,21 +1,9 @@
 """Writing an `Extraction`: ``extraction.json``, case-format data files and ``fit.png``.
 
-Hz only here, at the edge. The files are those that `vibupdate.io.measured_io` and the case
-file read (``docs/case-file.md``):
-
-* ``frequencies.csv``: ``kind,hz,weight,damping_ratio,response,excitation,mode,index,lower_hz,
-  upper_hz,damping_lower,damping_upper`` (natural frequencies with their damping ratios and model mode
-  numbers, from ``first_mode``, then antiresonances, each with its intervals);
-* ``shapes.csv``: ``mode,dof,lower,upper`` (shape intervals);
-* ``damping.csv``: ``mode,hz,damping_ratio,lower,upper``, the damping ratios alone for reading
-  (``frequencies.csv`` holds them for the case file);
-* ``configuration.toml``: a ``[[configuration]]`` block naming the two CSV files, to paste
-  into a case file.
-
-The folder is written as a run's results folder is (`vibupdate.io.outputs`): checked first, the
-files written beside it and moved into place, listed in the manifest of ``extract``; files
-that ``extract`` did not write (the user's, a run's) are never replaced or removed, and a
-folder holding any is refused unless ``force``.
+Hz only here, at the edge. The files and their columns are those of ``docs/frf-extraction.md``
+("Output"), in the formats the case file reads (`vibupdate.io.measured_io`); the folder is
+written as a run's results folder is (`vibupdate.io.outputs`), under the manifest of
+``extract``.
 """
 
 from __future__ import annotations
@@ -29,9 +17,7 @@ import numpy as np
 from vibupdate.extras import require
 from vibupdate.data.extraction import Extraction
 from vibupdate.data.frf import FRFSet
-
-
-TWO_PI = 2.0 * math.pi
+from vibupdate.data.measured import TWO_PI
 
 #: The files `write_extraction` writes (``fit.png`` only with the plot).
 EXTRACTION_FILES = ("extraction.json", "frequencies.csv", "shapes.csv", "damping.csv", "configuration.toml",
@@ -39,13 +25,8 @@ EXTRACTION_FILES = ("extraction.json", "frequencies.csv", "shapes.csv", "damping
 
 
 def check_extraction_folder(out_dir, force: bool = False, inputs=()):
-    """Check the output folder before extracting (`vibupdate.io.outputs.prepare_output`, as the
-    command ``extract``).
-
-    Raises ValueError naming the folder when it is not a writable folder, or holds files
-    ``extract`` did not write and ``force`` is false, or a file it would overwrite is not its
-    own, or it would replace or remove one of the FRF files it reads (``inputs``).
-    """
+    """Check the output folder before extracting: `vibupdate.io.outputs.prepare_output` as the
+    command ``extract``, which never replaces or removes the FRF files it reads (``inputs``)."""
     from vibupdate.io.outputs import prepare_output
 
     return prepare_output(out_dir, force=force, planned=EXTRACTION_FILES, command="extract", inputs=inputs,
@@ -124,11 +105,9 @@ def write_extraction(result: Extraction, frfs: FRFSet, out_dir, first_mode: int 
                      plot: bool = True, force: bool = False, inputs=()) -> dict:
     """Write every output file into the folder ``out_dir``; returns ``{kind: path}``.
 
-    Through the manifest-protected path of `vibupdate.io.outputs` (module docstring): raises
-    ValueError, writing nothing, when the folder holds files ``extract`` did not write and
-    ``force`` is false, when one of them would be overwritten, or when one of the files read
-    (``inputs``, the FRF files) would be replaced or removed. A ``fit.png`` that cannot be
-    drawn costs a warning (`vibupdate.io.outputs.OutputWarning`), not the extraction.
+    Through `vibupdate.io.outputs` (a ValueError, nothing written, when the folder cannot take
+    the files: `check_extraction_folder`); a ``fit.png`` that cannot be drawn costs a warning
+    (`vibupdate.io.outputs.OutputWarning`), not the extraction.
     """
     from vibupdate import __version__
     from vibupdate.io.outputs import write_published

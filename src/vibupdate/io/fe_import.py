@@ -1,16 +1,11 @@
 """``vibupdate import``: an FE code's export set -> the ``[model]`` of a case file and its files.
 
-An *import file* (TOML, ``docs/fe-models.md``) names the code, the nominal export, one export
-per parameter with the step it was made with (and optionally a second one), and optionally
-sensors. `import_model` reads them (`vibupdate.model.fe`), forms the affine model
-(`vibupdate.model.fe.perturbed`) and writes, into a new folder, ``model.toml`` (the
-``[model]`` of ``type = "matrices"`` and the ``[[parameter]]`` tables), ``M0.npz``,
-``K0.npz``, ``dM_<name>.npz``, ``dK_<name>.npz``, and ``nodes.csv`` / ``sensors.csv`` when
-known; ``matrix_precision`` in ``[model]`` when the exports were written with fewer digits
-than a double holds (`vibupdate.model.fe.export`). An oblique sensor's reading becomes a DOF of the written model
-(`vibupdate.model.fe.oblique`: the matrices are those of the export in the new coordinates).
-Everything is written to a temporary folder beside the target and moved at the end, so a
-bad export leaves nothing behind.
+The *import file* (TOML) is ``docs/fe-models.md`` ("Import file"). `import_model` reads the
+exports (`vibupdate.model.fe`), forms the affine model (`vibupdate.model.fe.perturbed`) and
+writes ``model.toml`` (a ``[model]`` of ``type = "matrices"`` and its ``[[parameter]]``
+tables) with ``M0.npz``, ``K0.npz``, ``dM_<name>.npz``, ``dK_<name>.npz`` and, when known,
+``nodes.csv`` / ``sensors.csv``, into a temporary folder beside the target moved into place
+at the end, so a bad export leaves nothing behind.
 """
 
 from __future__ import annotations
@@ -247,8 +242,7 @@ def _model_toml(imported: ImportedModel, source: str) -> str:
 def import_model(path, out) -> ImportedModel:
     """Read an import file and write the model files into a new folder (docs/fe-models.md).
 
-    The files are written beside ``out`` and moved into place at the end, so a failed import
-    leaves no partial folder.
+    A failed import leaves no partial folder.
 
     Parameters
     ----------

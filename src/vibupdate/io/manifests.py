@@ -1,20 +1,10 @@
-"""Manifests: which files of a folder each vibupdate command wrote.
+"""Manifests: which files of a folder each vibupdate command wrote (``docs/outputs.md``, "One
+manifest per command").
 
-Every command that writes a folder (`COMMANDS`: ``run``, which ``example`` also is,
-``extract``, ``sweep``, ``batch``) lists the files it wrote there in its own manifest,
-``vibupdate-manifest-COMMAND.json`` (`manifest_name`): a JSON object with ``files`` (plain
-names in the folder), ``sha256`` (the SHA-256 of each file's content as written), ``command``,
-``case`` and the ``vibupdate`` version. A command owns the files of its manifest that are
-unchanged since it wrote them (`changed_files`); `vibupdate.io.outputs` replaces or removes
-nothing else. A file listed without a hash (a manifest of an earlier version) counts as
-unchanged.
-
-Folders written before the manifests were per command hold one shared manifest,
-``vibupdate-manifest.json`` (`LEGACY_MANIFEST`). Its files belong to the command that wrote
-it when the manifest or its files say which (``results.json``: a run;
-``extraction.json``: an extraction); otherwise they belong to no command and are kept. A
-command that takes over its legacy files lists them in its own manifest and removes the
-legacy one.
+Each command of `COMMANDS` lists its files, with the SHA-256 of each, in its own
+``vibupdate-manifest-COMMAND.json`` (`manifest_name`) and owns those unchanged since
+(`changed_files`; a file listed without a hash counts as unchanged). The shared manifest of
+earlier versions (`LEGACY_MANIFEST`) is read as the docs page says.
 """
 
 from __future__ import annotations

@@ -1,27 +1,10 @@
 """Reading measured modal data from files: CSV tables and Universal File Format dataset 55.
 
-CSV frequency table, one row per measured frequency::
-
-    kind,hz,weight,damping_ratio,response,excitation,mode,index,lower_hz,upper_hz
-    natural,73.4,1,0.044,,,1,,73.38,73.42
-    antiresonance,101.3,1,,y1,y3,,1,,
-
-(``weight``, ``damping_ratio``, ``response``, ``excitation``, ``mode``, ``index`` optional per
-row; ``mode`` is the model mode a natural frequency is, ``index`` which zero of its receptance
-an antiresonance is, both 1-based; see `vibupdate.data.pairing` for the defaults.
-``lower_hz``/``upper_hz``: the frequency's measurement interval, both or neither in a row;
-``damping_lower``/``damping_upper``: the damping ratio's. ``vibupdate extract`` writes all four,
-so its table reads back with the intervals the FRF route gives.)
-
-CSV mode-shape table, one row per measured entry, bounds or value and tolerance::
-
-    mode,dof,lower,upper            or        mode,dof,value,tolerance
-    1,y1,0.95,1.05                            1,y1,1.0,0.05
-
-UFF dataset 55 (normal modes, analysis type 2) through pyuff: each record is one mode; its
-header gives the frequency (Hz) and the modal viscous damping ratio, its data the shape.
-Directions map to DOF names as ``r1 -> x``, ``r2 -> y``, ``r3 -> z``, ``r4 -> rx``,
-``r5 -> ry``, ``r6 -> phi`` followed by the node number.
+The columns of the frequency and mode-shape tables and the UFF direction names are those of
+``docs/case-file.md`` (``frequencies_csv``, ``mode_shapes_csv``, ``mode_shapes_uff``); a
+``mode`` or ``index`` left out defaults as `vibupdate.data.pairing` says. UFF is read through
+pyuff: each record of dataset 55 (analysis type 2) is one mode, its header giving the
+frequency (Hz) and the modal viscous damping ratio.
 """
 
 from __future__ import annotations

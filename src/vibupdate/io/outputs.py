@@ -1,35 +1,12 @@
 """Output folders: which files each command owns, and how they are put in place.
 
-Every command that writes a folder (``run`` and ``example``, ``extract``, ``sweep``,
-``batch``) keeps its own manifest there, ``vibupdate-manifest-COMMAND.json``, listing the
-files it wrote. A command replaces or removes only files of its own manifest: the files of
-another command, and anything else in the folder, are kept. The protocol of a command:
-
-1. `prepare_output` (before any work): the folder is a directory or does not exist yet, it
-   is writable, and it holds nothing but this command's own results of the same case, all
-   unchanged since written (their SHA-256 in the manifest), unless ``force`` is given. With
-   ``force`` every other file (another command's, the user's, a file of this command's changed
-   since, the results of another case) is kept, named, and never overwritten: a command that
-   would overwrite one is refused. A file the command reads (``inputs``: the case file and its
-   data, the FRF files) is never replaced or removed: a command that would is refused.
-2. The writers fill a staging folder (`staging_folder`): a hidden sibling when the folder
-   does not exist yet, a hidden folder inside it otherwise (same file system, so the final
-   moves are renames).
-3. `publish` moves the new files into place with SIGINT held back, removes the files of the
-   command's previous run that this run did not write and that are unchanged since, and
-   writes its manifest (with the hash of every file) last. A run that fails or is
-   interrupted before `publish` leaves the folder as it was.
-
-A command that writes straight into its folder instead (a sweep appends its rows as samples
-finish) lists its files in its manifest as it makes them and, when it ends, normally or
-interrupted, records the hash of each one's final content (`written_in_place`). So every
-manifest carries the hash of every file its command wrote, whichever way it wrote them.
-
-The manifests, and how the older shared one is read, are in `vibupdate.io.manifests`.
-
-Files and folders get the permissions of the user's umask (``tempfile`` would make them
-private). Names derived from user text (the case name, configuration names) go through
-`safe_name`: no path separators, no ``..``, bounded length.
+The protocol is ``docs/outputs.md`` ("The results folder and its manifest"): `prepare_output`
+checks the folder before any work, the writers fill a `staging_folder`, and `publish` moves
+the new files into place with SIGINT held back, removes the command's stale unchanged files
+and writes its manifest last (`vibupdate.io.manifests`); a command never replaces or removes
+a file it did not write, one changed since, or one it reads. A command that writes straight
+into its folder (a sweep's rows) lists its files as it makes them (`written_in_place`).
+Names derived from user text go through `safe_name`.
 """
 
 from __future__ import annotations
@@ -384,7 +361,8 @@ def prepare_output(path, *, force: bool = False, planned: Iterable[str] = (), co
 
 
 def staging_folder(target: OutputTarget) -> Path:
-    """A new empty folder to write the results into (removed by `publish` or by the caller)."""
+    """A new empty folder to write the results into (removed by `publish` or by the caller):
+    hidden, inside the folder or beside a new one, so on its file system and the moves renames."""
     if target.exists:
         where, prefix = target.path, _PARTIAL
     else:

@@ -41,8 +41,6 @@ def number(value) -> float | None:
 def plain(obj):
     """JSON-safe copy: records to their documents, numpy to Python, NaN/inf to None, tuples to
     lists, enums (`Status`, `Verdict`) to their values."""
-    if isinstance(obj, _Row):
-        return obj.as_dict()
     if isinstance(obj, Mapping):
         return {str(k): plain(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -57,7 +55,7 @@ def plain(obj):
         return int(obj)
     if isinstance(obj, Enum):
         return obj.value
-    if dataclasses.is_dataclass(obj) and hasattr(obj, "as_dict"):   # a record of the library (`Check`)
+    if dataclasses.is_dataclass(obj) and hasattr(obj, "as_dict"):   # a record, here or of the library (`Check`)
         return plain(obj.as_dict())
     return obj
 
@@ -132,12 +130,24 @@ def typed(tp, value):
     return value
 
 
+#: The end of every record's ``Attributes`` (added to its docstring by `_Row`).
+_EXTRA_DOC = """    extra : tuple of (str, object)
+        Keys of the producer that the record does not name, with their values, written after
+        the fields.
+    """
+
+
 @dataclass(frozen=True, kw_only=True)
 class _Row:
     """Records of ``results.json``: typed fields (written under their names, or the ``key`` of
     their metadata) plus ``extra``, further keys of the producer, written flat after them."""
 
     extra: tuple = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.__doc__:   # None under ``python -OO``
+            cls.__doc__ = cls.__doc__.rstrip() + "\n" + _EXTRA_DOC
 
     def as_dict(self) -> dict:
         out = {}
@@ -174,9 +184,6 @@ class ParameterRow(_Row):
         Updated value; None when the update gave no answer.
     xbar : float or None
         Updated normalized value (Eq. 12); None when the update gave no answer.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     name: str
@@ -218,9 +225,6 @@ class FrequencyRow(_Row):
         The measured interval, Hz; None without one.
     name : str or None
         The datum's name (`vibupdate.data.names.frequency_name`).
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     configuration: str
@@ -259,9 +263,6 @@ class ModalMassRow(_Row):
         The modal mass of the nominal and updated models' paired mode, kg.
     error_nominal_pct, error_updated_pct : float or None
         Their relative errors against the interval's midpoint, per cent.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     configuration: str
@@ -295,9 +296,6 @@ class DampingRow(_Row):
         The Rayleigh baseline's damping ratio (dimensionless).
     error_rayleigh_pct : float or None
         Its relative error against the measured ratio, per cent.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     configuration: str
@@ -321,9 +319,6 @@ class Summary(_Row):
     mean_damping_error_pct, mean_damping_error_rayleigh_pct : float or None
         Mean absolute relative error of the measured damping ratios against the Caughey fit and
         the Rayleigh baseline, per cent; None without a damping stage.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     mean_error_nominal_pct: float | None
@@ -343,9 +338,6 @@ class MacMatrix(_Row):
     values : tuple of tuple of float or None
         MAC, between zero and one: a row per measured shape, a column per declared model
         mode; None where it could not be computed.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     dofs: tuple[str, ...]
@@ -360,9 +352,6 @@ class PlottedReceptance(_Row):
     ----------
     response, excitation : str
         The response and excitation DOFs.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     response: str
@@ -394,9 +383,6 @@ class PolishRow(_Row):
         ``"known answer"`` or ``"failure"``.
     budget : int or None
         The evaluation limit it had.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     cost_start: float | None
@@ -432,9 +418,6 @@ class MinimumChangeRow(_Row):
         Gauss-Newton iterations.
     message : str
         What it did, in words.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     applied: bool
@@ -485,9 +468,6 @@ class SolverRecord(_Row):
         The move along undetermined directions.
     alternatives : tuple of Alternative
         Other answers found that fit the data as well.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     status: Status
@@ -518,9 +498,6 @@ class LinearRange(_Row):
         Ends of the range, in the parameter's unit.
     width_pct : float or None
         Width in per cent of the parameter's reference value.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     lower: float | None
@@ -543,9 +520,6 @@ class SampledRange(_Row):
         The 5 %, 50 % and 95 % quantiles over the answers.
     answers_min, answers_max : float or None
         Smallest and largest value over the answers alone.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     unit: str
@@ -586,9 +560,6 @@ class Sampled(_Row):
         The distribution the data were drawn from.
     ranges : dict of str to SampledRange
         Each parameter's range, by name.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     samples: int
@@ -613,9 +584,6 @@ class LocalMinimum(_Row):
         Random starts that reached it.
     values : dict of str to float or None
         The parameters' values there, in their units, by name.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     objective: float | None
@@ -642,9 +610,6 @@ class Multistart(_Row):
         The minima, best first.
     seed : int or None
         The seed of the starts; not written when None.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     starts: int
@@ -670,9 +635,6 @@ class CertifiedRange(_Row):
         Whether both ends are safe bounds that confirm the LP solver's optimum.
     root_lower, root_upper : float or None
         The range before any bound tightening, in the parameter's unit.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     lower: float | None
@@ -694,9 +656,6 @@ class WidenedWindow(_Row):
     beyond_pct : float or None
         How far the farthest held frequency lies beyond the data's window, per cent of the
         measured frequency.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     datum: str
@@ -715,9 +674,6 @@ class WidenedBox(_Row):
         Its entries widened.
     bound_ratio : float or None
         Its largest bound after the widening against before.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     vector: str
@@ -741,9 +697,6 @@ class Inclusion(_Row):
         The vector boxes widened.
     bounds_widened : int
         Parameters whose bounds were widened by rounding.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     points: int
@@ -783,9 +736,6 @@ class CertifiedRecord(_Row):
         Why a reported answer is not held by the set or not inside the ranges, with the figure.
     ranges : dict of str to CertifiedRange
         Each parameter's range, by name.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     definition: str
@@ -837,9 +787,6 @@ class Identifiability(_Row):
         The multistart (``run --samples``).
     certified : CertifiedRecord or None
         The certified ranges (``run --certify``).
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     rank: int
@@ -874,9 +821,6 @@ class DampingModel(_Row):
         Condition number of the fit.
     weights_text : str
         The fit's weighting, in words.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     exponents: tuple[float, ...]
@@ -901,9 +845,6 @@ class ReferenceColumns(_Row):
         By table and column name: the two columns compared.
     notes : dict of str to tuple of str, or None
         By table: notes under it.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     columns: dict[str, dict[str, dict[str, float | str | None]]] | None = _optional()
@@ -927,9 +868,6 @@ class MeshSensor(_Row):
         Distance from the sensor to the node, m.
     direction : tuple of float or None
         Unit direction read; None for a rotation.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     sensor: str
@@ -949,9 +887,6 @@ class DeclaredSensor(_Row):
         The sensor's name.
     weights : dict of str to float
         Weight of each DOF in its reading (dimensionless), by DOF name.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     sensor: str
@@ -985,9 +920,6 @@ class SetUpdate(_Row):
     range_pct : dict of str to float or None, or None
         Linearized range width of each parameter, per cent of its reference, at a verified
         answer.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     status: Status
@@ -1038,9 +970,6 @@ class SetTrialRow(_Row):
         The full update of a checked set; None when not checked.
     seconds : float or None
         Wall time, s.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     candidates: tuple[str, ...]
@@ -1093,9 +1022,6 @@ class SuggestionRecord(_Row):
         Every set screened, ranked.
     limits : dict of str to float
         The limits of the screening (``sets``, ``seconds``, ``tie_rtol``).
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     own: tuple[str, ...]
@@ -1144,9 +1070,6 @@ class GroupTrialRow(_Row):
         The refitted answer, normalized parameters.
     seconds : float or None
         Wall time, s.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     key: str
@@ -1191,9 +1114,6 @@ class DiagnosisBest(_Row):
         Its verification checks on the data kept.
     seconds : float or None
         Wall time, s.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     without: str
@@ -1235,9 +1155,6 @@ class DiagnosisRecord(_Row):
         The limits of the diagnosis (``groups``, ``seconds``).
     untried_groups : tuple of str
         The keys of the groups not tried.
-    extra : tuple of (str, object)
-        Keys of the producer that the record does not name, with their values, written after
-        the fields.
     """
 
     failed: tuple[str, ...]

@@ -80,6 +80,8 @@ _NOT_WRITTEN = ("matrices",)
 class RunResult:
     """Everything a run produced; ``results.json`` is `as_document` of it.
 
+    Each key of the file is described in ``docs/outputs.md`` ("`results.json`").
+
     Attributes
     ----------
     version : str
@@ -89,20 +91,17 @@ class RunResult:
     case : str
         The case's name.
     success : bool
-        Whether the first stage succeeded (``UpdateResult.success``: verified, once the
-        verification stage exists).
+        Whether the first stage succeeded (``UpdateResult.success``: verified).
     parameters : tuple of ParameterRow
-        One row per parameter: unit, bounds, reference value, nominal and updated values.
+        One row per parameter.
     xbar : tuple of float
         Updated normalized parameters (Eq. 12), in the order of ``parameters``.
     frequencies : tuple of FrequencyRow
-        One row per measured natural frequency and antiresonance (Hz), with the nominal and
-        updated models' paired values and errors.
+        One row per measured natural frequency and antiresonance (Hz).
     modal_masses : tuple of ModalMassRow
         The modal masses of mass-normalized measured shapes; empty without them.
     mac : dict of str to tuple of float or None
-        Per configuration, MAC of each measured mode shape with its paired updated mode
-        (None where no shape was measured).
+        Per configuration, MAC of each measured mode shape with its paired updated mode.
     mac_matrix : dict of str to MacMatrix
         Per configuration with measured shapes: the MAC plot.
     dofs : dict of str to tuple of str
@@ -110,20 +109,15 @@ class RunResult:
     frf : dict of str to PlottedReceptance
         Per configuration, the receptance plotted.
     damping : tuple of DampingRow
-        One row per measured damping ratio, with the Caughey fit's and the Rayleigh
-        baseline's values; empty without a damping stage.
+        One row per measured damping ratio; empty without a damping stage.
     summary : Summary
-        The mean absolute errors, in per cent, of the frequencies (nominal and updated
-        models) and of the damping ratios (Caughey fit and Rayleigh baseline).
+        The mean absolute errors of the frequencies and of the damping ratios, in per cent.
     problem_size : dict of str to int
-        Counts of the first stage's problem (parameters, mode and adjunct unknowns, lifted
-        variables, residuals; ``reduced_dofs`` after a reduction).
+        Counts of the first stage's problem (``reduced_dofs`` after a reduction).
     solver : SolverRecord
-        The first stage's record: status, verdict, message, every solve of the homotopy,
-        checks, polish and search.
+        The first stage's record.
     identifiability : Identifiability or None
-        What the data determine: the sensitivity's rank and condition, undetermined
-        combinations, parameter ranges and the further studies' sections.
+        What the data determine, and the further studies' sections.
     damping_model : DampingModel or None
         The fitted Caughey series and the Rayleigh baseline; None without a damping stage.
     warnings : tuple of str
@@ -131,21 +125,15 @@ class RunResult:
     checks : tuple of Check
         Verification checks of the first stage.
     paper : ReferenceColumns or None
-        Reference columns of the tables (a bundled example's ``reference_columns()``:
-        published values, a synthetic example's truth; `vibupdate.report.table.with_reference`).
+        Reference columns of the tables (`vibupdate.report.table.with_reference`).
     sensors : tuple of MeshSensor
-        Measured points on an imported FE mesh (``[model] sensors``, `vibupdate import`);
-        empty otherwise.
+        Measured points on an imported FE mesh (``[model] sensors``); empty otherwise.
     declared_sensors : tuple of DeclaredSensor
-        Sensors declared in the case file (``[[sensor]]``, a ``sensors`` CSV; ``docs/sensors.md``);
-        empty otherwise.
+        Sensors declared in the case file (``docs/sensors.md``); empty otherwise.
     diagnosis : DiagnosisRecord or None
-        Which data conflict with the model, when the answer did not fit them
-        (`vibupdate.inverse.diagnosis`); None otherwise.
+        Which data conflict with the model (`vibupdate.inverse.diagnosis`); None otherwise.
     matrix_files : dict of str to dict of str to str
-        Per configuration, the file of each matrix written (``M``, ``K``, ``C`` and, after a
-        diagnosis, ``M_without_worst``, ``K_without_worst``): the names say when a model is
-        not verified (`vibupdate.io.outputs.matrix_file`).
+        Per configuration, the file of each matrix written (`vibupdate.io.outputs.matrix_file`).
     suggestion : SuggestionRecord or None
         Which candidates might be missing, after a run that did not verify.
     matrices : dict of str to ConfigurationMatrices

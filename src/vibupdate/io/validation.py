@@ -1,23 +1,10 @@
 """One validation path for ``vibupdate check`` and ``vibupdate run``.
 
 `validate_case` does everything a run would reject before and after solving that can be known
-beforehand, so that ``check`` accepts exactly the cases ``run`` accepts:
-
-* options: the solver, formulation, polish and verification options are checked where they
-  are made, against their declarations (`vibupdate.options`), so a case holds only valid ones;
-  here the top-level ``frequency_tolerance`` and the damping options;
-* physics: the unit scale of ``M`` against the case's mass-like parameters
-  (`_check_mass_scale`), ``M`` and ``K`` of every configuration admissible (`vibupdate.model.physical`) at the
-  nominal point (an error otherwise) and at corners of the parameter box (where not, a
-  warning naming the bound and the solver's narrower bound, `physical_box`), rigid-body
-  modes and massless DOFs counted and reported;
-* measured data: damping ratios in (0, 1) (a warning above `HIGH_DAMPING`), frequencies
-  not falling in mode order (equal ones, the modes of a repeated frequency, with a warning in
-  case one was given twice), a warning when the frequencies look like rad/s written as Hz;
-* the problem itself, built as the run builds it (with the model reduction when the
-  formulation asks for one).
-
-Errors are ValueErrors of the form ``"FILE: KEY: what is wrong"``.
+beforehand, so that ``check`` accepts exactly the cases ``run`` accepts: what is checked is
+``docs/case-file.md`` ("What `check` and `run` validate"); the options were checked where they
+were made (`vibupdate.options`). Errors are ValueErrors of the form ``"FILE: KEY: what is
+wrong"``.
 """
 
 from __future__ import annotations
@@ -28,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vibupdate.data.measured import TWO_PI
+from vibupdate.options import finite
 
 
 #: Damping ratios above this get a warning.
@@ -80,11 +68,6 @@ class CaseCheck:
     case: object = field(default=None, repr=False, compare=False)
 
 
-def _finite(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
-        and math.isfinite(value)
-
-
 def _check_damping(case, rigid: int, error) -> list[str]:
     """Damping options and ratios; returns warnings."""
     warnings = []
@@ -104,7 +87,7 @@ def _check_damping(case, rigid: int, error) -> list[str]:
     exponents = list(options.exponents)
     if not exponents:
         raise error("damping.exponents", "needs at least one exponent")
-    bad = [y for y in exponents if not _finite(y)]
+    bad = [y for y in exponents if not finite(y)]
     if bad:
         raise error("damping.exponents", f"must be finite numbers, got {bad[0]!r}")
     if max(abs(y) for y in exponents) > MAX_EXPONENT:
@@ -117,7 +100,7 @@ def _check_damping(case, rigid: int, error) -> list[str]:
                                          f"model's {rigid} rigid-body mode(s); use exponents >= 0")
     measured = {m for _, m, _ in ratios}
     for mode, weight in options.mode_weights:
-        if not _finite(weight) or weight <= 0:
+        if not finite(weight) or weight <= 0:
             raise error(f"damping.mode_weights.{mode}", f"must be a positive finite number, got {weight!r}")
         if mode not in measured:
             warnings.append(f"damping.mode_weights names mode {mode}, which has no measured damping ratio")
@@ -160,16 +143,9 @@ def _check_data(cfg, error) -> None:
 
 
 def _check_mass_scale(cfg, error) -> None:
-    """The mass matrix's unit scale against the values of the case's mass-like parameters.
-
-    Assumption: the mass matrix is linear in every parameter whose unit is a mass, a mass per
-    length or volume, or an inertia (`MASS_UNIT`), with a non-negative rest, ``M = M_rest +
-    sum_p p dM/dp`` (a density times a volume, a lumped mass on its DOF), so the mass those
-    parameters carry at the nominal point, ``sum_p p0 diag(dM/dp)``, cannot exceed ``diag(M0)``.
-    Where it does by more than `MASS_SHARE_FACTOR` on some DOF, ``M0`` (a matrix file) is in
-    other units than the parameters, e.g. tonnes against kg/m^3: an error naming the DOF, the
-    parameters and both masses. A model whose mass comes from its parameters alone (the
-    elements route) meets it with equality. Only diagonals are used: no solve, O(nnz)."""
+    """The mass matrix's unit scale against the values of the case's mass-like parameters
+    (`MASS_UNIT`): the rule of ``docs/case-file.md`` ("Unit scale of `M`"), with
+    `MASS_SHARE_FACTOR`, on the diagonals only (no solve)."""
     model = cfg.model
     carried = np.zeros(model.n_dofs)
     names = []
@@ -382,7 +358,7 @@ def validate_case(case) -> CaseCheck:
         raise error("parameter", "the case updates no parameter: declare a [[parameter]], or let `vibupdate suggest` "
                                  f"choose among its {len(case.candidates)} [[candidate]]s")
     tol = case.frequency_tolerance
-    if not _finite(tol) or not 0 <= tol < 1:
+    if not finite(tol) or not 0 <= tol < 1:
         raise error("frequency_tolerance", f"must be a finite relative half-width in [0, 1), got {tol!r}")
     try:
         validate_configurations(case.configurations)

@@ -12,7 +12,8 @@ from vibupdate.io.outputs import first_of
 from vibupdate.io.records import Identifiability, SolverRecord
 from vibupdate.io.results import RunResult
 from vibupdate.report.suggestion import run_section_markdown
-from vibupdate.report.numbers import finite, fmt
+from vibupdate.options import finite
+from vibupdate.report.numbers import fmt
 from vibupdate.report.ranges_text import ranges_markdown, ranges_table
 from vibupdate.report.table import Column, Table, error_pct, markdown, text, with_reference
 

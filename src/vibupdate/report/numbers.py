@@ -25,16 +25,6 @@ FIXED_LIMIT = 1e12
 _SPEC = re.compile(r"^(?P<head>[^0-9.]*)(?P<width>\d+)?(?:,)?(?:\.(?P<precision>\d+))?(?P<kind>[a-zA-Z%]?)$")
 
 
-def finite(value) -> bool:
-    """Whether ``value`` is a real number (not bool) that is finite."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return False
-    try:
-        return math.isfinite(float(value))
-    except (TypeError, ValueError, OverflowError):
-        return False
-
-
 def _width(spec: str) -> tuple[int, str]:
     """The field width of ``spec`` and its alignment character (``>`` unless stated)."""
     match = _SPEC.match(spec)

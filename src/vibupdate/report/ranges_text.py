@@ -5,7 +5,8 @@ reads ``identifiability`` of the results (`vibupdate.io.results.Identifiability`
 
 from __future__ import annotations
 
-from vibupdate.report.numbers import finite, fmt
+from vibupdate.options import finite
+from vibupdate.report.numbers import fmt
 from vibupdate.report.table import Column, Table
 
 

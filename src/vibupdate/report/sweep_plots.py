@@ -18,7 +18,7 @@ import numpy as np
 from vibupdate.data.measured import TWO_PI
 from vibupdate.extras import available, require, skipped
 from vibupdate.io.outputs import OutputWarning, drawn, file_names
-from vibupdate.report.numbers import finite
+from vibupdate.options import finite
 from vibupdate.report.plots import figure, save_png
 
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from vibupdate.report.numbers import MISSING, finite, fmt
+from vibupdate.options import finite
+from vibupdate.report.numbers import MISSING, fmt
 
 
 @dataclass(frozen=True)

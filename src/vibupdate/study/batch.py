@@ -1,15 +1,11 @@
 """Batches of cases on one engine: a fleet of nominally identical structures, or one structure
-tested every day.
+tested every day (``docs/cli.md``, ``vibupdate batch``).
 
 Each case file is one Dask task running `vibupdate.pipeline.run_case` into its own results
 folder under the batch's output directory (named after the case file; a repeated name gets
-a ``-2``, ``-3`` suffix). A summary table across the cases is written as ``summary.csv`` and
-``summary.md``: status, objective, mean frequency error, and each parameter's updated value in
-its unit. A case that cannot be read or updated is a row with its error, never dropped.
-
-The batch keeps its own manifest in the output directory (`vibupdate.io.outputs`, command
-``batch``): a ``summary.csv`` or ``summary.md`` it did not write is never replaced (the batch
-is refused before any work), and each case folder is written as ``vibupdate run`` writes it.
+a ``-2``, ``-3`` suffix); ``summary.csv`` and ``summary.md`` gather them, a case that cannot
+be read or updated a row with its error, never dropped. The summaries are listed in the
+batch's own manifest (`vibupdate.io.outputs`, command ``batch``).
 """
 
 from __future__ import annotations

@@ -1,13 +1,10 @@
-"""The distributed engine: a Dask client on a local cluster or an existing scheduler.
+"""The distributed engine: a Dask client on a local cluster or an existing scheduler
+(``docs/cli.md``, "What the data allow").
 
-Sweeps, batches and multistarts submit one task per sample, case or start to a
-``dask.distributed`` client. By default `open_client` starts a ``LocalCluster`` with one
-single-threaded worker process per core (the NLP solves are single-threaded; processes avoid
-the GIL); with ``scheduler="tcp://host:8786"`` it connects to an existing cluster instead,
-with no change to the case. Workers must be able to import vibupdate and read the case file
-(same path on a shared file system, or a case given as an object, which is sent to them).
-
-dask is imported inside the functions: importing vibupdate does not import it.
+Sweeps, batches and multistarts submit one task per sample, case or start. `open_client`
+starts a ``LocalCluster`` of single-threaded worker processes (the NLP solves are
+single-threaded; processes avoid the GIL) or connects to ``scheduler``. dask is imported inside
+the functions: importing vibupdate does not import it.
 """
 
 from __future__ import annotations

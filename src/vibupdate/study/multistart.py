@@ -1,14 +1,10 @@
 """Multistart of the point estimate: random starts of the ``lam = 1`` problem as Dask tasks.
 
-The homotopy (Section 3.4) follows one path from the convex relaxation; whether the problem
-has other local minima is a separate question. Here the original (``lam = 1``) problem is
-solved cold from random points (`random_start_solve`). Converged answers are
-grouped into distinct local minima: two answers are one minimum when their normalized
-parameters differ by at most ``x_tol`` in every entry. A continuum of minima (an exact
-symmetry) shows as many distinct minima with the same objective.
-
-Unlike a sweep, every start solves the same NLP, so each worker builds the problem and the
-compiled CasADi solver once (cached by the case's content hash) and reuses them.
+The homotopy (Section 3.4) follows one path from the convex relaxation; here the original
+problem is solved cold from random points (`random_start_solve`) and the converged answers
+are grouped into distinct local minima (``docs/outputs.md``, ``identifiability.multistart``).
+Every start solves the same NLP, so each worker builds the problem and the compiled solver
+once (cached by the case's content hash) and reuses them.
 """
 
 from __future__ import annotations

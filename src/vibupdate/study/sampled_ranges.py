@@ -1,23 +1,13 @@
-"""Sampled ranges and a multistart inside ``vibupdate run`` (``--samples N``).
+"""Sampled ranges and a multistart inside ``vibupdate run`` (``--samples N``; ``docs/outputs.md``,
+"Ranges side by side").
 
-A `SampledRanges` is handed to `vibupdate.pipeline.run_case` as its ``study``. After the
-update it runs the sweep of `vibupdate.study.sweep` (``N`` data sets drawn inside the
-measured intervals, each updated and verified) and a multistart of the point estimate
-(`vibupdate.study.multistart`) on one Dask client (a ``LocalCluster`` by default, or an
-existing scheduler), and returns:
-
-* the ``identifiability`` sections ``sampled`` (counts; per parameter ``min``, ``max``,
-  ``q05``, ``q50``, ``q95`` in its unit) and ``multistart`` (distinct local minima);
-* a writer that puts ``samples.csv``, ``line_ends.csv`` and the histogram and pairs plots
-  into the results folder, so they are published with the other files;
-* the answers it reports (`reported_answers`: every verified sampled answer and the line ends
-  of verified samples, normalized), which the certified ranges must hold.
-
-The multistart's minima are not among them: they are local minima of the point estimate's
-objective on the measured data, not verified answers, and are reported as such.
-
-The pipeline does not import this module (it comes later in the data flow); it calls the
-object it is given.
+A `SampledRanges` is the ``study`` of `vibupdate.pipeline.run_case`: after the update it runs
+the sweep of `vibupdate.study.sweep` and a multistart of the point estimate
+(`vibupdate.study.multistart`) on one Dask client, and returns the ``identifiability``
+sections ``sampled`` and ``multistart``, a writer of its files into the results folder, and
+the answers it reports (`reported_answers`: verified sampled answers and line ends,
+normalized), which the certified ranges must hold; the multistart's minima are not verified
+answers and are not among them. The pipeline does not import this module.
 """
 
 from __future__ import annotations

@@ -58,15 +58,11 @@ class SamplingOptions:
         Half-width kept around a drawn shape entry, as a fraction of the entry's half-width;
         1 (the default) keeps the measured intervals and draws nothing.
     random_start : bool
-        After the homotopy answer of a sample, also solve the ``lam = 1`` problem from a
-        random start and keep that answer when it is no worse (`vibupdate.study.sweep`). The
-        homotopy alone returns, for data that leave a direction undetermined, the point of
-        that direction nearest the nominal model, so the samples would not show how far the
-        direction extends.
+        Also solve each sample from a random start and keep that answer when it is no worse
+        (``docs/cli.md``, ``--no-random-start``; `vibupdate.study.sweep`).
     walk : bool
-        At a verified answer whose sensitivity has exact null directions, walk along each to
-        the farthest point that is still a verified answer of the sample's data
-        (`vibupdate.study.extent`); the ends widen the sampled ``min`` and ``max``.
+        Walk a verified answer along exact null directions to the ends of its line of equally
+        good answers (``docs/cli.md``, ``--no-walk``; `vibupdate.study.extent`).
     """
 
     distribution: str = "uniform"

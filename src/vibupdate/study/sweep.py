@@ -1,33 +1,15 @@
-"""Sampling sweep: which parameter values do the data intervals allow?
+"""Sampling sweep: which parameter values do the data intervals allow? (``docs/cli.md``, "What
+the data allow").
 
-Many data sets are drawn inside the measured intervals (`vibupdate.study.sampling`), each is
-updated as `vibupdate.pipeline.run_case` would (first stage, then the damping stage), and
-the answers are collected. Every sample is one task on a Dask cluster (`vibupdate.study.engine`).
-
-Outcome of a sample (column ``outcome``):
-
-* ``verified``: ``update(...).success``;
-* ``unverified``: an answer whose status is ``not_verified`` (a solve that ended but did not
-  pass verification);
-* ``failed``: no usable answer: drawn data that contradict each other, a solver status other
-  than the two above, or a task lost for good (the error is in ``message``).
-
-Nothing is dropped: every sample is a row of ``samples.csv``; the ranges and quantiles of
-``sweep.json`` are taken over the verified rows only, and the counts of the others stated.
-
-Where the data leave a combination of parameters undetermined (an exact null direction of
-the sensitivity at a verified answer), the answer is one point of a line of equally good
-answers; the walk of `vibupdate.study.extent` finds the line's ends inside the bounds (each a
-verified answer of the same sample's data) and writes them to ``line_ends.csv``, one row per
-end. The sampled ``min`` and ``max`` of each parameter are taken over the verified answers and
-these ends; the quantiles over the answers alone (one per sample).
-
-Robustness. Rows are appended to ``samples.csv`` (and flushed to disk) as tasks complete, so
-a stopped run keeps its work; ``resume=True`` reads the finished indices and submits only
-the others. A sample's data depend on ``(seed, index)`` alone, so a resumed run gives the
-same rows as an uninterrupted one. Tasks of a lost worker are retried by Dask. The case is
-loaded once per worker: a file source is cached on the worker by path and content hash, a
-case object is broadcast once to every worker.
+Each of many data sets drawn inside the measured intervals (`vibupdate.study.sampling`) is
+updated as `vibupdate.pipeline.run_case` would and is one task on a Dask cluster
+(`vibupdate.study.engine`). A sample's ``outcome`` is ``verified`` (``update(...).success``),
+``unverified`` (status ``not_verified``) or ``failed`` (no usable answer; the error in
+``message``). Nothing is dropped: every sample is a row of ``samples.csv``, appended and
+flushed as it completes (``resume=True`` submits only the others; a sample's data depend on
+``(seed, index)`` alone); the ranges of ``sweep.json`` are over the verified rows and the ends
+of the lines along exact null directions (`vibupdate.study.extent`, ``line_ends.csv``), the
+quantiles over the answers alone.
 """
 
 from __future__ import annotations
@@ -109,11 +91,8 @@ def _resolve(case) -> Case:
 # -- one sample -------------------------------------------------------------------------------
 
 def columns(case: Case, sampling: SamplingOptions) -> list[str]:
-    """Header of ``samples.csv``: index, outcome, status, start (the answer kept: "homotopy"
-    or "random"), objective, parameters (their unit), predicted frequencies (Hz), drawn data
-    (Hz and -), Caughey coefficients, timing, message. Data are named as
-    `vibupdate.data.names` names columns: ``pred:A:mode3_hz``, ``data:A:zero4_h_y1/y1_hz``,
-    ``data:A:mode3_xi``."""
+    """Header of ``samples.csv`` (``docs/outputs.md``, "The columns of `samples.csv`"; the data
+    named by `vibupdate.data.names`)."""
     cfgs = case.configurations
     names = [f"p:{p.name}" for p in cfgs[0].model.parameters]
     sampled = data_intervals(cfgs, case.frequency_tolerance, sampling)
@@ -128,8 +107,7 @@ def columns(case: Case, sampling: SamplingOptions) -> list[str]:
 
 
 def end_columns(case: Case) -> list[str]:
-    """Header of ``line_ends.csv``: the sample's index, the null direction (1-based), the
-    side (+1/-1), the step from the answer (normalized), why the walk stopped, parameters."""
+    """Header of ``line_ends.csv`` (``docs/outputs.md``; each row a `vibupdate.study.extent.LineEnd`)."""
     return ["index", "direction", "side", "distance", "stop",
             *[f"p:{p.name}" for p in case.configurations[0].model.parameters]]
 
@@ -279,10 +257,8 @@ def run_sweep(case, out_dir, samples: int, *, seed: int = 0, sampling: SamplingO
     resume : bool
         Finish the sweep in ``out_dir`` (same case, seed and sampling; ``samples`` may grow).
     force : bool
-        Start a new sweep in a folder that holds other files: those of an earlier sweep there
-        that are unchanged since it wrote them (its manifest's hashes) are removed before the
-        work, every other file is kept and named; a file the sweep would overwrite and did not
-        write, or that changed since, is refused (ValueError) before any work.
+        Start a new sweep in a folder that holds other files, as ``--force`` of ``vibupdate
+        sweep`` does (``docs/cli.md``; `vibupdate.study.sweep_files.prepare_sweep_folder`).
     retries : int
         Retries of a task whose worker was lost.
     plots : bool
