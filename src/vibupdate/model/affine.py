@@ -226,10 +226,14 @@ class AffineModel:
         """
         if xbar is None:
             return self.M0, self.K0
-        xbar = np.asarray(xbar, dtype=float)
+        xbar = self._point(xbar)
+        return tuple(self._combine(stacked, xbar) for stacked in self._stacked)
+
+    def _point(self, xbar) -> np.ndarray:
+        xbar = np.zeros(self.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
         if xbar.shape != (self.n_parameters,):
             raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
-        return self._combine(self._stacked_M, xbar), self._combine(self._stacked_K, xbar)
+        return xbar
 
     def solver_matrices(self, xbar=None) -> tuple:
         """``M(xbar)``, ``K(xbar)`` in the form the solvers take.
@@ -256,9 +260,7 @@ class AffineModel:
         stacks = self.dense_stacks
         if stacks is None:
             return self.matrices(xbar)
-        xbar = np.zeros(self.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
-        if xbar.shape != (self.n_parameters,):
-            raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
+        xbar = self._point(xbar)
         key = xbar.tobytes()
         kept = self._last_point.get("point")
         if kept is not None and kept[0] == key:
@@ -348,12 +350,8 @@ class AffineModel:
         return sp.csr_matrix((base + per_parameter @ xbar, indices, indptr), shape=shape)
 
     @cached_property
-    def _stacked_M(self):
-        return _stack_on_union(self.M0, self.M_par)
-
-    @cached_property
-    def _stacked_K(self):
-        return _stack_on_union(self.K0, self.K_par)
+    def _stacked(self):
+        return _stack_on_union(self.M0, self.M_par), _stack_on_union(self.K0, self.K_par)
 
     @cached_property
     def fingerprint(self) -> str:
@@ -604,6 +602,11 @@ def _second_point(p: Parameter) -> float | None:
     return None
 
 
+def _moved(parameters) -> dict:
+    """Every parameter that is not fixed at its `_second_point`."""
+    return {p.name: v for p in parameters if (v := _second_point(p)) is not None}
+
+
 def _affine_mismatch(builder, model: AffineModel, values: dict) -> tuple[float, str]:
     out = _as_system(builder(dict(values)), model.dofs)
     xbar = model.normalized([values[p.name] for p in model.parameters])
@@ -645,7 +648,7 @@ def check_affine(builder: Builder, model: AffineModel) -> None:
                 "change. Reparametrize so that M and K are affine in each parameter "
                 "(e.g. update E*I rather than a thickness)."
             )
-    moved = {p.name: v for p in model.parameters if (v := _second_point(p)) is not None}
+    moved = _moved(model.parameters)
     if len(moved) > 1:
         ratio, which = _affine_mismatch(builder, model, {**nominal, **moved})
         if ratio > 1.0:
@@ -690,9 +693,7 @@ def affine_from_builder(builder: Builder, parameters: Sequence[Parameter], *, do
     """
     parameters = tuple(parameters)
     check_parameter_names(parameters)
-    nominal, M_par, K_par = complex_step_jacobians(builder, parameters, dofs)
-    check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
-    model = AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
+    model = _checked(parameters, *complex_step_jacobians(builder, parameters, dofs))
     if check:
         check_affine(builder, model)
     return model
@@ -719,10 +720,8 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
     """
     parameters = tuple(parameters)
     check_parameter_names(parameters)
-    nominal, M_par, K_par = assembly.affine_parts(parameters)
-    check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
-    model = AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
-    moved = {p.name: v for p in parameters if (v := _second_point(p)) is not None}
+    model = _checked(parameters, *assembly.affine_parts(parameters))
+    moved = _moved(parameters)
     if check and moved:
         values = {**{p.name: p.nominal for p in parameters}, **moved}
         ratio, which = _affine_mismatch(assembly.system, model, values)
@@ -732,6 +731,12 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
                 f"change when {', '.join(moved)} move together; this is an error in vibupdate, please report it"
             )
     return model
+
+
+def _checked(parameters: tuple, nominal: System, M_par, K_par) -> AffineModel:
+    """The affine model of checked nominal matrices (`check_matrices`) and parameter matrices."""
+    check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
+    return AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
 
 
 def check_parameter_names(parameters: Sequence[Parameter]) -> None:

@@ -1,46 +1,21 @@
-"""Which parameters do the data determine? Interval ranges of the parameters (linearized).
+"""Which parameters do the data determine? Linearized interval ranges of the parameters (the
+rules as the user reads them: docs/polish-and-verification.md, 7.4).
 
-The first stage returns *a* parameter set whose model fits the measured frequencies and lies
-inside the mode-shape intervals. When other parameter sets fit as well, the answer is one of
-many; this module measures how many. Around the answer ``xbar_hat``, with the data map
-``d(xbar)`` (natural frequencies, antiresonances, measured mode-shape ratios to the reference
-entry of each mode: `vibupdate.inverse.data_map`) linearized as
-``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
-the *consistent set* is the set of ``xbar`` within the bounds such that
+Around the answer ``xbar_hat`` the data map ``d(xbar)`` (`vibupdate.inverse.data_map`) is
+linearized, ``d ~ d(xbar_hat) + G dx``, and the range of a parameter is its lowest and highest
+value over the ``xbar`` within the bounds whose data stay in windows (two linear programs):
 
-* every measured mode-shape entry stays inside its interval at the shape's own meaning, a free
-  scale per mode (`vibupdate.inverse.admissible`): ``s q_j(x)`` in the entry's interval, ``q``
-  the model's ratios to the reference entry, linearized in ``dx`` and in the scale's step
-  (one more unknown of the linear programs per shape, `_scaled_shapes`); where the answer lies
-  outside an interval by ``e`` (a model-form error the verification allowed), that interval
-  widened on its side to ``e`` beyond the answer, so that the answer can move by the error it
-  has, as for the frequencies;
-* every frequency moves from the answer's by no more than the measurement tolerance plus the
-  answer's own misfit, ``|G_f dx| <= h_f + |w(xbar_hat) - w_measured|``, with ``h_f`` the
-  half-width of the frequency's measured ``interval`` where it has one (e.g. extracted from
-  FRFs) and ``frequency_tolerance * w`` otherwise; the true frequencies differ from the
-  answer's by at most that much.
+* a frequency within ``h_f + |w(xbar_hat) - w_measured|`` of the answer's, ``h_f`` the half-width
+  of its measured ``interval`` or else ``frequency_tolerance * w``;
+* a measured mode-shape entry in its interval for some scale of its mode (`_scaled_shapes`), an
+  interval the answer misses by ``e`` (a model-form error the verification allowed) widened on
+  that side to ``e`` beyond the answer.
 
-The range of each parameter over that set (two linear programs) is what the data and the
-bounds together determine: the truth and the answer both lie in it, to first order. A
-parameter whose range is narrow is determined by the data; a wide range says that the data
-cannot separate it (e.g. two springs acting in parallel). Without a frequency tolerance the
-window is the answer's misfit alone: a measure of the spread the model's own error allows.
-A parameter that moves along a direction the data do not see at all (a null direction of the
-Jacobian) gets its whole box: the linearization cannot bound a curved valley. On models of up
-to `VALLEY_DOFS` DOFs the ranges also hold the points of that valley that keep the answer's
-data exactly (`vibupdate.inverse.minimum_change.valley_points`): the other parameters move
-along it at second order, and the points where each parameter is lowest, highest or turns
-along it (`valley_ends`, `valley_curve`). Where the data see a direction only weakly the set
-bends too: each end of a linear range is followed by up to `VALLEY_PROGRAMS` programs
-relinearized at the previous end (the answer's windows), and the range grows to every end
-whose own data lie in the windows (`_along_the_valley`, which solves only the programs whose
-answer can move the end); it never shrinks.
-
-A model whose matrices are known only to a relative ``matrix_precision`` (read from an export
-written with fewer digits than a double) widens every window by what that rounding can do to
-the datum at the answer (`precision_allowance`): the true structure's data then lie within the
-windows of the model that stands for it, as its rounding allows.
+A parameter along a null direction of the Jacobian gets its box. On models of up to
+`VALLEY_DOFS` DOFs the ranges also hold the points of the valley with the answer's data, and
+each end of a linear range is followed by up to `VALLEY_PROGRAMS` relinearized programs
+(`_along_the_valley`). Matrices known only to a ``matrix_precision`` widen every window by what
+that rounding does to the datum at the answer (`precision_allowance`).
 """
 
 from __future__ import annotations
