@@ -1,20 +1,13 @@
-"""Accurate low modes of large, finely meshed models: one subspace step with refined solves.
+"""Accurate low modes of large, finely meshed models: one subspace step with refined solves (the
+mechanism and its figures: docs/notes/eigen-solutions.md, "Refined Lanczos vectors").
 
-Shift-invert Lanczos returns eigenpairs whose *normwise* backward error is at rounding level,
-yet on a fine bending mesh every solve with ``K`` and every product ``K phi`` loses about
-``log10(|K| |phi| / |K phi|)`` digits to cancellation, which the residual check (formed with
-the same cancellation) cannot see (`benchmarks/RESULTS.md`, "Figures behind src/: accurate low
-modes"). No solver makes the matrices mean more: one rounding unit per entry of ``K`` moves
-the low modes of a fine mesh by as much (`shape_ratio_floor`).
-
-What is done. Given Lanczos vectors ``X`` (n, q) of a block a few modes wider than wanted,
-one step of subspace (inverse) iteration ``Y = (K - sigma M)^-1 M X`` is taken with each solve
-improved by iterative refinement whose residual ``M X - (K - sigma M) Y`` is formed in extended
-precision (``numpy.longdouble``), followed by a Rayleigh-Ritz projection ``Y^T K Y``,
-``Y^T M Y`` also accumulated in extended precision. The refinement recovers the solve's lost
-digits (the double-precision LU is reused: no new factorization); the projection separates the
-wanted modes from their neighbours in the block. Where ``longdouble`` is no wider than
-``double`` (some platforms), the step still runs but gains little.
+On a fine bending mesh every solve with ``K`` and every product ``K phi`` loses about
+``log10(|K| |phi| / |K phi|)`` digits to cancellation, which the residual check cannot see.
+Given Lanczos vectors ``X`` of a block a few modes wider than wanted (`block_size`), one step of
+subspace iteration ``Y = (K - sigma M)^-1 M X`` is taken with each solve refined by a residual
+formed in extended precision (``numpy.longdouble``, the double-precision LU reused), then a
+Rayleigh-Ritz projection (`refine_modes`). No solver makes the matrices mean more: one rounding
+unit per entry of ``K`` moves the low modes of a fine mesh by as much (`shape_ratio_floor`).
 """
 
 from __future__ import annotations

@@ -2,15 +2,13 @@
 rigid-body modes, at the nominal point and over the parameter box (the rule as a user reads it:
 docs/case-file.md, "Mass and stiffness").
 
-``M`` must be positive definite, or semidefinite with massless DOFs on which ``K`` is positive
-definite; ``K`` positive semidefinite, its candidates for rigid-body modes (eigenvalues below
-``RIGID_TOL * lam_ref``, ``lam_ref = max_i K_ii / M_ii`` over the DOFs with mass) counted rigid
-when zero within the rounding of their own mode (`vibupdate.modal.rigid`), refused when
-negative beyond it. Eigenvalues below ``t`` are counted by Sylvester's law of inertia on
-``K - t M``: dense symmetric eigenvalues up to `DENSE_LIMIT` DOFs, above that the pivot signs of
-a sparse symmetric ``L D L^T`` (no dense ``n x n`` array). ``M(xbar)``, ``K(xbar)`` being affine,
-the box is admissible when its corners are (`box_corners`); a box reaching beyond the admissible
-region gets bounds inside it (`physical_box`) and a warning.
+Eigenvalues below ``t`` are counted by Sylvester's law of inertia on ``K - t M``
+(`count_below`: dense eigenvalues up to `DENSE_LIMIT` DOFs, above that the pivot signs of a
+sparse symmetric ``L D L^T``). The candidates for rigid-body modes, eigenvalues below
+``RIGID_TOL * lam_ref`` (``lam_ref = max_i K_ii / M_ii`` over the DOFs with mass), are counted
+rigid when zero within the rounding of their own mode (`vibupdate.modal.rigid`). ``M(xbar)``,
+``K(xbar)`` being affine, the box is admissible when its corners are (`box_corners`); a box
+reaching beyond the admissible region gets bounds inside it (`physical_box`) and a warning.
 """
 
 from __future__ import annotations

@@ -1,32 +1,13 @@
-"""Which parameters to update: the smallest sets of candidates that let the data fit.
+"""Which parameters to update: the smallest sets of candidates that let the data fit (the rule as
+the user reads it: docs/polish-and-verification.md, 7.9).
 
-A model that ends ``not_verified`` may lack a parameter rather than hold a wrong datum: a
-beam without the rotary inertia of its section, a support taken as rigid, a sensor's mass
-left out. The case lists what might be missing as candidates (``[[candidate]]``, held at
-their nominal values in a run); this module tries them:
-
-1. **Screen.** For each set of candidates, smallest first (all sets of one candidate, then
-   of two, ...), the model with the case's own parameters and the set free is fitted from
-   the nominal point by the polish (bounded least squares of the admissible data, as the
-   update fits them: `vibupdate.inverse.admissible`) and the fitted model verified against the
-   data (every check but ``consistency``, which needs a relaxation of its own). The search
-   stops after the smallest size at which some set passes, or at `MAX_SETS` sets or
-   `MAX_SECONDS` (the sets left untried are counted).
-2. **Rank.** Sets that pass come first, then smaller sets, then sets whose parameters the
-   data determine (a sensitivity of full rank: `vibupdate.inverse.correlation.sensitivity`)
-   before those with an undetermined combination, then by the polish objective (the misfit).
-   Objectives within `TIE_RTOL` of each other are ties: the data cannot tell those sets apart
-   (e.g. a stiffness and a density that the frequencies see only through their ratio, but for
-   a small lumped mass or spring); a tie is ordered as the candidates are declared (the
-   engineer's order of likelihood, never the data's) and each trial names the sets it ties
-   with.
-3. **Check.** The top `CHECKED` sets are updated in full (`vibupdate.inverse.update.update`,
-   the case's options) and their linearized ranges computed at a verified answer
-   (`vibupdate.ranges.identifiability.parameter_ranges`): a set is *suggested* only when its
-   full update is ``success``. Checked sets come first in the final order, verified ones
-   before the others.
-
-Cost: one polish and one verification per set screened, one update per set checked.
+A model that ends ``not_verified`` may lack a parameter rather than hold a wrong datum. The
+case lists what might be missing as candidates (``[[candidate]]``, held at their nominal values
+in a run); `suggest_sets` screens every set of them, smallest first, by a polish and a
+verification (`_screen`), up to `MAX_SETS` sets or `MAX_SECONDS`; ranks them (`_ranked`: passed,
+smaller, determined, then by objective, ties within `TIE_RTOL` in declaration order); and updates
+the top `CHECKED` in full (`_full_update`): a set is *suggested* only when that update is
+``success``. Cost: one polish and one verification per set screened, one update per set checked.
 """
 
 from __future__ import annotations
@@ -228,7 +209,7 @@ def _row_errors(correlation) -> dict:
 
 
 def _screen(configurations, start, polish: PolishOptions, verification: VerifyOptions):
-    """Polish ``configurations`` from ``start`` and verify the answer (module docstring, step 1).
+    """Polish ``configurations`` from ``start`` and verify the answer (the screening, module docstring).
     Returns the answer, its objective, the failed checks, the frequency errors, the rank and
     condition of the sensitivity."""
     nominal = [model_frequencies(c) for c in configurations]
@@ -270,7 +251,7 @@ def _ranked(trials: list[SetTrial]) -> list[SetTrial]:
 
 
 def _full_update(configurations, names, options: dict, frequency_tolerance: float, say) -> dict:
-    """The full update of one set (module docstring, step 3), as a plain record."""
+    """The full update of one set (the check, module docstring), as a plain record."""
     from vibupdate.ranges.identifiability import parameter_ranges
 
     t0 = time.perf_counter()

@@ -1,15 +1,11 @@
-"""Abaqus/Standard matrices written by ``*MATRIX GENERATE`` and ``*MATRIX OUTPUT``.
+"""Abaqus/Standard matrices written by ``*MATRIX GENERATE`` and ``*MATRIX OUTPUT`` (what is read and
+refused: docs/fe/abaqus.md, "What to export from Abaqus").
 
-With ``FORMAT=MATRIX INPUT`` (the default) Abaqus writes ``JOB_STIF<step>.mtx`` and
-``JOB_MASS<step>.mtx``, text files with one matrix term per line::
-
-    row node, row DOF, column node, column DOF, value
-
-DOFs 1..6 of a node are its translations and rotations. Any layout the *MATRIX INPUT format
-allows is read (docs/fe/abaqus.md, "What to export from Abaqus"): one triangle, mirrored, or the
-square, whose two triangles are compared. Internal nodes (a non-positive number: a constraint's
-Lagrange multiplier) are refused. The matrices come before boundary conditions: the DOFs they
-fix are removed by naming them (``fix``, `vibupdate.model.fe.export.without_dofs`).
+``JOB_STIF<step>.mtx`` and ``JOB_MASS<step>.mtx`` hold one term a line, ``row node, row DOF,
+column node, column DOF, value`` (DOFs 1..6 of a node: its translations and rotations), in any
+layout the *MATRIX INPUT format allows; internal nodes (a constraint's Lagrange multiplier) are
+refused. The matrices come before the boundary conditions: the DOFs they fix are removed by
+naming them (``fix``, `vibupdate.model.fe.export.without_dofs`).
 """
 
 from __future__ import annotations

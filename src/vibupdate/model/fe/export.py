@@ -2,17 +2,12 @@
 
 `FEExport` holds the stiffness and mass matrices of one export as the code wrote them (after
 the constrained DOFs are removed), the name of each DOF, ``"<node>:<dir>"`` with ``dir`` in
-``x, y, z, rx, ry, rz`` (`DIRECTIONS`; a scalar point is ``"<id>:s"``), and the node
-coordinates when the export holds them, and the relative precision of the numbers as written
-(`precision_of_digits`). The helpers here turn the entries a code writes (one triangle or both)
-into symmetric CSR matrices and check what every reader must check.
-
-**Precision of a text export** (docs/fe-models.md, "Precision of the exports"): every entry
-read is within ``delta |A_ij|`` of the code's own, ``delta`` half a unit in the last digit the
-format holds. The text readers count the significant digits of what they parse
-(`significant_digits`, `digit_counts`) and `precision_of_digits` turns the counts into
-``delta`` (None for doubles written in full); the import carries it into the model
-(``matrix_precision``, `vibupdate.modal.rigid`).
+``x, y, z, rx, ry, rz`` (`DIRECTIONS`; a scalar point is ``"<id>:s"``), the node coordinates
+when the export holds them, and the relative precision of the numbers as written: the text
+readers count the significant digits they parse (`digit_counts`) and `precision_of_digits`
+turns the counts into it (the rule: docs/fe-models.md, "Precision of the exports"). The helpers
+here turn the entries a code writes (one triangle or both) into symmetric CSR matrices and check
+what every reader must check.
 """
 
 from __future__ import annotations

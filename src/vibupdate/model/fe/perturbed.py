@@ -1,19 +1,12 @@
-"""Parameter derivatives from perturbed exports, and the affine model they make.
+"""Parameter derivatives from perturbed exports, and the affine model they make (the route as the
+user reads it: docs/fe-models.md, "Perturbed exports").
 
-An FE code exports its model at the nominal parameters ``p0`` and once per parameter with that
-parameter changed by a stated step ``h`` (the others at nominal). The derivative of each matrix
-``A`` (K or M) is the difference quotient:
-
-* one step: the forward difference ``D = (A(p0 + h) - A(p0)) / h``;
-* two steps ``h1``, ``h2``: the derivative at ``p0`` of the quadratic through the three
-  exports, ``D = (h2^2 dA1 - h1^2 dA2) / (h1 h2 (h2 - h1))`` with ``dAk = A(p0 + hk) - A(p0)``
-  (the central difference ``(A(p0 + h) - A(p0 - h)) / 2h`` when ``h2 = -h1``).
-
-The second step also gives the *departure* from affine (docs/fe-models.md, "Perturbed
-exports"), ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
-M's; the affine model is the linearization at ``p0``. Each parameter names the property group
-it moves (the DOFs whose rows of ``D`` are not zero); the model's ``matrix_precision`` is the
-coarsest of the exports'.
+The derivative of each matrix ``A`` (K or M) is the difference quotient: with one step ``h`` the
+forward difference ``(A(p0 + h) - A(p0)) / h``; with two, ``h1`` and ``h2``, the derivative at
+``p0`` of the quadratic through the three exports, ``(h2^2 dA1 - h1^2 dA2) / (h1 h2 (h2 - h1))``
+with ``dAk = A(p0 + hk) - A(p0)`` (the central difference when ``h2 = -h1``), and the departure
+from affine ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
+M's. The model's ``matrix_precision`` is the coarsest of the exports'.
 """
 
 from __future__ import annotations
