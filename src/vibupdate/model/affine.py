@@ -1,14 +1,10 @@
-"""The affine form of a parametric model in normalized parameters (paper Eqs. 12-15).
+"""The affine form of a parametric model in normalized parameters, paper Eqs. 12-15 (the form and
+its checks: docs/method.md, section 2):
 
-    M(xbar) = M0 + sum_i xbar_i M_i,      K(xbar) = K0 + sum_i xbar_i K_i
+    M(xbar) = M0 + sum_i xbar_i M_i,      K(xbar) = K0 + sum_i xbar_i K_i,      M_i = (dM/dp_i) p_ref,i
 
-with ``M_i = (dM/dp_i) p_ref,i`` (Eq. 13-14). For a model given as a builder function the
-parameter matrices come from the complex-step derivative (Eq. 15),
-
-    dM/dp_i = Im(M(p0 + j h e_i)) / h,
-
-exact to rounding for any small ``h`` because no difference is taken; an `Assembly` of linear
-expressions is assembled directly instead (`affine_from_assembly`).
+the parameter matrices of a builder function by complex step (Eq. 15, `affine_from_builder`),
+those of an `Assembly` of linear expressions assembled directly (`affine_from_assembly`).
 """
 
 from __future__ import annotations

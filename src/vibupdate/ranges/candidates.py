@@ -208,10 +208,12 @@ def _row_errors(correlation) -> dict:
     return out
 
 
-def _screen(configurations, start, polish: PolishOptions, verification: VerifyOptions):
-    """Polish ``configurations`` from ``start`` and verify the answer (the screening, module docstring).
-    Returns the answer, its objective, the failed checks, the frequency errors, the rank and
-    condition of the sensitivity."""
+def _screen(configurations, start: dict, polish: PolishOptions, verification: VerifyOptions):
+    """Polish ``configurations`` from ``start`` (normalized values by name, 0 where not given)
+    and verify the answer (the screening, module docstring). Returns the answer, its objective,
+    the failed checks, the frequency errors, the rank and condition of the sensitivity."""
+    model = configurations[0].model
+    start = np.clip(np.array([float(start.get(n, 0.0)) for n in model.parameter_names]), *model.bounds())
     nominal = [model_frequencies(c) for c in configurations]
     contract = Admissible.of(configurations, verification)
     polished = run_polish(configurations, start, replace(polish, enabled=True), contract=contract)   # as update
@@ -364,21 +366,13 @@ def suggest_sets(pool: Sequence[Configuration], own: Sequence[str], candidates: 
     return suggestion
 
 
-def _start(configurations, start: dict) -> np.ndarray:
-    """The normalized start point: ``start``'s values where given, else 0 (nominal)."""
-    names = configurations[0].model.parameter_names
-    lo, hi = configurations[0].model.bounds()
-    return np.clip(np.array([float(start.get(n, 0.0)) for n in names]), lo, hi)
-
-
 def _trial(pool, own, names, start, polish, verification, order, say) -> SetTrial | None:
     """Screen one set; None (said) when its fit fails."""
     t0 = time.perf_counter()
     configurations = configurations_with(pool, own + names)
     label = " + ".join(names)
     try:
-        x, objective, failed, errors, rank, condition = _screen(configurations, _start(configurations, start),
-                                                                polish, verification)
+        x, objective, failed, errors, rank, condition = _screen(configurations, start, polish, verification)
     except (ValueError, np.linalg.LinAlgError) as exc:
         say(f"suggest: with {label}: the fit failed ({exc}); left out of the ranking")
         return None
@@ -399,8 +393,7 @@ def _nominal(pool, own, start, polish, verification) -> dict:
         return {}
     configurations = configurations_with(pool, own)
     try:
-        _, objective, failed, errors, _, _ = _screen(configurations, _start(configurations, start), polish,
-                                                     verification)
+        _, objective, failed, errors, _, _ = _screen(configurations, start, polish, verification)
     except (ValueError, np.linalg.LinAlgError):
         return {}
     return {"objective": objective, "passed": not failed, "failed": list(failed), **errors}

@@ -253,12 +253,8 @@ def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, 
     successive linear programs: from that end, the data and their Jacobian there, the program
     relinearized about that point (the answer's windows), its extreme the next point, at most
     `VALLEY_PROGRAMS` points. A point counts only where its own data lie in every window (its
-    relinearized program holds at the point itself, `_holds`).
-
-    A program whose answer cannot change the result is not solved, nor the data it needs: a
-    point's own check only where the point lies beyond the extreme so far (the linear end is
-    the first extreme, so its own check never is), and no next extreme from the last point
-    (no point follows it). The result is that of checking every point."""
+    relinearized program holds at the point itself, `_holds`). A program whose answer cannot
+    change the result is not solved (docs/polish-and-verification.md, 7.4)."""
     x = xbar + step
     end = float(x[i])
     for k in range(VALLEY_PROGRAMS):
@@ -318,12 +314,9 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     d_hat, G = data_jacobian(configurations, xbar, freqs=freqs)
     d_meas, half, is_freq = _measured(configurations, frequency_tolerance)
     misfit = d_hat - d_meas
-    # Frequencies: a window centred on the answer; shapes: the measured intervals, and where the
-    # answer lies outside one by ``d`` (a model-form error the verification allowed) the interval
-    # widened on that side to ``d`` beyond the answer, so that the answer can move by the error it
-    # already has either way, as for the frequencies (with the answer on the window's edge, many
-    # such rows left a point: ranges of 1e-6 % on a bar whose shapes the model misses by 0.004).
-    # Either way |offset + G dx| <= half.
+    # The windows of the module docstring, |offset + G dx| <= half (a shape's interval widened
+    # where the answer misses it: with the answer on the window's edge, many such rows left a
+    # point, ranges of 1e-6 % on a bar whose shapes the model misses by 0.004).
     out = np.maximum(np.abs(misfit) - half, 0.0)
     low = np.minimum(-half, misfit - out)          # the shape window about the midpoint
     high = np.maximum(half, misfit + out)
@@ -338,14 +331,10 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         half = half + rounding
     lo, hi = model.bounds()
     xbar = np.asarray(xbar, dtype=float)
-    # Each row divided by its half-width: |offset + G dx| <= half as |offset / half + (G / half) dx|
-    # <= 1, so that data known to 1e-12 (exact points) and to 1 % weigh alike in the LP solver's
-    # tolerances (unscaled, HiGHS reported the refined frame's point data infeasible and all 29
-    # ranges were NaN).
-    # The unknown is the step dx from the answer, so that row activities are O(1) and not the
-    # difference of two large numbers. Where the default simplex gives up on a badly
-    # conditioned problem (the refined frame's exact data at 2,996 DOFs: a "solve error" in 3
-    # of 58 programs), the interior-point method solves it.
+    # Each row divided by its half-width, |offset / half + (G / half) dx| <= 1, so that data known
+    # to 1e-12 and to 1 % weigh alike in the solver's tolerances (unscaled, HiGHS found the refined
+    # frame's point data infeasible); the unknown is the step dx from the answer, so that row
+    # activities are O(1).
     center = d_hat - offset       # each window's centre, fixed at the answer
 
     def program(at=None):
@@ -366,14 +355,11 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     kept: dict = {}   # role -> (HiGHS instance, the rows it holds)
 
     def solve(c, A, offset):
-        """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (each
-        window one two-sided row, half the rows of the one-sided form) and the box, each
-        shape's scale free: by HiGHS's simplex, warm (`vibupdate.ranges.highs`): one instance
-        keeps the program at the answer (its solves differ in ``c`` alone), another takes each
-        program relinearized along the valley, starting from the basis of the program solved
-        last (the one it follows, for the same ``c``). Where it fails, the interior-point
-        method on the one-sided form; None when neither solves it, or when a row is not finite
-        (a datum the model lost at the point the program is linearized at)."""
+        """The step minimizing ``c`` over ``-1 <= A z + offset <= 1`` and the box, by HiGHS's
+        simplex kept warm (one instance for the program at the answer, one for those along the
+        valley, each from the last basis), else the interior-point method (a badly conditioned
+        program: the refined frame's exact data at 2,996 DOFs); None when neither solves it or a
+        row is not finite (a datum the model lost at the point)."""
         if not (np.isfinite(A).all() and np.isfinite(offset).all()):
             return None
         role = "answer" if A is A0 else "moved"
@@ -389,11 +375,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                       bounds=np.column_stack(box), method="highs-ipm")
         return sol.x if sol.status == 0 else None
 
-    # Along a direction the data do not see at all (a null direction of the Jacobian), the
-    # linear program follows the tangent line to the box, but the set of parameters that fit
-    # bends away from that line: on the known-truth acceptance problems the truth lay outside
-    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
-    # along a null direction is bounded by the box alone (and its programs are not solved).
+    # A parameter along a null direction is bounded by its box alone, its programs not solved
+    # (docs/polish-and-verification.md, 7.4; benchmarks/RESULTS.md, "Known-truth acceptance after the fixes").
     _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
     rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
@@ -415,10 +398,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                 target[i] = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
     if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:
-        # the other parameters move along the curved valley too (at second order where the
-        # answer is a symmetric point): the points of the valley with the answer's data
-        # and where each parameter is lowest and highest along it, and where one turns
-        # (`vibupdate.inverse.minimum_change.valley_ends`, `valley_curve`; the update's, when given)
+        # the points of the valley with the answer's data, and its ends and turns (the update's, when given)
         found = undetermined(configurations, xbar)   # one evaluation at the answer for the three
         ends = list(valley) if valley else [x for _, _, x in valley_ends(configurations, xbar, found)
                                             + valley_curve(configurations, xbar, found)]

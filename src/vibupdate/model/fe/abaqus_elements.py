@@ -1,11 +1,10 @@
-"""Element matrices written by Abaqus/Standard ``*ELEMENT MATRIX OUTPUT``.
+"""Element matrices written by Abaqus/Standard ``*ELEMENT MATRIX OUTPUT`` (the export and the
+groups as the user reads them: docs/fe-models.md, "Element groups").
 
-With ``OUTPUT FILE=USER DEFINED, FILE NAME=name, STIFFNESS=YES, MASS=YES`` Abaqus writes
-``name.mtx``: per element of the ``ELSET``, a block in the input format of a linear user
+``name.mtx`` holds, per element of the ``ELSET``, a block in the input format of a linear user
 element (``*USER ELEMENT, LINEAR`` and ``*MATRIX``, Abaqus Keywords Reference Guide)::
 
     ** ELEMENT NUMBER 11 STEP NUMBER 1 INCREMENT NUMBER 1
-    ** ELEMENT TYPE B21
     *USER ELEMENT, NODES= 2, LINEAR
     ** ELEMENT NODES
     ** 101, 102
@@ -14,22 +13,14 @@ element (``*USER ELEMENT, LINEAR`` and ``*MATRIX``, Abaqus Keywords Reference Gu
     k11 ,
     k21 , k22
     ...
-    *MATRIX,TYPE=MASS
-    ...
 
-The comment lines carry the element number and its nodes. The first data line lists the
-active DOFs (1-6: x, y, z, rx, ry, rz) at the element's first node; a further data line
-``position, dof, dof, ...`` changes them from the node at that position of the element's node
-list on. The variables are ordered node by node (the Abaqus results-file format: "first the
-variables at the element's first node, then those at its second node"). A symmetric matrix is
-its lower triangle row by row (equally, the upper triangle column by column, as the results
-file stores it), each row starting a new line and wrapped at four entries per line. The
-matrices are in the global directions, before the boundary conditions: the supports are fixed
-by naming their DOFs. The significant digits of the values give the export's relative
-precision (`vibupdate.model.fe.export.precision_of_digits`).
-
-The element sets of the input file (``*ELSET``, and the ``ELSET=`` of ``*ELEMENT``) give the
-groups the parameters follow (`read_abaqus_element_sets`).
+The first data line lists the active DOFs (1-6: x, y, z, rx, ry, rz) at the element's first
+node; a further data line ``position, dof, dof, ...`` changes them from the node at that position
+of the element's node list on. The variables are ordered node by node (the Abaqus results-file
+format). A symmetric matrix is its lower triangle row by row, each row starting a new line and
+wrapped at four entries per line, in the global directions and before the boundary conditions.
+The element sets of the input file (``*ELSET``, ``ELSET=`` of ``*ELEMENT``) give the groups the
+parameters follow (`read_abaqus_element_sets`).
 """
 
 from __future__ import annotations
