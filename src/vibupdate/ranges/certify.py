@@ -140,17 +140,13 @@ def _hull(leaves, n_x):
 
 
 class _Branching:
-    """Spatial branching of the parameter box: the leaves' boxes cover every point of S, so
-    the hull of their parameter ranges is an outer range; splitting the leaf that sets an end
-    of the hull and tightening both halves narrows the McCormick envelopes where it matters.
-    The split is along the parameter whose products the relaxation's solution at that end
-    violates most (`_direction`): branching on the parameter with the widest range was
-    measured to split parameters that S fills anyway (benchmarks/RESULTS.md).
-
-    Which end to work on: the one reaching farthest past the hull of the points known to lie
-    in S (``known``; the hull's centre when there are none), relative to the root width,
-    halved after each split that did not move it (an end that S itself reaches cannot move).
-    """
+    """Spatial branching of the parameter box (docs/notes/ranges.md, "Certified ranges: the
+    relaxation and its narrowing in full"): the leaves cover every point of S, their hull is
+    the outer range. The leaf split is one that sets the end of the hull reaching farthest past
+    the points known to lie in S (``known``; the hull's centre when there are none), relative to
+    the root width, halved after each split that did not move it; the split is along
+    `_direction` (branching on the widest range was measured to split parameters that S fills
+    anyway: benchmarks/RESULTS.md)."""
 
     def __init__(self, cs: ConsistentSet, R: Lifts, root: Box, known, tactics: Tactics = Tactics()):
         self.cs, self.R, self.n_x, self.tactics = cs, R, cs.n_x, tactics
@@ -233,14 +229,11 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
               progress: Callable[[str], None] | None = None, tactics: Tactics = Tactics()) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
-    The root ranges (two LPs per parameter over all blocks) are always computed. Then, while
-    the elapsed time is below ``seconds``: bound-tightening passes on the whole box
-    (`vibupdate.ranges.tightening.tighten`) until one narrows it by less than `STALL`
-    (`ROOT_STALL` when branching follows, then using at most half the budget) or
-    ``max_passes`` passes; then branching
-    (`_Branching`), each half tightened by one pass, until the budget or
-    ``max_splits`` splits. Without a finite budget there is no branching unless ``max_splits``
-    is given.
+    The root ranges are always computed. Then, while the elapsed time is below ``seconds``:
+    bound-tightening passes until one narrows the box by less than `STALL` (`ROOT_STALL` when
+    branching follows, then within half the budget) or ``max_passes`` passes; then branching,
+    each half tightened by one pass, until the budget or ``max_splits`` splits. Without a finite
+    budget there is no branching unless ``max_splits`` is given.
 
     Parameters
     ----------

@@ -1,30 +1,23 @@
-"""The linear relaxation of the consistent set S and its safe bounds (`vibupdate.ranges.certify`).
+"""The linear relaxation of the consistent set S and its safe bounds (`vibupdate.ranges.certify`;
+in words: docs/notes/ranges.md, "Certified ranges: the relaxation and its narrowing in full").
 
-S is stated in `vibupdate.ranges.consistent`. Writing each block's eigen-equation with the measured
-``w^2``,
+Each block's eigen-equation of S (`vibupdate.ranges.consistent`) with the measured ``w^2``,
 
     k(x, v) - w^2 m(x, v) - delta m(x, v) = 0,   k = D K(x) S v,  m = D M(x) S v,
     delta = s - w^2 in [wL^2 - w^2, wU^2 - w^2],
 
-both ``k`` and ``m`` are linear in ``(x, u, t)`` once every product ``x_i u_j`` is lifted to
-``t`` (Section 3.3), and the frequency uncertainty enters as one more product ``e = delta m``
-per residual row (``D``: Jacobi row scaling, ``S``: the block's entry scaling). Replacing each
-product by its McCormick envelope (Eq. 19) on the current boxes of ``x`` and ``u`` gives a
-linear program over ``z = [x, u, t, delta, e]`` whose feasible set holds every point of S
-lifted (`lifted_point`); the eigen rows keep the residual floor of S. Constants of the
-envelopes are rounded outward.
-
-Safe bounds. The LP solvers (HiGHS through highspy for the small per-block LPs, built once
-and solved warm for every objective; Clarabel for the large LPs of all blocks) are inexact,
-so its optimum is never used as a bound. Every variable of the LP is boxed, so for *any* row
-multipliers ``y`` (signs projected so that each term is valid) the Lagrangian bound
+is linear in ``z = [x, u, t, delta, e]`` once every product ``x_i u_j`` is lifted to ``t``
+(Section 3.3) and ``delta m`` to ``e`` per residual row (``D``: Jacobi row scaling, ``S``: the
+block's entry scaling). Each product is replaced by its McCormick envelope (Eq. 19) on the
+current boxes, constants rounded outward; every point of S lifted (`lifted_point`) is feasible,
+the eigen rows keeping the residual floor of S. No LP optimum is used as a bound: every variable
+is boxed, so for *any* row multipliers ``y`` (signs projected so that each term is valid)
 
     c^T z >= sum_j min_{z_j in [l_j, u_j]} (c - A^T y)_j z_j + sum_r min_{a_r in [lo_r, hi_r]} y_r a_r
 
-holds for every feasible ``z`` (Neumaier and Shcherbina, Math. Program. 99 (2004) 283-296).
-`safe_bound` evaluates it from the solver's multipliers with the rounding of its own products
-and sums bounded and subtracted. A positive safe bound of the phase-1 problem (least total
-eigen-residual violation, `phase1_bound`) proves the relaxation, hence S, empty.
+(Neumaier and Shcherbina, Math. Program. 99 (2004) 283-296), evaluated by `safe_bound` from the
+solver's multipliers with its own rounding subtracted. A positive safe bound of the phase-1
+problem (`phase1_bound`) proves the relaxation, hence S, empty.
 """
 
 from __future__ import annotations

@@ -54,12 +54,10 @@ class Tactics:
         The per-block step bounds ``x`` before the block's vector entries (their LPs then see
         the narrowed ``x`` columns); else after.
     parameter_stall : bool
-        The passes end when a pass shrinks the summed relative widths of the *parameters*
-        (what is reported) by less than the stall fraction; else (the default) those of the
-        whole box, vector entries included. Off by default: where most parameters fill their
-        bounds they dilute the sum and the passes stop too early (`benchmarks/RESULTS.md`,
-        "Economies of the tightening (branch `certify2`): solver reuse, Clarabel's bound kept,
-        stall rule").
+        The passes end when a pass shrinks the summed relative widths of the *parameters* by
+        less than the stall fraction; else (the default) those of the whole box
+        (`benchmarks/RESULTS.md`, "Economies of the tightening (branch `certify2`): solver
+        reuse, Clarabel's bound kept, stall rule").
     """
 
     reuse_solver: bool = True
