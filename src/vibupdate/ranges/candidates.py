@@ -200,14 +200,6 @@ def _frequency_errors(configurations, freqs) -> dict:
     return out
 
 
-def _row_errors(correlation) -> dict:
-    """`_frequency_errors` of an answer's `vibupdate.inverse.correlation.Correlation`."""
-    out = {}
-    for kind in ("natural", "antiresonance"):
-        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(correlation.errors(kind))
-    return out
-
-
 def _screen(configurations, start: dict, polish: PolishOptions, verification: VerifyOptions):
     """Polish ``configurations`` from ``start`` (normalized values by name, 0 where not given)
     and verify the answer (the screening, module docstring). Returns the answer, its objective,
@@ -263,7 +255,8 @@ def _full_update(configurations, names, options: dict, frequency_tolerance: floa
     record = {"status": result.status.value, "success": bool(result.success), "message": result.message,
               "values": {p.name: float(v) for p, v in zip(result.parameters, result.values)},
               "units": {p.name: p.unit for p in result.parameters},
-              **_row_errors(result.correlation),
+              **{f"{kind}_{what}_pct": value for kind in ("natural", "antiresonance")
+                 for what, value in zip(("mean", "max"), mean_max(result.correlation.errors(kind)))},
               "failed": failed, "limited_by": fit.as_dict().get("limited_by") if fit is not None else None,
               "range_pct": None}
     if result.success:   # the ranges mean something only at a verified answer

@@ -181,12 +181,6 @@ def consistent_set(configurations: Sequence[Configuration], *, frequency_toleran
                          inclusion)
 
 
-def _block_pencil(dense, blk: VectorBlock):
-    """The block's rows and columns of ``dense = (K, M)`` (full dense matrices)."""
-    ix = np.ix_(blk.rows, blk.cols)
-    return dense[0][ix], dense[1][ix]
-
-
 def _eigenpairs(K, M):
     """Real eigenpairs (w^2, v) of the pencil (K, M), square."""
     import scipy.linalg as sla
@@ -227,7 +221,7 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
             dense[id(model)] = (K.toarray(), M.toarray())
         key = (id(model), blk.rows.tobytes(), blk.cols.tobytes())
         if key not in solved:       # one eigen-solve per pencil: every mode block shares the full one
-            solved[key] = _eigenpairs(*_block_pencil(dense[id(model)], blk))
+            solved[key] = _eigenpairs(*(A[np.ix_(blk.rows, blk.cols)] for A in dense[id(model)]))
         lam, V = solved[key]
         w = np.sqrt(lam)
         inside = (w >= cs.omega_lower[b] * (1 + margin)) & (w <= cs.omega_upper[b] * (1 - margin))

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.model.element_groups import ElementMatrices, element_matrices
-from vibupdate.model.fe.export import DIRECTIONS, digit_counts, dof_name, existing_file, precision_of_digits
+from vibupdate.model.fe.export import DIRECTIONS, digit_counts, dof_name, dof_order, existing_file, precision_of_digits
 
 
 _ELEMENT = re.compile(r"\*\*\s*ELEMENT NUMBER\s+(-?\d+)(?:\s+STEP NUMBER\s+(\d+))?", re.I)
@@ -179,8 +179,7 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
             raise ValueError(f"element {label} is written twice ({seen[label]} and again): export the element matrices "
                              "of one step and increment (FREQUENCY) from one request per element")
         seen[label] = ", ".join(map(str, paths))
-    order = sorted(dict.fromkeys(d for e in elements for d in e[1]),
-                   key=lambda d: (int(d.split(":")[0]), DIRECTIONS.index(d.split(":")[1])))
+    order = sorted(dict.fromkeys(d for e in elements for d in e[1]), key=dof_order)
     return element_matrices(elements, dofs=order, precision=precision_of_digits(digit_counts(written)),
                             source=", ".join(map(str, paths)))
 

@@ -124,6 +124,12 @@ def dof_name(node, component: int) -> str:
     return f"{node}:{DIRECTIONS[component - 1]}"
 
 
+def dof_order(name: str) -> tuple[int, int]:
+    """Sort key of a DOF name ``"<node>:<dir>"`` of a numbered node: node, then component (``s`` first)."""
+    node, direction = name.split(":")
+    return int(node), (("s",) + DIRECTIONS).index(direction)
+
+
 @dataclass(frozen=True)
 class FEExport:
     """Stiffness and mass exported by an FE code.

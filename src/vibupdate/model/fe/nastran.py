@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, existing_file, precision_of_digits,
+from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, dof_order, existing_file, precision_of_digits,
                                        symmetric_from_entries)
 
 
@@ -154,7 +154,7 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     kr, kc, kv, kdofs, _, kdigits, klines, kncol = found[stiffness.upper()]
     mr, mc, mv, mdofs, _, mdigits, mlines, mncol = found[mass.upper()]
     # a DOF with terms in one matrix only still belongs to both: the union, by grid then direction
-    order = sorted(set(kdofs) | set(mdofs), key=_dof_key)
+    order = sorted(set(kdofs) | set(mdofs), key=dof_order)
     for name, ncol in ((stiffness, kncol), (mass, mncol)):
         if ncol is not None and ncol != len(order):
             raise ValueError(f"{path}: the header of DMIG {name.upper()} declares NCOL = {ncol} columns, but "
@@ -208,7 +208,3 @@ def _grids(path: Path, cards) -> dict:
             raise ValueError(f"{path}: line {number}: cannot read GRID {data[:5]}") from None
     return nodes
 
-
-def _dof_key(name: str):
-    node, d = name.split(":")
-    return int(node), ("s", "x", "y", "z", "rx", "ry", "rz").index(d)

@@ -44,16 +44,6 @@ class Oblique:
     direction: np.ndarray
 
 
-def _node_block(obliques: Sequence[Oblique], index: Mapping[str, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Indices (3,) of one node's x, y, z and ``D^-1`` (3, 3) for its oblique DOFs."""
-    node = obliques[0].replaces.rsplit(":", 1)[0]
-    slots = np.array([index[f"{node}:{a}"] for a in AXES])
-    D = np.eye(3)
-    for o in obliques:
-        D[AXES.index(o.replaces.rsplit(":", 1)[1])] = o.direction
-    return slots, np.linalg.inv(D)
-
-
 def coordinate_change(dofs: Sequence[str], obliques: Sequence[Oblique]) -> tuple[sp.csr_matrix, tuple[str, ...]]:
     """``T`` (n, n), with ``q = T q'`` from the new coordinates ``q'`` to the exported ones,
     and the names of the new coordinates (``dofs`` with each `Oblique.replaces` renamed)."""
@@ -64,12 +54,15 @@ def coordinate_change(dofs: Sequence[str], obliques: Sequence[Oblique]) -> tuple
     n = len(dofs)
     kept = np.ones(n, dtype=bool)
     rows, cols, vals = [], [], []
-    for group in by_node.values():
-        slots, block = _node_block(group, index)
+    for node, group in by_node.items():
+        slots = np.array([index[f"{node}:{a}"] for a in AXES])       # the node's x, y, z
+        D = np.eye(3)
+        for o in group:
+            D[AXES.index(o.replaces.rsplit(":", 1)[1])] = o.direction
         kept[slots] = False
         rows.append(np.repeat(slots, 3))
         cols.append(np.tile(slots, 3))
-        vals.append(block.ravel())
+        vals.append(np.linalg.inv(D).ravel())
     identity = np.flatnonzero(kept)
     T = sp.csr_matrix((np.concatenate([np.ones(identity.size)] + vals),
                        (np.concatenate([identity] + rows), np.concatenate([identity] + cols))), shape=(n, n))

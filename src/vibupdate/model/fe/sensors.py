@@ -70,16 +70,6 @@ def _translations(label: str, dofs: set) -> list[str]:
     return [a for a in AXES if f"{label}:{a}" in dofs]
 
 
-def _by_dof(name: str, dof: str, dofs: set) -> _Located:
-    if dof not in dofs:
-        raise ValueError(f"sensor '{name}': DOF {dof!r} is not in the model (names are '<node>:<dir>', dir in "
-                         "x, y, z, rx, ry, rz)")
-    node, axis = dof.rsplit(":", 1)
-    if axis not in AXES:
-        return _Located(name, node, None, 0.0, dof)
-    return _Located(name, node, np.eye(3)[AXES.index(axis)], 0.0)
-
-
 def _by_position(name: str, position, direction, dofs: set, nodes) -> _Located:
     """The nearest node to ``position`` (m; ties go to a node that moves) and the unit direction."""
     p, v = np.asarray(position, dtype=float), np.asarray(direction, dtype=float)
@@ -100,24 +90,20 @@ def _by_position(name: str, position, direction, dofs: set, nodes) -> _Located:
 
 def _locate(item: dict, dofs: set, nodes) -> _Located:
     """One ``[[sensor]]`` table (``name`` and ``dof``, or ``position`` and ``direction``) on its node."""
-    name = item["name"]
-    if item.get("dof") is not None:
-        return _by_dof(name, item["dof"], dofs)
+    name, dof = item["name"], item.get("dof")
+    if dof is not None:
+        if dof not in dofs:
+            raise ValueError(f"sensor '{name}': DOF {dof!r} is not in the model (names are '<node>:<dir>', dir in "
+                             "x, y, z, rx, ry, rz)")
+        node, axis = dof.rsplit(":", 1)
+        if axis not in AXES:
+            return _Located(name, node, None, 0.0, dof)
+        return _Located(name, node, np.eye(3)[AXES.index(axis)], 0.0)
     if item.get("position") is None or item.get("direction") is None:
         raise ValueError(f"sensor '{name}': give a dof, or a position and a direction")
     if not nodes:
         raise ValueError(f"sensor '{name}' is placed by coordinates, but the export holds no node coordinates")
     return _by_position(name, item["position"], item["direction"], dofs, nodes)
-
-
-def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip(abs(a @ b), 0.0, 1.0))))
-
-
-def _aligned_axis(n: np.ndarray) -> int | None:
-    """The axis (0..2) within ALIGN_TOL of the unit vector ``n`` (either sense), or None."""
-    k = int(np.argmax(np.abs(n)))
-    return k if np.arccos(min(1.0, abs(n[k]))) <= ALIGN_TOL else None
 
 
 def _span_residual(n: np.ndarray, basis: list[np.ndarray]) -> float:
@@ -153,8 +139,8 @@ class _Node:
         self.read: list[tuple[_Located, int, float]] = []   # sensor, reading (axis 0..2 or 3 + oblique k), sign
 
     def add(self, s: _Located) -> None:
-        k = _aligned_axis(s.direction)
-        if k is not None:
+        k = int(np.argmax(np.abs(s.direction)))      # an axis within ALIGN_TOL (either sense)?
+        if np.arccos(min(1.0, abs(s.direction[k]))) <= ALIGN_TOL:
             if f"{self.label}:{AXES[k]}" not in self.dofs:
                 raise ValueError(f"sensor '{s.name}': node {self.label} has no DOF '{self.label}:{AXES[k]}' "
                                  "(constrained?)")
@@ -179,7 +165,7 @@ class _Node:
         names = [f"'{name}' ({AXES[k]})" for k, name in self.axes.items()]
         for n, name in self.oblique:
             if _span_residual(n, basis) < np.sin(ALIGN_TOL):
-                angles = ", ".join(f"{_angle_deg(n, b):.1f}" for b in basis)
+                angles = ", ".join(f"{np.degrees(np.arccos(np.clip(abs(n @ b), 0.0, 1.0))):.1f}" for b in basis)
                 raise ValueError(
                     f"sensor '{name}' at node {self.label}: direction {np.round(n, 4).tolist()} is within "
                     f"{np.degrees(ALIGN_TOL):.2g} degrees of the span of the node's other readings (sensors "
