@@ -82,18 +82,12 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
                       seed: int = 0, basis: np.ndarray | None = None,
                       precision: float | None = None) -> tuple[float, float]:
     """How far rounding alone moves the shape ratios ``phi[entries] / phi[reference]`` of one
-    mode: the first-order change when every stored entry of ``K`` and ``M`` moves by one unit
-    of rounding (relative `numpy.finfo` eps, signs drawn from a generator seeded with ``seed``).
-    For matrices known only to a coarser ``precision`` (an export written with fewer digits),
-    the larger of that and the change when every entry of ``K`` and ``M`` is rounded once more
-    to the digits the precision stands for (`export_rounding`): what the export's rounding does,
-    entry by entry (an estimate, where one unit of ``precision`` per entry would bound it far
-    above what the exports show: docs/notes/eigen-solutions.md).
-
-    The achievable accuracy against which point shape data are checked
-    (`vibupdate.inverse.verify`): the pencil fixes its modes only to this level (module
-    docstring). One factorization of ``K - eigval M`` without the row and column of the
-    largest ``|phi|`` (Nelson's method).
+    mode, to first order: every stored entry of ``K`` and ``M`` moved by one rounding unit (signs
+    drawn with ``seed``), or for matrices known to a coarser ``precision`` the larger of that and
+    every entry rounded once more to its digits (`export_rounding`; an estimate, why:
+    docs/notes/eigen-solutions.md). The accuracy against which point shape data are checked
+    (`vibupdate.inverse.verify`); one factorization of ``K - eigval M`` without the row and
+    column of the largest ``|phi|`` (Nelson's method).
 
     Parameters
     ----------
@@ -119,7 +113,6 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
     precision : float, optional
         Relative precision of the entries of ``K`` and ``M`` (a model's ``matrix_precision``);
         None: double precision.
-
 
     Returns
     -------

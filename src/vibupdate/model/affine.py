@@ -23,10 +23,8 @@ from vibupdate.model.parameters import Parameter, normalized_bounds, to_normaliz
 
 Builder = Callable[[dict], "System | tuple"]
 
-#: Largest size of the two dense parameter stacks of `AffineModel.dense_stacks` (bytes): a
-#: chosen cap, so that a small model with very many parameters keeps the sparse path. It
-#: assumes that up to this size the stacks cost less memory than the dense eigen-solves they
-#: serve need anyway (400 DOFs, 48 parameters: 125 MB).
+#: Largest size of the two dense parameter stacks of `AffineModel.dense_stacks` (bytes), so that a
+#: small model with very many parameters keeps the sparse path (400 DOFs, 48 parameters: 125 MB).
 DENSE_STACK_BYTES = 128 * 2**20
 
 #: Measurement maps an `AffineModel` keeps (`AffineModel.measurement`): more lists of names
@@ -283,11 +281,9 @@ class AffineModel:
         """The matrices stacked as one dense read-only array, on a small model.
 
         Shape (2, 1 + n_x, n, n): ``[0]`` is ``(M0, M_1, ..., M_nx)``, ``[1]`` is
-        ``(K0, K_1, ...)`` (so ``M_stack, K_stack = model.dense_stacks`` unpacks them), for a
-        model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose two stacks fit in
-        `DENSE_STACK_BYTES`; None otherwise (the sparse path). On such a model
-        the solvers work on dense matrices anyway, and a product with every parameter matrix at
-        once is one array operation instead of ``2 n_x`` sparse products."""
+        ``(K0, K_1, ...)``, for a model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose
+        two stacks fit in `DENSE_STACK_BYTES`; None otherwise (the sparse path; why:
+        docs/notes/eigen-solutions.md, "Small models: dense parameter stacks")."""
         from vibupdate.modal.eigen import DENSE_LIMIT
 
         n = self.n_dofs
@@ -700,10 +696,8 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
     """Affine form of an `Assembly` whose properties and lumped values are `LinearExpression` s
     of the parameters, assembled directly (`Assembly.affine_parts`), without complex step.
 
-    Every element matrix is linear in its properties, so the model is affine by construction
-    and ``M_i``, ``K_i`` (Eqs. 13-14) are exact (`Assembly.affine_parts`). With ``check`` one
-    safety check remains: the assembly with every parameter moved inside its bounds
-    (`Assembly.system`) must equal the affine prediction.
+    The model is affine by construction; with ``check`` the assembly with every parameter moved
+    inside its bounds (`Assembly.system`) must equal the affine prediction.
 
     Parameters
     ----------

@@ -491,14 +491,9 @@ class Assembly:
     def affine_parts(self, parameters: Sequence[Parameter]):
         """Nominal and normalized parameter matrices of the assembly (Eqs. 13-14).
 
-        The properties that are `LinearExpression` s are assembled directly.
-
-        Every element matrix is linear in its properties, so ``dK/dp_i`` is the assembly of
-        only the elements (and lumped values) whose expressions involve ``p_i``, with each
-        property set to its coefficient of ``p_i`` (0 where it does not involve ``p_i``);
-        ``K_i = dK/dp_i p_ref,i`` likewise for ``M``. Each element is evaluated once at the
-        nominal point and once per parameter its properties involve, so the work grows with
-        the DOFs, not with parameters x DOFs.
+        ``dK/dp_i`` is the assembly of the elements and lumped values whose expressions involve
+        ``p_i``, each property set to its coefficient of ``p_i`` (docs/notes/model-build.md,
+        "The elements model: the mechanism in full"); likewise ``dM/dp_i``.
 
         Parameters
         ----------

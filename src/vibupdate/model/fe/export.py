@@ -65,20 +65,14 @@ def digit_counts(texts) -> Counter:
     -------
     collections.Counter
         Significant digits -> how many of ``texts`` have them.
-
-    Notes
-    -----
-    Vectorised over the array (`numpy.char`, in numpy 1 and 2 alike): after the leading sign,
-    the mantissa ends at the first exponent letter (``E``, ``D``) or sign; in a number that
-    parses, a sign after the first character follows a digit, a point or the exponent letter,
-    so this is `significant_digits`'s rule.
     """
     s = np.asarray(texts)
     if not s.size:
         return Counter()
     raw = s.dtype.kind == "S"
     text = (lambda t: t.encode()) if raw else (lambda t: t)
-    # every exponent letter or sign becomes "E"; the mantissa is what comes before the first
+    # every exponent letter or sign becomes "E"; the mantissa is what comes before the first (a sign
+    # after a number's first character follows a digit, a point or the letter: `significant_digits`'s rule)
     marks = (bytes if raw else str).maketrans(text("eEdD+-"), text("EEEEEE"))
     s = np.char.translate(np.char.lstrip(np.char.strip(s), text("+-")), marks)
     mantissa = np.char.replace(np.char.partition(s, text("E"))[..., 0], text("."), text(""))
