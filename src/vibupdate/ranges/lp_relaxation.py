@@ -172,44 +172,24 @@ def _rows(coo_parts, n_rows, n_z):
     return sp.csr_matrix((v, (r, c)), shape=(n_rows, n_z))
 
 
-def _mccormick_t(L: Lifted, xl, xu, ul, uu):
-    """Eq. 19 for every ``t = x[tx] u[tu]``: 4 n_t rows."""
-    n_t, p = L.n_t, np.arange(L.n_t)
-    al, au, bl, bu = xl[L.tx], xu[L.tx], ul[L.tu], uu[L.tu]
-    t_col, u_col, x_col = L.n_x + L.n_u + p, L.n_x + L.tu, L.tx
+def _envelope(w_col, f1_col, f2, f1_bounds, f2_bounds, pad=None, const=None):
+    """McCormick rows (Eq. 19) of ``w = f1 f2``, one product per row of ``w_col``: ``f1`` the
+    variable of column ``f1_col`` in ``f1_bounds``, ``f2 = F z (+ const)`` in ``f2_bounds`` with
+    ``F`` given as COO triplets ``f2`` (row, column, value); the rows' ends padded outward by
+    ``pad`` (default ``4 eps |rhs|``). Returns the 4 n rows' COO parts, lower and upper ends."""
+    n, (r, c, v) = w_col.size, f2
     parts, lo, hi = [], [], []
-    for q, (a, b, lower) in enumerate(((al, bl, True), (au, bu, True), (au, bl, False), (al, bu, False))):
-        rows = q * n_t + p
-        parts.append((np.concatenate([rows, rows, rows]), np.concatenate([t_col, u_col, x_col]),
-                      np.concatenate([np.ones(n_t), -a, -b])))
-        rhs = -a * b
-        pad = 4 * _EPS * np.abs(rhs)
-        lo.append(rhs - pad if lower else np.full(n_t, -np.inf))
-        hi.append(np.full(n_t, np.inf) if lower else rhs + pad)
+    for q, (a, b, lower) in enumerate(((f1_bounds[0], f2_bounds[0], True), (f1_bounds[1], f2_bounds[1], True),
+                                       (f1_bounds[1], f2_bounds[0], False), (f1_bounds[0], f2_bounds[1], False))):
+        rows = q * n + np.arange(n)
+        # w - a f2 - b f1  (>= or <=)  -a b
+        parts.append((np.concatenate([rows, q * n + r, rows]), np.concatenate([w_col, c, f1_col]),
+                      np.concatenate([np.ones(n), -a[r] * v, -b])))
+        rhs = -a * b if const is None else -a * b + a * const
+        width = 4 * _EPS * np.abs(rhs) if pad is None else pad
+        lo.append(rhs - width if lower else np.full(n, -np.inf))
+        hi.append(np.full(n, np.inf) if lower else rhs + width)
     return parts, np.concatenate(lo), np.concatenate(hi)
-
-
-def _mccormick_e(L: Lifted, mL, mU, mmag):
-    """McCormick rows of ``e = delta m(z)`` for the rows whose block has a frequency window."""
-    windowed = np.flatnonzero((L.d_lower < 0) | (L.d_upper > 0))
-    k = np.flatnonzero(np.isin(L.row_block, windowed))
-    dL, dU = L.d_lower[L.row_block[k]], L.d_upper[L.row_block[k]]
-    Mk = sp.coo_matrix(L.Mz[k])
-    e_col = L.n_x + L.n_u + L.n_t + L.n_blk + k
-    d_col = L.n_x + L.n_u + L.n_t + L.row_block[k]
-    n, parts, lo, hi = k.size, [], [], []
-    pad = 1e-12 * np.maximum(np.abs(dL), np.abs(dU)) * (mmag[k] + np.maximum(np.abs(mL[k]), np.abs(mU[k])))
-    for q, (d, mb, lower) in enumerate(((dL, mL[k], True), (dU, mU[k], True), (dU, mL[k], False),
-                                        (dL, mU[k], False))):
-        base = q * n
-        # e - d m(z) - mb delta  (>= or <=)  -d mb, with m(z) = Mz z + m0
-        parts.append((np.concatenate([base + np.arange(n), base + Mk.row, base + np.arange(n)]),
-                      np.concatenate([e_col, Mk.col, d_col]),
-                      np.concatenate([np.ones(n), -d[Mk.row] * Mk.data, -mb])))
-        rhs = -d * mb + d * L.m0[k]
-        lo.append(rhs - pad if lower else np.full(n, -np.inf))
-        hi.append(np.full(n, np.inf) if lower else rhs + pad)
-    return parts, np.concatenate(lo) if lo else np.empty(0), np.concatenate(hi) if hi else np.empty(0), 4 * n
 
 
 def relax(L: Lifted, xl, xu, ul, uu) -> RelaxedLP:
@@ -234,9 +214,17 @@ def relax(L: Lifted, xl, xu, ul, uu) -> RelaxedLP:
     G = sp.csr_matrix(L.Kz - sp.diags(L.w2) @ L.Mz) + slack
     c0 = L.k0 - L.w2 * L.m0
     floor = RESIDUAL_FLOOR * (abs(L.Kz) @ zmag + np.abs(L.k0) + (L.w2 + dU) * mmag)
-    t_parts, t_lo, t_hi = _mccormick_t(L, xl, xu, ul, uu)
-    e_parts, e_lo, e_hi, n_e = _mccormick_e(L, mL, mU, mmag)
-    A = sp.vstack([G, _rows(t_parts, 4 * L.n_t, n_z)] + ([_rows(e_parts, n_e, n_z)] if n_e else []), format="csr")
+    p = np.arange(L.n_t)       # every t = x[tx] u[tu]
+    t_parts, t_lo, t_hi = _envelope(L.n_x + L.n_u + p, L.tx, (p, L.n_x + L.tu, np.ones(L.n_t)),
+                                    (xl[L.tx], xu[L.tx]), (ul[L.tu], uu[L.tu]))
+    # e = delta m(z), m(z) = Mz z + m0, on the rows whose block has a frequency window
+    k = np.flatnonzero(np.isin(L.row_block, np.flatnonzero((L.d_lower < 0) | (L.d_upper > 0))))
+    Mk = sp.coo_matrix(L.Mz[k])
+    width = 1e-12 * np.maximum(np.abs(dL[k]), np.abs(dU[k])) * (mmag[k] + np.maximum(np.abs(mL[k]), np.abs(mU[k])))
+    e_parts, e_lo, e_hi = _envelope(n_z - L.n_r + k, L.n_x + L.n_u + L.n_t + L.row_block[k], (Mk.row, Mk.col, Mk.data),
+                                    (dL[k], dU[k]), (mL[k], mU[k]), width, L.m0[k])
+    blocks = [G, _rows(t_parts, 4 * L.n_t, n_z)] + ([_rows(e_parts, 4 * k.size, n_z)] if k.size else [])
+    A = sp.vstack(blocks, format="csr")
     return RelaxedLP(A, np.concatenate([-c0 - floor, t_lo, e_lo]), np.concatenate([-c0 + floor, t_hi, e_hi]),
                zl, zu, L.n_r)
 
