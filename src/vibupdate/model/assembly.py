@@ -281,14 +281,7 @@ class Assembly:
         ValueError
             The assembly is a frame, a node does not exist, or a property is not a number.
         """
-        if self.kind != "beam":
-            raise ValueError("beam() needs a beam assembly; use frame() in a frame assembly")
-        idx = self._element_dofs(first, second)
-        dx, _ = self._deltas(first, second)
-        n = idx.shape[0]
-        props = (_property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"),
-                 _property(rotary_inertia, n, "rotary_inertia"))
-        self._elements.append(_Batch("beam", idx, props, (np.abs(dx),)))
+        self._add("beam", first, second, EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
 
     def frame(self, n1, n2, *, EA, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Planar frame element (axial + bending) between two nodes of a frame assembly.
@@ -338,14 +331,17 @@ class Assembly:
         ValueError
             The assembly is a beam, a node does not exist, or a property is not a number.
         """
-        if self.kind != "frame":
-            raise ValueError("frame() needs a frame assembly; use beam() in a beam assembly")
+        self._add("frame", first, second, EA=EA, EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
+
+    def _add(self, kind: str, first: Sequence, second: Sequence, **properties) -> None:
+        """A batch of elements of ``kind``, their ``properties`` in the order of the element function."""
+        if self.kind != kind:
+            other = "frame" if kind == "beam" else "beam"
+            raise ValueError(f"{kind}() needs a {kind} assembly; use {other}() in a {other} assembly")
         idx = self._element_dofs(first, second)
         dx, dy = self._deltas(first, second)
-        n = idx.shape[0]
-        props = (_property(EA, n, "EA"), _property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"),
-                 _property(rotary_inertia, n, "rotary_inertia"))
-        self._elements.append(_Batch("frame", idx, props, (dx, dy)))
+        props = tuple(_property(value, idx.shape[0], what) for what, value in properties.items())
+        self._elements.append(_Batch(kind, idx, props, (np.abs(dx),) if kind == "beam" else (dx, dy)))
 
     def mass(self, dof: str, value) -> None:
         """Add a lumped mass on a translational DOF or a rotary inertia on a rotation.
