@@ -162,9 +162,12 @@ def _narrow(box: Box, g: int, side: int, value: float, opt: float, bound: float,
     return better
 
 
-def _infeasible(box: Box, lp) -> None:
+def _infeasible(box: Box, lp) -> bool:
+    """Whether ``box``, whose relaxation ``lp`` a solver reported infeasible, is proved empty (a
+    positive safe phase-1 bound); marked so when it is."""
     if phase1_bound(lp) > 0:
         box.empty = True
+    return box.empty
 
 
 def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None = None,
@@ -200,10 +203,8 @@ def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None
             status, opt, bound, z = solve(replace(lp, zl=zl, zu=zu), c, h, point=True)
             c[j] = 0.0
             box.n_lps += 1
-            if status == "infeasible":
-                _infeasible(box, replace(lp, zl=zl, zu=zu))
-                if box.empty:
-                    return True
+            if status == "infeasible" and _infeasible(box, replace(lp, zl=zl, zu=zu)):
+                return True
             if status != "optimal" or not np.isfinite(bound):
                 continue
             if _narrow(box, g, side, sign * bound, opt, bound, n_x):
@@ -246,10 +247,8 @@ def tighten_parameters(R: Lifts, box: Box, deadline: float, tactics: Tactics = T
                 status, opt, bound, z = solve(current, c, highs, point=True)
                 box.n_lps += 1
                 slack = GAP
-            if status == "infeasible":
-                _infeasible(box, current)
-                if box.empty:
-                    return True
+            if status == "infeasible" and _infeasible(box, current):
+                return True
             if status != "optimal" or not np.isfinite(bound):
                 continue
             if _narrow(box, i, side, sign * bound, opt, bound, n_x, slack):

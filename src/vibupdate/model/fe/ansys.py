@@ -74,14 +74,6 @@ _ONE = {"pointers": "pointer", "row indices": "row index", "values": "value",
         "right-hand side": "right-hand side value"}
 
 
-def _integers(line: str, repeat: int, width: int) -> list[str]:
-    """The integer fields of a line: fixed width, as Fortran reads them (blank trailing fields dropped)."""
-    fields = [line[width * j:width * (j + 1)].strip() for j in range(repeat)]
-    while fields and not fields[-1]:
-        fields.pop()
-    return fields
-
-
 def _reals(line: str, fmt: tuple[int, int, int, int], path: Path, number: int, what: str) -> list[tuple[str, float]]:
     """The reals of a value line with their text: the numbers on the line, not fixed columns
     (``scipy.io.hb_write`` writes 24-character fields under a ``(3E25.16)`` format; an exponent
@@ -122,8 +114,10 @@ def _section(lines: list[str], first: int, count: int, fmt: tuple[int, int, int,
     numbers, where = [], []
     for k in range(first, first + count):
         line = lines[k].rstrip("\r\n")
-        if digits is None:
-            fields = _integers(line, fmt[0], fmt[1])
+        if digits is None:     # integers: fixed width, as Fortran reads them, blank trailing fields dropped
+            fields = [line[fmt[1] * j:fmt[1] * (j + 1)].strip() for j in range(fmt[0])]
+            while fields and not fields[-1]:
+                fields.pop()
             for t in fields:
                 if not t.lstrip("+-").isdigit():
                     raise ValueError(f"{path}: line {k + 1}: {_ONE[what]} {t!r} is not an integer")

@@ -181,13 +181,11 @@ def symmetric_from_entries(rows, cols, values, n: int, source: str, what: str, n
     An entry given in both triangles must agree to `SYMMETRY_TOL`; one given in one triangle is
     mirrored. Repeated entries at one position are refused (FE codes write each term once).
 
-    Completeness: a stiffness or mass matrix is positive semidefinite, so a row whose diagonal
-    term is zero holds no other term (``A_ij^2 <= A_ii A_jj``). A row with a zero or missing
-    diagonal term and an off-diagonal term above `MISSING_DIAGONAL_TOL` times the largest entry
-    is the mark of lines missing from the file (a cut file loses the diagonal terms of its last
-    columns, whose couplings to earlier DOFs are still there): refused, naming the DOF
-    (``names``, the DOF of each index) and the line of its first term (``lines``, the line
-    number of each entry) when given.
+    A row with a zero or missing diagonal term and an off-diagonal term above
+    `MISSING_DIAGONAL_TOL` times the largest entry, which a positive semidefinite matrix cannot
+    have (``A_ij^2 <= A_ii A_jj``), marks lines missing from the file (docs/fe/nastran.md):
+    refused, naming the DOF (``names``, per index) and the line of its first term (``lines``,
+    per entry) when given.
     """
     rows, cols = np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64)
     values = np.asarray(values, dtype=float)
