@@ -169,16 +169,13 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
 
 
 def _scaled_shapes(configurations, d_hat, G, rounding, at=None):
-    """The shape rows of the ranges' linear program at the shapes' own meaning, a free scale
-    per mode (`vibupdate.inverse.admissible`): ``s q_j(x)`` in each entry's measured interval,
-    ``q`` the model's ratios (1 at the reference), linearized in the step ``dx`` and in the
-    scale's step ``ds`` about the answer and its least-squares scale ``s0``; where the answer
-    lies outside an interval by ``e`` (a model-form error the verification allowed), that
-    interval is widened on its side to ``e`` beyond the answer; an entry known exactly has the
-    contract's ``exact_half_width`` of the shape's largest entry. Returns the data-map rows they
-    replace and, per shape, its rows divided by their half-widths (columns ``dx`` then one
-    column per shape's scale) and their offsets. ``at``, ``(d, G, shift)``: the same windows
-    with the shapes linearized at another point instead, ``shift`` the answer minus that point."""
+    """The shape rows of the ranges' linear program (module docstring): ``s q_j(x)`` in each
+    entry's interval, ``q`` the model's ratios (1 at the reference), linearized in ``dx`` and in
+    the scale's step about the answer and its least-squares scale ``s0``; an entry known exactly
+    has the contract's ``exact_half_width``. Returns the data-map rows they replace and, per
+    shape, its rows divided by their half-widths (columns ``dx``, then one per shape's scale)
+    and their offsets. ``at = (d, G, shift)``: the same windows, the shapes linearized at
+    another point, ``shift`` the answer minus that point."""
     rows, extra, k, n_x = [], [], 0, G.shape[1]
     shapes = [(cfg, s) for cfg in configurations for s in measured_shapes(cfg)]
     n_s = sum(s.lower.size > 0 for _, s in shapes)
@@ -223,11 +220,9 @@ def _scaled_shapes(configurations, d_hat, G, rounding, at=None):
 
 def _holds(A, offset, dx, n_x: int) -> bool:
     """Whether the rows ``|A z + offset| <= 1`` of a range's linear program hold at the step
-    ``dx`` for some scale step of each shape (the columns after the first ``n_x``): without a
-    linear program, because each scale enters only its own shape's rows, so that each is an
-    intersection of intervals. A row may miss by HiGHS's default primal feasibility tolerance
-    (1e-7 of its half-width), as in the programs solved. A row that is not finite (a datum
-    the model lost at the point) does not hold."""
+    ``dx`` for some scale step of each shape (the columns after the first ``n_x``): an
+    intersection of intervals per shape, within HiGHS's default primal feasibility tolerance
+    (1e-7 of a row's half-width). A row that is not finite does not hold."""
     tol = 1e-7
     r = A[:, :n_x] @ dx + offset
     if not (np.isfinite(r).all() and np.isfinite(A).all()):   # a datum the model lost at the point
@@ -345,7 +340,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         Gs, offs = Gp / half[:, None], off / half
         rows, extra = _scaled_shapes(configurations, d_hat, G, rounding, at)
         keep = np.ones(d_hat.size, dtype=bool)
-        keep[[r for r in rows]] = False
+        keep[rows] = False
         n_s = len(extra)
         A1 = np.vstack([np.hstack([Gs[keep], np.zeros((int(keep.sum()), n_s))])] + [e[0] for e in extra]
                        + [np.zeros((0, xbar.size + n_s))])
