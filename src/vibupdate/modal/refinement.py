@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.readings import ratio_derivatives
+from vibupdate.modal.rigid import unit
 
 
 #: Refinement sweeps per solve: a second sweep changes the modes by less than a converged
@@ -123,16 +125,11 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
         its residual ``K phi - eigval M phi`` calls for (a second right-hand side of the same
         solve): a dense solver is backward stable only in norm, not entry by entry.
     """
-    import scipy.sparse as sp
-
     Ms, Ks = sp.csr_matrix(M), sp.csr_matrix(K)
     phi = np.asarray(phi, dtype=float)
     n = phi.size
     rng = np.random.default_rng(seed)
-    from vibupdate.modal.rigid import unit
-
     eps = unit()
-
     # one rounding unit per stored entry, the signs within a row aligned (the componentwise
     # backward error of a stable solver), the rows' signs drawn: b_i = +-eps ((|K| + w^2 |M|) |phi|)_i.
     # Independent signs per entry cancel within a row and put the floor a factor
@@ -173,8 +170,6 @@ def export_rounding(A, precision: float):
     """``A`` (sparse) with every entry rounded to the significant digits a relative
     ``precision`` stands for, ``floor(1 - log10(2 precision))`` (10 for 5e-10): the rounding a
     text export of that precision applies, drawn afresh."""
-    import scipy.sparse as sp
-
     digits = max(1, int(np.floor(1.0 - np.log10(2.0 * precision) + 1e-9)))
     out = sp.csr_matrix(A, dtype=float, copy=True)
     x = out.data

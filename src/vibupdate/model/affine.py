@@ -17,7 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.model.assembly import Assembly, System, dof_index
+from vibupdate.model.assembly import Assembly, NamedDofs, System
 from vibupdate.model.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
 
@@ -34,7 +34,7 @@ MEASUREMENTS_KEPT = 256
 
 
 @dataclass(frozen=True)
-class AffineModel:
+class AffineModel(NamedDofs):
     """Affine parametric model, Eqs. 12-14.
 
     Attributes
@@ -81,26 +81,6 @@ class AffineModel:
     def parameter_names(self) -> tuple[str, ...]:
         """The parameters' names, in the order of ``xbar``."""
         return tuple(p.name for p in self.parameters)
-
-    def dof(self, name: str) -> int:
-        """Index of a named DOF.
-
-        Parameters
-        ----------
-        name : str
-            A name of ``dofs``.
-
-        Returns
-        -------
-        int
-            Its row in the matrices (0-based).
-
-        Raises
-        ------
-        ValueError
-            ``name`` is not a DOF of the model (the message lists some that are).
-        """
-        return dof_index(self.dofs, name)
 
     def measures(self, name: str) -> bool:
         """Whether ``name`` is a DOF or a sensor of the model.

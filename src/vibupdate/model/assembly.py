@@ -27,24 +27,13 @@ from vibupdate.model.parameters import Parameter
 _KINDS = {"beam": ("y", "phi"), "frame": ("x", "y", "phi")}
 
 
-@dataclass(frozen=True)
-class System:
-    """Mass and stiffness matrices of a model with named DOFs.
+class NamedDofs:
+    """A model whose DOFs are named: ``dofs``, the names in the order of the matrices' rows."""
 
-    Attributes
-    ----------
-    M, K : scipy.sparse.csr_matrix, shape (n, n)
-        Mass (kg, kg m, kg m^2) and stiffness (N/m, N, N m/rad) matrices.
-    dofs : tuple of str, length n
-        DOF names in matrix order.
-    """
-
-    M: sp.csr_matrix
-    K: sp.csr_matrix
     dofs: tuple[str, ...]
 
     def dof(self, name: str) -> int:
-        """Position (0-based) of the DOF called ``name``, as `AffineModel.dof`.
+        """Position (0-based) of the DOF called ``name``: its row in the matrices.
 
         Parameters
         ----------
@@ -59,9 +48,26 @@ class System:
         Raises
         ------
         ValueError
-            ``name`` is not a DOF of the system.
+            ``name`` is not a DOF of the model (the message lists some that are).
         """
         return dof_index(self.dofs, name)
+
+
+@dataclass(frozen=True)
+class System(NamedDofs):
+    """Mass and stiffness matrices of a model with named DOFs.
+
+    Attributes
+    ----------
+    M, K : scipy.sparse.csr_matrix, shape (n, n)
+        Mass (kg, kg m, kg m^2) and stiffness (N/m, N, N m/rad) matrices.
+    dofs : tuple of str, length n
+        DOF names in matrix order.
+    """
+
+    M: sp.csr_matrix
+    K: sp.csr_matrix
+    dofs: tuple[str, ...]
 
 
 def dof_index(dofs: Sequence[str], name: str) -> int:

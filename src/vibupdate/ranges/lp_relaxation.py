@@ -278,16 +278,14 @@ def solve(lp: RelaxedLP, c, h=None, *, point: bool = False):
     solve_highs(h, c)
     status = h.getModelStatus()
     if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnboundedOrInfeasible):
-        out = ("infeasible", np.nan, np.nan)
+        out = ("infeasible", np.nan, np.nan, None)
     elif status != highspy.HighsModelStatus.kOptimal:
-        out = ("failed", np.nan, np.nan)
+        out = ("failed", np.nan, np.nan, None)
     else:
         sol = h.getSolution()
-        y = np.asarray(sol.row_dual, dtype=float)
-        out = ("optimal", float(h.getInfo().objective_function_value), safe_bound(c, lp, y))
-        if point:
-            return out + (np.asarray(sol.col_value, dtype=float),)
-    return out + (None,) if point else out
+        out = ("optimal", float(h.getInfo().objective_function_value),
+               safe_bound(c, lp, np.asarray(sol.row_dual, dtype=float)), np.asarray(sol.col_value, dtype=float))
+    return out if point else out[:3]
 
 
 @dataclass(frozen=True)
