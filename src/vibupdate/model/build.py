@@ -1,18 +1,13 @@
-"""Building a parametric model: from a builder function or from exported matrix files.
+"""Building a parametric model: four routes to the same `AffineModel` (docs/method.md, sections 1
+and 2; docs/fe-models.md):
 
-Three ways lead to the same `AffineModel`:
-
-* `from_builder` — a Python function ``params -> System | (M, K)`` (the built-in elements of
-  `vibupdate.model.assembly` or the user's own code), differentiated by complex step;
-* `from_assembly` — an `Assembly` whose properties and lumped values are
-  `vibupdate.model.expressions.LinearExpression` s of the parameters (the elements model of a
-  case file), assembled directly into the affine form, each element once per parameter it
-  depends on;
+* `from_builder` — a Python function ``params -> System | (M, K)``, differentiated by complex step;
+* `from_assembly` — an `Assembly` of `vibupdate.model.expressions.LinearExpression` properties and
+  lumped values, assembled directly into the affine form;
 * `from_files` — nominal ``M0``, ``K0`` and per-parameter ``dM/dp``, ``dK/dp`` in Matrix Market
   (``.mtx``) or ``.npz`` files, the form exported by ANSYS, Abaqus or Nastran DMAP;
-* `from_elements` — every element's matrices (`vibupdate.model.element_groups.element_matrices`,
-  or Abaqus element matrix output read by `vibupdate.model.fe.abaqus_elements`), each parameter
-  scaling a group of elements, its parameter matrices the group's assembled matrices.
+* `vibupdate.model.element_groups.affine_from_elements` — every element's matrices, each parameter
+  scaling a group of elements.
 """
 
 from __future__ import annotations

@@ -106,14 +106,6 @@ class CertifiedRanges:
         """Points S was widened to hold."""
         return len(self.inclusion.labels) if self.inclusion is not None else 0
 
-    def determined(self, within_pct: float = 5.0) -> list[str]:
-        """Parameters whose whole certified range is narrower than ``within_pct``."""
-        return [n for n, w in zip(self.names, self.width_pct) if np.isfinite(w) and w <= within_pct]
-
-    def as_dict(self) -> dict:
-        return {n: {"lower": float(lo), "upper": float(hi), "width_pct": float(w), "certified": bool(c)}
-                for n, lo, hi, w, c in zip(self.names, self.lower, self.upper, self.width_pct, self.certified)}
-
     def record(self) -> dict:
         """The ``identifiability.certified`` section of ``results.json`` (NaN as None)."""
         def num(v):
