@@ -191,13 +191,11 @@ def configurations_with(pool: Sequence[Configuration], free: Sequence[str]) -> l
     return [replace(c, model=restricted(c.model, free)) for c in pool]
 
 
-def _frequency_errors(configurations, freqs) -> dict:
-    """Mean and max relative error (per cent) of the declared modes (``natural_*``) and of the
-    zeros (``antiresonance_*``, NaN without any)."""
-    out = {}
-    for kind, errors in declared_errors(configurations, freqs).items():
-        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(errors)
-    return out
+def _frequency_errors(by_kind: dict) -> dict:
+    """Mean and max of the relative errors (per cent) of each kind, ``natural`` (the declared
+    modes) and ``antiresonance`` (NaN without any): ``natural_mean_pct``, ``natural_max_pct``, ..."""
+    return {f"{kind}_{what}_pct": value for kind, errors in by_kind.items()
+            for what, value in zip(("mean", "max"), mean_max(errors))}
 
 
 def _screen(configurations, start: dict, polish: PolishOptions, verification: VerifyOptions):
@@ -215,8 +213,8 @@ def _screen(configurations, start: dict, polish: PolishOptions, verification: Ve
                     options=verification, contract=contract)
     failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
     s = sensitivity(configurations, x, freqs=updated)
-    return x, float(polished.cost), failed, _frequency_errors(configurations, updated), int(s.rank), \
-        float(s.condition)
+    errors = _frequency_errors(declared_errors(configurations, updated))
+    return x, float(polished.cost), failed, errors, int(s.rank), float(s.condition)
 
 
 def _rank_key(trial: SetTrial) -> tuple:
@@ -255,8 +253,7 @@ def _full_update(configurations, names, options: dict, frequency_tolerance: floa
     record = {"status": result.status.value, "success": bool(result.success), "message": result.message,
               "values": {p.name: float(v) for p, v in zip(result.parameters, result.values)},
               "units": {p.name: p.unit for p in result.parameters},
-              **{f"{kind}_{what}_pct": value for kind in ("natural", "antiresonance")
-                 for what, value in zip(("mean", "max"), mean_max(result.correlation.errors(kind)))},
+              **_frequency_errors({kind: result.correlation.errors(kind) for kind in ("natural", "antiresonance")}),
               "failed": failed, "limited_by": fit.as_dict().get("limited_by") if fit is not None else None,
               "range_pct": None}
     if result.success:   # the ranges mean something only at a verified answer
