@@ -392,11 +392,11 @@ class Assembly:
             self._lumped.append(_Lumped("K", idx, _LINK, value))
 
     # -- result -------------------------------------------------------------------------
-    def _parts(self, batches, lumped, value):
-        """Stiffness and mass COO triplets of element ``batches`` and ``lumped`` items, every
-        property or lumped value mapped by ``value(prop)`` to a number (one for the batch) or
-        an array (n_e,); the elements of one kind are evaluated together by the batched
-        element functions."""
+    def _matrices(self, batches, lumped, value, position: np.ndarray, n_free: int):
+        """``M``, ``K`` over the free DOFs (``position`` from `_free_map`) of element ``batches``
+        and ``lumped`` items, every property or lumped value mapped by ``value(prop)`` to a
+        number (one for the batch) or an array (n_e,); the elements of one kind are evaluated
+        together by the batched element functions."""
         parts = {"K": [], "M": []}
         for kind in ("beam", "frame"):
             chosen = [b for b in batches if b.kind == kind]
@@ -418,7 +418,7 @@ class Assembly:
             d = item.idx.size
             parts[item.matrix].append((np.repeat(item.idx, d), np.tile(item.idx, d),
                                        item.pattern * value(item.value)))
-        return parts["K"], parts["M"]
+        return self._matrix(parts["M"], position, n_free), self._matrix(parts["K"], position, n_free)
 
     def _free_map(self) -> tuple[np.ndarray, np.ndarray]:
         """Position of every DOF among the free ones (-1 where fixed), shape (n_all,), and the
@@ -485,9 +485,7 @@ class Assembly:
             return prop(values) if isinstance(prop, LinearExpression) else prop
 
         position, free = self._free_map()
-        k_parts, m_parts = self._parts(self._elements, self._lumped, value)
-        M = self._matrix(m_parts, position, free.size)
-        K = self._matrix(k_parts, position, free.size)
+        M, K = self._matrices(self._elements, self._lumped, value, position, free.size)
         return System(M, K, tuple(np.array(self._dofs, dtype=object)[free]))
 
     def affine_parts(self, parameters: Sequence[Parameter]):
@@ -530,9 +528,9 @@ class Assembly:
             def value(prop, name=p.name, scale=p.reference):
                 return prop.coefficient(name) * scale if isinstance(prop, LinearExpression) else 0.0
 
-            k_parts, m_parts = self._parts(*touching[p.name], value)
-            M_par.append(self._matrix(m_parts, position, free.size))
-            K_par.append(self._matrix(k_parts, position, free.size))
+            M, K = self._matrices(*touching[p.name], value, position, free.size)
+            M_par.append(M)
+            K_par.append(K)
         return nominal, M_par, K_par
 
 

@@ -70,24 +70,6 @@ def _translations(label: str, dofs: set) -> list[str]:
     return [a for a in AXES if f"{label}:{a}" in dofs]
 
 
-def _by_position(name: str, position, direction, dofs: set, nodes) -> _Located:
-    """The nearest node to ``position`` (m; ties go to a node that moves) and the unit direction."""
-    p, v = np.asarray(position, dtype=float), np.asarray(direction, dtype=float)
-    if p.shape != (3,) or v.shape != (3,) or not np.all(np.isfinite(np.r_[p, v])) or not np.linalg.norm(v) > 0:
-        raise ValueError(f"sensor '{name}': position and direction are [x, y, z] (finite numbers) with a non-zero "
-                         f"direction, got {p.tolist()} and {v.tolist()}")
-    labels = list(nodes)
-    where = np.array([np.resize(np.asarray(nodes[k], dtype=float), 3) for k in labels])
-    distance = np.linalg.norm(where - p, axis=1)
-    still = np.array([not _translations(k, dofs) for k in labels])
-    k = int(np.lexsort((still, distance))[0])
-    if still[k]:
-        raise ValueError(f"sensor '{name}': the nearest node to {p.tolist()}, {labels[k]} ({distance[k]:.3g} m "
-                         "away), has no translational DOF in the model (constrained, or not in the export); "
-                         "place the sensor on a node that moves")
-    return _Located(name, labels[k], v / np.linalg.norm(v), float(distance[k]))
-
-
 def _locate(item: dict, dofs: set, nodes) -> _Located:
     """One ``[[sensor]]`` table (``name`` and ``dof``, or ``position`` and ``direction``) on its node."""
     name, dof = item["name"], item.get("dof")
@@ -103,7 +85,20 @@ def _locate(item: dict, dofs: set, nodes) -> _Located:
         raise ValueError(f"sensor '{name}': give a dof, or a position and a direction")
     if not nodes:
         raise ValueError(f"sensor '{name}' is placed by coordinates, but the export holds no node coordinates")
-    return _by_position(name, item["position"], item["direction"], dofs, nodes)
+    p, v = np.asarray(item["position"], dtype=float), np.asarray(item["direction"], dtype=float)
+    if p.shape != (3,) or v.shape != (3,) or not np.all(np.isfinite(np.r_[p, v])) or not np.linalg.norm(v) > 0:
+        raise ValueError(f"sensor '{name}': position and direction are [x, y, z] (finite numbers) with a non-zero "
+                         f"direction, got {p.tolist()} and {v.tolist()}")
+    labels = list(nodes)       # the nearest node; ties go to a node that moves
+    where = np.array([np.resize(np.asarray(nodes[k], dtype=float), 3) for k in labels])
+    distance = np.linalg.norm(where - p, axis=1)
+    still = np.array([not _translations(k, dofs) for k in labels])
+    k = int(np.lexsort((still, distance))[0])
+    if still[k]:
+        raise ValueError(f"sensor '{name}': the nearest node to {p.tolist()}, {labels[k]} ({distance[k]:.3g} m "
+                         "away), has no translational DOF in the model (constrained, or not in the export); "
+                         "place the sensor on a node that moves")
+    return _Located(name, labels[k], v / np.linalg.norm(v), float(distance[k]))
 
 
 def _span_residual(n: np.ndarray, basis: list[np.ndarray]) -> float:
