@@ -133,15 +133,10 @@ def lift(cs: ConsistentSet) -> Lifted:
         u_off += free.size
         r_off += n_rows
     n_z = n_x + n_u + n_t + n_blk + r_off
-
-    def matrix(key):
-        r, c, v = (np.concatenate(a) for a in zip(*trip[key]))
-        return sp.csr_matrix((v, (r, c)), shape=(r_off, n_z))
-
     omega = np.array([b.omega for b in cs.blocks])
     return Lifted(
-        n_x, n_u, n_t, n_blk, r_off, matrix("K"), np.concatenate(const["K"]), matrix("M"),
-        np.concatenate(const["M"]), np.concatenate(w2), np.concatenate(rb).astype(int),
+        n_x, n_u, n_t, n_blk, r_off, _rows(trip["K"], r_off, n_z), np.concatenate(const["K"]),
+        _rows(trip["M"], r_off, n_z), np.concatenate(const["M"]), np.concatenate(w2), np.concatenate(rb).astype(int),
         np.concatenate(tx).astype(int), np.concatenate(tu).astype(int),
         np.concatenate([b.lower[~b.fixed] for b in cs.blocks]),
         np.concatenate([b.upper[~b.fixed] for b in cs.blocks]),
