@@ -312,10 +312,7 @@ def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 50) -> InnerRange
     starts = np.atleast_2d(np.asarray(starts, dtype=float))
     mid = 0.5 * (cs.omega_lower + cs.omega_upper)
     half = np.maximum(0.5 * (cs.omega_upper - cs.omega_lower), 1e-9 * mid)
-
-    def slack(x):
-        return _paired_slack(cs, x, mid, half)
-
+    constraints = [{"type": "ineq", "fun": lambda x: _paired_slack(cs, x, mid, half)}]
     points = [s for s in starts if is_consistent(cs, s)]
     bounds = list(zip(cs.x_lower, cs.x_upper))
     for i in range(cs.n_x):
@@ -324,8 +321,7 @@ def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 50) -> InnerRange
                 grad = np.zeros(cs.n_x)
                 grad[i] = sign
                 sol = minimize(lambda x: sign * x[i], s, jac=lambda x, g=grad: g, method="SLSQP", bounds=bounds,
-                               constraints=[{"type": "ineq", "fun": slack}],
-                               options={"maxiter": max_iter, "ftol": 1e-12})
+                               constraints=constraints, options={"maxiter": max_iter, "ftol": 1e-12})
                 x = np.clip(sol.x, cs.x_lower, cs.x_upper)
                 # Step back towards the start until the point is confirmed (SLSQP ends on the
                 # constraint boundary, where the margin of is_consistent rejects it).

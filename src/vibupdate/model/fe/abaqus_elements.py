@@ -79,21 +79,18 @@ def _blocks(path: Path) -> list[_Block]:
                                      f"got {text!r}") from None
             continue
         if upper.startswith("*"):
-            reading_nodes = False
+            reading_nodes, matrix = False, None
             kind = _MATRIX.match(text)
             if upper.startswith("*USER ELEMENT"):
                 nodes = _NODES.search(text)
                 if not nodes:
                     raise ValueError(f"{path}: line {number}: *USER ELEMENT without NODES=")
                 current.n_nodes = int(nodes.group(1))
-                matrix = None
             elif kind:
                 matrix = kind.group(1).upper()
                 if matrix in current.matrices:
                     raise ValueError(f"{path}: line {number}: element {current.label} has a second {matrix} matrix")
                 current.matrices[matrix] = []
-            else:
-                matrix = None
             continue
         fields = [t.strip() for t in text.split(",") if t.strip()]
         if matrix is not None:
