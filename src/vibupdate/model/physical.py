@@ -330,11 +330,11 @@ def physical_box(model, rigid: int, describe) -> PhysicalBox:
     lower, upper = (np.array(b, dtype=float) for b in model.bounds())
     x0 = np.zeros(lower.size)
     findings = []
-    bad_corners = [(up, x) for up, x in box_corners(lower, upper) if _admissible(model, x, rigid) is not None]
+    bad_corners = [(up, why) for up, x in box_corners(lower, upper)
+                   if (why := _admissible(model, x, rigid)) is not None]
     if not bad_corners:
         return PhysicalBox(lower, upper, ())
-    up0, x_bad = bad_corners[0]
-    findings.append(f"at the corner with {describe(up0)}: {_admissible(model, x_bad, rigid)}")
+    findings.append(f"at the corner with {describe(bad_corners[0][0])}: {bad_corners[0][1]}")
     for i, p in enumerate(model.parameters):
         for side, bounds in (("lower", lower), ("upper", upper)):
             if bounds[i] == 0.0:
