@@ -1,12 +1,8 @@
 """Measured points on an FE mesh: a sensor named by node and direction (``"1203:y"``) or by
-coordinates and a sensor direction, and the DOF each one reads (the rules as the user reads
-them: docs/fe-models.md, "Sensors along an axis and oblique sensors").
-
-A sensor by coordinates sits on the nearest node that moves. Within `ALIGN_TOL` of a node axis
-it reads that axis's DOF with the projection's sign; otherwise it is *oblique* and its reading
-``n . u`` becomes a DOF ``"<node>:n<k>"`` in place of one of the node's translations
-(`vibupdate.model.fe.oblique`). A node gives at most three independent readings; a direction
-within `ALIGN_TOL` of the span of the others is refused naming the sensors.
+coordinates and a sensor direction, and the DOF each one reads: the nearest node that moves, that
+node's axis within `ALIGN_TOL`, else an oblique DOF ``"<node>:n<k>"`` (`vibupdate.model.fe.oblique`);
+at most three independent readings a node (the rules as the user reads them: docs/fe-models.md,
+"Sensors along an axis and oblique sensors").
 """
 
 from __future__ import annotations
