@@ -82,9 +82,8 @@ def checked_frequencies(configurations, xbar, freqs=None) -> list[np.ndarray]:
             continue
         M, K = cfg.model.matrices(xbar)
         n = M.shape[0]
-        precision = cfg.model.matrix_precision
-        out.append(modes(M, K, precision=precision)[0] if n <= DENSE_LIMIT else
-                   modes(M, K, min(n - 1, LARGE_MODEL_CHECKED_MODES), precision=precision)[0])
+        wanted = None if n <= DENSE_LIMIT else min(n - 1, LARGE_MODEL_CHECKED_MODES)
+        out.append(modes(M, K, wanted, precision=cfg.model.matrix_precision)[0])
     return out
 
 

@@ -1,9 +1,6 @@
-"""The Caughey series and its weighted least-squares fit (paper Eqs. 20-24).
-
-For mass-normalized modes of the updated model the series gives the modal damping ratios
-``xi_k = 1/2 sum_h beta_h w_k^(2h - 1)`` (Eq. 21); stacking every measured ratio gives
-``Theta beta = xi`` (Eqs. 22-23), solved as ``beta = (Theta^T W Theta)^-1 Theta^T W xi``
-(Eq. 24) on the column-scaled system.
+"""The Caughey series and its weighted least-squares fit, paper Eqs. 20-24 (docs/method.md, section
+8): ``xi_k = 1/2 sum_h beta_h w_k^(2h - 1)`` (Eq. 21) stacked as ``Theta beta = xi`` (Eqs. 22-23),
+solved as ``beta = (Theta^T W Theta)^-1 Theta^T W xi`` (Eq. 24) on the column-scaled system.
 """
 
 from __future__ import annotations

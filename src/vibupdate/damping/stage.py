@@ -141,18 +141,6 @@ def damping_weights(labels, ratios, mode_weights=(), *, relative: bool = False,
     return DampingWeights(weights, rule)
 
 
-def _expand_weights(weights, labels):
-    """Weights given per mode number (mapping) become one weight per data point."""
-    if isinstance(weights, dict):
-        for key, value in weights.items():
-            if not isinstance(key, (int, np.integer)) or key < 1:
-                raise ValueError(f"damping weight keys must be mode numbers >= 1, got {key!r}")
-            if not np.isfinite(value) or value <= 0:
-                raise ValueError(f"damping weight of mode {key} must be positive, got {value!r}")
-        return np.array([float(weights.get(mode, 1.0)) for _, mode in labels])
-    return weights
-
-
 def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), weights=None, *,
                      freqs=None) -> DampingStage:
     """Second stage: fit a Caughey series to the measured damping ratios on the updated model.
@@ -188,8 +176,14 @@ def identify_damping(configurations: Sequence, xbar=None, exponents=(0.0, 1.0), 
         are not positive (a matrix not symmetric positive definite) or not one per ratio.
     """
     omega, ratios, labels = damping_data(configurations, xbar, freqs)
-    W = _expand_weights(weights, labels)
-    caughey = fit_caughey(omega, ratios, exponents, W, labels)
+    if isinstance(weights, dict):   # per mode number: one weight per data point
+        for key, value in weights.items():
+            if not isinstance(key, (int, np.integer)) or key < 1:
+                raise ValueError(f"damping weight keys must be mode numbers >= 1, got {key!r}")
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"damping weight of mode {key} must be positive, got {value!r}")
+        weights = np.array([float(weights.get(mode, 1.0)) for _, mode in labels])
+    caughey = fit_caughey(omega, ratios, exponents, weights, labels)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DampingWarning)
         rayleigh = fit_caughey(omega, ratios, [0.0, 1.0], None, labels)

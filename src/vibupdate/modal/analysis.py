@@ -77,10 +77,7 @@ def mac(A, B) -> np.ndarray:
     ndarray, shape (m_a, m_b)
         ``|a_i^H b_j|^2 / ((a_i^H a_i)(b_j^H b_j))``, between 0 and 1.
     """
-    A = np.asarray(A)
-    B = np.asarray(B)
-    A = A[:, None] if A.ndim == 1 else A
-    B = B[:, None] if B.ndim == 1 else B
+    A, B = (np.asarray(X)[:, None] if np.ndim(X) == 1 else np.asarray(X) for X in (A, B))
     if A.shape[0] != B.shape[0]:
         raise ValueError(f"MAC needs shapes of equal length, got {A.shape[0]} and {B.shape[0]}")
     num = np.abs(A.conj().T @ B) ** 2

@@ -1,29 +1,24 @@
-"""Accurate low modes of large, finely meshed models: one subspace step with refined solves.
+"""Accurate low modes of large, finely meshed models: one subspace step with refined solves (the
+mechanism and its figures: docs/notes/eigen-solutions.md, "Refined Lanczos vectors").
 
-Shift-invert Lanczos returns eigenpairs whose *normwise* backward error is at rounding level,
-yet on a fine bending mesh every solve with ``K`` and every product ``K phi`` loses about
-``log10(|K| |phi| / |K phi|)`` digits to cancellation, which the residual check (formed with
-the same cancellation) cannot see (`benchmarks/RESULTS.md`, "Figures behind src/: accurate low
-modes"). No solver makes the matrices mean more: one rounding unit per entry of ``K`` moves
-the low modes of a fine mesh by as much (`shape_ratio_floor`).
-
-What is done. Given Lanczos vectors ``X`` (n, q) of a block a few modes wider than wanted,
-one step of subspace (inverse) iteration ``Y = (K - sigma M)^-1 M X`` is taken with each solve
-improved by iterative refinement whose residual ``M X - (K - sigma M) Y`` is formed in extended
-precision (``numpy.longdouble``), followed by a Rayleigh-Ritz projection ``Y^T K Y``,
-``Y^T M Y`` also accumulated in extended precision. The refinement recovers the solve's lost
-digits (the double-precision LU is reused: no new factorization); the projection separates the
-wanted modes from their neighbours in the block. Where ``longdouble`` is no wider than
-``double`` (some platforms), the step still runs but gains little.
+On a fine bending mesh every solve with ``K`` and every product ``K phi`` loses about
+``log10(|K| |phi| / |K phi|)`` digits to cancellation, which the residual check cannot see.
+Given Lanczos vectors ``X`` of a block a few modes wider than wanted (`block_size`), one step of
+subspace iteration ``Y = (K - sigma M)^-1 M X`` is taken with each solve refined by a residual
+formed in extended precision (``numpy.longdouble``, the double-precision LU reused), then a
+Rayleigh-Ritz projection (`refine_modes`). No solver makes the matrices mean more: one rounding
+unit per entry of ``K`` moves the low modes of a fine mesh by as much (`shape_ratio_floor`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 
 from vibupdate.modal.factor import sparse_lu
 from vibupdate.modal.readings import ratio_derivatives
+from vibupdate.modal.rigid import unit
 
 
 #: Refinement sweeps per solve: a second sweep changes the modes by less than a converged
@@ -89,18 +84,12 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
                       seed: int = 0, basis: np.ndarray | None = None,
                       precision: float | None = None) -> tuple[float, float]:
     """How far rounding alone moves the shape ratios ``phi[entries] / phi[reference]`` of one
-    mode: the first-order change when every stored entry of ``K`` and ``M`` moves by one unit
-    of rounding (relative `numpy.finfo` eps, signs drawn from a generator seeded with ``seed``).
-    For matrices known only to a coarser ``precision`` (an export written with fewer digits),
-    the larger of that and the change when every entry of ``K`` and ``M`` is rounded once more
-    to the digits the precision stands for (`export_rounding`): what the export's rounding does,
-    entry by entry (an estimate, where one unit of ``precision`` per entry would bound it far
-    above what the exports show: docs/notes/eigen-solutions.md).
-
-    The achievable accuracy against which point shape data are checked
-    (`vibupdate.inverse.verify`): the pencil fixes its modes only to this level (module
-    docstring). One factorization of ``K - eigval M`` without the row and column of the
-    largest ``|phi|`` (Nelson's method).
+    mode, to first order: every stored entry of ``K`` and ``M`` moved by one rounding unit (signs
+    drawn with ``seed``), or for matrices known to a coarser ``precision`` the larger of that and
+    every entry rounded once more to its digits (`export_rounding`; an estimate, why:
+    docs/notes/eigen-solutions.md). The accuracy against which point shape data are checked
+    (`vibupdate.inverse.verify`); one factorization of ``K - eigval M`` without the row and
+    column of the largest ``|phi|`` (Nelson's method).
 
     Parameters
     ----------
@@ -127,7 +116,6 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
         Relative precision of the entries of ``K`` and ``M`` (a model's ``matrix_precision``);
         None: double precision.
 
-
     Returns
     -------
     rounding : float
@@ -137,16 +125,11 @@ def shape_ratio_floor(M, K, eigval: float, phi: np.ndarray, entries, reference,
         its residual ``K phi - eigval M phi`` calls for (a second right-hand side of the same
         solve): a dense solver is backward stable only in norm, not entry by entry.
     """
-    import scipy.sparse as sp
-
     Ms, Ks = sp.csr_matrix(M), sp.csr_matrix(K)
     phi = np.asarray(phi, dtype=float)
     n = phi.size
     rng = np.random.default_rng(seed)
-    from vibupdate.modal.rigid import unit
-
     eps = unit()
-
     # one rounding unit per stored entry, the signs within a row aligned (the componentwise
     # backward error of a stable solver), the rows' signs drawn: b_i = +-eps ((|K| + w^2 |M|) |phi|)_i.
     # Independent signs per entry cancel within a row and put the floor a factor
@@ -187,8 +170,6 @@ def export_rounding(A, precision: float):
     """``A`` (sparse) with every entry rounded to the significant digits a relative
     ``precision`` stands for, ``floor(1 - log10(2 precision))`` (10 for 5e-10): the rounding a
     text export of that precision applies, drawn afresh."""
-    import scipy.sparse as sp
-
     digits = max(1, int(np.floor(1.0 - np.log10(2.0 * precision) + 1e-9)))
     out = sp.csr_matrix(A, dtype=float, copy=True)
     x = out.data

@@ -1,14 +1,10 @@
-"""The affine form of a parametric model in normalized parameters (paper Eqs. 12-15).
+"""The affine form of a parametric model in normalized parameters, paper Eqs. 12-15 (the form and
+its checks: docs/method.md, section 2):
 
-    M(xbar) = M0 + sum_i xbar_i M_i,      K(xbar) = K0 + sum_i xbar_i K_i
+    M(xbar) = M0 + sum_i xbar_i M_i,      K(xbar) = K0 + sum_i xbar_i K_i,      M_i = (dM/dp_i) p_ref,i
 
-with ``M_i = (dM/dp_i) p_ref,i`` (Eq. 13-14). For a model given as a builder function the
-parameter matrices come from the complex-step derivative (Eq. 15),
-
-    dM/dp_i = Im(M(p0 + j h e_i)) / h,
-
-exact to rounding for any small ``h`` because no difference is taken; an `Assembly` of linear
-expressions is assembled directly instead (`affine_from_assembly`).
+the parameter matrices of a builder function by complex step (Eq. 15, `affine_from_builder`),
+those of an `Assembly` of linear expressions assembled directly (`affine_from_assembly`).
 """
 
 from __future__ import annotations
@@ -21,16 +17,14 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from vibupdate.model.assembly import Assembly, System, dof_index
+from vibupdate.model.assembly import Assembly, NamedDofs, System
 from vibupdate.model.parameters import Parameter, normalized_bounds, to_normalized, to_physical
 
 
 Builder = Callable[[dict], "System | tuple"]
 
-#: Largest size of the two dense parameter stacks of `AffineModel.dense_stacks` (bytes): a
-#: chosen cap, so that a small model with very many parameters keeps the sparse path. It
-#: assumes that up to this size the stacks cost less memory than the dense eigen-solves they
-#: serve need anyway (400 DOFs, 48 parameters: 125 MB).
+#: Largest size of the two dense parameter stacks of `AffineModel.dense_stacks` (bytes), so that a
+#: small model with very many parameters keeps the sparse path (400 DOFs, 48 parameters: 125 MB).
 DENSE_STACK_BYTES = 128 * 2**20
 
 #: Measurement maps an `AffineModel` keeps (`AffineModel.measurement`): more lists of names
@@ -40,7 +34,7 @@ MEASUREMENTS_KEPT = 256
 
 
 @dataclass(frozen=True)
-class AffineModel:
+class AffineModel(NamedDofs):
     """Affine parametric model, Eqs. 12-14.
 
     Attributes
@@ -87,26 +81,6 @@ class AffineModel:
     def parameter_names(self) -> tuple[str, ...]:
         """The parameters' names, in the order of ``xbar``."""
         return tuple(p.name for p in self.parameters)
-
-    def dof(self, name: str) -> int:
-        """Index of a named DOF.
-
-        Parameters
-        ----------
-        name : str
-            A name of ``dofs``.
-
-        Returns
-        -------
-        int
-            Its row in the matrices (0-based).
-
-        Raises
-        ------
-        ValueError
-            ``name`` is not a DOF of the model (the message lists some that are).
-        """
-        return dof_index(self.dofs, name)
 
     def measures(self, name: str) -> bool:
         """Whether ``name`` is a DOF or a sensor of the model.
@@ -226,10 +200,14 @@ class AffineModel:
         """
         if xbar is None:
             return self.M0, self.K0
-        xbar = np.asarray(xbar, dtype=float)
+        xbar = self._point(xbar)
+        return tuple(self._combine(stacked, xbar) for stacked in self._stacked)
+
+    def _point(self, xbar) -> np.ndarray:
+        xbar = np.zeros(self.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
         if xbar.shape != (self.n_parameters,):
             raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
-        return self._combine(self._stacked_M, xbar), self._combine(self._stacked_K, xbar)
+        return xbar
 
     def solver_matrices(self, xbar=None) -> tuple:
         """``M(xbar)``, ``K(xbar)`` in the form the solvers take.
@@ -256,9 +234,7 @@ class AffineModel:
         stacks = self.dense_stacks
         if stacks is None:
             return self.matrices(xbar)
-        xbar = np.zeros(self.n_parameters) if xbar is None else np.asarray(xbar, dtype=float)
-        if xbar.shape != (self.n_parameters,):
-            raise ValueError(f"xbar must have shape ({self.n_parameters},), got {xbar.shape}")
+        xbar = self._point(xbar)
         key = xbar.tobytes()
         kept = self._last_point.get("point")
         if kept is not None and kept[0] == key:
@@ -285,11 +261,9 @@ class AffineModel:
         """The matrices stacked as one dense read-only array, on a small model.
 
         Shape (2, 1 + n_x, n, n): ``[0]`` is ``(M0, M_1, ..., M_nx)``, ``[1]`` is
-        ``(K0, K_1, ...)`` (so ``M_stack, K_stack = model.dense_stacks`` unpacks them), for a
-        model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose two stacks fit in
-        `DENSE_STACK_BYTES`; None otherwise (the sparse path). On such a model
-        the solvers work on dense matrices anyway, and a product with every parameter matrix at
-        once is one array operation instead of ``2 n_x`` sparse products."""
+        ``(K0, K_1, ...)``, for a model of at most `vibupdate.modal.eigen.DENSE_LIMIT` DOFs whose
+        two stacks fit in `DENSE_STACK_BYTES`; None otherwise (the sparse path; why:
+        docs/notes/eigen-solutions.md, "Small models: dense parameter stacks")."""
         from vibupdate.modal.eigen import DENSE_LIMIT
 
         n = self.n_dofs
@@ -348,12 +322,8 @@ class AffineModel:
         return sp.csr_matrix((base + per_parameter @ xbar, indices, indptr), shape=shape)
 
     @cached_property
-    def _stacked_M(self):
-        return _stack_on_union(self.M0, self.M_par)
-
-    @cached_property
-    def _stacked_K(self):
-        return _stack_on_union(self.K0, self.K_par)
+    def _stacked(self):
+        return _stack_on_union(self.M0, self.M_par), _stack_on_union(self.K0, self.K_par)
 
     @cached_property
     def fingerprint(self) -> str:
@@ -604,6 +574,11 @@ def _second_point(p: Parameter) -> float | None:
     return None
 
 
+def _moved(parameters) -> dict:
+    """Every parameter that is not fixed at its `_second_point`."""
+    return {p.name: v for p in parameters if (v := _second_point(p)) is not None}
+
+
 def _affine_mismatch(builder, model: AffineModel, values: dict) -> tuple[float, str]:
     out = _as_system(builder(dict(values)), model.dofs)
     xbar = model.normalized([values[p.name] for p in model.parameters])
@@ -645,7 +620,7 @@ def check_affine(builder: Builder, model: AffineModel) -> None:
                 "change. Reparametrize so that M and K are affine in each parameter "
                 "(e.g. update E*I rather than a thickness)."
             )
-    moved = {p.name: v for p in model.parameters if (v := _second_point(p)) is not None}
+    moved = _moved(model.parameters)
     if len(moved) > 1:
         ratio, which = _affine_mismatch(builder, model, {**nominal, **moved})
         if ratio > 1.0:
@@ -690,9 +665,7 @@ def affine_from_builder(builder: Builder, parameters: Sequence[Parameter], *, do
     """
     parameters = tuple(parameters)
     check_parameter_names(parameters)
-    nominal, M_par, K_par = complex_step_jacobians(builder, parameters, dofs)
-    check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
-    model = AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
+    model = _checked(parameters, *complex_step_jacobians(builder, parameters, dofs))
     if check:
         check_affine(builder, model)
     return model
@@ -703,10 +676,8 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
     """Affine form of an `Assembly` whose properties and lumped values are `LinearExpression` s
     of the parameters, assembled directly (`Assembly.affine_parts`), without complex step.
 
-    Every element matrix is linear in its properties, so the model is affine by construction
-    and ``M_i``, ``K_i`` (Eqs. 13-14) are exact (`Assembly.affine_parts`). With ``check`` one
-    safety check remains: the assembly with every parameter moved inside its bounds
-    (`Assembly.system`) must equal the affine prediction.
+    The model is affine by construction; with ``check`` the assembly with every parameter moved
+    inside its bounds (`Assembly.system`) must equal the affine prediction.
 
     Parameters
     ----------
@@ -719,10 +690,8 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
     """
     parameters = tuple(parameters)
     check_parameter_names(parameters)
-    nominal, M_par, K_par = assembly.affine_parts(parameters)
-    check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
-    model = AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
-    moved = {p.name: v for p in parameters if (v := _second_point(p)) is not None}
+    model = _checked(parameters, *assembly.affine_parts(parameters))
+    moved = _moved(parameters)
     if check and moved:
         values = {**{p.name: p.nominal for p in parameters}, **moved}
         ratio, which = _affine_mismatch(assembly.system, model, values)
@@ -732,6 +701,12 @@ def affine_from_assembly(assembly: Assembly, parameters: Sequence[Parameter], *,
                 f"change when {', '.join(moved)} move together; this is an error in vibupdate, please report it"
             )
     return model
+
+
+def _checked(parameters: tuple, nominal: System, M_par, K_par) -> AffineModel:
+    """The affine model of checked nominal matrices (`check_matrices`) and parameter matrices."""
+    check_matrices(nominal.M, nominal.K, nominal.dofs, what="nominal model")
+    return AffineModel(parameters, nominal.dofs, nominal.M, nominal.K, tuple(M_par), tuple(K_par))
 
 
 def check_parameter_names(parameters: Sequence[Parameter]) -> None:

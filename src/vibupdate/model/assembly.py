@@ -27,24 +27,13 @@ from vibupdate.model.parameters import Parameter
 _KINDS = {"beam": ("y", "phi"), "frame": ("x", "y", "phi")}
 
 
-@dataclass(frozen=True)
-class System:
-    """Mass and stiffness matrices of a model with named DOFs.
+class NamedDofs:
+    """A model whose DOFs are named: ``dofs``, the names in the order of the matrices' rows."""
 
-    Attributes
-    ----------
-    M, K : scipy.sparse.csr_matrix, shape (n, n)
-        Mass (kg, kg m, kg m^2) and stiffness (N/m, N, N m/rad) matrices.
-    dofs : tuple of str, length n
-        DOF names in matrix order.
-    """
-
-    M: sp.csr_matrix
-    K: sp.csr_matrix
     dofs: tuple[str, ...]
 
     def dof(self, name: str) -> int:
-        """Position (0-based) of the DOF called ``name``, as `AffineModel.dof`.
+        """Position (0-based) of the DOF called ``name``: its row in the matrices.
 
         Parameters
         ----------
@@ -59,9 +48,26 @@ class System:
         Raises
         ------
         ValueError
-            ``name`` is not a DOF of the system.
+            ``name`` is not a DOF of the model (the message lists some that are).
         """
         return dof_index(self.dofs, name)
+
+
+@dataclass(frozen=True)
+class System(NamedDofs):
+    """Mass and stiffness matrices of a model with named DOFs.
+
+    Attributes
+    ----------
+    M, K : scipy.sparse.csr_matrix, shape (n, n)
+        Mass (kg, kg m, kg m^2) and stiffness (N/m, N, N m/rad) matrices.
+    dofs : tuple of str, length n
+        DOF names in matrix order.
+    """
+
+    M: sp.csr_matrix
+    K: sp.csr_matrix
+    dofs: tuple[str, ...]
 
 
 def dof_index(dofs: Sequence[str], name: str) -> int:
@@ -281,14 +287,7 @@ class Assembly:
         ValueError
             The assembly is a frame, a node does not exist, or a property is not a number.
         """
-        if self.kind != "beam":
-            raise ValueError("beam() needs a beam assembly; use frame() in a frame assembly")
-        idx = self._element_dofs(first, second)
-        dx, _ = self._deltas(first, second)
-        n = idx.shape[0]
-        props = (_property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"),
-                 _property(rotary_inertia, n, "rotary_inertia"))
-        self._elements.append(_Batch("beam", idx, props, (np.abs(dx),)))
+        self._add("beam", first, second, EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
 
     def frame(self, n1, n2, *, EA, EI, mass_per_length, rotary_inertia=0.0) -> None:
         """Planar frame element (axial + bending) between two nodes of a frame assembly.
@@ -338,14 +337,17 @@ class Assembly:
         ValueError
             The assembly is a beam, a node does not exist, or a property is not a number.
         """
-        if self.kind != "frame":
-            raise ValueError("frame() needs a frame assembly; use beam() in a beam assembly")
+        self._add("frame", first, second, EA=EA, EI=EI, mass_per_length=mass_per_length, rotary_inertia=rotary_inertia)
+
+    def _add(self, kind: str, first: Sequence, second: Sequence, **properties) -> None:
+        """A batch of elements of ``kind``, their ``properties`` in the order of the element function."""
+        if self.kind != kind:
+            other = "frame" if kind == "beam" else "beam"
+            raise ValueError(f"{kind}() needs a {kind} assembly; use {other}() in a {other} assembly")
         idx = self._element_dofs(first, second)
         dx, dy = self._deltas(first, second)
-        n = idx.shape[0]
-        props = (_property(EA, n, "EA"), _property(EI, n, "EI"), _property(mass_per_length, n, "mass_per_length"),
-                 _property(rotary_inertia, n, "rotary_inertia"))
-        self._elements.append(_Batch("frame", idx, props, (dx, dy)))
+        props = tuple(_property(value, idx.shape[0], what) for what, value in properties.items())
+        self._elements.append(_Batch(kind, idx, props, (np.abs(dx),) if kind == "beam" else (dx, dy)))
 
     def mass(self, dof: str, value) -> None:
         """Add a lumped mass on a translational DOF or a rotary inertia on a rotation.
@@ -390,11 +392,11 @@ class Assembly:
             self._lumped.append(_Lumped("K", idx, _LINK, value))
 
     # -- result -------------------------------------------------------------------------
-    def _parts(self, batches, lumped, value):
-        """Stiffness and mass COO triplets of element ``batches`` and ``lumped`` items, every
-        property or lumped value mapped by ``value(prop)`` to a number (one for the batch) or
-        an array (n_e,); the elements of one kind are evaluated together by the batched
-        element functions."""
+    def _matrices(self, batches, lumped, value, position: np.ndarray, n_free: int):
+        """``M``, ``K`` over the free DOFs (``position`` from `_free_map`) of element ``batches``
+        and ``lumped`` items, every property or lumped value mapped by ``value(prop)`` to a
+        number (one for the batch) or an array (n_e,); the elements of one kind are evaluated
+        together by the batched element functions."""
         parts = {"K": [], "M": []}
         for kind in ("beam", "frame"):
             chosen = [b for b in batches if b.kind == kind]
@@ -416,7 +418,7 @@ class Assembly:
             d = item.idx.size
             parts[item.matrix].append((np.repeat(item.idx, d), np.tile(item.idx, d),
                                        item.pattern * value(item.value)))
-        return parts["K"], parts["M"]
+        return self._matrix(parts["M"], position, n_free), self._matrix(parts["K"], position, n_free)
 
     def _free_map(self) -> tuple[np.ndarray, np.ndarray]:
         """Position of every DOF among the free ones (-1 where fixed), shape (n_all,), and the
@@ -483,22 +485,15 @@ class Assembly:
             return prop(values) if isinstance(prop, LinearExpression) else prop
 
         position, free = self._free_map()
-        k_parts, m_parts = self._parts(self._elements, self._lumped, value)
-        M = self._matrix(m_parts, position, free.size)
-        K = self._matrix(k_parts, position, free.size)
+        M, K = self._matrices(self._elements, self._lumped, value, position, free.size)
         return System(M, K, tuple(np.array(self._dofs, dtype=object)[free]))
 
     def affine_parts(self, parameters: Sequence[Parameter]):
         """Nominal and normalized parameter matrices of the assembly (Eqs. 13-14).
 
-        The properties that are `LinearExpression` s are assembled directly.
-
-        Every element matrix is linear in its properties, so ``dK/dp_i`` is the assembly of
-        only the elements (and lumped values) whose expressions involve ``p_i``, with each
-        property set to its coefficient of ``p_i`` (0 where it does not involve ``p_i``);
-        ``K_i = dK/dp_i p_ref,i`` likewise for ``M``. Each element is evaluated once at the
-        nominal point and once per parameter its properties involve, so the work grows with
-        the DOFs, not with parameters x DOFs.
+        ``dK/dp_i`` is the assembly of the elements and lumped values whose expressions involve
+        ``p_i``, each property set to its coefficient of ``p_i`` (docs/notes/model-build.md,
+        "The elements model: the mechanism in full"); likewise ``dM/dp_i``.
 
         Parameters
         ----------
@@ -533,9 +528,9 @@ class Assembly:
             def value(prop, name=p.name, scale=p.reference):
                 return prop.coefficient(name) * scale if isinstance(prop, LinearExpression) else 0.0
 
-            k_parts, m_parts = self._parts(*touching[p.name], value)
-            M_par.append(self._matrix(m_parts, position, free.size))
-            K_par.append(self._matrix(k_parts, position, free.size))
+            M, K = self._matrices(*touching[p.name], value, position, free.size)
+            M_par.append(M)
+            K_par.append(K)
         return nominal, M_par, K_par
 
 

@@ -1,18 +1,13 @@
-"""Building a parametric model: from a builder function or from exported matrix files.
+"""Building a parametric model: four routes to the same `AffineModel` (docs/method.md, sections 1
+and 2; docs/fe-models.md):
 
-Three ways lead to the same `AffineModel`:
-
-* `from_builder` — a Python function ``params -> System | (M, K)`` (the built-in elements of
-  `vibupdate.model.assembly` or the user's own code), differentiated by complex step;
-* `from_assembly` — an `Assembly` whose properties and lumped values are
-  `vibupdate.model.expressions.LinearExpression` s of the parameters (the elements model of a
-  case file), assembled directly into the affine form, each element once per parameter it
-  depends on;
+* `from_builder` — a Python function ``params -> System | (M, K)``, differentiated by complex step;
+* `from_assembly` — an `Assembly` of `vibupdate.model.expressions.LinearExpression` properties and
+  lumped values, assembled directly into the affine form;
 * `from_files` — nominal ``M0``, ``K0`` and per-parameter ``dM/dp``, ``dK/dp`` in Matrix Market
   (``.mtx``) or ``.npz`` files, the form exported by ANSYS, Abaqus or Nastran DMAP;
-* `from_elements` — every element's matrices (`vibupdate.model.element_groups.element_matrices`,
-  or Abaqus element matrix output read by `vibupdate.model.fe.abaqus_elements`), each parameter
-  scaling a group of elements, its parameter matrices the group's assembled matrices.
+* `vibupdate.model.element_groups.affine_from_elements` — every element's matrices, each parameter
+  scaling a group of elements.
 """
 
 from __future__ import annotations
@@ -103,12 +98,11 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
         if unknown:
             raise ValueError(f"{label} names unknown parameters: {', '.join(unknown)}")
 
-    def read(item, label):
-        A = item if sp.issparse(item) or isinstance(item, np.ndarray) else load_matrix(item)
-        return sp.csr_matrix(A, dtype=float), label
+    def read(item):
+        return sp.csr_matrix(item if sp.issparse(item) or isinstance(item, np.ndarray) else load_matrix(item),
+                             dtype=float)
 
-    M, _ = read(M0, "M0")
-    K, _ = read(K0, "K0")
+    M, K = read(M0), read(K0)
     names = tuple(dofs) if dofs is not None else tuple(f"q{i + 1}" for i in range(M.shape[0]))
     check_matrices(M, K, names, what="matrix files M0/K0", precision=matrix_precision)
     n = M.shape[0]
@@ -116,19 +110,11 @@ def from_files(M0, K0, parameters: Sequence[Parameter], *, dM: Mapping | None = 
     for p in parameters:
         if p.name not in dM and p.name not in dK:
             raise ValueError(f"parameter '{p.name}' has neither a dM nor a dK matrix")
-        pair = []
-        for label, mapping in (("dM", dM), ("dK", dK)):
-            if p.name in mapping:
-                A, _ = read(mapping[p.name], label)
-                if A.shape != (n, n):
-                    raise ValueError(
-                        f"{label} of parameter '{p.name}' has shape {A.shape}, expected ({n}, {n}) like M0"
-                    )
-                if symmetric_error(A) > 1e-9:
-                    raise ValueError(f"{label} of parameter '{p.name}' is not symmetric")
-                pair.append(sp.csr_matrix(A * p.reference))
-            else:
-                pair.append(sp.csr_matrix((n, n)))
-        M_par.append(pair[0])
-        K_par.append(pair[1])
+        for label, mapping, out in (("dM", dM, M_par), ("dK", dK, K_par)):
+            A = read(mapping[p.name]) if p.name in mapping else sp.csr_matrix((n, n))
+            if A.shape != (n, n):
+                raise ValueError(f"{label} of parameter '{p.name}' has shape {A.shape}, expected ({n}, {n}) like M0")
+            if symmetric_error(A) > 1e-9:
+                raise ValueError(f"{label} of parameter '{p.name}' is not symmetric")
+            out.append(sp.csr_matrix(A * p.reference))
     return AffineModel(parameters, names, M, K, tuple(M_par), tuple(K_par), matrix_precision)

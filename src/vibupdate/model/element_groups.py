@@ -1,21 +1,12 @@
-"""A model given element by element, its parameters scaling groups of elements.
-
-An FE code can write each element's stiffness and mass matrix with the element's DOFs (Abaqus
-``*ELEMENT MATRIX OUTPUT``, `vibupdate.model.fe.abaqus_elements`), or a user can keep one
-matrix file per element. The model is then
+"""A model given element by element, its parameters scaling groups of elements (the route as the
+user reads it: docs/fe-models.md, "Element groups").
 
     K(p) = sum_e s_e(p) K_e,      M(p) = sum_e t_e(p) M_e
 
-where ``K_e``, ``M_e`` are the element matrices at the nominal parameters and ``s_e`` is 1 for an
-element no parameter scales and ``p_i / p0_i`` for an element of the group parameter ``i``
-scales (a modulus scales the stiffness, a density the mass). The model is affine by
-construction and its parameter matrices (Eqs. 13-14) are the group's assembled matrices,
-
-    K_i = dK/dp_i p_ref,i = (p_ref,i / p0_i) sum_{e in group i} K_e,
-
-formed once, sparse: every element's entries are laid out once as triplets (row, column,
-value, element) and each matrix is the sum of the triplets of its elements
-(`scipy.sparse.coo_matrix` adds the duplicates), so no Python loop runs over matrix entries.
+with ``K_e``, ``M_e`` the element matrices at the nominal parameters and ``s_e`` 1, or ``p_i / p0_i``
+for an element of the group parameter ``i`` scales, so that ``K_i = (p_ref,i / p0_i) sum_{e in
+group i} K_e`` (Eqs. 13-14), formed once: every element's entries are laid out once as triplets
+(row, column, value, element) and each matrix is the sum of its elements' triplets.
 """
 
 from __future__ import annotations

@@ -1,13 +1,10 @@
-"""Sensors that read linear combinations of a model's DOFs, and the measurement map (the rules
-as the user reads them: docs/sensors.md).
+"""Sensors that read linear combinations of a model's DOFs, and the measurement map (the rules as
+the user reads them: docs/sensors.md).
 
-A sensor reads ``y = w^T u``, a weight ``w_d`` on each DOF it sees; on a rigid body at offset
-``r`` along ``n`` the weights are ``n`` on the translations and ``r x n`` on the rotations
-(`rigid_weights`). A sensor is data, not a DOF: the model is not transformed. The measurement
-map of a list of names is the sparse ``S`` whose row is a sensor's weights or a DOF's unit row
-(`measurement_rows`); everything that compares a model vector with measured entries goes
-through it. `dof_box` gives the box on DOFs that sensor intervals imply (an outer bound, exact
-for plain DOFs), which the first stage's formulation bounds.
+A sensor reads ``y = w^T u``, a weight ``w_d`` on each DOF it sees (on a rigid body:
+`rigid_weights`); it is data, not a DOF, and the model is not transformed. Everything that
+compares a model vector with measured entries goes through the measurement map of a list of
+names (`measurement_rows`); `dof_box` gives the box on DOFs that sensor intervals imply.
 """
 
 from __future__ import annotations
@@ -157,15 +154,12 @@ def measurement_rows(dofs: Sequence[str], sensors: Sequence[Sensor], names: Sequ
 
 
 def dof_box(S: sp.csr_matrix, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The box on DOF entries that intervals on the readings ``S u`` imply.
+    """The box on DOF entries that intervals on the readings ``S u`` imply (docs/sensors.md).
 
-    A DOF ``i`` is bounded where some combination ``c`` of the readings gives it exactly,
-    ``c^T S = e_i^T``; then ``u_i = c^T y`` lies in ``c^T y_mid +- |c|^T y_half``. The
-    combination taken is the least-squares one, ``c = (S^+)^T e_i`` (a valid bound, not always
-    the tightest), group by group of readings that share DOFs: a plain DOF's reading is a group
-    of one (``c = 1 / w``, the interval itself), a rigid floor's four sensors one of four
-    readings on three DOFs. DOFs no combination of the readings gives are not bounded. Dense
-    work only within a group.
+    A DOF ``i`` that the least-squares combination ``c = (S^+)^T e_i`` of the readings gives
+    exactly lies in ``c^T y_mid +- |c|^T y_half``; ``S^+`` is formed group by group of readings
+    that share DOFs (a plain DOF's reading is a group of one: its own interval). DOFs no
+    combination of the readings gives are not bounded.
 
     Parameters
     ----------

@@ -1,12 +1,6 @@
-"""Updating parameters and their normalization (paper Section 3.2, Eq. 12).
-
-A parameter ``p`` is updated through its dimensionless modification
-
-    xbar = (p - p0) / p_ref
-
-where ``p0`` is the nominal value and ``p_ref`` the reference value: the nominal itself, or,
-when the nominal is zero (a rotary inertia that the nominal model leaves out), a value the
-user chooses inside the bounds. ``xbar = 0`` is the nominal model.
+"""Updating parameters and their normalization, paper Section 3.2, Eq. 12 (docs/method.md, section
+2): ``xbar = (p - p0) / p_ref``, ``p0`` the nominal value and ``p_ref`` the nominal, or a value the
+user chooses inside the bounds when the nominal is zero; ``xbar = 0`` is the nominal model.
 """
 
 from __future__ import annotations

@@ -2,15 +2,13 @@
 rigid-body modes, at the nominal point and over the parameter box (the rule as a user reads it:
 docs/case-file.md, "Mass and stiffness").
 
-``M`` must be positive definite, or semidefinite with massless DOFs on which ``K`` is positive
-definite; ``K`` positive semidefinite, its candidates for rigid-body modes (eigenvalues below
-``RIGID_TOL * lam_ref``, ``lam_ref = max_i K_ii / M_ii`` over the DOFs with mass) counted rigid
-when zero within the rounding of their own mode (`vibupdate.modal.rigid`), refused when
-negative beyond it. Eigenvalues below ``t`` are counted by Sylvester's law of inertia on
-``K - t M``: dense symmetric eigenvalues up to `DENSE_LIMIT` DOFs, above that the pivot signs of
-a sparse symmetric ``L D L^T`` (no dense ``n x n`` array). ``M(xbar)``, ``K(xbar)`` being affine,
-the box is admissible when its corners are (`box_corners`); a box reaching beyond the admissible
-region gets bounds inside it (`physical_box`) and a warning.
+Eigenvalues below ``t`` are counted by Sylvester's law of inertia on ``K - t M``
+(`count_below`: dense eigenvalues up to `DENSE_LIMIT` DOFs, above that the pivot signs of a
+sparse symmetric ``L D L^T``). The candidates for rigid-body modes, eigenvalues below
+``RIGID_TOL * lam_ref`` (``lam_ref = max_i K_ii / M_ii`` over the DOFs with mass), are counted
+rigid when zero within the rounding of their own mode (`vibupdate.modal.rigid`). ``M(xbar)``,
+``K(xbar)`` being affine, the box is admissible when its corners are (`box_corners`); a box
+reaching beyond the admissible region gets bounds inside it (`physical_box`) and a warning.
 """
 
 from __future__ import annotations
@@ -332,11 +330,11 @@ def physical_box(model, rigid: int, describe) -> PhysicalBox:
     lower, upper = (np.array(b, dtype=float) for b in model.bounds())
     x0 = np.zeros(lower.size)
     findings = []
-    bad_corners = [(up, x) for up, x in box_corners(lower, upper) if _admissible(model, x, rigid) is not None]
+    bad_corners = [(up, why) for up, x in box_corners(lower, upper)
+                   if (why := _admissible(model, x, rigid)) is not None]
     if not bad_corners:
         return PhysicalBox(lower, upper, ())
-    up0, x_bad = bad_corners[0]
-    findings.append(f"at the corner with {describe(up0)}: {_admissible(model, x_bad, rigid)}")
+    findings.append(f"at the corner with {describe(bad_corners[0][0])}: {bad_corners[0][1]}")
     for i, p in enumerate(model.parameters):
         for side, bounds in (("lower", lower), ("upper", upper)):
             if bounds[i] == 0.0:

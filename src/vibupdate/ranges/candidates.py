@@ -1,32 +1,13 @@
-"""Which parameters to update: the smallest sets of candidates that let the data fit.
+"""Which parameters to update: the smallest sets of candidates that let the data fit (the rule as
+the user reads it: docs/polish-and-verification.md, 7.9).
 
-A model that ends ``not_verified`` may lack a parameter rather than hold a wrong datum: a
-beam without the rotary inertia of its section, a support taken as rigid, a sensor's mass
-left out. The case lists what might be missing as candidates (``[[candidate]]``, held at
-their nominal values in a run); this module tries them:
-
-1. **Screen.** For each set of candidates, smallest first (all sets of one candidate, then
-   of two, ...), the model with the case's own parameters and the set free is fitted from
-   the nominal point by the polish (bounded least squares of the admissible data, as the
-   update fits them: `vibupdate.inverse.admissible`) and the fitted model verified against the
-   data (every check but ``consistency``, which needs a relaxation of its own). The search
-   stops after the smallest size at which some set passes, or at `MAX_SETS` sets or
-   `MAX_SECONDS` (the sets left untried are counted).
-2. **Rank.** Sets that pass come first, then smaller sets, then sets whose parameters the
-   data determine (a sensitivity of full rank: `vibupdate.inverse.correlation.sensitivity`)
-   before those with an undetermined combination, then by the polish objective (the misfit).
-   Objectives within `TIE_RTOL` of each other are ties: the data cannot tell those sets apart
-   (e.g. a stiffness and a density that the frequencies see only through their ratio, but for
-   a small lumped mass or spring); a tie is ordered as the candidates are declared (the
-   engineer's order of likelihood, never the data's) and each trial names the sets it ties
-   with.
-3. **Check.** The top `CHECKED` sets are updated in full (`vibupdate.inverse.update.update`,
-   the case's options) and their linearized ranges computed at a verified answer
-   (`vibupdate.ranges.identifiability.parameter_ranges`): a set is *suggested* only when its
-   full update is ``success``. Checked sets come first in the final order, verified ones
-   before the others.
-
-Cost: one polish and one verification per set screened, one update per set checked.
+A model that ends ``not_verified`` may lack a parameter rather than hold a wrong datum. The
+case lists what might be missing as candidates (``[[candidate]]``, held at their nominal values
+in a run); `suggest_sets` screens every set of them, smallest first, by a polish and a
+verification (`_screen`), up to `MAX_SETS` sets or `MAX_SECONDS`; ranks them (`_ranked`: passed,
+smaller, determined, then by objective, ties within `TIE_RTOL` in declaration order); and updates
+the top `CHECKED` in full (`_full_update`): a set is *suggested* only when that update is
+``success``. Cost: one polish and one verification per set screened, one update per set checked.
 """
 
 from __future__ import annotations
@@ -210,27 +191,19 @@ def configurations_with(pool: Sequence[Configuration], free: Sequence[str]) -> l
     return [replace(c, model=restricted(c.model, free)) for c in pool]
 
 
-def _frequency_errors(configurations, freqs) -> dict:
-    """Mean and max relative error (per cent) of the declared modes (``natural_*``) and of the
-    zeros (``antiresonance_*``, NaN without any)."""
-    out = {}
-    for kind, errors in declared_errors(configurations, freqs).items():
-        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(errors)
-    return out
+def _frequency_errors(by_kind: dict) -> dict:
+    """Mean and max of the relative errors (per cent) of each kind, ``natural`` (the declared
+    modes) and ``antiresonance`` (NaN without any): ``natural_mean_pct``, ``natural_max_pct``, ..."""
+    return {f"{kind}_{what}_pct": value for kind, errors in by_kind.items()
+            for what, value in zip(("mean", "max"), mean_max(errors))}
 
 
-def _row_errors(correlation) -> dict:
-    """`_frequency_errors` of an answer's `vibupdate.inverse.correlation.Correlation`."""
-    out = {}
-    for kind in ("natural", "antiresonance"):
-        out[f"{kind}_mean_pct"], out[f"{kind}_max_pct"] = mean_max(correlation.errors(kind))
-    return out
-
-
-def _screen(configurations, start, polish: PolishOptions, verification: VerifyOptions):
-    """Polish ``configurations`` from ``start`` and verify the answer (module docstring, step 1).
-    Returns the answer, its objective, the failed checks, the frequency errors, the rank and
-    condition of the sensitivity."""
+def _screen(configurations, start: dict, polish: PolishOptions, verification: VerifyOptions):
+    """Polish ``configurations`` from ``start`` (normalized values by name, 0 where not given)
+    and verify the answer (the screening, module docstring). Returns the answer, its objective,
+    the failed checks, the frequency errors, the rank and condition of the sensitivity."""
+    model = configurations[0].model
+    start = np.clip(np.array([float(start.get(n, 0.0)) for n in model.parameter_names]), *model.bounds())
     nominal = [model_frequencies(c) for c in configurations]
     contract = Admissible.of(configurations, verification)
     polished = run_polish(configurations, start, replace(polish, enabled=True), contract=contract)   # as update
@@ -240,8 +213,8 @@ def _screen(configurations, start, polish: PolishOptions, verification: VerifyOp
                     options=verification, contract=contract)
     failed = tuple(c.name for c in checks if c.severity == "error" and not c.passed)
     s = sensitivity(configurations, x, freqs=updated)
-    return x, float(polished.cost), failed, _frequency_errors(configurations, updated), int(s.rank), \
-        float(s.condition)
+    errors = _frequency_errors(declared_errors(configurations, updated))
+    return x, float(polished.cost), failed, errors, int(s.rank), float(s.condition)
 
 
 def _rank_key(trial: SetTrial) -> tuple:
@@ -270,7 +243,7 @@ def _ranked(trials: list[SetTrial]) -> list[SetTrial]:
 
 
 def _full_update(configurations, names, options: dict, frequency_tolerance: float, say) -> dict:
-    """The full update of one set (module docstring, step 3), as a plain record."""
+    """The full update of one set (the check, module docstring), as a plain record."""
     from vibupdate.ranges.identifiability import parameter_ranges
 
     t0 = time.perf_counter()
@@ -280,7 +253,7 @@ def _full_update(configurations, names, options: dict, frequency_tolerance: floa
     record = {"status": result.status.value, "success": bool(result.success), "message": result.message,
               "values": {p.name: float(v) for p, v in zip(result.parameters, result.values)},
               "units": {p.name: p.unit for p in result.parameters},
-              **_row_errors(result.correlation),
+              **_frequency_errors({kind: result.correlation.errors(kind) for kind in ("natural", "antiresonance")}),
               "failed": failed, "limited_by": fit.as_dict().get("limited_by") if fit is not None else None,
               "range_pct": None}
     if result.success:   # the ranges mean something only at a verified answer
@@ -383,21 +356,13 @@ def suggest_sets(pool: Sequence[Configuration], own: Sequence[str], candidates: 
     return suggestion
 
 
-def _start(configurations, start: dict) -> np.ndarray:
-    """The normalized start point: ``start``'s values where given, else 0 (nominal)."""
-    names = configurations[0].model.parameter_names
-    lo, hi = configurations[0].model.bounds()
-    return np.clip(np.array([float(start.get(n, 0.0)) for n in names]), lo, hi)
-
-
 def _trial(pool, own, names, start, polish, verification, order, say) -> SetTrial | None:
     """Screen one set; None (said) when its fit fails."""
     t0 = time.perf_counter()
     configurations = configurations_with(pool, own + names)
     label = " + ".join(names)
     try:
-        x, objective, failed, errors, rank, condition = _screen(configurations, _start(configurations, start),
-                                                                polish, verification)
+        x, objective, failed, errors, rank, condition = _screen(configurations, start, polish, verification)
     except (ValueError, np.linalg.LinAlgError) as exc:
         say(f"suggest: with {label}: the fit failed ({exc}); left out of the ranking")
         return None
@@ -418,8 +383,7 @@ def _nominal(pool, own, start, polish, verification) -> dict:
         return {}
     configurations = configurations_with(pool, own)
     try:
-        _, objective, failed, errors, _, _ = _screen(configurations, _start(configurations, start), polish,
-                                                     verification)
+        _, objective, failed, errors, _, _ = _screen(configurations, start, polish, verification)
     except (ValueError, np.linalg.LinAlgError):
         return {}
     return {"objective": objective, "passed": not failed, "failed": list(failed), **errors}

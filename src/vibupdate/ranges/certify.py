@@ -1,38 +1,16 @@
-"""Certified outer bounds of the parameters over the consistent set S.
+"""Certified outer bounds of the parameters over the consistent set S (the rules as the user reads
+them: docs/polish-and-verification.md, 7.4; in full: docs/notes/ranges.md, "Certified ranges:
+the relaxation and its narrowing in full").
 
-S is stated in `vibupdate.ranges.consistent`; `vibupdate.ranges.lp_relaxation` relaxes it to a linear
-program (McCormick envelopes of the lifted products, Eq. 19) on boxes of the parameters and
-vector entries, and bounds any linear objective over it safely (a Lagrangian bound from the
-solver's multipliers, valid although the solver is inexact). Here the minimum and maximum of
-each parameter over the relaxation bound it over S. Three steps narrow that enclosure, for as
-long as the time budget allows:
-
-1. the root ranges: two LPs per parameter over all blocks, on the first stage's boxes;
-2. optimality-based bound tightening (OBBT) of the vector entries and the parameters by the
-   same LPs, envelopes rebuilt on the narrower boxes, repeated towards its fixed point
-   (`vibupdate.ranges.tightening`);
-3. branching: the parameter box is split in two along the parameter with the widest range
-   (relative to the root's) and each half tightened alone; halves proved empty drop out, and
-   the ranges are the hull of the remaining parts (`_Branching`). McCormick envelopes are
-   exact at the corners of their boxes and their error shrinks with the product of the two
-   widths, so narrower parameter boxes bound the vector entries, and these the parameters,
-   much more tightly than OBBT on the whole box can.
-
-Every step only removes parts of the box that hold no point of S, so the result stays an
-outer range whenever it stops. A bound is *confirmed* (the parameter's range flagged
-``certified``) when the safe value is within `GAP` of the solver's optimum, or, for Clarabel's
-bounds of a parameter, within ``Tactics.useful_gap`` (1e-3) of the parameter's width in the
-box (`vibupdate.ranges.tightening.Tactics`); otherwise the weaker safe value is still what is
-reported. S is certified empty when every part of the box
-is (crossing safe bounds, or a positive safe phase-1 bound).
-
-Every answer the run reports is held by S (`certified_ranges` ``include``: the windows and
-vector boxes widened for them, `vibupdate.ranges.inclusion`), and each must lie inside the
-final ranges (checked; no second eigen-solve at the points, whose eigenpairs the widening
-computed). A point that S could not be widened to hold leaves every range unflagged
-(``certified`` False), one outside the final ranges the parameters it escapes, with the
-reason in ``message`` and ``uncovered``: a range is never flagged certified while it misses
-a reported answer.
+The minimum and maximum of each parameter over the linear relaxation of S
+(`vibupdate.ranges.lp_relaxation`, bounded safely) bound it over S: the root ranges, then bound
+tightening (`vibupdate.ranges.tightening`), then branching (`_Branching`), for as long as the time
+budget allows. Each step removes only parts of the box that hold no point of S, so the result is
+an outer range whenever it stops. An end is *confirmed* (the range flagged ``certified``) when its
+safe bound is within `GAP` of the solver's optimum (Clarabel's bound of a parameter: within
+``Tactics.useful_gap`` of its width). S holds every answer the run reports
+(`vibupdate.ranges.inclusion`) and each must lie inside the final ranges (`_check_included`): a
+range is never flagged certified while it misses a reported answer.
 """
 
 from __future__ import annotations
@@ -128,14 +106,6 @@ class CertifiedRanges:
         """Points S was widened to hold."""
         return len(self.inclusion.labels) if self.inclusion is not None else 0
 
-    def determined(self, within_pct: float = 5.0) -> list[str]:
-        """Parameters whose whole certified range is narrower than ``within_pct``."""
-        return [n for n, w in zip(self.names, self.width_pct) if np.isfinite(w) and w <= within_pct]
-
-    def as_dict(self) -> dict:
-        return {n: {"lower": float(lo), "upper": float(hi), "width_pct": float(w), "certified": bool(c)}
-                for n, lo, hi, w, c in zip(self.names, self.lower, self.upper, self.width_pct, self.certified)}
-
     def record(self) -> dict:
         """The ``identifiability.certified`` section of ``results.json`` (NaN as None)."""
         def num(v):
@@ -162,17 +132,13 @@ def _hull(leaves, n_x):
 
 
 class _Branching:
-    """Spatial branching of the parameter box: the leaves' boxes cover every point of S, so
-    the hull of their parameter ranges is an outer range; splitting the leaf that sets an end
-    of the hull and tightening both halves narrows the McCormick envelopes where it matters.
-    The split is along the parameter whose products the relaxation's solution at that end
-    violates most (`_direction`): branching on the parameter with the widest range was
-    measured to split parameters that S fills anyway (benchmarks/RESULTS.md).
-
-    Which end to work on: the one reaching farthest past the hull of the points known to lie
-    in S (``known``; the hull's centre when there are none), relative to the root width,
-    halved after each split that did not move it (an end that S itself reaches cannot move).
-    """
+    """Spatial branching of the parameter box (docs/notes/ranges.md, "Certified ranges: the
+    relaxation and its narrowing in full"): the leaves cover every point of S, their hull is
+    the outer range. The leaf split is one that sets the end of the hull reaching farthest past
+    the points known to lie in S (``known``; the hull's centre when there are none), relative to
+    the root width, halved after each split that did not move it; the split is along
+    `_direction` (branching on the widest range was measured to split parameters that S fills
+    anyway: benchmarks/RESULTS.md)."""
 
     def __init__(self, cs: ConsistentSet, R: Lifts, root: Box, known, tactics: Tactics = Tactics()):
         self.cs, self.R, self.n_x, self.tactics = cs, R, cs.n_x, tactics
@@ -255,14 +221,11 @@ def enclosure(cs: ConsistentSet, *, seconds: float = 30.0, max_passes: int | Non
               progress: Callable[[str], None] | None = None, tactics: Tactics = Tactics()) -> CertifiedRanges:
     """Certified outer ranges of the parameters over ``cs`` (module docstring).
 
-    The root ranges (two LPs per parameter over all blocks) are always computed. Then, while
-    the elapsed time is below ``seconds``: bound-tightening passes on the whole box
-    (`vibupdate.ranges.tightening.tighten`) until one narrows it by less than `STALL`
-    (`ROOT_STALL` when branching follows, then using at most half the budget) or
-    ``max_passes`` passes; then branching
-    (`_Branching`), each half tightened by one pass, until the budget or
-    ``max_splits`` splits. Without a finite budget there is no branching unless ``max_splits``
-    is given.
+    The root ranges are always computed. Then, while the elapsed time is below ``seconds``:
+    bound-tightening passes until one narrows the box by less than `STALL` (`ROOT_STALL` when
+    branching follows, then within half the budget) or ``max_passes`` passes; then branching,
+    each half tightened by one pass, until the budget or ``max_splits`` splits. Without a finite
+    budget there is no branching unless ``max_splits`` is given.
 
     Parameters
     ----------

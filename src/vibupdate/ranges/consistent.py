@@ -1,39 +1,19 @@
-"""What the data allow: the consistent set S of the certified ranges, and points of it.
-
-For every measured natural frequency and antiresonance the first stage has a block with
-operators ``K(xbar)``, ``M(xbar)`` restricted to the block's rows and columns (the full
-pencil for a natural frequency, the adjunct pencil of ``h_rc`` for an antiresonance,
-Eqs. 7 and 9) and a vector ``v`` whose entries live in a box (measured mode-shape intervals,
-``shape_margin`` / ``adjunct_margin`` bounds elsewhere, interlacing signs, one entry fixed to
-1 for normalization; `vibupdate.inverse.formulation`). The consistent set is
+"""What the data allow: the consistent set S of the certified ranges, and points of it (the set as
+the user reads it: docs/polish-and-verification.md, 7.4, "The set").
 
     S = { xbar in its box : for every block b there are s_b in [wL_b^2, wU_b^2] and a vector
           v_b in the block's box with (K(xbar) - s_b M(xbar))[rows_b, cols_b] v_b = 0 }
 
-(up to a relative eigen-residual of `RESIDUAL_FLOOR`, row by row, against rounding)
+up to a relative eigen-residual of `RESIDUAL_FLOOR`, row by row. A block per measured natural
+frequency (the full pencil) and antiresonance (the adjunct pencil of ``h_rc``, Eqs. 7 and 9)
+has the first stage's vector box (`vibupdate.inverse.formulation`), a measured shape's reference
+entry freed to its own interval (`_scale_free`), and the window of its datum's interval or of
+``frequency_tolerance`` (`_windows`); with ``include`` the windows and boxes hold the reported
+answers (`vibupdate.ranges.inclusion`). Any eigenpair in a window counts, not only the paired mode.
 
-where ``[wL_b, wU_b]`` is the frequency window of the block: the measured interval when the
-data carry one (``NaturalFrequency.interval``, ``Antiresonance.interval``), else
-``w (1 -+ frequency_tolerance)``: each datum's own interval where it has one, the global
-tolerance only for the others. A mode whose shape was measured has no fixed entry: its measured
-entries, the reference entry (`ShapeInterval.reference`) included, must lie in their intervals
-(divided by the reference midpoint) for *some* scaling of the eigenvector, so the reference
-entry's own interval counts too, as the data state it (a shape is known up to scale); the
-other blocks keep one entry fixed to 1 for normalization. With ``include`` (the answer, and
-the other answers a run reports: verified sampled answers and line ends) the windows and the
-vector boxes are widened just enough to hold every included point, each point's paired model
-frequencies and exact eigenvectors with a stated margin (`vibupdate.ranges.inclusion`): S then
-holds every answer the run reports, so its certified outer range contains them all. With
-exact data and ``frequency_tolerance = 0`` the window is the single measured frequency, and
-the truth is in S whenever its eigenvectors lie in the boxes.
-
-S asks for *an* eigenpair in each window, not the k-th mode: it contains every parameter
-set that a mode-correspondence check would admit, and possibly more.
-
-This module states S (`consistent_set`), decides membership exactly by eigen-analysis
-(`is_consistent`) and finds points of S by local NLP solves at each parameter's bounds
-(`inner_ranges`): an *inner* estimate of the parameter ranges over S, to compare with the
-certified outer enclosure of `vibupdate.ranges.certify`.
+This module states S (`consistent_set`), decides membership by eigen-analysis (`is_consistent`)
+and finds points of S by local NLP solves at each parameter's bounds (`inner_ranges`): an inner
+estimate of the ranges, to compare with the certified outer enclosure of `vibupdate.ranges.certify`.
 """
 
 from __future__ import annotations
@@ -201,12 +181,6 @@ def consistent_set(configurations: Sequence[Configuration], *, frequency_toleran
                          inclusion)
 
 
-def _block_pencil(dense, blk: VectorBlock):
-    """The block's rows and columns of ``dense = (K, M)`` (full dense matrices)."""
-    ix = np.ix_(blk.rows, blk.cols)
-    return dense[0][ix], dense[1][ix]
-
-
 def _eigenpairs(K, M):
     """Real eigenpairs (w^2, v) of the pencil (K, M), square."""
     import scipy.linalg as sla
@@ -247,7 +221,7 @@ def witness(cs: ConsistentSet, xbar, margin: float = 1e-7):
             dense[id(model)] = (K.toarray(), M.toarray())
         key = (id(model), blk.rows.tobytes(), blk.cols.tobytes())
         if key not in solved:       # one eigen-solve per pencil: every mode block shares the full one
-            solved[key] = _eigenpairs(*_block_pencil(dense[id(model)], blk))
+            solved[key] = _eigenpairs(*(A[np.ix_(blk.rows, blk.cols)] for A in dense[id(model)]))
         lam, V = solved[key]
         w = np.sqrt(lam)
         inside = (w >= cs.omega_lower[b] * (1 + margin)) & (w <= cs.omega_upper[b] * (1 - margin))
@@ -338,10 +312,7 @@ def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 50) -> InnerRange
     starts = np.atleast_2d(np.asarray(starts, dtype=float))
     mid = 0.5 * (cs.omega_lower + cs.omega_upper)
     half = np.maximum(0.5 * (cs.omega_upper - cs.omega_lower), 1e-9 * mid)
-
-    def slack(x):
-        return _paired_slack(cs, x, mid, half)
-
+    constraints = [{"type": "ineq", "fun": lambda x: _paired_slack(cs, x, mid, half)}]
     points = [s for s in starts if is_consistent(cs, s)]
     bounds = list(zip(cs.x_lower, cs.x_upper))
     for i in range(cs.n_x):
@@ -350,8 +321,7 @@ def inner_ranges(cs: ConsistentSet, starts, *, max_iter: int = 50) -> InnerRange
                 grad = np.zeros(cs.n_x)
                 grad[i] = sign
                 sol = minimize(lambda x: sign * x[i], s, jac=lambda x, g=grad: g, method="SLSQP", bounds=bounds,
-                               constraints=[{"type": "ineq", "fun": slack}],
-                               options={"maxiter": max_iter, "ftol": 1e-12})
+                               constraints=constraints, options={"maxiter": max_iter, "ftol": 1e-12})
                 x = np.clip(sol.x, cs.x_lower, cs.x_upper)
                 # Step back towards the start until the point is confirmed (SLSQP ends on the
                 # constraint boundary, where the margin of is_consistent rejects it).

@@ -1,46 +1,21 @@
-"""Which parameters do the data determine? Interval ranges of the parameters (linearized).
+"""Which parameters do the data determine? Linearized interval ranges of the parameters (the
+rules as the user reads them: docs/polish-and-verification.md, 7.4).
 
-The first stage returns *a* parameter set whose model fits the measured frequencies and lies
-inside the mode-shape intervals. When other parameter sets fit as well, the answer is one of
-many; this module measures how many. Around the answer ``xbar_hat``, with the data map
-``d(xbar)`` (natural frequencies, antiresonances, measured mode-shape ratios to the reference
-entry of each mode: `vibupdate.inverse.data_map`) linearized as
-``d(xbar) ~ d(xbar_hat) + G (xbar - xbar_hat)``,
-the *consistent set* is the set of ``xbar`` within the bounds such that
+Around the answer ``xbar_hat`` the data map ``d(xbar)`` (`vibupdate.inverse.data_map`) is
+linearized, ``d ~ d(xbar_hat) + G dx``, and the range of a parameter is its lowest and highest
+value over the ``xbar`` within the bounds whose data stay in windows (two linear programs):
 
-* every measured mode-shape entry stays inside its interval at the shape's own meaning, a free
-  scale per mode (`vibupdate.inverse.admissible`): ``s q_j(x)`` in the entry's interval, ``q``
-  the model's ratios to the reference entry, linearized in ``dx`` and in the scale's step
-  (one more unknown of the linear programs per shape, `_scaled_shapes`); where the answer lies
-  outside an interval by ``e`` (a model-form error the verification allowed), that interval
-  widened on its side to ``e`` beyond the answer, so that the answer can move by the error it
-  has, as for the frequencies;
-* every frequency moves from the answer's by no more than the measurement tolerance plus the
-  answer's own misfit, ``|G_f dx| <= h_f + |w(xbar_hat) - w_measured|``, with ``h_f`` the
-  half-width of the frequency's measured ``interval`` where it has one (e.g. extracted from
-  FRFs) and ``frequency_tolerance * w`` otherwise; the true frequencies differ from the
-  answer's by at most that much.
+* a frequency within ``h_f + |w(xbar_hat) - w_measured|`` of the answer's, ``h_f`` the half-width
+  of its measured ``interval`` or else ``frequency_tolerance * w``;
+* a measured mode-shape entry in its interval for some scale of its mode (`_scaled_shapes`), an
+  interval the answer misses by ``e`` (a model-form error the verification allowed) widened on
+  that side to ``e`` beyond the answer.
 
-The range of each parameter over that set (two linear programs) is what the data and the
-bounds together determine: the truth and the answer both lie in it, to first order. A
-parameter whose range is narrow is determined by the data; a wide range says that the data
-cannot separate it (e.g. two springs acting in parallel). Without a frequency tolerance the
-window is the answer's misfit alone: a measure of the spread the model's own error allows.
-A parameter that moves along a direction the data do not see at all (a null direction of the
-Jacobian) gets its whole box: the linearization cannot bound a curved valley. On models of up
-to `VALLEY_DOFS` DOFs the ranges also hold the points of that valley that keep the answer's
-data exactly (`vibupdate.inverse.minimum_change.valley_points`): the other parameters move
-along it at second order, and the points where each parameter is lowest, highest or turns
-along it (`valley_ends`, `valley_curve`). Where the data see a direction only weakly the set
-bends too: each end of a linear range is followed by up to `VALLEY_PROGRAMS` programs
-relinearized at the previous end (the answer's windows), and the range grows to every end
-whose own data lie in the windows (`_along_the_valley`, which solves only the programs whose
-answer can move the end); it never shrinks.
-
-A model whose matrices are known only to a relative ``matrix_precision`` (read from an export
-written with fewer digits than a double) widens every window by what that rounding can do to
-the datum at the answer (`precision_allowance`): the true structure's data then lie within the
-windows of the model that stands for it, as its rounding allows.
+A parameter along a null direction of the Jacobian gets its box. On models of up to
+`VALLEY_DOFS` DOFs the ranges also hold the points of the valley with the answer's data, and
+each end of a linear range is followed by up to `VALLEY_PROGRAMS` relinearized programs
+(`_along_the_valley`). Matrices known only to a ``matrix_precision`` widen every window by what
+that rounding does to the datum at the answer (`precision_allowance`).
 """
 
 from __future__ import annotations
@@ -194,16 +169,13 @@ def precision_allowance(configurations: Sequence[Configuration], xbar) -> np.nda
 
 
 def _scaled_shapes(configurations, d_hat, G, rounding, at=None):
-    """The shape rows of the ranges' linear program at the shapes' own meaning, a free scale
-    per mode (`vibupdate.inverse.admissible`): ``s q_j(x)`` in each entry's measured interval,
-    ``q`` the model's ratios (1 at the reference), linearized in the step ``dx`` and in the
-    scale's step ``ds`` about the answer and its least-squares scale ``s0``; where the answer
-    lies outside an interval by ``e`` (a model-form error the verification allowed), that
-    interval is widened on its side to ``e`` beyond the answer; an entry known exactly has the
-    contract's ``exact_half_width`` of the shape's largest entry. Returns the data-map rows they
-    replace and, per shape, its rows divided by their half-widths (columns ``dx`` then one
-    column per shape's scale) and their offsets. ``at``, ``(d, G, shift)``: the same windows
-    with the shapes linearized at another point instead, ``shift`` the answer minus that point."""
+    """The shape rows of the ranges' linear program (module docstring): ``s q_j(x)`` in each
+    entry's interval, ``q`` the model's ratios (1 at the reference), linearized in ``dx`` and in
+    the scale's step about the answer and its least-squares scale ``s0``; an entry known exactly
+    has the contract's ``exact_half_width``. Returns the data-map rows they replace and, per
+    shape, its rows divided by their half-widths (columns ``dx``, then one per shape's scale)
+    and their offsets. ``at = (d, G, shift)``: the same windows, the shapes linearized at
+    another point, ``shift`` the answer minus that point."""
     rows, extra, k, n_x = [], [], 0, G.shape[1]
     shapes = [(cfg, s) for cfg in configurations for s in measured_shapes(cfg)]
     n_s = sum(s.lower.size > 0 for _, s in shapes)
@@ -248,11 +220,9 @@ def _scaled_shapes(configurations, d_hat, G, rounding, at=None):
 
 def _holds(A, offset, dx, n_x: int) -> bool:
     """Whether the rows ``|A z + offset| <= 1`` of a range's linear program hold at the step
-    ``dx`` for some scale step of each shape (the columns after the first ``n_x``): without a
-    linear program, because each scale enters only its own shape's rows, so that each is an
-    intersection of intervals. A row may miss by HiGHS's default primal feasibility tolerance
-    (1e-7 of its half-width), as in the programs solved. A row that is not finite (a datum
-    the model lost at the point) does not hold."""
+    ``dx`` for some scale step of each shape (the columns after the first ``n_x``): an
+    intersection of intervals per shape, within HiGHS's default primal feasibility tolerance
+    (1e-7 of a row's half-width). A row that is not finite does not hold."""
     tol = 1e-7
     r = A[:, :n_x] @ dx + offset
     if not (np.isfinite(r).all() and np.isfinite(A).all()):   # a datum the model lost at the point
@@ -278,12 +248,8 @@ def _along_the_valley(configurations, xbar, step, i: int, sign: float, program, 
     successive linear programs: from that end, the data and their Jacobian there, the program
     relinearized about that point (the answer's windows), its extreme the next point, at most
     `VALLEY_PROGRAMS` points. A point counts only where its own data lie in every window (its
-    relinearized program holds at the point itself, `_holds`).
-
-    A program whose answer cannot change the result is not solved, nor the data it needs: a
-    point's own check only where the point lies beyond the extreme so far (the linear end is
-    the first extreme, so its own check never is), and no next extreme from the last point
-    (no point follows it). The result is that of checking every point."""
+    relinearized program holds at the point itself, `_holds`). A program whose answer cannot
+    change the result is not solved (docs/polish-and-verification.md, 7.4)."""
     x = xbar + step
     end = float(x[i])
     for k in range(VALLEY_PROGRAMS):
@@ -343,12 +309,9 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     d_hat, G = data_jacobian(configurations, xbar, freqs=freqs)
     d_meas, half, is_freq = _measured(configurations, frequency_tolerance)
     misfit = d_hat - d_meas
-    # Frequencies: a window centred on the answer; shapes: the measured intervals, and where the
-    # answer lies outside one by ``d`` (a model-form error the verification allowed) the interval
-    # widened on that side to ``d`` beyond the answer, so that the answer can move by the error it
-    # already has either way, as for the frequencies (with the answer on the window's edge, many
-    # such rows left a point: ranges of 1e-6 % on a bar whose shapes the model misses by 0.004).
-    # Either way |offset + G dx| <= half.
+    # The windows of the module docstring, |offset + G dx| <= half (a shape's interval widened
+    # where the answer misses it: with the answer on the window's edge, many such rows left a
+    # point, ranges of 1e-6 % on a bar whose shapes the model misses by 0.004).
     out = np.maximum(np.abs(misfit) - half, 0.0)
     low = np.minimum(-half, misfit - out)          # the shape window about the midpoint
     high = np.maximum(half, misfit + out)
@@ -363,14 +326,10 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         half = half + rounding
     lo, hi = model.bounds()
     xbar = np.asarray(xbar, dtype=float)
-    # Each row divided by its half-width: |offset + G dx| <= half as |offset / half + (G / half) dx|
-    # <= 1, so that data known to 1e-12 (exact points) and to 1 % weigh alike in the LP solver's
-    # tolerances (unscaled, HiGHS reported the refined frame's point data infeasible and all 29
-    # ranges were NaN).
-    # The unknown is the step dx from the answer, so that row activities are O(1) and not the
-    # difference of two large numbers. Where the default simplex gives up on a badly
-    # conditioned problem (the refined frame's exact data at 2,996 DOFs: a "solve error" in 3
-    # of 58 programs), the interior-point method solves it.
+    # Each row divided by its half-width, |offset / half + (G / half) dx| <= 1, so that data known
+    # to 1e-12 and to 1 % weigh alike in the solver's tolerances (unscaled, HiGHS found the refined
+    # frame's point data infeasible); the unknown is the step dx from the answer, so that row
+    # activities are O(1).
     center = d_hat - offset       # each window's centre, fixed at the answer
 
     def program(at=None):
@@ -381,7 +340,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
         Gs, offs = Gp / half[:, None], off / half
         rows, extra = _scaled_shapes(configurations, d_hat, G, rounding, at)
         keep = np.ones(d_hat.size, dtype=bool)
-        keep[[r for r in rows]] = False
+        keep[rows] = False
         n_s = len(extra)
         A1 = np.vstack([np.hstack([Gs[keep], np.zeros((int(keep.sum()), n_s))])] + [e[0] for e in extra]
                        + [np.zeros((0, xbar.size + n_s))])
@@ -391,14 +350,11 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
     kept: dict = {}   # role -> (HiGHS instance, the rows it holds)
 
     def solve(c, A, offset):
-        """The step minimizing ``c`` over the program's rows ``-1 <= A z + offset <= 1`` (each
-        window one two-sided row, half the rows of the one-sided form) and the box, each
-        shape's scale free: by HiGHS's simplex, warm (`vibupdate.ranges.highs`): one instance
-        keeps the program at the answer (its solves differ in ``c`` alone), another takes each
-        program relinearized along the valley, starting from the basis of the program solved
-        last (the one it follows, for the same ``c``). Where it fails, the interior-point
-        method on the one-sided form; None when neither solves it, or when a row is not finite
-        (a datum the model lost at the point the program is linearized at)."""
+        """The step minimizing ``c`` over ``-1 <= A z + offset <= 1`` and the box, by HiGHS's
+        simplex kept warm (one instance for the program at the answer, one for those along the
+        valley, each from the last basis), else the interior-point method (a badly conditioned
+        program: the refined frame's exact data at 2,996 DOFs); None when neither solves it or a
+        row is not finite (a datum the model lost at the point)."""
         if not (np.isfinite(A).all() and np.isfinite(offset).all()):
             return None
         role = "answer" if A is A0 else "moved"
@@ -414,11 +370,8 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                       bounds=np.column_stack(box), method="highs-ipm")
         return sol.x if sol.status == 0 else None
 
-    # Along a direction the data do not see at all (a null direction of the Jacobian), the
-    # linear program follows the tangent line to the box, but the set of parameters that fit
-    # bends away from that line: on the known-truth acceptance problems the truth lay outside
-    # such ranges (benchmarks/RESULTS.md, "Known-truth acceptance after the fixes"). A parameter that moves
-    # along a null direction is bounded by the box alone (and its programs are not solved).
+    # A parameter along a null direction is bounded by its box alone, its programs not solved
+    # (docs/polish-and-verification.md, 7.4; benchmarks/RESULTS.md, "Known-truth acceptance after the fixes").
     _, sv, Vt = np.linalg.svd(G / half[:, None])   # null directions: singular values below RANK_RTOL of the largest
     rank = numerical_rank(sv)
     free = np.any(np.abs(Vt[rank:]) > NULL_COMPONENT, axis=0) if rank < xbar.size else np.zeros(xbar.size, bool)
@@ -440,10 +393,7 @@ def parameter_ranges(configurations: Sequence[Configuration], xbar, *,
                 target[i] = _along_the_valley(configurations, xbar, step[:xbar.size], i, sign, program, solve)
     lower, upper = np.where(free, lo, lower), np.where(free, hi, upper)
     if rank < xbar.size and model.n_dofs <= VALLEY_DOFS:
-        # the other parameters move along the curved valley too (at second order where the
-        # answer is a symmetric point): the points of the valley with the answer's data
-        # and where each parameter is lowest and highest along it, and where one turns
-        # (`vibupdate.inverse.minimum_change.valley_ends`, `valley_curve`; the update's, when given)
+        # the points of the valley with the answer's data, and its ends and turns (the update's, when given)
         found = undetermined(configurations, xbar)   # one evaluation at the answer for the three
         ends = list(valley) if valley else [x for _, _, x in valley_ends(configurations, xbar, found)
                                             + valley_curve(configurations, xbar, found)]

@@ -1,40 +1,13 @@
-"""Widening the consistent set S so that it holds every answer a run reports.
+"""Widening the consistent set S so that it holds every answer a run reports (the rule and why:
+docs/notes/ranges.md, "Certified ranges: why S holds every answer" and "the enclosure in full").
 
-The certified range is an outer range of S (`vibupdate.ranges.consistent`), so it contains a
-reported answer only if S does. Two kinds of answer can lie outside S built on the data alone:
-
-* an answer that misses a measured window: a sampled answer (`vibupdate.study.sweep`) is
-  verified against its *drawn* data, each drawn datum a point inside the measured window, with
-  the verification's model-form tolerance (2 % by default, `VerifyOptions.natural_tolerance`); its model
-  frequency may therefore lie up to that tolerance beyond the drawn datum, hence outside the
-  window. The run's own answer may miss the window as well;
-* an answer whose exact eigenvectors leave the first stage's vector boxes: the first stage
-  keeps its vectors in the boxes, but the polish on the full model moves the parameters and
-  nothing checks the exact eigenvectors against the boxes.
-
-`widen` takes the included points (normalized parameters, the answer first) and widens S just
-enough to hold each of them, with stated margins:
-
-* each frequency window to the hull of the window and every included point's paired model
-  frequency (mode ``k`` for the ``k``-th measured natural frequency, zero ``k`` of ``h_rc`` for
-  an antiresonance), reaching `WINDOW_MARGIN` (relative) past it;
-* each vector box to the hull of the box and the included point's paired exact eigenvector
-  (adjunct eigenvector), divided by the block's entry scaling and normalized as the first
-  stage normalizes it (its fixed entry at 1; a measured shape whose reference is free at its
-  reference entry = 1, and only when no scaling of the vector fits the box already), reaching
-  `BOX_MARGIN` past each entry;
-* the parameter box, by rounding only (`BOUND_ROUNDING`).
-
-Why not widen every window a priori to all the sampler's verification could accept (the
-measured interval plus the fit tolerance)? With the default 2 % fit tolerance and a 0.5 %
-window that is five times the window, for answers no sample reported. Widening to the
-reported answers themselves holds each of them exactly, whatever tolerance accepted it.
-
-A point cannot be covered (and is listed in `Inclusion.uncovered` with the figure) when a
-parameter lies outside its bounds by more than rounding, the model lacks the paired zero, the
-vector vanishes at its normalization entry (below `NODE_FRACTION` of its largest entry), or
-its box would have to grow more than `GROWTH_LIMIT`-fold. Then S does not hold every reported
-answer, and `vibupdate.ranges.certify` flags no range as certified.
+`widen` takes the included points (normalized parameters, the answer first) and widens each
+frequency window to reach `WINDOW_MARGIN` past every point's paired model frequency, each vector
+box `BOX_MARGIN` past its exact paired eigenvector (adjunct vector), scaled and normalized as the
+first stage normalizes it, and the parameter box by rounding only (`BOUND_ROUNDING`). A point
+outside its bounds, without the paired zero, with a vector below `NODE_FRACTION` of its largest
+entry at its normalization entry or needing a box `GROWTH_LIMIT` times the first stage's is
+listed in `Inclusion.uncovered`, and `vibupdate.ranges.certify` then flags no range certified.
 """
 
 from __future__ import annotations

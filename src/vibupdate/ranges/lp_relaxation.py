@@ -1,30 +1,23 @@
-"""The linear relaxation of the consistent set S and its safe bounds (`vibupdate.ranges.certify`).
+"""The linear relaxation of the consistent set S and its safe bounds (`vibupdate.ranges.certify`;
+in words: docs/notes/ranges.md, "Certified ranges: the relaxation and its narrowing in full").
 
-S is stated in `vibupdate.ranges.consistent`. Writing each block's eigen-equation with the measured
-``w^2``,
+Each block's eigen-equation of S (`vibupdate.ranges.consistent`) with the measured ``w^2``,
 
     k(x, v) - w^2 m(x, v) - delta m(x, v) = 0,   k = D K(x) S v,  m = D M(x) S v,
     delta = s - w^2 in [wL^2 - w^2, wU^2 - w^2],
 
-both ``k`` and ``m`` are linear in ``(x, u, t)`` once every product ``x_i u_j`` is lifted to
-``t`` (Section 3.3), and the frequency uncertainty enters as one more product ``e = delta m``
-per residual row (``D``: Jacobi row scaling, ``S``: the block's entry scaling). Replacing each
-product by its McCormick envelope (Eq. 19) on the current boxes of ``x`` and ``u`` gives a
-linear program over ``z = [x, u, t, delta, e]`` whose feasible set holds every point of S
-lifted (`lifted_point`); the eigen rows keep the residual floor of S. Constants of the
-envelopes are rounded outward.
-
-Safe bounds. The LP solvers (HiGHS through highspy for the small per-block LPs, built once
-and solved warm for every objective; Clarabel for the large LPs of all blocks) are inexact,
-so its optimum is never used as a bound. Every variable of the LP is boxed, so for *any* row
-multipliers ``y`` (signs projected so that each term is valid) the Lagrangian bound
+is linear in ``z = [x, u, t, delta, e]`` once every product ``x_i u_j`` is lifted to ``t``
+(Section 3.3) and ``delta m`` to ``e`` per residual row (``D``: Jacobi row scaling, ``S``: the
+block's entry scaling). Each product is replaced by its McCormick envelope (Eq. 19) on the
+current boxes, constants rounded outward; every point of S lifted (`lifted_point`) is feasible,
+the eigen rows keeping the residual floor of S. No LP optimum is used as a bound: every variable
+is boxed, so for *any* row multipliers ``y`` (signs projected so that each term is valid)
 
     c^T z >= sum_j min_{z_j in [l_j, u_j]} (c - A^T y)_j z_j + sum_r min_{a_r in [lo_r, hi_r]} y_r a_r
 
-holds for every feasible ``z`` (Neumaier and Shcherbina, Math. Program. 99 (2004) 283-296).
-`safe_bound` evaluates it from the solver's multipliers with the rounding of its own products
-and sums bounded and subtracted. A positive safe bound of the phase-1 problem (least total
-eigen-residual violation, `phase1_bound`) proves the relaxation, hence S, empty.
+(Neumaier and Shcherbina, Math. Program. 99 (2004) 283-296), evaluated by `safe_bound` from the
+solver's multipliers with its own rounding subtracted. A positive safe bound of the phase-1
+problem (`phase1_bound`) proves the relaxation, hence S, empty.
 """
 
 from __future__ import annotations
@@ -140,15 +133,10 @@ def lift(cs: ConsistentSet) -> Lifted:
         u_off += free.size
         r_off += n_rows
     n_z = n_x + n_u + n_t + n_blk + r_off
-
-    def matrix(key):
-        r, c, v = (np.concatenate(a) for a in zip(*trip[key]))
-        return sp.csr_matrix((v, (r, c)), shape=(r_off, n_z))
-
     omega = np.array([b.omega for b in cs.blocks])
     return Lifted(
-        n_x, n_u, n_t, n_blk, r_off, matrix("K"), np.concatenate(const["K"]), matrix("M"),
-        np.concatenate(const["M"]), np.concatenate(w2), np.concatenate(rb).astype(int),
+        n_x, n_u, n_t, n_blk, r_off, _rows(trip["K"], r_off, n_z), np.concatenate(const["K"]),
+        _rows(trip["M"], r_off, n_z), np.concatenate(const["M"]), np.concatenate(w2), np.concatenate(rb).astype(int),
         np.concatenate(tx).astype(int), np.concatenate(tu).astype(int),
         np.concatenate([b.lower[~b.fixed] for b in cs.blocks]),
         np.concatenate([b.upper[~b.fixed] for b in cs.blocks]),
@@ -179,44 +167,24 @@ def _rows(coo_parts, n_rows, n_z):
     return sp.csr_matrix((v, (r, c)), shape=(n_rows, n_z))
 
 
-def _mccormick_t(L: Lifted, xl, xu, ul, uu):
-    """Eq. 19 for every ``t = x[tx] u[tu]``: 4 n_t rows."""
-    n_t, p = L.n_t, np.arange(L.n_t)
-    al, au, bl, bu = xl[L.tx], xu[L.tx], ul[L.tu], uu[L.tu]
-    t_col, u_col, x_col = L.n_x + L.n_u + p, L.n_x + L.tu, L.tx
+def _envelope(w_col, f1_col, f2, f1_bounds, f2_bounds, pad=None, const=None):
+    """McCormick rows (Eq. 19) of ``w = f1 f2``, one product per row of ``w_col``: ``f1`` the
+    variable of column ``f1_col`` in ``f1_bounds``, ``f2 = F z (+ const)`` in ``f2_bounds`` with
+    ``F`` given as COO triplets ``f2`` (row, column, value); the rows' ends padded outward by
+    ``pad`` (default ``4 eps |rhs|``). Returns the 4 n rows' COO parts, lower and upper ends."""
+    n, (r, c, v) = w_col.size, f2
     parts, lo, hi = [], [], []
-    for q, (a, b, lower) in enumerate(((al, bl, True), (au, bu, True), (au, bl, False), (al, bu, False))):
-        rows = q * n_t + p
-        parts.append((np.concatenate([rows, rows, rows]), np.concatenate([t_col, u_col, x_col]),
-                      np.concatenate([np.ones(n_t), -a, -b])))
-        rhs = -a * b
-        pad = 4 * _EPS * np.abs(rhs)
-        lo.append(rhs - pad if lower else np.full(n_t, -np.inf))
-        hi.append(np.full(n_t, np.inf) if lower else rhs + pad)
+    for q, (a, b, lower) in enumerate(((f1_bounds[0], f2_bounds[0], True), (f1_bounds[1], f2_bounds[1], True),
+                                       (f1_bounds[1], f2_bounds[0], False), (f1_bounds[0], f2_bounds[1], False))):
+        rows = q * n + np.arange(n)
+        # w - a f2 - b f1  (>= or <=)  -a b
+        parts.append((np.concatenate([rows, q * n + r, rows]), np.concatenate([w_col, c, f1_col]),
+                      np.concatenate([np.ones(n), -a[r] * v, -b])))
+        rhs = -a * b if const is None else -a * b + a * const
+        width = 4 * _EPS * np.abs(rhs) if pad is None else pad
+        lo.append(rhs - width if lower else np.full(n, -np.inf))
+        hi.append(np.full(n, np.inf) if lower else rhs + width)
     return parts, np.concatenate(lo), np.concatenate(hi)
-
-
-def _mccormick_e(L: Lifted, mL, mU, mmag):
-    """McCormick rows of ``e = delta m(z)`` for the rows whose block has a frequency window."""
-    windowed = np.flatnonzero((L.d_lower < 0) | (L.d_upper > 0))
-    k = np.flatnonzero(np.isin(L.row_block, windowed))
-    dL, dU = L.d_lower[L.row_block[k]], L.d_upper[L.row_block[k]]
-    Mk = sp.coo_matrix(L.Mz[k])
-    e_col = L.n_x + L.n_u + L.n_t + L.n_blk + k
-    d_col = L.n_x + L.n_u + L.n_t + L.row_block[k]
-    n, parts, lo, hi = k.size, [], [], []
-    pad = 1e-12 * np.maximum(np.abs(dL), np.abs(dU)) * (mmag[k] + np.maximum(np.abs(mL[k]), np.abs(mU[k])))
-    for q, (d, mb, lower) in enumerate(((dL, mL[k], True), (dU, mU[k], True), (dU, mL[k], False),
-                                        (dL, mU[k], False))):
-        base = q * n
-        # e - d m(z) - mb delta  (>= or <=)  -d mb, with m(z) = Mz z + m0
-        parts.append((np.concatenate([base + np.arange(n), base + Mk.row, base + np.arange(n)]),
-                      np.concatenate([e_col, Mk.col, d_col]),
-                      np.concatenate([np.ones(n), -d[Mk.row] * Mk.data, -mb])))
-        rhs = -d * mb + d * L.m0[k]
-        lo.append(rhs - pad if lower else np.full(n, -np.inf))
-        hi.append(np.full(n, np.inf) if lower else rhs + pad)
-    return parts, np.concatenate(lo) if lo else np.empty(0), np.concatenate(hi) if hi else np.empty(0), 4 * n
 
 
 def relax(L: Lifted, xl, xu, ul, uu) -> RelaxedLP:
@@ -241,9 +209,17 @@ def relax(L: Lifted, xl, xu, ul, uu) -> RelaxedLP:
     G = sp.csr_matrix(L.Kz - sp.diags(L.w2) @ L.Mz) + slack
     c0 = L.k0 - L.w2 * L.m0
     floor = RESIDUAL_FLOOR * (abs(L.Kz) @ zmag + np.abs(L.k0) + (L.w2 + dU) * mmag)
-    t_parts, t_lo, t_hi = _mccormick_t(L, xl, xu, ul, uu)
-    e_parts, e_lo, e_hi, n_e = _mccormick_e(L, mL, mU, mmag)
-    A = sp.vstack([G, _rows(t_parts, 4 * L.n_t, n_z)] + ([_rows(e_parts, n_e, n_z)] if n_e else []), format="csr")
+    p = np.arange(L.n_t)       # every t = x[tx] u[tu]
+    t_parts, t_lo, t_hi = _envelope(L.n_x + L.n_u + p, L.tx, (p, L.n_x + L.tu, np.ones(L.n_t)),
+                                    (xl[L.tx], xu[L.tx]), (ul[L.tu], uu[L.tu]))
+    # e = delta m(z), m(z) = Mz z + m0, on the rows whose block has a frequency window
+    k = np.flatnonzero(np.isin(L.row_block, np.flatnonzero((L.d_lower < 0) | (L.d_upper > 0))))
+    Mk = sp.coo_matrix(L.Mz[k])
+    width = 1e-12 * np.maximum(np.abs(dL[k]), np.abs(dU[k])) * (mmag[k] + np.maximum(np.abs(mL[k]), np.abs(mU[k])))
+    e_parts, e_lo, e_hi = _envelope(n_z - L.n_r + k, L.n_x + L.n_u + L.n_t + L.row_block[k], (Mk.row, Mk.col, Mk.data),
+                                    (dL[k], dU[k]), (mL[k], mU[k]), width, L.m0[k])
+    blocks = [G, _rows(t_parts, 4 * L.n_t, n_z)] + ([_rows(e_parts, 4 * k.size, n_z)] if k.size else [])
+    A = sp.vstack(blocks, format="csr")
     return RelaxedLP(A, np.concatenate([-c0 - floor, t_lo, e_lo]), np.concatenate([-c0 + floor, t_hi, e_hi]),
                zl, zu, L.n_r)
 
@@ -297,16 +273,14 @@ def solve(lp: RelaxedLP, c, h=None, *, point: bool = False):
     solve_highs(h, c)
     status = h.getModelStatus()
     if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnboundedOrInfeasible):
-        out = ("infeasible", np.nan, np.nan)
+        out = ("infeasible", np.nan, np.nan, None)
     elif status != highspy.HighsModelStatus.kOptimal:
-        out = ("failed", np.nan, np.nan)
+        out = ("failed", np.nan, np.nan, None)
     else:
         sol = h.getSolution()
-        y = np.asarray(sol.row_dual, dtype=float)
-        out = ("optimal", float(h.getInfo().objective_function_value), safe_bound(c, lp, y))
-        if point:
-            return out + (np.asarray(sol.col_value, dtype=float),)
-    return out + (None,) if point else out
+        out = ("optimal", float(h.getInfo().objective_function_value),
+               safe_bound(c, lp, np.asarray(sol.row_dual, dtype=float)), np.asarray(sol.col_value, dtype=float))
+    return out if point else out[:3]
 
 
 @dataclass(frozen=True)

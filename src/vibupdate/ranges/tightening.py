@@ -1,30 +1,17 @@
-"""Optimality-based bound tightening (OBBT) of one box of the consistent set's relaxation.
+"""Optimality-based bound tightening (OBBT) of one box of the consistent set's relaxation (the
+passes, their solvers and their economies as docs/notes/ranges.md, "Certified ranges: the
+relaxation and its narrowing in full", states them).
 
 A box holds the normalized parameters ``x`` and the free vector entries ``u`` of every block
-(`vibupdate.ranges.lp_relaxation`). The safe lower bound of ``min z_j`` over the LP relaxation on
-the box is a valid lower bound of ``z_j`` over every point of S inside the box, and likewise
-for the upper bound: replacing the box's ends by these bounds never removes a point of S, and
-the McCormick envelopes rebuilt on the narrower box are tighter, so the process can be
-repeated. Two relaxations are used:
-
-* block ``b`` alone (the other blocks' rows dropped: weaker, but a small LP): bounds of that
-  block's entries ``u_b`` and of ``x``. The LP is built once per block and pass and solved
-  warm by HiGHS for every objective; each new bound narrows the variable's column in place
-  (its own envelopes are rebuilt at the next pass), and a variable that already sits on one
-  of its bounds in the solution of an earlier objective cannot move that bound, so its LP is
-  skipped (the filtering of Gleixner et al., J. Global Optim. 67 (2017) 731-757);
-* all blocks together (they share ``x``): bounds of ``x``, by Clarabel (faster than HiGHS on
-  these larger LPs, `benchmarks/RESULTS.md`). One Clarabel instance serves every objective of
-  a pass (its objective and the narrowed bounds of ``x`` updated in place). Its safe bound is
-  valid whatever its multipliers; it is kept when it lies within ``useful_gap`` of the
-  parameter's width below Clarabel's optimum, and otherwise the LP is re-solved by HiGHS
-  (one instance per pass, warm), whose simplex multipliers give a bound at the optimum.
-
-`Tactics` switches each of these economies off, for the before / after measurements of
-`benchmarks/certify.py`.
-
-A box is proved empty when two safe bounds of a variable cross, or when an LP solver reports
-its relaxation infeasible and the safe phase-1 bound confirms it (`phase1_bound` > 0).
+(`vibupdate.ranges.lp_relaxation`). The safe bounds of ``min z_j`` and ``max z_j`` over the LP
+relaxation on the box bound ``z_j`` over every point of S inside it, so the box's ends may be
+replaced by them and the envelopes rebuilt, tighter, on the narrower box. Each block alone bounds
+its entries ``u_b`` and ``x`` (`tighten_block`: HiGHS, warm, an objective whose variable already
+sits on its bound skipped, as in the filtering of Gleixner et al., J. Global Optim. 67 (2017)
+731-757); all blocks together bound ``x`` (`tighten_parameters`: Clarabel, HiGHS where its bound
+is weak). `Tactics` switches each economy off. A box is proved empty when two safe bounds of a
+variable cross, or when a solver reports its relaxation infeasible and the safe phase-1 bound
+confirms it (`phase1_bound` > 0).
 """
 
 from __future__ import annotations
@@ -67,12 +54,10 @@ class Tactics:
         The per-block step bounds ``x`` before the block's vector entries (their LPs then see
         the narrowed ``x`` columns); else after.
     parameter_stall : bool
-        The passes end when a pass shrinks the summed relative widths of the *parameters*
-        (what is reported) by less than the stall fraction; else (the default) those of the
-        whole box, vector entries included. Off by default: where most parameters fill their
-        bounds they dilute the sum and the passes stop too early (`benchmarks/RESULTS.md`,
-        "Economies of the tightening (branch `certify2`): solver reuse, Clarabel's bound kept,
-        stall rule").
+        The passes end when a pass shrinks the summed relative widths of the *parameters* by
+        less than the stall fraction; else (the default) those of the whole box
+        (`benchmarks/RESULTS.md`, "Economies of the tightening (branch `certify2`): solver
+        reuse, Clarabel's bound kept, stall rule").
     """
 
     reuse_solver: bool = True
@@ -177,9 +162,12 @@ def _narrow(box: Box, g: int, side: int, value: float, opt: float, bound: float,
     return better
 
 
-def _infeasible(box: Box, lp) -> None:
+def _infeasible(box: Box, lp) -> bool:
+    """Whether ``box``, whose relaxation ``lp`` a solver reported infeasible, is proved empty (a
+    positive safe phase-1 bound); marked so when it is."""
     if phase1_bound(lp) > 0:
         box.empty = True
+    return box.empty
 
 
 def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None = None,
@@ -215,10 +203,8 @@ def tighten_block(R: Lifts, box: Box, b: int, deadline: float, focus: int | None
             status, opt, bound, z = solve(replace(lp, zl=zl, zu=zu), c, h, point=True)
             c[j] = 0.0
             box.n_lps += 1
-            if status == "infeasible":
-                _infeasible(box, replace(lp, zl=zl, zu=zu))
-                if box.empty:
-                    return True
+            if status == "infeasible" and _infeasible(box, replace(lp, zl=zl, zu=zu)):
+                return True
             if status != "optimal" or not np.isfinite(bound):
                 continue
             if _narrow(box, g, side, sign * bound, opt, bound, n_x):
@@ -261,10 +247,8 @@ def tighten_parameters(R: Lifts, box: Box, deadline: float, tactics: Tactics = T
                 status, opt, bound, z = solve(current, c, highs, point=True)
                 box.n_lps += 1
                 slack = GAP
-            if status == "infeasible":
-                _infeasible(box, current)
-                if box.empty:
-                    return True
+            if status == "infeasible" and _infeasible(box, current):
+                return True
             if status != "optimal" or not np.isfinite(bound):
                 continue
             if _narrow(box, i, side, sign * bound, opt, bound, n_x, slack):

@@ -1,15 +1,11 @@
-"""Abaqus/Standard matrices written by ``*MATRIX GENERATE`` and ``*MATRIX OUTPUT``.
+"""Abaqus/Standard matrices written by ``*MATRIX GENERATE`` and ``*MATRIX OUTPUT`` (what is read and
+refused: docs/fe/abaqus.md, "What to export from Abaqus").
 
-With ``FORMAT=MATRIX INPUT`` (the default) Abaqus writes ``JOB_STIF<step>.mtx`` and
-``JOB_MASS<step>.mtx``, text files with one matrix term per line::
-
-    row node, row DOF, column node, column DOF, value
-
-DOFs 1..6 of a node are its translations and rotations. Any layout the *MATRIX INPUT format
-allows is read (docs/fe/abaqus.md, "What to export from Abaqus"): one triangle, mirrored, or the
-square, whose two triangles are compared. Internal nodes (a non-positive number: a constraint's
-Lagrange multiplier) are refused. The matrices come before boundary conditions: the DOFs they
-fix are removed by naming them (``fix``, `vibupdate.model.fe.export.without_dofs`).
+``JOB_STIF<step>.mtx`` and ``JOB_MASS<step>.mtx`` hold one term a line, ``row node, row DOF,
+column node, column DOF, value`` (DOFs 1..6 of a node: its translations and rotations), in any
+layout the *MATRIX INPUT format allows; internal nodes (a constraint's Lagrange multiplier) are
+refused. The matrices come before the boundary conditions: the DOFs they fix are removed by
+naming them (``fix``, `vibupdate.model.fe.export.without_dofs`).
 """
 
 from __future__ import annotations
@@ -31,10 +27,9 @@ def read_mtx_terms(path, digits: Counter | None = None):
     arrays of shape (n_terms,), a DOF as the integer ``8 * node + component`` (`dof_key`); the
     significant digits of the values as written are counted into ``digits`` when given.
 
-    Parsed whole by numpy (its C text parser, `numpy.loadtxt`, and `numpy.char`), not
-    line by line in Python; a line that does not read as ``node, dof, node, dof, value`` (found
-    by reading the lines one by one once the whole-file parse has failed), an internal node and
-    a component outside 0..6 are refused naming the line.
+    Parsed whole by numpy (`numpy.loadtxt`, `numpy.char`), not line by line; a line that does
+    not read as ``node, dof, node, dof, value``, an internal node and a component outside 0..6
+    are refused naming the line.
     """
     path = existing_file(path, "Abaqus matrix file")
     texts = np.char.strip(np.array(path.read_bytes().splitlines(), dtype=bytes))
@@ -102,13 +97,8 @@ def _check_pattern(path, rows: np.ndarray, cols: np.ndarray, lines, names, n: in
 
 
 def read_abaqus(stiffness, mass) -> FEExport:
-    """K and M from the ``_STIF`` and ``_MASS`` ``.mtx`` files of one Abaqus job.
-
-    Checked whole: a file giving both triangles must give each off-diagonal term twice, a
-    row with couplings must have its diagonal term
-    (`vibupdate.model.fe.export.symmetric_from_entries`), and every DOF with mass must have
-    stiffness (Abaqus writes the matrices before the boundary conditions, so every DOF of the
-    model has a stiffness term): a file with lines missing is refused naming the line."""
+    """K and M from the ``_STIF`` and ``_MASS`` ``.mtx`` files of one Abaqus job, checked whole:
+    a file with lines missing is refused naming the line (the checks: docs/fe/abaqus.md)."""
     digits = Counter()
     k_terms, m_terms = read_mtx_terms(stiffness, digits), read_mtx_terms(mass, digits)
     keys = np.unique(np.concatenate([k_terms[0], k_terms[1], m_terms[0], m_terms[1]]))

@@ -1,11 +1,10 @@
-"""Element matrices written by Abaqus/Standard ``*ELEMENT MATRIX OUTPUT``.
+"""Element matrices written by Abaqus/Standard ``*ELEMENT MATRIX OUTPUT`` (the export and the
+groups as the user reads them: docs/fe-models.md, "Element groups").
 
-With ``OUTPUT FILE=USER DEFINED, FILE NAME=name, STIFFNESS=YES, MASS=YES`` Abaqus writes
-``name.mtx``: per element of the ``ELSET``, a block in the input format of a linear user
+``name.mtx`` holds, per element of the ``ELSET``, a block in the input format of a linear user
 element (``*USER ELEMENT, LINEAR`` and ``*MATRIX``, Abaqus Keywords Reference Guide)::
 
     ** ELEMENT NUMBER 11 STEP NUMBER 1 INCREMENT NUMBER 1
-    ** ELEMENT TYPE B21
     *USER ELEMENT, NODES= 2, LINEAR
     ** ELEMENT NODES
     ** 101, 102
@@ -14,22 +13,14 @@ element (``*USER ELEMENT, LINEAR`` and ``*MATRIX``, Abaqus Keywords Reference Gu
     k11 ,
     k21 , k22
     ...
-    *MATRIX,TYPE=MASS
-    ...
 
-The comment lines carry the element number and its nodes. The first data line lists the
-active DOFs (1-6: x, y, z, rx, ry, rz) at the element's first node; a further data line
-``position, dof, dof, ...`` changes them from the node at that position of the element's node
-list on. The variables are ordered node by node (the Abaqus results-file format: "first the
-variables at the element's first node, then those at its second node"). A symmetric matrix is
-its lower triangle row by row (equally, the upper triangle column by column, as the results
-file stores it), each row starting a new line and wrapped at four entries per line. The
-matrices are in the global directions, before the boundary conditions: the supports are fixed
-by naming their DOFs. The significant digits of the values give the export's relative
-precision (`vibupdate.model.fe.export.precision_of_digits`).
-
-The element sets of the input file (``*ELSET``, and the ``ELSET=`` of ``*ELEMENT``) give the
-groups the parameters follow (`read_abaqus_element_sets`).
+The first data line lists the active DOFs (1-6: x, y, z, rx, ry, rz) at the element's first
+node; a further data line ``position, dof, dof, ...`` changes them from the node at that position
+of the element's node list on. The variables are ordered node by node (the Abaqus results-file
+format). A symmetric matrix is its lower triangle row by row, each row starting a new line and
+wrapped at four entries per line, in the global directions and before the boundary conditions.
+The element sets of the input file (``*ELSET``, ``ELSET=`` of ``*ELEMENT``) give the groups the
+parameters follow (`read_abaqus_element_sets`).
 """
 
 from __future__ import annotations
@@ -41,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from vibupdate.model.element_groups import ElementMatrices, element_matrices
-from vibupdate.model.fe.export import DIRECTIONS, digit_counts, dof_name, existing_file, precision_of_digits
+from vibupdate.model.fe.export import DIRECTIONS, digit_counts, dof_name, dof_order, existing_file, precision_of_digits
 
 
 _ELEMENT = re.compile(r"\*\*\s*ELEMENT NUMBER\s+(-?\d+)(?:\s+STEP NUMBER\s+(\d+))?", re.I)
@@ -88,21 +79,18 @@ def _blocks(path: Path) -> list[_Block]:
                                      f"got {text!r}") from None
             continue
         if upper.startswith("*"):
-            reading_nodes = False
+            reading_nodes, matrix = False, None
             kind = _MATRIX.match(text)
             if upper.startswith("*USER ELEMENT"):
                 nodes = _NODES.search(text)
                 if not nodes:
                     raise ValueError(f"{path}: line {number}: *USER ELEMENT without NODES=")
                 current.n_nodes = int(nodes.group(1))
-                matrix = None
             elif kind:
                 matrix = kind.group(1).upper()
                 if matrix in current.matrices:
                     raise ValueError(f"{path}: line {number}: element {current.label} has a second {matrix} matrix")
                 current.matrices[matrix] = []
-            else:
-                matrix = None
             continue
         fields = [t.strip() for t in text.split(",") if t.strip()]
         if matrix is not None:
@@ -188,8 +176,7 @@ def read_abaqus_elements(paths: Sequence) -> ElementMatrices:
             raise ValueError(f"element {label} is written twice ({seen[label]} and again): export the element matrices "
                              "of one step and increment (FREQUENCY) from one request per element")
         seen[label] = ", ".join(map(str, paths))
-    order = sorted(dict.fromkeys(d for e in elements for d in e[1]),
-                   key=lambda d: (int(d.split(":")[0]), DIRECTIONS.index(d.split(":")[1])))
+    order = sorted(dict.fromkeys(d for e in elements for d in e[1]), key=dof_order)
     return element_matrices(elements, dofs=order, precision=precision_of_digits(digit_counts(written)),
                             source=", ".join(map(str, paths)))
 

@@ -1,26 +1,14 @@
-"""ANSYS Mechanical APDL matrices: ``HBMAT`` Harwell-Boeing files with their ``.mapping``,
-or the binary ``.full`` file.
+"""ANSYS Mechanical APDL matrices: ``HBMAT`` Harwell-Boeing files with their ``.mapping``, or the
+binary ``.full`` file (what is read and checked: docs/fe/ansys.md, "What the reader takes from an
+HBMAT file" and "The ``.full`` file instead").
 
-HBMAT
------
-``HBMAT, K, matrix, , ASCII, STIFF, NO, YES`` (and ``MASS``) writes the assembled matrix of the
-``.full`` file in Harwell-Boeing form and, with ``Mapping = YES``, a text file with one line per
-equation: the equation number, the node and the DOF label (``UX, UY, UZ, ROTX, ROTY, ROTZ``).
-It is read by this module's own reader, as the Harwell-Boeing layout (Duff, Grimes and
-Lewis, 1992) of any repeat count, width, exponent letter and scale factor: `scipy.io.hb_read`
-reads only the layout scipy's ``hb_write`` produces (the layout and the checks:
-docs/fe/ansys.md, "What the reader takes from an HBMAT file"). A file whose line or number
-counts, pointers or row indices do not match its header is refused naming the file and the
-line, never read in part.
-The equations are those ANSYS solved: constrained DOFs are not written. The significant digits
-of the values as written give the export's relative precision
-(`vibupdate.model.fe.export.precision_of_digits`); the binary ``.full`` file holds doubles.
-
-``.full``
----------
-Read through ``ansys-mapdl-reader`` (the optional extra ``vibupdate[fe]``), which returns each
-equation's node and DOF and the constrained DOFs. Its ``load_km`` keeps the constrained DOFs
-as zero rows and columns of K and M, which are removed here (else a singular model).
+The Harwell-Boeing layout (Duff, Grimes and Lewis, 1992) is read by this module's own reader, of
+any repeat count, width, exponent letter and scale factor (`scipy.io.hb_read` reads only the
+layout scipy's ``hb_write`` produces); a file that does not match its header is refused naming
+the line, never read in part. The ``.mapping`` names each equation's node and DOF label; the
+constrained DOFs are not written. The ``.full`` file is read through ``ansys-mapdl-reader`` (the
+extra ``vibupdate[fe]``), whose ``load_km`` keeps the constrained DOFs as zero rows and columns,
+removed here.
 """
 
 from __future__ import annotations
@@ -86,14 +74,6 @@ _ONE = {"pointers": "pointer", "row indices": "row index", "values": "value",
         "right-hand side": "right-hand side value"}
 
 
-def _integers(line: str, repeat: int, width: int) -> list[str]:
-    """The integer fields of a line: fixed width, as Fortran reads them (blank trailing fields dropped)."""
-    fields = [line[width * j:width * (j + 1)].strip() for j in range(repeat)]
-    while fields and not fields[-1]:
-        fields.pop()
-    return fields
-
-
 def _reals(line: str, fmt: tuple[int, int, int, int], path: Path, number: int, what: str) -> list[tuple[str, float]]:
     """The reals of a value line with their text: the numbers on the line, not fixed columns
     (``scipy.io.hb_write`` writes 24-character fields under a ``(3E25.16)`` format; an exponent
@@ -134,8 +114,10 @@ def _section(lines: list[str], first: int, count: int, fmt: tuple[int, int, int,
     numbers, where = [], []
     for k in range(first, first + count):
         line = lines[k].rstrip("\r\n")
-        if digits is None:
-            fields = _integers(line, fmt[0], fmt[1])
+        if digits is None:     # integers: fixed width, as Fortran reads them, blank trailing fields dropped
+            fields = [line[fmt[1] * j:fmt[1] * (j + 1)].strip() for j in range(fmt[0])]
+            while fields and not fields[-1]:
+                fields.pop()
             for t in fields:
                 if not t.lstrip("+-").isdigit():
                     raise ValueError(f"{path}: line {k + 1}: {_ONE[what]} {t!r} is not an integer")

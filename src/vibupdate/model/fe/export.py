@@ -2,17 +2,12 @@
 
 `FEExport` holds the stiffness and mass matrices of one export as the code wrote them (after
 the constrained DOFs are removed), the name of each DOF, ``"<node>:<dir>"`` with ``dir`` in
-``x, y, z, rx, ry, rz`` (`DIRECTIONS`; a scalar point is ``"<id>:s"``), and the node
-coordinates when the export holds them, and the relative precision of the numbers as written
-(`precision_of_digits`). The helpers here turn the entries a code writes (one triangle or both)
-into symmetric CSR matrices and check what every reader must check.
-
-**Precision of a text export** (docs/fe-models.md, "Precision of the exports"): every entry
-read is within ``delta |A_ij|`` of the code's own, ``delta`` half a unit in the last digit the
-format holds. The text readers count the significant digits of what they parse
-(`significant_digits`, `digit_counts`) and `precision_of_digits` turns the counts into
-``delta`` (None for doubles written in full); the import carries it into the model
-(``matrix_precision``, `vibupdate.modal.rigid`).
+``x, y, z, rx, ry, rz`` (`DIRECTIONS`; a scalar point is ``"<id>:s"``), the node coordinates
+when the export holds them, and the relative precision of the numbers as written: the text
+readers count the significant digits they parse (`digit_counts`) and `precision_of_digits`
+turns the counts into it (the rule: docs/fe-models.md, "Precision of the exports"). The helpers
+here turn the entries a code writes (one triangle or both) into symmetric CSR matrices and check
+what every reader must check.
 """
 
 from __future__ import annotations
@@ -70,20 +65,14 @@ def digit_counts(texts) -> Counter:
     -------
     collections.Counter
         Significant digits -> how many of ``texts`` have them.
-
-    Notes
-    -----
-    Vectorised over the array (`numpy.char`, in numpy 1 and 2 alike): after the leading sign,
-    the mantissa ends at the first exponent letter (``E``, ``D``) or sign; in a number that
-    parses, a sign after the first character follows a digit, a point or the exponent letter,
-    so this is `significant_digits`'s rule.
     """
     s = np.asarray(texts)
     if not s.size:
         return Counter()
     raw = s.dtype.kind == "S"
     text = (lambda t: t.encode()) if raw else (lambda t: t)
-    # every exponent letter or sign becomes "E"; the mantissa is what comes before the first
+    # every exponent letter or sign becomes "E"; the mantissa is what comes before the first (a sign
+    # after a number's first character follows a digit, a point or the letter: `significant_digits`'s rule)
     marks = (bytes if raw else str).maketrans(text("eEdD+-"), text("EEEEEE"))
     s = np.char.translate(np.char.lstrip(np.char.strip(s), text("+-")), marks)
     mantissa = np.char.replace(np.char.partition(s, text("E"))[..., 0], text("."), text(""))
@@ -127,6 +116,12 @@ def dof_name(node, component: int) -> str:
     if not 1 <= component <= 6:
         raise ValueError(f"DOF component of node {node} must be 0 to 6, got {component}")
     return f"{node}:{DIRECTIONS[component - 1]}"
+
+
+def dof_order(name: str) -> tuple[int, int]:
+    """Sort key of a DOF name ``"<node>:<dir>"`` of a numbered node: node, then component (``s`` first)."""
+    node, direction = name.split(":")
+    return int(node), (("s",) + DIRECTIONS).index(direction)
 
 
 @dataclass(frozen=True)
@@ -186,13 +181,11 @@ def symmetric_from_entries(rows, cols, values, n: int, source: str, what: str, n
     An entry given in both triangles must agree to `SYMMETRY_TOL`; one given in one triangle is
     mirrored. Repeated entries at one position are refused (FE codes write each term once).
 
-    Completeness: a stiffness or mass matrix is positive semidefinite, so a row whose diagonal
-    term is zero holds no other term (``A_ij^2 <= A_ii A_jj``). A row with a zero or missing
-    diagonal term and an off-diagonal term above `MISSING_DIAGONAL_TOL` times the largest entry
-    is the mark of lines missing from the file (a cut file loses the diagonal terms of its last
-    columns, whose couplings to earlier DOFs are still there): refused, naming the DOF
-    (``names``, the DOF of each index) and the line of its first term (``lines``, the line
-    number of each entry) when given.
+    A row with a zero or missing diagonal term and an off-diagonal term above
+    `MISSING_DIAGONAL_TOL` times the largest entry, which a positive semidefinite matrix cannot
+    have (``A_ij^2 <= A_ii A_jj``), marks lines missing from the file (docs/fe/nastran.md):
+    refused, naming the DOF (``names``, per index) and the line of its first term (``lines``,
+    per entry) when given.
     """
     rows, cols = np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64)
     values = np.asarray(values, dtype=float)

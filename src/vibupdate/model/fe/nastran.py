@@ -1,21 +1,15 @@
-"""Nastran DMIG matrices (a punch file of ``PARAM,EXTOUT,DMIGPCH`` or any bulk data).
+"""Nastran DMIG matrices (a punch file of ``PARAM,EXTOUT,DMIGPCH`` or any bulk data; what the
+reader checks: docs/fe/nastran.md, "What the reader checks in a punch").
 
 Read here, not through pyNastran: its current release (1.4.1) requires ``numpy < 2``; the
 tests compare this reader with pyNastran 1.3.4, which the ``test`` extra installs.
 
-Format read
------------
-Bulk data in small field (8-character fields, ``DMIG``), large field (16-character fields,
-``DMIG*``, continuation lines starting with ``*``) or free field (comma separated). Each
-matrix is a header card ``DMIG, NAME, 0, IFO, TIN, TOUT, POLAR, , NCOL`` followed by one card
-per column ``DMIG, NAME, GJ, CJ, , G1, C1, A1, B1, G2, C2, A2, B2, ...``: the column's grid
-point and component, then (grid, component, value) of each row term. ``IFO = 6`` (symmetric)
-holds one triangle, which is mirrored (a term given in both triangles must agree); ``IFO = 1``
-(square) must be symmetric. Reals are Nastran numbers (``1.5+3``, ``-2.D-4``, ``7.E5``).
-Complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards (basic system) give the node
-coordinates, one for every grid point of the matrices (the checks: docs/fe/nastran.md). Component
-1..6 of a grid point is ``"<grid>:x"`` ... ``"<grid>:rz"``, component 0 (a scalar point)
-``"<id>:s"``. The punch holds the analysis set: the constrained DOFs are already gone.
+Small, large (``DMIG*``, ``*`` continuations) and free field cards are read: a header card
+``DMIG, NAME, 0, IFO, TIN, TOUT, POLAR, , NCOL`` and one card per column ``DMIG, NAME, GJ, CJ, ,
+G1, C1, A1, B1, ...``. ``IFO = 6`` (symmetric) holds one triangle, mirrored; ``IFO = 1``
+(square) must be symmetric; complex matrices (``TIN`` 3 or 4) are refused. ``GRID`` cards (basic
+system) give the node coordinates. The punch holds the analysis set: the constrained DOFs are
+already gone.
 """
 
 from __future__ import annotations
@@ -25,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, existing_file, precision_of_digits,
+from vibupdate.model.fe.export import (FEExport, digit_counts, dof_name, dof_order, existing_file, precision_of_digits,
                                        symmetric_from_entries)
 
 
@@ -160,7 +154,7 @@ def read_dmig(path, stiffness: str = "KAAX", mass: str = "MAAX") -> FEExport:
     kr, kc, kv, kdofs, _, kdigits, klines, kncol = found[stiffness.upper()]
     mr, mc, mv, mdofs, _, mdigits, mlines, mncol = found[mass.upper()]
     # a DOF with terms in one matrix only still belongs to both: the union, by grid then direction
-    order = sorted(set(kdofs) | set(mdofs), key=_dof_key)
+    order = sorted(set(kdofs) | set(mdofs), key=dof_order)
     for name, ncol in ((stiffness, kncol), (mass, mncol)):
         if ncol is not None and ncol != len(order):
             raise ValueError(f"{path}: the header of DMIG {name.upper()} declares NCOL = {ncol} columns, but "
@@ -214,7 +208,3 @@ def _grids(path: Path, cards) -> dict:
             raise ValueError(f"{path}: line {number}: cannot read GRID {data[:5]}") from None
     return nodes
 
-
-def _dof_key(name: str):
-    node, d = name.split(":")
-    return int(node), ("s", "x", "y", "z", "rx", "ry", "rz").index(d)

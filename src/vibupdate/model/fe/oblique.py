@@ -1,22 +1,13 @@
-"""Oblique DOFs: the reading of a sensor that is not along a node axis, as a DOF of the model.
+"""Oblique DOFs: the reading of a sensor that is not along a node axis, as a DOF of the model (the
+rules as the user reads them: docs/fe-models.md, "Sensors along an axis and oblique sensors").
 
-A sensor along the unit direction ``n`` reads ``n . u`` (docs/fe-models.md, "Sensors along an
-axis and oblique sensors"). To make that reading a DOF ``"<node>:n<k>"``, the node's
-translations are replaced by ``u' = D u``, ``D`` the identity with the row of one axis per
-oblique direction replaced by that direction (`Oblique.replaces`). With ``T`` the identity
-except ``D^-1`` in the rows and columns of each such node's x, y, z (``q = T q'``):
-
-    M' = T^T M T,   K' = T^T K T,   dM'/dp = T^T (dM/dp) T,   dK'/dp = T^T (dK/dp) T.
-
-A congruence by a constant invertible ``T`` keeps the eigenvalues, the definiteness, the
-affinity in the parameters and the derivatives' meaning; a mode shape becomes ``T^-1 phi``:
-unchanged except at those nodes, where it is ``D u`` — the oblique readings. ``D`` need not be
-orthogonal, so two sensors 45 degrees apart on one node are two DOFs; its rows must be
-independent (`vibupdate.model.fe.sensors` refuses a direction within ``ALIGN_TOL`` of the span
-of the node's other readings).
-
-A rigid translation along axis ``a`` (1 m) is ``D e_a`` in the new coordinates: 1 on the
-``a`` translations, ``n_a`` on an oblique DOF of direction ``n`` (`rigid_translations`).
+The node's translations are replaced by ``u' = D u``, ``D`` the identity with the row of one
+axis per oblique direction replaced by that direction (`Oblique.replaces`); with ``T`` the
+identity except ``D^-1`` in the rows and columns of each such node's x, y, z (``q = T q'``),
+every matrix becomes ``T^T A T`` (`congruent`): a congruence by a constant invertible ``T``
+keeps the eigenvalues, the definiteness and the affinity in the parameters, and a mode shape
+becomes ``D u`` at those nodes, the oblique readings. A rigid translation along axis ``a`` is
+``D e_a`` in the new coordinates (`rigid_translations`).
 """
 
 from __future__ import annotations
@@ -53,16 +44,6 @@ class Oblique:
     direction: np.ndarray
 
 
-def _node_block(obliques: Sequence[Oblique], index: Mapping[str, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Indices (3,) of one node's x, y, z and ``D^-1`` (3, 3) for its oblique DOFs."""
-    node = obliques[0].replaces.rsplit(":", 1)[0]
-    slots = np.array([index[f"{node}:{a}"] for a in AXES])
-    D = np.eye(3)
-    for o in obliques:
-        D[AXES.index(o.replaces.rsplit(":", 1)[1])] = o.direction
-    return slots, np.linalg.inv(D)
-
-
 def coordinate_change(dofs: Sequence[str], obliques: Sequence[Oblique]) -> tuple[sp.csr_matrix, tuple[str, ...]]:
     """``T`` (n, n), with ``q = T q'`` from the new coordinates ``q'`` to the exported ones,
     and the names of the new coordinates (``dofs`` with each `Oblique.replaces` renamed)."""
@@ -73,12 +54,15 @@ def coordinate_change(dofs: Sequence[str], obliques: Sequence[Oblique]) -> tuple
     n = len(dofs)
     kept = np.ones(n, dtype=bool)
     rows, cols, vals = [], [], []
-    for group in by_node.values():
-        slots, block = _node_block(group, index)
+    for node, group in by_node.items():
+        slots = np.array([index[f"{node}:{a}"] for a in AXES])       # the node's x, y, z
+        D = np.eye(3)
+        for o in group:
+            D[AXES.index(o.replaces.rsplit(":", 1)[1])] = o.direction
         kept[slots] = False
         rows.append(np.repeat(slots, 3))
         cols.append(np.tile(slots, 3))
-        vals.append(block.ravel())
+        vals.append(np.linalg.inv(D).ravel())
     identity = np.flatnonzero(kept)
     T = sp.csr_matrix((np.concatenate([np.ones(identity.size)] + vals),
                        (np.concatenate([identity] + rows), np.concatenate([identity] + cols))), shape=(n, n))

@@ -2,22 +2,13 @@
 
 The user writes ``builder(p)``, a function of a dict of parameter values that builds the model
 with the openseespy API. `export_from_builder` wipes the domain, calls it, and reads K and M
-column by column from the model's own forces (docs/fe/opensees.md, "How K and M are read"):
-
-* **probes**: nodes are coloured so that two nodes of one colour are neither neighbours
-  (``eleNodes``) nor share a neighbour; a probe moves DOF ``d`` of every node of one colour
-  by `PROBE` (a power of two: dividing by it is exact), and the force read at a DOF next to
-  it (``reactions``; ``-dynamic`` with trial accelerations, ``setNodeAccel``, for M) is one
-  entry of the probed column. Stiffness probes set and commit displacements and take one
-  step of the ``GimmeMCK`` integrator on a ``Diagonal`` system, which updates the elements
-  to the committed response (``setNodeDisp`` alone does not);
-* **linearity check**: before the probes each direction moves every node by
-  ``(1 + 2 colour) PROBE``, then by ``-2`` times that; forces not exactly ``-2`` times as large
-  (second-order terms, a kink or yield at rest) stop the import, naming nodes and elements;
-* multi-point constraints are refused, load patterns removed, fixed DOFs have no equation;
-  ``-ndf 6`` and planar ``-ndf 3 -ndm 2`` models are named, other DOFs refused.
-
-The cost, ``ndf (c + 2)`` element updates for ``c`` colours: `benchmarks/RESULTS.md`, heading
+column by column from the model's own forces, by probes of the nodes of one colour at a time
+(`probe_colours`), after checking that each direction is linear about rest (`_check_linear`);
+multi-point constraints are refused (docs/fe/opensees.md, "How K and M are read, and what is
+refused"). Stiffness probes set and commit displacements and take one step of the ``GimmeMCK``
+integrator on a ``Diagonal`` system, which updates the elements to the committed response
+(``setNodeDisp`` alone does not). ``-ndf 6`` and planar ``-ndf 3 -ndm 2`` models are read. The
+cost, ``ndf (c + 2)`` element updates for ``c`` colours: `benchmarks/RESULTS.md`, heading
 "OpenSees import: probes against the dense printA".
 """
 
@@ -210,7 +201,7 @@ def _responses(ops, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndar
 
 def _check_linear(ops, nd: int, colour: np.ndarray, tags: np.ndarray, free: np.ndarray, elements: np.ndarray,
                   incidence: sp.csr_matrix, kind: str, name: str) -> None:
-    """Refuse a model not linear about rest along each direction (module docstring): DOF ``d``
+    """Refuse a model not linear about rest along each direction (docs/fe/opensees.md): DOF ``d``
     of every node moves by ``(1 + 2 colour) s`` and then by ``-2`` times that; the forces must
     be exactly ``-2`` times as large."""
     everywhere = np.arange(tags.size)

@@ -1,19 +1,12 @@
-"""Parameter derivatives from perturbed exports, and the affine model they make.
+"""Parameter derivatives from perturbed exports, and the affine model they make (the route as the
+user reads it: docs/fe-models.md, "Perturbed exports").
 
-An FE code exports its model at the nominal parameters ``p0`` and once per parameter with that
-parameter changed by a stated step ``h`` (the others at nominal). The derivative of each matrix
-``A`` (K or M) is the difference quotient:
-
-* one step: the forward difference ``D = (A(p0 + h) - A(p0)) / h``;
-* two steps ``h1``, ``h2``: the derivative at ``p0`` of the quadratic through the three
-  exports, ``D = (h2^2 dA1 - h1^2 dA2) / (h1 h2 (h2 - h1))`` with ``dAk = A(p0 + hk) - A(p0)``
-  (the central difference ``(A(p0 + h) - A(p0 - h)) / 2h`` when ``h2 = -h1``).
-
-The second step also gives the *departure* from affine (docs/fe-models.md, "Perturbed
-exports"), ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
-M's; the affine model is the linearization at ``p0``. Each parameter names the property group
-it moves (the DOFs whose rows of ``D`` are not zero); the model's ``matrix_precision`` is the
-coarsest of the exports'.
+The derivative of each matrix ``A`` (K or M) is the difference quotient: with one step ``h`` the
+forward difference ``(A(p0 + h) - A(p0)) / h``; with two, ``h1`` and ``h2``, the derivative at
+``p0`` of the quadratic through the three exports, ``(h2^2 dA1 - h1^2 dA2) / (h1 h2 (h2 - h1))``
+with ``dAk = A(p0 + hk) - A(p0)`` (the central difference when ``h2 = -h1``), and the departure
+from affine ``||dA1/h1 - dA2/h2||_F / max(||dA1/h1||_F, ||dA2/h2||_F)``, the larger of K's and
+M's. The model's ``matrix_precision`` is the coarsest of the exports'.
 """
 
 from __future__ import annotations
@@ -119,15 +112,10 @@ TERM_TOL = 1e-12
 
 
 def _check_same_terms(nominal: FEExport, other: FEExport, name: str, p0: float, p1: float) -> None:
-    """Refuse a term that one export of the pair gives and the other lacks (exactly zero).
-
-    Assumption: a finite step of a parameter changes the value of a term of K or M but does not
-    make it exactly zero, nor make one appear where the nominal has exactly zero, unless the
-    parameter itself is zero in one of the two exports (a spring stepped from or to zero); such
-    a term would need an exact cancellation. A term of one export missing from the other is then
-    a line missing from a file: its difference, divided by the step, would be taken as a
-    derivative. Terms below `TERM_TOL` times the matrix's largest entry (rounding noise of an
-    assembly) are not compared."""
+    """Refuse a term that one export of the pair gives and the other lacks (exactly zero): a step
+    of a parameter does not make a term vanish or appear unless the parameter is zero in one of
+    the two exports, so such a term is a line missing from a file (docs/fe/nastran.md). Terms
+    below `TERM_TOL` times the matrix's largest entry (an assembly's rounding) are not compared."""
     if p0 == 0 or p1 == 0:
         return
     for label, A0, A1 in (("K", nominal.K, other.K), ("M", nominal.M, other.M)):
@@ -162,15 +150,6 @@ def _change(nominal: FEExport, other: FEExport, name: str, step: float, p0: floa
     return dK, dM
 
 
-def _departure(d1, d2) -> float:
-    worst = 0.0
-    for a, b in zip(d1, d2):
-        scale = max(spla.norm(a), spla.norm(b))
-        if scale:
-            worst = max(worst, float(spla.norm(a - b)) / scale)
-    return worst
-
-
 def _group(dK, dM, dofs) -> tuple[tuple, tuple]:
     rows = set()
     for A in (dK, dM):
@@ -201,7 +180,11 @@ def derivatives(nominal: FEExport, perturbations: Sequence[Perturbation]) -> tup
             c = h1 * h2 * (h2 - h1)
             dK, dM = (h2 * h2 * dK1 - h1 * h1 * dK2) / c, (h2 * h2 * dM1 - h1 * h1 * dM2) / c
             scheme = "central" if h2 == -h1 else "two-step"
-            departure = _departure((dK1 / h1, dM1 / h1), (dK2 / h2, dM2 / h2))
+            departure = 0.0
+            for a, b in ((dK1 / h1, dK2 / h2), (dM1 / h1, dM2 / h2)):
+                scale = max(spla.norm(a), spla.norm(b))
+                if scale:
+                    departure = max(departure, float(spla.norm(a - b)) / scale)
         dofs, nodes = _group(dK, dM, nominal.dofs)
         out.append(Derivative(name, sp.csr_matrix(dK), sp.csr_matrix(dM), scheme, departure, dofs, nodes))
     return tuple(out)

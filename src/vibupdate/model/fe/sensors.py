@@ -1,12 +1,8 @@
 """Measured points on an FE mesh: a sensor named by node and direction (``"1203:y"``) or by
-coordinates and a sensor direction, and the DOF each one reads (the rules as the user reads
-them: docs/fe-models.md, "Sensors along an axis and oblique sensors").
-
-A sensor by coordinates sits on the nearest node that moves. Within `ALIGN_TOL` of a node axis
-it reads that axis's DOF with the projection's sign; otherwise it is *oblique* and its reading
-``n . u`` becomes a DOF ``"<node>:n<k>"`` in place of one of the node's translations
-(`vibupdate.model.fe.oblique`). A node gives at most three independent readings; a direction
-within `ALIGN_TOL` of the span of the others is refused naming the sensors.
+coordinates and a sensor direction, and the DOF each one reads: the nearest node that moves, that
+node's axis within `ALIGN_TOL`, else an oblique DOF ``"<node>:n<k>"`` (`vibupdate.model.fe.oblique`);
+at most three independent readings a node (the rules as the user reads them: docs/fe-models.md,
+"Sensors along an axis and oblique sensors").
 """
 
 from __future__ import annotations
@@ -70,23 +66,26 @@ def _translations(label: str, dofs: set) -> list[str]:
     return [a for a in AXES if f"{label}:{a}" in dofs]
 
 
-def _by_dof(name: str, dof: str, dofs: set) -> _Located:
-    if dof not in dofs:
-        raise ValueError(f"sensor '{name}': DOF {dof!r} is not in the model (names are '<node>:<dir>', dir in "
-                         "x, y, z, rx, ry, rz)")
-    node, axis = dof.rsplit(":", 1)
-    if axis not in AXES:
-        return _Located(name, node, None, 0.0, dof)
-    return _Located(name, node, np.eye(3)[AXES.index(axis)], 0.0)
-
-
-def _by_position(name: str, position, direction, dofs: set, nodes) -> _Located:
-    """The nearest node to ``position`` (m; ties go to a node that moves) and the unit direction."""
-    p, v = np.asarray(position, dtype=float), np.asarray(direction, dtype=float)
+def _locate(item: dict, dofs: set, nodes) -> _Located:
+    """One ``[[sensor]]`` table (``name`` and ``dof``, or ``position`` and ``direction``) on its node."""
+    name, dof = item["name"], item.get("dof")
+    if dof is not None:
+        if dof not in dofs:
+            raise ValueError(f"sensor '{name}': DOF {dof!r} is not in the model (names are '<node>:<dir>', dir in "
+                             "x, y, z, rx, ry, rz)")
+        node, axis = dof.rsplit(":", 1)
+        if axis not in AXES:
+            return _Located(name, node, None, 0.0, dof)
+        return _Located(name, node, np.eye(3)[AXES.index(axis)], 0.0)
+    if item.get("position") is None or item.get("direction") is None:
+        raise ValueError(f"sensor '{name}': give a dof, or a position and a direction")
+    if not nodes:
+        raise ValueError(f"sensor '{name}' is placed by coordinates, but the export holds no node coordinates")
+    p, v = np.asarray(item["position"], dtype=float), np.asarray(item["direction"], dtype=float)
     if p.shape != (3,) or v.shape != (3,) or not np.all(np.isfinite(np.r_[p, v])) or not np.linalg.norm(v) > 0:
         raise ValueError(f"sensor '{name}': position and direction are [x, y, z] (finite numbers) with a non-zero "
                          f"direction, got {p.tolist()} and {v.tolist()}")
-    labels = list(nodes)
+    labels = list(nodes)       # the nearest node; ties go to a node that moves
     where = np.array([np.resize(np.asarray(nodes[k], dtype=float), 3) for k in labels])
     distance = np.linalg.norm(where - p, axis=1)
     still = np.array([not _translations(k, dofs) for k in labels])
@@ -96,28 +95,6 @@ def _by_position(name: str, position, direction, dofs: set, nodes) -> _Located:
                          "away), has no translational DOF in the model (constrained, or not in the export); "
                          "place the sensor on a node that moves")
     return _Located(name, labels[k], v / np.linalg.norm(v), float(distance[k]))
-
-
-def _locate(item: dict, dofs: set, nodes) -> _Located:
-    """One ``[[sensor]]`` table (``name`` and ``dof``, or ``position`` and ``direction``) on its node."""
-    name = item["name"]
-    if item.get("dof") is not None:
-        return _by_dof(name, item["dof"], dofs)
-    if item.get("position") is None or item.get("direction") is None:
-        raise ValueError(f"sensor '{name}': give a dof, or a position and a direction")
-    if not nodes:
-        raise ValueError(f"sensor '{name}' is placed by coordinates, but the export holds no node coordinates")
-    return _by_position(name, item["position"], item["direction"], dofs, nodes)
-
-
-def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip(abs(a @ b), 0.0, 1.0))))
-
-
-def _aligned_axis(n: np.ndarray) -> int | None:
-    """The axis (0..2) within ALIGN_TOL of the unit vector ``n`` (either sense), or None."""
-    k = int(np.argmax(np.abs(n)))
-    return k if np.arccos(min(1.0, abs(n[k]))) <= ALIGN_TOL else None
 
 
 def _span_residual(n: np.ndarray, basis: list[np.ndarray]) -> float:
@@ -153,8 +130,8 @@ class _Node:
         self.read: list[tuple[_Located, int, float]] = []   # sensor, reading (axis 0..2 or 3 + oblique k), sign
 
     def add(self, s: _Located) -> None:
-        k = _aligned_axis(s.direction)
-        if k is not None:
+        k = int(np.argmax(np.abs(s.direction)))      # an axis within ALIGN_TOL (either sense)?
+        if np.arccos(min(1.0, abs(s.direction[k]))) <= ALIGN_TOL:
             if f"{self.label}:{AXES[k]}" not in self.dofs:
                 raise ValueError(f"sensor '{s.name}': node {self.label} has no DOF '{self.label}:{AXES[k]}' "
                                  "(constrained?)")
@@ -179,7 +156,7 @@ class _Node:
         names = [f"'{name}' ({AXES[k]})" for k, name in self.axes.items()]
         for n, name in self.oblique:
             if _span_residual(n, basis) < np.sin(ALIGN_TOL):
-                angles = ", ".join(f"{_angle_deg(n, b):.1f}" for b in basis)
+                angles = ", ".join(f"{np.degrees(np.arccos(np.clip(abs(n @ b), 0.0, 1.0))):.1f}" for b in basis)
                 raise ValueError(
                     f"sensor '{name}' at node {self.label}: direction {np.round(n, 4).tolist()} is within "
                     f"{np.degrees(ALIGN_TOL):.2g} degrees of the span of the node's other readings (sensors "
