@@ -23,16 +23,28 @@ STALL_DECREASE = 1e-3
 SAME_ANSWER = 1e-4
 
 
-#: How far `inside` keeps a point from a bound, a fraction of the box's width; a point this close
-#: is on the bound (`gauss_newton_decrease`).
+#: How far `inside` keeps a point from a bound: this fraction of the bound's magnitude, at least
+#: of 1 (at most half the box); a point this close is on the bound (`gauss_newton_decrease`).
+#: scipy's trf starts at a point it moves this far in when it is nearer (the same product): a
+#: point `inside` gives is the point it evaluates (`bounded_least_squares`).
 INSIDE = 1e-10
+
+
+def _edges(lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """The innermost points `inside` allows, ``(lower + e_lower, upper - e_upper)`` (`INSIDE`);
+    both the box's midpoint where they would cross."""
+    lo, hi = lower + INSIDE * np.maximum(1.0, np.abs(lower)), upper - INSIDE * np.maximum(1.0, np.abs(upper))
+    crossed = lo > hi
+    if crossed.any():
+        mid = 0.5 * (lower + upper)
+        lo, hi = np.where(crossed, mid, lo), np.where(crossed, mid, hi)
+    return lo, hi
 
 
 def inside(x, lower, upper) -> np.ndarray:
     """``x`` nudged strictly inside the box (trf needs it; parameters with nominal 0 often sit
-    on a bound); idempotent."""
-    span = upper - lower
-    return np.clip(np.asarray(x, dtype=float), lower + INSIDE * span, upper - INSIDE * span)
+    on a bound) by `INSIDE`; idempotent."""
+    return np.clip(np.asarray(x, dtype=float), *_edges(lower, upper))
 
 
 class Stop(Exception):
@@ -136,8 +148,8 @@ def gauss_newton_decrease(x, r, J, lower, upper) -> float:
     if not total > 0:
         return 0.0
     g = J.T @ r
-    span = upper - lower
-    held = ((x - lower <= INSIDE * span) & (g > 0)) | ((upper - x <= INSIDE * span) & (g < 0))
+    lo, hi = _edges(lower, upper)
+    held = ((x <= lo) & (g > 0)) | ((x >= hi) & (g < 0))
     free = J[:, ~held]
     if not free.size:
         return 0.0
