@@ -437,3 +437,22 @@ def test_the_landing_screen_never_rules_out_an_answer_near_the_landing_point():
         ruled_out += int(np.count_nonzero(~may_land_near(x, r, J, lo, hi, far, SAME_ANSWER)))
         tried += far.shape[0]
     assert ruled_out > 0.5 * tried, (ruled_out, tried)
+
+
+def test_a_known_answers_bounds_are_a_guess_that_gives_the_bvls_landing_point():
+    """`near_bounds` marks the bounds within the distance of a point; as the first guess of a
+    run's landing (`Monitor`), a landing on those bounds is the warm least squares' point, and it
+    is bvls's point."""
+    from vibupdate.inverse.bounded_lsq import SAME_ANSWER, gauss_newton_point, near_bounds
+
+    lo, hi = np.array([0.0, -1.0, -1.0]), np.array([1.0, 1.0, 2.0])
+    answer = np.array([0.5 * SAME_ANSWER, 0.3, 2.0])
+    guess = near_bounds(answer, lo, hi, SAME_ANSWER)
+    assert guess.tolist() == [-1, 0, 1]
+    J = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]])
+    x = np.array([0.4, 0.0, 0.5])
+    r = -(J @ (np.array([-0.2, 0.3, 2.5]) - x))   # its unbounded landing: outside the box at 0 and 2
+    cold, held = gauss_newton_point(x, r, J, lo, hi)
+    warm, held_warm = gauss_newton_point(x, r, J, lo, hi, guess)
+    assert held.tolist() == guess.tolist() and held_warm.tolist() == guess.tolist()
+    assert np.allclose(warm, cold, rtol=0, atol=1e-12) and warm[0] == 0.0 and warm[2] == 2.0

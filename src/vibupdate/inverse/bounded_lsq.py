@@ -74,7 +74,10 @@ class Monitor:
         self.started, self.max_seconds = started, max_seconds
         self.answers = None if answers is None or not len(answers) else np.atleast_2d(np.asarray(answers, float))
         self.stationary = stationary
-        self.held = None   # the bounds active where the last point's Gauss-Newton step landed
+        # the bounds active where the last point's Gauss-Newton step landed; before the first
+        # landing, those a landing near the first known answer holds (`gauss_newton_point`)
+        self.held = None if self.answers is None or stationary is None else \
+            near_bounds(self.answers[0], *stationary[:2], SAME_ANSWER)
         self.count = 0
         self.history = [self.best[2]]
 
@@ -165,6 +168,12 @@ def _step_box(x, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return lo, hi, lo < hi
 
 
+def near_bounds(a, lower, upper, distance: float) -> np.ndarray:
+    """The bounds within ``distance`` of the point ``a``, as `gauss_newton_point` takes its
+    guess ``held``: -1 for the lower bound, 1 for the upper, 0 for neither."""
+    return np.where(a - lower <= distance, -1, np.where(upper - a <= distance, 1, 0))
+
+
 def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np.ndarray]:
     """Where the Gauss-Newton step from ``x`` lands in the box: ``x + d``, ``d`` minimizing
     ``|r + J d|`` with ``lower <= x + d <= upper``; ``x`` itself where ``r`` or ``J`` is not
@@ -172,7 +181,8 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
     while the linear model holds: a run whose point is a known answer only finds that answer
     again.
 
-    Given ``held``, the bounds active at the last point of the run, one least squares with
+    Given ``held``, a guess of the bounds active there (those at the last point of the run, or
+    at its first point those of the known answer, `near_bounds`), one least squares with
     those parameters on their bounds gives the point when it is one: the others inside the box
     and the residual's gradient pushing each held one out (the optimality conditions of this
     convex program); else scipy's ``bvls`` solves it, one bound added or dropped per pass
@@ -184,7 +194,7 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
         As in `gauss_newton_decrease`.
     held : ndarray of int, shape (n_x,), optional
         -1 for a parameter on its lower bound, 1 on its upper bound, 0 free: what this function
-        returned for the last point.
+        returned for the last point, or any other guess.
 
     Returns
     -------
