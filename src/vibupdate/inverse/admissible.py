@@ -233,14 +233,24 @@ class Admissible:
     def floored(self, relative: float) -> "Admissible":
         """The same data with every admissible half-width at least ``relative`` times the
         datum's scale (its value; a shape entry: its shape's `Shape.scale`), each interval
-        widened about its midpoint: the softer objective a polish starts on (`vibupdate.inverse.polish.START_FLOOR`)."""
+        widened about its midpoint: the softer objective a polish starts on (`vibupdate.inverse.polish.START_FLOOR`).
+        Built once per ``relative`` and kept with this contract (every start of a run is polished
+        from it)."""
         def wide(d, scale):
             mid, h = 0.5 * (d.lower + d.upper), np.maximum(d.half_width, relative * scale)
             return replace(d, lower=mid - h, upper=mid + h)
 
-        return Admissible(tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.frequencies),
-                          tuple(tuple(wide(s, s.scale) for s in row) for row in self.shapes),
-                          tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.masses))
+        kept = self._floored.get(relative)
+        if kept is None:
+            kept = self._floored[relative] = Admissible(
+                tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.frequencies),
+                tuple(tuple(wide(s, s.scale) for s in row) for row in self.shapes),
+                tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.masses))
+        return kept
+
+    @cached_property
+    def _floored(self) -> dict:
+        return {}
 
     @cached_property
     def datum_targets(self) -> tuple:
