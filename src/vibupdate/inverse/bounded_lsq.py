@@ -23,17 +23,19 @@ STALL_DECREASE = 1e-3
 SAME_ANSWER = 1e-4
 
 
-#: How far `inside` keeps a point from a bound: this fraction of the bound's magnitude, at least
-#: of 1 (at most half the box); a point this close is on the bound (`gauss_newton_decrease`).
-#: scipy's trf starts at a point it moves this far in when it is nearer (the same product): a
-#: point `inside` gives is the point it evaluates (`bounded_least_squares`).
+#: How far `inside` keeps a point from a bound: this fraction of the box's width, or of the
+#: bound's magnitude (at least of 1) where that is more (at most half the box); a point this close
+#: is on the bound (`gauss_newton_decrease`). scipy's trf moves a point it starts from that far
+#: in (the same product) when it is nearer: a point `inside` gives is the point trf evaluates.
 INSIDE = 1e-10
 
 
 def _edges(lower, upper) -> tuple[np.ndarray, np.ndarray]:
     """The innermost points `inside` allows, ``(lower + e_lower, upper - e_upper)`` (`INSIDE`);
     both the box's midpoint where they would cross."""
-    lo, hi = lower + INSIDE * np.maximum(1.0, np.abs(lower)), upper - INSIDE * np.maximum(1.0, np.abs(upper))
+    span = upper - lower
+    lo = lower + INSIDE * np.maximum(span, np.maximum(1.0, np.abs(lower)))
+    hi = upper - INSIDE * np.maximum(span, np.maximum(1.0, np.abs(upper)))
     crossed = lo > hi
     if crossed.any():
         mid = 0.5 * (lower + upper)
