@@ -437,3 +437,46 @@ def test_the_landing_screen_never_rules_out_an_answer_near_the_landing_point():
         ruled_out += int(np.count_nonzero(~may_land_near(x, r, J, lo, hi, far, SAME_ANSWER)))
         tried += far.shape[0]
     assert ruled_out > 0.5 * tried, (ruled_out, tried)
+
+
+def test_a_known_answers_bounds_are_a_guess_that_gives_the_bvls_landing_point():
+    """`near_bounds` marks the bounds within the distance of a point; as the first guess of a
+    run's landing (`Monitor`), a landing on those bounds is the warm least squares' point, and it
+    is bvls's point."""
+    from vibupdate.inverse.bounded_lsq import SAME_ANSWER, gauss_newton_point, near_bounds
+
+    lo, hi = np.array([0.0, -1.0, -1.0]), np.array([1.0, 1.0, 2.0])
+    answer = np.array([0.5 * SAME_ANSWER, 0.3, 2.0])
+    guess = near_bounds(answer, lo, hi, SAME_ANSWER)
+    assert guess.tolist() == [-1, 0, 1]
+    J = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]])
+    x = np.array([0.4, 0.0, 0.5])
+    r = -(J @ (np.array([-0.2, 0.3, 2.5]) - x))   # its unbounded landing: outside the box at 0 and 2
+    cold, held = gauss_newton_point(x, r, J, lo, hi)
+    warm, held_warm = gauss_newton_point(x, r, J, lo, hi, guess)
+    assert held.tolist() == guess.tolist() and held_warm.tolist() == guess.tolist()
+    assert np.allclose(warm, cold, rtol=0, atol=1e-12) and warm[0] == 0.0 and warm[2] == 2.0
+
+
+@pytest.mark.parametrize("lower, upper", [(-0.26, 0.26), (0.0, 50.0), (-3.0e3, 2.0e3), (5.0, 5.5)])
+def test_a_start_on_a_bound_is_the_point_trf_starts_from(lower, upper):
+    """`inside` moves a start on a bound as far as scipy's trf moves a point it starts from (a box
+    narrower or wider than 1, a bound of any magnitude): the start's value given as ``known`` is
+    the one trf uses, and the start is never evaluated again beside it."""
+    from vibupdate.inverse.bounded_lsq import bounded_least_squares, inside
+
+    lo, hi = np.array([lower, lower]), np.array([upper, upper])
+    A = np.array([[1.0, 0.5], [0.0, 1.0], [1.0, -1.0]])
+    target = lo + 0.3 * (hi - lo)
+    seen = []
+
+    def evaluate(x):
+        seen.append(np.array(x))
+        return A @ (x - target), A
+
+    for x0 in (lo.copy(), hi.copy(), np.array([lower, upper])):
+        start = inside(x0, lo, hi)
+        assert np.all(start > lo) and np.all(start < hi) and np.array_equal(inside(start, lo, hi), start)
+        seen.clear()
+        bounded_least_squares(evaluate, x0, lo, hi, known=(start, evaluate(start)), max_nfev=1)
+        assert len(seen) == 1, seen   # trf's one evaluation, at its start, was the known one

@@ -233,14 +233,24 @@ class Admissible:
     def floored(self, relative: float) -> "Admissible":
         """The same data with every admissible half-width at least ``relative`` times the
         datum's scale (its value; a shape entry: its shape's `Shape.scale`), each interval
-        widened about its midpoint: the softer objective a polish starts on (`vibupdate.inverse.polish.START_FLOOR`)."""
+        widened about its midpoint: the softer objective a polish starts on (`vibupdate.inverse.polish.START_FLOOR`).
+        Built once per ``relative`` and kept with this contract (every start of a run is polished
+        from it)."""
         def wide(d, scale):
             mid, h = 0.5 * (d.lower + d.upper), np.maximum(d.half_width, relative * scale)
             return replace(d, lower=mid - h, upper=mid + h)
 
-        return Admissible(tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.frequencies),
-                          tuple(tuple(wide(s, s.scale) for s in row) for row in self.shapes),
-                          tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.masses))
+        kept = self._floored.get(relative)
+        if kept is None:
+            kept = self._floored[relative] = Admissible(
+                tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.frequencies),
+                tuple(tuple(wide(s, s.scale) for s in row) for row in self.shapes),
+                tuple(tuple(wide(d, abs(d.value)) for d in row) for row in self.masses))
+        return kept
+
+    @cached_property
+    def _floored(self) -> dict:
+        return {}
 
     @cached_property
     def datum_targets(self) -> tuple:
@@ -256,6 +266,26 @@ class Admissible:
             return (*_targets(lower, upper, FLOOR * np.abs(value)), w)
 
         return tuple((block(f), block(m)) for f, m in zip(self.frequencies, self.masses))
+
+    @cached_property
+    def frequency_stack(self) -> tuple:
+        """The frequencies' targets of `datum_targets`, every configuration's stacked as one
+        ``(lo, hi, mid, h, w)`` (``w`` for the pull rows, then again for the distance rows), and
+        per configuration the indices of its rows among the stacked rows, its pull rows then its
+        distance rows (None without frequencies); ``(None, picks)`` without any frequency.
+        `residuals` takes every frequency's rows in one array operation."""
+        parts = [f for f, _ in self.datum_targets]
+        have = [p for p in parts if p is not None]
+        if not have:
+            return None, tuple(None for _ in parts)
+        sizes = [0 if p is None else p[0].size for p in parts]
+        n, ends = sum(sizes), np.cumsum(sizes)
+        w = np.concatenate([p[4][:p[0].size] for p in have])
+        stacked = tuple(np.concatenate([p[k] for p in have]) for k in range(4)) + (np.concatenate([w, w]),)
+        picks = tuple(None if p is None else np.r_[e - k:e, n + e - k:n + e] for p, k, e in zip(parts, sizes, ends))
+        for a in (*stacked, *(i for i in picks if i is not None)):
+            a.flags.writeable = False
+        return stacked, picks
 
     def relative_half_widths(self) -> np.ndarray:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
@@ -390,25 +420,25 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
     Jacobian, shape (n_r, n_x) (None without ``jacobian``). Order per configuration:
     frequencies, modal masses (each: the pull rows, then the distance rows), shapes (reference
     entry first, the same two blocks). A zero the model lost costs a constant distance row of
-    ``1 / pull`` with no direction."""
+    ``1 / pull`` with no direction. Every configuration's frequencies are one array operation
+    (`Admissible.frequency_stack`), each configuration's rows then taken in this order."""
     res, jac = [], []
-    for shapes, targets, m in zip(contract.shapes, contract.datum_targets, maps):
-        for target, values, J in ((targets[0], m.frequency_values, m.frequency_jacobian if jacobian else None),
-                                  (targets[1], m.masses, m.mass_jacobian)):
-            if target is None:
-                continue
-            lo, hi, mid, h, w = target
-            lost = ~np.isfinite(values)
-            rows_lost = np.concatenate([lost, lost]) if lost.any() else None   # None: nothing lost
-            r, slope = _rows(values if rows_lost is None else np.where(lost, mid, values), lo, hi, mid, h, pull,
-                             jacobian)
-            # a lost zero: its pull row 0, its distance row 1 / pull, no direction
-            res.append(w * r if rows_lost is None else
-                       np.where(rows_lost, np.concatenate([0 * lost, lost / pull]), w * r))
+    stacked, picks = contract.frequency_stack
+    if stacked is not None:
+        held = [m for m, pick in zip(maps, picks) if pick is not None]
+        freq_r, freq_J = _datum_rows(stacked, np.concatenate([m.frequency_values for m in held]),
+                                     np.concatenate([m.frequency_jacobian for m in held]) if jacobian else None,
+                                     pull, jacobian)
+    for shapes, targets, m, pick in zip(contract.shapes, contract.datum_targets, maps, picks):
+        if pick is not None:
+            res.append(freq_r[pick])
             if jacobian:
-                dv = J if np.isfinite(J).all() else np.nan_to_num(J)
-                rows = (w * slope)[:, None] * np.concatenate([dv, dv])
-                jac.append(rows if rows_lost is None else np.where(rows_lost[:, None], 0.0, rows))
+                jac.append(freq_J[pick])
+        if targets[1] is not None:
+            r, J = _datum_rows(targets[1], m.masses, m.mass_jacobian, pull, jacobian)
+            res.append(r)
+            if jacobian:
+                jac.append(J)
         by = {s.position: s for s in shapes}
         mass = _modal_masses(m, jacobian)
         held = [k for k, measured in enumerate(m.shapes) if measured.position in by]
@@ -422,6 +452,23 @@ def residuals(contract: Admissible, maps: Sequence, jacobian: bool = True, pull:
                 jac.append(J)
     r = np.concatenate(res) if res else np.zeros(0)
     return r, (np.vstack(jac) if jacobian and jac else None)
+
+
+def _datum_rows(target: tuple, values: np.ndarray, J: np.ndarray | None, pull: float, jacobian: bool):
+    """The rows (`_rows`) of frequencies or modal masses ``values`` against ``target``
+    (``(lo, hi, mid, h, w)`` of `Admissible.datum_targets`), weighed by ``w``, and their
+    Jacobian from ``J = d values / d xbar`` (None without ``jacobian``)."""
+    lo, hi, mid, h, w = target
+    lost = ~np.isfinite(values)
+    rows_lost = np.concatenate([lost, lost]) if lost.any() else None   # None: nothing lost
+    r, slope = _rows(values if rows_lost is None else np.where(lost, mid, values), lo, hi, mid, h, pull, jacobian)
+    # a lost zero: its pull row 0, its distance row 1 / pull, no direction
+    r = w * r if rows_lost is None else np.where(rows_lost, np.concatenate([0 * lost, lost / pull]), w * r)
+    if not jacobian:
+        return r, None
+    dv = J if np.isfinite(J).all() else np.nan_to_num(J)
+    rows = (w * slope)[:, None] * np.concatenate([dv, dv])
+    return r, (rows if rows_lost is None else np.where(rows_lost[:, None], 0.0, rows))
 
 
 def _modal_masses(m, jacobian: bool) -> list:

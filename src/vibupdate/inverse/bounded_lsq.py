@@ -23,16 +23,30 @@ STALL_DECREASE = 1e-3
 SAME_ANSWER = 1e-4
 
 
-#: How far `inside` keeps a point from a bound, a fraction of the box's width; a point this close
-#: is on the bound (`gauss_newton_decrease`).
+#: How far `inside` keeps a point from a bound: this fraction of the box's width, or of the
+#: bound's magnitude (at least of 1) where that is more (at most half the box); a point this close
+#: is on the bound (`gauss_newton_decrease`). scipy's trf moves a point it starts from that far
+#: in (the same product) when it is nearer: a point `inside` gives is the point trf evaluates.
 INSIDE = 1e-10
+
+
+def _edges(lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """The innermost points `inside` allows, ``(lower + e_lower, upper - e_upper)`` (`INSIDE`);
+    both the box's midpoint where they would cross."""
+    span = upper - lower
+    lo = lower + INSIDE * np.maximum(span, np.maximum(1.0, np.abs(lower)))
+    hi = upper - INSIDE * np.maximum(span, np.maximum(1.0, np.abs(upper)))
+    crossed = lo > hi
+    if crossed.any():
+        mid = 0.5 * (lower + upper)
+        lo, hi = np.where(crossed, mid, lo), np.where(crossed, mid, hi)
+    return lo, hi
 
 
 def inside(x, lower, upper) -> np.ndarray:
     """``x`` nudged strictly inside the box (trf needs it; parameters with nominal 0 often sit
-    on a bound); idempotent."""
-    span = upper - lower
-    return np.clip(np.asarray(x, dtype=float), lower + INSIDE * span, upper - INSIDE * span)
+    on a bound) by `INSIDE`; idempotent."""
+    return np.clip(np.asarray(x, dtype=float), *_edges(lower, upper))
 
 
 class Stop(Exception):
@@ -62,7 +76,10 @@ class Monitor:
         self.started, self.max_seconds = started, max_seconds
         self.answers = None if answers is None or not len(answers) else np.atleast_2d(np.asarray(answers, float))
         self.stationary = stationary
-        self.held = None   # the bounds active where the last point's Gauss-Newton step landed
+        # the bounds active where the last point's Gauss-Newton step landed; before the first
+        # landing, those a landing near the first known answer holds (`gauss_newton_point`)
+        self.held = None if self.answers is None or stationary is None else \
+            near_bounds(self.answers[0], *stationary[:2], SAME_ANSWER)
         self.count = 0
         self.history = [self.best[2]]
 
@@ -136,8 +153,8 @@ def gauss_newton_decrease(x, r, J, lower, upper) -> float:
     if not total > 0:
         return 0.0
     g = J.T @ r
-    span = upper - lower
-    held = ((x - lower <= INSIDE * span) & (g > 0)) | ((upper - x <= INSIDE * span) & (g < 0))
+    lo, hi = _edges(lower, upper)
+    held = ((x <= lo) & (g > 0)) | ((x >= hi) & (g < 0))
     free = J[:, ~held]
     if not free.size:
         return 0.0
@@ -153,6 +170,12 @@ def _step_box(x, lower, upper) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return lo, hi, lo < hi
 
 
+def near_bounds(a, lower, upper, distance: float) -> np.ndarray:
+    """The bounds within ``distance`` of the point ``a``, as `gauss_newton_point` takes its
+    guess ``held``: -1 for the lower bound, 1 for the upper, 0 for neither."""
+    return np.where(a - lower <= distance, -1, np.where(upper - a <= distance, 1, 0))
+
+
 def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np.ndarray]:
     """Where the Gauss-Newton step from ``x`` lands in the box: ``x + d``, ``d`` minimizing
     ``|r + J d|`` with ``lower <= x + d <= upper``; ``x`` itself where ``r`` or ``J`` is not
@@ -160,7 +183,8 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
     while the linear model holds: a run whose point is a known answer only finds that answer
     again.
 
-    Given ``held``, the bounds active at the last point of the run, one least squares with
+    Given ``held``, a guess of the bounds active there (those at the last point of the run, or
+    at its first point those of the known answer, `near_bounds`), one least squares with
     those parameters on their bounds gives the point when it is one: the others inside the box
     and the residual's gradient pushing each held one out (the optimality conditions of this
     convex program); else scipy's ``bvls`` solves it, one bound added or dropped per pass
@@ -172,7 +196,7 @@ def gauss_newton_point(x, r, J, lower, upper, held=None) -> tuple[np.ndarray, np
         As in `gauss_newton_decrease`.
     held : ndarray of int, shape (n_x,), optional
         -1 for a parameter on its lower bound, 1 on its upper bound, 0 free: what this function
-        returned for the last point.
+        returned for the last point, or any other guess.
 
     Returns
     -------

@@ -106,7 +106,9 @@ class PolishResult:
     Attributes
     ----------
     xbar_start, xbar : ndarray, shape (n_x,)
-        First-stage answer and polished point (equal when the polish was not kept).
+        The start in the box (on the full model nudged off a bound by
+        `vibupdate.inverse.bounded_lsq.inside`, where its least squares starts) and the polished
+        point (equal when the polish was not kept).
     cost_start, cost : float
         Polish objective at both points.
     kept : bool
@@ -249,9 +251,10 @@ def polish(configurations: Sequence[Configuration], xbar0, options: PolishOption
     x0 = np.clip(np.asarray(xbar0, dtype=float), lo, hi)
     contract = contract or Admissible.of(configurations)
     in_rounds = bool(options.reduced_rounds) and max(c.model.n_dofs for c in configurations) > DENSE_LIMIT
-    # the start's objective, and where the full-model least squares starts right here, its data
-    # maps with their Jacobians: the soft start's residual comes from the same eigen-solve
-    maps0: list | None = [] if not in_rounds and np.array_equal(inside(x0, lo, hi), x0) else None
+    # on the full model the start is where its least squares starts, nudged off a bound (`inside`):
+    # the start's objective and the soft start's rows come from one eigen-solve with its Jacobians
+    maps0: list | None = None if in_rounds else []
+    x0 = x0 if in_rounds else inside(x0, lo, hi)
     r0, _ = evaluate(configurations, contract, x0, jacobian=maps0 is not None, maps=maps0)
     cost0 = 0.5 * float(r0 @ r0)
     tols = {"ftol": options.tol, "xtol": options.tol, "gtol": options.tol}

@@ -454,7 +454,8 @@ def _finish(configurations, start, label, path, problem, active, nominal, polish
             + f", {polished.seconds:.2f} s; {polished.message})")
     updated = [model_frequencies(c, xbar, derivatives=True) for c in configurations]  # zeros with their slopes
     sens = sensitivity(configurations, xbar, freqs=updated)
-    first = updated if np.array_equal(xbar, start) else [model_frequencies(c, start) for c in configurations]
+    origin = start if polished is None else polished.xbar_start   # where the polish started: its modes solved
+    first = updated if np.array_equal(xbar, origin) else [model_frequencies(c, origin) for c in configurations]
 
     def checked(x, at):
         out = verify(configurations, x, nominal=nominal, updated=at, lower_bound=path.lower_bound,

@@ -108,6 +108,7 @@ class BilinearProblem:
         A = sp.csr_matrix(sp.diags(w) @ (self.A_u + self.A_b @ bilinear))
         rhs = -w * (self.A_x @ x + self.r0)
         u = np.clip(self.u_start, self.u_lower, self.u_upper)
+        whole = A.toarray() if A.shape[0] * A.shape[1] <= DENSE_LIMIT**2 else None   # small: sliced dense
         for b, blk in enumerate(self.blocks):
             rows = slice(self.row_offsets[b], self.row_offsets[b + 1])
             cols = slice(self.u_offsets[b], self.u_offsets[b + 1])
@@ -117,8 +118,9 @@ class BilinearProblem:
             free = lower < upper     # an unknown its interval pins stays there
             u[cols] = np.where(free, u[cols], lower)
             if free.any():
-                block = A[rows][:, cols]
-                block = block.toarray() if block.shape[1] <= DENSE_LIMIT else block   # no n x n dense above
+                block = whole[rows, cols] if whole is not None else A[rows][:, cols]
+                if sp.issparse(block) and block.shape[1] <= DENSE_LIMIT:   # no n x n dense above
+                    block = block.toarray()
                 u[cols][free] = bounded_lstsq(block[:, free], rhs[rows] - block[:, ~free] @ lower[~free],
                                               lower[free], upper[free])
         return u
@@ -189,6 +191,8 @@ def bounded_lstsq(B, r, lower, upper) -> np.ndarray:
     from vibupdate.modal.factor import sparse_lu
 
     def bvls(C, d, lo, hi):
+        if not (np.isfinite(lo).any() or np.isfinite(hi).any()):   # unbounded: lsq_linear's own first solve
+            return np.linalg.lstsq(C, d, rcond=-1)[0]
         return lsq_linear(C, d, bounds=(lo, hi), method="bvls", tol=1e-14).x
 
     if not sp.issparse(B):
