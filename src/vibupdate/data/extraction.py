@@ -1,26 +1,10 @@
 """Modal extraction from measured FRFs: poles, damping, shapes and antiresonances with intervals.
 
-The method, its options and the reasons behind them: docs/frf-extraction.md, "Method" (the
-figures: docs/notes/frf-intervals.md and docs/notes/frf-leakage.md). In short, on the
-receptances over the fit band (by default to `FIT_BAND_FACTOR` times the band's top):
-
-1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999) at
-   several orders; a pole that recurs in ``min_stable`` orders and that the data resolve is a
-   mode; refined by variable projection (`vibupdate.data.modal_fit`) on the modal model::
-
-       H_i(s) = sum_r [A_ir / (s - lam_r) + conj(A_ir) / (s - conj(lam_r))]
-                + L_i / s^2 + U_i + (pseudo-mode above the band, complex residue)
-
-   covariance of ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
-2. **Zeros and shapes.** Residues refit with the poles fixed; antiresonances are the real zeros
-   of the fitted undamped receptance (`vibupdate.data.fitted_zeros`), shapes a rank-one fit of the
-   modal constants ``m_ir = Re(2 j w_d A_ir)`` (`_shapes`).
-
-With ``window`` every pole term is its windowed expectation (`vibupdate.data.window`); the noise
-per line comes from the repeats or the leverage-corrected residual (`vibupdate.data.noise`).
-Intervals are ``value +- z * SE`` with the floors `FREQUENCY_FLOOR`, `DAMPING_FLOOR` and
-`SHAPE_FLOOR`, ``z`` at the level `per_interval` gives: by default ``confidence`` holds for all
-the intervals together.
+Vector fitting at several orders, stable poles refined by variable projection
+(`vibupdate.data.modal_fit`), residues refit with the poles fixed, antiresonances the real zeros
+of the fitted undamped receptance (`vibupdate.data.fitted_zeros`), shapes a rank-one fit of the
+modal constants (`_shapes`); intervals ``value +- z * SE`` with the floors below, ``z`` from
+`per_interval`. The method, its options and the reasons: docs/frf-extraction.md, "Method".
 """
 
 from __future__ import annotations
@@ -175,14 +159,10 @@ class Extraction:
         Spacing of the fitted lines, rad/s.
     outer_zeros : tuple of ExtractedZero
         Zeros in the band below the lowest or above the highest fitted pole, left out of
-        ``zeros`` (`extract`, ``keep_outer_zeros``): there the receptance is shaped by the
-        residual terms standing for modes outside the fitted lines, which place a zero only
-        loosely, and its interval does not hold that.
+        ``zeros`` (`extract`, ``keep_outer_zeros``; `notes` says why).
     cancelled_zeros : tuple of ExtractedZero
-        Zeros whose interval holds a fitted pole, left out of ``zeros``: a zero the data cannot
-        tell from that pole (a mode with a node at the response or the excitation shows as a
-        pole and a zero that cancel) is no antiresonance of the FRF, and on which side of the
-        pole it lies is not known; their ``index`` still counts them.
+        Zeros whose interval holds a fitted pole, left out of ``zeros`` (`notes` says why);
+        their ``index`` still counts them.
     level : float
         The level of each interval (`per_interval`): ``confidence`` when not ``joint``.
     """
@@ -427,17 +407,13 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         The fitted lines' band, rad/s, containing ``band``. Every stable mode in it is
         fitted as a mode (with its own residues), but only those in ``band`` are reported.
         Default: from ``band``'s bottom to ``FIT_BAND_FACTOR`` (2) times its top, within the
-        data (module docstring: modes just above the band shape its antiresonances).
+        data (why: docs/frf-extraction.md, "Method", step 0).
     local_zeros : bool
         Refine each antiresonance on the lines around it (`local_zero`); default true.
     window : {None, "none", "hann", "rectangular", "exponential", "force"}
-        The data window of the FRF estimate (random excitation, ``H1`` record by record, one
-        record = one over the line spacing). When given, the fit models the window's leakage
-        (`vibupdate.data.window`), so the damping ratios of peaks a few lines wide are not
-        read high; default None: the FRFs are fitted as they are. Impact tests:
-        ``"exponential"``, a window ``exp(-t / tau)`` on the response over the record (one
-        over the line spacing), whose added damping is modelled (needs ``window_decay`` or
-        ``window_tau``); ``"force"``, the force window alone, which needs no model.
+        The data window of the FRF estimate, whose leakage (or, ``"exponential"``, added
+        damping: needs ``window_decay`` or ``window_tau``) the fit models; ``"force"`` needs no
+        model; default None, the FRFs fitted as they are (docs/frf-extraction.md, "Input").
     keep_outer_zeros : bool
         Report the antiresonances below the lowest or above the highest fitted pole with the
         others; by default they are left out (`Extraction.outer_zeros`) and said in the notes.
@@ -450,11 +426,9 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         with the others; by default they are left out (`Extraction.noisy_zeros`) and said in
         the notes.
     joint : bool
-        State ``confidence`` for all the intervals together (default): each is then at the
-        level `per_interval` gives for their number (frequencies, damping ratios, shape
-        entries and antiresonances), so that a model which must lie in every interval at once,
-        as a run's verification asks, fails for the true structure in at most ``1 -
-        confidence`` of tests. False: each interval at ``confidence``.
+        State ``confidence`` for all the intervals together (default; each at the level
+        `per_interval` gives for their number), as a run's verification reads them; False: each
+        interval at ``confidence``.
 
     Returns
     -------
@@ -548,7 +522,14 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     line_var = noise_from_differences(F) if var is None else var
     stab = stabilization_diagram(x, F, orders, max_damping, 1.0 / np.sqrt(line_var))
     wn, zeta, counts = stable_poles(stab, min_stable)
-    noise_at = _LastResult(lambda wn, zeta: residual_variance(x, F, wn, zeta, groups, window=window))
+    estimated = {}
+
+    def noise_at(wn, zeta):   # the residual's noise, estimated once at each set of poles
+        key = (wn.tobytes(), zeta.tobytes())
+        if key not in estimated:
+            estimated[key] = residual_variance(x, F, wn, zeta, groups, window=window)
+        return estimated[key]
+
     if wn.size:
         var = var if var is not None else noise_at(wn, zeta)
         wn, zeta, counts, peak = resolvable_poles(x, F, wn, zeta, counts, var, window=window)
@@ -580,21 +561,6 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     if window_name == "force":
         result = dataclasses.replace(result, window="force")
     return dataclasses.replace(result, window_tau=1.0 / decay_rate) if decay_rate else result
-
-
-class _LastResult:
-    """``function(wn, zeta)`` that returns its last result again when called with the same
-    poles (equal arrays), so that one extraction never estimates the noise twice at one set of
-    poles; any other poles are computed and become the last."""
-
-    def __init__(self, function):
-        self.function, self.poles, self.result = function, None, None
-
-    def __call__(self, wn, zeta):
-        poles = (np.array(wn, dtype=float), np.array(zeta, dtype=float))
-        if self.poles is None or not all(np.array_equal(a, b) for a, b in zip(poles, self.poles)):
-            self.poles, self.result = poles, self.function(*poles)
-        return self.result
 
 
 def _check_band(band, name):
@@ -644,12 +610,10 @@ def _zeros_text(zeros, snr: bool = False) -> str:
 
 def _zero_estimates(found, fit, Phi, local_refit):
     """Each FRF's fitted zeros with their standard errors and signal-to-noise ratios
-    (`zero_snr`): ``(pair, zeros, ses, snrs)`` per FRF. A global zero's error counts the noise
-    and the residual model: the residual terms stand for modes outside the fitted lines whose
-    place is not known, so the zero is located again on the fit whose pseudo-mode sits just
-    above the lines (`NEAR_PSEUDO_POLE`, to first order: ``-u_near(z) / u'(z)``) and that shift
-    is added to its error. The zero refined on the lines around it (`local_zero`) replaces it where its error is
-    the smaller (docs/frf-extraction.md, "Method", step 4)."""
+    (`zero_snr`): ``(pair, zeros, ses, snrs)`` per FRF. A global zero's error adds its shift to
+    first order (``-u_near(z) / u'(z)``) on the fit with the pseudo-mode at `NEAR_PSEUDO_POLE`;
+    the zero refined on the lines around it (`local_zero`) replaces it where its error is the
+    smaller (docs/frf-extraction.md, "Method", step 4 and "Noise and intervals")."""
     out = []
     for pair, f, v, coef, cov, noise_var, near, fitted in found:
         near_values = modal_basis(np.asarray(fitted, dtype=float), fit.wn, fit.zeta, False,

@@ -97,11 +97,7 @@ def _undamped_basis(x, xn, zeta, pseudo=None) -> np.ndarray:
     n = a.size
     cols = np.zeros((x.size, 2 * n + 4))
     cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x[:, None] ** 2)
-    pseudo = pseudo or PSEUDO_POLE
-    pseudo = _poles(np.array([pseudo[0]]), np.array([pseudo[1]]))[0]
-    p, q = 1.0 / (1j * x - pseudo), 1.0 / (1j * x - np.conj(pseudo))
-    cols[:, 2 * n], cols[:, 2 * n + 1] = (p + q).real, (1j * (p - q)).real
-    cols[:, 2 * n + 2], cols[:, 2 * n + 3] = -1.0 / x**2, 1.0
+    cols[:, 2 * n:] = basis(x, [], [], pseudo=pseudo).real
     return cols
 
 

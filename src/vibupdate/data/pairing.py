@@ -1,22 +1,16 @@
 """Which model mode, and which zero of a receptance, each measured value is: data, never
-inferred from nearness at the updated point (the rule as the user reads it: docs/method.md,
-"Declared correspondence").
+inferred from nearness at the updated point (docs/method.md, "Declared correspondence").
 
-A natural frequency's ``mode`` counts flexible modes from 1 (`declared_modes`: the mode after
-the previous one when omitted). An antiresonance's omitted ``index`` is assigned once, from the
-nominal model (`zero_indices`): above the measured pole of mode ``m``, the ``j``-th measured zero
-of ``h_rc`` there is zero ``n_0 + j``, ``n_0`` the nominal zeros below mode ``m`` (counting down
-below the lowest pole, consecutive from 1 without poles). A driving point's ``n_0`` comes from
-interlacing instead (one zero between two consecutive modes): a symmetric nominal model whose
-point is a node of mode ``m`` has zeros exactly on that pole, which a perturbed structure moves
-to either side. A cross receptance has no interlacing; there a nominal zero on a pole (within
-`ON_POLE`: a node of that mode at ``r`` or ``c``, or a repeated frequency) is taken to stay on
-it, hidden by its pole (a pole-zero pair that no FRF shows), unless more zeros are measured
-between two measured poles than the nominal model has there: each extra one came off the nearer
-of the two poles (relative distance) while it has zeros on it to spare. Zeros that leave or
-join the real axis (two real zeros of the nominal model becoming a complex pair, or the reverse)
-shift the count in a way no default sees: the case then states ``index``. Every pairing
-downstream reads these declared indices.
+A natural frequency's omitted ``mode`` is the mode after the previous one (`declared_modes`).
+An antiresonance's omitted ``index`` is assigned once, from the nominal model (`zero_indices`):
+above the measured pole of mode ``m``, the ``j``-th measured zero of ``h_rc`` is zero
+``n_0 + j``, ``n_0`` the nominal zeros below mode ``m``; at a driving point ``n_0`` comes from
+interlacing. A cross receptance's nominal zero on a pole (within `ON_POLE`) stays hidden on it
+unless the gap holds more measured zeros than nominal ones, and in a gap with skipped modes the
+nominal zero nearest each skipped pole is hidden (why: docs/notes/data-and-formulation.md,
+"Zeros on poles of cross receptances" and "Zeros beside a mode the test did not see"). Zeros
+that leave or join the real axis shift the count in a way no default sees: the case then states
+``index``.
 """
 
 from __future__ import annotations

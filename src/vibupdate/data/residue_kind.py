@@ -1,27 +1,11 @@
 """Is the FRF kind declared right? The phase of the fitted modal constants says.
 
-A receptance's modal constants are real: ``h_jk = sum_r A_jkr / (w_r^2 - w^2 + 2 j zeta_r w_r w)``
-with ``A_jkr = phi_jr phi_kr``, so the complex constant ``2 j w_d A`` that the extraction fits
-per FRF and mode (`vibupdate.data.extraction`) points at 0 or 180 degrees, up to the small
-turn of non-proportional damping, and at 0 at a driving point. Data one order off the kind
-declared (a mobility read as a receptance, an accelerance read as a mobility) multiply every
-constant by ``j w`` or ``1 / (j w)``: all of them turn by +90 or -90 degrees. The doubled angle
-``2 theta`` folds 0 and 180 together and sends +-90 to 180, so the weighted mean of
-``exp(2 j theta)`` over every FRF and fitted mode tells one order off from right without a
-driving point; a driving point then gives the direction.
-
-`KIND_TURN` sits halfway between the turns of data declared right and one order off on known
-truth and on the Southampton accelerances (benchmarks/RESULTS.md, "A kind one order off").
-
-Two orders off (an accelerance read as a receptance, or back) turns every constant by 180
-degrees, which the doubled angle cannot see, and neither can it tell from transfer FRFs'
-arbitrary signs; but a driving point's constants are ``phi_p^2 > 0``, so driving-point
-constants turned past 135 degrees are refused too: two orders off, or the driving point's sign
-flipped (the response measured against the force's direction), which the data cannot tell
-apart and which both make the shapes wrong.
-
-It adds to the check of the raw FRFs (`vibupdate.data.frf.check_kind`), which catches two
-orders off; after the fit, every mode counts by its constant.
+A receptance's modal constants ``2 j w_d A`` (`vibupdate.data.extraction`) are real, and positive
+at a driving point; a kind one order off turns every one by +-90 degrees, two orders off (or a
+flipped driving point) a driving point's by 180. The rule, on the doubled angle that folds
+transfer FRFs' signs together: docs/frf-extraction.md, "Input" ("A kind one order off");
+`KIND_TURN` from the turns in benchmarks/RESULTS.md, "A kind one order off". It adds to the
+check of the raw FRFs (`vibupdate.data.frf.check_kind`).
 """
 
 from __future__ import annotations
