@@ -20,45 +20,28 @@ import numpy as np
 KIND_TURN = 45.0
 
 
-def constant_turn(pairs, coefficients: np.ndarray, fitted_poles: np.ndarray) -> tuple[float, float | None]:
-    """How far the fitted modal constants turn from real, degrees: ``(turn, drive)``.
+def check_fitted_kind(result, kinds, sources) -> None:
+    """Raise ValueError naming the files when the fitted modal constants of ``result`` (an
+    `Extraction`) turn by more than `KIND_TURN` from real (the kind declared is one order off),
+    or when a driving point's turn by more than ``180 - KIND_TURN`` (two orders off, or its sign
+    flipped). Nothing is said of data of mixed kinds.
 
-    ``turn`` in [0, 90]: half the angle of the mean of ``exp(2 j theta)`` over every FRF and
-    fitted mode, each FRF's constants weighted by their magnitude relative to its largest (so
-    every FRF counts alike). ``drive``: the weighted mean angle of the driving points'
-    constants, in (-180, 180], None without a driving point.
-
-    Parameters
-    ----------
-    pairs : sequence of (str, str)
-    coefficients : ndarray, shape (n_pairs, n_columns)
-        The stage-2 coefficients (`vibupdate.data.extraction.Extraction.coefficients`): per
-        mode ``r`` the real and imaginary parts of its residue in columns ``2 r`` and ``2 r + 1``.
-    fitted_poles : ndarray, shape (n_modes, 2)
-        Natural frequency and damping ratio of every fitted mode.
-    """
-    n = fitted_poles.shape[0]
-    wd = fitted_poles[:, 0] * np.sqrt(1.0 - fitted_poles[:, 1] ** 2)
+    The turn, in [0, 90] degrees, is half the angle of the mean of ``exp(2 j theta)`` over every
+    FRF and fitted mode, each FRF's constants weighted by their magnitude relative to its largest
+    (so every FRF counts alike); the driving points' angle, in (-180, 180], their weighted mean."""
+    if result.measured not in kinds:
+        return
+    n = result.fitted_poles.shape[0]
+    wd = result.fitted_poles[:, 0] * np.sqrt(1.0 - result.fitted_poles[:, 1] ** 2)
+    coefficients = result.coefficients   # per mode r, Re and Im of its residue in columns 2 r and 2 r + 1
     constants = wd * (-coefficients[:, 1:2 * n:2] + 1j * coefficients[:, 0:2 * n:2])   # 2 j w_d A, up to a scale
     size = np.abs(constants)
     weight = size / np.maximum(size.max(axis=1, keepdims=True), 1e-300)
     folded = np.sum(weight * np.exp(2j * np.angle(constants)))
     turn = 0.5 * math.degrees(abs(math.atan2(folded.imag, folded.real)))
-    drives = [k for k, (r, c) in enumerate(pairs) if r == c]
-    if not drives:
-        return turn, None
+    drives = [k for k, (r, c) in enumerate(result.pairs) if r == c]
     at = np.sum(weight[drives] * np.exp(1j * np.angle(constants[drives])))
-    return turn, math.degrees(math.atan2(at.imag, at.real))
-
-
-def check_fitted_kind(result, kinds, sources) -> None:
-    """Raise ValueError naming the files when the fitted modal constants of ``result`` (an
-    `Extraction`) turn by more than `KIND_TURN` from real (the kind declared is one order off),
-    or when a driving point's turn by more than ``180 - KIND_TURN`` (two orders off, or its sign
-    flipped). Nothing is said of data of mixed kinds."""
-    if result.measured not in kinds:
-        return
-    turn, drive = constant_turn(result.pairs, result.coefficients, result.fitted_poles)
+    drive = math.degrees(math.atan2(at.imag, at.real)) if drives else None
     where = f"FRF file {', '.join(sources)}" if sources else "FRFs"
     order = kinds.index(result.measured)
     if turn <= KIND_TURN and drive is not None and abs(drive) >= 180.0 - KIND_TURN:
