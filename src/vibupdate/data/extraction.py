@@ -228,14 +228,10 @@ class Extraction:
         Returns
         -------
         list of str
-            FRFs whose fit misses the data by more than their noise (quality above
-            `MISFIT_QUALITY`); zeros left out (outside the fitted poles, at the noise floor);
-            the damping an exponential window adds; and, when no window was modelled, modes
-            whose half-power bandwidth ``2 zeta omega`` spans fewer than `NARROW_LINES`
-            lines, whose damping ratio then depends on the window of the spectral estimate.
-            Empty when there is nothing to say.
+            FRFs fitted worse than `MISFIT_QUALITY`, zeros left out, the damping an exponential
+            window adds and, with no window modelled, modes narrower than `NARROW_LINES` lines;
+            empty when there is nothing to say.
         """
-        line_spacing = self.line_spacing
         number = list(modes) if modes is not None else [first_mode + k for k in range(len(self.modes))]
         out = []
         misfit = [q for q in self.quality if q.quality > MISFIT_QUALITY]
@@ -243,8 +239,8 @@ class Extraction:
             out.append(f"{len(misfit)} of {len(self.quality)} FRF(s) have quality above {MISFIT_QUALITY:g}: the modal "
                        f"model misses them by more than their line-to-line noise (often at the peaks: leakage, a "
                        f"nonlinearity, a mode not fitted); the intervals count that misfit as noise")
-        narrow = [(number[k], 2 * m.damping_ratio * m.omega / line_spacing) for k, m in enumerate(self.modes)
-                  if 2 * m.damping_ratio * m.omega < NARROW_LINES * line_spacing]
+        narrow = [(number[k], 2 * m.damping_ratio * m.omega / self.line_spacing) for k, m in enumerate(self.modes)
+                  if 2 * m.damping_ratio * m.omega < NARROW_LINES * self.line_spacing]
         if self.outer_zeros:
             listed = _zeros_text(self.outer_zeros)
             poles = self.fitted_poles[:, 0] / (2 * math.pi)
@@ -329,8 +325,11 @@ class Extraction:
 def _shapes(pairs, constants, se, n_modes):
     """Rank-one fit phi_a phi_b = m_ab per mode; returns (shapes, ses, normalization) per mode."""
     dofs = list(dict.fromkeys(d for pair in pairs for d in pair))
+    index = {d: i for i, d in enumerate(dofs)}
     responses = list(dict.fromkeys(r for r, _ in pairs))
     drive = [k for k, (r, c) in enumerate(pairs) if r == c]
+    k0 = drive[0] if drive else 0
+    exc = pairs[k0][1]
     out = []
     for r in range(n_modes):
         # fitted in units of the mode's largest constant, so that the fit holds at any scale of
@@ -338,39 +337,29 @@ def _shapes(pairs, constants, se, n_modes):
         unit = float(np.max(np.abs(constants[:, r]))) or 1.0
         m, s = constants[:, r] / unit, np.maximum(se[:, r] / unit, 1e-300)
         if drive:
-            k0 = drive[0]
-            exc = pairs[k0][1]
             root = math.sqrt(abs(m[k0])) or 1.0
-            init = {d: 0.0 for d in dofs}
-            init[exc] = root * (1.0 if m[k0] >= 0 else -1.0)
+            init = np.zeros(len(dofs))
+            init[index[exc]] = root * (1.0 if m[k0] >= 0 else -1.0)
             for k, (a, c) in enumerate(pairs):
                 if c == exc and a != exc:
-                    init[a] = m[k] / root
-            names = list(init)
-            index = {d: i for i, d in enumerate(names)}
+                    init[index[a]] = m[k] / root
 
             def resid(phi):
                 return np.array([(phi[index[a]] * phi[index[c]] - m[k]) / s[k] for k, (a, c) in enumerate(pairs)])
 
-            sol = scipy.optimize.least_squares(resid, np.array([init[d] for d in names]), method="lm"
-                                               if len(pairs) >= len(names) else "trf")
-            J = sol.jac
-            dof_count = max(len(pairs) - len(names), 1)
-            chi2 = float(sol.fun @ sol.fun) / dof_count if len(pairs) > len(names) else 1.0
-            cov = np.linalg.pinv(J.T @ J) * max(1.0, chi2)
+            sol = scipy.optimize.least_squares(resid, init, method="lm" if len(pairs) >= len(dofs) else "trf")
+            chi2 = float(sol.fun @ sol.fun) / (len(pairs) - len(dofs)) if len(pairs) > len(dofs) else 1.0
+            cov = np.linalg.pinv(sol.jac.T @ sol.jac) * max(1.0, chi2)
             phi = sol.x * (1.0 if np.sum(sol.x) >= 0 else -1.0) * math.sqrt(unit)
             ses = np.sqrt(np.abs(np.diag(cov)) * unit)
-            shape = {d: float(phi[index[d]]) for d in names if d in responses or d == exc}
-            sd = {d: float(ses[index[d]]) for d in shape}
-            out.append((shape, sd, "mass"))
+            shape = {d: float(phi[index[d]]) for d in dofs if d in responses or d == exc}
+            out.append((shape, {d: float(ses[index[d]]) for d in shape}, "mass"))
         else:
-            exc = pairs[0][1]
             col = [k for k, (_, c) in enumerate(pairs) if c == exc]
             top = max(abs(m[k]) for k in col) or 1.0
             sign = 1.0 if sum(m[k] for k in col) >= 0 else -1.0
             shape = {pairs[k][0]: float(sign * m[k] / top) for k in col}
-            sd = {pairs[k][0]: float(s[k] / top) for k in col}
-            out.append((shape, sd, "unit-max"))
+            out.append((shape, {pairs[k][0]: float(s[k] / top) for k in col}, "unit-max"))
     return out
 
 
@@ -634,10 +623,8 @@ def _zero_estimates(found, fit, Phi, local_refit):
 
 def _located_zeros(estimates, fit, zq, keep_outer=False, keep_noisy=False):
     """`ExtractedZero` of every FRF from its estimates (`_zero_estimates`) with half-widths
-    ``zq`` standard errors; and, apart unless ``keep_outer``, those below the lowest or above
-    the highest fitted pole (`Extraction.outer_zeros`; their ``index`` still counts them, so the
-    others keep theirs), and those whose interval holds a fitted pole
-    (`Extraction.cancelled_zeros`, likewise counted)."""
+    ``zq`` standard errors: reported, outer, noisy and cancelled (`Extraction`), each ``index``
+    counting them all."""
     zeros, outer, noisy, cancelled = [], [], [], []
     lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
     for pair, zs, ses, snrs in estimates:

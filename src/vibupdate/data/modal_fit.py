@@ -2,12 +2,9 @@
 underscore are the units its tests check and its sibling modules use, not a promised
 surface): the modal-model basis, vector fitting, the stabilization check, variable projection
 of the poles, noise estimates and pole selection. Frequencies are normalized by the band's
-top (``x = omega / omega_max``); FRFs by their RMS. The method is described in
-`vibupdate.data.extraction`.
-
-On long records (``benchmarks/extraction_cost.py``) the variable projection of the poles has
-an exact Jacobian (`projection`) and hands the optimizer the ``(2 n + 1)``-square triangle of
-``[J r]`` (`_CompressedProjection`): what must see every line is formed one FRF at a time."""
+top (``x = omega / omega_max``); FRFs by their RMS. The method: docs/frf-extraction.md,
+"Method"; on long records what must see every line is formed one FRF at a time
+(`_CompressedProjection`, ``benchmarks/extraction_cost.py``)."""
 
 from __future__ import annotations
 
@@ -28,11 +25,6 @@ STABLE_DAMPING = 0.2        # ... and its damping ratio within this (relative)
 
 def _poles(xn, zeta):
     return -zeta * xn + 1j * xn * np.sqrt(1.0 - zeta**2)
-
-
-def _all_poles(xn, zeta, pseudo=None):
-    pseudo = pseudo or PSEUDO_POLE
-    return np.append(_poles(np.asarray(xn), np.asarray(zeta)), _poles(np.array([pseudo[0]]), np.array([pseudo[1]])))
 
 
 def _pole_terms(x, a, window=None, derivative: bool = False):
@@ -61,7 +53,9 @@ def basis(x, xn, zeta, window=None, pseudo=None) -> np.ndarray:
     ``pseudo``: the pseudo-mode's ``(frequency, damping)``, default `PSEUDO_POLE`.
     """
     x = np.asarray(x)
-    p, q = _pole_terms(x, _all_poles(xn, zeta, pseudo), window)
+    pseudo = pseudo or PSEUDO_POLE
+    a = np.append(_poles(np.asarray(xn), np.asarray(zeta)), _poles(np.array([pseudo[0]]), np.array([pseudo[1]])))
+    p, q = _pole_terms(x, a, window)
     cols = np.empty((x.size, 2 * p.shape[1] + 2), dtype=complex)
     cols[:, 0:-2:2], cols[:, 1:-2:2] = p + q, 1j * (p - q)
     cols[:, -2], cols[:, -1] = -1.0 / x**2, 1.0      # 1/s^2 = -1/x^2

@@ -17,17 +17,10 @@ closed form loses digits there). The derivative with respect to ``a`` (for the f
 Jacobian) is ``T^2 integral_0^1 u exp(z u) g(u) du``. The residual terms (``1/s^2``, a
 constant) vary slowly over a kernel's width and are left as they are.
 
-**Impact tests.** A hammer test's FRF is one transient record of length ``T``: the response
-times a window, transformed, over the force's transform. An exponential window
-``exp(-t / tau)`` on the response turns each modal term ``A exp(a t)`` into
-``A exp((a - 1/tau) t)`` on ``[0, T]``, whose transform at the lines is exactly::
-
-    T integral_0^1 exp(z u) du,   z = (a - 1/tau - j omega) T
-
-(``g(u) = 1``, the pole moved left by ``1/tau``): every damping ratio reads high by
-``1/(tau w_n)`` to first order (0.3 % at 1 Hz with ``tau`` = 50 s). Fitting this term, the
-fitted poles and residues are the structure's own. The force window (a rectangle over the
-pulse, on the force channel) changes nothing that the fit sees and is not modelled.
+**Impact tests** (docs/frf-extraction.md, "Input"): an exponential window ``exp(-t / tau)`` on
+the one transient record turns each modal term ``A exp(a t)`` into ``A exp((a - 1/tau) t)`` on
+``[0, T]``: the form above with ``g(u) = 1`` and the pole moved left by ``1/tau``. The force
+window changes nothing that the fit sees and is not modelled.
 """
 
 from __future__ import annotations
