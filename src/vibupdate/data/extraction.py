@@ -22,7 +22,8 @@ from vibupdate.data.modal_fit import (NEAR_PSEUDO_POLE, best_subset, correlation
                                        noise_from_differences, noise_from_repeats, real_stack, refine_poles,
                                        resolvable_poles, split_residual, stabilization_diagram, stable_poles)
 from vibupdate.data.noise import residual_variance, variance_components
-from vibupdate.data.window import window_for
+from vibupdate.data.names import zero_name
+from vibupdate.data.window import ORDERS, Window, window_for
 from vibupdate.data.fitted_zeros import local_zero, zero_se, zero_snr, zeros_of_all
 from vibupdate.data.frf import KINDS, FRFSet
 from vibupdate.data.residue_kind import check_fitted_kind
@@ -36,9 +37,7 @@ SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the
 MISFIT_QUALITY = 2.0        # notes: an FRF fitted to a worse quality figure misses its data
 NARROW_LINES = 4.0          # notes: a mode whose half-power bandwidth spans fewer lines
 #: A zero whose signal-to-noise ratio (`vibupdate.data.fitted_zeros.zero_snr`) is under this is left
-#: out unless kept: the receptance lies a tenth of the noise deep across it (at raised noise
-#: floors true zeros sink with the noise's: `benchmarks/RESULTS.md`, "Zeros at the noise floor,
-#: measured where they are located").
+#: out unless kept (`benchmarks/RESULTS.md`, "Zeros at the noise floor, measured where they are located").
 NOISY_ZERO_SNR = 0.1
 
 
@@ -92,8 +91,6 @@ class ExtractedZero:
 
     def name(self, first_mode: int | None) -> str:
         """``"zero 4 of h_y1,y1"`` (`vibupdate.data.names.zero_name`), as the run names it."""
-        from vibupdate.data.names import zero_name
-
         return zero_name(self.response, self.excitation, self.declared_index(first_mode))
 
 
@@ -205,8 +202,6 @@ class Extraction:
         ndarray of complex, shape (n_pairs, n_freq)
             The fitted receptance of each pair, in the units of the FRFs (m/N).
         """
-        from vibupdate.data.window import ORDERS, Window
-
         x = np.asarray(omega, dtype=float) / self.fit_band[1]
         xn = self.fitted_poles[:, 0] / self.fit_band[1]
         zeta = self.fitted_poles[:, 1]
@@ -283,9 +278,8 @@ class Extraction:
         ----------
         first_mode : int, optional
             The model mode number of the lowest extracted mode; each natural frequency's
-            ``mode`` is set from it. Antiresonances get their ``index`` only when it is 1 (the
-            band then starts below the first mode, so zeros counted in the band are counted
-            from the lowest).
+            ``mode`` is set from it, each antiresonance's ``index`` as
+            `ExtractedZero.declared_index` says.
         weight : float
             The user weight of every datum (`NaturalFrequency`, `Antiresonance`).
         mass_normalized : bool
@@ -597,32 +591,8 @@ def _zeros_text(zeros, snr: bool = False) -> str:
                      + (f" (SNR {z.snr:.2g})" if snr else "") for z in zeros)
 
 
-def _zero_estimates(found, fit, Phi, local_refit):
-    """Each FRF's fitted zeros with their standard errors and signal-to-noise ratios
-    (`zero_snr`): ``(pair, zeros, ses, snrs)`` per FRF. A global zero's error adds its shift to
-    first order (``-u_near(z) / u'(z)``) on the fit with the pseudo-mode at `NEAR_PSEUDO_POLE`;
-    the zero refined on the lines around it (`local_zero`) replaces it where its error is the
-    smaller (docs/frf-extraction.md, "Method", step 4 and "Noise and intervals")."""
-    out = []
-    for pair, f, v, coef, cov, noise_var, near, fitted in found:
-        near_values = modal_basis(np.asarray(fitted, dtype=float), fit.wn, fit.zeta, False,
-                                  pseudo=NEAR_PSEUDO_POLE) @ near   # u_near at every zero at once
-        damped = Phi @ coef
-        zs, ses = [], []
-        for z, near_value in zip(fitted, near_values):
-            se, slope = zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)
-            se = math.hypot(se, float(near_value) / slope)
-            local = local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
-            if local is not None and local[1] < se:
-                z, se = local
-            zs.append(z)
-            ses.append(se)
-        out.append((pair, zs, ses, [zero_snr(z, fit.x, damped, noise_var, fit.wn) for z in zs]))
-    return out
-
-
 def _located_zeros(estimates, fit, zq, keep_outer=False, keep_noisy=False):
-    """`ExtractedZero` of every FRF from its estimates (`_zero_estimates`) with half-widths
+    """`ExtractedZero` of every FRF from its estimates (`_stage_two`) with half-widths
     ``zq`` standard errors: reported, outer, noisy and cancelled (`Extraction`), each ``index``
     counting them all."""
     zeros, outer, noisy, cancelled = [], [], [], []
@@ -677,10 +647,11 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
     n = wn.size
     Phi = modal_basis(x, wn, zeta, window=fit.window)
     Phi_near = modal_basis(x, wn, zeta, window=fit.window, pseudo=NEAR_PSEUDO_POLE)
-    coefs, found, quality, constants, const_se = [], [], [], [], []
+    coefs, covs, nears, quality, constants, const_se = [], [], [], [], [], []
     # the quality figure's noise: the repeats' scatter, or without repeats the model-free
     # second-difference estimate (the residual's own would make the figure about 1, or below)
     reference = var if noise == "repeats" else noise_from_differences(F)
+    wd = wn * np.sqrt(1 - zeta**2)
     for k, (pair, f, v) in enumerate(zip(frfs.pairs, F, var)):
         w = 1.0 / np.sqrt(v)
         coef, res = linear_fit(Phi, f, w)
@@ -690,17 +661,33 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         tau = correlation_inflation(split_residual(res, (1, x.size)))
         cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2) * tau
         coefs.append(coef)
+        covs.append(cov)
+        nears.append(linear_fit(Phi_near, f, w)[0])
         miss = np.abs(f - Phi @ coef)[fit.inside] ** 2
         quality.append(FRFQuality(pair[0], pair[1], math.sqrt(float(np.mean(miss / reference[k][fit.inside]))),
                                   float(np.sqrt(np.mean(miss) / np.mean(np.abs(f[fit.inside]) ** 2))),
                                   int(frfs.H[k].shape[0])))
-        wd = wn * np.sqrt(1 - zeta**2)
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
-        found.append((pair, f, v, coef, cov, reference[k], linear_fit(Phi_near, f, w)[0]))
-    # the FRFs share the poles: their zeros are searched together, one grid for all
-    found = [(*k, z) for k, z in zip(found, zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
-    estimates = _zero_estimates(found, fit, Phi, local_refit)
+    # the FRFs share the poles: their zeros are searched together, one grid for all. Each zero's error adds its
+    # shift to first order (-u_near(z) / u'(z)) on the fit with the pseudo-mode at NEAR_PSEUDO_POLE; the zero
+    # refined on the lines around it (local_zero) replaces it where its error is the smaller (docs/frf-extraction.md,
+    # "Method", step 4 and "Noise and intervals"). Per FRF: (pair, zeros, ses, snrs)
+    estimates = []
+    for pair, f, v, coef, cov, noise_var, near, fitted in zip(frfs.pairs, F, var, coefs, covs, reference, nears,
+                                                              zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta)):
+        near_values = modal_basis(np.asarray(fitted, dtype=float), wn, zeta, False, pseudo=NEAR_PSEUDO_POLE) @ near
+        zs, ses = [], []
+        for z, near_value in zip(fitted, near_values):
+            se, slope = zero_se(z, coef, cov, wn, zeta, fit.cov_poles)
+            se = math.hypot(se, float(near_value) / slope)
+            local = local_zero(z, x, f, v, Phi, coef, wn, zeta, fit.cov_poles) if local_refit else None
+            if local is not None and local[1] < se:
+                z, se = local
+            zs.append(z)
+            ses.append(se)
+        damped = Phi @ coef
+        estimates.append((pair, zs, ses, [zero_snr(z, x, damped, noise_var, wn) for z in zs]))
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
     # the intervals reported: a frequency and a damping ratio per mode, its shape entries, the zeros (counted

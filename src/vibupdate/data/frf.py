@@ -177,10 +177,9 @@ RECEPTANCE_SLOPE = (-2.7, 0.8)
 #: Above this slope no receptance of a passive structure runs in a band, while an accelerance
 #: read as one rises as omega^2 below its first mode: an error, not a warning.
 RISING = 1.5
-#: A driving point's receptance has ``Im H <= 0`` at every line (passivity); the weighted share
-#: of its lines that do (`kind_evidence`) is near 1 for a receptance, near 0 for a kind two
-#: orders off or a flipped sign, anywhere for one order off (the shares found:
-#: `benchmarks/RESULTS.md`, "Figures behind src/: FRF kinds").
+#: A driving point's receptance has ``Im H <= 0`` at every line (passivity): the weighted share
+#: of its lines that do (`kind_evidence`) is near 1 (the shares found: `benchmarks/RESULTS.md`,
+#: "Figures behind src/: FRF kinds").
 PASSIVE_SHARE = 0.5
 TWO_ORDERS = 0.2
 SLOPE_BINS = 12
@@ -556,11 +555,10 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
         seen[key] = path
     out = combine(sets)
     check_repeats(out)
-    if not mapping:
-        return out
-    renamed = out.renamed(mapping)
-    check_repeats(renamed)  # a mapping may put two different FRFs under one label
-    return renamed
+    if mapping:
+        out = out.renamed(mapping)
+        check_repeats(out)  # a mapping may put two different FRFs under one label
+    return out
 
 
 #: Repeats of one FRF whose median difference from their mean, relative to its magnitude, is
@@ -570,10 +568,8 @@ CONTRADICTORY = 0.5
 
 
 def check_repeats(frfs: FRFSet) -> None:
-    """Raise ValueError on repeats of one FRF that are identical (the same record twice: the
-    noise estimate would be zero and the intervals too narrow) or that contradict each other
-    (median relative difference from their mean above `CONTRADICTORY`: records of different
-    responses or excitations under one label)."""
+    """Raise ValueError on repeats of one FRF that are identical or that contradict each other
+    (`CONTRADICTORY`; why: docs/frf-extraction.md, "Input", "Repeats")."""
     for (r, c), h in zip(frfs.pairs, frfs.H):
         if h.shape[0] < 2:
             continue

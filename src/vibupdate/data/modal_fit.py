@@ -9,10 +9,13 @@ top (``x = omega / omega_max``); FRFs by their RMS. The method: docs/frf-extract
 from __future__ import annotations
 
 import math
+from itertools import combinations
 
 import numpy as np
 import scipy.linalg
 import scipy.optimize
+
+from vibupdate.data.window import windowed_poles
 
 PSEUDO_POLE = (1.5, 0.2)    # pseudo-mode: natural frequency (x band top) and damping ratio
 #: The pseudo-mode placed just above the fitted lines instead: where a zero moves when the residual
@@ -35,8 +38,6 @@ def _pole_terms(x, a, window=None, derivative: bool = False):
         s = 1j * np.asarray(x)[:, None]
         p, q = 1.0 / (s - a[None, :]), 1.0 / (s - np.conj(a)[None, :])
         return (p, q, p * p, q * q) if derivative else (p, q)
-    from vibupdate.data.window import windowed_poles
-
     both = np.concatenate([a, np.conj(a)])
     p, q = np.split(windowed_poles(x, both, window), 2, axis=1)
     if not derivative:
@@ -419,8 +420,6 @@ def best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: i
     """Positions in ``candidates`` (indices into ``wn``) of the ``n_modes`` poles whose modal
     model, with the ``fixed`` poles always in it, fits the FRFs best (unweighted); by peak
     response when there are too many subsets to try."""
-    from itertools import combinations
-
     candidates, fixed = np.asarray(candidates, dtype=int), np.asarray(fixed, dtype=int)
     if math.comb(candidates.size, n_modes) > max_subsets:
         return np.sort(np.argsort(peak[candidates])[::-1][:n_modes])

@@ -95,8 +95,7 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
         if driving:
             first = below_first + a
         else:
-            strict = inside.size
-            excess = max(c - strict, 0)
+            excess = max(c - inside.size, 0)
             f_a = on(wa)
             f_b = 0 if wb <= wa * (1 + ON_POLE) or not np.isfinite(wb) else on(wb)   # pole b's own zeros
             # the excess zeros came off the poles' zeros, each off the nearer pole (relative distance)
@@ -114,10 +113,8 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
 
 def _unhidden(inside: np.ndarray, nominal_zeros: np.ndarray, skipped: np.ndarray, missing: int) -> list[int]:
     """The zero indices ``inside`` a gap (1-based, rising) without those hidden by the modes the
-    test skipped there: a mode no FRF of the receptance shows has a small modal constant
-    ``phi_r phi_c`` in it, so one zero of ``h_rc`` sits next to its pole and the two cancel. Up to
-    ``missing`` zeros are hidden, each the nominal zero nearest (relative distance) to a skipped
-    pole ``skipped`` (rad/s) not yet paired, nearest pairs first."""
+    test skipped there (module docstring): up to ``missing`` zeros, each the nominal zero nearest
+    (relative distance) to a skipped pole ``skipped`` (rad/s) not yet paired, nearest pairs first."""
     w = np.array([nominal_zeros[k - 1] if k <= nominal_zeros.size else np.inf for k in inside])
     distance = np.abs(w[:, None] / skipped[None, :] - 1)
     hidden = set()
@@ -212,11 +209,10 @@ def declare(cfg):
                     zeros[i] = replace(zeros[i], index=idx)
     for rc in cfg.receptances():
         idx = [a.index for a in zeros if a.receptance == rc]
-        for k in range(1, len(idx)):
-            if idx[k] <= idx[k - 1]:
-                shown = ", ".join(f"{a.freq_hz:.6g} Hz -> {a.index}" for a in zeros if a.receptance == rc)
-                raise ValueError(f"{where}: antiresonance indices of h_{rc[0]},{rc[1]} must rise with frequency, "
-                                 f"got {shown}")
+        if any(b <= a for a, b in zip(idx, idx[1:])):
+            shown = ", ".join(f"{a.freq_hz:.6g} Hz -> {a.index}" for a in zeros if a.receptance == rc)
+            raise ValueError(f"{where}: antiresonance indices of h_{rc[0]},{rc[1]} must rise with frequency, "
+                             f"got {shown}")
         if idx and idx[-1] > cfg.model.n_dofs - 1:
             raise ValueError(f"{where}: {zero_name(rc[0], rc[1], idx[-1])} is declared, but the "
                              f"adjunct system has only {cfg.model.n_dofs - 1} DOFs")
