@@ -86,10 +86,9 @@ class ShapeInterval:
         scaling (the shape's normalization is free) unless ``mass_normalized``.
     mass_normalized : bool
         The entries are those of the mass-normalized mode (``phi^T M phi = 1``, units
-        1/sqrt(kg) times the DOF's unit), up to a common sign: what the modal constants of
-        calibrated FRFs with a driving point give. The shape then also measures the modal mass
-        at its reference entry (`modal_mass_bounds`), which sees mass where frequencies and
-        shape ratios see only stiffness over mass.
+        1/sqrt(kg) times the DOF's unit), up to a common sign; the shape then also measures the
+        modal mass at its reference entry (`modal_mass_bounds`; docs/method.md, "Modal masses
+        from mass-normalized shapes").
     """
 
     bounds: Mapping[str, tuple[float, float]]
