@@ -210,16 +210,6 @@ def projected_residual(theta, x, F, W, window=None):
     return projection(theta, x, F, W, window)[0]
 
 
-def _weighted_qr(A):
-    """Orthonormal basis ``Q`` of the range of ``A`` (pivoted QR, columns of negligible
-    ``|R_kk|`` dropped: the rank rule of the LAPACK least-squares solver), with ``R`` and
-    the pivots of the kept columns."""
-    Q, R, piv = scipy.linalg.qr(A, mode="economic", pivoting=True, check_finite=False)
-    diag = np.abs(np.diag(R))
-    rank = int(np.sum(diag > np.finfo(float).eps * diag[0])) if diag[0] > 0 else 0
-    return Q[:, :rank], R[:rank, :rank], piv[:rank]
-
-
 def projection(theta, x, F, W, window=None, jacobian: bool = False):
     """Weighted residual of the variable-projection problem at poles ``theta`` and, with
     ``jacobian``, its exact derivative with respect to ``theta``.
@@ -256,7 +246,11 @@ def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
     for f, w in zip(F, W):
         A = real_stack(Phi, w)
         b = np.concatenate([f.real * w, f.imag * w])
-        Q, R, piv = _weighted_qr(A)
+        # pivoted QR, columns of negligible |R_kk| dropped: the rank rule of LAPACK's least-squares solver
+        Q, R, piv = scipy.linalg.qr(A, mode="economic", pivoting=True, check_finite=False)
+        diag = np.abs(np.diag(R))
+        rank = int(np.sum(diag > np.finfo(float).eps * diag[0])) if diag[0] > 0 else 0
+        Q, R, piv = Q[:, :rank], R[:rank, :rank], piv[:rank]
         c = np.zeros(A.shape[1])
         c[piv] = scipy.linalg.solve_triangular(R, Q.T @ b, check_finite=False)
         r = b - A @ c
@@ -297,8 +291,8 @@ def qr_triangle(A):
 def _projection_jacobian(Q, R, piv, d_theta, c, r, w):
     """One FRF's block of `projection`'s Jacobian, (2 n_freq, 2 n): ``d_theta`` (n_freq, 4 n)
     the two arrays of `basis_derivatives` side by side (``w_n``, then ``zeta``); ``Q``, ``R``,
-    ``piv`` from `_weighted_qr`; ``c`` the coefficients, ``r`` the weighted residual, ``w`` the
-    weights."""
+    ``piv`` the kept columns' QR (`_projection_blocks`); ``c`` the coefficients, ``r`` the
+    weighted residual, ``w`` the weights."""
     n = d_theta.shape[1] // 4
     dA = real_stack(d_theta, w)                                      # dA/dtheta's nonzero columns
     even = np.r_[c[0:2 * n:2], c[0:2 * n:2]]

@@ -110,16 +110,6 @@ def moments(w: np.ndarray, kmax: int) -> np.ndarray:
     return out
 
 
-def _lagged(z, name: str, kmax: int) -> np.ndarray:
-    """``integral_0^1 u^k exp(z u) g(u) du`` of window ``name`` for ``k = 0..kmax``, shape
-    (kmax + 1, *z.shape)."""
-    total = np.zeros((kmax + 1,) + z.shape, dtype=complex)
-    for m, c0, c1 in WINDOWS[name]:
-        mom = moments(z + 2j * math.pi * m, kmax + 1)
-        total += c0 * mom[:-1] + c1 * mom[1:]
-    return total
-
-
 def windowed_poles(x, a, window: Window, derivative: bool = False) -> np.ndarray:
     """The pole term ``1 / (j x - a)`` of a receptance as the windowed estimate shows it,
     shape (n_freq, n_poles), at lines ``x`` (n_freq,) for poles ``a`` (n_poles,) complex: the
@@ -129,7 +119,11 @@ def windowed_poles(x, a, window: Window, derivative: bool = False) -> np.ndarray
     a = np.asarray(a, dtype=complex)[None, :]
     s = 1j * np.asarray(x, dtype=float)[:, None]
     z = (a - window.decay - s) * T
-    lagged = _lagged(z, window.name, 1 if derivative else 0)
+    kmax = 1 if derivative else 0
+    lagged = np.zeros((kmax + 1,) + z.shape, dtype=complex)   # integral_0^1 u^k exp(z u) g(u) du, k = 0..kmax
+    for m, c0, c1 in WINDOWS[window.name]:
+        mom = moments(z + 2j * math.pi * m, kmax + 1)
+        lagged += c0 * mom[:-1] + c1 * mom[1:]
     p = lagged[0] * T                                       # windowed 1/(s - a)
     dp = lagged[1] * T**2 if derivative else None           # and its derivative in a
     k = window.order
