@@ -1,26 +1,10 @@
 """Modal extraction from measured FRFs: poles, damping, shapes and antiresonances with intervals.
 
-The method, its options and the reasons behind them: docs/frf-extraction.md, "Method" (the
-figures: docs/notes/frf-intervals.md and docs/notes/frf-leakage.md). In short, on the
-receptances over the fit band (by default to `FIT_BAND_FACTOR` times the band's top):
-
-1. **Poles.** Vector fitting (Gustavsen and Semlyen, IEEE Trans. Power Delivery 14(3), 1999) at
-   several orders; a pole that recurs in ``min_stable`` orders and that the data resolve is a
-   mode; refined by variable projection (`vibupdate.data.modal_fit`) on the modal model::
-
-       H_i(s) = sum_r [A_ir / (s - lam_r) + conj(A_ir) / (s - conj(lam_r))]
-                + L_i / s^2 + U_i + (pseudo-mode above the band, complex residue)
-
-   covariance of ``(w_r, zeta_r)`` by the sandwich ``(J^T J)^-1 J^T V J (J^T J)^-1``.
-2. **Zeros and shapes.** Residues refit with the poles fixed; antiresonances are the real zeros
-   of the fitted undamped receptance (`vibupdate.data.fitted_zeros`), shapes a rank-one fit of the
-   modal constants ``m_ir = Re(2 j w_d A_ir)`` (`_shapes`).
-
-With ``window`` every pole term is its windowed expectation (`vibupdate.data.window`); the noise
-per line comes from the repeats or the leverage-corrected residual (`vibupdate.data.noise`).
-Intervals are ``value +- z * SE`` with the floors `FREQUENCY_FLOOR`, `DAMPING_FLOOR` and
-`SHAPE_FLOOR`, ``z`` at the level `per_interval` gives: by default ``confidence`` holds for all
-the intervals together.
+Vector fitting at several orders, stable poles refined by variable projection
+(`vibupdate.data.modal_fit`), residues refit with the poles fixed, antiresonances the real zeros
+of the fitted undamped receptance (`vibupdate.data.fitted_zeros`), shapes a rank-one fit of the
+modal constants (`_shapes`); intervals ``value +- z * SE`` with the floors below, ``z`` from
+`per_interval`. The method, its options and the reasons: docs/frf-extraction.md, "Method".
 """
 
 from __future__ import annotations
@@ -38,7 +22,8 @@ from vibupdate.data.modal_fit import (NEAR_PSEUDO_POLE, best_subset, correlation
                                        noise_from_differences, noise_from_repeats, real_stack, refine_poles,
                                        resolvable_poles, split_residual, stabilization_diagram, stable_poles)
 from vibupdate.data.noise import residual_variance, variance_components
-from vibupdate.data.window import window_for
+from vibupdate.data.names import zero_name
+from vibupdate.data.window import ORDERS, Window, window_for
 from vibupdate.data.fitted_zeros import local_zero, zero_se, zero_snr, zeros_of_all
 from vibupdate.data.frf import KINDS, FRFSet
 from vibupdate.data.residue_kind import check_fitted_kind
@@ -52,9 +37,7 @@ SHAPE_FLOOR = 1e-3          # half-width floor of shape entries, relative to the
 MISFIT_QUALITY = 2.0        # notes: an FRF fitted to a worse quality figure misses its data
 NARROW_LINES = 4.0          # notes: a mode whose half-power bandwidth spans fewer lines
 #: A zero whose signal-to-noise ratio (`vibupdate.data.fitted_zeros.zero_snr`) is under this is left
-#: out unless kept: the receptance lies a tenth of the noise deep across it (at raised noise
-#: floors true zeros sink with the noise's: `benchmarks/RESULTS.md`, "Zeros at the noise floor,
-#: measured where they are located").
+#: out unless kept (`benchmarks/RESULTS.md`, "Zeros at the noise floor, measured where they are located").
 NOISY_ZERO_SNR = 0.1
 
 
@@ -108,8 +91,6 @@ class ExtractedZero:
 
     def name(self, first_mode: int | None) -> str:
         """``"zero 4 of h_y1,y1"`` (`vibupdate.data.names.zero_name`), as the run names it."""
-        from vibupdate.data.names import zero_name
-
         return zero_name(self.response, self.excitation, self.declared_index(first_mode))
 
 
@@ -175,14 +156,10 @@ class Extraction:
         Spacing of the fitted lines, rad/s.
     outer_zeros : tuple of ExtractedZero
         Zeros in the band below the lowest or above the highest fitted pole, left out of
-        ``zeros`` (`extract`, ``keep_outer_zeros``): there the receptance is shaped by the
-        residual terms standing for modes outside the fitted lines, which place a zero only
-        loosely, and its interval does not hold that.
+        ``zeros`` (`extract`, ``keep_outer_zeros``; `notes` says why).
     cancelled_zeros : tuple of ExtractedZero
-        Zeros whose interval holds a fitted pole, left out of ``zeros``: a zero the data cannot
-        tell from that pole (a mode with a node at the response or the excitation shows as a
-        pole and a zero that cancel) is no antiresonance of the FRF, and on which side of the
-        pole it lies is not known; their ``index`` still counts them.
+        Zeros whose interval holds a fitted pole, left out of ``zeros`` (`notes` says why);
+        their ``index`` still counts them.
     level : float
         The level of each interval (`per_interval`): ``confidence`` when not ``joint``.
     """
@@ -225,8 +202,6 @@ class Extraction:
         ndarray of complex, shape (n_pairs, n_freq)
             The fitted receptance of each pair, in the units of the FRFs (m/N).
         """
-        from vibupdate.data.window import ORDERS, Window
-
         x = np.asarray(omega, dtype=float) / self.fit_band[1]
         xn = self.fitted_poles[:, 0] / self.fit_band[1]
         zeta = self.fitted_poles[:, 1]
@@ -248,14 +223,10 @@ class Extraction:
         Returns
         -------
         list of str
-            FRFs whose fit misses the data by more than their noise (quality above
-            `MISFIT_QUALITY`); zeros left out (outside the fitted poles, at the noise floor);
-            the damping an exponential window adds; and, when no window was modelled, modes
-            whose half-power bandwidth ``2 zeta omega`` spans fewer than `NARROW_LINES`
-            lines, whose damping ratio then depends on the window of the spectral estimate.
-            Empty when there is nothing to say.
+            FRFs fitted worse than `MISFIT_QUALITY`, zeros left out, the damping an exponential
+            window adds and, with no window modelled, modes narrower than `NARROW_LINES` lines;
+            empty when there is nothing to say.
         """
-        line_spacing = self.line_spacing
         number = list(modes) if modes is not None else [first_mode + k for k in range(len(self.modes))]
         out = []
         misfit = [q for q in self.quality if q.quality > MISFIT_QUALITY]
@@ -263,8 +234,8 @@ class Extraction:
             out.append(f"{len(misfit)} of {len(self.quality)} FRF(s) have quality above {MISFIT_QUALITY:g}: the modal "
                        f"model misses them by more than their line-to-line noise (often at the peaks: leakage, a "
                        f"nonlinearity, a mode not fitted); the intervals count that misfit as noise")
-        narrow = [(number[k], 2 * m.damping_ratio * m.omega / line_spacing) for k, m in enumerate(self.modes)
-                  if 2 * m.damping_ratio * m.omega < NARROW_LINES * line_spacing]
+        narrow = [(number[k], 2 * m.damping_ratio * m.omega / self.line_spacing) for k, m in enumerate(self.modes)
+                  if 2 * m.damping_ratio * m.omega < NARROW_LINES * self.line_spacing]
         if self.outer_zeros:
             listed = _zeros_text(self.outer_zeros)
             poles = self.fitted_poles[:, 0] / (2 * math.pi)
@@ -307,9 +278,8 @@ class Extraction:
         ----------
         first_mode : int, optional
             The model mode number of the lowest extracted mode; each natural frequency's
-            ``mode`` is set from it. Antiresonances get their ``index`` only when it is 1 (the
-            band then starts below the first mode, so zeros counted in the band are counted
-            from the lowest).
+            ``mode`` is set from it, each antiresonance's ``index`` as
+            `ExtractedZero.declared_index` says.
         weight : float
             The user weight of every datum (`NaturalFrequency`, `Antiresonance`).
         mass_normalized : bool
@@ -349,8 +319,11 @@ class Extraction:
 def _shapes(pairs, constants, se, n_modes):
     """Rank-one fit phi_a phi_b = m_ab per mode; returns (shapes, ses, normalization) per mode."""
     dofs = list(dict.fromkeys(d for pair in pairs for d in pair))
+    index = {d: i for i, d in enumerate(dofs)}
     responses = list(dict.fromkeys(r for r, _ in pairs))
     drive = [k for k, (r, c) in enumerate(pairs) if r == c]
+    k0 = drive[0] if drive else 0
+    exc = pairs[k0][1]
     out = []
     for r in range(n_modes):
         # fitted in units of the mode's largest constant, so that the fit holds at any scale of
@@ -358,39 +331,29 @@ def _shapes(pairs, constants, se, n_modes):
         unit = float(np.max(np.abs(constants[:, r]))) or 1.0
         m, s = constants[:, r] / unit, np.maximum(se[:, r] / unit, 1e-300)
         if drive:
-            k0 = drive[0]
-            exc = pairs[k0][1]
             root = math.sqrt(abs(m[k0])) or 1.0
-            init = {d: 0.0 for d in dofs}
-            init[exc] = root * (1.0 if m[k0] >= 0 else -1.0)
+            init = np.zeros(len(dofs))
+            init[index[exc]] = root * (1.0 if m[k0] >= 0 else -1.0)
             for k, (a, c) in enumerate(pairs):
                 if c == exc and a != exc:
-                    init[a] = m[k] / root
-            names = list(init)
-            index = {d: i for i, d in enumerate(names)}
+                    init[index[a]] = m[k] / root
 
             def resid(phi):
                 return np.array([(phi[index[a]] * phi[index[c]] - m[k]) / s[k] for k, (a, c) in enumerate(pairs)])
 
-            sol = scipy.optimize.least_squares(resid, np.array([init[d] for d in names]), method="lm"
-                                               if len(pairs) >= len(names) else "trf")
-            J = sol.jac
-            dof_count = max(len(pairs) - len(names), 1)
-            chi2 = float(sol.fun @ sol.fun) / dof_count if len(pairs) > len(names) else 1.0
-            cov = np.linalg.pinv(J.T @ J) * max(1.0, chi2)
+            sol = scipy.optimize.least_squares(resid, init, method="lm" if len(pairs) >= len(dofs) else "trf")
+            chi2 = float(sol.fun @ sol.fun) / (len(pairs) - len(dofs)) if len(pairs) > len(dofs) else 1.0
+            cov = np.linalg.pinv(sol.jac.T @ sol.jac) * max(1.0, chi2)
             phi = sol.x * (1.0 if np.sum(sol.x) >= 0 else -1.0) * math.sqrt(unit)
             ses = np.sqrt(np.abs(np.diag(cov)) * unit)
-            shape = {d: float(phi[index[d]]) for d in names if d in responses or d == exc}
-            sd = {d: float(ses[index[d]]) for d in shape}
-            out.append((shape, sd, "mass"))
+            shape = {d: float(phi[index[d]]) for d in dofs if d in responses or d == exc}
+            out.append((shape, {d: float(ses[index[d]]) for d in shape}, "mass"))
         else:
-            exc = pairs[0][1]
             col = [k for k, (_, c) in enumerate(pairs) if c == exc]
             top = max(abs(m[k]) for k in col) or 1.0
             sign = 1.0 if sum(m[k] for k in col) >= 0 else -1.0
             shape = {pairs[k][0]: float(sign * m[k] / top) for k in col}
-            sd = {pairs[k][0]: float(s[k] / top) for k in col}
-            out.append((shape, sd, "unit-max"))
+            out.append((shape, {pairs[k][0]: float(s[k] / top) for k in col}, "unit-max"))
     return out
 
 
@@ -427,17 +390,13 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         The fitted lines' band, rad/s, containing ``band``. Every stable mode in it is
         fitted as a mode (with its own residues), but only those in ``band`` are reported.
         Default: from ``band``'s bottom to ``FIT_BAND_FACTOR`` (2) times its top, within the
-        data (module docstring: modes just above the band shape its antiresonances).
+        data (why: docs/frf-extraction.md, "Method", step 0).
     local_zeros : bool
         Refine each antiresonance on the lines around it (`local_zero`); default true.
     window : {None, "none", "hann", "rectangular", "exponential", "force"}
-        The data window of the FRF estimate (random excitation, ``H1`` record by record, one
-        record = one over the line spacing). When given, the fit models the window's leakage
-        (`vibupdate.data.window`), so the damping ratios of peaks a few lines wide are not
-        read high; default None: the FRFs are fitted as they are. Impact tests:
-        ``"exponential"``, a window ``exp(-t / tau)`` on the response over the record (one
-        over the line spacing), whose added damping is modelled (needs ``window_decay`` or
-        ``window_tau``); ``"force"``, the force window alone, which needs no model.
+        The data window of the FRF estimate, whose leakage (or, ``"exponential"``, added
+        damping: needs ``window_decay`` or ``window_tau``) the fit models; ``"force"`` needs no
+        model; default None, the FRFs fitted as they are (docs/frf-extraction.md, "Input").
     keep_outer_zeros : bool
         Report the antiresonances below the lowest or above the highest fitted pole with the
         others; by default they are left out (`Extraction.outer_zeros`) and said in the notes.
@@ -450,11 +409,9 @@ def extract(frfs: FRFSet, band: tuple | None = None, n_modes: int | None = None,
         with the others; by default they are left out (`Extraction.noisy_zeros`) and said in
         the notes.
     joint : bool
-        State ``confidence`` for all the intervals together (default): each is then at the
-        level `per_interval` gives for their number (frequencies, damping ratios, shape
-        entries and antiresonances), so that a model which must lie in every interval at once,
-        as a run's verification asks, fails for the true structure in at most ``1 -
-        confidence`` of tests. False: each interval at ``confidence``.
+        State ``confidence`` for all the intervals together (default; each at the level
+        `per_interval` gives for their number), as a run's verification reads them; False: each
+        interval at ``confidence``.
 
     Returns
     -------
@@ -548,7 +505,14 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     line_var = noise_from_differences(F) if var is None else var
     stab = stabilization_diagram(x, F, orders, max_damping, 1.0 / np.sqrt(line_var))
     wn, zeta, counts = stable_poles(stab, min_stable)
-    noise_at = _LastResult(lambda wn, zeta: residual_variance(x, F, wn, zeta, groups, window=window))
+    estimated = {}
+
+    def noise_at(wn, zeta):   # the residual's noise, estimated once at each set of poles
+        key = (wn.tobytes(), zeta.tobytes())
+        if key not in estimated:
+            estimated[key] = residual_variance(x, F, wn, zeta, groups, window=window)
+        return estimated[key]
+
     if wn.size:
         var = var if var is not None else noise_at(wn, zeta)
         wn, zeta, counts, peak = resolvable_poles(x, F, wn, zeta, counts, var, window=window)
@@ -580,21 +544,6 @@ def _extract(frfs, band, n_modes, orders, min_stable, max_damping, confidence, f
     if window_name == "force":
         result = dataclasses.replace(result, window="force")
     return dataclasses.replace(result, window_tau=1.0 / decay_rate) if decay_rate else result
-
-
-class _LastResult:
-    """``function(wn, zeta)`` that returns its last result again when called with the same
-    poles (equal arrays), so that one extraction never estimates the noise twice at one set of
-    poles; any other poles are computed and become the last."""
-
-    def __init__(self, function):
-        self.function, self.poles, self.result = function, None, None
-
-    def __call__(self, wn, zeta):
-        poles = (np.array(wn, dtype=float), np.array(zeta, dtype=float))
-        if self.poles is None or not all(np.array_equal(a, b) for a, b in zip(poles, self.poles)):
-            self.poles, self.result = poles, self.function(*poles)
-        return self.result
 
 
 def _check_band(band, name):
@@ -642,38 +591,10 @@ def _zeros_text(zeros, snr: bool = False) -> str:
                      + (f" (SNR {z.snr:.2g})" if snr else "") for z in zeros)
 
 
-def _zero_estimates(found, fit, Phi, local_refit):
-    """Each FRF's fitted zeros with their standard errors and signal-to-noise ratios
-    (`zero_snr`): ``(pair, zeros, ses, snrs)`` per FRF. A global zero's error counts the noise
-    and the residual model: the residual terms stand for modes outside the fitted lines whose
-    place is not known, so the zero is located again on the fit whose pseudo-mode sits just
-    above the lines (`NEAR_PSEUDO_POLE`, to first order: ``-u_near(z) / u'(z)``) and that shift
-    is added to its error. The zero refined on the lines around it (`local_zero`) replaces it where its error is
-    the smaller (docs/frf-extraction.md, "Method", step 4)."""
-    out = []
-    for pair, f, v, coef, cov, noise_var, near, fitted in found:
-        near_values = modal_basis(np.asarray(fitted, dtype=float), fit.wn, fit.zeta, False,
-                                  pseudo=NEAR_PSEUDO_POLE) @ near   # u_near at every zero at once
-        damped = Phi @ coef
-        zs, ses = [], []
-        for z, near_value in zip(fitted, near_values):
-            se, slope = zero_se(z, coef, cov, fit.wn, fit.zeta, fit.cov_poles)
-            se = math.hypot(se, float(near_value) / slope)
-            local = local_zero(z, fit.x, f, v, Phi, coef, fit.wn, fit.zeta, fit.cov_poles) if local_refit else None
-            if local is not None and local[1] < se:
-                z, se = local
-            zs.append(z)
-            ses.append(se)
-        out.append((pair, zs, ses, [zero_snr(z, fit.x, damped, noise_var, fit.wn) for z in zs]))
-    return out
-
-
 def _located_zeros(estimates, fit, zq, keep_outer=False, keep_noisy=False):
-    """`ExtractedZero` of every FRF from its estimates (`_zero_estimates`) with half-widths
-    ``zq`` standard errors; and, apart unless ``keep_outer``, those below the lowest or above
-    the highest fitted pole (`Extraction.outer_zeros`; their ``index`` still counts them, so the
-    others keep theirs), and those whose interval holds a fitted pole
-    (`Extraction.cancelled_zeros`, likewise counted)."""
+    """`ExtractedZero` of every FRF from its estimates (`_stage_two`) with half-widths
+    ``zq`` standard errors: reported, outer, noisy and cancelled (`Extraction`), each ``index``
+    counting them all."""
     zeros, outer, noisy, cancelled = [], [], [], []
     lowest, highest = float(np.min(fit.wn)), float(np.max(fit.wn))
     for pair, zs, ses, snrs in estimates:
@@ -726,10 +647,11 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
     n = wn.size
     Phi = modal_basis(x, wn, zeta, window=fit.window)
     Phi_near = modal_basis(x, wn, zeta, window=fit.window, pseudo=NEAR_PSEUDO_POLE)
-    coefs, found, quality, constants, const_se = [], [], [], [], []
+    coefs, covs, nears, quality, constants, const_se = [], [], [], [], [], []
     # the quality figure's noise: the repeats' scatter, or without repeats the model-free
     # second-difference estimate (the residual's own would make the figure about 1, or below)
     reference = var if noise == "repeats" else noise_from_differences(F)
+    wd = wn * np.sqrt(1 - zeta**2)
     for k, (pair, f, v) in enumerate(zip(frfs.pairs, F, var)):
         w = 1.0 / np.sqrt(v)
         coef, res = linear_fit(Phi, f, w)
@@ -739,17 +661,33 @@ def _stage_two(frfs, fit, counts, stab, noise, confidence, local_refit, keep_out
         tau = correlation_inflation(split_residual(res, (1, x.size)))
         cov = np.linalg.pinv(A.T @ A) * 0.5 * max(1.0, chi2) * tau
         coefs.append(coef)
+        covs.append(cov)
+        nears.append(linear_fit(Phi_near, f, w)[0])
         miss = np.abs(f - Phi @ coef)[fit.inside] ** 2
         quality.append(FRFQuality(pair[0], pair[1], math.sqrt(float(np.mean(miss / reference[k][fit.inside]))),
                                   float(np.sqrt(np.mean(miss) / np.mean(np.abs(f[fit.inside]) ** 2))),
                                   int(frfs.H[k].shape[0])))
-        wd = wn * np.sqrt(1 - zeta**2)
         constants.append(-2.0 * wd * coef[1:2 * n:2] * scales[k] * scale_w**2)       # Re(2 j w_d A)
         const_se.append(2.0 * wd * np.sqrt(np.abs(np.diag(cov)[1:2 * n:2])) * scales[k] * scale_w**2)
-        found.append((pair, f, v, coef, cov, reference[k], linear_fit(Phi_near, f, w)[0]))
-    # the FRFs share the poles: their zeros are searched together, one grid for all
-    found = [(*k, z) for k, z in zip(found, zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta))]
-    estimates = _zero_estimates(found, fit, Phi, local_refit)
+    # the FRFs share the poles: their zeros are searched together, one grid for all. Each zero's error adds its
+    # shift to first order (-u_near(z) / u'(z)) on the fit with the pseudo-mode at NEAR_PSEUDO_POLE; the zero
+    # refined on the lines around it (local_zero) replaces it where its error is the smaller (docs/frf-extraction.md,
+    # "Method", step 4 and "Noise and intervals"). Per FRF: (pair, zeros, ses, snrs)
+    estimates = []
+    for pair, f, v, coef, cov, noise_var, near, fitted in zip(frfs.pairs, F, var, coefs, covs, reference, nears,
+                                                              zeros_of_all(x[fit.inside], np.array(coefs), wn, zeta)):
+        near_values = modal_basis(np.asarray(fitted, dtype=float), wn, zeta, False, pseudo=NEAR_PSEUDO_POLE) @ near
+        zs, ses = [], []
+        for z, near_value in zip(fitted, near_values):
+            se, slope = zero_se(z, coef, cov, wn, zeta, fit.cov_poles)
+            se = math.hypot(se, float(near_value) / slope)
+            local = local_zero(z, x, f, v, Phi, coef, wn, zeta, fit.cov_poles) if local_refit else None
+            if local is not None and local[1] < se:
+                z, se = local
+            zs.append(z)
+            ses.append(se)
+        damped = Phi @ coef
+        estimates.append((pair, zs, ses, [zero_snr(z, x, damped, noise_var, wn) for z in zs]))
     reported = np.nonzero(fit.in_band)[0]
     shapes = _shapes(frfs.pairs, np.array(constants)[:, reported], np.array(const_se)[:, reported], reported.size)
     # the intervals reported: a frequency and a damping ratio per mode, its shape entries, the zeros (counted

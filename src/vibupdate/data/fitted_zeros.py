@@ -1,8 +1,8 @@
 """Antiresonances of a fitted modal model (kernels of `vibupdate.data.extraction`):
 the real zeros of the undamped fitted receptance, their standard errors by the
 implicit-function rule with exact derivatives, and the local refit of a zero on the lines
-around it. Frequencies normalized as in `vibupdate.data.modal_fit`; the method is described
-in `vibupdate.data.extraction`."""
+around it. Frequencies normalized as in `vibupdate.data.modal_fit`; the method:
+docs/frf-extraction.md, "Method", steps 3 and 4."""
 
 from __future__ import annotations
 

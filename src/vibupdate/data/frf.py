@@ -170,19 +170,16 @@ class FRFWarning(UserWarning):
     """Measured FRFs that read but look wrong (an implausible kind): the command line prints it."""
 
 
-#: Slope of ``log |H|`` over ``log omega`` of a receptance (`kind_evidence`), averaged over a
-#: file's FRFs: receptances fall about as ``omega^-2`` over a band holding modes, or stay
-#: level; a kind one or two orders off moves the slope by 1 or 2. The range holds every
-#: receptance of the project's known-truth sets and of the Southampton data with a margin
-#: (the slopes found: `benchmarks/RESULTS.md`, "Figures behind src/: FRF kinds").
+#: Slope of ``log |H|`` over ``log omega`` of a receptance (`kind_evidence`): a kind one or two
+#: orders off moves it by 1 or 2 (the slopes found: `benchmarks/RESULTS.md`, "Figures behind
+#: src/: FRF kinds"; the rule: docs/frf-extraction.md, "Input", "Implausible kinds").
 RECEPTANCE_SLOPE = (-2.7, 0.8)
 #: Above this slope no receptance of a passive structure runs in a band, while an accelerance
 #: read as one rises as omega^2 below its first mode: an error, not a warning.
 RISING = 1.5
-#: A driving point's receptance has ``Im H <= 0`` at every line (passivity); the weighted share
-#: of its lines that do (`kind_evidence`) is near 1 for a receptance, near 0 for a kind two
-#: orders off or a flipped sign, anywhere for one order off (the shares found:
-#: `benchmarks/RESULTS.md`, "Figures behind src/: FRF kinds").
+#: A driving point's receptance has ``Im H <= 0`` at every line (passivity): the weighted share
+#: of its lines that do (`kind_evidence`) is near 1 (the shares found: `benchmarks/RESULTS.md`,
+#: "Figures behind src/: FRF kinds").
 PASSIVE_SHARE = 0.5
 TWO_ORDERS = 0.2
 SLOPE_BINS = 12
@@ -190,11 +187,9 @@ SLOPE_BINS = 12
 
 def kind_evidence(frfs: FRFSet) -> tuple[float, dict]:
     """What the data say of their kind: the slope of ``log |H|`` over ``log omega`` of the
-    receptances (the median of each of `SLOPE_BINS` log-spaced bins, a line through them: the
-    peaks and zeros, a few lines each, leave the medians be; mean over the FRFs), and, per
-    shift ``k`` of the kind's order (-2..2), the share of the driving points' lines whose
-    ``Im(H / (j omega)^k) < 0``, weighted by ``|Im|`` in the units the file held (so that the
-    noisy lowest lines of an accelerance, divided by ``omega^2``, do not outweigh the rest);
+    receptances (a line through the medians of `SLOPE_BINS` log-spaced bins; mean over the
+    FRFs), and, per shift ``k`` of the kind's order (-2..2), the share of the driving points'
+    lines whose ``Im(H / (j omega)^k) < 0``, weighted by ``|Im|`` in the units the file held;
     empty without a driving point."""
     lw = np.log(frfs.omega)
     edges = np.linspace(lw[0], lw[-1], SLOPE_BINS + 1)
@@ -293,12 +288,6 @@ def _grouped(omega, records, sources, measured: str) -> FRFSet:
     return FRFSet(omega, tuple(groups), tuple(np.vstack(v) for v in groups.values()), tuple(sources), measured)
 
 
-def _group(omega, records, source, measured: str) -> FRFSet:
-    """records: list of ((response, excitation), receptance (n_freq,)); drops the 0 Hz line."""
-    keep = omega > 0
-    return _grouped(omega[keep], ((pair, np.asarray(h)[keep]) for pair, h in records), (str(source),), measured)
-
-
 def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
     """FRFs from the dataset-58 (or 58b) records of a Universal File Format file.
 
@@ -335,7 +324,9 @@ def read_uff58(path, kind: str | None = None, g_units: bool = False) -> FRFSet:
         h = to_receptance(np.asarray(rec["data"], dtype=complex), np.where(x > 0, x, 1.0), rec_kind, g_units)
         records.append(((names[0], names[1]), sign * h))
         kinds.add(rec_kind)
-    return _group(omega, records, path, kinds.pop() if len(kinds) == 1 else "mixed")
+    keep = omega > 0   # the 0 Hz line dropped
+    return _grouped(omega[keep], ((pair, h[keep]) for pair, h in records), (str(path),),
+                    kinds.pop() if len(kinds) == 1 else "mixed")
 
 
 def uff_records(path: Path, dataset: int, what: str):
@@ -496,7 +487,9 @@ def read_frf_table(path, responses: Sequence[str], excitation: str, kind: str = 
                          f"DOF names were given ({list(responses)})")
     omega = TWO_PI * freq_hz
     h = to_receptance(table.T, np.where(omega > 0, omega, 1.0), kind, g_units)
-    return _group(omega, [((str(r), str(excitation)), h[k]) for k, r in enumerate(responses)], path, kind)
+    keep = omega > 0   # the 0 Hz line dropped
+    return _grouped(omega[keep], [((str(r), str(excitation)), h[k, keep]) for k, r in enumerate(responses)],
+                    (str(path),), kind)
 
 
 def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequence[str] | None = None,
@@ -544,13 +537,12 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
     for path in paths:
         if path.suffix.lower() in (".uff", ".unv"):
             sets.append(read_uff58(path, kind, g_units))
-            check_kind(sets[-1])
-            continue
-        if responses is None or excitations is None or k >= len(excitations):
+        elif responses is None or excitations is None or k >= len(excitations):
             raise ValueError(f"FRF file {str(path)!r} is a table: give the response DOF of each column and one "
                              f"excitation DOF per table file ({len(excitations or [])} given)")
-        sets.append(read_frf_table(path, responses, excitations[k], kind or "receptance", g_units, pairs))
-        k += 1
+        else:
+            sets.append(read_frf_table(path, responses, excitations[k], kind or "receptance", g_units, pairs))
+            k += 1
         check_kind(sets[-1])
     if excitations is not None and k != len(excitations):
         raise ValueError(f"{len(excitations)} excitation DOFs given for {k} table file(s)")
@@ -563,11 +555,10 @@ def read_frfs(paths, responses: Sequence[str] | None = None, excitations: Sequen
         seen[key] = path
     out = combine(sets)
     check_repeats(out)
-    if not mapping:
-        return out
-    renamed = out.renamed(mapping)
-    check_repeats(renamed)  # a mapping may put two different FRFs under one label
-    return renamed
+    if mapping:
+        out = out.renamed(mapping)
+        check_repeats(out)  # a mapping may put two different FRFs under one label
+    return out
 
 
 #: Repeats of one FRF whose median difference from their mean, relative to its magnitude, is
@@ -577,10 +568,8 @@ CONTRADICTORY = 0.5
 
 
 def check_repeats(frfs: FRFSet) -> None:
-    """Raise ValueError on repeats of one FRF that are identical (the same record twice: the
-    noise estimate would be zero and the intervals too narrow) or that contradict each other
-    (median relative difference from their mean above `CONTRADICTORY`: records of different
-    responses or excitations under one label)."""
+    """Raise ValueError on repeats of one FRF that are identical or that contradict each other
+    (`CONTRADICTORY`; why: docs/frf-extraction.md, "Input", "Repeats")."""
     for (r, c), h in zip(frfs.pairs, frfs.H):
         if h.shape[0] < 2:
             continue

@@ -86,10 +86,9 @@ class ShapeInterval:
         scaling (the shape's normalization is free) unless ``mass_normalized``.
     mass_normalized : bool
         The entries are those of the mass-normalized mode (``phi^T M phi = 1``, units
-        1/sqrt(kg) times the DOF's unit), up to a common sign: what the modal constants of
-        calibrated FRFs with a driving point give. The shape then also measures the modal mass
-        at its reference entry (`modal_mass_bounds`), which sees mass where frequencies and
-        shape ratios see only stiffness over mass.
+        1/sqrt(kg) times the DOF's unit), up to a common sign; the shape then also measures the
+        modal mass at its reference entry (`modal_mass_bounds`; docs/method.md, "Modal masses
+        from mass-normalized shapes").
     """
 
     bounds: Mapping[str, tuple[float, float]]
@@ -429,11 +428,7 @@ class Configuration:
             Each receptance's ``(response, excitation)`` DOF names, once, in order of
             appearance.
         """
-        seen: list[tuple[str, str]] = []
-        for a in self.antiresonances:
-            if a.receptance not in seen:
-                seen.append(a.receptance)
-        return seen
+        return list(dict.fromkeys(a.receptance for a in self.antiresonances))
 
 
 def validate_configuration(cfg: Configuration) -> None:
@@ -459,30 +454,36 @@ def validate_configuration(cfg: Configuration) -> None:
                     cfg.model.measurement(unknown[:1])
                 except ValueError as exc:
                     raise ValueError(f"{where}, mode {i}: {exc}") from None
+    modes = declared_modes(cfg.natural)
     for rc in cfg.receptances():
+        h = f"h_{rc[0]},{rc[1]}"
         for dof in rc:
-            _check_dof(cfg.model, dof, f"{where}, antiresonance of h_{rc[0]},{rc[1]}")
+            if dof not in cfg.model.dofs and cfg.model.measures(dof):
+                raise ValueError(f"{where}, antiresonance of {h}: {dof!r} is a sensor (a combination of DOFs); "
+                                 "antiresonances are measured between DOFs of the model, shapes at DOFs or sensors")
+            try:
+                cfg.model.dof(dof)
+            except ValueError as exc:
+                raise ValueError(f"{where}, antiresonance of {h}: {exc}") from None
         zs = [a.omega for a in cfg.antiresonances if a.receptance == rc]
         clash = [z for z in zs if any(abs(z - w) <= 1e-12 * w for w in omegas)]
         if clash:
-            raise ValueError(
-                f"{where}: antiresonance of h_{rc[0]},{rc[1]} at {clash[0] / TWO_PI:.6g} Hz equals a natural "
-                "frequency; a zero cannot sit on a pole (interlacing, Eq. 11). A mode with a node at "
-                f"{rc[0]} or {rc[1]} does not show in h_{rc[0]},{rc[1]}: its pole cancels a zero at the same "
-                "frequency, which is no antiresonance of the measured FRF; leave it out"
-            )
+            raise ValueError(f"{where}: antiresonance of {h} at {clash[0] / TWO_PI:.6g} Hz equals a natural frequency; "
+                             f"a zero cannot sit on a pole (interlacing, Eq. 11). A mode with a node at {rc[0]} or "
+                             f"{rc[1]} does not show in {h}: its pole cancels a zero at the same frequency, which is "
+                             "no antiresonance of the measured FRF; leave it out")
         if any(b <= a for a, b in zip(zs, zs[1:])):
-            raise ValueError(f"{where}: antiresonances of h_{rc[0]},{rc[1]} must be strictly ascending")
-        if rc[0] == rc[1]:
-            _check_driving_point(cfg, rc, zs, where)
+            raise ValueError(f"{where}: antiresonances of {h} must be strictly ascending")
+        if rc[0] == rc[1]:   # a driving point alternates pole, zero, pole: one zero between consecutive modes
+            for k in range(len(omegas) - 1):
+                inside = [z for z in zs if omegas[k] < z < omegas[k + 1]]
+                if modes[k + 1] == modes[k] + 1 and len(inside) > 1:
+                    raise ValueError(f"{where}: the driving-point receptance {h} has one antiresonance between "
+                                     f"consecutive modes ({omegas[k] / TWO_PI:.4g} and {omegas[k + 1] / TWO_PI:.4g} "
+                                     f"Hz), found {len(inside)}")
     for rc, s in dict(cfg.first_sign).items():
         if s not in (1, -1):
             raise ValueError(f"{where}: first_sign of {rc} must be +1 or -1, got {s!r}")
-    _check_modes(cfg, where)
-
-
-def _check_modes(cfg: Configuration, where: str) -> None:
-    modes = declared_modes(cfg.natural)
     for k in range(1, len(modes)):
         if modes[k] <= modes[k - 1]:
             raise ValueError(
@@ -491,32 +492,6 @@ def _check_modes(cfg: Configuration, where: str) -> None:
                 "with frequency")
     if modes and modes[-1] > cfg.model.n_dofs:
         raise ValueError(f"{where}: mode {modes[-1]} is declared, but the model has only {cfg.model.n_dofs} DOFs")
-
-
-def _check_dof(model: AffineModel, dof: str, where: str) -> None:
-    if dof not in model.dofs and model.measures(dof):
-        raise ValueError(f"{where}: {dof!r} is a sensor (a combination of DOFs); antiresonances are measured "
-                         "between DOFs of the model, shapes at DOFs or sensors")
-    try:
-        model.dof(dof)
-    except ValueError as exc:
-        raise ValueError(f"{where}: {exc}") from None
-
-
-def _check_driving_point(cfg: Configuration, rc, zs: Sequence[float], where: str) -> None:
-    """A driving-point receptance alternates pole, zero, pole: at most one zero between the
-    measured poles of two consecutive modes (any subset of the zeros may be measured)."""
-    poles = [f.omega for f in cfg.natural]
-    modes = declared_modes(cfg.natural)
-    for k in range(len(poles) - 1):
-        if modes[k + 1] != modes[k] + 1:
-            continue
-        inside = [z for z in zs if poles[k] < z < poles[k + 1]]
-        if len(inside) > 1:
-            raise ValueError(
-                f"{where}: the driving-point receptance h_{rc[0]},{rc[1]} has one antiresonance between "
-                f"consecutive modes ({poles[k] / TWO_PI:.4g} and {poles[k + 1] / TWO_PI:.4g} Hz), found "
-                f"{len(inside)}")
 
 
 def validate_configurations(configurations: Sequence[Configuration]) -> None:

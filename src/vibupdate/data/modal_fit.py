@@ -2,20 +2,20 @@
 underscore are the units its tests check and its sibling modules use, not a promised
 surface): the modal-model basis, vector fitting, the stabilization check, variable projection
 of the poles, noise estimates and pole selection. Frequencies are normalized by the band's
-top (``x = omega / omega_max``); FRFs by their RMS. The method is described in
-`vibupdate.data.extraction`.
-
-On long records (``benchmarks/extraction_cost.py``) the variable projection of the poles has
-an exact Jacobian (`projection`) and hands the optimizer the ``(2 n + 1)``-square triangle of
-``[J r]`` (`_CompressedProjection`): what must see every line is formed one FRF at a time."""
+top (``x = omega / omega_max``); FRFs by their RMS. The method: docs/frf-extraction.md,
+"Method"; on long records what must see every line is formed one FRF at a time
+(`_CompressedProjection`, ``benchmarks/extraction_cost.py``)."""
 
 from __future__ import annotations
 
 import math
+from itertools import combinations
 
 import numpy as np
 import scipy.linalg
 import scipy.optimize
+
+from vibupdate.data.window import windowed_poles
 
 PSEUDO_POLE = (1.5, 0.2)    # pseudo-mode: natural frequency (x band top) and damping ratio
 #: The pseudo-mode placed just above the fitted lines instead: where a zero moves when the residual
@@ -30,11 +30,6 @@ def _poles(xn, zeta):
     return -zeta * xn + 1j * xn * np.sqrt(1.0 - zeta**2)
 
 
-def _all_poles(xn, zeta, pseudo=None):
-    pseudo = pseudo or PSEUDO_POLE
-    return np.append(_poles(np.asarray(xn), np.asarray(zeta)), _poles(np.array([pseudo[0]]), np.array([pseudo[1]])))
-
-
 def _pole_terms(x, a, window=None, derivative: bool = False):
     """``1/(s - a)`` and ``1/(s - conj a)`` at ``s = j x`` (each (n_freq, n_poles)), through
     ``window`` when given; with ``derivative`` their derivatives with respect to ``a`` and
@@ -43,8 +38,6 @@ def _pole_terms(x, a, window=None, derivative: bool = False):
         s = 1j * np.asarray(x)[:, None]
         p, q = 1.0 / (s - a[None, :]), 1.0 / (s - np.conj(a)[None, :])
         return (p, q, p * p, q * q) if derivative else (p, q)
-    from vibupdate.data.window import windowed_poles
-
     both = np.concatenate([a, np.conj(a)])
     p, q = np.split(windowed_poles(x, both, window), 2, axis=1)
     if not derivative:
@@ -61,7 +54,9 @@ def basis(x, xn, zeta, window=None, pseudo=None) -> np.ndarray:
     ``pseudo``: the pseudo-mode's ``(frequency, damping)``, default `PSEUDO_POLE`.
     """
     x = np.asarray(x)
-    p, q = _pole_terms(x, _all_poles(xn, zeta, pseudo), window)
+    pseudo = pseudo or PSEUDO_POLE
+    a = np.append(_poles(np.asarray(xn), np.asarray(zeta)), _poles(np.array([pseudo[0]]), np.array([pseudo[1]])))
+    p, q = _pole_terms(x, a, window)
     cols = np.empty((x.size, 2 * p.shape[1] + 2), dtype=complex)
     cols[:, 0:-2:2], cols[:, 1:-2:2] = p + q, 1j * (p - q)
     cols[:, -2], cols[:, -1] = -1.0 / x**2, 1.0      # 1/s^2 = -1/x^2
@@ -97,11 +92,7 @@ def _undamped_basis(x, xn, zeta, pseudo=None) -> np.ndarray:
     n = a.size
     cols = np.zeros((x.size, 2 * n + 4))
     cols[:, 1:2 * n:2] = -2.0 * a.imag[None, :] / (np.abs(a)[None, :] ** 2 - x[:, None] ** 2)
-    pseudo = pseudo or PSEUDO_POLE
-    pseudo = _poles(np.array([pseudo[0]]), np.array([pseudo[1]]))[0]
-    p, q = 1.0 / (1j * x - pseudo), 1.0 / (1j * x - np.conj(pseudo))
-    cols[:, 2 * n], cols[:, 2 * n + 1] = (p + q).real, (1j * (p - q)).real
-    cols[:, 2 * n + 2], cols[:, 2 * n + 3] = -1.0 / x**2, 1.0
+    cols[:, 2 * n:] = basis(x, [], [], pseudo=pseudo).real
     return cols
 
 
@@ -219,16 +210,6 @@ def projected_residual(theta, x, F, W, window=None):
     return projection(theta, x, F, W, window)[0]
 
 
-def _weighted_qr(A):
-    """Orthonormal basis ``Q`` of the range of ``A`` (pivoted QR, columns of negligible
-    ``|R_kk|`` dropped: the rank rule of the LAPACK least-squares solver), with ``R`` and
-    the pivots of the kept columns."""
-    Q, R, piv = scipy.linalg.qr(A, mode="economic", pivoting=True, check_finite=False)
-    diag = np.abs(np.diag(R))
-    rank = int(np.sum(diag > np.finfo(float).eps * diag[0])) if diag[0] > 0 else 0
-    return Q[:, :rank], R[:rank, :rank], piv[:rank]
-
-
 def projection(theta, x, F, W, window=None, jacobian: bool = False):
     """Weighted residual of the variable-projection problem at poles ``theta`` and, with
     ``jacobian``, its exact derivative with respect to ``theta``.
@@ -265,7 +246,11 @@ def _projection_blocks(theta, x, F, W, window=None, jacobian: bool = False):
     for f, w in zip(F, W):
         A = real_stack(Phi, w)
         b = np.concatenate([f.real * w, f.imag * w])
-        Q, R, piv = _weighted_qr(A)
+        # pivoted QR, columns of negligible |R_kk| dropped: the rank rule of LAPACK's least-squares solver
+        Q, R, piv = scipy.linalg.qr(A, mode="economic", pivoting=True, check_finite=False)
+        diag = np.abs(np.diag(R))
+        rank = int(np.sum(diag > np.finfo(float).eps * diag[0])) if diag[0] > 0 else 0
+        Q, R, piv = Q[:, :rank], R[:rank, :rank], piv[:rank]
         c = np.zeros(A.shape[1])
         c[piv] = scipy.linalg.solve_triangular(R, Q.T @ b, check_finite=False)
         r = b - A @ c
@@ -306,8 +291,8 @@ def qr_triangle(A):
 def _projection_jacobian(Q, R, piv, d_theta, c, r, w):
     """One FRF's block of `projection`'s Jacobian, (2 n_freq, 2 n): ``d_theta`` (n_freq, 4 n)
     the two arrays of `basis_derivatives` side by side (``w_n``, then ``zeta``); ``Q``, ``R``,
-    ``piv`` from `_weighted_qr`; ``c`` the coefficients, ``r`` the weighted residual, ``w`` the
-    weights."""
+    ``piv`` the kept columns' QR (`_projection_blocks`); ``c`` the coefficients, ``r`` the
+    weighted residual, ``w`` the weights."""
     n = d_theta.shape[1] // 4
     dA = real_stack(d_theta, w)                                      # dA/dtheta's nonzero columns
     even = np.r_[c[0:2 * n:2], c[0:2 * n:2]]
@@ -429,8 +414,6 @@ def best_subset(x, F, wn, zeta, peak, n_modes, candidates, fixed, max_subsets: i
     """Positions in ``candidates`` (indices into ``wn``) of the ``n_modes`` poles whose modal
     model, with the ``fixed`` poles always in it, fits the FRFs best (unweighted); by peak
     response when there are too many subsets to try."""
-    from itertools import combinations
-
     candidates, fixed = np.asarray(candidates, dtype=int), np.asarray(fixed, dtype=int)
     if math.comb(candidates.size, n_modes) > max_subsets:
         return np.sort(np.argsort(peak[candidates])[::-1][:n_modes])

@@ -1,23 +1,11 @@
 """One name per measured datum, the same in every table, message and file.
 
-* A natural frequency is named by the model mode it is compared with (its declared ``mode``,
-  `vibupdate.data.pairing`): ``"mode 3"``. Where that differs from its position among the
-  measured frequencies of its configuration (a test whose first measured mode is the model's
-  third), the position follows: ``"mode 3 (measured 1)"``.
-* An antiresonance is named by its receptance and the zero of that receptance it is compared
-  with (its declared ``index``): ``"zero 4 of h_y1,y1"``. Its position in the configuration's
-  list mixes receptances and is never shown.
-* A receptance is ``"h_<response>,<excitation>"``.
-
-In the columns of a file (a sweep's ``samples.csv``, the labels of its ``sweep.json``) the same
-names take a form without blanks or commas, after the configuration's name: ``"A:mode3_hz"``
-(the natural frequency of model mode 3, Hz), ``"A:mode3_xi"`` (its damping ratio),
-``"A:zero4_h_y1/y1_hz"`` (zero 4 of ``h_y1,y1``, Hz: response ``/`` excitation, as the
-receptance is the response over the force). A column names the model mode alone: the modes of
-a configuration are distinct and rising, and a column keeps its name whatever else is measured.
-
-`vibupdate extract` names what it finds with the same functions, so an extracted zero and the
-same zero in a run's report read alike.
+A natural frequency is named by its declared model ``mode`` (`vibupdate.data.pairing`), with
+its measured position where that differs: ``"mode 3 (measured 1)"``; an antiresonance by its
+receptance and declared ``index``: ``"zero 4 of h_y1,y1"``. The columns of a file take a form
+without blanks or commas after the configuration's name (``"A:mode3_hz"``,
+``"A:zero4_h_y1/y1_hz"``): docs/outputs.md, "The columns of samples.csv". `vibupdate extract`
+names what it finds with the same functions.
 """
 
 from __future__ import annotations

@@ -1,26 +1,14 @@
 """Noise variance of FRFs per line (a kernel of `vibupdate.data.extraction`): of a single
 record from the modal fit's residual, and the split of any per-line variance estimate (the
-residual's, or the repeats' scatter) into a smooth and a proportional component.
-Frequencies and FRFs normalized as in `vibupdate.data.modal_fit`.
+residual's, or the repeats' scatter) into a smooth and a proportional component. Frequencies
+and FRFs normalized as in `vibupdate.data.modal_fit`.
 
-The raw squared residual misleads at the peaks of lightly damped modes, which alone fix the
-damping ratios (docs/notes/frf-intervals.md, "The fix"):
-
-1. **Leverage.** ``E |r_k|^2 = sigma_k^2 (1 - h_k)``, ``h_k`` the diagonal of the hat matrix,
-   near 1 at the few lines a narrow peak is fitted from: each squared residual is divided by
-   ``1 - h_k`` (HC2, MacKinnon and White, J. Econometrics 29, 1985), ``h_k`` from the exact
-   Jacobian of the variable-projection fit (residue columns plus the projected pole columns,
-   whose hat matrices add: `leverage`).
-2. **Two components.** ``sigma_k^2 = s_k + beta |H_k|^2``, ``s`` locally constant over
-   `SMOOTH_LINES` and ``beta >= 0`` one number per group, by maximum likelihood with the EM
-   iteration for variance components (Dempster, Laird and Rubin, J. R. Statist. Soc. B 39,
-   1977; `variance_components`): a running mean alone would spread a peak's variance over its
-   neighbours. The repeats' per-line variance of the mean (a Gamma likelihood, the same
-   equations) is split the same way.
-
-``W`` (a weighted fit) and ``beta_width`` (a local proportional level) are the measured
-alternative, not the default (docs/notes/frf-intervals.md, "The noise estimate of one record
-on real data").
+Each squared residual is divided by ``1 - h_k`` (``h_k`` the leverage of its line: HC2,
+MacKinnon and White, J. Econometrics 29, 1985; `leverage`), then ``sigma_k^2 = s_k + beta
+|H_k|^2`` by maximum likelihood with the EM iteration for variance components (Dempster, Laird
+and Rubin, J. R. Statist. Soc. B 39, 1977; `variance_components`). Why, and the alternatives
+``W`` and ``beta_width``: docs/frf-extraction.md, "Noise and intervals", and
+docs/notes/frf-intervals.md.
 """
 
 from __future__ import annotations
@@ -127,8 +115,7 @@ def residual_variance(x, F, wn, zeta, groups=None, width: int = SMOOTH_LINES, W=
 
     ``W`` (n_pairs, n_freq): weights ``1/sigma`` per line from an earlier noise estimate;
     the residual and the leverage are then those of the weighted fit (feasible weighted
-    least squares; the module docstring says why an unweighted fit misleads on real data).
-    Default: unweighted."""
+    least squares). Default: unweighted."""
     Phi = basis(x, wn, zeta, window)
     if W is None:  # one least-squares solve for every FRF
         A = np.vstack([Phi.real, Phi.imag])

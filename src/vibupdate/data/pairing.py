@@ -1,22 +1,16 @@
 """Which model mode, and which zero of a receptance, each measured value is: data, never
-inferred from nearness at the updated point (the rule as the user reads it: docs/method.md,
-"Declared correspondence").
+inferred from nearness at the updated point (docs/method.md, "Declared correspondence").
 
-A natural frequency's ``mode`` counts flexible modes from 1 (`declared_modes`: the mode after
-the previous one when omitted). An antiresonance's omitted ``index`` is assigned once, from the
-nominal model (`zero_indices`): above the measured pole of mode ``m``, the ``j``-th measured zero
-of ``h_rc`` there is zero ``n_0 + j``, ``n_0`` the nominal zeros below mode ``m`` (counting down
-below the lowest pole, consecutive from 1 without poles). A driving point's ``n_0`` comes from
-interlacing instead (one zero between two consecutive modes): a symmetric nominal model whose
-point is a node of mode ``m`` has zeros exactly on that pole, which a perturbed structure moves
-to either side. A cross receptance has no interlacing; there a nominal zero on a pole (within
-`ON_POLE`: a node of that mode at ``r`` or ``c``, or a repeated frequency) is taken to stay on
-it, hidden by its pole (a pole-zero pair that no FRF shows), unless more zeros are measured
-between two measured poles than the nominal model has there: each extra one came off the nearer
-of the two poles (relative distance) while it has zeros on it to spare. Zeros that leave or
-join the real axis (two real zeros of the nominal model becoming a complex pair, or the reverse)
-shift the count in a way no default sees: the case then states ``index``. Every pairing
-downstream reads these declared indices.
+A natural frequency's omitted ``mode`` is the mode after the previous one (`declared_modes`).
+An antiresonance's omitted ``index`` is assigned once, from the nominal model (`zero_indices`):
+above the measured pole of mode ``m``, the ``j``-th measured zero of ``h_rc`` is zero
+``n_0 + j``, ``n_0`` the nominal zeros below mode ``m``; at a driving point ``n_0`` comes from
+interlacing. A cross receptance's nominal zero on a pole (within `ON_POLE`) stays hidden on it
+unless the gap holds more measured zeros than nominal ones, and in a gap with skipped modes the
+nominal zero nearest each skipped pole is hidden (why: docs/notes/data-and-formulation.md,
+"Zeros on poles of cross receptances" and "Zeros beside a mode the test did not see"). Zeros
+that leave or join the real axis shift the count in a way no default sees: the case then states
+``index``.
 """
 
 from __future__ import annotations
@@ -101,8 +95,7 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
         if driving:
             first = below_first + a
         else:
-            strict = inside.size
-            excess = max(c - strict, 0)
+            excess = max(c - inside.size, 0)
             f_a = on(wa)
             f_b = 0 if wb <= wa * (1 + ON_POLE) or not np.isfinite(wb) else on(wb)   # pole b's own zeros
             # the excess zeros came off the poles' zeros, each off the nearer pole (relative distance)
@@ -120,10 +113,8 @@ def zero_indices(poles, modes, zeros, nominal_omega, nominal_zeros, driving: boo
 
 def _unhidden(inside: np.ndarray, nominal_zeros: np.ndarray, skipped: np.ndarray, missing: int) -> list[int]:
     """The zero indices ``inside`` a gap (1-based, rising) without those hidden by the modes the
-    test skipped there: a mode no FRF of the receptance shows has a small modal constant
-    ``phi_r phi_c`` in it, so one zero of ``h_rc`` sits next to its pole and the two cancel. Up to
-    ``missing`` zeros are hidden, each the nominal zero nearest (relative distance) to a skipped
-    pole ``skipped`` (rad/s) not yet paired, nearest pairs first."""
+    test skipped there (module docstring): up to ``missing`` zeros, each the nominal zero nearest
+    (relative distance) to a skipped pole ``skipped`` (rad/s) not yet paired, nearest pairs first."""
     w = np.array([nominal_zeros[k - 1] if k <= nominal_zeros.size else np.inf for k in inside])
     distance = np.abs(w[:, None] / skipped[None, :] - 1)
     hidden = set()
@@ -218,11 +209,10 @@ def declare(cfg):
                     zeros[i] = replace(zeros[i], index=idx)
     for rc in cfg.receptances():
         idx = [a.index for a in zeros if a.receptance == rc]
-        for k in range(1, len(idx)):
-            if idx[k] <= idx[k - 1]:
-                shown = ", ".join(f"{a.freq_hz:.6g} Hz -> {a.index}" for a in zeros if a.receptance == rc)
-                raise ValueError(f"{where}: antiresonance indices of h_{rc[0]},{rc[1]} must rise with frequency, "
-                                 f"got {shown}")
+        if any(b <= a for a, b in zip(idx, idx[1:])):
+            shown = ", ".join(f"{a.freq_hz:.6g} Hz -> {a.index}" for a in zeros if a.receptance == rc)
+            raise ValueError(f"{where}: antiresonance indices of h_{rc[0]},{rc[1]} must rise with frequency, "
+                             f"got {shown}")
         if idx and idx[-1] > cfg.model.n_dofs - 1:
             raise ValueError(f"{where}: {zero_name(rc[0], rc[1], idx[-1])} is declared, but the "
                              f"adjunct system has only {cfg.model.n_dofs - 1} DOFs")

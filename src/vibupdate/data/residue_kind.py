@@ -1,27 +1,11 @@
 """Is the FRF kind declared right? The phase of the fitted modal constants says.
 
-A receptance's modal constants are real: ``h_jk = sum_r A_jkr / (w_r^2 - w^2 + 2 j zeta_r w_r w)``
-with ``A_jkr = phi_jr phi_kr``, so the complex constant ``2 j w_d A`` that the extraction fits
-per FRF and mode (`vibupdate.data.extraction`) points at 0 or 180 degrees, up to the small
-turn of non-proportional damping, and at 0 at a driving point. Data one order off the kind
-declared (a mobility read as a receptance, an accelerance read as a mobility) multiply every
-constant by ``j w`` or ``1 / (j w)``: all of them turn by +90 or -90 degrees. The doubled angle
-``2 theta`` folds 0 and 180 together and sends +-90 to 180, so the weighted mean of
-``exp(2 j theta)`` over every FRF and fitted mode tells one order off from right without a
-driving point; a driving point then gives the direction.
-
-`KIND_TURN` sits halfway between the turns of data declared right and one order off on known
-truth and on the Southampton accelerances (benchmarks/RESULTS.md, "A kind one order off").
-
-Two orders off (an accelerance read as a receptance, or back) turns every constant by 180
-degrees, which the doubled angle cannot see, and neither can it tell from transfer FRFs'
-arbitrary signs; but a driving point's constants are ``phi_p^2 > 0``, so driving-point
-constants turned past 135 degrees are refused too: two orders off, or the driving point's sign
-flipped (the response measured against the force's direction), which the data cannot tell
-apart and which both make the shapes wrong.
-
-It adds to the check of the raw FRFs (`vibupdate.data.frf.check_kind`), which catches two
-orders off; after the fit, every mode counts by its constant.
+A receptance's modal constants ``2 j w_d A`` (`vibupdate.data.extraction`) are real, and positive
+at a driving point; a kind one order off turns every one by +-90 degrees, two orders off (or a
+flipped driving point) a driving point's by 180. The rule, on the doubled angle that folds
+transfer FRFs' signs together: docs/frf-extraction.md, "Input" ("A kind one order off");
+`KIND_TURN` from the turns in benchmarks/RESULTS.md, "A kind one order off". It adds to the
+check of the raw FRFs (`vibupdate.data.frf.check_kind`).
 """
 
 from __future__ import annotations
@@ -36,45 +20,28 @@ import numpy as np
 KIND_TURN = 45.0
 
 
-def constant_turn(pairs, coefficients: np.ndarray, fitted_poles: np.ndarray) -> tuple[float, float | None]:
-    """How far the fitted modal constants turn from real, degrees: ``(turn, drive)``.
+def check_fitted_kind(result, kinds, sources) -> None:
+    """Raise ValueError naming the files when the fitted modal constants of ``result`` (an
+    `Extraction`) turn by more than `KIND_TURN` from real (the kind declared is one order off),
+    or when a driving point's turn by more than ``180 - KIND_TURN`` (two orders off, or its sign
+    flipped). Nothing is said of data of mixed kinds.
 
-    ``turn`` in [0, 90]: half the angle of the mean of ``exp(2 j theta)`` over every FRF and
-    fitted mode, each FRF's constants weighted by their magnitude relative to its largest (so
-    every FRF counts alike). ``drive``: the weighted mean angle of the driving points'
-    constants, in (-180, 180], None without a driving point.
-
-    Parameters
-    ----------
-    pairs : sequence of (str, str)
-    coefficients : ndarray, shape (n_pairs, n_columns)
-        The stage-2 coefficients (`vibupdate.data.extraction.Extraction.coefficients`): per
-        mode ``r`` the real and imaginary parts of its residue in columns ``2 r`` and ``2 r + 1``.
-    fitted_poles : ndarray, shape (n_modes, 2)
-        Natural frequency and damping ratio of every fitted mode.
-    """
-    n = fitted_poles.shape[0]
-    wd = fitted_poles[:, 0] * np.sqrt(1.0 - fitted_poles[:, 1] ** 2)
+    The turn, in [0, 90] degrees, is half the angle of the mean of ``exp(2 j theta)`` over every
+    FRF and fitted mode, each FRF's constants weighted by their magnitude relative to its largest
+    (so every FRF counts alike); the driving points' angle, in (-180, 180], their weighted mean."""
+    if result.measured not in kinds:
+        return
+    n = result.fitted_poles.shape[0]
+    wd = result.fitted_poles[:, 0] * np.sqrt(1.0 - result.fitted_poles[:, 1] ** 2)
+    coefficients = result.coefficients   # per mode r, Re and Im of its residue in columns 2 r and 2 r + 1
     constants = wd * (-coefficients[:, 1:2 * n:2] + 1j * coefficients[:, 0:2 * n:2])   # 2 j w_d A, up to a scale
     size = np.abs(constants)
     weight = size / np.maximum(size.max(axis=1, keepdims=True), 1e-300)
     folded = np.sum(weight * np.exp(2j * np.angle(constants)))
     turn = 0.5 * math.degrees(abs(math.atan2(folded.imag, folded.real)))
-    drives = [k for k, (r, c) in enumerate(pairs) if r == c]
-    if not drives:
-        return turn, None
+    drives = [k for k, (r, c) in enumerate(result.pairs) if r == c]
     at = np.sum(weight[drives] * np.exp(1j * np.angle(constants[drives])))
-    return turn, math.degrees(math.atan2(at.imag, at.real))
-
-
-def check_fitted_kind(result, kinds, sources) -> None:
-    """Raise ValueError naming the files when the fitted modal constants of ``result`` (an
-    `Extraction`) turn by more than `KIND_TURN` from real (the kind declared is one order off),
-    or when a driving point's turn by more than ``180 - KIND_TURN`` (two orders off, or its sign
-    flipped). Nothing is said of data of mixed kinds."""
-    if result.measured not in kinds:
-        return
-    turn, drive = constant_turn(result.pairs, result.coefficients, result.fitted_poles)
+    drive = math.degrees(math.atan2(at.imag, at.real)) if drives else None
     where = f"FRF file {', '.join(sources)}" if sources else "FRFs"
     order = kinds.index(result.measured)
     if turn <= KIND_TURN and drive is not None and abs(drive) >= 180.0 - KIND_TURN:

@@ -17,17 +17,10 @@ closed form loses digits there). The derivative with respect to ``a`` (for the f
 Jacobian) is ``T^2 integral_0^1 u exp(z u) g(u) du``. The residual terms (``1/s^2``, a
 constant) vary slowly over a kernel's width and are left as they are.
 
-**Impact tests.** A hammer test's FRF is one transient record of length ``T``: the response
-times a window, transformed, over the force's transform. An exponential window
-``exp(-t / tau)`` on the response turns each modal term ``A exp(a t)`` into
-``A exp((a - 1/tau) t)`` on ``[0, T]``, whose transform at the lines is exactly::
-
-    T integral_0^1 exp(z u) du,   z = (a - 1/tau - j omega) T
-
-(``g(u) = 1``, the pole moved left by ``1/tau``): every damping ratio reads high by
-``1/(tau w_n)`` to first order (0.3 % at 1 Hz with ``tau`` = 50 s). Fitting this term, the
-fitted poles and residues are the structure's own. The force window (a rectangle over the
-pulse, on the force channel) changes nothing that the fit sees and is not modelled.
+**Impact tests** (docs/frf-extraction.md, "Input"): an exponential window ``exp(-t / tau)`` on
+the one transient record turns each modal term ``A exp(a t)`` into ``A exp((a - 1/tau) t)`` on
+``[0, T]``: the form above with ``g(u) = 1`` and the pole moved left by ``1/tau``. The force
+window changes nothing that the fit sees and is not modelled.
 """
 
 from __future__ import annotations
@@ -117,16 +110,6 @@ def moments(w: np.ndarray, kmax: int) -> np.ndarray:
     return out
 
 
-def _lagged(z, name: str, kmax: int) -> np.ndarray:
-    """``integral_0^1 u^k exp(z u) g(u) du`` of window ``name`` for ``k = 0..kmax``, shape
-    (kmax + 1, *z.shape)."""
-    total = np.zeros((kmax + 1,) + z.shape, dtype=complex)
-    for m, c0, c1 in WINDOWS[name]:
-        mom = moments(z + 2j * math.pi * m, kmax + 1)
-        total += c0 * mom[:-1] + c1 * mom[1:]
-    return total
-
-
 def windowed_poles(x, a, window: Window, derivative: bool = False) -> np.ndarray:
     """The pole term ``1 / (j x - a)`` of a receptance as the windowed estimate shows it,
     shape (n_freq, n_poles), at lines ``x`` (n_freq,) for poles ``a`` (n_poles,) complex: the
@@ -136,7 +119,11 @@ def windowed_poles(x, a, window: Window, derivative: bool = False) -> np.ndarray
     a = np.asarray(a, dtype=complex)[None, :]
     s = 1j * np.asarray(x, dtype=float)[:, None]
     z = (a - window.decay - s) * T
-    lagged = _lagged(z, window.name, 1 if derivative else 0)
+    kmax = 1 if derivative else 0
+    lagged = np.zeros((kmax + 1,) + z.shape, dtype=complex)   # integral_0^1 u^k exp(z u) g(u) du, k = 0..kmax
+    for m, c0, c1 in WINDOWS[window.name]:
+        mom = moments(z + 2j * math.pi * m, kmax + 1)
+        lagged += c0 * mom[:-1] + c1 * mom[1:]
     p = lagged[0] * T                                       # windowed 1/(s - a)
     dp = lagged[1] * T**2 if derivative else None           # and its derivative in a
     k = window.order
