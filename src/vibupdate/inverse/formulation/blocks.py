@@ -1,11 +1,8 @@
 """The unknown vectors of the formulation: one block per measured natural frequency (a mode,
 Eq. 7) and per measured antiresonance (an adjunct eigenvector, Eq. 9), each with its
-normalization, bounds and start (docs/method.md, section 4, items 1 and 2).
-
-Separate because a block is what the later stages handle: the interlacing transforms its
-bounds (`vibupdate.inverse.interlacing`), the stacking turns it into rows of the bilinear
-problem (`vibupdate.inverse.formulation.stacking`), and the consistent set and the inclusion
-test of the ranges read it (`vibupdate.ranges`).
+normalization, bounds and start (docs/method.md, section 4, "Normalization against the trivial
+solution" and "Boxes of unmeasured entries"). The interlacing transforms a block's bounds, the
+stacking turns it into rows, and the ranges read it.
 """
 
 from __future__ import annotations
@@ -106,11 +103,8 @@ def natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: Scal
                          "normalization entry")
     v0n = v0 / v0[j]
     # Unmeasured entries within shape_margin times the nominal mode's largest entry, relative to
-    # the entry its normalization refers to: the normalization entry itself, or, with a measured
-    # shape (normalized at its largest measured entry), the nominal mode's largest measured
-    # entry. Relative to v0[j] alone, a nominal mode near a node at j (its modes swapped or
-    # reshaped by the update) gave boxes of 1e13 and a relaxation no QP solver could finish
-    # (`benchmarks/RESULTS.md`, "The first stage on the braced frame").
+    # its normalization entry or, with a measured shape, its largest measured entry
+    # (docs/notes/homotopy.md, "Boxes of unmeasured entries relative to the measured reference").
     ref_size = np.max(np.abs(v0[idx])) if shape is not None else abs(v0[j])
     bound = options.shape_margin * max(1.0, np.max(np.abs(v0)) / ref_size)
     lower = np.where(np.isfinite(lower), lower, -bound)
