@@ -49,10 +49,8 @@ def formulate(configurations: Sequence[Configuration], options: FormulationOptio
     for transform in transforms:
         blocks, said = transform(blocks, configurations, options)
         notes += tuple(said)
-    terms = {}
-    for k, scaling in zip(owners, scalings):
-        if k not in terms:   # one scaled copy of each configuration's matrices, shared by its blocks
-            terms[k] = scaled_terms(configurations[k].model, scaling)
+    # one scaled copy of each configuration's matrices, shared by its blocks
+    terms = [scaled_terms(cfg.model, scaling) for cfg, scaling in zip(configurations, scalings)]
     problem = stack(configurations[0].model.parameters, configurations[0].model.bounds(),
                     blocks, [terms[k] for k in owners], options)
     return replace(problem, notes=notes) if notes else problem
