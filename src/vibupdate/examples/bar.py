@@ -1,15 +1,12 @@
 """Worked example: a roving-hammer test of a free-free steel bar, ``vibupdate example bar --out DIR``
-(docs/worked-bar.md walks through it): `write_inputs` writes the test's UFF file and the two
-case files, `commands` lists the commands a user runs.
+(docs/worked-bar.md describes the test, the truth and the model): `write_inputs` writes the
+test's UFF file and the two case files, `commands` lists the commands a user runs.
 
-The truth is a Timoshenko beam on a mesh `TRUTH_REFINE` times finer than the model's: the
-shear-flexible element of interdependent interpolation (``Phi = 12 EI / (k G A L^2)``, exact for
-static shear bending) with the consistent translational and rotary-inertia masses of the Hermite
-cubics (at 3x the first four bending frequencies differ from 6x by under 4e-5), on two soft
-springs (the cords) with the accelerometer's mass at its tip. The model (`case_text`) is an
-Euler-Bernoulli beam, a rotary-inertia factor ``r`` standing in for the missing shear and
-rotary inertia. Noise: complex Gaussian, ``noise * |H|`` plus ``floor * max |H|`` per line and
-repeat.
+The truth's element is the Timoshenko beam of interdependent interpolation (``Phi = 12 EI /
+(k G A L^2)``, exact for static shear bending) with the consistent masses of the Hermite
+cubics, on a mesh `TRUTH_REFINE` times finer than the model's (at 3x the first four bending
+frequencies differ from 6x by under 4e-5). Noise: complex Gaussian, ``noise * |H|`` plus
+``floor * max |H|`` per line and repeat.
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
 """Paper test case 2: a cantilever beam with a load cell and a proof mass (Section 5.3).
 
-Model (docs/method.md, "Appendix: test case 2 as rebuilt"): aluminium-like beam 0.493 m x 40 mm x 4 mm, seven equal
-Euler-Bernoulli elements, 14 DOFs ``[y1, phi1, ..., y7, phi7]`` with node 1 the free tip
-carrying the accelerometer ``macc`` and the clamp beyond node 7. The load cell is a mass
-``mlc`` on ``y3`` with a spring ``klc`` to the shaker table (Eq. 28). A piezo patch
-(61 x 35 x 0.5 mm) adds mass ``rho_p A_p`` and bending stiffness ``Ep I_p`` on the element
-between nodes 5 and 6. Configurations: A without proof mass, B with the 26.2 g proof mass at
-node 1, C at node 3, D at node 2. Measured data: Tables 5 and 7 of the paper; the receptance
-is ``h_{y1,f3}``.
+Seven Euler-Bernoulli elements, 14 DOFs ``[y1, phi1, ..., y7, phi7]``, node 1 the free tip;
+configurations A-D (the proof mass nowhere, at node 1, 3, 2); the receptance ``h_{y1,f3}``.
+Where everything sits and why: docs/method.md, "Appendix: test case 2 as rebuilt"; measured
+data: Tables 5 and 7 of the paper.
 """
 
 from __future__ import annotations

@@ -31,18 +31,13 @@ PARAMETERS = {"E_col": "Pa", "E_beam": "Pa", "rho_col": "kg/m^3", "m_floor": "kg
 TRUTH_FACTOR = {"E_col": 1.08, "E_beam": 0.93, "rho_col": 1.05, "m_floor": 0.96, "k_base": 1.2}
 #: Measured modes.
 N_MODES = 8
-#: Significant digits of the measured frequencies, and their relative tolerance in the case file:
-#: one unit of the last digit of the smallest mantissa (1.00000), twice the rounding's largest
-#: relative error.
+#: Significant digits of the measured frequencies and decimals of the shapes (scaled to 1 at
+#: their largest reading), each tolerance one unit of the last digit written; model-form
+#: tolerances of 0, the data being made from the model family itself (docs/fe-models.md).
 FREQUENCY_DIGITS = 6
 FREQUENCY_TOLERANCE = 10.0 ** (1 - FREQUENCY_DIGITS)
-#: Decimals of the measured mode shapes (scaled to 1 at their largest reading) and their
-#: tolerance: one unit of the last decimal, twice the rounding's largest error.
 SHAPE_DECIMALS = 4
 SHAPE_TOLERANCE = 10.0 ** -SHAPE_DECIMALS
-#: Model-form tolerances of the case (``[verification]``): 0, since the data are made from the
-#: model family itself (for OpenSees, from the matrices OpenSees forms at the truth), so the
-#: only error in them is the rounding the measurement intervals state.
 MODEL_FORM = {"natural_tolerance": 0.0, "shape_tolerance": 0.0}
 #: Relative step of every export; ``E_col`` gets a second export at minus this step.
 STEP = 0.1
@@ -52,12 +47,6 @@ TWO_STEPS = ("E_col",)
 def truth() -> dict[str, float]:
     """The true parameter values (SI units of `PARAMETERS`)."""
     return {name: NOMINAL[name] * TRUTH_FACTOR[name] for name in PARAMETERS}
-
-
-def _check_code(name: str) -> str:
-    if name not in CODES:
-        raise ValueError(f"unknown FE example {name!r}; expected one of {', '.join(CODES)}")
-    return CODES[name]
 
 
 def sensors(frame=None) -> list[str]:
@@ -169,7 +158,9 @@ def write_inputs(name: str, out) -> Path:
     """Write ``out/exports`` and ``out/measured`` of example ``name`` into the new folder ``out``;
     returns the import file. Raises ValueError for an unknown name or a folder in use, and
     `MissingExtra` for ``fe-opensees`` without the ``[fe]`` extra."""
-    code = _check_code(name)
+    if name not in CODES:
+        raise ValueError(f"unknown FE example {name!r}; expected one of {', '.join(CODES)}")
+    code = CODES[name]
     if code == "opensees":
         from vibupdate.model.fe.opensees import openseespy
 

@@ -6,18 +6,11 @@ torsion and bending in both planes, Euler-Bernoulli, consistent mass). Nodes car
 named ``"<node>:<dir>"``, ``dir`` in ``x, y, z, rx, ry, rz``; node numbers are
 ``1000 * level + index`` (level 0 is the base).
 
-Parameters (property groups):
-
-* ``E_col`` (Pa): Young's modulus of every column;
-* ``E_beam`` (Pa): Young's modulus of every floor beam;
-* ``rho_col`` (kg/m^3): density of the columns (consistent mass);
-* ``m_floor`` (kg/m^2): floor mass per unit area, lumped as translational mass at the floor
-  nodes by tributary length of the beams (the beams themselves carry no mass);
-* ``k_base`` (N m/rad): rotational springs that hold the rotations of the base nodes, whose
-  translations are fixed;
-* ``d_beam`` (m), optional: depth of the rectangular beam section (width `BEAM_WIDTH`). Its
-  area, second moments and torsion constant are polynomials of degree up to 3 in ``d_beam``,
-  so the model is *not* affine in it.
+Parameters (property groups, docs/fe-models.md, "Worked example per code"): ``E_col``,
+``E_beam``, ``rho_col``, ``m_floor`` (floor mass per unit area, lumped at the floor nodes by
+tributary length of the massless beams), ``k_base`` (rotational springs at the base nodes);
+optionally ``d_beam`` (m), the depth of the rectangular beam section (width `BEAM_WIDTH`), in
+which the section's properties are polynomials: the model is *not* affine in it.
 
 A known payload of `PAYLOAD` kg sits on each roof corner node (translational mass, no
 parameter): it fixes the scale that modal data alone cannot.

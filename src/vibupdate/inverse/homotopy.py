@@ -1,22 +1,13 @@
 """How the problem is solved: the homotopy path from lam = 0 to lam = 1 (Section 3.4).
 
-1. ``lam = 0``: the convex McCormick relaxation, solved cold from the nominal point. Its
-   optimum is a lower bound of the global minimum of the original problem over the same
-   boxes (docs/method.md, section 5), reported as ``relaxation_lower_bound``.
-2. ``lam`` grows by steps, the first of ``1 / n_lambda``; after each accepted step the next
-   is ``step_growth`` times longer (``step_growth = 1``: the paper's ``n_lambda`` equal steps;
-   the default ``n_lambda = 1`` jumps to ``lam = 1`` directly, halving only on failure).
-   Each step starts warm from the previous
-   point and multipliers; a small proximal term ``prox_weight ||z - z_prev||^2`` on the parameters
-   and vectors regularizes the degenerate intermediate problems (docs/method.md, section 6). A failed
-   step is retried cold, then halved (the step as tried, clipped at ``lam = 1``), down to
-   ``min_step``; after a halved step succeeds the step returns to at least ``1 / n_lambda``.
-3. The last step is ``lam = 1`` without the proximal term: the original problem.
-4. The path has a time budget (``SolverOptions.time_budget``): a backend that can watch its
-   iterations (``watch(deadline, say)``) stops a solve when it is spent and prints a progress
-   line (iteration, objective, time left) every few seconds of a long solve; a step stopped
-   so, or a step not started because the budget is spent, ends the path at its last accepted
-   point with status ``time_limit`` (no retry, no halving: neither could finish either).
+The convex McCormick relaxation (``lam = 0``, cold from the nominal point; its optimum is the
+``relaxation_lower_bound``), then steps of ``lam``, the first ``1 / n_lambda`` and each accepted
+one ``step_growth`` times longer than the last, warm and with a proximal term, to ``lam = 1``
+without it. A failed step is retried cold, then the step as tried is halved down to
+``min_step``. A spent time budget (``SolverOptions.time_budget``, watched by the backend
+between its iterations when it can: ``watch(deadline, say)``) ends the path at its last
+accepted point with status ``time_limit``, without retry or halving. The rules and why:
+docs/method.md, section 6, and docs/notes/homotopy.md.
 
 Every solve is recorded; a failed path is a status, never an exception. The steps are solved
 by a backend chosen by name (`SolverOptions.backend`, `vibupdate.inverse.backends`).
@@ -49,9 +40,8 @@ class SolverOptions:
     n_lambda : int
         The first step is ``1 / n_lambda`` (the paper's ``n_lambda`` steps when
         ``step_growth = 1``). The default 1 is the direct jump from the relaxation to
-        ``lam = 1``, which falls back to halved steps when it fails: on the cantilever and the
-        frame example it gives the stepped path's answer in a fraction of its time
-        (docs/method.md, section 6); 10 with ``step_growth = 2`` walks 0, 0.1, 0.3, 0.7, 1.
+        ``lam = 1``, which falls back to halved steps when it fails (docs/method.md, section
+        6); 10 with ``step_growth = 2`` walks 0, 0.1, 0.3, 0.7, 1.
     step_growth : float
         Factor by which an accepted step lengthens the next one (>= 1).
     min_step : float
@@ -68,7 +58,7 @@ class SolverOptions:
         Seconds the whole path may take, the relaxation included. When it is spent (checked
         between solves, and by the backend between its iterations) the path stops at its last
         accepted point with status ``time_limit``, said in the progress and the result, and
-        the caller goes on with what it has (module docstring, item 4).
+        the caller goes on with what it has.
     backend : str
         Name of the step solver (`vibupdate.inverse.backends.BACKENDS`).
     relaxation_solver : {"piqp", "nlp"}
@@ -142,17 +132,12 @@ class StepRecord:
 
 class RelaxationCache:
     """The ``lam = 0`` outcomes solved in this process, by the problem's identity
-    (`BilinearProblem.identity`) and the solver settings that shape the outcome, so that an
-    identical relaxation (the stepped path's restart, a widening that changed nothing) is
-    never solved twice in one run. An entry is re-used only while a problem it was solved for
-    is alive (the run that holds it; a new run builds new problems and solves them afresh). At
-    most ``maxsize`` kept (least recently used dropped); ``solves`` counts the relaxations
-    solved and ``hits`` those re-used."""
+    (`BilinearProblem.identity`) and the solver settings that shape the outcome, each re-used
+    while a problem it was solved for is alive (docs/notes/homotopy.md, "The relaxation solved
+    once per run"); at most ``maxsize`` kept, the least recently used dropped."""
 
     def __init__(self, maxsize: int = 4):
         self.maxsize = maxsize
-        self.solves = 0
-        self.hits = 0
         self._entries: OrderedDict[tuple, tuple[weakref.ref, StepOutcome]] = OrderedDict()
         self._lock = threading.Lock()
 
@@ -162,20 +147,13 @@ class RelaxationCache:
             entry = self._entries.get(key)
             if entry is not None and entry[0]() is not None:
                 self._entries.move_to_end(key)
-                self.hits += 1
                 return entry[1], True
         outcome = solve()
         with self._lock:
-            self.solves += 1
             self._entries[key] = (weakref.ref(problem), outcome)
             while len(self._entries) > self.maxsize:
                 self._entries.popitem(last=False)
         return outcome, False
-
-    def clear(self) -> None:
-        with self._lock:
-            self._entries.clear()
-            self.solves = self.hits = 0
 
 
 #: The cache `solve_homotopy` uses.

@@ -1,17 +1,10 @@
 """Sign bounds from the pole/zero pattern of a receptance (paper Eq. 11, Section 3.6).
 
-Between two consecutive natural frequencies ``w_k < w_k+1`` the undamped receptance
-``h_rc = sum_k u_k(r) u_k(c) / (w_k^2 - w^2)`` runs from ``-sign(A_k) inf`` to
-``+sign(A_k+1) inf`` with ``A_k = u_k(r) u_k(c)`` the modal constant. So an odd number of
-antiresonances between them means ``A_k`` and ``A_k+1`` have the same sign, an even number
-(none) means opposite signs. From the measured sequence and the sign of the first modal
-constant (nominal model, or the user) every modal constant's sign follows; it becomes the
-bounds ``[delta, B]`` or ``[-B, -delta]`` on ``u(r)`` and ``u(c)`` (Fig. 10), which the
-McCormick envelopes then use. This is a transformation of the blocks' bounds only.
-
-The signs are evidence, not a wall: a receptance whose pattern contradicts what is already
-known of its entries (a point near a node, a zero lost in noise or damping, a zero moved by
-the residual of out-of-band modes) is left out and reported as a `SignConflict`.
+The count of measured antiresonances between two consecutive modes' poles fixes whether their
+modal constants ``u_k(r) u_k(c)`` share a sign; from the first one's sign, the bounds
+``[delta, B]`` or ``[-B, -delta]`` on ``u(r)`` and ``u(c)`` follow. A transformation of the
+blocks' bounds only. A receptance whose pattern contradicts what is already known of its
+entries is left out and reported as a `SignConflict` (docs/method.md, "Interlacing signs").
 """
 
 from __future__ import annotations
@@ -60,16 +53,9 @@ def modal_constant_signs(poles: Sequence[float], zeros: Sequence[float], first: 
     return signs
 
 
-def _nominal_first_sign(blk_r, blk_c) -> int:
-    product = blk_r * blk_c
-    return 1 if product >= 0 else -1
-
-
 #: An entry of a nominal mode below this fraction of the mode's largest entry (scaled
-#: coordinates) is "near a node" when a sign conflict is explained: there the modal constant
-#: of the pole is small and its sign is decided by rounding, noise or the model's error, and
-#: the pole and a zero cancel in the FRF (a pole that does not show breaks the pattern of the
-#: poles on both sides of it). Used only to name the likely cause, never to decide.
+#: coordinates) is "near a node", where the pole and a zero cancel in the FRF. Used only to
+#: name the likely cause of a sign conflict, never to decide.
 NODE_FRACTION = 0.05
 
 
@@ -165,13 +151,10 @@ def sign_bounds(blocks, configurations: Sequence[Configuration], options):
     """Transform: tighten the natural blocks' bounds at ``r`` and ``c`` of each receptance with
     measured antiresonances (``r != c``), for configurations with ``interlacing`` on.
 
-    The receptances are taken from the one whose points lie farthest from every node of the
-    measured modes (nominal model) to the nearest: at a node the pole and a zero cancel and
-    the pattern is the weakest evidence. The signs one asks for are checked against the
-    bounds as they are then (the boxes, measured shape intervals and the receptances before
-    it). A receptance whose pattern cannot be met anywhere is left out whole, its bounds
-    untouched, and reported as a `SignConflict` (a single pattern broken at one pole is
-    wrong after it too: a lost zero flips every sign that follows).
+    The receptances are taken from the one farthest from every node of the measured modes to
+    the nearest, each checked against the bounds as they are then; one whose pattern cannot be
+    met is left out whole and reported as a `SignConflict` (docs/method.md, "Interlacing
+    signs").
 
     Returns
     -------
@@ -207,7 +190,7 @@ def _receptance_bounds(natural, nominal, cfg: Configuration, rc, delta: float):
     zeros = np.array([a.omega for a in cfg.antiresonances if a.receptance == rc])
     poles = [f.omega for f in cfg.natural]
     modes = [f.mode or k + 1 for k, f in enumerate(cfg.natural)]
-    first = cfg.first_sign.get(rc) or _nominal_first_sign(natural[0].start[r], natural[0].start[c])
+    first = cfg.first_sign.get(rc) or (1 if natural[0].start[r] * natural[0].start[c] >= 0 else -1)
     signs = modal_constant_signs(poles, zeros, first, [f.mode for f in cfg.natural])
     out = list(natural)
     for k, blk in enumerate(natural):

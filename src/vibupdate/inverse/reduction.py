@@ -1,21 +1,13 @@
 """Craig-Bampton reduction of an affine model, for large models.
 
-(docs/method.md, "Large models: Craig-Bampton reduction".)
-
-The residual of the full formulation has one row per DOF, and for bending models its
-conditioning grows like ``w_max^2 / w_1^2 ~ N^4``: the lambda = 1 solve needs more and more
-IPOPT iterations as the mesh is refined. Here the unknown vectors are written in a reduced
-basis that keeps the *measured* DOFs (and the DOFs of measured receptances) as physical
-coordinates ``b`` and represents the others ``i`` by static constraint modes and ``r``
-fixed-interface modes (Craig & Bampton, AIAA J. 6 (1968) 1313):
+The unknown vectors are written in a basis that keeps the measured DOFs (and those of measured
+receptances) as physical coordinates ``b`` and represents the others ``i`` by static constraint
+modes and fixed-interface modes of the nominal model (Craig & Bampton, AIAA J. 6 (1968) 1313):
 
     u = T [u_b; q],   T = [[I, 0], [-K_ii^-1 K_ib, Phi_i]]
 
-with ``K_ii``, ``M_ii`` and ``Phi_i`` (mass-normalized) from the nominal model. The reduced
-matrices ``T^T M(xbar) T = T^T M0 T + sum xbar_i T^T M_i T`` are again affine in ``xbar``, so
-the paper's formulation applies to them unchanged, interval bounds on measured entries stay
-bounds, and the problem size no longer grows with the mesh. The basis is that of the nominal
-model; the updated model's frequencies are always recomputed on the full model.
+``T^T M(xbar) T`` and ``T^T K(xbar) T`` are again affine in ``xbar``; the rule and why:
+docs/method.md, "Large models: Craig-Bampton reduction".
 """
 
 from __future__ import annotations

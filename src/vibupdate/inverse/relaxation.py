@@ -1,10 +1,8 @@
 """How the problem is relaxed: lifting (Section 3.3), homotopy map (Eq. 18), McCormick (Eq. 19).
 
-Each bilinear product ``xbar_i u_j`` of a `BilinearProblem` gets a lifted scalar ``t`` and
-the homotopy map replaces the product by ``lam xbar_i u_j + (1 - lam) t``. At ``lam = 0`` the
-residual is linear in ``(xbar, u, t)`` and the problem is a convex QP; at ``lam = 1`` it is
-the original problem. ``t`` is bounded by the four McCormick inequalities built from the boxes
-of ``xbar_i`` and ``u_j``, the tightest convex envelope of the product on that box.
+Each bilinear product ``xbar_i u_j`` of a `BilinearProblem` gets a lifted scalar ``t``, bounded
+by the four McCormick rows of its box; the homotopy map replaces the product by
+``lam xbar_i u_j + (1 - lam) t`` (docs/method.md, section 5).
 """
 
 from __future__ import annotations

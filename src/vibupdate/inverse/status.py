@@ -1,7 +1,4 @@
-"""Solver outcomes: one enum for every backend.
-
-Each backend maps its own outcome codes to `Status` by a table that it owns (IPOPT's:
-`vibupdate.inverse.backends.casadi_ipopt.IPOPT_STATUS`).
+"""Solver outcomes: one enum for every backend, which maps its own codes to it by its own table.
 """
 
 from __future__ import annotations

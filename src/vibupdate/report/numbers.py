@@ -1,11 +1,5 @@
-"""Numbers as text for reports, tables and plot titles: one formatter that never raises.
-
-A figure of a results document may be missing (``None``: not computed, or not finite and
-written as ``null`` in ``results.json``), not finite (``nan``, ``inf`` straight from a
-computation), far outside the range its format was chosen for (a condition number of
-``1e300`` in a fixed-point column), or not a number at all (a hand-edited file). `fmt`
-writes each of them as a short, readable text padded to the format's width, so that no
-figure can stop a report from being written.
+"""Numbers as text for reports, tables and plot titles: one formatter, `fmt`, that never
+raises, so that no figure (missing, not finite, huge, not a number) can stop a report.
 """
 
 from __future__ import annotations
@@ -25,19 +19,13 @@ FIXED_LIMIT = 1e12
 _SPEC = re.compile(r"^(?P<head>[^0-9.]*)(?P<width>\d+)?(?:,)?(?:\.(?P<precision>\d+))?(?P<kind>[a-zA-Z%]?)$")
 
 
-def _width(spec: str) -> tuple[int, str]:
-    """The field width of ``spec`` and its alignment character (``>`` unless stated)."""
+def _pad(text: str, spec: str) -> str:
+    """``text`` padded to the field width of ``spec``, aligned as it says (``>`` unless ``<`` or ``^``)."""
     match = _SPEC.match(spec)
     if not match or not match.group("width"):
-        return 0, ">"
-    head = match.group("head")
-    align = next((c for c in head if c in "<>^="), ">")
-    return int(match.group("width")), "<" if align == "<" else ("^" if align == "^" else ">")
-
-
-def _pad(text: str, spec: str) -> str:
-    width, align = _width(spec)
-    return format(text, f"{align}{width}") if width else text
+        return text
+    align = next((c for c in match.group("head") if c in "<>^="), ">")
+    return format(text, f"{align if align in '<^' else '>'}{int(match.group('width'))}")
 
 
 def fmt(value, spec: str = ".4g", missing: str = MISSING) -> str:

@@ -1,8 +1,7 @@
-"""Solver backends for the homotopy steps, behind one small protocol.
+"""Solver backends for the homotopy steps, behind one small protocol (docs/method.md, section 6).
 
-The homotopy (`vibupdate.inverse.homotopy`) never names a solver library. It asks `build` for
-a step solver of a problem, by the backend's name (`SolverOptions.backend`), and calls its
-``solve`` once per step. A step solver solves, for one ``lam`` in ``[0, 1]``, the NLP over
+`build` returns the step solver of a problem from the backend named by
+`SolverOptions.backend`; its ``solve`` solves, for one ``lam`` in ``[0, 1]``, the NLP over
 ``z = [xbar, u, t, R]`` (shapes ``(n_x,)``, ``(n_u,)``, ``(n_b,)``, ``(n_R,)``)
 
     min  sum_k w_k R_k^2 + prox_weight (||xbar - xbar_prev||^2 + ||u - u_prev||^2)
@@ -10,10 +9,8 @@ a step solver of a problem, by the backend's name (`SolverOptions.backend`), and
          McCormick rows (Eq. 19), boxes on xbar, u, t
 
 and returns a `StepOutcome`. Each backend maps its own outcome codes to `Status` by its own
-table (the CasADi backend: `vibupdate.inverse.backends.casadi_ipopt.IPOPT_STATUS`).
-
-Multipliers are named ``mult_x`` (of the simple bounds) and ``mult_g`` (of the constraints)
-in this API, whatever the solver library calls them.
+table. Multipliers are named ``mult_x`` (of the simple bounds) and ``mult_g`` (of the
+constraints) in this API, whatever the solver library calls them.
 """
 
 from __future__ import annotations

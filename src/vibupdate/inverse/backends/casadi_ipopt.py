@@ -1,43 +1,14 @@
 """CasADi + IPOPT backend for the homotopy steps (IPOPT and MUMPS ship in the casadi wheel).
 
-The NLP of one step is that of `vibupdate.inverse.backends` over ``z = [xbar, u, t, R]``.
-Each residual is its own variable with an equality constraint (docs/method.md, section 6);
-the derivatives are exact and sparse.
-
-**One compiled solver per structure.** Everything that changes with the data is an NLP
-parameter ``p``: the homotopy ``lam``, the proximal weight and centre, the row weights, the
-non-zeros of ``A_u``, ``A_x``, ``A_b``, ``r0`` (they hold the measured frequencies, Eqs. 7, 9)
-and of the McCormick rows (they hold the boxes); the boxes themselves are call arguments. The
-compiled solver therefore depends only on the *structure* of a problem (sizes, sparsity
-patterns, the lifted products, the IPOPT limits), and a process-level cache (`CACHE`) keyed
-by that structure lets a second problem of the same structure (a re-run, a sweep sample, a
-random start) skip the build. The NLP is built in CasADi MX without expansion by default:
-IPOPT's own work dominates each iteration here, and the MX build is the faster
-(docs/method.md, section 6; `benchmarks/RESULTS.md`, "What grew, and what was done").
-
-**At ``lam = 1`` the NLP without the lifted variables.** There the residual no longer
-involves ``t`` and every ``(xbar, u)`` in its box leaves ``t = xbar[px] u[pu]`` feasible, so
-the NLP over ``[xbar, u, R]`` without ``t`` and the McCormick rows has the same minimizers and
-is about half the size (`_compile`); `CasadiIpopt.solve` uses it for every ``lam = 1`` step
-and returns the outcome in the lifted layout.
-
-**At ``lam = 0`` the QP.** The cold ``lam = 0`` step without a proximal term is the convex
-McCormick relaxation; by default it is solved by a QP interior-point method
-(`vibupdate.inverse.backends.piqp_relaxation`; `benchmarks/RESULTS.md`, "After the relaxation
-QP and the direct jump (the first stage's solver time)"), with
-IPOPT on the lifted NLP as the fallback when the QP solver does not report success
-(``relaxation_solver = "nlp"`` uses IPOPT directly).
-
-Each NLP has a cold IPOPT instance (IPOPT's default start) and a warm one that re-uses the
-previous primal point and multipliers with small bound pushes, each built on first use.
-
-**Watched iterations.** Every IPOPT instance calls back after each iteration (CasADi's
-``iteration_callback``) into the `Monitor` of its compiled NLPs, which the step solver of the
-solve sets (`CasadiIpopt.watch`): past the deadline of the path's time budget it stops the
-solve (reported as ``time_limit``), and in a solve that has run `PROGRESS_AFTER` seconds it
-says the iteration, the objective and the time left every `PROGRESS_EVERY` seconds.
-
-IPOPT's return codes map to `Status` by `IPOPT_STATUS`.
+The NLP of one step is that of `vibupdate.inverse.backends`, each residual its own variable.
+Everything that changes with the data is an NLP parameter, so the compiled solver depends only
+on a problem's structure and is kept in a process-level cache (`CACHE`); every ``lam = 1`` step
+is solved without ``t`` and the McCormick rows (`_compile`); the cold ``lam = 0`` step goes to
+PIQP (`vibupdate.inverse.backends.piqp_relaxation`) unless ``relaxation_solver = "nlp"``;
+warm steps re-use the previous point and multipliers; each IPOPT iteration calls a `Monitor`
+that stops a solve at the time budget's deadline and says the progress of long ones. The
+rules in full: docs/method.md, section 6, and docs/notes/homotopy.md. IPOPT's return codes
+map to `Status` by `IPOPT_STATUS`.
 """
 
 from __future__ import annotations
@@ -103,9 +74,8 @@ PROGRESS_AFTER, PROGRESS_EVERY = 3.0, 5.0
 
 
 class Monitor:
-    """What the iteration callback of a compiled NLP does in the current solve (module
-    docstring, "Watched iterations"): set by `start` before each solve, under the compiled
-    NLP's lock."""
+    """What the iteration callback of a compiled NLP does in the current solve: set by `start`
+    before each solve, under the compiled NLP's lock."""
 
     def __init__(self):
         self.start(None, None, "")
@@ -213,9 +183,6 @@ class SolverCache:
         self._entries: OrderedDict[str, _Compiled] = OrderedDict()
         self._lock = threading.Lock()
 
-    def __len__(self) -> int:
-        return len(self._entries)
-
     def get(self, key: str, make) -> _Compiled:
         """The entry of ``key``, compiled by ``make()`` when absent."""
         with self._lock:
@@ -257,12 +224,9 @@ def _structure_key(mats, problem: BilinearProblem, expand: bool, settings: dict)
 
 
 def _compile(mats, problem: BilinearProblem, expand: bool, settings: dict) -> _Compiled:
-    """Build the parametric step NLPs (module docstring); their IPOPT instances are built on
-    first use (`_Compiled.solver`). The exact NLP (``lam = 1``) has no ``t`` and no McCormick rows, over
-    ``[xbar, u, R]``, with the same parameters ``p`` (``lam`` and the rows' coefficients unused):
-    at ``lam = 1`` the residual does not involve ``t``, and every ``(xbar, u)`` in its box
-    leaves ``t = xbar[px] u[pu]`` feasible, so both NLPs have the same minimizers in
-    ``(xbar, u, R)``; the exact one is about half the size."""
+    """Build the parametric step NLPs, the lifted one and the exact one (``lam = 1``, over
+    ``[xbar, u, R]``: the same minimizers, docs/notes/homotopy.md); their IPOPT instances are
+    built on first use (`_Compiled.solver`)."""
     import casadi as ca
 
     n_x, n_u, n_b, n_r = problem.n_x, problem.n_u, problem.n_b, problem.n_r
@@ -328,7 +292,7 @@ class CasadiIpopt:
     tol : float
         IPOPT's ``tol``.
     expand : bool, optional
-        Build in SX and expand (True) or keep MX (False, the default: module docstring).
+        Build in SX and expand (True) or keep MX (False, the default: docs/notes/homotopy.md).
     cache : SolverCache, optional
         Where compiled NLPs are kept (default `CACHE`); ``None`` compiles a private one.
     relaxation_solver : {"piqp", "nlp"}, optional
@@ -372,7 +336,7 @@ class CasadiIpopt:
 
     def watch(self, deadline: float | None, say=None) -> None:
         """Stop every later solve at ``deadline`` (``time.perf_counter()`` seconds) and say the
-        progress of long ones through ``say`` (module docstring, "Watched iterations")."""
+        progress of long ones through ``say``."""
         self._deadline, self._say = deadline, say
 
     def split(self, z):
@@ -394,13 +358,9 @@ class CasadiIpopt:
         """Solve the step NLP at ``lam`` from ``z0`` (cold, or warm with the multipliers).
 
         The cold ``lam = 0`` step without a proximal term goes to the QP solver when one was
-        chosen (module docstring). At ``lam = 1`` the exact NLP is solved (no ``t``, no McCormick rows: `_compile`); the
-        returned ``z`` then has ``t = xbar[px] u[pu]`` and zero multipliers for ``t`` and the
-        rows, so the outcome looks the same to the caller.
-
-        Raises ``KeyboardInterrupt`` when SIGINT arrives during the solve (CasADi stops IPOPT
-        at the next iteration and would otherwise report an ordinary failure,
-        `vibupdate.inverse.interrupt`).
+        chosen; at ``lam = 1`` the exact NLP's outcome is returned in the lifted layout
+        (`_expand`). Raises ``KeyboardInterrupt`` when SIGINT arrives during the solve
+        (`vibupdate.inverse.interrupt`).
         """
         if lam == 0.0 and prox_weight == 0.0 and not warm and self._qp is not None:
             relaxed = self._qp.solve()

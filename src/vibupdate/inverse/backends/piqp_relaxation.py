@@ -1,5 +1,5 @@
 """The ``lam = 0`` step as the convex QP it is, solved by PIQP (a sparse proximal interior-point
-QP solver).
+QP solver; docs/method.md, section 6).
 
 At ``lam = 0`` the step NLP of `vibupdate.inverse.backends` (without a proximal term) is the
 McCormick relaxation, a convex QP over ``z = [xbar, u, t, R]`` (shapes ``(n_x,)``, ``(n_u,)``,
@@ -10,15 +10,10 @@ McCormick relaxation, a convex QP over ``z = [xbar, u, t, R]`` (shapes ``(n_x,)`
          lower <= G [xbar; u; t] <= upper              (4 n_b McCormick rows, Eq. 19)
          boxes on xbar, u, t
 
-A general NLP solver (IPOPT) treats it as any NLP; a QP interior-point method solves the same
-problem with cheaper iterations (docs/method.md, section 6, and `benchmarks/RESULTS.md`). Its
-optimum is a lower bound of the original problem's global minimum over the boxes, as before.
-
 The multipliers are returned in the NLP backends' convention (CasADi's): the gradient of
 ``f + mult_g . g + mult_x . z`` vanishes, with ``g = [R - A_x xbar - A_u u - A_b t - r0;
-G [xbar; u; t]]``; so a following step can start warm from them.
-
-PIQP's outcome codes map to `Status` by `PIQP_STATUS`.
+G [xbar; u; t]]``; so a following step can start warm from them. PIQP's outcome codes map to
+`Status` by `PIQP_STATUS`.
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
 """The unknown vectors of the formulation: one block per measured natural frequency (a mode,
 Eq. 7) and per measured antiresonance (an adjunct eigenvector, Eq. 9), each with its
-normalization, bounds and start (docs/method.md, section 4, items 1 and 2).
-
-Separate because a block is what the later stages handle: the interlacing transforms its
-bounds (`vibupdate.inverse.interlacing`), the stacking turns it into rows of the bilinear
-problem (`vibupdate.inverse.formulation.stacking`), and the consistent set and the inclusion
-test of the ranges read it (`vibupdate.ranges`).
+normalization, bounds and start (docs/method.md, section 4, "Normalization against the trivial
+solution" and "Boxes of unmeasured entries"). The interlacing transforms a block's bounds, the
+stacking turns it into rows, and the ranges read it.
 """
 
 from __future__ import annotations
@@ -99,18 +96,17 @@ def natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: Scal
         lower[idx], upper[idx] = lo, hi
         measured[idx] = True
         j = int(idx[j_local])
-    else:
-        j = _default_normalization_entry(cfg, v0)
+    else:   # the first receptance's response DOF unless near a node there, else the largest entry
+        j, receptances = int(np.argmax(np.abs(v0))), cfg.receptances()
+        if receptances and abs(v0[cfg.model.dof(receptances[0][0])]) >= 1e-3 * abs(v0[j]):
+            j = cfg.model.dof(receptances[0][0])
     if v0[j] == 0:
         raise ValueError(f"configuration {cfg.name!r}, mode {k + 1}: the nominal mode is zero at its "
                          "normalization entry")
     v0n = v0 / v0[j]
     # Unmeasured entries within shape_margin times the nominal mode's largest entry, relative to
-    # the entry its normalization refers to: the normalization entry itself, or, with a measured
-    # shape (normalized at its largest measured entry), the nominal mode's largest measured
-    # entry. Relative to v0[j] alone, a nominal mode near a node at j (its modes swapped or
-    # reshaped by the update) gave boxes of 1e13 and a relaxation no QP solver could finish
-    # (`benchmarks/RESULTS.md`, "The first stage on the braced frame").
+    # its normalization entry or, with a measured shape, its largest measured entry
+    # (docs/notes/homotopy.md, "Boxes of unmeasured entries relative to the measured reference").
     ref_size = np.max(np.abs(v0[idx])) if shape is not None else abs(v0[j])
     bound = options.shape_margin * max(1.0, np.max(np.abs(v0)) / ref_size)
     lower = np.where(np.isfinite(lower), lower, -bound)
@@ -119,18 +115,6 @@ def natural_block(cfg: Configuration, k: int, v0_phys: np.ndarray, scaling: Scal
     fixed = lower == upper
     return VectorBlock(cfg.name, "natural", k + 1, f.omega, f.weight, cols, cols, scaling.s.copy(),
                        lower, upper, np.clip(v0n, lower, upper), fixed, measured=measured)
-
-
-def _default_normalization_entry(cfg: Configuration, v0: np.ndarray) -> int:
-    """The response DOF of the first receptance when antiresonances are used and the nominal
-    mode is not near a node there; otherwise the nominal mode's largest entry."""
-    largest = int(np.argmax(np.abs(v0)))
-    receptances = cfg.receptances()
-    if receptances:
-        r = cfg.model.dof(receptances[0][0])
-        if abs(v0[r]) >= 1e-3 * abs(v0[largest]):
-            return r
-    return largest
 
 
 def adjunct_block(cfg: Configuration, k: int, index: int, scaling: Scaling,
@@ -165,7 +149,7 @@ def adjunct_block(cfg: Configuration, k: int, index: int, scaling: Scaling,
 
 def build_blocks(configurations, options: FormulationOptions, nominal=None):
     """The blocks of every configuration, the index of the configuration of each block, and
-    the scaling of each block.
+    the scaling of each configuration.
 
     ``nominal``: the nominal models' `vibupdate.inverse.correlation.ModelFrequencies`, one per
     configuration, when the caller has them (else solved here).
@@ -173,6 +157,7 @@ def build_blocks(configurations, options: FormulationOptions, nominal=None):
     blocks, owners, scalings = [], [], []
     for i, cfg in enumerate(configurations):
         scaling = scaling_of(cfg.model, options)
+        scalings.append(scaling)
         modes = nominal[i] if nominal is not None else model_frequencies(cfg, zeros=False)
         for k in range(len(cfg.natural)):   # a repeated frequency's mode: the combination nearest its shape
             v0 = paired_vector(cfg, modes.Phi_all, modes.omega_all, k)[0] if modes.Phi_all.size else modes.Phi[:, k]
@@ -180,5 +165,4 @@ def build_blocks(configurations, options: FormulationOptions, nominal=None):
         for k in range(len(cfg.antiresonances)):
             blocks.append(adjunct_block(cfg, k, k + 1, scaling, options))
         owners.extend([i] * (len(cfg.natural) + len(cfg.antiresonances)))
-        scalings.extend([scaling] * (len(cfg.natural) + len(cfg.antiresonances)))
     return blocks, owners, scalings

@@ -1,9 +1,6 @@
 """Scaling of the formulation: rotational entries by a characteristic length, residual rows by
-the stiffness diagonal (docs/method.md, section 4, item 3).
-
-Separate because the blocks (their bounds are in scaled coordinates) and the stacking (every
-matrix term is scaled once) both need it, and because it is the one place to change how the
-problem is conditioned.
+the stiffness diagonal (docs/method.md, "Scaling of rotations and of residual rows"). The
+blocks' bounds are in the scaled coordinates, and every matrix term is scaled once.
 """
 
 from __future__ import annotations

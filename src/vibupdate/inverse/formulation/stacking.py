@@ -1,9 +1,7 @@
 """Stacking of the blocks into the bilinear problem: each block's rows of ``D (K - w^2 M) S``
 split into the linear part in ``u``, the linear part in ``xbar`` (fixed entries), the bilinear
-products and the constant (`vibupdate.inverse.formulation`, module docstring).
-
-Separate because it is the one vectorized pass over matrix entries, the step whose cost grows
-with the model (one pass of array operations per block, no loop over entries).
+products and the constant (docs/method.md, "Blocks and the stacked problem"), in one vectorized
+pass per block.
 """
 
 from __future__ import annotations

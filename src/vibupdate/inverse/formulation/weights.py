@@ -1,8 +1,5 @@
-"""Weights of the blocks' residuals (Eqs. 7, 9; docs/method.md, "Default weights").
-
-Separate because the default weight is a choice the paper leaves open (docs/method.md,
-section 4, item 4) and the one a user most often questions: it has its own measurement and
-its own option (``FormulationOptions.weighting``).
+"""Weights of the blocks' residuals (Eqs. 7, 9; docs/method.md, "Default weights"; the
+option ``FormulationOptions.weighting``).
 """
 
 from __future__ import annotations
