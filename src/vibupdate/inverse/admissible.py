@@ -257,35 +257,21 @@ class Admissible:
         """Per configuration, the polish's target intervals (`_targets`) of its frequencies and
         of its modal masses, each with the square roots of the data's weights repeated for the
         two rows of each datum (None for no data), computed once."""
-        def block(items):
-            if not items:
-                return None
-            lower, upper, value = (np.array([getattr(d, k) for d in items]) for k in ("lower", "upper", "value"))
-            w = np.tile(np.sqrt([d.weight for d in items]), 2)
-            w.flags.writeable = False
-            return (*_targets(lower, upper, FLOOR * np.abs(value)), w)
-
-        return tuple((block(f), block(m)) for f, m in zip(self.frequencies, self.masses))
+        return tuple((_target_block(f), _target_block(m)) for f, m in zip(self.frequencies, self.masses))
 
     @cached_property
     def frequency_stack(self) -> tuple:
-        """The frequencies' targets of `datum_targets`, every configuration's stacked as one
-        ``(lo, hi, mid, h, w)`` (``w`` for the pull rows, then again for the distance rows), and
-        per configuration the indices of its rows among the stacked rows, its pull rows then its
-        distance rows (None without frequencies); ``(None, picks)`` without any frequency.
-        `residuals` takes every frequency's rows in one array operation."""
-        parts = [f for f, _ in self.datum_targets]
-        have = [p for p in parts if p is not None]
-        if not have:
-            return None, tuple(None for _ in parts)
-        sizes = [0 if p is None else p[0].size for p in parts]
+        """Every configuration's frequencies as one target block (`datum_targets`: the same
+        elementwise figures), and per configuration the indices of its rows among the block's
+        rows, its pull rows then its distance rows (None without frequencies); ``(None, picks)``
+        without any frequency. `residuals` takes every frequency's rows in one array operation."""
+        sizes = [len(row) for row in self.frequencies]
         n, ends = sum(sizes), np.cumsum(sizes)
-        w = np.concatenate([p[4][:p[0].size] for p in have])
-        stacked = tuple(np.concatenate([p[k] for p in have]) for k in range(4)) + (np.concatenate([w, w]),)
-        picks = tuple(None if p is None else np.r_[e - k:e, n + e - k:n + e] for p, k, e in zip(parts, sizes, ends))
-        for a in (*stacked, *(i for i in picks if i is not None)):
-            a.flags.writeable = False
-        return stacked, picks
+        picks = tuple(np.r_[e - k:e, n + e - k:n + e] if k else None for k, e in zip(sizes, ends))
+        for i in picks:
+            if i is not None:
+                i.flags.writeable = False
+        return _target_block([d for row in self.frequencies for d in row]), picks
 
     def relative_half_widths(self) -> np.ndarray:
         """Every frequency's admissible half-width over its value, shape (n_f,)."""
@@ -311,6 +297,17 @@ def _rows(v, lo, hi, mid, h, pull=PULL, slopes=True):
     if not slopes:
         return rows, None
     return rows, np.concatenate([1.0 / h, np.where(out != 0, 1.0 / pull_h, 0.0)], axis=-1)
+
+
+def _target_block(items) -> tuple | None:
+    """The targets (`_targets`) of the data ``items`` with the square roots of their weights
+    repeated for the two rows of each datum, read-only; None for no data."""
+    if not items:
+        return None
+    lower, upper, value = (np.array([getattr(d, k) for d in items]) for k in ("lower", "upper", "value"))
+    w = np.tile(np.sqrt([d.weight for d in items]), 2)
+    w.flags.writeable = False
+    return (*_targets(lower, upper, FLOOR * np.abs(value)), w)
 
 
 def _targets(lower, upper, floor) -> tuple[np.ndarray, ...]:
