@@ -229,6 +229,21 @@ def test_solver_options_out_of_range_are_bad_input(tmp_path, capsys, line, key):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("option, value", [("--multistart", "5"), ("--frequency-tolerance", "-3")])
+def test_a_sampling_option_without_samples_is_bad_input_not_ignored(tmp_path, capsys, option, value):
+    """`run` options that only the sampled ranges read are refused without ``--samples``,
+    naming the option, before anything is written (a user folder beside the case is kept)."""
+    from outputs_helpers import TINY_CASE, write_case
+
+    case = write_case(tmp_path, TINY_CASE)
+    mine = tmp_path / "notes.txt"
+    mine.write_text("mine")
+    assert main(["run", str(case), option, value, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert option in err and "--samples" in err and "Traceback" not in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists() and mine.read_text() == "mine"
+
+
 @pytest.mark.parametrize("old, new, named", [
     ("hz = 164.0447,", "hz = 1e-300,", "antiresonance frequency 1e-300 Hz"),
     ("hz = 164.0447,", "hz = 1e200,", "antiresonance frequency 1e+200 Hz"),

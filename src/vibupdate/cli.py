@@ -197,6 +197,10 @@ def _study(args):
         if starts:
             raise ValueError("--multistart in a run needs --samples (the multistart is reported beside the sampled "
                              "ranges); use `vibupdate sweep --multistart N` for a multistart alone")
+        if args.frequency_tolerance is not None:
+            raise ValueError(f"--frequency-tolerance {args.frequency_tolerance:g} in a run needs --samples (it is the "
+                             "sampling's half-width of frequencies without an interval); without --samples it would "
+                             "be ignored")
         return None
     from vibupdate.study.sampled_ranges import SampledRanges
     from vibupdate.study.sampling import SamplingOptions
